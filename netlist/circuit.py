@@ -1,0 +1,204 @@
+"""The flattened circuit: typed elements, models, analysis and initial conditions.
+
+This is what the parser produces and what the formulation and the writer consume. Names:
+
+- element names keep the user's spelling (``Vin``, ``L1``); subcircuit instances give
+  hierarchical names ``X1.L1`` (instance path, then the element's own name); lookups are
+  case-insensitive (:meth:`Circuit.element`);
+- node names are lower case; ground is ``"0"`` (``gnd`` is mapped to it); nodes inside a
+  subcircuit instance are ``x1.n3``.
+
+Units are SI throughout (ohm, henry, farad, volt, ampere, second).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+from lcs.signals import Signal
+
+from .errors import Location
+
+GROUND = "0"
+
+
+@dataclass
+class Element:
+    """Base of all elements. ``nodes`` are the terminals, positive first."""
+
+    name: str
+    nodes: tuple[str, ...]
+    location: Location | None = field(default=None, compare=False, repr=False)
+
+    kind: ClassVar[str] = "?"
+
+    @property
+    def key(self) -> str:
+        return self.name.lower()
+
+
+@dataclass
+class Resistor(Element):
+    value: float = 0.0
+    kind: ClassVar[str] = "R"
+
+
+@dataclass
+class Inductor(Element):
+    value: float = 0.0
+    ic: float | None = None
+    kind: ClassVar[str] = "L"
+
+
+@dataclass
+class Capacitor(Element):
+    value: float = 0.0
+    ic: float | None = None
+    kind: ClassVar[str] = "C"
+
+
+@dataclass
+class VoltageSource(Element):
+    """Independent voltage source, v(n+) - v(n-) = value. ``waveform`` None means DC."""
+
+    dc: float = 0.0
+    waveform: Signal | None = None
+    kind: ClassVar[str] = "V"
+
+
+@dataclass
+class CurrentSource(Element):
+    """Independent current source; the current flows from n+ through the source to n-."""
+
+    dc: float = 0.0
+    waveform: Signal | None = None
+    kind: ClassVar[str] = "I"
+
+
+@dataclass
+class Diode(Element):
+    """Ideal diode, nodes (anode, cathode). ``model`` is kept for ngspice only."""
+
+    model: str = ""
+    kind: ClassVar[str] = "D"
+
+
+@dataclass
+class Switch(Element):
+    """Ideal switch between nodes (n+, n-), on while v(nc+) - v(nc-) > VT (+/- VH band)."""
+
+    control: tuple[str, str] = ("0", "0")
+    model: str = ""
+    kind: ClassVar[str] = "S"
+
+
+@dataclass
+class Vcvs(Element):
+    """E: v(n+, n-) = gain * v(nc+, nc-)."""
+
+    control: tuple[str, str] = ("0", "0")
+    gain: float = 0.0
+    kind: ClassVar[str] = "E"
+
+
+@dataclass
+class Cccs(Element):
+    """F: current gain * i(Vctrl), flowing from n+ through the source to n-."""
+
+    source: str = ""
+    gain: float = 0.0
+    kind: ClassVar[str] = "F"
+
+
+@dataclass
+class Vccs(Element):
+    """G: current gain * v(nc+, nc-), flowing from n+ through the source to n-."""
+
+    control: tuple[str, str] = ("0", "0")
+    gain: float = 0.0
+    kind: ClassVar[str] = "G"
+
+
+@dataclass
+class Ccvs(Element):
+    """H: v(n+, n-) = gain * i(Vctrl)."""
+
+    source: str = ""
+    gain: float = 0.0
+    kind: ClassVar[str] = "H"
+
+
+@dataclass
+class Coupling(Element):
+    """K: mutual coupling k between two inductors (``nodes`` is empty)."""
+
+    inductors: tuple[str, str] = ("", "")
+    k: float = 0.0
+    kind: ClassVar[str] = "K"
+
+
+@dataclass
+class Model:
+    """A ``.model NAME TYPE(params)`` line. ``type`` is ``"D"`` or ``"SW"``; params lower-case."""
+
+    name: str
+    type: str
+    params: dict[str, float] = field(default_factory=dict)
+    location: Location | None = field(default=None, compare=False, repr=False)
+
+
+@dataclass
+class Tran:
+    """``.tran TSTEP TSTOP [TSTART [TMAX]] [UIC]`` (seconds)."""
+
+    tstep: float
+    tstop: float
+    tstart: float = 0.0
+    tmax: float | None = None
+    uic: bool = False
+
+
+@dataclass
+class IgnoredCommand:
+    """A dot command or block that pelcs accepts but does not act on."""
+
+    text: str
+    location: Location | None = field(default=None, compare=False)
+
+
+@dataclass
+class Circuit:
+    """A flattened circuit: no subcircuits, all parameters evaluated."""
+
+    title: str = ""
+    elements: list[Element] = field(default_factory=list)
+    models: dict[str, Model] = field(default_factory=dict)  # key: lower-case model name
+    initial_conditions: dict[str, float] = field(default_factory=dict)  # node -> V (.ic)
+    tran: Tran | None = None
+    options: dict[str, str] = field(default_factory=dict)
+    params: dict[str, float] = field(default_factory=dict)  # global .param values
+    ignored: list[IgnoredCommand] = field(default_factory=list)
+    file: str = "<string>"
+
+    def element(self, name: str) -> Element:
+        """The element of that name (case-insensitive); KeyError if absent."""
+        key = name.lower()
+        for el in self.elements:
+            if el.key == key:
+                return el
+        raise KeyError(name)
+
+    def of_kind(self, kind: str) -> list[Element]:
+        return [el for el in self.elements if el.kind == kind]
+
+    @property
+    def nodes(self) -> list[str]:
+        """All node names, ground first, then in order of appearance."""
+        seen: dict[str, None] = {GROUND: None}
+        for el in self.elements:
+            for n in el.nodes:
+                seen.setdefault(n, None)
+            for n in getattr(el, "control", ()):
+                seen.setdefault(n, None)
+        return list(seen)
