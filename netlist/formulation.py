@@ -1,0 +1,683 @@
+"""Circuit -> switched linear complementarity system (one LCS per switch configuration).
+
+For one configuration of the ideal switches (on = short, off = open) the circuit becomes::
+
+    x' = A x + B λ + E u
+    w  = C x + D λ + F u,        0 <= w ⊥ λ >= 0
+
+with the states ``x`` (inductor currents ``i(L)``, A, and capacitor voltages ``v(C)``, V, in
+netlist order), one complementarity pair per ideal diode and the independent sources ``u``
+(V in volts, I in amperes, netlist order).
+
+Method (modified nodal analysis of a resistive companion network). In each mode
+
+- a capacitor becomes a voltage source of value ``x_C``, an inductor a current source ``x_L``;
+- a diode whose λ is its current becomes a current source ``λ`` (anode -> cathode), and its
+  ``w`` is the reverse voltage ``v(k) - v(a)``; a diode whose λ is its reverse voltage becomes
+  a voltage source ``v(a) - v(k) = -λ``, and its ``w`` is its current;
+- a closed switch becomes a 0 V source, an open switch is dropped;
+- resistors, independent and controlled sources stay what they are.
+
+The MNA equations ``M z = K ξ`` (``z`` node voltages and branch currents, ``ξ = (x, λ, u)``)
+are solved for the linear map ``z = Z ξ`` by a pseudo-inverse, so a part of the circuit that
+floats in some mode (a node reached only through an open switch) does no harm as long as
+everything the dynamics needs is uniquely determined; that is checked against the null space
+of ``M``. Then ``dv_C/dt = i_C / C``, ``Lmat di_L/dt = v_L`` (``Lmat`` holds the mutual
+inductances ``k sqrt(L1 L2)`` of K elements) and the ``w`` rows are read off.
+
+What λ stands for, per diode and mode, is chosen so that this works: λ = current is
+preferred; with at most :data:`EXHAUSTIVE_DIODE_LIMIT` diodes every assignment is tried in the
+order "fewest voltage-type diodes first, then earlier diodes (netlist order) voltage-type
+first" until the companion network is solvable and determines every needed quantity; with
+more diodes a normal-tree assignment is tried and then improved greedily.
+
+Degenerate modes (a loop of capacitors / voltage sources / closed switches / E, H sources, a
+cutset of inductors / current sources / F, G sources, ``k = 1`` coupling) are rejected with a
+:class:`~netlist.errors.NetlistError` that names the elements and the switch configuration.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import re
+from collections.abc import Iterator, Sequence
+
+import numpy as np
+
+from lcs.model import (
+    LAMBDA_CURRENT,
+    LAMBDA_VOLTAGE,
+    LCS,
+    ComplementarityPair,
+    ModeKey,
+    ModeModel,
+    OutputMap,
+    SwitchControl,
+    SwitchedLCS,
+)
+
+from .circuit import GROUND, Circuit, Element
+from .errors import Diagnostic, NetlistError
+from .topology import UnionFind, find_cutset, find_loop
+
+__all__ = ["formulate", "EXHAUSTIVE_DIODE_LIMIT"]
+
+# With up to this many diodes every λ-type assignment may be tried (2**m MNA solves).
+EXHAUSTIVE_DIODE_LIMIT = 12
+
+# Relative tolerance on singular values of the equilibrated MNA matrix: below it a direction
+# counts as null (floating part, or a singular companion network).
+RANK_RTOL = 1e-10
+# Relative tolerance for "this quantity does not depend on the null space" and "the
+# equations are consistent for every ξ".
+DETERMINED_RTOL = 1e-8
+# Entries of the final matrices smaller than this, relative to their row, are round-off.
+CLEAN_RTOL = 1e-12
+
+_TWO_TERMINAL = frozenset("RLCVIDSEFGH")
+_KNOWN_KINDS = _TWO_TERMINAL | {"K"}
+# Branches whose voltage is imposed (a loop of them is degenerate); closed switches too.
+_VOLTAGE_KINDS = frozenset("VCEH")
+# Branches whose current is imposed (a cutset of them is degenerate).
+_CURRENT_KINDS = frozenset("LIFG")
+
+_PROBE_RE = re.compile(r"^\s*([vi])\s*\(\s*([^,()\s]+)\s*(?:,\s*([^,()\s]+)\s*)?\)\s*$", re.I)
+
+
+def formulate(circuit: Circuit) -> SwitchedLCS:
+    """The switched LCS of a flattened circuit; modes are built lazily on first use.
+
+    Only cheap, mode-independent checks run here (element values, references of F/H/K
+    elements and switch models, the inductance matrix); each switch configuration is
+    formulated, and its topology checked, when it is first asked for.
+
+    Parameters
+    ----------
+    circuit : Circuit
+        A flattened circuit (no subcircuits, parameters evaluated).
+
+    Returns
+    -------
+    SwitchedLCS
+        States ``i(L…)``/``v(C…)`` in netlist order, inputs the V and I sources, one
+        complementarity pair per diode, switches with their ``.model`` thresholds; the
+        builder returns a :class:`~lcs.model.ModeModel` whose ``output(probes)`` maps probe
+        strings (``v(n)``, ``v(a,b)``, ``i(X)``, state names) to ``y = Cy x + Dy λ + Fy u``.
+
+    Raises
+    ------
+    NetlistError
+        For invalid element values or references, or a singular inductance matrix; later,
+        when a mode is built, for a degenerate topology in that mode.
+    """
+    formulator = _Formulator(circuit)
+    return SwitchedLCS(
+        switches=formulator.switch_controls,
+        states=formulator.state_names,
+        inputs=formulator.input_names,
+        diodes=[d.name for d in formulator.diodes],
+        builder=formulator.build_mode,
+    )
+
+
+def _error(message: str, hint: str = "", elements: Sequence[str] = (), el: Element | None = None,
+           file: str | None = None) -> NetlistError:
+    location = el.location if el is not None else None
+    return NetlistError(
+        Diagnostic(message=message, location=location, hint=hint, elements=tuple(elements)),
+        file=file,
+    )
+
+
+class _Formulator:
+    """Mode-independent bookkeeping of one circuit, and the per-mode builder."""
+
+    def __init__(self, circuit: Circuit):
+        self.circuit = circuit
+        self.file = circuit.file
+        diagnostics: list[Diagnostic] = []
+
+        def bad(message: str, el: Element | None, hint: str = "") -> None:
+            diagnostics.append(Diagnostic(
+                message=message, location=el.location if el is not None else None, hint=hint,
+                elements=(el.name,) if el is not None else ()))
+
+        self.elements: list[Element] = []
+        self.by_key: dict[str, Element] = {}
+        for el in circuit.elements:
+            if el.kind not in _KNOWN_KINDS:
+                bad(f"element {el.name}: kind {el.kind!r} cannot be formulated", el,
+                    "pelcs handles R L C V I D S E F G H K elements")
+                continue
+            if el.key in self.by_key:
+                bad(f"duplicate element name {el.name}", el, "element names must be unique "
+                    "(case-insensitive)")
+                continue
+            if el.kind in _TWO_TERMINAL and len(el.nodes) != 2:
+                bad(f"element {el.name} needs 2 nodes, has {len(el.nodes)}", el)
+                continue
+            self.by_key[el.key] = el
+            self.elements.append(el)
+        self.two_terminal = [el for el in self.elements if el.kind in _TWO_TERMINAL]
+
+        for el in self.two_terminal:
+            value = getattr(el, "value", None)
+            if el.kind == "R" and (value is None or value == 0 or not math.isfinite(value)):
+                bad(f"resistor {el.name} has resistance {value}", el,
+                    "a short is a 0 V source or a closed switch; use a nonzero finite value")
+            if el.kind in "LC" and (value is None or not (value > 0) or not math.isfinite(value)):
+                what = "inductance" if el.kind == "L" else "capacitance"
+                bad(f"{el.name} has {what} {value}; it must be positive and finite", el)
+            if el.kind in "EFGH" and not math.isfinite(el.gain):
+                bad(f"controlled source {el.name} has gain {el.gain}", el)
+            if el.kind in "FH":
+                ctrl = self.by_key.get(el.source.lower()) if el.source else None
+                if ctrl is None or ctrl.kind != "V":
+                    volts = [c.name for c in self.elements if c.kind == "V"]
+                    bad(f"{el.name}: controlling source {el.source!r} is not a voltage source",
+                        el, "F and H sources sense the current of a V source; add a 0 V source "
+                        "in series with the branch to sense" + (
+                            f" (voltage sources: {', '.join(volts)})" if volts else ""))
+
+        # Names, in netlist order.
+        self.state_elements = [el for el in self.two_terminal if el.kind in "LC"]
+        self.state_names = [
+            f"i({el.name})" if el.kind == "L" else f"v({el.name})" for el in self.state_elements
+        ]
+        self.state_index = {el.key: i for i, el in enumerate(self.state_elements)}
+        self.input_elements = [el for el in self.two_terminal if el.kind in "VI"]
+        self.input_names = [el.name for el in self.input_elements]
+        self.input_index = {el.key: i for i, el in enumerate(self.input_elements)}
+        self.diodes = [el for el in self.two_terminal if el.kind == "D"]
+        self.diode_index = {el.key: i for i, el in enumerate(self.diodes)}
+        self.switches = [el for el in self.two_terminal if el.kind == "S"]
+        self.inductors = [el for el in self.two_terminal if el.kind == "L"]
+        self.capacitors = [el for el in self.two_terminal if el.kind == "C"]
+        self.n = len(self.state_elements)
+        self.m = len(self.diodes)
+        self.p = len(self.input_elements)
+        self.nxi = self.n + self.m + self.p
+
+        nodes: dict[str, None] = {}
+        for el in self.two_terminal:
+            for node in (*el.nodes, *getattr(el, "control", ())):
+                nodes.setdefault(node, None)
+        nodes.pop(GROUND, None)
+        self.nodes = list(nodes)
+        self.node_index = {node: i for i, node in enumerate(self.nodes)}
+
+        self.switch_controls = []
+        for sw in self.switches:
+            params: dict[str, float] = {}
+            if sw.model:
+                model = circuit.models.get(sw.model.lower())
+                if model is None:
+                    bad(f"switch {sw.name}: unknown model {sw.model!r}", sw,
+                        "add a `.model NAME SW(VT=... VH=...)` line")
+                else:
+                    params = {k.lower(): v for k, v in model.params.items()}
+            ncp, ncm = sw.control
+            self.switch_controls.append(SwitchControl(
+                name=sw.name, control=f"v({ncp},{ncm})", vt=float(params.get("vt", 0.0)),
+                vh=float(params.get("vh", 0.0)), options=dict(params)))
+
+        self.Linv = self._inductance_inverse(bad)
+        if diagnostics:
+            raise NetlistError(diagnostics, file=self.file)
+
+    # -- inductance matrix -------------------------------------------------------------
+
+    def _inductance_inverse(self, bad) -> np.ndarray:
+        """Inverse of the inductance matrix ``Lmat`` (1/H), inductors in netlist order.
+
+        ``Lmat[i, i] = L_i``, ``Lmat[i, j] = k sqrt(L_i L_j)`` for a K element coupling the
+        two (dot at each inductor's n+). Must be positive definite: ``|k| = 1`` (no leakage)
+        or mutually inconsistent couplings make the inductor currents dependent.
+        """
+        nl = len(self.inductors)
+        index = {el.key: i for i, el in enumerate(self.inductors)}
+        lmat = np.diag([float(el.value) for el in self.inductors]) if nl else np.zeros((0, 0))
+        couplings: dict[tuple[int, int], Element] = {}
+        ok = True
+        for kel in (el for el in self.elements if el.kind == "K"):
+            names = tuple(kel.inductors)
+            idx = [index.get(str(name).lower()) for name in names]
+            if len(names) != 2 or None in idx:
+                bad(f"coupling {kel.name} refers to {', '.join(map(str, names))}, which are not "
+                    "two inductors of the circuit", kel)
+                ok = False
+                continue
+            i, j = idx
+            if i == j:
+                bad(f"coupling {kel.name} couples {names[0]} with itself", kel)
+                ok = False
+                continue
+            pair = (min(i, j), max(i, j))
+            if pair in couplings:
+                bad(f"coupling {kel.name} repeats the coupling {couplings[pair].name} of "
+                    f"{names[0]} and {names[1]}", kel)
+                ok = False
+                continue
+            k = float(kel.k)
+            if not math.isfinite(k):
+                bad(f"coupling {kel.name} has k = {k}", kel)
+                ok = False
+                continue
+            couplings[pair] = kel
+            mutual = k * math.sqrt(lmat[i, i] * lmat[j, j])
+            lmat[i, j] = lmat[j, i] = mutual
+        if not ok or nl == 0 or not couplings or not np.all(np.isfinite(lmat)):
+            with np.errstate(divide="ignore"):
+                diag = np.diag(lmat).copy() if nl else np.zeros(0)
+                diag[~(diag > 0)] = 1.0  # invalid values were reported above
+            return np.diag(1.0 / diag) if nl else np.zeros((0, 0))
+        # Scale to unit diagonal so the test is on the coupling coefficients alone.
+        d = 1.0 / np.sqrt(np.diag(lmat))
+        eig, vec = np.linalg.eigh(d[:, None] * lmat * d[None, :])
+        if eig[0] <= 1e-9:
+            weak = vec[:, 0]
+            involved = [self.inductors[i] for i in np.flatnonzero(np.abs(weak) > 1e-3)]
+            keys = {el.key for el in involved}
+            ks = [kel for (i, j), kel in couplings.items()
+                  if self.inductors[i].key in keys and self.inductors[j].key in keys]
+            diagnostics_el = ks[0] if ks else None
+            bad(f"coupled inductors {', '.join(el.name for el in involved)} have a "
+                f"{'singular' if abs(eig[0]) <= 1e-9 else 'indefinite'} inductance matrix "
+                f"(couplings {', '.join(k.name for k in ks)})", diagnostics_el,
+                "a coupling coefficient |k| = 1 makes the inductor currents dependent; use "
+                "|k| < 1 (e.g. 0.999) to keep a leakage inductance")
+            return np.diag(1.0 / np.diag(lmat))
+        return np.linalg.inv(lmat)
+
+    # -- one mode ----------------------------------------------------------------------
+
+    def describe(self, on: frozenset[str]) -> str:
+        return ", ".join(
+            f"{sw.name}={'on' if sw.key in on else 'off'}" for sw in self.switches)
+
+    def build_mode(self, key: ModeKey) -> ModeModel:
+        """Formulate one switch configuration (``key[i]`` True = switch i closed)."""
+        if len(key) != len(self.switches):
+            raise ValueError(f"mode key needs {len(self.switches)} entries, got {len(key)}")
+        on = frozenset(sw.key for sw, closed in zip(self.switches, key, strict=True) if closed)
+        desc = self.describe(on)
+        self._check_topology(on, desc)
+        mna, sol = self._choose_diode_types(on, desc)
+        n, m = self.n, self.m
+
+        dx = np.zeros((n, self.nxi))
+        for el in self.capacitors:
+            dx[self.state_index[el.key]] = sol.evaluate(mna.current(el)) / float(el.value)
+        if self.inductors:
+            v_l = np.array([sol.evaluate(mna.voltage(*el.nodes)) for el in self.inductors])
+            rows = [self.state_index[el.key] for el in self.inductors]
+            dx[rows] = self.Linv @ v_l
+        w = np.array([sol.evaluate(mna.w_form(d)) for d in self.diodes]).reshape(m, self.nxi)
+        dx, w = _clean(dx), _clean(w)
+        pairs = tuple(
+            ComplementarityPair(d.name, LAMBDA_VOLTAGE if d.key in mna.vdiodes else LAMBDA_CURRENT)
+            for d in self.diodes
+        )
+        lcs = LCS(
+            A=dx[:, :n], B=dx[:, n:n + m], E=dx[:, n + m:],
+            C=w[:, :n], D=w[:, n:n + m], F=w[:, n + m:],
+            states=tuple(self.state_names), pairs=pairs, inputs=tuple(self.input_names),
+        )
+
+        def output(probes: Sequence[str]) -> OutputMap:
+            names = tuple(probes)
+            rows = []
+            for probe in names:
+                form = self._probe_form(mna, probe)
+                if not sol.determined(form[:mna.nz]):
+                    raise _error(
+                        f"probe {probe} is not determined with {desc or 'this circuit'}",
+                        "part of the circuit floats in this configuration (e.g. a node reached "
+                        "only through an open switch, or with no path to ground); probe a "
+                        "quantity that does not depend on it",
+                        file=self.file)
+                rows.append(sol.evaluate(form))
+            y = _clean(np.array(rows).reshape(len(names), self.nxi))
+            return OutputMap(names=names, Cy=y[:, :n], Dy=y[:, n:n + m], Fy=y[:, n + m:])
+
+        return ModeModel(lcs=lcs, output=output)
+
+    def _check_topology(self, on: frozenset[str], desc: str) -> None:
+        """Reject loops of voltage-defined and cutsets of current-defined branches."""
+        where = f" with {desc}" if desc else ""
+        voltage_branches = [
+            (el.name, *el.nodes) for el in self.two_terminal
+            if el.kind in _VOLTAGE_KINDS or (el.kind == "S" and el.key in on)
+        ]
+        loop = find_loop(voltage_branches)
+        if loop is not None:
+            raise _error(
+                f"loop of capacitors/voltage sources{where}: {' - '.join(loop)} (capacitors, "
+                "voltage sources, closed switches and E/H sources with no impedance between "
+                "them)",
+                "their voltages are tied by Kirchhoff's voltage law, so they cannot all be "
+                "states or sources; add a small series resistance in the loop (e.g. the "
+                "capacitor's ESR or a source resistance)",
+                loop, el=self.by_key[loop[-1].lower()], file=self.file)
+        contracted = [
+            el.nodes for el in self.two_terminal
+            if el.kind not in _CURRENT_KINDS and (el.kind != "S" or el.key in on)
+        ]
+        current_branches = [(el.name, *el.nodes) for el in self.two_terminal
+                            if el.kind in _CURRENT_KINDS]
+        cut = find_cutset(contracted, current_branches, GROUND)
+        if cut is not None:
+            raise _error(
+                f"cutset of inductors/current sources{where}: {', '.join(cut)} (inductors, "
+                "current sources and F/G sources are the only branches joining one part of the "
+                "circuit to the rest)",
+                "their currents are tied by Kirchhoff's current law, so they cannot all be "
+                "states or sources; give the current another path, e.g. a large resistance or "
+                "a freewheeling diode across the inductor",
+                cut, el=self.by_key[cut[0].lower()], file=self.file)
+
+    # -- diode types -------------------------------------------------------------------
+
+    def _needed_forms(self, mna: _Mna) -> list[tuple[str, str, np.ndarray]]:
+        """What the dynamics and the switches need: (label, element name, linear form)."""
+        needed = [(f"i({el.name})", el.name, mna.current(el)) for el in self.capacitors]
+        needed += [(f"the voltage across {el.name}", el.name, mna.voltage(*el.nodes))
+                   for el in self.inductors]
+        needed += [(f"w of diode {d.name}", d.name, mna.w_form(d)) for d in self.diodes]
+        needed += [(f"the control voltage v({sw.control[0]},{sw.control[1]}) of {sw.name}",
+                    sw.name, mna.voltage(*sw.control)) for sw in self.switches]
+        return needed
+
+    def _try(self, on: frozenset[str], vdiodes: frozenset[str]):
+        """MNA of one λ-type assignment and its defects, (text, element) pairs; [] = usable."""
+        mna = _Mna(self, on, vdiodes)
+        sol = _Solution(mna.M, mna.K)
+        defects = [(f"{label} is constrained by Kirchhoff's laws", name)
+                   for label, name in map(self._xi_name, sol.inconsistent)]
+        defects += [(f"{label} is not determined", name)
+                    for label, name, form in self._needed_forms(mna)
+                    if not sol.determined(form[:mna.nz])]
+        return mna, sol, defects
+
+    def _xi_name(self, j: int) -> tuple[str, str]:
+        """Label and element name of entry j of ξ = (x, λ, u)."""
+        n, m = self.n, self.m
+        if j < n:
+            return self.state_names[j], self.state_elements[j].name
+        if j < n + m:
+            return f"λ of {self.diodes[j - n].name}", self.diodes[j - n].name
+        return f"input {self.input_names[j - n - m]}", self.input_names[j - n - m]
+
+    def _candidates(self, on: frozenset[str]) -> Iterator[frozenset[str]]:
+        """λ-type assignments to try: sets of diodes whose λ is the reverse voltage."""
+        keys = [d.key for d in self.diodes]
+        if len(keys) <= EXHAUSTIVE_DIODE_LIMIT:
+            for size in range(len(keys) + 1):
+                for combo in itertools.combinations(keys, size):
+                    yield frozenset(combo)
+        else:
+            yield self._tree_assignment(on)
+
+    def _tree_assignment(self, on: frozenset[str]) -> frozenset[str]:
+        """Voltage-type diodes from a normal tree (Kruskal, voltage-defined branches first).
+
+        Branches whose voltage is known go into the tree first, then resistors, then diodes;
+        a diode that enters the tree must have its voltage as λ. This keeps as many diodes
+        current-type as the topology allows.
+        """
+        uf = UnionFind()
+        order = (
+            [el for el in self.two_terminal
+             if el.kind in _VOLTAGE_KINDS or (el.kind == "S" and el.key in on)]
+            + [el for el in self.two_terminal if el.kind == "R"]
+            + self.diodes
+        )
+        vdiodes = set()
+        for el in order:
+            if uf.union(*el.nodes) and el.kind == "D":
+                vdiodes.add(el.key)
+        return frozenset(vdiodes)
+
+    def _choose_diode_types(self, on: frozenset[str], desc: str):
+        first = None
+        for vdiodes in self._candidates(on):
+            mna, sol, defects = self._try(on, vdiodes)
+            if not defects:
+                return mna, sol
+            if first is None:
+                first = (vdiodes, defects)
+        if len(self.diodes) > EXHAUSTIVE_DIODE_LIMIT:
+            # Greedy repair: flip one diode at a time while the number of defects drops.
+            vdiodes, defects = first
+            improved = True
+            while defects and improved:
+                improved = False
+                for d in self.diodes:
+                    trial = vdiodes ^ {d.key}
+                    mna, sol, trial_defects = self._try(on, frozenset(trial))
+                    if not trial_defects:
+                        return mna, sol
+                    if len(trial_defects) < len(defects):
+                        vdiodes, defects, improved = frozenset(trial), trial_defects, True
+            first = (vdiodes, defects)
+        vdiodes, defects = first
+        where = f" with {desc}" if desc else ""
+        involved = list(dict.fromkeys(name for _, name in defects))
+        raise _error(
+            f"no explicit LCS{where}: " + "; ".join(text for text, _ in defects[:6])
+            + (" ..." if len(defects) > 6 else "")
+            + (" (with every diode's λ its current)" if not vdiodes else ""),
+            "some quantity is not fixed by the circuit in this configuration (a floating part "
+            "that matters, or controlled sources whose gains make the network singular); "
+            "check the connections of the elements named, or add resistances",
+            involved, file=self.file)
+
+    # -- probes ------------------------------------------------------------------------
+
+    def _probe_form(self, mna: _Mna, probe: str) -> np.ndarray:
+        match = _PROBE_RE.match(probe)
+        if match:
+            kind, a, b = match.group(1).lower(), match.group(2).lower(), match.group(3)
+            a = GROUND if a == "gnd" else a
+            if kind == "v":
+                if b is not None:
+                    b = b.lower()
+                    b = GROUND if b == "gnd" else b
+                    if self._is_node(a) and self._is_node(b):
+                        return mna.voltage(a, b)
+                elif self._is_node(a):
+                    return mna.voltage(a, GROUND)
+                elif a in self.by_key and self.by_key[a].kind == "C":
+                    # The state name v(C1) (a node of that name wins, as in SPICE).
+                    return mna.voltage(*self.by_key[a].nodes)
+            elif b is None and a in self.by_key and self.by_key[a].kind in _TWO_TERMINAL:
+                return mna.current(self.by_key[a])
+        nodes = sorted(self.nodes)
+        elements = [el.name for el in self.two_terminal]
+        raise _error(
+            f"unknown probe {probe!r}",
+            "probes are v(NODE), v(NODE,NODE), i(ELEMENT) or a state name; nodes: "
+            + _short_list([GROUND, *nodes]) + "; elements: " + _short_list(elements),
+            file=self.file)
+
+    def _is_node(self, name: str) -> bool:
+        return name == GROUND or name in self.node_index
+
+
+def _short_list(names: Sequence[str], limit: int = 30) -> str:
+    names = list(names)
+    text = ", ".join(names[:limit])
+    return text + (f", ... ({len(names)} in all)" if len(names) > limit else "")
+
+
+class _Mna:
+    """The MNA companion network of one mode and λ-type assignment.
+
+    Unknowns ``z``: the voltages of the non-ground nodes (V), then the currents (A) of the
+    voltage-defined branches (V, C, E, H, closed S, voltage-type D) in netlist order, each
+    flowing from n+ through the element to n-. Linear *forms* are vectors over ``(z, ξ)``,
+    ``ξ = (x, λ, u)``; a quantity's value is ``form[:nz] @ z + form[nz:] @ ξ``.
+    Equations: KCL at every non-ground node (sum of currents leaving = 0), then one branch
+    equation per voltage-defined branch; stacked as ``rows @ (z, ξ) = 0`` and split into
+    ``M z = K ξ``.
+    """
+
+    def __init__(self, f: _Formulator, on: frozenset[str], vdiodes: frozenset[str]):
+        self.f = f
+        self.on = on
+        self.vdiodes = vdiodes
+        nn = len(f.nodes)
+        self.branch: dict[str, int] = {}
+        for el in f.two_terminal:
+            if self._voltage_defined(el):
+                self.branch[el.key] = nn + len(self.branch)
+        self.nz = nn + len(self.branch)
+        self.width = self.nz + f.nxi
+        rows = np.zeros((self.nz, self.width))
+        for el in f.two_terminal:
+            current = self.current(el)
+            a, b = el.nodes
+            if a != GROUND:
+                rows[f.node_index[a]] += current
+            if b != GROUND:
+                rows[f.node_index[b]] -= current
+            if el.key in self.branch:
+                rows[self.branch[el.key]] = self._branch_equation(el)
+        self.M = rows[:, :self.nz]
+        self.K = -rows[:, self.nz:]
+
+    def _voltage_defined(self, el: Element) -> bool:
+        return (el.kind in _VOLTAGE_KINDS or (el.kind == "S" and el.key in self.on)
+                or (el.kind == "D" and el.key in self.vdiodes))
+
+    def _unit(self, index: int) -> np.ndarray:
+        form = np.zeros(self.width)
+        form[index] = 1.0
+        return form
+
+    def _xi(self, index: int) -> np.ndarray:
+        return self._unit(self.nz + index)
+
+    def voltage(self, a: str, b: str = GROUND) -> np.ndarray:
+        """Form of v(a) - v(b), V."""
+        form = np.zeros(self.width)
+        if a != GROUND:
+            form[self.f.node_index[a]] += 1.0
+        if b != GROUND:
+            form[self.f.node_index[b]] -= 1.0
+        return form
+
+    def current(self, el: Element) -> np.ndarray:
+        """Form of the current from n+ through ``el`` to n- (anode -> cathode for a diode), A."""
+        f, kind = self.f, el.kind
+        if el.key in self.branch:
+            return self._unit(self.branch[el.key])
+        if kind == "R":
+            return self.voltage(*el.nodes) / float(el.value)
+        if kind == "L":
+            return self._xi(f.state_index[el.key])
+        if kind == "D":
+            return self._xi(f.n + f.diode_index[el.key])
+        if kind == "I":
+            return self._xi(f.n + f.m + f.input_index[el.key])
+        if kind == "S":  # open
+            return np.zeros(self.width)
+        if kind == "G":
+            return float(el.gain) * self.voltage(*el.control)
+        if kind == "F":
+            return float(el.gain) * self._unit(self.branch[el.source.lower()])
+        raise AssertionError(f"no current form for {el.kind}")  # pragma: no cover
+
+    def _branch_equation(self, el: Element) -> np.ndarray:
+        """Form that vanishes on a voltage-defined branch's constitutive law."""
+        f, kind = self.f, el.kind
+        v = self.voltage(*el.nodes)
+        if kind == "V":
+            return v - self._xi(f.n + f.m + f.input_index[el.key])
+        if kind == "C":
+            return v - self._xi(f.state_index[el.key])
+        if kind == "S":
+            return v
+        if kind == "D":  # v(a) - v(k) = -λ
+            return v + self._xi(f.n + f.diode_index[el.key])
+        if kind == "E":
+            return v - float(el.gain) * self.voltage(*el.control)
+        if kind == "H":
+            return v - float(el.gain) * self._unit(self.branch[el.source.lower()])
+        raise AssertionError(f"no branch equation for {el.kind}")  # pragma: no cover
+
+    def w_form(self, diode: Element) -> np.ndarray:
+        """Form of the diode's w: reverse voltage (current-type λ) or current (voltage-type)."""
+        if diode.key in self.vdiodes:
+            return self.current(diode)
+        anode, cathode = diode.nodes
+        return self.voltage(cathode, anode)
+
+
+class _Solution:
+    """Least-squares solution ``z = Z ξ`` of ``M z = K ξ``, with its null space.
+
+    ``M`` is equilibrated (rows and columns scaled to unit max) before the SVD so that the
+    rank decision does not depend on the units of the rows (A vs V) or on element values.
+    """
+
+    def __init__(self, M: np.ndarray, K: np.ndarray):
+        nz, nxi = K.shape
+        r, c = _equilibrate(M)
+        self.col_scale = c
+        if nz == 0:
+            self.Z = np.zeros((0, nxi))
+            self.null = np.zeros((0, 0))
+            self.inconsistent = []
+            return
+        Ms = r[:, None] * M * c[None, :]
+        Ks = r[:, None] * K
+        U, s, Vt = np.linalg.svd(Ms)
+        rank = int(np.sum(s > RANK_RTOL * s[0])) if s[0] > 0 else 0
+        self.null = Vt[rank:].T  # (nz, nz - rank), orthonormal, scaled coordinates
+        residual = U[:, rank:].T @ Ks
+        scale = np.linalg.norm(Ks, axis=0)
+        self.inconsistent = [
+            j for j in range(nxi)
+            if np.linalg.norm(residual[:, j]) > DETERMINED_RTOL * scale[j]
+        ]
+        zs = Vt[:rank].T @ ((U[:, :rank].T @ Ks) / s[:rank, None])
+        self.Z = c[:, None] * zs
+
+    def determined(self, form_z: np.ndarray) -> bool:
+        """Whether ``form_z @ z`` is the same for every solution z."""
+        g = form_z * self.col_scale
+        norm = np.linalg.norm(g)
+        if norm == 0 or self.null.shape[1] == 0:
+            return True
+        return bool(np.linalg.norm(g @ self.null) <= DETERMINED_RTOL * norm)
+
+    def evaluate(self, form: np.ndarray) -> np.ndarray:
+        """Row over ξ of a quantity given by its form over (z, ξ)."""
+        nz = self.Z.shape[0]
+        return form[:nz] @ self.Z + form[nz:]
+
+
+def _equilibrate(M: np.ndarray, iterations: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """Row and column scalings ``r, c`` with ``diag(r) M diag(c)`` near unit max entries."""
+    A = np.abs(M)
+    r = np.ones(A.shape[0])
+    c = np.ones(A.shape[1])
+    for _ in range(iterations):
+        rowmax = (A * c[None, :]).max(axis=1, initial=0.0) * r
+        rowmax[rowmax == 0] = 1.0
+        r /= np.sqrt(rowmax)
+        colmax = (A * r[:, None]).max(axis=0, initial=0.0) * c
+        colmax[colmax == 0] = 1.0
+        c /= np.sqrt(colmax)
+    return r, c
+
+
+def _clean(matrix: np.ndarray) -> np.ndarray:
+    """Zero the entries that are round-off relative to the largest entry of their row."""
+    out = np.array(matrix, dtype=float)
+    if out.size:
+        row_max = np.abs(out).max(axis=1, keepdims=True)
+        out[np.abs(out) <= CLEAN_RTOL * row_max] = 0.0
+    return out
