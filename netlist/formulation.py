@@ -138,10 +138,13 @@ class _Formulator:
         self.file = circuit.file
         diagnostics: list[Diagnostic] = []
 
-        def bad(message: str, el: Element | None, hint: str = "") -> None:
+        def bad(message: str, el: Element | None, hint: str = "",
+                elements: Sequence[str] | None = None) -> None:
+            if elements is None:
+                elements = (el.name,) if el is not None else ()
             diagnostics.append(Diagnostic(
                 message=message, location=el.location if el is not None else None, hint=hint,
-                elements=(el.name,) if el is not None else ()))
+                elements=tuple(elements)))
 
         self.elements: list[Element] = []
         self.by_key: dict[str, Element] = {}
@@ -286,7 +289,8 @@ class _Formulator:
                 f"{'singular' if abs(eig[0]) <= 1e-9 else 'indefinite'} inductance matrix "
                 f"(couplings {', '.join(k.name for k in ks)})", diagnostics_el,
                 "a coupling coefficient |k| = 1 makes the inductor currents dependent; use "
-                "|k| < 1 (e.g. 0.999) to keep a leakage inductance")
+                "|k| < 1 (e.g. 0.999) to keep a leakage inductance",
+                [k.name for k in ks] + [el.name for el in involved])
             return np.diag(1.0 / np.diag(lmat))
         return np.linalg.inv(lmat)
 
