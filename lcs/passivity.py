@@ -90,7 +90,7 @@ _NULL_RTOL = 1e-10
 # Re λ(A~) above this (with ‖A~‖ = 1) means an unstable mode.
 _EIG_TOL = 1e-6
 # Upper bound on the normalised certificate in the SDP (keeps the problem bounded).
-_KAPPA = 1e6
+_KAPPA = 1e4
 # Slack added to stage (a)'s optimum in stage (b), relative to the normalised data.
 _STAGE_SLACK = 1e-9
 
@@ -210,8 +210,9 @@ def _normalise(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray) -> _N
             logt[i] = -0.5 * np.log(cn / bn)
             fixed[i] = True
     if n and not fixed.all():
-        if not fixed.any():
-            logt[:] = 0.0
+        # States the diodes do not touch start at the mean weight of those they do (same
+        # physical units, no better information); Osborne sweeps then balance any coupling.
+        logt[~fixed] = np.mean(logt[fixed]) if fixed.any() else 0.0
         off = np.abs(A) - np.diag(np.abs(np.diag(A)))
         for _ in range(20):
             changed = False
@@ -266,36 +267,53 @@ def _fmt_vector(v: np.ndarray, names, tol: float = 1e-3) -> str:
     if big == 0:
         return "0"
     v = v / v[np.argmax(np.abs(v))]
-    parts = [f"{nm}: {c:+.3g}" for nm, c in zip(names, v) if abs(c) > tol]
+    parts = [f"{nm}: {c:+.3g}" for nm, c in zip(names, v, strict=False) if abs(c) > tol]
     return "{" + ", ".join(parts) + "}"
 
 
-def _scale_of(nz: _Normalised, Kt: np.ndarray) -> float:
-    return (
-        np.linalg.norm(Kt, 2) * (2 * np.linalg.norm(nz.A, 2) + np.linalg.norm(nz.B, 2))
-        + np.linalg.norm(nz.C, 2)
-        + 2 * np.linalg.norm(nz.D, 2)
-        + 1e-300
-    )
-
-
 def _verify(nz: _Normalised, Kt: np.ndarray, rtol: float, ktol: float):
-    """Exact check of a normalised candidate: (ok, margin, k_margin, worst_direction, msg)."""
+    """Exact check of a normalised candidate K~.
+
+    The KYP matrix is measured in the metric of K itself: with ``W = blkdiag(K~^-1/2, I)``,
+    ``M^ = W M~ W`` has top-left block ``Â + Â'`` (``Â = K~^1/2 A~ K~^-1/2``) and off-diagonal
+    ``K~^1/2 B~ - K~^-1/2 C~'``. Its largest eigenvalue relative to
+    ``scale = 2‖Â‖ + ‖K~^1/2 B~‖ + ‖K~^-1/2 C~'‖ + 2‖D~‖`` does not shrink when K grows, so a
+    problem that is only feasible in the limit ``K -> ∞`` is not accepted.
+
+    Returns
+    -------
+    ok, margin, k_margin, worst, ok_kyp, ok_k
+        ``worst`` is the eigenvector of the largest eigenvalue in normalised (x~, λ~)
+        coordinates.
+    """
     Kt = 0.5 * (Kt + Kt.T)
+    n, m = nz.A.shape[0], nz.B.shape[1]
     M = kyp_matrix(nz.A, nz.B, nz.C, nz.D, Kt)
-    scale = _scale_of(nz, Kt)
-    if M.size:
-        ev, evec = np.linalg.eigh(M)
-        margin = float(-ev[-1] / scale)
-        worst = evec[:, -1]
-    else:
-        margin, worst = 0.0, np.zeros(0)
-    n = Kt.shape[0]
     if n:
-        kev = np.linalg.eigvalsh(Kt)
+        kev, kvec = np.linalg.eigh(Kt)
         k_margin = float(kev[0] / kev[-1]) if kev[-1] > 0 else float(kev[0])
     else:
-        k_margin = 1.0
+        kev, kvec, k_margin = np.zeros(0), np.zeros((0, 0)), 1.0
+    if n and kev[0] > 0:
+        Kh = (kvec * np.sqrt(kev)) @ kvec.T
+        Khi = (kvec / np.sqrt(kev)) @ kvec.T
+        W = sla.block_diag(Khi, np.eye(m))
+        Mh = W @ M @ W
+        Ah = Kh @ nz.A @ Khi
+        scale = (2 * np.linalg.norm(Ah, 2) + np.linalg.norm(Kh @ nz.B, 2)
+                 + np.linalg.norm(Khi @ nz.C.T, 2) + 2 * np.linalg.norm(nz.D, 2))
+    else:
+        W = np.eye(n + m)
+        Mh = M
+        scale = (np.linalg.norm(Kt, 2) * (2 * np.linalg.norm(nz.A, 2) + np.linalg.norm(nz.B, 2))
+                 + np.linalg.norm(nz.C, 2) + 2 * np.linalg.norm(nz.D, 2))
+    scale = max(float(scale), 1e-300)
+    if Mh.size:
+        ev, evec = np.linalg.eigh(0.5 * (Mh + Mh.T))
+        margin = float(-ev[-1] / scale)
+        worst = W @ evec[:, -1]
+    else:
+        margin, worst = 0.0, np.zeros(0)
     ok_kyp = margin >= -rtol
     ok_k = k_margin > ktol
     return ok_kyp and ok_k, margin, k_margin, worst, ok_kyp, ok_k
@@ -357,7 +375,7 @@ def _project_equalities(nz: _Normalised, N: np.ndarray, Kt: np.ndarray) -> np.nd
     w = np.array([1.0 if i == j else np.sqrt(2.0) for i in range(n) for j in range(i, n)])
     dy, *_ = np.linalg.lstsq(G / w[None, :], r, rcond=None)
     dk = dy / w
-    return Kt + sum(c * E for c, E in zip(dk, basis))
+    return Kt + sum(c * E for c, E in zip(dk, basis, strict=True))
 
 
 # --------------------------------------------------------------------------------------------
@@ -390,7 +408,6 @@ def _necessary_conditions(nz: _Normalised, lcs: LCS) -> str | None:
                 "make A Lyapunov stable (negative resistance or active element?)"
             )
     if N.shape[1] and n:
-        BN, CN = nz.B @ N, nz.C.T @ N
         H = N.T @ nz.C @ nz.B @ N
         Hs = 0.5 * (H + H.T)
         hs = np.linalg.eigvalsh(Hs)
@@ -470,7 +487,7 @@ def _solve_lmi(nz: _Normalised, rtol: float, ktol: float):
             "to check a candidate certificate without it"
         ) from exc
 
-    n, m = nz.A.shape[0], nz.B.shape[1]
+    n = nz.A.shape[0]
     R, N, _, _ = _split_dd(nz)
     r = R.shape[1]
     K = cp.Variable((n, n), symmetric=True)
@@ -517,7 +534,8 @@ def _solve_lmi(nz: _Normalised, rtol: float, ktol: float):
             direction = np.concatenate([direction[:n], R @ direction[n:]])
     scale = 2 * np.linalg.norm(At, 2) + np.linalg.norm(Bt, 2) + np.linalg.norm(Ct, 2) + 1.0
     if s_star > rtol * scale:
-        return None, s_star, direction, "no storage K >= 0 exists"
+        msg = f"no storage K >= 0 with λ_max(K~) <= {_KAPPA:g} (normalised)"
+        return None, s_star, direction, msg
     t = cp.Variable()
     s_allow = max(s_star, 0.0) + _STAGE_SLACK * scale
     cons_b = [Mexpr << s_allow * np.eye(size), K >> t * np.eye(n), K << _KAPPA * np.eye(n), *eqs]
@@ -643,7 +661,14 @@ def check_passivity(
             "the imaginary axis)"
         )
     else:
-        reason = (f"SDP certificate failed verification (margin {margin:.3g}); "
-                  + _describe_kyp_failure(nz, worst, states, pairs))
+        kev, kvec = np.linalg.eigh(Kt)
+        reason = (
+            f"no certificate with λ_max(K~) <= {_KAPPA:g} (normalised) satisfies the KYP "
+            f"inequality (best margin {margin:.3g}): it can at most be approached as K grows "
+            f"without bound along {_fmt_vector(nz.T * kvec[:, -1], states)} relative to "
+            f"{_fmt_vector(nz.T * kvec[:, 0], states)} (a Jordan block on the imaginary axis "
+            "or an undamped mode coupled to the ports); "
+            + _describe_kyp_failure(nz, worst, states, pairs)
+        )
     attempts.append("lmi: " + reason)
     return PassivityReport(False, None, margin, k_margin, "lmi", reason, states, pairs, attempts)
