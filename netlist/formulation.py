@@ -413,15 +413,54 @@ class _Formulator:
             return f"λ of {self.diodes[j - n].name}", self.diodes[j - n].name
         return f"input {self.input_names[j - n - m]}", self.input_names[j - n - m]
 
-    def _candidates(self, on: frozenset[str]) -> Iterator[frozenset[str]]:
-        """λ-type assignments to try: sets of diodes whose λ is the reverse voltage."""
-        keys = [d.key for d in self.diodes]
-        if len(keys) <= EXHAUSTIVE_DIODE_LIMIT:
-            for size in range(len(keys) + 1):
-                for combo in itertools.combinations(keys, size):
-                    yield frozenset(combo)
+    def _forced_types(self, on: frozenset[str]) -> tuple[set[str], set[str]]:
+        """Diodes whose λ type the topology decides: (forced voltage-type, forced current-type).
+
+        A diode whose terminals are joined by voltage-defined branches closes a loop with
+        them, so its voltage is imposed and λ must be its current. A diode that is the only
+        non-current-defined branch between two parts of the circuit lies in a cutset with
+        current-defined branches, so its current is imposed and λ must be its voltage.
+        Assignments breaking either rule make the MNA inconsistent, so skipping them does not
+        change which assignment the search finds first.
+        """
+        voltage_defined = [el for el in self.two_terminal
+                           if el.kind in _VOLTAGE_KINDS or (el.kind == "S" and el.key in on)]
+        uf = UnionFind()
+        for el in voltage_defined:
+            uf.union(*el.nodes)
+        forced_current = {d.key for d in self.diodes if uf.find(d.nodes[0]) == uf.find(d.nodes[1])}
+        others = [el.nodes for el in self.two_terminal
+                  if el.kind not in _CURRENT_KINDS and el.kind != "D"
+                  and (el.kind != "S" or el.key in on)]
+        forced_voltage = set()
+        for d in self.diodes:
+            uf = UnionFind()
+            for a, b in others:
+                uf.union(a, b)
+            for other in self.diodes:
+                if other is not d:
+                    uf.union(*other.nodes)
+            if uf.find(d.nodes[0]) != uf.find(d.nodes[1]):
+                forced_voltage.add(d.key)
+        return forced_voltage, forced_current - forced_voltage
+
+    def _candidates(self, on: frozenset[str], free: list[str],
+                    forced_voltage: set[str]) -> Iterator[frozenset[str]]:
+        """λ-type assignments to try: sets of diodes whose λ is the reverse voltage.
+
+        Fewest voltage-type diodes first; among equally many, the one whose first differing
+        diode (netlist order) is voltage-type (``itertools.combinations`` order). Diodes the
+        topology decides (:meth:`_forced_types`) are fixed, the rest enumerated; beyond
+        :data:`EXHAUSTIVE_DIODE_LIMIT` free diodes only a normal-tree assignment is offered
+        (and greedily repaired by the caller).
+        """
+        if len(free) <= EXHAUSTIVE_DIODE_LIMIT:
+            for size in range(len(free) + 1):
+                for combo in itertools.combinations(free, size):
+                    yield frozenset(forced_voltage.union(combo))
         else:
-            yield self._tree_assignment(on)
+            tree = self._tree_assignment(on)
+            yield frozenset(forced_voltage.union(k for k in free if k in tree))
 
     def _tree_assignment(self, on: frozenset[str]) -> frozenset[str]:
         """Voltage-type diodes from a normal tree (Kruskal, voltage-defined branches first).
@@ -444,21 +483,25 @@ class _Formulator:
         return frozenset(vdiodes)
 
     def _choose_diode_types(self, on: frozenset[str], desc: str):
+        """The first usable λ-type assignment (see :meth:`_candidates`), MNA and solution."""
+        forced_voltage, forced_current = self._forced_types(on)
+        free = [d.key for d in self.diodes
+                if d.key not in forced_voltage and d.key not in forced_current]
         first = None
-        for vdiodes in self._candidates(on):
+        for vdiodes in self._candidates(on, free, forced_voltage):
             mna, sol, defects = self._try(on, vdiodes)
             if not defects:
                 return mna, sol
             if first is None:
                 first = (vdiodes, defects)
-        if len(self.diodes) > EXHAUSTIVE_DIODE_LIMIT:
-            # Greedy repair: flip one diode at a time while the number of defects drops.
+        if len(free) > EXHAUSTIVE_DIODE_LIMIT:
+            # Greedy repair: flip one free diode at a time while the number of defects drops.
             vdiodes, defects = first
             improved = True
             while defects and improved:
                 improved = False
-                for d in self.diodes:
-                    trial = vdiodes ^ {d.key}
+                for key in free:
+                    trial = vdiodes ^ {key}
                     mna, sol, trial_defects = self._try(on, frozenset(trial))
                     if not trial_defects:
                         return mna, sol

@@ -21,6 +21,7 @@ import math
 import numpy as np
 import pytest
 
+import netlist.formulation as fm
 from lcs.model import LAMBDA_CURRENT as CUR
 from lcs.model import LAMBDA_VOLTAGE as VOL
 from netlist.circuit import (
@@ -811,3 +812,51 @@ def test_bad_element_values_rejected():
         formulate(circuit(
             VoltageSource("V1", ("a", "0")), Resistor("R1", ("a", "0"), value=1.0),
             Cccs("F1", ("a", "0"), source="Vx", gain=1.0)))
+
+
+# ----------------------------------------------------------------------------------------
+# The λ-type search: pruning by topology, the normal-tree path for many diodes
+
+
+ALL_CIRCUITS = [boost(), buck(), buck_boost(), cuk(), bridge_tank(), parallel_resonant(**PRC),
+                rlc_with_sources()]
+
+
+def kinds_per_mode(c):
+    sys = formulate(c)
+    return {key: [p.lam for p in sys.mode(key).pairs] for key in sys.all_keys()}
+
+
+def test_topological_pruning_does_not_change_the_choice(monkeypatch):
+    pruned = [kinds_per_mode(c) for c in ALL_CIRCUITS]
+    monkeypatch.setattr(fm._Formulator, "_forced_types", lambda self, on: (set(), set()))
+    assert [kinds_per_mode(c) for c in ALL_CIRCUITS] == pruned
+
+
+def test_normal_tree_path_and_greedy_repair(monkeypatch):
+    exhaustive = [kinds_per_mode(c) for c in ALL_CIRCUITS]
+    monkeypatch.setattr(fm, "EXHAUSTIVE_DIODE_LIMIT", 0)
+    assert [kinds_per_mode(c) for c in ALL_CIRCUITS] == exhaustive
+    # Greedy repair from a useless start (all current-type, no topological pruning).
+    monkeypatch.setattr(fm._Formulator, "_forced_types", lambda self, on: (set(), set()))
+    monkeypatch.setattr(fm._Formulator, "_tree_assignment", lambda self, on: frozenset())
+    lcs = formulate(parallel_resonant(**PRC)).mode()
+    assert [p.lam for p in lcs.pairs] == [VOL, CUR, VOL, CUR]
+
+
+def test_many_diodes_each_behind_an_inductor():
+    # Twelve diodes, each in series with its own inductor: all must be voltage-type. The
+    # topology decides this directly (no 2**12 search): w_i = i(L_i), λ_i = v(b_i) - v(a)
+    # (cathode minus anode), so v(b_i) = V1 + λ_i.
+    elements = [VoltageSource("V1", ("a", "0"), dc=1.0)]
+    for i in range(12):
+        elements += [Diode(f"D{i}", ("a", f"b{i}")),
+                     Inductor(f"L{i}", (f"b{i}", f"c{i}"), value=1e-3),
+                     Resistor(f"R{i}", (f"c{i}", "0"), value=1.0)]
+    lcs = formulate(circuit(*elements)).mode()
+    assert {p.lam for p in lcs.pairs} == {VOL}
+    # L di/dt = v(b) - v(c) = V1 + λ - R i
+    close(lcs.A, -1e3 * np.eye(12))
+    close(lcs.B, 1e3 * np.eye(12))
+    close(lcs.E, 1e3 * np.ones((12, 1)))
+    close(lcs.C, np.eye(12))
