@@ -61,7 +61,7 @@ from .circuit import GROUND, Circuit, Element
 from .errors import Diagnostic, NetlistError
 from .topology import UnionFind, find_cutset, find_loop
 
-__all__ = ["formulate", "EXHAUSTIVE_DIODE_LIMIT"]
+__all__ = ["formulate", "storage_matrix", "EXHAUSTIVE_DIODE_LIMIT"]
 
 # With up to this many diodes every λ-type assignment may be tried (2**m MNA solves).
 EXHAUSTIVE_DIODE_LIMIT = 12
@@ -119,6 +119,29 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         diodes=[d.name for d in formulator.diodes],
         builder=formulator.build_mode,
     )
+
+
+def storage_matrix(circuit: Circuit) -> np.ndarray:
+    """The circuit's stored-energy matrix in the formulation's state order.
+
+    ``½ x' K x`` is the energy (J) stored in the inductors (including mutual inductances of K
+    couplings) and capacitors, for ``x`` ordered as :attr:`SwitchedLCS.states` of
+    :func:`formulate` (netlist order, inductors and capacitors interleaved). It is the usual
+    storage-function candidate for a passivity check (``lcs.passivity.check_passivity(lcs,
+    energy=K)``).
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+        Symmetric; H on inductor rows/columns, F on capacitor ones.
+    """
+    f = _Formulator(circuit)
+    K = np.zeros((f.n, f.n))
+    rows = [f.state_index[el.key] for el in f.inductors]
+    K[np.ix_(rows, rows)] = f.Lmat
+    for el in f.capacitors:
+        K[f.state_index[el.key], f.state_index[el.key]] = float(el.value)
+    return K
 
 
 def _error(message: str, hint: str = "", elements: Sequence[str] = (), el: Element | None = None,
@@ -225,6 +248,7 @@ class _Formulator:
                 name=sw.name, control=f"v({ncp},{ncm})", vt=float(params.get("vt", 0.0)),
                 vh=float(params.get("vh", 0.0)), options=dict(params)))
 
+        self.Lmat = np.zeros((0, 0))  # set by _inductance_inverse
         self.Linv = self._inductance_inverse(bad)
         if diagnostics:
             raise NetlistError(diagnostics, file=self.file)
@@ -270,6 +294,7 @@ class _Formulator:
             couplings[pair] = kel
             mutual = k * math.sqrt(lmat[i, i] * lmat[j, j])
             lmat[i, j] = lmat[j, i] = mutual
+        self.Lmat = lmat
         if not ok or nl == 0 or not couplings or not np.all(np.isfinite(lmat)):
             with np.errstate(divide="ignore"):
                 diag = np.diag(lmat).copy() if nl else np.zeros(0)

@@ -1,0 +1,245 @@
+"""``pelcs lcs FILE``: the LCS matrices of a netlist, per switch configuration.
+
+Prints, for every requested switch mode, ``A B E`` (rows: state derivatives) and ``C D F``
+(rows: the complementarity variables w) with named rows and columns, what λ stands for per
+diode, and whether the mode is passive. ``--json`` prints one JSON object instead::
+
+    {"file", "title", "states", "lambdas" (diode names), "inputs", "switches",
+     "passive" (every listed mode passive), "modes": [
+        {"switches": {"S1": "on"}, "A", "B", "C", "D", "E", "F" (lists of rows),
+         "lambda_kinds": {"D1": "current" | "voltage"}, "lambda_labels", "w_labels",
+         "passive", "passivity": {...}, "gdcm": ...}, ...]}
+
+Input errors (bad netlist, unknown switch in ``--mode``, degenerate topology in a requested
+mode) raise :class:`~netlist.errors.NetlistError`, which the CLI prints and exits 2 on.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+import numpy as np
+
+from lcs.model import LCS, SwitchedLCS
+from netlist.errors import Diagnostic, NetlistError
+
+_ON = {"on": True, "1": True, "true": True, "closed": True,
+       "off": False, "0": False, "false": False, "open": False}
+
+
+def register(subparsers) -> None:
+    """Add the ``lcs`` subcommand to the CLI's subparsers."""
+    p = subparsers.add_parser(
+        "lcs",
+        help="print the linear complementarity system of a netlist, per switch mode",
+        description="Formulate a netlist with ideal diodes and switches as a linear "
+        "complementarity system x' = A x + B λ + E u, w = C x + D λ + F u, 0 <= w ⊥ λ >= 0, "
+        "one per configuration of the switches, and print its matrices.",
+    )
+    p.add_argument("file", help="netlist file")
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                   help="override a global .param (repeatable; SPICE suffixes allowed)")
+    p.add_argument("--mode", metavar="S1=on,S2=off",
+                   help="only these switch states (switches not named: every state); "
+                   "default: all modes")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from netlist.formulation import formulate, storage_matrix
+    from netlist.parser import parse_file
+
+    params = parse_params(args.param)
+    circuit = parse_file(args.file, params=params or None)
+    system = formulate(circuit)
+    keys = select_modes(system, args.mode)
+    energy = storage_matrix(circuit)
+    report = build_report(system, keys, energy)
+    report["file"] = args.file
+    report["title"] = circuit.title
+    if args.json:
+        print(json.dumps(report, indent=1))
+    else:
+        print(format_report(report))
+    return 0
+
+
+# -- arguments -----------------------------------------------------------------------------
+
+
+def _usage_error(message: str, hint: str = "") -> NetlistError:
+    return NetlistError(Diagnostic(message=message, hint=hint), file="pelcs lcs")
+
+
+def parse_params(items: list[str]) -> dict[str, float]:
+    """``["vin=12", "fs=50k"]`` -> ``{"vin": 12.0, "fs": 50000.0}``."""
+    try:
+        from netlist.units import parse_number
+    except ImportError:  # pragma: no cover - the parser package provides it
+        def parse_number(text: str) -> float | None:
+            try:
+                return float(text)
+            except ValueError:
+                return None
+    params: dict[str, float] = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        value = parse_number(text.strip()) if sep else None
+        if not name.strip() or value is None or not math.isfinite(value):
+            raise _usage_error(f"--param {item!r} is not NAME=VALUE",
+                               "e.g. --param vin=12 --param fs=50k")
+        params[name.strip()] = value
+    return params
+
+
+def select_modes(system: SwitchedLCS, spec: str | None) -> list[tuple[bool, ...]]:
+    """Mode keys matching ``--mode`` (``"S1=on,S2=off"``); every mode when ``spec`` is None.
+
+    Switches the spec does not name take both states.
+    """
+    if not spec:
+        return system.all_keys()
+    names = {s.name.lower(): i for i, s in enumerate(system.switches)}
+    fixed: dict[int, bool] = {}
+    valid = ", ".join(s.name for s in system.switches) or "none"
+    for part in filter(None, (p.strip() for p in spec.split(","))):
+        name, sep, state = part.partition("=")
+        index = names.get(name.strip().lower())
+        if index is None:
+            raise _usage_error(f"--mode: no switch named {name.strip()!r}",
+                               f"switches of this circuit: {valid}")
+        if not sep or state.strip().lower() not in _ON:
+            raise _usage_error(f"--mode: {part!r} is not SWITCH=on or SWITCH=off",
+                               "e.g. --mode S1=on,S2=off")
+        fixed[index] = _ON[state.strip().lower()]
+    return [key for key in system.all_keys()
+            if all(key[i] == on for i, on in fixed.items())]
+
+
+# -- report --------------------------------------------------------------------------------
+
+
+def _rows(matrix: np.ndarray) -> list[list[float]]:
+    return [[float(v) for v in row] for row in np.asarray(matrix)]
+
+
+def _passivity(lcs: LCS, energy: np.ndarray) -> dict:
+    """Passivity of one mode via :func:`lcs.passivity.check_passivity` (energy candidate)."""
+    try:
+        from lcs.passivity import check_passivity
+    except ImportError:  # TODO(integration): lcs.passivity not available
+        return {"passive": None, "reason": "lcs.passivity not available"}
+    rep = check_passivity(lcs, energy=energy)
+    margin = float(rep.margin)
+    return {"passive": bool(rep.passive), "method": rep.method, "reason": rep.reason,
+            "margin": margin if math.isfinite(margin) else None}
+
+
+def _gdcm(lcs: LCS):
+    """GDCM information of one mode.
+
+    TODO(integration): ``lcs.gdcm`` is being written in parallel; when it exists, call its
+    public check here (on ``lcs``) and return a JSON-serialisable summary (e.g. whether the
+    mode satisfies the GDCM condition and why). Until then the field is ``None``.
+    """
+    try:
+        import lcs.gdcm  # noqa: F401
+    except ImportError:
+        return None
+    return None  # TODO(integration): API of lcs.gdcm not known yet
+
+
+def build_report(system: SwitchedLCS, keys: list[tuple[bool, ...]],
+                 energy: np.ndarray) -> dict:
+    """The JSON-ready description of the requested modes of a switched LCS."""
+    modes = []
+    for key in keys:
+        lcs = system.mode(key)
+        passivity = _passivity(lcs, energy)
+        modes.append({
+            "switches": system.describe_mode(key),
+            "A": _rows(lcs.A), "B": _rows(lcs.B), "C": _rows(lcs.C),
+            "D": _rows(lcs.D), "E": _rows(lcs.E), "F": _rows(lcs.F),
+            "lambda_kinds": {p.name: p.lam for p in lcs.pairs},
+            "lambda_labels": [p.lambda_label for p in lcs.pairs],
+            "w_labels": [p.w_label for p in lcs.pairs],
+            "passive": passivity["passive"],
+            "passivity": passivity,
+            "gdcm": _gdcm(lcs),
+        })
+    flags = [m["passive"] for m in modes]
+    return {
+        "states": list(system.states),
+        "lambdas": list(system.diodes),
+        "inputs": list(system.inputs),
+        "switches": [{"name": s.name, "control": s.control, "vt": s.vt, "vh": s.vh}
+                     for s in system.switches],
+        "passive": None if any(f is None for f in flags) else all(flags),
+        "modes": modes,
+    }
+
+
+def _fmt(value: float) -> str:
+    return "0" if value == 0 else f"{value:.6g}"
+
+
+def format_matrix(name: str, matrix: list[list[float]], rows: list[str],
+                  cols: list[str]) -> str:
+    """A matrix as text with row and column names; empty matrices say so."""
+    if not rows or not cols:
+        return f"{name}: empty ({len(rows)}x{len(cols)})"
+    cells = [[_fmt(v) for v in row] for row in matrix]
+    width0 = max(len(r) for r in rows)
+    widths = [max(len(c), *(len(cells[i][j]) for i in range(len(rows))))
+              for j, c in enumerate(cols)]
+    lines = [f"{name}:", "  " + " " * width0 + "  "
+             + "  ".join(c.rjust(w) for c, w in zip(cols, widths, strict=True))]
+    for r, row in zip(rows, cells, strict=True):
+        lines.append("  " + r.ljust(width0) + "  "
+                     + "  ".join(v.rjust(w) for v, w in zip(row, widths, strict=True)))
+    return "\n".join(lines)
+
+
+def format_report(report: dict) -> str:
+    """Human-readable text of :func:`build_report`'s result."""
+    states, inputs = report["states"], report["inputs"]
+    out = [f"{report.get('file', '')}: {report.get('title', '')}".strip(": "),
+           f"states ({len(states)}): {', '.join(states) or '-'}",
+           f"diodes ({len(report['lambdas'])}): {', '.join(report['lambdas']) or '-'}",
+           f"inputs ({len(inputs)}): {', '.join(inputs) or '-'}"]
+    for s in report["switches"]:
+        out.append(f"switch {s['name']}: on when {s['control']} > {s['vt']:g} "
+                   f"(hysteresis {s['vh']:g})")
+    out.append("x' = A x + B λ + E u,  w = C x + D λ + F u,  0 <= w ⊥ λ >= 0")
+    dx = [f"d{s}/dt" for s in states]
+    for mode in report["modes"]:
+        title = ", ".join(f"{k}={v}" for k, v in mode["switches"].items()) or "single mode"
+        out.append("")
+        out.append(f"== {title} ==")
+        lam, w = mode["lambda_labels"], mode["w_labels"]
+        for (diode, kind), lam_label, w_label in zip(mode["lambda_kinds"].items(), lam, w,
+                                                      strict=True):
+            what = "current" if kind == "current" else "reverse voltage"
+            out.append(f"{diode}: λ = {lam_label} ({what}), w = {w_label}")
+        out.append(format_matrix("A", mode["A"], dx, states))
+        if lam:
+            out.append(format_matrix("B", mode["B"], dx, lam))
+        out.append(format_matrix("E", mode["E"], dx, inputs))
+        if lam:
+            out.append(format_matrix("C", mode["C"], w, states))
+            out.append(format_matrix("D", mode["D"], w, lam))
+            out.append(format_matrix("F", mode["F"], w, inputs))
+        p = mode["passivity"]
+        verdict = {True: "passive", False: "not passive", None: "passivity unknown"}
+        out.append(f"{verdict[p['passive']]}: {p.get('reason', '')}")
+        if mode["gdcm"] is not None:
+            out.append(f"gdcm: {mode['gdcm']}")
+    if report["modes"]:
+        verdict = {True: "every mode passive", False: "not every mode passive",
+                   None: "passivity unknown"}[report["passive"]]
+        out.append("")
+        out.append(verdict)
+    return "\n".join(out)

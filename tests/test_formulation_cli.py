@@ -1,0 +1,125 @@
+"""``pelcs lcs``: mode selection, parameters, the report (JSON and text) and the CLI."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+
+import numpy as np
+import pytest
+from test_formulation import PRC, SW_MODEL, boost, gate_switch, parallel_resonant
+
+from netlist.circuit import Resistor
+from netlist.errors import NetlistError
+from netlist.formulation import formulate, storage_matrix
+from pelcs.commands.lcs import build_report, format_report, parse_params, select_modes
+
+
+def two_switch_boost():
+    c = boost()
+    c.elements.append(gate_switch("S2", "out", "x"))
+    c.elements.append(Resistor("R9", ("x", "0"), value=100.0))
+    c.models = SW_MODEL
+    return c
+
+
+def test_select_modes():
+    sys = formulate(two_switch_boost())
+    assert select_modes(sys, None) == sys.all_keys()
+    assert select_modes(sys, "S1=on,S2=off") == [(True, False)]
+    assert select_modes(sys, "s2=ON") == [(False, True), (True, True)]
+    with pytest.raises(NetlistError) as exc:
+        select_modes(sys, "S3=on")
+    assert "S1, S2" in exc.value.diagnostics[0].hint
+    with pytest.raises(NetlistError):
+        select_modes(sys, "S1=maybe")
+
+
+def test_parse_params():
+    assert parse_params(["vin=12", "fs = 50k"]) == {"vin": 12.0, "fs": 50e3}
+    for bad in ("vin", "=3", "vin=abc"):
+        with pytest.raises(NetlistError):
+            parse_params([bad])
+
+
+def test_report_of_boost():
+    c = boost()
+    sys = formulate(c)
+    report = build_report(sys, sys.all_keys(), storage_matrix(c))
+    json.dumps(report)  # serialisable
+    assert report["states"] == ["i(L1)", "v(C1)"]
+    assert report["lambdas"] == ["D1"]
+    assert report["inputs"] == ["Vin", "Vg"]
+    assert report["passive"] is True
+    off, on = report["modes"]
+    assert off["switches"] == {"S1": "off"} and on["switches"] == {"S1": "on"}
+    assert off["lambda_kinds"] == {"D1": "voltage"} and on["lambda_kinds"] == {"D1": "current"}
+    for mode, key in ((off, (False,)), (on, (True,))):
+        lcs = sys.mode(key)
+        for name in "ABCDEF":
+            np.testing.assert_array_equal(np.asarray(mode[name]).reshape(getattr(lcs, name)
+                                                                         .shape),
+                                          getattr(lcs, name))
+        assert mode["passive"] is True
+    text = format_report(report)
+    assert "== S1=off ==" in text and "di(L1)/dt" in text and "-v(D1)" in text
+
+
+def test_storage_matrix_state_order():
+    # PRC states i(Lr), v(Cr), i(Lf), v(Cf): diag(Lr, Cr, Lf, Cf).
+    K = storage_matrix(parallel_resonant(**PRC))
+    np.testing.assert_allclose(K, np.diag([PRC["Lr"], PRC["Cr"], PRC["Lf"], PRC["Cf"]]))
+
+
+BOOST_NETLIST = """boost for pelcs lcs
+.param vin=12
+Vin in 0 DC {vin}
+L1 in sw 100u
+S1 sw 0 gate 0 SWIDEAL
+D1 sw out DIDEAL
+C1 out 0 100u
+R1 out 0 20
+Vg gate 0 DC 0
+.model SWIDEAL SW(VT=0.5 VH=0)
+.model DIDEAL D(IS=1e-12)
+.end
+"""
+
+needs_parser = pytest.mark.skipif(
+    importlib.util.find_spec("netlist.flatten") is None, reason="parser not complete yet")
+
+
+@needs_parser
+def test_cli_json(tmp_path, capsys):
+    from pelcs.cli import main
+
+    path = tmp_path / "boost.cir"
+    path.write_text(BOOST_NETLIST)
+    assert main(["lcs", str(path), "--json", "--mode", "S1=on", "--param", "vin=5"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["states"] == ["i(L1)", "v(C1)"]
+    assert report["inputs"] == ["Vin", "Vg"]
+    (mode,) = report["modes"]
+    assert mode["switches"] == {"S1": "on"}
+    assert mode["lambda_kinds"] == {"D1": "current"}
+    np.testing.assert_allclose(mode["A"], [[0, 0], [0, -500]])
+    assert report["passive"] is True and mode["passive"] is True
+    assert "gdcm" in mode
+
+
+@needs_parser
+def test_cli_text_and_errors(tmp_path, capsys):
+    from pelcs.cli import main
+
+    path = tmp_path / "boost.cir"
+    path.write_text(BOOST_NETLIST)
+    assert main(["lcs", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "== S1=off ==" in out and "== S1=on ==" in out
+    # A capacitor across the switch: the S1=on mode is degenerate -> exit 2, named elements.
+    bad = tmp_path / "bad.cir"
+    bad.write_text(BOOST_NETLIST.replace("R1 out 0 20", "R1 out 0 20\nCsw sw 0 1n"))
+    assert main(["lcs", str(bad), "--mode", "S1=on"]) == 2
+    err = capsys.readouterr().err
+    assert "Csw" in err and "S1=on" in err
+    assert main(["lcs", str(path), "--mode", "S9=on"]) == 2
