@@ -90,6 +90,7 @@ class Switch(Element):
 
     control: tuple[str, str] = ("0", "0")
     model: str = ""
+    initial: bool | None = None  # ON (True) / OFF (False) as written on the S line, else None
     kind: ClassVar[str] = "S"
 
 

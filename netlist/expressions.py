@@ -1,0 +1,285 @@
+"""Parameter expressions: the text in ``{...}``, ``'...'`` and bare ``.param`` values.
+
+Grammar (in ``grammar.lark``, start rule ``expression``): numbers with engineering suffixes
+(``2*10k``), parameter names, ``+ - * /``, ``**`` or ``^`` for powers, unary minus,
+parentheses, the functions in :data:`FUNCTIONS` and the constant ``pi``. Names are
+case-insensitive.
+
+An expression is parsed once into a small tree of tuples (:class:`Expression`) that lists the
+parameter names it uses, so that parameters can be evaluated in dependency order and cycles
+found before anything is evaluated.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+from lark import Lark, Token, Tree
+from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+
+from .units import parse_number
+
+GRAMMAR_FILE = Path(__file__).with_name("grammar.lark")
+
+# Start rules of grammar.lark: one per statement shape, and the expression rule.
+START_RULES = [
+    "passive", "source", "diode", "switch", "vcontrolled", "ccontrolled", "coupling",
+    "instance", "param_cmd", "subckt_cmd", "ends_cmd", "model_cmd", "ic_cmd", "tran_cmd",
+    "options_cmd", "include_cmd", "lib_cmd", "global_cmd", "expression",
+]
+
+
+@lru_cache(maxsize=1)
+def lark_parser() -> Lark:
+    """The LALR parser of ``grammar.lark`` for all start rules (built once, ~50 ms)."""
+    return Lark(
+        GRAMMAR_FILE.read_text(encoding="utf-8"),
+        parser="lalr",
+        lexer="contextual",
+        start=START_RULES,
+        maybe_placeholders=False,
+    )
+
+
+def _bounded_min(*a: float) -> float:
+    return min(a)
+
+
+def _bounded_max(*a: float) -> float:
+    return max(a)
+
+
+# name -> (function, minimum and maximum number of arguments; None = any number)
+FUNCTIONS: dict[str, tuple[Callable[..., float], int, int | None]] = {
+    "sqrt": (math.sqrt, 1, 1),
+    "exp": (math.exp, 1, 1),
+    "log": (math.log, 1, 1),  # natural logarithm, as in ngspice
+    "ln": (math.log, 1, 1),
+    "log10": (math.log10, 1, 1),
+    "sin": (math.sin, 1, 1),
+    "cos": (math.cos, 1, 1),
+    "tan": (math.tan, 1, 1),
+    "asin": (math.asin, 1, 1),
+    "acos": (math.acos, 1, 1),
+    "atan": (math.atan, 1, 1),
+    "sinh": (math.sinh, 1, 1),
+    "cosh": (math.cosh, 1, 1),
+    "tanh": (math.tanh, 1, 1),
+    "abs": (abs, 1, 1),
+    "floor": (math.floor, 1, 1),
+    "ceil": (math.ceil, 1, 1),
+    "min": (_bounded_min, 1, None),
+    "max": (_bounded_max, 1, None),
+    "pow": (math.pow, 2, 2),
+}
+CONSTANTS = {"pi": math.pi}
+
+# Functions that mean the user wants a behavioural (nonlinear) source.
+_BEHAVIOURAL = {"v", "i", "time", "temper", "ddt", "idt", "u", "uramp", "table", "if"}
+
+
+class ExpressionError(Exception):
+    """A problem in one expression.
+
+    Attributes
+    ----------
+    message, hint : str
+        One-line message and advice.
+    offset : int
+        0-based character offset in the expression text where the problem is.
+    """
+
+    def __init__(self, message: str, offset: int = 0, hint: str = ""):
+        super().__init__(message)
+        self.message = message
+        self.offset = offset
+        self.hint = hint
+
+
+@dataclass(frozen=True)
+class Expression:
+    """A parsed expression.
+
+    Attributes
+    ----------
+    text : str
+        The expression as written (without braces or quotes).
+    tree : tuple
+        ``("num", value)``, ``("var", name, offset)``, ``("neg", a)``,
+        ``(op, a, b, offset)`` with op in ``+ - * / **``, or ``("call", name, args, offset)``.
+    names : frozenset of str
+        Lower-case parameter names used.
+    """
+
+    text: str
+    tree: tuple
+    names: frozenset[str]
+
+    @property
+    def constant(self) -> bool:
+        return not self.names
+
+    def evaluate(self, env: Mapping[str, float]) -> float:
+        """The value with parameters taken from ``env`` (lower-case names).
+
+        Raises
+        ------
+        ExpressionError
+            Unknown parameter, division by zero, math domain error, overflow.
+        """
+        value = _eval(self.tree, env)
+        if not math.isfinite(value):
+            raise ExpressionError(f"expression '{self.text}' evaluates to {value}", 0)
+        return value
+
+
+def _eval(node: tuple, env: Mapping[str, float]) -> float:
+    tag = node[0]
+    if tag == "num":
+        return node[1]
+    if tag == "var":
+        name = node[1]
+        if name in env:
+            return env[name]
+        if name in CONSTANTS:
+            return CONSTANTS[name]
+        raise ExpressionError(f"unknown parameter '{name}'", node[2],
+                              "define it with .param NAME=VALUE")
+    if tag == "neg":
+        return -_eval(node[1], env)
+    if tag == "call":
+        fn, _, _ = FUNCTIONS[node[1]]
+        args = [_eval(a, env) for a in node[2]]
+        try:
+            return float(fn(*args))
+        except (ValueError, OverflowError) as exc:
+            shown = ", ".join(f"{a:g}" for a in args)
+            raise ExpressionError(f"cannot evaluate {node[1]}({shown}): {exc}", node[3]) from None
+    a = _eval(node[1], env)
+    b = _eval(node[2], env)
+    try:
+        if tag == "+":
+            return a + b
+        if tag == "-":
+            return a - b
+        if tag == "*":
+            return a * b
+        if tag == "/":
+            return a / b
+        return float(a**b)
+    except ZeroDivisionError:
+        if tag == "/":
+            msg = "division by zero"
+        else:
+            msg = f"cannot raise 0 to the negative power {b:g}"
+        raise ExpressionError(msg, node[3]) from None
+    except OverflowError:
+        raise ExpressionError(f"overflow in {a:g} {tag} {b:g}", node[3]) from None
+    except TypeError:  # a complex result of a negative base to a fractional power
+        raise ExpressionError(f"{a:g} ** {b:g} is not a real number", node[3]) from None
+
+
+_BINARY = {"add": "+", "sub": "-", "mul": "*", "div": "/", "pow": "**"}
+
+
+def _build(t: Tree | Token, names: set[str]) -> tuple:
+    if isinstance(t, Token):  # a parenthesised sub-expression collapses to its token
+        raise AssertionError(t)
+    data = t.data
+    if data == "number":
+        tok = t.children[0]
+        value = parse_number(tok)
+        if value is None:  # letters then digits, e.g. 1k2
+            raise ExpressionError(f"invalid number '{tok}'", tok.start_pos,
+                                  "a number is digits, an optional exponent, then letters")
+        return ("num", value)
+    if data == "var":
+        tok = t.children[0]
+        name = tok.lower()
+        if name not in CONSTANTS:
+            names.add(name)
+        return ("var", name, tok.start_pos)
+    if data == "neg":
+        sub = _build(t.children[0], names)
+        if sub[0] == "num":
+            return ("num", -sub[1])
+        return ("neg", sub)
+    if data == "call":
+        tok = t.children[0]
+        fname = tok.lower()
+        args = [_build(c, names) for c in t.children[1:]]
+        if fname not in FUNCTIONS:
+            if fname in _BEHAVIOURAL:
+                hint = ("node voltages, currents and time in expressions make a behavioural "
+                        "source: pelcs needs linear E/G/F/H sources and ideal switches")
+            else:
+                hint = "known functions: " + ", ".join(sorted(FUNCTIONS))
+            raise ExpressionError(f"unknown function '{tok}'", tok.start_pos, hint)
+        _, lo, hi = FUNCTIONS[fname]
+        if len(args) < lo or (hi is not None and len(args) > hi):
+            want = f"{lo}" if lo == hi else f"at least {lo}"
+            raise ExpressionError(
+                f"{fname}() takes {want} argument{'s' if lo != 1 or hi is None else ''}, "
+                f"got {len(args)}", tok.start_pos)
+        return ("call", fname, tuple(args), tok.start_pos)
+    if data in _BINARY:
+        if data == "pow":
+            left, op, right = t.children
+            offset = op.start_pos
+        else:
+            left, right = t.children
+            offset = _first_offset(right)
+        return (_BINARY[data], _build(left, names), _build(right, names), offset)
+    # the "+" unary rule is inlined by lark and leaves only its operand
+    raise AssertionError(f"unexpected expression node {data}")
+
+
+def _first_offset(t: Tree | Token) -> int:
+    while isinstance(t, Tree):
+        t = t.children[0]
+    return t.start_pos
+
+
+def _syntax_error(text: str, exc: UnexpectedInput) -> ExpressionError:
+    if isinstance(exc, UnexpectedEOF) or (
+        isinstance(exc, UnexpectedToken) and exc.token.type == "$END"
+    ):
+        return ExpressionError(f"incomplete expression '{text}'", len(text),
+                               "an operand or a closing parenthesis is missing")
+    if isinstance(exc, UnexpectedToken):
+        return ExpressionError(f"unexpected '{exc.token}' in expression '{text}'",
+                               exc.token.start_pos)
+    if isinstance(exc, UnexpectedCharacters):
+        return ExpressionError(f"unexpected character {text[exc.pos_in_stream]!r} in "
+                               f"expression '{text}'", exc.pos_in_stream)
+    return ExpressionError(f"cannot parse expression '{text}'", 0)
+
+
+@lru_cache(maxsize=4096)
+def parse_expression(text: str) -> Expression:
+    """Parse an expression (without its braces or quotes).
+
+    Parameters
+    ----------
+    text : str
+        E.g. ``"1/(2*pi*fs)"`` or ``"duty*ts-10n"``.
+
+    Raises
+    ------
+    ExpressionError
+        With the offset of the problem in ``text``.
+    """
+    if not text.strip():
+        raise ExpressionError("empty expression", 0, "write a value or a parameter name")
+    try:
+        tree = lark_parser().parse(text, start="expression")
+    except UnexpectedInput as exc:
+        raise _syntax_error(text, exc) from None
+    names: set[str] = set()
+    if isinstance(tree, Token):  # never: the expression rule always wraps tokens
+        raise AssertionError(tree)
+    return Expression(text, _build(tree, names), frozenset(names))

@@ -1,0 +1,468 @@
+"""Elaboration: a :class:`~netlist.parser.Deck` -> a flattened, checked :class:`Circuit`.
+
+Parameters
+----------
+Global ``.param`` definitions may refer to each other in any order; they are evaluated in
+dependency order and a cycle is reported naming its parameters. Overrides given by the caller
+(``params=``, ``--param``) replace global definitions before evaluation, so parameters that
+depend on them follow; overriding a parameter the netlist does not define is an error.
+
+Subcircuits
+-----------
+Definitions are global. Inside an instance, names are looked up first among the subcircuit's
+own parameters - the ``.subckt`` header defaults, replaced by the instance's ``params:``
+values (evaluated where the instance stands), and the ``.param`` lines of the body - then
+among the global parameters (lexical scoping, as in ngspice). An instance ``X1`` of a
+subcircuit turns element ``L1`` into ``X1.L1`` and internal node ``n3`` into ``x1.n3``
+(nested: ``X1.X2.L1``, ``x1.x2.n3``); ports are replaced by the instance's nodes, ground and
+``.global`` nodes stay as they are. References inside the body (F/H controlling sources, K
+inductors) get the same prefix. ``.model`` lines inside a body are global.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections import ChainMap
+from collections.abc import Callable, Mapping
+
+from lcs.signals import Exp, Pulse, Pwl, Signal, Sin
+
+from .checks import check_circuit, value_problem
+from .circuit import (
+    GROUND,
+    Capacitor,
+    Cccs,
+    Ccvs,
+    Circuit,
+    Coupling,
+    CurrentSource,
+    Diode,
+    Element,
+    Inductor,
+    Model,
+    Resistor,
+    Switch,
+    Tran,
+    Vccs,
+    Vcvs,
+    VoltageSource,
+)
+from .errors import Diagnostic, Location, NetlistError
+from .expressions import CONSTANTS, ExpressionError
+from .parser import Body, Deck, RawElement, RawParam, Statement, Value
+
+# default parameters of ngspice's SW model that pelcs uses
+SW_DEFAULTS = {"vt": 0.0, "vh": 0.0}
+
+_NAN = float("nan")  # the value of an element whose value could not be evaluated
+
+
+def build_circuit(deck: Deck, overrides: Mapping[str, float] | None = None) -> Circuit:
+    """Evaluate, flatten and check a deck.
+
+    Parameters
+    ----------
+    deck : Deck
+        From :func:`netlist.parser.read_deck`.
+    overrides : mapping of str to float, optional
+        Global parameter values that replace the netlist's definitions.
+
+    Raises
+    ------
+    NetlistError
+        With all problems found, in file order (problems without a location last).
+    """
+    builder = _Builder(deck)
+    circuit = builder.build(overrides or {})
+    # Elements whose values failed are kept (with NaN values) so that the topology checks
+    # see the whole circuit; only a subcircuit instance that could not be expanded leaves a
+    # hole, and then connectivity problems would be artefacts of the hole.
+    diags = builder.diags + check_circuit(circuit, builder.ref_locs,
+                                          topology=not builder.incomplete)
+    if diags:
+        raise NetlistError(_ordered(diags, deck.files), deck.file)
+    return circuit
+
+
+def _ordered(diags: list[Diagnostic], files: list[str]) -> list[Diagnostic]:
+    """Drop repeats (one definition used by many instances) and sort in file order."""
+    seen = set()
+    unique = []
+    for d in diags:
+        loc = d.location
+        key = (d.message, loc.file, loc.line, loc.column) if loc else (d.message, d.elements)
+        if key not in seen:
+            seen.add(key)
+            unique.append(d)
+    order = {f: i for i, f in enumerate(files)}
+
+    def sort_key(item: tuple[int, Diagnostic]) -> tuple:
+        i, d = item
+        loc = d.location
+        if loc is None:
+            return (1, 0, 0, 0, i)
+        return (0, order.get(loc.file, len(order)), loc.line, loc.column, i)
+
+    return [d for _, d in sorted(enumerate(unique), key=sort_key)]
+
+
+class _Builder:
+    def __init__(self, deck: Deck):
+        self.deck = deck
+        self.diags: list[Diagnostic] = []
+        self.ref_locs: dict[tuple[str, str], Location] = {}
+        self.circuit = Circuit(title=deck.title, file=deck.file)
+        self.global_env: dict[str, float] = {}
+        self.global_failed: set[str] = set()
+        self.incomplete = False  # an instance could not be expanded
+
+    def error(self, message: str, loc: Location | None, hint: str = "",
+              elements: tuple[str, ...] = ()) -> None:
+        self.diags.append(Diagnostic(message, loc, hint, elements))
+
+    # ------------------------------------------------------------------ parameters
+
+    def value_or_nan(self, value: Value, env: Mapping[str, float], failed: set[str]) -> float:
+        v = self.evaluate(value, env, failed)
+        return _NAN if v is None else v
+
+    def evaluate(self, value: Value, env: Mapping[str, float], failed: set[str]) -> float | None:
+        """The value of a number or expression; ``None`` after reporting a problem."""
+        if value.number is not None:
+            return value.number
+        expr = value.expr
+        if expr.names & failed:  # already reported where that parameter is defined
+            return None
+        try:
+            return expr.evaluate(env)
+        except ExpressionError as exc:
+            hint = exc.hint
+            if exc.message.startswith("unknown parameter"):
+                name = exc.message.split("'")[1]
+                close = difflib.get_close_matches(name, list(env) + list(CONSTANTS), n=3)
+                if close:
+                    hint = f"did you mean {' or '.join(close)}? ({hint})"
+            self.error(exc.message, value.st.loc(value.offset + exc.offset), hint)
+            return None
+
+    def scope(self, defs: list[RawParam], fixed: Mapping[str, float],
+              parent: Mapping[str, float], parent_failed: set[str], where: str
+              ) -> tuple[dict[str, float], set[str]]:
+        """Evaluate a set of parameter definitions in dependency order.
+
+        Parameters
+        ----------
+        defs : list of RawParam
+            Definitions of this scope.
+        fixed : mapping
+            Values that replace definitions (overrides); their names must be in ``defs``.
+        parent : mapping
+            The enclosing scope, for names not defined here.
+        parent_failed : set of str
+            Names of the enclosing scope that could not be evaluated (already reported).
+        where : str
+            ``"global"`` or the subcircuit name, for messages.
+
+        Returns
+        -------
+        (dict, set)
+            The values of this scope, and the names that failed.
+        """
+        table: dict[str, RawParam] = {}
+        for p in defs:
+            first = table.get(p.name)
+            if first is not None:
+                self.error(f"parameter '{p.name}' is defined twice (first at line "
+                           f"{first.loc.line})", p.loc,
+                           "a parameter has one definition; override it with --param or "
+                           "params: instead")
+                continue
+            table[p.name] = p
+        values: dict[str, float] = dict(fixed)
+        failed: set[str] = set()
+        env = ChainMap(values, parent)
+        state: dict[str, int] = {}
+        path: list[str] = []
+
+        def visit(name: str) -> None:
+            if name in values or name in failed:
+                return
+            if state.get(name) == 1:
+                cycle = path[path.index(name):] + [name]
+                self.error(f"parameter cycle: {' -> '.join(cycle)}", table[cycle[0]].loc,
+                           "parameters must not depend on themselves, directly or through "
+                           "others", tuple(dict.fromkeys(cycle)))
+                failed.update(cycle)
+                return
+            state[name] = 1
+            path.append(name)
+            p = table[name]
+            if p.value.expr is not None:
+                for dep in sorted(p.value.expr.names):
+                    if dep in table:
+                        visit(dep)
+            path.pop()
+            state[name] = 2
+            if name in failed:
+                return
+            v = self.evaluate(p.value, env, failed | parent_failed)
+            if v is None:
+                failed.add(name)
+            else:
+                values[name] = v
+
+        for name in table:
+            visit(name)
+        ordered = {name: values[name] for name in table if name in values}
+        return ordered, failed | parent_failed
+
+    # ------------------------------------------------------------------ the circuit
+
+    def build(self, overrides: Mapping[str, float]) -> Circuit:
+        deck, c = self.deck, self.circuit
+        defined = {p.name for p in deck.top.params}
+        fixed: dict[str, float] = {}
+        for name, value in overrides.items():
+            key = name.lower()
+            if key not in defined:
+                known = ", ".join(sorted(defined)) or "none"
+                self.error(f"unknown parameter '{name}' in the overrides (--param)", None,
+                           f"the netlist defines these global parameters: {known}")
+            else:
+                fixed[key] = float(value)
+        self.global_env, self.global_failed = self.scope(deck.top.params, fixed, {}, set(),
+                                                         "global")
+        c.params = dict(self.global_env)
+        self.models()
+        self.tran()
+        c.options = dict(deck.options)
+        c.ignored = list(deck.ignored)
+        self.expand(deck.top, "", "", None, self.global_env, self.global_failed, ())
+        return c
+
+    def models(self) -> None:
+        env, failed = self.global_env, self.global_failed
+        for m in self.deck.models:
+            key = m.name.lower()
+            loc = m.st.loc(0)
+            if key in self.circuit.models:
+                first = self.circuit.models[key].location
+                self.error(f"model '{m.name}' is defined twice (first at line {first.line})",
+                           loc, "rename one of the models")
+                continue
+            params: dict[str, float] = dict(SW_DEFAULTS) if m.type == "SW" else {}
+            for p in m.params:
+                v = self.evaluate(p.value, env, failed)
+                if v is not None:
+                    params[p.name] = v
+            self.circuit.models[key] = Model(m.name, m.type, params, loc)
+
+    def tran(self) -> None:
+        trans = self.deck.trans
+        if not trans:
+            return
+        for extra in trans[1:]:
+            self.error(f"second .tran (first at line {trans[0].st.loc(0).line})",
+                       extra.st.loc(0), "pelcs runs one transient analysis: keep one .tran")
+        t = trans[0]
+        vals = [self.evaluate(v, self.global_env, self.global_failed) for v in t.values]
+        if any(v is None for v in vals):
+            return
+        names = ["TSTEP", "TSTOP", "TSTART", "TMAX"]
+        ok = True
+        for i, (name, v) in enumerate(zip(names, vals, strict=False)):
+            if (v < 0 if name == "TSTART" else v <= 0):
+                self.error(f".tran {name} must be {'>= 0' if i == 2 else 'positive'}, got "
+                           f"{v:g}", t.values[i].loc, "syntax: .tran TSTEP TSTOP [TSTART "
+                           "[TMAX]] [UIC], times in seconds")
+                ok = False
+        if ok and len(vals) > 2 and vals[2] >= vals[1]:
+            self.error(f".tran TSTART ({vals[2]:g}) must be before TSTOP ({vals[1]:g})",
+                       t.values[2].loc, "TSTART is when output starts; it must be < TSTOP")
+            ok = False
+        if ok:
+            self.circuit.tran = Tran(vals[0], vals[1], vals[2] if len(vals) > 2 else 0.0,
+                                     vals[3] if len(vals) > 3 else None, t.uic)
+
+    def expand(self, body: Body, name_prefix: str, node_prefix: str,
+               ports: dict[str, str] | None, env: Mapping[str, float], failed: set[str],
+               stack: tuple[str, ...]) -> None:
+        """Add the elements of one body (the top level or a subcircuit instance)."""
+        glob = self.deck.globals
+
+        if ports is None:
+            def mapnode(n: str) -> str:
+                return n
+        else:
+            def mapnode(n: str) -> str:
+                if n == GROUND:
+                    return n
+                m = ports.get(n)
+                if m is not None:
+                    return m
+                return n if n in glob else node_prefix + n
+
+        ics = self.circuit.initial_conditions
+        for ic in body.ics:
+            v = self.evaluate(ic.value, env, failed)
+            if v is None:
+                continue
+            node = mapnode(ic.node)
+            if node in ics and not name_prefix:
+                self.error(f".ic sets node '{node}' twice", ic.st.loc(ic.offset),
+                           "give each node one initial voltage")
+            ics[node] = v
+            self.ref_locs.setdefault(("ic", node), ic.st.loc(ic.offset))
+
+        for el in body.elements:
+            if el.kind == "X":
+                self.instance(el, name_prefix, node_prefix, mapnode, env, failed, stack)
+            else:
+                self.circuit.elements.append(
+                    self.element(el, name_prefix, mapnode, env, failed))
+
+    def instance(self, el: RawElement, name_prefix: str, node_prefix: str,
+                 mapnode: Callable[[str], str], env: Mapping[str, float], failed: set[str],
+                 stack: tuple[str, ...]) -> None:
+        st = el.st
+        key = el.ref.lower()
+        sub = self.deck.subckts.get(key)
+        if sub is None:
+            known = ", ".join(s.name for s in self.deck.subckts.values()) or "none defined"
+            self.error(f"unknown subcircuit '{el.ref}' in instance {name_prefix}{el.name}",
+                       st.loc(el.ref_offset), f"define it with .subckt {el.ref} ... .ends "
+                       f"(subcircuits: {known})")
+            self.incomplete = True
+            return
+        if key in stack:
+            chain = " -> ".join([*stack, key])
+            self.error(f"subcircuit '{sub.name}' instantiates itself ({chain})",
+                       st.loc(el.ref_offset), "a subcircuit must not contain itself")
+            self.incomplete = True
+            return
+        if len(el.nodes) != len(sub.ports):
+            self.error(f"instance {el.name} connects {len(el.nodes)} node"
+                       f"{'s' if len(el.nodes) != 1 else ''} but subcircuit '{sub.name}' has "
+                       f"{len(sub.ports)} port{'s' if len(sub.ports) != 1 else ''} "
+                       f"({' '.join(sub.ports)})", st.loc(0),
+                       f"syntax: {el.name} <{len(sub.ports)} nodes> {sub.name} [params: ...]")
+            self.incomplete = True
+            return
+        header = {p.name for p in sub.defaults}
+        fixed: dict[str, float] = {}
+        child_failed_extra: set[str] = set()
+        for p in el.params:
+            if p.name not in header:
+                known = ", ".join(sorted(header)) or "none"
+                self.error(f"subcircuit '{sub.name}' has no parameter '{p.name}'", p.loc,
+                           f"its parameters (on the .subckt line): {known}")
+                continue
+            v = self.evaluate(p.value, env, failed)
+            if v is None:
+                child_failed_extra.add(p.name)
+            else:
+                fixed[p.name] = v
+        values, child_failed = self.scope(sub.defaults + sub.body.params, fixed,
+                                          self.global_env, self.global_failed, sub.name)
+        port_map = {port: mapnode(n) for port, n in zip(sub.ports, el.nodes, strict=True)}
+        self.expand(sub.body, f"{name_prefix}{el.name}.", f"{node_prefix}{el.name.lower()}.",
+                    port_map, ChainMap(values, self.global_env),
+                    child_failed | child_failed_extra, (*stack, key))
+
+    def element(self, el: RawElement, prefix: str, mapnode: Callable[[str], str],
+                env: Mapping[str, float], failed: set[str]) -> Element:
+        kind = el.kind
+        st = el.st
+        name = prefix + el.name if prefix else el.name
+        loc = st.loc(0)
+        nodes = tuple(map(mapnode, el.nodes))
+        key = name.lower()
+        if kind in "RLC":
+            v = self.value_or_nan(el.value, env, failed)
+            problem = value_problem(kind, v)
+            if problem:
+                self.error(f"{name}: {problem[0]}", el.value.loc, problem[1], (name,))
+            if kind == "R":
+                return Resistor(name, nodes, loc, v)
+            ic = None if el.ic is None else self.value_or_nan(el.ic, env, failed)
+            cls = Inductor if kind == "L" else Capacitor
+            return cls(name, nodes, loc, v, ic)
+        if kind in "VI":
+            dc = 0.0 if el.value is None else self.value_or_nan(el.value, env, failed)
+            wave = None
+            if el.wave is not None:
+                wave = self.waveform(el.wave, env, failed, st)
+            cls = VoltageSource if kind == "V" else CurrentSource
+            return cls(name, nodes, loc, dc, wave)
+        if kind == "D":
+            self.ref_locs[(key, "model")] = st.loc(el.ref_offset)
+            return Diode(name, nodes, loc, el.ref)
+        if kind == "S":
+            self.ref_locs[(key, "model")] = st.loc(el.ref_offset)
+            self.ref_locs[(key, "control")] = st.loc(0)
+            return Switch(name, nodes, loc, tuple(map(mapnode, el.control)), el.ref, el.state)
+        if kind in "EG":
+            gain = self.value_or_nan(el.value, env, failed)
+            self.ref_locs[(key, "control")] = st.loc(0)
+            cls = Vcvs if kind == "E" else Vccs
+            return cls(name, nodes, loc, tuple(map(mapnode, el.control)), gain)
+        if kind in "FH":
+            gain = self.value_or_nan(el.value, env, failed)
+            self.ref_locs[(key, "source")] = st.loc(el.ref_offset)
+            cls = Cccs if kind == "F" else Ccvs
+            return cls(name, nodes, loc, prefix + el.ref, gain)
+        if kind == "K":
+            k = self.value_or_nan(el.value, env, failed)
+            problem = value_problem("K", k)
+            if problem:
+                self.error(f"{name}: {problem[0]}", el.value.loc, problem[1], (name,))
+            (l1, o1), (l2, o2) = el.refs
+            self.ref_locs[(key, "inductor0")] = st.loc(o1)
+            self.ref_locs[(key, "inductor1")] = st.loc(o2)
+            return Coupling(name, (), loc, (prefix + l1, prefix + l2), k)
+        raise AssertionError(f"element kind {kind}")  # the reader accepts no other kind
+
+    def waveform(self, wave: tuple[str, list[Value], int], env: Mapping[str, float],
+                 failed: set[str], st: Statement) -> Signal | None:
+        """The transient waveform; ``None`` after reporting a problem."""
+        kind, args, offset = wave
+        vals = [self.evaluate(a, env, failed) for a in args]
+        if any(v is None for v in vals):
+            return None
+        loc = st.loc(offset)
+        if kind == "pwl":
+            times, values = tuple(vals[0::2]), tuple(vals[1::2])
+            for i in range(1, len(times)):
+                if times[i] < times[i - 1]:
+                    self.error(f"PWL time {times[i]:g} s comes before the previous time "
+                               f"{times[i - 1]:g} s", args[2 * i].loc,
+                               "PWL points are (time, value) pairs in increasing time")
+                    return None
+            if times[0] < 0:
+                self.error(f"PWL starts at a negative time {times[0]:g} s", args[0].loc,
+                           "times are >= 0")
+                return None
+            return Pwl(times, values)
+        if kind == "pulse":
+            sig = Pulse(*vals)
+            fields = ["V1", "V2", "TD", "TR", "TF", "PW", "PER", "NP"]
+            for i in range(3, len(vals)):
+                if vals[i] < 0:
+                    self.error(f"PULSE {fields[i]} must not be negative, got {vals[i]:g}",
+                               args[i].loc, "syntax: PULSE(V1 V2 TD TR TF PW PER [NP])")
+                    return None
+            return sig
+        if kind == "sin":
+            if len(vals) > 2 and vals[2] < 0:
+                self.error(f"SIN frequency must not be negative, got {vals[2]:g}", args[2].loc,
+                           "syntax: SIN(VO VA FREQ TD THETA PHASE), FREQ in Hz")
+                return None
+            return Sin(*vals)
+        if kind == "exp":
+            for i in (3, 5):
+                if len(vals) > i and vals[i] < 0:
+                    self.error(f"EXP time constant must not be negative, got {vals[i]:g}",
+                               args[i].loc, "syntax: EXP(V1 V2 TD1 TAU1 TD2 TAU2)")
+                    return None
+            return Exp(*vals)
+        raise AssertionError(f"waveform {kind} at {loc}")

@@ -1,0 +1,132 @@
+"""SPICE numbers: engineering suffixes on input, engineering notation on output.
+
+SPICE reads ``10uF`` as 10e-6, ``1kOhm`` as 1e3, ``1Meg`` as 1e6 and ``1mil`` as 25.4e-6: the
+letters after the number are a scale suffix (case-insensitive) followed by a unit that is
+ignored. Beware the classic traps, which pelcs keeps for compatibility with SPICE: ``M`` is
+milli (mega is ``Meg``) and ``10F`` is ten femto, not ten farads.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+# Scale suffixes as powers of ten. Checked in this order so that "meg" and "mil" win over "m".
+_POW10 = {"t": 12, "g": 9, "k": 3, "m": -3, "u": -6, "n": -9, "p": -12, "f": -15, "a": -18}
+MIL = 25.4e-6  # m, one thousandth of an inch
+
+_NUMBER = re.compile(r"([+-]?(?:\d+\.?\d*|\.\d+))([eE][+-]?\d+)?([a-zA-Z]*)")
+
+
+def suffix_scale(letters: str) -> tuple[int | None, float]:
+    """Scale given by the letters after a number.
+
+    Parameters
+    ----------
+    letters : str
+        Suffix and unit, e.g. ``"uF"``, ``"Meg"``, ``"V"`` or ``""``.
+
+    Returns
+    -------
+    (int or None, float)
+        The power of ten of the suffix (``None`` for ``mil``, which is not one), and the
+        multiplier itself.
+    """
+    low = letters.lower()
+    if low.startswith("meg"):
+        return 6, 1e6
+    if low.startswith("mil"):
+        return None, MIL
+    if low and low[0] in _POW10:
+        p = _POW10[low[0]]
+        return p, 10.0**p
+    return 0, 1.0
+
+
+def parse_number(text: str) -> float | None:
+    """The value of a SPICE number, or ``None`` if ``text`` is not one.
+
+    Parameters
+    ----------
+    text : str
+        E.g. ``"1e-3"``, ``"10uF"``, ``"-2.5k"``, ``"1Meg"``, ``"5V"``. Leading sign allowed;
+        anything after the letters (``"1k2"``) makes it not a number.
+
+    Returns
+    -------
+    float or None
+        The value in SI units. The conversion goes through the decimal text (``100u`` is
+        exactly ``float("100e-6")``), so a number written by :func:`format_number` reads back
+        bit for bit.
+    """
+    m = _NUMBER.fullmatch(text)
+    if m is None:
+        return None
+    mant, exp, letters = m.groups()
+    if not letters:
+        return float(text)
+    p, scale = suffix_scale(letters)
+    if p is None:
+        return float(mant + (exp or "")) * scale
+    e = int(exp[1:]) if exp else 0
+    return float(f"{mant}e{e + p}")
+
+
+# Suffixes used for output, largest first (no "mil", "a" or "m"-for-mega confusion).
+_OUT = [(12, "T"), (9, "G"), (6, "Meg"), (3, "k"), (0, ""), (-3, "m"), (-6, "u"), (-9, "n"),
+        (-12, "p"), (-15, "f")]
+
+
+def _exponent3(value: float) -> int:
+    e = math.floor(math.log10(abs(value)))
+    return max(-15, min(12, 3 * math.floor(e / 3)))
+
+
+def format_number(value: float) -> str:
+    """SPICE text for ``value`` that :func:`parse_number` reads back exactly.
+
+    Uses an engineering suffix when that is exact (``1e-4`` -> ``"100u"``, ``50000.0`` ->
+    ``"50k"``), else the shortest round-trip representation (``repr``).
+
+    Parameters
+    ----------
+    value : float
+        A finite number.
+    """
+    if value == 0:
+        return "0"
+    if not math.isfinite(value):
+        raise ValueError(f"cannot write non-finite value {value!r} to a netlist")
+    p = _exponent3(value)
+    suffix = dict(_OUT)[p]
+    for digits in range(3, 18):
+        mant = f"{value / 10.0**p:.{digits}g}"
+        if "e" in mant:
+            break
+        text = mant + suffix
+        if parse_number(text) == value:
+            return text
+    text = repr(float(value))
+    return text
+
+
+def format_eng(value: float | None, unit: str = "", digits: int = 4) -> str:
+    """Readable engineering notation for people: ``format_eng(1e-4, "F") == "100 uF"``.
+
+    Parameters
+    ----------
+    value : float or None
+        The value in SI units; ``None`` gives ``"default"``.
+    unit : str
+        Unit symbol appended after the suffix.
+    digits : int
+        Significant digits.
+    """
+    if value is None:
+        return "default"
+    if value == 0 or not math.isfinite(value) or not 1e-15 <= abs(value) < 1e15:
+        return f"{value:.{digits}g} {unit}".rstrip()
+    p = _exponent3(value)
+    suffix = {-6: "µ", 6: "M"}.get(p, dict(_OUT)[p])
+    mant = f"{value / 10.0**p:.{digits}g}"
+    return f"{mant} {suffix}{unit}".rstrip()
