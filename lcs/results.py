@@ -1,0 +1,140 @@
+"""Results and errors of a Moreau time-stepping run (see :mod:`lcs.moreau`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+class SimulationError(RuntimeError):
+    """A time step could not be completed.
+
+    Attributes
+    ----------
+    kind : str
+        ``"no_solution"`` (the step's LCP has no solution: Lemke ray termination, confirmed by
+        enumeration for small m), ``"max_pivots"``, ``"non_unique"`` (two LCP solutions give
+        different states), ``"non_finite"`` (NaN or infinity in the state).
+    time : float
+        End of the failing step, s (the LCP is posed at that instant).
+    t_prev : float
+        Start of the failing step, s; results are complete up to this time.
+    mode : dict[str, str]
+        Switch states (``{"S1": "on"}``); empty for a single LCS.
+    pairs : tuple[str, ...]
+        Diodes (complementarity pairs) involved.
+    result : SimulationResult or None
+        The partial result (everything computed before the failing step).
+    """
+
+    def __init__(self, message: str, *, kind: str, time: float, t_prev: float,
+                 mode: dict[str, str] | None = None, pairs: tuple[str, ...] = ()):
+        super().__init__(message)
+        self.message = message
+        self.kind = kind
+        self.time = float(time)
+        self.t_prev = float(t_prev)
+        self.mode = dict(mode or {})
+        self.pairs = tuple(pairs)
+        self.result: SimulationResult | None = None
+
+
+@dataclass
+class SimulationStats:
+    """Counters of a run.
+
+    Attributes
+    ----------
+    steps : int
+        Time steps taken (regular and shortened).
+    odd_steps : int
+        Shortened steps (landing on a breakpoint or switching instant).
+    fallbacks : int
+        Steps whose LCP went to Lemke (the active-set fast path was not accepted).
+    lcp_pivots : int
+        Lemke pivots in total.
+    factorisations : int
+        Active-set factorisations computed (cache misses).
+    uniqueness_checks : int
+        Lemke solutions checked for a unique next state by enumeration.
+    intervals : int
+        Intervals of constant switch mode.
+    wall_time : float
+        Seconds spent in :func:`simulate` / :func:`simulate_lcs`.
+    """
+
+    steps: int = 0
+    odd_steps: int = 0
+    fallbacks: int = 0
+    lcp_pivots: int = 0
+    factorisations: int = 0
+    uniqueness_checks: int = 0
+    intervals: int = 0
+    wall_time: float = 0.0
+
+    @property
+    def us_per_step(self) -> float:
+        return 1e6 * self.wall_time / self.steps if self.steps else float("nan")
+
+
+@dataclass
+class SimulationResult:
+    """Stored probes of a run.
+
+    Attributes
+    ----------
+    t : ndarray, shape (N,)
+        Times, s: the start, every ``every``-th step, and the last step.
+    names : tuple[str, ...]
+        Probe names (columns of ``y``).
+    y : ndarray, shape (N, q)
+        Probe values ``Cy x + Dy λ + Fy u`` (SI units of each probe).
+    x_final : ndarray, shape (n,)
+        State after the last completed step.
+    lambda_final : ndarray, shape (m,)
+        Multipliers of the last completed step.
+    modes_visited : list of tuple[bool, ...]
+        Switch modes in order of first use.
+    events : list of (float, tuple[bool, ...])
+        Switching instants (s) and the mode entered.
+    stats : SimulationStats
+    notes : list[str]
+        Things the user should know (e.g. an inconsistent initial state was corrected).
+    error : SimulationError or None
+        Set when the run stopped early; ``t``/``y`` then end at ``error.t_prev``.
+    """
+
+    t: np.ndarray
+    names: tuple[str, ...]
+    y: np.ndarray
+    x_final: np.ndarray
+    lambda_final: np.ndarray
+    modes_visited: list = field(default_factory=list)
+    events: list = field(default_factory=list)
+    stats: SimulationStats = field(default_factory=SimulationStats)
+    notes: list = field(default_factory=list)
+    error: SimulationError | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        """Column of probe ``name`` (case-insensitive), shape (N,)."""
+        try:
+            j = self.names.index(name)
+        except ValueError:
+            lower = [s.lower() for s in self.names]
+            if name.lower() not in lower:
+                raise KeyError(
+                    f"no probe {name!r}; stored probes: {', '.join(self.names)}"
+                ) from None
+            j = lower.index(name.lower())
+        return self.y[:, j]
+
+    def raise_if_error(self) -> SimulationResult:
+        """Raise the stored :class:`SimulationError`, if any; return self otherwise."""
+        if self.error is not None:
+            raise self.error
+        return self
