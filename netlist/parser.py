@@ -45,7 +45,7 @@ from .errors import Diagnostic, Location, NetlistError
 from .expressions import Expression, ExpressionError, lark_parser, parse_expression
 from .units import parse_number
 
-__all__ = ["parse_file", "parse_string", "Deck", "Statement"]
+__all__ = ["parse_file", "parse_string", "parse_overrides", "read_deck", "Deck", "Statement"]
 
 # ------------------------------------------------------------------------------ statements
 
@@ -1072,3 +1072,50 @@ def parse_file(path: str | os.PathLike, params: dict[str, float] | None = None) 
     if reader.diags:
         raise NetlistError(reader.diags, display)
     return build_circuit(reader.deck, params)
+
+
+_OVERRIDE = re.compile(r"\s*([A-Za-z_][\w.]*)\s*=\s*(\S.*?)\s*")
+
+
+def parse_overrides(items: list[str] | None) -> dict[str, float]:
+    """Command-line ``NAME=VALUE`` parameter overrides -> ``{name: value}``.
+
+    Parameters
+    ----------
+    items : list of str
+        E.g. ``["duty=0.3", "fs=100k", "r={2*10}"]``; a value is a SPICE number (with
+        suffix) or a constant expression.
+
+    Raises
+    ------
+    NetlistError
+        For an item that is not ``NAME=VALUE`` or a value that is not a number; the
+        diagnostic has no file location and names the item.
+    """
+    out: dict[str, float] = {}
+    diags: list[Diagnostic] = []
+    for item in items or []:
+        m = _OVERRIDE.fullmatch(item)
+        value = None
+        if m is not None:
+            text = m.group(2)
+            if text.startswith("{") and text.endswith("}") or (
+                    len(text) > 1 and text[0] == text[-1] == "'"):
+                text = text[1:-1]
+            value = parse_number(text)
+            if value is None:
+                try:
+                    expr = parse_expression(text)
+                    if expr.constant:
+                        value = expr.evaluate({})
+                except ExpressionError:
+                    value = None
+        if m is None or value is None:
+            diags.append(Diagnostic(
+                f"bad parameter override '{item}': expected NAME=VALUE", None,
+                "e.g. --param duty=0.3 or --param fs=100k (a number with optional suffix)"))
+            continue
+        out[m.group(1)] = value
+    if diags:
+        raise NetlistError(diags, "pelcs")
+    return out

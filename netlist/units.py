@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import re
+from decimal import Decimal
 
 # Scale suffixes as powers of ten. Checked in this order so that "meg" and "mil" win over "m".
 _POW10 = {"t": 12, "g": 9, "k": 3, "m": -3, "u": -6, "n": -9, "p": -12, "f": -15, "a": -18}
@@ -85,29 +86,34 @@ def _exponent3(value: float) -> int:
 def format_number(value: float) -> str:
     """SPICE text for ``value`` that :func:`parse_number` reads back exactly.
 
-    Uses an engineering suffix when that is exact (``1e-4`` -> ``"100u"``, ``50000.0`` ->
-    ``"50k"``), else the shortest round-trip representation (``repr``).
+    Values from 0.01 to 999 are written plainly (``0.5``, ``12``), others with an
+    engineering suffix (``1e-4`` -> ``"100u"``, ``50000.0`` -> ``"50k"``). The digits are
+    those of ``repr(value)``, the shortest text that reads back as the same float, with the
+    decimal point moved; :func:`parse_number` also converts through the decimal text, so the
+    value survives bit for bit.
 
     Parameters
     ----------
     value : float
         A finite number.
     """
-    if value == 0:
-        return "0"
+    value = float(value)
     if not math.isfinite(value):
         raise ValueError(f"cannot write non-finite value {value!r} to a netlist")
-    p = _exponent3(value)
-    suffix = dict(_OUT)[p]
-    for digits in range(3, 18):
-        mant = f"{value / 10.0**p:.{digits}g}"
-        if "e" in mant:
-            break
-        text = mant + suffix
-        if parse_number(text) == value:
-            return text
-    text = repr(float(value))
-    return text
+    if value == 0:
+        return "0"
+    d = Decimal(repr(value))
+    e = d.adjusted()  # exponent of the leading digit
+    if -2 <= e <= 2:
+        return _plain(d)
+    if not -15 <= e < 15:
+        return repr(value)
+    p = min(12, 3 * (e // 3))
+    return _plain(d.scaleb(-p)) + dict(_OUT)[p]
+
+
+def _plain(d: Decimal) -> str:
+    return format(d.normalize(), "f")
 
 
 def format_eng(value: float | None, unit: str = "", digits: int = 4) -> str:

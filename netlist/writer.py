@@ -1,0 +1,155 @@
+"""Circuit -> netlist text that ngspice accepts and that pelcs parses back to an equal circuit.
+
+The output is flat (no subcircuits) with every value evaluated; the global parameters are
+written as ``.param`` lines so that :attr:`Circuit.params` survives the round trip. Numbers
+are written with engineering suffixes only when that reads back bit for bit
+(:func:`netlist.units.format_number`).
+
+Hierarchical names
+------------------
+ngspice chooses an element's type from the first letter of its name, so ``X1.L1`` (inductor
+``L1`` of instance ``X1``) cannot be written as it is. Like ngspice's own flattener, the
+writer puts the element letter in front: ``L.X1.L1``; references to it (a K line, the
+controlling source of an F/H) are spelled the same way. The parser maps a name of the form
+``<letter>.<X...>`` whose last part starts with that letter back to ``X1.L1``. Node names such
+as ``x1.n3`` need no change.
+
+Ignored commands (``.print``, ``.control`` blocks, ...) are written back verbatim at the end,
+since they are what the user asked ngspice to do.
+"""
+
+from __future__ import annotations
+
+from lcs.signals import Exp, Pulse, Pwl, Signal, Sin
+
+from .circuit import (
+    Circuit,
+    Coupling,
+    CurrentSource,
+    Diode,
+    Element,
+    Switch,
+    VoltageSource,
+)
+from .units import format_number
+
+__all__ = ["write_circuit", "spice_name"]
+
+
+def spice_name(name: str) -> str:
+    """The name to write for an element: ``X1.L1`` -> ``L.X1.L1``, others unchanged."""
+    if "." in name and name[0] in "xX":
+        last = name.rsplit(".", 1)[1]
+        if last:
+            return f"{last[0]}.{name}"
+    return name
+
+
+def _num(v: float) -> str:
+    return format_number(float(v))
+
+
+# field order of each waveform, and the fields whose missing value ngspice also takes for 0
+_WAVE_FIELDS = {
+    Pulse: ("PULSE", ("v1", "v2", "td", "tr", "tf", "pw", "per", "np_")),
+    Sin: ("SIN", ("vo", "va", "freq", "td", "theta", "phase")),
+    Exp: ("EXP", ("v1", "v2", "td1", "tau1", "td2", "tau2")),
+}
+
+
+def _waveform(sig: Signal, circuit: Circuit) -> str:
+    if isinstance(sig, Pwl):
+        pairs = " ".join(f"{_num(t)} {_num(v)}" for t, v in zip(sig.times, sig.values,
+                                                                strict=True))
+        return f"PWL({pairs})"
+    keyword, names = _WAVE_FIELDS[type(sig)]
+    vals = [getattr(sig, n) for n in names]
+    while vals and vals[-1] is None:
+        vals.pop()
+    out = []
+    for n, v in zip(names, vals, strict=False):
+        if v is None:
+            # A default in the middle cannot be left out in SPICE syntax. For TR, TF, PER,
+            # FREQ and the time constants, 0 means "the default" in ngspice too; PW defaults
+            # to TSTOP.
+            if n == "pw" and circuit.tran is not None:
+                v = circuit.tran.tstop
+            else:
+                v = 0.0
+        out.append(_num(v))
+    return f"{keyword}({' '.join(out)})"
+
+
+def _element(el: Element, circuit: Circuit) -> str:
+    name = spice_name(el.name)
+    nodes = " ".join(el.nodes)
+    kind = el.kind
+    if kind in ("R", "L", "C"):
+        line = f"{name} {nodes} {_num(el.value)}"
+        ic = getattr(el, "ic", None)
+        if ic is not None:
+            line += f" IC={_num(ic)}"
+        return line
+    if isinstance(el, (VoltageSource, CurrentSource)):
+        line = f"{name} {nodes} DC {_num(el.dc)}"
+        if el.waveform is not None:
+            line += " " + _waveform(el.waveform, circuit)
+        return line
+    if isinstance(el, Diode):
+        return f"{name} {nodes} {el.model}"
+    if isinstance(el, Switch):
+        state = {True: " ON", False: " OFF", None: ""}[el.initial]
+        return f"{name} {nodes} {' '.join(el.control)} {el.model}{state}"
+    if kind in ("E", "G"):
+        return f"{name} {nodes} {' '.join(el.control)} {_num(el.gain)}"
+    if kind in ("F", "H"):
+        return f"{name} {nodes} {spice_name(el.source)} {_num(el.gain)}"
+    if isinstance(el, Coupling):
+        a, b = (spice_name(n) for n in el.inductors)
+        return f"{name} {a} {b} {_num(el.k)}"
+    raise ValueError(f"cannot write element {el.name} of kind {kind}")
+
+
+def write_circuit(circuit: Circuit) -> str:
+    """Netlist text for a (flattened) circuit.
+
+    Parameters
+    ----------
+    circuit : Circuit
+        E.g. from :func:`netlist.parser.parse_file`.
+
+    Returns
+    -------
+    str
+        A complete netlist: title line, ``.param``, elements, ``.model``, ``.ic``, ``.tran``,
+        ``.options``, ignored commands, ``.end``.
+    """
+    # the title is the first line whatever it says; an empty one stays empty
+    lines = [circuit.title.replace("\n", " ").strip(),
+             "* written by pelcs: flattened, parameters evaluated"]
+    for name, value in circuit.params.items():
+        lines.append(f".param {name}={_num(value)}")
+    for el in circuit.elements:
+        lines.append(_element(el, circuit))
+    for model in circuit.models.values():
+        params = " ".join(f"{k.upper()}={_num(v)}" for k, v in model.params.items())
+        lines.append(f".model {model.name} {model.type}({params})")
+    if circuit.initial_conditions:
+        ics = " ".join(f"v({n})={_num(v)}" for n, v in circuit.initial_conditions.items())
+        lines.append(f".ic {ics}")
+    tran = circuit.tran
+    if tran is not None:
+        fields = [tran.tstep, tran.tstop]
+        if tran.tstart or tran.tmax is not None:
+            fields.append(tran.tstart)
+        if tran.tmax is not None:
+            fields.append(tran.tmax)
+        line = ".tran " + " ".join(_num(f) for f in fields)
+        lines.append(line + (" UIC" if tran.uic else ""))
+    if circuit.options:
+        opts = " ".join(f"{k}={v}" if v != "" else k for k, v in circuit.options.items())
+        lines.append(f".options {opts}")
+    for cmd in circuit.ignored:
+        lines.append(cmd.text)
+    lines.append(".end")
+    return "\n".join(lines) + "\n"
