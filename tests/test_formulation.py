@@ -16,6 +16,7 @@ points and the λ type chosen per diode.
 
 from __future__ import annotations
 
+import importlib.util
 import math
 
 import numpy as np
@@ -860,3 +861,104 @@ def test_many_diodes_each_behind_an_inductor():
     close(lcs.B, 1e3 * np.eye(12))
     close(lcs.E, 1e3 * np.ones((12, 1)))
     close(lcs.C, np.eye(12))
+
+
+# ----------------------------------------------------------------------------------------
+# The same, from netlist text (netlist.parser)
+
+needs_parser = pytest.mark.skipif(
+    importlib.util.find_spec("netlist.flatten") is None, reason="parser not complete yet")
+
+
+def parsed(text: str):
+    from netlist.parser import parse_string
+
+    return formulate(parse_string(text, file="<test>"))
+
+
+@needs_parser
+def test_parsed_bridge_with_subcircuit_tank():
+    # The bridge of test_bridge_across_lc_tank with the tank in a subcircuit: the states are
+    # the hierarchical names, the matrices the same hand result.
+    L, C, R = 1e-3, 1e-6, 50.0
+    sys = parsed("""bridge on a tank
+.subckt tank a b
+L1 a b 1m
+C1 a b 1u
+.ends
+I1 b a DC 0
+X1 a b tank
+D1 a p DI
+D2 b p DI
+D3 0 a DI
+D4 0 b DI
+R1 p 0 50
+.model DI D
+.end
+""")
+    assert sys.states == ("i(X1.L1)", "v(X1.C1)")
+    check_lcs(
+        sys.mode(),
+        A=[[0, 1 / L], [-1 / C, 0]],
+        B=[[0, 0, 0, 0], [0, 1 / C, 0, -1 / C]],
+        C=[[0, 0], [0, 1], [0, 0], [0, -1]],
+        D=[[0, -1, 1, 1], [1, 0, 0, 0], [-1, 0, R, R], [-1, 0, R, R]],
+        E=[[0], [1 / C]], F=[[0], [0], [0], [0]],
+        kinds=[VOL, CUR, CUR, CUR],
+    )
+
+
+@needs_parser
+def test_parsed_prc_matches_dataclass_version():
+    text = """parallel resonant converter
+Vs s b PULSE(-50 50 0 10n 10n 9u 18u)
+Lr s a 150u
+Cr a b 68n
+D1 a p DI
+D2 b p DI
+D3 0 a DI
+D4 0 b DI
+Lf p o 0.4m
+Cf o 0 2.2u
+R o 0 33
+.model DI D
+.end
+"""
+    got = parsed(text).mode()
+    want = formulate(parallel_resonant(**PRC)).mode()
+    for name in "ABCDEF":
+        close(getattr(got, name), getattr(want, name))
+    assert got.pairs == want.pairs
+
+
+@needs_parser
+def test_parsed_controlled_source_probes():
+    # u = V1, x = i(L2) (q -> 0).  Hand values:
+    #   di/dt = u / L = 1000 u
+    #   i(V1): KCL at q, i(V1) + u/R1 + x = 0           -> -u/2 - x
+    #   E1: v(e) = 2u, i(E1) = -v(e)/Re                  -> -2u
+    #   F1: i(F1) = 3 i(V1), v(f) = -i(F1) Rf            -> i(F1) = -1.5u - 3x, v(f) = 1.5u + 3x
+    #   H1: v(h) = 4 i(V1) = -2u - 4x, i(H1) = -v(h)/Rh  -> 2u + 4x
+    #   G1: i(G1) = 5 v(q) = 5u, v(g) = -5u
+    sys = parsed("""controlled sources
+V1 q 0 1
+R1 q 0 2
+L2 q 0 1m
+E1 e 0 q 0 2
+Re e 0 1
+F1 f 0 V1 3
+Rf f 0 1
+H1 h 0 V1 4
+Rh h 0 1
+G1 g 0 q 0 5
+Rg g 0 1
+.end
+""")
+    lcs = sys.mode()
+    close(lcs.A, [[0]])
+    close(lcs.E, [[1000]])
+    probes = ["i(V1)", "v(e)", "i(E1)", "i(F1)", "v(f)", "v(h)", "i(H1)", "i(G1)", "v(g)",
+              "i(L2)"]
+    out = sys.outputs((), probes)
+    close(out.Cy, [[-1], [0], [0], [-3], [3], [-4], [4], [0], [0], [1]])
+    close(out.Fy, [[-0.5], [2], [-2], [-1.5], [1.5], [-2], [2], [5], [-5], [0]])
