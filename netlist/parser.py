@@ -478,6 +478,8 @@ class _Reader:
     # -- files
 
     def read_top(self, text: str, file: str, base: Path | None) -> None:
+        if text.startswith("\ufeff"):
+            text = text[1:]
         lines = text.split("\n")
         if not text.strip():
             self.diags.append(Diagnostic("empty netlist", Location(file, 1, 1, ""),
