@@ -104,7 +104,10 @@ def test_cli_json(tmp_path, capsys):
     assert mode["lambda_kinds"] == {"D1": "current"}
     np.testing.assert_allclose(mode["A"], [[0, 0], [0, -500]])
     assert report["passive"] is True and mode["passive"] is True
-    assert "gdcm" in mode
+    assert "gdcm" in mode and "wellposedness" in mode
+    if mode["gdcm"] is not None:  # lcs.gdcm present: S1 on, the diode's w = v(C1)
+        (cond,) = mode["gdcm"]
+        assert cond["pairs"] == ["D1"] and "v(C1)" in cond["region"][0]
 
 
 @needs_parser

@@ -8,7 +8,8 @@ diode, and whether the mode is passive. ``--json`` prints one JSON object instea
      "passive" (every listed mode passive), "modes": [
         {"switches": {"S1": "on"}, "A", "B", "C", "D", "E", "F" (lists of rows),
          "lambda_kinds": {"D1": "current" | "voltage"}, "lambda_labels", "w_labels",
-         "passive", "passivity": {...}, "gdcm": ...}, ...]}
+         "passive", "passivity": {...}, "wellposedness": {...},
+         "gdcm": [{"pairs", "relative_degree", "unique", "region", "gamma", ...}]}, ...]}
 
 Input errors (bad netlist, unknown switch in ``--mode``, degenerate topology in a requested
 mode) raise :class:`~netlist.errors.NetlistError`, which the CLI prints and exits 2 on.
@@ -126,30 +127,57 @@ def _rows(matrix: np.ndarray) -> list[list[float]]:
     return [[float(v) for v in row] for row in np.asarray(matrix)]
 
 
-def _passivity(lcs: LCS, energy: np.ndarray) -> dict:
-    """Passivity of one mode via :func:`lcs.passivity.check_passivity` (energy candidate)."""
-    try:
-        from lcs.passivity import check_passivity
-    except ImportError:  # TODO(integration): lcs.passivity not available
-        return {"passive": None, "reason": "lcs.passivity not available"}
-    rep = check_passivity(lcs, energy=energy)
-    margin = float(rep.margin)
-    return {"passive": bool(rep.passive), "method": rep.method, "reason": rep.reason,
-            "margin": margin if math.isfinite(margin) else None}
+def _passivity(lcs: LCS, energy: np.ndarray):
+    """Passivity of one mode: (JSON summary, report or None).
 
-
-def _gdcm(lcs: LCS):
-    """GDCM information of one mode.
-
-    TODO(integration): ``lcs.gdcm`` is being written in parallel; when it exists, call its
-    public check here (on ``lcs``) and return a JSON-serialisable summary (e.g. whether the
-    mode satisfies the GDCM condition and why). Until then the field is ``None``.
+    :func:`lcs.passivity.check_passivity` with the circuit's stored energy as the first
+    candidate certificate (exact for circuits of non-negative resistors and no active
+    elements), then its general search.
     """
     try:
-        import lcs.gdcm  # noqa: F401
-    except ImportError:
+        from lcs.passivity import check_passivity
+    except ImportError:  # pragma: no cover - written in parallel; then passivity is unknown
+        return {"passive": None, "reason": "lcs.passivity not available"}, None
+    rep = check_passivity(lcs, energy=energy)
+    margin = float(rep.margin)
+    summary = {"passive": bool(rep.passive), "method": rep.method, "reason": rep.reason,
+               "margin": margin if math.isfinite(margin) else None}
+    return summary, rep
+
+
+def _wellposedness(lcs: LCS, passivity_report) -> dict | None:
+    """Sufficient well-posedness conditions (:mod:`lcs.wellposed`) of one mode."""
+    if passivity_report is None:
         return None
-    return None  # TODO(integration): API of lcs.gdcm not known yet
+    try:
+        from lcs.wellposed import check_wellposedness
+    except ImportError:  # pragma: no cover - written in parallel
+        return None
+    rep = check_wellposedness(lcs, passivity_report)
+    return {"wellposed": bool(rep.wellposed), "reason": rep.reason,
+            "deficient_pairs": list(rep.deficient_pairs)}
+
+
+def _gdcm(lcs: LCS) -> list[dict] | None:
+    """Single-pair GDCM conditions of one mode (:func:`lcs.gdcm.gdcm_conditions`).
+
+    One entry per diode that can be held at w = 0 with λ > 0: the region (forms that vanish
+    on it), Γ (the λ that holds it, > 0 inside), the relative degree and whether the
+    continuation is unique. ``None`` if :mod:`lcs.gdcm` is not available.
+    """
+    try:
+        from lcs.gdcm import gdcm_conditions
+    except ImportError:  # pragma: no cover - written in parallel
+        return None
+    return [{
+        "pairs": list(cond.pairs),
+        "relative_degree": int(cond.relative_degree),
+        "dimension_loss": int(cond.dimension_loss),
+        "unique": bool(cond.unique),
+        "region": [f"{f.label} = {f} = 0" for f in cond.y],
+        "gamma": [f"{f.label} = {f} > 0" for f in cond.gamma],
+        "others": [f"{f.label} = {f} >= 0" for f in cond.others],
+    } for cond in gdcm_conditions(lcs)]
 
 
 def build_report(system: SwitchedLCS, keys: list[tuple[bool, ...]],
@@ -158,7 +186,7 @@ def build_report(system: SwitchedLCS, keys: list[tuple[bool, ...]],
     modes = []
     for key in keys:
         lcs = system.mode(key)
-        passivity = _passivity(lcs, energy)
+        passivity, passivity_report = _passivity(lcs, energy)
         modes.append({
             "switches": system.describe_mode(key),
             "A": _rows(lcs.A), "B": _rows(lcs.B), "C": _rows(lcs.C),
@@ -168,6 +196,7 @@ def build_report(system: SwitchedLCS, keys: list[tuple[bool, ...]],
             "w_labels": [p.w_label for p in lcs.pairs],
             "passive": passivity["passive"],
             "passivity": passivity,
+            "wellposedness": _wellposedness(lcs, passivity_report),
             "gdcm": _gdcm(lcs),
         })
     flags = [m["passive"] for m in modes]
@@ -235,8 +264,15 @@ def format_report(report: dict) -> str:
         p = mode["passivity"]
         verdict = {True: "passive", False: "not passive", None: "passivity unknown"}
         out.append(f"{verdict[p['passive']]}: {p.get('reason', '')}")
-        if mode["gdcm"] is not None:
-            out.append(f"gdcm: {mode['gdcm']}")
+        wp = mode["wellposedness"]
+        if wp is not None:
+            out.append(f"{'well-posed' if wp['wellposed'] else 'well-posedness not shown'}: "
+                       f"{wp['reason']}")
+        for cond in mode["gdcm"] or ():
+            out.append(f"GDCM of {', '.join(cond['pairs'])} (relative degree "
+                       f"{cond['relative_degree']}, "
+                       f"{'unique' if cond['unique'] else 'non-unique'} continuation): "
+                       + "; ".join(cond["region"] + cond["gamma"] + cond["others"]))
     if report["modes"]:
         verdict = {True: "every mode passive", False: "not every mode passive",
                    None: "passivity unknown"}[report["passive"]]
