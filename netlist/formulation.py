@@ -105,6 +105,14 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         builder returns a :class:`~lcs.model.ModeModel` whose ``output(probes)`` maps probe
         strings (``v(n)``, ``v(a,b)``, ``i(X)``, state names) to ``y = Cy x + Dy λ + Fy u``.
 
+    Notes
+    -----
+    Probes are case-insensitive; ``gnd`` is ground. ``i(X)`` works for every two-terminal
+    element (R L C D S V I E F G H) and flows from n+ through X to n- (anode to cathode for a
+    diode; zero for an open switch). ``v(C1)`` is the node voltage if a node ``c1`` exists
+    (as in SPICE), else the state ``v(C1)``. A probe of a quantity that is not determined in
+    the mode (a floating part of the circuit) raises :class:`NetlistError`.
+
     Raises
     ------
     NetlistError
