@@ -577,10 +577,12 @@ class _Reader:
             isinstance(exc, UnexpectedToken) and exc.token.type == "$END"
         ):
             expected = getattr(exc, "expected", set()) or set()
-            if expected == {"EQUAL"} and getattr(exc, "token_history", None):
-                prev = exc.token_history[-1]
-                self.error(f"unexpected '{prev}' in {label}: expected NAME=VALUE or the end "
-                           "of the line", st, prev.start_pos, hint)
+            words = list(_WORD.finditer(st.text))
+            if expected == {"EQUAL"} and words and words[-1].end() == len(st.text):
+                # a word too many at the end: the parser took it for the start of NAME=VALUE
+                prev = words[-1]
+                self.error(f"unexpected '{prev.group()}' in {label}: expected NAME=VALUE or "
+                           "the end of the line", st, prev.start(), hint)
                 return
             self.error(f"incomplete {label}: {_expected(expected)} missing", st,
                        len(st.text), hint)

@@ -1,0 +1,305 @@
+"""The error catalogue: malformed netlists, each with its message, line and column.
+
+Every case is a whole netlist (title first). ``line``/``col`` are where the caret must point;
+``None`` for problems that belong to no single line, which must name the elements instead.
+"""
+
+import os
+
+import pytest
+
+from netlist.errors import NetlistError
+from netlist.parser import parse_file, parse_string
+
+OK = "V1 a 0 1\nR1 a 0 1k\n"  # a valid body to put next to a mistake
+
+# (id, netlist text, message substring, line, column, hint substring)
+CATALOGUE = [
+    ("mosfet", "t\nV1 a 0 1\nM1 a g 0 0 NMOS\n",
+     "unknown element type 'M' (MOSFET)", 3, 1, "S switch driven by the gate"),
+    ("bjt", "t\nV1 a 0 1\nQ1 a b 0 NPN\n", "unknown element type 'Q' (BJT)", 3, 1, "S switch"),
+    ("b-source", "t\nV1 a 0 1\nB1 b 0 V={v(a)**2}\n", "(behavioural source)", 3, 1,
+     "linear E"),
+    ("t-line", "t\nV1 a 0 1\nT1 a 0 b 0 Z0=50 TD=1n\n", "(transmission line)", 3, 1,
+     "L and C"),
+    ("w-switch", "t\nV1 a 0 1\nW1 a 0 V1 CSW\n", "(current-controlled switch)", 3, 1,
+     "H source"),
+    ("unknown-letter", "t\nV1 a 0 1\n9R a 0 1\n", "unknown element type '9' in '9R'", 3, 1,
+     "R L C V I D S E F G H K X"),
+    ("unknown-dot", "t\n" + OK + ".foo bar\n", "unknown dot command '.foo'", 4, 1,
+     "supported: .param"),
+    ("func", "t\n" + OK + ".func f(x) {x*2}\n", ".func is not supported", 4, 1, ".param"),
+    ("poly", "t\n" + OK + "E1 b 0 POLY(1) a 0 0 1\n", "nonlinear or behavioural E source",
+     4, 8, "linear controlled sources"),
+    ("g-value", "t\n" + OK + "G1 b 0 value={v(a)*2}\n", "('value')", 4, 8, "Gname"),
+    ("bad-number", "t\nV1 a 0 1\nR1 a 0 1k2\n", "invalid number '1k2'", 3, 8, "suffix"),
+    ("bare-param", "t\n.param rval=1k\nV1 a 0 1\nR1 a 0 rval\n", "invalid number 'rval'",
+     4, 8, "write {rval}"),
+    ("incomplete-r", "t\nV1 a 0 1\nR1 a 0\n", "incomplete resistor 'R1'", 3, 7,
+     "Rname n+ n- value"),
+    ("extra-field", "t\nV1 a 0 1\nR1 a 0 1k 2k\n", "unexpected '2k' in resistor 'R1'", 3, 11,
+     "syntax"),
+    ("unknown-param", "t\nV1 a 0 1\nR1 a 0 {2*rr}\n", "unknown parameter 'rr'", 3, 11,
+     ".param"),
+    ("param-typo", "t\n.param rload=10\nV1 a 0 1\nR1 a 0 {rlaod}\n",
+     "unknown parameter 'rlaod'", 4, 9, "did you mean rload"),
+    ("param-cycle", "t\n" + OK + ".param a={b+1} b={c} c={2*a}\n",
+     "parameter cycle: a -> b -> c -> a", 4, 8, "depend on themselves"),
+    ("self-cycle", "t\n" + OK + ".param x={x+1}\n", "parameter cycle: x -> x", 4, 8, ""),
+    ("div-zero", "t\n.param z=0\nV1 a 0 1\nR1 a 0 {1/z}\n", "division by zero", 4, 11, ""),
+    ("math-domain", "t\nV1 a 0 1\nR1 a 0 {sqrt(-4)}\n", "cannot evaluate sqrt(-4)", 3, 9, ""),
+    ("bad-expression", "t\nV1 a 0 1\nR1 a 0 {2*(1+}\n", "incomplete expression", 3, 14, ""),
+    ("unknown-function", "t\nV1 a 0 1\nR1 a 0 {foo(2)}\n", "unknown function 'foo'", 3, 9,
+     "sqrt"),
+    ("unclosed-brace", "t\nV1 a 0 1\nR1 a 0 {1+2\n", "unexpected character '{'", 3, 8,
+     "closed"),
+    ("unclosed-quote", "t\nV1 a 0 1\nR1 a 0 '1+2\n", "unexpected quote", 3, 8, "closed"),
+    ("unknown-model", "t\n" + OK + "D1 a 0 NOPE\n", "unknown model 'NOPE' for diode D1", 4, 8,
+     ".model NOPE D"),
+    ("wrong-model-type", "t\n" + OK + "D1 a 0 SWM\n.model SWM SW(VT=1)\n",
+     "a diode needs a D model", 4, 8, "D(...)"),
+    ("switch-model-type", "t\n" + OK + "S1 a 0 a 0 DM\n.model DM D\n",
+     "a switch needs a SW model", 4, 12, "SW(...)"),
+    ("unsupported-model", "t\n" + OK + ".model Q2N NPN(BF=100)\n",
+     "model type 'NPN' (BJT) is not supported", 4, 12, "S element"),
+    ("duplicate-model", "t\n" + OK + ".model DM D\n.model dm D(IS=1n)\n",
+     "model 'dm' is defined twice (first at line 4)", 5, 1, "rename"),
+    ("negative-l", "t\nV1 a 0 1\nL1 a 0 -1u\n", "L1: inductance must be positive", 3, 8, ""),
+    ("zero-c", "t\nV1 a 0 1\nR1 a b 1\nC1 b 0 0\n", "C1: capacitance must be positive", 4, 8,
+     ""),
+    ("zero-r", "t\nV1 a 0 1\nR1 a 0 0\n", "R1: resistance is zero", 3, 8, "0 V source"),
+    ("k-too-big", "t\n" + OK + "L1 a 0 1u\nL2 a 0 1u\nK1 L1 L2 1.5\n", "|k| <= 1", 6, 10, ""),
+    ("k-unknown", "t\n" + OK + "L1 a 0 1u\nK1 L1 L9 0.5\n", "unknown inductor 'L9'", 5, 7,
+     "two inductors"),
+    ("k-not-l", "t\n" + OK + "L1 a 0 1u\nK1 L1 R1 0.5\n", "'R1', which is not an inductor",
+     5, 7, ""),
+    ("f-unknown-source", "t\n" + OK + "F1 b 0 Vx 2\nR2 b 0 1\n",
+     "unknown controlling source 'Vx' for F1", 4, 8, "V source"),
+    ("h-not-v", "t\n" + OK + "H1 b 0 R1 2\nR2 b 0 1\n",
+     "controlling element 'R1' of H1 is not a voltage source", 4, 8, "0 V source"),
+    ("switch-no-control", "t\n" + OK + "S1 a 0 SWM\n.model SWM SW\n",
+     "incomplete switch 'S1'", 4, 11, "nc+ nc-"),
+    ("switch-control-typo", "t\n" + OK + "S1 a 0 gat 0 SWM\n.model SWM SW\n",
+     "control node 'gat' of S1 is not connected", 4, 1, "spelling"),
+    ("unknown-subckt", "t\n" + OK + "X1 a 0 nope\n", "unknown subcircuit 'nope'", 4, 8,
+     ".subckt nope"),
+    ("port-count", "t\n" + OK + ".subckt s p q\nR1 p q 1\n.ends\nX1 a s\n",
+     "instance X1 connects 1 node but subcircuit 's' has 2 ports (p q)", 7, 1, ""),
+    ("unknown-instance-param", "t\n" + OK + ".subckt s p params: r=1\nR1 p 0 {r}\n.ends\n"
+     "X1 a s params: zz=2\n", "subcircuit 's' has no parameter 'zz'", 7, 16, "r"),
+    ("missing-ends", "t\n" + OK + ".subckt s p\nR1 p 0 1\n", "subcircuit 's' has no .ends", 4, 1,
+     ".ends"),
+    ("stray-ends", "t\n" + OK + ".ends\n", ".ends without .subckt", 4, 1, ""),
+    ("ends-mismatch", "t\n" + OK + ".subckt s p\nR9 p 0 1\n.ends other\n",
+     ".ends 'other' closes subcircuit 's'", 6, 7, ".ends s"),
+    ("nested-subckt", "t\n" + OK + ".subckt a p\n.subckt b q\n.ends\n.ends\n",
+     "nested .subckt definitions are not supported", 5, 1, "top level"),
+    ("recursive-subckt", "t\n" + OK + ".subckt s p\nX1 p s\n.ends\nX1 a s\n",
+     "subcircuit 's' instantiates itself (s -> s)", 5, 6, ""),
+    ("duplicate-subckt", "t\n" + OK + ".subckt s p\n.ends\n.subckt S q\n.ends\n",
+     "subcircuit 'S' is defined twice (first at line 4)", 6, 9, ""),
+    ("duplicate-element", "t\nV1 a 0 1\nR1 a 0 1\nr1 a 0 2\n",
+     "duplicate element name 'r1' (first at line 3)", 4, 1, "unique"),
+    ("duplicate-param", "t\n" + OK + ".param a=1\n.param A=2\n",
+     "parameter 'a' is defined twice (first at line 4)", 5, 8, ""),
+    ("stray-continuation", "t\n+ 1k\n" + OK, "continuation line '+' with no statement", 2, 1,
+     "previous statement"),
+    ("pulse-args", "t\nV1 a 0 PULSE(0 1 2 3 4 5 6 7 8)\nR1 a 0 1\n",
+     "PULSE takes 2 to 8 values, got 9", 2, 8, "PULSE(V1 V2"),
+    ("pwl-odd", "t\nV1 a 0 PWL(0 0 1u)\nR1 a 0 1\n", "PWL needs time-value pairs, got 3", 2, 8,
+     ""),
+    ("pwl-order", "t\nV1 a 0 PWL(0 0 2u 1 1u 2)\nR1 a 0 1\n",
+     "PWL time 1e-06 s comes before the previous time 2e-06 s", 2, 21, "increasing"),
+    ("pulse-negative", "t\nV1 a 0 PULSE(0 1 0 -1n)\nR1 a 0 1\n",
+     "PULSE TR must not be negative", 2, 20, ""),
+    ("sin-no-args", "t\nV1 a 0 SIN()\nR1 a 0 1\n", "SIN takes 2 to 6 values, got 0", 2, 8, ""),
+    ("tran-zero-step", "t\n" + OK + ".tran 0 1m\n", ".tran TSTEP must be positive", 4, 7, ""),
+    ("tran-start", "t\n" + OK + ".tran 1u 1m 2m\n", ".tran TSTART (0.002) must be before",
+     4, 13, ""),
+    ("second-tran", "t\n" + OK + ".tran 1u 1m\n.tran 1u 2m\n", "second .tran (first at line 4)",
+     5, 1, "keep one"),
+    ("tran-incomplete", "t\n" + OK + ".tran 1u\n", "incomplete .tran", 4, 9, "TSTOP"),
+    ("ic-unknown-node", "t\n" + OK + ".ic v(zz)=1\n", ".ic names node 'zz'", 4, 7, ""),
+    ("ic-current", "t\n" + OK + ".ic i(a)=1\n", ".ic sets node voltages", 4, 5, "IC="),
+    ("ic-twice", "t\n" + OK + ".ic v(a)=1\n.ic v(a)=2\n", ".ic sets node 'a' twice", 5, 7, ""),
+    ("r-multiplier", "t\nV1 a 0 1\nR1 a 0 1k m=2\n", "unsupported parameter 'm'", 3, 11,
+     "multiplier"),
+    ("bad-start", "t\n" + OK + "(R5 a 0 1)\n", "unexpected '(' at the start", 4, 1, ""),
+    ("control-open", "t\n" + OK + ".control\nrun\n", ".control block without .endc", 4, 1,
+     ".endc"),
+    ("lib-no-section", "t\n" + OK + ".lib models.lib\n", ".lib needs a file and a section",
+     4, 16, ".include"),
+    ("include-missing", "t\n" + OK + ".include nowhere/missing.inc\n",
+     "file not found: 'nowhere/missing.inc'", 4, 10, "relative"),
+    ("instance-no-subckt", "t\n" + OK + "X1\n", "incomplete subcircuit instance 'X1'", 4, 3, ""),
+    ("model-bad-value", "t\n" + OK + ".model DM D(IS=abc)\n", "invalid number 'abc'", 4, 16, ""),
+]
+
+
+@pytest.mark.parametrize("text, message, line, col, hint", [c[1:] for c in CATALOGUE],
+                         ids=[c[0] for c in CATALOGUE])
+def test_error_catalogue(text, message, line, col, hint):
+    with pytest.raises(NetlistError) as info:
+        parse_string(text, file="bad.cir")
+    diags = info.value.diagnostics
+    found = [d for d in diags if message in d.message]
+    assert found, f"no diagnostic with {message!r} in:\n{info.value.format()}"
+    d = found[0]
+    assert d.location is not None
+    assert (d.location.file, d.location.line, d.location.column) == ("bad.cir", line, col)
+    assert d.location.text == text.split("\n")[line - 1]
+    assert hint in d.hint
+    # the gcc-style text names the place and shows the caret under the column
+    text_out = d.format()
+    assert text_out.startswith(f"bad.cir:{line}:{col}: error: ")
+    caret_line = text_out.split("\n")[2]
+    assert caret_line == "    " + " " * (col - 1) + "^"
+
+
+# (id, netlist, message substring, elements that must be named)
+TOPOLOGY = [
+    ("no-ground", "t\nV1 a b 1\nR1 a b 1\n", "no ground node", ()),
+    ("voltage-loop", "t\nV1 a 0 1\nV2 a b 2\nE1 b 0 a 0 1\nR1 a 0 1\n",
+     "loop of voltage sources: V2, V1, E1", ("V2", "V1", "E1")),
+    ("voltage-loop-h", "t\nV1 a 0 1\nR1 a 0 1\nH1 a 0 V1 2\n",
+     "loop of voltage sources: V1, H1", ("V1", "H1")),
+    ("shorted-source", "t\nV1 a a 1\nR1 a 0 1\n", "voltage source V1 is short-circuited",
+     ("V1",)),
+    ("floating", "t\nV1 a 0 1\nR1 a 0 1\nR2 x y 1\nC1 y x 1u\n",
+     "nodes x, y have no connection to ground", ("R2", "C1")),
+    ("floating-through-control-only", "t\nV1 a 0 1\nR1 a 0 1\nE1 x y a 0 2\nR2 x y 1\n",
+     "nodes x, y have no connection to ground", ("E1", "R2")),
+    ("no-elements", "just a title\n* and a comment\n", "the netlist has no elements", ()),
+]
+
+
+@pytest.mark.parametrize("text, message, elements", [c[1:] for c in TOPOLOGY],
+                         ids=[c[0] for c in TOPOLOGY])
+def test_topology_errors_name_the_elements(text, message, elements):
+    with pytest.raises(NetlistError) as info:
+        parse_string(text)
+    found = [d for d in info.value.diagnostics if message in d.message]
+    assert found, info.value.format()
+    assert found[0].location is None
+    assert found[0].elements == elements
+    assert found[0].hint
+
+
+def test_all_independent_problems_are_reported_in_file_order():
+    text = (
+        "t\n"
+        "V1 a 0 1\n"
+        "R1 a 0 {nope}\n"  # 3: unknown parameter
+        "M1 a b 0 0 NMOS\n"  # 4: unsupported element
+        "L1 a 0 -1u\n"  # 5: negative inductance
+        "D1 a 0 NOMODEL\n"  # 6: unknown model
+        "R1 a 0 5\n"  # 7: duplicate
+        "R3 q 0 1k3\n"  # 8: bad number
+    )
+    with pytest.raises(NetlistError) as info:
+        parse_string(text)
+    # syntax problems are all reported together before evaluation
+    assert [d.location.line for d in info.value.diagnostics] == [4, 8]
+    fixed = text.replace("M1 a b 0 0 NMOS", "* no M").replace("1k3", "1k")
+    with pytest.raises(NetlistError) as info:
+        parse_string(fixed)
+    lines = [d.location.line for d in info.value.diagnostics]
+    assert lines == [3, 5, 6, 7]
+
+
+def test_one_definition_used_twice_is_reported_once():
+    text = "t\nV1 a 0 1\n.subckt s p\nR1 p 0 {nope}\n.ends\nX1 a s\nX2 a s\n"
+    with pytest.raises(NetlistError) as info:
+        parse_string(text)
+    assert len(info.value.diagnostics) == 1
+    assert info.value.diagnostics[0].location.line == 4
+
+
+def test_failed_parameter_does_not_cascade():
+    text = "t\n.param a={1/0} b={2*a}\nV1 x 0 {b}\nR1 x 0 {a}\n"
+    with pytest.raises(NetlistError) as info:
+        parse_string(text)
+    assert [d.message for d in info.value.diagnostics] == ["division by zero"]
+
+
+# -------------------------------------------------------------------------- file problems
+
+
+def _only(info):
+    assert len(info.value.diagnostics) == 1
+    return info.value.diagnostics[0]
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(NetlistError) as info:
+        parse_file(tmp_path / "nope.cir")
+    assert "file not found" in _only(info).message
+
+
+def test_directory(tmp_path):
+    with pytest.raises(NetlistError) as info:
+        parse_file(tmp_path)
+    assert "is a directory" in _only(info).message
+
+
+def test_empty_file(tmp_path):
+    p = tmp_path / "empty.cir"
+    p.write_text("")
+    with pytest.raises(NetlistError) as info:
+        parse_file(p)
+    assert _only(info).message == "empty netlist"
+    assert _only(info).location.line == 1
+
+
+def test_binary_file(tmp_path):
+    p = tmp_path / "bin.cir"
+    p.write_bytes(b"title\nR1 a 0 1\n\x00\x01\x02\xff")
+    with pytest.raises(NetlistError) as info:
+        parse_file(p)
+    d = _only(info)
+    assert "NUL bytes" in d.message and (d.location.line, d.location.column) == (3, 1)
+
+
+def test_non_utf8_file(tmp_path):
+    p = tmp_path / "latin1.cir"
+    p.write_bytes("title\nV1 a 0 1\nR1 a 0 1k ; 1 k\u00b5\n".encode("latin-1"))
+    with pytest.raises(NetlistError) as info:
+        parse_file(p)
+    d = _only(info)
+    assert "not UTF-8" in d.message and "0xb5" in d.message
+    assert (d.location.line, d.location.column) == (3, 16)
+
+
+def test_nul_in_string():
+    with pytest.raises(NetlistError, match="NUL bytes"):
+        parse_string("t\nR1 a 0 1\x00\n")
+
+
+def test_include_cycle(tmp_path):
+    (tmp_path / "a.cir").write_text("top\nV1 x 0 1\nR1 x 0 1\n.include b.inc\n")
+    (tmp_path / "b.inc").write_text("* b\n.include c.inc\n")
+    (tmp_path / "c.inc").write_text(".include b.inc\n")
+    with pytest.raises(NetlistError) as info:
+        parse_file(tmp_path / "a.cir")
+    d = _only(info)
+    assert d.message == "include cycle: a.cir -> b.inc -> c.inc -> b.inc"
+    assert d.location.file == os.path.join(str(tmp_path), "c.inc")
+    assert (d.location.line, d.location.column) == (1, 10)
+
+
+def test_error_inside_include_points_into_it(tmp_path):
+    (tmp_path / "m.inc").write_text("* models\n.model DM D(IS=1n)\nR2 a 0 xyz\n")
+    (tmp_path / "top.cir").write_text("top\nV1 a 0 1\n.include m.inc\n")
+    with pytest.raises(NetlistError) as info:
+        parse_file(tmp_path / "top.cir")
+    d = _only(info)
+    assert d.location.file.endswith("m.inc") and d.location.line == 3
+    assert d.location.column == 8
+
+
+def test_missing_library_section(tmp_path):
+    (tmp_path / "x.lib").write_text(".lib fast\nR9 a 0 1\n.endl\n")
+    (tmp_path / "top.cir").write_text("top\nV1 a 0 1\nR1 a 0 1\n.lib x.lib slow\n")
+    with pytest.raises(NetlistError) as info:
+        parse_file(tmp_path / "top.cir")
+    assert "library section 'slow' not found" in _only(info).message
