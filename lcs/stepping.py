@@ -415,6 +415,8 @@ def run_chunk(
         na = 0
         if m == 0:
             accepted = True
+            for i in range(n):
+                x[i] = xf[i]
         elif slot >= 0 and not is_odd and cna[slot] >= 0:
             # Fast path: previous active set, cached -(M_aa)^-1.
             na = cna[slot]
