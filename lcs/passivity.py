@@ -41,11 +41,17 @@ robust for circuits:
    form a congruence ``M~ = diag(T, S) M(K) diag(T, S)`` with ``K~ = ω T K T``, so the sign of
    every eigenvalue is unchanged; microhenries and millifarads then give O(1) data.
 
-The SDP is solved in two stages: (a) minimise s subject to ``M(K) <= s I``, ``0 <= K <= κ I``
+The SDP is solved in stages: (a) minimise s subject to ``M(K) <= s I``, ``0 <= K <= κ I``
 (s* <= 0 means a storage K >= 0 exists), then (b) maximise t subject to ``M(K) <= s_a I``,
-``t I <= K <= κ I`` with ``s_a = max(s*, 0)`` plus a small slack, which returns the best
-conditioned positive definite certificate. ``t* ≈ 0`` means every storage is singular along
-some state direction, which is reported.
+``t I <= K <= κ I`` with ``s_a = max(s*, 0)`` plus a tiny slack, which finds how positive
+definite a certificate can be (``t* ≈ 0`` means every storage is singular along some state
+direction, which is reported), and (c) minimise s subject to ``M(K) <= s I``,
+``t*/2 I <= K <= κ I``: stage (b) ends where the residual equals the slack, stage (c) moves
+K back into the middle of lossless faces. Both are then snapped onto the face of the LMI they
+nearly touch (``_face_polish``: the eigenvectors of M(K) with eigenvalues near zero must stay
+exact null directions, a linear condition on K; minimum-change solution), which restores full
+accuracy when the solver's sqrt(tolerance) accuracy on faces without interior is not enough.
+The best verified candidate is returned.
 
 Cheap exact necessary conditions run first and give the human readable reasons for the usual
 failures (each is a consequence of ``M(K) <= 0, K > 0``):
@@ -386,6 +392,58 @@ def _project_equalities(nz: _Normalised, N: np.ndarray, Kt: np.ndarray) -> np.nd
     return Kt + sum(c * E for c, E in zip(dk, basis, strict=True))
 
 
+def _face_polish(nz: _Normalised, N: np.ndarray, K0: np.ndarray, rtol: float,
+                 ktol: float) -> np.ndarray:
+    """Snap an SDP certificate onto the face of the LMI it (nearly) touches.
+
+    Interior-point solutions on a face without interior (lossless parts, D = 0) are accurate
+    only to about the square root of the solver tolerance. The eigenvectors V0 of M(K0) with
+    eigenvalues near zero span the directions where the dissipation inequality is (nearly)
+    tight; we impose ``V0' M(K) V0 = 0`` (linear in K) and take the minimum-change K. Several
+    thresholds for "near zero" are tried; the best verified candidate (K0 included) wins.
+    """
+    n = nz.A.shape[0]
+    if n == 0:
+        return K0
+    basis = _sym_basis(n)
+    zero_K = np.zeros((n, n))
+    M_const = kyp_matrix(nz.A, nz.B, nz.C, nz.D, zero_K)
+    lin = [kyp_matrix(nz.A, nz.B, nz.C, nz.D, E) - M_const for E in basis]
+    wts = np.array([1.0 if i == j else np.sqrt(2.0) for i in range(n) for j in range(i, n)])
+    y0 = np.array([K0[i, j] for i in range(n) for j in range(i, n)])
+    M0 = kyp_matrix(nz.A, nz.B, nz.C, nz.D, K0)
+    ev, V = np.linalg.eigh(M0)
+    scale = max(1.0, float(np.max(np.abs(ev))))
+    best, best_margin = K0, _verify(nz, K0, rtol, ktol)[1]
+    G_eq, h_eq = (None, None)
+    if N.shape[1]:
+        G_eq, h_eq, _ = _equality_system(nz, N)
+    for delta in (1e-10, 1e-8, 1e-6, 1e-4, 1e-3):
+        act = V[:, ev > -delta * scale]
+        if act.shape[1] == 0:
+            continue
+        k = act.shape[1]
+        rows, rhs = [], []
+        for a in range(k):
+            for b in range(a, k):
+                va, vb = act[:, a], act[:, b]
+                rows.append([va @ Li @ vb for Li in lin])
+                rhs.append(-(va @ M_const @ vb))
+        G = np.array(rows)
+        h = np.array(rhs)
+        if G_eq is not None:
+            G = np.vstack([G, G_eq])
+            h = np.concatenate([h, h_eq])
+        Gw = G / wts[None, :]
+        dy, *_ = np.linalg.lstsq(Gw, h - G @ y0, rcond=None)
+        y = y0 + dy / wts
+        Kc = sum(c * E for c, E in zip(y, basis, strict=True))
+        margin = _verify(nz, Kc, rtol, ktol)[1]
+        if margin > best_margin and np.linalg.eigvalsh(Kc)[0] > 0:
+            best, best_margin = Kc, margin
+    return best
+
+
 # --------------------------------------------------------------------------------------------
 # Necessary conditions
 
@@ -553,9 +611,20 @@ def _solve_lmi(nz: _Normalised, rtol: float, ktol: float):
     stage_b = cp.Problem(cp.Maximize(t), cons_b)
     if not solve(stage_b) or K.value is None:
         return None, s_star, direction, f"stage (b) SDP status: {stage_b.status}"
-    Kt = 0.5 * (K.value + K.value.T)
-    Kt = _project_equalities(nz, N, Kt)
-    return Kt, s_star, direction, "ok"
+    Kb = _project_equalities(nz, N, 0.5 * (K.value + K.value.T))
+    # Stage (c): stage (b) pushes K to where the LMI residual equals the allowed slack; keep
+    # half of its λ_min and minimise the residual instead, which centres K on lossless faces.
+    t_keep = 0.5 * float(t.value)
+    candidates = [Kb]
+    if t_keep > 0:
+        s_c = cp.Variable()
+        cons_c = [Mexpr << s_c * np.eye(size), K >> t_keep * np.eye(n),
+                  K << _KAPPA * np.eye(n), *eqs]
+        if solve(cp.Problem(cp.Minimize(s_c), cons_c)) and K.value is not None:
+            candidates.append(_project_equalities(nz, N, 0.5 * (K.value + K.value.T)))
+    candidates = [_face_polish(nz, N, Kc, rtol, ktol) for Kc in candidates]
+    best = max(candidates, key=lambda Kc: _verify(nz, Kc, rtol, ktol)[1])
+    return best, s_star, direction, "ok"
 
 
 # --------------------------------------------------------------------------------------------

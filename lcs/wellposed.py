@@ -247,13 +247,15 @@ class ConsistentSet:
     pairs: tuple[str, ...]
 
     def contains(self, x, u=None, tol: float = 1e-9) -> bool:
-        """Whether every inequality holds up to ``tol`` times the size of its terms."""
+        """Whether every inequality holds up to ``tol * (‖cx‖ ‖x‖ + ‖cu‖ ‖u‖)``."""
         x = np.asarray(x, dtype=float).ravel()
+        uu = np.zeros(0) if u is None else np.asarray(u, dtype=float).ravel()
         for f in self.inequalities:
-            size = np.abs(f.cx) @ np.abs(x)
-            if f.cu.size:
-                uu = np.zeros(f.cu.size) if u is None else np.asarray(u, dtype=float).ravel()
-                size += np.abs(f.cu) @ np.abs(uu)
+            # Cauchy-Schwarz bound of the terms: rounding in any state (e.g. a state that a
+            # jump has just set to zero) is covered.
+            size = np.linalg.norm(f.cx) * np.linalg.norm(x)
+            if f.cu.size and uu.size:
+                size += np.linalg.norm(f.cu) * np.linalg.norm(uu)
             if f(x, u) < -tol * max(size, 1e-300):
                 return False
         return True
