@@ -5,8 +5,8 @@ import pytest
 from lcs.signals import Exp, Pulse, Pwl, Sin
 from netlist.circuit import (
     Capacitor,
-    Ccvs,
     Cccs,
+    Ccvs,
     Coupling,
     CurrentSource,
     Diode,
@@ -115,6 +115,7 @@ def test_sources_dc_forms():
     assert [(e.name, e.dc, e.waveform) for e in c.of_kind("V")] == [
         ("V1", 5.0, None), ("V2", 3.0, None), ("V3", 0.0, None), ("V4", 1.0, None)]
     assert c.element("I1") == CurrentSource("I1", ("0", "a"), dc=2e-3)
+    assert c.element("V1") == VoltageSource("V1", ("a", "0"), dc=5.0)
 
 
 @pytest.mark.parametrize(
