@@ -184,7 +184,7 @@ def _first_crossing(fun, sa: float, sb: float, ca: float, cb: float, thr: float,
     if g(ts[i - 1]) == 0.0:
         lo = ts[i - 1]
     else:
-        lo = brentq(g, ts[i - 1], ts[i], xtol=1e-15 * max(1.0, abs(ts[i])), rtol=4e-16)
+        lo = brentq(g, ts[i - 1], ts[i], xtol=1e-300, rtol=1e-15)
     # brentq returns a root; the switch acts just after it.
     return float(lo)
 
