@@ -146,7 +146,7 @@ class _Builder:
             return None
 
     def scope(self, defs: list[RawParam], fixed: Mapping[str, float],
-              parent: Mapping[str, float], parent_failed: set[str], where: str
+              parent: Mapping[str, float], parent_failed: set[str]
               ) -> tuple[dict[str, float], set[str]]:
         """Evaluate a set of parameter definitions in dependency order.
 
@@ -160,8 +160,6 @@ class _Builder:
             The enclosing scope, for names not defined here.
         parent_failed : set of str
             Names of the enclosing scope that could not be evaluated (already reported).
-        where : str
-            ``"global"`` or the subcircuit name, for messages.
 
         Returns
         -------
@@ -230,8 +228,7 @@ class _Builder:
                            f"the netlist defines these global parameters: {known}")
             else:
                 fixed[key] = float(value)
-        self.global_env, self.global_failed = self.scope(deck.top.params, fixed, {}, set(),
-                                                         "global")
+        self.global_env, self.global_failed = self.scope(deck.top.params, fixed, {}, set())
         c.params = dict(self.global_env)
         self.models()
         self.tran()
@@ -363,7 +360,7 @@ class _Builder:
             else:
                 fixed[p.name] = v
         values, child_failed = self.scope(sub.defaults + sub.body.params, fixed,
-                                          self.global_env, self.global_failed, sub.name)
+                                          self.global_env, self.global_failed)
         port_map = {port: mapnode(n) for port, n in zip(sub.ports, el.nodes, strict=True)}
         self.expand(sub.body, f"{name_prefix}{el.name}.", f"{node_prefix}{el.name.lower()}.",
                     port_map, ChainMap(values, self.global_env),

@@ -490,7 +490,7 @@ class _Reader:
         self.deck.files.append(file)
         if base is not None:
             self.stack.append(base)
-        self.run(split_statements(numbered, file, self.diags), file)
+        self.run(split_statements(numbered, file, self.diags))
         if self.sub is not None:
             self.error(f"subcircuit '{self.sub.name}' has no .ends", self.sub.st, 0,
                        "close the definition with .ends")
@@ -523,7 +523,7 @@ class _Reader:
         self.deck.files.append(display)
         self.stack.append(resolved)
         try:
-            self.run(split_statements(numbered, display, self.diags), display)
+            self.run(split_statements(numbered, display, self.diags))
         finally:
             self.stack.pop()
 
@@ -552,7 +552,7 @@ class _Reader:
 
     # -- statements
 
-    def run(self, statements: list[Statement | _Block], file: str) -> None:
+    def run(self, statements: list[Statement | _Block]) -> None:
         for st in statements:
             if isinstance(st, _Block):
                 self.deck.ignored.append(IgnoredCommand(st.text, st.loc))
