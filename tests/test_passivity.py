@@ -283,3 +283,29 @@ def test_coupled_inductors_energy():
     rep = check_passivity(lcs)
     assert rep.passive
     np.testing.assert_allclose(rep.K, energy, rtol=1e-5, atol=1e-12)
+
+
+# ---------------------------------------------------------------------------------------------
+# Integration: every mode of every bundled converter netlist, as netlist.formulation builds it.
+
+_NETLISTS = sorted(
+    p for p in __import__("pathlib").Path(__file__).resolve().parents[1].glob(
+        "converters/netlists/*.cir")
+)
+
+
+@pytest.mark.parametrize("path", _NETLISTS, ids=lambda p: p.stem)
+def test_bundled_converters_passive(path):
+    parser = pytest.importorskip("netlist.parser")
+    formulation = pytest.importorskip("netlist.formulation")
+    circuit = parser.parse_file(path)
+    slcs = formulation.formulate(circuit)
+    energy = formulation.storage_matrix(circuit)
+    for key in slcs.all_keys():
+        lcs = slcs.mode(key)
+        rep = check_passivity(lcs, energy=energy)
+        assert rep.passive and rep.method == "energy", (key, rep.reason)
+        assert kyp_max_eig(lcs, energy) < 1e-9
+        general = check_passivity(lcs)
+        assert general.passive, (key, general.reason)
+        assert kyp_max_eig(lcs, general.K) < 1e-7
