@@ -131,7 +131,10 @@ class Expression:
         ExpressionError
             Unknown parameter, division by zero, math domain error, overflow.
         """
-        value = _eval(self.tree, env)
+        try:
+            value = _eval(self.tree, env)
+        except RecursionError:
+            raise ExpressionError(_TOO_DEEP, 0) from None
         if not math.isfinite(value):
             raise ExpressionError(f"expression '{self.text}' evaluates to {value}", 0)
         return value
@@ -182,6 +185,8 @@ def _eval(node: tuple, env: Mapping[str, float]) -> float:
     except TypeError:  # a complex result of a negative base to a fractional power
         raise ExpressionError(f"{a:g} ** {b:g} is not a real number", node[3]) from None
 
+
+_TOO_DEEP = "expression is nested too deeply"
 
 _BINARY = {"add": "+", "sub": "-", "mul": "*", "div": "/", "pow": "**"}
 
@@ -282,4 +287,8 @@ def parse_expression(text: str) -> Expression:
     names: set[str] = set()
     if isinstance(tree, Token):  # never: the expression rule always wraps tokens
         raise AssertionError(tree)
-    return Expression(text, _build(tree, names), frozenset(names))
+    try:
+        built = _build(tree, names)
+    except RecursionError:
+        raise ExpressionError(_TOO_DEEP, 0, "split it into several .param lines") from None
+    return Expression(text, built, frozenset(names))

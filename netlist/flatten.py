@@ -54,6 +54,7 @@ from .parser import Body, Deck, RawElement, RawParam, Statement, Value
 # default parameters of ngspice's SW model that pelcs uses
 SW_DEFAULTS = {"vt": 0.0, "vh": 0.0}
 
+_MAX_DEPTH = 100  # subcircuit nesting; deeper is surely a generated mistake
 _NAN = float("nan")  # the value of an element whose value could not be evaluated
 
 
@@ -182,35 +183,49 @@ class _Builder:
         state: dict[str, int] = {}
         path: list[str] = []
 
-        def visit(name: str) -> None:
-            if name in values or name in failed:
-                return
-            if state.get(name) == 1:
-                cycle = path[path.index(name):] + [name]
-                self.error(f"parameter cycle: {' -> '.join(cycle)}", table[cycle[0]].loc,
-                           "parameters must not depend on themselves, directly or through "
-                           "others", tuple(dict.fromkeys(cycle)))
-                failed.update(cycle)
-                return
-            state[name] = 1
-            path.append(name)
-            p = table[name]
-            if p.value.expr is not None:
-                for dep in sorted(p.value.expr.names):
-                    if dep in table:
-                        visit(dep)
-            path.pop()
-            state[name] = 2
-            if name in failed:
-                return
-            v = self.evaluate(p.value, env, failed | parent_failed)
-            if v is None:
-                failed.add(name)
-            else:
-                values[name] = v
+        def deps(name: str) -> list[str]:
+            expr = table[name].value.expr
+            return [] if expr is None else sorted(n for n in expr.names if n in table)
 
-        for name in table:
-            visit(name)
+        def done(name: str) -> bool:
+            return name in values or name in failed or state.get(name) == 2
+
+        # depth-first search without recursion: a generated netlist may chain thousands of
+        # parameters; evaluate each one after the ones it uses
+        for root in table:
+            if done(root):
+                continue
+            state[root] = 1
+            path.append(root)
+            stack = [(root, iter(deps(root)))]
+            while stack:
+                name, pending = stack[-1]
+                for dep in pending:
+                    if done(dep):
+                        continue
+                    if state.get(dep) == 1:
+                        cycle = path[path.index(dep):] + [dep]
+                        self.error(f"parameter cycle: {' -> '.join(cycle)}",
+                                   table[cycle[0]].loc, "parameters must not depend on "
+                                   "themselves, directly or through others",
+                                   tuple(dict.fromkeys(cycle)))
+                        failed.update(cycle)
+                        continue
+                    state[dep] = 1
+                    path.append(dep)
+                    stack.append((dep, iter(deps(dep))))
+                    break
+                else:
+                    stack.pop()
+                    path.pop()
+                    state[name] = 2
+                    if name in failed:
+                        continue
+                    v = self.evaluate(table[name].value, env, failed | parent_failed)
+                    if v is None:
+                        failed.add(name)
+                    else:
+                        values[name] = v
         ordered = {name: values[name] for name in table if name in values}
         return ordered, failed | parent_failed
 
@@ -335,6 +350,11 @@ class _Builder:
             chain = " -> ".join([*stack, key])
             self.error(f"subcircuit '{sub.name}' instantiates itself ({chain})",
                        st.loc(el.ref_offset), "a subcircuit must not contain itself")
+            self.incomplete = True
+            return
+        if len(stack) >= _MAX_DEPTH:
+            self.error(f"subcircuits nested more than {_MAX_DEPTH} levels deep at instance "
+                       f"{name_prefix}{el.name}", st.loc(0), "flatten part of the hierarchy")
             self.incomplete = True
             return
         if len(el.nodes) != len(sub.ports):

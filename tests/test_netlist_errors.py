@@ -303,3 +303,19 @@ def test_missing_library_section(tmp_path):
     with pytest.raises(NetlistError) as info:
         parse_file(tmp_path / "top.cir")
     assert "library section 'slow' not found" in _only(info).message
+
+
+# -------------------------------------------------------------------------- limits
+
+
+def test_deeply_nested_expression_is_an_input_error():
+    with pytest.raises(NetlistError, match="expression is nested too deeply"):
+        parse_string("t\nV1 a 0 1\nR1 a 0 {" + "-" * 3000 + "1}\n")
+
+
+def test_deeply_nested_subcircuits_are_an_input_error():
+    n = 150
+    subs = "".join(f".subckt s{i} a\nX1 a s{i + 1}\n.ends\n" for i in range(n))
+    text = f"t\n{subs}.subckt s{n} a\nR1 a 0 1\n.ends\nV1 x 0 1\nX1 x s0\n"
+    with pytest.raises(NetlistError, match="subcircuits nested more than 100 levels deep"):
+        parse_string(text)

@@ -335,3 +335,11 @@ def test_windows_line_endings_and_bom():
     c = parse_string("\ufefftitle\r\nV1 a 0 1\r\nR1 a 0 1k\r\n")
     assert c.title == "title"
     assert c.element("R1").value == 1e3
+
+
+def test_long_parameter_chain_in_reverse_order():
+    # evaluated in dependency order without recursion limits
+    n = 3000
+    chain = "".join(f".param a{i}={{a{i - 1}+1}}\n" for i in range(n, 0, -1))
+    c = parse(f"{chain}.param a0=0\nV1 x 0 {{a{n}}}\nR1 x 0 1\n")
+    assert c.element("V1").dc == n
