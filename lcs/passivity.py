@@ -67,17 +67,27 @@ Tolerances
 ----------
 All decisions are taken in the normalised coordinates, where the data have norm about one:
 
-* ``rtol`` (default 1e-7): the KYP test passes when ``λ_max(M~) <= rtol · scale`` with
-  ``scale = ‖K~‖ (2‖A~‖ + ‖B~‖) + ‖C~‖ + 2‖D~‖``; the reported ``margin`` is
-  ``-λ_max(M~) / scale`` (0 for lossless parts or D = 0, positive for strictly passive ones).
+* ``rtol`` (default 1e-7): the KYP matrix is measured in the metric of K itself,
+  ``M^ = W M~ W`` with ``W = blkdiag(K~^-1/2, I)`` (top-left block ``Â + Â'``,
+  ``Â = K~^1/2 A~ K~^-1/2``), and the test passes when ``λ_max(M^) <= rtol · scale`` with
+  ``scale = 2‖Â‖ + ‖K~^1/2 B~‖ + ‖K~^-1/2 C~'‖ + 2‖D~‖``. The reported ``margin`` is
+  ``-λ_max(M^) / scale``: 0 for lossless parts or D = 0, positive for strictly passive ones.
+  Measuring in the K metric matters: with a plain norm a problem that is only feasible in the
+  limit ``K -> ∞`` would pass as ‖K‖ grows.
 * ``ktol`` (default 1e-9): K counts as positive definite when
   ``λ_min(K~) > ktol · λ_max(K~)``; the reported ``k_margin`` is that ratio.
+* The SDP bounds ``K~ <= κ I`` with κ = 1e4 (energy-like certificates are about I after the
+  normalisation), so a system whose certificates all have a normalised condition number
+  beyond about 1e4, or that is passive only in the limit, is reported not passive, with the
+  direction along which K would have to grow.
 * Eigenvalues of D~ + D~' below ``1e-10 · max(1, ‖D~ + D~'‖)`` in modulus count as zero.
 * Re λ(A~) > 1e-6 fails the stability condition (‖A~‖ = 1; eigenvalues of Jordan blocks on the
   imaginary axis carry errors of order sqrt(machine epsilon)).
+* Positive realness fails when ``λ_min(G~ + G~^H) < -1e-6 · max(1, ‖G~‖)`` at some grid
+  frequency (401 points, ω~ from 1e-4 to 1e4, skipping the imaginary-axis poles).
 
-SDP solutions are accurate to about 1e-8 relative, well inside ``rtol``; exact candidates
-(energy matrices) pass at rounding level.
+Exact candidates (energy matrices) pass at rounding level; SDP certificates after face
+polishing typically reach margins of 1e-10 or better.
 """
 
 from __future__ import annotations
