@@ -217,6 +217,13 @@ def _form(label: str, cx, cu, lcs: LCS) -> LinearForm:
                       np.asarray(cu, dtype=float).ravel(), tuple(lcs.states), tuple(lcs.inputs))
 
 
+def _clean(M: np.ndarray, bound: np.ndarray) -> np.ndarray:
+    """Zero the entries of M below 1e-13 times their rounding bound."""
+    M = M.copy()
+    M[np.abs(M) <= 1e-13 * bound] = 0.0
+    return M
+
+
 def _relative_degree(lcs: LCS, i: int) -> int | None:
     """First r with ``C_i A^(r-1) B_i ≠ 0`` (relative tolerance), None if none up to n."""
     A, b, c = lcs.A, lcs.B[:, i], lcs.C[i]
@@ -293,7 +300,10 @@ def gdcm_condition(lcs: LCS, held: Sequence[str | int]) -> GdcmCondition:
     Gx = -Hinv @ CAr
     Gu = -Hinv @ CEr
     P = np.eye(n) - BJ @ Hinv @ CJ @ Ar1
-    A_red, E_red = P @ A, P @ E
+    # Entries that cancel exactly in exact arithmetic (e.g. di(L)/dt = 0 in DCM) come out as
+    # rounding noise; zero them against the elementwise bound |P| |A| of the product.
+    A_red = _clean(P @ A, np.abs(P) @ np.abs(A))
+    E_red = _clean(P @ E, np.abs(P) @ np.abs(E))
     y_forms = []
     for j, nm in zip(J, names, strict=True):
         y_forms.append(_form(f"w({nm})", C[j], F[j], lcs))
