@@ -299,9 +299,10 @@ def gdcm_condition(lcs: LCS, held: Sequence[str | int]) -> GdcmCondition:
     CEr = CJ @ Ar1 @ E  # C_J A^(r-1) E
     Gx = -Hinv @ CAr
     Gu = -Hinv @ CEr
-    P = np.eye(n) - BJ @ Hinv @ CJ @ Ar1
     # Entries that cancel exactly in exact arithmetic (e.g. di(L)/dt = 0 in DCM) come out as
-    # rounding noise; zero them against the elementwise bound |P| |A| of the product.
+    # rounding noise; zero them against elementwise bounds of the sums that produced them.
+    X = BJ @ Hinv @ CJ @ Ar1
+    P = _clean(np.eye(n) - X, np.eye(n) + np.abs(X))
     A_red = _clean(P @ A, np.abs(P) @ np.abs(A))
     E_red = _clean(P @ E, np.abs(P) @ np.abs(E))
     y_forms = []
