@@ -147,6 +147,10 @@ class _ModeData:
         self.disc: Discretisation = discretise(self.A, self.B, self.C, self.D, self.E, h, theta)
         self.out = out
         self.Cy, self.Dy, self.Fy = _c(out.Cy), _c(out.Dy), _c(out.Fy)
+        self.out_is_state = bool(
+            self.Cy.shape == (n, n) and np.array_equal(self.Cy, np.eye(n))
+            and not self.Dy.any() and not self.Fy.any()
+        )
         S = max(1, int(opts.cache_slots))
         self.ckeys = np.full(S, -1, np.int64)
         self.cna = np.zeros(S, np.int64)
@@ -516,10 +520,15 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, bps, mode
         intervals=n_intervals,
         wall_time=time.perf_counter() - t_wall,
     )
+    # The buffers were sized for the whole run: slice them (a copy of a large run costs as
+    # much as the stepping), unless the run stopped early and most of them is unused.
+    t_res, y_res = T_out[:pos], Y_out[:pos]
+    if 2 * pos < cap:
+        t_res, y_res = t_res.copy(), y_res.copy()
     result = SimulationResult(
-        t=T_out[:pos].copy(),
+        t=t_res,
         names=tuple(names),
-        y=Y_out[:pos].copy(),
+        y=y_res,
         x_final=x.copy(),
         lambda_final=lam.copy(),
         modes_visited=visited,
@@ -544,7 +553,7 @@ def _call_kernel(md: _ModeData, theta, h, tg, odd, U0, U1, x, lam, ivars, fvars,
         x, lam,
         md.ckeys, md.cna, md.cidx, md.cG,
         ivars, fvars, int(max_piv), int(every), int(md.uniq_max_m), md.fast,
-        T_out, Y_out,
+        T_out, Y_out, md.out_is_state,
         *md.work,
     )
 

@@ -301,7 +301,9 @@ def _unique_state(M, q, K, xf, lam, uniq_tol, feas_tol, zalt, aug):
             dx = 0.0
             for j in range(m):
                 dx += K[i, j] * (zalt[j] - lam[j])
-            if abs(dx) > uniq_tol * xscale:
+            # The absolute floor ignores differences among subnormal numbers (a state that
+            # decayed to ~1e-310 has lost its relative precision; it is zero in practice).
+            if abs(dx) > uniq_tol * xscale and abs(dx) > 1e-250:
                 diff = 0
                 for j in range(m):
                     if abs(zalt[j] - lam[j]) > uniq_tol * max(abs(zalt[j]), abs(lam[j])):
@@ -319,7 +321,7 @@ def run_chunk(
     x, lam,
     ckeys, cna, cidx, cG,
     ivars, fvars, max_pivots, every, uniq_max_m, fast_enabled,
-    T_out, Y_out,
+    T_out, Y_out, out_is_state,
     xf, q, z, w, act, tab, basis, za, aug,
     Phi_o, G0_o, G1_o, K_o, M_o,
 ):
@@ -355,6 +357,8 @@ def run_chunk(
         Use the active-set fast path.
     T_out, Y_out : float64 arrays, shapes (cap,), (cap, r)
         Output buffers, written from row ``ivars[IV_OUTPOS]``.
+    out_is_state : bool
+        The output map is ``y = x`` (then the matrix products are skipped).
     xf, q, z, w, act, tab, basis, za, aug, Phi_o, G0_o, G1_o, K_o, M_o : arrays
         Work arrays. On failure ``xf`` and ``q`` hold the failing step's free state and LCP
         vector, ``M_o``/``K_o`` its matrices if the step was shortened.
@@ -375,6 +379,9 @@ def run_chunk(
     pivot_tol = fvars[FV_PIVOT_TOL]
     lex_tol = fvars[FV_LEX_TOL]
     uniq_tol = fvars[FV_UNIQ_TOL]
+    # Steps left until the next stored one (the global counter is a multiple of ``every``
+    # at stored steps).
+    countdown = every - ivars[IV_GSTEP] % every
     slot = -1
     if fast_enabled and m > 0:
         slot = _lookup(M, ivars[IV_MASK], ckeys, cna, cidx, cG, ivars)
@@ -496,9 +503,16 @@ def run_chunk(
             return STEP_NONFINITE, k
         g = ivars[IV_GSTEP] + 1
         ivars[IV_GSTEP] = g
-        if g % every == 0:
+        countdown -= 1
+        if countdown == 0:
+            countdown = every
             pos = ivars[IV_OUTPOS]
             T_out[pos] = tgrid[k + 1]
+            if out_is_state:
+                for j in range(n):
+                    Y_out[pos, j] = x[j]
+                ivars[IV_OUTPOS] = pos + 1
+                continue
             for r in range(r_out):
                 s = 0.0
                 for j in range(n):
