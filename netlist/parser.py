@@ -26,8 +26,8 @@ Names
 Element names keep their spelling; node names are lower case and ``gnd`` is ``0``. An element
 name of the form ``<letter>.<X...>`` (``L.X1.L1``), which is how ngspice and
 :func:`netlist.writer.write_circuit` spell an element of a flattened subcircuit instance, is
-read back as the hierarchical name ``X1.L1`` (when its last part starts with the same letter);
-references to elements (F/H controlling sources, K inductors) are mapped the same way.
+read back as the hierarchical name ``X1.L1``; references to elements (F/H controlling
+sources, K inductors) are mapped the same way.
 """
 
 from __future__ import annotations
@@ -320,9 +320,8 @@ def hierarchical_name(word: str, kind: str | None = None) -> str:
         and len(parts[0]) == 1
         and parts[0].upper() == letter
         and parts[1][:1] in ("x", "X")
-        and parts[-1][:1].upper() == letter
     ):
-        return ".".join(parts[1:])
+        return word[2:]
     return word
 
 

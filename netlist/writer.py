@@ -11,7 +11,8 @@ ngspice chooses an element's type from the first letter of its name, so ``X1.L1`
 ``L1`` of instance ``X1``) cannot be written as it is. Like ngspice's own flattener, the
 writer puts the element letter in front: ``L.X1.L1``; references to it (a K line, the
 controlling source of an F/H) are spelled the same way. The parser maps a name of the form
-``<letter>.<X...>`` whose last part starts with that letter back to ``X1.L1``. Node names such
+``<letter>.<X...>`` (at least three dot-separated parts, the first one the element letter,
+the second an instance name) back to ``X1.L1``. Node names such
 as ``x1.n3`` need no change.
 
 Ignored commands (``.print``, ``.control`` blocks, ...) are written back verbatim at the end,
@@ -36,12 +37,20 @@ from .units import format_number
 __all__ = ["write_circuit", "spice_name"]
 
 
-def spice_name(name: str) -> str:
-    """The name to write for an element: ``X1.L1`` -> ``L.X1.L1``, others unchanged."""
+def spice_name(name: str, kind: str | None = None) -> str:
+    """The name to write for an element: ``X1.L1`` -> ``L.X1.L1``, others unchanged.
+
+    Parameters
+    ----------
+    name : str
+        Element name, hierarchical for elements of subcircuit instances.
+    kind : str, optional
+        The element letter; by default the first letter of the name's last part.
+    """
     if "." in name and name[0] in "xX":
-        last = name.rsplit(".", 1)[1]
-        if last:
-            return f"{last[0]}.{name}"
+        letter = kind or name.rsplit(".", 1)[1][:1]
+        if letter:
+            return f"{letter}.{name}"
     return name
 
 
@@ -80,8 +89,8 @@ def _waveform(sig: Signal, circuit: Circuit) -> str:
     return f"{keyword}({' '.join(out)})"
 
 
-def _element(el: Element, circuit: Circuit) -> str:
-    name = spice_name(el.name)
+def _element(el: Element, circuit: Circuit, kinds: dict[str, str]) -> str:
+    name = spice_name(el.name, el.kind)
     nodes = " ".join(el.nodes)
     kind = el.kind
     if kind in ("R", "L", "C"):
@@ -103,9 +112,10 @@ def _element(el: Element, circuit: Circuit) -> str:
     if kind in ("E", "G"):
         return f"{name} {nodes} {' '.join(el.control)} {_num(el.gain)}"
     if kind in ("F", "H"):
-        return f"{name} {nodes} {spice_name(el.source)} {_num(el.gain)}"
+        return f"{name} {nodes} {spice_name(el.source, kinds.get(el.source.lower()))} " \
+            f"{_num(el.gain)}"
     if isinstance(el, Coupling):
-        a, b = (spice_name(n) for n in el.inductors)
+        a, b = (spice_name(n, kinds.get(n.lower())) for n in el.inductors)
         return f"{name} {a} {b} {_num(el.k)}"
     raise ValueError(f"cannot write element {el.name} of kind {kind}")
 
@@ -129,10 +139,11 @@ def write_circuit(circuit: Circuit) -> str:
              "* written by pelcs: flattened, parameters evaluated"]
     for name, value in circuit.params.items():
         lines.append(f".param {name}={_num(value)}")
+    kinds = {el.key: el.kind for el in circuit.elements}
     for el in circuit.elements:
-        lines.append(_element(el, circuit))
+        lines.append(_element(el, circuit, kinds))
     for model in circuit.models.values():
-        params = " ".join(f"{k.upper()}={_num(v)}" for k, v in model.params.items())
+        params = " ".join(f"{k}={_num(v)}" for k, v in model.params.items())
         lines.append(f".model {model.name} {model.type}({params})")
     if circuit.initial_conditions:
         ics = " ".join(f"v({n})={_num(v)}" for n, v in circuit.initial_conditions.items())

@@ -278,7 +278,8 @@ def test_flattened_names_read_back():
     assert hierarchical_name("L.X1.L1") == "X1.L1"
     assert hierarchical_name("l.x1.x2.l1") == "x1.x2.l1"
     assert hierarchical_name("R.foo") == "R.foo"  # not an instance path
-    assert hierarchical_name("L.X1.R1") == "L.X1.R1"  # letters disagree: keep as written
+    assert hierarchical_name("L.foo.L1") == "L.foo.L1"  # second part is no instance name
+    assert hierarchical_name("R.X1.R1.a") == "X1.R1.a"  # an own name with a dot
     c = parse("V1 a 0 1\nL.X1.L1 a 0 1u\nL.X1.L2 a 0 1u\nK.X1.K1 L.X1.L1 L.X1.L2 0.5\n"
               "V.X1.V2 a b 0\nR1 b 0 1\nF.X1.F1 b 0 V.X1.V2 1\n")
     assert c.element("X1.K1").inductors == ("X1.L1", "X1.L2")

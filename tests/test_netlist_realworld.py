@@ -155,3 +155,20 @@ def test_ngspice_accepts_written_netlist(path, tmp_path):
     status, errors, log = _run_ngspice(exe, write_circuit(short), tmp_path / "short.cir")
     assert status == 0, log
     assert not errors, log
+
+
+def test_round_trip_of_odd_but_valid_names():
+    # dotted element names inside a subcircuit, non-ASCII model parameter names, a K and an F
+    # that refer to elements of an instance: all must survive write -> parse
+    text = (
+        "odd names\n"
+        ".subckt s a\nR1.x a m 1\nL.1 m 0 1u\nL2 m 0 1u\nK1 L.1 L2 0.5\nV.s m n 0\n"
+        "F.f n 0 V.s 2\nRn n 0 1\n.ends\n"
+        "V1 a 0 1\nX1 a s\nD1 a 0 DM\n.model DM D(\u00b5x=1 IS=1n)\n"
+    )
+    c = parse_string(text)
+    assert [e.name for e in c.elements][:5] == ["V1", "X1.R1.x", "X1.L.1", "X1.L2", "X1.K1"]
+    written = write_circuit(c)
+    assert "R.X1.R1.x a x1.m 1" in written and "K.X1.K1 L.X1.L.1 L.X1.L2 0.5" in written
+    assert "F.X1.F.f x1.n 0 V.X1.V.s 2" in written
+    assert parse_string(written) == c
