@@ -52,7 +52,7 @@ def test_info_with_param_override(capsys):
                          "--param", "lph=47u", "--param", "FS=100k")
     assert status == 0
     assert re.search(r"X1\.L1\s+x1\.a x1\.sw\s+47 µH", out)
-    assert "fs=100000" in out
+    assert "parameters: vin=48, fs=100k, duty=0.5, lph=47u" in out
 
 
 def test_info_bad_param_syntax_is_an_input_error(capsys):

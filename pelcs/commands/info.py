@@ -13,7 +13,7 @@ import argparse
 
 from lcs.signals import Dc, Exp, Pulse, Pwl, Signal, Sin
 from netlist.circuit import GROUND, Circuit, Element
-from netlist.units import format_eng
+from netlist.units import format_eng, format_number
 
 # kind -> (heading, unit of the value)
 _GROUPS = [
@@ -143,7 +143,8 @@ def describe(circuit: Circuit) -> str:
     shown = [f"{n} (ground)" if n == GROUND else n for n in nodes]
     lines.append(f"nodes ({len(nodes)}): {', '.join(shown)}")
     if circuit.params:
-        lines.append("parameters: " + ", ".join(f"{k}={v:g}" for k, v in circuit.params.items()))
+        lines.append("parameters: " + ", ".join(f"{k}={format_number(v)}"
+                                                for k, v in circuit.params.items()))
     lines.append(f"elements ({len(circuit.elements)}):")
     for kind, heading, unit in _GROUPS:
         els = circuit.of_kind(kind)
