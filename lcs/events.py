@@ -134,6 +134,16 @@ class _ControlMaps:
         return self.cache[mode]
 
 
+def _initially_on(options) -> bool:
+    """State of a switch whose control starts inside the hysteresis band: the netlist's
+    ``ON``/``OFF`` (``options["initial"]``, or ``options["on"]``), off by default as in
+    ngspice."""
+    if not isinstance(options, dict):
+        return False
+    val = options.get("initial", options.get("on"))
+    return bool(val) if val is not None else False
+
+
 def _switch_state(c: float, on: bool, vt: float, vh: float) -> bool:
     if c > vt + vh:
         return True
@@ -209,7 +219,7 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
     -------
     mode0 : tuple[bool, ...]
         Switch states at ``t0`` (on while control > vt + vh, off while < vt - vh; inside the
-        band, off unless ``options`` of the switch says ``{"on": True}``).
+        band, the switch's ``options["initial"]`` (or ``"on"``), default off).
     events : list of (float, tuple[bool, ...])
         Switching instants (s) and the mode after them, increasing.
 
@@ -229,8 +239,7 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
 
     vt = np.array([s.vt for s in sw], dtype=float)
     vh = np.array([abs(s.vh) for s in sw], dtype=float)
-    initial = [bool(s.options.get("on", False)) if isinstance(s.options, dict) else False
-               for s in sw]
+    initial = [_initially_on(s.options) for s in sw]
     mode = tuple(initial)
     # Mode-dependent control maps: iterate to a fixed point (at most a few passes).
     for _ in range(len(sw) + 1):

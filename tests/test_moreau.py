@@ -390,3 +390,36 @@ def test_energy_balance_rlc_diode():
         assert i.min() >= -1e-12  # the diode blocks reverse current
         assert (i == 0).sum() > 100  # and does block for a while
     assert errs[1] < errs[0] / 4 and errs[1] < 2e-4
+
+
+def test_progress_bar_only_on_terminal(monkeypatch):
+    import io
+
+    import lcs.moreau as mo
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    lcs = rc_lowpass(0.1)
+    fake = Tty()
+    monkeypatch.setattr("sys.stderr", fake)
+    simulate_lcs(lcs, [Dc(1.0)], [0.0], 1.0, 1e-3, progress=True)
+    assert fake.getvalue() == ""  # expected to be quick: no bar
+    monkeypatch.setattr(mo, "_EST_STEP_S", 1.0)  # pretend every step takes a second
+    simulate_lcs(lcs, [Dc(1.0)], [0.0], 1.0, 1e-3, progress=True)
+    assert "step" in fake.getvalue()
+    plain = io.StringIO()  # not a terminal: never a bar
+    monkeypatch.setattr("sys.stderr", plain)
+    simulate_lcs(lcs, [Dc(1.0)], [0.0], 1.0, 1e-3, progress=True)
+    assert plain.getvalue() == ""
+
+
+def test_lcs_package_does_not_import_netlist():
+    import subprocess
+    import sys
+
+    code = "import sys, lcs.moreau, lcs.lcp; print('netlist' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.strip() == "False"

@@ -181,3 +181,10 @@ def test_initially_on_and_gate_in_band():
 def test_state_dependent_switch_not_implemented():
     with pytest.raises(NotImplementedError, match="comparator"):
         simulate(buck(2.0, control="v(C1)"), [Dc(VIN), gate()], [0.0, 0.0], 1e-4, 1e-6)
+
+
+def test_initial_option_from_netlist():
+    sys_ = buck(2.0, vt=2.5, vh=1.0)
+    sys_.switches[0].options["initial"] = True
+    res = simulate(sys_, [Dc(VIN), Dc(2.5)], [0.0, 0.0], 20e-6, 1e-6)
+    assert res.modes_visited == [(True,)]
