@@ -64,6 +64,12 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _short(value: float) -> str:
+    """SPICE notation (``50k``) unless that needs many digits, then 6 significant digits."""
+    text = format_number(value)
+    return text if len(text) <= 10 else f"{value:.6g}"
+
+
 def _eng(value: float | None, unit: str) -> str:
     return format_eng(value, unit)
 
@@ -143,7 +149,7 @@ def describe(circuit: Circuit) -> str:
     shown = [f"{n} (ground)" if n == GROUND else n for n in nodes]
     lines.append(f"nodes ({len(nodes)}): {', '.join(shown)}")
     if circuit.params:
-        lines.append("parameters: " + ", ".join(f"{k}={format_number(v)}"
+        lines.append("parameters: " + ", ".join(f"{k}={_short(v)}"
                                                 for k, v in circuit.params.items()))
     lines.append(f"elements ({len(circuit.elements)}):")
     for kind, heading, unit in _GROUPS:
