@@ -1,0 +1,837 @@
+"""Run a netlist in ngspice (through PySpice's shared-library interface) and read probes back.
+
+Entry point: :func:`run_ngspice`. It returns an :class:`NgspiceResult` (time, signals by
+pelcs probe name, the settings that worked, timings and ngspice's log) or raises an
+:class:`NgspiceError` subclass: :class:`NgspiceUnavailable` (PySpice or libngspice missing),
+:class:`ProbeError` (a probe names nothing in the circuit), :class:`NgspiceFailed` (every rung
+of the ladder failed; ``.attempts`` says why each one did).
+
+One process per simulation
+--------------------------
+Every simulation runs in a fresh child process (``_worker.py``), measured and decided on
+ngspice 39 / PySpice 1.5:
+
+- libngspice keeps state between circuits: after one deck with ``.options cshunt=1e-12``,
+  the *unmodified* bridge rectifier that failed before suddenly converges in the same
+  process. Ladder rungs would contaminate each other (and the user's later runs);
+- a failed run can leave the library in a state only a reload fixes, and a crash (or a
+  ``controlled_exit``) of libngspice would take the caller's interpreter with it;
+- a child can be killed, so runs get a real ``timeout``;
+- whatever PySpice and libngspice print (PySpice warns "Unsupported Ngspice version 39")
+  goes into the child's captured output, never to the user's terminal.
+
+The cost is one interpreter start with PySpice imported, about 0.15 s warm; it is hidden by
+keeping one spare worker started in advance (started when the previous one is taken), so a
+sequence of runs pays it only once.
+
+Probes
+------
+Probes use pelcs' syntax. ``v(n)`` and ``v(a,b)`` read node vectors (``v(0)`` is 0);
+``i(X)`` for V, L, E and H elements reads ngspice's branch current ``x#branch`` (hierarchical
+``X1.L1`` becomes ``l.x1.l1#branch``). The current of any other two-terminal element
+(R C D S I F G) is measured by a **0 V sense source inserted in series** at its second node,
+chosen over ngspice's ``@d1[id]``-style device vectors because it works the same for every
+element type, gives exactly pelcs' sign (from the first node through the element to the
+second), needs no ``.save`` lines (which would suppress all other vectors) and is read at
+the same time points as everything else. Only top-level elements can be sensed so far.
+
+The ladder
+----------
+ngspice's Newton-Raphson and time-step control were made for smooth devices; near-ideal
+diodes and switches give it "timestep too small" on many converters. :func:`run_ngspice`
+tries the rungs of :data:`DEFAULT_LADDER` in order until one succeeds and reports the rung.
+Rung 0 is the netlist as written; every later rung contains everything of the rung before
+it, adding the next least invasive change. The rungs and why each one is there (evidence
+from ngspice 39, cases in ``tests/test_ngspice_runner.py``):
+
+0. ``as-written``: the netlist unchanged (except ``tstop``/``tstep`` overrides and sense
+   sources for current probes).
+1. ``finite-edges``: every PULSE gets a pulse width and nonzero rise/fall times of at least
+   1 ns (TR/TF of 0 already mean TSTEP in ngspice and are left alone), shortening TR when
+   needed to keep the period. A sawtooth written with PW=0 (``PULSE(vl vu 0 {tp-tf} tf 0
+   tp)``) fails at a ramp reset in ngspice 39; PW = 1 ns fixes it. Changes the waveform
+   by at most 1 ns per edge.
+2. ``shunts``: ``.options cshunt=1e-12 rshunt=1e12``: 1 pF and 1 TOhm from every node to
+   ground. Nodes that float when every diode and switch around them is off (the rectifier
+   output of a diode bridge between conduction intervals, an LC tank discharging through a
+   bridge) make the matrix singular or ill-conditioned: "timestep too small ... trouble with
+   node p". cshunt alone fixes the bridge rectifier and the LC tank; rshunt keeps the DC
+   level of such nodes defined. 1 pF is negligible against the nF-to-mF capacitors of power
+   converters and 1 TOhm against any load.
+3. ``gear``: ``method=gear`` (second order BDF): trapezoidal integration rings on the
+   discontinuities that ideal switching produces (currents into capacitors jump), and the
+   ringing drives the local-truncation-error step control down to the minimum step. Gear
+   damps it. It changes the numerics only (a different second order method).
+4. ``smooth-models``: every D model is replaced by ``D(IS=1e-12 N=0.05 RS=1m)`` and every
+   SW model gets ``RON=1m ROFF=1e9`` and a hysteresis of at least ``VH=1m`` (VT kept). A
+   steep diode (N=0.001: a 26 uV exponential scale) makes Newton's iterations chatter; with
+   N=0.05 the forward drop is 36 mV at 1 A, still far below the converter voltages. A
+   switch with VH=0 whose control crosses VT slowly can toggle at every Newton iteration; 1
+   mV of hysteresis stops that. pelcs treats D and S as ideal whatever the models say, so
+   only the quality of ngspice's approximation of the ideal elements changes.
+5. ``relaxed``: looser tolerances (``reltol=1e-2 abstol=1e-9 vntol=1e-4 chgtol=1e-14``),
+   more iterations per time point (``itl4=100``) and a larger ``gmin=1e-10``. The last
+   resort: it buys convergence with accuracy (1 % instead of 0.1 % local error).
+
+Design note: the deck edits are text edits (:mod:`ngspice_checks.deck`) because the parser is
+not there yet. Each rung is data (:class:`NgspiceSettings`) applied by :func:`apply_settings`;
+when ``netlist.parser``/``netlist.writer`` are ready, the same settings can be applied to a
+``Circuit`` and written out, and :func:`run_ngspice` already accepts a ``Circuit`` (written
+with ``netlist.writer.write_circuit``).
+"""
+
+from __future__ import annotations
+
+import atexit
+import math
+import os
+import queue
+import re
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import _worker, deck
+
+__all__ = [
+    "DEFAULT_LADDER",
+    "NgspiceAttempt",
+    "NgspiceError",
+    "NgspiceFailed",
+    "NgspiceResult",
+    "NgspiceSettings",
+    "NgspiceUnavailable",
+    "ProbeError",
+    "SwitchModel",
+    "apply_settings",
+    "ngspice_version",
+    "run_ngspice",
+]
+
+_WORKER_SCRIPT = Path(__file__).with_name("_worker.py")
+
+#: seconds allowed for a worker to start (cold start compiles PySpice's .pyc: ~20 s seen)
+STARTUP_TIMEOUT = 120.0
+
+
+# ------------------------------------------------------------------------------------------
+# errors
+
+
+class NgspiceError(RuntimeError):
+    """Base of the runner's errors."""
+
+
+class NgspiceUnavailable(NgspiceError):
+    """PySpice or the ngspice shared library cannot be used here."""
+
+
+class ProbeError(NgspiceError, ValueError):
+    """A probe is malformed or names no node/element of the circuit."""
+
+
+class NgspiceFailed(NgspiceError):
+    """Every rung of the ladder failed; ``attempts`` lists each try and its reason."""
+
+    def __init__(self, message: str, attempts: list[NgspiceAttempt]) -> None:
+        super().__init__(message)
+        self.attempts = attempts
+
+
+# ------------------------------------------------------------------------------------------
+# settings and the ladder
+
+
+@dataclass(frozen=True)
+class SwitchModel:
+    """Replacement parameters for every SW model; VT is always kept.
+
+    Attributes
+    ----------
+    ron, roff : float
+        On and off resistance (ohm).
+    vh_min : float
+        The hysteresis half-width VH is raised to at least this (V); larger VH are kept.
+    """
+
+    ron: float = 1e-3
+    roff: float = 1e9
+    vh_min: float = 1e-3
+
+
+@dataclass(frozen=True)
+class NgspiceSettings:
+    """One rung of the ladder: how the netlist is adjusted before ngspice runs it.
+
+    Attributes
+    ----------
+    name : str
+        Short identifier (``"as-written"``, ``"shunts"``, ...).
+    description : str
+        One line on what the rung changes.
+    options : dict
+        ``.options`` added after the user's own (ours win); value None is a bare flag.
+    pulse_min_edge : float or None
+        Smallest PW and nonzero TR/TF of PULSE sources (s); None leaves them.
+    diode_model : dict or None
+        Parameters given to every D model (replacing the user's); None keeps them.
+    switch_model : SwitchModel or None
+        RON/ROFF/VH floor for every SW model; None keeps the user's.
+    """
+
+    name: str
+    description: str = ""
+    options: dict[str, str | None] = field(default_factory=dict)
+    pulse_min_edge: float | None = None
+    diode_model: dict[str, str] | None = None
+    switch_model: SwitchModel | None = None
+
+
+_AS_WRITTEN = NgspiceSettings("as-written", "the netlist unchanged")
+_EDGES = replace(
+    _AS_WRITTEN,
+    name="finite-edges",
+    description="PULSE PW and nonzero TR/TF >= 1 ns",
+    pulse_min_edge=1e-9,
+)
+_SHUNTS = replace(
+    _EDGES,
+    name="shunts",
+    description="+ cshunt=1 pF, rshunt=1 TOhm from every node to ground",
+    options={"cshunt": "1e-12", "rshunt": "1e12"},
+)
+_GEAR = replace(
+    _SHUNTS,
+    name="gear",
+    description="+ Gear integration",
+    options={**_SHUNTS.options, "method": "gear"},
+)
+_SMOOTH = replace(
+    _GEAR,
+    name="smooth-models",
+    description="+ D(IS=1e-12 N=0.05 RS=1m), SW RON=1m ROFF=1e9 VH>=1m",
+    diode_model={"is": "1e-12", "n": "0.05", "rs": "1e-3"},
+    switch_model=SwitchModel(ron=1e-3, roff=1e9, vh_min=1e-3),
+)
+_RELAXED = replace(
+    _SMOOTH,
+    name="relaxed",
+    description="+ reltol=1e-2 abstol=1e-9 vntol=1e-4 chgtol=1e-14 itl4=100 gmin=1e-10",
+    options={
+        **_SMOOTH.options,
+        "reltol": "1e-2",
+        "abstol": "1e-9",
+        "vntol": "1e-4",
+        "chgtol": "1e-14",
+        "itl4": "100",
+        "gmin": "1e-10",
+    },
+)
+
+#: the rungs tried by :func:`run_ngspice`, least invasive first (see the module docstring)
+DEFAULT_LADDER: tuple[NgspiceSettings, ...] = (
+    _AS_WRITTEN,
+    _EDGES,
+    _SHUNTS,
+    _GEAR,
+    _SMOOTH,
+    _RELAXED,
+)
+
+
+def apply_settings(netlist: str, settings: NgspiceSettings) -> str:
+    """The netlist text adjusted as ``settings`` says (pure text edit, see :mod:`.deck`)."""
+    text = netlist
+    if settings.pulse_min_edge:
+        text = deck.finite_pulse_edges(text, settings.pulse_min_edge)
+    if settings.diode_model is not None:
+        text = deck.replace_diode_models(text, settings.diode_model)
+    if settings.switch_model is not None:
+        sw = settings.switch_model
+        text = deck.replace_switch_models(text, sw.ron, sw.roff, sw.vh_min)
+    if settings.options:
+        text = deck.add_options(text, settings.options)
+    return text
+
+
+# ------------------------------------------------------------------------------------------
+# results
+
+
+@dataclass
+class NgspiceAttempt:
+    """One try of one rung.
+
+    Attributes
+    ----------
+    rung : int
+        Position in the ladder that was tried.
+    settings : NgspiceSettings
+    reason : str or None
+        Why it failed; None if it succeeded.
+    wall_time : float
+        Time spent in ngspice (load + run) in the worker (s); NaN if the worker died.
+    log : list of str
+        ngspice's output lines (``stdout ...``/``stderr ...``) and captured stray output.
+    netlist : str
+        The deck that was simulated.
+    """
+
+    rung: int
+    settings: NgspiceSettings
+    reason: str | None
+    wall_time: float
+    log: list[str]
+    netlist: str
+
+    @property
+    def ok(self) -> bool:
+        return self.reason is None
+
+
+@dataclass
+class NgspiceResult:
+    """Outcome of :func:`run_ngspice`.
+
+    Attributes
+    ----------
+    time : ndarray
+        ngspice's time points (s), not equidistant.
+    signals : dict
+        Probe (as given) -> samples at ``time`` (V or A).
+    settings_used : NgspiceSettings
+        The rung that succeeded.
+    rung : int
+        Its position in the ladder (0 = the netlist as written).
+    wall_time : float
+        ngspice load + run time of the successful rung (s).
+    log : list of str
+        ngspice's output for the successful rung.
+    attempts : list of NgspiceAttempt
+        Every rung tried, failures first.
+    netlist : str
+        The deck ngspice simulated in the successful rung.
+    total_time : float
+        Wall time of the whole call including failed rungs and process start-up (s).
+    """
+
+    time: np.ndarray
+    signals: dict[str, np.ndarray]
+    settings_used: NgspiceSettings
+    rung: int
+    wall_time: float
+    log: list[str]
+    attempts: list[NgspiceAttempt]
+    netlist: str
+    total_time: float
+
+    def __getitem__(self, probe: str) -> np.ndarray:
+        return self.signals[probe]
+
+
+# ------------------------------------------------------------------------------------------
+# probes
+
+_PROBE = re.compile(r"^\s*([vi])\s*\(\s*([^,()\s]+)\s*(?:,\s*([^,()\s]+)\s*)?\)\s*$", re.I)
+_GROUND = {"0", "gnd"}
+_BRANCH_KINDS = "vleh"  # elements for which ngspice has a <name>#branch vector
+_SENSE_KINDS = "rcdsifg"  # two-terminal currents measured with an inserted 0 V source
+
+
+@dataclass
+class _Probe:
+    text: str
+    kind: str  # "v" or "i"
+    args: tuple[str, ...]  # v: nodes (lower case); i: element name as written
+
+
+@dataclass
+class _ProbePlan:
+    probes: list[_Probe]
+    sensed: list[str]  # elements that get a sense source
+    vectors: list[str] | None  # ngspice vectors to fetch; None = all
+
+    def vector_for_current(self, element: str) -> str:
+        parts = element.lower().split(".")
+        letter = parts[-1][0]
+        if element.lower() in (s.lower() for s in self.sensed):
+            return deck.sense_names(element)[0] + "#branch"
+        if len(parts) == 1:
+            return f"{parts[0]}#branch"
+        return f"{letter}.{'.'.join(parts)}#branch"
+
+
+def _parse_probe(text: str) -> _Probe:
+    m = _PROBE.match(text)
+    if m is None:
+        raise ProbeError(
+            f"malformed probe {text!r}: expected v(node), v(node1,node2) or i(element)"
+        )
+    kind = m.group(1).lower()
+    args = tuple(a for a in (m.group(2), m.group(3)) if a is not None)
+    if kind == "i":
+        if len(args) != 1:
+            raise ProbeError(f"malformed probe {text!r}: i() takes one element name")
+        return _Probe(text, kind, args)
+    return _Probe(text, kind, tuple(a.lower() for a in args))
+
+
+def _plan_probes(text: str, probes: Sequence[str] | None) -> _ProbePlan:
+    """Parse the probes and decide which elements need a sense source."""
+    if probes is None:
+        return _ProbePlan([], [], None)
+    if isinstance(probes, str):
+        probes = [probes]
+    elements = {el.name.lower(): el for el in deck.top_level_elements(text)}
+    parsed = [_parse_probe(p) for p in probes]
+    sensed: list[str] = []
+    vectors: set[str] = {"time"}
+    for p in parsed:
+        if p.kind == "v":
+            vectors.update(n for n in p.args if n not in _GROUND)
+            continue
+        name = p.args[0]
+        parts = name.lower().split(".")
+        letter = parts[-1][:1]
+        if len(parts) == 1 and parts[0] not in elements:
+            known = ", ".join(el.name for el in elements.values())
+            raise ProbeError(f"probe {p.text!r}: no element {name!r} in the netlist ({known})")
+        if letter in _BRANCH_KINDS:
+            continue
+        if letter in _SENSE_KINDS:
+            if len(parts) > 1:
+                raise ProbeError(
+                    f"probe {p.text!r}: currents of {letter.upper()} elements inside "
+                    "subcircuits are not supported yet (only V, L, E, H there)"
+                )
+            if name.lower() not in (s.lower() for s in sensed):
+                sensed.append(name)
+            continue
+        raise ProbeError(f"probe {p.text!r}: {name!r} has no single branch current")
+    plan = _ProbePlan(parsed, sensed, None)
+    for p in parsed:
+        if p.kind == "i":
+            vectors.add(plan.vector_for_current(p.args[0]))
+    plan.vectors = sorted(vectors)
+    return plan
+
+
+def _evaluate_probes(
+    plan: _ProbePlan, vectors: dict[str, np.ndarray], names: list[str], elements: list[str]
+) -> dict[str, np.ndarray]:
+    """Probe -> samples; with no probes, every node voltage and branch current."""
+    time_ = vectors["time"]
+    if plan.vectors is None:
+        return _all_signals(vectors, elements)
+
+    def vec(name: str, probe: str) -> np.ndarray:
+        if name in _GROUND:
+            return np.zeros_like(time_)
+        if name not in vectors:
+            nodes = [n for n in names if "#" not in n and n != "time" and "pelcs_" not in n]
+            raise ProbeError(
+                f"probe {probe!r}: ngspice has no vector {name!r}; nodes: {', '.join(nodes)}"
+            )
+        return np.real(vectors[name])
+
+    out = {}
+    for p in plan.probes:
+        if p.kind == "v":
+            v = vec(p.args[0], p.text)
+            out[p.text] = v - vec(p.args[1], p.text) if len(p.args) == 2 else v.copy()
+        else:
+            out[p.text] = vec(plan.vector_for_current(p.args[0]), p.text).copy()
+    return out
+
+
+def _all_signals(vectors: dict[str, np.ndarray], elements: list[str]) -> dict[str, np.ndarray]:
+    spelled = {e.lower(): e for e in elements}
+    out = {}
+    for name, values in vectors.items():
+        if name == "time" or "pelcs_" in name:
+            continue
+        if name.endswith("#branch"):
+            el = name[: -len("#branch")]
+            if re.match(r"^[a-z]\.", el):  # l.x1.l1 -> x1.l1
+                el = el[2:]
+            out[f"i({spelled.get(el, el)})"] = np.real(values)
+        else:
+            out[f"v({name})"] = np.real(values)
+    return out
+
+
+# ------------------------------------------------------------------------------------------
+# worker processes
+
+
+class _WorkerDied(Exception):
+    pass
+
+
+class _Worker:
+    """One child process running ``_worker.py``; a thread reads its replies into a queue."""
+
+    def __init__(self) -> None:
+        self._stderr = tempfile.TemporaryFile()
+        env = dict(os.environ)
+        env.setdefault("PYTHONUNBUFFERED", "1")
+        self.proc = subprocess.Popen(
+            [sys.executable, str(_WORKER_SCRIPT)],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=self._stderr,
+            env=env,
+        )
+        self._replies: queue.Queue[Any] = queue.Queue()
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+        self.hello: dict | None = None
+
+    def _read(self) -> None:
+        assert self.proc.stdout is not None
+        while True:
+            try:
+                msg = _worker._recv(self.proc.stdout)
+            except Exception:  # a torn message means the child died mid-write
+                msg = None
+            self._replies.put(msg)
+            if msg is None:
+                return
+
+    def receive(self, timeout: float | None) -> dict:
+        try:
+            msg = self._replies.get(timeout=timeout)
+        except queue.Empty:
+            self.kill()
+            raise TimeoutError(f"no answer from the ngspice worker within {timeout} s") from None
+        if msg is None:
+            rc = self.proc.wait()
+            raise _WorkerDied(f"the ngspice worker died (exit code {rc}){self._stderr_tail()}")
+        return msg
+
+    def _stderr_tail(self) -> str:
+        try:
+            self._stderr.seek(0)
+            text = self._stderr.read().decode("utf-8", "replace").strip()
+        except (OSError, ValueError):
+            return ""
+        return ":\n" + text[-2000:] if text else ""
+
+    def handshake(self) -> dict:
+        if self.hello is None:
+            self.hello = self.receive(STARTUP_TIMEOUT)
+        return self.hello
+
+    def send(self, obj: Any) -> None:
+        assert self.proc.stdin is not None
+        try:
+            _worker._send(self.proc.stdin, obj)
+        except (BrokenPipeError, OSError) as exc:
+            raise _WorkerDied(f"the ngspice worker is gone: {exc}{self._stderr_tail()}") from exc
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def kill(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait()
+        self._close_pipes()
+
+    def close(self) -> None:
+        """Let an idle worker exit (EOF on its stdin), killing it if it lingers."""
+        try:
+            if self.proc.stdin is not None:
+                self.proc.stdin.close()
+            self.proc.wait(timeout=2.0)
+        except (OSError, subprocess.TimeoutExpired):
+            self.kill()
+        self._close_pipes()
+
+    def _close_pipes(self) -> None:
+        for stream in (self.proc.stdin, self.proc.stdout, self._stderr):
+            try:
+                if stream is not None:
+                    stream.close()
+            except OSError:
+                pass
+
+
+class _Pool:
+    """At most one idle, pre-started worker; each simulation takes one and starts the next.
+
+    Set ``PELCS_NGSPICE_PREFETCH=0`` to start workers only on demand.
+    """
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._spare: _Worker | None = None
+
+    def take(self, prefetch: bool = True) -> _Worker:
+        with self._lock:
+            worker = self._spare if self._spare is not None and self._spare.alive() else None
+            self._spare = None
+            if worker is None:
+                worker = _Worker()
+            if prefetch and os.environ.get("PELCS_NGSPICE_PREFETCH", "1") != "0":
+                self._spare = _Worker()
+        return worker
+
+    def give_back(self, worker: _Worker) -> None:
+        """Keep an unused (handshaken, idle) worker as the spare, or let it go."""
+        with self._lock:
+            if self._spare is None and worker.alive():
+                self._spare = worker
+                return
+        worker.close()
+
+    def shutdown(self) -> None:
+        with self._lock:
+            spare, self._spare = self._spare, None
+        if spare is not None:
+            spare.kill()
+
+
+_POOL = _Pool()
+atexit.register(_POOL.shutdown)
+
+_INSTALL_HINT = (
+    "install ngspice's shared library (Debian/Ubuntu: apt install libngspice0-dev; "
+    "conda: conda install -c conda-forge ngspice-lib) and PySpice (pip install PySpice), "
+    "or point NGSPICE_LIBRARY_PATH at libngspice"
+)
+
+_status_lock = threading.Lock()
+_status: tuple[bool, str] | None = None  # (available, version or reason)
+
+
+def _check_available() -> tuple[bool, str]:
+    """(True, version) or (False, reason); asked once per process, then cached."""
+    global _status
+    with _status_lock:
+        if _status is not None:
+            return _status
+        import importlib.util
+
+        if importlib.util.find_spec("PySpice") is None:
+            _status = (False, f"PySpice is not installed; {_INSTALL_HINT}")
+            return _status
+        worker = _POOL.take(prefetch=False)
+        try:
+            hello = worker.handshake()
+        except (TimeoutError, _WorkerDied) as exc:
+            worker.kill()
+            _status = (False, f"the ngspice worker did not start: {exc}; {_INSTALL_HINT}")
+            return _status
+        if not hello.get("ok"):
+            worker.kill()
+            _status = (False, f"cannot load ngspice: {hello.get('error')}; {_INSTALL_HINT}")
+            return _status
+        _POOL.give_back(worker)
+        _status = (True, str(hello.get("version", "?")))
+        return _status
+
+
+def ngspice_version() -> str:
+    """The ngspice version PySpice loaded (e.g. ``"39"``); raises NgspiceUnavailable."""
+    ok, info = _check_available()
+    if not ok:
+        raise NgspiceUnavailable(info)
+    return info
+
+
+def _simulate_in_worker(
+    netlist: str, vectors: list[str] | None, timeout: float | None, workdir: str | None
+) -> dict:
+    worker = _POOL.take()
+    try:
+        hello = worker.handshake()
+        if not hello.get("ok"):
+            raise NgspiceUnavailable(f"cannot load ngspice: {hello.get('error')}; {_INSTALL_HINT}")
+        worker.send({"netlist": netlist, "vectors": vectors, "workdir": workdir, "timeout": timeout})
+        # the worker halts a run that cannot finish in time by itself (stall watchdog); the
+        # kill here is for a worker that hangs outright
+        reply = worker.receive(None if timeout is None else timeout + 30.0)
+    except TimeoutError as exc:
+        return {"failure": f"timeout: {exc}", "log": []}
+    except _WorkerDied as exc:
+        return {"failure": f"crash: {exc}", "log": []}
+    finally:
+        worker.close()
+    if "error" in reply:
+        return {"failure": f"worker error: {reply['error']}", "log": reply.get("log", [])}
+    return reply
+
+
+# ------------------------------------------------------------------------------------------
+# judging a run
+
+# lines of ngspice output that mean the analysis did not complete
+_FATAL = re.compile(
+    r"timestep too small|simulation\(s\) aborted|simulation interrupted|"
+    r"transient solution failed|no such vector|singular matrix.*aborted|"
+    r"there aren't any circuits loaded|fatal",
+    re.IGNORECASE,
+)
+
+
+def _tstop_from_listing(listing: list[str]) -> float | None:
+    for line in listing:
+        body = line.split(":", 1)[-1] if re.match(r"^stdout\s+\d+\s*:", line) else ""
+        tokens = deck.split_tokens(body)
+        if tokens and tokens[0].lower() == ".tran" and len(tokens) > 2:
+            return deck.spice_number(tokens[2])
+    return None
+
+
+def _diagnose(reply: dict) -> str | None:
+    """Why the run in ``reply`` failed, or None if it is complete and finite."""
+    if "failure" in reply:
+        return str(reply["failure"])
+    log = reply["log"]
+    load_errors = [
+        line[len("stderr ") :]
+        for line in log[: reply["n_load_lines"]]
+        if line.lower().startswith("stderr error")
+    ]
+    if reply["load_rc"] or load_errors:
+        first = load_errors[0] if load_errors else f"ngSpice_Circ returned {reply['load_rc']}"
+        return f"netlist rejected by ngspice: {first}"
+    fatal = [line for line in log if _FATAL.search(line)]
+    if fatal:
+        return "ngspice: " + fatal[0].split(" ", 1)[-1].strip()
+    if not reply["plot"].startswith("tran"):
+        errors = [line for line in log if line.lower().startswith("stderr")]
+        detail = errors[0][len("stderr ") :] if errors else "no transient analysis ran"
+        return f"no transient result ({detail})"
+    if reply["run_rc"]:
+        return f"ngspice's run command returned {reply['run_rc']}"
+    vectors = reply["vectors"]
+    time_ = vectors.get("time")
+    if time_ is None or len(time_) < 2:
+        return "no time vector in the result"
+    tstop = _tstop_from_listing(reply.get("listing", []))
+    if tstop is not None and time_[-1] < tstop * (1.0 - 1e-9):
+        return f"stopped at t = {time_[-1]:.6g} s before TSTOP = {tstop:.6g} s"
+    for name, values in vectors.items():
+        if not np.all(np.isfinite(values)):
+            return f"vector {name!r} has NaN or inf values"
+    return None
+
+
+# ------------------------------------------------------------------------------------------
+# entry point
+
+
+def _netlist_text(netlist: Any) -> str:
+    if isinstance(netlist, str):
+        return netlist
+    from netlist.writer import write_circuit  # the Circuit path, once the writer exists
+
+    return write_circuit(netlist)
+
+
+def _ladder(
+    settings: NgspiceSettings | Sequence[NgspiceSettings] | None,
+) -> tuple[NgspiceSettings, ...]:
+    if settings is None:
+        return DEFAULT_LADDER
+    if isinstance(settings, NgspiceSettings):
+        return (settings,)
+    ladder = tuple(settings)
+    if not ladder or not all(isinstance(s, NgspiceSettings) for s in ladder):
+        raise TypeError("settings must be None, an NgspiceSettings or a sequence of them")
+    return ladder
+
+
+def run_ngspice(
+    netlist_text: str,
+    probes: Sequence[str] | None = None,
+    *,
+    tstop: float | None = None,
+    tstep: float | None = None,
+    settings: NgspiceSettings | Sequence[NgspiceSettings] | None = None,
+    timeout: float | None = 600.0,
+    workdir: str | os.PathLike[str] | None = None,
+) -> NgspiceResult:
+    """Simulate a netlist's ``.tran`` analysis in ngspice, climbing the ladder on failure.
+
+    Parameters
+    ----------
+    netlist_text : str or netlist.circuit.Circuit
+        ngspice-dialect netlist with a ``.tran`` line (or give ``tstop``). A ``Circuit`` is
+        written with ``netlist.writer.write_circuit``.
+    probes : sequence of str, optional
+        pelcs probes (``v(out)``, ``v(a,b)``, ``i(L1)``, ``i(D1)``). None returns every node
+        voltage as ``v(node)`` and every branch current ngspice has as ``i(Name)``.
+    tstop, tstep : float, optional
+        Override the ``.tran`` stop time and step (s). TSTEP is also ngspice's default for
+        PULSE edges written as 0.
+    settings : NgspiceSettings or sequence of them, optional
+        None tries :data:`DEFAULT_LADDER`; one settings object runs only that (e.g.
+        ``previous.settings_used`` to repeat a run); a sequence is a custom ladder.
+    timeout : float or None
+        Wall-time limit per rung (s); a rung over it is killed and counts as failed.
+    workdir : path, optional
+        Working directory for ngspice (relative ``.include`` files); default: the current one.
+
+    Returns
+    -------
+    NgspiceResult
+
+    Raises
+    ------
+    NgspiceUnavailable
+        PySpice or libngspice cannot be loaded.
+    ProbeError
+        A probe is malformed or names nothing in the circuit.
+    NgspiceFailed
+        No rung succeeded; the message summarises each attempt.
+    """
+    started = time.perf_counter()
+    ok, info = _check_available()
+    if not ok:
+        raise NgspiceUnavailable(info)
+    text = deck.set_tran(_netlist_text(netlist_text), tstep, tstop)
+    if deck.parse_tran(text) is None:
+        raise NgspiceError("the netlist has no usable .tran line; give tstop")
+    plan = _plan_probes(text, probes)
+    for element in plan.sensed:
+        text = deck.insert_sense_source(text, element)
+    elements = [el.name for el in deck.top_level_elements(text)]
+    cwd = None if workdir is None else str(Path(workdir).resolve())
+
+    attempts: list[NgspiceAttempt] = []
+    for rung, rung_settings in enumerate(_ladder(settings)):
+        candidate = apply_settings(text, rung_settings)
+        reply = _simulate_in_worker(candidate, plan.vectors, timeout, cwd)
+        reason = _diagnose(reply)
+        wall = reply.get("load_time", math.nan) + reply.get("run_time", math.nan)
+        attempt = NgspiceAttempt(rung, rung_settings, reason, wall, reply.get("log", []), candidate)
+        attempts.append(attempt)
+        if reason is not None:
+            if reason.startswith("netlist rejected"):
+                break  # no rung repairs a syntax error; say so at once
+            continue
+        signals = _evaluate_probes(plan, reply["vectors"], reply["names"], elements)
+        return NgspiceResult(
+            time=np.real(reply["vectors"]["time"]).copy(),
+            signals=signals,
+            settings_used=rung_settings,
+            rung=rung,
+            wall_time=wall,
+            log=attempt.log,
+            attempts=attempts,
+            netlist=candidate,
+            total_time=time.perf_counter() - started,
+        )
+    summary = "; ".join(f"rung {a.rung} ({a.settings.name}): {a.reason}" for a in attempts)
+    raise NgspiceFailed(f"ngspice failed on every rung tried: {summary}", attempts)
