@@ -8,8 +8,18 @@ of piecewise-linear networks", 2002). For ``x' = A x + B λ + E u``, ``w = C x +
 Existence and uniqueness
     If (A, B, C, D) is passive (a storage ``½ x'Kx``, ``K = K' > 0``, see
     :mod:`lcs.passivity`) and ``col(B, D + D')`` has full column rank, then from every initial
-    state there is exactly one solution (with a state jump at t = 0 if the state is
-    inconsistent). The rank condition says that no combination of complementarity variables is
+    state there is exactly one solution (x, λ) (with a state jump at t = 0 if the state is
+    inconsistent). Passivity alone already makes the *state* trajectory exist and be unique:
+    the KYP inequality forces ``K B = C'`` on ``ker(D + D')``, which is the condition under
+    which the LCS, in the coordinates ``K^{1/2} x``, is a differential inclusion with a maximal
+    monotone right-hand side (Brogliato & Thibault, "Existence and uniqueness of solutions for
+    non-autonomous complementarity dynamical systems", J. Convex Analysis 17, 2010; for D = 0
+    Brogliato, Systems & Control Letters 51, 2004). Uniqueness of x is also elementary: for two
+    solutions, ``d/dt ½|x1 - x2|²_K <= (w1 - w2)'(λ1 - λ2) = -w1'λ2 - w2'λ1 <= 0``.
+    So ``wellposed`` below means: the state trajectory exists and is unique; ``lambda_unique``
+    says whether λ is unique too (rank condition, or D a P-matrix). An ideal diode bridge
+    whose four diodes conduct at once is the typical case of a unique x with a non-unique λ
+    (how the current splits between the two legs is not determined). The rank condition says that no combination of complementarity variables is
     invisible both in the dynamics and in the dissipation; when it fails, the pairs in the null
     space are reported. As an alternative sufficient condition we also report whether D is a
     P-matrix (then λ is a Lipschitz function of (x, u), there are no jumps and the dynamics
@@ -332,8 +342,11 @@ class WellposednessReport:
     Attributes
     ----------
     wellposed : bool
-        True when a sufficient condition holds: passive with ``col(B, D + D')`` of full
-        column rank (Camlibel–Heemels–Schumacher), or D a P-matrix.
+        The state trajectory exists and is unique from every consistent initial state (and
+        jumps from an inconsistent one): true when the LCS is passive, or D is a P-matrix.
+    lambda_unique : bool
+        λ is unique as well: passive with ``col(B, D + D')`` of full column rank
+        (Camlibel–Heemels–Schumacher), or D a P-matrix.
     passive : bool
     rank_ok : bool
         ``col(B, D + D')`` has full column rank.
@@ -361,6 +374,7 @@ class WellposednessReport:
     null_combinations: list[dict[str, float]] = field(default_factory=list)
     deficient_pairs: tuple[str, ...] = ()
     passivity: PassivityReport | None = None
+    lambda_unique: bool = False
 
 
 def _p_matrix(D: np.ndarray) -> bool | None:
@@ -394,7 +408,8 @@ def check_wellposedness(
     m = lcs.m
     if m == 0:
         return WellposednessReport(True, passivity.passive, True, 0, 0, True,
-                                   "no complementarity pairs: a linear ODE", [], (), passivity)
+                                   "no complementarity pairs: a linear ODE", [], (), passivity,
+                                   True)
     Dsym = lcs.D + lcs.D.T
     stack = np.vstack([lcs.B, Dsym])
     # Column scaling makes the rank test unit-free (B in 1/F or 1/H, D + D' in Ω or S).
@@ -432,19 +447,23 @@ def check_wellposedness(
             f"{', '.join(deficient)} change neither x' nor the dissipation, so λ is not unique "
             "there"
         )
-    wellposed = bool(passivity.passive and rank_ok)
-    if wellposed:
-        parts.append("existence and uniqueness of solutions from every initial state "
+    lambda_unique = bool(passivity.passive and rank_ok)
+    wellposed = bool(passivity.passive)
+    if lambda_unique:
+        parts.append("existence and uniqueness of (x, λ) from every initial state "
                      "(Camlibel-Heemels-Schumacher), with a jump from inconsistent states")
     elif pmat:
-        wellposed = True
+        wellposed = lambda_unique = True
         parts.append("but D is a P-matrix: λ is a Lipschitz function of (x, u), unique "
                      "solutions without jumps")
+    elif wellposed:
+        parts.append("the state trajectory still exists and is unique (passivity: maximal "
+                     "monotone inclusion, Brogliato-Thibault 2010); only λ is not unique")
     else:
         parts.append("the sufficient conditions do not hold (solutions may still exist and be "
                      "unique, but it is not guaranteed)")
     return WellposednessReport(wellposed, passivity.passive, rank_ok, rank, m, pmat,
-                               "; ".join(parts), combos, deficient, passivity)
+                               "; ".join(parts), combos, deficient, passivity, lambda_unique)
 
 
 # --------------------------------------------------------------------------------------------

@@ -16,7 +16,6 @@ points and the λ type chosen per diode.
 
 from __future__ import annotations
 
-import importlib.util
 import math
 
 import numpy as np
@@ -866,17 +865,12 @@ def test_many_diodes_each_behind_an_inductor():
 # ----------------------------------------------------------------------------------------
 # The same, from netlist text (netlist.parser)
 
-needs_parser = pytest.mark.skipif(
-    importlib.util.find_spec("netlist.flatten") is None, reason="parser not complete yet")
-
-
 def parsed(text: str):
     from netlist.parser import parse_string
 
     return formulate(parse_string(text, file="<test>"))
 
 
-@needs_parser
 def test_parsed_bridge_with_subcircuit_tank():
     # The bridge of test_bridge_across_lc_tank with the tank in a subcircuit: the states are
     # the hierarchical names, the matrices the same hand result.
@@ -908,7 +902,6 @@ R1 p 0 50
     )
 
 
-@needs_parser
 def test_parsed_prc_matches_dataclass_version():
     text = """parallel resonant converter
 Vs s b PULSE(-50 50 0 10n 10n 9u 18u)
@@ -931,7 +924,6 @@ R o 0 33
     assert got.pairs == want.pairs
 
 
-@needs_parser
 def test_parsed_controlled_source_probes():
     # u = V1, x = i(L2) (q -> 0).  Hand values:
     #   di/dt = u / L = 1000 u

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 
 import numpy as np
@@ -85,11 +84,6 @@ Vg gate 0 DC 0
 .end
 """
 
-needs_parser = pytest.mark.skipif(
-    importlib.util.find_spec("netlist.flatten") is None, reason="parser not complete yet")
-
-
-@needs_parser
 def test_cli_json(tmp_path, capsys):
     from pelcs.cli import main
 
@@ -105,12 +99,30 @@ def test_cli_json(tmp_path, capsys):
     np.testing.assert_allclose(mode["A"], [[0, 0], [0, -500]])
     assert report["passive"] is True and mode["passive"] is True
     assert "gdcm" in mode and "wellposedness" in mode
-    if mode["gdcm"] is not None:  # lcs.gdcm present: S1 on, the diode's w = v(C1)
-        (cond,) = mode["gdcm"]
-        assert cond["pairs"] == ["D1"] and "v(C1)" in cond["region"][0]
+    # S1 on: λ = i(D1), w = v(out) - v(sw) = v(C1) (hand derivation)
+    (cond,) = mode["gdcm"]
+    assert cond["diode"] == "D1"
+    assert cond["y"] == pytest.approx({"v(C1)": 1.0})
 
 
-@needs_parser
+def test_cli_json_gdcm_boost_switch_open(tmp_path, capsys):
+    # S1 off: λ = v(out) - v(sw), w = i(L1). L di/dt = Vin - v(sw) = Vin - v(C1) + λ, so
+    # CB = 1/L and Γ = -(C A x + C E u)/(C B) = v(C1) - Vin: the region i(L1) = 0, v(C1) > Vin.
+    from pelcs.cli import main
+
+    path = tmp_path / "boost.cir"
+    path.write_text(BOOST_NETLIST)
+    assert main(["lcs", str(path), "--json", "--mode", "S1=off"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    (mode,) = report["modes"]
+    assert mode["lambda_kinds"] == {"D1": "voltage"}
+    (cond,) = mode["gdcm"]
+    assert cond["diode"] == "D1"
+    assert cond["y"] == pytest.approx({"i(L1)": 1.0})
+    assert cond["gamma"] == pytest.approx({"v(C1)": 1.0, "Vin": -1.0})
+    assert mode["wellposedness"]["wellposed"] is True
+
+
 def test_cli_text_and_errors(tmp_path, capsys):
     from pelcs.cli import main
 

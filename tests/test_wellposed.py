@@ -197,7 +197,7 @@ def test_positive_definite_d_everything_consistent():
 @pytest.mark.parametrize("builder", [boost_open, boost_closed, two_caps])
 def test_wellposed_circuits(builder):
     rep = check_wellposedness(builder())
-    assert rep.wellposed and rep.passive and rep.rank_ok, rep.reason
+    assert rep.wellposed and rep.lambda_unique and rep.passive and rep.rank_ok, rep.reason
     assert "full column rank" in rep.reason
 
 
@@ -208,7 +208,9 @@ def test_parallel_diodes_rank_fails():
               np.zeros((2, 2)), np.zeros((2, 0)), np.zeros((2, 0)), ("v(C1)", "v(C2)"),
               (Pair("D1"), Pair("D2")), ())
     rep = check_wellposedness(lcs, energy=np.diag([C1, C2]))
-    assert rep.passive and not rep.rank_ok and not rep.wellposed
+    # x is unique (passivity) but λ is not: the split between the parallel diodes is free.
+    assert rep.passive and not rep.rank_ok and rep.wellposed and not rep.lambda_unique
+    assert "only λ is not unique" in rep.reason
     assert rep.rank == 1 and rep.deficient_pairs == ("D1", "D2")
     (combo,) = rep.null_combinations
     assert combo["D1"] == pytest.approx(-combo["D2"])
@@ -217,7 +219,7 @@ def test_parallel_diodes_rank_fails():
 
 def test_bridge_rank_fails_with_all_four():
     rep = check_wellposedness(bridge_tank(), energy=np.diag([1e-3, 1e-6, 100e-6]))
-    assert rep.passive and not rep.rank_ok
+    assert rep.passive and not rep.rank_ok and rep.wellposed and not rep.lambda_unique
     assert rep.deficient_pairs == ("D1", "D2", "D3", "D4")
     (combo,) = rep.null_combinations
     np.testing.assert_allclose([combo[k] for k in ("D1", "D2", "D3", "D4")],
@@ -229,7 +231,7 @@ def test_not_passive_but_p_matrix():
     lcs = LCS([[1.0]], [[1.0]], [[1.0]], [[2.0]], np.zeros((1, 0)), np.zeros((1, 0)),
               ("v(C1)",), (Pair("D1"),), ())
     rep = check_wellposedness(lcs)
-    assert not rep.passive and rep.p_matrix and rep.wellposed
+    assert not rep.passive and rep.p_matrix and rep.wellposed and rep.lambda_unique
     assert "P-matrix" in rep.reason
 
 
@@ -237,5 +239,5 @@ def test_not_passive_not_wellposed():
     lcs = LCS([[1.0]], [[1.0]], [[1.0]], [[0.0]], np.zeros((1, 0)), np.zeros((1, 0)),
               ("x",), (Pair("D1"),), ())
     rep = check_wellposedness(lcs)
-    assert not rep.wellposed and not rep.passive
+    assert not rep.wellposed and not rep.lambda_unique and not rep.passive
     assert "not passive" in rep.reason

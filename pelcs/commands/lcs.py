@@ -77,14 +77,8 @@ def _usage_error(message: str, hint: str = "") -> NetlistError:
 
 def parse_params(items: list[str]) -> dict[str, float]:
     """``["vin=12", "fs=50k"]`` -> ``{"vin": 12.0, "fs": 50000.0}``."""
-    try:
-        from netlist.units import parse_number
-    except ImportError:  # pragma: no cover - the parser package provides it
-        def parse_number(text: str) -> float | None:
-            try:
-                return float(text)
-            except ValueError:
-                return None
+    from netlist.units import parse_number
+
     params: dict[str, float] = {}
     for item in items:
         name, sep, text = item.partition("=")
@@ -134,10 +128,8 @@ def _passivity(lcs: LCS, energy: np.ndarray):
     candidate certificate (exact for circuits of non-negative resistors and no active
     elements), then its general search.
     """
-    try:
-        from lcs.passivity import check_passivity
-    except ImportError:  # pragma: no cover - written in parallel; then passivity is unknown
-        return {"passive": None, "reason": "lcs.passivity not available"}, None
+    from lcs.passivity import check_passivity
+
     rep = check_passivity(lcs, energy=energy)
     margin = float(rep.margin)
     summary = {"passive": bool(rep.passive), "method": rep.method, "reason": rep.reason,
@@ -147,15 +139,11 @@ def _passivity(lcs: LCS, energy: np.ndarray):
 
 def _wellposedness(lcs: LCS, passivity_report) -> dict | None:
     """Sufficient well-posedness conditions (:mod:`lcs.wellposed`) of one mode."""
-    if passivity_report is None:
-        return None
-    try:
-        from lcs.wellposed import check_wellposedness
-    except ImportError:  # pragma: no cover - written in parallel
-        return None
+    from lcs.wellposed import check_wellposedness
+
     rep = check_wellposedness(lcs, passivity_report)
-    return {"wellposed": bool(rep.wellposed), "reason": rep.reason,
-            "deficient_pairs": list(rep.deficient_pairs)}
+    return {"wellposed": bool(rep.wellposed), "lambda_unique": bool(rep.lambda_unique),
+            "reason": rep.reason, "deficient_pairs": list(rep.deficient_pairs)}
 
 
 def _gdcm(lcs: LCS) -> list[dict] | None:
@@ -163,19 +151,23 @@ def _gdcm(lcs: LCS) -> list[dict] | None:
 
     One entry per diode that can be held at w = 0 with λ > 0: the region (forms that vanish
     on it), Γ (the λ that holds it, > 0 inside), the relative degree and whether the
-    continuation is unique. ``None`` if :mod:`lcs.gdcm` is not available.
+    continuation is unique. ``y`` and ``gamma`` are the linear functionals (coefficients by
+    state and input name) of the region ``y = 0, gamma > 0``; for relative degree r > 1 the
+    derivatives that must vanish too are in ``y_derivatives``.
     """
-    try:
-        from lcs.gdcm import gdcm_conditions
-    except ImportError:  # pragma: no cover - written in parallel
-        return None
+    from lcs.gdcm import gdcm_conditions
+
     return [{
+        "diode": cond.pairs[0],
+        "y": cond.y[0].as_dict(),
+        "gamma": cond.gamma[0].as_dict(),
+        "y_derivatives": [f.as_dict() for f in cond.y[1:]],
         "pairs": list(cond.pairs),
         "relative_degree": int(cond.relative_degree),
         "dimension_loss": int(cond.dimension_loss),
         "unique": bool(cond.unique),
         "region": [f"{f.label} = {f} = 0" for f in cond.y],
-        "gamma": [f"{f.label} = {f} > 0" for f in cond.gamma],
+        "gamma_text": [f"{f.label} = {f} > 0" for f in cond.gamma],
         "others": [f"{f.label} = {f} >= 0" for f in cond.others],
     } for cond in gdcm_conditions(lcs)]
 
@@ -272,7 +264,7 @@ def format_report(report: dict) -> str:
             out.append(f"GDCM of {', '.join(cond['pairs'])} (relative degree "
                        f"{cond['relative_degree']}, "
                        f"{'unique' if cond['unique'] else 'non-unique'} continuation): "
-                       + "; ".join(cond["region"] + cond["gamma"] + cond["others"]))
+                       + "; ".join(cond["region"] + cond["gamma_text"] + cond["others"]))
     if report["modes"]:
         verdict = {True: "every mode passive", False: "not every mode passive",
                    None: "passivity unknown"}[report["passive"]]
