@@ -85,6 +85,24 @@ def build_circuit(deck: Deck, overrides: Mapping[str, float] | None = None) -> C
     return circuit
 
 
+def independent_problems(deck: Deck, overrides: Mapping[str, float] | None = None
+                         ) -> list[Diagnostic]:
+    """Problems of a deck that some statements of could not be read.
+
+    The statements with syntax errors are missing from ``deck``, so only problems that a
+    missing statement cannot cause (or hide) are returned: bad values, expression errors other
+    than unknown names, duplicate definitions, parameter cycles, malformed instances. Unknown
+    parameters, models, subcircuits and controlling sources, and the connectivity checks, wait
+    until the syntax is fixed.
+    """
+    builder = _Builder(deck)
+    circuit = builder.build(overrides or {})
+    diags = [d for i, d in enumerate(builder.diags) if i not in builder.dependent]
+    diags += [d for d in check_circuit(circuit, builder.ref_locs, topology=False)
+              if d.message.startswith("duplicate element name")]
+    return diags
+
+
 def _ordered(diags: list[Diagnostic], files: list[str]) -> list[Diagnostic]:
     """Drop repeats (one definition used by many instances) and sort in file order."""
     seen = set()
@@ -116,9 +134,13 @@ class _Builder:
         self.global_env: dict[str, float] = {}
         self.global_failed: set[str] = set()
         self.incomplete = False  # an instance could not be expanded
+        self.dependent: set[int] = set()  # indices in diags, see independent_problems
 
     def error(self, message: str, loc: Location | None, hint: str = "",
-              elements: tuple[str, ...] = ()) -> None:
+              elements: tuple[str, ...] = (), dependent: bool = False) -> None:
+        """Record a problem; ``dependent`` if a statement missing from the deck may cause it."""
+        if dependent:
+            self.dependent.add(len(self.diags))
         self.diags.append(Diagnostic(message, loc, hint, elements))
 
     # ------------------------------------------------------------------ parameters
@@ -143,7 +165,8 @@ class _Builder:
                 close = difflib.get_close_matches(name, list(env) + list(CONSTANTS), n=3)
                 if close:
                     hint = f"did you mean {' or '.join(close)}? ({hint})"
-            self.error(exc.message, value.st.loc(value.offset + exc.offset), hint)
+            self.error(exc.message, value.st.loc(value.offset + exc.offset), hint,
+                       dependent=exc.message.startswith("unknown parameter"))
             return None
 
     def scope(self, defs: list[RawParam], fixed: Mapping[str, float],
@@ -240,7 +263,8 @@ class _Builder:
             if key not in defined:
                 known = ", ".join(sorted(defined)) or "none"
                 self.error(f"unknown parameter '{name}' in the overrides (--param)", None,
-                           f"the netlist defines these global parameters: {known}")
+                           f"the netlist defines these global parameters: {known}",
+                           dependent=True)
             else:
                 fixed[key] = float(value)
         self.global_env, self.global_failed = self.scope(deck.top.params, fixed, {}, set())
@@ -343,7 +367,7 @@ class _Builder:
             known = ", ".join(s.name for s in self.deck.subckts.values()) or "none defined"
             self.error(f"unknown subcircuit '{el.ref}' in instance {name_prefix}{el.name}",
                        st.loc(el.ref_offset), f"define it with .subckt {el.ref} ... .ends "
-                       f"(subcircuits: {known})")
+                       f"(subcircuits: {known})", dependent=True)
             self.incomplete = True
             return
         if key in stack:

@@ -474,6 +474,24 @@ class _Reader:
             loc = st.loc(offset)
         self.diags.append(Diagnostic(message, loc, hint))
 
+    def raise_problems(self, overrides: dict[str, float] | None) -> None:
+        """Raise the syntax problems, with the problems of the rest that they cannot cause.
+
+        Parameters
+        ----------
+        overrides : dict, optional
+            Parameter overrides, for evaluating the statements that could be read; ``None``
+            to report the syntax problems alone.
+        """
+        if not self.diags:
+            return
+        from .flatten import _ordered, independent_problems
+
+        diags = list(self.diags)
+        if overrides is not None:
+            diags += independent_problems(self.deck, overrides)
+        raise NetlistError(_ordered(diags, self.deck.files), self.deck.file)
+
     # -- files
 
     def read_top(self, text: str, file: str, base: Path | None) -> None:
@@ -1009,8 +1027,7 @@ def read_deck(text: str, file: str = "<string>", path: Path | None = None) -> De
     """
     reader = _Reader(file)
     reader.read_top(text, file, path.resolve() if path is not None else None)
-    if reader.diags:
-        raise NetlistError(reader.diags, file)
+    reader.raise_problems(None)
     return reader.deck
 
 
@@ -1040,10 +1057,13 @@ def parse_string(text: str, file: str = "<string>",
     """
     from .flatten import build_circuit
 
+    params = params or {}
     if "\x00" in text:
         _decode(text.encode("utf-8", errors="surrogatepass"), file)
-    deck = read_deck(text, file)
-    return build_circuit(deck, params)
+    reader = _Reader(file)
+    reader.read_top(text, file, None)
+    reader.raise_problems(params)
+    return build_circuit(reader.deck, params)
 
 
 def parse_file(path: str | os.PathLike, params: dict[str, float] | None = None) -> Circuit:
@@ -1063,6 +1083,7 @@ def parse_file(path: str | os.PathLike, params: dict[str, float] | None = None) 
     """
     from .flatten import build_circuit
 
+    params = params or {}
     display = os.fspath(path)
     p = Path(display)
     text = _decode(_read_bytes(p, display, None), display)
@@ -1072,8 +1093,7 @@ def parse_file(path: str | os.PathLike, params: dict[str, float] | None = None) 
     except (OSError, RuntimeError):
         resolved = p
     reader.read_top(text, display, resolved)
-    if reader.diags:
-        raise NetlistError(reader.diags, display)
+    reader.raise_problems(params)
     return build_circuit(reader.deck, params)
 
 
