@@ -188,8 +188,17 @@ def _library_path(default: str) -> str:
 
 def _tstop(listing: list[str]) -> float | None:
     """TSTOP from the ``.tran`` line of ``listing expand`` (numbers, maybe with suffixes)."""
-    scale = {"t": 1e12, "g": 1e9, "meg": 1e6, "k": 1e3, "m": 1e-3, "u": 1e-6, "n": 1e-9,
-             "p": 1e-12, "f": 1e-15}
+    scale = {
+        "t": 1e12,
+        "g": 1e9,
+        "meg": 1e6,
+        "k": 1e3,
+        "m": 1e-3,
+        "u": 1e-6,
+        "n": 1e-9,
+        "p": 1e-12,
+        "f": 1e-15,
+    }
     for line in listing:
         tokens = line.split(":", 1)[-1].split()
         if len(tokens) > 2 and tokens[0].lower() == ".tran":

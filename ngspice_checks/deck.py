@@ -236,9 +236,7 @@ def _at_least(value: str | None, floor: float) -> str:
     return f"{{max({inner}, {format_number(floor)})}}"
 
 
-def replace_switch_models(
-    text: str, ron: float, roff: float, vh_min: float = 0.0
-) -> str:
+def replace_switch_models(text: str, ron: float, roff: float, vh_min: float = 0.0) -> str:
     """Set RON/ROFF of every SW model and raise its hysteresis VH to at least ``vh_min``.
 
     VT (the threshold) is part of the circuit's behaviour and is kept, as is any larger VH.

@@ -656,7 +656,9 @@ def _simulate_in_worker(
         hello = worker.handshake()
         if not hello.get("ok"):
             raise NgspiceUnavailable(f"cannot load ngspice: {hello.get('error')}; {_INSTALL_HINT}")
-        worker.send({"netlist": netlist, "vectors": vectors, "workdir": workdir, "timeout": timeout})
+        worker.send(
+            {"netlist": netlist, "vectors": vectors, "workdir": workdir, "timeout": timeout}
+        )
         # the worker halts a run that cannot finish in time by itself (stall watchdog); the
         # kill here is for a worker that hangs outright
         reply = worker.receive(None if timeout is None else timeout + 30.0)
