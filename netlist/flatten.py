@@ -22,6 +22,7 @@ inductors) get the same prefix. ``.model`` lines inside a body are global.
 from __future__ import annotations
 
 import difflib
+import math
 from collections import ChainMap
 from collections.abc import Callable, Mapping
 
@@ -266,7 +267,15 @@ class _Builder:
                            f"the netlist defines these global parameters: {known}",
                            dependent=True)
             else:
-                fixed[key] = float(value)
+                try:
+                    number = float(value)
+                except (TypeError, ValueError):
+                    number = math.nan
+                if not math.isfinite(number):
+                    self.error(f"override of parameter '{name}' is not a finite number: "
+                               f"{value!r}", None, "give a number, e.g. --param fs=100k")
+                    continue
+                fixed[key] = number
         self.global_env, self.global_failed = self.scope(deck.top.params, fixed, {}, set())
         c.params = dict(self.global_env)
         self.models()

@@ -344,3 +344,9 @@ def test_long_parameter_chain_in_reverse_order():
     chain = "".join(f".param a{i}={{a{i - 1}+1}}\n" for i in range(n, 0, -1))
     c = parse(f"{chain}.param a0=0\nV1 x 0 {{a{n}}}\nR1 x 0 1\n")
     assert c.element("V1").dc == n
+
+
+@pytest.mark.parametrize("bad", [float("nan"), float("inf"), "abc", None])
+def test_override_must_be_a_finite_number(bad):
+    with pytest.raises(NetlistError, match="override of parameter 'fs' is not a finite number"):
+        parse(".param fs=1k\nV1 a 0 {fs}\nR1 a 0 1\n", params={"fs": bad})
