@@ -252,30 +252,52 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
     events: list[tuple[float, tuple[bool, ...]]] = []
     bounds = np.concatenate(([t0], breakpoints, [t1]))
     tol = MERGE_FRACTION * h
-    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
-        sa = float(a)
-        sb = float(b)
+    # Inputs at every segment end, once (vectorised): right limits at the starts, left
+    # limits at the ends. Controls are then small matrix products per segment.
+    u_start = evaluate_inputs(inputs, bounds[:-1], +1)
+    u_end = evaluate_inputs(inputs, bounds[1:], -1)
+    lin_cache: dict = {}
+
+    def linear_rows(mode) -> list[bool]:
+        if mode not in lin_cache:
+            rows = maps.rows(mode)
+            lin_cache[mode] = [
+                linear_inputs or all(getattr(inputs[j], "piecewise_linear", False)
+                                     for j in np.flatnonzero(rows[i]))
+                for i in range(len(sw))
+            ]
+        return lin_cache[mode]
+
+    for s_idx in range(len(bounds) - 1):
+        sa0 = sa = float(bounds[s_idx])
+        sb = float(bounds[s_idx + 1])
         just_flipped: list[int] = []
         while sa < sb:
             rows = maps.rows(mode)
-            ca = controls(mode, sa, +1)[0]
-            cb = controls(mode, sb, -1)[0]
+            lin = linear_rows(mode)
+            ca0 = rows @ u_start[s_idx]
+            cb = rows @ u_end[s_idx]
+            if sa > sa0:
+                # After an event inside the segment: the control there, by interpolation
+                # where it is linear, by evaluation otherwise.
+                frac = (sa - sa0) / (sb - sa0)
+                c_at = controls(mode, sa, 0)[0] if not all(lin) else None
+                ca = np.array([ca0[i] + (cb[i] - ca0[i]) * frac if lin[i] else c_at[i]
+                               for i in range(len(sw))])
+            else:
+                ca = ca0
             best = None
             flips = []
             for i in range(len(sw)):
-                if not np.any(rows[i]):
+                if not rows[i].any():
                     continue
                 up = not mode[i]
                 thr = vt[i] + vh[i] if up else vt[i] - vh[i]
-                lin = linear_inputs or all(
-                    getattr(inputs[j], "piecewise_linear", False)
-                    for j in np.flatnonzero(rows[i])
-                )
 
                 def fun(tt, i=i, mode=mode):
                     return controls(mode, tt, 0)[:, i]
 
-                tc = _first_crossing(fun, sa, sb, ca[i], cb[i], thr, up, lin, h,
+                tc = _first_crossing(fun, sa, sb, ca[i], cb[i], thr, up, lin[i], h,
                                      skip_start=i in just_flipped)
                 if tc is None:
                     continue
@@ -313,76 +335,78 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
 # ---------------------------------------------------------------------------------------------
 
 
-def segment_steps(sa: float, sb: float, h: float) -> tuple[int, float]:
-    """Regular steps and the length of the final shortened step of ``[sa, sb]``.
+@dataclass(frozen=True)
+class GridPlan:
+    """The step sequence over consecutive segments ``bounds[i] .. bounds[i+1]``.
 
-    Returns ``(n_regular, h_last)`` with ``h_last == 0`` when the segment is a whole number of
-    steps (up to round-off). A remainder shorter than ``SNAP_FRACTION * h`` is merged into the
-    last regular step (one longer odd step) so that no needlessly tiny step is taken.
+    Each segment starts its own uniform grid ``sa + j h`` (j = 1..n_regular) and ends with
+    one shortened ("odd") step of length ``last`` onto ``sb`` when the segment is not a whole
+    number of steps. A remainder shorter than ``SNAP_FRACTION * h`` is merged into the last
+    regular step (one slightly longer odd step) so that no needlessly tiny step is taken.
+
+    Attributes
+    ----------
+    bounds : ndarray, shape (S + 1,)
+        Segment boundaries, s.
+    n_regular : ndarray of int64, shape (S,)
+    last : ndarray, shape (S,)
+        Length of the final odd step, s (0: none, the grid lands on ``sb``).
+    start : ndarray of int64, shape (S + 1,)
+        Global index of each segment's first step (``start[-1]`` = total steps).
     """
+
+    bounds: np.ndarray
+    h: float
+    n_regular: np.ndarray
+    last: np.ndarray
+    start: np.ndarray
+
+    @property
+    def total(self) -> int:
+        return int(self.start[-1])
+
+
+def plan_grid(bounds: np.ndarray, h: float) -> GridPlan:
+    """Step counts of every segment (vectorised)."""
+    bounds = np.asarray(bounds, dtype=float)
+    sa, sb = bounds[:-1], bounds[1:]
     L = sb - sa
     r = L / h
-    N = int(round(r))
-    if N >= 1 and abs(L - N * h) <= MERGE_FRACTION * h * max(1.0, r):
-        return N, 0.0
-    N = int(np.floor(r))
-    rem = L - N * h
-    if rem <= 0.0:  # floor round-off
-        N -= 1
-        rem = L - N * h
-    if N >= 1 and rem < SNAP_FRACTION * h:
-        return N - 1, h + rem
-    return N, rem
+    N = np.rint(r)
+    aligned = (N >= 1) & (np.abs(L - N * h) <= MERGE_FRACTION * h * np.maximum(1.0, r))
+    Nf = np.floor(r)
+    rem = L - Nf * h
+    fix = rem <= 0.0  # floor round-off
+    Nf = np.where(fix, Nf - 1, Nf)
+    rem = np.where(fix, L - Nf * h, rem)
+    snap = (Nf >= 1) & (rem < SNAP_FRACTION * h)
+    n_reg = np.where(aligned, N, np.where(snap, Nf - 1, Nf)).astype(np.int64)
+    last = np.where(aligned, 0.0, np.where(snap, h + rem, rem))
+    nsteps = n_reg + (last > 0)
+    start = np.concatenate(([0], np.cumsum(nsteps))).astype(np.int64)
+    return GridPlan(bounds, float(h), n_reg, last, start)
 
 
-def count_steps(bounds: np.ndarray, h: float) -> int:
-    total = 0
-    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
-        n, last = segment_steps(float(a), float(b), h)
-        total += n + (1 if last > 0 else 0)
-    return total
-
-
-def grid_chunks(bounds: np.ndarray, h: float, chunk: int):
-    """Yield ``(t, odd)`` pieces of the step grid over consecutive segments ``bounds``.
+def grid_chunks(plan: GridPlan, chunk: int):
+    """Yield ``(t, odd, seg)`` for consecutive pieces of at most ``chunk`` steps.
 
     ``t`` (k + 1,) are step boundaries (the first is the end of the previous piece), ``odd``
-    (k,) flags shortened steps. Regular steps start at ``sa + j h`` from each segment start
-    ``sa``; the last step of each segment ends exactly on ``sb``.
+    (k,) flags shortened steps and ``seg`` (k,) gives each step's segment index.
     """
-    t_parts: list[np.ndarray] = []
-    o_parts: list[np.ndarray] = []
-    count = 0
-    t_prev = float(bounds[0])
-
-    def flush():
-        nonlocal t_parts, o_parts, count, t_prev
-        t = np.concatenate([[t_prev], *t_parts])
-        o = np.concatenate(o_parts)
-        t_parts, o_parts, count = [], [], 0
+    total = plan.total
+    t_prev = float(plan.bounds[0])
+    for g0 in range(0, total, chunk):
+        g = np.arange(g0, min(total, g0 + chunk), dtype=np.int64)
+        seg = np.searchsorted(plan.start, g, side="right") - 1
+        j = g - plan.start[seg]
+        sa = plan.bounds[seg]
+        sb = plan.bounds[seg + 1]
+        nreg = plan.n_regular[seg]
+        odd = j >= nreg
+        t_end = np.where(odd, sb, sa + (j + 1) * plan.h)
+        # A segment that is a whole number of steps ends exactly on its boundary.
+        exact_end = (j == nreg - 1) & (plan.last[seg] == 0.0)
+        t_end = np.where(exact_end, sb, t_end)
+        t = np.concatenate(([t_prev], t_end))
         t_prev = float(t[-1])
-        return t, o
-
-    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
-        sa, sb = float(a), float(b)
-        n, last = segment_steps(sa, sb, h)
-        j0 = 0
-        while j0 < n:
-            j1 = min(n, j0 + (chunk - count))
-            ends = sa + np.arange(j0 + 1, j1 + 1) * h
-            if j1 == n and last == 0.0:
-                ends[-1] = sb
-            t_parts.append(ends)
-            o_parts.append(np.zeros(j1 - j0, np.bool_))
-            count += j1 - j0
-            j0 = j1
-            if count >= chunk:
-                yield flush()
-        if last > 0.0:
-            t_parts.append(np.array([sb]))
-            o_parts.append(np.ones(1, np.bool_))
-            count += 1
-            if count >= chunk:
-                yield flush()
-    if count:
-        yield flush()
+        yield t, odd, seg

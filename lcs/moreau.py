@@ -37,11 +37,11 @@ from .events import (
     MERGE_FRACTION,
     InputFunction,
     collect_breakpoints,
-    count_steps,
     evaluate_inputs,
     grid_chunks,
     has_jumps,
     merge_close,
+    plan_grid,
     source_switch_events,
 )
 from .lcp import LcpOptions, is_p_matrix, solve_lcp
@@ -398,7 +398,8 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, bps, mode
     for a in bounds[:-1]:
         j = int(np.searchsorted(ev_t, a + MERGE_FRACTION * h, side="right")) - 1
         seg_modes.append(mode0 if j < 0 else ev_modes[j])
-    total_steps = count_steps(bounds, h)
+    plan = plan_grid(bounds, h)
+    total_steps = plan.total
     cap = total_steps // every + 3
     jumps = has_jumps(inputs)
 
@@ -456,33 +457,37 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, bps, mode
     bar = _progress_bar(bool(progress) and sys.stderr.isatty() and est > 1.0, total_steps)
     t_last = t_start  # time of the current x
     cur_mode = tuple(mode0)
-    n_intervals = 0
+    # Modes by integer id so that a chunk of the grid can be split into runs of one mode.
+    mode_list: list[ModeKey] = []
+    for md_key in seg_modes:
+        if md_key not in mode_list:
+            mode_list.append(md_key)
+    seg_mode_id = np.array([mode_list.index(k_) for k_ in seg_modes], dtype=np.int64)
+    n_intervals = 1 + int(np.count_nonzero(np.diff(seg_mode_id)))
     try:
-        i = 0
-        nseg = len(seg_modes)
-        while i < nseg and error is None:
-            j = i
-            while j + 1 < nseg and seg_modes[j + 1] == seg_modes[i]:
-                j += 1
-            mode = seg_modes[i]
-            md = mode_data(mode)
-            if mode not in visited:
-                visited.append(mode)
-            if md.lcs.n != n or md.lcs.m != m:
-                raise ValueError("all modes must have the same numbers of states and pairs")
-            cur_mode = mode
-            n_intervals += 1
-            for tg, odd in grid_chunks(bounds[i:j + 2], h, opts.chunk_steps):
-                if jumps:
-                    U0 = np.ascontiguousarray(evaluate_inputs(inputs, tg[:-1], +1))
-                    U1 = np.ascontiguousarray(evaluate_inputs(inputs, tg[1:], -1))
-                else:
-                    U = evaluate_inputs(inputs, tg)
-                    U0, U1 = U[:-1], U[1:]
-                k0 = 0
+        for tg, odd, seg in grid_chunks(plan, opts.chunk_steps):
+            # Inputs for the whole chunk at once (one vectorised evaluation per chunk).
+            if jumps:
+                U0 = np.ascontiguousarray(evaluate_inputs(inputs, tg[:-1], +1))
+                U1 = np.ascontiguousarray(evaluate_inputs(inputs, tg[1:], -1))
+            else:
+                U = evaluate_inputs(inputs, tg)
+                U0, U1 = U[:-1], U[1:]
+            mid = seg_mode_id[seg]
+            cuts = np.concatenate(([0], np.flatnonzero(mid[1:] != mid[:-1]) + 1, [len(mid)]))
+            for r0, r1 in zip(cuts[:-1], cuts[1:], strict=True):
+                mode = mode_list[int(mid[r0])]
+                md = mode_data(mode)
+                if mode not in visited:
+                    visited.append(mode)
+                if md.lcs.n != n or md.lcs.m != m:
+                    raise ValueError("all modes must have the same numbers of states and pairs")
+                cur_mode = mode
+                k0 = int(r0)
                 while True:
-                    status, k = _call_kernel(md, theta, h, tg[k0:], odd[k0:], U0[k0:], U1[k0:],
-                                             x, lam, ivars, fvars, max_piv, every, T_out, Y_out)
+                    status, k = _call_kernel(md, theta, h, tg[k0:r1 + 1], odd[k0:r1],
+                                             U0[k0:r1], U1[k0:r1], x, lam, ivars, fvars,
+                                             max_piv, every, T_out, Y_out)
                     if status == STEP_OK:
                         break
                     kk = k0 + k
@@ -492,12 +497,15 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, bps, mode
                         t_last = float(tg[kk])
                         break
                     k0 = kk + 1
+                    if k0 >= r1:
+                        break
                 if error is not None:
                     break
-                t_last = float(tg[-1])
-                if bar is not None:
-                    bar.update(len(odd))
-            i = j + 1
+                t_last = float(tg[r1])
+            if error is not None:
+                break
+            if bar is not None:
+                bar.update(len(odd))
     finally:
         if bar is not None:
             bar.close()
