@@ -17,6 +17,16 @@ Layers:
   errors. Every breakpoint and switching instant is a step boundary (the step that would cross
   it is shortened).
 
+Accuracy: as in Siconos (γ unused), the complementarity impulse ``h W B λ_k+1`` is implicit
+Euler. θ = 1/2 is therefore second order only while no pair carries a nonzero λ (m = 0, all
+diodes blocking with λ = 0, or λ = 0 pairs such as a freewheeling diode in series with an
+inductor); on intervals where a pair is active with ``D`` ≠ 0 the scheme is first order for
+every θ (tests/test_moreau.py checks both).
+
+Grid: every source breakpoint, user breakpoint and switching instant is a step boundary; each
+segment between boundaries starts its own uniform grid ``sa + j h`` and ends with one
+shortened step (merged into the previous step when shorter than 1 % of h).
+
 Errors: a step whose LCP has no solution (or whose solutions give different next states, or
 that produces NaN/inf) stops the run. :func:`simulate` does not raise then: it returns the
 result computed so far with ``result.error`` set to a :class:`~lcs.results.SimulationError`
@@ -394,10 +404,8 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, bps, mode
     ev_modes = [md for _, md in events]
     # Mode of segment i: the last event at or before its start (events are merged into
     # bounds, so an event time is a segment start up to MERGE_FRACTION * h).
-    seg_modes = []
-    for a in bounds[:-1]:
-        j = int(np.searchsorted(ev_t, a + MERGE_FRACTION * h, side="right")) - 1
-        seg_modes.append(mode0 if j < 0 else ev_modes[j])
+    last_event = np.searchsorted(ev_t, bounds[:-1] + MERGE_FRACTION * h, side="right") - 1
+    seg_modes = [tuple(mode0) if j < 0 else ev_modes[j] for j in last_event.tolist()]
     plan = plan_grid(bounds, h)
     total_steps = plan.total
     cap = total_steps // every + 3
