@@ -254,7 +254,9 @@ class _Formulator:
             ncp, ncm = sw.control
             self.switch_controls.append(SwitchControl(
                 name=sw.name, control=f"v({ncp},{ncm})", vt=float(params.get("vt", 0.0)),
-                vh=float(params.get("vh", 0.0)), options=dict(params)))
+                vh=float(params.get("vh", 0.0)),
+                options={**params, "initial": sw.initial} if sw.initial is not None
+                else dict(params)))
 
         self.Lmat = np.zeros((0, 0))  # set by _inductance_inverse
         self.Linv = self._inductance_inverse(bad)

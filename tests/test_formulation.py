@@ -954,3 +954,21 @@ Rg g 0 1
     out = sys.outputs((), probes)
     close(out.Cy, [[-1], [0], [0], [-3], [3], [-4], [4], [0], [0], [1]])
     close(out.Fy, [[-0.5], [2], [-2], [-1.5], [1.5], [-2], [2], [5], [-5], [0]])
+
+
+def test_switch_initial_state_reaches_the_switch_control():
+    from netlist.parser import parse_string
+
+    text = """initial state
+V1 in 0 DC 1
+S1 in out ctl 0 SWM ON
+S2 in out2 ctl 0 SWM
+R1 out 0 1
+R2 out2 0 1
+Vc ctl 0 DC 0
+.model SWM SW(VT=0.5 VH=0.1)
+.end
+"""
+    sw1, sw2 = formulate(parse_string(text)).switches
+    assert sw1.options["initial"] is True and sw1.vt == 0.5 and sw1.vh == 0.1
+    assert "initial" not in sw2.options

@@ -11,7 +11,7 @@ from test_formulation import PRC, SW_MODEL, boost, gate_switch, parallel_resonan
 from netlist.circuit import Resistor
 from netlist.errors import NetlistError
 from netlist.formulation import formulate, storage_matrix
-from pelcs.commands.lcs import build_report, format_report, parse_params, select_modes
+from pelcs.commands.lcs import build_report, format_report, select_modes
 
 
 def two_switch_boost():
@@ -32,13 +32,6 @@ def test_select_modes():
     assert "S1, S2" in exc.value.diagnostics[0].hint
     with pytest.raises(NetlistError):
         select_modes(sys, "S1=maybe")
-
-
-def test_parse_params():
-    assert parse_params(["vin=12", "fs = 50k"]) == {"vin": 12.0, "fs": 50e3}
-    for bad in ("vin", "=3", "vin=abc"):
-        with pytest.raises(NetlistError):
-            parse_params([bad])
 
 
 def test_report_of_boost():

@@ -51,9 +51,9 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from netlist.formulation import formulate, storage_matrix
-    from netlist.parser import parse_file
+    from netlist.parser import parse_file, parse_overrides
 
-    params = parse_params(args.param)
+    params = parse_overrides(args.param)
     circuit = parse_file(args.file, params=params or None)
     system = formulate(circuit)
     keys = select_modes(system, args.mode)
@@ -75,19 +75,6 @@ def _usage_error(message: str, hint: str = "") -> NetlistError:
     return NetlistError(Diagnostic(message=message, hint=hint), file="pelcs lcs")
 
 
-def parse_params(items: list[str]) -> dict[str, float]:
-    """``["vin=12", "fs=50k"]`` -> ``{"vin": 12.0, "fs": 50000.0}``."""
-    from netlist.units import parse_number
-
-    params: dict[str, float] = {}
-    for item in items:
-        name, sep, text = item.partition("=")
-        value = parse_number(text.strip()) if sep else None
-        if not name.strip() or value is None or not math.isfinite(value):
-            raise _usage_error(f"--param {item!r} is not NAME=VALUE",
-                               "e.g. --param vin=12 --param fs=50k")
-        params[name.strip()] = value
-    return params
 
 
 def select_modes(system: SwitchedLCS, spec: str | None) -> list[tuple[bool, ...]]:
