@@ -167,8 +167,10 @@ class _ModeData:
         self.cidx = np.zeros((S, m), np.int64)
         self.cG = np.zeros((S, m, m))
         self.fast = bool(opts.fast_path and m <= MAX_MASK_M)
-        p_mat = is_p_matrix(self.disc.M) if m else True
-        self.uniq_max_m = -1 if (p_mat or m > opts.uniqueness_max_m) else int(m)
+        # Enumeration-based uniqueness checks only for small m, and not for P-matrices
+        # (unique λ for every q).
+        check = 0 < m <= opts.uniqueness_max_m and not is_p_matrix(self.disc.M)
+        self.uniq_max_m = int(m) if check else -1
         self.work = (
             np.zeros(n), np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(m, np.bool_),
             np.zeros((m, 2 * m + 2)), np.zeros(m, np.int64), np.zeros(m), np.zeros((m, m + 1)),
