@@ -441,6 +441,11 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, bps, mode
     if res0 is not None and not res0.ok:
         if on_inconsistent is not None:
             x_new = np.asarray(on_inconsistent(lcs0, x.copy(), u0.copy()), dtype=float)
+            if x_new.shape != x.shape or not np.all(np.isfinite(x_new)):
+                raise ValueError(
+                    f"on_inconsistent returned {x_new!r}; expected a finite state of shape "
+                    f"{x.shape}"
+                )
             notes.append(
                 f"initial state {np.array2string(x, precision=6)} is inconsistent (the LCP "
                 f"w = C x + D λ + F u at t = {t_start:g} s has no solution); replaced by "
