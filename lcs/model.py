@@ -204,4 +204,4 @@ class SwitchedLCS:
 
     def describe_mode(self, config) -> dict[str, str]:
         key = self.key(config)
-        return {s.name: ("on" if on else "off") for s, on in zip(self.switches, key)}
+        return {s.name: ("on" if on else "off") for s, on in zip(self.switches, key, strict=True)}

@@ -19,8 +19,9 @@ Existence and uniqueness
     So ``wellposed`` below means: the state trajectory exists and is unique; ``lambda_unique``
     says whether λ is unique too (rank condition, or D a P-matrix). An ideal diode bridge
     whose four diodes conduct at once is the typical case of a unique x with a non-unique λ
-    (how the current splits between the two legs is not determined). The rank condition says that no combination of complementarity variables is
-    invisible both in the dynamics and in the dissipation; when it fails, the pairs in the null
+    (how the current splits between the two legs is not determined). The rank condition says
+    that no combination of complementarity variables is invisible both in the dynamics and in
+    the dissipation; when it fails, the pairs in the null
     space are reported. As an alternative sufficient condition we also report whether D is a
     P-matrix (then λ is a Lipschitz function of (x, u), there are no jumps and the dynamics
     are a Lipschitz ODE).
