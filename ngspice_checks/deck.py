@@ -231,7 +231,7 @@ def _at_least(value: str | None, floor: float) -> str:
         return format_number(floor)
     num = spice_number(value)
     if num is not None:
-        return format_number(max(num, floor))
+        return value if num >= floor else format_number(floor)
     inner = value[1:-1] if value.startswith("{") and value.endswith("}") else value
     return f"{{max({inner}, {format_number(floor)})}}"
 

@@ -37,41 +37,59 @@ the same time points as everything else. Only top-level elements can be sensed s
 
 The ladder
 ----------
-ngspice's Newton-Raphson and time-step control were made for smooth devices; near-ideal
+ngspice's Newton iterations and time-step control were made for smooth devices; near-ideal
 diodes and switches give it "timestep too small" on many converters. :func:`run_ngspice`
-tries the rungs of :data:`DEFAULT_LADDER` in order until one succeeds and reports the rung.
-Rung 0 is the netlist as written; every later rung contains everything of the rung before
-it, adding the next least invasive change. The rungs and why each one is there (evidence
-from ngspice 39, cases in ``tests/test_ngspice_runner.py``):
+tries the rungs of :data:`DEFAULT_LADDER` in order until one succeeds and reports the rung
+(``NgspiceResult.rung``, ``.settings_used``, and every failed try in ``.attempts``). Rung 0
+is the netlist as written; every later rung keeps everything of the rung before it and adds
+the next remedy. The order comes from ``python -m ngspice_checks.ladder_survey`` (ngspice
+39): the 9 bundled netlists plus an LC tank discharging through a diode bridge and a
+ramp-comparator buck with a PW=0 sawtooth, each in 5 variants (as written, N=0.001 diodes,
++ RON=1u/ROFF=1e12 switches, N=0.01 diodes with RON=10m/ROFF=1e6 switches, 1 ps gate
+edges) and with/without a sense source on D1: 110 runs, 30 failing as written. Each remedy
+was then tried *alone* on the failures:
+
+==================  =========  =======  =========  ===========  ========  ======
+failing family       edges     shunts   tolerances  Gear alone   models    cases
+==================  =========  =======  =========  ===========  ========  ======
+bridge rectifier     no        yes      yes         no           no        8
+LC tank + bridge     no        yes      yes         no           no        10
+PW=0 sawtooth buck   yes       no       no          no           no        10
+Cuk with 1 ps edges  yes       yes      no          no           no        2
+==================  =========  =======  =========  ===========  ========  ======
 
 0. ``as-written``: the netlist unchanged (except ``tstop``/``tstep`` overrides and sense
    sources for current probes).
 1. ``finite-edges``: every PULSE gets a pulse width and nonzero rise/fall times of at least
-   1 ns (TR/TF of 0 already mean TSTEP in ngspice and are left alone), shortening TR when
-   needed to keep the period. A sawtooth written with PW=0 (``PULSE(vl vu 0 {tp-tf} tf 0
-   tp)``) fails at a ramp reset in ngspice 39; PW = 1 ns fixes it. Changes the waveform
-   by at most 1 ns per edge.
+   1 ns (TR/TF written as 0 already mean TSTEP in ngspice and are left alone); TR is
+   shortened when the pulse would no longer fit in its period. A sawtooth written with PW=0
+   fails at a ramp reset in ngspice 39 whatever else is done, and ps gate edges break the
+   Cuk converter. Changes a waveform by at most 1 ns per corner; cheapest and least
+   invasive, so first.
 2. ``shunts``: ``.options cshunt=1e-12 rshunt=1e12``: 1 pF and 1 TOhm from every node to
-   ground. Nodes that float when every diode and switch around them is off (the rectifier
-   output of a diode bridge between conduction intervals, an LC tank discharging through a
-   bridge) make the matrix singular or ill-conditioned: "timestep too small ... trouble with
-   node p". cshunt alone fixes the bridge rectifier and the LC tank; rshunt keeps the DC
-   level of such nodes defined. 1 pF is negligible against the nF-to-mF capacitors of power
-   converters and 1 TOhm against any load.
-3. ``gear``: ``method=gear`` (second order BDF): trapezoidal integration rings on the
-   discontinuities that ideal switching produces (currents into capacitors jump), and the
-   ringing drives the local-truncation-error step control down to the minimum step. Gear
-   damps it. It changes the numerics only (a different second order method).
-4. ``smooth-models``: every D model is replaced by ``D(IS=1e-12 N=0.05 RS=1m)`` and every
-   SW model gets ``RON=1m ROFF=1e9`` and a hysteresis of at least ``VH=1m`` (VT kept). A
-   steep diode (N=0.001: a 26 uV exponential scale) makes Newton's iterations chatter; with
-   N=0.05 the forward drop is 36 mV at 1 A, still far below the converter voltages. A
-   switch with VH=0 whose control crosses VT slowly can toggle at every Newton iteration; 1
-   mV of hysteresis stops that. pelcs treats D and S as ideal whatever the models say, so
-   only the quality of ngspice's approximation of the ideal elements changes.
-5. ``relaxed``: looser tolerances (``reltol=1e-2 abstol=1e-9 vntol=1e-4 chgtol=1e-14``),
-   more iterations per time point (``itl4=100``) and a larger ``gmin=1e-10``. The last
-   resort: it buys convergence with accuracy (1 % instead of 0.1 % local error).
+   ground. Nodes that float while every diode around them is off (a bridge rectifier's
+   output between conduction intervals, the LC tank's bridge) make the matrix singular or
+   ill-conditioned: "timestep too small ... trouble with node p". cshunt is what rescues
+   them (rshunt alone does not); rshunt keeps the level of such nodes defined. 1 pF is
+   negligible against the nF-to-mF capacitors of power converters, 1 TOhm against any load.
+3. ``relaxed``: ``reltol=1e-2 abstol=1e-9 vntol=1e-4 chgtol=1e-14 itl4=100 gmin=1e-10``.
+   Rescues the same floating-node families as the shunts (only as a set: gmin, reltol or
+   itl4 alone do not), at the price of accuracy (1 % instead of 0.1 % local error): kept as
+   the fallback when shunts are not enough.
+4. ``gear-smooth-models``: Gear integration, every D model replaced by
+   ``D(IS=1e-12 N=0.05 RS=1m)``, every SW model given ``RON=1m ROFF=1e9`` and a hysteresis
+   of at least ``VH=1m`` (VT kept). The textbook remedies (trapezoidal ringing after
+   switching; N=0.001 diodes with a 26 uV exponential scale; switches toggling at every
+   Newton iteration when the control sits at VT). In the survey none of them rescued a
+   case alone, so they come last, as a last resort. pelcs treats D and S as ideal whatever
+   the models say: only ngspice's approximation of the ideal elements changes (the
+   forward drop becomes 36 mV at 1 A).
+
+A rung is abandoned early when ngspice grinds: the worker watches ngspice's progress
+reports and halts a run that would not finish within ``timeout`` at its current pace
+("stalled"; e.g. the bridge rectifier with a sense source on D1 advances 2e-8 s per second
+at rungs 0 and 1). A netlist ngspice rejects (syntax, unknown model) stops the ladder at
+once: no rung repairs it.
 
 Design note: the deck edits are text edits (:mod:`ngspice_checks.deck`) because the parser is
 not there yet. Each rung is data (:class:`NgspiceSettings`) applied by :func:`apply_settings`;
@@ -208,25 +226,12 @@ _SHUNTS = replace(
     description="+ cshunt=1 pF, rshunt=1 TOhm from every node to ground",
     options={"cshunt": "1e-12", "rshunt": "1e12"},
 )
-_GEAR = replace(
-    _SHUNTS,
-    name="gear",
-    description="+ Gear integration",
-    options={**_SHUNTS.options, "method": "gear"},
-)
-_SMOOTH = replace(
-    _GEAR,
-    name="smooth-models",
-    description="+ D(IS=1e-12 N=0.05 RS=1m), SW RON=1m ROFF=1e9 VH>=1m",
-    diode_model={"is": "1e-12", "n": "0.05", "rs": "1e-3"},
-    switch_model=SwitchModel(ron=1e-3, roff=1e9, vh_min=1e-3),
-)
 _RELAXED = replace(
-    _SMOOTH,
+    _SHUNTS,
     name="relaxed",
     description="+ reltol=1e-2 abstol=1e-9 vntol=1e-4 chgtol=1e-14 itl4=100 gmin=1e-10",
     options={
-        **_SMOOTH.options,
+        **_SHUNTS.options,
         "reltol": "1e-2",
         "abstol": "1e-9",
         "vntol": "1e-4",
@@ -235,16 +240,17 @@ _RELAXED = replace(
         "gmin": "1e-10",
     },
 )
+_SMOOTH = replace(
+    _RELAXED,
+    name="gear-smooth-models",
+    description="+ Gear integration, D(IS=1e-12 N=0.05 RS=1m), SW RON=1m ROFF=1e9 VH>=1m",
+    options={**_RELAXED.options, "method": "gear"},
+    diode_model={"is": "1e-12", "n": "0.05", "rs": "1e-3"},
+    switch_model=SwitchModel(ron=1e-3, roff=1e9, vh_min=1e-3),
+)
 
 #: the rungs tried by :func:`run_ngspice`, least invasive first (see the module docstring)
-DEFAULT_LADDER: tuple[NgspiceSettings, ...] = (
-    _AS_WRITTEN,
-    _EDGES,
-    _SHUNTS,
-    _GEAR,
-    _SMOOTH,
-    _RELAXED,
-)
+DEFAULT_LADDER: tuple[NgspiceSettings, ...] = (_AS_WRITTEN, _EDGES, _SHUNTS, _RELAXED, _SMOOTH)
 
 
 def apply_settings(netlist: str, settings: NgspiceSettings) -> str:
@@ -669,7 +675,10 @@ def _simulate_in_worker(
     finally:
         worker.close()
     if "error" in reply:
-        return {"failure": f"worker error: {reply['error']}", "log": reply.get("log", [])}
+        reply = {"failure": f"worker error: {reply['error']}", "log": reply.get("log", [])}
+    # the worker's start-up messages (PySpice's "Unsupported Ngspice version 39" warning,
+    # stray output) go to the log too: kept from the user's terminal, not thrown away
+    reply["startup_log"] = list(hello.get("log", []))
     return reply
 
 
@@ -817,7 +826,8 @@ def run_ngspice(
         reply = _simulate_in_worker(candidate, plan.vectors, timeout, cwd)
         reason = _diagnose(reply)
         wall = reply.get("load_time", math.nan) + reply.get("run_time", math.nan)
-        attempt = NgspiceAttempt(rung, rung_settings, reason, wall, reply.get("log", []), candidate)
+        log = reply.get("startup_log", []) + reply.get("log", [])
+        attempt = NgspiceAttempt(rung, rung_settings, reason, wall, log, candidate)
         attempts.append(attempt)
         if reason is not None:
             if reason.startswith("netlist rejected"):
