@@ -5,7 +5,9 @@ resolved waveform per independent source (in the order of ``SwitchedLCS.inputs``
 initial state, the time span and the step. :func:`simulate_circuit` runs it.
 
 Defaults follow the netlist's ``.tran TSTEP TSTOP [TSTART [TMAX]] [UIC]``: the run goes from 0
-to TSTOP with the step TMAX if given, else TSTEP; points before TSTART are not returned.
+to TSTOP with the step TMAX if given, else TSTEP; points before TSTART are not returned. A
+netlist without ``.tran`` needs the stop time from the caller; the step then defaults to
+1/100 of the shortest source period (PULSE PER, SIN 1/FREQ), at most 1/5000 of the run.
 
 Initial state: an element's ``IC=`` first; otherwise a capacitor gets ``v(n+) - v(n-)`` from
 ``.ic v(node)=...`` lines (ground is 0 V; a node missing from ``.ic`` counts as 0 V only if
@@ -13,11 +15,17 @@ the other node is given); everything else starts at zero. pelcs always starts fr
 (as ngspice does with UIC); without UIC ngspice would first compute a DC operating point, which
 the result's notes point out. An initial state that the diodes cannot accept (e.g. a capacitor
 charged against a diode that connects it to another capacitor) jumps at t = 0 to the consistent
-state given by :func:`lcs.wellposed.state_jump`, reported once in the notes.
+state given by :func:`lcs.wellposed.state_jump` (charge and flux conservation through the
+impulsive diode currents), reported once in the notes.
+
+Probes (:func:`check_probes`): ``v(n)``, ``v(a,b)``, ``i(X)`` for a two-terminal element, and
+the state names ``i(L1)``, ``v(C1)``; they are checked against the circuit's nodes and
+elements before the run, so that a typo is an input error with a hint and not a failed run.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -26,12 +34,30 @@ import numpy as np
 from lcs.model import LCS, SwitchedLCS
 from lcs.moreau import MoreauOptions, simulate
 from lcs.results import SimulationResult
-from lcs.signals import Dc, Signal, resolve
+from lcs.signals import Dc, Pulse, Signal, Sin, resolve
 from lcs.wellposed import state_jump
 
 from .circuit import GROUND, Capacitor, Circuit, CurrentSource, Inductor, VoltageSource
 from .errors import Diagnostic, NetlistError
 from .formulation import formulate, storage_matrix
+
+__all__ = [
+    "TransientSetup",
+    "check_probes",
+    "default_step",
+    "initial_state",
+    "simulate_circuit",
+    "transient_setup",
+]
+
+# Default step without .tran: this many steps per shortest source period, and at least this
+# many steps per run (a switching converter needs ~100 steps per period for 0.1 % accuracy
+# of the averages with θ = 1/2; see tests/test_simulate_reference.py).
+STEPS_PER_PERIOD = 100
+MIN_STEPS_PER_RUN = 5000
+
+_PROBE_RE = re.compile(r"^\s*([vi])\s*\(\s*([^,()\s]+)\s*(?:,\s*([^,()\s]+)\s*)?\)\s*$", re.I)
+_TWO_TERMINAL = frozenset("RLCVIDSEFGH")
 
 
 @dataclass
@@ -69,6 +95,39 @@ def _input_error(circuit: Circuit, message: str, hint: str) -> NetlistError:
     return NetlistError(Diagnostic(message=message, hint=hint), file=circuit.file)
 
 
+def _waveforms(circuit: Circuit, inputs: Sequence[str]) -> list[Signal]:
+    waves = []
+    for name in inputs:
+        el = circuit.element(name)
+        assert isinstance(el, (VoltageSource, CurrentSource))
+        waves.append(el.waveform if el.waveform is not None else Dc(el.dc))
+    return waves
+
+
+def default_step(waves: Sequence[Signal], tstop: float) -> float:
+    """Step for a run without ``.tran`` step: 1/100 of the shortest source period.
+
+    Parameters
+    ----------
+    waves : sequence of Signal
+        The source waveforms as parsed (unresolved: only explicit periods count).
+    tstop : float
+        Stop time, s.
+
+    Returns
+    -------
+    float
+        ``min(tstop / 5000, period / 100)`` over the PULSE periods and SIN periods given, s.
+    """
+    h = tstop / MIN_STEPS_PER_RUN
+    for w in waves:
+        if isinstance(w, Pulse) and w.per:
+            h = min(h, w.per / STEPS_PER_PERIOD)
+        elif isinstance(w, Sin) and w.freq:
+            h = min(h, 1.0 / (w.freq * STEPS_PER_PERIOD))
+    return h
+
+
 def transient_setup(
     circuit: Circuit,
     *,
@@ -83,46 +142,46 @@ def transient_setup(
     circuit : Circuit
         A parsed, flattened circuit.
     tstop, step : float, optional
-        Override ``.tran`` TSTOP and the step (s).
+        Override ``.tran`` TSTOP and the step (s). Without ``.tran``, ``tstop`` is required
+        and ``step`` defaults to :func:`default_step`.
     system : SwitchedLCS, optional
         An already formulated system of this circuit (formulated here when omitted).
 
     Raises
     ------
     NetlistError
-        No ``.tran`` and no tstop/step given, or a non-positive time.
+        No ``.tran`` and no tstop given, a non-positive time, or a step longer than the run.
     """
     tran = circuit.tran
     notes: list[str] = []
     if tstop is None:
         if tran is None:
             raise _input_error(circuit, "no .tran analysis and no stop time given",
-                               "add '.tran TSTEP TSTOP' to the netlist or pass --tstop")
+                               "add '.tran TSTEP TSTOP' to the netlist or pass --tstop "
+                               "(e.g. --tstop 5m)")
         tstop = tran.tstop
-    if step is None:
-        if tran is None:
-            raise _input_error(circuit, "no .tran analysis and no step given",
-                               "add '.tran TSTEP TSTOP' to the netlist or pass --step")
-        step = tran.tmax if tran.tmax else tran.tstep
     if not (np.isfinite(tstop) and tstop > 0):
         raise _input_error(circuit, f"stop time must be positive, got {tstop:g} s",
                            "give a positive TSTOP")
+    if system is None:
+        system = formulate(circuit)
+    waves = _waveforms(circuit, system.inputs)
+    if step is None:
+        if tran is not None:
+            step = tran.tmax if tran.tmax else tran.tstep
+        else:
+            step = default_step(waves, tstop)
+            notes.append(f"no .tran step: h = {step:.4g} s (1/{STEPS_PER_PERIOD} of the "
+                         f"shortest source period, at most 1/{MIN_STEPS_PER_RUN} of the run)")
     if not (np.isfinite(step) and step > 0):
         raise _input_error(circuit, f"time step must be positive, got {step:g} s",
                            "give a positive step")
     if step > tstop:
         raise _input_error(circuit, f"time step {step:g} s exceeds the stop time {tstop:g} s",
                            "choose a step smaller than the stop time")
+    # ngspice fills omitted PULSE edges, EXP time constants ... from TSTEP, not from TMAX.
     tstep_res = tran.tstep if tran is not None else step
-    if system is None:
-        system = formulate(circuit)
-
-    signals = []
-    for name in system.inputs:
-        el = circuit.element(name)
-        assert isinstance(el, (VoltageSource, CurrentSource))
-        wave = el.waveform if el.waveform is not None else Dc(el.dc)
-        signals.append(resolve(wave, tstep_res, tstop))
+    signals = [resolve(w, tstep_res, tstop) for w in waves]
 
     x0 = initial_state(circuit, system.states, notes)
     if tran is not None and not tran.uic and (
@@ -144,6 +203,8 @@ def initial_state(circuit: Circuit, states: Sequence[str], notes: list[str] | No
     circuit : Circuit
     states : sequence of str
         State names ``i(L1)`` / ``v(C1)`` in the order wanted.
+    notes : list of str, optional
+        Receives a note for every capacitor whose ``.ic`` names only one of its nodes.
 
     Returns
     -------
@@ -161,15 +222,105 @@ def initial_state(circuit: Circuit, states: Sequence[str], notes: list[str] | No
                 x0[k] = el.ic
                 continue
             a, b = el.nodes
+            if a not in ics and b not in ics:
+                continue  # no .ic on either node (ground is never in .ic): starts at 0 V
             va = 0.0 if a == GROUND else ics.get(a)
             vb = 0.0 if b == GROUND else ics.get(b)
-            if va is None and vb is None:
-                continue
             if (va is None or vb is None) and notes is not None:
                 missing = a if va is None else b
                 notes.append(f"{el.name}: node {missing} has no .ic; taken as 0 V")
             x0[k] = (va or 0.0) - (vb or 0.0)
     return x0
+
+
+def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
+    """Check probe names against the circuit's nodes and elements.
+
+    Parameters
+    ----------
+    circuit : Circuit
+    probes : sequence of str
+        ``v(n)``, ``v(a,b)`` (``0`` or ``gnd`` is ground), ``i(X)`` for a two-terminal
+        element, or a state name (``v(C1)`` is the capacitor voltage unless a node ``c1``
+        exists, as in SPICE).
+
+    Returns
+    -------
+    list of str
+        The probes, stripped of surrounding blanks.
+
+    Raises
+    ------
+    NetlistError
+        One diagnostic per bad probe, with the nodes and elements in the hint.
+    """
+    nodes = {n.lower() for n in circuit.nodes} | {"gnd"}
+    two_terminal = {el.key: el for el in circuit.elements if el.kind in _TWO_TERMINAL}
+    capacitors = {k for k, el in two_terminal.items() if el.kind == "C"}
+    out, bad = [], []
+    for probe in probes:
+        m = _PROBE_RE.match(probe)
+        ok = False
+        if m:
+            kind, a, b = m.group(1).lower(), m.group(2).lower(), m.group(3)
+            if kind == "v":
+                ok = (a in nodes and (b is None or b.lower() in nodes)) or (
+                    b is None and a in capacitors)
+            else:
+                ok = b is None and a in two_terminal
+        (out if ok else bad).append(probe.strip())
+    if bad:
+        node_list = ", ".join(n for n in circuit.nodes)
+        elements = ", ".join(el.name for el in two_terminal.values())
+        raise NetlistError([
+            Diagnostic(
+                message=f"unknown probe {p!r}",
+                hint="probes are v(NODE), v(NODE,NODE) or i(ELEMENT); nodes: "
+                     f"{_short(node_list)}; elements: {_short(elements)}",
+            ) for p in bad
+        ], file=circuit.file)
+    return out
+
+
+def _short(text: str, limit: int = 300) -> str:
+    return text if len(text) <= limit else text[:limit].rsplit(", ", 1)[0] + ", ..."
+
+
+class _JumpRecorder:
+    """The ``on_inconsistent`` handler: :func:`~lcs.wellposed.state_jump` with a readable note.
+
+    A non-passive mode has no jump rule; the state is then left as it is (the first step
+    absorbs the jump, which the Moreau driver notes).
+    """
+
+    def __init__(self, energy: np.ndarray | None):
+        self.energy = energy
+        self.note: str | None = None
+
+    def __call__(self, lcs: LCS, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        try:
+            jump = state_jump(lcs, x, u, energy=self.energy)
+        except ValueError:
+            return x
+        changed = [
+            f"{s}: {a:.6g} -> {b:.6g}"
+            for s, a, b in zip(jump.states, jump.x_minus, jump.x_plus, strict=True)
+            if not np.isclose(a, b, rtol=1e-12, atol=1e-15)
+        ]
+        through = [p for p, e in zip(jump.pairs, jump.eta, strict=True) if e > 0]
+        impulse = ", ".join(f"{p} carries {e:.4g} C" if kind == "current" else
+                            f"{p} takes {e:.4g} V·s"
+                            for p, e, kind in zip(jump.pairs, jump.eta,
+                                                  [pr.lam for pr in lcs.pairs], strict=True)
+                            if e > 0)
+        self.note = (
+            f"t = 0: the initial state is inconsistent with the diodes "
+            f"({', '.join(through) or 'none'} would have to conduct an impulse): the state "
+            f"jumps ({'; '.join(changed)}); charge and flux are conserved through the "
+            f"impulse ({impulse}), {jump.dissipated:.4g} J dissipated in it "
+            "(lcs.wellposed.state_jump)"
+        )
+        return jump.x_plus
 
 
 def simulate_circuit(
@@ -196,31 +347,41 @@ def simulate_circuit(
     probes : sequence of str, optional
         ``v(n)``, ``v(a,b)``, ``i(X)`` or state names; default every state.
     every : int
-        Keep every N-th step.
+        Keep every N-th step (the first and the last point are always kept).
     progress : bool
         Progress bar on a terminal for long runs.
+    options : MoreauOptions, optional
+        Numerical options of the stepper.
     system : SwitchedLCS, optional
         Reuse a formulated system (e.g. across parameter sweeps of the sources only).
 
     Returns
     -------
     SimulationResult
-        ``error`` is set (and the data end early) if a step failed; see :mod:`lcs.moreau`.
+        ``t`` shape (N,), ``y`` shape (N, len(probes)), ``res["v(out)"]`` by probe name.
+        ``error`` is set (and the data end at the last completed step) if a step failed;
+        see :mod:`lcs.moreau`.
+
+    Raises
+    ------
+    NetlistError
+        Bad times, unknown probes, or a degenerate topology in a mode the run reaches.
+    ValueError
+        θ outside [1/2, 1] or ``every`` not a positive integer.
     """
-    setup = transient_setup(circuit, tstop=tstop, step=step, system=system)
-    energy = setup.energy
-
-    def jump(lcs: LCS, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        return state_jump(lcs, x, u, energy=energy).x_plus
-
     if probes is not None:
-        probes = list(probes)
-        # Validate probe names up front so a typo is an input error, not a failed run.
-        setup.system.outputs(setup.system.key(None), probes)
+        # A typo is an input error before any work, not a failure in the middle of a run.
+        probes = check_probes(circuit, probes)
+    setup = transient_setup(circuit, tstop=tstop, step=step, system=system)
+    jump = _JumpRecorder(setup.energy)
     result = simulate(
         setup.system, setup.signals, setup.x0, setup.t_stop, setup.h, theta=theta,
         probes=probes, every=every, progress=progress, on_inconsistent=jump, options=options,
     )
+    if jump.note is not None:
+        # The driver's generic note ("replaced by ... (on_inconsistent)") says less than ours.
+        result.notes[:] = [n for n in result.notes if "(on_inconsistent)" not in n]
+        result.notes.insert(0, jump.note)
     result.notes[:0] = setup.notes
     if setup.t_save > 0:
         keep = result.t >= setup.t_save
