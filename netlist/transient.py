@@ -46,6 +46,7 @@ __all__ = [
     "check_probes",
     "default_step",
     "initial_state",
+    "run_setup",
     "simulate_circuit",
     "transient_setup",
 ]
@@ -337,6 +338,8 @@ def simulate_circuit(
 ) -> SimulationResult:
     """Simulate a parsed circuit with the Moreau θ scheme.
 
+    :func:`transient_setup` followed by :func:`run_setup`.
+
     Parameters
     ----------
     circuit : Circuit
@@ -373,10 +376,29 @@ def simulate_circuit(
         # A typo is an input error before any work, not a failure in the middle of a run.
         probes = check_probes(circuit, probes)
     setup = transient_setup(circuit, tstop=tstop, step=step, system=system)
+    return run_setup(setup, theta=theta, probes=probes, every=every, progress=progress,
+                     options=options)
+
+
+def run_setup(
+    setup: TransientSetup,
+    *,
+    theta: float = 0.5,
+    probes: Sequence[str] | None = None,
+    every: int = 1,
+    progress: bool = False,
+    options: MoreauOptions | None = None,
+) -> SimulationResult:
+    """Run a prepared :class:`TransientSetup` (arguments as in :func:`simulate_circuit`).
+
+    The set-up's notes come first in ``result.notes``; an initial state jump is reported by
+    a note of its own; points before ``setup.t_save`` are dropped.
+    """
     jump = _JumpRecorder(setup.energy)
     result = simulate(
         setup.system, setup.signals, setup.x0, setup.t_stop, setup.h, theta=theta,
-        probes=probes, every=every, progress=progress, on_inconsistent=jump, options=options,
+        probes=None if probes is None else list(probes), every=every, progress=progress,
+        on_inconsistent=jump, options=options,
     )
     if jump.note is not None:
         # The driver's generic note ("replaced by ... (on_inconsistent)") says less than ours.

@@ -1,0 +1,224 @@
+"""``pelcs simulate FILE``: Moreau time-stepping of a netlist, to CSV/NPZ and a plot.
+
+::
+
+    pelcs simulate FILE [--tstop T] [--step H] [--theta TH] [--param NAME=VALUE]...
+                        [--probe EXPR]... [--every N] [-o OUT.csv|OUT.npz] [--plot OUT.png]
+
+Defaults come from the netlist's ``.tran`` (stop time TSTOP, step TMAX if given, else TSTEP);
+times accept SPICE suffixes (``--tstop 5m``, ``--step 0.1u``). Probes are ``v(out)``,
+``v(a,b)``, ``i(L1)``, ``i(D1)``...; the default is every state. The CSV has the header
+``time,<probe>,...`` and SI units. A short summary goes to stdout.
+
+Exit status: 0 success; 2 input errors (bad netlist, option or probe; printed gcc-style by
+:mod:`pelcs.cli`); 3 the run failed (an LCP without solution, a non-finite state): the
+results up to the failure are written first, then the error (time, switch mode, diodes) is
+printed on stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from netlist.errors import Diagnostic, NetlistError
+
+EXIT_FAILED = 3
+
+
+def register(subparsers) -> None:
+    """Add the ``simulate`` subcommand to the CLI's subparsers."""
+    p = subparsers.add_parser(
+        "simulate",
+        help="simulate a netlist (Moreau time-stepping) and write CSV/NPZ and a plot",
+        description="Simulate a netlist with ideal diodes and switches by Moreau θ "
+        "time-stepping (one linear complementarity problem per step). Times and numbers "
+        "accept SPICE suffixes (5m, 0.1u, 50k).",
+        epilog="example: pelcs simulate boost.cir --probe 'v(out)' --probe 'i(L1)' "
+        "-o out/boost.csv --plot out/boost.png   (quote the probes in a shell)",
+    )
+    p.add_argument("file", help="netlist file")
+    p.add_argument("--tstop", metavar="T", help="stop time (default: .tran TSTOP)")
+    p.add_argument("--step", metavar="H",
+                   help="time step (default: .tran TMAX if given, else TSTEP)")
+    p.add_argument("--theta", metavar="TH", default="0.5",
+                   help="θ in [0.5, 1]: 0.5 trapezoidal (default), 1 backward Euler")
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                   help="override a global .param (repeatable; SPICE suffixes allowed)")
+    p.add_argument("--probe", action="append", default=[], metavar="EXPR",
+                   help="v(NODE), v(NODE,NODE) or i(ELEMENT) (repeatable, or a "
+                   "comma-separated list); default: every state")
+    p.add_argument("--every", metavar="N", default="1", help="keep every N-th step")
+    p.add_argument("-o", "--output", metavar="OUT", help="write the probes to OUT.csv or OUT.npz")
+    p.add_argument("--plot", metavar="OUT.png", help="plot the probes, one panel each")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+
+
+# -- arguments -----------------------------------------------------------------------------
+
+
+def _usage_error(message: str, hint: str = "") -> NetlistError:
+    return NetlistError(Diagnostic(message=message, hint=hint), file="pelcs simulate")
+
+
+def _number(option: str, text: str | None) -> float | None:
+    """A SPICE number from an option (``5m``, ``0.1u``, ``1e-3``), or None when absent."""
+    from netlist.units import parse_number
+
+    if text is None:
+        return None
+    value = parse_number(text.strip())
+    if value is None:
+        raise _usage_error(f"{option}: {text!r} is not a number",
+                           f"e.g. {option} 5m or {option} 0.1u (SPICE suffixes: "
+                           "T G Meg k m u n p f)")
+    return value
+
+
+def split_probes(items: list[str]) -> list[str]:
+    """``--probe`` values -> probe list; a value may hold several, comma-separated.
+
+    Commas inside parentheses belong to the probe (``v(a,b)``).
+    """
+    out: list[str] = []
+    for item in items:
+        depth, start = 0, 0
+        for k, ch in enumerate(item):
+            if ch == "(":
+                depth += 1
+            elif ch == ")":
+                depth -= 1
+            elif ch == "," and depth == 0:
+                out.append(item[start:k])
+                start = k + 1
+        out.append(item[start:])
+    return [p.strip() for p in out if p.strip()]
+
+
+def _check_path(option: str, path: str, suffixes: tuple[str, ...]) -> Path:
+    p = Path(path)
+    if p.suffix.lower() not in suffixes:
+        raise _usage_error(f"{option}: cannot tell the format of {path!r}",
+                           f"use a file name ending in {' or '.join(suffixes)}")
+    return p
+
+
+# -- the command ---------------------------------------------------------------------------
+
+
+def run(args: argparse.Namespace) -> int:
+    from netlist.parser import parse_file, parse_overrides
+    from netlist.transient import check_probes, run_setup, transient_setup
+
+    tstop = _number("--tstop", args.tstop)
+    step = _number("--step", args.step)
+    theta = _number("--theta", args.theta)
+    if not 0.5 <= theta <= 1.0:
+        raise _usage_error(f"--theta {args.theta}: θ must be in [0.5, 1]",
+                           "0.5 is the trapezoidal scheme (second order), 1 backward Euler")
+    every_f = _number("--every", args.every)
+    if every_f != int(every_f) or every_f < 1:
+        raise _usage_error(f"--every {args.every}: not a positive integer", "e.g. --every 10")
+    every = int(every_f)
+    out = _check_path("-o", args.output, (".csv", ".npz")) if args.output else None
+    plot = _check_path("--plot", args.plot, (".png", ".svg", ".pdf")) if args.plot else None
+
+    params = parse_overrides(args.param)
+    circuit = parse_file(args.file, params=params or None)
+    probes = check_probes(circuit, split_probes(args.probe)) if args.probe else None
+    setup = transient_setup(circuit, tstop=tstop, step=step)
+
+    t0 = time.perf_counter()
+    result = run_setup(setup, theta=theta, probes=probes, every=every,
+                       progress=not args.no_progress)
+    wall = time.perf_counter() - t0
+
+    written = _write(result, out, plot, circuit.title or Path(args.file).name, args.file)
+    switches = [s.name for s in setup.system.switches]
+    print(summary(result, args.file, circuit.title, tstop=setup.t_stop, step=setup.h,
+                  theta=theta, wall=wall, written=written, switches=switches))
+    if result.error is not None:
+        err = result.error
+        where = (f"results up to t = {_eng(err.t_prev, 's')} written to {', '.join(written)}"
+                 if written else "no output file was requested (-o, --plot)")
+        print(f"{args.file}: error: simulation failed ({err.kind}): {err.message}\n"
+              f"  {where}", file=sys.stderr)
+        return EXIT_FAILED
+    return 0
+
+
+def _write(result, out: Path | None, plot: Path | None, title: str, file: str) -> list[str]:
+    """Write the requested files (also for a failed run); returns their names."""
+    from pelcs.plotting import plot_result, write_result
+
+    written = []
+    for path, writer in ((out, write_result), (plot, None)):
+        if path is None:
+            continue
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            if writer is not None:
+                writer(result, path)
+            else:
+                plot_result(result, path, title=f"{title}  ({Path(file).name})")
+        except OSError as exc:
+            raise _usage_error(f"cannot write {path}: {exc.strerror or exc}",
+                               "check the directory and its permissions") from exc
+        written.append(str(path))
+    return written
+
+
+def _eng(value: float, unit: str) -> str:
+    from netlist.units import format_eng
+
+    return format_eng(float(value), unit)
+
+
+def summary(result, file: str, title: str, *, tstop: float, step: float, theta: float,
+            wall: float, written: list[str], switches: list[str] = ()) -> str:
+    """The text printed after a run: steps and timing, modes, final values, notes, files.
+
+    Parameters
+    ----------
+    result : SimulationResult
+    file, title : str
+        Netlist file and title.
+    tstop, step : float
+        Stop time and step of the run, s.
+    theta : float
+    wall : float
+        Wall time of the run, s (includes the formulation of the modes visited).
+    written : list of str
+        Files written.
+    switches : list of str
+        Switch names in mode-key order.
+    """
+    from pelcs.plotting import probe_unit
+
+    st = result.stats
+    lines = [f"{file}: {title}".rstrip(": ")]
+    lines.append(
+        f"simulated 0 to {_eng(tstop, 's')}, h = {_eng(step, 's')}, θ = {theta:g}: "
+        f"{st.steps} steps ({st.odd_steps} shortened to land on source edges and switching "
+        f"instants) in {wall:.3g} s, {1e6 * wall / max(st.steps, 1):.3g} µs/step"
+    )
+    if switches:
+        modes = ["(" + ", ".join(f"{n} {'on' if on else 'off'}" for n, on in
+                                 zip(switches, mode, strict=True)) + ")"
+                 for mode in result.modes_visited]
+        lines.append(f"switch modes visited: {' '.join(modes)}; {len(result.events)} "
+                     "switching events")
+    lines.append(f"LCP: {st.fallbacks} steps by Lemke ({st.lcp_pivots} pivots), the others "
+                 "by the previous step's active set")
+    if len(result.t):
+        finals = ", ".join(f"{n} = {_eng(v, probe_unit(n))}"
+                           for n, v in zip(result.names, result.y[-1], strict=True))
+        lines.append(f"final values (t = {_eng(result.t[-1], 's')}): {finals}")
+    for note in result.notes:
+        lines.append(f"note: {note}")
+    if written:
+        lines.append(f"wrote {', '.join(written)} ({len(result.t)} points)")
+    return "\n".join(lines)

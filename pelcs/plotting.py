@@ -1,0 +1,276 @@
+"""Plots and files of simulation results: PNG (one panel per probe), CSV and NPZ.
+
+Probe units follow from the probe syntax: ``v(...)`` is in volts, ``i(...)`` in amperes. The
+time axis is scaled to s, ms, µs or ns from the length of the run. Figures are drawn on
+matplotlib's Agg canvas directly (no pyplot, so the caller's backend and open figures are left
+alone), which also makes them work without a display.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from lcs.results import SimulationResult
+
+__all__ = [
+    "auto_zoom",
+    "period_mean",
+    "plot_result",
+    "probe_unit",
+    "time_unit",
+    "write_csv",
+    "write_npz",
+    "write_result",
+]
+
+# Above this many points per panel the curve is drawn as its min/max envelope over buckets
+# of samples: a switching ripple of 10^5 points looks the same and draws 10x faster.
+_ENVELOPE_POINTS = 20000
+_ENVELOPE_BUCKETS = 4000
+
+_TIME_UNITS = [(1.0, "s"), (1e-3, "ms"), (1e-6, "µs"), (1e-9, "ns")]
+
+
+def probe_unit(name: str) -> str:
+    """SI unit of a probe: ``"V"`` for ``v(...)``, ``"A"`` for ``i(...)``, else ``""``."""
+    head = name.strip()[:2].lower()
+    return {"v(": "V", "i(": "A"}.get(head, "")
+
+
+def time_unit(t_end: float) -> tuple[float, str]:
+    """Scale and unit name for a time axis ending at ``t_end`` (s).
+
+    Returns
+    -------
+    (float, str)
+        ``(scale, unit)`` with ``t / scale`` between 1 and 1000 at the end of the axis, e.g.
+        ``(1e-3, "ms")`` for a 5 ms run.
+    """
+    for scale, unit in _TIME_UNITS:
+        if abs(t_end) >= scale:
+            return scale, unit
+    return _TIME_UNITS[-1]
+
+
+def _envelope(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Min/max of ``y`` over buckets of consecutive samples, as one zigzag curve.
+
+    Keeps the visible shape of a dense waveform (its ripple band and every spike) with
+    2 points per bucket.
+    """
+    n = len(t)
+    if n <= _ENVELOPE_POINTS:
+        return t, y
+    per = math.ceil(n / _ENVELOPE_BUCKETS)
+    cut = (n // per) * per
+    yb = y[:cut].reshape(-1, per)
+    tb = t[:cut].reshape(-1, per)
+    lo, hi = yb.argmin(axis=1), yb.argmax(axis=1)
+    rows = np.arange(len(yb))
+    first = np.minimum(lo, hi)
+    second = np.maximum(lo, hi)
+    tt = np.column_stack([tb[rows, first], tb[rows, second]]).ravel()
+    yy = np.column_stack([yb[rows, first], yb[rows, second]]).ravel()
+    return np.concatenate([tt, t[cut:]]), np.concatenate([yy, y[cut:]])
+
+
+def period_mean(t: np.ndarray, y: np.ndarray) -> float:
+    """Time average of samples ``y`` at times ``t`` (trapezoidal rule), same unit as ``y``.
+
+    (Written out because ``np.trapz`` is ``np.trapezoid`` from NumPy 2 on.)
+    """
+    t = np.asarray(t, dtype=float)
+    y = np.asarray(y, dtype=float)
+    return float(0.5 * np.sum((y[1:] + y[:-1]) * np.diff(t)) / (t[-1] - t[0]))
+
+
+def _fmt_si(value: float, unit: str) -> str:
+    from netlist.units import format_eng
+
+    return format_eng(float(value), unit)
+
+
+def auto_zoom(result: SimulationResult, periods: int = 3) -> tuple[float, float] | None:
+    """A window over the last few switching periods of a run, for a detail view.
+
+    The switching period is estimated from the switching events: a mode that recurs
+    periodically comes back once per period. Returns None without at least ``periods + 1``
+    recurrences of the last mode (a diode-only circuit, a short run).
+
+    Returns
+    -------
+    (float, float) or None
+        ``(t0, t1)``, s, ending at the last stored time.
+    """
+    if not len(result.t) or len(result.events) < 2:
+        return None
+    t_end = float(result.t[-1])
+    last_mode = result.events[-1][1]
+    starts = [t for t, mode in result.events if mode == last_mode and t <= t_end]
+    if len(starts) < periods + 1:
+        return None
+    t0 = starts[-periods - 1]
+    # Whole periods back from the last event, then shifted to end at the last point.
+    width = starts[-1] - t0
+    if not width > 0:
+        return None
+    t0 = max(float(result.t[0]), t_end - width)
+    return (t0, t_end) if t_end - t0 < 0.5 * (t_end - float(result.t[0])) else None
+
+
+def plot_result(
+    result: SimulationResult,
+    path: str | os.PathLike,
+    *,
+    title: str | None = None,
+    probes: Sequence[str] | None = None,
+    zoom: tuple[float, float] | str | None = "auto",
+    dpi: int = 130,
+) -> Path:
+    """Plot probes of a run, one panel per probe over a shared time axis, into a file.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A run, possibly failed: the failure time is then marked on every panel.
+    path : str or path-like
+        Output file; the format follows the extension (``.png``, ``.svg``, ``.pdf``).
+    title : str, optional
+        Figure title (e.g. the netlist title).
+    probes : sequence of str, optional
+        Probes to plot, default all of ``result.names``.
+    zoom : (float, float) or "auto" or None
+        A time window (s) shown in a second column next to the whole run, with the mean of
+        each probe over it; ``"auto"``: the last three switching periods (:func:`auto_zoom`),
+        if the run has them.
+    dpi : int
+        Resolution of raster formats.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    names = list(probes) if probes is not None else list(result.names)
+    t = np.asarray(result.t)
+    t_end = float(t[-1]) if len(t) else 0.0
+    scale, tunit = time_unit(t_end)
+    window = auto_zoom(result) if zoom == "auto" else zoom
+    panels = max(1, len(names))
+    ncols = 2 if window is not None else 1
+    fig = Figure(figsize=(9.0 + 3.2 * (ncols - 1), 1.2 + 2.1 * panels), dpi=dpi,
+                 layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(panels, ncols, sharex="col", squeeze=False,
+                        width_ratios=[3.0, 1.3][:ncols])
+    colors = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#17becf"]
+    error = result.error
+    for k, name in enumerate(names):
+        ax = axes[k, 0]
+        color = colors[k % len(colors)]
+        y = np.asarray(result[name])
+        unit = probe_unit(name)
+        tt, yy = _envelope(t, y)
+        ax.plot(tt / scale, yy, color=color, lw=0.9)
+        ax.set_ylabel(f"{name} [{unit}]" if unit else name)
+        ax.grid(True, color="0.88", lw=0.6)
+        if len(t) > 1:
+            ax.set_xlim(t[0] / scale, t[-1] / scale)
+        if len(y):
+            ax.set_title(f"final {_fmt_si(y[-1], unit)}", loc="right", fontsize=8,
+                         color="0.3", pad=3)
+        if error is not None:
+            ax.axvline(error.time / scale, color="red", ls="--", lw=1.0)
+        if window is not None:
+            _zoom_panel(axes[k, 1], t, y, window, color, unit)
+            ax.axvspan(window[0] / scale, window[1] / scale, color="0.5", alpha=0.12, lw=0)
+    if error is not None:
+        axes[0, 0].set_title(f"run stopped at t = {_fmt_si(error.time, 's')} ({error.kind})",
+                             color="red", fontsize=9, loc="left", pad=3)
+    axes[-1, 0].set_xlabel(f"time [{tunit}]")
+    if window is not None:
+        zscale, zunit = time_unit(window[1] - window[0])
+        axes[0, 1].set_title("last switching periods", fontsize=8, color="0.3", loc="left",
+                             pad=3)
+        axes[-1, 1].set_xlabel(f"time [{zunit}]")
+    if title:
+        fig.suptitle(title, fontsize=11)
+    out = Path(path)
+    fig.savefig(out)
+    return out
+
+
+def _zoom_panel(ax, t: np.ndarray, y: np.ndarray, window: tuple[float, float], color: str,
+                unit: str) -> None:
+    """The detail of one probe over ``window`` (s), with its mean (trapezoidal) over it."""
+    t0, t1 = window
+    zscale, _ = time_unit(t1 - t0)
+    sel = (t >= t0) & (t <= t1)
+    ts, ys = t[sel], y[sel]
+    ax.plot(ts / zscale, ys, color=color, lw=1.0)
+    ax.grid(True, color="0.88", lw=0.6)
+    if len(ts) > 1:
+        ax.set_xlim(ts[0] / zscale, ts[-1] / zscale)
+        mean = period_mean(ts, ys)
+        ax.axhline(mean, color="0.35", ls=":", lw=0.9)
+        ax.set_title(f"mean {_fmt_si(mean, unit)}", loc="right", fontsize=8, color="0.3",
+                     pad=3)
+    ax.tick_params(labelsize=8)
+
+
+def write_csv(result: SimulationResult, path: str | os.PathLike) -> Path:
+    """Write ``time,<probe>,...`` rows in SI units (s, V, A).
+
+    A probe name with a comma (``v(a,b)``) is quoted in the header, as CSV requires.
+    """
+    out = Path(path)
+    with open(out, "w", newline="") as fh:
+        csv.writer(fh, lineterminator="\n").writerow(["time", *result.names])
+        data = np.column_stack([result.t, result.y]) if len(result.t) else np.empty((0, 1))
+        # 10 significant digits: below the accuracy of any run, and a quarter smaller files
+        # than repr precision.
+        np.savetxt(fh, data, fmt="%.10g", delimiter=",")
+    return out
+
+
+def write_npz(result: SimulationResult, path: str | os.PathLike) -> Path:
+    """Write a NumPy ``.npz`` archive of the run.
+
+    Keys: ``t`` (s), ``y`` (shape (N, q)), ``names`` (probe names, the columns of ``y``),
+    one array per probe under its name (``data["v(out)"]``), ``notes``, and ``error`` (the
+    error message, empty for a complete run).
+    """
+    out = Path(path)
+    arrays = {name: result.y[:, j] for j, name in enumerate(result.names)}
+    np.savez_compressed(
+        out, t=result.t, y=result.y, names=np.array(result.names, dtype=str),
+        notes=np.array(result.notes, dtype=str),
+        error=np.array(result.error.message if result.error is not None else ""),
+        **arrays,
+    )
+    return out
+
+
+def write_result(result: SimulationResult, path: str | os.PathLike) -> Path:
+    """Write a result as CSV or NPZ, chosen by the extension of ``path``.
+
+    Raises
+    ------
+    ValueError
+        For any other extension.
+    """
+    suffix = Path(path).suffix.lower()
+    if suffix == ".csv":
+        return write_csv(result, path)
+    if suffix == ".npz":
+        return write_npz(result, path)
+    raise ValueError(f"unknown output format {suffix or '(no extension)'!r}: use .csv or .npz")
