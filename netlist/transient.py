@@ -296,12 +296,16 @@ class _JumpRecorder:
 
     def __init__(self, energy: np.ndarray | None):
         self.energy = energy
+        self.called = False
         self.note: str | None = None
 
     def __call__(self, lcs: LCS, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        self.called = True
         try:
             jump = state_jump(lcs, x, u, energy=self.energy)
-        except ValueError:
+        except ValueError as exc:
+            self.note = (f"t = 0: the initial state is inconsistent with the diodes and the "
+                         f"circuit has no jump rule ({exc}); the first step absorbs the jump")
             return x
         changed = [
             f"{s}: {a:.6g} -> {b:.6g}"
@@ -400,9 +404,10 @@ def run_setup(
         probes=None if probes is None else list(probes), every=every, progress=progress,
         on_inconsistent=jump, options=options,
     )
-    if jump.note is not None:
-        # The driver's generic note ("replaced by ... (on_inconsistent)") says less than ours.
-        result.notes[:] = [n for n in result.notes if "(on_inconsistent)" not in n]
+    if jump.called:
+        # The driver's generic notes ("replaced by ... (on_inconsistent)", "the first step
+        # absorbs the state jump") say less than ours.
+        result.notes[:] = [n for n in result.notes if not n.startswith("initial state ")]
         result.notes.insert(0, jump.note)
     result.notes[:0] = setup.notes
     if setup.t_save > 0:

@@ -131,6 +131,7 @@ def plot_result(
     title: str | None = None,
     probes: Sequence[str] | None = None,
     zoom: tuple[float, float] | str | None = "auto",
+    t_stop: float | None = None,
     dpi: int = 130,
 ) -> Path:
     """Plot probes of a run, one panel per probe over a shared time axis, into a file.
@@ -149,6 +150,9 @@ def plot_result(
         A time window (s) shown in a second column next to the whole run, with the mean of
         each probe over it; ``"auto"``: the last three switching periods (:func:`auto_zoom`),
         if the run has them.
+    t_stop : float, optional
+        The stop time the run was asked for, s: the time axis of a failed run extends to it,
+        the part not simulated shaded.
     dpi : int
         Resolution of raster formats.
 
@@ -163,7 +167,9 @@ def plot_result(
     names = list(probes) if probes is not None else list(result.names)
     t = np.asarray(result.t)
     t_end = float(t[-1]) if len(t) else 0.0
-    scale, tunit = time_unit(t_end)
+    error = result.error
+    t_axis = max(t_end, t_stop or 0.0, error.time if error is not None else 0.0)
+    scale, tunit = time_unit(t_axis)
     window = auto_zoom(result) if zoom == "auto" else zoom
     panels = max(1, len(names))
     ncols = 2 if window is not None else 1
@@ -173,7 +179,6 @@ def plot_result(
     axes = fig.subplots(panels, ncols, sharex="col", squeeze=False,
                         width_ratios=[3.0, 1.3][:ncols])
     colors = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#17becf"]
-    error = result.error
     for k, name in enumerate(names):
         ax = axes[k, 0]
         color = colors[k % len(colors)]
@@ -184,12 +189,14 @@ def plot_result(
         ax.set_ylabel(f"{name} [{unit}]" if unit else name)
         ax.grid(True, color="0.88", lw=0.6)
         if len(t) > 1:
-            ax.set_xlim(t[0] / scale, t[-1] / scale)
+            ax.set_xlim(t[0] / scale, t_axis / scale)
         if len(y):
             ax.set_title(f"final {_fmt_si(y[-1], unit)}", loc="right", fontsize=8,
                          color="0.3", pad=3)
         if error is not None:
             ax.axvline(error.time / scale, color="red", ls="--", lw=1.0)
+            if t_axis > error.time:
+                ax.axvspan(error.time / scale, t_axis / scale, color="red", alpha=0.06, lw=0)
         if window is not None:
             _zoom_panel(axes[k, 1], t, y, window, color, unit)
             ax.axvspan(window[0] / scale, window[1] / scale, color="0.5", alpha=0.12, lw=0)

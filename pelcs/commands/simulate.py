@@ -136,7 +136,8 @@ def run(args: argparse.Namespace) -> int:
                        progress=not args.no_progress)
     wall = time.perf_counter() - t0
 
-    written = _write(result, out, plot, circuit.title or Path(args.file).name, args.file)
+    written = _write(result, out, plot, circuit.title or Path(args.file).name, args.file,
+                     setup.t_stop)
     switches = [s.name for s in setup.system.switches]
     print(summary(result, args.file, circuit.title, tstop=setup.t_stop, step=setup.h,
                   theta=theta, wall=wall, written=written, switches=switches))
@@ -150,7 +151,8 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write(result, out: Path | None, plot: Path | None, title: str, file: str) -> list[str]:
+def _write(result, out: Path | None, plot: Path | None, title: str, file: str,
+           t_stop: float) -> list[str]:
     """Write the requested files (also for a failed run); returns their names."""
     from pelcs.plotting import plot_result, write_result
 
@@ -163,7 +165,8 @@ def _write(result, out: Path | None, plot: Path | None, title: str, file: str) -
             if writer is not None:
                 writer(result, path)
             else:
-                plot_result(result, path, title=f"{title}  ({Path(file).name})")
+                plot_result(result, path, title=f"{title}  ({Path(file).name})",
+                            t_stop=t_stop)
         except OSError as exc:
             raise _usage_error(f"cannot write {path}: {exc.strerror or exc}",
                                "check the directory and its permissions") from exc
@@ -200,10 +203,12 @@ def summary(result, file: str, title: str, *, tstop: float, step: float, theta: 
 
     st = result.stats
     lines = [f"{file}: {title}".rstrip(": ")]
+    shortened = (f" ({st.odd_steps} shortened to land on source edges and switching "
+                 "instants)") if st.odd_steps else ""
     lines.append(
         f"simulated 0 to {_eng(tstop, 's')}, h = {_eng(step, 's')}, θ = {theta:g}: "
-        f"{st.steps} steps ({st.odd_steps} shortened to land on source edges and switching "
-        f"instants) in {wall:.3g} s, {1e6 * wall / max(st.steps, 1):.3g} µs/step"
+        f"{st.steps} steps{shortened} in {wall:.3g} s ({1e6 * wall / max(st.steps, 1):.3g} "
+        "µs/step)"
     )
     if switches:
         modes = ["(" + ", ".join(f"{n} {'on' if on else 'off'}" for n, on in
@@ -211,8 +216,9 @@ def summary(result, file: str, title: str, *, tstop: float, step: float, theta: 
                  for mode in result.modes_visited]
         lines.append(f"switch modes visited: {' '.join(modes)}; {len(result.events)} "
                      "switching events")
-    lines.append(f"LCP: {st.fallbacks} steps by Lemke ({st.lcp_pivots} pivots), the others "
-                 "by the previous step's active set")
+    if st.steps:
+        lines.append(f"LCPs: {st.steps - st.fallbacks} of {st.steps} solved by the previous "
+                     f"step's active set, {st.fallbacks} by Lemke ({st.lcp_pivots} pivots)")
     if len(result.t):
         finals = ", ".join(f"{n} = {_eng(v, probe_unit(n))}"
                            for n, v in zip(result.names, result.y[-1], strict=True))

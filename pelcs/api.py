@@ -1,0 +1,182 @@
+"""The Python API for design scripts: load a netlist, formulate it, simulate it.
+
+::
+
+    import pelcs
+
+    res = pelcs.simulate("converters/netlists/buck.cir", tstop="2m",
+                         probes=["v(out)", "i(L1)"], params={"duty": 0.4})
+    print(res.t[-1], res["v(out)"][-1])          # s, V
+
+    circuit = pelcs.load("converters/netlists/buck.cir")
+    system = pelcs.formulate(circuit)            # SwitchedLCS: one LCS per switch mode
+    lcs = system.mode({"S1": True})              # A, B, C, D, E, F of the mode S1 on
+
+Times accept SPICE text (``"5m"``, ``"0.2u"``) as well as numbers in seconds. Input errors
+raise :class:`netlist.errors.NetlistError`; a run that cannot continue raises
+:class:`lcs.results.SimulationError` whose ``.result`` holds everything up to the failure
+(or pass ``check=False`` to get that result back with ``result.error`` set).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping, Sequence
+
+from lcs.model import SwitchedLCS
+from lcs.results import SimulationError, SimulationResult
+from netlist.circuit import Circuit
+from netlist.errors import Diagnostic, NetlistError
+
+__all__ = ["SimulationError", "SimulationResult", "formulate", "load", "simulate"]
+
+Source = Circuit | str | os.PathLike
+
+
+def load(path_or_text: str | os.PathLike, params: Mapping[str, float] | None = None
+         ) -> Circuit:
+    """Parse a netlist file or netlist text into a flattened circuit.
+
+    Parameters
+    ----------
+    path_or_text : str or path-like
+        A file path, or the netlist itself: a string with a line break is taken as netlist
+        text (its first line is the title, as in SPICE).
+    params : mapping of str to float or str, optional
+        Overrides of global ``.param`` values; a value may be SPICE text (``"100k"``).
+
+    Returns
+    -------
+    Circuit
+
+    Raises
+    ------
+    NetlistError
+        Every problem found in the netlist, or a missing file.
+    """
+    from netlist.parser import parse_file, parse_string
+
+    values = _params(params)
+    if isinstance(path_or_text, str) and "\n" in path_or_text:
+        return parse_string(path_or_text, params=values)
+    return parse_file(path_or_text, params=values)
+
+
+def formulate(circuit: Source, params: Mapping[str, float] | None = None) -> SwitchedLCS:
+    """The switched linear complementarity system of a circuit.
+
+    Parameters
+    ----------
+    circuit : Circuit, or a path or netlist text for :func:`load`
+    params : mapping, optional
+        ``.param`` overrides (only with a path or text).
+
+    Returns
+    -------
+    SwitchedLCS
+        ``system.mode({"S1": True})`` is the LCS of one switch configuration (built on first
+        use); ``system.states``, ``.inputs``, ``.diodes``, ``.switches`` name its variables.
+    """
+    from netlist.formulation import formulate as _formulate
+
+    return _formulate(_circuit(circuit, params))
+
+
+def simulate(
+    circuit_or_path: Source,
+    tstop: float | str | None = None,
+    step: float | str | None = None,
+    theta: float = 0.5,
+    probes: Sequence[str] | str | None = None,
+    every: int = 1,
+    params: Mapping[str, float] | None = None,
+    *,
+    check: bool = True,
+    progress: bool = False,
+) -> SimulationResult:
+    """Simulate a circuit with the Moreau θ time-stepping scheme.
+
+    Parameters
+    ----------
+    circuit_or_path : Circuit, or a path or netlist text for :func:`load`
+    tstop, step : float or str, optional
+        Stop time and step, s (or SPICE text such as ``"5m"``); default from ``.tran``
+        (step: TMAX if given, else TSTEP).
+    theta : float
+        θ in [1/2, 1]: 1/2 trapezoidal (second order between events), 1 backward Euler.
+    probes : sequence of str, or str, optional
+        ``"v(out)"``, ``"v(a,b)"``, ``"i(L1)"``, ``"i(D1)"``...; default every state.
+    every : int
+        Keep every N-th step (the first and the last point are always kept).
+    params : mapping, optional
+        ``.param`` overrides (only with a path or text).
+    check : bool
+        Raise :class:`SimulationError` when the run fails (default); with False, return the
+        partial result with ``result.error`` set.
+    progress : bool
+        Progress bar on a terminal for runs longer than about a second.
+
+    Returns
+    -------
+    SimulationResult
+        ``res.t`` (s, shape (N,)), ``res["v(out)"]`` (shape (N,), SI units), ``res.y``
+        (shape (N, len(probes))), ``res.names``, ``res.notes``, ``res.stats``.
+
+    Raises
+    ------
+    NetlistError
+        Input errors: the netlist, unknown probes, bad times, a degenerate topology.
+    SimulationError
+        With ``check=True``, a step without a (unique) solution or a non-finite state; the
+        partial result is ``exc.result``.
+    """
+    from netlist.transient import simulate_circuit
+
+    circuit = _circuit(circuit_or_path, params)
+    if isinstance(probes, str):
+        probes = [probes]
+    result = simulate_circuit(
+        circuit, tstop=_seconds(circuit, "tstop", tstop), step=_seconds(circuit, "step", step),
+        theta=theta, probes=probes, every=every, progress=progress,
+    )
+    if check:
+        result.raise_if_error()
+    return result
+
+
+def _circuit(source: Source, params: Mapping[str, float] | None) -> Circuit:
+    if isinstance(source, Circuit):
+        if params:
+            raise TypeError("params need a netlist path or text: a parsed Circuit has its "
+                            "parameters evaluated already (pelcs.load(path, params=...))")
+        return source
+    if isinstance(source, (str, os.PathLike)):
+        return load(source, params)
+    raise TypeError(f"expected a Circuit, a netlist path or netlist text, got "
+                    f"{type(source).__name__}")
+
+
+def _params(params: Mapping[str, float | str] | None) -> dict[str, float] | None:
+    """Overrides with SPICE text values (``"100k"``) converted to floats."""
+    if not params:
+        return None
+    from netlist.parser import parse_overrides
+
+    text = [f"{k}={v}" for k, v in params.items() if isinstance(v, str)]
+    out = {k: float(v) for k, v in params.items() if not isinstance(v, str)}
+    out.update(parse_overrides(text))
+    return out
+
+
+def _seconds(circuit: Circuit, what: str, value: float | str | None) -> float | None:
+    from netlist.units import parse_number
+
+    if value is None or not isinstance(value, str):
+        return value
+    seconds = parse_number(value.strip())
+    if seconds is None:
+        raise NetlistError(Diagnostic(f"{what}: {value!r} is not a time",
+                                      hint="seconds as a number or SPICE text, e.g. '5m'"),
+                           file=circuit.file)
+    return seconds
+
