@@ -1,0 +1,16 @@
+"""Nonsmooth bifurcation analysis of switched LCS (issue 8).
+
+* :mod:`.maps` -- stroboscopic and event maps built on :func:`lcs.moreau.simulate`, and
+  :class:`~.maps.FunctionMap` for any Python function;
+* :mod:`.orbits` -- periodic orbits by Newton shooting, Floquet multipliers, classification,
+  switching patterns;
+* :mod:`.continuation` -- natural continuation of an orbit in a parameter, detection and
+  bisection of flip, fold, Neimark-Sacker and border-collision points;
+* :mod:`.bifurcation` -- bifurcation diagrams (fixed initial condition or following the
+  attractor, up and down), in parallel;
+* :mod:`.basins` -- basins of attraction by simple cell mapping (Hsu);
+* :mod:`.parallel` -- the worker pool and progress bar the sweeps share.
+
+Nothing here knows about netlists: a parameter enters through a *map factory*, a picklable
+callable ``factory(value) -> Map`` (:class:`netlist.sweep.CircuitMapFactory` for circuits).
+"""

@@ -1,0 +1,288 @@
+"""Maps of circuits for the bifurcation analysis: one map per parameter value.
+
+:class:`CircuitMapFactory` is the picklable recipe ``value -> map`` that the analysis cores
+(:mod:`lcs.analysis`) call, in this process or in worker processes: it re-parses the netlist
+with the parameter overridden (a few ms), formulates it once and wraps it in a
+:class:`~lcs.analysis.maps.StroboscopicMap` (or an :class:`~lcs.analysis.maps.EventMap`).
+Built maps are cached per process, so Newton iterations and bisections at one value reuse the
+formulated modes.
+
+Parameter specifications (command line): ``NAME=START:STOP:COUNT`` (sweeps),
+``NAME=START:STOP`` (continuation) and ``NAME=VALUE`` (fixed overrides), with SPICE numbers
+(``400u``, ``24``).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from lcs.analysis.maps import EventMap, StroboscopicMap
+from lcs.model import LCS
+from lcs.moreau import MoreauOptions
+from lcs.wellposed import state_jump
+
+from .circuit import Circuit
+from .errors import Diagnostic, NetlistError
+from .parser import parse_file, parse_overrides
+from .transient import transient_setup
+from .units import parse_number
+
+__all__ = [
+    "CircuitMapFactory",
+    "ParamRange",
+    "circuit_map",
+    "parse_grid",
+    "parse_range",
+    "resolve_period",
+]
+
+
+def _usage(message: str, hint: str = "", where: str = "pelcs") -> NetlistError:
+    return NetlistError(Diagnostic(message=message, hint=hint), file=where)
+
+
+@dataclass(frozen=True)
+class ParamRange:
+    """A parameter range ``NAME=START:STOP[:COUNT]``.
+
+    Attributes
+    ----------
+    name : str
+    start, stop : float
+    count : int or None
+        Number of values (``linspace(start, stop, count)``), None when not given.
+    """
+
+    name: str
+    start: float
+    stop: float
+    count: int | None = None
+
+    def values(self, default_count: int = 50) -> np.ndarray:
+        return np.linspace(self.start, self.stop, self.count or default_count)
+
+
+def _number(text: str, what: str) -> float:
+    v = parse_number(text.strip())
+    if v is None:
+        try:
+            v = next(iter(parse_overrides([f"x={text.strip()}"]).values()))
+        except NetlistError:
+            v = None
+    if v is None or not np.isfinite(v):
+        raise _usage(f"{what}: {text!r} is not a number", "use a number with optional SPICE "
+                     "suffix, e.g. 24, 400u, 1.5k")
+    return float(v)
+
+
+def parse_range(text: str, *, need_count: bool = False) -> ParamRange:
+    """Parse ``NAME=START:STOP[:COUNT]``.
+
+    Raises
+    ------
+    NetlistError
+        Malformed text, non-numeric bounds, a count below 2, or a missing count when
+        ``need_count``.
+    """
+    name, sep, rng = text.partition("=")
+    parts = rng.split(":")
+    if not sep or not name.strip() or len(parts) not in (2, 3):
+        raise _usage(f"bad parameter range {text!r}",
+                     "expected NAME=START:STOP:COUNT, e.g. vin=20:35:300"
+                     if need_count else "expected NAME=START:STOP, e.g. vin=20:30")
+    start = _number(parts[0], f"range {text!r}")
+    stop = _number(parts[1], f"range {text!r}")
+    count = None
+    if len(parts) == 3:
+        c = _number(parts[2], f"range {text!r}")
+        if c != int(c) or c < 2:
+            raise _usage(f"range {text!r}: COUNT must be an integer >= 2")
+        count = int(c)
+    elif need_count:
+        raise _usage(f"range {text!r} has no COUNT", "expected NAME=START:STOP:COUNT")
+    if start == stop:
+        raise _usage(f"range {text!r} is empty (START = STOP)")
+    return ParamRange(name.strip(), start, stop, count)
+
+
+def split_params(items: Sequence[str]) -> tuple[list[ParamRange], dict[str, float]]:
+    """Split ``--param`` items into ranges (values containing ':') and fixed overrides."""
+    ranges, fixed = [], []
+    for item in items or []:
+        (ranges if ":" in item.partition("=")[2] else fixed).append(item)
+    return [parse_range(r) for r in ranges], parse_overrides(fixed)
+
+
+def parse_grid(text: str) -> list[tuple[str, float, float, int]]:
+    """Parse ``"v(C1)=A:B:N,i(L1)=C:D:M"`` -> ``[(name, lo, hi, count), ...]`` (two axes)."""
+    axes = []
+    # Split on commas outside parentheses (probe names like v(a,b) contain commas).
+    depth, cur, parts = 0, "", []
+    for ch in text:
+        if ch == "(":
+            depth += 1
+        elif ch == ")":
+            depth -= 1
+        if ch == "," and depth == 0:
+            parts.append(cur)
+            cur = ""
+        else:
+            cur += ch
+    parts.append(cur)
+    for part in parts:
+        r = parse_range(part.strip(), need_count=True)
+        axes.append((r.name, r.start, r.stop, int(r.count)))
+    if len(axes) != 2:
+        raise _usage(f"--grid {text!r}: expected two axes",
+                     'e.g. --grid "v(C1)=0:20:200,i(L1)=0:4:200"')
+    return axes
+
+
+def resolve_period(circuit: Circuit, text: str | float) -> float:
+    """The sampling period: a number (``400u``), or a ``.param`` name or ``{expr}`` of it."""
+    if isinstance(text, (int, float)):
+        value = float(text)
+    else:
+        s = text.strip().strip("{}").strip()
+        value = circuit.params.get(s.lower())
+        if value is None:
+            value = parse_number(s)
+        if value is None:
+            try:
+                from .expressions import parse_expression
+
+                value = parse_expression(s).evaluate(dict(circuit.params))
+            except Exception:  # noqa: BLE001 - any failure is the same input error
+                value = None
+    if value is None or not (np.isfinite(value) and value > 0):
+        raise _usage(f"--period {text!r} is not a positive time",
+                     "give seconds (e.g. 400u) or the name of a .param (e.g. tp)")
+    return float(value)
+
+
+class _StateJump:
+    """Picklable ``on_inconsistent`` handler: the passive state jump with the circuit energy."""
+
+    def __init__(self, energy: np.ndarray | None):
+        self.energy = energy
+
+    def __call__(self, lcs: LCS, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        return state_jump(lcs, x, u, energy=self.energy).x_plus
+
+
+def circuit_map(
+    circuit: Circuit,
+    period: float | str,
+    *,
+    step: float | None = None,
+    theta: float = 0.5,
+    t0: float = 0.0,
+    event: str | None = None,
+    param: float | None = None,
+    param_name: str | None = None,
+    options: MoreauOptions | None = None,
+    max_periods: int = 20,
+) -> StroboscopicMap | EventMap:
+    """The stroboscopic (or event) map of a parsed circuit.
+
+    Parameters
+    ----------
+    circuit : Circuit
+    period : float or str
+        T, s, or a ``.param`` name.
+    step : float, optional
+        Time step h, s; default the ``.tran`` step (TMAX or TSTEP), reduced if needed so that
+        T/h is an integer (every period then has the same grid).
+    theta : float
+    t0 : float
+        Sampling phase, s.
+    event : str, optional
+        ``"S1:on"``, ``"D1:on"``, ``"v(out)>12"``...: an event map instead.
+
+    Returns
+    -------
+    StroboscopicMap or EventMap
+        With ``x0`` attribute set to the circuit's initial state (``IC=``/``.ic``) and the
+        diode probes ``i(D)`` for switching patterns.
+    """
+    T = resolve_period(circuit, period)
+    if step is None:
+        tran = circuit.tran
+        if tran is None:
+            raise _usage("no .tran in the netlist and no step given", "pass --step")
+        step = tran.tmax if tran.tmax else tran.tstep
+    step = float(step)
+    if step > T:
+        raise _usage(f"time step {step:g} s exceeds the period {T:g} s", "choose a smaller step")
+    # A whole number of steps per period.
+    nper = int(np.ceil(T / step - 1e-9))
+    h = T / nper
+    tstop = circuit.tran.tstop if circuit.tran is not None else T
+    setup = transient_setup(circuit, tstop=max(tstop, T), step=h)
+    system = setup.system
+    kwargs = dict(theta=theta, t0=t0, param=param, param_name=param_name,
+                  on_inconsistent=_StateJump(setup.energy), options=options,
+                  diode_probes=[f"i({d})" for d in system.diodes])
+    if event:
+        m = EventMap(system, setup.signals, T, h, event, max_periods=max_periods, **kwargs)
+    else:
+        m = StroboscopicMap(system, setup.signals, T, h, **kwargs)
+    m.x0 = setup.x0.copy()
+    m.notes[:0] = list(setup.notes)
+    return m
+
+
+@dataclass(frozen=True)
+class CircuitMapFactory:
+    """Picklable recipe ``factory(value) -> map`` of a netlist file.
+
+    Attributes
+    ----------
+    path : str
+        Netlist file.
+    period : float or str
+        Sampling period, s, or a ``.param`` name (evaluated per parameter value).
+    param : str or None
+        The parameter that ``value`` sets (None: ``value`` is ignored).
+    overrides : tuple of (str, float)
+        Fixed ``.param`` overrides.
+    step : float or None
+        Time step, s (default from ``.tran``).
+    theta, t0 : float
+    event : str or None
+        Event section (see :func:`circuit_map`); None for the stroboscopic map.
+    """
+
+    path: str
+    period: float | str
+    param: str | None = None
+    overrides: tuple[tuple[str, float], ...] = ()
+    step: float | None = None
+    theta: float = 0.5
+    t0: float = 0.0
+    event: str | None = None
+
+    def params(self, value: float | None) -> dict[str, float]:
+        p = dict(self.overrides)
+        if self.param is not None and value is not None:
+            p[self.param] = float(value)
+        return p
+
+    def circuit(self, value: float | None = None) -> Circuit:
+        p = self.params(value)
+        return parse_file(self.path, params=p or None)
+
+    def __call__(self, value: float | None = None) -> StroboscopicMap | EventMap:
+        return _build_map(self, None if value is None else float(value))
+
+
+@functools.lru_cache(maxsize=16)
+def _build_map(factory: CircuitMapFactory, value: float | None):
+    circuit = factory.circuit(value)
+    return circuit_map(circuit, factory.period, step=factory.step, theta=factory.theta,
+                       t0=factory.t0, event=factory.event, param=value,
+                       param_name=factory.param)
