@@ -1,0 +1,315 @@
+"""Bifurcation diagrams: sweep one parameter, record the attractor's samples.
+
+For every parameter value p the map ``factory(p)`` is iterated: ``transient`` iterates are
+discarded, the next ``record`` are kept (any probes the map knows, e.g. ``v(out)`` sampled
+once per period). Two modes, as in the literature on nonsmooth converters:
+
+* fixed initial condition (default): every value starts from ``x0``. Values are independent
+  and are spread over all cores.
+* follow (``follow=True``): each value starts from the final state of the previous one, so
+  that an attractor is followed as long as it exists; sweeping up and down exposes
+  hysteresis (coexisting attractors). A follow sweep is sequential by nature; the up and down
+  sweeps run in parallel, and ``chunks > 1`` splits each direction into that many
+  contiguous pieces that run in parallel, each starting from ``x0`` (each piece then follows
+  its attractor only from its own first value: use it when the attractor is unique or the
+  transient is long enough, not for hysteresis hunting at the chunk boundaries).
+
+Results go to NPZ or CSV and to a scatter plot (matplotlib, Agg canvas).
+"""
+
+from __future__ import annotations
+
+import csv
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .maps import Map, MapError
+from .parallel import default_workers, run_tasks
+
+__all__ = ["BifurcationDiagram", "SweepBranch", "attractor_period", "bifurcation_diagram"]
+
+MapFactory = Callable[[float], Map]
+
+
+@dataclass
+class SweepBranch:
+    """One sweep direction of a diagram.
+
+    Attributes
+    ----------
+    direction : str
+        ``"fixed"`` (every value from x0), ``"up"`` or ``"down"`` (follow mode).
+    values : ndarray, shape (K,)
+        Parameter values in the order they were visited.
+    samples : ndarray, shape (K, M, q)
+        Recorded probe values (NaN where a run failed).
+    x_final : ndarray, shape (K, n)
+        Map state after the last recorded iterate.
+    ok : ndarray of bool, shape (K,)
+    messages : list of str
+        Failure messages (empty strings for successful values).
+    """
+
+    direction: str
+    values: np.ndarray
+    samples: np.ndarray
+    x_final: np.ndarray
+    ok: np.ndarray
+    messages: list[str] = field(default_factory=list)
+
+
+@dataclass
+class BifurcationDiagram:
+    """The result of :func:`bifurcation_diagram`.
+
+    Attributes
+    ----------
+    param_name : str
+    probes : tuple[str, ...]
+    state_names : tuple[str, ...]
+    transient, record : int
+    follow : bool
+    branches : list of SweepBranch
+    wall_time : float
+        Seconds.
+    """
+
+    param_name: str
+    probes: tuple[str, ...]
+    state_names: tuple[str, ...]
+    transient: int
+    record: int
+    follow: bool
+    branches: list[SweepBranch]
+    wall_time: float = 0.0
+    notes: list[str] = field(default_factory=list)
+
+    def branch(self, direction: str) -> SweepBranch:
+        for b in self.branches:
+            if b.direction == direction:
+                return b
+        raise KeyError(direction)
+
+    def save(self, path: str | Path) -> None:
+        """Write NPZ (``.npz``) or CSV (any other suffix)."""
+        path = Path(path)
+        if path.suffix.lower() == ".npz":
+            self.to_npz(path)
+        else:
+            self.to_csv(path)
+
+    def to_npz(self, path: str | Path) -> None:
+        """Arrays ``<direction>_values`` (K,), ``<direction>_samples`` (K, M, q),
+        ``<direction>_x_final`` (K, n), ``<direction>_ok`` (K,) per branch, plus
+        ``probes``, ``states``, ``param_name``, ``directions``, ``transient``, ``record``."""
+        arrays: dict[str, np.ndarray] = {
+            "param_name": np.array(self.param_name),
+            "probes": np.array(self.probes),
+            "states": np.array(self.state_names),
+            "directions": np.array([b.direction for b in self.branches]),
+            "transient": np.array(self.transient),
+            "record": np.array(self.record),
+            "follow": np.array(self.follow),
+        }
+        for b in self.branches:
+            arrays[f"{b.direction}_values"] = b.values
+            arrays[f"{b.direction}_samples"] = b.samples
+            arrays[f"{b.direction}_x_final"] = b.x_final
+            arrays[f"{b.direction}_ok"] = b.ok
+        np.savez_compressed(path, **arrays)
+
+    def to_csv(self, path: str | Path) -> None:
+        """One row per recorded sample: ``direction, <param>, k, <probes...>``."""
+        with open(path, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["direction", self.param_name, "k", *self.probes])
+            for b in self.branches:
+                for i, p in enumerate(b.values):
+                    for k in range(b.samples.shape[1]):
+                        w.writerow([b.direction, repr(float(p)), k,
+                                    *(repr(float(v)) for v in b.samples[i, k])])
+
+    def plot(self, path: str | Path, probes: Sequence[str] | None = None,
+             title: str | None = None) -> None:
+        """Scatter plot of the samples against the parameter, one panel per probe."""
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        names = list(probes) if probes else list(self.probes)
+        cols = [list(self.probes).index(p) for p in names]
+        fig = Figure(figsize=(8, 2.6 * len(names) + 0.8), layout="constrained")
+        FigureCanvasAgg(fig)
+        colours = {"fixed": "k", "up": "tab:blue", "down": "tab:red"}
+        axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
+        for ax, name, c in zip(axes, names, cols, strict=True):
+            for b in self.branches:
+                K, M = b.samples.shape[:2]
+                px = np.repeat(b.values, M)
+                py = b.samples[:, :, c].ravel()
+                ax.scatter(px, py, s=0.3, c=colours.get(b.direction, "k"), marker=".",
+                           linewidths=0, rasterized=True,
+                           label=b.direction if len(self.branches) > 1 else None)
+            ax.set_ylabel(name)
+            ax.grid(alpha=0.3)
+        if len(self.branches) > 1:
+            axes[0].legend(markerscale=20, loc="best")
+        axes[-1].set_xlabel(self.param_name)
+        if title:
+            axes[0].set_title(title)
+        fig.savefig(path, dpi=150)
+
+
+def _sweep_task(task, report) -> list[tuple[np.ndarray, np.ndarray, bool, str]]:
+    """Worker: one contiguous run of parameter values (follow: sequential)."""
+    factory, values, x0, transient, record, probes, follow = task
+    out = []
+    x_init = np.asarray(x0, dtype=float)
+    for v in values:
+        try:
+            m = factory(float(v))
+            s = m.sample(x_init, transient, record, probes)
+        except MapError as exc:
+            nq = len(probes) if probes else x_init.size
+            out.append((np.full((record, nq), np.nan), np.full(x_init.size, np.nan), False,
+                        str(exc)))
+            x_init = np.asarray(x0, dtype=float)
+            report(1)
+            continue
+        out.append((s.values, s.x_final, s.ok, s.message))
+        # After a failure (divergence) the follow sweep restarts from x0.
+        x_init = s.x_final if (follow and s.ok) else np.asarray(x0, dtype=float)
+        report(1)
+    return out
+
+
+def bifurcation_diagram(
+    factory: MapFactory,
+    values: Sequence[float],
+    *,
+    x0,
+    transient: int,
+    record: int,
+    probes: Sequence[str] | None = None,
+    follow: bool = False,
+    directions: Sequence[str] = ("up",),
+    workers: int | None = None,
+    chunks: int | None = None,
+    progress: bool = False,
+    param_name: str = "p",
+    start_method: str | None = None,
+) -> BifurcationDiagram:
+    """Sweep a parameter and record the samples of the attractor at every value.
+
+    Parameters
+    ----------
+    factory : callable
+        ``factory(value) -> Map``; picklable for ``workers > 1`` (e.g.
+        :class:`netlist.sweep.CircuitMapFactory`, or a module-level function).
+    values : sequence of float, shape (K,)
+        Parameter values, in increasing sweep order.
+    x0 : array_like, shape (n,)
+        Initial state (fixed mode: for every value; follow mode: for the first value).
+    transient, record : int
+        Iterates discarded, then recorded, per value.
+    probes : sequence of str, optional
+        What to record; default the map's states.
+    follow : bool
+        Start each value from the previous value's final state.
+    directions : sequence of str
+        Follow mode only: ``("up",)``, ``("down",)`` or ``("up", "down")``.
+    workers : int, optional
+        Processes (default: all cores).
+    chunks : int, optional
+        Fixed mode: tasks (default 4 per worker, for load balance). Follow mode: contiguous
+        pieces per direction run in parallel, each from ``x0`` (default 1: a true follow).
+    progress : bool
+        tqdm bar on a terminal.
+    param_name : str
+    start_method : str, optional
+        Multiprocessing start method (default fork where available).
+
+    Returns
+    -------
+    BifurcationDiagram
+    """
+    t_wall = time.perf_counter()
+    values = np.asarray(values, dtype=float)
+    if values.ndim != 1 or values.size == 0:
+        raise ValueError("values must be a non-empty 1-D sequence")
+    if int(transient) < 0 or int(record) < 1:
+        raise ValueError("transient must be >= 0 and record >= 1")
+    x0 = np.asarray(x0, dtype=float)
+    probes = tuple(probes) if probes else None
+    nw = default_workers() if workers is None else max(1, int(workers))
+    if not follow:
+        directions = ("fixed",)
+        n_chunks = chunks or min(values.size, 4 * nw)
+    else:
+        directions = tuple(directions)
+        bad = [d for d in directions if d not in ("up", "down")]
+        if bad or not directions:
+            raise ValueError(f"directions must be 'up' and/or 'down', got {directions}")
+        n_chunks = chunks or 1
+    n_chunks = max(1, min(int(n_chunks), values.size))
+    tasks, layout = [], []
+    for d in directions:
+        seq = values[::-1] if d == "down" else values
+        for piece in np.array_split(seq, n_chunks):
+            if piece.size:
+                tasks.append((factory, piece, x0, int(transient), int(record), probes,
+                              bool(follow)))
+                layout.append(d)
+    results = run_tasks(_sweep_task, tasks, workers=nw, progress=progress,
+                        total=values.size * len(directions), desc="bifurcation",
+                        unit="value", start_method=start_method)
+    # Probe names and state names from one map (cheap: built once per process).
+    m0 = factory(float(values[0]))
+    names = probes or m0.state_names
+    branches = []
+    for d in directions:
+        rows = [r for lay, res in zip(layout, results, strict=True) if lay == d for r in res]
+        seq = values[::-1] if d == "down" else values
+        branches.append(SweepBranch(
+            direction=d, values=seq.copy(),
+            samples=np.stack([r[0] for r in rows]),
+            x_final=np.stack([r[1] for r in rows]),
+            ok=np.array([r[2] for r in rows], dtype=bool),
+            messages=[r[3] for r in rows],
+        ))
+    notes = []
+    failed = sum(int((~b.ok).sum()) for b in branches)
+    if failed:
+        notes.append(f"{failed} parameter value(s) failed (diverged or the LCP failed); "
+                     "their samples are NaN")
+    return BifurcationDiagram(
+        param_name=param_name, probes=tuple(names), state_names=tuple(m0.state_names),
+        transient=int(transient), record=int(record), follow=bool(follow), branches=branches,
+        wall_time=time.perf_counter() - t_wall, notes=notes,
+    )
+
+
+def attractor_period(samples: np.ndarray, rtol: float = 1e-6, max_period: int = 64) -> int:
+    """Smallest period k of a recorded sample sequence (0 if none up to ``max_period``).
+
+    Parameters
+    ----------
+    samples : ndarray, shape (M, q)
+        Recorded iterates of one parameter value.
+    rtol : float
+        Tolerance relative to the sample range (and 1e-12 absolute).
+    """
+    s = np.asarray(samples, dtype=float)
+    if s.ndim == 1:
+        s = s[:, None]
+    if not np.all(np.isfinite(s)):
+        return 0
+    scale = max(float(np.max(np.abs(s))), 1e-12)
+    for k in range(1, min(max_period, s.shape[0] - 1) + 1):
+        if np.max(np.abs(s[k:] - s[:-k])) <= rtol * scale + 1e-12:
+            return k
+    return 0
+
