@@ -19,6 +19,7 @@ printed on stderr.
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 import time
 from pathlib import Path
@@ -64,17 +65,41 @@ def _usage_error(message: str, hint: str = "") -> NetlistError:
     return NetlistError(Diagnostic(message=message, hint=hint), file="pelcs simulate")
 
 
-def _number(option: str, text: str | None) -> float | None:
-    """A SPICE number from an option (``5m``, ``0.1u``, ``1e-3``), or None when absent."""
-    from netlist.units import parse_number
+_NUMBER = re.compile(r"([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)([a-zA-Zµ]*)")
+
+
+def _number(option: str, text: str | None, units: tuple[str, ...] = ("",)) -> float | None:
+    """A SPICE number from an option, or None when the option is absent.
+
+    Parameters
+    ----------
+    option : str
+        The option name, for messages.
+    text : str or None
+        ``"5m"``, ``"0.1u"``, ``"1e-3"``, ``"5ms"``...
+    units : tuple of str
+        Unit letters allowed after the scale suffix (lower case): ``("", "s")`` for times.
+        SPICE itself ignores any letters after the suffix (``5x`` is 5); on the command line
+        a typo should not silently give a 5 s run.
+    """
+    from netlist.units import parse_number, suffix_scale
 
     if text is None:
         return None
-    value = parse_number(text.strip())
+    raw = text.strip().replace("µ", "u")
+    m = _NUMBER.fullmatch(raw)
+    value = parse_number(raw) if m else None
+    if m is not None and value is not None:
+        letters = m.group(2).lower()
+        power, _ = suffix_scale(letters)
+        rest = letters[3:] if letters[:3] in ("meg", "mil") else (
+            letters[1:] if letters and power != 0 else letters)
+        if rest not in units:
+            value = None
     if value is None:
+        example = "5m or 0.1u (SPICE suffixes T G Meg k m u n p f)" if "s" in units else "2"
         raise _usage_error(f"{option}: {text!r} is not a number",
-                           f"e.g. {option} 5m or {option} 0.1u (SPICE suffixes: "
-                           "T G Meg k m u n p f)")
+                           f"e.g. {option} {example}")
     return value
 
 
@@ -113,8 +138,8 @@ def run(args: argparse.Namespace) -> int:
     from netlist.parser import parse_file, parse_overrides
     from netlist.transient import check_probes, run_setup, transient_setup
 
-    tstop = _number("--tstop", args.tstop)
-    step = _number("--step", args.step)
+    tstop = _number("--tstop", args.tstop, ("", "s"))
+    step = _number("--step", args.step, ("", "s"))
     theta = _number("--theta", args.theta)
     if not 0.5 <= theta <= 1.0:
         raise _usage_error(f"--theta {args.theta}: θ must be in [0.5, 1]",
