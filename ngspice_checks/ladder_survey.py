@@ -60,6 +60,9 @@ _REMEDIES: dict[str, runner.NgspiceSettings] = {
     "shunts": runner.NgspiceSettings("shunts", options={"cshunt": "1e-12", "rshunt": "1e12"}),
     "cshunt": runner.NgspiceSettings("cshunt", options={"cshunt": "1e-12"}),
     "gear": runner.NgspiceSettings("gear", options={"method": "gear"}),
+    "gear+shunts": runner.NgspiceSettings(
+        "gear+shunts", options={"method": "gear", "cshunt": "1e-12", "rshunt": "1e12"}
+    ),
     "models": runner.NgspiceSettings(
         "models",
         diode_model={"is": "1e-12", "n": "0.05", "rs": "1e-3"},
@@ -115,8 +118,9 @@ def _try(text: str, probes: list[str], settings: runner.NgspiceSettings, budget:
         runner.run_ngspice(text, probes, settings=settings, timeout=budget)
     except runner.NgspiceFailed as exc:
         reason = exc.attempts[-1].reason or "?"
-        kind = "stall" if reason.startswith("stalled") else "FAIL"
-        return f"{kind}"
+        if reason.startswith("stalled"):
+            return "stall"
+        return "artefact" if reason.startswith("artefact") else "FAIL"
     return f"ok {time.perf_counter() - t0:.1f}s"
 
 
@@ -153,9 +157,9 @@ def main() -> None:
     args = ap.parse_args()
     rows = survey(args.quick, args.budget, args.jobs)
     cols = ["as-written", *_REMEDIES]
-    print(f"{'circuit':18} {'variant':15} {'probe':6} " + " ".join(f"{c:>10}" for c in cols))
+    print(f"{'circuit':18} {'variant':15} {'probe':6} " + " ".join(f"{c:>11}" for c in cols))
     for r in rows:
-        cells = " ".join(f"{r.outcome.get(c, ''):>10}" for c in cols)
+        cells = " ".join(f"{r.outcome.get(c, ''):>11}" for c in cols)
         print(f"{r.circuit:18} {r.variant:15} {r.probes:6} {cells}")
 
 

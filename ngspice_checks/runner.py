@@ -226,12 +226,18 @@ _SHUNTS = replace(
     description="+ cshunt=1 pF, rshunt=1 TOhm from every node to ground",
     options={"cshunt": "1e-12", "rshunt": "1e12"},
 )
-_RELAXED = replace(
+_GEAR = replace(
     _SHUNTS,
+    name="gear",
+    description="+ Gear (BDF2) integration",
+    options={**_SHUNTS.options, "method": "gear"},
+)
+_RELAXED = replace(
+    _GEAR,
     name="relaxed",
     description="+ reltol=1e-2 abstol=1e-9 vntol=1e-4 chgtol=1e-14 itl4=100 gmin=1e-10",
     options={
-        **_SHUNTS.options,
+        **_GEAR.options,
         "reltol": "1e-2",
         "abstol": "1e-9",
         "vntol": "1e-4",
@@ -242,15 +248,21 @@ _RELAXED = replace(
 )
 _SMOOTH = replace(
     _RELAXED,
-    name="gear-smooth-models",
-    description="+ Gear integration, D(IS=1e-12 N=0.05 RS=1m), SW RON=1m ROFF=1e9 VH>=1m",
-    options={**_RELAXED.options, "method": "gear"},
+    name="smooth-models",
+    description="+ D(IS=1e-12 N=0.05 RS=1m), SW RON=1m ROFF=1e9 VH>=1m",
     diode_model={"is": "1e-12", "n": "0.05", "rs": "1e-3"},
     switch_model=SwitchModel(ron=1e-3, roff=1e9, vh_min=1e-3),
 )
 
 #: the rungs tried by :func:`run_ngspice`, least invasive first (see the module docstring)
-DEFAULT_LADDER: tuple[NgspiceSettings, ...] = (_AS_WRITTEN, _EDGES, _SHUNTS, _RELAXED, _SMOOTH)
+DEFAULT_LADDER: tuple[NgspiceSettings, ...] = (
+    _AS_WRITTEN,
+    _EDGES,
+    _SHUNTS,
+    _GEAR,
+    _RELAXED,
+    _SMOOTH,
+)
 
 
 def apply_settings(netlist: str, settings: NgspiceSettings) -> str:
@@ -390,16 +402,21 @@ def _parse_probe(text: str) -> _Probe:
     return _Probe(text, kind, tuple(a.lower() for a in args))
 
 
-def _plan_probes(text: str, probes: Sequence[str] | None) -> _ProbePlan:
-    """Parse the probes and decide which elements need a sense source."""
+def _plan_probes(
+    text: str, probes: Sequence[str] | None, audited: Sequence[str] = ()
+) -> _ProbePlan:
+    """Parse the probes and decide which elements need a sense source.
+
+    ``audited`` elements (the diodes checked for reverse conduction) are sensed as well.
+    """
     if probes is None:
-        return _ProbePlan([], [], None)
+        return _ProbePlan([], list(audited), None)
     if isinstance(probes, str):
         probes = [probes]
     elements = {el.name.lower(): el for el in deck.top_level_elements(text)}
     parsed = [_parse_probe(p) for p in probes]
-    sensed: list[str] = []
-    vectors: set[str] = {"time"}
+    sensed: list[str] = list(audited)
+    vectors: set[str] = {"time"} | {deck.sense_names(d)[0] + "#branch" for d in audited}
     for p in parsed:
         if p.kind == "v":
             vectors.update(n for n in p.args if n not in _GROUND)
@@ -739,6 +756,64 @@ def _diagnose(reply: dict) -> str | None:
 
 
 # ------------------------------------------------------------------------------------------
+# diode audit
+
+#: a diode whose reverse charge exceeds this fraction of its forward charge is an artefact
+REVERSE_CHARGE_LIMIT = 1e-3
+
+_DYNAMIC_DIODE_PARAMS = ("tt", "cjo", "cj0", "cj")
+
+
+def _audited_diodes(text: str) -> list[str]:
+    """Top-level diodes whose model is static (no TT, no junction capacitance).
+
+    Those cannot carry reverse current beyond their leakage, so a reverse current is a
+    numerical artefact; diodes with a transit time or CJO may legitimately recover.
+    """
+    models = {m.name.lower(): m for m in deck.models(text)}
+    out = []
+    for el in deck.top_level_elements(text):
+        if not el.name.lower().startswith("d") or len(el.tokens) < 4:
+            continue
+        model = models.get(el.tokens[3].lower())
+        dynamic = model is not None and any(
+            deck.spice_number(model.params.get(k, "0")) not in (0.0,)
+            for k in _DYNAMIC_DIODE_PARAMS
+            if k in model.params
+        )
+        if not dynamic:
+            out.append(el.name)
+    return out
+
+
+def _audit_diodes(vectors: dict[str, np.ndarray], diodes: Sequence[str]) -> str | None:
+    """Reason if a static diode conducted a non-negligible charge in reverse, else None.
+
+    ngspice 39 accepts non-converged time points when a switch closes onto a conducting
+    near-ideal diode (boost converters: the switch node is pulled to ground while D1 still
+    carries the inductor current). For a few ns the diode then conducts kiloamperes in
+    reverse and drains the output capacitor, and the run still "succeeds". The device's own
+    ``@d1[id]`` does not show it (the accepted point violates the diode equation); the
+    branch current of the series sense source, which obeys KCL, does.
+    """
+    t = np.real(vectors["time"])
+    for name in diodes:
+        i = np.real(vectors.get(deck.sense_names(name)[0] + "#branch", np.zeros(0)))
+        if len(i) != len(t) or len(t) < 2:
+            continue
+        reverse = float(np.trapezoid(np.maximum(-i, 0.0), t))
+        forward = float(np.trapezoid(np.maximum(i, 0.0), t))
+        if reverse > REVERSE_CHARGE_LIMIT * max(forward, 1e-12) or -i.min() > max(i.max(), 1e-3):
+            k = int(np.argmin(i))
+            return (
+                f"artefact: diode {name} conducted {reverse:.3g} C in reverse (vs {forward:.3g} C"
+                f" forward; peak {i[k]:.3g} A at t = {t[k]:.4g} s): ngspice accepted "
+                "non-converged time points"
+            )
+    return None
+
+
+# ------------------------------------------------------------------------------------------
 # entry point
 
 
@@ -772,6 +847,7 @@ def run_ngspice(
     settings: NgspiceSettings | Sequence[NgspiceSettings] | None = None,
     timeout: float | None = 600.0,
     workdir: str | os.PathLike[str] | None = None,
+    audit_diodes: bool = True,
 ) -> NgspiceResult:
     """Simulate a netlist's ``.tran`` analysis in ngspice, climbing the ladder on failure.
 
@@ -793,6 +869,10 @@ def run_ngspice(
         Wall-time limit per rung (s); a rung over it is killed and counts as failed.
     workdir : path, optional
         Working directory for ngspice (relative ``.include`` files); default: the current one.
+    audit_diodes : bool
+        Put a sense source on every top-level diode with a static model and fail a rung in
+        which one conducts in reverse (more than ``REVERSE_CHARGE_LIMIT`` of its forward
+        charge): ngspice's known shoot-through artefact, see :func:`_audit_diodes`.
 
     Returns
     -------
@@ -814,7 +894,8 @@ def run_ngspice(
     text = deck.set_tran(_netlist_text(netlist_text), tstep, tstop)
     if deck.parse_tran(text) is None:
         raise NgspiceError("the netlist has no usable .tran line; give tstop")
-    plan = _plan_probes(text, probes)
+    audited = _audited_diodes(text) if audit_diodes else []
+    plan = _plan_probes(text, probes, audited)
     for element in plan.sensed:
         text = deck.insert_sense_source(text, element)
     elements = [el.name for el in deck.top_level_elements(text)]
@@ -825,6 +906,8 @@ def run_ngspice(
         candidate = apply_settings(text, rung_settings)
         reply = _simulate_in_worker(candidate, plan.vectors, timeout, cwd)
         reason = _diagnose(reply)
+        if reason is None and audited:
+            reason = _audit_diodes(reply["vectors"], audited)
         wall = reply.get("load_time", math.nan) + reply.get("run_time", math.nan)
         log = reply.get("startup_log", []) + reply.get("log", [])
         attempt = NgspiceAttempt(rung, rung_settings, reason, wall, log, candidate)
