@@ -37,7 +37,10 @@ __all__ = [
     "circuit_map",
     "parse_grid",
     "parse_range",
+    "parse_state",
+    "parse_value",
     "resolve_period",
+    "split_params",
 ]
 
 
@@ -77,6 +80,51 @@ def _number(text: str, what: str) -> float:
         raise _usage(f"{what}: {text!r} is not a number", "use a number with optional SPICE "
                      "suffix, e.g. 24, 400u, 1.5k")
     return float(v)
+
+
+def parse_value(text: str, what: str) -> float:
+    """A number with optional SPICE suffix (``400u``, ``24``, ``1.5k``) or a constant
+    expression; NetlistError naming ``what`` otherwise."""
+    return _number(text, what)
+
+
+def parse_state(text: str, states: Sequence[str], default) -> np.ndarray:
+    """``"v(C1)=12,i(L1)=1.5"`` -> a full state vector, others from ``default``.
+
+    Parameters
+    ----------
+    text : str
+        Comma-separated ``STATE=VALUE`` items (commas inside parentheses belong to names).
+    states : sequence of str
+        State names (case-insensitive match).
+    default : array_like, shape (n,)
+    """
+    x = np.array(default, dtype=float).copy()
+    lower = [s.lower() for s in states]
+    for item in _split_top(text):
+        name, sep, val = item.partition("=")
+        if not sep or name.strip().lower() not in lower:
+            raise _usage(f"bad state assignment {item!r}",
+                         f"expected STATE=VALUE with STATE one of {', '.join(states)}")
+        x[lower.index(name.strip().lower())] = _number(val, f"state {name.strip()}")
+    return x
+
+
+def _split_top(text: str) -> list[str]:
+    """Split on commas outside parentheses."""
+    depth, cur, parts = 0, "", []
+    for ch in text:
+        if ch == "(":
+            depth += 1
+        elif ch == ")":
+            depth -= 1
+        if ch == "," and depth == 0:
+            parts.append(cur)
+            cur = ""
+        else:
+            cur += ch
+    parts.append(cur)
+    return [p.strip() for p in parts if p.strip()]
 
 
 def parse_range(text: str, *, need_count: bool = False) -> ParamRange:
@@ -120,20 +168,7 @@ def split_params(items: Sequence[str]) -> tuple[list[ParamRange], dict[str, floa
 def parse_grid(text: str) -> list[tuple[str, float, float, int]]:
     """Parse ``"v(C1)=A:B:N,i(L1)=C:D:M"`` -> ``[(name, lo, hi, count), ...]`` (two axes)."""
     axes = []
-    # Split on commas outside parentheses (probe names like v(a,b) contain commas).
-    depth, cur, parts = 0, "", []
-    for ch in text:
-        if ch == "(":
-            depth += 1
-        elif ch == ")":
-            depth -= 1
-        if ch == "," and depth == 0:
-            parts.append(cur)
-            cur = ""
-        else:
-            cur += ch
-    parts.append(cur)
-    for part in parts:
+    for part in _split_top(text):
         r = parse_range(part.strip(), need_count=True)
         axes.append((r.name, r.start, r.stop, int(r.count)))
     if len(axes) != 2:
@@ -165,13 +200,31 @@ def resolve_period(circuit: Circuit, text: str | float) -> float:
 
 
 class _StateJump:
-    """Picklable ``on_inconsistent`` handler: the passive state jump with the circuit energy."""
+    """Picklable ``on_inconsistent`` handler: the passive state jump with the circuit energy.
+
+    The passivity certificate of each mode is computed once (it is the expensive part, and a
+    cell map over a grid of states starts from many inconsistent states).
+    """
 
     def __init__(self, energy: np.ndarray | None):
         self.energy = energy
+        self._reports: dict[int, tuple[LCS, object]] = {}
+
+    def __getstate__(self):
+        return {"energy": self.energy}
+
+    def __setstate__(self, state):
+        self.energy = state["energy"]
+        self._reports = {}
 
     def __call__(self, lcs: LCS, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        return state_jump(lcs, x, u, energy=self.energy).x_plus
+        from lcs.passivity import check_passivity
+
+        entry = self._reports.get(id(lcs))
+        if entry is None or entry[0] is not lcs:
+            entry = (lcs, check_passivity(lcs, energy=self.energy))
+            self._reports[id(lcs)] = entry
+        return state_jump(lcs, x, u, entry[1], energy=self.energy).x_plus
 
 
 def circuit_map(

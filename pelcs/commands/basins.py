@@ -1,0 +1,124 @@
+"""``pelcs basins FILE``: basins of attraction by simple cell mapping.
+
+::
+
+    pelcs basins FILE --period T --grid "v(C1)=A:B:N,i(L1)=C:D:M" [--param NAME=VALUE]...
+                 [--x0 STATE=V,...] [--step H] [--theta TH] [--t0 T0] [--workers W]
+                 [--no-merge] [-o OUT.npz] [--plot OUT.png]
+
+The rectangle of the two grid states (the others fixed at the netlist initial state or
+``--x0``) is cut into N x M cells; each cell centre is mapped once through the stroboscopic
+map (one period T, in parallel); the periodic groups of the resulting cell map are the
+attractors, and every cell is labelled with the attractor its chain ends in and the number of
+periods it takes (Hsu's simple cell mapping). Chains that leave the rectangle end in the
+*sink*. Touching periodic groups are merged into one attractor unless ``--no-merge``.
+
+Outputs: a summary (attractors, their cells and basin sizes), ``-o OUT.npz`` (``group``,
+``steps``, ``image`` arrays and the axes) and ``--plot`` (basins and transient time).
+
+Exit status: 0 success; 2 input errors.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from .bifurcation import check_output
+from .orbit import add_map_options, initial_state, make_factory, positive_int, usage_error
+
+
+def register(subparsers) -> None:
+    """Add the ``basins`` subcommand."""
+    p = subparsers.add_parser(
+        "basins",
+        help="basins of attraction of the stroboscopic map (simple cell mapping)",
+        description="Cell-to-cell mapping over a grid of two states: attractors, their "
+        "basins and the periods each cell takes to reach its attractor.",
+        epilog="example: pelcs basins vm_buck.cir --period tp --param vin=30 "
+        "--grid \"v(C1)=10:14:200,i(L1)=0:1.2:200\" --plot basins.png",
+    )
+    add_map_options(p, param_help="override a global .param (repeatable)")
+    p.add_argument("--grid", required=True, metavar="S1=A:B:N,S2=C:D:M",
+                   help="two states with their ranges and cell counts")
+    p.add_argument("--workers", metavar="W", help="worker processes (default: all cores)")
+    p.add_argument("--no-merge", action="store_true",
+                   help="keep touching periodic groups as separate attractors")
+    p.add_argument("-o", "--output", metavar="OUT.npz", help="write the cell data")
+    p.add_argument("--plot", metavar="OUT.png", help="plot basins and transient time")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from lcs.analysis.basins import cell_basins
+    from netlist.parser import parse_overrides
+    from netlist.sweep import parse_grid
+
+    fixed = parse_overrides(args.param)
+    factory = make_factory(args, "basins", fixed=fixed)
+    axes = parse_grid(args.grid)
+    workers = positive_int("basins", "--workers", args.workers) if args.workers else None
+    out = check_output("basins", "-o", args.output, (".npz",))
+    plot = check_output("basins", "--plot", args.plot, (".png", ".svg", ".pdf"))
+    m = factory()
+    lower = [s.lower() for s in m.state_names]
+    for name, *_ in axes:
+        if name.lower() not in lower:
+            raise usage_error("basins", f"--grid: {name!r} is not a state of the circuit",
+                              f"states: {', '.join(m.state_names)}")
+    if axes[0][0].lower() == axes[1][0].lower():
+        raise usage_error("basins", "--grid: the two axes must be different states")
+    base = initial_state(args, m)
+    bm = cell_basins(factory, axes, param=None, base_state=base,
+                     merge_adjacent=not args.no_merge, workers=workers,
+                     progress=not args.no_progress)
+    title = factory.circuit().title
+    written = []
+    for path, write in ((out, bm.to_npz), (plot, None)):
+        if path is None:
+            continue
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            if write is not None:
+                write(path)
+            else:
+                bm.plot(path, title=f"basins: {title or Path(args.file).name}")
+        except OSError as exc:
+            raise usage_error("basins", f"cannot write {path}: {exc.strerror or exc}") from exc
+        written.append(str(path))
+    print(summary(bm, args.file, title, m, written))
+    return 0
+
+
+def summary(bm, file: str, title: str, m, written: list[str]) -> str:
+    from netlist.units import format_eng
+
+    a0, a1 = bm.grid.axes
+    n = bm.grid.size
+    lines = [f"{file}: {title}".rstrip(": ")]
+    others = [f"{s} = {v:.6g}" for i, (s, v) in enumerate(zip(m.state_names, bm.base_state,
+                                                             strict=True))
+              if i not in bm.state_indices]
+    lines.append(f"simple cell mapping: {a0.name} {a0.lo:g}..{a0.hi:g} ({a0.count} cells) x "
+                 f"{a1.name} {a1.lo:g}..{a1.hi:g} ({a1.count} cells)"
+                 + (f", {', '.join(others)}" if others else "")
+                 + f"; T = {format_eng(m.period, 's')}, h = {format_eng(m.h, 's')}; "
+                 f"{bm.wall_time:.3g} s")
+    sink = int(np.count_nonzero(bm.group == 0))
+    lines.append(f"{len(bm.attractors)} attractor(s); {sink} of {n} cells "
+                 f"({100 * sink / n:.1f} %) leave the grid")
+    for at in bm.attractors:
+        centre = ", ".join(f"{nm} = {v:.6g}" for nm, v in
+                           zip((a0.name, a1.name), at.points.mean(axis=0), strict=True))
+        steps = bm.steps.ravel()[bm.group.ravel() == at.group]
+        lines.append(f"  attractor {at.group}: {at.period} periodic cell(s) around {centre}; "
+                     f"basin {at.basin_cells} cells ({100 * at.basin_cells / n:.1f} %), "
+                     f"reached in at most {int(steps.max())} periods")
+    for note in bm.notes:
+        lines.append(f"note: {note}")
+    if written:
+        lines.append(f"wrote {', '.join(written)}")
+    return "\n".join(lines)

@@ -1,0 +1,168 @@
+"""``pelcs bifurcation FILE``: bifurcation diagram of a netlist over one ``.param``.
+
+::
+
+    pelcs bifurcation FILE --param NAME=START:STOP:COUNT --period T --transient N --record M
+                      [--probe EXPR]... [--follow [--direction up|down|both]] [--chunks C]
+                      [--param OTHER=VALUE]... [--x0 ...] [--step H] [--theta TH] [--t0 T0]
+                      [--workers W] [-o OUT.csv|OUT.npz] [--plot OUT.png]
+
+For each of COUNT values from START to STOP the circuit is simulated for N + M periods T from
+the initial state (netlist ``IC=``/``.ic`` or ``--x0``); the probes (default: every state)
+sampled at the last M period instants are the diagram. ``--follow`` starts every value from
+the final state of the previous one instead (the attractor is followed; default direction
+``both``: an up sweep and a down sweep, which shows hysteresis). Values run in parallel on all
+cores (``--workers``); a follow sweep is sequential per direction (the two directions run in
+parallel; ``--chunks C`` splits each direction into C pieces that each start from the initial
+state). A summary of the attractor period along the parameter is printed.
+
+Outputs: ``-o OUT.csv`` (rows ``direction, NAME, k, probes...``) or ``-o OUT.npz`` (arrays
+per direction, see :meth:`lcs.analysis.bifurcation.BifurcationDiagram.to_npz`); ``--plot``
+a scatter plot (PNG/SVG/PDF).
+
+Exit status: 0 success (also when some values diverged: they are NaN and counted in the
+summary); 2 input errors.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from .orbit import add_map_options, initial_state, make_factory, positive_int, usage_error
+
+
+def register(subparsers) -> None:
+    """Add the ``bifurcation`` subcommand."""
+    p = subparsers.add_parser(
+        "bifurcation",
+        help="bifurcation diagram: sweep a .param, record the sampled attractor",
+        description="Sweep one .param; at each value discard a transient and record the "
+        "probes once per period T (stroboscopic samples). Fixed initial state, or --follow "
+        "the attractor up and down the range.",
+        epilog="example: pelcs bifurcation vm_buck.cir --param vin=20:35:300 --period tp "
+        "--transient 300 --record 100 --probe 'v(out)' --plot diagram.png",
+    )
+    add_map_options(p, param_help="NAME=START:STOP:COUNT: the swept parameter (once); "
+                    "NAME=VALUE: a fixed override (repeatable)")
+    p.add_argument("--transient", required=True, metavar="N", help="periods discarded")
+    p.add_argument("--record", required=True, metavar="M", help="periods recorded")
+    p.add_argument("--probe", action="append", default=[], metavar="EXPR",
+                   help="v(NODE), v(A,B), i(ELEMENT) or a state (repeatable); "
+                   "default: every state")
+    p.add_argument("--follow", action="store_true",
+                   help="start each value from the previous value's final state")
+    p.add_argument("--direction", choices=("up", "down", "both"), default="both",
+                   help="with --follow: sweep direction(s) (default both)")
+    p.add_argument("--chunks", metavar="C",
+                   help="with --follow: independent pieces per direction (default 1)")
+    p.add_argument("--workers", metavar="W", help="worker processes (default: all cores)")
+    p.add_argument("-o", "--output", metavar="OUT", help="write OUT.csv or OUT.npz")
+    p.add_argument("--plot", metavar="OUT.png", help="scatter plot of the diagram")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+
+
+def check_output(command: str, option: str, path: str | None, suffixes: tuple[str, ...]
+                 ) -> Path | None:
+    if path is None:
+        return None
+    p = Path(path)
+    if p.suffix.lower() not in suffixes:
+        raise usage_error(command, f"{option}: cannot tell the format of {path!r}",
+                          f"use a file name ending in {' or '.join(suffixes)}")
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    from lcs.analysis.bifurcation import bifurcation_diagram
+    from netlist.sweep import split_params
+    from netlist.transient import check_probes
+
+    from .simulate import split_probes
+
+    ranges, fixed = split_params(args.param)
+    if len(ranges) != 1 or ranges[0].count is None:
+        raise usage_error("bifurcation", "give exactly one --param NAME=START:STOP:COUNT",
+                          "e.g. --param vin=20:35:300 (fixed values: --param a=8.4)")
+    rng = ranges[0]
+    transient = positive_int("bifurcation", "--transient", args.transient, 0)
+    record = positive_int("bifurcation", "--record", args.record)
+    workers = positive_int("bifurcation", "--workers", args.workers) if args.workers else None
+    chunks = positive_int("bifurcation", "--chunks", args.chunks) if args.chunks else None
+    out = check_output("bifurcation", "-o", args.output, (".csv", ".npz"))
+    plot = check_output("bifurcation", "--plot", args.plot, (".png", ".svg", ".pdf"))
+    factory = make_factory(args, "bifurcation", swept=rng.name, fixed=fixed)
+    values = rng.values()
+    m = factory(float(values[0]))  # validates netlist, parameter name and period here
+    circuit = factory.circuit(float(values[0]))
+    probes = check_probes(circuit, split_probes(args.probe)) if args.probe else None
+    if probes:
+        m.system.outputs(m.system.key(None), probes)
+    x0 = initial_state(args, m)
+    directions = ("up", "down") if args.direction == "both" else (args.direction,)
+    diagram = bifurcation_diagram(
+        factory, values, x0=x0, transient=transient, record=record, probes=probes,
+        follow=args.follow, directions=directions, workers=workers, chunks=chunks,
+        progress=not args.no_progress, param_name=rng.name,
+    )
+    written = []
+    for path, write in ((out, diagram.save), (plot, None)):
+        if path is None:
+            continue
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            if write is not None:
+                write(path)
+            else:
+                diagram.plot(path, title=f"{circuit.title or Path(args.file).name}")
+        except OSError as exc:
+            raise usage_error("bifurcation", f"cannot write {path}: {exc.strerror or exc}") from exc
+        written.append(str(path))
+    print(summary(diagram, args.file, circuit.title, m, written))
+    return 0
+
+
+def period_runs(values: np.ndarray, samples: np.ndarray, ok: np.ndarray
+                ) -> list[tuple[float, float, str]]:
+    """Contiguous parameter runs with the same attractor period: ``(from, to, label)``."""
+    from lcs.analysis.bifurcation import attractor_period
+
+    labels = []
+    for s, good in zip(samples, ok, strict=True):
+        if not good:
+            labels.append("failed")
+            continue
+        k = attractor_period(s, rtol=1e-5)
+        labels.append(f"period {k}" if k else "no period <= 64 (not settled, quasi-periodic or chaotic)")
+    runs: list[tuple[float, float, str]] = []
+    for v, lab in zip(values, labels, strict=True):
+        if runs and runs[-1][2] == lab:
+            runs[-1] = (runs[-1][0], float(v), lab)
+        else:
+            runs.append((float(v), float(v), lab))
+    return runs
+
+
+def summary(diagram, file: str, title: str, m, written: list[str]) -> str:
+    from netlist.units import format_eng
+
+    lines = [f"{file}: {title}".rstrip(": ")]
+    k = diagram.branches[0].values.size
+    mode = ("follow (" + " and ".join(b.direction for b in diagram.branches) + ")"
+            if diagram.follow else "fixed initial state")
+    lines.append(f"{diagram.param_name}: {k} values, {mode}; T = {format_eng(m.period, 's')}, "
+                 f"h = {format_eng(m.h, 's')}; {diagram.transient} periods discarded, "
+                 f"{diagram.record} recorded; {diagram.wall_time:.3g} s")
+    for b in diagram.branches:
+        lines.append(f"attractor period along {diagram.param_name} ({b.direction}):")
+        for lo, hi, lab in period_runs(b.values, b.samples, b.ok):
+            span = f"{lo:.6g}" if lo == hi else f"{lo:.6g} .. {hi:.6g}"
+            lines.append(f"  {span:>24}: {lab}")
+    for note in diagram.notes:
+        lines.append(f"note: {note}")
+    if written:
+        lines.append(f"wrote {', '.join(written)}")
+    return "\n".join(lines)

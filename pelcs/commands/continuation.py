@@ -1,0 +1,129 @@
+"""``pelcs continue FILE --period T --param NAME=START:STOP``: follow a periodic orbit.
+
+::
+
+    pelcs continue FILE --period T --param NAME=START:STOP [--param OTHER=VALUE]...
+                        [--steps N] [--order K] [--tol DP] [--transient N] [--x0 ...]
+                        [--step H] [--theta TH] [--t0 T0] [--json]
+
+Natural continuation of the period-K orbit of the stroboscopic map from START to STOP in N
+steps (Newton shooting at each value from the secant prediction); between steps, a change in
+the multipliers outside the unit circle or in the switching pattern is located by bisection
+to ``--tol`` (default |STOP - START| * 1e-4). Bifurcations: ``flip`` (a multiplier through
+-1, period doubling), ``fold`` (+1), ``neimark-sacker`` (a complex pair through the unit
+circle), ``border`` (the switching pattern changes: skipped cycle, a diode entering
+discontinuous conduction, a border collision). ``--json`` prints one object with
+``bifurcations`` (a list of ``{"type", "param", "bracket", "detail", ...}``) and ``branch``
+(the orbits).
+
+The CLI module is ``continuation`` because ``continue`` is a Python keyword.
+
+Exit status: 0 success; 2 input errors; 3 no orbit at START or the continuation stopped early.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from .orbit import (
+    EXIT_FAILED,
+    add_map_options,
+    initial_state,
+    make_factory,
+    map_header,
+    positive_int,
+    usage_error,
+)
+
+
+def register(subparsers) -> None:
+    """Add the ``continue`` subcommand."""
+    p = subparsers.add_parser(
+        "continue",
+        help="continue a periodic orbit in a parameter and locate its bifurcations",
+        description="Follow a period-K orbit of the stroboscopic map as a .param varies; "
+        "detect and locate period doubling (flip), fold, Neimark-Sacker and border "
+        "collisions (switching-pattern changes).",
+        epilog="example: pelcs continue vm_buck.cir --period tp --param vin=20:30 --steps 40",
+    )
+    add_map_options(p, param_help="NAME=START:STOP: the continuation parameter (once); "
+                    "NAME=VALUE: a fixed override (repeatable)")
+    p.add_argument("--steps", default="40", metavar="N", help="continuation steps (default 40)")
+    p.add_argument("--order", default="1", metavar="K", help="period of the orbit in periods T")
+    p.add_argument("--tol", metavar="DP",
+                   help="bisection tolerance in the parameter (default |STOP-START|*1e-4)")
+    p.add_argument("--transient", default="100", metavar="N",
+                   help="periods simulated before the first Newton solve (default 100)")
+    p.add_argument("--no-locate", action="store_true",
+                   help="report the step brackets without bisection")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from lcs.analysis.continuation import continue_orbit
+    from lcs.analysis.maps import MapError
+    from netlist.sweep import parse_value, split_params
+
+    ranges, fixed = split_params(args.param)
+    if len(ranges) != 1:
+        raise usage_error("continue", "give exactly one --param NAME=START:STOP",
+                          "e.g. --param vin=20:30 (fixed values: --param a=8.4)")
+    rng = ranges[0]
+    if rng.count is not None:
+        raise usage_error("continue", f"--param {rng.name}: use NAME=START:STOP and --steps N")
+    factory = make_factory(args, "continue", swept=rng.name, fixed=fixed)
+    steps = positive_int("continue", "--steps", args.steps)
+    order = positive_int("continue", "--order", args.order)
+    transient = positive_int("continue", "--transient", args.transient, 0)
+    tol = parse_value(args.tol, "--tol") if args.tol else None
+    m = factory(rng.start)  # validates the netlist and the parameter name here
+    x0 = initial_state(args, m)
+    try:
+        res = continue_orbit(factory, rng.start, rng.stop, steps=steps, order=order, x0=x0,
+                             transient=transient, tol=tol, locate=not args.no_locate,
+                             progress=not args.no_progress, param_name=rng.name)
+    except MapError as exc:
+        print(f"{args.file}: error: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    report = {"file": args.file, "title": factory.circuit(rng.start).title,
+              **map_header(m, factory), "order": order, "start": rng.start, "stop": rng.stop,
+              "steps": steps, **res.to_dict()}
+    if args.json:
+        print(json.dumps(report, indent=1))
+    else:
+        print(format_continuation(report, Path(args.file).name))
+    return 0 if res.complete else EXIT_FAILED
+
+
+def format_continuation(r: dict, name: str) -> str:
+    """Text report: the branch (parameter, multiplier moduli, stability) and bifurcations."""
+    from .orbit import fmt_complex
+
+    pn = r["param_name"]
+    lines = [f"{name}: {r['title']}".rstrip(": ")]
+    lines.append(f"period-{r['order']} orbit continued in {pn} from {r['start']:g} to "
+                 f"{r['stop']:g} ({len(r['branch'])} orbits, {r['wall_time']:.3g} s)")
+    lines.append(f"  {pn:>12}  {'max |μ|':>10}  {'multipliers':<48} stability")
+    for o in r["branch"]:
+        mus = [complex(a, b) for a, b in o["multipliers"]]
+        mx = max((abs(v) for v in mus), default=0.0)
+        text = ", ".join(fmt_complex(v) for v in mus)
+        lines.append(f"  {o['param']:>12.6g}  {mx:>10.6g}  {text:<48} {o['stability']}")
+    if r["bifurcations"]:
+        lines.append("bifurcations:")
+        for b in r["bifurcations"]:
+            where = f"{b['param']:.8g}"
+            if not b["located"]:
+                where += f" (bracket {b['bracket'][0]:.6g} .. {b['bracket'][1]:.6g})"
+            lines.append(f"  {b['type']:<15} {pn} = {where}")
+            lines.append(f"      {b['detail']}")
+    else:
+        lines.append("no bifurcation found")
+    for note in r.get("notes", []):
+        lines.append(f"note: {note}")
+    return "\n".join(lines)

@@ -1,0 +1,188 @@
+"""``pelcs orbit FILE --period T``: a periodic orbit of the stroboscopic map and its stability.
+
+::
+
+    pelcs orbit FILE --period T [--order K] [--param NAME=VALUE]... [--x0 STATE=V,...]
+                     [--transient N] [--step H] [--theta TH] [--t0 T0] [--json]
+
+The circuit is sampled every T (a number with SPICE suffix, or a ``.param`` name such as
+``tp``) from the phase ``--t0``; the period-K orbit is found by Newton shooting from the
+circuit's initial state (``IC=``, ``.ic``, or ``--x0``) after ``--transient`` periods. Printed:
+the orbit's points (states named as ``pelcs lcs`` names them), its Floquet multipliers (from a
+central-difference Jacobian of the K-period map), the stability and the switching pattern.
+``--json`` prints one object: ``{"file", "title", "period", "step", "theta", "order",
+"states", "points", "multipliers" ([re, im] pairs), "stability", "pattern", ...}``.
+
+This module also holds the options that ``bifurcation``, ``continue`` and ``basins`` share.
+
+Exit status: 0 success; 2 input errors; 3 Newton did not converge or the map failed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from netlist.errors import Diagnostic, NetlistError
+
+EXIT_FAILED = 3
+
+
+# -- options shared by the analysis commands ---------------------------------------------
+
+
+def add_map_options(p: argparse.ArgumentParser, *, param_help: str) -> None:
+    """``file``, ``--period``, ``--param``, ``--step``, ``--theta``, ``--t0``, ``--x0``."""
+    p.add_argument("file", help="netlist file")
+    p.add_argument("--period", required=True, metavar="T",
+                   help="sampling period: seconds with SPICE suffix (400u) or a .param name")
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                   help=param_help)
+    p.add_argument("--step", metavar="H",
+                   help="time step (default: the .tran step, rounded down to T/integer)")
+    p.add_argument("--theta", metavar="TH", default="0.5",
+                   help="Moreau θ in [0.5, 1] (default 0.5)")
+    p.add_argument("--t0", metavar="T0", default="0",
+                   help="sampling phase: the map samples at t0 + k T (default 0)")
+    p.add_argument("--x0", metavar="STATE=V,...",
+                   help="initial state, e.g. 'v(C1)=12,i(L1)=1' (others: the netlist's IC)")
+
+
+def usage_error(command: str, message: str, hint: str = "") -> NetlistError:
+    return NetlistError(Diagnostic(message=message, hint=hint), file=f"pelcs {command}")
+
+
+def make_factory(args: argparse.Namespace, command: str, *, swept: str | None = None,
+                 fixed: dict[str, float] | None = None):
+    """The :class:`~netlist.sweep.CircuitMapFactory` of the parsed options."""
+    from netlist.sweep import CircuitMapFactory, parse_value
+
+    theta = parse_value(args.theta, "--theta")
+    if not 0.5 <= theta <= 1.0:
+        raise usage_error(command, f"--theta {args.theta}: θ must be in [0.5, 1]")
+    step = parse_value(args.step, "--step") if args.step else None
+    if step is not None and step <= 0:
+        raise usage_error(command, f"--step {args.step}: must be positive")
+    t0 = parse_value(args.t0, "--t0")
+    period: float | str = args.period
+    try:
+        period = parse_value(args.period, "--period")
+    except NetlistError:
+        pass  # a .param name, resolved per parameter value
+    return CircuitMapFactory(
+        path=args.file, period=period, param=swept,
+        overrides=tuple(sorted((fixed or {}).items())), step=step, theta=theta, t0=t0,
+    )
+
+
+def initial_state(args: argparse.Namespace, m):
+    """``--x0`` over the circuit's initial state."""
+    from netlist.sweep import parse_state
+
+    x0 = getattr(m, "x0", None)
+    if args.x0:
+        return parse_state(args.x0, m.state_names, x0)
+    return x0
+
+
+def positive_int(command: str, option: str, text, minimum: int = 1) -> int:
+    from netlist.sweep import parse_value
+
+    v = parse_value(str(text), option)
+    if v != int(v) or v < minimum:
+        raise usage_error(command, f"{option} {text}: expected an integer >= {minimum}")
+    return int(v)
+
+
+def fmt_complex(mu: complex) -> str:
+    if abs(mu.imag) <= 1e-12 * max(1.0, abs(mu)):
+        return f"{mu.real:.8g}"
+    return f"{mu.real:.8g} {'+' if mu.imag >= 0 else '-'} {abs(mu.imag):.8g}j"
+
+
+def map_header(m, factory) -> dict:
+    return {"period": m.period, "step": m.h, "theta": m.theta, "t0": m.t0,
+            "params": dict(factory.overrides)}
+
+
+# -- the command -------------------------------------------------------------------------
+
+
+def register(subparsers) -> None:
+    """Add the ``orbit`` subcommand."""
+    p = subparsers.add_parser(
+        "orbit",
+        help="periodic orbit of the stroboscopic map: points, Floquet multipliers, pattern",
+        description="Find a period-K orbit of the stroboscopic map (state sampled every T) by "
+        "Newton shooting; print its points, Floquet multipliers, stability and switching "
+        "pattern.",
+        epilog="example: pelcs orbit vm_buck.cir --period tp --param vin=20 --json",
+    )
+    add_map_options(p, param_help="override a global .param (repeatable)")
+    p.add_argument("--order", default="1", metavar="K", help="period of the orbit in periods T")
+    p.add_argument("--transient", default="100", metavar="N",
+                   help="periods simulated before Newton (default 100)")
+    p.add_argument("--tol", default="1e-10", metavar="TOL",
+                   help="Newton tolerance on the scaled residual (default 1e-10)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from lcs.analysis.maps import MapError
+    from lcs.analysis.orbits import find_orbit
+    from netlist.parser import parse_overrides
+    from netlist.sweep import parse_value
+
+    fixed = parse_overrides(args.param)
+    factory = make_factory(args, "orbit", fixed=fixed)
+    order = positive_int("orbit", "--order", args.order)
+    transient = positive_int("orbit", "--transient", args.transient, 0)
+    tol = parse_value(args.tol, "--tol")
+    m = factory()
+    x0 = initial_state(args, m)
+    try:
+        orbit = find_orbit(m, x0, order, transient=transient, tol=tol)
+    except MapError as exc:
+        print(f"{args.file}: error: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    circuit_title = factory.circuit().title
+    report = {"file": args.file, "title": circuit_title, **map_header(m, factory),
+              **orbit.to_dict(), "notes": list(m.notes) + list(orbit.notes)}
+    if args.json:
+        print(json.dumps(report, indent=1))
+    else:
+        print(format_orbit(report, Path(args.file).name))
+    return 0 if orbit.converged else EXIT_FAILED
+
+
+def format_orbit(r: dict, name: str) -> str:
+    """Text report of an orbit (the JSON object of ``run``)."""
+    from netlist.units import format_eng
+
+    lines = [f"{name}: {r['title']}".rstrip(": ")]
+    params = ", ".join(f"{k} = {v:g}" for k, v in r["params"].items())
+    lines.append(f"period-{r['order']} orbit of the stroboscopic map: T = "
+                 f"{format_eng(r['period'], 's')}, h = {format_eng(r['step'], 's')}, "
+                 f"θ = {r['theta']:g}" + (f"; {params}" if params else ""))
+    states = r["states"]
+    width = max(12, *(len(s) + 2 for s in states))
+    lines.append("points:")
+    lines.append("  k " + "".join(s.rjust(width) for s in states))
+    for k, pt in enumerate(r["points"]):
+        lines.append(f"  {k:<2}" + "".join(f"{v:{width}.8g}" for v in pt))
+    lines.append("Floquet multipliers (eigenvalues of the Jacobian of the "
+                 f"{r['order']}-period map):")
+    for (re_, im), mod in zip(r["multipliers"], r["multiplier_moduli"], strict=True):
+        lines.append(f"  {fmt_complex(complex(re_, im)):>32}   |μ| = {mod:.8g}")
+    lines.append(f"stability: {r['stability']}")
+    if r.get("pattern_text"):
+        lines.append(f"switching pattern: {r['pattern_text']}")
+    conv = "converged" if r["converged"] else "NOT converged"
+    lines.append(f"Newton: {conv} in {r['iterations']} iteration(s), scaled residual "
+                 f"{r['residual']:.3g}")
+    for note in r.get("notes", []):
+        lines.append(f"note: {note}")
+    return "\n".join(lines)
