@@ -269,6 +269,10 @@ def find_orbit(
     g = pk(x) - x
     r = resid(g)
     n = x.size
+    # The residual is relative to the state: a map whose "fixed point" is at infinity (no
+    # orbit) would look converged far out. Newton stops when the state grows this much.
+    bound = 1e6 * max(1.0, float(np.max(np.abs(x))) if n else 1.0,
+                      float(np.max(nat)) if nat is not None else 1.0)
     eye = np.eye(n)
     it = 0
     converged = r <= tol
@@ -299,6 +303,9 @@ def find_orbit(
         if not accepted:
             break
         step = float(np.max(np.abs(lam * dx) / sc))
+        if float(np.max(np.abs(xt))) > bound:
+            notes.append("Newton diverged (the state grew without bound)")
+            break
         x, g, r = xt, gt, rt
         sc = state_scale(x, nat)
         converged = r <= tol or (step <= tol and r <= 1e3 * tol)
