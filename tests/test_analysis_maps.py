@@ -103,6 +103,16 @@ def boost_reference(duty: float = DUTY) -> tuple[np.ndarray, np.ndarray]:
     return Phi, c
 
 
+def buck_reference(duty: float, vin: float = 24.0) -> tuple[np.ndarray, np.ndarray]:
+    """(Φ, c) of the damped CCM buck (BUCK_TEXT) over one period from t = 0."""
+    Lb, Cb, Rb = 50e-6, 5e-6, 1.0
+    a = np.array([[0.0, -1 / Lb], [1 / Cb, -1 / (Rb * Cb)]])
+    P1 = _flow(a, np.zeros(2), T_ON)
+    P2 = _flow(a, np.array([vin / Lb, 0.0]), duty * T)
+    P3 = _flow(a, np.zeros(2), T - duty * T - T_ON)
+    return P3[0] @ P2[0] @ P1[0], P3[0] @ (P2[0] @ P1[1] + P2[1]) + P3[1]
+
+
 def test_boost_map_is_the_affine_reference_map(netlists):
     Phi, c = boost_reference()
     m = CircuitMapFactory(netlists["boost"], period="ts", step=0.05e-6)()
