@@ -31,8 +31,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from lcs.model import LCS, SwitchedLCS
-from lcs.moreau import MoreauOptions, simulate
+from lcs.model import LCS, ComplementarityPair, SwitchedLCS
+from lcs.moreau import MoreauOptions, simulate, simulate_lcs
 from lcs.results import SimulationResult
 from lcs.signals import Dc, Pulse, Signal, Sin, resolve
 from lcs.wellposed import state_jump
@@ -49,6 +49,7 @@ __all__ = [
     "run_setup",
     "simulate_circuit",
     "transient_setup",
+    "warm_up",
 ]
 
 # Default step without .tran: this many steps per shortest source period, and at least this
@@ -414,3 +415,23 @@ def run_setup(
         keep = result.t >= setup.t_save
         result.t, result.y = result.t[keep], result.y[keep]
     return result
+
+
+def warm_up() -> float:
+    """Load the stepper's compiled (numba) kernels by a tiny run; returns the time it took, s.
+
+    The first run in a process pays for loading the kernels from numba's cache (a few tenths
+    of a second, more on the very first use after installation, when they are compiled).
+    Calling this first lets a caller report the time per step of the run itself.
+    """
+    import time
+
+    t0 = time.perf_counter()
+    # A capacitor charged from a 1 V source through an ideal diode: x' = -x + λ,
+    # w = -x + λ + u (one state, one pair, one input: the same kernel signatures as any
+    # circuit).
+    one = np.ones((1, 1))
+    lcs = LCS(A=-one, B=one, C=-one, D=one, E=0 * one, F=one, states=("x",),
+              pairs=(ComplementarityPair("D"),), inputs=("u",))
+    simulate_lcs(lcs, [Dc(1.0)], [0.0], 1e-3, 1e-4)
+    return time.perf_counter() - t0

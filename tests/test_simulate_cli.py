@@ -166,3 +166,14 @@ def test_auto_zoom_is_the_last_switching_periods():
     t0, t1 = auto_zoom(res)
     assert t1 == pytest.approx(0.4e-3) and t1 - t0 == pytest.approx(3 * 20e-6)
     assert auto_zoom(pelcs.simulate(str(SIM / "half_wave.cir"), tstop="20m")) is None
+
+
+def test_plot_envelope_keeps_the_extremes_of_dense_waveforms():
+    from pelcs.plotting import _envelope
+
+    t = np.linspace(0.0, 1.0, 100_001)
+    y = np.sin(2 * np.pi * 500 * t) + t  # 500 ripple periods
+    tt, yy = _envelope(t, y)
+    assert len(tt) < 10_000 and np.all(np.diff(tt) >= 0)
+    assert yy.max() == y.max() and yy.min() == y.min()
+    assert tt[0] == t[0] and tt[-1] == t[-1] or yy[-1] == y[-1]

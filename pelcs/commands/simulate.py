@@ -136,7 +136,7 @@ def _check_path(option: str, path: str, suffixes: tuple[str, ...]) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     from netlist.parser import parse_file, parse_overrides
-    from netlist.transient import check_probes, run_setup, transient_setup
+    from netlist.transient import check_probes, run_setup, transient_setup, warm_up
 
     tstop = _number("--tstop", args.tstop, ("", "s"))
     step = _number("--step", args.step, ("", "s"))
@@ -156,6 +156,8 @@ def run(args: argparse.Namespace) -> int:
     probes = check_probes(circuit, split_probes(args.probe)) if args.probe else None
     setup = transient_setup(circuit, tstop=tstop, step=step)
 
+    # Load the compiled kernels first, so that the summary's time per step is the run's.
+    load = warm_up()
     t0 = time.perf_counter()
     result = run_setup(setup, theta=theta, probes=probes, every=every,
                        progress=not args.no_progress)
@@ -165,7 +167,7 @@ def run(args: argparse.Namespace) -> int:
                      setup.t_stop)
     switches = [s.name for s in setup.system.switches]
     print(summary(result, args.file, circuit.title, tstop=setup.t_stop, step=setup.h,
-                  theta=theta, wall=wall, written=written, switches=switches))
+                  theta=theta, wall=wall, written=written, switches=switches, load=load))
     if result.error is not None:
         err = result.error
         where = (f"results up to t = {_eng(err.t_prev, 's')} written to {', '.join(written)}"
@@ -206,7 +208,8 @@ def _eng(value: float, unit: str) -> str:
 
 
 def summary(result, file: str, title: str, *, tstop: float, step: float, theta: float,
-            wall: float, written: list[str], switches: list[str] = ()) -> str:
+            wall: float, written: list[str], switches: list[str] = (),
+            load: float | None = None) -> str:
     """The text printed after a run: steps and timing, modes, final values, notes, files.
 
     Parameters
@@ -223,6 +226,8 @@ def summary(result, file: str, title: str, *, tstop: float, step: float, theta: 
         Files written.
     switches : list of str
         Switch names in mode-key order.
+    load : float, optional
+        Time spent loading the compiled kernels before the run, s.
     """
     from pelcs.plotting import probe_unit
 
@@ -233,7 +238,7 @@ def summary(result, file: str, title: str, *, tstop: float, step: float, theta: 
     lines.append(
         f"simulated 0 to {_eng(tstop, 's')}, h = {_eng(step, 's')}, θ = {theta:g}: "
         f"{st.steps} steps{shortened} in {wall:.3g} s ({1e6 * wall / max(st.steps, 1):.3g} "
-        "µs/step)"
+        "µs/step)" + (f", after {load:.2g} s loading the compiled kernels" if load else "")
     )
     if switches:
         modes = ["(" + ", ".join(f"{n} {'on' if on else 'off'}" for n, on in
