@@ -48,9 +48,11 @@ __all__ = [
     "SwitchingPattern",
 ]
 
-# Stored samples farther than this fraction of h from a period instant do not count as the
-# period sample (the driver may move a boundary by up to MERGE_FRACTION * h).
-_TIME_MATCH = 0.02
+# A stored sample is at a given instant when it is within this fraction of h of it. Period
+# instants and source-driven switching instants are step boundaries, exact up to the
+# driver's merging of boundaries (1e-9 h); comparator switchings split steps and may fall
+# nanoseconds away from a period instant, so the tolerance must be much tighter than a step.
+_TIME_MATCH = 1e-6
 # "every" large enough to store only the first and the last point of a run.
 _EVERY_NONE = 2**62
 # A diode conducts when its current exceeds this fraction of the largest current seen in the
@@ -467,6 +469,10 @@ class StroboscopicMap(_LcsMapBase):
             raise self._fail(res, x)
         if self._steps_per_period is None and k == 1:
             self._steps_per_period = int(res.stats.steps)
+            # Comparator switchings located inside steps split them: the step count per
+            # period then varies, and runs store every step (see _run_sampled).
+            if getattr(res.stats, "located", 0):
+                self._uniform = False
         return res.x_final.copy()
 
     def _run_sampled(self, x, n: int, probes: Sequence[str] | None
