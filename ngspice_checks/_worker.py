@@ -219,20 +219,22 @@ def _tstop(listing: list[str]) -> float | None:
 def _stalled(session: _Session, started: float, tstop: float | None, budget: float) -> str:
     """Non-empty reason when the run cannot finish within ``budget`` seconds at its pace.
 
-    Judged after 5 s only: finishing must look impossible both at the pace of the last 5 s
-    and (with a factor 4 of slack, for runs that slow down for a while) at the average pace.
+    Judged after ``min(5 s, budget/2)``: finishing in time must look impossible both at the
+    pace of the last few seconds and (with a factor 4 of slack, for runs that slow down for
+    a while) at the average pace since the start.
     """
     now = time.perf_counter()
     elapsed = now - started
-    if tstop is None or elapsed < 5.0 or len(session.progress) < 2:
+    settle = min(5.0, budget / 2.0)
+    if tstop is None or elapsed < settle or len(session.progress) < 2:
         return ""
     wall, sim = session.progress[-1]
     remaining = tstop - sim
     if remaining <= 0:
         return ""
-    window = [p for p in session.progress if p[0] >= wall - 5.0]
+    window = [p for p in session.progress if p[0] >= wall - settle]
     w0, s0 = window[0]
-    recent = (sim - s0) / (wall - w0) if wall - w0 >= 2.0 else float("inf")
+    recent = (sim - s0) / (wall - w0) if wall - w0 >= settle / 2.0 else float("inf")
     average = sim / max(wall - started, 1e-9)
     if elapsed + remaining / max(recent, 1e-300) > budget and (
         elapsed + remaining / max(average, 1e-300) > budget / 4.0

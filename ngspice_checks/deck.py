@@ -485,7 +485,7 @@ def top_level_elements(text: str) -> list[ElementLine]:
 
 def sense_names(element: str) -> tuple[str, str]:
     """(source name, node name) of the 0 V sense source inserted for ``element``."""
-    key = element.lower()
+    key = re.sub(r"[^a-z0-9_]", "_", element.lower())  # d.x1.d1 (flattened) -> d_x1_d1
     return f"vpelcs_{key}", f"pelcs_{key}_s"
 
 

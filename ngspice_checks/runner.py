@@ -376,15 +376,7 @@ class _ProbePlan:
     probes: list[_Probe]
     sensed: list[str]  # elements that get a sense source
     vectors: list[str] | None  # ngspice vectors to fetch; None = all
-
-    def vector_for_current(self, element: str) -> str:
-        parts = element.lower().split(".")
-        letter = parts[-1][0]
-        if element.lower() in (s.lower() for s in self.sensed):
-            return deck.sense_names(element)[0] + "#branch"
-        if len(parts) == 1:
-            return f"{parts[0]}#branch"
-        return f"{letter}.{'.'.join(parts)}#branch"
+    currents: dict[str, str] = field(default_factory=dict)  # i() element (lower) -> vector
 
 
 def _parse_probe(text: str) -> _Probe:
@@ -405,7 +397,7 @@ def _parse_probe(text: str) -> _Probe:
 def _plan_probes(
     text: str, probes: Sequence[str] | None, audited: Sequence[str] = ()
 ) -> _ProbePlan:
-    """Parse the probes and decide which elements need a sense source.
+    """Parse the probes, decide which elements need a sense source and which vectors to read.
 
     ``audited`` elements (the diodes checked for reverse conduction) are sensed as well.
     """
@@ -416,6 +408,7 @@ def _plan_probes(
     elements = {el.name.lower(): el for el in deck.top_level_elements(text)}
     parsed = [_parse_probe(p) for p in probes]
     sensed: list[str] = list(audited)
+    currents: dict[str, str] = {}
     vectors: set[str] = {"time"} | {deck.sense_names(d)[0] + "#branch" for d in audited}
     for p in parsed:
         if p.kind == "v":
@@ -424,27 +417,31 @@ def _plan_probes(
         name = p.args[0]
         parts = name.lower().split(".")
         letter = parts[-1][:1]
+        flat = f"{letter}.{name.lower()}"
+        if len(parts) > 1 and flat in elements:
+            # a flattened deck (netlist.writer) names X1.D1 "D.X1.D1" at top level
+            parts = [flat]
         if len(parts) == 1 and parts[0] not in elements:
             known = ", ".join(el.name for el in elements.values())
             raise ProbeError(f"probe {p.text!r}: no element {name!r} in the netlist ({known})")
         if letter in _BRANCH_KINDS:
-            continue
-        if letter in _SENSE_KINDS:
+            # ngspice: top level "l1#branch"; inside instance x1 "l.x1.l1#branch"
+            vec = f"{parts[0]}#branch" if len(parts) == 1 else f"{letter}.{'.'.join(parts)}#branch"
+        elif letter in _SENSE_KINDS:
             if len(parts) > 1:
                 raise ProbeError(
                     f"probe {p.text!r}: currents of {letter.upper()} elements inside "
                     "subcircuits are not supported yet (only V, L, E, H there)"
                 )
-            if name.lower() not in (s.lower() for s in sensed):
-                sensed.append(name)
-            continue
-        raise ProbeError(f"probe {p.text!r}: {name!r} has no single branch current")
-    plan = _ProbePlan(parsed, sensed, None)
-    for p in parsed:
-        if p.kind == "i":
-            vectors.add(plan.vector_for_current(p.args[0]))
-    plan.vectors = sorted(vectors)
-    return plan
+            element = elements[parts[0]].name
+            if element.lower() not in (s.lower() for s in sensed):
+                sensed.append(element)
+            vec = deck.sense_names(element)[0] + "#branch"
+        else:
+            raise ProbeError(f"probe {p.text!r}: {name!r} has no single branch current")
+        currents[name.lower()] = vec
+        vectors.add(vec)
+    return _ProbePlan(parsed, sensed, sorted(vectors), currents)
 
 
 def _evaluate_probes(
@@ -471,7 +468,7 @@ def _evaluate_probes(
             v = vec(p.args[0], p.text)
             out[p.text] = v - vec(p.args[1], p.text) if len(p.args) == 2 else v.copy()
         else:
-            out[p.text] = vec(plan.vector_for_current(p.args[0]), p.text).copy()
+            out[p.text] = vec(plan.currents[p.args[0].lower()], p.text).copy()
     return out
 
 

@@ -256,3 +256,52 @@ Rx m 0 1k
 def test_bad_probes(ngspice, probe, message):
     with pytest.raises(ProbeError, match=message):
         run_ngspice(RC, [probe], tstop=1e-5)
+
+
+# ------------------------------------------------------------------------------------------
+# availability, time limits, other inputs
+
+
+def test_missing_ngspice_skips_loudly_or_fails(monkeypatch):
+    from ngspice_checks import availability
+
+    monkeypatch.setattr(availability, "unavailable_reason", lambda: "libngspice not found")
+    monkeypatch.delenv("PELCS_REQUIRE_NGSPICE", raising=False)
+    with pytest.warns(availability.NgspiceMissingWarning, match="NGSPICE MISSING"):
+        with pytest.raises(pytest.skip.Exception, match="libngspice not found"):
+            availability.require_ngspice()
+    monkeypatch.setenv("PELCS_REQUIRE_NGSPICE", "1")
+    with pytest.raises(pytest.fail.Exception, match="PELCS_REQUIRE_NGSPICE=1"):
+        availability.require_ngspice()
+
+
+def test_hopeless_run_is_halted_by_the_watchdog(ngspice):
+    # the sliding-mode boost needs about 3 s for its 30 ms; allow 1 s
+    text = (NETLISTS / "boost_smc.cir").read_text()
+    with pytest.raises(NgspiceFailed) as info:
+        run_ngspice(text, ["v(out)"], settings=DEFAULT_LADDER[0], timeout=1.0)
+    (attempt,) = info.value.attempts
+    assert attempt.reason.startswith("stalled") and "1 s timeout" in attempt.reason
+    assert attempt.wall_time < 2.5
+
+
+def test_include_relative_to_workdir(ngspice, tmp_path):
+    (tmp_path / "models.inc").write_text(".model DX D(IS=1e-12 N=0.05 RS=1m)\n")
+    text = "include test\nV1 a 0 DC 1\nR1 a k 1k\nD1 k 0 DX\n.include models.inc\n"
+    text += ".tran 1u 10u UIC\n.end\n"
+    res = run_ngspice(text, ["i(D1)"], workdir=tmp_path)
+    assert res["i(D1)"][-1] == pytest.approx((1 - 0.034) / 1e3, rel=0.02)
+
+
+def test_circuit_objects_are_written_and_flattened_names_probed(ngspice, tmp_path):
+    parser = pytest.importorskip("netlist.parser")
+    pytest.importorskip("netlist.writer")
+    path = tmp_path / "sub.cir"
+    path.write_text(
+        "subcircuit diode\nV1 a 0 DC 2\nX1 a k half\nR1 k 0 1k\n"
+        ".subckt half p n\nRs p m 1k\nD1 m n DX\n.ends\n"
+        ".model DX D(IS=1e-12 N=0.05 RS=1m)\n.tran 1u 10u 0 UIC\n.end\n"
+    )
+    res = run_ngspice(parser.parse_file(path), ["i(X1.D1)", "i(R1)", "v(x1.m)"])
+    np.testing.assert_allclose(res["i(X1.D1)"], res["i(R1)"], rtol=1e-6)
+    assert res["i(R1)"][-1] == pytest.approx((2 - 0.034) / 2e3, rel=0.02)
