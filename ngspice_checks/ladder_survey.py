@@ -4,9 +4,10 @@ Run ``python -m ngspice_checks.ladder_survey [--quick]``. Every bundled converte
 (plus two classic trouble makers, defined below) is varied in the ways that make ngspice
 fail (steeper diodes, harder switches, ps edges, a sense source in series with D1); each
 variant is run as written and, when that fails, once with each remedy of the ladder applied
-*alone*, so that the table shows what each remedy is worth by itself. The ladder order in
+*alone*, so that the table shows what each remedy is worth by itself, and then through the
+whole default ladder (last column: the rung that succeeded). The ladder order in
 :mod:`ngspice_checks.runner` follows from it (least invasive first, and cheap-and-effective
-before rare-and-expensive). Takes a few minutes; not part of the test suite.
+before rare-and-expensive). Takes about 10 minutes; not part of the test suite.
 """
 
 from __future__ import annotations
@@ -142,6 +143,11 @@ def survey(quick: bool = False, budget: float = 20.0, jobs: int = 2) -> list[_Ro
         if not outcome["as-written"].startswith("ok"):
             for rname, settings in _REMEDIES.items():
                 outcome[rname] = _try(text, probes, settings, budget)
+            try:
+                res = runner.run_ngspice(text, probes, timeout=budget)
+                outcome["ladder"] = f"rung {res.rung}"
+            except runner.NgspiceFailed:
+                outcome["ladder"] = "FAIL"
         return _Row(name, vname, ",".join(probes) or "-", outcome)
 
     with ThreadPoolExecutor(max_workers=jobs) as pool:
@@ -156,7 +162,7 @@ def main() -> None:
     ap.add_argument("--budget", type=float, default=20.0, help="timeout per run (s)")
     args = ap.parse_args()
     rows = survey(args.quick, args.budget, args.jobs)
-    cols = ["as-written", *_REMEDIES]
+    cols = ["as-written", *_REMEDIES, "ladder"]
     print(f"{'circuit':18} {'variant':15} {'probe':6} " + " ".join(f"{c:>11}" for c in cols))
     for r in rows:
         cells = " ".join(f"{r.outcome.get(c, ''):>11}" for c in cols)

@@ -33,69 +33,107 @@ Probes use pelcs' syntax. ``v(n)`` and ``v(a,b)`` read node vectors (``v(0)`` is
 chosen over ngspice's ``@d1[id]``-style device vectors because it works the same for every
 element type, gives exactly pelcs' sign (from the first node through the element to the
 second), needs no ``.save`` lines (which would suppress all other vectors) and is read at
-the same time points as everything else. Only top-level elements can be sensed so far.
+the same time points as everything else, and it reports the KCL current, which ngspice's
+device vectors do not when ngspice accepts a non-converged point (see the audit below).
+Only top-level elements can be sensed (``X1.D1`` works on a flattened ``Circuit``, whose
+writer names it ``D.X1.D1``).
 
 The ladder
 ----------
 ngspice's Newton iterations and time-step control were made for smooth devices; near-ideal
-diodes and switches give it "timestep too small" on many converters. :func:`run_ngspice`
-tries the rungs of :data:`DEFAULT_LADDER` in order until one succeeds and reports the rung
+diodes and switches give it "timestep too small" on many converters, or worse, a run that
+completes with wrong numbers (see *The diode audit* below). :func:`run_ngspice` tries the
+rungs of :data:`DEFAULT_LADDER` in order until one succeeds and reports the rung
 (``NgspiceResult.rung``, ``.settings_used``, and every failed try in ``.attempts``). Rung 0
 is the netlist as written; every later rung keeps everything of the rung before it and adds
-the next remedy. The order comes from ``python -m ngspice_checks.ladder_survey`` (ngspice
-39): the 9 bundled netlists plus an LC tank discharging through a diode bridge and a
-ramp-comparator buck with a PW=0 sawtooth, each in 5 variants (as written, N=0.001 diodes,
-+ RON=1u/ROFF=1e12 switches, N=0.01 diodes with RON=10m/ROFF=1e6 switches, 1 ps gate
-edges) and with/without a sense source on D1: 110 runs, 30 failing as written. Each remedy
-was then tried *alone* on the failures:
+the next remedy.
 
-==================  =========  =======  =========  ===========  ========  ======
-failing family       edges     shunts   tolerances  Gear alone   models    cases
-==================  =========  =======  =========  ===========  ========  ======
-bridge rectifier     no        yes      yes         no           no        8
-LC tank + bridge     no        yes      yes         no           no        10
-PW=0 sawtooth buck   yes       no       no          no           no        10
-Cuk with 1 ps edges  yes       yes      no          no           no        2
-==================  =========  =======  =========  ===========  ========  ======
+The order comes from ``python -m ngspice_checks.ladder_survey`` (ngspice 39, 7 minutes): the
+9 bundled netlists plus an LC tank discharging through a diode bridge and a ramp-comparator
+buck with a PW=0 sawtooth, each in 5 variants (as written; N=0.001 diodes; the same with
+RON=1u/ROFF=1e12 switches; N=0.01 diodes with RON=10m/ROFF=1e6 switches; 1 ps gate edges)
+and with/without a probe on i(D1): 110 runs, 62 of them failing as written (the DCM boost
+then started from zero). Each remedy was then tried *alone* on the failures ("art" = the
+diode audit failed, "stall" = halted by the watchdog):
+
+=====================  =====  =====  ======  =====  ===========  ======  ==========
+failing family         cases  edges  shunts  Gear   Gear+shunts  models  tolerances
+=====================  =====  =====  ======  =====  ===========  ======  ==========
+boost (art)            6      art    yes     art    yes          art     art
+boost, 1 ps edges      2      art    art     art    art          art     art
+DCM boost (art)        8      art    stall   yes    yes          art     art
+DCM boost, 1 ps edges  2      art    art     yes    yes          art     art
+buck-boost (art)       4      art    yes     art    yes          yes     art
+bridge rectifier       10     no     yes     no     yes          no      yes
+LC tank + bridge       10     no     yes     no     yes          no      yes
+PRC, steep diodes      6      no     yes     no     yes          yes     no
+Cuk, 1 ps edges        2      yes    yes     no     yes          no      no
+SMC boost, 1 ps edges  2      stall  yes     stall  yes          stall   stall
+PW=0 sawtooth buck     10     yes    no      no     no           no      no
+=====================  =====  =====  ======  =====  ===========  ======  ==========
+
+With the cumulative ladder every one of the 62 succeeds, at rung 1, 2 or 3 (the boost with
+1 ps edges needs edges + shunts + Gear together).
 
 0. ``as-written``: the netlist unchanged (except ``tstop``/``tstep`` overrides and sense
-   sources for current probes).
+   sources, see *Probes* and *The diode audit*).
 1. ``finite-edges``: every PULSE gets a pulse width and nonzero rise/fall times of at least
    1 ns (TR/TF written as 0 already mean TSTEP in ngspice and are left alone); TR is
-   shortened when the pulse would no longer fit in its period. A sawtooth written with PW=0
-   fails at a ramp reset in ngspice 39 whatever else is done, and ps gate edges break the
-   Cuk converter. Changes a waveform by at most 1 ns per corner; cheapest and least
-   invasive, so first.
+   shortened when the pulse would no longer fit in its period. A sawtooth written with
+   PW=0 fails at a ramp reset whatever else is done. Changes a waveform by at most 1 ns per
+   corner: the least invasive remedy, so first.
 2. ``shunts``: ``.options cshunt=1e-12 rshunt=1e12``: 1 pF and 1 TOhm from every node to
    ground. Nodes that float while every diode around them is off (a bridge rectifier's
    output between conduction intervals, the LC tank's bridge) make the matrix singular or
-   ill-conditioned: "timestep too small ... trouble with node p". cshunt is what rescues
-   them (rshunt alone does not); rshunt keeps the level of such nodes defined. 1 pF is
-   negligible against the nF-to-mF capacitors of power converters, 1 TOhm against any load.
-3. ``relaxed``: ``reltol=1e-2 abstol=1e-9 vntol=1e-4 chgtol=1e-14 itl4=100 gmin=1e-10``.
-   Rescues the same floating-node families as the shunts (only as a set: gmin, reltol or
-   itl4 alone do not), at the price of accuracy (1 % instead of 0.1 % local error): kept as
-   the fallback when shunts are not enough.
-4. ``gear-smooth-models``: Gear integration, every D model replaced by
-   ``D(IS=1e-12 N=0.05 RS=1m)``, every SW model given ``RON=1m ROFF=1e9`` and a hysteresis
-   of at least ``VH=1m`` (VT kept). The textbook remedies (trapezoidal ringing after
-   switching; N=0.001 diodes with a 26 uV exponential scale; switches toggling at every
-   Newton iteration when the control sits at VT). In the survey none of them rescued a
-   case alone, so they come last, as a last resort. pelcs treats D and S as ideal whatever
-   the models say: only ngspice's approximation of the ideal elements changes (the
-   forward drop becomes 36 mV at 1 A).
+   ill-conditioned ("timestep too small ... trouble with node p"); a switch node without
+   any capacitance jumps in zero time and gives the boost's reverse-diode artefact. The
+   remedy with the widest reach (40 of 62 alone). cshunt is what matters (rshunt alone
+   rescues nothing); rshunt keeps the level of floating nodes defined. 1 pF is negligible
+   against the nF-to-mF capacitors of power converters, 1 TOhm against any load.
+3. ``gear``: + ``method=gear`` (BDF2). Trapezoidal integration lets the DCM boost's diode
+   conduct in reverse after its current reaches zero (kiloampere spikes during a CCM
+   start-up, about -1 A in steady DCM); Gear removes it, with the same steady state as the
+   trapezoidal rule (24.947 V vs 24.950 V; backward Euler, ``maxord=1``, also removes it
+   but is 1.2 % off at TMAX = 0.2 us, so it is not used).
+4. ``relaxed``: + ``reltol=1e-2 abstol=1e-9 vntol=1e-4 chgtol=1e-14 itl4=100
+   gmin=1e-10``. Alone it rescues the floating-node families (only as a set: gmin, reltol
+   or itl4 alone do not), which rung 2 already does; kept as a fallback, late because it
+   costs accuracy (1 % instead of 0.1 % local error).
+5. ``smooth-models``: + every D model replaced by ``D(IS=1e-12 N=0.05 RS=1m)``, every SW
+   model given ``RON=1m ROFF=1e9`` and a hysteresis of at least ``VH=1m`` (VT kept). The
+   textbook remedies for steep diodes (N=0.001: a 26 uV exponential scale) and for switches
+   toggling at every Newton iteration when their control sits at VT. In the survey they
+   rescued only cases that shunts rescue too; last resort. pelcs treats D and S as ideal
+   whatever the models say: only ngspice's approximation of the ideal elements changes
+   (the forward drop becomes 36 mV at 1 A).
 
 A rung is abandoned early when ngspice grinds: the worker watches ngspice's progress
 reports and halts a run that would not finish within ``timeout`` at its current pace
-("stalled"; e.g. the bridge rectifier with a sense source on D1 advances 2e-8 s per second
-at rungs 0 and 1). A netlist ngspice rejects (syntax, unknown model) stops the ladder at
-once: no rung repairs it.
+("stalled"; e.g. the bridge rectifier with a sense source on D1 advanced 2e-8 s per second
+at rungs 0 and 1 before the audit sensed all diodes). A netlist ngspice rejects (syntax,
+unknown model) stops the ladder at once: no rung repairs it.
 
-Design note: the deck edits are text edits (:mod:`ngspice_checks.deck`) because the parser is
-not there yet. Each rung is data (:class:`NgspiceSettings`) applied by :func:`apply_settings`;
-when ``netlist.parser``/``netlist.writer`` are ready, the same settings can be applied to a
-``Circuit`` and written out, and :func:`run_ngspice` already accepts a ``Circuit`` (written
-with ``netlist.writer.write_circuit``).
+The diode audit
+---------------
+ngspice 39 *accepts non-converged time points* when a switch closes onto a conducting
+near-ideal diode (boost, DCM boost, buck-boost with steep diodes): for a few ns, as long as
+the gate voltage ramps, the diode conducts kiloamperes in reverse through the closing
+switch and drains the output capacitor (0.7 V of 24 V at the boost's first switching, 1 mC
+in the DCM boost's start-up), and the run "succeeds". The device's own ``@d1[id]`` does not
+show it (the accepted point violates the diode equation); the branch current of a 0 V
+source in series, which obeys KCL, does. So by default (``audit_diodes=True``) every
+top-level diode with a static model (no TT, no CJO) gets a sense source, and a rung fails
+when a diode conducts in reverse more than ``REVERSE_CHARGE_LIMIT`` (1e-3) of its forward
+charge or a reverse peak above its forward peak. Not audited: diodes inside subcircuits
+(pass a flattened ``Circuit``), switches (a shoot-through through two switches would go
+unnoticed), and artefacts that keep KCL.
+
+Design note
+-----------
+The deck edits are text edits (:mod:`ngspice_checks.deck`), written when the parser did not
+exist. Each rung is data (:class:`NgspiceSettings`) applied by :func:`apply_settings`, so the
+same settings can later be applied to a ``Circuit`` before ``netlist.writer.write_circuit``;
+:func:`run_ngspice` already accepts a ``Circuit`` (written, flattened, then edited as text).
 """
 
 from __future__ import annotations
