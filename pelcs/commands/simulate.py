@@ -159,8 +159,14 @@ def run(args: argparse.Namespace) -> int:
     # Load the compiled kernels first, so that the summary's time per step is the run's.
     load = warm_up()
     t0 = time.perf_counter()
-    result = run_setup(setup, theta=theta, probes=probes, every=every,
-                       progress=not args.no_progress)
+    try:
+        result = run_setup(setup, theta=theta, probes=probes, every=every,
+                           progress=not args.no_progress)
+    except NotImplementedError as exc:
+        # A circuit the stepper cannot handle yet: say so like an input error, no traceback.
+        raise NetlistError(Diagnostic(message=f"not supported: {exc}",
+                                      hint="see README.md, section Simulation"),
+                           file=args.file) from exc
     wall = time.perf_counter() - t0
 
     written = _write(result, out, plot, circuit.title or Path(args.file).name, args.file,
