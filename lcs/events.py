@@ -3,8 +3,9 @@
 Switches driven by independent sources (the control's output map has ``Cy = 0`` and ``Dy = 0``)
 have a control that is a known function of time, ``c(t) = Fy u(t)``. Their switching instants
 are computed before stepping: exactly on piecewise-linear segments (DC, PULSE, PWL between
-breakpoints), by sampling and ``brentq`` otherwise. State-dependent controls (comparators) need
-event location inside a step and are left to the next issue.
+breakpoints), by sampling and ``brentq`` otherwise. State-dependent controls (comparators) are
+located inside the steps by the kernel (:mod:`lcs.stepping`); here they only keep their
+initial state while the source-driven instants are computed.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from scipy.optimize import brentq
 
 from .model import SwitchedLCS
@@ -109,25 +111,29 @@ def merge_close(times: np.ndarray, tol: float) -> np.ndarray:
 
 @dataclass
 class _ControlMaps:
-    """Per mode, the rows ``Fy`` (k, p) of the switch controls as functions of the inputs."""
+    """Per mode, the rows ``Fy`` (k, p) of the switch controls as functions of the inputs
+    (zero rows for the switches not in ``which``)."""
 
     system: SwitchedLCS
     cache: dict
+    which: frozenset | None = None
 
     def rows(self, mode) -> np.ndarray:
         if mode not in self.cache:
             sw = self.system.switches
             Fy = np.zeros((len(sw), len(self.system.inputs)))
             for i, s in enumerate(sw):
+                if self.which is not None and i not in self.which:
+                    continue
                 om = self.system.outputs(mode, [s.control])
                 Cy = np.asarray(om.Cy, dtype=float)
                 Dy = np.asarray(om.Dy, dtype=float)
                 if np.any(Cy != 0) or np.any(Dy != 0):
                     raise NotImplementedError(
                         f"switch {s.name}: its control {s.control!r} depends on the circuit "
-                        "state (a comparator-driven switch); only switches driven by "
-                        "independent sources are supported so far (state-dependent switching "
-                        "with event location comes next)"
+                        f"state in mode {self.system.describe_mode(mode)} although it is driven by "
+                        "sources alone in the initial mode; switches whose kind (source-driven "
+                        "or comparator) changes with the mode are not supported"
                     )
                 Fy[i] = np.asarray(om.Fy, dtype=float).reshape(-1)
             self.cache[mode] = Fy
@@ -199,8 +205,111 @@ def _first_crossing(fun, sa: float, sb: float, ca: float, cb: float, thr: float,
     return float(lo)
 
 
+@njit(cache=True)
+def _linear_switch_events(sa, sb, ca, cb, on0, up, down, out_t, out_on):
+    """Switching instants of one switch whose control is linear on every segment
+    ``[sa[s], sb[s]]`` (from ``ca[s]`` to ``cb[s]``): on above ``up``, off below ``down``.
+    Writes instants and new states into ``out_t``/``out_on``; returns how many."""
+    on = on0
+    ne = 0
+    for s in range(sa.shape[0]):
+        t0 = sa[s]
+        c0 = ca[s]
+        b = cb[s]
+        just = False
+        for _ in range(4):
+            thr = down if on else up
+            beyond0 = (c0 < thr) if on else (c0 > thr)
+            beyond1 = (b < thr) if on else (b > thr)
+            if beyond0 and not just:
+                tf = t0
+            elif beyond1 and b != c0:
+                # c is linear on [t0, sb]: exact crossing of the threshold.
+                tf = t0 + (thr - c0) / (b - c0) * (sb[s] - t0)
+                if just and tf <= t0:
+                    break
+                tf = min(max(tf, t0), sb[s])
+            else:
+                break
+            on = not on
+            out_t[ne] = tf
+            out_on[ne] = on
+            ne += 1
+            c0 = thr
+            t0 = tf
+            just = True
+            if tf >= sb[s]:
+                break
+    return ne
+
+
+def _linear_events(maps, mode0, active, vt, vh, bounds, u_start, u_end, linear_inputs, inputs,
+                   tol, t0):
+    """Compiled path of :func:`source_switch_events` for piecewise-linear gates whose control
+    rows do not depend on the mode (the usual case): per switch, a linear control crosses each
+    threshold at most once per segment. Returns ``(mode0, events)`` or None when the
+    conditions do not hold (then the generic path runs)."""
+    rows = maps.rows(mode0)
+    idx = sorted(active)
+    for i in idx:
+        if not (linear_inputs or all(getattr(inputs[j], "piecewise_linear", False)
+                                     for j in np.flatnonzero(rows[i]))):
+            return None
+    ca_all = u_start @ rows.T
+    cb_all = u_end @ rows.T
+    sa = np.ascontiguousarray(bounds[:-1])
+    sb = np.ascontiguousarray(bounds[1:])
+    cap = 4 * len(sa) + 4
+    times, sw_idx, states = [], [], []
+    for i in idx:
+        if not rows[i].any():
+            continue
+        out_t = np.empty(cap)
+        out_on = np.empty(cap, np.bool_)
+        ne = _linear_switch_events(sa, sb, np.ascontiguousarray(ca_all[:, i]),
+                                   np.ascontiguousarray(cb_all[:, i]), bool(mode0[i]),
+                                   float(vt[i] + vh[i]), float(vt[i] - vh[i]), out_t, out_on)
+        times.append(out_t[:ne])
+        sw_idx.append(np.full(ne, i))
+        states.append(out_on[:ne])
+    if not times:
+        return tuple(mode0), []
+    t_all = np.concatenate(times)
+    i_all = np.concatenate(sw_idx)
+    on_all = np.concatenate(states)
+    order = np.argsort(t_all, kind="stable")
+    t_all, i_all, on_all = t_all[order], i_all[order], on_all[order]
+    mode = list(mode0)
+    m0 = tuple(mode0)
+    events: list[tuple[float, tuple[bool, ...]]] = []
+    seen = {m0}
+    for t, i, on in zip(t_all.tolist(), i_all.tolist(), on_all.tolist(), strict=True):
+        mode[i] = bool(on)
+        md = tuple(mode)
+        if events and abs(events[-1][0] - t) <= tol:
+            events[-1] = (events[-1][0], md)
+        elif t <= t0 + tol:
+            m0 = md
+        else:
+            events.append((t, md))
+        seen.add(md)
+    # The rows must be the same in every mode reached (else the generic path decides).
+    scale = np.abs(rows[idx]).max() if idx else 0.0
+    for md in seen:
+        if not np.allclose(maps.rows(md)[idx], rows[idx], rtol=0.0, atol=1e-13 * scale):
+            return None
+    out = []
+    prev = m0
+    for t, md in events:
+        if md != prev:
+            out.append((t, md))
+            prev = md
+    return m0, out
+
+
 def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t0: float,
-                         t1: float, breakpoints: np.ndarray, h: float):
+                         t1: float, breakpoints: np.ndarray, h: float,
+                         which: Sequence[int] | None = None, base=None, maps_out=None):
     """Switch states at ``t0`` and switching instants in ``(t0, t1)`` for source-driven gates.
 
     Parameters
@@ -214,6 +323,14 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
         Sorted source breakpoints inside (t0, t1), s (the controls are smooth between them).
     h : float
         Step, s (sampling resolution for non-linear controls).
+    which : sequence of int, optional
+        Indices of the source-driven switches (default: all). The others keep their state in
+        ``base`` (default: off) throughout.
+    base : tuple of bool, optional
+        States of the switches not in ``which``.
+    maps_out : dict, optional
+        Receives ``{mode: Fy rows (k, p)}`` of the controls used (for later consistency
+        checks).
 
     Returns
     -------
@@ -226,12 +343,17 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
     Raises
     ------
     NotImplementedError
-        If a switch's control depends on the state (``Cy`` or ``Dy`` nonzero in some mode).
+        If a switch of ``which`` has a control that depends on the state (``Cy`` or ``Dy``
+        nonzero) in some mode.
     """
     sw = system.switches
     if not sw:
         return (), []
-    maps = _ControlMaps(system, {})
+    active = frozenset(range(len(sw)) if which is None else which)
+    maps = _ControlMaps(system, {} if maps_out is None else maps_out, frozenset(active))
+    if not active:
+        return tuple(bool(b) for b in base) if base is not None else \
+            tuple(False for _ in sw), []
     linear_inputs = all(getattr(f, "piecewise_linear", False) for f in inputs)
 
     def controls(mode, t, side):
@@ -240,11 +362,14 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
     vt = np.array([s.vt for s in sw], dtype=float)
     vh = np.array([abs(s.vh) for s in sw], dtype=float)
     initial = [_initially_on(s.options) for s in sw]
+    if base is not None:
+        initial = [initial[i] if i in active else bool(base[i]) for i in range(len(sw))]
     mode = tuple(initial)
     # Mode-dependent control maps: iterate to a fixed point (at most a few passes).
     for _ in range(len(sw) + 1):
         c0 = controls(mode, t0, +1)[0]
-        new = tuple(_switch_state(c0[i], mode[i], vt[i], vh[i]) for i in range(len(sw)))
+        new = tuple(_switch_state(c0[i], mode[i], vt[i], vh[i]) if i in active else mode[i]
+                    for i in range(len(sw)))
         if new == mode:
             break
         mode = new
@@ -256,6 +381,10 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
     # limits at the ends. Controls are then small matrix products per segment.
     u_start = evaluate_inputs(inputs, bounds[:-1], +1)
     u_end = evaluate_inputs(inputs, bounds[1:], -1)
+    fast = _linear_events(maps, mode0, active, vt, vh, bounds, u_start, u_end, linear_inputs,
+                          inputs, tol, t0)
+    if fast is not None:
+        return fast
     lin_cache: dict = {}
 
     def linear_rows(mode) -> list[bool]:
@@ -289,7 +418,7 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
             best = None
             flips = []
             for i in range(len(sw)):
-                if not rows[i].any():
+                if i not in active or not rows[i].any():
                     continue
                 up = not mode[i]
                 thr = vt[i] + vh[i] if up else vt[i] - vh[i]
@@ -387,6 +516,33 @@ def plan_grid(bounds: np.ndarray, h: float) -> GridPlan:
     return GridPlan(bounds, float(h), n_reg, last, start)
 
 
+@njit(cache=True)
+def _fill_grid(bounds, n_regular, last, start, h, g0, g1, t_prev, t, odd, seg_out):
+    """Step ends ``t[1:]``, odd flags and segment indices of global steps ``g0 .. g1-1``."""
+    t[0] = t_prev
+    seg = 0
+    while start[seg + 1] <= g0:
+        seg += 1
+    for g in range(g0, g1):
+        while g >= start[seg + 1]:
+            seg += 1
+        jj = g - start[seg]
+        nreg = n_regular[seg]
+        sa = bounds[seg]
+        sb = bounds[seg + 1]
+        o = jj >= nreg
+        if o:
+            te = sb
+        elif jj == nreg - 1 and last[seg] == 0.0:
+            # A segment that is a whole number of steps ends exactly on its boundary.
+            te = sb
+        else:
+            te = sa + (jj + 1) * h
+        t[g - g0 + 1] = te
+        odd[g - g0] = o
+        seg_out[g - g0] = seg
+
+
 def grid_chunks(plan: GridPlan, chunk: int):
     """Yield ``(t, odd, seg)`` for consecutive pieces of at most ``chunk`` steps.
 
@@ -395,18 +551,15 @@ def grid_chunks(plan: GridPlan, chunk: int):
     """
     total = plan.total
     t_prev = float(plan.bounds[0])
+    bounds = np.ascontiguousarray(plan.bounds, dtype=float)
+    n_reg = np.ascontiguousarray(plan.n_regular, dtype=np.int64)
+    last = np.ascontiguousarray(plan.last, dtype=float)
+    start = np.ascontiguousarray(plan.start, dtype=np.int64)
     for g0 in range(0, total, chunk):
-        g = np.arange(g0, min(total, g0 + chunk), dtype=np.int64)
-        seg = np.searchsorted(plan.start, g, side="right") - 1
-        j = g - plan.start[seg]
-        sa = plan.bounds[seg]
-        sb = plan.bounds[seg + 1]
-        nreg = plan.n_regular[seg]
-        odd = j >= nreg
-        t_end = np.where(odd, sb, sa + (j + 1) * plan.h)
-        # A segment that is a whole number of steps ends exactly on its boundary.
-        exact_end = (j == nreg - 1) & (plan.last[seg] == 0.0)
-        t_end = np.where(exact_end, sb, t_end)
-        t = np.concatenate(([t_prev], t_end))
+        g1 = min(total, g0 + chunk)
+        t = np.empty(g1 - g0 + 1)
+        odd = np.empty(g1 - g0, np.bool_)
+        seg = np.empty(g1 - g0, np.int64)
+        _fill_grid(bounds, n_reg, last, start, float(plan.h), g0, g1, t_prev, t, odd, seg)
         t_prev = float(t[-1])
         yield t, odd, seg

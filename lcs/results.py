@@ -14,8 +14,11 @@ class SimulationError(RuntimeError):
     ----------
     kind : str
         ``"no_solution"`` (the step's LCP has no solution: Lemke ray termination, confirmed by
-        enumeration for small m), ``"max_pivots"``, ``"non_unique"`` (two LCP solutions give
-        different states), ``"non_finite"`` (NaN or infinity in the state).
+        enumeration for small m), ``"non_unique"`` (two LCP solutions give different
+        states), ``"non_finite"`` (NaN or infinity in the state), ``"chattering"`` (a
+        comparator switched more than ``MoreauOptions.max_switchings`` times inside one
+        step), ``"sliding"`` (a comparator toggles without progress and its method has no
+        sliding mode).
     time : float
         End of the failing step, s (the LCP is posed at that instant).
     t_prev : float
@@ -24,12 +27,15 @@ class SimulationError(RuntimeError):
         Switch states (``{"S1": "on"}``); empty for a single LCS.
     pairs : tuple[str, ...]
         Diodes (complementarity pairs) involved.
+    switch : str or None
+        The switch of a ``"chattering"`` or ``"sliding"`` error.
     result : SimulationResult or None
         The partial result (everything computed before the failing step).
     """
 
     def __init__(self, message: str, *, kind: str, time: float, t_prev: float,
-                 mode: dict[str, str] | None = None, pairs: tuple[str, ...] = ()):
+                 mode: dict[str, str] | None = None, pairs: tuple[str, ...] = (),
+                 switch: str | None = None):
         super().__init__(message)
         self.message = message
         self.kind = kind
@@ -37,6 +43,7 @@ class SimulationError(RuntimeError):
         self.t_prev = float(t_prev)
         self.mode = dict(mode or {})
         self.pairs = tuple(pairs)
+        self.switch = switch
         self.result: SimulationResult | None = None
 
 
@@ -47,9 +54,11 @@ class SimulationStats:
     Attributes
     ----------
     steps : int
-        Time steps taken (regular and shortened).
+        Time steps taken (regular, shortened, and the parts of steps split at comparator
+        switching instants).
     odd_steps : int
-        Shortened steps (landing on a breakpoint or switching instant).
+        Steps not of the regular length h (landing on a breakpoint, or split at a comparator
+        switching).
     fallbacks : int
         Steps whose LCP went to Lemke (the active-set fast path was not accepted).
     lcp_pivots : int
@@ -60,6 +69,14 @@ class SimulationStats:
         Lemke solutions checked for a unique next state by enumeration.
     intervals : int
         Intervals of constant switch mode.
+    located : int
+        Comparator switchings located inside a step.
+    root_evaluations : int
+        Trial steps of the instant search (about 2-4 per located switching).
+    sliding_steps : int
+        Steps taken in sliding mode (Filippov relay: two modes per step).
+    modes_built : int
+        Switch modes whose matrices were built.
     wall_time : float
         Seconds spent in :func:`simulate` / :func:`simulate_lcs`.
     """
@@ -71,6 +88,10 @@ class SimulationStats:
     factorisations: int = 0
     uniqueness_checks: int = 0
     intervals: int = 0
+    located: int = 0
+    root_evaluations: int = 0
+    sliding_steps: int = 0
+    modes_built: int = 0
     wall_time: float = 0.0
 
     @property
@@ -97,12 +118,18 @@ class SimulationResult:
     modes_visited : list of tuple[bool, ...]
         Switch modes in order of first use.
     events : list of (float, tuple[bool, ...])
-        Switching instants (s) and the mode entered.
+        Switching instants (s) and the mode entered (source-driven, controller, comparator
+        and sampled switchings alike).
     stats : SimulationStats
     notes : list[str]
         Things the user should know (e.g. an inconsistent initial state was corrected).
     error : SimulationError or None
         Set when the run stopped early; ``t``/``y`` then end at ``error.t_prev``.
+    sliding : list of (str, float, float or None)
+        Sliding-mode intervals: switch, start and end (s; None if still sliding at the end).
+    switching : dict[str, str]
+        How each switch was driven: ``"source"``, ``"controller"``, ``"implicit"``,
+        ``"hysteresis"``, ``"explicit"`` or ``"latched"`` (``docs/switching.md``).
     """
 
     t: np.ndarray
@@ -115,6 +142,8 @@ class SimulationResult:
     stats: SimulationStats = field(default_factory=SimulationStats)
     notes: list = field(default_factory=list)
     error: SimulationError | None = None
+    sliding: list = field(default_factory=list)
+    switching: dict = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:

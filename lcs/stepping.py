@@ -1,25 +1,48 @@
-"""Compiled kernel of the Moreau θ time-stepping (one LCS, a given time grid, given inputs).
+"""Compiled kernel of the Moreau θ time-stepping of a switched LCS (numba).
 
-The kernel knows nothing of switch modes, events or signals: the driver in
-:mod:`lcs.moreau` cuts the run into intervals of constant mode, builds the time grid (uniform
-steps ``h`` plus shortened "odd" steps that land on breakpoints), evaluates the inputs on it and
-calls :func:`run_chunk` once per chunk. A future event-locating driver (state-dependent
-switches) can reuse the same kernel, stopping it where a step must be redone.
+One call of :func:`run_grid` advances the state over a chunk of the time grid, through any
+number of switch-mode changes, without returning to Python except when it needs a mode whose
+matrices are not built yet (:data:`STEP_NEED_MODE`), when an output buffer is full
+(:data:`STEP_FULL`), or on failure. The driver (:mod:`lcs.moreau`) builds the grid, the
+inputs on it, the schedule of known switching instants, and the per-mode matrices, stacked in
+arrays indexed by mode id.
 
-Scheme (Siconos ``EulerMoreauOSI(θ)`` for first-order linear systems, ``γ`` unused)::
+Scheme (Siconos ``EulerMoreauOSI(θ)`` for first-order linear systems, ``γ`` unused), for one
+step of length ``s`` in one mode::
 
-    W      = (I - h θ A)^-1
-    x_free = W [(I + h(1-θ) A) x_k + h((1-θ) E u_k + θ E u_{k+1})]
-    w      = (D + h C W B) λ + C x_free + F u_{k+1},      0 <= w ⊥ λ >= 0
-    x_k+1  = x_free + h W B λ
+    W      = (I - s θ A)^-1
+    x_free = W [(I + s(1-θ) A) x_k + s((1-θ) E u_k + θ E u_{k+1})]
+    w      = (D + s C W B) λ + C x_free + F u_{k+1},      0 <= w ⊥ λ >= 0
+    x_k+1  = x_free + s W B λ
 
-written as ``x_free = Phi x_k + G0 u_k + G1 u_k+1``, ``M = D + C K``, ``K = h W B``.
+written as ``x_free = Phi x_k + G0 u_k + G1 u_k+1``, ``M = D + C K``, ``K = s W B``. Regular
+steps (``s = h``) use the stored ``Phi, G0, G1, K, M`` of the mode; other steps (shortened
+steps onto breakpoints, the two parts of a step split at a switching instant, the trial steps
+of the instant search) are discretised on the fly by a small Gaussian elimination.
 
-Fast path: the previous step's active set ``a`` (pairs whose λ is basic) is tried first with the
-cached ``-(M_aa)^-1``; the step is accepted when ``λ_a >= 0`` and ``w >= 0`` off ``a`` within a
-relative tolerance. Otherwise the numba Lemke solves the LCP and its final basis becomes the new
-active set (Lemke's basis matrices are nonsingular, so ``M_aa`` is invertible). Factorisations
-are cached per active set (bitmask) in a small pool with round-robin replacement.
+LCP: the previous step's active set ``a`` (pairs whose λ is basic) is tried first, with the
+cached ``-(M_aa)^-1`` on regular steps and a direct solve of the basis on other steps; it is
+accepted when ``λ_a >= 0`` and ``w >= 0`` off ``a`` within a relative tolerance. Otherwise the
+numba Lemke solves the LCP; if Lemke fails and ``m`` is small, every complementary basis is
+tried (enumeration, fewest active pairs first) before the step is declared failed.
+
+Switches (``sw_kind``):
+
+* :data:`SW_SCHEDULED` -- driven by independent sources or by a Python controller: their
+  instants are known in advance and come as a schedule of grid indices (the grid lands on
+  them).
+* :data:`SW_LOCATED` -- comparators ``c = Cc x + Dc λ + Fc u`` evaluated after each step; a
+  crossing of the threshold (``vt + vh`` upwards for an off switch, ``vt - vh`` downwards for
+  an on switch) inside the step is located by root finding on the step length (cubic Hermite
+  first guess, then secant / bisection steps, each a θ step of the trial length from the start
+  of the step), the step is split there, the mode changes and the rest of the step is taken
+  in the new mode. With :data:`SWF_LATCH` an off switch does not turn on (only the schedule's
+  period starts re-arm it). With :data:`SWF_RELAY`, a switch that toggles without progress
+  (the trajectory is on an attractive switching surface) enters sliding mode: the Filippov
+  relay (:func:`_relay_fraction`), solved at every step together with the two modes' LCPs,
+  until the on-fraction saturates at 0 or 1 with the surface left.
+* :data:`SW_SAMPLED` -- comparators sampled at the end of each grid step (explicit method);
+  the new state applies from that instant.
 """
 
 from __future__ import annotations
@@ -51,29 +74,89 @@ from .lcp import LEMKE_SOLVED, LEMKE_TRIVIAL, lemke_nb  # noqa: E402
 
 # Kernel return codes.
 STEP_OK = 0
-STEP_LCP_FAILED = 1  # Lemke ray termination or pivot budget: the driver decides
+STEP_LCP_FAILED = 1  # Lemke and enumeration found no solution (or the pivot budget ran out)
 STEP_NONFINITE = 2
 STEP_NONUNIQUE = 3
+STEP_NEED_MODE = 4  # build the mode of key ivars[IV_NEED], append it, call again
+STEP_FULL = 5  # grow the output / event buffers, call again
+STEP_CHATTER = 6  # more than max_switchings switchings in one grid step
+STEP_SLIDING = 7  # a comparator toggles without progress and may not slide
 
 # Layout of the int64 "ivars" array shared between the driver and the kernel.
 IV_MASK = 0  # active set (bitmask of pairs with basic λ) of the last step
-IV_NEXT_SLOT = 1  # next cache slot to (re)use
+IV_NEXT_SLOT = 1  # next active-set cache slot to (re)use
 IV_FALLBACKS = 2  # Lemke calls
 IV_PIVOTS = 3  # Lemke pivots in total
-IV_GSTEP = 4  # global step counter (for ``every``)
+IV_GSTEP = 4  # grid steps completed (for ``every``)
 IV_OUTPOS = 5  # rows written to the output buffers
-IV_ODD = 6  # shortened steps
+IV_ODD = 6  # steps not of the regular length h (shortened, split, sliding-mode partial)
 IV_FAILMASK = 7  # pairs involved in a failure (bitmask, valid when the kernel fails)
 IV_UNIQ = 8  # uniqueness checks done
 IV_MISSES = 9  # active-set cache misses (factorisations)
-IV_LEN = 10
+IV_KEY = 10  # switch states, bit i = switch i on
+IV_NMODES = 11  # modes in the stacks
+IV_NEED = 12  # key of the mode the kernel needs (STEP_NEED_MODE)
+IV_EVPOS = 13  # event records written
+IV_K = 14  # grid step (index within the chunk) to resume at / where the kernel stopped
+IV_SCHED = 15  # next schedule entry of the chunk
+IV_INIT = 16  # grid step whose start (schedule, counters) has been processed
+IV_NSW = 17  # switchings in the current grid step
+IV_LASTSW = 18  # switch flipped last by its comparator (-1: none)
+IV_SLIDE = 19  # switch in sliding mode (-1: none)
+IV_FAILSW = 20  # switch involved in a chattering / sliding failure
+IV_FAILMODE = 21  # mode id of a failing step
+IV_STEPS = 22  # steps taken (grid steps and the extra parts of split steps)
+IV_LOCATED = 23  # comparator switchings located inside a step
+IV_ROOTEVALS = 24  # trial steps of the instant search
+IV_SLIDESTEPS = 25  # steps taken in sliding mode
+IV_MASK_ALT = 26  # active set of the other mode of the sliding switch
+IV_LEMKE = 27  # Lemke status of a failed LCP
+IV_LEN = 28
 
-# Layout of the float64 "fvars" options array.
+# Layout of the float64 "fvars" array.
 FV_RTOL = 0  # fast-path acceptance tolerance (relative)
 FV_PIVOT_TOL = 1
 FV_LEX_TOL = 2
 FV_UNIQ_TOL = 3  # relative state difference that makes two LCP solutions "different"
-FV_LEN = 4
+FV_TCUR = 4  # time of x, s (may lie inside grid step IV_K after a switching)
+FV_H = 5  # regular step, s
+FV_THETA = 6
+FV_FEAS_TOL = 7  # feasibility tolerance of the enumeration fallback (relative)
+FV_LASTT = 8  # time of the last comparator switching, s
+FV_FAIL_T0 = 9  # failing step: start and end, s
+FV_FAIL_T1 = 10
+FV_DUTY = 11  # on-fraction of the sliding switch over the last step
+FV_ROOT_TOL = 12  # instants are located to this fraction of h
+FV_LEN = 13
+
+# Per-mode flags (columns of ``mflags``).
+MF_FAST = 0  # active-set fast path enabled
+MF_UNIQ = 1  # check state uniqueness of Lemke solutions when m <= this (-1: never)
+MF_OUTSTATE = 2  # the stored outputs are the states (skip the products)
+MF_LEN = 3
+
+# Indices in the tuple of stacked per-mode matrices (each of shape (n_modes_capacity, ., .)).
+I_A, I_B, I_C, I_D, I_E, I_F = 0, 1, 2, 3, 4, 5
+I_PHI, I_G0, I_G1, I_K, I_M = 6, 7, 8, 9, 10
+I_CY, I_DY, I_FY = 11, 12, 13  # stored probes, (r, n), (r, m), (r, p)
+I_CC, I_DC, I_FC = 14, 15, 16  # switch controls, (k, n), (k, m), (k, p)
+N_MATS = 17
+
+# Switch kinds and flags.
+SW_SCHEDULED = 0
+SW_LOCATED = 1
+SW_SAMPLED = 2
+SWF_LATCH = 1
+SWF_RELAY = 2
+
+# Schedule operations (applied at the start of a grid step).
+OP_SET = 0  # key = (key & ~a) | b   (source- or controller-driven switches)
+OP_REARM = 1  # latched switch a: on iff its control >= vt - vh
+
+# Event records: ev_info = switch index + EV_* (schedule events have switch index -1).
+EV_SWITCH = 0
+EV_SLIDE_START = 1 << 20
+EV_SLIDE_END = 2 << 20
 
 MAX_MASK_M = 62  # the fast path indexes active sets by int64 bitmasks
 
@@ -95,29 +178,87 @@ class Discretisation:
 
 
 @njit(cache=True)
+def _gauss(aug, n, nc):
+    """Solve ``aug[:, :n] X = aug[:, n:n+nc]`` in place (partial pivoting); X ends up in
+    ``aug[:, n:n+nc]``. Returns False for a singular matrix."""
+    amax = 0.0
+    for i in range(n):
+        for j in range(n):
+            v = abs(aug[i, j])
+            if v > amax:
+                amax = v
+    for c in range(n):
+        p = c
+        for r in range(c + 1, n):
+            if abs(aug[r, c]) > abs(aug[p, c]):
+                p = r
+        if abs(aug[p, c]) <= 1e-14 * amax or aug[p, c] == 0.0:
+            return False
+        if p != c:
+            for j in range(c, n + nc):
+                tmp = aug[c, j]
+                aug[c, j] = aug[p, j]
+                aug[p, j] = tmp
+        piv = aug[c, c]
+        for r in range(c + 1, n):
+            f = aug[r, c] / piv
+            if f != 0.0:
+                for j in range(c + 1, n + nc):
+                    aug[r, j] -= f * aug[c, j]
+    for col in range(n, n + nc):
+        for i in range(n - 1, -1, -1):
+            s = aug[i, col]
+            for j in range(i + 1, n):
+                s -= aug[i, j] * aug[j, col]
+            aug[i, col] = s / aug[i, i]
+    return True
+
+
+@njit(cache=True)
 def discretise_nb(A, B, C, D, E, h, theta, Phi, G0, G1, K, M):
-    """Fill ``Phi, G0, G1, K, M`` for a step ``h`` (see the module docstring)."""
+    """Fill ``Phi, G0, G1, K, M`` for a step ``h`` (see the module docstring).
+
+    Returns False when ``I - h θ A`` is singular (the matrices are then left unchanged).
+    """
     n = A.shape[0]
-    Wden = np.eye(n) - h * theta * A
-    rhs_phi = np.eye(n) + h * (1.0 - theta) * A
-    Phi[:, :] = np.linalg.solve(Wden, rhs_phi) if n > 0 else Phi
-    if E.shape[1] > 0 and n > 0:
-        WE = np.linalg.solve(Wden, np.ascontiguousarray(E))
-        G0[:, :] = h * (1.0 - theta) * WE
-        G1[:, :] = h * theta * WE
-    if B.shape[1] > 0 and n > 0:
-        K[:, :] = h * np.linalg.solve(Wden, np.ascontiguousarray(B))
-    m = D.shape[0]
+    m = B.shape[1]
+    p = E.shape[1]
+    aug = np.zeros((n, 2 * n + p + m))
+    for i in range(n):
+        for j in range(n):
+            aug[i, j] = (1.0 if i == j else 0.0) - h * theta * A[i, j]
+            aug[i, n + j] = (1.0 if i == j else 0.0) + h * (1.0 - theta) * A[i, j]
+        for j in range(p):
+            aug[i, 2 * n + j] = E[i, j]
+        for j in range(m):
+            aug[i, 2 * n + p + j] = B[i, j]
+    if n > 0 and not _gauss(aug, n, n + p + m):
+        return False
+    for i in range(n):
+        for j in range(n):
+            Phi[i, j] = aug[i, n + j]
+        for j in range(p):
+            G0[i, j] = h * (1.0 - theta) * aug[i, 2 * n + j]
+            G1[i, j] = h * theta * aug[i, 2 * n + j]
+        for j in range(m):
+            K[i, j] = h * aug[i, 2 * n + p + j]
     for i in range(m):
         for j in range(m):
             s = D[i, j]
             for k in range(n):
                 s += C[i, k] * K[k, j]
             M[i, j] = s
+    return True
 
 
 def discretise(A, B, C, D, E, h: float, theta: float) -> Discretisation:
-    """Python entry to :func:`discretise_nb` (allocates the matrices)."""
+    """Python entry to :func:`discretise_nb` (allocates the matrices).
+
+    Raises
+    ------
+    ValueError
+        If ``I - h θ A`` is singular.
+    """
     A, B, C, D, E = (np.ascontiguousarray(a, dtype=float) for a in (A, B, C, D, E))
     n, m, p = A.shape[0], B.shape[1], E.shape[1]
     Phi = np.zeros((n, n))
@@ -125,7 +266,8 @@ def discretise(A, B, C, D, E, h: float, theta: float) -> Discretisation:
     G1 = np.zeros((n, p))
     K = np.zeros((n, m))
     M = np.zeros((m, m))
-    discretise_nb(A, B, C, D, E, float(h), float(theta), Phi, G0, G1, K, M)
+    if not discretise_nb(A, B, C, D, E, float(h), float(theta), Phi, G0, G1, K, M):
+        raise ValueError(f"I - h θ A is singular for h = {h:g} s, θ = {theta:g}")
     return Discretisation(float(h), float(theta), Phi, G0, G1, K, M)
 
 
@@ -312,215 +454,1290 @@ def _unique_state(M, q, K, xf, lam, uniq_tol, feas_tol, zalt, aug):
     return 0
 
 
+
+
 @njit(cache=True)
-def run_chunk(
-    Phi, G0, G1, C, F, M, K,
-    A, B, D, E, theta, h,
-    Cy, Dy, Fy,
-    tgrid, odd, U0, U1,
-    x, lam,
-    ckeys, cna, cidx, cG,
-    ivars, fvars, max_pivots, every, uniq_max_m, fast_enabled,
-    T_out, Y_out, out_is_state,
-    xf, q, z, w, act, tab, basis, za, aug,
-    Phi_o, G0_o, G1_o, K_o, M_o,
-):
-    """Advance ``x`` over ``tgrid`` in one mode.
+def _popcount(v):
+    c = 0
+    while v:
+        v &= v - 1
+        c += 1
+    return c
 
-    Parameters
-    ----------
-    Phi, G0, G1, C, F, M, K : float64 arrays
-        Discretisation for the regular step ``h`` and the relation matrices ``C (m, n)``,
-        ``F (m, p)``.
-    A, B, D, E : float64 arrays
-        Continuous-time matrices (used to discretise shortened steps).
-    theta, h : float
-        θ and the regular step, s.
-    Cy, Dy, Fy : float64 arrays, shapes (r, n), (r, m), (r, p)
-        Output map of the stored probes.
-    tgrid : float64[:], shape (N + 1,)
-        Step boundaries, s. ``tgrid[0]`` is the time of the current ``x``.
-    odd : bool[:], shape (N,)
-        True for shortened steps (length ``tgrid[k+1] - tgrid[k]`` instead of ``h``).
-    U0, U1 : float64 arrays, shape (N, p)
-        Inputs at the start (right limit) and end (left limit) of each step.
-    x, lam : float64[:]
-        State (n,) and multipliers (m,), updated in place.
-    ckeys, cna, cidx, cG : arrays
-        Active-set cache of this mode (see ``_factor_active``); persists across calls.
-    ivars, fvars : int64[:], float64[:]
-        Counters and options (``IV_*``, ``FV_*`` layouts).
-    max_pivots, every, uniq_max_m : int
-        Lemke budget; store every ``every``-th step; check state uniqueness at Lemke calls when
-        ``m <= uniq_max_m``.
-    fast_enabled : bool
-        Use the active-set fast path.
-    T_out, Y_out : float64 arrays, shapes (cap,), (cap, r)
-        Output buffers, written from row ``ivars[IV_OUTPOS]``.
-    out_is_state : bool
-        The output map is ``y = x`` (then the matrix products are skipped).
-    xf, q, z, w, act, tab, basis, za, aug, Phi_o, G0_o, G1_o, K_o, M_o : arrays
-        Work arrays. On failure ``xf`` and ``q`` hold the failing step's free state and LCP
-        vector, ``M_o``/``K_o`` its matrices if the step was shortened.
 
-    Returns
-    -------
-    status : int
-        ``STEP_OK`` or a failure code; ``x``/``lam`` then hold the last good step.
-    k : int
-        Index of the failing step (``N`` on success).
+@njit(cache=True)
+def _enumerate_nb(M, q, feas_tol, z, w, aug):
+    """Try every complementary basis, fewest active pairs first (the direct path of
+    :func:`lcs.lcp.enumerate_lcp`). Returns the basis bitmask with the solution in ``z``, or
+    -1 when there is none."""
+    m = q.shape[0]
+    for cnt in range(m + 1):
+        for mask in range(1 << m):
+            if _popcount(mask) != cnt:
+                continue
+            if not _basis_solution(M, q, mask, z, aug):
+                continue
+            zs = 0.0
+            for i in range(m):
+                if abs(z[i]) > zs:
+                    zs = abs(z[i])
+            ok = True
+            for i in range(m):
+                if z[i] < -feas_tol * zs:
+                    ok = False
+                    break
+                wi = q[i]
+                sc = abs(q[i])
+                for j in range(m):
+                    t = M[i, j] * z[j]
+                    wi += t
+                    sc += abs(t)
+                w[i] = wi
+                if wi < -feas_tol * sc:
+                    ok = False
+                    break
+            if ok:
+                for i in range(m):
+                    if z[i] < 0.0:
+                        z[i] = 0.0
+                return mask
+    return -1
+
+
+@njit(cache=True)
+def _odd_free(A, B, C, D, E, s, theta, x, u0, u1, xf, Ko, Mo, augn):
+    """Free state ``xf`` and ``K, M`` of a step of length ``s`` (not the stored ``h``)."""
+    n = A.shape[0]
+    m = B.shape[1]
+    p = E.shape[1]
+    a = s * (1.0 - theta)
+    for i in range(n):
+        r = x[i]
+        for j in range(n):
+            augn[i, j] = (1.0 if i == j else 0.0) - s * theta * A[i, j]
+            r += a * A[i, j] * x[j]
+        for j in range(p):
+            r += s * E[i, j] * ((1.0 - theta) * u0[j] + theta * u1[j])
+        augn[i, n] = r
+        for j in range(m):
+            augn[i, n + 1 + j] = B[i, j]
+    if n > 0 and not _gauss(augn, n, 1 + m):
+        return False
+    for i in range(n):
+        xf[i] = augn[i, n]
+        for j in range(m):
+            Ko[i, j] = s * augn[i, n + 1 + j]
+    for i in range(m):
+        for j in range(m):
+            v = D[i, j]
+            for k in range(n):
+                v += C[i, k] * Ko[k, j]
+            Mo[i, j] = v
+    return True
+
+
+@njit(cache=True)
+def _mode_step(mats, mflags, ckeys, cna, cidx, cG, j, s, regular, theta, x, u0, u1, mask, slot,
+               ivars, fvars, max_piv, enum_max_m, commit, xn, lamn, W):
+    """One θ step of length ``s`` from ``x`` in mode ``j`` into ``xn``, ``lamn``.
+
+    ``mask`` is the active set to try first, ``slot`` its cache slot in mode ``j`` (-1:
+    unknown; regular steps only). Returns ``(status, mask, slot)``.
     """
-    n = x.shape[0]
-    m = lam.shape[0]
-    p = U0.shape[1]
-    r_out = Cy.shape[0]
-    N = tgrid.shape[0] - 1
+    xf, q, z, w, act, tab, basis, za, augm, Ko, Mo, augn = W
+    A = mats[I_A][j]
+    B = mats[I_B][j]
+    C = mats[I_C][j]
+    D = mats[I_D][j]
+    E = mats[I_E][j]
+    F = mats[I_F][j]
+    n = A.shape[0]
+    m = B.shape[1]
+    p = E.shape[1]
+    if regular:
+        Phi = mats[I_PHI][j]
+        G0 = mats[I_G0][j]
+        G1 = mats[I_G1][j]
+        Kk = mats[I_K][j]
+        Mk = mats[I_M][j]
+        for i in range(n):
+            v = 0.0
+            for jj in range(n):
+                v += Phi[i, jj] * x[jj]
+            for jj in range(p):
+                v += G0[i, jj] * u0[jj] + G1[i, jj] * u1[jj]
+            xf[i] = v
+    else:
+        Kk = Ko
+        Mk = Mo
+        if not _odd_free(A, B, C, D, E, s, theta, x, u0, u1, xf, Ko, Mo, augn):
+            return STEP_NONFINITE, mask, slot
+    for i in range(m):
+        v = 0.0
+        for jj in range(n):
+            v += C[i, jj] * xf[jj]
+        for jj in range(p):
+            v += F[i, jj] * u1[jj]
+        q[i] = v
+    # Never a silent NaN: inf - inf and NaN both give NaN.
+    v = 0.0
+    for i in range(n):
+        v += xf[i]
+    for i in range(m):
+        v += q[i]
+    if v - v != 0.0:
+        return STEP_NONFINITE, mask, slot
     rtol = fvars[FV_RTOL]
-    pivot_tol = fvars[FV_PIVOT_TOL]
-    lex_tol = fvars[FV_LEX_TOL]
-    uniq_tol = fvars[FV_UNIQ_TOL]
-    # Steps left until the next stored one (the global counter is a multiple of ``every``
-    # at stored steps).
-    countdown = every - ivars[IV_GSTEP] % every
-    slot = -1
-    if fast_enabled and m > 0:
-        slot = _lookup(M, ivars[IV_MASK], ckeys, cna, cidx, cG, ivars)
-    for k in range(N):
-        is_odd = odd[k]
-        if is_odd:
-            hk = tgrid[k + 1] - tgrid[k]
-            discretise_nb(A, B, C, D, E, hk, theta, Phi_o, G0_o, G1_o, K_o, M_o)
-            Pk, G0k, G1k, Kk, Mk = Phi_o, G0_o, G1_o, K_o, M_o
-            ivars[IV_ODD] += 1
-        else:
-            Pk, G0k, G1k, Kk, Mk = Phi, G0, G1, K, M
-        # Free state and LCP vector.
+    if m == 0:
         for i in range(n):
-            s = 0.0
-            for j in range(n):
-                s += Pk[i, j] * x[j]
-            for j in range(p):
-                s += G0k[i, j] * U0[k, j] + G1k[i, j] * U1[k, j]
-            xf[i] = s
-        for i in range(m):
-            s = 0.0
-            for j in range(n):
-                s += C[i, j] * xf[j]
-            for j in range(p):
-                s += F[i, j] * U1[k, j]
-            q[i] = s
-        # Never a silent NaN: inf - inf and NaN both give NaN. Checked before x is
-        # overwritten so that the driver keeps the last good state.
-        s = 0.0
-        for i in range(n):
-            s += xf[i]
-        for i in range(m):
-            s += q[i]
-        if s - s != 0.0:
-            return STEP_NONFINITE, k
-        accepted = False
-        na = 0
-        if m == 0:
-            accepted = True
-            for i in range(n):
-                x[i] = xf[i]
-        elif slot >= 0 and not is_odd and cna[slot] >= 0:
-            # Fast path: previous active set, cached -(M_aa)^-1.
-            na = cna[slot]
+            xn[i] = xf[i]
+        return STEP_OK, mask, slot
+    fast = mflags[j, MF_FAST] != 0
+    accepted = False
+    if regular and fast:
+        if slot < 0:
+            slot = _lookup(Mk, mask, ckeys[j], cna[j], cidx[j], cG[j], ivars)
+        na = cna[j, slot]
+        if na >= 0:
             accepted = True
             zmax = 0.0
             for ii in range(na):
-                s = 0.0
+                v = 0.0
                 for jj in range(na):
-                    s += cG[slot, ii, jj] * q[cidx[slot, jj]]
-                za[ii] = s
-                if abs(s) > zmax:
-                    zmax = abs(s)
+                    v += cG[j, slot, ii, jj] * q[cidx[j, slot, jj]]
+                za[ii] = v
+                if abs(v) > zmax:
+                    zmax = abs(v)
             for ii in range(na):
                 if za[ii] < -rtol * zmax:
                     accepted = False
                     break
             if accepted:
                 for ii in range(na, m):
-                    i = cidx[slot, ii]
-                    s = q[i]
-                    sc = abs(s)
+                    i = cidx[j, slot, ii]
+                    v = q[i]
+                    sc = abs(v)
                     for jj in range(na):
-                        t = Mk[i, cidx[slot, jj]] * za[jj]
-                        s += t
+                        t = Mk[i, cidx[j, slot, jj]] * za[jj]
+                        v += t
                         sc += abs(t)
-                    if s < -rtol * sc:
+                    if v < -rtol * sc:
                         accepted = False
                         break
             if accepted:
-                for i in range(n):
-                    s = xf[i]
-                    for jj in range(na):
-                        s += Kk[i, cidx[slot, jj]] * za[jj]
-                    x[i] = s
                 for i in range(m):
-                    lam[i] = 0.0
+                    lamn[i] = 0.0
                 for jj in range(na):
-                    lam[cidx[slot, jj]] = za[jj]
-        if not accepted:
-            status, piv = lemke_nb(Mk, q, max_pivots, pivot_tol, lex_tol, tab, basis, z, w, act)
-            ivars[IV_FALLBACKS] += 1
-            ivars[IV_PIVOTS] += piv
-            if status != LEMKE_SOLVED and status != LEMKE_TRIVIAL:
+                    lamn[cidx[j, slot, jj]] = za[jj]
+    elif (not regular) and fast:
+        # Shortened / split / trial step: try the previous active set by a direct solve.
+        if _basis_solution(Mk, q, mask, z, augm):
+            accepted = True
+            zmax = 0.0
+            for i in range(m):
+                if abs(z[i]) > zmax:
+                    zmax = abs(z[i])
+            for i in range(m):
+                if z[i] < -rtol * zmax:
+                    accepted = False
+                    break
+            if accepted:
+                for i in range(m):
+                    if (mask >> i) & 1:
+                        continue
+                    v = q[i]
+                    sc = abs(v)
+                    for jj in range(m):
+                        t = Mk[i, jj] * z[jj]
+                        v += t
+                        sc += abs(t)
+                    if v < -rtol * sc:
+                        accepted = False
+                        break
+            if accepted:
+                for i in range(m):
+                    lamn[i] = z[i] if z[i] > 0.0 else 0.0
+    if not accepted:
+        status, piv = lemke_nb(Mk, q, max_piv, fvars[FV_PIVOT_TOL], fvars[FV_LEX_TOL], tab,
+                               basis, z, w, act)
+        ivars[IV_FALLBACKS] += 1
+        ivars[IV_PIVOTS] += piv
+        if status == LEMKE_SOLVED or status == LEMKE_TRIVIAL:
+            newmask = _mask_of(act)
+        else:
+            newmask = -1
+            if m <= enum_max_m:
+                newmask = _enumerate_nb(Mk, q, fvars[FV_FEAS_TOL], z, w, augm)
+            if newmask < 0:
+                ivars[IV_LEMKE] = status
                 fm = 0
                 for i in range(m):
                     if q[i] < 0.0:
                         fm |= 1 << i
                 ivars[IV_FAILMASK] = fm
-                if is_odd:
-                    # Leave the shortened step's matrices where the driver expects them.
-                    pass
-                return STEP_LCP_FAILED, k
-            if m <= uniq_max_m:
-                ivars[IV_UNIQ] += 1
-                diff = _unique_state(Mk, q, Kk, xf, z, uniq_tol, 1e-9, w, aug)
-                if diff != 0:
-                    ivars[IV_FAILMASK] = diff
-                    return STEP_NONUNIQUE, k
-            for i in range(n):
-                s = xf[i]
-                for j in range(m):
-                    s += Kk[i, j] * z[j]
-                x[i] = s
-            for i in range(m):
-                lam[i] = z[i]
-            mask = _mask_of(act)
-            ivars[IV_MASK] = mask
-            if fast_enabled:
-                slot = _lookup(M, mask, ckeys, cna, cidx, cG, ivars)
-        # Overflow in x_free + K λ (λ itself comes from a finite LCP solve).
-        s = 0.0
-        for i in range(n):
-            s += x[i]
+                return STEP_LCP_FAILED, mask, slot
+        if commit and m <= mflags[j, MF_UNIQ]:
+            ivars[IV_UNIQ] += 1
+            diff = _unique_state(Mk, q, Kk, xf, z, fvars[FV_UNIQ_TOL], 1e-9, w, augm)
+            if diff != 0:
+                ivars[IV_FAILMASK] = diff
+                return STEP_NONUNIQUE, mask, slot
         for i in range(m):
-            s += lam[i]
-        if s - s != 0.0:
-            return STEP_NONFINITE, k
-        g = ivars[IV_GSTEP] + 1
-        ivars[IV_GSTEP] = g
-        countdown -= 1
-        if countdown == 0:
-            countdown = every
-            pos = ivars[IV_OUTPOS]
-            T_out[pos] = tgrid[k + 1]
-            if out_is_state:
-                for j in range(n):
-                    Y_out[pos, j] = x[j]
-                ivars[IV_OUTPOS] = pos + 1
+            lamn[i] = z[i]
+        mask = newmask
+        if regular and fast:
+            slot = _lookup(Mk, mask, ckeys[j], cna[j], cidx[j], cG[j], ivars)
+        else:
+            slot = -1
+    for i in range(n):
+        v = xf[i]
+        for jj in range(m):
+            v += Kk[i, jj] * lamn[jj]
+        xn[i] = v
+    # Overflow in x_free + K λ (λ itself comes from a finite LCP solve).
+    v = 0.0
+    for i in range(n):
+        v += xn[i]
+    for i in range(m):
+        v += lamn[i]
+    if v - v != 0.0:
+        return STEP_NONFINITE, mask, slot
+    return STEP_OK, mask, slot
+
+
+@njit(cache=True)
+def _controls(mats, j, x, lam, u, c, cs, wgt, add):
+    """Switch controls ``c += wgt (Cc x + Dc λ + Fc u)`` of mode ``j`` (``c = ...`` unless
+    ``add``) and their floating-point scales ``cs`` (sum of the magnitudes of the terms)."""
+    Cc = mats[I_CC][j]
+    Dc = mats[I_DC][j]
+    Fc = mats[I_FC][j]
+    for i in range(Cc.shape[0]):
+        v = 0.0
+        sc = 0.0
+        for jj in range(Cc.shape[1]):
+            t = Cc[i, jj] * x[jj]
+            v += t
+            sc += abs(t)
+        for jj in range(Dc.shape[1]):
+            t = Dc[i, jj] * lam[jj]
+            v += t
+            sc += abs(t)
+        for jj in range(Fc.shape[1]):
+            t = Fc[i, jj] * u[jj]
+            v += t
+            sc += abs(t)
+        if add:
+            c[i] += wgt * v
+            cs[i] += wgt * sc
+        else:
+            c[i] = wgt * v
+            cs[i] = wgt * sc
+
+
+@njit(cache=True)
+def _relay_fraction(sig_off, sig_on, base_on):
+    """On-fraction ``o`` of a relay ``o ∈ H(σ)`` (1 for σ > 0, 0 for σ < 0, [0, 1] at 0) with
+    σ affine in o: ``σ(o) = (1 - o) sig_off + o sig_on``.
+
+    This is the LCP ``0 <= o ⊥ -σ(o) + ν >= 0``, ``0 <= ν ⊥ 1 - o >= 0`` in closed form; in
+    the repulsive case (several solutions) the switch keeps its state ``base_on``.
+    """
+    if sig_off > 0.0 and sig_on < 0.0:
+        return sig_off / (sig_off - sig_on)
+    if sig_off <= 0.0 and sig_on >= 0.0:
+        return 1.0 if base_on else 0.0
+    if sig_on >= 0.0:
+        return 1.0
+    return 0.0
+
+
+@njit(cache=True)
+def _advance(mats, mflags, ckeys, cna, cidx, cG, j, ja, sw, base_on, vt, s, regular, theta, x,
+             u0, u1, ms, ivars, fvars, max_piv, enum_max_m, commit, xn, lamn, xa, lama, c, cs,
+             sg, W):
+    """One step of length ``s``: in mode ``j``, or, while switch ``sw`` slides (``sw >= 0``),
+    the Filippov combination of modes ``j`` (``sw`` in state ``base_on``) and ``ja`` (``sw``
+    toggled).
+
+    ``ms = [mask, slot, mask_alt, slot_alt]`` (updated). Returns ``(status, d)`` with ``d``
+    the fraction of the step spent in the toggled mode ``ja`` (0 when not sliding); the result
+    is ``xn = (1 - d) x_j + d x_ja`` and the multipliers of each mode in ``lamn``, ``lama``;
+    ``sg = [σ_j, σ_ja, tol]`` (relay values at the two end states and their round-off scale).
+    """
+    st, mk, sl = _mode_step(mats, mflags, ckeys, cna, cidx, cG, j, s, regular, theta, x, u0,
+                            u1, ms[0], ms[1], ivars, fvars, max_piv, enum_max_m, commit, xn,
+                            lamn, W)
+    ms[0] = mk
+    ms[1] = sl
+    if st != STEP_OK:
+        ivars[IV_FAILMODE] = j
+        return st, 0.0
+    if sw < 0:
+        return STEP_OK, 0.0
+    st, mk, sl = _mode_step(mats, mflags, ckeys, cna, cidx, cG, ja, s, regular, theta, x, u0,
+                            u1, ms[2], ms[3], ivars, fvars, max_piv, enum_max_m, commit, xa,
+                            lama, W)
+    ms[2] = mk
+    ms[3] = sl
+    if st != STEP_OK:
+        ivars[IV_FAILMODE] = ja
+        return st, 0.0
+    # Relay on the two endpoints: σ = c - vt of each mode at its own end state.
+    _controls(mats, j, xn, lamn, u1, c, cs, 1.0, False)
+    sig_b = c[sw] - vt
+    scale = cs[sw]
+    _controls(mats, ja, xa, lama, u1, c, cs, 1.0, False)
+    sig_a = c[sw] - vt
+    scale = max(scale, cs[sw]) + abs(vt)
+    sg[0] = sig_b
+    sg[1] = sig_a
+    sg[2] = 1e-9 * scale
+    if base_on:
+        o = _relay_fraction(sig_a, sig_b, True)
+        d = 1.0 - o
+    else:
+        o = _relay_fraction(sig_b, sig_a, False)
+        d = o
+    for i in range(xn.shape[0]):
+        xn[i] = xn[i] + d * (xa[i] - xn[i])
+    return STEP_OK, d
+
+
+@njit(cache=True)
+def _end_controls(mats, j, ja, d, x, lam, lama, u, c, cs):
+    """Controls at the end of a step (combined over the two modes while sliding)."""
+    if ja >= 0 and d != 0.0:
+        _controls(mats, j, x, lam, u, c, cs, 1.0 - d, False)
+        _controls(mats, ja, x, lama, u, c, cs, d, True)
+    else:
+        _controls(mats, j, x, lam, u, c, cs, 1.0, False)
+
+
+@njit(cache=True)
+def _crossing(sw_kind, sw_flags, sw_vt, sw_vh, key, slide, c, cs, g, gtol):
+    """Per located comparator, ``g > 0`` when it has crossed its threshold (``-inf`` for the
+    others); returns ``max g``. ``gtol`` receives the round-off scale of each ``g``."""
+    G = -np.inf
+    for i in range(c.shape[0]):
+        g[i] = -np.inf
+        gtol[i] = 0.0
+        if sw_kind[i] != SW_LOCATED or i == slide:
+            continue
+        on = (key >> i) & 1
+        if on:
+            g[i] = (sw_vt[i] - sw_vh[i]) - c[i]
+        else:
+            if sw_flags[i] & SWF_LATCH:
                 continue
-            for r in range(r_out):
-                s = 0.0
-                for j in range(n):
-                    s += Cy[r, j] * x[j]
-                for j in range(m):
-                    s += Dy[r, j] * lam[j]
-                for j in range(p):
-                    s += Fy[r, j] * U1[k, j]
-                Y_out[pos, r] = s
+            g[i] = c[i] - (sw_vt[i] + sw_vh[i])
+        gtol[i] = 1e-12 * (cs[i] + abs(sw_vt[i]) + abs(sw_vh[i]))
+        if g[i] > G:
+            G = g[i]
+    return G
+
+
+@njit(cache=True)
+def _hermite_root(ga, da, gb, db):
+    """Root in (0, 1) of the cubic Hermite interpolant of ``g(0) = ga <= 0``, ``g'(0) = da``,
+    ``g(1) = gb > 0``, ``g'(1) = db`` (safeguarded Newton from the linear guess)."""
+    lo, hi = 0.0, 1.0
+    tau = -ga / (gb - ga) if gb != ga else 0.5
+    for _ in range(8):
+        t2 = tau * tau
+        t3 = t2 * tau
+        p = ((2 * t3 - 3 * t2 + 1) * ga + (t3 - 2 * t2 + tau) * da + (-2 * t3 + 3 * t2) * gb
+             + (t3 - t2) * db)
+        dp = ((6 * t2 - 6 * tau) * ga + (3 * t2 - 4 * tau + 1) * da + (-6 * t2 + 6 * tau) * gb
+              + (3 * t2 - 2 * tau) * db)
+        if p > 0.0:
+            hi = tau
+        else:
+            lo = tau
+        if dp > 0.0:
+            nt = tau - p / dp
+        else:
+            nt = 0.5 * (lo + hi)
+        if not (lo < nt < hi):
+            nt = 0.5 * (lo + hi)
+        if abs(nt - tau) <= 1e-14:
+            tau = nt
+            break
+        tau = nt
+    return tau
+
+
+@njit(cache=True)
+def _control_rates(mats, j, x, lam, u, udot, rate, xdot):
+    """``d/dt (Cc x + Fc u)`` from ``x' = A x + B λ + E u`` (the ``Dc λ'`` term is unknown and
+    ignored: this only seeds the instant search)."""
+    A = mats[I_A][j]
+    B = mats[I_B][j]
+    E = mats[I_E][j]
+    Cc = mats[I_CC][j]
+    Fc = mats[I_FC][j]
+    n = A.shape[0]
+    for i in range(n):
+        v = 0.0
+        for jj in range(n):
+            v += A[i, jj] * x[jj]
+        for jj in range(B.shape[1]):
+            v += B[i, jj] * lam[jj]
+        for jj in range(E.shape[1]):
+            v += E[i, jj] * u[jj]
+        xdot[i] = v
+    for i in range(Cc.shape[0]):
+        v = 0.0
+        for jj in range(n):
+            v += Cc[i, jj] * xdot[jj]
+        for jj in range(Fc.shape[1]):
+            v += Fc[i, jj] * udot[jj]
+        rate[i] = v
+
+
+@njit(cache=True)
+def _store(mats, mflags, j, ja, d, slide, key, duty_sw, x, lam, lama, u, T_out, Y_out, pos, t,
+           fvars):
+    """Write the stored probes at time ``t`` into row ``pos``."""
+    T_out[pos] = t
+    n = x.shape[0]
+    if mflags[j, MF_OUTSTATE] != 0 and (ja < 0 or d == 0.0):
+        for i in range(n):
+            Y_out[pos, i] = x[i]
+        return
+    Cy = mats[I_CY][j]
+    Dy = mats[I_DY][j]
+    Fy = mats[I_FY][j]
+    for r in range(Cy.shape[0]):
+        sw = duty_sw[r]
+        if sw >= 0:
+            if sw == slide:
+                Y_out[pos, r] = fvars[FV_DUTY]
+            else:
+                Y_out[pos, r] = 1.0 if (key >> sw) & 1 else 0.0
+            continue
+        v = 0.0
+        for jj in range(n):
+            v += Cy[r, jj] * x[jj]
+        for jj in range(Dy.shape[1]):
+            v += Dy[r, jj] * lam[jj]
+        for jj in range(Fy.shape[1]):
+            v += Fy[r, jj] * u[jj]
+        if ja >= 0 and d != 0.0:
+            Cya = mats[I_CY][ja]
+            Dya = mats[I_DY][ja]
+            Fya = mats[I_FY][ja]
+            va = 0.0
+            for jj in range(n):
+                va += Cya[r, jj] * x[jj]
+            for jj in range(Dya.shape[1]):
+                va += Dya[r, jj] * lama[jj]
+            for jj in range(Fya.shape[1]):
+                va += Fya[r, jj] * u[jj]
+            v = (1.0 - d) * v + d * va
+        Y_out[pos, r] = v
+
+
+@njit(cache=True)
+def _find_mode(mkey, nmodes, key):
+    for i in range(nmodes):
+        if mkey[i] == key:
+            return i
+    return -1
+
+
+@njit(cache=True)
+def _locate(mats, mflags, ckeys, cna, cidx, cG, j, ja, slide, base_on, vt_s, ta, s, theta, x,
+            lam, ua, ub, ms, ivars, fvars, max_piv, enum_max_m, sw_kind, sw_flags, sw_vt,
+            sw_vh, key, xfull, lamfull, lamafull, dfull, c, cs, g, gt, W, S):
+    """Locate the first comparator crossing inside the step ``[ta, ta + s]``.
+
+    On entry ``g``/``gt`` hold the crossing functions at the end of the full step (some
+    ``g > 0``) and ``ms`` the active sets at the start. Trial steps of length ``s1`` from
+    ``ta`` are taken until ``|max g(s1)|`` is round-off or the bracket is shorter than
+    ``FV_ROOT_TOL * h``. Returns ``(status, s_star, d_star)``; the state at the instant is in
+    ``S``'s ``xs, lams, lamas``, the crossing functions there in ``g``/``gt``.
+    """
+    (ga, gta, rate_a, rate_b, udot, xdot, ut, xt, lamt, lamat, xat, g_hi, gt_hi, xs, lams,
+     lamas, sg, msl) = S
+    k = g.shape[0]
+    n = x.shape[0]
+    m = lam.shape[0]
+    p = ua.shape[0]
+    h = fvars[FV_H]
+    stol = max(fvars[FV_ROOT_TOL] * h, 8.9e-16 * abs(ta + s))
+    # Crossing functions at the start (mode j; λ of the previous step, an estimate).
+    _controls(mats, j, x, lam, ua, c, cs, 1.0, False)
+    Ga = _crossing(sw_kind, sw_flags, sw_vt, sw_vh, key, slide, c, cs, ga, gta)
+    for i in range(p):
+        udot[i] = (ub[i] - ua[i]) / s
+    _control_rates(mats, j, x, lam, ua, udot, rate_a, xdot)
+    _control_rates(mats, j, xfull, lamfull, ub, udot, rate_b, xdot)
+    Gb = -np.inf
+    for i in range(k):
+        g_hi[i] = g[i]
+        gt_hi[i] = gt[i]
+        if g[i] > Gb:
+            Gb = g[i]
+    for i in range(n):
+        xs[i] = xfull[i]
+    for i in range(m):
+        lams[i] = lamfull[i]
+        lamas[i] = lamafull[i]
+    d_hi = dfull
+    lo, glo = 0.0, min(Ga, 0.0)
+    hi, ghi = s, Gb
+    # First guess: root of the cubic Hermite interpolant of each crossing g (values and
+    # rates at both ends), the earliest one.
+    tau = 1.0
+    for i in range(k):
+        if g[i] > 0.0:
+            sgn = -1.0 if (key >> i) & 1 else 1.0
+            gai = min(ga[i], 0.0) if ga[i] != -np.inf else 0.0
+            ti = _hermite_root(gai, s * sgn * rate_a[i], g[i], s * sgn * rate_b[i])
+            if ti < tau:
+                tau = ti
+    s1 = tau * s
+    if not (lo < s1 < hi):
+        s1 = lo + (hi - lo) * (-glo) / (ghi - glo) if ghi != glo else 0.5 * (lo + hi)
+    if s1 < stol:
+        s1 = stol
+    sp, gp = hi, ghi
+    width_ref = hi - lo
+    s_star = hi
+    d_star = d_hi
+    use_last = False
+    d1 = 0.0
+    for it in range(60):
+        if s1 >= hi:
+            s1 = 0.5 * (lo + hi)
+        frac = s1 / s
+        for i in range(p):
+            ut[i] = ua[i] + (ub[i] - ua[i]) * frac
+        for i in range(4):
+            msl[i] = ms[i]
+        msl[1] = -1
+        msl[3] = -1
+        st, d1 = _advance(mats, mflags, ckeys, cna, cidx, cG, j, ja, slide, base_on, vt_s, s1,
+                          False, theta, x, ua, ut, msl, ivars, fvars, max_piv, enum_max_m,
+                          False, xt, lamt, xat, lamat, c, cs, sg, W)
+        ivars[IV_ROOTEVALS] += 1
+        if st != STEP_OK:
+            return st, s1, 0.0
+        _end_controls(mats, j, ja, d1, xt, lamt, lamat, ut, c, cs)
+        G1 = _crossing(sw_kind, sw_flags, sw_vt, sw_vh, key, slide, c, cs, g, gt)
+        gtol = 0.0
+        for i in range(k):
+            if gt[i] > gtol:
+                gtol = gt[i]
+        if G1 > 0.0:
+            hi, ghi = s1, G1
+            for i in range(k):
+                g_hi[i] = g[i]
+                gt_hi[i] = gt[i]
+            for i in range(n):
+                xs[i] = xt[i]
+            for i in range(m):
+                lams[i] = lamt[i]
+                lamas[i] = lamat[i]
+            d_hi = d1
+        else:
+            lo, glo = s1, G1
+        if abs(G1) <= gtol:
+            use_last = True
+            break
+        if hi - lo <= stol:
+            break
+        # Secant through the last two trials when it falls inside the bracket, bisection
+        # when the bracket has not halved in three trials.
+        s2 = -1.0
+        if G1 != gp:
+            s2 = s1 - G1 * (s1 - sp) / (G1 - gp)
+        if it % 3 == 2:
+            if hi - lo > 0.5 * width_ref:
+                s2 = -1.0
+            width_ref = hi - lo
+        if not (lo < s2 < hi):
+            s2 = lo + (hi - lo) * (-glo) / (ghi - glo) if (it % 3 != 2 and ghi != glo) \
+                else 0.5 * (lo + hi)
+            if not (lo < s2 < hi):
+                s2 = 0.5 * (lo + hi)
+        sp, gp = s1, G1
+        s1 = s2
+    if use_last:
+        s_star = s1
+        d_star = d1
+        for i in range(n):
+            xs[i] = xt[i]
+        for i in range(m):
+            lams[i] = lamt[i]
+            lamas[i] = lamat[i]
+        for i in range(4):
+            ms[i] = msl[i]
+    else:
+        s_star = hi
+        d_star = d_hi
+        for i in range(k):
+            g[i] = g_hi[i]
+            gt[i] = gt_hi[i]
+    return STEP_OK, s_star, d_star
+
+
+@njit(cache=True)
+def _record(ev_t, ev_key, ev_info, ivars, t, key, info):
+    e = ivars[IV_EVPOS]
+    ev_t[e] = t
+    ev_key[e] = key
+    ev_info[e] = info
+    ivars[IV_EVPOS] = e + 1
+
+
+@njit(cache=True)
+def run_grid(
+    mats, mkey, mflags, ckeys, cna, cidx, cG,
+    sw_kind, sw_flags, sw_vt, sw_vh,
+    tgrid, odd, U0, U1, force_out,
+    sched_k, sched_op, sched_a, sched_b,
+    x, lam, lama, ivars, fvars, max_piv, enum_max_m, every, max_sw,
+    T_out, Y_out, duty_sw, ev_t, ev_key, ev_info,
+):
+    """Advance ``x`` over the grid chunk ``tgrid`` through every mode change.
+
+    Parameters
+    ----------
+    mats : tuple of 17 float64 arrays, each (Q, ., .)
+        Stacked per-mode matrices, indexed by ``I_*`` (rows ``< ivars[IV_NMODES]`` valid).
+    mkey : int64[:], shape (Q,)
+        Switch key (bit i = switch i on) of each mode.
+    mflags : int64[:, :], shape (Q, MF_LEN)
+    ckeys, cna, cidx, cG : arrays, shapes (Q, S), (Q, S), (Q, S, m), (Q, S, m, m)
+        Active-set caches, one per mode (see ``_factor_active``).
+    sw_kind, sw_flags : int64[:], shape (k,)
+        ``SW_*`` kind and ``SWF_*`` flags of each switch.
+    sw_vt, sw_vh : float64[:], shape (k,)
+        Threshold and hysteresis half-width of each switch's comparator (control units).
+    tgrid : float64[:], shape (N + 1,)
+        Grid step boundaries, s; ``tgrid[0]`` is the end of the previous chunk.
+    odd : bool[:], shape (N,)
+        Grid steps not of length h.
+    U0, U1 : float64[:, :], shape (N, p)
+        Inputs at the start (right limit) and end (left limit) of each grid step; inside a
+        step they are interpolated linearly (exact for piecewise-linear sources, whose
+        breakpoints are grid points).
+    force_out : bool[:], shape (N,)
+        Store the end of this grid step whatever ``every`` says.
+    sched_k, sched_op, sched_a, sched_b : int64[:], shape (L,)
+        Schedule: before grid step ``sched_k[i]``, operation ``sched_op[i]`` (``OP_*``) with
+        arguments ``a``, ``b``; sorted by ``sched_k``.
+    x, lam, lama : float64[:]
+        State (n,), multipliers (m,) and, while a switch slides, the other mode's multipliers
+        (m,); updated in place.
+    ivars, fvars : int64[:], float64[:]
+        Counters, kernel state and options (``IV_*``, ``FV_*``).
+    max_piv, enum_max_m, every, max_sw : int
+        Lemke pivot budget; enumeration fallback up to this m; store every ``every``-th grid
+        step; at most ``max_sw`` comparator switchings per grid step.
+    T_out, Y_out : float64 arrays, shapes (cap,), (cap, r)
+        Output buffers, written from row ``ivars[IV_OUTPOS]``.
+    duty_sw : int64[:], shape (r,)
+        Per output row, -1 for a probe (``Cy x + Dy λ + Fy u``) or a switch index (its
+        on-fraction: 0/1, or the equivalent duty while it slides).
+    ev_t, ev_key, ev_info : arrays, shape (cap_e,)
+        Event records: time (s), switch key after it, ``switch + EV_*`` (-1: schedule).
+
+    Returns
+    -------
+    status : int
+        ``STEP_OK`` (chunk done) or another ``STEP_*``; ``ivars[IV_K]`` and
+        ``fvars[FV_TCUR]`` say where the kernel stopped (x, lam hold the state there).
+    """
+    n = x.shape[0]
+    m = lam.shape[0]
+    p = U0.shape[1]
+    k = sw_kind.shape[0]
+    N = tgrid.shape[0] - 1
+    theta = fvars[FV_THETA]
+    h = fvars[FV_H]
+    W = (np.zeros(n), np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(m, np.bool_),
+         np.zeros((m, 2 * m + 2)), np.zeros(m, np.int64), np.zeros(m), np.zeros((m, m + 1)),
+         np.zeros((n, m)), np.zeros((m, m)), np.zeros((n, n + 1 + m)))
+    S = (np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(p), np.zeros(n),
+         np.zeros(p), np.zeros(n), np.zeros(m), np.zeros(m), np.zeros(n), np.zeros(k),
+         np.zeros(k), np.zeros(n), np.zeros(m), np.zeros(m), np.zeros(3),
+         np.zeros(4, np.int64))
+    sg = np.zeros(3)
+    xn = np.zeros(n)
+    lamn = np.zeros(m)
+    xa = np.zeros(n)
+    lamna = np.zeros(m)
+    c = np.zeros(k)
+    cs = np.zeros(k)
+    g = np.zeros(k)
+    gt = np.zeros(k)
+    ua = np.zeros(p)
+    ms = np.zeros(4, np.int64)
+    ms0 = np.zeros(4, np.int64)
+    ms[0] = ivars[IV_MASK]
+    ms[1] = -1
+    ms[2] = ivars[IV_MASK_ALT]
+    ms[3] = -1
+    has_located = False
+    has_sampled = False
+    for i in range(k):
+        if sw_kind[i] == SW_LOCATED:
+            has_located = True
+        elif sw_kind[i] == SW_SAMPLED:
+            has_sampled = True
+    key = ivars[IV_KEY]
+    slide = ivars[IV_SLIDE]
+    tcur = fvars[FV_TCUR]
+    nsched = sched_k.shape[0]
+    min_step = 1e-9 * h
+    countdown = every - ivars[IV_GSTEP] % every
+    cap_out = T_out.shape[0]
+    cap_ev = ev_t.shape[0]
+    j = -1
+    ja = -1
+    d = 0.0
+    status = STEP_OK
+    # The arrays of the current mode, bound to locals when the mode changes: the regular
+    # step, the comparator check and the output below are inline (a call that passes the
+    # stacked matrices costs hundreds of atomic reference-count updates).
+    jb = 0
+    Phi_j = mats[I_PHI][0]
+    G0_j = mats[I_G0][0]
+    G1_j = mats[I_G1][0]
+    K_j = mats[I_K][0]
+    M_j = mats[I_M][0]
+    C_j = mats[I_C][0]
+    F_j = mats[I_F][0]
+    Cy_j = mats[I_CY][0]
+    Dy_j = mats[I_DY][0]
+    Fy_j = mats[I_FY][0]
+    Cc_j = mats[I_CC][0]
+    Dc_j = mats[I_DC][0]
+    Fc_j = mats[I_FC][0]
+    ck_j = ckeys[0]
+    cna_j = cna[0]
+    cidx_j = cidx[0]
+    cG_j = cG[0]
+    A_j = mats[I_A][0]
+    B_j = mats[I_B][0]
+    D_j = mats[I_D][0]
+    E_j = mats[I_E][0]
+    fast_j = mflags[0, MF_FAST] != 0
+    outstate_j = mflags[0, MF_OUTSTATE] != 0
+    Ko = W[9]
+    Mo = W[10]
+    augn = W[11]
+    zb = W[2]
+    augm = W[8]
+    has_duty = False
+    for r in range(duty_sw.shape[0]):
+        if duty_sw[r] >= 0:
+            has_duty = True
+    xf = W[0]
+    q = W[1]
+    za = W[7]
+    rtol = fvars[FV_RTOL]
+    r_out = Y_out.shape[1]
+    kk = ivars[IV_K]
+    while kk < N:
+        ta_grid = tgrid[kk]
+        tb = tgrid[kk + 1]
+        if tcur < ta_grid:
+            tcur = ta_grid
+        # Room for this step's rows and events.
+        if (ivars[IV_OUTPOS] + max_sw + 3 > cap_out
+                or ivars[IV_EVPOS] + 2 * max_sw + k + 6 + (nsched - ivars[IV_SCHED]) > cap_ev):
+            status = STEP_FULL
+            break
+        if ivars[IV_INIT] != kk:
+            ivars[IV_INIT] = kk
+            ivars[IV_NSW] = 0
+        # Scheduled switchings at the start of the step.
+        need = -1
+        while tcur == ta_grid and ivars[IV_SCHED] < nsched and sched_k[ivars[IV_SCHED]] <= kk:
+            sp = ivars[IV_SCHED]
+            if sched_k[sp] < kk:  # (an entry before the resume point: already past)
+                ivars[IV_SCHED] = sp + 1
+                continue
+            if sched_op[sp] == OP_SET:
+                newkey = (key & ~sched_a[sp]) | sched_b[sp]
+                info = -1
+            else:
+                i = sched_a[sp]
+                j = _find_mode(mkey, ivars[IV_NMODES], key)
+                if j < 0:
+                    need = key
+                    break
+                _controls(mats, j, x, lam, U0[kk], c, cs, 1.0, False)
+                if c[i] >= sw_vt[i] - sw_vh[i]:
+                    newkey = key | (1 << i)
+                else:
+                    newkey = key & ~(1 << i)
+                info = i
+            ivars[IV_SCHED] = sp + 1
+            if newkey != key:
+                key = newkey
+                _record(ev_t, ev_key, ev_info, ivars, ta_grid, key, info)
+                if slide >= 0 and info == slide:
+                    slide = -1
+        if need >= 0:
+            status = STEP_NEED_MODE
+            ivars[IV_NEED] = need
+            break
+        if j < 0 or mkey[j] != key:
+            j = _find_mode(mkey, ivars[IV_NMODES], key)
+            ms[1] = -1
+            if j < 0:
+                status = STEP_NEED_MODE
+                ivars[IV_NEED] = key
+                break
+        if slide >= 0:
+            akey = key ^ (1 << slide)
+            if ja < 0 or mkey[ja] != akey:
+                ja = _find_mode(mkey, ivars[IV_NMODES], akey)
+                ms[3] = -1
+                if ja < 0:
+                    status = STEP_NEED_MODE
+                    ivars[IV_NEED] = akey
+                    break
+        else:
+            ja = -1
+        # Sub-steps: the whole grid step, or its parts between switching instants.
+        need = -1
+        while True:
+            if tb - tcur <= min_step:
+                # (a switching within round-off of the grid point: nothing left to integrate)
+                tcur = tb
+                break
+            ta = tcur
+            s = tb - ta
+            regular = (not odd[kk]) and ta == ta_grid
+            if ta == ta_grid:
+                for i in range(p):
+                    ua[i] = U0[kk, i]
+            else:
+                frac = (ta - ta_grid) / (tb - ta_grid)
+                for i in range(p):
+                    ua[i] = U0[kk, i] + (U1[kk, i] - U0[kk, i]) * frac
+            ub = U1[kk]
+            base_on = slide >= 0 and ((key >> slide) & 1) == 1
+            vts = sw_vt[slide] if slide >= 0 else 0.0
+            for i in range(4):
+                ms0[i] = ms[i]
+            if jb != j:
+                jb = j
+                Phi_j = mats[I_PHI][j]
+                G0_j = mats[I_G0][j]
+                G1_j = mats[I_G1][j]
+                K_j = mats[I_K][j]
+                M_j = mats[I_M][j]
+                C_j = mats[I_C][j]
+                F_j = mats[I_F][j]
+                Cy_j = mats[I_CY][j]
+                Dy_j = mats[I_DY][j]
+                Fy_j = mats[I_FY][j]
+                Cc_j = mats[I_CC][j]
+                Dc_j = mats[I_DC][j]
+                Fc_j = mats[I_FC][j]
+                ck_j = ckeys[j]
+                cna_j = cna[j]
+                cidx_j = cidx[j]
+                cG_j = cG[j]
+                A_j = mats[I_A][j]
+                B_j = mats[I_B][j]
+                D_j = mats[I_D][j]
+                E_j = mats[I_E][j]
+                fast_j = mflags[j, MF_FAST] != 0
+                outstate_j = mflags[j, MF_OUTSTATE] != 0
+            done = False
+            st = STEP_OK
+            dd = 0.0
+            if slide < 0 and regular and (m == 0 or fast_j):
+                # Inline regular step: stored matrices, cached active set.
+                for i in range(n):
+                    v = 0.0
+                    for jj in range(n):
+                        v += Phi_j[i, jj] * x[jj]
+                    for jj in range(p):
+                        v += G0_j[i, jj] * ua[jj] + G1_j[i, jj] * ub[jj]
+                    xf[i] = v
+                chk = 0.0
+                for i in range(m):
+                    v = 0.0
+                    for jj in range(n):
+                        v += C_j[i, jj] * xf[jj]
+                    for jj in range(p):
+                        v += F_j[i, jj] * ub[jj]
+                    q[i] = v
+                    chk += v
+                for i in range(n):
+                    chk += xf[i]
+                if chk - chk == 0.0:
+                    if m == 0:
+                        for i in range(n):
+                            xn[i] = xf[i]
+                        done = True
+                    else:
+                        slot = ms[1]
+                        if slot < 0:
+                            slot = _lookup(M_j, ms[0], ck_j, cna_j, cidx_j, cG_j, ivars)
+                            ms[1] = slot
+                        na = cna_j[slot]
+                        if na >= 0:
+                            done = True
+                            zmax = 0.0
+                            for ii in range(na):
+                                v = 0.0
+                                for jj in range(na):
+                                    v += cG_j[slot, ii, jj] * q[cidx_j[slot, jj]]
+                                za[ii] = v
+                                if abs(v) > zmax:
+                                    zmax = abs(v)
+                            for ii in range(na):
+                                if za[ii] < -rtol * zmax:
+                                    done = False
+                                    break
+                            if done:
+                                for ii in range(na, m):
+                                    i = cidx_j[slot, ii]
+                                    v = q[i]
+                                    sc = abs(v)
+                                    for jj in range(na):
+                                        t = M_j[i, cidx_j[slot, jj]] * za[jj]
+                                        v += t
+                                        sc += abs(t)
+                                    if v < -rtol * sc:
+                                        done = False
+                                        break
+                            if done:
+                                for i in range(m):
+                                    lamn[i] = 0.0
+                                for jj in range(na):
+                                    lamn[cidx_j[slot, jj]] = za[jj]
+                                chk = 0.0
+                                for i in range(n):
+                                    v = xf[i]
+                                    for jj in range(na):
+                                        v += K_j[i, cidx_j[slot, jj]] * za[jj]
+                                    xn[i] = v
+                                    chk += v
+                                if chk - chk != 0.0:
+                                    done = False
+            elif slide < 0 and (m == 0 or fast_j):
+                # Inline shortened step: discretise for s, try the previous active set.
+                a1 = s * (1.0 - theta)
+                for i in range(n):
+                    v = x[i]
+                    for jj in range(n):
+                        augn[i, jj] = (1.0 if i == jj else 0.0) - s * theta * A_j[i, jj]
+                        v += a1 * A_j[i, jj] * x[jj]
+                    for jj in range(p):
+                        v += s * E_j[i, jj] * ((1.0 - theta) * ua[jj] + theta * ub[jj])
+                    augn[i, n] = v
+                    for jj in range(m):
+                        augn[i, n + 1 + jj] = B_j[i, jj]
+                if n == 0 or _gauss(augn, n, 1 + m):
+                    chk = 0.0
+                    for i in range(n):
+                        xf[i] = augn[i, n]
+                        chk += xf[i]
+                        for jj in range(m):
+                            Ko[i, jj] = s * augn[i, n + 1 + jj]
+                    for i in range(m):
+                        for jj in range(m):
+                            v = D_j[i, jj]
+                            for l in range(n):
+                                v += C_j[i, l] * Ko[l, jj]
+                            Mo[i, jj] = v
+                        v = 0.0
+                        for jj in range(n):
+                            v += C_j[i, jj] * xf[jj]
+                        for jj in range(p):
+                            v += F_j[i, jj] * ub[jj]
+                        q[i] = v
+                        chk += v
+                    if chk - chk == 0.0:
+                        if m == 0:
+                            done = True
+                        elif _basis_solution(Mo, q, ms[0], zb, augm):
+                            done = True
+                            zmax = 0.0
+                            for i in range(m):
+                                if abs(zb[i]) > zmax:
+                                    zmax = abs(zb[i])
+                            for i in range(m):
+                                if zb[i] < -rtol * zmax:
+                                    done = False
+                                    break
+                            if done:
+                                for i in range(m):
+                                    if (ms[0] >> i) & 1:
+                                        continue
+                                    v = q[i]
+                                    sc = abs(v)
+                                    for jj in range(m):
+                                        t = Mo[i, jj] * zb[jj]
+                                        v += t
+                                        sc += abs(t)
+                                    if v < -rtol * sc:
+                                        done = False
+                                        break
+                        if done:
+                            for i in range(m):
+                                lamn[i] = zb[i] if zb[i] > 0.0 else 0.0
+                            chk = 0.0
+                            for i in range(n):
+                                v = xf[i]
+                                for jj in range(m):
+                                    v += Ko[i, jj] * lamn[jj]
+                                xn[i] = v
+                                chk += v
+                            if chk - chk != 0.0:
+                                done = False
+            if not done:
+                st, dd = _advance(mats, mflags, ckeys, cna, cidx, cG, j, ja, slide, base_on,
+                                  vts, s, regular, theta, x, ua, ub, ms, ivars, fvars, max_piv,
+                                  enum_max_m, True, xn, lamn, xa, lamna, c, cs, sg, W)
+            if st != STEP_OK:
+                status = st
+                fvars[FV_FAIL_T0] = ta
+                fvars[FV_FAIL_T1] = tb
+                break
+            G = -np.inf
+            if has_located:
+                if slide < 0:
+                    # Inline comparator check (see _crossing).
+                    for i in range(k):
+                        g[i] = -np.inf
+                        gt[i] = 0.0
+                        if sw_kind[i] != SW_LOCATED:
+                            continue
+                        on = (key >> i) & 1
+                        if (not on) and (sw_flags[i] & SWF_LATCH) != 0:
+                            continue
+                        v = 0.0
+                        sc = 0.0
+                        for jj in range(n):
+                            t = Cc_j[i, jj] * xn[jj]
+                            v += t
+                            sc += abs(t)
+                        for jj in range(m):
+                            t = Dc_j[i, jj] * lamn[jj]
+                            v += t
+                            sc += abs(t)
+                        for jj in range(p):
+                            t = Fc_j[i, jj] * ub[jj]
+                            v += t
+                            sc += abs(t)
+                        c[i] = v
+                        cs[i] = sc
+                        if on:
+                            g[i] = (sw_vt[i] - sw_vh[i]) - v
+                        else:
+                            g[i] = v - (sw_vt[i] + sw_vh[i])
+                        gt[i] = 1e-12 * (sc + abs(sw_vt[i]) + abs(sw_vh[i]))
+                        if g[i] > G:
+                            G = g[i]
+                else:
+                    _end_controls(mats, j, ja, dd, xn, lamn, lamna, ub, c, cs)
+                    G = _crossing(sw_kind, sw_flags, sw_vt, sw_vh, key, slide, c, cs, g, gt)
+            if not (G > 0.0):
+                for i in range(n):
+                    x[i] = xn[i]
+                for i in range(m):
+                    lam[i] = lamn[i]
+                    lama[i] = lamna[i]
+                d = dd
+                tcur = tb
+                ivars[IV_STEPS] += 1
+                if not regular:
+                    ivars[IV_ODD] += 1
+                if slide >= 0:
+                    ivars[IV_SLIDESTEPS] += 1
+                    fvars[FV_DUTY] = 1.0 - dd if base_on else dd
+                    # Leave the surface when the on-fraction saturates and the relay holds
+                    # strictly (beyond round-off) in the saturated mode.
+                    tol = sg[2]
+                    if dd == 0.0:
+                        sgb = sg[0]
+                        if (sgb > tol) if base_on else (sgb < -tol):
+                            _record(ev_t, ev_key, ev_info, ivars, tb, key,
+                                    slide + EV_SLIDE_END)
+                            slide = -1
+                            ja = -1
+                    elif dd == 1.0:
+                        sga = sg[1]
+                        if (sga < -tol) if base_on else (sga > tol):
+                            key = key ^ (1 << slide)
+                            jt = j
+                            j = ja
+                            ja = jt
+                            mt = ms[0]
+                            ms[0] = ms[2]
+                            ms[2] = mt
+                            ms[1] = -1
+                            ms[3] = -1
+                            for i in range(m):
+                                lam[i] = lamna[i]
+                            d = 0.0
+                            _record(ev_t, ev_key, ev_info, ivars, tb, key,
+                                    slide + EV_SLIDE_END)
+                            slide = -1
+                            ja = -1
+                break
+            # A comparator crossed its threshold inside the step: locate the instant.
+            for i in range(4):
+                ms[i] = ms0[i]
+            st, s_star, dstar = _locate(mats, mflags, ckeys, cna, cidx, cG, j, ja, slide,
+                                        base_on, vts, ta, s, theta, x, lam, ua, ub, ms, ivars,
+                                        fvars, max_piv, enum_max_m, sw_kind, sw_flags, sw_vt,
+                                        sw_vh, key, xn, lamn, lamna, dd, c, cs, g, gt, W, S)
+            if st != STEP_OK:
+                status = st
+                fvars[FV_FAIL_T0] = ta
+                fvars[FV_FAIL_T1] = tb
+                break
+            xs = S[13]
+            lams = S[14]
+            lamas = S[15]
+            flips = 0
+            first = -1
+            for i in range(k):
+                if g[i] != -np.inf and g[i] >= -gt[i]:
+                    flips |= 1 << i
+                    if first < 0:
+                        first = i
+            if flips == 0:  # (cannot happen: the instant search ends on a crossing)
+                gm = -np.inf
+                for i in range(k):
+                    if g[i] > gm:
+                        gm = g[i]
+                        first = i
+                flips = 1 << first
+            if s_star > min_step:
+                for i in range(n):
+                    x[i] = xs[i]
+                for i in range(m):
+                    lam[i] = lams[i]
+                    lama[i] = lamas[i]
+                d = dstar
+                tcur = ta + s_star
+                ivars[IV_STEPS] += 1
+                ivars[IV_ODD] += 1
+                if slide >= 0:
+                    ivars[IV_SLIDESTEPS] += 1
+                if every == 1:
+                    frac = (tcur - ta_grid) / (tb - ta_grid)
+                    ut = S[6]
+                    for i in range(p):
+                        ut[i] = U0[kk, i] + (U1[kk, i] - U0[kk, i]) * frac
+                    pos = ivars[IV_OUTPOS]
+                    _store(mats, mflags, j, ja, d, slide, key, duty_sw, x, lam, lama, ut,
+                           T_out, Y_out, pos, tcur, fvars)
+                    ivars[IV_OUTPOS] = pos + 1
+            elif ivars[IV_LASTSW] == first and fvars[FV_LASTT] == tcur:
+                # The switch it flipped at this very instant wants to flip back before the
+                # state has moved: the trajectory is on an attractive switching surface.
+                if (sw_flags[first] & SWF_RELAY) != 0 and slide < 0:
+                    slide = first
+                    _record(ev_t, ev_key, ev_info, ivars, tcur, key, slide + EV_SLIDE_START)
+                    ivars[IV_LASTSW] = -1
+                    akey = key ^ (1 << slide)
+                    ja = _find_mode(mkey, ivars[IV_NMODES], akey)
+                    ms[2] = ms[0]
+                    ms[3] = -1
+                    if ja < 0:
+                        need = akey
+                        break
+                    continue
+                status = STEP_SLIDING
+                ivars[IV_FAILSW] = first
+                fvars[FV_FAIL_T0] = tcur
+                fvars[FV_FAIL_T1] = tb
+                break
+            key = key ^ flips
+            _record(ev_t, ev_key, ev_info, ivars, tcur, key, first)
+            ivars[IV_LASTSW] = first
+            fvars[FV_LASTT] = tcur
+            ivars[IV_LOCATED] += 1
+            ivars[IV_NSW] += 1
+            if ivars[IV_NSW] > max_sw:
+                status = STEP_CHATTER
+                ivars[IV_FAILSW] = first
+                fvars[FV_FAIL_T0] = tcur
+                fvars[FV_FAIL_T1] = tb
+                break
+            j = _find_mode(mkey, ivars[IV_NMODES], key)
+            ms[1] = -1
+            if j < 0:
+                need = key
+                break
+            if slide >= 0:
+                akey = key ^ (1 << slide)
+                ja = _find_mode(mkey, ivars[IV_NMODES], akey)
+                ms[3] = -1
+                if ja < 0:
+                    need = akey
+                    break
+        if status != STEP_OK:
+            break
+        if need >= 0:
+            status = STEP_NEED_MODE
+            ivars[IV_NEED] = need
+            break
+        # End of the grid step: output, sampled comparators.
+        ivars[IV_GSTEP] += 1
+        countdown -= 1
+        if countdown == 0 or force_out[kk]:
+            if countdown == 0:
+                countdown = every
+            pos = ivars[IV_OUTPOS]
+            if slide >= 0 or has_duty or jb != j:
+                _store(mats, mflags, j, ja, d, slide, key, duty_sw, x, lam, lama, U1[kk],
+                       T_out, Y_out, pos, tb, fvars)
+            elif outstate_j:
+                T_out[pos] = tb
+                for i in range(n):
+                    Y_out[pos, i] = x[i]
+            else:
+                T_out[pos] = tb
+                for r in range(r_out):
+                    v = 0.0
+                    for jj in range(n):
+                        v += Cy_j[r, jj] * x[jj]
+                    for jj in range(m):
+                        v += Dy_j[r, jj] * lam[jj]
+                    for jj in range(p):
+                        v += Fy_j[r, jj] * U1[kk, jj]
+                    Y_out[pos, r] = v
             ivars[IV_OUTPOS] = pos + 1
-    return STEP_OK, N
+        if has_sampled:
+            _end_controls(mats, j, ja, d, x, lam, lama, U1[kk], c, cs)
+            newkey = key
+            first = -1
+            for i in range(k):
+                if sw_kind[i] != SW_SAMPLED:
+                    continue
+                on = (key >> i) & 1
+                if on and c[i] < sw_vt[i] - sw_vh[i]:
+                    newkey &= ~(1 << i)
+                elif (not on) and c[i] > sw_vt[i] + sw_vh[i]:
+                    newkey |= 1 << i
+                else:
+                    continue
+                if first < 0:
+                    first = i
+            if newkey != key:
+                key = newkey
+                _record(ev_t, ev_key, ev_info, ivars, tb, key, first)
+        kk += 1
+    ivars[IV_K] = kk
+    ivars[IV_KEY] = key
+    ivars[IV_SLIDE] = slide
+    ivars[IV_MASK] = ms[0]
+    ivars[IV_MASK_ALT] = ms[2]
+    fvars[FV_TCUR] = tcur
+    return status

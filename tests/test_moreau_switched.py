@@ -40,6 +40,7 @@ def buck(R: float, vt: float = 2.5, vh: float = 0.0, control: str = "v(g)") -> S
             rows = {"v(a)": ([0, 0], [1], [0, 0]), "i(d1)": ([1, 0], [0], [0, 0])}
         rows["v(g)"] = ([0, 0], [0], [0, 1])
         rows["v(c1)"] = ([0, 1], [0], [0, 0])
+        rows["v(g,c1)"] = ([0, -1], [0], [0, 1])
 
         def output(names):
             sel = [rows[nm.lower()] for nm in names]
@@ -178,9 +179,21 @@ def test_initially_on_and_gate_in_band():
     assert res.modes_visited == [(True,)] and res["i(L1)"][-1] > 0.0
 
 
-def test_state_dependent_switch_not_implemented():
-    with pytest.raises(NotImplementedError, match="comparator"):
-        simulate(buck(2.0, control="v(C1)"), [Dc(VIN), gate()], [0.0, 0.0], 1e-4, 1e-6)
+def test_state_dependent_switch_is_a_located_comparator():
+    # Gate v(g) - v(C1) with a 2.5 V gate source: a bang-bang regulator, on while
+    # v(C1) < 2.5 V (with hysteresis: the band edges are crossed exactly by the numerical
+    # solution at the recorded instants).
+    sys_ = buck(2.0, vt=0.0, vh=0.1, control="v(g,c1)")
+    res = simulate(sys_, [Dc(VIN), Dc(2.5)], [0.0, 0.0], 2e-3, 0.5e-6,
+                   probes=["i(L1)", "v(C1)"])
+    assert res.ok and res.switching == {"S1": "hysteresis"}
+    assert res.stats.located == len(res.events) > 10
+    t_ev = np.array([t for t, _ in res.events])
+    v_at = np.interp(t_ev, res.t, res["v(C1)"])
+    # Turn-off where v(C1) rises to 2.6 V, turn-on where it falls to 2.4 V.
+    on = np.array([md[0] for _, md in res.events])
+    np.testing.assert_allclose(v_at[~on], 2.6, atol=1e-9)
+    np.testing.assert_allclose(v_at[on][1:], 2.4, atol=1e-9)
 
 
 def test_initial_option_from_netlist():
