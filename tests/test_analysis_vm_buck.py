@@ -51,14 +51,6 @@ A_ON = np.array([[0.0, -1 / L], [1 / C, -1 / (R * C)]])  # the diode blocks
 A_OFF = A_ON  # the diode conducts (CCM): v(sw) = 0, same matrix, no input
 
 
-def _needs_comparators(fn):
-    """These tests need comparator-driven switches in ``simulate``; they xfail only for that
-    reason (NotImplementedError) until the support is committed (any other failure fails)."""
-    return pytest.mark.xfail(raises=NotImplementedError, strict=False,
-                             reason="simulate() does not yet support comparator-driven "
-                             "switches")(fn)
-
-
 @pytest.fixture(scope="module")
 def vm_buck(tmp_path_factory) -> str:
     path = tmp_path_factory.mktemp("vm_buck") / "vm_buck.cir"
@@ -115,7 +107,6 @@ def reference_orbit(vin: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return x0, np.array([t1, t2]), mu
 
 
-@_needs_comparators
 @pytest.mark.parametrize("vin", [20.0, 23.0])
 def test_period_one_orbit_matches_saltation_reference(vm_buck, vin):
     x_ref, (t1, t2), mu_ref = reference_orbit(vin)
@@ -138,7 +129,6 @@ def test_period_one_orbit_matches_saltation_reference(vm_buck, vin):
     assert all(s.diodes == (not s.switches[0],) for s in pat.segments)  # CCM
 
 
-@_needs_comparators
 def test_flip_between_24_and_25_volts_independent_of_h(vm_buck):
     found = []
     for h in (1e-6, 0.5e-6):
@@ -158,7 +148,6 @@ def test_flip_between_24_and_25_volts_independent_of_h(vm_buck):
     assert abs(found[0] - found[1]) < 0.01
 
 
-@_needs_comparators
 def test_small_bifurcation_sweep(vm_buck):
     f = CircuitMapFactory(vm_buck, period="tp", param="vin")
     vin = np.array([20.0, 27.0])

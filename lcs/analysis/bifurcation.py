@@ -144,13 +144,16 @@ class BifurcationDiagram:
         fig = Figure(figsize=(8, 2.6 * len(names) + 0.8), layout="constrained")
         FigureCanvasAgg(fig)
         colours = {"fixed": "k", "up": "tab:blue", "down": "tab:red"}
+        # Marker area: fine for dense diagrams (300 x 100 points), visible for coarse ones.
+        npts = sum(b.samples.shape[0] * b.samples.shape[1] for b in self.branches)
+        size = float(np.clip(3e4 / max(npts, 1), 0.3, 6.0))
         axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
         for ax, name, c in zip(axes, names, cols, strict=True):
             for b in self.branches:
                 K, M = b.samples.shape[:2]
                 px = np.repeat(b.values, M)
                 py = b.samples[:, :, c].ravel()
-                ax.scatter(px, py, s=0.3, c=colours.get(b.direction, "k"), marker=".",
+                ax.scatter(px, py, s=size, c=colours.get(b.direction, "k"), marker=".",
                            linewidths=0, rasterized=True,
                            label=b.direction if len(self.branches) > 1 else None)
             ax.set_ylabel(name)

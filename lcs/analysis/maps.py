@@ -14,10 +14,9 @@ A periodically driven converter is studied through a map ``x_{k+1} = P(x_k)``:
 Every map is evaluated by :func:`lcs.moreau.simulate`; a map is built for one parameter
 value (the system is formulated once and its modes are cached by the
 :class:`~lcs.model.SwitchedLCS`). Many periods are simulated in one ``simulate`` call with
-breakpoints at ``t0 + k T`` and ``every`` equal to the number of steps per period, so that
-exactly the period samples are stored (no Python work per period). When the number of steps
-per period is not constant (state-dependent switching instants inserted into the grid), the
-run is repeated storing every step and the samples are picked by time.
+the instants ``t0 + k T`` as breakpoints and ``save_at`` points, so that exactly the period
+samples are stored (no Python work per period). Should a run lack a period sample, it is
+repeated storing every step and the samples are picked by time.
 
 The map of a time-stepping scheme is the *discrete* map: its fixed points and multipliers
 converge to those of the circuit with the order of the scheme as ``h`` shrinks.
@@ -366,15 +365,16 @@ class _LcsMapBase(Map):
         return self._scale
 
     def _simulate(self, x, t_start: float, t_stop: float, *, every: int,
-                  breakpoints: Sequence[float] = (), probes: Sequence[str] | None = None
-                  ) -> SimulationResult:
+                  breakpoints: Sequence[float] = (), probes: Sequence[str] | None = None,
+                  save_at: Sequence[float] = ()) -> SimulationResult:
         self.evaluations += 1
         self.simulated_periods += (t_stop - t_start) / self.period
+        kwargs = {"save_at": save_at} if len(save_at) else {}
         return simulate(
             self.system, self.signals, np.asarray(x, dtype=float), t_stop, self.h,
             theta=self.theta, t_start=t_start, probes=probes, every=every,
             breakpoints=breakpoints, on_inconsistent=self.on_inconsistent,
-            options=self.options,
+            options=self.options, **kwargs,
         )
 
     def _fail(self, res: SimulationResult, x) -> MapError:
@@ -450,8 +450,9 @@ class StroboscopicMap(_LcsMapBase):
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
-        self._steps_per_period: int | None = None
-        self._uniform = True  # False once a run showed a varying step count per period
+        # False once a run lacked a period sample (then every step is stored and the
+        # samples are picked by time); save_at makes that a safety net only.
+        self._save_at_ok = True
 
     def __call__(self, x) -> np.ndarray:
         return self.power(x, 1)
@@ -467,40 +468,35 @@ class StroboscopicMap(_LcsMapBase):
         res = self._simulate(x, self.t0, t_end, every=_EVERY_NONE, breakpoints=bps)
         if not res.ok:
             raise self._fail(res, x)
-        if self._steps_per_period is None and k == 1:
-            self._steps_per_period = int(res.stats.steps)
-            # Comparator switchings located inside steps split them: the step count per
-            # period then varies, and runs store every step (see _run_sampled).
-            if getattr(res.stats, "located", 0):
-                self._uniform = False
         return res.x_final.copy()
 
     def _run_sampled(self, x, n: int, probes: Sequence[str] | None
                      ) -> tuple[np.ndarray, np.ndarray, SimulationResult]:
-        """Simulate n periods in one call; return (indices reached, values (n+1, q), result).
+        """Simulate n periods in one call; return (instants reached, values (n+1, q), result).
 
-        Rows of ``values`` at period instants not reached (failed run) are NaN.
+        The period instants are ``save_at`` points of the run (stored whatever ``every``
+        says, and step boundaries). Rows of ``values`` at instants not reached (failed run)
+        are NaN.
         """
         t_end = self.t0 + n * self.period
         targets = self.t0 + self.period * np.arange(n + 1)
         bps = targets[1:]
-        if self._steps_per_period is None:
-            self.power(x, 1)  # calibrates the number of steps per period
-        attempts = [self._steps_per_period, 1] if self._uniform else [1]
+        tol = _TIME_MATCH * self.h
+        attempts = [_EVERY_NONE, 1] if self._save_at_ok else [1]
         for every in attempts:
-            res = self._simulate(x, self.t0, t_end, every=int(every), breakpoints=bps,
-                                 probes=probes)
+            res = self._simulate(x, self.t0, t_end, every=every, breakpoints=bps,
+                                 probes=probes, save_at=bps)
             t = res.t
-            pos = np.clip(np.searchsorted(t, targets - _TIME_MATCH * self.h), 0, len(t) - 1)
-            hit = np.abs(t[pos] - targets) <= _TIME_MATCH * self.h
+            pos = np.clip(np.searchsorted(t, targets - tol), 0, len(t) - 1)
+            hit = np.abs(t[pos] - targets) <= tol
             t_ok = t[-1] if len(t) else self.t0
-            reached = targets <= t_ok + _TIME_MATCH * self.h
+            reached = targets <= t_ok + tol
             if np.all(hit[reached]) or every == 1:
                 values = np.full((n + 1, res.y.shape[1]), np.nan)
                 good = reached & hit
                 values[good] = res.y[pos[good]]
                 return good, values, res
-            self._uniform = False
+            self._save_at_ok = False
         raise AssertionError("unreachable")  # pragma: no cover
 
     def iterate(self, x, n: int) -> np.ndarray:

@@ -1,0 +1,126 @@
+"""Wall time of the bifurcation analysis on the voltage-mode buck (``vm_buck.cir``).
+
+Cases
+-----
+* **diagram** -- bifurcation diagram over the input voltage: 300 values of vin from 20 V to
+  35 V, 300 transient and 100 recorded periods each (T = 400 µs, h = 1 µs: 400 steps per
+  period, 48 million steps in total), fixed initial state, all cores.
+* **follow** -- the same diagram following the attractor up and down (two parallel
+  sequential sweeps, 96 million steps).
+* **basins** -- simple cell mapping on a 200 x 200 grid of (v(C1), i(L1)) at vin = 30 V
+  (40 000 one-period map evaluations, 16 million steps), all cores.
+* **continuation** -- the period-1 orbit from 20 V to 35 V in 30 steps with bisection of the
+  bifurcations to 1 mV.
+
+Printed: seconds per case, steps per second, the number of worker processes, and a short
+check of the result (attractor periods along vin; attractors of the basin map; the
+bifurcations found). ``--quick`` runs a tenth of each case.
+
+Run: ``.venv/bin/python benchmarks/bench_analysis.py [--quick] [--cases diagram,basins]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from lcs.analysis.basins import cell_basins  # noqa: E402
+from lcs.analysis.bifurcation import attractor_period, bifurcation_diagram  # noqa: E402
+from lcs.analysis.continuation import continue_orbit  # noqa: E402
+from lcs.analysis.parallel import default_workers  # noqa: E402
+from netlist.sweep import CircuitMapFactory  # noqa: E402
+
+NETLIST = str(ROOT / "converters" / "netlists" / "vm_buck.cir")
+
+
+def _period_summary(values: np.ndarray, samples: np.ndarray) -> str:
+    labels = [attractor_period(s, 1e-5) for s in samples]
+    runs: list[list] = []
+    for v, k in zip(values, labels, strict=True):
+        if runs and runs[-1][2] == k:
+            runs[-1][1] = v
+        else:
+            runs.append([v, v, k])
+    return "; ".join(f"{a:.2f}-{b:.2f} V: " + (f"P{k}" if k else "chaotic/long")
+                     for a, b, k in runs[:12]) + (" ..." if len(runs) > 12 else "")
+
+
+def bench_diagram(quick: bool, follow: bool) -> dict:
+    n = 30 if quick else 300
+    f = CircuitMapFactory(NETLIST, period="tp", param="vin")
+    m = f(20.0)
+    steps_per_period = round(m.period / m.h)
+    vin = np.linspace(20.0, 35.0, n)
+    t = time.perf_counter()
+    d = bifurcation_diagram(f, vin, x0=m.x0, transient=300, record=100, probes=["v(out)"],
+                            follow=follow, directions=("up", "down"), progress=True,
+                            param_name="vin")
+    wall = time.perf_counter() - t
+    steps = n * 400 * steps_per_period * len(d.branches)
+    b = d.branches[0]
+    return {"case": "follow" if follow else "diagram", "wall": wall, "steps": steps,
+            "check": _period_summary(b.values, b.samples),
+            "failed": int(sum((~br.ok).sum() for br in d.branches))}
+
+
+def bench_basins(quick: bool) -> dict:
+    n = 63 if quick else 200
+    f = CircuitMapFactory(NETLIST, period="tp", param="vin")
+    m = f(30.0)
+    t = time.perf_counter()
+    bm = cell_basins(f, [("v(C1)", 10.0, 14.0, n), ("i(L1)", 0.0, 2.0, n)], param=30.0,
+                     progress=True)
+    wall = time.perf_counter() - t
+    steps = n * n * round(m.period / m.h)
+    check = ", ".join(f"#{a.group}: {a.period} cells, basin {a.basin_cells}"
+                      for a in bm.attractors[:6])
+    sink = int(np.count_nonzero(bm.group == 0))
+    return {"case": "basins", "wall": wall, "steps": steps,
+            "check": f"{len(bm.attractors)} attractor(s) ({check}); sink {sink} cells; "
+                     f"max steps {int(bm.steps.max())}"}
+
+
+def bench_continuation(quick: bool) -> dict:
+    f = CircuitMapFactory(NETLIST, period="tp", param="vin")
+    t = time.perf_counter()
+    res = continue_orbit(f, 20.0, 35.0, steps=6 if quick else 30, tol=1e-3, param_name="vin")
+    wall = time.perf_counter() - t
+    bifs = ", ".join(f"{b.type} at {b.param:.4f} V" for b in res.bifurcations)
+    return {"case": "continuation", "wall": wall, "steps": 0,
+            "check": bifs + ("" if res.complete else f" (stopped: {res.notes[-1]})")}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="a tenth of each case")
+    ap.add_argument("--cases", default="diagram,follow,basins,continuation")
+    args = ap.parse_args(argv)
+    print(f"vm_buck.cir, {default_workers()} worker process(es)")
+    # Warm-up: numba kernels compiled / loaded from cache before timing.
+    CircuitMapFactory(NETLIST, period="tp", param="vin")(20.0).iterate([0.5, 12.0], 2)
+    for case in args.cases.split(","):
+        if case in ("diagram", "follow"):
+            r = bench_diagram(args.quick, case == "follow")
+        elif case == "basins":
+            r = bench_basins(args.quick)
+        elif case == "continuation":
+            r = bench_continuation(args.quick)
+        else:
+            raise SystemExit(f"unknown case {case}")
+        rate = f", {r['steps'] / r['wall'] / 1e6:.2f} M steps/s" if r["steps"] else ""
+        print(f"{r['case']:>13}: {r['wall']:7.2f} s{rate}")
+        print(f"{'':>15}{r['check']}")
+        if r.get("failed"):
+            print(f"{'':>15}{r['failed']} value(s) failed")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
