@@ -41,7 +41,7 @@ NETLIST = str(ROOT / "converters" / "netlists" / "vm_buck.cir")
 
 
 def _period_summary(values: np.ndarray, samples: np.ndarray) -> str:
-    labels = [attractor_period(s, 1e-5) for s in samples]
+    labels = [attractor_period(s, 1e-7) for s in samples]
     runs: list[list] = []
     for v, k in zip(values, labels, strict=True):
         if runs and runs[-1][2] == k:

@@ -61,7 +61,7 @@ def main(argv: list[str] | None = None) -> dict:
     d.save(out / "vm_buck_diagram.npz")
     d.plot(out / "vm_buck_diagram.png", title="voltage-mode buck: v(out) at t = kT")
     up = d.branch("up")
-    periods = [attractor_period(s, 1e-5) for s in up.samples]
+    periods = [attractor_period(s, 1e-7) for s in up.samples]
     results["diagram"] = {"values": up.values, "periods": periods,
                           "wall": time.perf_counter() - t}
     print(f"diagram: {vin.size} values x 2 directions in {results['diagram']['wall']:.1f} s")

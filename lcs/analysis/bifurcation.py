@@ -303,7 +303,10 @@ def attractor_period(samples: np.ndarray, rtol: float = 1e-6, max_period: int = 
     samples : ndarray, shape (M, q)
         Recorded iterates of one parameter value.
     rtol : float
-        Tolerance relative to the sample range (and 1e-12 absolute).
+        Tolerance relative to the largest sample magnitude (and 1e-12 absolute). Keep it
+        small (1e-7): the points of a period-2 orbit may nearly coincide in one probe (the
+        voltage-mode buck's two v(out) samples differ by 1e-4 V near 26.6 V while the
+        currents differ); a settled periodic attractor repeats to round-off.
     """
     s = np.asarray(samples, dtype=float)
     if s.ndim == 1:
