@@ -95,3 +95,37 @@ def test_open_loop_startup(tmp_path):
             dev = rows[f"max |period average - averaged model| of {s} after the DCM periods "
                        "/ |steady state|"]["rel_error"]
             assert dev < 5e-3, (topology, s)
+
+
+def test_prc_study(tmp_path):
+    mod = load("prc_study")
+    res = mod.main(["--out", str(tmp_path), "--fast"])
+    _files(tmp_path, "prc_waveforms.png", "prc_waveforms.csv", "prc_sweep.png",
+           "prc_sweep.csv")
+    points = res["sweep"]
+    assert len(points) == 3
+    for p in points:
+        assert abs(p.drift) < 1e-4, p  # settled: last 40 periods against the 40 before
+        # ideal elements are lossless: input power = load power, up to the O(h) numerical
+        # dissipation of the unlocated diode commutations (h = T/400 here)
+        assert 0 <= p.p_in / p.p_out - 1 < 5e-3, p
+        # FHA is a guide only (15 % off at 40 kHz, where the clamped intervals are long)
+        assert abs(p.vout / p.fha - 1) < 0.2, p
+    # above resonance the output falls with frequency
+    v = [p.vout for p in points]
+    assert v[0] > v[1] > v[2]
+    # the waveform run (from rest, 2 ms) ends at the sweep's steady state
+    w = res["waveforms"]
+    T = 1 / 55e3
+    sel = w.t >= w.t[-1] - 20 * T
+    mean = np.trapezoid(w["v(out,n)"][sel], w.t[sel]) / (w.t[sel][-1] - w.t[sel][0])
+    assert mean == pytest.approx(points[1].vout, rel=5e-3)
+    # every diode conducts in every period (full-wave bridge) and only forward
+    for k in range(1, 5):
+        i = w[f"i(D{k})"][sel]
+        assert i.min() >= -1e-9 and i.max() > 0.5
+    # ngspice, when it is installed: h = T/400 leaves pelcs up to 0.4 % low, and ngspice's
+    # near-ideal diodes take about 0.1 % (see the example's docstring)
+    ng = points[1].ngspice
+    if np.isfinite(ng):
+        assert points[1].vout == pytest.approx(ng, rel=6e-3)
