@@ -266,7 +266,8 @@ class _Problem:
         n, m, p = lcs.n, lcs.m, lcs.p
         if isinstance(self.probes, OutputMap):
             om = self.probes
-            Cy, Dy, Fy = _c(om.Cy, (-1, n)), _c(om.Dy, (-1, m)), _c(om.Fy, (-1, p))
+            q = len(om.names)
+            Cy, Dy, Fy = _c(om.Cy, (q, n)), _c(om.Dy, (q, m)), _c(om.Fy, (q, p))
             out = _Output(tuple(om.names), Cy, Dy, Fy, np.full(Cy.shape[0], -1, np.int64))
         else:
             names = tuple(self.probes) if self.probes is not None else tuple(lcs.states)
@@ -281,7 +282,8 @@ class _Problem:
                     Cy[i, lower_states.index(nm.lower())] = 1.0
             if others:
                 om = self.system.outputs(mode, [nm for _, nm in others])
-                oCy, oDy, oFy = _c(om.Cy, (-1, n)), _c(om.Dy, (-1, m)), _c(om.Fy, (-1, p))
+                q = len(others)
+                oCy, oDy, oFy = _c(om.Cy, (q, n)), _c(om.Dy, (q, m)), _c(om.Fy, (q, p))
                 for r, (i, _) in enumerate(others):
                     Cy[i], Dy[i], Fy[i] = oCy[r], oDy[r], oFy[r]
             out = _Output(names, Cy, Dy, Fy, duty)
@@ -537,18 +539,19 @@ class _Stack:
                 terms = dict(ctrl.terms)
                 om = system.outputs(mode, list(terms))
                 coef = np.array([terms[nm] for nm in terms], dtype=float)
-                Cc[i] = coef @ _c(om.Cy, (-1, n))
-                Dc[i] = coef @ _c(om.Dy, (-1, m))
-                Fc[i] = coef @ _c(om.Fy, (-1, p))
+                q = len(coef)
+                Cc[i] = coef @ _c(om.Cy, (q, n))
+                Dc[i] = coef @ _c(om.Dy, (q, m))
+                Fc[i] = coef @ _c(om.Fy, (q, p))
                 continue
             if sws.kind[i] == SW_SCHEDULED:
                 if i in sws.source:
                     self._check_source_control(i, s, mode)
                 continue
             om = system.outputs(mode, [s.control])
-            Cc[i] = _c(om.Cy, (-1, n))[0]
-            Dc[i] = _c(om.Dy, (-1, m))[0]
-            Fc[i] = _c(om.Fy, (-1, p))[0]
+            Cc[i] = _c(om.Cy, (1, n))[0]
+            Dc[i] = _c(om.Dy, (1, m))[0]
+            Fc[i] = _c(om.Fy, (1, p))[0]
         return Cc, Dc, Fc
 
     def _check_source_control(self, i, s, mode: ModeKey) -> None:
@@ -967,6 +970,15 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
                                                e_t[(e_t > ws) & (e_t < we)])))
             bounds = merge_close(bounds, MERGE_FRACTION * h)
             bounds[0], bounds[-1] = ws, we
+            if save_at.size:
+                # A save_at instant merged with a breakpoint an ulp away is stored at its own
+                # value.
+                sv = save_at[(save_at > ws) & (save_at < we)]
+                near = np.clip(np.searchsorted(bounds, sv), 1, len(bounds) - 1)
+                near = np.where(np.abs(bounds[near - 1] - sv) < np.abs(bounds[near] - sv),
+                                near - 1, near)
+                close = np.abs(bounds[near] - sv) <= tol
+                bounds[near[close]] = sv[close]
             plan = plan_grid(bounds, h)
             e_op = np.array([e[1] for e in entries], dtype=np.int64)
             e_a = np.array([e[2] for e in entries], dtype=np.int64)

@@ -260,10 +260,14 @@ def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
     two_terminal = {el.key: el for el in circuit.elements if el.kind in _TWO_TERMINAL}
     capacitors = {k for k, el in two_terminal.items() if el.kind == "C"}
     out, bad = [], []
+    switches = {el.key for el in circuit.elements if el.kind == "S"}
     for probe in probes:
         m = _PROBE_RE.match(probe)
         ok = False
-        if m:
+        d = re.match(r"^\s*d\s*\(\s*([^,()\s]+)\s*\)\s*$", probe, re.I)
+        if d:  # d(S1): the on-fraction of a switch (lcs.moreau)
+            ok = d.group(1).lower() in switches
+        elif m:
             kind, a, b = m.group(1).lower(), m.group(2).lower(), m.group(3)
             if kind == "v":
                 ok = (a in nodes and (b is None or b.lower() in nodes)) or (
