@@ -157,3 +157,20 @@ def test_small_bifurcation_sweep(vm_buck):
     assert b.ok.all()
     assert attractor_period(b.samples[0], 1e-5) == 1
     assert attractor_period(b.samples[1], 1e-5) == 2
+
+
+def test_event_map_at_comparator_switch_on(vm_buck):
+    """The Poincaré map on the switching surface (S1 turning on): fixed point = the orbit's
+    state at t1 with phase t1; multipliers = the stroboscopic ones, plus an exact 0 (the
+    Jacobian is taken along the section: across it the map is only piecewise smooth)."""
+    x_ref, (t1, _), mu_ref = reference_orbit(20.0)
+    x1_ref = _flow(A_OFF, np.zeros(2), t1)[0] @ x_ref
+    em = CircuitMapFactory(vm_buck, period="tp", param="vin", event="S1:on")(20.0)
+    assert em.state_names == ("i(L1)", "v(C1)", "phase")
+    o = find_orbit(em, np.concatenate([x_ref, [0.0]]), transient=1)
+    assert o.converged
+    np.testing.assert_allclose(o.x[:2], x1_ref, rtol=2e-6)
+    assert o.x[2] == pytest.approx(t1, abs=1e-10)
+    assert abs(o.multipliers[-1]) < 1e-12
+    np.testing.assert_allclose(np.sort_complex(o.multipliers[:2]), np.sort_complex(mu_ref),
+                               atol=1e-5)

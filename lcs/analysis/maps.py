@@ -45,6 +45,7 @@ __all__ = [
     "Samples",
     "StroboscopicMap",
     "SwitchingPattern",
+    "central_jacobian",
 ]
 
 # A stored sample is at a given instant when it is within this fraction of h of it. Period
@@ -262,6 +263,40 @@ class Map(ABC):
     def natural_scale(self) -> np.ndarray | None:
         """Typical magnitude of each state (for finite-difference steps), or None."""
         return None
+
+    def jacobian(self, x, k: int, scale: np.ndarray, rel_step: float = 1e-5) -> np.ndarray:
+        """Jacobian of ``P^k`` at ``x``, shape (dim, dim): central differences with steps
+        ``rel_step * scale``."""
+        return central_jacobian(lambda v: self.power(v, k), np.asarray(x, dtype=float),
+                                np.asarray(scale, dtype=float), rel_step)
+
+
+def central_jacobian(fn: Callable[[np.ndarray], np.ndarray], x: np.ndarray,
+                     scale: np.ndarray, rel_step: float = 1e-5) -> np.ndarray:
+    """Central finite-difference Jacobian of ``fn`` at ``x``.
+
+    Parameters
+    ----------
+    fn : callable
+        ``fn(x) -> y``, shapes (n,) -> (m,).
+    x : ndarray, shape (n,)
+    scale : ndarray, shape (n,)
+        State scale; the step of column i is ``rel_step * scale[i]``.
+    rel_step : float
+
+    Returns
+    -------
+    ndarray, shape (m, n)
+    """
+    x = np.asarray(x, dtype=float)
+    cols = []
+    for i in range(x.size):
+        d = rel_step * scale[i]
+        xp, xm = x.copy(), x.copy()
+        xp[i] += d
+        xm[i] -= d
+        cols.append((np.asarray(fn(xp)) - np.asarray(fn(xm))) / (2 * d))
+    return np.stack(cols, axis=1) if cols else np.zeros((0, 0))
 
 
 class FunctionMap(Map):
@@ -650,6 +685,41 @@ class EventMap(_LcsMapBase):
         if self._scale is None:
             return None
         return np.concatenate([self._scale[: self.dim - 1], [self.period]])
+
+    def jacobian(self, z, k: int, scale: np.ndarray, rel_step: float = 1e-5) -> np.ndarray:
+        """Jacobian of ``F^k`` restricted to the section, extended by 0 across it.
+
+        Every image of F lies on the section Σ, and a state on Σ sits on a switching
+        surface when the event is a switching: F is only piecewise smooth across Σ (the
+        perturbed start is in one mode or the other), so central differences straddling Σ
+        average two one-sided derivatives. Instead: the tangent space of Σ is estimated
+        from the images of perturbed states (they lie on Σ), the central differences are
+        taken along an orthonormal basis V of it (in scaled coordinates), and the result
+        ``J_Σ = (DF V) V'`` has the Poincaré map's multipliers plus one exact 0.
+        """
+        z = np.asarray(z, dtype=float)
+        scale = np.asarray(scale, dtype=float)
+        n1 = z.size
+
+        def fk(v):
+            return self.power(v, k)
+
+        f0 = fk(z)
+        # Tangent vectors of Σ near f0 (scaled): one-sided differences of the images.
+        T = np.empty((n1, n1))
+        for i in range(n1):
+            e = np.zeros(n1)
+            e[i] = rel_step * scale[i]
+            T[:, i] = (fk(z + e) - f0) / scale / rel_step
+        U, sv, _ = np.linalg.svd(T)
+        V = U[:, : n1 - 1]  # the section has one dimension less than the extended state
+        cols = []
+        for j in range(n1 - 1):
+            d = rel_step * scale * V[:, j]
+            cols.append((fk(z + d) - fk(z - d)) / scale / (2 * rel_step))
+        JV = np.stack(cols, axis=1)  # (n+1, n): D F applied to V, scaled coordinates
+        Js = JV @ V.T
+        return Js * scale[:, None] / scale[None, :]
 
     def _find_events(self, res: SimulationResult, after: float) -> list[tuple[float, np.ndarray]]:
         """(time, state) of every section crossing in a run stored every step, after ``after``."""

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .maps import Map, MapError, SwitchingPattern
+from .maps import Map, MapError, SwitchingPattern, central_jacobian
 
 __all__ = [
     "PeriodicOrbit",
@@ -58,30 +58,9 @@ def state_scale(x: np.ndarray, scale: np.ndarray | None = None, floor: float = 1
 
 
 def jacobian(fn, x: np.ndarray, scale: np.ndarray, rel_step: float = 1e-5) -> np.ndarray:
-    """Central finite-difference Jacobian of ``fn`` at ``x``.
-
-    Parameters
-    ----------
-    fn : callable
-        ``fn(x) -> y``, shapes (n,) -> (m,).
-    x : ndarray, shape (n,)
-    scale : ndarray, shape (n,)
-        State scale; the step of column i is ``rel_step * scale[i]``.
-    rel_step : float
-
-    Returns
-    -------
-    ndarray, shape (m, n)
-    """
-    x = np.asarray(x, dtype=float)
-    cols = []
-    for i in range(x.size):
-        d = rel_step * scale[i]
-        xp, xm = x.copy(), x.copy()
-        xp[i] += d
-        xm[i] -= d
-        cols.append((np.asarray(fn(xp)) - np.asarray(fn(xm))) / (2 * d))
-    return np.stack(cols, axis=1)
+    """Central finite-difference Jacobian of ``fn`` at ``x`` (see
+    :func:`~.maps.central_jacobian`), shape (m, n)."""
+    return central_jacobian(fn, x, scale, rel_step)
 
 
 def _is_real(mu: complex) -> bool:
@@ -279,7 +258,7 @@ def find_orbit(
     notes: list[str] = []
     while not converged and it < max_iter:
         it += 1
-        J = jacobian(pk, x, sc, rel_step)
+        J = m.jacobian(x, k, sc, rel_step)
         try:
             dx = np.linalg.solve(J - eye, -g)
         except np.linalg.LinAlgError:
@@ -311,7 +290,7 @@ def find_orbit(
         converged = r <= tol or (step <= tol and r <= 1e3 * tol)
     if not converged:
         notes.append(f"Newton did not converge in {it} iterations (scaled residual {r:.3g})")
-    J = jacobian(pk, x, sc, rel_step)
+    J = m.jacobian(x, k, sc, rel_step)
     mu = np.linalg.eigvals(J) if n else np.empty(0, complex)
     mu = mu[np.argsort(-np.abs(mu), kind="stable")]
     pts = m.iterate(x, k - 1) if k > 1 else x[None, :].copy()
