@@ -221,7 +221,8 @@ def _stalled(session: _Session, started: float, tstop: float | None, budget: flo
 
     Judged after ``min(5 s, budget/2)``: finishing in time must look impossible both at the
     pace of the last few seconds and (with a factor 4 of slack, for runs that slow down for
-    a while) at the average pace since the start.
+    a while) at the average pace since the start. The caller halts the run only when this
+    verdict has held for another ``min(5 s, budget/4)``.
     """
     now = time.perf_counter()
     elapsed = now - started
@@ -268,13 +269,20 @@ def _simulate(session: _Session, request: dict) -> dict:
     del session.progress[:]
     run_rc = session.command("bg_run")
     stalled = ""
+    hopeless_since = None  # the verdict must hold for a while: paces fluctuate
     while not session.finished.wait(0.05):
+        now = time.perf_counter()
         # the end-of-thread callback is the signal; ngSpice_running() is False for a moment
         # after bg_run, so it only serves as a fallback (no circuit -> no thread)
-        if time.perf_counter() - t1 > 1.0 and not session.running():
+        if now - t1 > 1.0 and not session.running():
             break
-        stalled = _stalled(session, t1, tstop, budget)
-        if stalled:
+        verdict = _stalled(session, t1, tstop, budget)
+        if not verdict:
+            hopeless_since = None
+            continue
+        hopeless_since = now if hopeless_since is None else hopeless_since
+        if now - hopeless_since >= min(5.0, budget / 4.0):
+            stalled = verdict
             session.command("bg_halt")
             session.finished.wait(10.0)
             break
