@@ -120,3 +120,17 @@ def test_help_lists_the_commands(command, capsys):
         main([command, "--help"])
     assert exc.value.code == 0
     assert "--period" in capsys.readouterr().out
+
+
+def test_orbit_of_an_event_map(netlists, capsys):  # noqa: F811
+    code, out, err = run(capsys, "orbit", netlists["boost"], "--period", "ts", "--event",
+                         "S1:on", "--json")
+    assert code == 0, err
+    r = json.loads(out)
+    assert r["states"] == ["i(L1)", "v(C1)", "phase"] and r["event"] == "S1:on"
+    assert r["points"][0][2] == pytest.approx(5e-9, abs=1e-15)  # the gate crosses 0.5 V
+    assert min(abs(complex(a, b)) for a, b in r["multipliers"]) < 1e-12
+    for ev in ("S9:on", "S1"):
+        code, out, err = run(capsys, "orbit", netlists["boost"], "--period", "ts", "--event",
+                             ev)
+        assert code == 2 and "--event" in err

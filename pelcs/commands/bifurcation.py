@@ -136,7 +136,8 @@ def period_runs(values: np.ndarray, samples: np.ndarray, ok: np.ndarray
             labels.append("failed")
             continue
         k = attractor_period(s, rtol=1e-7)
-        labels.append(f"period {k}" if k else "no period <= 64 (not settled, quasi-periodic or chaotic)")
+        labels.append(f"period {k}" if k else
+                      "no period <= 64 (not settled, quasi-periodic or chaotic)")
     runs: list[tuple[float, float, str]] = []
     for v, lab in zip(values, labels, strict=True):
         if runs and runs[-1][2] == lab:

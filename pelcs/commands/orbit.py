@@ -3,7 +3,7 @@
 ::
 
     pelcs orbit FILE --period T [--order K] [--param NAME=VALUE]... [--x0 STATE=V,...]
-                     [--transient N] [--step H] [--theta TH] [--t0 T0] [--json]
+                     [--transient N] [--step H] [--theta TH] [--t0 T0] [--event EV] [--json]
 
 The circuit is sampled every T (a number with SPICE suffix, or a ``.param`` name such as
 ``tp``) from the phase ``--t0``; the period-K orbit is found by Newton shooting from the
@@ -12,6 +12,8 @@ the orbit's points (states named as ``pelcs lcs`` names them), its Floquet multi
 central-difference Jacobian of the K-period map), the stability and the switching pattern.
 ``--json`` prints one object: ``{"file", "title", "period", "step", "theta", "order",
 "states", "points", "multipliers" ([re, im] pairs), "stability", "pattern", ...}``.
+``--event S1:on`` (or ``D1:off``, ``'v(out)>12'``) uses the map sampled at that event instead;
+its state ends with ``phase`` (the event time modulo T, s) and it has one extra multiplier 0.
 
 This module also holds the options that ``bifurcation``, ``continue`` and ``basins`` share.
 
@@ -24,6 +26,8 @@ import argparse
 import json
 import sys
 from pathlib import Path
+
+import numpy as np
 
 from netlist.errors import Diagnostic, NetlistError
 
@@ -50,6 +54,14 @@ def add_map_options(p: argparse.ArgumentParser, *, param_help: str) -> None:
                    help="initial state, e.g. 'v(C1)=12,i(L1)=1' (others: the netlist's IC)")
 
 
+def add_event_option(p: argparse.ArgumentParser) -> None:
+    """``--event``: an event (Poincaré section) map instead of the stroboscopic map."""
+    p.add_argument("--event", metavar="EVENT",
+                   help="sample at an event instead of every T: S1:on, S1:off (a switch), "
+                   "D1:on, D1:off (a diode starts/stops conducting), 'v(out)>12' (a probe "
+                   "crossing); the map state gets a 'phase' (event time mod T, s)")
+
+
 def usage_error(command: str, message: str, hint: str = "") -> NetlistError:
     return NetlistError(Diagnostic(message=message, hint=hint), file=f"pelcs {command}")
 
@@ -71,19 +83,29 @@ def make_factory(args: argparse.Namespace, command: str, *, swept: str | None = 
         period = parse_value(args.period, "--period")
     except NetlistError:
         pass  # a .param name, resolved per parameter value
+    event = getattr(args, "event", None)
+    if event:
+        from lcs.analysis.maps import EventSpec
+
+        try:
+            EventSpec.parse(event)
+        except ValueError as exc:
+            raise usage_error(command, f"--event: {exc}",
+                              "e.g. --event S1:on or --event 'v(out)>12'") from None
     return CircuitMapFactory(
         path=args.file, period=period, param=swept,
         overrides=tuple(sorted((fixed or {}).items())), step=step, theta=theta, t0=t0,
+        event=event or None,
     )
 
 
-def initial_state(args: argparse.Namespace, m):
-    """``--x0`` over the circuit's initial state."""
+def initial_state(args: argparse.Namespace, m) -> np.ndarray:
+    """``--x0`` over the circuit's initial state (circuit states only, no event phase)."""
     from netlist.sweep import parse_state
 
-    x0 = getattr(m, "x0", None)
+    x0 = np.asarray(m.x0, dtype=float)
     if args.x0:
-        return parse_state(args.x0, m.state_names, x0)
+        return parse_state(args.x0, m.state_names[: x0.size], x0)
     return x0
 
 
@@ -104,7 +126,7 @@ def fmt_complex(mu: complex) -> str:
 
 def map_header(m, factory) -> dict:
     return {"period": m.period, "step": m.h, "theta": m.theta, "t0": m.t0,
-            "params": dict(factory.overrides)}
+            "params": dict(factory.overrides), "event": factory.event}
 
 
 # -- the command -------------------------------------------------------------------------
@@ -121,6 +143,7 @@ def register(subparsers) -> None:
         epilog="example: pelcs orbit vm_buck.cir --period tp --param vin=20 --json",
     )
     add_map_options(p, param_help="override a global .param (repeatable)")
+    add_event_option(p)
     p.add_argument("--order", default="1", metavar="K", help="period of the orbit in periods T")
     p.add_argument("--transient", default="100", metavar="N",
                    help="periods simulated before Newton (default 100)")
@@ -141,8 +164,13 @@ def run(args: argparse.Namespace) -> int:
     order = positive_int("orbit", "--order", args.order)
     transient = positive_int("orbit", "--transient", args.transient, 0)
     tol = parse_value(args.tol, "--tol")
-    m = factory()
+    try:
+        m = factory()
+    except KeyError as exc:  # an event naming no switch or diode
+        raise usage_error("orbit", f"--event: {exc.args[0]}") from None
     x0 = initial_state(args, m)
+    if len(x0) < m.dim:  # event map: the phase starts at the sampling phase
+        x0 = np.concatenate([x0, [0.0]])
     try:
         orbit = find_orbit(m, x0, order, transient=transient, tol=tol)
     except MapError as exc:
@@ -164,17 +192,18 @@ def format_orbit(r: dict, name: str) -> str:
 
     lines = [f"{name}: {r['title']}".rstrip(": ")]
     params = ", ".join(f"{k} = {v:g}" for k, v in r["params"].items())
-    lines.append(f"period-{r['order']} orbit of the stroboscopic map: T = "
+    kind = f"event map ({r['event']})" if r.get("event") else "stroboscopic map"
+    lines.append(f"period-{r['order']} orbit of the {kind}: T = "
                  f"{format_eng(r['period'], 's')}, h = {format_eng(r['step'], 's')}, "
                  f"θ = {r['theta']:g}" + (f"; {params}" if params else ""))
     states = r["states"]
-    width = max(12, *(len(s) + 2 for s in states))
+    width = max(15, *(len(s) + 2 for s in states))
     lines.append("points:")
     lines.append("  k " + "".join(s.rjust(width) for s in states))
     for k, pt in enumerate(r["points"]):
-        lines.append(f"  {k:<2}" + "".join(f"{v:{width}.8g}" for v in pt))
-    lines.append("Floquet multipliers (eigenvalues of the Jacobian of the "
-                 f"{r['order']}-period map):")
+        lines.append(f"  {k:<2}" + "".join(f" {v:>{width - 1}.9g}" for v in pt))
+    lines.append("Floquet multipliers (eigenvalues of the Jacobian of the map iterated "
+                 f"{r['order']} time(s)):")
     for (re_, im), mod in zip(r["multipliers"], r["multiplier_moduli"], strict=True):
         lines.append(f"  {fmt_complex(complex(re_, im)):>32}   |μ| = {mod:.8g}")
     lines.append(f"stability: {r['stability']}")
