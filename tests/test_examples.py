@@ -129,3 +129,25 @@ def test_prc_study(tmp_path):
     ng = points[1].ngspice
     if np.isfinite(ng):
         assert points[1].vout == pytest.approx(ng, rel=6e-3)
+
+
+def test_boost_smc(tmp_path):
+    mod = load("boost_smc")
+    runs = mod.main(["--out", str(tmp_path), "--fast"])
+    _files(tmp_path, "boost_smc.png", "boost_smc.csv")
+    imp, exp = runs["implicit"], runs["explicit"]
+    h = imp.h
+    # implicit: one sliding interval from the analytic reaching instant to the end, s = 0 to
+    # round-off, v(C1) on the analytic ideal-sliding solution up to the relay's first-order
+    # error (0.3 % at h = 1 µs, so about 0.6 % at the fast run's 2 µs)
+    assert len(imp.sliding) == 1 and imp.sliding[0][2] is None
+    assert imp.sliding[0][1] == pytest.approx(mod.T_REACH, abs=h)
+    assert imp.checks["max |s| after reaching [A]"] < 1e-12
+    assert imp.checks["max |v - v_ref| / v_ref"] < 1e-2
+    # explicit: no sliding mode, chattering in a band of about h times the slope of i(L1)
+    # ((v - vin)/L = 23 A/ms at the end: 0.05 A per 2 µs step) with many switchings
+    assert exp.sliding == []
+    slope = max(mod.VIN, exp.v.max() - mod.VIN) / mod.L
+    assert 0.2 * slope * h < exp.checks["max |s| after reaching [A]"] < 1.5 * slope * h
+    assert exp.switchings > 1000
+    assert exp.checks["max |v - v_ref| / v_ref"] < 1e-2
