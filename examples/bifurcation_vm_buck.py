@@ -55,7 +55,7 @@ def main(argv: list[str] | None = None) -> dict:
     # 1. Bifurcation diagram, following the attractor up and down.
     t = time.perf_counter()
     vin = np.linspace(20.0, 35.0, 31 if fast else 300)
-    d = bifurcation_diagram(f, vin, x0=f(20.0).x0, transient=100 if fast else 300,
+    d = bifurcation_diagram(f, vin, x0=f(20.0).x0, transient=200 if fast else 300,
                             record=24 if fast else 100, probes=["v(out)"], follow=True,
                             directions=("up", "down"), progress=True, param_name="vin")
     d.save(out / "vm_buck_diagram.npz")
