@@ -706,6 +706,100 @@ def _mode_step(mats, mflags, ckeys, cna, cidx, cG, j, s, regular, theta, x, u0, 
 
 
 @njit(cache=True)
+def _fast_regular(Phi, G0, G1, K, M, C, F, ck, cna_j, cidx_j, cG_j, x, u0, u1, ms, mi, xf, q,
+                  za, xn, lamn, rtol, ivars):
+    """A regular step (stored matrices of one mode) by the cached active set ``ms[mi]``
+    (slot ``ms[mi + 1]``); returns False when the active set is not accepted (then the full
+    :func:`_mode_step` decides)."""
+    n = x.shape[0]
+    m = q.shape[0]
+    p = u0.shape[0]
+    chk = 0.0
+    for i in range(n):
+        v = 0.0
+        for jj in range(n):
+            v += Phi[i, jj] * x[jj]
+        for jj in range(p):
+            v += G0[i, jj] * u0[jj] + G1[i, jj] * u1[jj]
+        xf[i] = v
+        chk += v
+    for i in range(m):
+        v = 0.0
+        for jj in range(n):
+            v += C[i, jj] * xf[jj]
+        for jj in range(p):
+            v += F[i, jj] * u1[jj]
+        q[i] = v
+        chk += v
+    if chk - chk != 0.0:
+        return False
+    if m == 0:
+        for i in range(n):
+            xn[i] = xf[i]
+        return True
+    slot = ms[mi + 1]
+    if slot < 0:
+        slot = _lookup(M, ms[mi], ck, cna_j, cidx_j, cG_j, ivars)
+        ms[mi + 1] = slot
+    na = cna_j[slot]
+    if na < 0:
+        return False
+    zmax = 0.0
+    for ii in range(na):
+        v = 0.0
+        for jj in range(na):
+            v += cG_j[slot, ii, jj] * q[cidx_j[slot, jj]]
+        za[ii] = v
+        if abs(v) > zmax:
+            zmax = abs(v)
+    for ii in range(na):
+        if za[ii] < -rtol * zmax:
+            return False
+    for ii in range(na, m):
+        i = cidx_j[slot, ii]
+        v = q[i]
+        sc = abs(v)
+        for jj in range(na):
+            t = M[i, cidx_j[slot, jj]] * za[jj]
+            v += t
+            sc += abs(t)
+        if v < -rtol * sc:
+            return False
+    for i in range(m):
+        lamn[i] = 0.0
+    for jj in range(na):
+        lamn[cidx_j[slot, jj]] = za[jj]
+    chk = 0.0
+    for i in range(n):
+        v = xf[i]
+        for jj in range(na):
+            v += K[i, cidx_j[slot, jj]] * za[jj]
+        xn[i] = v
+        chk += v
+    return chk - chk == 0.0
+
+
+@njit(cache=True)
+def _row_value(Cr, Dr, Fr, r, x, lam, u):
+    """``Cr[r] x + Dr[r] λ + Fr[r] u`` and the sum of the magnitudes of its terms."""
+    v = 0.0
+    sc = 0.0
+    for jj in range(x.shape[0]):
+        t = Cr[r, jj] * x[jj]
+        v += t
+        sc += abs(t)
+    for jj in range(lam.shape[0]):
+        t = Dr[r, jj] * lam[jj]
+        v += t
+        sc += abs(t)
+    for jj in range(u.shape[0]):
+        t = Fr[r, jj] * u[jj]
+        v += t
+        sc += abs(t)
+    return v, sc
+
+
+@njit(cache=True)
 def _controls(mats, j, x, lam, u, c, cs, wgt, add):
     """Switch controls ``c += wgt (Cc x + Dc λ + Fc u)`` of mode ``j`` (``c = ...`` unless
     ``add``) and their floating-point scales ``cs`` (sum of the magnitudes of the terms)."""
@@ -1227,6 +1321,25 @@ def run_grid(
     E_j = mats[I_E][0]
     fast_j = mflags[0, MF_FAST] != 0
     outstate_j = mflags[0, MF_OUTSTATE] != 0
+    jab = 0
+    Phi_a = mats[I_PHI][0]
+    G0_a = mats[I_G0][0]
+    G1_a = mats[I_G1][0]
+    K_a = mats[I_K][0]
+    M_a = mats[I_M][0]
+    C_a = mats[I_C][0]
+    F_a = mats[I_F][0]
+    Cy_a = mats[I_CY][0]
+    Dy_a = mats[I_DY][0]
+    Fy_a = mats[I_FY][0]
+    Cc_a = mats[I_CC][0]
+    Dc_a = mats[I_DC][0]
+    Fc_a = mats[I_FC][0]
+    ck_a = ckeys[0]
+    cna_a = cna[0]
+    cidx_a = cidx[0]
+    cG_a = cG[0]
+    fast_a = mflags[0, MF_FAST] != 0
     Ko = W[9]
     Mo = W[10]
     augn = W[11]
@@ -1352,10 +1465,52 @@ def run_grid(
                 E_j = mats[I_E][j]
                 fast_j = mflags[j, MF_FAST] != 0
                 outstate_j = mflags[j, MF_OUTSTATE] != 0
+            if slide >= 0 and jab != ja:
+                jab = ja
+                Phi_a = mats[I_PHI][ja]
+                G0_a = mats[I_G0][ja]
+                G1_a = mats[I_G1][ja]
+                K_a = mats[I_K][ja]
+                M_a = mats[I_M][ja]
+                C_a = mats[I_C][ja]
+                F_a = mats[I_F][ja]
+                Cy_a = mats[I_CY][ja]
+                Dy_a = mats[I_DY][ja]
+                Fy_a = mats[I_FY][ja]
+                Cc_a = mats[I_CC][ja]
+                Dc_a = mats[I_DC][ja]
+                Fc_a = mats[I_FC][ja]
+                ck_a = ckeys[ja]
+                cna_a = cna[ja]
+                cidx_a = cidx[ja]
+                cG_a = cG[ja]
+                fast_a = mflags[ja, MF_FAST] != 0
             done = False
             st = STEP_OK
             dd = 0.0
-            if slide < 0 and regular and (m == 0 or fast_j):
+            if slide >= 0 and regular and (m == 0 or (fast_j and fast_a)):
+                # Sliding, regular step: both modes by their cached active sets, then the relay
+                # (see _advance).
+                if _fast_regular(Phi_j, G0_j, G1_j, K_j, M_j, C_j, F_j, ck_j, cna_j, cidx_j,
+                                 cG_j, x, ua, ub, ms, 0, xf, q, za, xn, lamn, rtol, ivars):
+                    if _fast_regular(Phi_a, G0_a, G1_a, K_a, M_a, C_a, F_a, ck_a, cna_a,
+                                     cidx_a, cG_a, x, ua, ub, ms, 2, xf, q, za, xa, lamna,
+                                     rtol, ivars):
+                        sgb, scb = _row_value(Cc_j, Dc_j, Fc_j, slide, xn, lamn, ub)
+                        sga, sca = _row_value(Cc_a, Dc_a, Fc_a, slide, xa, lamna, ub)
+                        sgb -= vts
+                        sga -= vts
+                        sg[0] = sgb
+                        sg[1] = sga
+                        sg[2] = 1e-9 * (max(scb, sca) + abs(vts))
+                        if base_on:
+                            dd = 1.0 - _relay_fraction(sga, sgb, True)
+                        else:
+                            dd = _relay_fraction(sgb, sga, False)
+                        for i in range(n):
+                            xn[i] = xn[i] + dd * (xa[i] - xn[i])
+                        done = True
+            elif slide < 0 and regular and (m == 0 or fast_j):
                 # Inline regular step: stored matrices, cached active set.
                 for i in range(n):
                     v = 0.0
@@ -1508,42 +1663,30 @@ def run_grid(
                 break
             G = -np.inf
             if has_located:
-                if slide < 0:
-                    # Inline comparator check (see _crossing).
-                    for i in range(k):
-                        g[i] = -np.inf
-                        gt[i] = 0.0
-                        if sw_kind[i] != SW_LOCATED:
-                            continue
-                        on = (key >> i) & 1
-                        if (not on) and (sw_flags[i] & SWF_LATCH) != 0:
-                            continue
-                        v = 0.0
-                        sc = 0.0
-                        for jj in range(n):
-                            t = Cc_j[i, jj] * xn[jj]
-                            v += t
-                            sc += abs(t)
-                        for jj in range(m):
-                            t = Dc_j[i, jj] * lamn[jj]
-                            v += t
-                            sc += abs(t)
-                        for jj in range(p):
-                            t = Fc_j[i, jj] * ub[jj]
-                            v += t
-                            sc += abs(t)
-                        c[i] = v
-                        cs[i] = sc
-                        if on:
-                            g[i] = (sw_vt[i] - sw_vh[i]) - v
-                        else:
-                            g[i] = v - (sw_vt[i] + sw_vh[i])
-                        gt[i] = 1e-12 * (sc + abs(sw_vt[i]) + abs(sw_vh[i]))
-                        if g[i] > G:
-                            G = g[i]
-                else:
-                    _end_controls(mats, j, ja, dd, xn, lamn, lamna, ub, c, cs)
-                    G = _crossing(sw_kind, sw_flags, sw_vt, sw_vh, key, slide, c, cs, g, gt)
+                # Inline comparator check (see _crossing; while sliding, the controls are the
+                # combination of the two modes').
+                for i in range(k):
+                    g[i] = -np.inf
+                    gt[i] = 0.0
+                    if sw_kind[i] != SW_LOCATED or i == slide:
+                        continue
+                    on = (key >> i) & 1
+                    if (not on) and (sw_flags[i] & SWF_LATCH) != 0:
+                        continue
+                    v, sc = _row_value(Cc_j, Dc_j, Fc_j, i, xn, lamn, ub)
+                    if slide >= 0 and dd != 0.0:
+                        va, sca = _row_value(Cc_a, Dc_a, Fc_a, i, xn, lamna, ub)
+                        v = (1.0 - dd) * v + dd * va
+                        sc = (1.0 - dd) * sc + dd * sca
+                    c[i] = v
+                    cs[i] = sc
+                    if on:
+                        g[i] = (sw_vt[i] - sw_vh[i]) - v
+                    else:
+                        g[i] = v - (sw_vt[i] + sw_vh[i])
+                    gt[i] = 1e-12 * (sc + abs(sw_vt[i]) + abs(sw_vh[i]))
+                    if g[i] > G:
+                        G = g[i]
             if not (G > 0.0):
                 for i in range(n):
                     x[i] = xn[i]
@@ -1695,23 +1838,28 @@ def run_grid(
             if countdown == 0:
                 countdown = every
             pos = ivars[IV_OUTPOS]
-            if slide >= 0 or has_duty or jb != j:
+            if jb != j or (slide >= 0 and jab != ja):
                 _store(mats, mflags, j, ja, d, slide, key, duty_sw, x, lam, lama, U1[kk],
                        T_out, Y_out, pos, tb, fvars)
-            elif outstate_j:
+            elif outstate_j and (slide < 0 or d == 0.0) and not has_duty:
                 T_out[pos] = tb
                 for i in range(n):
                     Y_out[pos, i] = x[i]
             else:
                 T_out[pos] = tb
+                u_end = U1[kk]
                 for r in range(r_out):
-                    v = 0.0
-                    for jj in range(n):
-                        v += Cy_j[r, jj] * x[jj]
-                    for jj in range(m):
-                        v += Dy_j[r, jj] * lam[jj]
-                    for jj in range(p):
-                        v += Fy_j[r, jj] * U1[kk, jj]
+                    sw = duty_sw[r]
+                    if sw >= 0:
+                        if sw == slide:
+                            Y_out[pos, r] = fvars[FV_DUTY]
+                        else:
+                            Y_out[pos, r] = 1.0 if (key >> sw) & 1 else 0.0
+                        continue
+                    v, sc = _row_value(Cy_j, Dy_j, Fy_j, r, x, lam, u_end)
+                    if slide >= 0 and d != 0.0:
+                        va, sc = _row_value(Cy_a, Dy_a, Fy_a, r, x, lama, u_end)
+                        v = (1.0 - d) * v + d * va
                     Y_out[pos, r] = v
             ivars[IV_OUTPOS] = pos + 1
         if has_sampled:
