@@ -75,7 +75,7 @@ def bench_basins(quick: bool) -> dict:
     f = CircuitMapFactory(NETLIST, period="tp", param="vin")
     m = f(30.0)
     t = time.perf_counter()
-    bm = cell_basins(f, [("v(C1)", 10.0, 14.0, n), ("i(L1)", 0.0, 2.0, n)], param=30.0,
+    bm = cell_basins(f, [("v(C1)", 8.0, 16.0, n), ("i(L1)", 0.0, 2.5, n)], param=30.0,
                      progress=True)
     wall = time.perf_counter() - t
     steps = n * n * round(m.period / m.h)

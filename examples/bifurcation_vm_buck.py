@@ -99,7 +99,7 @@ def main(argv: list[str] | None = None) -> dict:
     # 4. Basins at 30 V (period-2 region).
     t = time.perf_counter()
     n = 40 if fast else 200
-    bm = cell_basins(f, [("v(C1)", 10.0, 14.0, n), ("i(L1)", 0.0, 2.0, n)], param=30.0,
+    bm = cell_basins(f, [("v(C1)", 8.0, 16.0, n), ("i(L1)", 0.0, 2.5, n)], param=30.0,
                      progress=True)
     bm.to_npz(out / "vm_buck_basins.npz")
     bm.plot(out / "vm_buck_basins.png", title="vm buck, vin = 30 V: basins")

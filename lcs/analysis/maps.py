@@ -191,11 +191,15 @@ class Map(ABC):
     param : float or None
         Value of the parameter the map was built for.
     param_name : str or None
+    x0 : ndarray or None
+        A natural initial state (circuit initial conditions), if known.
     """
 
     state_names: tuple[str, ...] = ()
     param: float | None = None
     param_name: str | None = None
+    # A natural starting state (a circuit's IC= / .ic values), shape (n,), if known.
+    x0: np.ndarray | None = None
 
     @property
     def dim(self) -> int:
