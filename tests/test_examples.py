@@ -151,3 +151,30 @@ def test_boost_smc(tmp_path):
     assert 0.2 * slope * h < exp.checks["max |s| after reaching [A]"] < 1.5 * slope * h
     assert exp.switchings > 1000
     assert exp.checks["max |v - v_ref| / v_ref"] < 1e-2
+
+
+def test_vm_buck_responses(tmp_path):
+    mod = load("vm_buck_responses")
+    res = mod.main(["--out", str(tmp_path), "--fast"])
+    _files(tmp_path, "vm_buck_responses.png", "vm_buck_E15.csv", "vm_buck_E25.csv",
+           "vm_buck_orbits.csv")
+    r15, r25 = res[15.0], res[25.0]
+    # E = 15 V: stable period-1 orbit (exact multipliers inside the unit circle), reached by
+    # the simulation's stroboscopic samples to O(h^2) (comparator instants located in-step)
+    assert r15.checks["stable orbit"] == "P1"
+    assert r15.checks["P1 multipliers |max|"] < 1
+    assert r15.checks["max rel. distance of the last strobe samples from it"] < 1e-5
+    # the averaged model is 0.2 % off (ripple seen by the comparator)
+    assert r15.checks["mean v(out) last 10 periods [V]"] == pytest.approx(
+        r15.checks["averaged-model v(out) [V]"], rel=5e-3)
+    # E = 25 V: period 1 has flipped (a real multiplier below -1), period 2 is stable and
+    # the samples alternate between its two points
+    assert r25.checks["stable orbit"] == "P2"
+    assert r25.checks["P1 multiplier min real"] < -1
+    assert r25.checks["P2 multipliers |max|"] < 1
+    assert r25.checks["max rel. distance of the last strobe samples from it"] < 1e-5
+    assert r25.checks["P2 spread v [V]"] > 1e-3
+    v = r25.strobe[-4:, 1]
+    assert abs(v[0] - v[2]) < 1e-6 < 1e-3 < abs(v[0] - v[1])
+    # CCM on both orbits (the exact reference assumes it)
+    assert min(r.checks["min i(L1) last 10 periods [A]"] for r in res.values()) > 0.1
