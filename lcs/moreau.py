@@ -836,8 +836,17 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
 
     comparators = [i for i in range(k) if sws.kind[i] != SW_SCHEDULED]
     pending: list[tuple[float, int, int, int]] = []
-    sched_ctrls = list(dict.fromkeys(sws.scheduled_by.values()))
+    sched_ctrls = list({id(c): c for c in sws.scheduled_by.values()}.values())
     measures = {id(c): _Measure(system, getattr(c, "probes", ())) for c in sched_ctrls}
+    for ctrl in sched_ctrls:
+        if hasattr(ctrl, "reset"):
+            ctrl.reset(t_start, t_stop)
+    # Sampling instants of each controller (decisions also at t_start).
+    ctrl_samples = {}
+    for ctrl in sched_ctrls:
+        ts = np.asarray(ctrl.sample_times(t_start, t_stop) if hasattr(ctrl, "sample_times")
+                        else (), dtype=float).ravel()
+        ctrl_samples[id(ctrl)] = np.unique(ts[(ts > t_start + tol) & (ts < t_stop - tol)])
     for _ in range(k + 2):
         j = stack.add(key)
         res0 = initial_lcp(j)
@@ -859,9 +868,6 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
             break
         key = new
     if sched_ctrls:
-        for ctrl in sched_ctrls:
-            if hasattr(ctrl, "reset"):
-                ctrl.reset(t_start)
         key, pending = _controller_commands(sched_ctrls, [t_start], t_start, stack, key, x,
                                             lam, u0, -1, 0.0, measures, sws, tol, pending)
         j = stack.add(key)
@@ -933,8 +939,7 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
     sw_vh = np.ascontiguousarray(sws.vh)
 
     # --- windows between controller sampling instants ---------------------------------------
-    samples = [np.asarray(c.sample_times(t_start, t_stop), dtype=float).ravel()
-               for c in sched_ctrls if hasattr(c, "sample_times")]
+    samples = list(ctrl_samples.values())
     samp = np.unique(np.concatenate(samples)) if samples else np.empty(0)
     samp = merge_close(samp[(samp > t_start + tol) & (samp < t_stop - tol)], tol)
     wins = np.concatenate(([t_start], samp, [t_stop]))
@@ -950,9 +955,12 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
             if w > 0 and sched_ctrls:
                 u_ws = evaluate_inputs(inputs, np.array([ws]), +1)[0]
                 key_now = int(ivars[IV_KEY])
-                due = [c for c in sched_ctrls
-                       if np.any(np.abs(np.asarray(c.sample_times(ws - tol, ws + tol)) - ws)
-                                 <= tol)]
+                due = []
+                for c in sched_ctrls:
+                    cs_ = ctrl_samples[id(c)]
+                    i_ = np.searchsorted(cs_, ws - tol)
+                    if i_ < len(cs_) and abs(cs_[i_] - ws) <= tol:
+                        due.append(c)
                 _, pending = _controller_commands(due, [ws], ws, stack, key_now, x, lam, u_ws,
                                                   int(ivars[IV_SLIDE]), float(fvars[FV_DUTY]),
                                                   measures, sws, tol, pending, apply=False)
