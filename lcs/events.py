@@ -495,24 +495,41 @@ class GridPlan:
         return int(self.start[-1])
 
 
+@njit(cache=True)
+def _plan_nb(bounds, h, merge, snap_frac, n_reg, last, start):
+    nseg = bounds.shape[0] - 1
+    start[0] = 0
+    for i in range(nseg):
+        L = bounds[i + 1] - bounds[i]
+        r = L / h
+        N = np.rint(r)
+        aligned = N >= 1 and abs(L - N * h) <= merge * h * max(1.0, r)
+        if aligned:
+            n_reg[i] = int(N)
+            last[i] = 0.0
+        else:
+            Nf = np.floor(r)
+            rem = L - Nf * h
+            if rem <= 0.0:  # floor round-off
+                Nf -= 1
+                rem = L - Nf * h
+            if Nf >= 1 and rem < snap_frac * h:
+                n_reg[i] = int(Nf) - 1
+                last[i] = h + rem
+            else:
+                n_reg[i] = int(Nf)
+                last[i] = rem
+        start[i + 1] = start[i] + n_reg[i] + (1 if last[i] > 0 else 0)
+
+
 def plan_grid(bounds: np.ndarray, h: float) -> GridPlan:
-    """Step counts of every segment (vectorised)."""
-    bounds = np.asarray(bounds, dtype=float)
-    sa, sb = bounds[:-1], bounds[1:]
-    L = sb - sa
-    r = L / h
-    N = np.rint(r)
-    aligned = (N >= 1) & (np.abs(L - N * h) <= MERGE_FRACTION * h * np.maximum(1.0, r))
-    Nf = np.floor(r)
-    rem = L - Nf * h
-    fix = rem <= 0.0  # floor round-off
-    Nf = np.where(fix, Nf - 1, Nf)
-    rem = np.where(fix, L - Nf * h, rem)
-    snap = (Nf >= 1) & (rem < SNAP_FRACTION * h)
-    n_reg = np.where(aligned, N, np.where(snap, Nf - 1, Nf)).astype(np.int64)
-    last = np.where(aligned, 0.0, np.where(snap, h + rem, rem))
-    nsteps = n_reg + (last > 0)
-    start = np.concatenate(([0], np.cumsum(nsteps))).astype(np.int64)
+    """Step counts of every segment (compiled loop over the segments)."""
+    bounds = np.ascontiguousarray(bounds, dtype=float)
+    nseg = len(bounds) - 1
+    n_reg = np.empty(nseg, np.int64)
+    last = np.empty(nseg)
+    start = np.empty(nseg + 1, np.int64)
+    _plan_nb(bounds, float(h), MERGE_FRACTION, SNAP_FRACTION, n_reg, last, start)
     return GridPlan(bounds, float(h), n_reg, last, start)
 
 

@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import sys
 import time
+import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -575,6 +576,43 @@ class _Stack:
             )
 
 
+# Mode stacks kept per system for the next run with the same configuration (parameter sweeps
+# re-run one system many times: the per-mode matrices, discretisations and active-set
+# factorisations are reused). At most _STACKS_PER_SYSTEM configurations per system.
+_STACK_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_STACKS_PER_SYSTEM = 8
+
+
+def _cached_stack(prob: _Problem, sws: _Switches, h, theta, opts: MoreauOptions, n, m, p,
+                  names, src_maps, guess) -> _Stack:
+    if isinstance(prob.probes, OutputMap):
+        probe_key = ("outputmap", id(prob.probes))
+    else:
+        probe_key = tuple(names)
+    surf = tuple(sorted((i, tuple(sorted(dict(c.terms).items())))
+                        for i, c in sws.surface.items()))
+    key = (float(h), float(theta), probe_key, tuple(sws.kind.tolist()), surf,
+           tuple(sws.source), bool(opts.fast_path), int(opts.cache_slots),
+           int(opts.uniqueness_max_m), tuple(guess))
+    try:
+        per_system = _STACK_CACHE.setdefault(prob.system, {})
+    except TypeError:  # not weak-referenceable: no caching
+        per_system = {}
+    stack = per_system.get(key)
+    if stack is not None and (isinstance(prob.probes, OutputMap)
+                              and stack.prob.probes is not prob.probes):
+        stack = None
+    if stack is None:
+        stack = _Stack(prob, sws, h, theta, opts, n, m, p, len(names), src_maps, guess)
+        if len(per_system) >= _STACKS_PER_SYSTEM:
+            per_system.pop(next(iter(per_system)))
+        per_system[key] = stack
+    else:
+        stack.src_maps = src_maps
+        stack.sws = sws
+    return stack
+
+
 def _outputs_now(stack: _Stack, j: int, x, lam, u, names_rows=None) -> np.ndarray:
     M = stack.mats
     y = M[I_CY][j] @ x + M[I_DY][j] @ lam + M[I_FY][j] @ u
@@ -824,7 +862,7 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
     n, m, p = lcs0.n, lcs0.m, lcs0.p
     out0 = prob.output(tuple(mode_src) if k else ())
     names = out0.names
-    stack = _Stack(prob, sws, h, theta, opts, n, m, p, len(names), src_maps, guess)
+    stack = _cached_stack(prob, sws, h, theta, opts, n, m, p, names, src_maps, guess)
     x = np.array(x0, dtype=float)
     u0 = evaluate_inputs(inputs, np.array([t_start]), +1)[0]
 

@@ -1178,6 +1178,247 @@ def _locate(mats, mflags, ckeys, cna, cidx, cG, j, ja, slide, base_on, vt_s, ta,
 
 
 @njit(cache=True)
+def _odd_step(A, B, C, D, E, F, s, theta, x, u0, u1, mask, xf, q, z, w, act, tab, basis, augm,
+              Ko, Mo, augn, xn, lamn, fvars, ivars, max_piv, enum_max_m):
+    """A trial θ step of length ``s`` in one mode (matrices discretised on the fly), trying the
+    active set ``mask`` first, then Lemke, then enumeration; no uniqueness check. Returns
+    ``(status, mask)``."""
+    n = A.shape[0]
+    m = B.shape[1]
+    if not _odd_free(A, B, C, D, E, s, theta, x, u0, u1, xf, Ko, Mo, augn):
+        return STEP_NONFINITE, mask
+    p = u1.shape[0]
+    chk = 0.0
+    for i in range(m):
+        v = 0.0
+        for jj in range(n):
+            v += C[i, jj] * xf[jj]
+        for jj in range(p):
+            v += F[i, jj] * u1[jj]
+        q[i] = v
+        chk += v
+    for i in range(n):
+        chk += xf[i]
+    if chk - chk != 0.0:
+        return STEP_NONFINITE, mask
+    rtol = fvars[FV_RTOL]
+    ok = False
+    if m == 0:
+        ok = True
+    elif m <= MAX_MASK_M and _basis_solution(Mo, q, mask, z, augm):
+        ok = True
+        zmax = 0.0
+        for i in range(m):
+            if abs(z[i]) > zmax:
+                zmax = abs(z[i])
+        for i in range(m):
+            if z[i] < -rtol * zmax:
+                ok = False
+                break
+        if ok:
+            for i in range(m):
+                if (mask >> i) & 1:
+                    continue
+                v = q[i]
+                sc = abs(v)
+                for jj in range(m):
+                    t = Mo[i, jj] * z[jj]
+                    v += t
+                    sc += abs(t)
+                if v < -rtol * sc:
+                    ok = False
+                    break
+    if m > 0 and not ok:
+        status, piv = lemke_nb(Mo, q, max_piv, fvars[FV_PIVOT_TOL], fvars[FV_LEX_TOL], tab,
+                               basis, z, w, act)
+        ivars[IV_FALLBACKS] += 1
+        ivars[IV_PIVOTS] += piv
+        if status == LEMKE_SOLVED or status == LEMKE_TRIVIAL:
+            mask = _mask_of(act)
+        else:
+            newmask = -1
+            if m <= enum_max_m:
+                newmask = _enumerate_nb(Mo, q, fvars[FV_FEAS_TOL], z, w, augm)
+            if newmask < 0:
+                ivars[IV_LEMKE] = status
+                fm = 0
+                for i in range(m):
+                    if q[i] < 0.0:
+                        fm |= 1 << i
+                ivars[IV_FAILMASK] = fm
+                return STEP_LCP_FAILED, mask
+            mask = newmask
+    chk = 0.0
+    for i in range(m):
+        lamn[i] = z[i] if z[i] > 0.0 else 0.0
+    for i in range(n):
+        v = xf[i]
+        for jj in range(m):
+            v += Ko[i, jj] * lamn[jj]
+        xn[i] = v
+        chk += v
+    if chk - chk != 0.0:
+        return STEP_NONFINITE, mask
+    return STEP_OK, mask
+
+
+@njit(cache=True)
+def _crossing_rows(Cc, Dc, Fc, sw_kind, sw_flags, sw_vt, sw_vh, key, x, lam, u, c, cs, g, gt):
+    """:func:`_crossing` with the controls of one mode computed here (not sliding)."""
+    G = -np.inf
+    for i in range(sw_kind.shape[0]):
+        g[i] = -np.inf
+        gt[i] = 0.0
+        if sw_kind[i] != SW_LOCATED:
+            continue
+        on = (key >> i) & 1
+        if (not on) and (sw_flags[i] & SWF_LATCH) != 0:
+            continue
+        v, sc = _row_value(Cc, Dc, Fc, i, x, lam, u)
+        c[i] = v
+        cs[i] = sc
+        if on:
+            g[i] = (sw_vt[i] - sw_vh[i]) - v
+        else:
+            g[i] = v - (sw_vt[i] + sw_vh[i])
+        gt[i] = 1e-12 * (sc + abs(sw_vt[i]) + abs(sw_vh[i]))
+        if g[i] > G:
+            G = g[i]
+    return G
+
+
+@njit(cache=True)
+def _locate_plain(A, B, C, D, E, F, Cc, Dc, Fc, sw_kind, sw_flags, sw_vt, sw_vh, key, ta, s,
+                  theta, x, lam, ua, ub, mask, xfull, lamfull, c, cs, g, gt, W, S, fvars,
+                  ivars, max_piv, enum_max_m):
+    """:func:`_locate` when no switch slides, with the mode's matrices passed directly (the
+    common, faster path). Returns ``(status, s_star, mask)``; the state at the instant is in
+    ``S``'s ``xs, lams``, the crossing functions there in ``g``/``gt``."""
+    xf, q, z, w, act, tab, basis, za, augm, Ko, Mo, augn = W
+    (ga, gta, rate_a, rate_b, udot, xdot, ut, xt, lamt, lamat, xat, g_hi, gt_hi, xs, lams,
+     lamas, sg, msl) = S
+    k = g.shape[0]
+    n = x.shape[0]
+    m = lam.shape[0]
+    p = ua.shape[0]
+    h = fvars[FV_H]
+    stol = max(fvars[FV_ROOT_TOL] * h, 8.9e-16 * abs(ta + s))
+    Ga = _crossing_rows(Cc, Dc, Fc, sw_kind, sw_flags, sw_vt, sw_vh, key, x, lam, ua, c, cs, ga,
+                        gta)
+    for i in range(p):
+        udot[i] = (ub[i] - ua[i]) / s
+    # Rates of the controls at both ends (x' = A x + B λ + E u; the Dc λ' term is ignored).
+    for end in range(2):
+        xe = x if end == 0 else xfull
+        le = lam if end == 0 else lamfull
+        ue = ua if end == 0 else ub
+        rate = rate_a if end == 0 else rate_b
+        for i in range(n):
+            v = 0.0
+            for jj in range(n):
+                v += A[i, jj] * xe[jj]
+            for jj in range(m):
+                v += B[i, jj] * le[jj]
+            for jj in range(p):
+                v += E[i, jj] * ue[jj]
+            xdot[i] = v
+        for i in range(k):
+            v = 0.0
+            for jj in range(n):
+                v += Cc[i, jj] * xdot[jj]
+            for jj in range(p):
+                v += Fc[i, jj] * udot[jj]
+            rate[i] = v
+    Gb = -np.inf
+    for i in range(k):
+        g_hi[i] = g[i]
+        gt_hi[i] = gt[i]
+        if g[i] > Gb:
+            Gb = g[i]
+    for i in range(n):
+        xs[i] = xfull[i]
+    for i in range(m):
+        lams[i] = lamfull[i]
+    lo, glo = 0.0, min(Ga, 0.0)
+    hi, ghi = s, Gb
+    tau = 1.0
+    for i in range(k):
+        if g[i] > 0.0:
+            sgn = -1.0 if (key >> i) & 1 else 1.0
+            gai = min(ga[i], 0.0) if ga[i] != -np.inf else 0.0
+            ti = _hermite_root(gai, s * sgn * rate_a[i], g[i], s * sgn * rate_b[i])
+            if ti < tau:
+                tau = ti
+    s1 = tau * s
+    if not (lo < s1 < hi):
+        s1 = lo + (hi - lo) * (-glo) / (ghi - glo) if ghi != glo else 0.5 * (lo + hi)
+    if s1 < stol:
+        s1 = stol
+    sp, gp = hi, ghi
+    width_ref = hi - lo
+    use_last = False
+    mask_t = mask
+    for it in range(60):
+        if s1 >= hi:
+            s1 = 0.5 * (lo + hi)
+        frac = s1 / s
+        for i in range(p):
+            ut[i] = ua[i] + (ub[i] - ua[i]) * frac
+        st, mask_t = _odd_step(A, B, C, D, E, F, s1, theta, x, ua, ut, mask, xf, q, z, w, act,
+                               tab, basis, augm, Ko, Mo, augn, xt, lamt, fvars, ivars, max_piv,
+                               enum_max_m)
+        ivars[IV_ROOTEVALS] += 1
+        if st != STEP_OK:
+            return st, s1, mask
+        G1 = _crossing_rows(Cc, Dc, Fc, sw_kind, sw_flags, sw_vt, sw_vh, key, xt, lamt, ut, c,
+                            cs, g, gt)
+        gtol = 0.0
+        for i in range(k):
+            if gt[i] > gtol:
+                gtol = gt[i]
+        if G1 > 0.0:
+            hi, ghi = s1, G1
+            for i in range(k):
+                g_hi[i] = g[i]
+                gt_hi[i] = gt[i]
+            for i in range(n):
+                xs[i] = xt[i]
+            for i in range(m):
+                lams[i] = lamt[i]
+        else:
+            lo, glo = s1, G1
+        if abs(G1) <= gtol:
+            use_last = True
+            break
+        if hi - lo <= stol:
+            break
+        s2 = -1.0
+        if G1 != gp:
+            s2 = s1 - G1 * (s1 - sp) / (G1 - gp)
+        if it % 3 == 2:
+            if hi - lo > 0.5 * width_ref:
+                s2 = -1.0
+            width_ref = hi - lo
+        if not (lo < s2 < hi):
+            s2 = lo + (hi - lo) * (-glo) / (ghi - glo) if (it % 3 != 2 and ghi != glo) \
+                else 0.5 * (lo + hi)
+            if not (lo < s2 < hi):
+                s2 = 0.5 * (lo + hi)
+        sp, gp = s1, G1
+        s1 = s2
+    if use_last:
+        for i in range(n):
+            xs[i] = xt[i]
+        for i in range(m):
+            lams[i] = lamt[i]
+        return STEP_OK, s1, mask_t
+    for i in range(k):
+        g[i] = g_hi[i]
+        gt[i] = gt_hi[i]
+    return STEP_OK, hi, mask
+
+
+@njit(cache=True)
 def _record(ev_t, ev_key, ev_info, ivars, t, key, info):
     e = ivars[IV_EVPOS]
     ev_t[e] = t
@@ -1734,10 +1975,19 @@ def run_grid(
             # A comparator crossed its threshold inside the step: locate the instant.
             for i in range(4):
                 ms[i] = ms0[i]
-            st, s_star, dstar = _locate(mats, mflags, ckeys, cna, cidx, cG, j, ja, slide,
-                                        base_on, vts, ta, s, theta, x, lam, ua, ub, ms, ivars,
-                                        fvars, max_piv, enum_max_m, sw_kind, sw_flags, sw_vt,
-                                        sw_vh, key, xn, lamn, lamna, dd, c, cs, g, gt, W, S)
+            if slide < 0:
+                st, s_star, mk = _locate_plain(A_j, B_j, C_j, D_j, E_j, F_j, Cc_j, Dc_j, Fc_j,
+                                               sw_kind, sw_flags, sw_vt, sw_vh, key, ta, s,
+                                               theta, x, lam, ua, ub, ms[0], xn, lamn, c, cs,
+                                               g, gt, W, S, fvars, ivars, max_piv, enum_max_m)
+                ms[0] = mk
+                dstar = 0.0
+            else:
+                st, s_star, dstar = _locate(mats, mflags, ckeys, cna, cidx, cG, j, ja, slide,
+                                            base_on, vts, ta, s, theta, x, lam, ua, ub, ms,
+                                            ivars, fvars, max_piv, enum_max_m, sw_kind,
+                                            sw_flags, sw_vt, sw_vh, key, xn, lamn, lamna, dd,
+                                            c, cs, g, gt, W, S)
             if st != STEP_OK:
                 status = st
                 fvars[FV_FAIL_T0] = ta
