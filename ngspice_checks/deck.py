@@ -334,7 +334,9 @@ def finite_pulse_edges(text: str, min_edge: float) -> str:
     """Give every ``PULSE(...)`` source a pulse width and nonzero edges of at least min_edge.
 
     ngspice 39 takes "timestep too small" at the corners of a PULSE with PW=0 (a sawtooth) or
-    with edges of a few ps; 1 ns on a 400 us period changes nothing measurable.
+    with edges of a few ps; 1 ns on a 400 us period changes nothing measurable. Only the
+    parenthesised form ``PULSE(...)`` is edited (``PULSE 0 1 ...`` without parentheses is
+    left as it is).
 
     Parameters
     ----------
