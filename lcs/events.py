@@ -76,6 +76,53 @@ def evaluate_inputs(inputs: Sequence[InputFunction], t: np.ndarray, side: int = 
     return out
 
 
+class InputTable:
+    """Fast evaluation of the inputs over one run: a piecewise-linear source without jumps (DC,
+    PULSE, PWL) is tabulated at its breakpoints in ``[t0, t1]`` once and evaluated by linear
+    interpolation (exact: it is linear between breakpoints); other sources are called.
+
+    Parameters
+    ----------
+    inputs : sequence of callables
+    t0, t1 : float
+        Run interval, s.
+    """
+
+    def __init__(self, inputs: Sequence[InputFunction], t0: float, t1: float):
+        self.inputs = list(inputs)
+        self.tables: list = []
+        for f in self.inputs:
+            table = None
+            bp = getattr(f, "breakpoints", None)
+            if (getattr(f, "piecewise_linear", False) and bp is not None
+                    and not (isinstance(f, Pwl)
+                             and np.any(np.diff(np.asarray(f.times, float)) == 0))):
+                pts = np.asarray(bp(t0, t1), dtype=float).ravel()
+                pts = np.unique(np.concatenate(([t0, t1], pts[(pts > t0) & (pts < t1)])))
+                if len(pts) <= 4_000_000:
+                    table = (pts, np.asarray(f(pts), dtype=float).ravel())
+            self.tables.append(table)
+        self.jumps = has_jumps(self.inputs)
+
+    def __call__(self, t: np.ndarray, side: int = 0) -> np.ndarray:
+        """Inputs at the times ``t`` (s), shape (N, p); ``side`` as in
+        :func:`evaluate_inputs`."""
+        t = np.asarray(t, dtype=float)
+        out = np.empty((t.size, len(self.inputs)))
+        for j, f in enumerate(self.inputs):
+            table = self.tables[j]
+            if table is not None:
+                if len(table[0]) == 2 and table[1][0] == table[1][1]:
+                    out[:, j] = table[1][0]
+                else:
+                    out[:, j] = np.interp(t, table[0], table[1])
+            elif side != 0 and isinstance(f, Pwl):
+                out[:, j] = _pwl_limit(f, t, side)
+            else:
+                out[:, j] = np.broadcast_to(np.asarray(f(t), dtype=float), t.shape)
+        return out
+
+
 def has_jumps(inputs: Sequence[InputFunction]) -> bool:
     """Whether some input can jump (a PWL with two points at the same time)."""
     for f in inputs:

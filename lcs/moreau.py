@@ -57,6 +57,7 @@ import numpy as np
 from .events import (
     MERGE_FRACTION,
     InputFunction,
+    InputTable,
     collect_breakpoints,
     evaluate_inputs,
     grid_chunks,
@@ -971,6 +972,7 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
     Y_out[0] = _row(stack, j, key, -1, 0.0, x, lam, u0)
     ivars[IV_OUTPOS] = 1
     jumps = has_jumps(inputs)
+    table = InputTable(inputs, t_start, t_stop)
     sw_kind = np.ascontiguousarray(sws.kind)
     sw_flags = np.ascontiguousarray(sws.flags)
     sw_vt = np.ascontiguousarray(sws.vt)
@@ -991,7 +993,7 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
         for w in range(len(wins) - 1):
             ws, we = float(wins[w]), float(wins[w + 1])
             if w > 0 and sched_ctrls:
-                u_ws = evaluate_inputs(inputs, np.array([ws]), +1)[0]
+                u_ws = table(np.array([ws]), +1)[0]
                 key_now = int(ivars[IV_KEY])
                 due = []
                 for c in sched_ctrls:
@@ -1031,10 +1033,10 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
             e_b = np.array([e[3] for e in entries], dtype=np.int64)
             for tg, odd, _seg in grid_chunks(plan, opts.chunk_steps):
                 if jumps:
-                    U0 = np.ascontiguousarray(evaluate_inputs(inputs, tg[:-1], +1))
-                    U1 = np.ascontiguousarray(evaluate_inputs(inputs, tg[1:], -1))
+                    U0 = np.ascontiguousarray(table(tg[:-1], +1))
+                    U1 = np.ascontiguousarray(table(tg[1:], -1))
                 else:
-                    U = evaluate_inputs(inputs, tg)
+                    U = table(tg)
                     U0, U1 = U[:-1], U[1:]
                 N = len(odd)
                 sel = (e_t >= tg[0] - tol) & (e_t < tg[-1] - tol)
