@@ -31,6 +31,11 @@ R0 = sqrt(Lr/Cr) = 47.0 Ω.
    A third, internal check: the steady-state input power mean(v(drv) i(Lr)) must equal the
    load power mean(v(out,n)²)/R (ideal elements are lossless).
 
+   Near 59 kHz the steady state is not period 1: the mean of v(out,n) over single drive
+   periods varies irregularly by about ±0.02 V from period to period, in pelcs and in
+   ngspice alike (checked at 59.375 kHz, h = T/1600: the two sequences agree to 0.01 V), a
+   quasi-periodic or long-period response; the 40-period average is steady to 2e-5.
+
 Run ``python examples/prc_study.py [--out DIR] [--fast]``: writes ``prc_waveforms.png``,
 ``prc_waveforms.csv``, ``prc_sweep.png`` and ``prc_sweep.csv``.
 """
