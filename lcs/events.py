@@ -103,6 +103,9 @@ class InputTable:
                     table = (pts, np.asarray(f(pts), dtype=float).ravel())
             self.tables.append(table)
         self.jumps = has_jumps(self.inputs)
+        # Every input linear between breakpoints (DC, PULSE, PWL): linear interpolation
+        # inside a step is exact.
+        self.piecewise_linear = all(getattr(f, "piecewise_linear", False) for f in self.inputs)
 
     def __call__(self, t: np.ndarray, side: int = 0) -> np.ndarray:
         """Inputs at the times ``t`` (s), shape (N, p); ``side`` as in

@@ -1038,6 +1038,10 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
                 else:
                     U = table(tg)
                     U0, U1 = U[:-1], U[1:]
+                if table.piecewise_linear:
+                    Um = np.zeros((0, p))
+                else:
+                    Um = np.ascontiguousarray(table(0.5 * (tg[:-1] + tg[1:])))
                 N = len(odd)
                 sel = (e_t >= tg[0] - tol) & (e_t < tg[-1] - tol)
                 idx = np.searchsorted(tg, e_t[sel] - tol, side="left")
@@ -1061,7 +1065,7 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
                     status = run_grid(
                         stack.mats_tuple(), stack.mkey, stack.mflags, stack.ckeys, stack.cna,
                         stack.cidx, stack.cG, sw_kind, sw_flags, sw_vt, sw_vh,
-                        tg, odd, U0, U1, force, sched_k, sched_op, sched_a, sched_b,
+                        tg, odd, U0, U1, Um, force, sched_k, sched_op, sched_a, sched_b,
                         x, lam, lama, ivars, fvars, max_piv, enum_max_m, every, max_sw,
                         T_out, Y_out, duty_sw, ev_t, ev_key, ev_info,
                     )

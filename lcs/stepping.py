@@ -1041,9 +1041,26 @@ def _find_mode(mkey, nmodes, key):
 
 
 @njit(cache=True)
+def _u_interp(U0, Um, U1, kk, tau, out):
+    """Inputs at the fraction ``tau`` of grid step ``kk``: linear between the step ends (exact
+    for piecewise-linear sources), or quadratic through the midpoint values ``Um`` when given
+    (``Um.shape[0] > 0``: some source is not piecewise linear)."""
+    if Um.shape[0] == 0:
+        for i in range(out.shape[0]):
+            out[i] = U0[kk, i] + (U1[kk, i] - U0[kk, i]) * tau
+    else:
+        for i in range(out.shape[0]):
+            a = U0[kk, i]
+            b = Um[kk, i]
+            c = U1[kk, i]
+            out[i] = a + tau * (-3.0 * a + 4.0 * b - c) + tau * tau * (2.0 * a - 4.0 * b + 2.0 * c)
+
+
+@njit(cache=True)
 def _locate(mats, mflags, ckeys, cna, cidx, cG, j, ja, slide, base_on, vt_s, ta, s, theta, x,
             lam, ua, ub, ms, ivars, fvars, max_piv, enum_max_m, sw_kind, sw_flags, sw_vt,
-            sw_vh, key, xfull, lamfull, lamafull, dfull, c, cs, g, gt, W, S):
+            sw_vh, key, xfull, lamfull, lamafull, dfull, c, cs, g, gt, W, S, U0, Um, U1, kk,
+            tau_a):
     """Locate the first comparator crossing inside the step ``[ta, ta + s]``.
 
     On entry ``g``/``gt`` hold the crossing functions at the end of the full step (some
@@ -1105,9 +1122,7 @@ def _locate(mats, mflags, ckeys, cna, cidx, cG, j, ja, slide, base_on, vt_s, ta,
     for it in range(60):
         if s1 >= hi:
             s1 = 0.5 * (lo + hi)
-        frac = s1 / s
-        for i in range(p):
-            ut[i] = ua[i] + (ub[i] - ua[i]) * frac
+        _u_interp(U0, Um, U1, kk, tau_a + (1.0 - tau_a) * (s1 / s), ut)
         for i in range(4):
             msl[i] = ms[i]
         msl[1] = -1
@@ -1290,7 +1305,7 @@ def _crossing_rows(Cc, Dc, Fc, sw_kind, sw_flags, sw_vt, sw_vh, key, x, lam, u, 
 @njit(cache=True)
 def _locate_plain(A, B, C, D, E, F, Cc, Dc, Fc, sw_kind, sw_flags, sw_vt, sw_vh, key, ta, s,
                   theta, x, lam, ua, ub, mask, xfull, lamfull, c, cs, g, gt, W, S, fvars,
-                  ivars, max_piv, enum_max_m):
+                  ivars, max_piv, enum_max_m, U0, Um, U1, kk, tau_a):
     """:func:`_locate` when no switch slides, with the mode's matrices passed directly (the
     common, faster path). Returns ``(status, s_star, mask)``; the state at the instant is in
     ``S``'s ``xs, lams``, the crossing functions there in ``g``/``gt``."""
@@ -1361,9 +1376,7 @@ def _locate_plain(A, B, C, D, E, F, Cc, Dc, Fc, sw_kind, sw_flags, sw_vt, sw_vh,
     for it in range(60):
         if s1 >= hi:
             s1 = 0.5 * (lo + hi)
-        frac = s1 / s
-        for i in range(p):
-            ut[i] = ua[i] + (ub[i] - ua[i]) * frac
+        _u_interp(U0, Um, U1, kk, tau_a + (1.0 - tau_a) * (s1 / s), ut)
         st, mask_t = _odd_step(A, B, C, D, E, F, s1, theta, x, ua, ut, mask, xf, q, z, w, act,
                                tab, basis, augm, Ko, Mo, augn, xt, lamt, fvars, ivars, max_piv,
                                enum_max_m)
@@ -1431,7 +1444,7 @@ def _record(ev_t, ev_key, ev_info, ivars, t, key, info):
 def run_grid(
     mats, mkey, mflags, ckeys, cna, cidx, cG,
     sw_kind, sw_flags, sw_vt, sw_vh,
-    tgrid, odd, U0, U1, force_out,
+    tgrid, odd, U0, U1, Um, force_out,
     sched_k, sched_op, sched_a, sched_b,
     x, lam, lama, ivars, fvars, max_piv, enum_max_m, every, max_sw,
     T_out, Y_out, duty_sw, ev_t, ev_key, ev_info,
@@ -1459,6 +1472,9 @@ def run_grid(
         Inputs at the start (right limit) and end (left limit) of each grid step; inside a
         step they are interpolated linearly (exact for piecewise-linear sources, whose
         breakpoints are grid points).
+    Um : float64[:, :], shape (N, p) or (0, p)
+        Inputs at the step midpoints when some source is not piecewise linear: the
+        interpolation inside a step is then quadratic (O(h³)).
     force_out : bool[:], shape (N,)
         Store the end of this grid step whatever ``every`` says.
     sched_k, sched_op, sched_a, sched_b : int64[:], shape (L,)
@@ -1669,13 +1685,13 @@ def run_grid(
             ta = tcur
             s = tb - ta
             regular = (not odd[kk]) and ta == ta_grid
+            tau_a = 0.0
             if ta == ta_grid:
                 for i in range(p):
                     ua[i] = U0[kk, i]
             else:
-                frac = (ta - ta_grid) / (tb - ta_grid)
-                for i in range(p):
-                    ua[i] = U0[kk, i] + (U1[kk, i] - U0[kk, i]) * frac
+                tau_a = (ta - ta_grid) / (tb - ta_grid)
+                _u_interp(U0, Um, U1, kk, tau_a, ua)
             ub = U1[kk]
             base_on = slide >= 0 and ((key >> slide) & 1) == 1
             vts = sw_vt[slide] if slide >= 0 else 0.0
@@ -1979,7 +1995,8 @@ def run_grid(
                 st, s_star, mk = _locate_plain(A_j, B_j, C_j, D_j, E_j, F_j, Cc_j, Dc_j, Fc_j,
                                                sw_kind, sw_flags, sw_vt, sw_vh, key, ta, s,
                                                theta, x, lam, ua, ub, ms[0], xn, lamn, c, cs,
-                                               g, gt, W, S, fvars, ivars, max_piv, enum_max_m)
+                                               g, gt, W, S, fvars, ivars, max_piv, enum_max_m,
+                                               U0, Um, U1, kk, tau_a)
                 ms[0] = mk
                 dstar = 0.0
             else:
@@ -1987,7 +2004,7 @@ def run_grid(
                                             base_on, vts, ta, s, theta, x, lam, ua, ub, ms,
                                             ivars, fvars, max_piv, enum_max_m, sw_kind,
                                             sw_flags, sw_vt, sw_vh, key, xn, lamn, lamna, dd,
-                                            c, cs, g, gt, W, S)
+                                            c, cs, g, gt, W, S, U0, Um, U1, kk, tau_a)
             if st != STEP_OK:
                 status = st
                 fvars[FV_FAIL_T0] = ta
@@ -2023,10 +2040,8 @@ def run_grid(
                 if slide >= 0:
                     ivars[IV_SLIDESTEPS] += 1
                 if every == 1:
-                    frac = (tcur - ta_grid) / (tb - ta_grid)
                     ut = S[6]
-                    for i in range(p):
-                        ut[i] = U0[kk, i] + (U1[kk, i] - U0[kk, i]) * frac
+                    _u_interp(U0, Um, U1, kk, (tcur - ta_grid) / (tb - ta_grid), ut)
                     pos = ivars[IV_OUTPOS]
                     _store(mats, mflags, j, ja, d, slide, key, duty_sw, x, lam, lama, ut,
                            T_out, Y_out, pos, tcur, fvars)
