@@ -27,7 +27,14 @@ from pathlib import Path
 import numpy as np
 
 from .bifurcation import check_output
-from .orbit import add_map_options, initial_state, make_factory, positive_int, usage_error
+from .orbit import (
+    add_map_options,
+    initial_state,
+    make_factory,
+    positive_int,
+    usage_error,
+    write_outputs,
+)
 
 
 def register(subparsers) -> None:
@@ -76,19 +83,10 @@ def run(args: argparse.Namespace) -> int:
                      merge_adjacent=not args.no_merge, workers=workers,
                      progress=not args.no_progress)
     title = factory.circuit().title
-    written = []
-    for path, write in ((out, bm.to_npz), (plot, None)):
-        if path is None:
-            continue
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            if write is not None:
-                write(path)
-            else:
-                bm.plot(path, title=f"basins: {title or Path(args.file).name}")
-        except OSError as exc:
-            raise usage_error("basins", f"cannot write {path}: {exc.strerror or exc}") from exc
-        written.append(str(path))
+    written = write_outputs("basins", (
+        (out, bm.to_npz),
+        (plot, lambda path: bm.plot(path, title=f"basins: {title or Path(args.file).name}")),
+    ))
     print(summary(bm, args.file, title, m, written))
     return 0
 

@@ -31,7 +31,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .orbit import add_map_options, initial_state, make_factory, positive_int, usage_error
+from .orbit import (
+    add_map_options,
+    initial_state,
+    make_factory,
+    positive_int,
+    usage_error,
+    write_outputs,
+)
 
 
 def register(subparsers) -> None:
@@ -108,19 +115,10 @@ def run(args: argparse.Namespace) -> int:
         follow=args.follow, directions=directions, workers=workers, chunks=chunks,
         progress=not args.no_progress, param_name=rng.name,
     )
-    written = []
-    for path, write in ((out, diagram.save), (plot, None)):
-        if path is None:
-            continue
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            if write is not None:
-                write(path)
-            else:
-                diagram.plot(path, title=f"{circuit.title or Path(args.file).name}")
-        except OSError as exc:
-            raise usage_error("bifurcation", f"cannot write {path}: {exc.strerror or exc}") from exc
-        written.append(str(path))
+    written = write_outputs("bifurcation", (
+        (out, diagram.save),
+        (plot, lambda path: diagram.plot(path, title=circuit.title or Path(args.file).name)),
+    ))
     print(summary(diagram, args.file, circuit.title, m, written))
     return 0
 
