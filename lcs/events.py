@@ -323,43 +323,69 @@ def _linear_events(maps, mode0, active, vt, vh, bounds, u_start, u_end, linear_i
         sw_idx.append(np.full(ne, i))
         states.append(out_on[:ne])
     if not times:
-        return tuple(mode0), []
+        return tuple(mode0), (np.empty(0), np.empty(0, np.int64))
     t_all = np.concatenate(times)
-    i_all = np.concatenate(sw_idx)
+    i_all = np.concatenate(sw_idx).astype(np.int64)
     on_all = np.concatenate(states)
     order = np.argsort(t_all, kind="stable")
     t_all, i_all, on_all = t_all[order], i_all[order], on_all[order]
-    mode = list(mode0)
-    m0 = tuple(mode0)
-    events: list[tuple[float, tuple[bool, ...]]] = []
-    seen = {m0}
-    for t, i, on in zip(t_all.tolist(), i_all.tolist(), on_all.tolist(), strict=True):
-        mode[i] = bool(on)
-        md = tuple(mode)
-        if events and abs(events[-1][0] - t) <= tol:
-            events[-1] = (events[-1][0], md)
-        elif t <= t0 + tol:
-            m0 = md
-        else:
-            events.append((t, md))
-        seen.add(md)
+    key0 = sum(1 << i for i, on in enumerate(mode0) if on)
+    out_t = np.empty(len(t_all))
+    out_k = np.empty(len(t_all), np.int64)
+    key0, ne = _merge_keys(np.ascontiguousarray(t_all), np.ascontiguousarray(i_all),
+                           np.ascontiguousarray(on_all), key0, float(t0), float(tol), out_t,
+                           out_k)
+    k = len(mode0)
+
+    def mode_of(key):
+        return tuple(bool((key >> i) & 1) for i in range(k))
+
     # The rows must be the same in every mode reached (else the generic path decides).
     scale = np.abs(rows[idx]).max() if idx else 0.0
-    for md in seen:
-        if not np.allclose(maps.rows(md)[idx], rows[idx], rtol=0.0, atol=1e-13 * scale):
+    for key in set(out_k[:ne].tolist()) | {key0}:
+        if not np.allclose(maps.rows(mode_of(key))[idx], rows[idx], rtol=0.0,
+                           atol=1e-13 * scale):
             return None
-    out = []
-    prev = m0
-    for t, md in events:
-        if md != prev:
-            out.append((t, md))
-            prev = md
-    return m0, out
+    return mode_of(key0), (out_t[:ne].copy(), out_k[:ne].copy())
+
+
+@njit(cache=True)
+def _merge_keys(t_all, i_all, on_all, key0, t0, tol, out_t, out_k):
+    """Switch keys after each instant: simultaneous instants (within ``tol``) merged, instants
+    at ``t0`` folded into the initial key, instants that change nothing dropped."""
+    key = key0
+    ne = 0
+    for e in range(t_all.shape[0]):
+        i = i_all[e]
+        if on_all[e]:
+            key |= 1 << i
+        else:
+            key &= ~(1 << i)
+        t = t_all[e]
+        if ne > 0 and abs(out_t[ne - 1] - t) <= tol:
+            out_k[ne - 1] = key
+        elif t <= t0 + tol:
+            key0 = key
+        else:
+            out_t[ne] = t
+            out_k[ne] = key
+            ne += 1
+    # Drop the instants that do not change the key.
+    m = 0
+    prev = key0
+    for e in range(ne):
+        if out_k[e] != prev:
+            out_t[m] = out_t[e]
+            out_k[m] = out_k[e]
+            prev = out_k[e]
+            m += 1
+    return key0, m
 
 
 def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t0: float,
                          t1: float, breakpoints: np.ndarray, h: float,
-                         which: Sequence[int] | None = None, base=None, maps_out=None):
+                         which: Sequence[int] | None = None, base=None, maps_out=None,
+                         as_arrays: bool = False):
     """Switch states at ``t0`` and switching instants in ``(t0, t1)`` for source-driven gates.
 
     Parameters
@@ -381,6 +407,9 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
     maps_out : dict, optional
         Receives ``{mode: Fy rows (k, p)}`` of the controls used (for later consistency
         checks).
+    as_arrays : bool
+        Return the events as two arrays ``(times, keys)`` (keys: bit i set when switch i is
+        on) instead of a list of ``(t, mode)``.
 
     Returns
     -------
@@ -402,8 +431,8 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
     active = frozenset(range(len(sw)) if which is None else which)
     maps = _ControlMaps(system, {} if maps_out is None else maps_out, frozenset(active))
     if not active:
-        return tuple(bool(b) for b in base) if base is not None else \
-            tuple(False for _ in sw), []
+        m0 = tuple(bool(b) for b in base) if base is not None else tuple(False for _ in sw)
+        return m0, ((np.empty(0), np.empty(0, np.int64)) if as_arrays else [])
     linear_inputs = all(getattr(f, "piecewise_linear", False) for f in inputs)
 
     def controls(mode, t, side):
@@ -434,7 +463,12 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
     fast = _linear_events(maps, mode0, active, vt, vh, bounds, u_start, u_end, linear_inputs,
                           inputs, tol, t0)
     if fast is not None:
-        return fast
+        m0, (ft, fk) = fast
+        if as_arrays:
+            return m0, (ft, fk)
+        k = len(sw)
+        return m0, [(t, tuple(bool((key >> i) & 1) for i in range(k)))
+                    for t, key in zip(ft.tolist(), fk.tolist(), strict=True)]
     lin_cache: dict = {}
 
     def linear_rows(mode) -> list[bool]:
@@ -506,6 +540,10 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
         if md != prev:
             out.append((t, md))
             prev = md
+    if as_arrays:
+        return mode0, (np.array([t for t, _ in out], dtype=float),
+                       np.array([sum(1 << i for i, on in enumerate(md) if on) for _, md in out],
+                                dtype=np.int64))
     return mode0, out
 
 

@@ -839,23 +839,30 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
     # --- breakpoints, source-driven instants, latch period starts --------------------------
     save_at = np.unique(np.asarray(save_at, dtype=float).ravel())
     save_at = save_at[(save_at > t_start) & (save_at <= t_stop)]
-    latch_entries = []
+    # Schedule entries (time, op, a, b) as arrays: latch re-arms, then source events.
+    lt, li = [np.empty(0)], [np.empty(0, np.int64)]
     for i, (per, ph) in sws.latch.items():
-        for t in _periodic(per, ph, t_start, t_stop):
-            latch_entries.append((float(t), OP_REARM, i, 0))
-    extra = np.concatenate([np.asarray(user_bps, dtype=float).ravel(), save_at,
-                            np.array([e[0] for e in latch_entries], dtype=float)])
+        tt = _periodic(per, ph, t_start, t_stop)
+        lt.append(tt)
+        li.append(np.full(len(tt), i, np.int64))
+    latch_t, latch_i = np.concatenate(lt), np.concatenate(li)
+    extra = np.concatenate([np.asarray(user_bps, dtype=float).ravel(), save_at, latch_t])
     bps = merge_close(collect_breakpoints(inputs, t_start, t_stop, extra), MERGE_FRACTION * h)
     src_maps: dict = {}
     if k:
-        mode_src, src_events = source_switch_events(system, inputs, t_start, t_stop, bps, h,
-                                                    which=sws.source, base=guess,
-                                                    maps_out=src_maps)
+        mode_src, (src_t, src_k) = source_switch_events(system, inputs, t_start, t_stop, bps,
+                                                        h, which=sws.source, base=guess,
+                                                        maps_out=src_maps, as_arrays=True)
     else:
-        mode_src, src_events = (), []
+        mode_src, src_t, src_k = (), np.empty(0), np.empty(0, np.int64)
     smask = sws.source_mask
-    static = [(float(t), OP_SET, smask, sum(1 << i for i in sws.source if md[i]))
-              for t, md in src_events] + latch_entries
+    st_t = np.concatenate([src_t, latch_t])
+    st_op = np.concatenate([np.full(len(src_t), OP_SET, np.int64),
+                            np.full(len(latch_t), OP_REARM, np.int64)])
+    st_a = np.concatenate([np.full(len(src_t), smask, np.int64), latch_i])
+    st_b = np.concatenate([src_k & smask, np.zeros(len(latch_t), np.int64)])
+    order = np.lexsort((st_op, st_t))
+    st_t, st_op, st_a, st_b = st_t[order], st_op[order], st_a[order], st_b[order]
 
     # --- the mode stack and the initial mode -------------------------------------------------
     key = sum(1 << i for i, on in enumerate(mode_src) if on)
@@ -963,7 +970,7 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
     cap = est_steps // every + len(save_at) + 64
     T_out = np.empty(cap)
     Y_out = np.empty((cap, len(names)))
-    ev_cap = len(static) + 4 * max_sw + 2 * k + 256
+    ev_cap = len(st_t) + 4 * max_sw + 2 * k + 256
     ev_t = np.empty(ev_cap)
     ev_key = np.empty(ev_cap, np.int64)
     ev_info = np.empty(ev_cap, np.int64)
@@ -983,11 +990,9 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
     samp = np.unique(np.concatenate(samples)) if samples else np.empty(0)
     samp = merge_close(samp[(samp > t_start + tol) & (samp < t_stop - tol)], tol)
     wins = np.concatenate(([t_start], samp, [t_stop]))
-    static.sort(key=lambda e: (e[0], e[1]))
-    st_t = np.array([e[0] for e in static], dtype=float)
     error: SimulationError | None = None
     bar = _progress_bar(bool(progress) and sys.stderr.isatty()
-                        and est_steps * _EST_STEP_S + len(static) * _EST_SEGMENT_S > 1.0,
+                        and est_steps * _EST_STEP_S + len(st_t) * _EST_SEGMENT_S > 1.0,
                         est_steps)
     try:
         for w in range(len(wins) - 1):
@@ -1006,13 +1011,17 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
                                                   measures, sws, tol, pending, apply=False)
             lo = np.searchsorted(st_t, ws - tol, side="left")
             hi = np.searchsorted(st_t, we - tol, side="left")
-            entries = static[lo:hi]
+            e_t, e_op, e_a, e_b = st_t[lo:hi], st_op[lo:hi], st_a[lo:hi], st_b[lo:hi]
             if pending:
                 now = [e for e in pending if e[0] < we - tol]
                 pending = [e for e in pending if e[0] >= we - tol]
-                entries = sorted(entries + [(max(e[0], ws), *e[1:]) for e in now],
-                                 key=lambda e: (e[0], e[1]))
-            e_t = np.array([e[0] for e in entries], dtype=float)
+                if now:
+                    e_t = np.concatenate([e_t, [max(e[0], ws) for e in now]])
+                    e_op = np.concatenate([e_op, np.array([e[1] for e in now], np.int64)])
+                    e_a = np.concatenate([e_a, np.array([e[2] for e in now], np.int64)])
+                    e_b = np.concatenate([e_b, np.array([e[3] for e in now], np.int64)])
+                    order = np.lexsort((e_op, e_t))
+                    e_t, e_op, e_a, e_b = e_t[order], e_op[order], e_a[order], e_b[order]
             inner_bps = bps[(bps > ws) & (bps < we)]
             bounds = np.unique(np.concatenate(([ws, we], inner_bps,
                                                e_t[(e_t > ws) & (e_t < we)])))
@@ -1028,9 +1037,6 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
                 close = np.abs(bounds[near] - sv) <= tol
                 bounds[near[close]] = sv[close]
             plan = plan_grid(bounds, h)
-            e_op = np.array([e[1] for e in entries], dtype=np.int64)
-            e_a = np.array([e[2] for e in entries], dtype=np.int64)
-            e_b = np.array([e[3] for e in entries], dtype=np.int64)
             for tg, odd, _seg in grid_chunks(plan, opts.chunk_steps):
                 if jumps:
                     U0 = np.ascontiguousarray(table(tg[:-1], +1))

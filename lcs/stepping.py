@@ -1930,7 +1930,20 @@ def run_grid(
                     on = (key >> i) & 1
                     if (not on) and (sw_flags[i] & SWF_LATCH) != 0:
                         continue
-                    v, sc = _row_value(Cc_j, Dc_j, Fc_j, i, xn, lamn, ub)
+                    v = 0.0
+                    sc = 0.0
+                    for jj in range(n):
+                        t = Cc_j[i, jj] * xn[jj]
+                        v += t
+                        sc += abs(t)
+                    for jj in range(m):
+                        t = Dc_j[i, jj] * lamn[jj]
+                        v += t
+                        sc += abs(t)
+                    for jj in range(p):
+                        t = Fc_j[i, jj] * ub[jj]
+                        v += t
+                        sc += abs(t)
                     if slide >= 0 and dd != 0.0:
                         va, sca = _row_value(Cc_a, Dc_a, Fc_a, i, xn, lamna, ub)
                         v = (1.0 - dd) * v + dd * va
@@ -2128,7 +2141,20 @@ def run_grid(
                     Y_out[pos, r] = v
             ivars[IV_OUTPOS] = pos + 1
         if has_sampled:
-            _end_controls(mats, j, ja, d, x, lam, lama, U1[kk], c, cs)
+            if (slide >= 0 and d != 0.0) or jb != j:
+                _end_controls(mats, j, ja, d, x, lam, lama, U1[kk], c, cs)
+            else:
+                for i in range(k):
+                    if sw_kind[i] != SW_SAMPLED:
+                        continue
+                    v = 0.0
+                    for jj in range(n):
+                        v += Cc_j[i, jj] * x[jj]
+                    for jj in range(m):
+                        v += Dc_j[i, jj] * lam[jj]
+                    for jj in range(p):
+                        v += Fc_j[i, jj] * U1[kk, jj]
+                    c[i] = v
             newkey = key
             first = -1
             for i in range(k):
