@@ -344,6 +344,9 @@ def simulate_circuit(
     progress: bool = False,
     options: MoreauOptions | None = None,
     system: SwitchedLCS | None = None,
+    switching: str | None = None,
+    controllers: Sequence = (),
+    save_at: Sequence[float] = (),
 ) -> SimulationResult:
     """Simulate a parsed circuit with the Moreau θ scheme.
 
@@ -366,6 +369,14 @@ def simulate_circuit(
         Numerical options of the stepper.
     system : SwitchedLCS, optional
         Reuse a formulated system (e.g. across parameter sweeps of the sources only).
+    switching : str, optional
+        Comparator method for every switch: ``"auto"`` (per switch from its model),
+        ``"implicit"``, ``"explicit"`` or ``"hysteresis"`` (see docs/switching.md).
+    controllers : sequence, optional
+        :mod:`lcs.controllers` objects that drive named switches instead of their netlist
+        control (open-loop PWM, sampled PI PWM, sliding surfaces).
+    save_at : sequence of float, optional
+        Extra instants (s) to land on and store (e.g. stroboscopic samples).
 
     Returns
     -------
@@ -386,7 +397,8 @@ def simulate_circuit(
         probes = check_probes(circuit, probes)
     setup = transient_setup(circuit, tstop=tstop, step=step, system=system)
     return run_setup(setup, theta=theta, probes=probes, every=every, progress=progress,
-                     options=options)
+                     options=options, switching=switching, controllers=controllers,
+                     save_at=save_at)
 
 
 def run_setup(
@@ -397,6 +409,9 @@ def run_setup(
     every: int = 1,
     progress: bool = False,
     options: MoreauOptions | None = None,
+    switching: str | None = None,
+    controllers: Sequence = (),
+    save_at: Sequence[float] = (),
 ) -> SimulationResult:
     """Run a prepared :class:`TransientSetup` (arguments as in :func:`simulate_circuit`).
 
@@ -407,7 +422,8 @@ def run_setup(
     result = simulate(
         setup.system, setup.signals, setup.x0, setup.t_stop, setup.h, theta=theta,
         probes=None if probes is None else list(probes), every=every, progress=progress,
-        on_inconsistent=jump, options=options,
+        on_inconsistent=jump, options=options, switching=switching, save_at=save_at,
+        controllers=controllers,
     )
     if jump.called:
         # The driver's generic notes ("replaced by ... (on_inconsistent)", "the first step

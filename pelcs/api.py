@@ -93,6 +93,8 @@ def simulate(
     *,
     check: bool = True,
     progress: bool = False,
+    switching: str | None = None,
+    controllers: Sequence = (),
 ) -> SimulationResult:
     """Simulate a circuit with the Moreau θ time-stepping scheme.
 
@@ -115,6 +117,12 @@ def simulate(
         partial result with ``result.error`` set.
     progress : bool
         Progress bar on a terminal for runs longer than about a second.
+    switching : str, optional
+        Comparator method for every switch (``"auto"``, ``"implicit"``, ``"explicit"``,
+        ``"hysteresis"``; docs/switching.md).
+    controllers : sequence, optional
+        :mod:`lcs.controllers` objects driving named switches (e.g.
+        ``OpenLoopPWM("S1", 50e3, 0.4)``) instead of their netlist control.
 
     Returns
     -------
@@ -137,7 +145,8 @@ def simulate(
         probes = [probes]
     result = simulate_circuit(
         circuit, tstop=_seconds(circuit, "tstop", tstop), step=_seconds(circuit, "step", step),
-        theta=theta, probes=probes, every=every, progress=progress,
+        theta=theta, probes=probes, every=every, progress=progress, switching=switching,
+        controllers=controllers,
     )
     if check:
         result.raise_if_error()
