@@ -129,7 +129,9 @@ show it (the accepted point violates the diode equation); the branch current of 
 source in series, which obeys KCL, does. So by default (``audit_diodes=True``) every
 top-level diode with a static model (no TT, no CJO) gets a sense source, and a rung fails
 when a diode conducts in reverse more than ``REVERSE_CHARGE_LIMIT`` (1e-3) of its forward
-charge or a reverse peak above its forward peak. Not audited: diodes inside subcircuits
+charge or a reverse peak above its forward peak; a reverse current below
+``LEAKAGE_CURRENT`` (1 uA) throughout is leakage (GMIN across the junction of a diode that
+never conducts) and passes. Not audited: diodes inside subcircuits
 (pass a flattened ``Circuit``), switches (a shoot-through through two switches would go
 unnoticed), and artefacts that keep KCL.
 
@@ -802,6 +804,12 @@ def _diagnose(reply: dict) -> str | None:
 #: a diode whose reverse charge exceeds this fraction of its forward charge is an artefact
 REVERSE_CHARGE_LIMIT = 1e-3
 
+#: a reverse current that never exceeds this (A) is leakage, not an artefact: ngspice puts
+#: GMIN (1e-12 S, 1e-10 S at the relaxed rung) across every junction, so a diode that never
+#: conducts carries GMIN times its reverse voltage (25 pA at 24 V), which the charge ratio
+#: alone would flag
+LEAKAGE_CURRENT = 1e-6
+
 _DYNAMIC_DIODE_PARAMS = ("tt", "cjo", "cj0", "cj")
 
 
@@ -841,6 +849,8 @@ def _audit_diodes(vectors: dict[str, np.ndarray], diodes: Sequence[str]) -> str 
     for name in diodes:
         i = np.real(vectors.get(deck.sense_names(name)[0] + "#branch", np.zeros(0)))
         if len(i) != len(t) or len(t) < 2:
+            continue
+        if -i.min() <= LEAKAGE_CURRENT:
             continue
         reverse = float(np.trapezoid(np.maximum(-i, 0.0), t))
         forward = float(np.trapezoid(np.maximum(i, 0.0), t))

@@ -1,0 +1,1024 @@
+"""Simulate one netlist with pelcs and with ngspice and compare the waveforms.
+
+Entry point: :func:`compare` (``pelcs check FILE`` on the command line). It returns a
+:class:`Comparison` with one :class:`ProbeComparison` per probe, one
+:class:`SwitchingComparison` per switch, both wall times and the ngspice rung that was needed;
+:mod:`ngspice_checks.report` turns it into a table, plots, Markdown and JSON.
+
+One circuit, two simulators
+---------------------------
+The netlist is parsed once into a :class:`~netlist.circuit.Circuit` (with the ``--param``
+overrides). pelcs simulates that circuit; ngspice runs ``netlist.writer.write_circuit`` of the
+*same* object (flattened, every value evaluated), so both see identical element values. The
+only differences between the two decks are these, each reported in ``Comparison.notes``:
+
+- ngspice gets ``UIC`` on its ``.tran`` line when the netlist has none: pelcs always starts
+  from the initial conditions as written, ngspice without UIC would first compute an
+  operating point and start elsewhere;
+- commands pelcs ignores (``.save``, ``.control`` blocks, ``.four``, ``.meas``, ``.print``)
+  are left out: a ``.save`` would hide the probes' vectors and a ``.control`` block would run
+  the analysis a second time;
+- the runner's ladder (:mod:`ngspice_checks.runner`) may add options, finite PULSE edges or
+  smoother models; ``Comparison.rung`` and ``.settings`` say which rung ran.
+
+A stop time given to :func:`compare` shortens both runs alike.
+
+Time alignment
+--------------
+ngspice's time points are uneven and not pelcs' grid. Both results are interpolated linearly
+onto one uniform grid over their common time span, with the spacing of the pelcs step (the
+``.tran`` TMAX or TSTEP). Interpolating a waveform that jumps at a switching instant (a diode
+current, a switch-node voltage) smears the jump over one grid step, and two simulators that
+switch a few nanoseconds apart disagree there by the whole jump: grid points within
+``guard`` of a switching instant (of either simulator) are left out of the RMS error, with
+``guard`` = one grid step + the largest switching offset measured (the excluded fraction is
+reported; about 4 % for 100 steps per period).
+
+Metrics and their tolerances
+----------------------------
+ngspice's diodes and switches are not ideal: a diode with ``N = 0.05`` drops about 36 mV at
+1 A, a switch drops RON·I, and these drops are what separates a correct pelcs run from
+ngspice's. The tolerances scale with them through the *relative non-ideal drop*
+
+    δ = (Σ_diodes V_D(I_D,max) + Σ_switches RON·I_S,max) / V_ref,
+
+with V_D(I) = N·Vt·ln(1 + I/IS) + RS·I (Vt = 25.85 mV, ngspice's defaults IS = 1e-14,
+N = 1, RS = 0, RON = 1 ohm when the model omits them), I_max the largest current of each
+element in the pelcs run, V_ref the largest source voltage. The sum over every diode and
+switch bounds the drop along any one current path. Each probe gets a *scale*
+s = max(RMS, ½·peak-to-peak) of its pelcs waveform over the run (its RMS for a signal with a
+DC level, its amplitude for an AC one). With k = :attr:`Tolerances.k_nonideal` (2):
+
+==========================  ===============================  ===============================
+metric                      definition                       passes when
+==========================  ===============================  ===============================
+NRMS error                  RMS(ngspice - pelcs) / s on the  <= 3 % + k·δ
+                            common grid (guard excluded)
+mean                        time average over the last       |diff| / s <= max(1 %, k·δ)
+                            whole periods, each side's own
+                            samples (trapezoidal)
+ripple                      peak-to-peak over the same       |diff| <= 10 % of pelcs' ripple
+                            periods                          + (0.5 % + k·δ)·s
+switching instants          per switch and direction, the    <= 3 ngspice steps (its TMAX:
+                            largest distance from an         ``.tran`` TMAX, else min(TSTEP,
+                            instant of one simulator to the  TSTOP/50)), + one pelcs step
+                            nearest of the other (both ways) for sampled (explicit/latched)
+                                                             switches
+switching frequency         (free-running switches)          within 10 %
+==========================  ===============================  ===============================
+
+Why these numbers: the 1 % / 3 % floors are ngspice's own accuracy on these circuits
+(``reltol`` 1e-3 locally, ``relaxed`` rung 1e-2, errors that accumulate over thousands of
+switching periods) and the ideal-element comparisons in ``tests/test_ngspice_converters.py``;
+the k·δ terms are twice the first-order effect of the drops (a drop of ΔV on a path moves an
+average by about ΔV, and the conversion ratio can amplify it, e.g. 1/(1-D) in a boost); the
+ripple floor keeps a nearly flat waveform (an LC-filtered output) from failing on
+numerical noise; ngspice does not locate switching instants but lands them on its time
+steps (comparator switches) or on the PULSE corners (gate-driven ones), hence a few of its
+steps. The instants are compared where they are defined the same way in both: a switch
+that pelcs slides on (implicit Filippov relay, ``result.sliding``) has no instants there,
+and a free-running switch (a hysteretic comparator without any periodic source, e.g. a
+sliding-mode current loop or a relaxation oscillator) accumulates phase drift over many
+periods, so its switching *frequency* over the last periods is compared instead.
+
+Period
+------
+The mean and the ripple are taken over the last whole periods (up to 10, at most a quarter of
+the run). The period is, in this order: the ``period`` argument (``--period``); the period
+of the source that drives a switch's control directly (a PULSE gate, a ramp); the longest
+PULSE period / SIN 1/FREQ among the sources; the median time between recurrences of the last
+switch mode in the pelcs run (free-running converters). Without any of these the window is
+the last 20 % of the run.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import os
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from lcs.results import SimulationResult
+from lcs.signals import Pulse, Sin
+from netlist.circuit import (
+    GROUND,
+    Capacitor,
+    Circuit,
+    CurrentSource,
+    Diode,
+    Switch,
+    VoltageSource,
+)
+
+from .runner import NgspiceResult, NgspiceSettings, run_ngspice
+
+__all__ = [
+    "CheckError",
+    "Comparison",
+    "NonIdeality",
+    "ProbeComparison",
+    "SwitchingComparison",
+    "Tolerances",
+    "compare",
+    "default_probes",
+    "detect_period",
+    "ngspice_probe",
+]
+
+#: thermal voltage kT/q at ngspice's nominal 27 °C (V)
+VT_THERMAL = 0.025852
+
+# ngspice defaults of the model parameters the drop estimate uses
+_DIODE_DEFAULTS = {"is": 1e-14, "n": 1.0, "rs": 0.0}
+_SWITCH_DEFAULTS = {"vt": 0.0, "vh": 0.0, "ron": 1.0, "roff": 1e12}
+
+#: switch kinds (``SimulationResult.switching``) whose instants fall on pelcs' grid
+_SAMPLED = ("explicit", "latched")
+
+
+class CheckError(RuntimeError):
+    """The comparison could not be made (a pelcs run failed, no probes, ...)."""
+
+
+# ------------------------------------------------------------------------------------------
+# tolerances and results
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """How far ngspice may be from pelcs (see the module docstring for the reasons).
+
+    Attributes
+    ----------
+    nrms : float
+        NRMS floor (fraction of the probe's scale); k·δ is added.
+    mean : float
+        Floor of the mean tolerance (fraction of the scale); the tolerance is max(mean, k·δ).
+    ripple_rel : float
+        Part of the ripple tolerance proportional to pelcs' ripple.
+    ripple_floor : float
+        Part of the ripple tolerance proportional to the scale (k·δ is added).
+    k_nonideal : float
+        Multiplier of the relative non-ideal drop δ.
+    switching_steps : float
+        Switching-instant tolerance in ngspice steps (TMAX).
+    frequency : float
+        Relative tolerance of the switching frequency of free-running switches.
+    """
+
+    nrms: float = 0.03
+    mean: float = 0.01
+    ripple_rel: float = 0.10
+    ripple_floor: float = 0.005
+    k_nonideal: float = 2.0
+    switching_steps: float = 3.0
+    frequency: float = 0.10
+
+
+@dataclass
+class NonIdeality:
+    """The drops of ngspice's diode and switch models, estimated from the pelcs currents.
+
+    Attributes
+    ----------
+    diode_drops : dict
+        Diode -> forward drop at its largest current (V).
+    switch_drops : dict
+        Switch -> RON·I at its largest current (V).
+    v_ref : float
+        Largest independent source voltage (V).
+    delta : float
+        (sum of the drops) / v_ref, dimensionless.
+    """
+
+    diode_drops: dict[str, float]
+    switch_drops: dict[str, float]
+    v_ref: float
+    delta: float
+
+
+@dataclass
+class ProbeComparison:
+    """The metrics of one probe (SI units of the probe: V or A).
+
+    Attributes
+    ----------
+    probe : str
+        The probe as given (pelcs syntax).
+    ngspice_probe : str
+        What ngspice measured for it (``v(C1)`` becomes ``v(out)`` or ``v(a,b)``).
+    scale : float
+        max(RMS, ½ peak-to-peak) of the pelcs waveform over the run.
+    nrms, nrms_tol : float
+        RMS difference on the common grid / scale, and its tolerance.
+    mean_pelcs, mean_ngspice, mean_tol : float
+        Averages over the steady-state window and the allowed |difference| (absolute).
+    ripple_pelcs, ripple_ngspice, ripple_tol : float
+        Peak-to-peak over the window and the allowed |difference| (absolute).
+    excluded : float
+        Fraction of grid points left out of the NRMS (near switching instants).
+    """
+
+    probe: str
+    ngspice_probe: str
+    scale: float
+    nrms: float
+    nrms_tol: float
+    mean_pelcs: float
+    mean_ngspice: float
+    mean_tol: float
+    ripple_pelcs: float
+    ripple_ngspice: float
+    ripple_tol: float
+    excluded: float
+
+    @property
+    def mean_error(self) -> float:
+        """ngspice mean - pelcs mean."""
+        return self.mean_ngspice - self.mean_pelcs
+
+    @property
+    def ripple_error(self) -> float:
+        """ngspice ripple - pelcs ripple."""
+        return self.ripple_ngspice - self.ripple_pelcs
+
+    @property
+    def failures(self) -> list[str]:
+        """Names of the metrics out of tolerance (empty: the probe passes)."""
+        out = []
+        if not self.nrms <= self.nrms_tol:
+            out.append("nrms")
+        if not abs(self.mean_error) <= self.mean_tol:
+            out.append("mean")
+        if not abs(self.ripple_error) <= self.ripple_tol:
+            out.append("ripple")
+        return out
+
+    @property
+    def ok(self) -> bool:
+        return not self.failures
+
+
+@dataclass
+class SwitchingComparison:
+    """Switching instants of one switch in both simulators.
+
+    Attributes
+    ----------
+    switch : str
+    driven : str
+        How pelcs drove it (``source``, ``implicit``, ``hysteresis``, ...).
+    control : str
+        The ngspice probe of its control voltage, ``v(nc+,nc-)``.
+    method : str
+        ``"instants"`` (instants compared), ``"frequency"`` (free-running: frequency
+        compared) or ``"none"`` (not comparable; ``reason`` says why).
+    n_pelcs, n_ngspice : int
+        Switchings counted over the compared span.
+    max_offset : float
+        Largest distance from an instant of one simulator to the nearest instant of the
+        same direction in the other (s); NaN when not compared by instants.
+    tol : float
+        Its tolerance (s), or the relative frequency tolerance for ``"frequency"``.
+    freq_pelcs, freq_ngspice : float
+        Turn-on frequency over the steady-state window (Hz); NaN if too few switchings.
+    span : tuple of float
+        The time span compared (s).
+    reason : str
+        Why nothing was compared, or a remark.
+    """
+
+    switch: str
+    driven: str
+    control: str
+    method: str
+    n_pelcs: int
+    n_ngspice: int
+    max_offset: float
+    tol: float
+    freq_pelcs: float
+    freq_ngspice: float
+    span: tuple[float, float]
+    reason: str = ""
+
+    @property
+    def ok(self) -> bool:
+        if self.method == "instants":
+            return self.max_offset <= self.tol
+        if self.method == "frequency":
+            return abs(self.freq_ngspice - self.freq_pelcs) <= self.tol * abs(self.freq_pelcs)
+        return True
+
+
+@dataclass
+class Comparison:
+    """Everything :func:`compare` found; :mod:`ngspice_checks.report` presents it.
+
+    Attributes
+    ----------
+    file, title : str
+        Netlist file (or ``"<string>"``) and its title line.
+    params, pelcs_params : dict
+        ``.param`` overrides for both sides, and those applied to pelcs only (a deliberate
+        difference: ``pelcs check --pelcs-param``).
+    probes : list of ProbeComparison
+    switches : list of SwitchingComparison
+    tstop, step : float
+        Stop time and pelcs step (s).
+    theta : float
+    span : tuple of float
+        Common time span of both results (s).
+    period : float or None
+        Period used for the steady-state window (s), and ``period_source`` says where from.
+    window : tuple of float
+        The steady-state window (s); ``n_periods`` whole periods in it (0 without a period).
+    nonideal : NonIdeality
+    tolerances : Tolerances
+    rung : int
+        Ladder rung ngspice needed (0 = the netlist as written).
+    settings : NgspiceSettings
+        The rung's settings.
+    attempts : list of (int, str, str)
+        Failed rungs before it: (rung, name, reason).
+    pelcs_wall, pelcs_load : float
+        pelcs run time, and the one-off kernel loading before it (s).
+    pelcs_steps : int
+    ngspice_wall, ngspice_total : float
+        ngspice load+run time of the successful rung, and the whole call with failed rungs
+        and process start-up (s).
+    ngspice_points : int
+    notes : list of str
+    pelcs_result : SimulationResult
+    ngspice_result : NgspiceResult
+    """
+
+    file: str
+    title: str
+    params: dict[str, Any]
+    pelcs_params: dict[str, Any]
+    probes: list[ProbeComparison]
+    switches: list[SwitchingComparison]
+    tstop: float
+    step: float
+    theta: float
+    span: tuple[float, float]
+    period: float | None
+    period_source: str
+    window: tuple[float, float]
+    n_periods: int
+    nonideal: NonIdeality
+    tolerances: Tolerances
+    rung: int
+    settings: NgspiceSettings
+    attempts: list[tuple[int, str, str]]
+    pelcs_wall: float
+    pelcs_load: float
+    pelcs_steps: int
+    ngspice_wall: float
+    ngspice_total: float
+    ngspice_points: int
+    notes: list[str] = field(default_factory=list)
+    pelcs_result: SimulationResult | None = field(default=None, repr=False)
+    ngspice_result: NgspiceResult | None = field(default=None, repr=False)
+
+    @property
+    def ok(self) -> bool:
+        """True when every probe and every switch is within tolerance."""
+        return all(p.ok for p in self.probes) and all(s.ok for s in self.switches)
+
+    @property
+    def failures(self) -> list[str]:
+        """``"v(out): mean"``-style names of everything out of tolerance."""
+        out = [f"{p.probe}: {', '.join(p.failures)}" for p in self.probes if not p.ok]
+        out += [f"{s.switch}: switching {s.method}" for s in self.switches if not s.ok]
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-ready summary (SI units; the waveforms are not included)."""
+        s = self.settings
+        return {
+            "file": self.file,
+            "title": self.title,
+            "ok": self.ok,
+            "failures": self.failures,
+            "params": _jsonable(self.params),
+            "pelcs_params": _jsonable(self.pelcs_params),
+            "tstop": self.tstop,
+            "step": self.step,
+            "theta": self.theta,
+            "span": list(self.span),
+            "period": self.period,
+            "period_source": self.period_source,
+            "window": list(self.window),
+            "n_periods": self.n_periods,
+            "ngspice": {
+                "rung": self.rung,
+                "settings": {
+                    "name": s.name,
+                    "description": s.description,
+                    "options": dict(s.options),
+                    "pulse_min_edge": s.pulse_min_edge,
+                    "diode_model": s.diode_model,
+                    "switch_model": None if s.switch_model is None
+                    else vars(s.switch_model).copy(),
+                },
+                "failed_rungs": [
+                    {"rung": r, "name": n, "reason": why} for r, n, why in self.attempts
+                ],
+                "wall_time": self.ngspice_wall,
+                "total_time": self.ngspice_total,
+                "points": self.ngspice_points,
+            },
+            "pelcs": {
+                "wall_time": self.pelcs_wall,
+                "kernel_load_time": self.pelcs_load,
+                "steps": self.pelcs_steps,
+            },
+            "nonideal": {
+                "diode_drops": self.nonideal.diode_drops,
+                "switch_drops": self.nonideal.switch_drops,
+                "v_ref": self.nonideal.v_ref,
+                "delta": self.nonideal.delta,
+            },
+            "tolerances": vars(self.tolerances).copy(),
+            "probes": [
+                {**vars(p).copy(), "mean_error": p.mean_error, "ripple_error": p.ripple_error,
+                 "ok": p.ok, "failures": p.failures}
+                for p in self.probes
+            ],
+            "switches": [
+                {**{k: v for k, v in vars(w).items()}, "span": list(w.span), "ok": w.ok}
+                for w in self.switches
+            ],
+            "notes": list(self.notes),
+        }
+
+
+def _jsonable(d: Mapping[str, Any]) -> dict[str, Any]:
+    return {str(k): (v if isinstance(v, (int, float, str)) else str(v)) for k, v in d.items()}
+
+
+# ------------------------------------------------------------------------------------------
+# probes
+
+
+def _node_set(circuit: Circuit) -> set[str]:
+    return {n.lower() for n in circuit.nodes} | {"gnd"}
+
+
+def default_probes(circuit: Circuit) -> list[str]:
+    """Every state of the circuit: ``i(L…)`` and ``v(C…)`` in netlist order.
+
+    The states are what both simulators integrate; they are continuous in time (so a
+    pointwise comparison is meaningful even across switching instants) and every other
+    waveform follows from them. A capacitor's ``v(C1)`` is measured in ngspice as the node
+    voltage difference across it (:func:`ngspice_probe`). ``v(out)`` is usually one of them.
+
+    Raises
+    ------
+    CheckError
+        The circuit has no inductor and no capacitor.
+    """
+    out = [f"i({el.name})" if el.kind == "L" else f"v({el.name})"
+           for el in circuit.elements if el.kind in ("L", "C")]
+    if not out:
+        raise CheckError("the circuit has no inductor or capacitor: give the probes to compare "
+                         "(--probe 'v(out)')")
+    return out
+
+
+def ngspice_probe(circuit: Circuit, probe: str) -> str:
+    """The ngspice runner's spelling of a pelcs probe.
+
+    ``v(C1)`` (a capacitor, when no node is called ``c1``) becomes ``v(n+,n-)``, or
+    ``v(n+)`` when n- is ground; everything else is passed as it is (the runner reads
+    ``i(X)`` of any two-terminal element).
+
+    Raises
+    ------
+    CheckError
+        ``d(S1)`` (a switch's on-fraction) has no ngspice counterpart.
+    """
+    text = probe.strip()
+    head = text[:2].lower()
+    if head == "d(":
+        raise CheckError(f"probe {probe!r}: the on-fraction d(S) exists in pelcs only")
+    if head == "v(" and "," not in text:
+        name = text[2:-1].strip()
+        if name.lower() not in _node_set(circuit):
+            try:
+                el = circuit.element(name)
+            except KeyError:
+                return text
+            if isinstance(el, Capacitor):
+                a, b = el.nodes
+                return f"v({a})" if b == GROUND else f"v({a},{b})"
+    return text
+
+
+# ------------------------------------------------------------------------------------------
+# the period
+
+
+def _source_period(wave) -> float | None:
+    if isinstance(wave, Pulse) and wave.per:
+        return float(wave.per)
+    if isinstance(wave, Sin) and wave.freq:
+        return 1.0 / float(wave.freq)
+    return None
+
+
+def detect_period(
+    circuit: Circuit, result: SimulationResult | None = None, period: float | None = None
+) -> tuple[float | None, str]:
+    """The period of the steady state, and where it comes from.
+
+    Parameters
+    ----------
+    circuit : Circuit
+    result : SimulationResult, optional
+        A pelcs run, for free-running converters (period from the switching events).
+    period : float, optional
+        Given by the user (s): returned as it is.
+
+    Returns
+    -------
+    (float or None, str)
+        Period (s) and a phrase for the report, e.g. ``"PULSE period of Vg (gate of S1)"``.
+    """
+    if period is not None:
+        return float(period), "given (--period)"
+    tstop = circuit.tran.tstop if circuit.tran is not None else math.inf
+    sources = []
+    for el in circuit.elements:
+        if isinstance(el, (VoltageSource, CurrentSource)) and el.waveform is not None:
+            per = _source_period(el.waveform)
+            if per is not None and 0 < per < tstop:
+                sources.append((el, per))
+    # a source directly across a switch's control terminals sets its switching period
+    for sw in circuit.of_kind("S"):
+        ctrl = set(sw.control)
+        for el, per in sources:
+            if isinstance(el, VoltageSource) and (
+                set(el.nodes) == ctrl or (GROUND in ctrl and set(el.nodes) & ctrl - {GROUND}
+                                          and GROUND in el.nodes)
+            ):
+                kind = "PULSE" if isinstance(el.waveform, Pulse) else "SIN"
+                return per, f"{kind} period of {el.name} (control of {sw.name})"
+    if sources:
+        el, per = max(sources, key=lambda s: s[1])
+        kind = "PULSE period" if isinstance(el.waveform, Pulse) else "SIN period"
+        return per, f"{kind} of {el.name} (longest source period)"
+    if result is not None and len(result.events) >= 4:
+        last = result.events[-1][1]
+        starts = np.array([t for t, mode in result.events if mode == last])
+        half = starts[starts >= 0.5 * (result.t[-1] + result.t[0])]
+        if len(half) >= 3:
+            return float(np.median(np.diff(half))), "median recurrence of the last switch " \
+                "mode in the pelcs run (free-running)"
+    return None, "no periodic source or switching: last 20 % of the run"
+
+
+def _window(span: tuple[float, float], period: float | None) -> tuple[tuple[float, float], int]:
+    t0, t1 = span
+    if period is not None and period > 0:
+        n = min(10, int((t1 - t0) / 4.0 / period + 1e-9))
+        if n >= 1:
+            return (t1 - n * period, t1), n
+        if period <= t1 - t0:
+            return (t1 - period, t1), 1
+    return (t1 - 0.2 * (t1 - t0), t1), 0
+
+
+# ------------------------------------------------------------------------------------------
+# signal helpers
+
+
+def _in_window(t: np.ndarray, y: np.ndarray, a: float, b: float) -> tuple[np.ndarray, np.ndarray]:
+    """Samples inside [a, b] with the end points interpolated in (exact window ends)."""
+    sel = (t > a) & (t < b)
+    tt = np.concatenate([[a], t[sel], [b]])
+    yy = np.concatenate([[np.interp(a, t, y)], y[sel], [np.interp(b, t, y)]])
+    return tt, yy
+
+
+def _mean(t: np.ndarray, y: np.ndarray) -> float:
+    return float(np.trapezoid(y, t) / (t[-1] - t[0]))
+
+
+def _scale(y: np.ndarray) -> float:
+    y = np.asarray(y, dtype=float)
+    rms = float(np.sqrt(np.mean(y * y))) if len(y) else 0.0
+    return max(rms, 0.5 * float(np.ptp(y)) if len(y) else 0.0, 1e-12)
+
+
+def _strictly_increasing(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Drop repeated time points (keep the last value, after a jump) for interpolation."""
+    keep = np.append(np.diff(t) > 0, True)
+    return t[keep], y[keep]
+
+
+# ------------------------------------------------------------------------------------------
+# switching instants
+
+
+@dataclass
+class _Instants:
+    on: np.ndarray
+    off: np.ndarray
+
+
+def _pelcs_instants(result: SimulationResult, switches: Sequence[str]) -> dict[str, _Instants]:
+    """Turn-on and turn-off instants of each switch from ``result.events``."""
+    ons: dict[str, list[float]] = {s: [] for s in switches}
+    offs: dict[str, list[float]] = {s: [] for s in switches}
+    prev = result.modes_visited[0] if result.modes_visited else (False,) * len(switches)
+    for t, mode in result.events:
+        for k, name in enumerate(switches):
+            if mode[k] != prev[k]:
+                (ons if mode[k] else offs)[name].append(float(t))
+        prev = mode
+    return {s: _Instants(np.array(ons[s]), np.array(offs[s])) for s in switches}
+
+
+def _ngspice_instants(
+    t: np.ndarray, c: np.ndarray, vt: float, vh: float, initial: bool | None
+) -> _Instants:
+    """Instants at which ngspice's SW model changes state, from its control voltage.
+
+    ngspice's rule: on above VT + VH, off below VT - VH, unchanged in between (in the band at
+    t = 0: the ON/OFF flag, default off). The crossing of the threshold is interpolated
+    linearly between the two time points around it.
+    """
+    hi, lo = vt + vh, vt - vh
+    # ngspice lands some switchings exactly on a band edge (c = VT - VH to 1e-10): compare
+    # with a margin of round-off size; a sample within it of both edges (VH = 0) decides
+    # nothing
+    eps = 1e-6 * max(float(np.max(np.abs(c))) if len(c) else 0.0, abs(vt) + vh, 1e-3)
+    above, below = c >= hi - eps, c <= lo + eps
+    above, below = above & ~below, below & ~above
+    decided = above | below
+    idx = np.where(decided, np.arange(len(c)), -1)
+    np.maximum.accumulate(idx, out=idx)
+    state = np.where(idx >= 0, above[np.maximum(idx, 0)], bool(initial))
+    change = np.flatnonzero(state[1:] != state[:-1]) + 1
+    on, off = [], []
+    for k in change:
+        level = hi if state[k] else lo
+        c0, c1 = c[k - 1], c[k]
+        frac = (level - c0) / (c1 - c0) if c1 != c0 else 1.0
+        tk = t[k - 1] + min(max(frac, 0.0), 1.0) * (t[k] - t[k - 1])
+        (on if state[k] else off).append(float(tk))
+    return _Instants(np.array(on), np.array(off))
+
+
+def _hausdorff(a: np.ndarray, b: np.ndarray, lo: float, hi: float) -> float:
+    """Largest distance from an instant in [lo, hi] of one set to the nearest of the other (s).
+
+    The partner may lie outside [lo, hi] (an instant just inside the window can have its
+    partner just outside). An instant without any partner counts as ``hi - lo`` (the
+    comparison fails).
+    """
+    a, b = np.sort(a), np.sort(b)
+    a_in, b_in = a[(a >= lo) & (a <= hi)], b[(b >= lo) & (b <= hi)]
+    if len(a_in) == 0 and len(b_in) == 0:
+        return 0.0
+    if len(a) == 0 or len(b) == 0:
+        return hi - lo
+
+    def one_way(x: np.ndarray, y: np.ndarray) -> float:
+        k = np.clip(np.searchsorted(y, x), 1, len(y) - 1) if len(y) > 1 else np.zeros(
+            len(x), dtype=int)
+        d = np.abs(x - y[k])
+        if len(y) > 1:
+            d = np.minimum(d, np.abs(x - y[k - 1]))
+        return float(d.max())
+
+    return max(one_way(a_in, b) if len(a_in) else 0.0, one_way(b_in, a) if len(b_in) else 0.0)
+
+
+def _frequency(on: np.ndarray, a: float, b: float) -> float:
+    x = on[(on >= a) & (on <= b)]
+    return (len(x) - 1) / (x[-1] - x[0]) if len(x) >= 3 else math.nan
+
+
+# ------------------------------------------------------------------------------------------
+# the non-ideality estimate
+
+
+def _model_params(circuit: Circuit, model: str, defaults: Mapping[str, float]) -> dict:
+    m = circuit.models.get(model.lower())
+    params = dict(defaults)
+    if m is not None:
+        params.update({k: v for k, v in m.params.items() if k in defaults})
+    return params
+
+
+def _nonideality(
+    circuit: Circuit, settings: NgspiceSettings, currents: Mapping[str, np.ndarray]
+) -> NonIdeality:
+    """δ of the module docstring, with the models of the ngspice rung that ran."""
+    diodes, switches = {}, {}
+    for el in circuit.elements:
+        i_max = float(np.max(np.abs(currents[el.name]))) if el.name in currents else 0.0
+        if isinstance(el, Diode):
+            p = _model_params(circuit, el.model, _DIODE_DEFAULTS)
+            if settings.diode_model is not None:
+                p.update({k: float(v) for k, v in settings.diode_model.items() if k in p})
+            drop = p["n"] * VT_THERMAL * math.log1p(i_max / p["is"]) + p["rs"] * i_max
+            diodes[el.name] = drop
+        elif isinstance(el, Switch):
+            p = _model_params(circuit, el.model, _SWITCH_DEFAULTS)
+            if settings.switch_model is not None:
+                p["ron"] = settings.switch_model.ron
+            switches[el.name] = p["ron"] * i_max
+    v_ref = 0.0
+    for el in circuit.elements:
+        if isinstance(el, VoltageSource):
+            v_ref = max(v_ref, abs(el.dc), _peak(el.waveform))
+    total = sum(diodes.values()) + sum(switches.values())
+    delta = total / v_ref if v_ref > 0 else 0.0
+    return NonIdeality(diodes, switches, v_ref, delta)
+
+
+def _peak(wave) -> float:
+    if isinstance(wave, Pulse):
+        return max(abs(wave.v1), abs(wave.v2))
+    if isinstance(wave, Sin):
+        return abs(wave.vo) + abs(wave.va)
+    values = getattr(wave, "values", None)
+    return max((abs(v) for v in values), default=0.0) if values else 0.0
+
+
+# ------------------------------------------------------------------------------------------
+# the comparison
+
+
+def _prepare(circuit: Circuit, tstop: float | None, notes: list[str]) -> Circuit:
+    """A copy of the circuit as both simulators will run it (see the module docstring)."""
+    c = copy.deepcopy(circuit)
+    if c.tran is None:
+        if tstop is None:
+            raise CheckError("the netlist has no .tran line: give a stop time (--tstop)")
+        from netlist.transient import default_step
+
+        waves = [el.waveform for el in c.elements if getattr(el, "waveform", None)]
+        step = default_step(waves, tstop)
+        from netlist.circuit import Tran
+
+        c.tran = Tran(tstep=step, tstop=tstop, uic=True)
+        notes.append(f"no .tran: both run to {tstop:.4g} s with step {step:.4g} s")
+    tran = c.tran
+    if tstop is not None:
+        tran = replace(tran, tstop=float(tstop),
+                       tstart=tran.tstart if tran.tstart < tstop else 0.0)
+    if not tran.uic:
+        notes.append("ngspice runs with UIC (added): pelcs starts from the initial conditions "
+                     "as written, ngspice without UIC would start from an operating point")
+        tran = replace(tran, uic=True)
+    c.tran = tran
+    if c.ignored:
+        dropped = sorted({cmd.text.split()[0].lower() for cmd in c.ignored if cmd.text.split()})
+        notes.append(f"left out of the ngspice deck (pelcs ignores them too): "
+                     f"{', '.join(dropped)}")
+        c.ignored = []
+    return c
+
+
+def _ngspice_tmax(c: Circuit) -> float:
+    """ngspice's largest time step: TMAX, else min(TSTEP, (TSTOP - TSTART)/50)."""
+    tran = c.tran
+    default = min(tran.tstep, (tran.tstop - tran.tstart) / 50.0)
+    return float(tran.tmax) if tran.tmax else float(default)
+
+
+def compare(
+    source: str | os.PathLike | Circuit,
+    probes: Sequence[str] | None = None,
+    *,
+    params: Mapping[str, float | str] | None = None,
+    pelcs_params: Mapping[str, float | str] | None = None,
+    tstop: float | None = None,
+    period: float | None = None,
+    theta: float = 0.5,
+    tolerances: Tolerances | None = None,
+    settings: NgspiceSettings | Sequence[NgspiceSettings] | None = None,
+    timeout: float | None = 600.0,
+) -> Comparison:
+    """Simulate a netlist with pelcs and ngspice and compare them probe by probe.
+
+    Parameters
+    ----------
+    source : path, netlist text or Circuit
+        The netlist (a string with a line break is netlist text).
+    probes : sequence of str, optional
+        pelcs probes (``v(out)``, ``v(a,b)``, ``i(L1)``, ``v(C1)``); default
+        :func:`default_probes` (every state).
+    params : mapping, optional
+        ``.param`` overrides for both simulators (not with a Circuit).
+    pelcs_params : mapping, optional
+        Further overrides for pelcs only: a deliberate difference, to see the check fail.
+    tstop : float, optional
+        Stop time for both (s); default the ``.tran`` TSTOP.
+    period : float, optional
+        Steady-state period (s); default :func:`detect_period`.
+    theta : float
+        pelcs' θ.
+    tolerances : Tolerances, optional
+    settings : NgspiceSettings or sequence of them, optional
+        ngspice ladder (default the runner's :data:`~ngspice_checks.runner.DEFAULT_LADDER`).
+    timeout : float or None
+        ngspice wall-time limit per rung (s).
+
+    Returns
+    -------
+    Comparison
+
+    Raises
+    ------
+    netlist.errors.NetlistError
+        Input errors (netlist, probes, parameters).
+    CheckError
+        pelcs failed, or nothing to compare.
+    ngspice_checks.runner.NgspiceError
+        ngspice unavailable (NgspiceUnavailable) or failed on every rung (NgspiceFailed).
+    """
+    from netlist.transient import check_probes, simulate_circuit, warm_up
+    from netlist.writer import write_circuit
+    from pelcs.api import load
+
+    tol = tolerances or Tolerances()
+    notes: list[str] = []
+    if isinstance(source, Circuit):
+        if params or pelcs_params:
+            raise TypeError("params need a netlist path or text, not a parsed Circuit")
+        base = source
+        file = source.file
+    else:
+        base = load(source, params)
+        file = base.file
+    circuit = _prepare(base, tstop, notes)
+    if pelcs_params:
+        pel = _prepare(load(source, {**(params or {}), **pelcs_params}), tstop, [])
+        notes.append("deliberate difference: pelcs runs with "
+                     + ", ".join(f"{k}={v}" for k, v in pelcs_params.items())
+                     + ", ngspice with the netlist's values")
+    else:
+        pel = circuit
+    probes = check_probes(circuit, list(probes)) if probes else default_probes(circuit)
+    ng_probes = [ngspice_probe(circuit, p) for p in probes]
+    switch_els = [el for el in circuit.elements if isinstance(el, Switch)]
+    controls = [f"v({a},{b})" if b != GROUND else f"v({a})" for a, b in
+                (sw.control for sw in switch_els)]
+    # pelcs also records every diode and switch current: the drop estimate needs them
+    extra = [f"i({el.name})" for el in circuit.elements if isinstance(el, (Diode, Switch))]
+    pel_probes = list(dict.fromkeys(list(probes) + extra + controls))
+
+    load_time = warm_up()
+    t0 = time.perf_counter()
+    result = simulate_circuit(pel, theta=theta, probes=pel_probes)
+    pelcs_wall = time.perf_counter() - t0
+    if result.error is not None:
+        raise CheckError(f"pelcs failed at t = {result.error.time:.6g} s: "
+                         f"{result.error.message}")
+    notes.extend(f"pelcs: {n}" for n in result.notes)
+
+    deck = write_circuit(circuit)
+    ng = run_ngspice(deck, list(dict.fromkeys(ng_probes + controls)), settings=settings,
+                     timeout=timeout,
+                     workdir=Path(file).parent if file and file != "<string>" else None)
+
+    t_p = np.asarray(result.t, dtype=float)
+    t_n = np.asarray(ng.time, dtype=float)
+    span = (max(t_p[0], t_n[0]), min(t_p[-1], t_n[-1]))
+    h = float(circuit.tran.tmax or circuit.tran.tstep)
+    if pel is not circuit:
+        h = float(pel.tran.tmax or pel.tran.tstep)
+    step = min(h, (span[1] - span[0]) / 20)
+    per, per_source = detect_period(pel, result, period)
+    window, n_periods = _window(span, per)
+
+    currents = {el.name: result[f"i({el.name})"] for el in circuit.elements
+                if isinstance(el, (Diode, Switch))}
+    nonideal = _nonideality(circuit, ng.settings_used, currents)
+    kd = tol.k_nonideal * nonideal.delta
+
+    # switching instants
+    names = [sw.name for sw in switch_els]
+    p_inst = _pelcs_instants(result, names)
+    tmax_ng = _ngspice_tmax(circuit)
+    switch_cmp: list[SwitchingComparison] = []
+    all_instants: list[np.ndarray] = []
+    for sw, ctrl in zip(switch_els, controls, strict=True):
+        mp = _model_params(circuit, sw.model, _SWITCH_DEFAULTS)
+        vh = mp["vh"]
+        sm = ng.settings_used.switch_model
+        if sm is not None:
+            vh = max(vh, sm.vh_min)
+        if vh > 0:
+            # hysteresis: both sides measured alike, at the crossings of the half band
+            # (ngspice stores the control after its switch has acted, up to one step's
+            # change short of the band edge: the edges are not reliably crossed in its
+            # output, the half band is crossed once per switching in both)
+            ni = _ngspice_instants(t_n, ng.signals[ctrl], mp["vt"], vh / 2, sw.initial)
+            pi = _ngspice_instants(t_p, result[ctrl], mp["vt"], vh / 2, sw.initial)
+        else:
+            ni = _ngspice_instants(t_n, ng.signals[ctrl], mp["vt"], 0.0, sw.initial)
+            pi = p_inst[sw.name]
+        all_instants += [pi.on, pi.off, ni.on, ni.off]
+        driven = result.switching.get(sw.name, "?")
+        switch_cmp.append(_compare_switch(sw.name, driven, ctrl, pi, ni, result, span, window,
+                                          per, per_source, tmax_ng, h, tol, kd))
+    instants = np.sort(np.concatenate(all_instants)) if all_instants else np.empty(0)
+    offsets = [s.max_offset for s in switch_cmp if s.method == "instants"]
+    guard = step + (max(offsets) if offsets else 0.0)
+
+    # the common grid, and the points near a switching instant left out of the NRMS
+    n_grid = int(round((span[1] - span[0]) / step)) + 1
+    grid = np.linspace(span[0], span[1], max(n_grid, 2))
+    mask = np.ones(len(grid), dtype=bool)
+    if len(instants):
+        k = np.searchsorted(instants, grid)
+        near_right = np.abs(instants[np.minimum(k, len(instants) - 1)] - grid)
+        near_left = np.abs(instants[np.maximum(k - 1, 0)] - grid)
+        mask = np.minimum(near_left, near_right) > guard
+    if mask.sum() < 0.5 * len(grid):  # switching everywhere (chattering): keep all points
+        notes.append("switching instants too dense to leave out: NRMS over every grid point")
+        mask[:] = True
+
+
+    probe_cmp = []
+    tp_u, tn_u = t_p, t_n
+    for probe, ngp in zip(probes, ng_probes, strict=True):
+        yp, yn = np.asarray(result[probe], float), np.asarray(ng.signals[ngp], float)
+        tpi, ypi = _strictly_increasing(tp_u, yp)
+        tni, yni = _strictly_increasing(tn_u, yn)
+        gp, gn = np.interp(grid, tpi, ypi), np.interp(grid, tni, yni)
+        sel_run = (t_p >= span[0]) & (t_p <= span[1])
+        scale = _scale(yp[sel_run])
+        nrms = float(np.sqrt(np.mean((gn[mask] - gp[mask]) ** 2))) / scale
+        wp, wn = _in_window(tpi, ypi, *window), _in_window(tni, yni, *window)
+        rp, rn = float(np.ptp(wp[1])), float(np.ptp(wn[1]))
+        probe_cmp.append(ProbeComparison(
+            probe=probe, ngspice_probe=ngp, scale=scale,
+            nrms=nrms, nrms_tol=tol.nrms + kd,
+            mean_pelcs=_mean(*wp), mean_ngspice=_mean(*wn),
+            mean_tol=max(tol.mean, kd) * scale,
+            ripple_pelcs=rp, ripple_ngspice=rn,
+            ripple_tol=tol.ripple_rel * rp + (tol.ripple_floor + kd) * scale,
+            excluded=float(1.0 - mask.mean()),
+        ))
+
+    return Comparison(
+        file=str(file), title=base.title, params=dict(params or {}),
+        pelcs_params=dict(pelcs_params or {}), probes=probe_cmp, switches=switch_cmp,
+        tstop=float(circuit.tran.tstop), step=h, theta=theta, span=span, period=per,
+        period_source=per_source, window=window, n_periods=n_periods, nonideal=nonideal,
+        tolerances=tol, rung=ng.rung, settings=ng.settings_used,
+        attempts=[(a.rung, a.settings.name, a.reason or "") for a in ng.attempts if not a.ok],
+        pelcs_wall=pelcs_wall, pelcs_load=load_time, pelcs_steps=result.stats.steps,
+        ngspice_wall=ng.wall_time, ngspice_total=ng.total_time, ngspice_points=len(t_n),
+        notes=notes, pelcs_result=result, ngspice_result=ng,
+    )
+
+
+def _compare_switch(
+    name: str, driven: str, control: str, pi: _Instants, ni: _Instants,
+    result: SimulationResult, span: tuple[float, float], window: tuple[float, float],
+    period: float | None, period_source: str, tmax_ng: float, h: float, tol: Tolerances,
+    kd: float,
+) -> SwitchingComparison:
+    """Instants (or, free-running, the frequency) of one switch; see the module docstring."""
+    fp = _frequency(pi.on, *window)
+    fn = _frequency(ni.on, *window)
+    n_p, n_n = len(pi.on) + len(pi.off), len(ni.on) + len(ni.off)
+    sliding = [s for s in result.sliding if s[0] == name]
+    if sliding:
+        start = min(s[1] for s in sliding)
+        return SwitchingComparison(
+            name, driven, control, "none", n_p, n_n, math.nan, math.nan, fp, fn, span,
+            f"pelcs slides on its surface from t = {start:.4g} s (ideal relay, no "
+            "instants); ngspice's switch chatters at its time step there")
+    free_running = driven != "source" and period_source.startswith(("median", "no periodic"))
+    if free_running:
+        return SwitchingComparison(
+            name, driven, control, "frequency", n_p, n_n, math.nan, tol.frequency, fp, fn,
+            window, "free-running: phase drift makes instants incomparable over many periods")
+    limit = tol.switching_steps * tmax_ng + (h if driven in _SAMPLED else 0.0)
+    a, b = span
+    if driven != "source" and period is not None:
+        # a comparator's instant follows the circuit state: an offset of ε·T changes a duty
+        # cycle by ε and a period average by about ε, which the mean tolerance allows
+        limit += max(tol.mean, kd) * period
+        # and in a transient a crossing of the ramp can be nearly tangential (the instant
+        # is then ill-conditioned): compared in the steady-state window, as mean and ripple
+        a, b = span = window
+    offs = [_hausdorff(x, y, a, b) for x, y in ((pi.on, ni.on), (pi.off, ni.off))]
+    return SwitchingComparison(
+        name, driven, control, "instants", n_p, n_n, max(offs), limit, fp, fn, span)

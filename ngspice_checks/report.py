@@ -1,0 +1,331 @@
+"""Present a :class:`~ngspice_checks.compare.Comparison`: text table, plots, Markdown, JSON.
+
+:func:`write_report` writes, into one directory, for a netlist ``NAME.cir``:
+
+- ``NAME.png``: one row per probe, both traces over the whole run (pelcs solid, ngspice
+  dashed) and a zoom on the last periods of the steady-state window;
+- ``NAME.md``: the verdict, the settings of both runs (ngspice's ladder rung), both wall
+  times side by side, the metric tables with their tolerances, the notes, the figure;
+- ``NAME.json``: the same as data (:meth:`Comparison.to_dict`);
+- ``NAME.ngspice.cir``: the deck ngspice ran (the rung's edits and sense sources included).
+
+:func:`format_table` is what ``pelcs check`` prints.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .compare import Comparison
+
+__all__ = ["format_table", "markdown_report", "plot_comparison", "write_report"]
+
+
+def _eng(value: float, unit: str = "") -> str:
+    from netlist.units import format_eng
+
+    if value is None or not math.isfinite(value):
+        return "n/a"
+    return format_eng(float(value), unit)
+
+
+def _unit(probe: str) -> str:
+    from pelcs.plotting import probe_unit
+
+    return probe_unit(probe)
+
+
+def _pct(x: float) -> str:
+    return "n/a" if not math.isfinite(x) else f"{100 * x:.2f} %"
+
+
+def _verdict(ok: bool) -> str:
+    return "ok" if ok else "FAIL"
+
+
+def _settings_line(cmp: Comparison) -> str:
+    s = cmp.settings
+    line = f"rung {cmp.rung} ({s.name}"
+    return line + (f": {s.description})" if s.description else ")")
+
+
+# ------------------------------------------------------------------------------------------
+# text
+
+
+def format_table(cmp: Comparison) -> str:
+    """The summary ``pelcs check`` prints: header, one line per probe and switch, verdict.
+
+    Differences are relative to each probe's scale (max(RMS, ½ peak-to-peak) of the pelcs
+    waveform), tolerances in brackets.
+    """
+    lines = [f"{cmp.file}: {cmp.title}".rstrip(": ")]
+    lines.append(
+        f"pelcs: {cmp.pelcs_steps} steps of {_eng(cmp.step, 's')} (θ = {cmp.theta:g}) in "
+        f"{cmp.pelcs_wall:.3g} s   |   ngspice: {cmp.ngspice_points} points in "
+        f"{cmp.ngspice_wall:.3g} s ({cmp.ngspice_total:.3g} s with start-up"
+        + (f" and {len(cmp.attempts)} failed rung{'s' * (len(cmp.attempts) > 1)}"
+           if cmp.attempts else "") + f"), {_settings_line(cmp)}"
+    )
+    per = (f"{cmp.n_periods} periods of {_eng(cmp.period, 's')} ({cmp.period_source})"
+           if cmp.n_periods else cmp.period_source)
+    lines.append(f"steady state: {_eng(cmp.window[0], 's')} to {_eng(cmp.window[1], 's')}, "
+                 f"{per}; non-ideal drops δ = {_pct(cmp.nonideal.delta)} of "
+                 f"{_eng(cmp.nonideal.v_ref, 'V')}")
+    head = (f"{'probe':<12} {'NRMS [tol]':>18} {'mean pelcs':>11} {'ngspice':>11} "
+            f"{'diff [tol]':>19} {'ripple pelcs':>12} {'ngspice':>11} {'diff [tol]':>19}  ")
+    lines.append(head)
+    for p in cmp.probes:
+        u = _unit(p.probe)
+        lines.append(
+            f"{p.probe:<12} {_pct(p.nrms):>8} [{_pct(p.nrms_tol):>7}] "
+            f"{_eng(p.mean_pelcs, u):>11} {_eng(p.mean_ngspice, u):>11} "
+            f"{_pct(p.mean_error / p.scale):>8} [{_pct(p.mean_tol / p.scale):>7}] "
+            f"{_eng(p.ripple_pelcs, u):>12} {_eng(p.ripple_ngspice, u):>11} "
+            f"{_pct(p.ripple_error / p.scale):>8} [{_pct(p.ripple_tol / p.scale):>7}]  "
+            f"{_verdict(p.ok)}" + (f" ({', '.join(p.failures)})" if p.failures else "")
+        )
+    for s in cmp.switches:
+        if s.method == "instants":
+            what = (f"{s.n_pelcs}/{s.n_ngspice} switchings, max offset "
+                    f"{_eng(s.max_offset, 's')} [{_eng(s.tol, 's')}]")
+        elif s.method == "frequency":
+            what = (f"frequency {_eng(s.freq_pelcs, 'Hz')} / {_eng(s.freq_ngspice, 'Hz')} "
+                    f"[{_pct(s.tol)}] ({s.reason})")
+        else:
+            what = f"not compared: {s.reason}"
+        lines.append(f"switch {s.switch} ({s.driven}): {what}  "
+                     + (_verdict(s.ok) if s.method != "none" else ""))
+    for n in cmp.notes:
+        lines.append(f"note: {n}")
+    lines.append("within tolerance" if cmp.ok else
+                 "OUT OF TOLERANCE: " + "; ".join(cmp.failures))
+    return "\n".join(line.rstrip() for line in lines)
+
+
+# ------------------------------------------------------------------------------------------
+# figure
+
+
+def plot_comparison(cmp: Comparison, path: str | os.PathLike, *, dpi: int = 110,
+                    zoom_periods: int = 3) -> Path:
+    """Overlay plot: one row per probe, whole run and a zoom on the last periods.
+
+    Parameters
+    ----------
+    cmp : Comparison
+        With its ``pelcs_result`` and ``ngspice_result``.
+    path : path-like
+        Output file (format from the extension).
+    dpi : int
+    zoom_periods : int
+        Periods shown in the zoom (fewer if the window has fewer); without a period the zoom
+        shows the whole steady-state window.
+
+    Returns
+    -------
+    Path
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from pelcs.plotting import _envelope, time_unit
+
+    res, ng = cmp.pelcs_result, cmp.ngspice_result
+    if res is None or ng is None:
+        raise ValueError("the comparison holds no waveforms (pelcs_result/ngspice_result)")
+    t_p, t_n = np.asarray(res.t), np.asarray(ng.time)
+    scale, tunit = time_unit(cmp.span[1])
+    z1 = cmp.window[1]
+    if cmp.period and cmp.n_periods:
+        z0 = z1 - min(zoom_periods, cmp.n_periods) * cmp.period
+    else:
+        z0 = cmp.window[0]
+    zscale, zunit = time_unit(z1 - z0)
+    rows = max(1, len(cmp.probes))
+    fig = Figure(figsize=(12.5, 1.3 + 2.2 * rows), dpi=dpi, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(rows, 2, squeeze=False, width_ratios=[2.3, 1.4])
+    for k, p in enumerate(cmp.probes):
+        yp, yn = np.asarray(res[p.probe]), np.asarray(ng.signals[p.ngspice_probe])
+        u = _unit(p.probe)
+        ax = axes[k, 0]
+        tt, yy = _envelope(t_p, yp)
+        ax.plot(tt / scale, yy, color="#1f77b4", lw=0.9, label="pelcs")
+        tt, yy = _envelope(t_n, yn)
+        ax.plot(tt / scale, yy, color="#d62728", lw=0.9, ls="--", label="ngspice")
+        ax.axvspan(cmp.window[0] / scale, cmp.window[1] / scale, color="0.5", alpha=0.1, lw=0)
+        ax.set_xlim(cmp.span[0] / scale, cmp.span[1] / scale)
+        ax.set_ylabel(f"{p.probe} [{u}]" if u else p.probe)
+        ax.grid(True, color="0.9", lw=0.6)
+        color = "0.3" if p.ok else "red"
+        ax.set_title(f"NRMS {_pct(p.nrms)} (tol {_pct(p.nrms_tol)})", loc="right",
+                     fontsize=8, color=color, pad=3)
+        if k == 0:
+            ax.legend(loc="best", fontsize=8, frameon=False)
+        az = axes[k, 1]
+        for t, y, style in ((t_p, yp, dict(color="#1f77b4", lw=1.1)),
+                            (t_n, yn, dict(color="#d62728", lw=1.1, ls="--"))):
+            sel = (t >= z0) & (t <= z1)
+            az.plot(t[sel] / zscale, y[sel], **style)
+        az.axhline(p.mean_pelcs, color="#1f77b4", lw=0.7, ls=":")
+        az.axhline(p.mean_ngspice, color="#d62728", lw=0.7, ls=":")
+        az.set_xlim(z0 / zscale, z1 / zscale)
+        az.grid(True, color="0.9", lw=0.6)
+        az.tick_params(labelsize=8)
+        az.set_title(f"mean {_eng(p.mean_pelcs, u)} / {_eng(p.mean_ngspice, u)}, ripple "
+                     f"{_eng(p.ripple_pelcs, u)} / {_eng(p.ripple_ngspice, u)}",
+                     loc="right", fontsize=8, color=color, pad=3)
+    axes[-1, 0].set_xlabel(f"time [{tunit}]")
+    axes[-1, 1].set_xlabel(f"time [{zunit}] (last periods)")
+    name = Path(cmp.file).name
+    fig.suptitle(f"{cmp.title}  ({name})\npelcs (solid) vs ngspice (dashed, "
+                 f"{_settings_line(cmp)}): "
+                 f"{'within tolerance' if cmp.ok else 'OUT OF TOLERANCE'}", fontsize=10,
+                 color="black" if cmp.ok else "red")
+    out = Path(path)
+    fig.savefig(out)
+    return out
+
+
+# ------------------------------------------------------------------------------------------
+# Markdown and JSON
+
+
+def markdown_report(cmp: Comparison, figure: str | None = None) -> str:
+    """The Markdown report (``figure``: a path relative to the report, to embed)."""
+    s = cmp.settings
+    out = [f"# pelcs vs ngspice: {cmp.title or Path(cmp.file).name}", ""]
+    out.append(f"**{'Within tolerance' if cmp.ok else 'OUT OF TOLERANCE'}**"
+               + ("" if cmp.ok else ": " + "; ".join(cmp.failures)))
+    out += ["", f"Netlist: `{cmp.file}`"
+            + (f", parameters {', '.join(f'{k}={v}' for k, v in cmp.params.items())}"
+               if cmp.params else ""), ""]
+    out += ["## Runs", "",
+            "| | pelcs | ngspice |", "|---|---|---|",
+            f"| wall time | {cmp.pelcs_wall:.3g} s (+ {cmp.pelcs_load:.2g} s loading the "
+            f"compiled kernels) | {cmp.ngspice_wall:.3g} s ({cmp.ngspice_total:.3g} s with "
+            "process start-up and failed rungs) |",
+            f"| time points | {cmp.pelcs_steps} steps of {_eng(cmp.step, 's')}, θ = "
+            f"{cmp.theta:g} | {cmp.ngspice_points} (variable step) |",
+            f"| settings | ideal diodes and switches | {_settings_line(cmp)} |", ""]
+    if s.options or s.pulse_min_edge or s.diode_model or s.switch_model:
+        parts = []
+        if s.options:
+            parts.append("`.options " + " ".join(
+                k if v is None else f"{k}={v}" for k, v in s.options.items()) + "`")
+        if s.pulse_min_edge:
+            parts.append(f"PULSE edges and widths >= {_eng(s.pulse_min_edge, 's')}")
+        if s.diode_model:
+            parts.append("diode models " + " ".join(f"{k}={v}" for k, v in
+                                                   s.diode_model.items()))
+        if s.switch_model:
+            parts.append(f"switch models RON={s.switch_model.ron:g} "
+                         f"ROFF={s.switch_model.roff:g} VH>={s.switch_model.vh_min:g}")
+        out += ["ngspice rung edits: " + "; ".join(parts) + ".", ""]
+    for r, name, why in cmp.attempts:
+        out.append(f"- rung {r} ({name}) failed: {why}")
+    if cmp.attempts:
+        out.append("")
+    per = (f"{cmp.n_periods} periods of {_eng(cmp.period, 's')} ({cmp.period_source})"
+           if cmp.n_periods else cmp.period_source)
+    out += [f"Compared from {_eng(cmp.span[0], 's')} to {_eng(cmp.span[1], 's')}; steady "
+            f"state from {_eng(cmp.window[0], 's')}: {per}.", ""]
+    ni = cmp.nonideal
+    drops = [f"{k} {_eng(v, 'V')}" for k, v in {**ni.diode_drops, **ni.switch_drops}.items()]
+    out += [f"Non-ideal drops of ngspice's models at the largest pelcs currents: "
+            f"{', '.join(drops) or 'none'}; δ = {_pct(ni.delta)} of "
+            f"{_eng(ni.v_ref, 'V')} (tolerances: module docstring of "
+            "`ngspice_checks/compare.py`).", ""]
+    out += ["## Probes", "",
+            "Differences relative to the probe's scale s = max(RMS, ½ peak-to-peak) of the "
+            "pelcs waveform; tolerances in brackets.", "",
+            "| probe | ngspice | NRMS | mean pelcs | mean ngspice | diff | ripple pelcs | "
+            "ripple ngspice | diff | |",
+            "|---|---|---|---|---|---|---|---|---|---|"]
+    for p in cmp.probes:
+        u = _unit(p.probe)
+        out.append(
+            f"| `{p.probe}` | `{p.ngspice_probe}` | {_pct(p.nrms)} [{_pct(p.nrms_tol)}] | "
+            f"{_eng(p.mean_pelcs, u)} | {_eng(p.mean_ngspice, u)} | "
+            f"{_pct(p.mean_error / p.scale)} [{_pct(p.mean_tol / p.scale)}] | "
+            f"{_eng(p.ripple_pelcs, u)} | {_eng(p.ripple_ngspice, u)} | "
+            f"{_pct(p.ripple_error / p.scale)} [{_pct(p.ripple_tol / p.scale)}] | "
+            f"{_verdict(p.ok)} |")
+    if cmp.probes:
+        out += ["", f"NRMS leaves out {_pct(cmp.probes[0].excluded)} of the grid points "
+                "(those next to a switching instant).", ""]
+    if cmp.switches:
+        out += ["## Switching", "",
+                "| switch | driven | compared | pelcs | ngspice | max offset | tolerance | |",
+                "|---|---|---|---|---|---|---|---|"]
+        for w in cmp.switches:
+            if w.method == "frequency":
+                vals = (f"{_eng(w.freq_pelcs, 'Hz')}", f"{_eng(w.freq_ngspice, 'Hz')}", "",
+                        _pct(w.tol))
+            else:
+                vals = (f"{w.n_pelcs} switchings", f"{w.n_ngspice} switchings",
+                        _eng(w.max_offset, "s"), _eng(w.tol, "s"))
+            verdict = _verdict(w.ok) if w.method != "none" else w.reason
+            out.append(f"| {w.switch} | {w.driven} | {w.method} | " + " | ".join(vals)
+                       + f" | {verdict} |")
+        out.append("")
+    if cmp.notes:
+        out += ["## Notes", ""] + [f"- {n}" for n in cmp.notes] + [""]
+    if figure:
+        out += ["## Waveforms", "", f"![pelcs vs ngspice]({figure})", ""]
+    return "\n".join(out)
+
+
+def write_report(cmp: Comparison, directory: str | os.PathLike, *, plot: bool = True
+                 ) -> list[Path]:
+    """Write NAME.md, NAME.json, NAME.png and NAME.ngspice.cir into ``directory``.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    stem = Path(cmp.file).stem if cmp.file and cmp.file != "<string>" else "check"
+    written = []
+    figure = None
+    if plot and cmp.pelcs_result is not None and cmp.ngspice_result is not None:
+        figure = plot_comparison(cmp, d / f"{stem}.png")
+        written.append(figure)
+    md = d / f"{stem}.md"
+    md.write_text(markdown_report(cmp, figure.name if figure else None))
+    js = d / f"{stem}.json"
+    js.write_text(json.dumps(_finite(cmp.to_dict()), indent=2, default=_json_default,
+                             allow_nan=False) + "\n")
+    written += [md, js]
+    if cmp.ngspice_result is not None:
+        deck = d / f"{stem}.ngspice.cir"
+        deck.write_text(cmp.ngspice_result.netlist)
+        written.append(deck)
+    return written
+
+
+def _json_default(obj):
+    if isinstance(obj, (np.floating, np.integer)):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    return str(obj)
+
+
+def _finite(obj):
+    """NaN and infinities as None (JSON has no NaN); containers walked recursively."""
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    if isinstance(obj, (float, np.floating)) and not math.isfinite(float(obj)):
+        return None
+    return obj
