@@ -115,8 +115,9 @@ from netlist.circuit import (
     Switch,
     VoltageSource,
 )
+from netlist.errors import Diagnostic, NetlistError
 
-from .runner import NgspiceResult, NgspiceSettings, run_ngspice
+from .runner import NgspiceResult, NgspiceSettings, ProbeError, run_ngspice
 
 __all__ = [
     "CheckError",
@@ -143,7 +144,15 @@ _SAMPLED = ("explicit", "latched")
 
 
 class CheckError(RuntimeError):
-    """The comparison could not be made (a pelcs run failed, no probes, ...)."""
+    """The comparison could not be made: the pelcs run failed.
+
+    Input problems (no probes to compare, ``d(S)`` probes, no stop time) are
+    :class:`~netlist.errors.NetlistError`, as everywhere in pelcs.
+    """
+
+
+def _input_error(message: str, hint: str = "", file: str = "<netlist>") -> NetlistError:
+    return NetlistError(Diagnostic(message=message, hint=hint), file=file)
 
 
 # ------------------------------------------------------------------------------------------
@@ -482,14 +491,14 @@ def default_probes(circuit: Circuit) -> list[str]:
 
     Raises
     ------
-    CheckError
+    NetlistError
         The circuit has no inductor and no capacitor.
     """
     out = [f"i({el.name})" if el.kind == "L" else f"v({el.name})"
            for el in circuit.elements if el.kind in ("L", "C")]
     if not out:
-        raise CheckError("the circuit has no inductor or capacitor: give the probes to compare "
-                         "(--probe 'v(out)')")
+        raise _input_error("the circuit has no inductor or capacitor to compare by default",
+                           "give the probes: --probe 'v(out)'", circuit.file)
     return out
 
 
@@ -502,13 +511,14 @@ def ngspice_probe(circuit: Circuit, probe: str) -> str:
 
     Raises
     ------
-    CheckError
+    NetlistError
         ``d(S1)`` (a switch's on-fraction) has no ngspice counterpart.
     """
     text = probe.strip()
     head = text[:2].lower()
     if head == "d(":
-        raise CheckError(f"probe {probe!r}: the on-fraction d(S) exists in pelcs only")
+        raise _input_error(f"probe {probe!r}: the on-fraction d(S) exists in pelcs only",
+                           "compare v(...) and i(...) probes", circuit.file)
     if head == "v(" and "," not in text:
         name = text[2:-1].strip()
         if name.lower() not in _node_set(circuit):
@@ -765,7 +775,9 @@ def _prepare(circuit: Circuit, tstop: float | None, notes: list[str]) -> Circuit
     c = copy.deepcopy(circuit)
     if c.tran is None:
         if tstop is None:
-            raise CheckError("the netlist has no .tran line: give a stop time (--tstop)")
+            raise _input_error("no .tran analysis and no stop time given",
+                               "add '.tran TSTEP TSTOP' to the netlist or pass --tstop",
+                               circuit.file)
         from netlist.transient import default_step
 
         waves = [el.waveform for el in c.elements if getattr(el, "waveform", None)]
@@ -843,9 +855,9 @@ def compare(
     Raises
     ------
     netlist.errors.NetlistError
-        Input errors (netlist, probes, parameters).
+        Input errors (netlist, probes, parameters, no stop time, nothing to compare).
     CheckError
-        pelcs failed, or nothing to compare.
+        The pelcs run failed.
     ngspice_checks.runner.NgspiceError
         ngspice unavailable (NgspiceUnavailable) or failed on every rung (NgspiceFailed).
     """
@@ -890,9 +902,14 @@ def compare(
     notes.extend(f"pelcs: {n}" for n in result.notes)
 
     deck = write_circuit(circuit)
-    ng = run_ngspice(deck, list(dict.fromkeys(ng_probes + controls)), settings=settings,
-                     timeout=timeout,
-                     workdir=Path(file).parent if file and file != "<string>" else None)
+    try:
+        ng = run_ngspice(deck, list(dict.fromkeys(ng_probes + controls)), settings=settings,
+                         timeout=timeout,
+                         workdir=Path(file).parent if file and file != "<string>" else None)
+    except ProbeError as exc:
+        raise _input_error(f"ngspice cannot measure a probe: {exc}",
+                           "compare node voltages and currents of top-level elements",
+                           file) from exc
 
     t_p = np.asarray(result.t, dtype=float)
     t_n = np.asarray(ng.time, dtype=float)

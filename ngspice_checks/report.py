@@ -23,7 +23,7 @@ import numpy as np
 
 from .compare import Comparison
 
-__all__ = ["format_table", "markdown_report", "plot_comparison", "write_report"]
+__all__ = ["format_table", "markdown_report", "plot_comparison", "to_json", "write_report"]
 
 
 def _eng(value: float, unit: str = "") -> str:
@@ -113,7 +113,7 @@ def format_table(cmp: Comparison) -> str:
 
 
 def plot_comparison(cmp: Comparison, path: str | os.PathLike, *, dpi: int = 110,
-                    zoom_periods: int = 3) -> Path:
+                    zoom_periods: int = 5) -> Path:
     """Overlay plot: one row per probe, whole run and a zoom on the last periods.
 
     Parameters
@@ -125,7 +125,8 @@ def plot_comparison(cmp: Comparison, path: str | os.PathLike, *, dpi: int = 110,
     dpi : int
     zoom_periods : int
         Periods shown in the zoom (fewer if the window has fewer); without a period the zoom
-        shows the whole steady-state window.
+        shows the whole steady-state window. The dotted lines are the means over the whole
+        window (``n_periods`` periods), which a waveform still settling may not centre on.
 
     Returns
     -------
@@ -302,14 +303,19 @@ def write_report(cmp: Comparison, directory: str | os.PathLike, *, plot: bool = 
     md = d / f"{stem}.md"
     md.write_text(markdown_report(cmp, figure.name if figure else None))
     js = d / f"{stem}.json"
-    js.write_text(json.dumps(_finite(cmp.to_dict()), indent=2, default=_json_default,
-                             allow_nan=False) + "\n")
+    js.write_text(to_json(cmp) + "\n")
     written += [md, js]
     if cmp.ngspice_result is not None:
         deck = d / f"{stem}.ngspice.cir"
         deck.write_text(cmp.ngspice_result.netlist)
         written.append(deck)
     return written
+
+
+def to_json(cmp: Comparison) -> str:
+    """:meth:`Comparison.to_dict` as JSON text (NaN written as null)."""
+    return json.dumps(_finite(cmp.to_dict()), indent=2, default=_json_default,
+                      allow_nan=False)
 
 
 def _json_default(obj):

@@ -1,0 +1,136 @@
+"""``pelcs check FILE``: simulate a netlist with pelcs and with ngspice, and compare.
+
+::
+
+    pelcs check FILE [--probe EXPR]... [--param NAME=VALUE]... [--tstop T] [--period T]
+                     [--report DIR] [--json] [--pelcs-param NAME=VALUE]... [--timeout S]
+
+Both simulators run the same circuit (``ngspice_checks.compare``: ngspice gets the parsed,
+flattened circuit written back, with UIC; its settings ladder may add options, finite edges or
+smoother models, and the table says which rung ran). Per probe: the normalised RMS difference
+over the run, the mean and the ripple over the last whole periods; per switch: the switching
+instants (or, for a free-running switch, its frequency). Each against a tolerance that widens
+with the drops of ngspice's diode and switch models (see ``ngspice_checks/compare.py``).
+
+Default probes: every state, ``i(L…)`` and ``v(C…)`` (``v(C1)`` is measured in ngspice as the
+voltage across C1): they are continuous, so the pointwise comparison is meaningful, and
+everything else follows from them.
+
+Exit status: 0 every probe and switch within tolerance; 1 something out of tolerance; 2 input
+errors (netlist, options, probes); 3 the comparison could not be made: ngspice is not
+available (PySpice or libngspice missing), ngspice failed on every rung of its ladder, or the
+pelcs run failed. The report files are written before the exit status is decided.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from netlist.errors import Diagnostic, NetlistError
+
+from . import simulate as _simulate
+from .simulate import split_probes
+
+EXIT_OUT_OF_TOLERANCE = 1
+EXIT_CANNOT_COMPARE = 3
+
+
+def register(subparsers) -> None:
+    """Add the ``check`` subcommand to the CLI's subparsers."""
+    p = subparsers.add_parser(
+        "check",
+        help="cross-check a netlist against ngspice (waveforms, means, ripple, switching)",
+        description="Simulate a netlist with pelcs (ideal diodes and switches) and with "
+        "ngspice (its near-ideal models), compare the probes and the switching instants, "
+        "and say whether they agree within tolerances set by ngspice's model drops.",
+        epilog="exit status: 0 within tolerance, 1 out of tolerance, 2 input error, "
+        "3 ngspice unavailable or a simulator failed.  example: pelcs check boost.cir "
+        "--probe 'v(out)' --probe 'i(L1)' --report out/check",
+    )
+    p.add_argument("file", help="netlist file")
+    p.add_argument("--probe", action="append", default=[], metavar="EXPR",
+                   help="v(NODE), v(NODE,NODE), i(ELEMENT) or a state v(C1) (repeatable, or "
+                   "comma-separated); default: every state i(L...), v(C...)")
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                   help="override a global .param in both simulators (repeatable)")
+    p.add_argument("--tstop", metavar="T", help="stop time of both runs (default: .tran TSTOP)")
+    p.add_argument("--period", metavar="T",
+                   help="steady-state period (default: from the sources or the switching)")
+    p.add_argument("--report", metavar="DIR",
+                   help="write NAME.md, NAME.json, NAME.png and the ngspice deck into DIR")
+    p.add_argument("--json", action="store_true",
+                   help="print the JSON report on stdout instead of the table")
+    p.add_argument("--pelcs-param", action="append", default=[], metavar="NAME=VALUE",
+                   help="override a .param in pelcs only: a deliberate difference, to see "
+                   "that the check catches it")
+    p.add_argument("--timeout", metavar="S", default="600",
+                   help="ngspice wall-time limit per ladder rung, s (default 600)")
+    p.set_defaults(func=run)
+
+
+def _usage_error(message: str, hint: str = "") -> NetlistError:
+    return NetlistError(Diagnostic(message=message, hint=hint), file="pelcs check")
+
+
+def _number(option: str, text: str | None, units: tuple[str, ...] = ("",)) -> float | None:
+    """``pelcs simulate``'s number parsing, its errors labelled ``pelcs check``."""
+    try:
+        return _simulate._number(option, text, units)
+    except NetlistError as exc:
+        raise NetlistError(exc.diagnostics, file="pelcs check") from None
+
+
+def run(args: argparse.Namespace) -> int:
+    from netlist.parser import parse_overrides
+    from ngspice_checks.compare import CheckError, compare
+    from ngspice_checks.report import format_table, to_json, write_report
+    from ngspice_checks.runner import NgspiceFailed, NgspiceUnavailable
+
+    tstop = _number("--tstop", args.tstop, ("", "s"))
+    period = _number("--period", args.period, ("", "s"))
+    timeout = _number("--timeout", args.timeout, ("", "s"))
+    for name, value in (("--tstop", tstop), ("--period", period), ("--timeout", timeout)):
+        if value is not None and not value > 0:
+            raise _usage_error(f"{name} must be positive", f"e.g. {name} 5m")
+    if not Path(args.file).is_file():
+        raise _usage_error(f"cannot read {args.file!r}: no such file",
+                           "give the path of a netlist file")
+    params = parse_overrides(args.param) or None
+    pelcs_params = parse_overrides(args.pelcs_param) or None
+    probes = split_probes(args.probe) or None
+
+    try:
+        cmp = compare(args.file, probes, params=params, pelcs_params=pelcs_params,
+                      tstop=tstop, period=period, timeout=timeout)
+    except NgspiceUnavailable as exc:
+        print(f"{args.file}: error: ngspice is not available, nothing was compared: {exc}",
+              file=sys.stderr)
+        return EXIT_CANNOT_COMPARE
+    except NgspiceFailed as exc:
+        print(f"{args.file}: error: {exc}", file=sys.stderr)
+        return EXIT_CANNOT_COMPARE
+    except CheckError as exc:
+        print(f"{args.file}: error: {exc}", file=sys.stderr)
+        return EXIT_CANNOT_COMPARE
+    except NotImplementedError as exc:
+        raise NetlistError(Diagnostic(message=f"not supported: {exc}",
+                                      hint="see README.md, section Simulation"),
+                           file=args.file) from exc
+
+    written = []
+    if args.report:
+        try:
+            written = write_report(cmp, args.report)
+        except OSError as exc:
+            raise _usage_error(f"cannot write the report into {args.report}: "
+                               f"{exc.strerror or exc}",
+                               "check the directory and its permissions") from exc
+    if args.json:
+        print(to_json(cmp))
+    else:
+        print(format_table(cmp))
+        if written:
+            print(f"wrote {', '.join(str(w) for w in written)}")
+    return 0 if cmp.ok else EXIT_OUT_OF_TOLERANCE
