@@ -117,7 +117,7 @@ from netlist.circuit import (
 )
 from netlist.errors import Diagnostic, NetlistError
 
-from .runner import NgspiceResult, NgspiceSettings, ProbeError, run_ngspice
+from .runner import NgspiceResult, NgspiceSettings, ProbeError, ngspice_version, run_ngspice
 
 __all__ = [
     "CheckError",
@@ -892,6 +892,8 @@ def compare(
     extra = [f"i({el.name})" for el in circuit.elements if isinstance(el, (Diode, Switch))]
     pel_probes = list(dict.fromkeys(list(probes) + extra + controls))
 
+    # ngspice missing: say so before spending time on the pelcs run
+    ngspice_version()
     load_time = warm_up()
     t0 = time.perf_counter()
     result = simulate_circuit(pel, theta=theta, probes=pel_probes)
