@@ -189,3 +189,22 @@ def test_tolerances_widen_with_the_model_drops(ngspice):
     # with the drop-dependent part switched off, the soft diode fails the check
     strict = compare(text, tstop=40e-3, tolerances=Tolerances(k_nonideal=0.0))
     assert not strict.ok and "mean" in strict.probes[0].failures
+
+
+def test_convergence_study_two_points(ngspice, tmp_path):
+    # the fast version of ngspice_checks/convergence.py: ε = 0.1 and 0.01 on 1 ms runs
+    import csv
+
+    from ngspice_checks import convergence
+
+    assert convergence.main(["--fast", "--out", str(tmp_path)]) == 0
+    assert (tmp_path / "convergence.png").stat().st_size > 0
+    with open(tmp_path / "convergence.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    for name in ("buck", "boost"):
+        soft, sharp = sorted((r for r in rows if r["converter"] == name),
+                             key=lambda r: -float(r["eps"]))
+        assert float(soft["eps"]) == 0.1 and float(sharp["eps"]) == 0.01
+        for key in ("mean_error", "nrms_vout", "nrms_il"):
+            # first order: ten times smaller models, about ten times closer to pelcs
+            assert float(sharp[key]) < 0.3 * float(soft[key]), (name, key)
