@@ -167,8 +167,6 @@ def plot_comparison(cmp: Comparison, path: str | os.PathLike, *, dpi: int = 110,
         color = "0.3" if p.ok else "red"
         ax.set_title(f"NRMS {_pct(p.nrms)} (tol {_pct(p.nrms_tol)})", loc="right",
                      fontsize=8, color=color, pad=3)
-        if k == 0:
-            ax.legend(loc="best", fontsize=8, frameon=False)
         az = axes[k, 1]
         for t, y, style in ((t_p, yp, dict(color="#1f77b4", lw=1.1)),
                             (t_n, yn, dict(color="#d62728", lw=1.1, ls="--"))):
