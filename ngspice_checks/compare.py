@@ -1016,7 +1016,12 @@ def _compare_switch(
     """Instants (or, free-running, the frequency) of one switch; see the module docstring."""
     fp = _frequency(pi.on, *window)
     fn = _frequency(ni.on, *window)
-    n_p, n_n = len(pi.on) + len(pi.off), len(ni.on) + len(ni.off)
+
+    def count(x: _Instants, lo: float, hi: float) -> int:
+        """Switchings in [lo, hi] (pelcs' events start at 0, ngspice's output at TSTART)."""
+        return int(sum(((v >= lo) & (v <= hi)).sum() for v in (x.on, x.off)))
+
+    n_p, n_n = count(pi, *span), count(ni, *span)
     sliding = [s for s in result.sliding if s[0] == name]
     if sliding:
         start = min(s[1] for s in sliding)
@@ -1027,8 +1032,9 @@ def _compare_switch(
     free_running = driven != "source" and period_source.startswith(("median", "no periodic"))
     if free_running:
         return SwitchingComparison(
-            name, driven, control, "frequency", n_p, n_n, math.nan, tol.frequency, fp, fn,
-            window, "free-running: phase drift makes instants incomparable over many periods")
+            name, driven, control, "frequency", count(pi, *window), count(ni, *window),
+            math.nan, tol.frequency, fp, fn, window,
+            "free-running: phase drift makes instants incomparable over many periods")
     limit = tol.switching_steps * tmax_ng + (h if driven in _SAMPLED else 0.0)
     a, b = span
     if driven != "source" and period is not None:
@@ -1040,4 +1046,5 @@ def _compare_switch(
         a, b = span = window
     offs = [_hausdorff(x, y, a, b) for x, y in ((pi.on, ni.on), (pi.off, ni.off))]
     return SwitchingComparison(
-        name, driven, control, "instants", n_p, n_n, max(offs), limit, fp, fn, span)
+        name, driven, control, "instants", count(pi, a, b), count(ni, a, b), max(offs), limit,
+        fp, fn, span)
