@@ -1251,10 +1251,11 @@ def _kernel_error(status, stack: _Stack, prob: _Problem, sws: _Switches, ivars, 
         msg = (
             f"{where}: the complementarity problem of the time step has no solution ({how}). "
             f"Diodes involved: {', '.join(pairs) or '(none with negative w at λ = 0)'} "
-            "(they would be reverse-biased beyond zero with every diode off, and no "
-            "combination of conducting diodes satisfies the circuit). The circuit is "
-            "probably ill-posed in this mode (e.g. a loop of diodes and voltage sources or a "
-            "cut-set of diodes and current sources)."
+            "(with every diode off they would be forward-biased, or carry a reverse current, "
+            "and no combination of conducting diodes satisfies the circuit). The circuit is "
+            "probably ill-posed in this mode: not passive (a negative resistance, an active "
+            "controlled source), or a loop of diodes and voltage sources, or a cut-set of "
+            "diodes and current sources."
         )
         return SimulationError(msg, kind="no_solution", time=t1, t_prev=t0, mode=desc,
                                pairs=pairs)
