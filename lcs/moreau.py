@@ -160,7 +160,7 @@ __all__ = [
     "simulate_lcs",
 ]
 
-InconsistentHandler = Callable[[LCS, np.ndarray, np.ndarray], np.ndarray]
+InconsistentHandler = Callable[[LCS, np.ndarray, np.ndarray], object]
 
 # Rough cost model for deciding whether a progress bar is worth showing.
 _EST_STEP_S = 0.2e-6
@@ -676,9 +676,10 @@ def simulate(
         Show a tqdm progress bar (only when stderr is a terminal and the run is expected to
         last more than about a second).
     on_inconsistent : callable, optional
-        ``on_inconsistent(lcs, x, u) -> x_plus`` applied once to an inconsistent initial state
-        (one whose instantaneous LCP ``w = C x + D λ + F u`` has no solution), e.g.
-        ``lcs.wellposed.state_jump``. Without it, the first step absorbs the jump.
+        ``on_inconsistent(lcs, x, u) -> x_plus`` (or ``(x_plus, note)``, the note then
+        replacing the generic one in ``result.notes``) applied once to an inconsistent initial
+        state (one whose instantaneous LCP ``w = C x + D λ + F u`` has no solution), e.g.
+        built on ``lcs.wellposed.state_jump``. Without it, the first step absorbs the jump.
     options : MoreauOptions, optional
     switching : str, optional
         Overrides ``options.switching``: ``"auto"``, ``"implicit"``, ``"hysteresis"`` or
@@ -923,17 +924,21 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
     lcs_j = stack.lcs[j]
     if res0 is not None and not res0.ok:
         if on_inconsistent is not None:
-            x_new = np.asarray(on_inconsistent(lcs_j, x.copy(), u0.copy()), dtype=float)
+            handled = on_inconsistent(lcs_j, x.copy(), u0.copy())
+            note = None
+            if isinstance(handled, tuple):  # (x_plus, note): the handler explains itself
+                handled, note = handled
+            x_new = np.asarray(handled, dtype=float)
             if x_new.shape != x.shape or not np.all(np.isfinite(x_new)):
                 raise ValueError(
                     f"on_inconsistent returned {x_new!r}; expected a finite state of shape "
                     f"{x.shape}"
                 )
-            notes.append(
+            notes.append(note or (
                 f"initial state {np.array2string(x, precision=6)} is inconsistent (the LCP "
                 f"w = C x + D λ + F u at t = {t_start:g} s has no solution); replaced by "
                 f"{np.array2string(x_new, precision=6)} (on_inconsistent)"
-            )
+            ))
             x = x_new
             res0 = initial_lcp(j)
         if not res0.ok:

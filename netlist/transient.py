@@ -301,17 +301,16 @@ class _JumpRecorder:
 
     def __init__(self, energy: np.ndarray | None):
         self.energy = energy
-        self.called = False
         self.note: str | None = None
 
-    def __call__(self, lcs: LCS, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        self.called = True
+    def __call__(self, lcs: LCS, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, str]:
         try:
             jump = state_jump(lcs, x, u, energy=self.energy)
         except ValueError as exc:
+            # The driver adds that the first step absorbs the jump.
             self.note = (f"t = 0: the initial state is inconsistent with the diodes and the "
-                         f"circuit has no jump rule ({exc}); the first step absorbs the jump")
-            return x
+                         f"circuit has no jump rule ({exc})")
+            return x, self.note
         changed = [
             f"{s}: {a:.6g} -> {b:.6g}"
             for s, a, b in zip(jump.states, jump.x_minus, jump.x_plus, strict=True)
@@ -330,7 +329,7 @@ class _JumpRecorder:
             f"impulse ({impulse}), {jump.dissipated:.4g} J dissipated in it "
             "(lcs.wellposed.state_jump)"
         )
-        return jump.x_plus
+        return jump.x_plus, self.note
 
 
 def simulate_circuit(
@@ -425,11 +424,6 @@ def run_setup(
         on_inconsistent=jump, options=options, switching=switching, save_at=save_at,
         controllers=controllers,
     )
-    if jump.called:
-        # The driver's generic notes ("replaced by ... (on_inconsistent)", "the first step
-        # absorbs the state jump") say less than ours.
-        result.notes[:] = [n for n in result.notes if not n.startswith("initial state ")]
-        result.notes.insert(0, jump.note)
     result.notes[:0] = setup.notes
     if setup.t_save > 0:
         keep = result.t >= setup.t_save
