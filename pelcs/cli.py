@@ -27,13 +27,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"pelcs {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMANDS:
-        module_name = f"pelcs.commands.{name.replace('continue', 'continuation')}"
-        try:
-            module = importlib.import_module(module_name)
-        except ModuleNotFoundError as exc:
-            if exc.name == module_name:
-                continue  # subcommand not built yet
-            raise
+        # "continue" is a Python keyword, so its module is named continuation.
+        module = importlib.import_module(
+            f"pelcs.commands.{name.replace('continue', 'continuation')}")
         module.register(sub)
     return parser
 
