@@ -1441,6 +1441,131 @@ def _record(ev_t, ev_key, ev_info, ivars, t, key, info):
 
 
 @njit(cache=True)
+def _plain_steps(Phi, G0, G1, K, M, C, F, Cy, Dy, Fy, ck, cna_j, cidx_j, cG_j, outstate,
+                 has_duty, duty_sw, key, tgrid, odd, U0, U1, force_out, kk, kstop, x, lam, ms,
+                 xf, q, za, xn, lamn, T_out, Y_out, ivars, rtol, every, countdown, cap_row):
+    """Regular grid steps ``kk .. kstop-1`` of one mode with no comparator, no sliding and no
+    schedule entry: the inline fast path of :func:`run_grid` without its per-step switching
+    machinery (the same arithmetic, so the same numbers). Stops at the first step it cannot
+    take (shortened, active set not accepted, non-finite, output buffer nearly full), which
+    :func:`run_grid` then takes; returns ``(kk, countdown)``."""
+    n = x.shape[0]
+    m = lam.shape[0]
+    p = U0.shape[1]
+    r_out = Y_out.shape[1]
+    pos = ivars[IV_OUTPOS]
+    steps = 0
+    while kk < kstop:
+        if odd[kk] or pos > cap_row:
+            break
+        for i in range(n):
+            v = 0.0
+            for jj in range(n):
+                v += Phi[i, jj] * x[jj]
+            for jj in range(p):
+                v += G0[i, jj] * U0[kk, jj] + G1[i, jj] * U1[kk, jj]
+            xf[i] = v
+        chk = 0.0
+        for i in range(m):
+            v = 0.0
+            for jj in range(n):
+                v += C[i, jj] * xf[jj]
+            for jj in range(p):
+                v += F[i, jj] * U1[kk, jj]
+            q[i] = v
+            chk += v
+        for i in range(n):
+            chk += xf[i]
+        if chk - chk != 0.0:
+            break
+        if m == 0:
+            for i in range(n):
+                xn[i] = xf[i]
+        else:
+            slot = ms[1]
+            if slot < 0:
+                slot = _lookup(M, ms[0], ck, cna_j, cidx_j, cG_j, ivars)
+                ms[1] = slot
+            na = cna_j[slot]
+            if na < 0:
+                break
+            done = True
+            zmax = 0.0
+            for ii in range(na):
+                v = 0.0
+                for jj in range(na):
+                    v += cG_j[slot, ii, jj] * q[cidx_j[slot, jj]]
+                za[ii] = v
+                if abs(v) > zmax:
+                    zmax = abs(v)
+            for ii in range(na):
+                if za[ii] < -rtol * zmax:
+                    done = False
+                    break
+            if done:
+                for ii in range(na, m):
+                    i = cidx_j[slot, ii]
+                    v = q[i]
+                    sc = abs(v)
+                    for jj in range(na):
+                        t = M[i, cidx_j[slot, jj]] * za[jj]
+                        v += t
+                        sc += abs(t)
+                    if v < -rtol * sc:
+                        done = False
+                        break
+            if not done:
+                break
+            for i in range(m):
+                lamn[i] = 0.0
+            for jj in range(na):
+                lamn[cidx_j[slot, jj]] = za[jj]
+            chk = 0.0
+            for i in range(n):
+                v = xf[i]
+                for jj in range(na):
+                    v += K[i, cidx_j[slot, jj]] * za[jj]
+                xn[i] = v
+                chk += v
+            if chk - chk != 0.0:
+                break
+        for i in range(n):
+            x[i] = xn[i]
+        for i in range(m):
+            lam[i] = lamn[i]
+        steps += 1
+        countdown -= 1
+        if countdown == 0 or force_out[kk]:
+            if countdown == 0:
+                countdown = every
+            tb = tgrid[kk + 1]
+            T_out[pos] = tb
+            if outstate and not has_duty:
+                for i in range(n):
+                    Y_out[pos, i] = x[i]
+            else:
+                for r in range(r_out):
+                    sw = duty_sw[r]
+                    if sw >= 0:
+                        Y_out[pos, r] = 1.0 if (key >> sw) & 1 else 0.0
+                        continue
+                    v = 0.0
+                    for jj in range(n):
+                        v += Cy[r, jj] * x[jj]
+                    for jj in range(m):
+                        v += Dy[r, jj] * lam[jj]
+                    for jj in range(p):
+                        v += Fy[r, jj] * U1[kk, jj]
+                    Y_out[pos, r] = v
+            pos += 1
+        kk += 1
+    ivars[IV_OUTPOS] = pos
+    ivars[IV_STEPS] += steps
+    ivars[IV_GSTEP] += steps
+    return kk, countdown
+
+
+@njit(cache=True)
 def run_grid(
     mats, mkey, mflags, ckeys, cna, cidx, cG,
     sw_kind, sw_flags, sw_vt, sw_vh,
@@ -1611,6 +1736,8 @@ def run_grid(
     za = W[7]
     rtol = fvars[FV_RTOL]
     r_out = Y_out.shape[1]
+    plain = not has_located and not has_sampled
+    plain_skip = -1
     kk = ivars[IV_K]
     while kk < N:
         ta_grid = tgrid[kk]
@@ -1622,6 +1749,33 @@ def run_grid(
                 or ivars[IV_EVPOS] + 2 * max_sw + k + 6 + (nsched - ivars[IV_SCHED]) > cap_ev):
             status = STEP_FULL
             break
+        if (plain and slide < 0 and kk != plain_skip and j >= 0 and mkey[j] == key
+                and tcur <= ta_grid and ivars[IV_INIT] != kk):
+            # No comparator and no sliding: the regular steps up to the next schedule entry
+            # by the plain loop (see _plain_steps); it stops where this loop must take over.
+            kstop = N
+            sp = ivars[IV_SCHED]
+            if sp < nsched and sched_k[sp] < kstop:
+                kstop = sched_k[sp]
+            if kstop > kk and (m == 0 or mflags[j, MF_FAST] != 0):
+                k2, countdown = _plain_steps(
+                    mats[I_PHI][j], mats[I_G0][j], mats[I_G1][j], mats[I_K][j], mats[I_M][j],
+                    mats[I_C][j], mats[I_F][j], mats[I_CY][j], mats[I_DY][j], mats[I_FY][j],
+                    ckeys[j], cna[j], cidx[j], cG[j], mflags[j, MF_OUTSTATE] != 0, has_duty,
+                    duty_sw, key, tgrid, odd, U0, U1, force_out, kk, kstop, x, lam, ms, xf, q,
+                    za, xn, lamn, T_out, Y_out, ivars, rtol, every, countdown,
+                    cap_out - max_sw - 3)
+                plain_skip = k2
+                if k2 > kk:
+                    # (the state the per-step loop leaves after plain steps)
+                    for i in range(m):
+                        lama[i] = lamna[i]
+                    d = 0.0
+                    tcur = tgrid[k2]
+                    ivars[IV_INIT] = k2 - 1
+                    ivars[IV_NSW] = 0
+                    kk = k2
+                    continue
         if ivars[IV_INIT] != kk:
             ivars[IV_INIT] = kk
             ivars[IV_NSW] = 0
