@@ -134,6 +134,7 @@ from .stepping import (
     MF_UNIQ,
     OP_REARM,
     OP_SET,
+    PLAIN_MIN,
     STEP_CHATTER,
     STEP_FULL,
     STEP_LCP_FAILED,
@@ -989,6 +990,12 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
     sw_flags = np.ascontiguousarray(sws.flags)
     sw_vt = np.ascontiguousarray(sws.vt)
     sw_vh = np.ascontiguousarray(sws.vh)
+    # The kernel's plain loop only for runs with no comparator (None: compiled without it).
+    # (and only when the schedule leaves long runs of steps between its entries: the branch
+    # slows the steps it does not take).
+    plain_mode = (None if (np.any((sw_kind == SW_LOCATED) | (sw_kind == SW_SAMPLED))
+                           or est_steps < 2 * PLAIN_MIN * (len(st_t) + 1))
+                  else True)
 
     # --- windows between controller sampling instants ---------------------------------------
     samples = list(ctrl_samples.values())
@@ -1078,7 +1085,7 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
                         stack.cidx, stack.cG, sw_kind, sw_flags, sw_vt, sw_vh,
                         tg, odd, U0, U1, Um, force, sched_k, sched_op, sched_a, sched_b,
                         x, lam, lama, ivars, fvars, max_piv, enum_max_m, every, max_sw,
-                        T_out, Y_out, duty_sw, ev_t, ev_key, ev_info,
+                        T_out, Y_out, duty_sw, ev_t, ev_key, ev_info, plain_mode,
                     )
                     if status == STEP_OK:
                         break

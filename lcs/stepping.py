@@ -135,6 +135,9 @@ MF_UNIQ = 1  # check state uniqueness of Lemke solutions when m <= this (-1: nev
 MF_OUTSTATE = 2  # the stored outputs are the states (skip the products)
 MF_LEN = 3
 
+# Shortest run of steps up to the next schedule entry that run_grid gives to _plain_steps.
+PLAIN_MIN = 16
+
 # Indices in the tuple of stacked per-mode matrices (each of shape (n_modes_capacity, ., .)).
 I_A, I_B, I_C, I_D, I_E, I_F = 0, 1, 2, 3, 4, 5
 I_PHI, I_G0, I_G1, I_K, I_M = 6, 7, 8, 9, 10
@@ -1572,7 +1575,7 @@ def run_grid(
     tgrid, odd, U0, U1, Um, force_out,
     sched_k, sched_op, sched_a, sched_b,
     x, lam, lama, ivars, fvars, max_piv, enum_max_m, every, max_sw,
-    T_out, Y_out, duty_sw, ev_t, ev_key, ev_info,
+    T_out, Y_out, duty_sw, ev_t, ev_key, ev_info, plain_mode,
 ):
     """Advance ``x`` over the grid chunk ``tgrid`` through every mode change.
 
@@ -1620,6 +1623,10 @@ def run_grid(
         on-fraction: 0/1, or the equivalent duty while it slides).
     ev_t, ev_key, ev_info : arrays, shape (cap_e,)
         Event records: time (s), switch key after it, ``switch + EV_*`` (-1: schedule).
+    plain_mode : None or bool
+        None: no plain loop (the branch is pruned when compiling, so that the per-step loop
+        of runs with comparators keeps its speed); True: regular steps of runs with no
+        comparator and no sliding go through :func:`_plain_steps`.
 
     Returns
     -------
@@ -1749,33 +1756,36 @@ def run_grid(
                 or ivars[IV_EVPOS] + 2 * max_sw + k + 6 + (nsched - ivars[IV_SCHED]) > cap_ev):
             status = STEP_FULL
             break
-        if (plain and slide < 0 and kk != plain_skip and j >= 0 and mkey[j] == key
-                and tcur <= ta_grid and ivars[IV_INIT] != kk):
-            # No comparator and no sliding: the regular steps up to the next schedule entry
-            # by the plain loop (see _plain_steps); it stops where this loop must take over.
-            kstop = N
-            sp = ivars[IV_SCHED]
-            if sp < nsched and sched_k[sp] < kstop:
-                kstop = sched_k[sp]
-            if kstop > kk and (m == 0 or mflags[j, MF_FAST] != 0):
-                k2, countdown = _plain_steps(
-                    mats[I_PHI][j], mats[I_G0][j], mats[I_G1][j], mats[I_K][j], mats[I_M][j],
-                    mats[I_C][j], mats[I_F][j], mats[I_CY][j], mats[I_DY][j], mats[I_FY][j],
-                    ckeys[j], cna[j], cidx[j], cG[j], mflags[j, MF_OUTSTATE] != 0, has_duty,
-                    duty_sw, key, tgrid, odd, U0, U1, force_out, kk, kstop, x, lam, ms, xf, q,
-                    za, xn, lamn, T_out, Y_out, ivars, rtol, every, countdown,
-                    cap_out - max_sw - 3)
-                plain_skip = k2
-                if k2 > kk:
-                    # (the state the per-step loop leaves after plain steps)
-                    for i in range(m):
-                        lama[i] = lamna[i]
-                    d = 0.0
-                    tcur = tgrid[k2]
-                    ivars[IV_INIT] = k2 - 1
-                    ivars[IV_NSW] = 0
-                    kk = k2
-                    continue
+        if plain_mode is not None:
+            if (plain and slide < 0 and kk != plain_skip and j >= 0 and mkey[j] == key
+                    and tcur <= ta_grid and ivars[IV_INIT] != kk):
+                # No comparator and no sliding: the regular steps up to the next schedule entry
+                # by the plain loop (see _plain_steps); it stops where this loop must take over.
+                kstop = N
+                sp = ivars[IV_SCHED]
+                if sp < nsched and sched_k[sp] < kstop:
+                    kstop = sched_k[sp]
+                # (only for runs of PLAIN_MIN steps or more: a call costs the views of the
+                # mode's matrices, more than a few steps gain)
+                if kstop - kk >= PLAIN_MIN and (m == 0 or mflags[j, MF_FAST] != 0):
+                    k2, countdown = _plain_steps(
+                        mats[I_PHI][j], mats[I_G0][j], mats[I_G1][j], mats[I_K][j], mats[I_M][j],
+                        mats[I_C][j], mats[I_F][j], mats[I_CY][j], mats[I_DY][j], mats[I_FY][j],
+                        ckeys[j], cna[j], cidx[j], cG[j], mflags[j, MF_OUTSTATE] != 0, has_duty,
+                        duty_sw, key, tgrid, odd, U0, U1, force_out, kk, kstop, x, lam, ms, xf, q,
+                        za, xn, lamn, T_out, Y_out, ivars, rtol, every, countdown,
+                        cap_out - max_sw - 3)
+                    plain_skip = k2
+                    if k2 > kk:
+                        # (the state the per-step loop leaves after plain steps)
+                        for i in range(m):
+                            lama[i] = lamna[i]
+                        d = 0.0
+                        tcur = tgrid[k2]
+                        ivars[IV_INIT] = k2 - 1
+                        ivars[IV_NSW] = 0
+                        kk = k2
+                        continue
         if ivars[IV_INIT] != kk:
             ivars[IV_INIT] = kk
             ivars[IV_NSW] = 0

@@ -448,4 +448,20 @@ def warm_up() -> float:
     lcs = LCS(A=-one, B=one, C=-one, D=one, E=0 * one, F=one, states=("x",),
               pairs=(ComplementarityPair("D"),), inputs=("u",))
     simulate_lcs(lcs, [Dc(1.0)], [0.0], 1e-3, 1e-4)
+    # The kernel's other specialisation (runs with a comparator): a relaxation oscillator.
+    from .parser import parse_string
+
+    simulate_circuit(parse_string(_WARM_COMPARATOR))
     return time.perf_counter() - t0
+
+
+_WARM_COMPARATOR = """warm-up: relaxation oscillator (hysteretic comparator)
+Vin in 0 DC 10
+S1 in a 0 c SWH
+R1 a c 1k
+R2 c 0 4k
+C1 c 0 1n IC=0
+.model SWH SW(VT=-5 VH=1 RON=1m ROFF=1e9)
+.tran 10n 5u 0 10n UIC
+.end
+"""
