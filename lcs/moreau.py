@@ -67,9 +67,11 @@ from .events import (
     source_switch_events,
 )
 from .lcp import LcpOptions, is_p_matrix, solve_lcp
+from .lcp.compiled import MAX_MASK_M, ActiveSets
 from .model import LCS, ModeKey, ModeModel, OutputMap, SwitchedLCS
 from .results import SimulationError, SimulationResult, SimulationStats
-from .stepping import (
+from .stepping import discretise, run_grid
+from .stepping.layout import (
     EV_SLIDE_END,
     EV_SLIDE_START,
     FV_DUTY,
@@ -86,23 +88,6 @@ from .stepping import (
     FV_TCUR,
     FV_THETA,
     FV_UNIQ_TOL,
-    I_A,
-    I_B,
-    I_C,
-    I_CC,
-    I_CY,
-    I_D,
-    I_DC,
-    I_DY,
-    I_E,
-    I_F,
-    I_FC,
-    I_FY,
-    I_G0,
-    I_G1,
-    I_K,
-    I_M,
-    I_PHI,
     IV_EVPOS,
     IV_FAILMASK,
     IV_FAILMODE,
@@ -127,7 +112,6 @@ from .stepping import (
     IV_SLIDESTEPS,
     IV_STEPS,
     IV_UNIQ,
-    MAX_MASK_M,
     MF_FAST,
     MF_LEN,
     MF_OUTSTATE,
@@ -148,8 +132,14 @@ from .stepping import (
     SW_SCHEDULED,
     SWF_LATCH,
     SWF_RELAY,
-    discretise,
-    run_grid,
+    Chunk,
+    Limits,
+    ModeArrays,
+    ModeStack,
+    Schedule,
+    Store,
+    SwitchArrays,
+    mode_shapes,
 )
 
 __all__ = [
@@ -444,8 +434,7 @@ class _Stack:
         self.n, self.m, self.p, self.r = n, m, p, r
         k = len(sws.names)
         self.k = k
-        self.shapes = [(n, n), (n, m), (m, n), (m, m), (n, p), (m, p), (n, n), (n, p), (n, p),
-                       (n, m), (m, m), (r, n), (r, m), (r, p), (k, n), (k, m), (k, p)]
+        self.shapes = mode_shapes(n, m, p, r, k)
         self.S = max(1, int(opts.cache_slots))
         self.src_maps = src_maps
         self.base = base
@@ -453,7 +442,7 @@ class _Stack:
         self.index: dict[int, int] = {}
         self.lcs: list[LCS] = []
         self.cap = 0
-        self.mats: list[np.ndarray] = [np.zeros((0, *s)) for s in self.shapes]
+        self.mats = ModeArrays(*(np.zeros((0, *s)) for s in self.shapes))
         self.mkey = np.zeros(0, np.int64)
         self.mflags = np.zeros((0, MF_LEN), np.int64)
         self.ckeys = np.zeros((0, self.S), np.int64)
@@ -470,7 +459,7 @@ class _Stack:
             new[:c] = a[:c]
             return new
 
-        self.mats = [grown(a) for a in self.mats]
+        self.mats = ModeArrays(*(grown(a) for a in self.mats))
         self.mkey = grown(self.mkey, -1)
         self.mflags = grown(self.mflags)
         self.ckeys = grown(self.ckeys, -1)
@@ -489,8 +478,10 @@ class _Stack:
     def key_of(self, mode: ModeKey) -> int:
         return sum(1 << i for i, on in enumerate(mode) if on)
 
-    def mats_tuple(self) -> tuple:
-        return tuple(self.mats)
+    def arrays(self) -> ModeStack:
+        """The stack as the kernel takes it."""
+        return ModeStack(self.mats, ActiveSets(self.ckeys, self.cna, self.cidx, self.cG),
+                         self.mkey, self.mflags)
 
     def add(self, key: int) -> int:
         """Build the mode of ``key`` (switch i on when bit i is set) and append it."""
@@ -509,11 +500,10 @@ class _Stack:
         if self.count == self.cap:
             self._grow(2 * self.cap)
         j = self.count
-        for idx, arr in ((I_A, A), (I_B, B), (I_C, C), (I_D, D), (I_E, E), (I_F, F),
-                         (I_PHI, disc.Phi), (I_G0, disc.G0), (I_G1, disc.G1), (I_K, disc.K),
-                         (I_M, disc.M), (I_CY, out.Cy), (I_DY, out.Dy), (I_FY, out.Fy),
-                         (I_CC, Cc), (I_DC, Dc), (I_FC, Fc)):
-            self.mats[idx][j] = arr
+        for stacked, arr in zip(self.mats, (A, B, C, D, E, F, disc.Phi, disc.G0, disc.G1,
+                                            disc.K, disc.M, out.Cy, out.Dy, out.Fy, Cc, Dc,
+                                            Fc), strict=True):
+            stacked[j] = arr
         fast = bool(self.opts.fast_path and m <= MAX_MASK_M)
         # Enumeration-based uniqueness checks only for small m, and not for P-matrices
         # (unique λ for every q).
@@ -617,7 +607,7 @@ def _cached_stack(prob: _Problem, sws: _Switches, h, theta, opts: MoreauOptions,
 
 def _outputs_now(stack: _Stack, j: int, x, lam, u, names_rows=None) -> np.ndarray:
     M = stack.mats
-    y = M[I_CY][j] @ x + M[I_DY][j] @ lam + M[I_FY][j] @ u
+    y = M.Cy[j] @ x + M.Dy[j] @ lam + M.Fy[j] @ u
     return y
 
 
@@ -820,7 +810,7 @@ class _Measure:
 
 def _row(stack: _Stack, j: int, key: int, slide: int, duty: float, x, lam, u) -> np.ndarray:
     M = stack.mats
-    y = M[I_CY][j] @ x + M[I_DY][j] @ lam + M[I_FY][j] @ u
+    y = M.Cy[j] @ x + M.Dy[j] @ lam + M.Fy[j] @ u
     out = stack.prob.output(stack.mode_tuple(key))
     for r, i in enumerate(out.duty):
         if i >= 0:
@@ -879,7 +869,7 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
     def initial_lcp(j):
         if not m:
             return None
-        Dm, Cm, Fm = stack.mats[I_D][j], stack.mats[I_C][j], stack.mats[I_F][j]
+        Dm, Cm, Fm = stack.mats.D[j], stack.mats.C[j], stack.mats.F[j]
         return solve_lcp(Dm, Cm @ x + Fm @ u0, opts.lcp)
 
     comparators = [i for i in range(k) if sws.kind[i] != SW_SCHEDULED]
@@ -901,7 +891,7 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
         lam = res0.z.copy() if (res0 is not None and res0.ok) else np.zeros(m)
         if not comparators:
             break
-        c = stack.mats[I_CC][j] @ x + stack.mats[I_DC][j] @ lam + stack.mats[I_FC][j] @ u0
+        c = stack.mats.Cc[j] @ x + stack.mats.Dc[j] @ lam + stack.mats.Fc[j] @ u0
         new = key
         for i in comparators:
             on = bool((key >> i) & 1)
@@ -987,9 +977,9 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
     jumps = has_jumps(inputs)
     table = InputTable(inputs, t_start, t_stop)
     sw_kind = np.ascontiguousarray(sws.kind)
-    sw_flags = np.ascontiguousarray(sws.flags)
-    sw_vt = np.ascontiguousarray(sws.vt)
-    sw_vh = np.ascontiguousarray(sws.vh)
+    sw_arrays = SwitchArrays(sw_kind, np.ascontiguousarray(sws.flags),
+                             np.ascontiguousarray(sws.vt), np.ascontiguousarray(sws.vh))
+    limits = Limits(max_piv, enum_max_m, every, max_sw)
     # The kernel's plain loop only for runs with no comparator (None: compiled without it).
     # (and only when the schedule leaves long runs of steps between its entries: the branch
     # slows the steps it does not take).
@@ -1081,11 +1071,10 @@ def _run(prob: _Problem, inputs, x0, t_start, t_stop, h, theta, every, user_bps,
                 while True:
                     ivars[IV_NMODES] = stack.count
                     status = run_grid(
-                        stack.mats_tuple(), stack.mkey, stack.mflags, stack.ckeys, stack.cna,
-                        stack.cidx, stack.cG, sw_kind, sw_flags, sw_vt, sw_vh,
-                        tg, odd, U0, U1, Um, force, sched_k, sched_op, sched_a, sched_b,
-                        x, lam, lama, ivars, fvars, max_piv, enum_max_m, every, max_sw,
-                        T_out, Y_out, duty_sw, ev_t, ev_key, ev_info, plain_mode,
+                        stack.arrays(), sw_arrays, Chunk(tg, odd, U0, U1, Um, force),
+                        Schedule(sched_k, sched_op, sched_a, sched_b), x, lam, lama, ivars,
+                        fvars, limits, Store(T_out, Y_out, duty_sw, ev_t, ev_key, ev_info),
+                        plain_mode,
                     )
                     if status == STEP_OK:
                         break

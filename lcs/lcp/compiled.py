@@ -1,0 +1,397 @@
+"""The LCP of a time step, compiled: one interface over the active-set fast path, Lemke and
+enumeration, for use inside numba integration loops (no allocation, no Python).
+
+A step's LCP ``w = M λ + q, 0 <= w ⊥ λ >= 0`` usually has the same active set ``a`` (the pairs
+whose λ is basic) as the step before. The integrators therefore try, in order:
+
+1. :func:`solve_cached` -- the previous active set with a cached ``-(M_aa)^-1`` (regular steps:
+   ``M`` is fixed per mode, so its factorisations are kept per active set in an
+   :class:`ActiveSets` cache);
+2. :func:`solve_basis` -- the previous active set by a direct solve of the basis (steps of
+   another length, whose ``M`` is new);
+3. :func:`solve_pivoting` -- Lemke with lexicographic tie-breaking, then every complementary
+   basis when Lemke fails and ``m`` is small (:func:`enumerate_nb`).
+
+An active set is accepted when ``λ_a >= -rtol |λ_a|_max`` and ``w_i >= -rtol Σ|terms|`` off
+``a``: round-off, not modelling, accuracy. Active sets are int64 bitmasks (bit i: pair i
+active), so these paths serve ``m <= MAX_MASK_M``; larger problems go to the pivoting solvers.
+
+:func:`distinct_images` enumerates every solution to tell whether they map to different
+states ``x = x_free + K λ`` (non-uniqueness that matters).
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+from ..jit import inline, kernel
+from .lemke import LEMKE_SOLVED, LEMKE_TRIVIAL, lemke_nb
+
+MAX_MASK_M = 62  # active sets are int64 bitmasks
+
+# Entries of the integer counters array the cache updates (the integrators' counters arrays
+# keep these two indices for it).
+AS_NEXT_SLOT = 1  # next cache slot to (re)use, round robin over every mode's cache
+AS_MISSES = 9  # cache misses (factorisations)
+
+ActiveSets = namedtuple("ActiveSets", ["keys", "na", "idx", "G"])
+ActiveSets.__doc__ = """Cached factorisations of one LCP matrix per active set (``S`` slots).
+
+``keys (S,)`` the active-set bitmask of each slot (-1: empty); ``na (S,)`` its size (-1: the
+principal submatrix is singular, no fast path); ``idx (S, m)`` the active indices first, then
+the others; ``G (S, m, m)`` ``-(M_aa)^-1`` in its top-left ``na x na`` block. The integrators
+stack one cache per mode along a leading axis.
+"""
+
+LcpWork = namedtuple("LcpWork", ["z", "w", "active", "tableau", "basis", "aug"])
+LcpWork.__doc__ = """Work arrays of the pivoting and basis solvers, for ``m`` pairs: ``z, w (m,)``,
+``active (m,) bool``, ``tableau (m, 2m + 2)``, ``basis (m,) int64``, ``aug (m, m + 1)``."""
+
+
+def lcp_work(m: int) -> LcpWork:
+    """Allocate the work arrays of :class:`LcpWork` for ``m`` pairs."""
+    return LcpWork(np.zeros(m), np.zeros(m), np.zeros(m, np.bool_), np.zeros((m, 2 * m + 2)),
+                   np.zeros(m, np.int64), np.zeros((m, m + 1)))
+
+
+@kernel
+def factor_active(M, mask, slot, sets):
+    """Store ``-(M_aa)^-1`` and the index split of active set ``mask`` in cache ``slot``.
+
+    ``sets.na[slot] = -1`` marks a singular ``M_aa`` (no fast path for that set).
+    """
+    cna, cidx, cG = sets.na, sets.idx, sets.G
+    m = M.shape[0]
+    na = 0
+    for i in range(m):
+        if (mask >> i) & 1:
+            cidx[slot, na] = i
+            na += 1
+    ni = na
+    for i in range(m):
+        if not (mask >> i) & 1:
+            cidx[slot, ni] = i
+            ni += 1
+    if na == 0:
+        cna[slot] = 0
+        return
+    # Gauss-Jordan with partial pivoting on [M_aa | I].
+    aug = np.zeros((na, 2 * na))
+    amax = 0.0
+    for i in range(na):
+        for j in range(na):
+            v = M[cidx[slot, i], cidx[slot, j]]
+            aug[i, j] = v
+            if abs(v) > amax:
+                amax = abs(v)
+        aug[i, na + i] = 1.0
+    for c in range(na):
+        p = c
+        for r in range(c + 1, na):
+            if abs(aug[r, c]) > abs(aug[p, c]):
+                p = r
+        if abs(aug[p, c]) <= 1e-13 * amax:
+            cna[slot] = -1
+            return
+        if p != c:
+            for j in range(2 * na):
+                tmp = aug[c, j]
+                aug[c, j] = aug[p, j]
+                aug[p, j] = tmp
+        piv = aug[c, c]
+        for j in range(2 * na):
+            aug[c, j] /= piv
+        for r in range(na):
+            if r != c:
+                f = aug[r, c]
+                if f != 0.0:
+                    for j in range(2 * na):
+                        aug[r, j] -= f * aug[c, j]
+    for i in range(na):
+        for j in range(na):
+            cG[slot, i, j] = -aug[i, na + j]
+    cna[slot] = na
+
+
+@kernel
+def lookup(M, mask, sets, counters):
+    """Cache slot of active set ``mask``, factorising it on a miss (``counters``: see
+    :data:`AS_NEXT_SLOT`, :data:`AS_MISSES`)."""
+    S = sets.keys.shape[0]
+    for s in range(S):
+        if sets.keys[s] == mask:
+            return s
+    s = counters[AS_NEXT_SLOT]
+    counters[AS_NEXT_SLOT] = (s + 1) % S
+    counters[AS_MISSES] += 1
+    sets.keys[s] = mask
+    factor_active(M, mask, s, sets)
+    return s
+
+
+@kernel
+def mask_of(active):
+    """Bitmask of a boolean active-set vector."""
+    mask = 0
+    for i in range(active.shape[0]):
+        if active[i]:
+            mask |= 1 << i
+    return mask
+
+
+@inline
+def solve_cached(M, q, sets, slot, za, rtol):
+    """The active set of cache ``slot`` (see :class:`ActiveSets`) for ``w = M λ + q``.
+
+    Returns its size ``na`` with ``λ_a`` in ``za[:na]`` (in the order ``sets.idx[slot, :na]``),
+    or -1 when the set is singular or not accepted.
+    """
+    m = q.shape[0]
+    na = sets.na[slot]
+    if na < 0:
+        return -1
+    cidx = sets.idx
+    cG = sets.G
+    zmax = 0.0
+    for ii in range(na):
+        v = 0.0
+        for jj in range(na):
+            v += cG[slot, ii, jj] * q[cidx[slot, jj]]
+        za[ii] = v
+        if abs(v) > zmax:
+            zmax = abs(v)
+    for ii in range(na):
+        if za[ii] < -rtol * zmax:
+            return -1
+    for ii in range(na, m):
+        i = cidx[slot, ii]
+        v = q[i]
+        sc = abs(v)
+        for jj in range(na):
+            t = M[i, cidx[slot, jj]] * za[jj]
+            v += t
+            sc += abs(t)
+        if v < -rtol * sc:
+            return -1
+    return na
+
+
+@kernel
+def basis_solution(M, q, mask, z, aug):
+    """Solve the complementary basis ``mask`` (``w_a = 0``, ``z_n = 0``) into ``z``.
+
+    Returns False for a (numerically) singular basis.
+    """
+    m = q.shape[0]
+    na = 0
+    idx = np.empty(m, np.int64)
+    for i in range(m):
+        z[i] = 0.0
+        if (mask >> i) & 1:
+            idx[na] = i
+            na += 1
+    if na == 0:
+        return True
+    amax = 0.0
+    for i in range(na):
+        for j in range(na):
+            v = M[idx[i], idx[j]]
+            aug[i, j] = v
+            if abs(v) > amax:
+                amax = abs(v)
+        aug[i, na] = -q[idx[i]]
+    for c in range(na):
+        p = c
+        for r in range(c + 1, na):
+            if abs(aug[r, c]) > abs(aug[p, c]):
+                p = r
+        if abs(aug[p, c]) <= 1e-11 * amax:
+            return False
+        if p != c:
+            for j in range(na + 1):
+                tmp = aug[c, j]
+                aug[c, j] = aug[p, j]
+                aug[p, j] = tmp
+        for r in range(c + 1, na):
+            f = aug[r, c] / aug[c, c]
+            if f != 0.0:
+                for j in range(c, na + 1):
+                    aug[r, j] -= f * aug[c, j]
+    for i in range(na - 1, -1, -1):
+        s = aug[i, na]
+        for j in range(i + 1, na):
+            s -= aug[i, j] * z[idx[j]]
+        z[idx[i]] = s / aug[i, i]
+    return True
+
+
+@inline
+def solve_basis(M, q, mask, work, lam, rtol):
+    """The active set ``mask`` for ``w = M λ + q`` by a direct solve of its basis.
+
+    Returns True with ``λ`` in ``lam`` (negative round-off clipped to 0) when the basis is
+    regular and accepted.
+    """
+    m = q.shape[0]
+    z = work.z
+    if not basis_solution(M, q, mask, z, work.aug):
+        return False
+    zmax = 0.0
+    for i in range(m):
+        if abs(z[i]) > zmax:
+            zmax = abs(z[i])
+    for i in range(m):
+        if z[i] < -rtol * zmax:
+            return False
+    for i in range(m):
+        if (mask >> i) & 1:
+            continue
+        v = q[i]
+        sc = abs(v)
+        for jj in range(m):
+            t = M[i, jj] * z[jj]
+            v += t
+            sc += abs(t)
+        if v < -rtol * sc:
+            return False
+    for i in range(m):
+        lam[i] = z[i] if z[i] > 0.0 else 0.0
+    return True
+
+
+@kernel
+def _popcount(v):
+    c = 0
+    while v:
+        v &= v - 1
+        c += 1
+    return c
+
+
+@kernel
+def enumerate_nb(M, q, feas_tol, z, w, aug):
+    """Try every complementary basis, fewest active pairs first (the compiled twin of
+    :func:`lcs.lcp.enumerate_lcp`). Returns the basis bitmask with the solution in ``z``, or
+    -1 when there is none."""
+    m = q.shape[0]
+    for cnt in range(m + 1):
+        for mask in range(1 << m):
+            if _popcount(mask) != cnt:
+                continue
+            if not basis_solution(M, q, mask, z, aug):
+                continue
+            zs = 0.0
+            for i in range(m):
+                if abs(z[i]) > zs:
+                    zs = abs(z[i])
+            ok = True
+            for i in range(m):
+                if z[i] < -feas_tol * zs:
+                    ok = False
+                    break
+                wi = q[i]
+                sc = abs(q[i])
+                for j in range(m):
+                    t = M[i, j] * z[j]
+                    wi += t
+                    sc += abs(t)
+                w[i] = wi
+                if wi < -feas_tol * sc:
+                    ok = False
+                    break
+            if ok:
+                for i in range(m):
+                    if z[i] < 0.0:
+                        z[i] = 0.0
+                return mask
+    return -1
+
+
+@kernel
+def solve_pivoting(M, q, work, max_piv, pivot_tol, lex_tol, feas_tol, enum_max_m, lam):
+    """Lemke, then enumeration (``m <= enum_max_m``) when Lemke fails.
+
+    Returns ``(mask, pivots, lemke_status)``: the active set of the solution (its λ in ``lam``,
+    negative round-off clipped to 0), or ``mask = -1`` when neither found a solution;
+    ``lemke_status`` is Lemke's ``LEMKE_*`` code.
+    """
+    m = q.shape[0]
+    z = work.z
+    status, piv = lemke_nb(M, q, max_piv, pivot_tol, lex_tol, work.tableau, work.basis, z,
+                           work.w, work.active)
+    if status == LEMKE_SOLVED or status == LEMKE_TRIVIAL:
+        mask = mask_of(work.active)
+    else:
+        mask = -1
+        if m <= enum_max_m:
+            mask = enumerate_nb(M, q, feas_tol, z, work.w, work.aug)
+        if mask < 0:
+            return -1, piv, status
+    for i in range(m):
+        lam[i] = z[i] if z[i] > 0.0 else 0.0
+    return mask, piv, status
+
+
+@kernel
+def negative_q_mask(q):
+    """Pairs with ``q_i < 0`` (forward-biased / reverse current with every λ = 0): the pairs
+    to name when an LCP has no solution."""
+    fm = 0
+    for i in range(q.shape[0]):
+        if q[i] < 0.0:
+            fm |= 1 << i
+    return fm
+
+
+@kernel
+def distinct_images(M, q, K, xf, lam, uniq_tol, feas_tol, zalt, aug):
+    """Enumerate every complementary basis; return the bitmask of pairs whose λ differs in a
+    solution whose image ``x_free + K λ`` differs from that of ``lam`` by more than
+    ``uniq_tol`` (relative), or 0 when every solution gives the same image."""
+    m = q.shape[0]
+    n = K.shape[0]
+    xscale = 0.0
+    for i in range(n):
+        s = abs(xf[i])
+        for j in range(m):
+            s += abs(K[i, j] * lam[j])
+        if s > xscale:
+            xscale = s
+    for mask in range(1 << m):
+        if not basis_solution(M, q, mask, zalt, aug):
+            continue
+        zs = 0.0
+        for i in range(m):
+            if abs(zalt[i]) > zs:
+                zs = abs(zalt[i])
+        feasible = True
+        for i in range(m):
+            if zalt[i] < -feas_tol * zs:
+                feasible = False
+                break
+            wi = q[i]
+            sc = abs(q[i])
+            for j in range(m):
+                t = M[i, j] * zalt[j]
+                wi += t
+                sc += abs(t)
+            if wi < -feas_tol * sc:
+                feasible = False
+                break
+        if not feasible:
+            continue
+        for i in range(n):
+            dx = 0.0
+            for j in range(m):
+                dx += K[i, j] * (zalt[j] - lam[j])
+            # The absolute floor ignores differences among subnormal numbers (a state that
+            # decayed to ~1e-310 has lost its relative precision; it is zero in practice).
+            if abs(dx) > uniq_tol * xscale and abs(dx) > 1e-250:
+                diff = 0
+                for j in range(m):
+                    if abs(zalt[j] - lam[j]) > uniq_tol * max(abs(zalt[j]), abs(lam[j])):
+                        diff |= 1 << j
+                return diff if diff != 0 else (1 << m) - 1
+    return 0

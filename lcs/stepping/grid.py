@@ -1,0 +1,575 @@
+"""The kernel's loop over a chunk of the time grid, through every switch-mode change.
+
+One call of :func:`run_grid` advances the state over a chunk of the grid without returning to
+Python except when it needs a mode whose matrices are not built yet (``STEP_NEED_MODE``),
+when an output buffer is full (``STEP_FULL``), or on failure. Per grid step:
+
+1. the schedule's switchings at its start (source- and controller-driven switches, latch
+   re-arms);
+2. sub-steps up to its end: a θ step (:mod:`.step`; both modes and the relay while a switch
+   slides, :mod:`.sliding`), the located comparators checked at its end
+   (:mod:`.comparators`), and on a crossing the instant located (:mod:`.locate`), the step
+   split there and the mode changed;
+3. the output row (:mod:`.store`) and the sampled comparators.
+
+Runs with no comparator take their regular steps in :func:`plain_steps`, the same arithmetic
+without the switching machinery.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..jit import inline, kernel
+from ..lcp.compiled import ActiveSets, LcpWork, lookup
+from .comparators import crossing, row_value, sample_switches, sampled_controls
+from .layout import (
+    EV_SLIDE_END,
+    EV_SLIDE_START,
+    FV_DUTY,
+    FV_FAIL_T0,
+    FV_FAIL_T1,
+    FV_H,
+    FV_LASTT,
+    FV_RTOL,
+    FV_TCUR,
+    FV_THETA,
+    IV_EVPOS,
+    IV_FAILMODE,
+    IV_FAILSW,
+    IV_GSTEP,
+    IV_INIT,
+    IV_K,
+    IV_KEY,
+    IV_LASTSW,
+    IV_LOCATED,
+    IV_MASK,
+    IV_MASK_ALT,
+    IV_NEED,
+    IV_NMODES,
+    IV_NSW,
+    IV_ODD,
+    IV_OUTPOS,
+    IV_SCHED,
+    IV_SLIDE,
+    IV_SLIDESTEPS,
+    IV_STEPS,
+    MF_FAST,
+    MF_OUTSTATE,
+    MF_UNIQ,
+    OP_SET,
+    PLAIN_MIN,
+    STEP_CHATTER,
+    STEP_FULL,
+    STEP_NEED_MODE,
+    STEP_OK,
+    STEP_SLIDING,
+    SW_LOCATED,
+    SW_SAMPLED,
+    SWF_RELAY,
+    LocateWork,
+    Mode,
+    ModeArrays,
+    StepWork,
+)
+from .locate import locate, u_interp
+from .sliding import advance, relay_combine
+from .step import mode_step, odd_basis_step, regular_cached_step
+from .store import find_mode, record, store_row
+
+
+@inline
+def mode_view(stack, j):
+    """Mode ``j`` of the stack as a :class:`~lcs.stepping.layout.Mode` (views, no copies)."""
+    a = stack.mats
+    mats = ModeArrays(a.A[j], a.B[j], a.C[j], a.D[j], a.E[j], a.F[j], a.Phi[j], a.G0[j],
+                      a.G1[j], a.K[j], a.M[j], a.Cy[j], a.Dy[j], a.Fy[j], a.Cc[j], a.Dc[j],
+                      a.Fc[j])
+    s = stack.sets
+    sets = ActiveSets(s.keys[j], s.na[j], s.idx[j], s.G[j])
+    return Mode(mats, sets, stack.flags[j, MF_FAST] != 0, stack.flags[j, MF_UNIQ],
+                stack.flags[j, MF_OUTSTATE] != 0)
+
+
+@kernel
+def _work(n, m, k, p):
+    W = StepWork(np.zeros(n), np.zeros(m), np.zeros(m), np.zeros((n, m)), np.zeros((m, m)),
+                 np.zeros((n, n + 1 + m)),
+                 LcpWork(np.zeros(m), np.zeros(m), np.zeros(m, np.bool_),
+                         np.zeros((m, 2 * m + 2)), np.zeros(m, np.int64), np.zeros((m, m + 1))))
+    S = LocateWork(np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(p), np.zeros(n),
+                   np.zeros(p), np.zeros(n), np.zeros(m), np.zeros(m), np.zeros(n), np.zeros(k),
+                   np.zeros(k), np.zeros(n), np.zeros(m), np.zeros(m), np.zeros(3),
+                   np.zeros(4, np.int64))
+    return W, S
+
+
+@kernel
+def plain_steps(md, key, chunk, kk, kstop, x, lam, ms, W, xn, lamn, store, ivars, fvars, lim,
+                countdown, cap_row):
+    """Regular grid steps ``kk .. kstop-1`` of mode ``md`` with no comparator, no sliding and
+    no schedule entry: :func:`run_grid`'s regular step without its per-step switching
+    machinery (the same arithmetic, so the same numbers). Stops at the first step it cannot
+    take (shortened, output buffer nearly full, or failed), which :func:`run_grid` then
+    takes; returns ``(kk, countdown, status)`` (``status`` of a failed step)."""
+    n = x.shape[0]
+    m = lam.shape[0]
+    U0, U1 = chunk.U0, chunk.U1
+    rtol = fvars[FV_RTOL]
+    every = lim.every
+    pos = ivars[IV_OUTPOS]
+    steps = 0
+    st = STEP_OK
+    while kk < kstop:
+        if chunk.odd[kk] or pos > cap_row:
+            break
+        if m > 0 and ms[1] < 0:
+            ms[1] = lookup(md.mats.M, ms[0], md.sets, ivars)
+        if not regular_cached_step(md, x, U0, U1, kk, ms[1], W, xn, lamn, rtol):
+            # (the general step, as run_grid would take it: Lemke, uniqueness check)
+            st = mode_step(md, fvars[FV_H], True, fvars[FV_THETA], x, U0[kk], U1[kk], U0, U1,
+                           kk, ms, 0, W, xn, lamn, ivars, fvars, lim, True)
+            if st != STEP_OK:
+                break
+        for i in range(n):
+            x[i] = xn[i]
+        for i in range(m):
+            lam[i] = lamn[i]
+        steps += 1
+        countdown -= 1
+        if countdown == 0 or chunk.force_out[kk]:
+            if countdown == 0:
+                countdown = every
+            store_row(md, md, 0.0, -1, key, store.duty, 0.0, x, lam, lam, U1, kk, store.T,
+                      store.Y, pos, chunk.t[kk + 1])
+            pos += 1
+        kk += 1
+    ivars[IV_OUTPOS] = pos
+    ivars[IV_STEPS] += steps
+    ivars[IV_GSTEP] += steps
+    return kk, countdown, st
+
+
+@kernel
+def _rearm(md, sws, i, key, x, lam, u):
+    """Switch key after the re-arm of latched switch ``i``: on iff its control >= vt - vh."""
+    c, sc = row_value(md.mats.Cc, md.mats.Dc, md.mats.Fc, i, x, lam, u)
+    if c >= sws.vt[i] - sws.vh[i]:
+        return key | (1 << i)
+    return key & ~(1 << i)
+
+
+@kernel
+def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, plain_mode):
+    """Advance ``x`` over the grid chunk through every mode change.
+
+    Parameters
+    ----------
+    stack : ModeStack
+        The modes built so far (rows ``< ivars[IV_NMODES]`` valid).
+    sws : SwitchArrays
+        How each switch is driven, its threshold and hysteresis.
+    chunk : Chunk
+        The grid chunk and its inputs.
+    sched : Schedule
+        Switchings at known grid steps of the chunk.
+    x, lam, lama : float64[:]
+        State (n,), multipliers (m,) and, while a switch slides, the other mode's multipliers
+        (m,); updated in place.
+    ivars, fvars : int64[:], float64[:]
+        Counters, kernel state and options (``IV_*``, ``FV_*``).
+    lim : Limits
+    store : Store
+        Output and event buffers.
+    plain_mode : None or bool
+        None: no plain loop (the branch is pruned when compiling, so that the per-step loop
+        of runs with comparators keeps its speed); True: regular steps of runs with no
+        comparator and no sliding go through :func:`plain_steps`.
+
+    Returns
+    -------
+    status : int
+        ``STEP_OK`` (chunk done) or another ``STEP_*``; ``ivars[IV_K]`` and
+        ``fvars[FV_TCUR]`` say where the kernel stopped (x, lam hold the state there).
+    """
+    n = x.shape[0]
+    m = lam.shape[0]
+    p = chunk.U0.shape[1]
+    k = sws.kind.shape[0]
+    tgrid = chunk.t
+    odd = chunk.odd
+    U0, U1 = chunk.U0, chunk.U1
+    N = tgrid.shape[0] - 1
+    theta = fvars[FV_THETA]
+    h = fvars[FV_H]
+    every = lim.every
+    max_sw = lim.max_sw
+    W, S = _work(n, m, k, p)
+    ut2 = S.ut.reshape((1, p))  # (the interpolated inputs as a row, for store_row)
+    sg = np.zeros(3)
+    xn = np.zeros(n)
+    lamn = np.zeros(m)
+    xa = np.zeros(n)
+    lamna = np.zeros(m)
+    c = np.zeros(k)
+    cs = np.zeros(k)
+    g = np.zeros(k)
+    gt = np.zeros(k)
+    ua = np.zeros(p)
+    ms = np.zeros(4, np.int64)
+    ms0 = np.zeros(4, np.int64)
+    ms[0] = ivars[IV_MASK]
+    ms[1] = -1
+    ms[2] = ivars[IV_MASK_ALT]
+    ms[3] = -1
+    has_located = False
+    has_sampled = False
+    for i in range(k):
+        if sws.kind[i] == SW_LOCATED:
+            has_located = True
+        elif sws.kind[i] == SW_SAMPLED:
+            has_sampled = True
+    key = ivars[IV_KEY]
+    slide = ivars[IV_SLIDE]
+    tcur = fvars[FV_TCUR]
+    nsched = sched.k.shape[0]
+    min_step = 1e-9 * h
+    countdown = every - ivars[IV_GSTEP] % every
+    cap_out = store.T.shape[0]
+    cap_ev = store.ev_t.shape[0]
+    mkey = stack.key
+    rtol = fvars[FV_RTOL]
+    j = -1
+    ja = -1
+    d = 0.0
+    status = STEP_OK
+    # The current mode (and while a switch slides, the other one) as views, rebound only when
+    # the mode changes: the step, the comparator check and the output below are inlined.
+    jb = 0
+    md = mode_view(stack, 0)
+    jab = 0
+    mda = md
+    plain = not has_located and not has_sampled
+    plain_skip = -1
+    kk = ivars[IV_K]
+    while kk < N:
+        ta_grid = tgrid[kk]
+        tb = tgrid[kk + 1]
+        if tcur < ta_grid:
+            tcur = ta_grid
+        # Room for this step's rows and events.
+        if (ivars[IV_OUTPOS] + max_sw + 3 > cap_out
+                or ivars[IV_EVPOS] + 2 * max_sw + k + 6 + (nsched - ivars[IV_SCHED]) > cap_ev):
+            status = STEP_FULL
+            break
+        if plain_mode is not None:
+            if (plain and slide < 0 and kk != plain_skip and j >= 0 and mkey[j] == key
+                    and tcur <= ta_grid and ivars[IV_INIT] != kk):
+                # No comparator and no sliding: the regular steps up to the next schedule entry
+                # by the plain loop; it stops where this loop must take over.
+                kstop = N
+                sp = ivars[IV_SCHED]
+                if sp < nsched and sched.k[sp] < kstop:
+                    kstop = sched.k[sp]
+                # (only for runs of PLAIN_MIN steps or more: a call costs the views of the
+                # mode's matrices, more than a few steps gain)
+                if kstop - kk >= PLAIN_MIN and (m == 0 or md.fast):
+                    k2, countdown, st = plain_steps(md, key, chunk, kk, kstop, x, lam, ms, W, xn,
+                                                    lamn, store, ivars, fvars, lim, countdown,
+                                                    cap_out - max_sw - 3)
+                    plain_skip = k2
+                    if st != STEP_OK:
+                        ivars[IV_FAILMODE] = j
+                        tcur = tgrid[k2]
+                        status = st
+                        fvars[FV_FAIL_T0] = tgrid[k2]
+                        fvars[FV_FAIL_T1] = tgrid[k2 + 1]
+                        kk = k2
+                        break
+                    if k2 > kk:
+                        # (the state the per-step loop leaves after plain steps)
+                        for i in range(m):
+                            lama[i] = lamna[i]
+                        d = 0.0
+                        tcur = tgrid[k2]
+                        ivars[IV_INIT] = k2 - 1
+                        ivars[IV_NSW] = 0
+                        kk = k2
+                        continue
+        if ivars[IV_INIT] != kk:
+            ivars[IV_INIT] = kk
+            ivars[IV_NSW] = 0
+        # Scheduled switchings at the start of the step.
+        need = -1
+        while tcur == ta_grid and ivars[IV_SCHED] < nsched and sched.k[ivars[IV_SCHED]] <= kk:
+            sp = ivars[IV_SCHED]
+            if sched.k[sp] < kk:  # (an entry before the resume point: already past)
+                ivars[IV_SCHED] = sp + 1
+                continue
+            if sched.op[sp] == OP_SET:
+                newkey = (key & ~sched.a[sp]) | sched.b[sp]
+                info = -1
+            else:
+                i = sched.a[sp]
+                j = find_mode(mkey, ivars[IV_NMODES], key)
+                if j < 0:
+                    need = key
+                    break
+                if jb != j:
+                    jb = j
+                    md = mode_view(stack, j)
+                newkey = _rearm(md, sws, i, key, x, lam, U0[kk])
+                info = i
+            ivars[IV_SCHED] = sp + 1
+            if newkey != key:
+                key = newkey
+                record(store, ivars, ta_grid, key, info)
+                if slide >= 0 and info == slide:
+                    slide = -1
+        if need >= 0:
+            status = STEP_NEED_MODE
+            ivars[IV_NEED] = need
+            break
+        if j < 0 or mkey[j] != key:
+            j = find_mode(mkey, ivars[IV_NMODES], key)
+            ms[1] = -1
+            if j < 0:
+                status = STEP_NEED_MODE
+                ivars[IV_NEED] = key
+                break
+        if slide >= 0:
+            akey = key ^ (1 << slide)
+            if ja < 0 or mkey[ja] != akey:
+                ja = find_mode(mkey, ivars[IV_NMODES], akey)
+                ms[3] = -1
+                if ja < 0:
+                    status = STEP_NEED_MODE
+                    ivars[IV_NEED] = akey
+                    break
+        else:
+            ja = -1
+        # Sub-steps: the whole grid step, or its parts between switching instants.
+        need = -1
+        while True:
+            if tb - tcur <= min_step:
+                # (a switching within round-off of the grid point: nothing left to integrate)
+                tcur = tb
+                break
+            ta = tcur
+            s = tb - ta
+            regular = (not odd[kk]) and ta == ta_grid
+            tau_a = 0.0
+            if ta == ta_grid:
+                for i in range(p):
+                    ua[i] = U0[kk, i]
+            else:
+                tau_a = (ta - ta_grid) / (tb - ta_grid)
+                u_interp(chunk, kk, tau_a, ua)
+            ub = U1[kk]
+            base_on = slide >= 0 and ((key >> slide) & 1) == 1
+            vts = sws.vt[slide] if slide >= 0 else 0.0
+            for i in range(4):
+                ms0[i] = ms[i]
+            if jb != j:
+                jb = j
+                md = mode_view(stack, j)
+            if slide >= 0 and jab != ja:
+                jab = ja
+                mda = mode_view(stack, ja)
+            done = False
+            st = STEP_OK
+            dd = 0.0
+            if slide >= 0 and regular and (m == 0 or (md.fast and mda.fast)):
+                # Sliding, regular step: both modes by their cached active sets, then the relay.
+                if m > 0 and ms[1] < 0:
+                    ms[1] = lookup(md.mats.M, ms[0], md.sets, ivars)
+                if m > 0 and ms[3] < 0:
+                    ms[3] = lookup(mda.mats.M, ms[2], mda.sets, ivars)
+                if (regular_cached_step(md, x, U0, U1, kk, ms[1], W, xn, lamn, rtol)
+                        and regular_cached_step(mda, x, U0, U1, kk, ms[3], W, xa, lamna, rtol)):
+                    dd = relay_combine(md, mda, slide, base_on, vts, ub, xn, lamn, xa, lamna,
+                                       sg)
+                    done = True
+            elif slide < 0 and regular and (m == 0 or md.fast):
+                if m > 0 and ms[1] < 0:
+                    ms[1] = lookup(md.mats.M, ms[0], md.sets, ivars)
+                done = regular_cached_step(md, x, U0, U1, kk, ms[1], W, xn, lamn, rtol)
+            elif slide < 0 and (m == 0 or md.fast):
+                done = odd_basis_step(md, s, theta, x, ua, ub, ms[0], W, xn, lamn, rtol)
+            if not done:
+                st, dd = advance(md, mda, j, ja, slide, base_on, vts, s, regular, theta, x, ua,
+                                 ub, U0, U1, kk, ms, W, xn, lamn, xa, lamna, sg, ivars, fvars,
+                                 lim, True)
+            if st != STEP_OK:
+                status = st
+                fvars[FV_FAIL_T0] = ta
+                fvars[FV_FAIL_T1] = tb
+                break
+            G = -np.inf
+            if has_located:
+                G = crossing(md, mda, dd, sws, key, slide, xn, lamn, lamna, ub, c, cs, g, gt)
+            if not (G > 0.0):
+                for i in range(n):
+                    x[i] = xn[i]
+                for i in range(m):
+                    lam[i] = lamn[i]
+                    lama[i] = lamna[i]
+                d = dd
+                tcur = tb
+                ivars[IV_STEPS] += 1
+                if not regular:
+                    ivars[IV_ODD] += 1
+                if slide >= 0:
+                    ivars[IV_SLIDESTEPS] += 1
+                    fvars[FV_DUTY] = 1.0 - dd if base_on else dd
+                    # Leave the surface when the on-fraction saturates and the relay holds
+                    # strictly (beyond round-off) in the saturated mode.
+                    tol = sg[2]
+                    if dd == 0.0:
+                        sgb = sg[0]
+                        if (sgb > tol) if base_on else (sgb < -tol):
+                            record(store, ivars, tb, key, slide + EV_SLIDE_END)
+                            slide = -1
+                            ja = -1
+                    elif dd == 1.0:
+                        sga = sg[1]
+                        if (sga < -tol) if base_on else (sga > tol):
+                            key = key ^ (1 << slide)
+                            jt = j
+                            j = ja
+                            ja = jt
+                            mt = ms[0]
+                            ms[0] = ms[2]
+                            ms[2] = mt
+                            ms[1] = -1
+                            ms[3] = -1
+                            for i in range(m):
+                                lam[i] = lamna[i]
+                            d = 0.0
+                            record(store, ivars, tb, key, slide + EV_SLIDE_END)
+                            slide = -1
+                            ja = -1
+                break
+            # A comparator crossed its threshold inside the step: locate the instant.
+            for i in range(4):
+                ms[i] = ms0[i]
+            st, s_star, dstar = locate(md, mda, j, ja, slide, base_on, vts, ta, s, theta, x,
+                                       lam, ua, ub, ms, ivars, fvars, lim, sws, key, xn, lamn,
+                                       lamna, dd, c, cs, g, gt, W, S, chunk, kk, tau_a)
+            if st != STEP_OK:
+                status = st
+                fvars[FV_FAIL_T0] = ta
+                fvars[FV_FAIL_T1] = tb
+                break
+            flips = 0
+            first = -1
+            for i in range(k):
+                if g[i] != -np.inf and g[i] >= -gt[i]:
+                    flips |= 1 << i
+                    if first < 0:
+                        first = i
+            if flips == 0:  # (cannot happen: the instant search ends on a crossing)
+                gm = -np.inf
+                for i in range(k):
+                    if g[i] > gm:
+                        gm = g[i]
+                        first = i
+                flips = 1 << first
+            if s_star > min_step:
+                for i in range(n):
+                    x[i] = S.xs[i]
+                for i in range(m):
+                    lam[i] = S.lams[i]
+                    lama[i] = S.lamas[i]
+                d = dstar
+                tcur = ta + s_star
+                ivars[IV_STEPS] += 1
+                ivars[IV_ODD] += 1
+                if slide >= 0:
+                    ivars[IV_SLIDESTEPS] += 1
+                if every == 1:
+                    u_interp(chunk, kk, (tcur - ta_grid) / (tb - ta_grid), S.ut)
+                    pos = ivars[IV_OUTPOS]
+                    store_row(md, mda, d, slide, key, store.duty, fvars[FV_DUTY], x, lam, lama,
+                              ut2, 0, store.T, store.Y, pos, tcur)
+                    ivars[IV_OUTPOS] = pos + 1
+            elif ivars[IV_LASTSW] == first and fvars[FV_LASTT] == tcur:
+                # The switch it flipped at this very instant wants to flip back before the
+                # state has moved: the trajectory is on an attractive switching surface.
+                if (sws.flags[first] & SWF_RELAY) != 0 and slide < 0:
+                    slide = first
+                    record(store, ivars, tcur, key, slide + EV_SLIDE_START)
+                    ivars[IV_LASTSW] = -1
+                    akey = key ^ (1 << slide)
+                    ja = find_mode(mkey, ivars[IV_NMODES], akey)
+                    ms[2] = ms[0]
+                    ms[3] = -1
+                    if ja < 0:
+                        need = akey
+                        break
+                    continue
+                status = STEP_SLIDING
+                ivars[IV_FAILSW] = first
+                fvars[FV_FAIL_T0] = tcur
+                fvars[FV_FAIL_T1] = tb
+                break
+            key = key ^ flips
+            record(store, ivars, tcur, key, first)
+            ivars[IV_LASTSW] = first
+            fvars[FV_LASTT] = tcur
+            ivars[IV_LOCATED] += 1
+            ivars[IV_NSW] += 1
+            if ivars[IV_NSW] > max_sw:
+                status = STEP_CHATTER
+                ivars[IV_FAILSW] = first
+                fvars[FV_FAIL_T0] = tcur
+                fvars[FV_FAIL_T1] = tb
+                break
+            j = find_mode(mkey, ivars[IV_NMODES], key)
+            ms[1] = -1
+            if j < 0:
+                need = key
+                break
+            if slide >= 0:
+                akey = key ^ (1 << slide)
+                ja = find_mode(mkey, ivars[IV_NMODES], akey)
+                ms[3] = -1
+                if ja < 0:
+                    need = akey
+                    break
+        if status != STEP_OK:
+            break
+        if need >= 0:
+            status = STEP_NEED_MODE
+            ivars[IV_NEED] = need
+            break
+        # End of the grid step: output, sampled comparators.
+        if jb != j:
+            jb = j
+            md = mode_view(stack, j)
+        if slide >= 0 and jab != ja:
+            jab = ja
+            mda = mode_view(stack, ja)
+        ivars[IV_GSTEP] += 1
+        countdown -= 1
+        if countdown == 0 or chunk.force_out[kk]:
+            if countdown == 0:
+                countdown = every
+            pos = ivars[IV_OUTPOS]
+            store_row(md, mda, d, slide, key, store.duty, fvars[FV_DUTY], x, lam, lama, U1, kk,
+                      store.T, store.Y, pos, tb)
+            ivars[IV_OUTPOS] = pos + 1
+        if has_sampled:
+            sampled_controls(md, mda, d, slide, sws, x, lam, lama, U1[kk], c)
+            newkey, first = sample_switches(sws, key, c)
+            if newkey != key:
+                key = newkey
+                record(store, ivars, tb, key, first)
+        kk += 1
+    ivars[IV_K] = kk
+    ivars[IV_KEY] = key
+    ivars[IV_SLIDE] = slide
+    ivars[IV_MASK] = ms[0]
+    ivars[IV_MASK_ALT] = ms[2]
+    fvars[FV_TCUR] = tcur
+    return status

@@ -1,0 +1,184 @@
+"""Codes, array layouts and typed containers shared by the Moreau kernel and its driver.
+
+The kernel's data travel in a few named tuples (numba types them field by field, so a
+function that takes a ``Mode`` reads ``md.mats.Phi`` and compiles to plain array access):
+
+* :class:`ModeArrays` -- the matrices of one switch mode (2-D), or of every mode stacked along
+  a leading mode axis (3-D, in :class:`ModeStack`);
+* :class:`Mode` -- one mode as the kernel uses it: its matrices, its active-set cache
+  (:class:`lcs.lcp.compiled.ActiveSets`) and its flags;
+* :class:`SwitchArrays`, :class:`Chunk`, :class:`Schedule`, :class:`Store`, :class:`Limits` --
+  the switches, a chunk of the time grid with its inputs, the known switching instants of the
+  chunk, the output and event buffers, the integer options;
+* :class:`StepWork`, :class:`LocateWork` -- scratch arrays.
+
+The kernel's running state (counters, the current switch key, where it stopped) lives in the
+``ivars`` (int64) and ``fvars`` (float64) arrays indexed by ``IV_*`` and ``FV_*``, which the
+driver reads after each call.
+"""
+
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+from ..lcp.compiled import AS_MISSES, AS_NEXT_SLOT, lcp_work
+
+# Kernel return codes.
+STEP_OK = 0
+STEP_LCP_FAILED = 1  # Lemke and enumeration found no solution (or the pivot budget ran out)
+STEP_NONFINITE = 2
+STEP_NONUNIQUE = 3
+STEP_NEED_MODE = 4  # build the mode of key ivars[IV_NEED], append it, call again
+STEP_FULL = 5  # grow the output / event buffers, call again
+STEP_CHATTER = 6  # more than max_switchings switchings in one grid step
+STEP_SLIDING = 7  # a comparator toggles without progress and may not slide
+
+# Layout of the int64 "ivars" array shared between the driver and the kernel.
+IV_MASK = 0  # active set (bitmask of pairs with basic λ) of the last step
+IV_NEXT_SLOT = AS_NEXT_SLOT  # next active-set cache slot to (re)use
+IV_FALLBACKS = 2  # Lemke calls
+IV_PIVOTS = 3  # Lemke pivots in total
+IV_GSTEP = 4  # grid steps completed (for ``every``)
+IV_OUTPOS = 5  # rows written to the output buffers
+IV_ODD = 6  # steps not of the regular length h (shortened, split, sliding-mode partial)
+IV_FAILMASK = 7  # pairs involved in a failure (bitmask, valid when the kernel fails)
+IV_UNIQ = 8  # uniqueness checks done
+IV_MISSES = AS_MISSES  # active-set cache misses (factorisations)
+IV_KEY = 10  # switch states, bit i = switch i on
+IV_NMODES = 11  # modes in the stacks
+IV_NEED = 12  # key of the mode the kernel needs (STEP_NEED_MODE)
+IV_EVPOS = 13  # event records written
+IV_K = 14  # grid step (index within the chunk) to resume at / where the kernel stopped
+IV_SCHED = 15  # next schedule entry of the chunk
+IV_INIT = 16  # grid step whose start (schedule, counters) has been processed
+IV_NSW = 17  # switchings in the current grid step
+IV_LASTSW = 18  # switch flipped last by its comparator (-1: none)
+IV_SLIDE = 19  # switch in sliding mode (-1: none)
+IV_FAILSW = 20  # switch involved in a chattering / sliding failure
+IV_FAILMODE = 21  # mode id of a failing step
+IV_STEPS = 22  # steps taken (grid steps and the extra parts of split steps)
+IV_LOCATED = 23  # comparator switchings located inside a step
+IV_ROOTEVALS = 24  # trial steps of the instant search
+IV_SLIDESTEPS = 25  # steps taken in sliding mode
+IV_MASK_ALT = 26  # active set of the other mode of the sliding switch
+IV_LEMKE = 27  # Lemke status of a failed LCP
+IV_LEN = 28
+
+# Layout of the float64 "fvars" array.
+FV_RTOL = 0  # fast-path acceptance tolerance (relative)
+FV_PIVOT_TOL = 1
+FV_LEX_TOL = 2
+FV_UNIQ_TOL = 3  # relative state difference that makes two LCP solutions "different"
+FV_TCUR = 4  # time of x, s (may lie inside grid step IV_K after a switching)
+FV_H = 5  # regular step, s
+FV_THETA = 6
+FV_FEAS_TOL = 7  # feasibility tolerance of the enumeration fallback (relative)
+FV_LASTT = 8  # time of the last comparator switching, s
+FV_FAIL_T0 = 9  # failing step: start and end, s
+FV_FAIL_T1 = 10
+FV_DUTY = 11  # on-fraction of the sliding switch over the last step
+FV_ROOT_TOL = 12  # instants are located to this fraction of h
+FV_LEN = 13
+
+# Per-mode flags (columns of ``ModeStack.flags``).
+MF_FAST = 0  # active-set fast path enabled
+MF_UNIQ = 1  # check state uniqueness of Lemke solutions when m <= this (-1: never)
+MF_OUTSTATE = 2  # the stored outputs are the states (skip the products)
+MF_LEN = 3
+
+# Shortest run of steps up to the next schedule entry that run_grid gives to its plain loop.
+PLAIN_MIN = 16
+
+# Switch kinds and flags.
+SW_SCHEDULED = 0  # driven by sources or a Python controller: instants known in advance
+SW_LOCATED = 1  # comparator: crossings located inside the step
+SW_SAMPLED = 2  # comparator sampled at the end of each grid step (explicit method)
+SWF_LATCH = 1  # off switch turns on only at the schedule's re-arm entries
+SWF_RELAY = 2  # may enter a Filippov sliding mode
+
+# Schedule operations (applied at the start of a grid step).
+OP_SET = 0  # key = (key & ~a) | b   (source- or controller-driven switches)
+OP_REARM = 1  # latched switch a: on iff its control >= vt - vh
+
+# Event records: ev_info = switch index + EV_* (schedule events have switch index -1).
+EV_SWITCH = 0
+EV_SLIDE_START = 1 << 20
+EV_SLIDE_END = 2 << 20
+
+MODE_FIELDS = ["A", "B", "C", "D", "E", "F", "Phi", "G0", "G1", "K", "M", "Cy", "Dy", "Fy",
+               "Cc", "Dc", "Fc"]
+ModeArrays = namedtuple("ModeArrays", MODE_FIELDS)
+ModeArrays.__doc__ = """The matrices of a switch mode.
+
+The LCS ``A (n, n)``, ``B (n, m)``, ``C (m, n)``, ``D (m, m)``, ``E (n, p)``, ``F (m, p)``; its θ
+step of the regular length h, ``Phi (n, n)``, ``G0, G1 (n, p)``, ``K (n, m)``, ``M (m, m)``
+(:func:`lcs.stepping.discretise`); the stored probes ``y = Cy x + Dy λ + Fy u`` with ``Cy (r, n)``,
+``Dy (r, m)``, ``Fy (r, p)``; the switch controls ``c = Cc x + Dc λ + Fc u`` with ``Cc (k, n)``,
+``Dc (k, m)``, ``Fc (k, p)``. In a :class:`ModeStack` every field has a leading mode axis.
+"""
+
+
+def mode_shapes(n: int, m: int, p: int, r: int, k: int) -> ModeArrays:
+    """The shape of each field of :class:`ModeArrays` for one mode."""
+    return ModeArrays((n, n), (n, m), (m, n), (m, m), (n, p), (m, p), (n, n), (n, p), (n, p),
+                      (n, m), (m, m), (r, n), (r, m), (r, p), (k, n), (k, m), (k, p))
+
+
+ModeStack = namedtuple("ModeStack", ["mats", "sets", "key", "flags"])
+ModeStack.__doc__ = """Every mode built so far, stacked by mode id ``j`` (capacity Q).
+
+``mats``: :class:`ModeArrays` of (Q, ., .) arrays; ``sets``: :class:`ActiveSets` of (Q, S, ...)
+arrays; ``key (Q,)``: the switch key of each mode (bit i: switch i on); ``flags (Q, MF_LEN)``.
+"""
+
+Mode = namedtuple("Mode", ["mats", "sets", "fast", "uniq", "outstate"])
+Mode.__doc__ = """One mode as the kernel uses it: :class:`ModeArrays` (2-D views), its
+:class:`ActiveSets` cache (views), ``fast`` (bool: try cached active sets), ``uniq`` (check the
+uniqueness of Lemke solutions when ``m <= uniq``), ``outstate`` (bool: the probes are the
+states)."""
+
+SwitchArrays = namedtuple("SwitchArrays", ["kind", "flags", "vt", "vh"])
+SwitchArrays.__doc__ = """Per switch (k,): ``kind`` (``SW_*``), ``flags`` (``SWF_*``), and the
+comparator's threshold ``vt`` and hysteresis half-width ``vh`` (control units)."""
+
+Chunk = namedtuple("Chunk", ["t", "odd", "U0", "U1", "Um", "force_out"])
+Chunk.__doc__ = """A chunk of the time grid: boundaries ``t (N + 1,)`` in s (``t[0]`` is the end of
+the previous chunk); ``odd (N,)`` steps not of length h; inputs ``U0, U1 (N, p)`` at the start
+(right limit) and end (left limit) of each step, linear in between (exact for piecewise-linear
+sources, whose breakpoints are grid points); ``Um (N, p)`` at the midpoints when some source is
+not piecewise linear (quadratic interpolation, O(h³)), else ``(0, p)``; ``force_out (N,)``
+store the end of this step whatever ``every`` says."""
+
+Schedule = namedtuple("Schedule", ["k", "op", "a", "b"])
+Schedule.__doc__ = """Known switchings of a chunk (L,): before grid step ``k[i]``, operation
+``op[i]`` (``OP_*``) with arguments ``a[i]``, ``b[i]``; sorted by ``k``."""
+
+Store = namedtuple("Store", ["T", "Y", "duty", "ev_t", "ev_key", "ev_info"])
+Store.__doc__ = """Output buffers: times ``T (cap,)`` in s and probes ``Y (cap, r)``, written from
+row ``ivars[IV_OUTPOS]``; ``duty (r,)`` per probe -1 (``Cy x + Dy λ + Fy u``) or a switch
+index (its on-fraction: 0/1, or the equivalent duty while it slides); events: time (s),
+switch key after it, ``switch + EV_*`` (-1: schedule), written from ``ivars[IV_EVPOS]``."""
+
+Limits = namedtuple("Limits", ["max_piv", "enum_max_m", "every", "max_sw"])
+Limits.__doc__ = """Lemke's pivot budget; enumeration fallback up to this m (-1: never); store
+every ``every``-th grid step; at most ``max_sw`` comparator switchings per grid step."""
+
+StepWork = namedtuple("StepWork", ["xf", "q", "za", "Ko", "Mo", "augn", "lcp"])
+StepWork.__doc__ = """Scratch of one θ step: ``x_free (n,)``, ``q (m,)``, the cached path's
+``λ_a (m,)``, the matrices of a step of another length ``K (n, m)``, ``M (m, m)``, the
+elimination array ``(n, n + 1 + m)`` and the LCP solvers' :class:`LcpWork`."""
+
+LocateWork = namedtuple("LocateWork", ["ga", "gta", "rate_a", "rate_b", "udot", "xdot", "ut",
+                                       "xt", "lamt", "lamat", "xat", "g_hi", "gt_hi", "xs",
+                                       "lams", "lamas", "sg", "msl"])
+LocateWork.__doc__ = """Scratch of the instant search; on return ``xs, lams, lamas`` hold the
+state and multipliers at the located instant."""
+
+
+def step_work(n: int, m: int) -> StepWork:
+    """Allocate a :class:`StepWork` (from Python; the kernel builds its own)."""
+    return StepWork(np.zeros(n), np.zeros(m), np.zeros(m), np.zeros((n, m)), np.zeros((m, m)),
+                    np.zeros((n, n + 1 + m)), lcp_work(m))
+

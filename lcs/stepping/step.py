@@ -1,0 +1,183 @@
+"""One θ step of one mode: the free state, the step's LCP, the impulse.
+
+The arithmetic of a step is written once here and inlined (``inline="always"``) wherever a
+loop takes a step, so that the hot loops pay no call overhead:
+
+* :func:`regular_cached_step` -- a regular step (length h, stored matrices) by the cached
+  factorisation of the previous active set: the fast path of almost every step;
+* :func:`odd_basis_step` -- a step of another length by a direct solve of the previous
+  active set;
+* :func:`mode_step` -- the general step: the two above, then Lemke and enumeration
+  (:func:`lcs.lcp.compiled.solve_pivoting`), and the uniqueness check of a pivoting solution.
+"""
+
+from __future__ import annotations
+
+from ..jit import inline, kernel
+from ..lcp.compiled import (
+    distinct_images,
+    lookup,
+    negative_q_mask,
+    solve_basis,
+    solve_cached,
+    solve_pivoting,
+)
+from .discretise import free_odd, free_regular
+from .layout import (
+    FV_FEAS_TOL,
+    FV_LEX_TOL,
+    FV_PIVOT_TOL,
+    FV_RTOL,
+    FV_UNIQ_TOL,
+    IV_FAILMASK,
+    IV_FALLBACKS,
+    IV_LEMKE,
+    IV_PIVOTS,
+    IV_UNIQ,
+    STEP_LCP_FAILED,
+    STEP_NONFINITE,
+    STEP_NONUNIQUE,
+    STEP_OK,
+)
+
+
+@inline
+def impulse_cached(xf, K, sets, slot, na, za, lamn, xn):
+    """``λ`` from the cached active set's ``λ_a`` (``za[:na]``) into ``lamn``, and
+    ``xn = xf + K λ`` over the active pairs only. Returns False when ``xn`` is not finite."""
+    n = xf.shape[0]
+    m = lamn.shape[0]
+    idx = sets.idx
+    for i in range(m):
+        lamn[i] = 0.0
+    for jj in range(na):
+        lamn[idx[slot, jj]] = za[jj]
+    chk = 0.0
+    for i in range(n):
+        v = xf[i]
+        for jj in range(na):
+            v += K[i, idx[slot, jj]] * za[jj]
+        xn[i] = v
+        chk += v
+    return chk - chk == 0.0
+
+
+@inline
+def impulse_dense(xf, K, lamn, xn):
+    """``xn = xf + K λ``. Returns False when ``xn`` or ``λ`` is not finite."""
+    n = xf.shape[0]
+    m = lamn.shape[0]
+    chk = 0.0
+    for i in range(n):
+        v = xf[i]
+        for jj in range(m):
+            v += K[i, jj] * lamn[jj]
+        xn[i] = v
+        chk += v
+    for i in range(m):
+        chk += lamn[i]
+    return chk - chk == 0.0
+
+
+@inline
+def regular_cached_step(md, x, U0, U1, kk, slot, W, xn, lamn, rtol):
+    """A regular step of mode ``md`` from ``x`` (inputs ``U0[kk]`` to ``U1[kk]``) into ``xn``,
+    ``lamn`` by the active set of cache ``slot`` (:func:`lcs.lcp.compiled.lookup`: the
+    caller looks it up, since a call inside an inlined function costs reference counting on
+    every step).
+
+    Returns False when the step is not taken this way (active set not accepted, singular, or a
+    non-finite result); :func:`mode_step` then decides.
+    """
+    if not free_regular(md.mats, x, U0, U1, kk, W.xf, W.q):
+        return False
+    if W.q.shape[0] == 0:
+        for i in range(x.shape[0]):
+            xn[i] = W.xf[i]
+        return True
+    na = solve_cached(md.mats.M, W.q, md.sets, slot, W.za, rtol)
+    if na < 0:
+        return False
+    return impulse_cached(W.xf, md.mats.K, md.sets, slot, na, W.za, lamn, xn)
+
+
+@inline
+def odd_basis_step(md, s, theta, x, u0, u1, mask, W, xn, lamn, rtol):
+    """A step of length ``s`` (discretised on the fly) by the active set ``mask``; False when
+    not taken this way."""
+    if not free_odd(md.mats, s, theta, x, u0, u1, W.xf, W.q, W.Ko, W.Mo, W.augn):
+        return False
+    if W.q.shape[0] > 0 and not solve_basis(W.Mo, W.q, mask, W.lcp, lamn, rtol):
+        return False
+    return impulse_dense(W.xf, W.Ko, lamn, xn)
+
+
+@kernel
+def mode_step(md, s, regular, theta, x, u0, u1, U0, U1, kk, ms, mi, W, xn, lamn, ivars, fvars,
+              lim, commit):
+    """One θ step of length ``s`` of mode ``md`` from ``x`` into ``xn``, ``lamn``.
+
+    ``regular`` steps (length h from a grid point) use the stored matrices and the inputs
+    ``U0[kk]``, ``U1[kk]``; others are discretised for ``s`` with inputs ``u0`` to ``u1``.
+    ``ms[mi]`` is the active set to try first and ``ms[mi + 1]`` its cache slot (-1:
+    unknown); both are updated. With ``commit``, a pivoting solution is checked for a unique
+    next state. Returns a ``STEP_*`` status.
+    """
+    mats = md.mats
+    if regular:
+        finite = free_regular(mats, x, U0, U1, kk, W.xf, W.q)
+        Kk = mats.K
+        Mk = mats.M
+    else:
+        finite = free_odd(mats, s, theta, x, u0, u1, W.xf, W.q, W.Ko, W.Mo, W.augn)
+        Kk = W.Ko
+        Mk = W.Mo
+    if not finite:
+        return STEP_NONFINITE
+    xf = W.xf
+    q = W.q
+    n = x.shape[0]
+    m = q.shape[0]
+    if m == 0:
+        for i in range(n):
+            xn[i] = xf[i]
+        return STEP_OK
+    rtol = fvars[FV_RTOL]
+    if regular and md.fast:
+        slot = ms[mi + 1]
+        if slot < 0:
+            slot = lookup(Mk, ms[mi], md.sets, ivars)
+            ms[mi + 1] = slot
+        na = solve_cached(Mk, q, md.sets, slot, W.za, rtol)
+        if na >= 0:
+            if impulse_cached(xf, Kk, md.sets, slot, na, W.za, lamn, xn):
+                return STEP_OK
+            return STEP_NONFINITE
+    elif md.fast and solve_basis(Mk, q, ms[mi], W.lcp, lamn, rtol):
+        if impulse_dense(xf, Kk, lamn, xn):
+            return STEP_OK
+        return STEP_NONFINITE
+    mask, piv, lstat = solve_pivoting(Mk, q, W.lcp, lim.max_piv, fvars[FV_PIVOT_TOL],
+                                      fvars[FV_LEX_TOL], fvars[FV_FEAS_TOL], lim.enum_max_m,
+                                      lamn)
+    ivars[IV_FALLBACKS] += 1
+    ivars[IV_PIVOTS] += piv
+    if mask < 0:
+        ivars[IV_LEMKE] = lstat
+        ivars[IV_FAILMASK] = negative_q_mask(q)
+        return STEP_LCP_FAILED
+    if commit and m <= md.uniq:
+        ivars[IV_UNIQ] += 1
+        diff = distinct_images(Mk, q, Kk, xf, lamn, fvars[FV_UNIQ_TOL], 1e-9, W.lcp.w,
+                               W.lcp.aug)
+        if diff != 0:
+            ivars[IV_FAILMASK] = diff
+            return STEP_NONUNIQUE
+    ms[mi] = mask
+    if regular and md.fast:
+        ms[mi + 1] = lookup(Mk, mask, md.sets, ivars)
+    else:
+        ms[mi + 1] = -1
+    if impulse_dense(xf, Kk, lamn, xn):
+        return STEP_OK
+    return STEP_NONFINITE

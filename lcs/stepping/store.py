@@ -1,0 +1,70 @@
+"""What the kernel saves: probe rows ``y = Cy x + Dy λ + Fy u`` and event records."""
+
+from __future__ import annotations
+
+from ..jit import inline, kernel
+from .layout import IV_EVPOS
+
+
+@inline
+def _row_at(Cr, Dr, Fr, r, x, lam, U, ur):
+    """``Cr[r] x + Dr[r] λ + Fr[r] U[ur]``."""
+    v = 0.0
+    for jj in range(x.shape[0]):
+        v += Cr[r, jj] * x[jj]
+    for jj in range(lam.shape[0]):
+        v += Dr[r, jj] * lam[jj]
+    for jj in range(U.shape[1]):
+        v += Fr[r, jj] * U[ur, jj]
+    return v
+
+
+@inline
+def store_row(md, mda, d, slide, key, duty, duty_value, x, lam, lama, U, ur, T, Y, pos, t):
+    """Write the stored probes at time ``t`` into row ``pos`` of ``T``, ``Y``; the inputs are
+    row ``ur`` of ``U`` (a row index, not a row: a view per stored step costs as much as the
+    step).
+
+    A probe row of ``duty`` >= 0 is the state of that switch (1 on, 0 off; ``duty_value``, the
+    equivalent duty, while it slides). While a switch slides with ``d != 0`` the probes are
+    the Filippov combination of the two modes' values.
+    """
+    T[pos] = t
+    sliding = slide >= 0 and d != 0.0
+    if md.outstate and not sliding:
+        for i in range(x.shape[0]):
+            Y[pos, i] = x[i]
+        return
+    Cy, Dy, Fy = md.mats.Cy, md.mats.Dy, md.mats.Fy
+    for r in range(Y.shape[1]):
+        sw = duty[r]
+        if sw >= 0:
+            if sw == slide:
+                Y[pos, r] = duty_value
+            else:
+                Y[pos, r] = 1.0 if (key >> sw) & 1 else 0.0
+            continue
+        v = _row_at(Cy, Dy, Fy, r, x, lam, U, ur)
+        if sliding:
+            va = _row_at(mda.mats.Cy, mda.mats.Dy, mda.mats.Fy, r, x, lama, U, ur)
+            v = (1.0 - d) * v + d * va
+        Y[pos, r] = v
+
+
+@kernel
+def record(store, ivars, t, key, info):
+    """Append an event record (time, switch key after it, ``switch + EV_*``)."""
+    e = ivars[IV_EVPOS]
+    store.ev_t[e] = t
+    store.ev_key[e] = key
+    store.ev_info[e] = info
+    ivars[IV_EVPOS] = e + 1
+
+
+@kernel
+def find_mode(mkey, nmodes, key):
+    """Id of the mode of switch key ``key`` among the first ``nmodes``, or -1."""
+    for i in range(nmodes):
+        if mkey[i] == key:
+            return i
+    return -1
