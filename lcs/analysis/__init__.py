@@ -1,7 +1,9 @@
 """Nonsmooth bifurcation analysis of switched LCS (issue 8).
 
 * :mod:`.maps` -- stroboscopic and event maps built on :func:`lcs.moreau.simulate`, and
-  :class:`~.maps.FunctionMap` for any Python function;
+  :class:`~.maps.FunctionMap` for any Python function (the names of :mod:`.base`,
+  :mod:`.jacobians`, :mod:`.patterns`, :mod:`.lcs_map`, :mod:`.stroboscopic` and
+  :mod:`.event_map`, gathered);
 * :mod:`.orbits` -- periodic orbits by Newton shooting, Floquet multipliers, classification,
   switching patterns;
 * :mod:`.continuation` -- natural continuation of an orbit in a parameter, detection and
