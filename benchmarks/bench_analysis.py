@@ -23,7 +23,7 @@ and checks that the results are identical; ``--scheduler ADDRESS`` adds a runnin
 scheduler. This is the measurement behind :data:`lcs.analysis.parallel.LOCAL_DEFAULT`.
 
 Run: ``.venv/bin/python benchmarks/bench_analysis.py [--quick] [--cases diagram,basins]
-[--engines processes,local] [--sizes 10,30,300]``.
+[--engines processes,local] [--sizes 10,30,300] [--repeat 3]``.
 """
 
 from __future__ import annotations
@@ -109,34 +109,38 @@ def bench_continuation(quick: bool) -> dict:
 
 
 def compare_engines(args) -> int:
-    """Wall time of the same work on each engine; the results must be identical."""
+    """Wall time of the same work on each engine (best and median of ``--repeat`` runs,
+    interleaved, on a machine that may be shared); the results must be identical."""
     engines = [e.strip() for e in args.engines.split(",") if e.strip()]
     if args.scheduler:
         engines.append(args.scheduler)
     sizes = [int(v) for v in args.sizes.split(",")] if args.sizes else [30 if args.quick
                                                                        else 300]
-    print(f"vm_buck.cir, {default_workers()} core(s); engines: {', '.join(engines)}")
+    print(f"vm_buck.cir, {default_workers()} core(s); engines: {', '.join(engines)}; "
+          f"best / median of {args.repeat}")
     CircuitMapFactory(NETLIST, period="tp", param="vin")(20.0).iterate([0.5, 12.0], 2)
     for case in args.cases.split(","):
         if case not in ("diagram", "basins"):
             continue
         for size in sizes:
-            ref = None
+            cells = max(4, round(size * 2 / 3))
+            what = (f"{size} values x 400 periods" if case == "diagram"
+                    else f"{cells}^2 cells")
+            times: dict[str, list[float]] = {e: [] for e in engines}
+            ref, same = None, True
+            for _ in range(args.repeat):
+                for eng in engines:
+                    r = (bench_diagram(False, False, engine=eng, n=size) if case == "diagram"
+                         else bench_basins(False, engine=eng, n=cells))
+                    times[eng].append(r["wall"])
+                    if ref is None:
+                        ref = r["data"]
+                    same &= bool(np.array_equal(ref, r["data"], equal_nan=True))
             for eng in engines:
-                if case == "diagram":
-                    r = bench_diagram(False, False, engine=eng, n=size)
-                    what = f"{size} values x 400 periods"
-                else:
-                    r = bench_basins(False, engine=eng, n=max(4, round(size * 2 / 3)))
-                    what = f"{max(4, round(size * 2 / 3))}^2 cells"
-                same = ""
-                if ref is None:
-                    ref = r["data"]
-                else:
-                    same = ("identical" if np.array_equal(ref, r["data"], equal_nan=True)
-                            else "DIFFERENT")
-                print(f"{case:>8} {what:>24}  {eng:>28}: {r['wall']:7.2f} s  "
-                      f"({r['engine']}) {same}")
+                t = np.array(times[eng])
+                print(f"{case:>8} {what:>24}  {eng:>28}: best {t.min():6.2f} s, median "
+                      f"{np.median(t):6.2f} s")
+            print(f"{'':>8} results {'identical' if same else 'DIFFERENT'} on every engine")
     return 0
 
 
@@ -149,6 +153,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scheduler", help="with --engines: also this Dask scheduler address")
     ap.add_argument("--sizes", help="with --engines: diagram values (basins: cells per axis "
                     "= 2/3 of it), e.g. 10,30,300")
+    ap.add_argument("--repeat", type=int, default=3, help="with --engines: runs per engine")
     args = ap.parse_args(argv)
     if args.engines:
         return compare_engines(args)

@@ -241,7 +241,11 @@ class TaskEngine:
         if bar is not None:
             client.subscribe_topic(topic, on_event)
         try:
-            futures = [client.submit(_dask_call, fn, t, topic, pure=False) for t in tasks]
+            # Keys named after the sweep: the dashboard's progress bars group them so.
+            token = uuid.uuid4().hex
+            name = "".join(c if c.isalnum() else "_" for c in (desc or "tasks"))
+            futures = [client.submit(_dask_call, fn, t, topic, key=f"pelcs_{name}-{token}-{i}")
+                       for i, t in enumerate(tasks)]
             results = client.gather(futures)
         finally:
             if bar is not None:
@@ -278,7 +282,7 @@ def _dask_engine(scheduler, workers: int | None) -> TaskEngine:
     if scheduler == "local":
         n = default_workers() if workers is None else max(1, int(workers))
         cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                           dashboard_address=None,
+                                           dashboard_address=":0",
                                            silence_logs=logging.ERROR)
         client = distributed.Client(cluster, set_as_default=False)
         return TaskEngine("dask", n, f"Dask local cluster ({n} worker processes)",
