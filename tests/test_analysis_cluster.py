@@ -204,3 +204,18 @@ def test_simulate_does_not_import_dask():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     assert out.strip().splitlines()[-1] == "[]"
+
+
+def test_portable_factory_carries_the_netlist(netlists, tmp_path):  # noqa: F811
+    path = tmp_path / "buck.cir"
+    path.write_text(Path(netlists["buck"]).read_text())
+    f = CircuitMapFactory(str(path), period="ts", param="duty")
+    p = f.portable()
+    assert p.text == path.read_text() and p.portable() is p and f.text is None
+    x_ref = f(0.4).power(f(0.4).x0, 3)
+    path.unlink()  # workers elsewhere have no copy of the file
+    np.testing.assert_array_equal(p(0.4).power(p(0.4).x0, 3), x_ref)
+    # An edited netlist is another factory: a long-lived worker cannot reuse a stale map.
+    edited = CircuitMapFactory(str(path), period="ts", param="duty",
+                               text=p.text + "* edited\n")
+    assert edited != p and hash(edited) != hash(p)

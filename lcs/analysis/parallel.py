@@ -149,14 +149,17 @@ def _run_pool(fn, tasks, n: int, start_method: str | None, progress: bool, total
 # -- Dask -----------------------------------------------------------------------------------
 
 
-def _dask_call(fn, task, topic: str):
-    """Run one task on a Dask worker; ``report`` becomes a worker event on ``topic``."""
+def _dask_call(fn, task, topic: str | None):
+    """Run one task on a Dask worker; ``report`` becomes a worker event on ``topic`` (none
+    without a progress bar)."""
     from distributed import get_worker
 
-    try:
-        worker = get_worker()
-    except ValueError:  # pragma: no cover - run outside a worker (client.run_on_scheduler)
-        worker = None
+    worker = None
+    if topic is not None:
+        try:
+            worker = get_worker()
+        except ValueError:  # pragma: no cover - run outside a worker
+            worker = None
 
     def report(n: float = 1) -> None:
         if worker is not None and n:
@@ -244,7 +247,8 @@ class TaskEngine:
             # Keys named after the sweep: the dashboard's progress bars group them so.
             token = uuid.uuid4().hex
             name = "".join(c if c.isalnum() else "_" for c in (desc or "tasks"))
-            futures = [client.submit(_dask_call, fn, t, topic, key=f"pelcs_{name}-{token}-{i}")
+            futures = [client.submit(_dask_call, fn, t, topic if bar is not None else None,
+                                     key=f"pelcs_{name}-{token}-{i}")
                        for i, t in enumerate(tasks)]
             results = client.gather(futures)
         finally:

@@ -55,7 +55,7 @@ def register(subparsers) -> None:
         "value of probes over the steady-state window; write a table.",
         epilog="examples: pelcs sweep buck.cir --param duty=0.2:0.8:7 --measure 'mean(v(out))'"
         " --measure 'ripple(i(L1))' -o duty.csv;  pelcs sweep buck.cir --tolerance 'C*=10%' "
-        "--tolerance R1=5%% --runs 200 --seed 1 --measure 'ripple(v(out))' --plot mc.png",
+        "--tolerance R1=5% --runs 200 --seed 1 --measure 'ripple(v(out))' --plot mc.png",
     )
     p.add_argument("file", help="netlist file")
     p.add_argument("--measure", action="append", default=[], metavar="FUNC(PROBE)",
