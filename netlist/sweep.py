@@ -15,8 +15,10 @@ Parameter specifications (command line): ``NAME=START:STOP:COUNT`` (sweeps),
 from __future__ import annotations
 
 import functools
+import itertools
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -27,7 +29,7 @@ from lcs.wellposed import state_jump
 
 from .circuit import Circuit
 from .errors import Diagnostic, NetlistError
-from .parser import parse_file, parse_overrides
+from .parser import parse_file, parse_overrides, parse_string
 from .transient import transient_setup
 from .units import parse_number
 
@@ -37,6 +39,7 @@ __all__ = [
     "circuit_map",
     "parse_grid",
     "parse_range",
+    "parse_starts",
     "parse_state",
     "parse_value",
     "resolve_period",
@@ -108,6 +111,41 @@ def parse_state(text: str, states: Sequence[str], default) -> np.ndarray:
                          f"expected STATE=VALUE with STATE one of {', '.join(states)}")
         x[lower.index(name.strip().lower())] = _number(val, f"state {name.strip()}")
     return x
+
+
+def parse_starts(text: str, states: Sequence[str], default) -> list[np.ndarray]:
+    """``"v(C1)=8:16:5,i(L1)=1"`` -> starting states: every combination of the values.
+
+    Each comma-separated item is ``STATE=VALUE`` or ``STATE=START:STOP:COUNT`` (COUNT values
+    from START to STOP); states not named come from ``default``. The list runs over the
+    first range slowest.
+
+    Returns
+    -------
+    list of ndarray, each shape (n,)
+    """
+    lower = [s.lower() for s in states]
+    axes: list[tuple[int, np.ndarray]] = []
+    for item in _split_top(text):
+        name, sep, val = item.partition("=")
+        key = name.strip().lower()
+        if not sep or key not in lower:
+            raise _usage(f"bad starting state {item!r}",
+                         f"expected STATE=VALUE or STATE=START:STOP:COUNT with STATE one of "
+                         f"{', '.join(states)}")
+        if ":" in val:
+            r = parse_range(f"{name.strip()}={val}", need_count=True)
+            axes.append((lower.index(key), r.values()))
+        else:
+            axes.append((lower.index(key), np.array([_number(val, f"state {name.strip()}")])))
+    base = np.array(default, dtype=float)
+    out = []
+    for combo in itertools.product(*(v for _, v in axes)):
+        x = base.copy()
+        for (i, _), v in zip(axes, combo, strict=True):
+            x[i] = v
+        out.append(x)
+    return out
 
 
 def _split_top(text: str) -> list[str]:
@@ -308,6 +346,9 @@ class CircuitMapFactory:
     theta, t0 : float
     event : str or None
         Event section (see :func:`circuit_map`); None for the stroboscopic map.
+    text : str or None
+        The netlist text, parsed instead of reading ``path`` (which then only names the
+        file in messages and locates ``.include`` files): see :meth:`portable`.
     """
 
     path: str
@@ -318,6 +359,23 @@ class CircuitMapFactory:
     theta: float = 0.5
     t0: float = 0.0
     event: str | None = None
+    text: str | None = field(default=None, repr=False)
+
+    def portable(self) -> CircuitMapFactory:
+        """A copy that carries the netlist text, for workers on other machines.
+
+        Dask workers then need the netlist file only for its ``.include``/``.lib`` files,
+        and a long-lived worker never reuses a map it cached for an older version of the
+        file (the text is part of the factory's identity). The file stays as it is if it
+        cannot be read as UTF-8 here (the error then comes from the worker's parse).
+        """
+        if self.text is not None:
+            return self
+        try:
+            text = Path(self.path).read_bytes().decode("utf-8")
+        except (OSError, UnicodeDecodeError):
+            return self
+        return replace(self, text=text)
 
     def params(self, value: float | None) -> dict[str, float]:
         p = dict(self.overrides)
@@ -327,6 +385,8 @@ class CircuitMapFactory:
 
     def circuit(self, value: float | None = None) -> Circuit:
         p = self.params(value)
+        if self.text is not None:
+            return parse_string(self.text, file=self.path, params=p or None)
         return parse_file(self.path, params=p or None)
 
     def __call__(self, value: float | None = None) -> StroboscopicMap | EventMap:

@@ -15,7 +15,8 @@ import sys
 
 from pelcs import __version__
 
-COMMANDS = ["info", "lcs", "simulate", "check", "bifurcation", "orbit", "continue", "basins"]
+COMMANDS = ["info", "lcs", "simulate", "check", "bifurcation", "orbit", "continue", "basins",
+            "sweep"]
 
 
 def build_parser() -> argparse.ArgumentParser:

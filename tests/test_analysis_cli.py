@@ -114,7 +114,7 @@ def test_basins_outputs(netlists, capsys, tmp_path):  # noqa: F811
         assert code == 2, grid
 
 
-@pytest.mark.parametrize("command", ["orbit", "continue", "bifurcation", "basins"])
+@pytest.mark.parametrize("command", ["orbit", "continue", "bifurcation", "basins", "sweep"])
 def test_help_lists_the_commands(command, capsys):
     with pytest.raises(SystemExit) as exc:
         main([command, "--help"])
@@ -134,3 +134,25 @@ def test_orbit_of_an_event_map(netlists, capsys):  # noqa: F811
         code, out, err = run(capsys, "orbit", netlists["boost"], "--period", "ts", "--event",
                              ev)
         assert code == 2 and "--event" in err
+
+
+def test_continue_from_many_starts(netlists, capsys):  # noqa: F811
+    # The CCM boost has one period-1 orbit: every start finds it (the first, then "the same").
+    code, out, err = run(capsys, "continue", netlists["boost"], "--period", "ts", "--param",
+                         "duty=0.3:0.35", "--steps", "2", "--start", "v(C1)=10:30:3",
+                         "--start", "i(L1)=2,v(C1)=40", "--workers", "2", "--no-progress")
+    assert code == 0, err
+    assert "4 continuation(s) from different starting states" in out
+    assert "start 1 (i(L1) = 0, v(C1) = 10):" in out
+    assert "start 4 (i(L1) = 2, v(C1) = 40): the same orbit as start 1" in out
+    code, out, err = run(capsys, "continue", netlists["boost"], "--period", "ts", "--param",
+                         "duty=0.3:0.35", "--steps", "2", "--start", "v(C1)=20", "--json",
+                         "--workers", "1")
+    r = json.loads(out)
+    assert code == 0 and len(r["continuations"]) == 1
+    c = r["continuations"][0]
+    assert c["x0"] == [0.0, 20.0] and c["same_as"] is None and len(c["branch"]) == 3
+    for bad in ("v(C9)=1", "v(C1)=1:2", "v(C1)=a"):
+        code, out, err = run(capsys, "continue", netlists["boost"], "--period", "ts",
+                             "--param", "duty=0.3:0.35", "--start", bad)
+        assert code == 2 and "error" in err, bad

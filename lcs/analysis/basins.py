@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from .maps import Map, MapError
-from .parallel import default_workers, run_tasks
+from .parallel import portable, task_engine
 
 __all__ = ["Attractor", "BasinMap", "CellGrid", "GridAxis", "ScmResult", "cell_basins",
            "merge_touching_groups", "simple_cell_mapping"]
@@ -228,6 +228,9 @@ class BasinMap:
         The map could not be evaluated at the centre (mapped to the sink).
     param : float or None
     wall_time : float
+    notes : list of str
+    engine : str
+        Where the cell images were computed.
     """
 
     grid: CellGrid
@@ -242,6 +245,7 @@ class BasinMap:
     param_name: str | None = None
     wall_time: float = 0.0
     notes: list[str] = field(default_factory=list)
+    engine: str = ""
 
     def to_npz(self, path: str | Path) -> None:
         """Arrays ``group``, ``steps``, ``image``, ``failed`` (N0, N1), the axes
@@ -377,6 +381,7 @@ def cell_basins(
     workers: int | None = None,
     progress: bool = False,
     start_method: str | None = None,
+    scheduler=None,
 ) -> BasinMap:
     """Basins of attraction of a map on a 2-D cell grid (simple cell mapping).
 
@@ -397,9 +402,13 @@ def cell_basins(
         point near a cell corner otherwise shows up as up to four one-cell groups, each with
         a sliver of the basin (the cell map's resolution limit, not dynamics).
     workers : int, optional
-        Processes (default all cores).
+        Local processes (default all cores).
     progress : bool
     start_method : str, optional
+    scheduler : None, str or distributed.Client, optional
+        Where the cell images are computed (:func:`~.parallel.task_engine`): default
+        locally; ``"local"`` a Dask local cluster; a Dask scheduler address or client. The
+        basin map is the same whatever computes it.
 
     Returns
     -------
@@ -425,14 +434,17 @@ def cell_basins(
         base_state = np.zeros(m.dim) if x0 is None else np.asarray(x0, dtype=float)
     base = np.asarray(base_state, dtype=float).copy()
     centres = grid.centres()
-    nw = default_workers() if workers is None else max(1, int(workers))
-    n_blocks = min(centres.shape[0], max(1, 8 * nw if nw > 1 else 1))
-    blocks = np.array_split(np.arange(centres.shape[0]), n_blocks)
     src_param = None if isinstance(source, Map) else param
-    tasks = [(source, src_param, centres[b], base, idx) for b in blocks]
-    results = run_tasks(_image_task, tasks, workers=nw, progress=progress,
-                        total=centres.shape[0], desc="cells", unit="cell",
-                        start_method=start_method)
+    with task_engine(scheduler, workers, start_method=start_method) as engine:
+        if engine.distributed:
+            source = portable(source)
+        nw = engine.workers
+        n_blocks = min(centres.shape[0], max(1, 8 * nw if nw > 1 else 1))
+        blocks = np.array_split(np.arange(centres.shape[0]), n_blocks)
+        tasks = [(source, src_param, centres[b], base, idx) for b in blocks]
+        results = engine.run(_image_task, tasks, progress=progress, total=centres.shape[0],
+                             desc="cells", unit="cell")
+        engine_name = engine.description
     images = np.concatenate([r[0] for r in results])
     failed = np.concatenate([r[1] for r in results])
     image = grid.locate(images)
@@ -452,5 +464,5 @@ def cell_basins(
         grid=grid, base_state=base, state_indices=idx, image=image.reshape(shape),
         group=scm.group.reshape(shape), steps=scm.steps.reshape(shape), attractors=attractors,
         failed=failed.reshape(shape), param=m.param, param_name=m.param_name,
-        wall_time=time.perf_counter() - t_wall, notes=notes,
+        wall_time=time.perf_counter() - t_wall, notes=notes, engine=engine_name,
     )

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from .maps import Map, MapError
-from .parallel import default_workers, run_tasks
+from .parallel import portable, task_engine
 
 __all__ = ["BifurcationDiagram", "SweepBranch", "attractor_period", "bifurcation_diagram"]
 
@@ -76,6 +76,9 @@ class BifurcationDiagram:
     branches : list of SweepBranch
     wall_time : float
         Seconds.
+    notes : list of str
+    engine : str
+        Where the tasks ran (e.g. ``"2 local processes"``, ``"Dask scheduler ..."``).
     """
 
     param_name: str
@@ -87,6 +90,7 @@ class BifurcationDiagram:
     branches: list[SweepBranch]
     wall_time: float = 0.0
     notes: list[str] = field(default_factory=list)
+    engine: str = ""
 
     def branch(self, direction: str) -> SweepBranch:
         for b in self.branches:
@@ -204,6 +208,7 @@ def bifurcation_diagram(
     progress: bool = False,
     param_name: str = "p",
     start_method: str | None = None,
+    scheduler=None,
 ) -> BifurcationDiagram:
     """Sweep a parameter and record the samples of the attractor at every value.
 
@@ -225,15 +230,20 @@ def bifurcation_diagram(
     directions : sequence of str
         Follow mode only: ``("up",)``, ``("down",)`` or ``("up", "down")``.
     workers : int, optional
-        Processes (default: all cores).
+        Local processes (default: all cores).
     chunks : int, optional
-        Fixed mode: tasks (default 4 per worker, for load balance). Follow mode: contiguous
-        pieces per direction run in parallel, each from ``x0`` (default 1: a true follow).
+        Fixed mode: tasks (default 4 per worker, for load balance; the split does not change
+        any number). Follow mode: contiguous pieces per direction run in parallel, each from
+        ``x0`` (default 1: a true follow).
     progress : bool
         tqdm bar on a terminal.
     param_name : str
     start_method : str, optional
         Multiprocessing start method (default fork where available).
+    scheduler : None, str or distributed.Client, optional
+        Where the tasks run (:func:`~.parallel.task_engine`): default locally; ``"local"``
+        a Dask local cluster; a Dask scheduler address (``"tcp://host:8786"``) or client.
+        The diagram is the same whatever runs it.
 
     Returns
     -------
@@ -247,28 +257,33 @@ def bifurcation_diagram(
         raise ValueError("transient must be >= 0 and record >= 1")
     x0 = np.asarray(x0, dtype=float)
     probes = tuple(probes) if probes else None
-    nw = default_workers() if workers is None else max(1, int(workers))
     if not follow:
         directions = ("fixed",)
-        n_chunks = chunks or min(values.size, 4 * nw)
     else:
         directions = tuple(directions)
         bad = [d for d in directions if d not in ("up", "down")]
         if bad or not directions:
             raise ValueError(f"directions must be 'up' and/or 'down', got {directions}")
-        n_chunks = chunks or 1
-    n_chunks = max(1, min(int(n_chunks), values.size))
-    tasks, layout = [], []
-    for d in directions:
-        seq = values[::-1] if d == "down" else values
-        for piece in np.array_split(seq, n_chunks):
-            if piece.size:
-                tasks.append((factory, piece, x0, int(transient), int(record), probes,
-                              bool(follow)))
-                layout.append(d)
-    results = run_tasks(_sweep_task, tasks, workers=nw, progress=progress,
-                        total=values.size * len(directions), desc="bifurcation",
-                        unit="value", start_method=start_method)
+    with task_engine(scheduler, workers, start_method=start_method) as engine:
+        if engine.distributed:
+            factory = portable(factory)
+        if not follow:
+            n_chunks = chunks or min(values.size, 4 * engine.workers)
+        else:
+            n_chunks = chunks or 1
+        n_chunks = max(1, min(int(n_chunks), values.size))
+        tasks, layout = [], []
+        for d in directions:
+            seq = values[::-1] if d == "down" else values
+            for piece in np.array_split(seq, n_chunks):
+                if piece.size:
+                    tasks.append((factory, piece, x0, int(transient), int(record), probes,
+                                  bool(follow)))
+                    layout.append(d)
+        results = engine.run(_sweep_task, tasks, progress=progress,
+                             total=values.size * len(directions), desc="bifurcation",
+                             unit="value")
+        engine_name = engine.description
     # Probe names and state names from one map (cheap: built once per process).
     m0 = factory(float(values[0]))
     names = probes or m0.state_names
@@ -291,7 +306,7 @@ def bifurcation_diagram(
     return BifurcationDiagram(
         param_name=param_name, probes=tuple(names), state_names=tuple(m0.state_names),
         transient=int(transient), record=int(record), follow=bool(follow), branches=branches,
-        wall_time=time.perf_counter() - t_wall, notes=notes,
+        wall_time=time.perf_counter() - t_wall, notes=notes, engine=engine_name,
     )
 
 

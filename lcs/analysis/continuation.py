@@ -21,6 +21,10 @@ the same place as a pattern change is a *nonsmooth* bifurcation (the multipliers
 the unit circle at the border collision): it is reported once, as ``"border"``, with the
 multiplier event in ``detail``.
 
+:func:`continue_orbits` runs :func:`continue_orbit` from many starting states at once (one
+task each, on the engine of :mod:`.parallel`: local processes or a Dask cluster), to find and
+follow coexisting orbits; :func:`same_orbit` tells which starts found the same orbit.
+
 Limitations: a multiplier that crosses and crosses back within one step is missed (use more
 steps); natural continuation cannot turn around a fold (pseudo-arclength is not
 implemented).
@@ -29,16 +33,17 @@ implemented).
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .maps import Map, MapError
 from .orbits import PeriodicOrbit, find_orbit, multiplier_counts, state_scale
-from .parallel import progress_bar
+from .parallel import portable, progress_bar, task_engine
 
-__all__ = ["Bifurcation", "ContinuationResult", "continue_orbit", "locate_bifurcation"]
+__all__ = ["Bifurcation", "ContinuationResult", "continue_orbit", "continue_orbits",
+           "locate_bifurcation", "same_orbit"]
 
 MapFactory = Callable[[float], Map]
 KINDS = ("flip", "fold", "neimark-sacker")
@@ -257,6 +262,7 @@ def continue_orbit(
     locate: bool = True,
     progress: bool = False,
     param_name: str = "p",
+    report: Callable[[float], None] | None = None,
 ) -> ContinuationResult:
     """Follow a period-``order`` orbit from ``start`` to ``stop`` and locate bifurcations.
 
@@ -286,6 +292,9 @@ def continue_orbit(
     progress : bool
         tqdm bar on a terminal.
     param_name : str
+    report : callable, optional
+        ``report(fraction_of_a_step)`` after each accepted step (progress of a task run by
+        :func:`continue_orbits`; ``steps`` units in all).
 
     Returns
     -------
@@ -359,8 +368,11 @@ def continue_orbit(
                                                False))
             bifs.extend(_merge_nonsmooth(located, tol, np.sign(dp_full)))
             orbits.append(o)
+            done = abs(p_next - p) / abs(dp_full)
             if bar is not None:
-                bar.update(abs(p_next - p) / abs(dp_full))
+                bar.update(done)
+            if report is not None:
+                report(done)
             p = p_next
             # Grow the step back after a success with a halved one.
             if abs(dp) < abs(dp_full):
@@ -387,3 +399,88 @@ def _merge_nonsmooth(found: list[Bifurcation], tol: float, direction: float
             continue
         out.append(b)
     return sorted(out, key=lambda b: direction * b.param)
+
+
+def _continue_task(task, report) -> ContinuationResult:
+    """Worker: one continuation from one starting state (a failing map: no orbit)."""
+    factory, start, stop, x0, raise_errors, kwargs = task
+    try:
+        return continue_orbit(factory, start, stop, x0=x0, report=report, **kwargs)
+    except MapError as exc:
+        if raise_errors:
+            raise
+        return ContinuationResult(kwargs.get("param_name", "p"), [], [], False,
+                                  [f"the map failed from this start: {exc}"])
+
+
+def continue_orbits(
+    factory: MapFactory,
+    start: float,
+    stop: float,
+    starts: Sequence,
+    *,
+    workers: int | None = None,
+    scheduler=None,
+    progress: bool = False,
+    start_method: str | None = None,
+    raise_errors: bool = False,
+    **kwargs,
+) -> list[ContinuationResult]:
+    """:func:`continue_orbit` from each of many starting states, in parallel.
+
+    Parameters
+    ----------
+    factory : callable
+        ``factory(p) -> Map``; picklable (e.g. :class:`netlist.sweep.CircuitMapFactory`).
+    start, stop : float
+        Parameter range.
+    starts : sequence of array_like, each shape (n,)
+        Starting states (each iterated ``transient`` times at ``start`` before Newton).
+    workers : int, optional
+        Local processes (default all cores).
+    scheduler : None, str or distributed.Client, optional
+        Where the continuations run (:func:`~.parallel.task_engine`).
+    progress : bool
+        One bar over all continuations (``steps`` units each).
+    start_method : str, optional
+    raise_errors : bool
+        Re-raise a :class:`~.maps.MapError` of a continuation (default: that continuation
+        has no orbit, ``complete`` False and the error in its notes).
+    **kwargs
+        Passed to :func:`continue_orbit` (``steps``, ``order``, ``transient``, ``tol``,
+        ``locate``, ``param_name``, ...).
+
+    Returns
+    -------
+    list of ContinuationResult
+        One per start, in the order of ``starts``; identical whatever runs them.
+    """
+    starts = [np.asarray(x, dtype=float) for x in starts]
+    if not starts:
+        raise ValueError("no starting state")
+    kwargs.pop("x0", None)
+    kwargs.pop("report", None)
+    steps = int(kwargs.get("steps", 40))
+    with task_engine(scheduler, workers, start_method=start_method) as engine:
+        f = portable(factory) if engine.distributed else factory
+        tasks = [(f, float(start), float(stop), x, bool(raise_errors),
+                  dict(kwargs, progress=False)) for x in starts]
+        return engine.run(_continue_task, tasks, progress=progress,
+                          total=steps * len(starts), desc="continuation", unit="step")
+
+
+def same_orbit(a: PeriodicOrbit, b: PeriodicOrbit, rtol: float = 1e-6) -> bool:
+    """Whether two orbits of the same map are one orbit (up to a cyclic shift of points).
+
+    Points are compared state by state relative to :func:`~.orbits.state_scale` of the
+    first orbit's first point.
+    """
+    if a.order != b.order or a.points.shape != b.points.shape:
+        return False
+    if a.param != b.param:
+        return False
+    sc = state_scale(a.points[0])
+    for shift in range(b.order):
+        if np.max(np.abs(a.points - np.roll(b.points, -shift, axis=0)) / sc) <= rtol:
+            return True
+    return False

@@ -4,14 +4,16 @@
 
     pelcs basins FILE --period T --grid "v(C1)=A:B:N,i(L1)=C:D:M" [--param NAME=VALUE]...
                  [--x0 STATE=V,...] [--step H] [--theta TH] [--t0 T0] [--workers W]
-                 [--no-merge] [-o OUT.npz] [--plot OUT.png]
+                 [--scheduler ADDRESS] [--no-merge] [-o OUT.npz] [--plot OUT.png]
 
 The rectangle of the two grid states (the others fixed at the netlist initial state or
 ``--x0``) is cut into N x M cells; each cell centre is mapped once through the stroboscopic
-map (one period T, in parallel); the periodic groups of the resulting cell map are the
-attractors, and every cell is labelled with the attractor its chain ends in and the number of
-periods it takes (Hsu's simple cell mapping). Chains that leave the rectangle end in the
-*sink*. Touching periodic groups are merged into one attractor unless ``--no-merge``.
+map (one period T, in parallel: local processes, or the workers of a Dask scheduler with
+``--scheduler ADDRESS``, ``local`` for a Dask cluster on this machine); the periodic groups of
+the resulting cell map are the attractors, and every cell is labelled with the attractor its
+chain ends in and the number of periods it takes (Hsu's simple cell mapping). Chains that
+leave the rectangle end in the *sink*. Touching periodic groups are merged into one attractor
+unless ``--no-merge``.
 
 Outputs: a summary (attractors, their cells and basin sizes), ``-o OUT.npz`` (``group``,
 ``steps``, ``image`` arrays and the axes) and ``--plot`` (basins and transient time).
@@ -26,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .bifurcation import check_output
+from .bifurcation import add_scheduler_option, check_output, scheduler_errors
 from .orbit import (
     add_map_options,
     initial_state,
@@ -51,6 +53,7 @@ def register(subparsers) -> None:
     p.add_argument("--grid", required=True, metavar="S1=A:B:N,S2=C:D:M",
                    help="two states with their ranges and cell counts")
     p.add_argument("--workers", metavar="W", help="worker processes (default: all cores)")
+    add_scheduler_option(p)
     p.add_argument("--no-merge", action="store_true",
                    help="keep touching periodic groups as separate attractors")
     p.add_argument("-o", "--output", metavar="OUT.npz", help="write the cell data")
@@ -79,9 +82,10 @@ def run(args: argparse.Namespace) -> int:
     if axes[0][0].lower() == axes[1][0].lower():
         raise usage_error("basins", "--grid: the two axes must be different states")
     base = initial_state(args, m)
-    bm = cell_basins(factory, axes, param=None, base_state=base,
-                     merge_adjacent=not args.no_merge, workers=workers,
-                     progress=not args.no_progress)
+    with scheduler_errors("basins"):
+        bm = cell_basins(factory, axes, param=None, base_state=base,
+                         merge_adjacent=not args.no_merge, workers=workers,
+                         progress=not args.no_progress, scheduler=args.scheduler)
     title = factory.circuit().title
     written = write_outputs("basins", (
         (out, bm.to_npz),
@@ -104,7 +108,7 @@ def summary(bm, file: str, title: str, m, written: list[str]) -> str:
                  f"{a1.name} {a1.lo:g}..{a1.hi:g} ({a1.count} cells)"
                  + (f", {', '.join(others)}" if others else "")
                  + f"; T = {format_eng(m.period, 's')}, h = {format_eng(m.h, 's')}; "
-                 f"{bm.wall_time:.3g} s")
+                 f"{bm.wall_time:.3g} s" + (f" on {bm.engine}" if bm.engine else ""))
     sink = int(np.count_nonzero(bm.group == 0))
     lines.append(f"{len(bm.attractors)} attractor(s); {sink} of {n} cells "
                  f"({100 * sink / n:.1f} %) leave the grid")

@@ -5,7 +5,8 @@
     pelcs bifurcation FILE --param NAME=START:STOP:COUNT --period T --transient N --record M
                       [--probe EXPR]... [--follow [--direction up|down|both]] [--chunks C]
                       [--param OTHER=VALUE]... [--x0 ...] [--step H] [--theta TH] [--t0 T0]
-                      [--workers W] [-o OUT.csv|OUT.npz] [--plot OUT.png]
+                      [--workers W] [--scheduler ADDRESS] [-o OUT.csv|OUT.npz]
+                      [--plot OUT.png]
 
 For each of COUNT values from START to STOP the circuit is simulated for N + M periods T from
 the initial state (netlist ``IC=``/``.ic`` or ``--x0``); the probes (default: every state)
@@ -14,7 +15,9 @@ the final state of the previous one instead (the attractor is followed; default 
 ``both``: an up sweep and a down sweep, which shows hysteresis). Values run in parallel on all
 cores (``--workers``); a follow sweep is sequential per direction (the two directions run in
 parallel; ``--chunks C`` splits each direction into C pieces that each start from the initial
-state). A summary of the attractor period along the parameter is printed.
+state). ``--scheduler ADDRESS`` runs the values on the workers of a Dask scheduler instead
+(``tcp://host:8786``; ``local`` starts a Dask cluster on this machine): the diagram is the same.
+A summary of the attractor period along the parameter is printed.
 
 Outputs: ``-o OUT.csv`` (rows ``direction, NAME, k, probes...``) or ``-o OUT.npz`` (arrays
 per direction, see :meth:`lcs.analysis.bifurcation.BifurcationDiagram.to_npz`); ``--plot``
@@ -27,6 +30,7 @@ summary); 2 input errors.
 from __future__ import annotations
 
 import argparse
+import contextlib
 from pathlib import Path
 
 import numpy as np
@@ -66,10 +70,32 @@ def register(subparsers) -> None:
     p.add_argument("--chunks", metavar="C",
                    help="with --follow: independent pieces per direction (default 1)")
     p.add_argument("--workers", metavar="W", help="worker processes (default: all cores)")
+    add_scheduler_option(p)
     p.add_argument("-o", "--output", metavar="OUT", help="write OUT.csv or OUT.npz")
     p.add_argument("--plot", metavar="OUT.png", help="scatter plot of the diagram")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
+
+
+def add_scheduler_option(p: argparse.ArgumentParser) -> None:
+    """``--scheduler ADDRESS``: run the tasks on a Dask cluster."""
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the tasks on the workers of a Dask scheduler (tcp://HOST:8786), "
+                   "or 'local' for a Dask cluster on this machine; default: local processes")
+
+
+@contextlib.contextmanager
+def scheduler_errors(command: str):
+    """Turn a :class:`~lcs.analysis.parallel.SchedulerError` into an input error (exit 2)."""
+    from lcs.analysis.parallel import SchedulerError
+
+    try:
+        yield
+    except SchedulerError as exc:
+        raise usage_error(command, f"--scheduler: {exc}",
+                          "start a scheduler with 'dask scheduler' and workers with "
+                          "'dask worker ADDRESS' (same pelcs version), or drop --scheduler to "
+                          "run on this machine") from None
 
 
 def check_output(command: str, option: str, path: str | None, suffixes: tuple[str, ...]
@@ -110,11 +136,12 @@ def run(args: argparse.Namespace) -> int:
         m.system.outputs(m.system.key(None), probes)
     x0 = initial_state(args, m)
     directions = ("up", "down") if args.direction == "both" else (args.direction,)
-    diagram = bifurcation_diagram(
-        factory, values, x0=x0, transient=transient, record=record, probes=probes,
-        follow=args.follow, directions=directions, workers=workers, chunks=chunks,
-        progress=not args.no_progress, param_name=rng.name,
-    )
+    with scheduler_errors("bifurcation"):
+        diagram = bifurcation_diagram(
+            factory, values, x0=x0, transient=transient, record=record, probes=probes,
+            follow=args.follow, directions=directions, workers=workers, chunks=chunks,
+            progress=not args.no_progress, param_name=rng.name, scheduler=args.scheduler,
+        )
     written = write_outputs("bifurcation", (
         (out, diagram.save),
         (plot, lambda path: diagram.plot(path, title=circuit.title or Path(args.file).name)),
@@ -154,7 +181,8 @@ def summary(diagram, file: str, title: str, m, written: list[str]) -> str:
             if diagram.follow else "fixed initial state")
     lines.append(f"{diagram.param_name}: {k} values, {mode}; T = {format_eng(m.period, 's')}, "
                  f"h = {format_eng(m.h, 's')}; {diagram.transient} periods discarded, "
-                 f"{diagram.record} recorded; {diagram.wall_time:.3g} s")
+                 f"{diagram.record} recorded; {diagram.wall_time:.3g} s"
+                 + (f" on {diagram.engine}" if diagram.engine else ""))
     for b in diagram.branches:
         lines.append(f"attractor period along {diagram.param_name} ({b.direction}):")
         for lo, hi, lab in period_runs(b.values, b.samples, b.ok):

@@ -5,6 +5,8 @@
     pelcs continue FILE --period T --param NAME=START:STOP [--param OTHER=VALUE]...
                         [--steps N] [--order K] [--tol DP] [--transient N] [--x0 ...]
                         [--step H] [--theta TH] [--t0 T0] [--json]
+                        [--start STATE=V|STATE=A:B:N,...]... [--workers W]
+                        [--scheduler ADDRESS]
 
 Natural continuation of the period-K orbit of the stroboscopic map from START to STOP in N
 steps (Newton shooting at each value from the secant prediction); between steps, a change in
@@ -16,9 +18,19 @@ discontinuous conduction, a border collision). ``--json`` prints one object with
 ``bifurcations`` (a list of ``{"type", "param", "bracket", "detail", ...}``) and ``branch``
 (the orbits).
 
+``--start`` (repeatable) continues from many starting states at once, to find and follow
+coexisting orbits: each ``--start`` item is ``STATE=VALUE`` or ``STATE=START:STOP:COUNT`` (every
+combination of the values is a start; the other states come from the netlist or ``--x0``).
+The continuations run in parallel on local processes (``--workers``) or on the workers of a
+Dask scheduler (``--scheduler ADDRESS``; ``local`` for a Dask cluster on this machine); each
+is reported, those that found an orbit already found from an earlier start are marked as
+such. ``--json`` then prints ``continuations`` (one object per start, with ``x0`` and
+``same_as``, the index of the earlier start with the same orbit, or null).
+
 The CLI module is ``continuation`` because ``continue`` is a Python keyword.
 
-Exit status: 0 success; 2 input errors; 3 no orbit at START or the continuation stopped early.
+Exit status: 0 success; 2 input errors; 3 no orbit at START or the continuation stopped early
+(with ``--start``: for every start).
 """
 
 from __future__ import annotations
@@ -28,6 +40,7 @@ import json
 import sys
 from pathlib import Path
 
+from .bifurcation import add_scheduler_option, scheduler_errors
 from .orbit import (
     EXIT_FAILED,
     add_map_options,
@@ -59,13 +72,19 @@ def register(subparsers) -> None:
                    help="periods simulated before the first Newton solve (default 100)")
     p.add_argument("--no-locate", action="store_true",
                    help="report the step brackets without bisection")
+    p.add_argument("--start", action="append", default=[], metavar="STATE=V|STATE=A:B:N,...",
+                   help="continue from these starting states too (repeatable; ranges give "
+                   "every combination), in parallel")
+    p.add_argument("--workers", metavar="W",
+                   help="with --start: worker processes (default: all cores)")
+    add_scheduler_option(p)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from lcs.analysis.continuation import continue_orbit
+    from lcs.analysis.continuation import continue_orbit, continue_orbits
     from lcs.analysis.maps import MapError
     from netlist.sweep import parse_value, split_params
 
@@ -83,10 +102,22 @@ def run(args: argparse.Namespace) -> int:
     tol = parse_value(args.tol, "--tol") if args.tol else None
     m = factory(rng.start)  # validates the netlist and the parameter name here
     x0 = initial_state(args, m)
+    if args.start:
+        return run_many(args, factory, m, rng, x0, steps=steps, order=order,
+                        transient=transient, tol=tol)
     try:
-        res = continue_orbit(factory, rng.start, rng.stop, steps=steps, order=order, x0=x0,
-                             transient=transient, tol=tol, locate=not args.no_locate,
-                             progress=not args.no_progress, param_name=rng.name)
+        if args.scheduler:  # one continuation, on a worker of the cluster
+            with scheduler_errors("continue"):
+                res, = continue_orbits(factory, rng.start, rng.stop, [x0], steps=steps,
+                                       order=order, transient=transient, tol=tol,
+                                       locate=not args.no_locate, scheduler=args.scheduler,
+                                       progress=not args.no_progress, param_name=rng.name,
+                                       raise_errors=True)
+        else:
+            res = continue_orbit(factory, rng.start, rng.stop, steps=steps, order=order,
+                                 x0=x0, transient=transient, tol=tol,
+                                 locate=not args.no_locate, progress=not args.no_progress,
+                                 param_name=rng.name)
     except MapError as exc:
         print(f"{args.file}: error: {exc}", file=sys.stderr)
         return EXIT_FAILED
@@ -98,6 +129,61 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(format_continuation(report, Path(args.file).name))
     return 0 if res.complete else EXIT_FAILED
+
+
+def run_many(args: argparse.Namespace, factory, m, rng, x0, **kw) -> int:
+    """``--start``: continuations from every starting state, in parallel."""
+    import numpy as np
+
+    from lcs.analysis.continuation import continue_orbits, same_orbit
+    from netlist.sweep import parse_starts
+
+    from .orbit import positive_int
+
+    starts = [x0]
+    for text in args.start:
+        starts += parse_starts(text, m.state_names[: np.size(x0)], x0)
+    if args.start:
+        starts = starts[1:]  # the netlist / --x0 state is the default of every start
+    workers = positive_int("continue", "--workers", args.workers) if args.workers else None
+    with scheduler_errors("continue"):
+        results = continue_orbits(
+            factory, rng.start, rng.stop, starts, workers=workers, scheduler=args.scheduler,
+            progress=not args.no_progress, steps=kw["steps"], order=kw["order"],
+            transient=kw["transient"], tol=kw["tol"], locate=not args.no_locate,
+            param_name=rng.name)
+    conts = []
+    for i, (x, res) in enumerate(zip(starts, results, strict=True)):
+        same = None
+        if res.orbits and res.orbits[0].converged:
+            for j in range(i):
+                prev = results[j]
+                if prev.orbits and prev.orbits[0].converged and same_orbit(prev.orbits[0],
+                                                                           res.orbits[0]):
+                    same = j
+                    break
+        conts.append({"x0": [float(v) for v in x], "same_as": same, **res.to_dict()})
+    report = {"file": args.file, "title": factory.circuit(rng.start).title,
+              **map_header(m, factory), "order": kw["order"], "start": rng.start,
+              "stop": rng.stop, "steps": kw["steps"], "states": list(m.state_names),
+              "continuations": conts}
+    if args.json:
+        print(json.dumps(report, indent=1))
+    else:
+        name = Path(args.file).name
+        blocks = [f"{name}: {report['title']}".rstrip(": "),
+                  f"{len(starts)} continuation(s) from different starting states"]
+        for i, c in enumerate(conts):
+            start = ", ".join(f"{s} = {v:.6g}" for s, v in zip(report["states"], c["x0"],
+                                                                strict=False))
+            head = f"start {i + 1} ({start})"
+            if c["same_as"] is not None:
+                blocks.append(f"{head}: the same orbit as start {c['same_as'] + 1}")
+                continue
+            blocks.append(f"{head}:")
+            blocks.append(format_continuation({**report, **c}, name).split("\n", 1)[1])
+        print("\n".join(blocks))
+    return 0 if any(r.complete for r in results) else EXIT_FAILED
 
 
 def format_continuation(r: dict, name: str) -> str:

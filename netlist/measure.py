@@ -1,0 +1,283 @@
+"""Measurements of a run over its steady-state window: ``mean(v(out))``, ``ripple(i(L1))``...
+
+A measurement is ``FUNCTION(PROBE)`` with a probe as :func:`netlist.transient.check_probes`
+knows them (``v(out)``, ``v(a,b)``, ``i(L1)``, ``d(S1)``) and one of the functions of
+:data:`FUNCTIONS`. Everything but ``final`` is taken over the *steady-state window*, the one
+``pelcs check`` uses: the last whole periods of the steady state, up to 10 and at most a
+quarter of the run, where the period is the PULSE or SIN period of the source at a switch's
+control, else the longest source period, else the recurrence of the pelcs switching
+(free-running converters); without any period, the last 20 % of the run.
+(:mod:`ngspice_checks.compare` has the same rule for its comparisons.)
+
+The window's ends are interpolated into the samples, so that a mean over whole periods is
+exact up to the quadrature of the samples.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from lcs.results import SimulationResult
+from lcs.signals import Pulse, Sin
+
+from .circuit import GROUND, Circuit, CurrentSource, VoltageSource
+from .errors import Diagnostic, NetlistError
+from .transient import check_probes
+
+__all__ = [
+    "FUNCTIONS",
+    "Measurement",
+    "evaluate",
+    "parse_measurements",
+    "probe_unit",
+    "steady_state_period",
+    "steady_state_window",
+]
+
+#: Measurement functions: name -> what it gives (for help texts and errors).
+FUNCTIONS = {
+    "mean": "time average over the window",
+    "avg": "same as mean",
+    "rms": "root mean square over the window",
+    "ripple": "peak-to-peak (max - min) over the window",
+    "pp": "same as ripple",
+    "min": "minimum over the window",
+    "max": "maximum over the window",
+    "final": "value at the end of the run",
+}
+
+_MEASURE_RE = re.compile(r"^\s*([A-Za-z_]\w*)\s*\((.*)\)\s*$", re.S)
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """``func(probe)``.
+
+    Attributes
+    ----------
+    func : str
+        One of :data:`FUNCTIONS` (aliases resolved: ``avg`` -> ``mean``, ``pp`` -> ``ripple``).
+    probe : str
+        The probe as the user wrote it (stripped).
+    text : str
+        ``func(probe)`` as the user wrote the function, for column names.
+    """
+
+    func: str
+    probe: str
+    text: str
+
+    @property
+    def unit(self) -> str:
+        """SI unit of the measured value (that of the probe)."""
+        return probe_unit(self.probe)
+
+
+def probe_unit(probe: str) -> str:
+    """``"V"`` for ``v(...)``, ``"A"`` for ``i(...)``, ``""`` for ``d(...)``."""
+    p = probe.strip().lower()
+    return "V" if p.startswith("v") else "A" if p.startswith("i") else ""
+
+
+def _usage(message: str, hint: str = "") -> NetlistError:
+    return NetlistError(Diagnostic(message=message, hint=hint), file="pelcs")
+
+
+def _split_top(text: str) -> list[str]:
+    """Split on commas outside parentheses."""
+    depth, cur, parts = 0, "", []
+    for ch in text:
+        depth += (ch == "(") - (ch == ")")
+        if ch == "," and depth == 0:
+            parts.append(cur)
+            cur = ""
+        else:
+            cur += ch
+    parts.append(cur)
+    return [p.strip() for p in parts if p.strip()]
+
+
+def parse_measurements(items: Sequence[str], circuit: Circuit) -> list[Measurement]:
+    """Parse ``--measure`` items (each may hold several, comma-separated at the top level).
+
+    Raises
+    ------
+    NetlistError
+        One diagnostic per malformed item or unknown function; unknown probes as
+        :func:`~netlist.transient.check_probes` reports them (with the nodes and elements).
+    """
+    out: list[Measurement] = []
+    diags: list[Diagnostic] = []
+    functions = ", ".join(f for f in FUNCTIONS)
+    for item in items:
+        for text in _split_top(item):
+            m = _MEASURE_RE.match(text)
+            bare_probe = m is not None and m.group(1).lower() in ("v", "i", "d") and \
+                "(" not in m.group(2)
+            if m is None or not m.group(2).strip() or bare_probe:
+                diags.append(Diagnostic(
+                    message=f"bad measurement {text!r}: expected FUNCTION(PROBE)"
+                    + (" (this is a probe without a function)" if bare_probe else ""),
+                    hint=f"e.g. mean(v(out)) or ripple(i(L1)); functions: {functions}"))
+                continue
+            func = m.group(1).lower()
+            if func not in FUNCTIONS:
+                diags.append(Diagnostic(
+                    message=f"unknown measurement function {m.group(1)!r} in {text!r}",
+                    hint=f"functions: {functions}"))
+                continue
+            func = {"avg": "mean", "pp": "ripple"}.get(func, func)
+            out.append(Measurement(func, m.group(2).strip(),
+                                   f"{m.group(1)}({m.group(2).strip()})"))
+    if diags:
+        raise NetlistError(diags, file="pelcs")
+    if not out:
+        raise _usage("nothing to measure", "give --measure FUNCTION(PROBE), e.g. "
+                     "--measure 'mean(v(out))'")
+    # Unknown probes: the same error as pelcs simulate gives.
+    check_probes(circuit, [m.probe for m in out])
+    seen: set[str] = set()
+    for m in out:
+        if m.text in seen:
+            raise _usage(f"measurement {m.text!r} is given twice")
+        seen.add(m.text)
+    return out
+
+
+# -- the steady-state window ------------------------------------------------------------------
+
+
+def _source_period(wave) -> float | None:
+    if isinstance(wave, Pulse) and wave.per:
+        return float(wave.per)
+    if isinstance(wave, Sin) and wave.freq:
+        return 1.0 / float(wave.freq)
+    return None
+
+
+def steady_state_period(circuit: Circuit, result: SimulationResult | None = None,
+                        period: float | None = None) -> tuple[float | None, str]:
+    """The period of the steady state (s) and where it comes from.
+
+    Parameters
+    ----------
+    circuit : Circuit
+    result : SimulationResult, optional
+        A run of the circuit, for free-running converters (recurrence of the last switch
+        mode in the second half of the run).
+    period : float, optional
+        Given by the user: returned as it is.
+
+    Returns
+    -------
+    (float or None, str)
+        Period, s, or None; and a phrase such as ``"PULSE period of Vg (control of S1)"``.
+    """
+    if period is not None:
+        return float(period), "given (--period)"
+    tstop = circuit.tran.tstop if circuit.tran is not None else math.inf
+    sources = []
+    for el in circuit.elements:
+        if isinstance(el, (VoltageSource, CurrentSource)) and el.waveform is not None:
+            per = _source_period(el.waveform)
+            if per is not None and 0 < per < tstop:
+                sources.append((el, per))
+    # A source directly across a switch's control terminals sets its switching period.
+    for sw in circuit.of_kind("S"):
+        ctrl = set(sw.control)
+        for el, per in sources:
+            if isinstance(el, VoltageSource) and (
+                set(el.nodes) == ctrl or (GROUND in ctrl and set(el.nodes) & ctrl - {GROUND}
+                                          and GROUND in el.nodes)
+            ):
+                kind = "PULSE" if isinstance(el.waveform, Pulse) else "SIN"
+                return per, f"{kind} period of {el.name} (control of {sw.name})"
+    if sources:
+        el, per = max(sources, key=lambda s: s[1])
+        kind = "PULSE period" if isinstance(el.waveform, Pulse) else "SIN period"
+        return per, f"{kind} of {el.name} (longest source period)"
+    if result is not None and len(result.events) >= 4:
+        last = result.events[-1][1]
+        starts = np.array([t for t, mode in result.events if mode == last])
+        half = starts[starts >= 0.5 * (result.t[-1] + result.t[0])]
+        if len(half) >= 3:
+            return float(np.median(np.diff(half))), "median recurrence of the last switch " \
+                "mode (free-running)"
+    return None, "no periodic source or switching: last 20 % of the run"
+
+
+def steady_state_window(span: tuple[float, float], period: float | None
+                        ) -> tuple[tuple[float, float], int]:
+    """The last whole periods of ``span`` (up to 10, at most a quarter of it).
+
+    Parameters
+    ----------
+    span : (float, float)
+        Start and end of the run, s.
+    period : float or None
+        Steady-state period, s.
+
+    Returns
+    -------
+    ((float, float), int)
+        The window, s, and the number of whole periods in it (0: the last 20 % of the run,
+        without a period or when the run is shorter than one).
+    """
+    t0, t1 = span
+    if period is not None and period > 0:
+        n = min(10, int((t1 - t0) / 4.0 / period + 1e-9))
+        if n >= 1:
+            return (t1 - n * period, t1), n
+        if period <= t1 - t0:
+            return (t1 - period, t1), 1
+    return (t1 - 0.2 * (t1 - t0), t1), 0
+
+
+def _in_window(t: np.ndarray, y: np.ndarray, a: float, b: float
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Samples inside [a, b] with both ends interpolated in."""
+    sel = (t > a) & (t < b)
+    tt = np.concatenate([[a], t[sel], [b]])
+    yy = np.concatenate([[np.interp(a, t, y)], y[sel], [np.interp(b, t, y)]])
+    return tt, yy
+
+
+def evaluate(result: SimulationResult, measurements: Sequence[Measurement],
+             window: tuple[float, float]) -> np.ndarray:
+    """The measurements of a run, shape (len(measurements),), in the probes' SI units.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A run that recorded every measured probe.
+    measurements : sequence of Measurement
+    window : (float, float)
+        The steady-state window, s (:func:`steady_state_window`).
+    """
+    t = np.asarray(result.t, dtype=float)
+    a, b = window
+    out = np.empty(len(measurements))
+    for k, m in enumerate(measurements):
+        y = np.asarray(result[m.probe], dtype=float)
+        if m.func == "final":
+            out[k] = y[-1]
+            continue
+        tt, yy = _in_window(t, y, a, b)
+        if m.func == "mean":
+            out[k] = np.trapezoid(yy, tt) / (b - a)
+        elif m.func == "rms":
+            out[k] = math.sqrt(max(np.trapezoid(yy * yy, tt) / (b - a), 0.0))
+        elif m.func == "ripple":
+            out[k] = float(np.max(yy) - np.min(yy))
+        elif m.func == "min":
+            out[k] = float(np.min(yy))
+        elif m.func == "max":
+            out[k] = float(np.max(yy))
+        else:  # pragma: no cover - parse_measurements admits only FUNCTIONS
+            raise ValueError(m.func)
+    return out

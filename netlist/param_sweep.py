@@ -1,0 +1,510 @@
+"""Parameter sweeps and Monte Carlo runs of a netlist, measured over the steady state.
+
+:func:`run_sweep` simulates a netlist at every point of a grid of ``.param`` values (SPICE's
+``.step param``), and/or many times with component values drawn within tolerances (Monte
+Carlo), measures each run over its steady-state window (:mod:`netlist.measure`) and returns a
+:class:`~lcs.analysis.tables.SweepTable`. The runs are tasks of the engine of
+:mod:`lcs.analysis.parallel`: local processes by default, or the workers of a Dask scheduler.
+
+Tolerances (``R1=5%``, ``C*=10%``, ``L1=2u``): a pattern matches element names (glob,
+case-insensitive: ``C*`` is every capacitor, ``X1.*`` everything in instance X1); an element
+takes the tolerance of a pattern naming it exactly, else of the first pattern that matches it.
+``5%`` is relative to the element's value at that point, a number without ``%`` is absolute
+(ohm, henry, farad, volt, ampere, or the gain's unit). Elements with a value: R, L, C, DC
+voltage and current sources, E F G H (gain) and K (coupling). Each run draws every toleranced
+element independently:
+
+* ``uniform`` (default): value + U(-tol, +tol);
+* ``gaussian``: value + N(0, (tol/3)²), i.e. the tolerance is 3 σ (99.7 % of the draws
+  within it), not truncated.
+
+The draws are made up front, here, from ``numpy.random.default_rng(seed)`` (a matrix of runs
+by toleranced elements, in run order then netlist order), so that a seed gives the same runs
+whatever executes them and however the runs are split into tasks. With a parameter grid, run k
+uses the same draws at every grid point (common random numbers).
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import functools
+import itertools
+import secrets
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from lcs.analysis.parallel import task_engine
+from lcs.analysis.tables import SweepTable
+
+from .circuit import Circuit, CurrentSource, VoltageSource
+from .errors import Diagnostic, NetlistError
+from .measure import (
+    Measurement,
+    evaluate,
+    parse_measurements,
+    probe_unit,
+    steady_state_period,
+    steady_state_window,
+)
+from .parser import parse_string
+from .sweep import resolve_period
+from .transient import simulate_circuit
+from .units import parse_number
+
+__all__ = [
+    "DISTRIBUTIONS",
+    "Tolerance",
+    "draw_deviations",
+    "match_tolerances",
+    "parse_sweep_param",
+    "parse_tolerance",
+    "run_sweep",
+]
+
+DISTRIBUTIONS = ("uniform", "gaussian")
+
+# Element kind -> the attribute a tolerance changes, and its unit.
+_VALUE_ATTR = {"R": ("value", "Ω"), "L": ("value", "H"), "C": ("value", "F"),
+               "V": ("dc", "V"), "I": ("dc", "A"), "E": ("gain", ""), "F": ("gain", ""),
+               "G": ("gain", "S"), "H": ("gain", "Ω"), "K": ("k", "")}
+
+
+def _usage(message: str, hint: str = "") -> NetlistError:
+    return NetlistError(Diagnostic(message=message, hint=hint), file="pelcs")
+
+
+# -- parameters ------------------------------------------------------------------------------
+
+
+def _number(text: str, what: str) -> float:
+    from .sweep import parse_value
+
+    return parse_value(text, what)
+
+
+def parse_sweep_param(text: str) -> tuple[str, float | np.ndarray]:
+    """``NAME=START:STOP:COUNT`` (COUNT values), ``NAME=V1,V2,...`` or ``NAME=VALUE``.
+
+    Returns
+    -------
+    (str, float or ndarray)
+        The name and a fixed value, or the swept values (shape (COUNT,)).
+    """
+    name, sep, val = text.partition("=")
+    name, val = name.strip(), val.strip()
+    if not sep or not name or not val:
+        raise _usage(f"bad parameter {text!r}",
+                     "expected NAME=START:STOP:COUNT, NAME=V1,V2,... or NAME=VALUE, e.g. "
+                     "duty=0.2:0.8:7")
+    if ":" in val:
+        parts = val.split(":")
+        if len(parts) != 3:
+            raise _usage(f"parameter range {text!r}: expected NAME=START:STOP:COUNT",
+                         "e.g. duty=0.2:0.8:7 (7 values from 0.2 to 0.8)")
+        start, stop = _number(parts[0], f"range {text!r}"), _number(parts[1], f"range {text!r}")
+        count = _number(parts[2], f"range {text!r}")
+        if count != int(count) or count < 1:
+            raise _usage(f"range {text!r}: COUNT must be an integer >= 1")
+        return name, np.linspace(start, stop, int(count))
+    if "," in val and not val.startswith(("{", "'")):
+        return name, np.array([_number(v, f"parameter {name}") for v in val.split(",")
+                               if v.strip()])
+    return name, _number(val, f"parameter {name}")
+
+
+# -- tolerances ------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """``PATTERN=AMOUNT`` (``R1=5%``, ``C*=10%``, ``L1=2u``).
+
+    Attributes
+    ----------
+    pattern : str
+        Glob over element names, case-insensitive.
+    amount : float
+        Fraction (relative) or SI value (absolute).
+    relative : bool
+    text : str
+        As given.
+    """
+
+    pattern: str
+    amount: float
+    relative: bool
+    text: str
+
+    @property
+    def exact(self) -> bool:
+        return not any(c in self.pattern for c in "*?[")
+
+    def describe(self, unit: str = "") -> str:
+        if self.relative:
+            return f"±{100 * self.amount:.4g} %"
+        return f"±{self.amount:.4g} {unit}".rstrip()
+
+
+def parse_tolerance(text: str) -> Tolerance:
+    """Parse ``PATTERN=AMOUNT``; ``AMOUNT`` is ``N%`` (relative) or a number (absolute)."""
+    pattern, sep, amount = text.partition("=")
+    pattern, amount = pattern.strip(), amount.strip()
+    hint = "expected PATTERN=N% (relative) or PATTERN=VALUE (absolute), e.g. R1=5% or 'C*=10%'"
+    if not sep or not pattern or not amount:
+        raise _usage(f"bad tolerance {text!r}", hint)
+    relative = amount.endswith("%")
+    num = parse_number(amount[:-1].strip() if relative else amount)
+    if num is None or not np.isfinite(num) or num < 0:
+        raise _usage(f"tolerance {text!r}: {amount!r} is not a non-negative number", hint)
+    return Tolerance(pattern, float(num) / 100 if relative else float(num), relative, text)
+
+
+def _tolerable(el) -> bool:
+    if el.kind not in _VALUE_ATTR:
+        return False
+    if isinstance(el, (VoltageSource, CurrentSource)):
+        return el.waveform is None
+    return True
+
+
+def match_tolerances(circuit: Circuit, tolerances: Sequence[Tolerance]
+                     ) -> list[tuple[str, Tolerance]]:
+    """``(element name, tolerance)`` for every toleranced element, in netlist order.
+
+    Raises
+    ------
+    NetlistError
+        A pattern that matches no element with a value (D, S and PULSE/SIN/... sources have
+        none), or that names one exactly and it has no value.
+    """
+    tolerable = [el for el in circuit.elements if _tolerable(el)]
+    out: list[tuple[str, Tolerance]] = []
+    used: set[int] = set()
+    for el in tolerable:
+        key = el.name.lower()
+        chosen = None
+        for i, tol in enumerate(tolerances):
+            if tol.exact and tol.pattern.lower() == key:
+                chosen = i
+                break
+        if chosen is None:
+            for i, tol in enumerate(tolerances):
+                if fnmatch.fnmatchcase(key, tol.pattern.lower()):
+                    chosen = i
+                    break
+        if chosen is not None:
+            used.add(chosen)
+            out.append((el.name, tolerances[chosen]))
+    diags = []
+    names = ", ".join(el.name for el in tolerable) or "none"
+    for i, tol in enumerate(tolerances):
+        if i in used:
+            continue
+        try:
+            el = circuit.element(tol.pattern) if tol.exact else None
+        except KeyError:
+            el = None
+        if el is not None:
+            msg = (f"tolerance {tol.text!r}: {el.name} has no value to vary"
+                   + (" (a source with a waveform)" if el.kind in "VI" else ""))
+        else:
+            hidden = any(fnmatch.fnmatchcase(e.name.lower(), tol.pattern.lower())
+                         for e in circuit.elements)
+            msg = (f"tolerance {tol.text!r} matches " + ("only elements without a value"
+                                                         if hidden else "no element"))
+        diags.append(Diagnostic(message=msg, hint=f"elements with a value: {names}"))
+    if diags:
+        raise NetlistError(diags, file="pelcs")
+    return out
+
+
+def draw_deviations(matched: Sequence[tuple[str, Tolerance]], runs: int, seed: int,
+                    distribution: str = "uniform") -> np.ndarray:
+    """Deviations of every run, shape (runs, len(matched)): fractions for relative
+    tolerances, SI values for absolute ones.
+
+    ``uniform``: U(-tol, tol); ``gaussian``: N(0, (tol/3)²). One matrix from
+    ``numpy.random.default_rng(seed)``, row = run.
+    """
+    if distribution not in DISTRIBUTIONS:
+        raise _usage(f"unknown distribution {distribution!r}",
+                     f"use {' or '.join(DISTRIBUTIONS)}")
+    rng = np.random.default_rng(int(seed))
+    amounts = np.array([tol.amount for _, tol in matched], dtype=float)
+    shape = (int(runs), len(matched))
+    if distribution == "uniform":
+        unit = rng.uniform(-1.0, 1.0, size=shape)
+        return unit * amounts
+    return rng.standard_normal(size=shape) * (amounts / 3.0)
+
+
+# -- one run ---------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Job:
+    """What every run shares (picklable, sent to the workers)."""
+
+    text: str
+    path: str
+    fixed: tuple[tuple[str, float], ...]
+    measures: tuple[Measurement, ...]
+    tstop: float | None
+    step: float | None
+    theta: float
+    period: float | str | None
+    toleranced: tuple[tuple[str, bool], ...]  # (element, relative)
+
+
+@functools.lru_cache(maxsize=16)
+def _parse(text: str, path: str, params: tuple[tuple[str, float], ...]) -> Circuit:
+    return parse_string(text, file=path, params=dict(params) or None)
+
+
+def _perturbed(circuit: Circuit, toleranced, deviations) -> tuple[Circuit, list[float]]:
+    """A copy of the circuit with the deviations applied, and the values used."""
+    if deviations is None:
+        return circuit, []
+    elements = list(circuit.elements)
+    index = {el.name.lower(): i for i, el in enumerate(elements)}
+    used = []
+    for (name, relative), d in zip(toleranced, deviations, strict=True):
+        i = index[name.lower()]
+        el = elements[i]
+        attr = _VALUE_ATTR[el.kind][0]
+        nominal = float(getattr(el, attr))
+        value = nominal * (1.0 + d) if relative else nominal + d
+        if el.kind in "RLC" and not value > 0:
+            raise ValueError(f"{el.name} drawn as {value:.6g}, not positive (nominal "
+                             f"{nominal:.6g}): narrow its tolerance")
+        elements[i] = replace(el, **{attr: value})
+        used.append(value)
+    return replace(circuit, elements=elements), used
+
+
+def _run_point(job: _Job, params: tuple[tuple[str, float], ...], deviations
+               ) -> tuple[np.ndarray, list[float], bool, str, tuple]:
+    """Measure one run: (values, component values used, ok, message, window info)."""
+    nm = len(job.measures)
+    nan = np.full(nm, np.nan)
+    drawn = [np.nan] * len(job.toleranced) if deviations is not None else []
+    try:
+        circuit = _parse(job.text, job.path, tuple(sorted({**dict(job.fixed),
+                                                           **dict(params)}.items())))
+        circuit, used = _perturbed(circuit, job.toleranced, deviations)
+        drawn = used or drawn
+        probes = list(dict.fromkeys(m.probe for m in job.measures))
+        res = simulate_circuit(circuit, tstop=job.tstop, step=job.step, theta=job.theta,
+                               probes=probes)
+        period = resolve_period(circuit, job.period) if job.period is not None else None
+    except (NetlistError, ValueError) as exc:
+        msg = exc.message if isinstance(exc, NetlistError) else str(exc)
+        return nan, drawn, False, msg, ()
+    if res.error is not None:
+        return nan, drawn, False, f"simulation failed at t = {res.error.time:.6g} s: " \
+            f"{res.error.message}", ()
+    if len(res.t) < 2:
+        return nan, drawn, False, "the run has fewer than two time points", ()
+    per, source = steady_state_period(circuit, res, period)
+    window, n = steady_state_window((float(res.t[0]), float(res.t[-1])), per)
+    return evaluate(res, job.measures, window), drawn, True, "", (window, n, per, source)
+
+
+def _sweep_task(task, report) -> list:
+    job, points = task
+    out = []
+    for params, deviations in points:
+        out.append(_run_point(job, params, deviations))
+        report(1)
+    return out
+
+
+# -- the sweep -------------------------------------------------------------------------------
+
+
+def _read(source) -> tuple[str, str]:
+    """(text, path) of a netlist path or netlist text."""
+    from pathlib import Path
+
+    s = str(source)
+    if "\n" in s:
+        return s, "<string>"
+    p = Path(s)
+    try:
+        data = p.read_bytes()
+    except OSError as exc:
+        raise NetlistError(Diagnostic(message=f"cannot read the netlist: {exc.strerror or exc}",
+                                      hint="check the path"), file=s) from None
+    try:
+        return data.decode("utf-8"), s
+    except UnicodeDecodeError:
+        raise NetlistError(Diagnostic(message="the netlist is not UTF-8 text",
+                                      hint="save it as UTF-8"), file=s) from None
+
+
+def run_sweep(
+    source,
+    measures: Sequence[str],
+    *,
+    params: Mapping[str, float | Sequence[float]] | None = None,
+    tolerances: Sequence[str | Tolerance] = (),
+    runs: int = 0,
+    seed: int | None = None,
+    distribution: str = "uniform",
+    tstop: float | None = None,
+    step: float | None = None,
+    theta: float = 0.5,
+    period: float | str | None = None,
+    workers: int | None = None,
+    scheduler=None,
+    progress: bool = False,
+) -> SweepTable:
+    """Sweep ``.param`` values and/or draw component values, and measure every run.
+
+    Parameters
+    ----------
+    source : str or path
+        Netlist file (or netlist text, with a line break).
+    measures : sequence of str
+        ``FUNCTION(PROBE)`` (:data:`netlist.measure.FUNCTIONS`), e.g. ``"mean(v(out))"``.
+    params : mapping, optional
+        ``.param`` values: a number (fixed) or a sequence (swept). The grid is every
+        combination, the first swept parameter varying slowest.
+    tolerances : sequence of str or Tolerance
+        ``"R1=5%"``, ``"C*=10%"``... (Monte Carlo; needs ``runs``).
+    runs : int
+        Monte Carlo runs per grid point (0: none).
+    seed : int, optional
+        Random seed; default a fresh one (reported in the table: pass it to repeat the runs).
+    distribution : str
+        ``"uniform"`` or ``"gaussian"`` (tolerance = 3 σ).
+    tstop, step : float, optional
+        Stop time and step, s (default: the netlist's ``.tran``).
+    theta : float
+    period : float or str, optional
+        Steady-state period, s, or a ``.param`` name (evaluated per point); default the
+        period of the source at a switch's control (as ``pelcs check``).
+    workers : int, optional
+        Local processes (default all cores).
+    scheduler : None, str or distributed.Client, optional
+        Where the runs go (:func:`lcs.analysis.parallel.task_engine`); the table is the same.
+    progress : bool
+
+    Returns
+    -------
+    SweepTable
+        One row per (grid point, run); failed runs have NaN measurements and a message.
+
+    Raises
+    ------
+    NetlistError
+        Bad netlist, parameter, measurement, probe or tolerance (checked at the first grid
+        point before any run).
+    """
+    t_wall = time.perf_counter()
+    text, path = _read(source)
+    params = dict(params or {})
+    fixed = {k: float(v) for k, v in params.items() if np.ndim(v) == 0}
+    swept = {k: np.asarray(v, dtype=float).ravel() for k, v in params.items()
+             if np.ndim(v) > 0}
+    for k, v in swept.items():
+        if v.size == 0:
+            raise _usage(f"parameter {k}: no values")
+    tols = [t if isinstance(t, Tolerance) else parse_tolerance(t) for t in tolerances]
+    runs = int(runs)
+    if tols and runs < 1:
+        raise _usage("tolerances given but no runs", "give --runs N (Monte Carlo runs)")
+    if runs and not tols:
+        raise _usage("Monte Carlo runs but no tolerance", "give --tolerance, e.g. R1=5%")
+    if distribution not in DISTRIBUTIONS:
+        raise _usage(f"unknown distribution {distribution!r}",
+                     f"use {' or '.join(DISTRIBUTIONS)}")
+    if not 0.5 <= float(theta) <= 1.0:
+        raise _usage(f"theta {theta}: θ must be in [0.5, 1]")
+
+    # Check everything at the first grid point (names, probes, tolerances) before any run.
+    grid = list(itertools.product(*swept.values())) if swept else [()]
+    first = {**fixed, **{k: float(v[0]) for k, v in swept.items()}}
+    circuit = parse_string(text, file=path, params=first or None)
+    mlist = parse_measurements(list(measures), circuit)
+    if period is not None:
+        resolve_period(circuit, period)
+    matched = match_tolerances(circuit, tols) if tols else []
+    if seed is None and runs:
+        seed = secrets.randbelow(2**31)
+    deviations = draw_deviations(matched, runs, seed, distribution) if runs else None
+
+    job = _Job(text, path, tuple(sorted(fixed.items())), tuple(mlist), tstop, step,
+               float(theta), period, tuple((n, t.relative) for n, t in matched))
+    names = list(swept)
+    points: list[tuple[tuple, np.ndarray | None]] = []
+    rows_in: list[list[float]] = []
+    for combo in grid:
+        p = tuple(zip(names, (float(v) for v in combo), strict=True))
+        if runs:
+            for k in range(runs):
+                points.append((p, deviations[k]))
+                rows_in.append([*combo, k])
+        else:
+            points.append((p, None))
+            rows_in.append(list(combo))
+    extra = [((), np.zeros(len(matched)))] if runs and not swept else []
+
+    all_points = points + extra
+    with task_engine(scheduler, workers) as engine:
+        n_tasks = max(1, min(len(all_points), 4 * engine.workers))
+        chunks = [c for c in np.array_split(np.arange(len(all_points)), n_tasks) if c.size]
+        tasks = [(job, [all_points[i] for i in c]) for c in chunks]
+        results = [r for chunk in engine.run(_sweep_task, tasks, progress=progress,
+                                             total=len(all_points), desc="sweep",
+                                             unit="run")
+                   for r in chunk]
+        engine_name = engine.description
+    nominal = results[-1][0] if extra else None
+    results = results[:len(points)]
+
+    inputs = names + (["run"] if runs else []) + [n for n, _ in matched]
+    input_values = np.array([row + list(r[1]) for row, r in zip(rows_in, results,
+                                                                strict=True)],
+                            dtype=float).reshape(len(points), len(inputs))
+    values = np.stack([r[0] for r in results])
+    ok = np.array([r[2] for r in results], dtype=bool)
+    messages = [r[3] for r in results]
+    units = {m.text: probe_unit(m.probe) for m in mlist}
+    for n, _ in matched:
+        units[n] = _VALUE_ATTR[circuit.element(n).kind][1]
+    notes = _notes(results, ok)
+    tol_text = [f"{n} {t.describe(units[n])}" + ("" if t.exact else f" ({t.text})")
+                for n, t in matched]
+    return SweepTable(
+        inputs=tuple(inputs), input_values=input_values,
+        measures=tuple(m.text for m in mlist), values=values, ok=ok, messages=messages,
+        swept=tuple(names), units=units, nominal=nominal, runs=runs,
+        seed=int(seed) if runs else None, distribution=distribution if runs else "",
+        tolerances=tol_text, notes=notes, wall_time=time.perf_counter() - t_wall,
+        engine=engine_name,
+    )
+
+
+def _notes(results, ok) -> list[str]:
+    from .units import format_eng
+
+    notes = []
+    windows = [r[4] for r in results if r[2]]
+    if windows:
+        (a, b), n, per, source = windows[0]
+        same = all(w[1] == n and w[2] == per for w in windows)
+        if n and per:
+            what = (f"the last {n} period(s) of {format_eng(per, 's')} ({source})")
+        else:
+            what = f"the last 20 % of the run ({source})"
+        notes.append(f"measured over {what}" + ("" if same else
+                                                 " at the first point; per point elsewhere"))
+    failed = int((~ok).sum())
+    if failed:
+        first = next(r[3] for r in results if not r[2])
+        notes.append(f"{failed} run(s) failed (NaN in the table); first: {first}")
+    return notes
