@@ -12,12 +12,22 @@ is exact, so that an inlined step compiles to the same code as the hand-written 
 
 Usage: decorate loops (and anything that calls inlined functions) with ``@kernel`` and the
 small pieces with ``@inline``; both cache to disk like ``njit(cache=True)``.
+
+Cache freshness: numba keys a cached function on the contents of its own source file, while a
+compiled kernel contains the code of every function it calls or inlines from other files (and
+of this module's passes). Functions defined in :data:`KERNEL_SOURCES` are therefore cached under
+one stamp, the hash of all those files together (:class:`KernelCacheLocator`): a change to any
+of them recompiles every kernel once.
 """
 
 from __future__ import annotations
 
+import functools
+import hashlib
+from pathlib import Path
+
 from numba import njit
-from numba.core import ir, types
+from numba.core import caching, ir, types
 from numba.core.analysis import compute_cfg_from_blocks
 from numba.core.compiler import CompilerBase, DefaultPassBuilder
 from numba.core.compiler_machinery import FunctionPass, register_pass
@@ -25,8 +35,66 @@ from numba.core.ir_utils import replace_vars_stmt
 from numba.core.typed_passes import InlineOverloads
 from numba.core.untyped_passes import InlineInlinables
 
-__all__ = ["ForwardCopies", "HoistTupleFields", "KernelCompiler", "forward_copies", "inline",
-           "kernel"]
+__all__ = ["ForwardCopies", "HoistTupleFields", "KernelCacheLocator", "KernelCompiler",
+           "forward_copies", "inline", "kernel"]
+
+_LCS = Path(__file__).resolve().parent
+# The packages whose compiled functions call or inline each other's, and this module.
+KERNEL_SOURCES = (_LCS / "jit.py", _LCS / "lcp", _LCS / "stepping")
+
+
+def _kernel_files() -> list[Path]:
+    files = []
+    for src in KERNEL_SOURCES:
+        files.extend(sorted(src.glob("*.py")) if src.is_dir() else [src])
+    return files
+
+
+@functools.lru_cache(maxsize=1)
+def kernel_stamp() -> bytes:
+    """SHA-256 of every kernel source file (names and contents), once per process."""
+    h = hashlib.sha256()
+    for f in _kernel_files():
+        h.update(f.name.encode())
+        h.update(f.read_bytes())
+    return h.digest()
+
+
+class KernelCacheLocator(caching._CacheLocator):
+    """Numba's own cache location for a kernel source file, with :func:`kernel_stamp` as its
+    freshness stamp."""
+
+    def __init__(self, inner):
+        self._inner = inner
+
+    def ensure_cache_path(self):
+        return self._inner.ensure_cache_path()
+
+    def get_cache_path(self):
+        return self._inner.get_cache_path()
+
+    def get_source_stamp(self):
+        return kernel_stamp()
+
+    def get_disambiguator(self):
+        return self._inner.get_disambiguator()
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        path = Path(py_file).resolve()
+        if not any(path == s or s in path.parents for s in KERNEL_SOURCES):
+            return None
+        for other in caching.CacheImpl._locator_classes:
+            if other is cls:
+                continue
+            loc = other.from_function(py_func, py_file)
+            if loc is not None:
+                return cls(loc)
+        return None
+
+
+if KernelCacheLocator not in caching.CacheImpl._locator_classes:
+    caching.CacheImpl._locator_classes.insert(0, KernelCacheLocator)
 
 
 def _defs_and_uses(blocks):

@@ -24,6 +24,16 @@ from collections import namedtuple
 import numpy as np
 
 from ..lcp.compiled import AS_MISSES, AS_NEXT_SLOT, lcp_work
+from ..simulation.recorder import EV_SLIDE_END as EV_SLIDE_END
+from ..simulation.recorder import EV_SLIDE_START as EV_SLIDE_START
+from ..simulation.recorder import EV_SWITCH as EV_SWITCH
+from ..simulation.schedule import OP_REARM as OP_REARM
+from ..simulation.schedule import OP_SET as OP_SET
+from ..simulation.switches import SW_LOCATED as SW_LOCATED
+from ..simulation.switches import SW_SAMPLED as SW_SAMPLED
+from ..simulation.switches import SW_SCHEDULED as SW_SCHEDULED
+from ..simulation.switches import SWF_LATCH as SWF_LATCH
+from ..simulation.switches import SWF_RELAY as SWF_RELAY
 
 # Kernel return codes.
 STEP_OK = 0
@@ -90,22 +100,6 @@ MF_LEN = 3
 
 # Shortest run of steps up to the next schedule entry that run_grid gives to its plain loop.
 PLAIN_MIN = 16
-
-# Switch kinds and flags.
-SW_SCHEDULED = 0  # driven by sources or a Python controller: instants known in advance
-SW_LOCATED = 1  # comparator: crossings located inside the step
-SW_SAMPLED = 2  # comparator sampled at the end of each grid step (explicit method)
-SWF_LATCH = 1  # off switch turns on only at the schedule's re-arm entries
-SWF_RELAY = 2  # may enter a Filippov sliding mode
-
-# Schedule operations (applied at the start of a grid step).
-OP_SET = 0  # key = (key & ~a) | b   (source- or controller-driven switches)
-OP_REARM = 1  # latched switch a: on iff its control >= vt - vh
-
-# Event records: ev_info = switch index + EV_* (schedule events have switch index -1).
-EV_SWITCH = 0
-EV_SLIDE_START = 1 << 20
-EV_SLIDE_END = 2 << 20
 
 MODE_FIELDS = ["A", "B", "C", "D", "E", "F", "Phi", "G0", "G1", "K", "M", "Cy", "Dy", "Fy",
                "Cc", "Dc", "Fc"]

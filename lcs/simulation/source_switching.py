@@ -1,4 +1,4 @@
-"""Time grid, input evaluation and switching instants for the Moreau driver.
+"""Switching instants of the switches driven by independent sources, before any integration.
 
 Switches driven by independent sources (the control's output map has ``Cy = 0`` and ``Dy = 0``)
 have a control that is a known function of time, ``c(t) = Fy u(t)``. Their switching instants
@@ -10,153 +10,14 @@ initial state while the source-driven instants are computed.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
-from scipy.optimize import brentq
 
-from .model import SwitchedLCS
-from .signals import Pwl
-
-InputFunction = Callable[[np.ndarray], np.ndarray]
-
-# Two boundaries closer than this fraction of h are merged (they differ by round-off).
-MERGE_FRACTION = 1e-9
-# A remainder step shorter than this fraction of h is merged into the previous step.
-SNAP_FRACTION = 0.01
-
-
-# ---------------------------------------------------------------------------------------------
-# Inputs
-# ---------------------------------------------------------------------------------------------
-
-
-def _pwl_limit(sig: Pwl, t: np.ndarray, side: int) -> np.ndarray:
-    """One-sided limit of a PWL waveform (which may jump where two points share a time)."""
-    times = np.asarray(sig.times, dtype=float)
-    values = np.asarray(sig.values, dtype=float)
-    idx = np.searchsorted(times, t, side="right" if side > 0 else "left")
-    lo = np.clip(idx - 1, 0, len(times) - 1)
-    hi = np.clip(idx, 0, len(times) - 1)
-    t_lo, t_hi = times[lo], times[hi]
-    span = np.where(t_hi > t_lo, t_hi - t_lo, 1.0)
-    frac = np.clip((t - t_lo) / span, 0.0, 1.0)
-    out = values[lo] + (values[hi] - values[lo]) * np.where(t_hi > t_lo, frac, 0.0)
-    out = np.where(idx == 0, values[0], out)
-    return np.where(idx >= len(times), values[-1], out)
-
-
-def evaluate_inputs(inputs: Sequence[InputFunction], t: np.ndarray, side: int = 0) -> np.ndarray:
-    """Inputs on a time array.
-
-    Parameters
-    ----------
-    inputs : sequence of callables
-        ``inputs[j](t)`` evaluates input j on an array of times (a :mod:`lcs.signals` waveform
-        or any vectorised function).
-    t : ndarray, shape (N,)
-        Times, s.
-    side : int
-        0: plain evaluation; +1 / -1: right / left limits (differs only at jumps of PWL
-        waveforms; the other waveforms are continuous once resolved).
-
-    Returns
-    -------
-    ndarray, shape (N, p)
-    """
-    t = np.asarray(t, dtype=float)
-    out = np.empty((t.size, len(inputs)))
-    for j, f in enumerate(inputs):
-        if side != 0 and isinstance(f, Pwl):
-            out[:, j] = _pwl_limit(f, t, side)
-        else:
-            out[:, j] = np.broadcast_to(np.asarray(f(t), dtype=float), t.shape)
-    return out
-
-
-class InputTable:
-    """Fast evaluation of the inputs over one run: a piecewise-linear source without jumps (DC,
-    PULSE, PWL) is tabulated at its breakpoints in ``[t0, t1]`` once and evaluated by linear
-    interpolation (exact: it is linear between breakpoints); other sources are called.
-
-    Parameters
-    ----------
-    inputs : sequence of callables
-    t0, t1 : float
-        Run interval, s.
-    """
-
-    def __init__(self, inputs: Sequence[InputFunction], t0: float, t1: float):
-        self.inputs = list(inputs)
-        self.tables: list = []
-        for f in self.inputs:
-            table = None
-            bp = getattr(f, "breakpoints", None)
-            if (getattr(f, "piecewise_linear", False) and bp is not None
-                    and not (isinstance(f, Pwl)
-                             and np.any(np.diff(np.asarray(f.times, float)) == 0))):
-                pts = np.asarray(bp(t0, t1), dtype=float).ravel()
-                pts = np.unique(np.concatenate(([t0, t1], pts[(pts > t0) & (pts < t1)])))
-                if len(pts) <= 4_000_000:
-                    table = (pts, np.asarray(f(pts), dtype=float).ravel())
-            self.tables.append(table)
-        self.jumps = has_jumps(self.inputs)
-        # Every input linear between breakpoints (DC, PULSE, PWL): linear interpolation
-        # inside a step is exact.
-        self.piecewise_linear = all(getattr(f, "piecewise_linear", False) for f in self.inputs)
-
-    def __call__(self, t: np.ndarray, side: int = 0) -> np.ndarray:
-        """Inputs at the times ``t`` (s), shape (N, p); ``side`` as in
-        :func:`evaluate_inputs`."""
-        t = np.asarray(t, dtype=float)
-        out = np.empty((t.size, len(self.inputs)))
-        for j, f in enumerate(self.inputs):
-            table = self.tables[j]
-            if table is not None:
-                if len(table[0]) == 2 and table[1][0] == table[1][1]:
-                    out[:, j] = table[1][0]
-                else:
-                    out[:, j] = np.interp(t, table[0], table[1])
-            elif side != 0 and isinstance(f, Pwl):
-                out[:, j] = _pwl_limit(f, t, side)
-            else:
-                out[:, j] = np.broadcast_to(np.asarray(f(t), dtype=float), t.shape)
-        return out
-
-
-def has_jumps(inputs: Sequence[InputFunction]) -> bool:
-    """Whether some input can jump (a PWL with two points at the same time)."""
-    for f in inputs:
-        if isinstance(f, Pwl) and np.any(np.diff(np.asarray(f.times, dtype=float)) == 0):
-            return True
-    return False
-
-
-def collect_breakpoints(inputs: Sequence[InputFunction], t0: float, t1: float,
-                        extra: Sequence[float] = ()) -> np.ndarray:
-    """Sorted source breakpoints (and ``extra`` instants) strictly inside ``(t0, t1)``, s."""
-    pts = [np.asarray(extra, dtype=float).ravel()]
-    for f in inputs:
-        bp = getattr(f, "breakpoints", None)
-        if bp is not None:
-            pts.append(np.asarray(bp(t0, t1), dtype=float).ravel())
-    allp = np.unique(np.concatenate(pts)) if pts else np.empty(0)
-    return allp[(allp > t0) & (allp < t1)]
-
-
-def merge_close(times: np.ndarray, tol: float) -> np.ndarray:
-    """Drop entries closer than ``tol`` to their predecessor (times sorted)."""
-    if times.size < 2:
-        return times
-    keep = np.concatenate(([True], np.diff(times) > tol))
-    return times[keep]
-
-
-# ---------------------------------------------------------------------------------------------
-# Source-driven switching instants
-# ---------------------------------------------------------------------------------------------
+from ..model import SwitchedLCS
+from .inputs import MERGE_FRACTION, InputFunction, evaluate_inputs
 
 
 @dataclass
@@ -250,6 +111,8 @@ def _first_crossing(fun, sa: float, sb: float, ca: float, cb: float, thr: float,
     if g(ts[i - 1]) == 0.0:
         lo = ts[i - 1]
     else:
+        from scipy.optimize import brentq  # (only for sources that are not piecewise linear)
+
         lo = brentq(g, ts[i - 1], ts[i], xtol=1e-300, rtol=1e-15)
     # brentq returns a root; the switch acts just after it.
     return float(lo)
@@ -546,125 +409,3 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
                                 dtype=np.int64))
     return mode0, out
 
-
-# ---------------------------------------------------------------------------------------------
-# Time grid
-# ---------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class GridPlan:
-    """The step sequence over consecutive segments ``bounds[i] .. bounds[i+1]``.
-
-    Each segment starts its own uniform grid ``sa + j h`` (j = 1..n_regular) and ends with
-    one shortened ("odd") step of length ``last`` onto ``sb`` when the segment is not a whole
-    number of steps. A remainder shorter than ``SNAP_FRACTION * h`` is merged into the last
-    regular step (one slightly longer odd step) so that no needlessly tiny step is taken.
-
-    Attributes
-    ----------
-    bounds : ndarray, shape (S + 1,)
-        Segment boundaries, s.
-    n_regular : ndarray of int64, shape (S,)
-    last : ndarray, shape (S,)
-        Length of the final odd step, s (0: none, the grid lands on ``sb``).
-    start : ndarray of int64, shape (S + 1,)
-        Global index of each segment's first step (``start[-1]`` = total steps).
-    """
-
-    bounds: np.ndarray
-    h: float
-    n_regular: np.ndarray
-    last: np.ndarray
-    start: np.ndarray
-
-    @property
-    def total(self) -> int:
-        return int(self.start[-1])
-
-
-@njit(cache=True)
-def _plan_nb(bounds, h, merge, snap_frac, n_reg, last, start):
-    nseg = bounds.shape[0] - 1
-    start[0] = 0
-    for i in range(nseg):
-        L = bounds[i + 1] - bounds[i]
-        r = L / h
-        N = np.rint(r)
-        aligned = N >= 1 and abs(L - N * h) <= merge * h * max(1.0, r)
-        if aligned:
-            n_reg[i] = int(N)
-            last[i] = 0.0
-        else:
-            Nf = np.floor(r)
-            rem = L - Nf * h
-            if rem <= 0.0:  # floor round-off
-                Nf -= 1
-                rem = L - Nf * h
-            if Nf >= 1 and rem < snap_frac * h:
-                n_reg[i] = int(Nf) - 1
-                last[i] = h + rem
-            else:
-                n_reg[i] = int(Nf)
-                last[i] = rem
-        start[i + 1] = start[i] + n_reg[i] + (1 if last[i] > 0 else 0)
-
-
-def plan_grid(bounds: np.ndarray, h: float) -> GridPlan:
-    """Step counts of every segment (compiled loop over the segments)."""
-    bounds = np.ascontiguousarray(bounds, dtype=float)
-    nseg = len(bounds) - 1
-    n_reg = np.empty(nseg, np.int64)
-    last = np.empty(nseg)
-    start = np.empty(nseg + 1, np.int64)
-    _plan_nb(bounds, float(h), MERGE_FRACTION, SNAP_FRACTION, n_reg, last, start)
-    return GridPlan(bounds, float(h), n_reg, last, start)
-
-
-@njit(cache=True)
-def _fill_grid(bounds, n_regular, last, start, h, g0, g1, t_prev, t, odd, seg_out):
-    """Step ends ``t[1:]``, odd flags and segment indices of global steps ``g0 .. g1-1``."""
-    t[0] = t_prev
-    seg = 0
-    while start[seg + 1] <= g0:
-        seg += 1
-    for g in range(g0, g1):
-        while g >= start[seg + 1]:
-            seg += 1
-        jj = g - start[seg]
-        nreg = n_regular[seg]
-        sa = bounds[seg]
-        sb = bounds[seg + 1]
-        o = jj >= nreg
-        if o:
-            te = sb
-        elif jj == nreg - 1 and last[seg] == 0.0:
-            # A segment that is a whole number of steps ends exactly on its boundary.
-            te = sb
-        else:
-            te = sa + (jj + 1) * h
-        t[g - g0 + 1] = te
-        odd[g - g0] = o
-        seg_out[g - g0] = seg
-
-
-def grid_chunks(plan: GridPlan, chunk: int):
-    """Yield ``(t, odd, seg)`` for consecutive pieces of at most ``chunk`` steps.
-
-    ``t`` (k + 1,) are step boundaries (the first is the end of the previous piece), ``odd``
-    (k,) flags shortened steps and ``seg`` (k,) gives each step's segment index.
-    """
-    total = plan.total
-    t_prev = float(plan.bounds[0])
-    bounds = np.ascontiguousarray(plan.bounds, dtype=float)
-    n_reg = np.ascontiguousarray(plan.n_regular, dtype=np.int64)
-    last = np.ascontiguousarray(plan.last, dtype=float)
-    start = np.ascontiguousarray(plan.start, dtype=np.int64)
-    for g0 in range(0, total, chunk):
-        g1 = min(total, g0 + chunk)
-        t = np.empty(g1 - g0 + 1)
-        odd = np.empty(g1 - g0, np.bool_)
-        seg = np.empty(g1 - g0, np.int64)
-        _fill_grid(bounds, n_reg, last, start, float(plan.h), g0, g1, t_prev, t, odd, seg)
-        t_prev = float(t[-1])
-        yield t, odd, seg

@@ -1,0 +1,148 @@
+"""The run: everything between the arguments of ``simulate`` and its result, for any
+integrator (:mod:`lcs.simulation.integrator`).
+
+1. how each switch is driven (:func:`~lcs.simulation.switches.classify_switches`);
+2. breakpoints, source-driven switching instants, latch re-arms
+   (:func:`~lcs.simulation.schedule.plan_run`);
+3. the initial mode, state and multipliers (:func:`~lcs.simulation.initial.initial_state`);
+4. windows between the Python controllers' sampling instants: at each, the controllers' new
+   commands become known switchings, and the integrator advances through the window;
+5. the last state saved, the events collected, the result assembled (with the error that
+   stopped the run, if any: the result then ends at the last completed step).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..lcp import LcpOptions
+from ..results import SimulationError, SimulationResult, SimulationStats
+from .initial import InconsistentHandler, initial_state
+from .inputs import MERGE_FRACTION, InputTable, evaluate_inputs
+from .integrator import Integrator, Run, Window
+from .problem import Problem, mode_tuple
+from .recorder import Recorder
+from .schedule import Controllers, plan_run
+from .switches import classify_switches, initially_on
+
+
+def _progress_bar(show: bool, total: int, name: str):
+    if not show:
+        return None
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover - tqdm is a dependency
+        return None
+    return tqdm(total=total, unit="step", unit_scale=True, desc=name, leave=False)
+
+
+def check_args(system, signals, x0, t_start, t_stop, every) -> None:
+    """Argument checks common to every integrator (ValueError)."""
+    if not t_stop > t_start:
+        raise ValueError(f"t_stop ({t_stop}) must exceed t_start ({t_start})")
+    if int(every) != every or every < 1:
+        raise ValueError(f"every must be a positive integer, got {every}")
+    if len(signals) != len(system.inputs):
+        raise ValueError(
+            f"{len(system.inputs)} input(s) ({', '.join(system.inputs)}) but "
+            f"{len(signals)} signal(s) given"
+        )
+    x0 = np.asarray(x0, dtype=float)
+    if x0.shape != (len(system.states),):
+        raise ValueError(f"x0 must have shape ({len(system.states)},), got {x0.shape}")
+    if not np.all(np.isfinite(x0)):
+        raise ValueError("x0 contains NaN or infinity")
+
+
+def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_stop: float,
+        integrator: Integrator, *, every: int = 1, breakpoints: Sequence[float] = (),
+        save_at: Sequence[float] = (), progress: bool = False,
+        on_inconsistent: InconsistentHandler | None = None, switching: str = "auto",
+        controllers: Sequence = (), lcp: LcpOptions | None = None,
+        t_wall: float | None = None) -> SimulationResult:
+    """Simulate ``problem`` from ``x0`` over ``[t_start, t_stop]`` with ``integrator``.
+
+    Arguments as in :func:`lcs.moreau.simulate` (``switching`` is the comparator method,
+    ``lcp`` the options of the initial LCP). Returns the result, with ``error`` set when the
+    run stopped early.
+    """
+    t_wall = time.perf_counter() if t_wall is None else t_wall
+    inputs = list(inputs)
+    notes: list[str] = []
+    system = problem.system
+    k = problem.k
+    guess = tuple(initially_on(s.options) for s in system.switches)
+    plan = classify_switches(system, controllers, switching, guess, notes)
+    h = integrator.h
+    tol = 2 * MERGE_FRACTION * h
+    sched = plan_run(system, inputs, plan, t_start, t_stop, h, MERGE_FRACTION * h,
+                     breakpoints, save_at, guess)
+    out0 = problem.output(sched.mode_src if k else ())
+    ctrls = Controllers(system, plan, t_start, t_stop, tol)
+    u0 = evaluate_inputs(inputs, np.array([t_start]), +1)[0]
+    init = initial_state(problem, plan, sched.mode_src, sched.src_maps, guess, x0, u0, t_start,
+                         ctrls, on_inconsistent, lcp or LcpOptions(), notes)
+    recorder = Recorder(out0.names, 64, 64, out0.duty)
+    recorder.append(t_start, problem.output(init.mode).row(init.key, -1, 0.0, init.x, init.lam,
+                                                           u0))
+    table = InputTable(inputs, t_start, t_stop)
+    the_run = Run(problem, plan, sched, inputs, table, t_start, t_stop, int(every), tol,
+                  recorder, init, guess, notes)
+    integrator.prepare(the_run)
+
+    windows = ctrls.windows(t_start, t_stop)
+    units, seconds = integrator.expected_cost(the_run)
+    bar = _progress_bar(bool(progress) and sys.stderr.isatty() and seconds > 1.0, units,
+                        integrator.name)
+    error: SimulationError | None = None
+    bps = sched.breakpoints
+    try:
+        for w in range(len(windows) - 1):
+            ws, we = float(windows[w]), float(windows[w + 1])
+            if w > 0 and ctrls:
+                snap = integrator.snapshot()
+                u_ws = table(np.array([ws]), +1)[0]
+                ctrls.commands(ctrls.due(ws), ws, snap.key, snap.x, snap.lam, u_ws, snap.slide,
+                               snap.duty, apply=False)
+            known = sched.known.window(ws, we, tol, ctrls.take_pending(we))
+            error = integrator.advance(Window(ws, we, known, bps[(bps > ws) & (bps < we)]))
+            if bar is not None:
+                bar.update(integrator.progress())
+            if error is not None:
+                break
+    finally:
+        if bar is not None:
+            bar.close()
+
+    snap = integrator.snapshot()
+    t_last = snap.t
+    if recorder.last_time() != t_last:
+        # Always keep the last completed step.
+        u_last = evaluate_inputs(inputs, np.array([t_last]), -1)[0]
+        recorder.append(t_last, problem.output(mode_tuple(snap.key, k)).row(
+            snap.key, snap.slide, snap.duty, snap.x, snap.lam, u_last))
+    events, sliding, visited = recorder.events(plan.names, init.mode, t_last)
+    stats = SimulationStats(**integrator.stats(), intervals=len(events) + 1,
+                            wall_time=time.perf_counter() - t_wall)
+    t_res, y_res = recorder.arrays()
+    result = SimulationResult(
+        t=t_res,
+        names=tuple(recorder.names),
+        y=y_res,
+        x_final=snap.x.copy(),
+        lambda_final=snap.lam.copy(),
+        modes_visited=visited,
+        events=events,
+        stats=stats,
+        notes=notes,
+        error=error,
+        sliding=sliding,
+        switching={nm: md for nm, md in zip(plan.names, plan.method, strict=True)},
+    )
+    if error is not None:
+        error.result = result
+    return result

@@ -1,0 +1,82 @@
+"""The :class:`~lcs.results.SimulationError` of a run that cannot continue, with the instant,
+the switch mode and the diodes or the switch involved, whichever integrator met it."""
+
+from __future__ import annotations
+
+from ..model import LCS
+from ..results import SimulationError
+from .problem import fmt_mode, pair_names
+
+
+def _where(t0: float, t1: float, desc: dict[str, str]) -> str:
+    return f"t = {t1:.9g} s (step from {t0:.9g} s), mode: {fmt_mode(desc)}"
+
+
+def no_solution(t0: float, t1: float, desc: dict[str, str], lcs: LCS, mask: int,
+                how: str) -> SimulationError:
+    """The LCP of a step has no solution (``mask``: the pairs with ``w < 0`` at ``λ = 0``;
+    ``how``: what established it)."""
+    pairs = pair_names(lcs, mask)
+    msg = (
+        f"{_where(t0, t1, desc)}: the complementarity problem of the time step has no solution "
+        f"({how}). Diodes involved: {', '.join(pairs) or '(none with negative w at λ = 0)'} "
+        "(with every diode off they would be forward-biased, or carry a reverse current, "
+        "and no combination of conducting diodes satisfies the circuit). The circuit is "
+        "probably ill-posed in this mode: not passive (a negative resistance, an active "
+        "controlled source), or a loop of diodes and voltage sources, or a cut-set of "
+        "diodes and current sources."
+    )
+    return SimulationError(msg, kind="no_solution", time=t1, t_prev=t0, mode=desc, pairs=pairs)
+
+
+def non_unique(t0: float, t1: float, desc: dict[str, str], lcs: LCS,
+               mask: int) -> SimulationError:
+    """Several LCP solutions give different next states (``mask``: the pairs whose λ
+    differ)."""
+    pairs = pair_names(lcs, mask)
+    msg = (
+        f"{_where(t0, t1, desc)}: the complementarity problem of the time step has several "
+        f"solutions giving different next states; diodes involved: {', '.join(pairs)}. The "
+        "circuit is not well posed in this mode (check passivity / the diode orientation)."
+    )
+    return SimulationError(msg, kind="non_unique", time=t1, t_prev=t0, mode=desc, pairs=pairs)
+
+
+def non_finite(t0: float, t1: float, desc: dict[str, str]) -> SimulationError:
+    """The state overflowed."""
+    msg = (
+        f"{_where(t0, t1, desc)}: the state became NaN or infinite (overflow: an unstable "
+        "mode, or non-finite inputs)."
+    )
+    return SimulationError(msg, kind="non_finite", time=t1, t_prev=t0, mode=desc)
+
+
+def chattering(t0: float, t1: float, desc: dict[str, str], switch: str,
+               limit: int) -> SimulationError:
+    """More than ``limit`` comparator switchings inside one step."""
+    msg = (
+        f"switch {switch} at t = {t0:.9g} s (mode: {fmt_mode(desc)}): more than {limit} "
+        f"comparator switchings inside one step of the grid (up to {t1:.9g} s): the "
+        "comparator chatters. Check its control and threshold, add hysteresis (VH > 0) or "
+        "raise MoreauOptions.max_switchings."
+    )
+    return SimulationError(msg, kind="chattering", time=t1, t_prev=t0, mode=desc, switch=switch)
+
+
+def sliding(t0: float, desc: dict[str, str], switch: str, method: str,
+            other: str | None) -> SimulationError:
+    """A comparator toggles without progress and may not slide (``other``: a switch already
+    sliding)."""
+    if other is not None:
+        why = (f"switch {other} is already sliding; pelcs handles one sliding switch at a "
+               "time")
+    else:
+        why = (f"its method is {method!r}, which has no sliding mode; use "
+               "switching='implicit' (the Filippov solution), a hysteresis band VH > 0, or "
+               "switching='explicit'")
+    msg = (
+        f"switch {switch} toggles without progress at t = {t0:.9g} s (mode: "
+        f"{fmt_mode(desc)}): the trajectory is on an attractive switching surface of its "
+        f"comparator (a sliding mode); {why}."
+    )
+    return SimulationError(msg, kind="sliding", time=t0, t_prev=t0, mode=desc, switch=switch)

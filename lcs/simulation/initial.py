@@ -1,0 +1,133 @@
+"""The initial mode and the initial multipliers of a run, and what is done with an initial state
+the diodes cannot accept.
+
+The initial mode starts from the switches' guessed states (netlist ``ON``/``OFF``) with the
+source-driven ones set from their controls at ``t_start``; comparators then take the state
+their control says at ``(x0, λ0)`` (a fixed point, at most k + 2 rounds), and the Python
+controllers give their first commands. λ0 solves the instantaneous LCP
+``w = C x0 + D λ + F u(t_start)``; when it has none, the state is inconsistent and either the
+caller's ``on_inconsistent`` handler replaces it (a state jump) or the first step absorbs the
+jump.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..lcp import LcpOptions, solve_lcp
+from ..model import LCS, ModeKey
+from .problem import Problem, mode_tuple
+from .schedule import Controllers
+from .switches import SW_SCHEDULED, SWF_LATCH, SwitchPlan
+
+InconsistentHandler = Callable[[LCS, np.ndarray, np.ndarray], object]
+
+
+@dataclass
+class InitialState:
+    """Where a run starts.
+
+    Attributes
+    ----------
+    key : int
+        Switch key of the initial mode (bit i: switch i on).
+    mode : ModeKey
+    x : ndarray, shape (n,)
+        Initial state (after a jump, if the handler made one).
+    lam : ndarray, shape (m,)
+        Initial multipliers (zeros when the LCP has no solution).
+    active : int
+        Bitmask of the pairs whose λ is basic in the LCP solution (0 when none).
+    """
+
+    key: int
+    mode: ModeKey
+    x: np.ndarray
+    lam: np.ndarray
+    active: int
+
+
+def initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_maps: dict,
+                  base: ModeKey, x0: np.ndarray, u0: np.ndarray, t_start: float,
+                  controllers: Controllers, on_inconsistent: InconsistentHandler | None,
+                  lcp: LcpOptions, notes: list[str]) -> InitialState:
+    """The initial mode, state and multipliers (see the module docstring); notes about an
+    inconsistent initial state are appended to ``notes``.
+
+    ``mode_src``, ``src_maps`` and ``base`` (the guessed switch states) come from the run's
+    :class:`~lcs.simulation.schedule.RunPlan` (see :meth:`Problem.control_rows`).
+    """
+    k = problem.k
+    m = len(problem.system.diodes)
+    key = sum(1 << i for i, on in enumerate(mode_src) if on)
+    x = np.array(x0, dtype=float)
+
+    def initial_lcp(key):
+        if not m:
+            return None
+        _, _, Cm, Dm, _, Fm = problem.mode_arrays(mode_tuple(key, k))
+        return solve_lcp(Dm, Cm @ x + Fm @ u0, lcp)
+
+    comparators = [i for i in range(k) if plan.kind[i] != SW_SCHEDULED]
+    res0 = None
+    lam = np.zeros(m)
+    for _ in range(k + 2):
+        mode = mode_tuple(key, k)
+        Cc, Dc, Fc = problem.control_rows(mode, plan, src_maps, base)
+        res0 = initial_lcp(key)
+        lam = res0.z.copy() if (res0 is not None and res0.ok) else np.zeros(m)
+        if not comparators:
+            break
+        c = Cc @ x + Dc @ lam + Fc @ u0
+        new = key
+        for i in comparators:
+            on = bool((key >> i) & 1)
+            if plan.flags[i] & SWF_LATCH:
+                on = c[i] >= plan.vt[i] - plan.vh[i]
+            elif c[i] > plan.vt[i] + plan.vh[i]:
+                on = True
+            elif c[i] < plan.vt[i] - plan.vh[i]:
+                on = False
+            new = (new | (1 << i)) if on else (new & ~(1 << i))
+        if new == key:
+            break
+        key = new
+    if controllers:
+        key = controllers.commands(controllers.ctrls, t_start, key, x, lam, u0, -1, 0.0)
+        problem.control_rows(mode_tuple(key, k), plan, src_maps, base)
+        res0 = initial_lcp(key)
+        lam = res0.z.copy() if (res0 is not None and res0.ok) else np.zeros(m)
+    mode = mode_tuple(key, k)
+    if res0 is not None and not res0.ok:
+        if on_inconsistent is not None:
+            handled = on_inconsistent(problem.lcs(mode), x.copy(), u0.copy())
+            note = None
+            if isinstance(handled, tuple):  # (x_plus, note): the handler explains itself
+                handled, note = handled
+            x_new = np.asarray(handled, dtype=float)
+            if x_new.shape != x.shape or not np.all(np.isfinite(x_new)):
+                raise ValueError(
+                    f"on_inconsistent returned {x_new!r}; expected a finite state of shape "
+                    f"{x.shape}"
+                )
+            notes.append(note or (
+                f"initial state {np.array2string(x, precision=6)} is inconsistent (the LCP "
+                f"w = C x + D λ + F u at t = {t_start:g} s has no solution); replaced by "
+                f"{np.array2string(x_new, precision=6)} (on_inconsistent)"
+            ))
+            x = x_new
+            res0 = initial_lcp(key)
+        if not res0.ok:
+            notes.append(
+                f"initial state is inconsistent (the LCP w = C x + D λ + F u at "
+                f"t = {t_start:g} s has no solution): λ(t0) is reported as 0 and the first "
+                "step absorbs the state jump"
+            )
+    lam = res0.z.copy() if (res0 is not None and res0.ok) else np.zeros(m)
+    active = 0
+    if res0 is not None and res0.ok and res0.basis is not None:
+        active = int(sum(1 << int(i) for i in np.flatnonzero(res0.basis)))
+    return InitialState(key, mode, x, lam, active)

@@ -1,0 +1,143 @@
+"""The sources of a run: evaluation on time arrays, tabulation, breakpoints.
+
+Every integrator evaluates the inputs ``u(t)`` (one callable per independent source, a
+:mod:`lcs.signals` waveform or any vectorised function) through these functions, and lands on
+their breakpoints (PULSE edges, PWL corners), where a waveform is not smooth.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from ..signals import Pwl
+
+InputFunction = Callable[[np.ndarray], np.ndarray]
+
+# Two boundaries closer than this fraction of h are merged (they differ by round-off).
+MERGE_FRACTION = 1e-9
+# A remainder step shorter than this fraction of h is merged into the previous step.
+SNAP_FRACTION = 0.01
+
+
+def _pwl_limit(sig: Pwl, t: np.ndarray, side: int) -> np.ndarray:
+    """One-sided limit of a PWL waveform (which may jump where two points share a time)."""
+    times = np.asarray(sig.times, dtype=float)
+    values = np.asarray(sig.values, dtype=float)
+    idx = np.searchsorted(times, t, side="right" if side > 0 else "left")
+    lo = np.clip(idx - 1, 0, len(times) - 1)
+    hi = np.clip(idx, 0, len(times) - 1)
+    t_lo, t_hi = times[lo], times[hi]
+    span = np.where(t_hi > t_lo, t_hi - t_lo, 1.0)
+    frac = np.clip((t - t_lo) / span, 0.0, 1.0)
+    out = values[lo] + (values[hi] - values[lo]) * np.where(t_hi > t_lo, frac, 0.0)
+    out = np.where(idx == 0, values[0], out)
+    return np.where(idx >= len(times), values[-1], out)
+
+
+def evaluate_inputs(inputs: Sequence[InputFunction], t: np.ndarray, side: int = 0) -> np.ndarray:
+    """Inputs on a time array.
+
+    Parameters
+    ----------
+    inputs : sequence of callables
+        ``inputs[j](t)`` evaluates input j on an array of times (a :mod:`lcs.signals` waveform
+        or any vectorised function).
+    t : ndarray, shape (N,)
+        Times, s.
+    side : int
+        0: plain evaluation; +1 / -1: right / left limits (differs only at jumps of PWL
+        waveforms; the other waveforms are continuous once resolved).
+
+    Returns
+    -------
+    ndarray, shape (N, p)
+    """
+    t = np.asarray(t, dtype=float)
+    out = np.empty((t.size, len(inputs)))
+    for j, f in enumerate(inputs):
+        if side != 0 and isinstance(f, Pwl):
+            out[:, j] = _pwl_limit(f, t, side)
+        else:
+            out[:, j] = np.broadcast_to(np.asarray(f(t), dtype=float), t.shape)
+    return out
+
+
+class InputTable:
+    """Fast evaluation of the inputs over one run: a piecewise-linear source without jumps (DC,
+    PULSE, PWL) is tabulated at its breakpoints in ``[t0, t1]`` once and evaluated by linear
+    interpolation (exact: it is linear between breakpoints); other sources are called.
+
+    Parameters
+    ----------
+    inputs : sequence of callables
+    t0, t1 : float
+        Run interval, s.
+    """
+
+    def __init__(self, inputs: Sequence[InputFunction], t0: float, t1: float):
+        self.inputs = list(inputs)
+        self.tables: list = []
+        for f in self.inputs:
+            table = None
+            bp = getattr(f, "breakpoints", None)
+            if (getattr(f, "piecewise_linear", False) and bp is not None
+                    and not (isinstance(f, Pwl)
+                             and np.any(np.diff(np.asarray(f.times, float)) == 0))):
+                pts = np.asarray(bp(t0, t1), dtype=float).ravel()
+                pts = np.unique(np.concatenate(([t0, t1], pts[(pts > t0) & (pts < t1)])))
+                if len(pts) <= 4_000_000:
+                    table = (pts, np.asarray(f(pts), dtype=float).ravel())
+            self.tables.append(table)
+        self.jumps = has_jumps(self.inputs)
+        # Every input linear between breakpoints (DC, PULSE, PWL): linear interpolation
+        # inside a step is exact.
+        self.piecewise_linear = all(getattr(f, "piecewise_linear", False) for f in self.inputs)
+
+    def __call__(self, t: np.ndarray, side: int = 0) -> np.ndarray:
+        """Inputs at the times ``t`` (s), shape (N, p); ``side`` as in
+        :func:`evaluate_inputs`."""
+        t = np.asarray(t, dtype=float)
+        out = np.empty((t.size, len(self.inputs)))
+        for j, f in enumerate(self.inputs):
+            table = self.tables[j]
+            if table is not None:
+                if len(table[0]) == 2 and table[1][0] == table[1][1]:
+                    out[:, j] = table[1][0]
+                else:
+                    out[:, j] = np.interp(t, table[0], table[1])
+            elif side != 0 and isinstance(f, Pwl):
+                out[:, j] = _pwl_limit(f, t, side)
+            else:
+                out[:, j] = np.broadcast_to(np.asarray(f(t), dtype=float), t.shape)
+        return out
+
+
+def has_jumps(inputs: Sequence[InputFunction]) -> bool:
+    """Whether some input can jump (a PWL with two points at the same time)."""
+    for f in inputs:
+        if isinstance(f, Pwl) and np.any(np.diff(np.asarray(f.times, dtype=float)) == 0):
+            return True
+    return False
+
+
+def collect_breakpoints(inputs: Sequence[InputFunction], t0: float, t1: float,
+                        extra: Sequence[float] = ()) -> np.ndarray:
+    """Sorted source breakpoints (and ``extra`` instants) strictly inside ``(t0, t1)``, s."""
+    pts = [np.asarray(extra, dtype=float).ravel()]
+    for f in inputs:
+        bp = getattr(f, "breakpoints", None)
+        if bp is not None:
+            pts.append(np.asarray(bp(t0, t1), dtype=float).ravel())
+    allp = np.unique(np.concatenate(pts)) if pts else np.empty(0)
+    return allp[(allp > t0) & (allp < t1)]
+
+
+def merge_close(times: np.ndarray, tol: float) -> np.ndarray:
+    """Drop entries closer than ``tol`` to their predecessor (times sorted)."""
+    if times.size < 2:
+        return times
+    keep = np.concatenate(([True], np.diff(times) > tol))
+    return times[keep]
+

@@ -1,0 +1,230 @@
+"""What a run knows before integrating: the instants to land on and the switchings at known
+instants.
+
+* Breakpoints: source breakpoints (PULSE edges, PWL corners), user breakpoints, ``save_at``
+  instants and the clock period starts of latched switches.
+* Known switchings (:class:`KnownSwitchings`), as operations on the switch key at an instant:
+  ``OP_SET`` (source-driven switches, :mod:`.source_switching`, and Python controllers'
+  commands) and ``OP_REARM`` (a latched switch re-armed at its clock period start).
+* Python controllers (:class:`Controllers`): sampled at their instants between windows of the
+  integration, their commands become ``OP_SET`` entries.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model import ModeKey, SwitchedLCS
+from .inputs import InputFunction, collect_breakpoints, merge_close
+from .problem import Problem, mode_tuple
+from .source_switching import source_switch_events
+from .switches import SwitchPlan
+
+# Operations of known switchings (applied at their instant, before integrating from it).
+OP_SET = 0  # key = (key & ~a) | b   (source- or controller-driven switches)
+OP_REARM = 1  # latched switch a: on iff its control >= vt - vh
+
+
+def periodic(period: float, phase: float, t0: float, t1: float) -> np.ndarray:
+    """``phase + j period`` strictly inside (t0, t1)."""
+    j0 = int(np.floor((t0 - phase) / period))
+    j1 = int(np.ceil((t1 - phase) / period))
+    t = phase + period * np.arange(j0, j1 + 1)
+    return t[(t > t0) & (t < t1)]
+
+
+@dataclass
+class KnownSwitchings:
+    """Switchings at known instants: ``t (L,)`` in s, ``op (L,)`` (``OP_*``), arguments
+    ``a (L,)``, ``b (L,)`` (int64), sorted by time then operation."""
+
+    t: np.ndarray
+    op: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def window(self, ws: float, we: float, tol: float, pending=()) -> KnownSwitchings:
+        """The entries in ``[ws, we)`` (to ``tol``), with the controller commands of
+        ``pending`` (``(time, op, a, b)``, those before ``we``) merged in."""
+        lo = np.searchsorted(self.t, ws - tol, side="left")
+        hi = np.searchsorted(self.t, we - tol, side="left")
+        e_t, e_op, e_a, e_b = self.t[lo:hi], self.op[lo:hi], self.a[lo:hi], self.b[lo:hi]
+        if pending:
+            e_t = np.concatenate([e_t, [max(e[0], ws) for e in pending]])
+            e_op = np.concatenate([e_op, np.array([e[1] for e in pending], np.int64)])
+            e_a = np.concatenate([e_a, np.array([e[2] for e in pending], np.int64)])
+            e_b = np.concatenate([e_b, np.array([e[3] for e in pending], np.int64)])
+            order = np.lexsort((e_op, e_t))
+            e_t, e_op, e_a, e_b = e_t[order], e_op[order], e_a[order], e_b[order]
+        return KnownSwitchings(e_t, e_op, e_a, e_b)
+
+
+@dataclass
+class RunPlan:
+    """The breakpoints, the known switchings and the initial switch states of a run.
+
+    Attributes
+    ----------
+    breakpoints : ndarray
+        Sorted instants strictly inside the run (merged to round-off), s.
+    save_at : ndarray
+        The ``save_at`` instants inside ``(t_start, t_stop]``, s.
+    known : KnownSwitchings
+    mode_src : ModeKey
+        The initial mode with the source-driven switches set from their controls at
+        ``t_start`` (the others as guessed).
+    src_maps : dict
+        Per mode, the source-driven switches' control rows (see
+        :func:`~lcs.simulation.source_switching.source_switch_events`).
+    """
+
+    breakpoints: np.ndarray
+    save_at: np.ndarray
+    known: KnownSwitchings
+    mode_src: ModeKey
+    src_maps: dict
+
+
+def plan_run(system: SwitchedLCS, inputs: Sequence[InputFunction], plan: SwitchPlan,
+             t_start: float, t_stop: float, h: float, merge: float, user_bps, save_at,
+             guess: ModeKey) -> RunPlan:
+    """Breakpoints, source-driven switching instants and latch re-arms of a run.
+
+    ``h`` is the integrator's time step (the source-driven instants' search resolution) and
+    ``merge`` the distance under which two instants are one (s).
+    """
+    k = len(system.switches)
+    save_at = np.unique(np.asarray(save_at, dtype=float).ravel())
+    save_at = save_at[(save_at > t_start) & (save_at <= t_stop)]
+    # Schedule entries (time, op, a, b) as arrays: latch re-arms, then source events.
+    lt, li = [np.empty(0)], [np.empty(0, np.int64)]
+    for i, (per, ph) in plan.latch.items():
+        tt = periodic(per, ph, t_start, t_stop)
+        lt.append(tt)
+        li.append(np.full(len(tt), i, np.int64))
+    latch_t, latch_i = np.concatenate(lt), np.concatenate(li)
+    extra = np.concatenate([np.asarray(user_bps, dtype=float).ravel(), save_at, latch_t])
+    bps = merge_close(collect_breakpoints(inputs, t_start, t_stop, extra), merge)
+    src_maps: dict = {}
+    if k:
+        mode_src, (src_t, src_k) = source_switch_events(system, inputs, t_start, t_stop, bps,
+                                                        h, which=plan.source, base=guess,
+                                                        maps_out=src_maps, as_arrays=True)
+    else:
+        mode_src, src_t, src_k = (), np.empty(0), np.empty(0, np.int64)
+    smask = plan.source_mask
+    st_t = np.concatenate([src_t, latch_t])
+    st_op = np.concatenate([np.full(len(src_t), OP_SET, np.int64),
+                            np.full(len(latch_t), OP_REARM, np.int64)])
+    st_a = np.concatenate([np.full(len(src_t), smask, np.int64), latch_i])
+    st_b = np.concatenate([src_k & smask, np.zeros(len(latch_t), np.int64)])
+    order = np.lexsort((st_op, st_t))
+    known = KnownSwitchings(st_t[order], st_op[order], st_a[order], st_b[order])
+    return RunPlan(bps, save_at, known, tuple(mode_src), src_maps)
+
+
+class _Measure:
+    """Probe values for a controller at a sampling instant."""
+
+    def __init__(self, system: SwitchedLCS, names: Sequence[str]):
+        self.names = tuple(names)
+        self.prob = Problem(system, self.names)
+
+    def __call__(self, key: int, x, lam, u, slide: int, duty: float) -> dict:
+        if not self.names:
+            return {}
+        out = self.prob.output(mode_tuple(key, self.prob.k))
+        y = out.row(key, slide, duty, x, lam, u)
+        return dict(zip(self.names, (float(v) for v in y), strict=True))
+
+
+class Controllers:
+    """The run's Python schedule controllers: their sampling instants and their commands.
+
+    Parameters
+    ----------
+    system : SwitchedLCS
+    plan : SwitchPlan
+        Says which controller drives which switch.
+    t_start, t_stop : float
+        The run, s.
+    tol : float
+        Instants closer than this are one, s.
+    """
+
+    def __init__(self, system: SwitchedLCS, plan: SwitchPlan, t_start: float, t_stop: float,
+                 tol: float):
+        self.plan = plan
+        self.tol = tol
+        self.ctrls = list({id(c): c for c in plan.scheduled_by.values()}.values())
+        self.measures = {id(c): _Measure(system, getattr(c, "probes", ())) for c in self.ctrls}
+        for ctrl in self.ctrls:
+            if hasattr(ctrl, "reset"):
+                ctrl.reset(t_start, t_stop)
+        # Sampling instants of each controller (decisions also at t_start).
+        self.samples = {}
+        for ctrl in self.ctrls:
+            ts = np.asarray(ctrl.sample_times(t_start, t_stop) if hasattr(ctrl, "sample_times")
+                            else (), dtype=float).ravel()
+            self.samples[id(ctrl)] = np.unique(ts[(ts > t_start + tol) & (ts < t_stop - tol)])
+        self.pending: list[tuple[float, int, int, int]] = []
+
+    def __bool__(self) -> bool:
+        return bool(self.ctrls)
+
+    def windows(self, t_start: float, t_stop: float) -> np.ndarray:
+        """Window boundaries: the start, every sampling instant, the stop (s)."""
+        tol = self.tol
+        samples = list(self.samples.values())
+        samp = np.unique(np.concatenate(samples)) if samples else np.empty(0)
+        samp = merge_close(samp[(samp > t_start + tol) & (samp < t_stop - tol)], tol)
+        return np.concatenate(([t_start], samp, [t_stop]))
+
+    def due(self, t: float) -> list:
+        """The controllers sampled at ``t``."""
+        out = []
+        for c in self.ctrls:
+            cs_ = self.samples[id(c)]
+            i_ = np.searchsorted(cs_, t - self.tol)
+            if i_ < len(cs_) and abs(cs_[i_] - t) <= self.tol:
+                out.append(c)
+        return out
+
+    def commands(self, ctrls, t: float, key: int, x, lam, u, slide: int, duty: float,
+                 apply: bool = True) -> int:
+        """Ask the controllers ``ctrls`` sampled at ``t`` for their commands. Commands at ``t``
+        itself are applied to ``key`` when ``apply`` (the initial instant), the others
+        become pending schedule entries ``(time, OP_SET, mask, bits)``; returns the key."""
+        plan = self.plan
+        lower = {nm.lower(): i for i, nm in enumerate(plan.names)}
+        pending = list(self.pending)
+        for ctrl in ctrls:
+            values = self.measures[id(ctrl)](key, x, lam, u, slide, duty)
+            for tc, states in ctrl.decide(t, values):
+                mask = bits = 0
+                for nm, on in states.items():
+                    i = lower[nm.lower()]
+                    if plan.scheduled_by.get(i) is not ctrl:
+                        raise ValueError(f"controller {type(ctrl).__name__} commands switch "
+                                         f"{nm}, which it does not drive")
+                    mask |= 1 << i
+                    bits |= (1 << i) if on else 0
+                if apply and tc <= t + self.tol:
+                    key = (key & ~mask) | bits
+                else:
+                    pending.append((max(float(tc), t), OP_SET, mask, bits))
+        pending.sort(key=lambda e: e[0])
+        self.pending = pending
+        return key
+
+    def take_pending(self, we: float) -> list:
+        """The pending commands before ``we`` (removed from the pending list)."""
+        now = [e for e in self.pending if e[0] < we - self.tol]
+        self.pending = [e for e in self.pending if e[0] >= we - self.tol]
+        return now

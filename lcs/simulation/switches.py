@@ -1,0 +1,152 @@
+"""How each switch of a run is driven (``docs/switching.md``): by sources, by a Python
+controller, or by its comparator (implicit, hysteresis, explicit or latched)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..model import ModeKey, SwitchedLCS
+
+# Switch kinds (what drives it) and flags.
+SW_SCHEDULED = 0  # sources or a Python controller: instants known in advance
+SW_LOCATED = 1  # comparator: crossings located inside the step
+SW_SAMPLED = 2  # comparator sampled at the end of each step (explicit method)
+SWF_LATCH = 1  # an off switch turns on only at the re-arm instants (clock period starts)
+SWF_RELAY = 2  # may enter a Filippov sliding mode
+
+SWITCHING_METHODS = ("auto", "implicit", "hysteresis", "explicit")
+
+
+def initially_on(options) -> bool:
+    """A switch's netlist ``ON``/``OFF`` (``options["initial"]`` or ``options["on"]``)."""
+    val = switch_option(options, "initial", switch_option(options, "on"))
+    return bool(val) if val is not None else False
+
+
+def switch_option(options, name: str, default=None):
+    """A switch option (its ``.model`` parameter) by case-insensitive name."""
+    if not isinstance(options, dict):
+        return default
+    for key, val in options.items():
+        if str(key).lower() == name:
+            return val
+    return default
+
+
+@dataclass
+class SwitchPlan:
+    """How each switch of a run is driven (see ``docs/switching.md``)."""
+
+    names: tuple[str, ...]
+    kind: np.ndarray  # int64 (k,): SW_*
+    flags: np.ndarray  # int64 (k,): SWF_*
+    vt: np.ndarray  # (k,)
+    vh: np.ndarray  # (k,)
+    method: list[str]  # per switch: source, controller, implicit, hysteresis, explicit, latched
+    source: list[int] = field(default_factory=list)
+    scheduled_by: dict = field(default_factory=dict)  # switch index -> schedule controller
+    surface: dict = field(default_factory=dict)  # switch index -> surface controller
+    latch: dict = field(default_factory=dict)  # switch index -> (period, phase)
+
+    @property
+    def source_mask(self) -> int:
+        return sum(1 << i for i in self.source)
+
+
+def classify_switches(system: SwitchedLCS, controllers, method: str, guess: ModeKey,
+                        notes: list[str]) -> SwitchPlan:
+    """Kind, flags, thresholds and method of every switch.
+
+    Parameters
+    ----------
+    system : SwitchedLCS
+    controllers : sequence
+        Python controllers (:mod:`lcs.controllers`): schedule controllers drive the switches
+        they name, surface controllers define a switch's comparator.
+    method : str
+        One of :data:`SWITCHING_METHODS`, for the comparators without a method of their own.
+    guess : ModeKey
+        The initial switch states, in which a control's dependence on the state is judged.
+    notes : list of str
+        Receives what the user should know (an ignored hysteresis).
+    """
+    if method not in SWITCHING_METHODS:
+        raise ValueError(f"switching must be one of {', '.join(SWITCHING_METHODS)}, got "
+                         f"{method!r}")
+    sw = system.switches
+    k = len(sw)
+    if k > 62:
+        raise ValueError(f"{k} switches: at most 62 are supported (mode keys are bitmasks)")
+    lower = {s.name.lower(): i for i, s in enumerate(sw)}
+    out = SwitchPlan(tuple(s.name for s in sw), np.zeros(k, np.int64), np.zeros(k, np.int64),
+                    np.array([float(s.vt) for s in sw]),
+                    np.array([abs(float(s.vh)) for s in sw]), [""] * k)
+    for ctrl in controllers:
+        names = [ctrl.switch] if getattr(ctrl, "kind", "schedule") == "surface" \
+            else list(ctrl.switches)
+        for nm in names:
+            if nm.lower() not in lower:
+                raise KeyError(f"controller {type(ctrl).__name__}: no switch {nm!r} (switches: "
+                               f"{', '.join(s.name for s in sw) or 'none'})")
+            i = lower[nm.lower()]
+            if i in out.scheduled_by or i in out.surface:
+                raise ValueError(f"switch {sw[i].name} is driven by two controllers")
+            if getattr(ctrl, "kind", "schedule") == "surface":
+                out.surface[i] = ctrl
+            else:
+                out.scheduled_by[i] = ctrl
+    for i, s in enumerate(sw):
+        if i in out.scheduled_by:
+            out.kind[i] = SW_SCHEDULED
+            out.method[i] = "controller"
+            continue
+        if i in out.surface:
+            ctrl = out.surface[i]
+            out.vt[i] = -float(getattr(ctrl, "constant", 0.0))
+            out.vh[i] = abs(float(getattr(ctrl, "vh", 0.0)))
+            sw_method = getattr(ctrl, "method", None) or method
+            explicit_flag = sw_method == "explicit"
+            latch = None
+        else:
+            om = system.outputs(guess, [s.control])
+            if not (np.any(np.asarray(om.Cy) != 0) or np.any(np.asarray(om.Dy) != 0)):
+                out.kind[i] = SW_SCHEDULED
+                out.method[i] = "source"
+                out.source.append(i)
+                continue
+            sw_method = method
+            explicit_flag = bool(switch_option(s.options, "explicit", 0))
+            latch = switch_option(s.options, "latch", 0)
+        if latch:
+            period = float(switch_option(s.options, "period", 0.0) or 0.0)
+            if not period > 0:
+                raise ValueError(f"switch {s.name}: LATCH=1 needs PERIOD=<the clock period> "
+                                 "on its .model line")
+            phase = float(switch_option(s.options, "phase", 0.0) or 0.0)
+            out.latch[i] = (period, phase)
+            out.kind[i] = SW_LOCATED
+            out.flags[i] = SWF_LATCH
+            out.method[i] = "latched"
+            continue
+        if sw_method == "auto":
+            if explicit_flag:
+                sw_method = "explicit"
+            elif out.vh[i] > 0:
+                sw_method = "hysteresis"
+            else:
+                sw_method = "implicit"
+        if sw_method == "explicit":
+            out.kind[i] = SW_SAMPLED
+        elif sw_method == "hysteresis":
+            out.kind[i] = SW_LOCATED
+        else:  # implicit
+            out.kind[i] = SW_LOCATED
+            out.flags[i] = SWF_RELAY
+            if out.vh[i] > 0:
+                notes.append(f"switch {s.name}: switching='implicit' ignores its hysteresis "
+                             f"(VH = {out.vh[i]:g})")
+                out.vh[i] = 0.0
+        out.method[i] = sw_method
+    return out

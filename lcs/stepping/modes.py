@@ -1,0 +1,166 @@
+"""The Moreau integrator's mode stack: per switch mode, the LCS, its θ discretisation, the
+probe and control rows and an active-set cache, stacked by mode id as the kernel takes them
+(:class:`~lcs.stepping.layout.ModeStack`), built the first time the kernel asks for a mode.
+
+Stacks are kept per system for the next run with the same configuration: parameter sweeps
+and maps re-run one system many times, and reuse the matrices, the discretisations and the
+active-set factorisations.
+"""
+
+from __future__ import annotations
+
+import weakref
+
+import numpy as np
+
+from ..lcp import is_p_matrix
+from ..lcp.compiled import MAX_MASK_M, ActiveSets
+from ..model import LCS, ModeKey, OutputMap
+from ..simulation.problem import Problem, mode_tuple
+from ..simulation.switches import SwitchPlan
+from .discretise import discretise
+from .layout import MF_FAST, MF_LEN, MF_OUTSTATE, MF_UNIQ, ModeArrays, ModeStack, mode_shapes
+
+
+class ModeStackBuilder:
+    """Per-mode matrices stacked by mode id; grows on demand.
+
+    Parameters
+    ----------
+    problem : Problem
+    plan : SwitchPlan
+    h, theta : float
+        The regular step (s) and θ.
+    opts : MoreauOptions
+    n, m, p, r : int
+        States, pairs, inputs, stored probes.
+    src_maps : dict
+        Source-driven switches' control rows per mode (for the checks of
+        :meth:`Problem.control_rows`).
+    base : ModeKey
+        The guessed initial switch states.
+    """
+
+    def __init__(self, problem: Problem, plan: SwitchPlan, h: float, theta: float, opts,
+                 n: int, m: int, p: int, r: int, src_maps: dict, base: ModeKey):
+        self.prob, self.plan, self.h, self.theta, self.opts = problem, plan, h, theta, opts
+        self.n, self.m, self.p, self.r = n, m, p, r
+        k = len(plan.names)
+        self.k = k
+        self.shapes = mode_shapes(n, m, p, r, k)
+        self.S = max(1, int(opts.cache_slots))
+        self.src_maps = src_maps
+        self.base = base
+        self.keys: list[int] = []
+        self.index: dict[int, int] = {}
+        self.lcs: list[LCS] = []
+        self.cap = 0
+        self.mats = ModeArrays(*(np.zeros((0, *s)) for s in self.shapes))
+        self.mkey = np.zeros(0, np.int64)
+        self.mflags = np.zeros((0, MF_LEN), np.int64)
+        self.ckeys = np.zeros((0, self.S), np.int64)
+        self.cna = np.zeros((0, self.S), np.int64)
+        self.cidx = np.zeros((0, self.S, m), np.int64)
+        self.cG = np.zeros((0, self.S, m, m))
+        self._grow(4)
+
+    def _grow(self, cap: int) -> None:
+        c = self.count
+
+        def grown(a, fill=0):
+            new = np.full((cap, *a.shape[1:]), fill, dtype=a.dtype)
+            new[:c] = a[:c]
+            return new
+
+        self.mats = ModeArrays(*(grown(a) for a in self.mats))
+        self.mkey = grown(self.mkey, -1)
+        self.mflags = grown(self.mflags)
+        self.ckeys = grown(self.ckeys, -1)
+        self.cna = grown(self.cna)
+        self.cidx = grown(self.cidx)
+        self.cG = grown(self.cG)
+        self.cap = cap
+
+    @property
+    def count(self) -> int:
+        return len(self.keys)
+
+    def mode_tuple(self, key: int) -> ModeKey:
+        return mode_tuple(key, self.k)
+
+    def arrays(self) -> ModeStack:
+        """The stack as the kernel takes it."""
+        return ModeStack(self.mats, ActiveSets(self.ckeys, self.cna, self.cidx, self.cG),
+                         self.mkey, self.mflags)
+
+    def add(self, key: int) -> int:
+        """Build the mode of ``key`` (switch i on when bit i is set) and append it; returns its
+        id."""
+        if key in self.index:
+            return self.index[key]
+        mode = self.mode_tuple(key)
+        prob, n, m = self.prob, self.n, self.m
+        A, B, C, D, E, F = prob.mode_arrays(mode)
+        disc = discretise(A, B, C, D, E, self.h, self.theta)
+        out = prob.output(mode)
+        Cc, Dc, Fc = prob.control_rows(mode, self.plan, self.src_maps, self.base)
+        if self.count == self.cap:
+            self._grow(2 * self.cap)
+        j = self.count
+        for stacked, arr in zip(self.mats, (A, B, C, D, E, F, disc.Phi, disc.G0, disc.G1,
+                                            disc.K, disc.M, out.Cy, out.Dy, out.Fy, Cc, Dc,
+                                            Fc), strict=True):
+            stacked[j] = arr
+        fast = bool(self.opts.fast_path and m <= MAX_MASK_M)
+        # Enumeration-based uniqueness checks only for small m, and not for P-matrices
+        # (unique λ for every q).
+        check = 0 < m <= self.opts.uniqueness_max_m and not is_p_matrix(disc.M)
+        out_is_state = bool(
+            out.Cy.shape == (n, n) and np.array_equal(out.Cy, np.eye(n))
+            and not out.Dy.any() and not out.Fy.any() and not (out.duty >= 0).any()
+        )
+        self.mflags[j, MF_FAST] = int(fast)
+        self.mflags[j, MF_UNIQ] = int(m) if check else -1
+        self.mflags[j, MF_OUTSTATE] = int(out_is_state)
+        self.mkey[j] = key
+        self.keys.append(key)
+        self.index[key] = j
+        self.lcs.append(prob.lcs(mode))
+        return j
+
+
+_STACK_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_STACKS_PER_SYSTEM = 8
+
+
+def cached_stack(problem: Problem, plan: SwitchPlan, h, theta, opts, n, m, p, names, src_maps,
+                 guess) -> ModeStackBuilder:
+    """The stack of this configuration kept from an earlier run of the same system, or a new
+    one (at most ``_STACKS_PER_SYSTEM`` configurations per system are kept)."""
+    if isinstance(problem.probes, OutputMap):
+        probe_key = ("outputmap", id(problem.probes))
+    else:
+        probe_key = tuple(names)
+    surf = tuple(sorted((i, tuple(sorted(dict(c.terms).items())))
+                        for i, c in plan.surface.items()))
+    key = (float(h), float(theta), probe_key, tuple(plan.kind.tolist()), surf,
+           tuple(plan.source), bool(opts.fast_path), int(opts.cache_slots),
+           int(opts.uniqueness_max_m), tuple(guess))
+    try:
+        per_system = _STACK_CACHE.setdefault(problem.system, {})
+    except TypeError:  # not weak-referenceable: no caching
+        per_system = {}
+    stack = per_system.get(key)
+    if stack is not None and (isinstance(problem.probes, OutputMap)
+                              and stack.prob.probes is not problem.probes):
+        stack = None
+    if stack is None:
+        stack = ModeStackBuilder(problem, plan, h, theta, opts, n, m, p, len(names), src_maps,
+                                 guess)
+        if len(per_system) >= _STACKS_PER_SYSTEM:
+            per_system.pop(next(iter(per_system)))
+        per_system[key] = stack
+    else:
+        stack.src_maps = src_maps
+        stack.plan = plan
+    return stack
