@@ -31,8 +31,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from lcs.model import LCS, ComplementarityPair, SwitchedLCS
-from lcs.moreau import MoreauOptions, simulate, simulate_lcs
+from lcs.model import LCS, SwitchedLCS
+from lcs.moreau import MoreauOptions, simulate
 from lcs.results import SimulationResult
 from lcs.signals import Dc, Pulse, Signal, Sin, resolve
 from lcs.wellposed import state_jump
@@ -432,36 +432,13 @@ def run_setup(
 
 
 def warm_up() -> float:
-    """Load the stepper's compiled (numba) kernels by a tiny run; returns the time it took, s.
+    """Load the stepper's compiled (numba) kernels; returns the time it took, s.
 
     The first run in a process pays for loading the kernels from numba's cache (a few tenths
     of a second, more on the very first use after installation, when they are compiled).
-    Calling this first lets a caller report the time per step of the run itself.
+    Calling this first lets a caller report the time per step of the run itself. See
+    :func:`lcs.stepping.warmup.warm_up` (every kernel specialisation).
     """
-    import time
+    from lcs.stepping.warmup import warm_up as _warm_up
 
-    t0 = time.perf_counter()
-    # A capacitor charged from a 1 V source through an ideal diode: x' = -x + λ,
-    # w = -x + λ + u (one state, one pair, one input: the same kernel signatures as any
-    # circuit).
-    one = np.ones((1, 1))
-    lcs = LCS(A=-one, B=one, C=-one, D=one, E=0 * one, F=one, states=("x",),
-              pairs=(ComplementarityPair("D"),), inputs=("u",))
-    simulate_lcs(lcs, [Dc(1.0)], [0.0], 1e-3, 1e-4)
-    # The kernel's other specialisation (runs with a comparator): a relaxation oscillator.
-    from .parser import parse_string
-
-    simulate_circuit(parse_string(_WARM_COMPARATOR))
-    return time.perf_counter() - t0
-
-
-_WARM_COMPARATOR = """warm-up: relaxation oscillator (hysteretic comparator)
-Vin in 0 DC 10
-S1 in a 0 c SWH
-R1 a c 1k
-R2 c 0 4k
-C1 c 0 1n IC=0
-.model SWH SW(VT=-5 VH=1 RON=1m ROFF=1e9)
-.tran 10n 5u 0 10n UIC
-.end
-"""
+    return _warm_up()

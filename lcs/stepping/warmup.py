@@ -1,0 +1,72 @@
+"""Compile (once, into numba's on-disk cache) or load every specialisation of the Moreau
+kernels, so that no command compiles later.
+
+The kernels' argument types do not depend on the circuit (every array is float64 or int64,
+whatever n, m, p), so a few tiny runs reach every signature a run can use:
+
+* a single LCS over a short run -- :func:`~lcs.stepping.run_grid` without its plain loop
+  (``plain_mode=None``), Lemke and enumeration, the source-switching and grid planners;
+* the same LCS over a long run with no comparator -- the plain-loop specialisation
+  (``plain_mode=True``, what a source-driven PWM converter uses);
+* a switch driven by a hysteretic comparator -- located switchings, the instant search;
+* the same switch without hysteresis on an attractive surface -- Filippov sliding;
+* the same switch sampled (explicit method).
+
+``tests/test_warmup.py`` checks, in fresh processes, that after :func:`warm_up` the README's
+commands find every kernel signature they use in the cache.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..model import LCS, ComplementarityPair, ModeModel, OutputMap, SwitchControl, SwitchedLCS
+from ..signals import Dc, Pulse
+
+
+def _diode_rc() -> LCS:
+    """A capacitor charged from a 1 V source through an ideal diode: ``x' = -x + λ``,
+    ``w = -x + λ + u`` (one state, one pair, one input)."""
+    one = np.ones((1, 1))
+    return LCS(A=-one, B=one, C=-one, D=one, E=0 * one, F=one, states=("x",),
+               pairs=(ComplementarityPair("D"),), inputs=("u",))
+
+
+def _relay_system(vh: float, explicit: bool = False) -> SwitchedLCS:
+    """``x' = -x + s u`` with a switch ``s`` on while ``x < 0.5`` (its control is ``-x``,
+    threshold -0.5, hysteresis ``vh``), plus the diode pair of :func:`_diode_rc`: with
+    hysteresis a relaxation oscillator, without it a sliding mode on ``x = 0.5``."""
+
+    def builder(mode):
+        on = 1.0 if mode[0] else 0.0
+        one = np.ones((1, 1))
+        lcs = LCS(A=-one, B=0 * one, C=-one, D=one, E=on * one, F=0 * one, states=("x",),
+                  pairs=(ComplementarityPair("D"),), inputs=("u",))
+
+        def outputs(names):
+            rows = {"c": -1.0, "x": 1.0}
+            Cy = np.array([[rows[nm]] for nm in names])
+            return OutputMap(tuple(names), Cy, np.zeros((len(names), 1)),
+                             np.zeros((len(names), 1)))
+
+        return ModeModel(lcs, outputs)
+
+    options = {"explicit": 1} if explicit else {}
+    switch = SwitchControl("S", "c", vt=-0.5, vh=vh, options=options)
+    return SwitchedLCS([switch], ("x",), ("u",), ("D",), builder)
+
+
+def warm_up() -> float:
+    """Load (or, the first time, compile) every Moreau kernel specialisation; returns the
+    time it took, s."""
+    from ..moreau import simulate, simulate_lcs
+
+    t0 = time.perf_counter()
+    lcs = _diode_rc()
+    simulate_lcs(lcs, [Dc(1.0)], [0.0], 1e-3, 1e-4)
+    simulate_lcs(lcs, [Pulse(0.0, 1.0, 0.0, 1e-6, 1e-6, 1e-4, 2e-4)], [0.0], 2e-3, 1e-5)
+    for vh, explicit in ((0.1, False), (0.0, False), (0.1, True)):
+        simulate(_relay_system(vh, explicit), [Dc(1.0)], [0.0], 5e-2, 1e-3)
+    return time.perf_counter() - t0

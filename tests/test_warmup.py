@@ -1,0 +1,80 @@
+"""After the set-up's warm-up, the README's commands compile no kernel (issue #16.3).
+
+Not a timed test: numba's own counters say whether a dispatcher found each signature it was
+called with in its on-disk cache (``stats.cache_hits``) or had to compile it
+(``stats.cache_misses``). A fresh process runs :func:`lcs.stepping.warmup.warm_up` (which
+compiles only when the cache is cold, as right after a checkout); another fresh process then
+runs the README's commands (shortened) and reports every kernel that missed.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# The README's commands, shortened where a full run would be slow (same code paths).
+COMMANDS = [
+    ["simulate", "converters/netlists/boost.cir", "--probe", "v(out)", "--probe", "i(L1)",
+     "-o", "{out}/boost.csv", "--plot", "{out}/boost.png"],
+    ["simulate", "converters/netlists/buck.cir", "--tstop", "2m", "--probe", "v(out),i(L1)"],
+    ["info", "converters/netlists/boost.cir", "--param", "duty=0.3"],
+    ["lcs", "converters/netlists/boost.cir"],
+    ["orbit", "converters/netlists/vm_buck.cir", "--period", "400u", "--param", "vin=20"],
+    ["continue", "converters/netlists/vm_buck.cir", "--period", "400u", "--param",
+     "vin=20:20.5"],
+    ["bifurcation", "converters/netlists/vm_buck.cir", "--period", "400u", "--param",
+     "vin=20:21:2", "--transient", "3", "--record", "2", "--probe", "v(out)", "--workers", "1",
+     "--no-progress"],
+    ["basins", "converters/netlists/vm_buck.cir", "--period", "400u", "--param", "vin=30",
+     "--grid", "v(C1)=8:16:3,i(L1)=0:2.5:3", "--workers", "1"],
+    ["simulate", "converters/netlists/vm_buck.cir", "--tstop", "2m"],
+    ["simulate", "converters/netlists/boost_smc.cir", "--tstop", "0.2m"],
+]
+
+_RUNNER = """
+import atexit, json, sys, contextlib, io
+
+def report():
+    from numba.core.registry import CPUDispatcher
+    misses = {}
+    for name, mod in list(sys.modules.items()):
+        if not name.split(".")[0] in ("lcs", "netlist", "pelcs", "converters"):
+            continue
+        for attr, obj in list(vars(mod).items()):
+            if isinstance(obj, CPUDispatcher) and obj._cache is not None:
+                n = sum(obj.stats.cache_misses.values())
+                if n:
+                    misses[f"{name}.{attr}"] = n
+    sys.__stdout__.write("MISSES " + json.dumps(misses) + "\\n")
+
+atexit.register(report)
+from pelcs.cli import main
+for args in json.loads(sys.argv[1]):
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        try:
+            main(args)
+        except SystemExit:
+            pass
+"""
+
+
+def test_readme_commands_compile_nothing_after_warm_up(tmp_path):
+    warm = subprocess.run([sys.executable, "-c",
+                           "from lcs.stepping.warmup import warm_up; warm_up()"],
+                          cwd=ROOT, capture_output=True, text=True, timeout=900)
+    assert warm.returncode == 0, warm.stderr
+    cmds = [[a.replace("{out}", str(tmp_path)) for a in c] for c in COMMANDS]
+    run = subprocess.run([sys.executable, "-c", _RUNNER, json.dumps(cmds)], cwd=ROOT,
+                         capture_output=True, text=True, timeout=900)
+    assert run.returncode == 0, run.stderr[-3000:]
+    line = [ln for ln in run.stdout.splitlines() if ln.startswith("MISSES ")]
+    assert line, run.stdout[-2000:] + run.stderr[-2000:]
+    misses = json.loads(line[-1][len("MISSES "):])
+    assert misses == {}, f"kernels compiled after warm_up: {misses}"
+    # The commands ran for real (the first one wrote its files).
+    assert (tmp_path / "boost.csv").stat().st_size > 1000
+    assert (tmp_path / "boost.png").exists()
