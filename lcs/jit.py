@@ -24,6 +24,9 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import os
+import shutil
+import tempfile
 from pathlib import Path
 
 from numba import njit
@@ -61,17 +64,29 @@ def kernel_stamp() -> bytes:
 
 
 class KernelCacheLocator(caching._CacheLocator):
-    """Numba's own cache location for a kernel source file, with :func:`kernel_stamp` as its
-    freshness stamp."""
+    """Numba's own cache location for a kernel source file, in a subdirectory named after
+    :func:`kernel_stamp`, which is also the freshness stamp.
+
+    A new subdirectory per version of the kernel sources: numba unpickles a cache index before
+    it compares stamps, so an index written by another version (whose named-tuple types may no
+    longer exist) must never be read. Subdirectories of other versions are removed when a new
+    one is made.
+    """
 
     def __init__(self, inner):
         self._inner = inner
 
     def ensure_cache_path(self):
-        return self._inner.ensure_cache_path()
+        path = Path(self.get_cache_path())
+        if not path.is_dir():
+            for old in Path(self._inner.get_cache_path()).glob("kernels-*"):
+                if old != path:
+                    shutil.rmtree(old, ignore_errors=True)
+        os.makedirs(path, exist_ok=True)
+        tempfile.TemporaryFile(dir=path).close()
 
     def get_cache_path(self):
-        return self._inner.get_cache_path()
+        return os.path.join(self._inner.get_cache_path(), "kernels-" + kernel_stamp().hex()[:16])
 
     def get_source_stamp(self):
         return kernel_stamp()

@@ -37,12 +37,14 @@ AS_NEXT_SLOT = 1  # next cache slot to (re)use, round robin over every mode's ca
 AS_MISSES = 9  # cache misses (factorisations)
 
 ActiveSets = namedtuple("ActiveSets", ["keys", "na", "idx", "G"])
-ActiveSets.__doc__ = """Cached factorisations of one LCP matrix per active set (``S`` slots).
+ActiveSets.__doc__ = """Cached factorisations of Q LCP matrices (stacked ``M (Q, m, m)``, one per
+switch mode), ``S`` active sets each.
 
-``keys (S,)`` the active-set bitmask of each slot (-1: empty); ``na (S,)`` its size (-1: the
-principal submatrix is singular, no fast path); ``idx (S, m)`` the active indices first, then
-the others; ``G (S, m, m)`` ``-(M_aa)^-1`` in its top-left ``na x na`` block. The integrators
-stack one cache per mode along a leading axis.
+For matrix ``j``: ``keys[j] (S,)`` the active-set bitmask of each slot (-1: empty); ``na[j]
+(S,)`` its size (-1: the principal submatrix is singular, no fast path); ``idx[j] (S, m)`` the
+active indices first, then the others; ``G[j] (S, m, m)`` ``-(M_aa)^-1`` in its top-left
+``na x na`` block. (Indexing the stacks with ``j`` inside the loops, rather than taking views
+per matrix, keeps reference counting out of the steps.)
 """
 
 LcpWork = namedtuple("LcpWork", ["z", "w", "active", "tableau", "basis", "aug"])
@@ -57,12 +59,14 @@ def lcp_work(m: int) -> LcpWork:
 
 
 @kernel
-def factor_active(M, mask, slot, sets):
-    """Store ``-(M_aa)^-1`` and the index split of active set ``mask`` in cache ``slot``.
+def factor_active(M, j, mask, slot, sets):
+    """Store ``-(M_aa)^-1`` of matrix ``M[j]`` and the index split of active set ``mask`` in
+    cache slot ``slot`` of matrix ``j``.
 
-    ``sets.na[slot] = -1`` marks a singular ``M_aa`` (no fast path for that set).
+    ``sets.na[j, slot] = -1`` marks a singular ``M_aa`` (no fast path for that set).
     """
-    cna, cidx, cG = sets.na, sets.idx, sets.G
+    cna, cidx, cG = sets.na[j], sets.idx[j], sets.G[j]
+    M = M[j]
     m = M.shape[0]
     na = 0
     for i in range(m):
@@ -116,18 +120,18 @@ def factor_active(M, mask, slot, sets):
 
 
 @kernel
-def lookup(M, mask, sets, counters):
-    """Cache slot of active set ``mask``, factorising it on a miss (``counters``: see
-    :data:`AS_NEXT_SLOT`, :data:`AS_MISSES`)."""
-    S = sets.keys.shape[0]
+def lookup(M, j, mask, sets, counters):
+    """Cache slot of active set ``mask`` of matrix ``M[j]``, factorising it on a miss
+    (``counters``: see :data:`AS_NEXT_SLOT`, :data:`AS_MISSES`)."""
+    S = sets.keys.shape[1]
     for s in range(S):
-        if sets.keys[s] == mask:
+        if sets.keys[j, s] == mask:
             return s
     s = counters[AS_NEXT_SLOT]
     counters[AS_NEXT_SLOT] = (s + 1) % S
     counters[AS_MISSES] += 1
-    sets.keys[s] = mask
-    factor_active(M, mask, s, sets)
+    sets.keys[j, s] = mask
+    factor_active(M, j, mask, s, sets)
     return s
 
 
@@ -142,14 +146,15 @@ def mask_of(active):
 
 
 @inline
-def solve_cached(M, q, sets, slot, za, rtol):
-    """The active set of cache ``slot`` (see :class:`ActiveSets`) for ``w = M λ + q``.
+def solve_cached(M, j, q, sets, slot, za, rtol):
+    """The active set of cache ``slot`` of matrix ``j`` (see :class:`ActiveSets`) for
+    ``w = M[j] λ + q``.
 
-    Returns its size ``na`` with ``λ_a`` in ``za[:na]`` (in the order ``sets.idx[slot, :na]``),
-    or -1 when the set is singular or not accepted.
+    Returns its size ``na`` with ``λ_a`` in ``za[:na]`` (in the order
+    ``sets.idx[j, slot, :na]``), or -1 when the set is singular or not accepted.
     """
     m = q.shape[0]
-    na = sets.na[slot]
+    na = sets.na[j, slot]
     if na < 0:
         return -1
     cidx = sets.idx
@@ -158,7 +163,7 @@ def solve_cached(M, q, sets, slot, za, rtol):
     for ii in range(na):
         v = 0.0
         for jj in range(na):
-            v += cG[slot, ii, jj] * q[cidx[slot, jj]]
+            v += cG[j, slot, ii, jj] * q[cidx[j, slot, jj]]
         za[ii] = v
         if abs(v) > zmax:
             zmax = abs(v)
@@ -166,11 +171,11 @@ def solve_cached(M, q, sets, slot, za, rtol):
         if za[ii] < -rtol * zmax:
             return -1
     for ii in range(na, m):
-        i = cidx[slot, ii]
+        i = cidx[j, slot, ii]
         v = q[i]
         sc = abs(v)
         for jj in range(na):
-            t = M[i, cidx[slot, jj]] * za[jj]
+            t = M[j, i, cidx[j, slot, jj]] * za[jj]
             v += t
             sc += abs(t)
         if v < -rtol * sc:

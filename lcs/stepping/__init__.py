@@ -46,7 +46,6 @@ from .grid import run_grid
 from .layout import (
     Chunk,
     Limits,
-    Mode,
     ModeArrays,
     ModeStack,
     Schedule,
@@ -59,7 +58,6 @@ __all__ = [
     "Chunk",
     "Discretisation",
     "Limits",
-    "Mode",
     "ModeArrays",
     "ModeStack",
     "Schedule",

@@ -17,35 +17,37 @@ from .layout import SW_LOCATED, SW_SAMPLED, SWF_LATCH
 
 
 @inline
-def row_value(Cr, Dr, Fr, r, x, lam, u):
-    """``Cr[r] x + Dr[r] λ + Fr[r] u`` and the sum of the magnitudes of its terms."""
+def row_value(Cr, Dr, Fr, j, r, x, lam, u):
+    """``Cr[j, r] x + Dr[j, r] λ + Fr[j, r] u`` (row r of mode j of stacked matrices) and
+    the sum of the magnitudes of its terms."""
     v = 0.0
     sc = 0.0
     for jj in range(x.shape[0]):
-        t = Cr[r, jj] * x[jj]
+        t = Cr[j, r, jj] * x[jj]
         v += t
         sc += abs(t)
     for jj in range(lam.shape[0]):
-        t = Dr[r, jj] * lam[jj]
+        t = Dr[j, r, jj] * lam[jj]
         v += t
         sc += abs(t)
     for jj in range(u.shape[0]):
-        t = Fr[r, jj] * u[jj]
+        t = Fr[j, r, jj] * u[jj]
         v += t
         sc += abs(t)
     return v, sc
 
 
 @inline
-def crossing(md, mda, d, sws, key, slide, x, lam, lama, u, c, cs, g, gt):
+def crossing(mats, j, ja, d, sws, key, slide, x, lam, lama, u, c, cs, g, gt):
     """Crossing functions ``g`` of the located comparators (``-inf`` for the others and for
     the sliding switch ``slide``), their round-off scales ``gt``, and the controls ``c``,
     ``cs`` behind them; returns ``max g``.
 
-    The controls are those of mode ``md`` at ``(x, lam, u)``, or while a switch slides with
-    ``d != 0`` the combination with mode ``mda`` at ``(x, lama, u)``.
+    The controls are those of mode ``j`` of the stacked matrices ``mats`` at
+    ``(x, lam, u)``, or while a switch slides with ``d != 0`` the combination with mode
+    ``ja`` at ``(x, lama, u)``.
     """
-    Cc, Dc, Fc = md.mats.Cc, md.mats.Dc, md.mats.Fc
+    Cc, Dc, Fc = mats.Cc, mats.Dc, mats.Fc
     G = -np.inf
     for i in range(sws.kind.shape[0]):
         g[i] = -np.inf
@@ -55,9 +57,9 @@ def crossing(md, mda, d, sws, key, slide, x, lam, lama, u, c, cs, g, gt):
         on = (key >> i) & 1
         if (not on) and (sws.flags[i] & SWF_LATCH) != 0:
             continue
-        v, sc = row_value(Cc, Dc, Fc, i, x, lam, u)
+        v, sc = row_value(Cc, Dc, Fc, j, i, x, lam, u)
         if slide >= 0 and d != 0.0:
-            va, sca = row_value(mda.mats.Cc, mda.mats.Dc, mda.mats.Fc, i, x, lama, u)
+            va, sca = row_value(Cc, Dc, Fc, ja, i, x, lama, u)
             v = (1.0 - d) * v + d * va
             sc = (1.0 - d) * sc + d * sca
         c[i] = v
@@ -73,16 +75,16 @@ def crossing(md, mda, d, sws, key, slide, x, lam, lama, u, c, cs, g, gt):
 
 
 @inline
-def sampled_controls(md, mda, d, slide, sws, x, lam, lama, u, c):
-    """Controls ``c`` of the sampled comparators (``SW_SAMPLED``) at the end of a step (the
-    Filippov combination while a switch slides with ``d != 0``)."""
-    Cc, Dc, Fc = md.mats.Cc, md.mats.Dc, md.mats.Fc
+def sampled_controls(mats, j, ja, d, slide, sws, x, lam, lama, u, c):
+    """Controls ``c`` of the sampled comparators (``SW_SAMPLED``) at the end of a step in mode
+    ``j`` (the Filippov combination with mode ``ja`` while a switch slides with ``d != 0``)."""
+    Cc, Dc, Fc = mats.Cc, mats.Dc, mats.Fc
     for i in range(sws.kind.shape[0]):
         if sws.kind[i] != SW_SAMPLED:
             continue
-        v, sc = row_value(Cc, Dc, Fc, i, x, lam, u)
+        v, sc = row_value(Cc, Dc, Fc, j, i, x, lam, u)
         if slide >= 0 and d != 0.0:
-            va, sca = row_value(mda.mats.Cc, mda.mats.Dc, mda.mats.Fc, i, x, lama, u)
+            va, sca = row_value(Cc, Dc, Fc, ja, i, x, lama, u)
             v = (1.0 - d) * v + d * va
         c[i] = v
 
@@ -109,10 +111,10 @@ def sample_switches(sws, key, c):
 
 
 @kernel
-def control_rates(md, x, lam, u, udot, rate, xdot):
-    """``d/dt (Cc x + Fc u)`` from ``x' = A x + B λ + E u`` (the ``Dc λ'`` term is unknown and
-    ignored: this only seeds the instant search)."""
-    A, B, E, Cc, Fc = md.mats.A, md.mats.B, md.mats.E, md.mats.Cc, md.mats.Fc
+def control_rates(mats, j, x, lam, u, udot, rate, xdot):
+    """``d/dt (Cc x + Fc u)`` in mode ``j`` from ``x' = A x + B λ + E u`` (the ``Dc λ'`` term
+    is unknown and ignored: this only seeds the instant search)."""
+    A, B, E, Cc, Fc = mats.A[j], mats.B[j], mats.E[j], mats.Cc[j], mats.Fc[j]
     n = A.shape[0]
     for i in range(n):
         v = 0.0

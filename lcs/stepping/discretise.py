@@ -135,10 +135,10 @@ def discretise(A, B, C, D, E, h: float, theta: float) -> Discretisation:
 
 
 @inline
-def free_regular(mats, x, U0, U1, kk, xf, q):
+def free_regular(mats, j, x, U0, U1, kk, xf, q):
     """Free state ``xf = Phi x + G0 u0 + G1 u1`` and ``q = C xf + F u1`` of a regular step
-    of the mode ``mats`` (:class:`~lcs.stepping.layout.ModeArrays`), with ``u0 = U0[kk]`` and
-    ``u1 = U1[kk]``. Returns False when they are not finite."""
+    of mode ``j`` of the stacked matrices ``mats`` (:class:`~lcs.stepping.layout.ModeArrays`),
+    with ``u0 = U0[kk]`` and ``u1 = U1[kk]``. Returns False when they are not finite."""
     Phi, G0, G1, C, F = mats.Phi, mats.G0, mats.G1, mats.C, mats.F
     n = x.shape[0]
     m = q.shape[0]
@@ -146,17 +146,17 @@ def free_regular(mats, x, U0, U1, kk, xf, q):
     for i in range(n):
         v = 0.0
         for jj in range(n):
-            v += Phi[i, jj] * x[jj]
+            v += Phi[j, i, jj] * x[jj]
         for jj in range(p):
-            v += G0[i, jj] * U0[kk, jj] + G1[i, jj] * U1[kk, jj]
+            v += G0[j, i, jj] * U0[kk, jj] + G1[j, i, jj] * U1[kk, jj]
         xf[i] = v
     chk = 0.0
     for i in range(m):
         v = 0.0
         for jj in range(n):
-            v += C[i, jj] * xf[jj]
+            v += C[j, i, jj] * xf[jj]
         for jj in range(p):
-            v += F[i, jj] * U1[kk, jj]
+            v += F[j, i, jj] * U1[kk, jj]
         q[i] = v
         chk += v
     for i in range(n):
@@ -166,25 +166,25 @@ def free_regular(mats, x, U0, U1, kk, xf, q):
 
 
 @inline
-def free_odd(mats, s, theta, x, u0, u1, xf, q, Ko, Mo, augn):
+def free_odd(mats, j, s, theta, x, u0, u1, xf, q, Ko, Mo, augn):
     """Free state ``xf``, ``K`` (into ``Ko``), ``M`` (into ``Mo``) and ``q`` of a step of
-    length ``s`` (not the stored h) of the mode ``mats``, from inputs ``u0`` to ``u1``.
+    length ``s`` (not the stored h) of mode ``j``, from inputs ``u0`` to ``u1``.
     Returns False when ``I - s θ A`` is singular or the result is not finite."""
     A, B, C, D, E, F = mats.A, mats.B, mats.C, mats.D, mats.E, mats.F
-    n = A.shape[0]
-    m = B.shape[1]
-    p = E.shape[1]
+    n = x.shape[0]
+    m = q.shape[0]
+    p = u0.shape[0]
     a1 = s * (1.0 - theta)
     for i in range(n):
         v = x[i]
         for jj in range(n):
-            augn[i, jj] = (1.0 if i == jj else 0.0) - s * theta * A[i, jj]
-            v += a1 * A[i, jj] * x[jj]
+            augn[i, jj] = (1.0 if i == jj else 0.0) - s * theta * A[j, i, jj]
+            v += a1 * A[j, i, jj] * x[jj]
         for jj in range(p):
-            v += s * E[i, jj] * ((1.0 - theta) * u0[jj] + theta * u1[jj])
+            v += s * E[j, i, jj] * ((1.0 - theta) * u0[jj] + theta * u1[jj])
         augn[i, n] = v
         for jj in range(m):
-            augn[i, n + 1 + jj] = B[i, jj]
+            augn[i, n + 1 + jj] = B[j, i, jj]
     if n > 0 and not _gauss(augn, n, 1 + m):
         return False
     chk = 0.0
@@ -195,15 +195,15 @@ def free_odd(mats, s, theta, x, u0, u1, xf, q, Ko, Mo, augn):
             Ko[i, jj] = s * augn[i, n + 1 + jj]
     for i in range(m):
         for jj in range(m):
-            v = D[i, jj]
+            v = D[j, i, jj]
             for k in range(n):
-                v += C[i, k] * Ko[k, jj]
+                v += C[j, i, k] * Ko[k, jj]
             Mo[i, jj] = v
         v = 0.0
         for jj in range(n):
-            v += C[i, jj] * xf[jj]
+            v += C[j, i, jj] * xf[jj]
         for jj in range(p):
-            v += F[i, jj] * u1[jj]
+            v += F[j, i, jj] * u1[jj]
         q[i] = v
         chk += v
     return chk - chk == 0.0

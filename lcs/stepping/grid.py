@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..jit import inline, kernel
-from ..lcp.compiled import ActiveSets, LcpWork, lookup
+from ..jit import kernel
+from ..lcp.compiled import LcpWork, lookup
 from .comparators import crossing, row_value, sample_switches, sampled_controls
 from .layout import (
     EV_SLIDE_END,
@@ -55,8 +55,6 @@ from .layout import (
     IV_SLIDESTEPS,
     IV_STEPS,
     MF_FAST,
-    MF_OUTSTATE,
-    MF_UNIQ,
     OP_SET,
     PLAIN_MIN,
     STEP_CHATTER,
@@ -68,27 +66,12 @@ from .layout import (
     SW_SAMPLED,
     SWF_RELAY,
     LocateWork,
-    Mode,
-    ModeArrays,
     StepWork,
 )
 from .locate import locate, u_interp
 from .sliding import advance, relay_combine
 from .step import mode_step, odd_basis_step, regular_cached_step
 from .store import find_mode, record, store_row
-
-
-@inline
-def mode_view(stack, j):
-    """Mode ``j`` of the stack as a :class:`~lcs.stepping.layout.Mode` (views, no copies)."""
-    a = stack.mats
-    mats = ModeArrays(a.A[j], a.B[j], a.C[j], a.D[j], a.E[j], a.F[j], a.Phi[j], a.G0[j],
-                      a.G1[j], a.K[j], a.M[j], a.Cy[j], a.Dy[j], a.Fy[j], a.Cc[j], a.Dc[j],
-                      a.Fc[j])
-    s = stack.sets
-    sets = ActiveSets(s.keys[j], s.na[j], s.idx[j], s.G[j])
-    return Mode(mats, sets, stack.flags[j, MF_FAST] != 0, stack.flags[j, MF_UNIQ],
-                stack.flags[j, MF_OUTSTATE] != 0)
 
 
 @kernel
@@ -105,9 +88,10 @@ def _work(n, m, k, p):
 
 
 @kernel
-def plain_steps(md, key, chunk, kk, kstop, x, lam, ms, W, xn, lamn, store, ivars, fvars, lim,
+def plain_steps(stack, j, key, chunk, kk, kstop, x, lam, ms, W, xn, lamn, store, ivars, fvars,
+                lim,
                 countdown, cap_row):
-    """Regular grid steps ``kk .. kstop-1`` of mode ``md`` with no comparator, no sliding and
+    """Regular grid steps ``kk .. kstop-1`` of mode ``j`` with no comparator, no sliding and
     no schedule entry: :func:`run_grid`'s regular step without its per-step switching
     machinery (the same arithmetic, so the same numbers). Stops at the first step it cannot
     take (shortened, output buffer nearly full, or failed), which :func:`run_grid` then
@@ -124,11 +108,11 @@ def plain_steps(md, key, chunk, kk, kstop, x, lam, ms, W, xn, lamn, store, ivars
         if chunk.odd[kk] or pos > cap_row:
             break
         if m > 0 and ms[1] < 0:
-            ms[1] = lookup(md.mats.M, ms[0], md.sets, ivars)
-        if not regular_cached_step(md, x, U0, U1, kk, ms[1], W, xn, lamn, rtol):
+            ms[1] = lookup(stack.mats.M, j, ms[0], stack.sets, ivars)
+        if not regular_cached_step(stack, j, x, U0, U1, kk, ms[1], W, xn, lamn, rtol):
             # (the general step, as run_grid would take it: Lemke, uniqueness check)
-            st = mode_step(md, fvars[FV_H], True, fvars[FV_THETA], x, U0[kk], U1[kk], U0, U1,
-                           kk, ms, 0, W, xn, lamn, ivars, fvars, lim, True)
+            st = mode_step(stack, j, fvars[FV_H], True, fvars[FV_THETA], x, U0[kk], U1[kk], U0,
+                           U1, kk, ms, 0, W, xn, lamn, ivars, fvars, lim, True)
             if st != STEP_OK:
                 break
         for i in range(n):
@@ -140,7 +124,7 @@ def plain_steps(md, key, chunk, kk, kstop, x, lam, ms, W, xn, lamn, store, ivars
         if countdown == 0 or chunk.force_out[kk]:
             if countdown == 0:
                 countdown = every
-            store_row(md, md, 0.0, -1, key, store.duty, 0.0, x, lam, lam, U1, kk, store.T,
+            store_row(stack, j, j, 0.0, -1, key, store.duty, 0.0, x, lam, lam, U1, kk, store.T,
                       store.Y, pos, chunk.t[kk + 1])
             pos += 1
         kk += 1
@@ -151,9 +135,9 @@ def plain_steps(md, key, chunk, kk, kstop, x, lam, ms, W, xn, lamn, store, ivars
 
 
 @kernel
-def _rearm(md, sws, i, key, x, lam, u):
+def _rearm(mats, j, sws, i, key, x, lam, u):
     """Switch key after the re-arm of latched switch ``i``: on iff its control >= vt - vh."""
-    c, sc = row_value(md.mats.Cc, md.mats.Dc, md.mats.Fc, i, x, lam, u)
+    c, sc = row_value(mats.Cc, mats.Dc, mats.Fc, j, i, x, lam, u)
     if c >= sws.vt[i] - sws.vh[i]:
         return key | (1 << i)
     return key & ~(1 << i)
@@ -243,12 +227,10 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
     ja = -1
     d = 0.0
     status = STEP_OK
-    # The current mode (and while a switch slides, the other one) as views, rebound only when
-    # the mode changes: the step, the comparator check and the output below are inlined.
-    jb = 0
-    md = mode_view(stack, 0)
-    jab = 0
-    mda = md
+    # The current mode j (and while a switch slides, the other one, ja) indexes the stacked
+    # matrices: no views, so no reference counting in the steps.
+    mats = stack.mats
+    flags = stack.flags
     plain = not has_located and not has_sampled
     plain_skip = -1
     kk = ivars[IV_K]
@@ -273,10 +255,10 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
                     kstop = sched.k[sp]
                 # (only for runs of PLAIN_MIN steps or more: a call costs the views of the
                 # mode's matrices, more than a few steps gain)
-                if kstop - kk >= PLAIN_MIN and (m == 0 or md.fast):
-                    k2, countdown, st = plain_steps(md, key, chunk, kk, kstop, x, lam, ms, W, xn,
-                                                    lamn, store, ivars, fvars, lim, countdown,
-                                                    cap_out - max_sw - 3)
+                if kstop - kk >= PLAIN_MIN and (m == 0 or flags[j, MF_FAST] != 0):
+                    k2, countdown, st = plain_steps(stack, j, key, chunk, kk, kstop, x, lam, ms,
+                                                    W, xn, lamn, store, ivars, fvars, lim,
+                                                    countdown, cap_out - max_sw - 3)
                     plain_skip = k2
                     if st != STEP_OK:
                         ivars[IV_FAILMODE] = j
@@ -315,10 +297,7 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
                 if j < 0:
                     need = key
                     break
-                if jb != j:
-                    jb = j
-                    md = mode_view(stack, j)
-                newkey = _rearm(md, sws, i, key, x, lam, U0[kk])
+                newkey = _rearm(mats, j, sws, i, key, x, lam, U0[kk])
                 info = i
             ivars[IV_SCHED] = sp + 1
             if newkey != key:
@@ -370,34 +349,30 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
             vts = sws.vt[slide] if slide >= 0 else 0.0
             for i in range(4):
                 ms0[i] = ms[i]
-            if jb != j:
-                jb = j
-                md = mode_view(stack, j)
-            if slide >= 0 and jab != ja:
-                jab = ja
-                mda = mode_view(stack, ja)
             done = False
             st = STEP_OK
             dd = 0.0
-            if slide >= 0 and regular and (m == 0 or (md.fast and mda.fast)):
+            if slide >= 0 and regular and (m == 0 or (flags[j, MF_FAST] != 0
+                                                      and flags[ja, MF_FAST] != 0)):
                 # Sliding, regular step: both modes by their cached active sets, then the relay.
                 if m > 0 and ms[1] < 0:
-                    ms[1] = lookup(md.mats.M, ms[0], md.sets, ivars)
+                    ms[1] = lookup(mats.M, j, ms[0], stack.sets, ivars)
                 if m > 0 and ms[3] < 0:
-                    ms[3] = lookup(mda.mats.M, ms[2], mda.sets, ivars)
-                if (regular_cached_step(md, x, U0, U1, kk, ms[1], W, xn, lamn, rtol)
-                        and regular_cached_step(mda, x, U0, U1, kk, ms[3], W, xa, lamna, rtol)):
-                    dd = relay_combine(md, mda, slide, base_on, vts, ub, xn, lamn, xa, lamna,
+                    ms[3] = lookup(mats.M, ja, ms[2], stack.sets, ivars)
+                if (regular_cached_step(stack, j, x, U0, U1, kk, ms[1], W, xn, lamn, rtol)
+                        and regular_cached_step(stack, ja, x, U0, U1, kk, ms[3], W, xa, lamna,
+                                                rtol)):
+                    dd = relay_combine(mats, j, ja, slide, base_on, vts, ub, xn, lamn, xa, lamna,
                                        sg)
                     done = True
-            elif slide < 0 and regular and (m == 0 or md.fast):
+            elif slide < 0 and regular and (m == 0 or flags[j, MF_FAST] != 0):
                 if m > 0 and ms[1] < 0:
-                    ms[1] = lookup(md.mats.M, ms[0], md.sets, ivars)
-                done = regular_cached_step(md, x, U0, U1, kk, ms[1], W, xn, lamn, rtol)
-            elif slide < 0 and (m == 0 or md.fast):
-                done = odd_basis_step(md, s, theta, x, ua, ub, ms[0], W, xn, lamn, rtol)
+                    ms[1] = lookup(mats.M, j, ms[0], stack.sets, ivars)
+                done = regular_cached_step(stack, j, x, U0, U1, kk, ms[1], W, xn, lamn, rtol)
+            elif slide < 0 and (m == 0 or flags[j, MF_FAST] != 0):
+                done = odd_basis_step(stack, j, s, theta, x, ua, ub, ms[0], W, xn, lamn, rtol)
             if not done:
-                st, dd = advance(md, mda, j, ja, slide, base_on, vts, s, regular, theta, x, ua,
+                st, dd = advance(stack, j, ja, slide, base_on, vts, s, regular, theta, x, ua,
                                  ub, U0, U1, kk, ms, W, xn, lamn, xa, lamna, sg, ivars, fvars,
                                  lim, True)
             if st != STEP_OK:
@@ -407,7 +382,7 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
                 break
             G = -np.inf
             if has_located:
-                G = crossing(md, mda, dd, sws, key, slide, xn, lamn, lamna, ub, c, cs, g, gt)
+                G = crossing(mats, j, ja, dd, sws, key, slide, xn, lamn, lamna, ub, c, cs, g, gt)
             if not (G > 0.0):
                 for i in range(n):
                     x[i] = xn[i]
@@ -453,7 +428,7 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
             # A comparator crossed its threshold inside the step: locate the instant.
             for i in range(4):
                 ms[i] = ms0[i]
-            st, s_star, dstar = locate(md, mda, j, ja, slide, base_on, vts, ta, s, theta, x,
+            st, s_star, dstar = locate(stack, j, ja, slide, base_on, vts, ta, s, theta, x,
                                        lam, ua, ub, ms, ivars, fvars, lim, sws, key, xn, lamn,
                                        lamna, dd, c, cs, g, gt, W, S, chunk, kk, tau_a)
             if st != STEP_OK:
@@ -490,8 +465,8 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
                 if every == 1:
                     u_interp(chunk, kk, (tcur - ta_grid) / (tb - ta_grid), S.ut)
                     pos = ivars[IV_OUTPOS]
-                    store_row(md, mda, d, slide, key, store.duty, fvars[FV_DUTY], x, lam, lama,
-                              ut2, 0, store.T, store.Y, pos, tcur)
+                    store_row(stack, j, ja, d, slide, key, store.duty, fvars[FV_DUTY], x, lam,
+                              lama, ut2, 0, store.T, store.Y, pos, tcur)
                     ivars[IV_OUTPOS] = pos + 1
             elif ivars[IV_LASTSW] == first and fvars[FV_LASTT] == tcur:
                 # The switch it flipped at this very instant wants to flip back before the
@@ -544,23 +519,17 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
             ivars[IV_NEED] = need
             break
         # End of the grid step: output, sampled comparators.
-        if jb != j:
-            jb = j
-            md = mode_view(stack, j)
-        if slide >= 0 and jab != ja:
-            jab = ja
-            mda = mode_view(stack, ja)
         ivars[IV_GSTEP] += 1
         countdown -= 1
         if countdown == 0 or chunk.force_out[kk]:
             if countdown == 0:
                 countdown = every
             pos = ivars[IV_OUTPOS]
-            store_row(md, mda, d, slide, key, store.duty, fvars[FV_DUTY], x, lam, lama, U1, kk,
-                      store.T, store.Y, pos, tb)
+            store_row(stack, j, ja, d, slide, key, store.duty, fvars[FV_DUTY], x, lam, lama, U1,
+                      kk, store.T, store.Y, pos, tb)
             ivars[IV_OUTPOS] = pos + 1
         if has_sampled:
-            sampled_controls(md, mda, d, slide, sws, x, lam, lama, U1[kk], c)
+            sampled_controls(mats, j, ja, d, slide, sws, x, lam, lama, U1[kk], c)
             newkey, first = sample_switches(sws, key, c)
             if newkey != key:
                 key = newkey

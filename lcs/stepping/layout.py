@@ -1,12 +1,11 @@
 """Codes, array layouts and typed containers shared by the Moreau kernel and its driver.
 
 The kernel's data travel in a few named tuples (numba types them field by field, so a
-function that takes a ``Mode`` reads ``md.mats.Phi`` and compiles to plain array access):
+function that takes a ``ModeStack`` reads ``stack.mats.Phi[j, i, k]`` and compiles to plain
+array access; a mode is an index ``j`` into the stack):
 
 * :class:`ModeArrays` -- the matrices of one switch mode (2-D), or of every mode stacked along
   a leading mode axis (3-D, in :class:`ModeStack`);
-* :class:`Mode` -- one mode as the kernel uses it: its matrices, its active-set cache
-  (:class:`lcs.lcp.compiled.ActiveSets`) and its flags;
 * :class:`SwitchArrays`, :class:`Chunk`, :class:`Schedule`, :class:`Store`, :class:`Limits` --
   the switches, a chunk of the time grid with its inputs, the known switching instants of the
   chunk, the output and event buffers, the integer options;
@@ -126,12 +125,6 @@ ModeStack.__doc__ = """Every mode built so far, stacked by mode id ``j`` (capaci
 ``mats``: :class:`ModeArrays` of (Q, ., .) arrays; ``sets``: :class:`ActiveSets` of (Q, S, ...)
 arrays; ``key (Q,)``: the switch key of each mode (bit i: switch i on); ``flags (Q, MF_LEN)``.
 """
-
-Mode = namedtuple("Mode", ["mats", "sets", "fast", "uniq", "outstate"])
-Mode.__doc__ = """One mode as the kernel uses it: :class:`ModeArrays` (2-D views), its
-:class:`ActiveSets` cache (views), ``fast`` (bool: try cached active sets), ``uniq`` (check the
-uniqueness of Lemke solutions when ``m <= uniq``), ``outstate`` (bool: the probes are the
-states)."""
 
 SwitchArrays = namedtuple("SwitchArrays", ["kind", "flags", "vt", "vh"])
 SwitchArrays.__doc__ = """Per switch (k,): ``kind`` (``SW_*``), ``flags`` (``SWF_*``), and the

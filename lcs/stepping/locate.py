@@ -36,7 +36,7 @@ def u_interp(chunk, kk, tau, out):
 
 
 @kernel
-def locate(md, mda, j, ja, slide, base_on, vt_s, ta, s, theta, x, lam, ua, ub, ms, ivars,
+def locate(stack, j, ja, slide, base_on, vt_s, ta, s, theta, x, lam, ua, ub, ms, ivars,
            fvars, lim, sws, key, xfull, lamfull, lamafull, dfull, c, cs, g, gt, W, S, chunk,
            kk, tau_a):
     """Locate the first comparator crossing inside the step ``[ta, ta + s]`` of grid step
@@ -56,11 +56,12 @@ def locate(md, mda, j, ja, slide, base_on, vt_s, ta, s, theta, x, lam, ua, ub, m
     stol = max(fvars[FV_ROOT_TOL] * h, 8.9e-16 * abs(ta + s))
     msl = S.msl
     # Crossing functions at the start (mode j; λ of the previous step, an estimate).
-    Ga = crossing(md, mda, 0.0, sws, key, slide, x, lam, lam, ua, c, cs, S.ga, S.gta)
+    mats = stack.mats
+    Ga = crossing(mats, j, ja, 0.0, sws, key, slide, x, lam, lam, ua, c, cs, S.ga, S.gta)
     for i in range(p):
         S.udot[i] = (ub[i] - ua[i]) / s
-    control_rates(md, x, lam, ua, S.udot, S.rate_a, S.xdot)
-    control_rates(md, xfull, lamfull, ub, S.udot, S.rate_b, S.xdot)
+    control_rates(mats, j, x, lam, ua, S.udot, S.rate_a, S.xdot)
+    control_rates(mats, j, xfull, lamfull, ub, S.udot, S.rate_b, S.xdot)
     Gb = -np.inf
     for i in range(k):
         S.g_hi[i] = g[i]
@@ -100,13 +101,14 @@ def locate(md, mda, j, ja, slide, base_on, vt_s, ta, s, theta, x, lam, ua, ub, m
             msl[i] = ms[i]
         msl[1] = -1
         msl[3] = -1
-        st, d1 = advance(md, mda, j, ja, slide, base_on, vt_s, s1, False, theta, x, ua, S.ut,
+        st, d1 = advance(stack, j, ja, slide, base_on, vt_s, s1, False, theta, x, ua, S.ut,
                          chunk.U0, chunk.U1, kk, msl, W, S.xt, S.lamt, S.xat, S.lamat, S.sg,
                          ivars, fvars, lim, False)
         ivars[IV_ROOTEVALS] += 1
         if st != STEP_OK:
             return st, s1, 0.0
-        G1 = crossing(md, mda, d1, sws, key, slide, S.xt, S.lamt, S.lamat, S.ut, c, cs, g, gt)
+        G1 = crossing(mats, j, ja, d1, sws, key, slide, S.xt, S.lamt, S.lamat, S.ut, c, cs, g,
+                      gt)
         gtol = 0.0
         for i in range(k):
             if gt[i] > gtol:

@@ -33,13 +33,13 @@ def relay_fraction(sig_off, sig_on, base_on):
 
 
 @inline
-def relay_combine(md, mda, sw, base_on, vt, u, xn, lamn, xa, lama, sg):
-    """Combine the end states of the two modes (``xn, lamn`` of ``md``; ``xa, lama`` of
-    ``mda``) into ``xn`` by the relay of switch ``sw``; returns ``d``, the fraction of the
+def relay_combine(mats, j, ja, sw, base_on, vt, u, xn, lamn, xa, lama, sg):
+    """Combine the end states of the two modes (``xn, lamn`` of mode ``j``; ``xa, lama`` of
+    mode ``ja``) into ``xn`` by the relay of switch ``sw``; returns ``d``, the fraction of the
     step in the toggled mode. ``sg = [σ_j, σ_ja, tol]``: the relay values at the two end
     states and their round-off scale."""
-    sgb, scb = row_value(md.mats.Cc, md.mats.Dc, md.mats.Fc, sw, xn, lamn, u)
-    sga, sca = row_value(mda.mats.Cc, mda.mats.Dc, mda.mats.Fc, sw, xa, lama, u)
+    sgb, scb = row_value(mats.Cc, mats.Dc, mats.Fc, j, sw, xn, lamn, u)
+    sga, sca = row_value(mats.Cc, mats.Dc, mats.Fc, ja, sw, xa, lama, u)
     sgb -= vt
     sga -= vt
     sg[0] = sgb
@@ -55,25 +55,26 @@ def relay_combine(md, mda, sw, base_on, vt, u, xn, lamn, xa, lama, sg):
 
 
 @kernel
-def advance(md, mda, j, ja, sw, base_on, vt, s, regular, theta, x, u0, u1, U0, U1, kk, ms, W,
+def advance(stack, j, ja, sw, base_on, vt, s, regular, theta, x, u0, u1, U0, U1, kk, ms, W,
             xn, lamn, xa, lama, sg, ivars, fvars, lim, commit):
-    """One step of length ``s``: in mode ``md`` (id ``j``), or while switch ``sw`` slides
-    (``sw >= 0``) the Filippov combination of ``md`` and ``mda`` (id ``ja``, ``sw`` toggled).
+    """One step of length ``s``: in mode ``j`` of ``stack``, or while switch ``sw`` slides
+    (``sw >= 0``) the Filippov combination of modes ``j`` and ``ja`` (``sw`` toggled).
 
     ``ms = [mask, slot, mask_alt, slot_alt]`` (updated). Returns ``(status, d)`` with ``d``
     the fraction of the step in the toggled mode (0 when not sliding); the multipliers of each
     mode are left in ``lamn``, ``lama``.
     """
-    st = mode_step(md, s, regular, theta, x, u0, u1, U0, U1, kk, ms, 0, W, xn, lamn, ivars,
-                   fvars, lim, commit)
+    st = mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, ms, 0, W, xn, lamn,
+                   ivars, fvars, lim, commit)
     if st != STEP_OK:
         ivars[IV_FAILMODE] = j
         return st, 0.0
     if sw < 0:
         return STEP_OK, 0.0
-    st = mode_step(mda, s, regular, theta, x, u0, u1, U0, U1, kk, ms, 2, W, xa, lama, ivars,
-                   fvars, lim, commit)
+    st = mode_step(stack, ja, s, regular, theta, x, u0, u1, U0, U1, kk, ms, 2, W, xa, lama,
+                   ivars, fvars, lim, commit)
     if st != STEP_OK:
         ivars[IV_FAILMODE] = ja
         return st, 0.0
-    return STEP_OK, relay_combine(md, mda, sw, base_on, vt, u1, xn, lamn, xa, lama, sg)
+    return STEP_OK, relay_combine(stack.mats, j, ja, sw, base_on, vt, u1, xn, lamn, xa, lama,
+                                  sg)

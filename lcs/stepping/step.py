@@ -34,6 +34,8 @@ from .layout import (
     IV_LEMKE,
     IV_PIVOTS,
     IV_UNIQ,
+    MF_FAST,
+    MF_UNIQ,
     STEP_LCP_FAILED,
     STEP_NONFINITE,
     STEP_NONUNIQUE,
@@ -42,21 +44,22 @@ from .layout import (
 
 
 @inline
-def impulse_cached(xf, K, sets, slot, na, za, lamn, xn):
+def impulse_cached(xf, K, j, sets, slot, na, za, lamn, xn):
     """``λ`` from the cached active set's ``λ_a`` (``za[:na]``) into ``lamn``, and
-    ``xn = xf + K λ`` over the active pairs only. Returns False when ``xn`` is not finite."""
+    ``xn = xf + K[j] λ`` over the active pairs only. Returns False when ``xn`` is not
+    finite."""
     n = xf.shape[0]
     m = lamn.shape[0]
     idx = sets.idx
     for i in range(m):
         lamn[i] = 0.0
     for jj in range(na):
-        lamn[idx[slot, jj]] = za[jj]
+        lamn[idx[j, slot, jj]] = za[jj]
     chk = 0.0
     for i in range(n):
         v = xf[i]
         for jj in range(na):
-            v += K[i, idx[slot, jj]] * za[jj]
+            v += K[j, i, idx[j, slot, jj]] * za[jj]
         xn[i] = v
         chk += v
     return chk - chk == 0.0
@@ -80,32 +83,33 @@ def impulse_dense(xf, K, lamn, xn):
 
 
 @inline
-def regular_cached_step(md, x, U0, U1, kk, slot, W, xn, lamn, rtol):
-    """A regular step of mode ``md`` from ``x`` (inputs ``U0[kk]`` to ``U1[kk]``) into ``xn``,
-    ``lamn`` by the active set of cache ``slot`` (:func:`lcs.lcp.compiled.lookup`: the
-    caller looks it up, since a call inside an inlined function costs reference counting on
-    every step).
+def regular_cached_step(stack, j, x, U0, U1, kk, slot, W, xn, lamn, rtol):
+    """A regular step of mode ``j`` of ``stack`` from ``x`` (inputs ``U0[kk]`` to
+    ``U1[kk]``) into ``xn``, ``lamn`` by the active set of cache ``slot``
+    (:func:`lcs.lcp.compiled.lookup`: the caller looks it up, since a call inside an inlined
+    function costs reference counting on every step).
 
     Returns False when the step is not taken this way (active set not accepted, singular, or a
     non-finite result); :func:`mode_step` then decides.
     """
-    if not free_regular(md.mats, x, U0, U1, kk, W.xf, W.q):
+    mats = stack.mats
+    if not free_regular(mats, j, x, U0, U1, kk, W.xf, W.q):
         return False
     if W.q.shape[0] == 0:
         for i in range(x.shape[0]):
             xn[i] = W.xf[i]
         return True
-    na = solve_cached(md.mats.M, W.q, md.sets, slot, W.za, rtol)
+    na = solve_cached(mats.M, j, W.q, stack.sets, slot, W.za, rtol)
     if na < 0:
         return False
-    return impulse_cached(W.xf, md.mats.K, md.sets, slot, na, W.za, lamn, xn)
+    return impulse_cached(W.xf, mats.K, j, stack.sets, slot, na, W.za, lamn, xn)
 
 
 @inline
-def odd_basis_step(md, s, theta, x, u0, u1, mask, W, xn, lamn, rtol):
-    """A step of length ``s`` (discretised on the fly) by the active set ``mask``; False when
-    not taken this way."""
-    if not free_odd(md.mats, s, theta, x, u0, u1, W.xf, W.q, W.Ko, W.Mo, W.augn):
+def odd_basis_step(stack, j, s, theta, x, u0, u1, mask, W, xn, lamn, rtol):
+    """A step of length ``s`` (discretised on the fly) of mode ``j`` by the active set
+    ``mask``; False when not taken this way."""
+    if not free_odd(stack.mats, j, s, theta, x, u0, u1, W.xf, W.q, W.Ko, W.Mo, W.augn):
         return False
     if W.q.shape[0] > 0 and not solve_basis(W.Mo, W.q, mask, W.lcp, lamn, rtol):
         return False
@@ -113,9 +117,9 @@ def odd_basis_step(md, s, theta, x, u0, u1, mask, W, xn, lamn, rtol):
 
 
 @kernel
-def mode_step(md, s, regular, theta, x, u0, u1, U0, U1, kk, ms, mi, W, xn, lamn, ivars, fvars,
-              lim, commit):
-    """One θ step of length ``s`` of mode ``md`` from ``x`` into ``xn``, ``lamn``.
+def mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, ms, mi, W, xn, lamn, ivars,
+              fvars, lim, commit):
+    """One θ step of length ``s`` of mode ``j`` of ``stack`` from ``x`` into ``xn``, ``lamn``.
 
     ``regular`` steps (length h from a grid point) use the stored matrices and the inputs
     ``U0[kk]``, ``U1[kk]``; others are discretised for ``s`` with inputs ``u0`` to ``u1``.
@@ -123,13 +127,14 @@ def mode_step(md, s, regular, theta, x, u0, u1, U0, U1, kk, ms, mi, W, xn, lamn,
     unknown); both are updated. With ``commit``, a pivoting solution is checked for a unique
     next state. Returns a ``STEP_*`` status.
     """
-    mats = md.mats
+    mats = stack.mats
+    fast = stack.flags[j, MF_FAST] != 0
     if regular:
-        finite = free_regular(mats, x, U0, U1, kk, W.xf, W.q)
-        Kk = mats.K
-        Mk = mats.M
+        finite = free_regular(mats, j, x, U0, U1, kk, W.xf, W.q)
+        Kk = mats.K[j]
+        Mk = mats.M[j]
     else:
-        finite = free_odd(mats, s, theta, x, u0, u1, W.xf, W.q, W.Ko, W.Mo, W.augn)
+        finite = free_odd(mats, j, s, theta, x, u0, u1, W.xf, W.q, W.Ko, W.Mo, W.augn)
         Kk = W.Ko
         Mk = W.Mo
     if not finite:
@@ -143,17 +148,17 @@ def mode_step(md, s, regular, theta, x, u0, u1, U0, U1, kk, ms, mi, W, xn, lamn,
             xn[i] = xf[i]
         return STEP_OK
     rtol = fvars[FV_RTOL]
-    if regular and md.fast:
+    if regular and fast:
         slot = ms[mi + 1]
         if slot < 0:
-            slot = lookup(Mk, ms[mi], md.sets, ivars)
+            slot = lookup(mats.M, j, ms[mi], stack.sets, ivars)
             ms[mi + 1] = slot
-        na = solve_cached(Mk, q, md.sets, slot, W.za, rtol)
+        na = solve_cached(mats.M, j, q, stack.sets, slot, W.za, rtol)
         if na >= 0:
-            if impulse_cached(xf, Kk, md.sets, slot, na, W.za, lamn, xn):
+            if impulse_cached(xf, mats.K, j, stack.sets, slot, na, W.za, lamn, xn):
                 return STEP_OK
             return STEP_NONFINITE
-    elif md.fast and solve_basis(Mk, q, ms[mi], W.lcp, lamn, rtol):
+    elif fast and solve_basis(Mk, q, ms[mi], W.lcp, lamn, rtol):
         if impulse_dense(xf, Kk, lamn, xn):
             return STEP_OK
         return STEP_NONFINITE
@@ -166,7 +171,7 @@ def mode_step(md, s, regular, theta, x, u0, u1, U0, U1, kk, ms, mi, W, xn, lamn,
         ivars[IV_LEMKE] = lstat
         ivars[IV_FAILMASK] = negative_q_mask(q)
         return STEP_LCP_FAILED
-    if commit and m <= md.uniq:
+    if commit and m <= stack.flags[j, MF_UNIQ]:
         ivars[IV_UNIQ] += 1
         diff = distinct_images(Mk, q, Kk, xf, lamn, fvars[FV_UNIQ_TOL], 1e-9, W.lcp.w,
                                W.lcp.aug)
@@ -174,8 +179,8 @@ def mode_step(md, s, regular, theta, x, u0, u1, U0, U1, kk, ms, mi, W, xn, lamn,
             ivars[IV_FAILMASK] = diff
             return STEP_NONUNIQUE
     ms[mi] = mask
-    if regular and md.fast:
-        ms[mi + 1] = lookup(Mk, mask, md.sets, ivars)
+    if regular and fast:
+        ms[mi + 1] = lookup(mats.M, j, mask, stack.sets, ivars)
     else:
         ms[mi + 1] = -1
     if impulse_dense(xf, Kk, lamn, xn):

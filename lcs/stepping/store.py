@@ -3,39 +3,39 @@
 from __future__ import annotations
 
 from ..jit import inline, kernel
-from .layout import IV_EVPOS
+from .layout import IV_EVPOS, MF_OUTSTATE
 
 
 @inline
-def _row_at(Cr, Dr, Fr, r, x, lam, U, ur):
-    """``Cr[r] x + Dr[r] λ + Fr[r] U[ur]``."""
+def _row_at(Cr, Dr, Fr, j, r, x, lam, U, ur):
+    """``Cr[j, r] x + Dr[j, r] λ + Fr[j, r] U[ur]``."""
     v = 0.0
     for jj in range(x.shape[0]):
-        v += Cr[r, jj] * x[jj]
+        v += Cr[j, r, jj] * x[jj]
     for jj in range(lam.shape[0]):
-        v += Dr[r, jj] * lam[jj]
+        v += Dr[j, r, jj] * lam[jj]
     for jj in range(U.shape[1]):
-        v += Fr[r, jj] * U[ur, jj]
+        v += Fr[j, r, jj] * U[ur, jj]
     return v
 
 
 @inline
-def store_row(md, mda, d, slide, key, duty, duty_value, x, lam, lama, U, ur, T, Y, pos, t):
+def store_row(stack, j, ja, d, slide, key, duty, duty_value, x, lam, lama, U, ur, T, Y, pos, t):
     """Write the stored probes at time ``t`` into row ``pos`` of ``T``, ``Y``; the inputs are
     row ``ur`` of ``U`` (a row index, not a row: a view per stored step costs as much as the
     step).
 
     A probe row of ``duty`` >= 0 is the state of that switch (1 on, 0 off; ``duty_value``, the
-    equivalent duty, while it slides). While a switch slides with ``d != 0`` the probes are
-    the Filippov combination of the two modes' values.
+    equivalent duty, while it slides). The probes are those of mode ``j`` of ``stack``, or
+    while a switch slides with ``d != 0`` the Filippov combination with mode ``ja``.
     """
     T[pos] = t
     sliding = slide >= 0 and d != 0.0
-    if md.outstate and not sliding:
+    if stack.flags[j, MF_OUTSTATE] != 0 and not sliding:
         for i in range(x.shape[0]):
             Y[pos, i] = x[i]
         return
-    Cy, Dy, Fy = md.mats.Cy, md.mats.Dy, md.mats.Fy
+    Cy, Dy, Fy = stack.mats.Cy, stack.mats.Dy, stack.mats.Fy
     for r in range(Y.shape[1]):
         sw = duty[r]
         if sw >= 0:
@@ -44,9 +44,9 @@ def store_row(md, mda, d, slide, key, duty, duty_value, x, lam, lama, U, ur, T, 
             else:
                 Y[pos, r] = 1.0 if (key >> sw) & 1 else 0.0
             continue
-        v = _row_at(Cy, Dy, Fy, r, x, lam, U, ur)
+        v = _row_at(Cy, Dy, Fy, j, r, x, lam, U, ur)
         if sliding:
-            va = _row_at(mda.mats.Cy, mda.mats.Dy, mda.mats.Fy, r, x, lama, U, ur)
+            va = _row_at(Cy, Dy, Fy, ja, r, x, lama, U, ur)
             v = (1.0 - d) * v + d * va
         Y[pos, r] = v
 
