@@ -43,7 +43,7 @@ __all__ = ["ForwardCopies", "HoistTupleFields", "KernelCacheLocator", "KernelCom
 
 _LCS = Path(__file__).resolve().parent
 # The packages whose compiled functions call or inline each other's, and this module.
-KERNEL_SOURCES = (_LCS / "jit.py", _LCS / "lcp", _LCS / "stepping")
+KERNEL_SOURCES = (_LCS / "jit.py", _LCS / "bits.py", _LCS / "lcp", _LCS / "stepping")
 
 
 def _kernel_files() -> list[Path]:

@@ -55,8 +55,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .bits import from_words, to_words, words
 from .lcp import LcpOptions
-from .lcp.compiled import MAX_MASK_M
 from .model import LCS, ModeModel, OutputMap, SwitchedLCS
 from .results import SimulationError, SimulationResult
 from .simulation import driver, failures
@@ -83,19 +83,15 @@ from .stepping.layout import (
     FV_THETA,
     FV_UNIQ_TOL,
     IV_EVPOS,
-    IV_FAILMASK,
     IV_FAILMODE,
     IV_FAILSW,
     IV_FALLBACKS,
     IV_INIT,
     IV_K,
-    IV_KEY,
     IV_LASTSW,
     IV_LEN,
     IV_LOCATED,
-    IV_MASK,
     IV_MISSES,
-    IV_NEED,
     IV_NMODES,
     IV_ODD,
     IV_OUTPOS,
@@ -118,6 +114,7 @@ from .stepping.layout import (
     Chunk,
     Limits,
     Schedule,
+    State,
     Store,
     SwitchArrays,
 )
@@ -222,9 +219,7 @@ class MoreauIntegrator(Integrator):
         self.stack = cached_stack(problem, plan, h, self.theta, opts, n, m, p, names,
                                   sched.src_maps, run.base)
         self.stack.add(init.key)
-        self.x = np.array(init.x, dtype=float)
-        self.lam = np.array(init.lam, dtype=float)
-        self.lama = np.zeros(m)
+        Wk, Wm = words(k), words(m)
         ivars = np.zeros(IV_LEN, np.int64)
         fvars = np.zeros(FV_LEN)
         fvars[FV_RTOL] = opts.accept_rtol
@@ -237,11 +232,13 @@ class MoreauIntegrator(Integrator):
         fvars[FV_ROOT_TOL] = opts.root_tol
         fvars[FV_TCUR] = run.t_start
         fvars[FV_LASTT] = -np.inf
-        ivars[IV_KEY] = init.key
         ivars[IV_SLIDE] = -1
         ivars[IV_LASTSW] = -1
-        if m <= MAX_MASK_M:
-            ivars[IV_MASK] = init.active
+        act = np.zeros((2, Wm), np.int64)
+        act[0] = to_words(init.active, Wm)
+        self.state = State(np.array(init.x, dtype=float), np.array(init.lam, dtype=float),
+                           np.zeros(m), to_words(init.key, Wk), act, np.zeros(Wm, np.int64),
+                           np.zeros(Wk, np.int64), ivars, fvars)
         self.ivars, self.fvars = ivars, fvars
         max_piv = opts.lcp.pivots_for(m)
         enum_max_m = int(opts.lcp.enum_max_m) if opts.lcp.method == "auto" else -1
@@ -293,7 +290,7 @@ class MoreauIntegrator(Integrator):
             close = np.abs(bounds[near] - sv) <= tol
             bounds[near[close]] = sv[close]
         plan = plan_grid(bounds, h)
-        ivars, fvars, rec = self.ivars, self.fvars, run.recorder
+        ivars, rec = self.ivars, run.recorder
         for tg, odd, _seg in grid_chunks(plan, opts.chunk_steps):
             if table.jumps:
                 U0 = np.ascontiguousarray(table(tg[:-1], +1))
@@ -328,8 +325,7 @@ class MoreauIntegrator(Integrator):
                 ivars[IV_OUTPOS] = rec.pos
                 ivars[IV_EVPOS] = rec.evpos
                 status = run_grid(
-                    self.stack.arrays(), self.sw_arrays, chunk, sched, self.x, self.lam,
-                    self.lama, ivars, fvars, self.limits,
+                    self.stack.arrays(), self.sw_arrays, chunk, sched, self.state, self.limits,
                     Store(rec.T, rec.Y, rec.duty, rec.ev_t, rec.ev_key, rec.ev_info),
                     self.plain_mode,
                 )
@@ -338,7 +334,7 @@ class MoreauIntegrator(Integrator):
                 if status == STEP_OK:
                     break
                 if status == STEP_NEED_MODE:
-                    self.stack.add(int(ivars[IV_NEED]))
+                    self.stack.add(from_words(self.state.need))
                     continue
                 if status == STEP_FULL:
                     rec.reserve(self.max_sw + 3, 2 * self.max_sw + self.k + 6 + len(sched.k))
@@ -348,7 +344,8 @@ class MoreauIntegrator(Integrator):
         return None
 
     def snapshot(self) -> Snapshot:
-        return Snapshot(float(self.fvars[FV_TCUR]), int(self.ivars[IV_KEY]), self.x, self.lam,
+        st = self.state
+        return Snapshot(float(self.fvars[FV_TCUR]), from_words(st.key), st.x, st.lam,
                         int(self.ivars[IV_SLIDE]), float(self.fvars[FV_DUTY]))
 
     def stats(self) -> dict:
@@ -374,7 +371,7 @@ class MoreauIntegrator(Integrator):
         if status in (STEP_LCP_FAILED, STEP_NONUNIQUE, STEP_NONFINITE):
             jf = int(ivars[IV_FAILMODE])
         else:
-            jf = stack.index.get(int(ivars[IV_KEY]), 0)
+            jf = stack.index.get(from_words(self.state.key), 0)
         mode = stack.mode_tuple(stack.keys[jf]) if stack.keys else ()
         desc = problem.describe(mode)
         lcs = stack.lcs[jf]
@@ -382,9 +379,9 @@ class MoreauIntegrator(Integrator):
             enum = opts.lcp.method == "auto" and lcs.m <= opts.lcp.enum_max_m
             how = ("Lemke ray termination, confirmed by enumeration" if enum
                    else "Lemke: ray termination or pivot budget exhausted")
-            return failures.no_solution(t0, t1, desc, lcs, int(ivars[IV_FAILMASK]), how)
+            return failures.no_solution(t0, t1, desc, lcs, from_words(self.state.fail), how)
         if status == STEP_NONUNIQUE:
-            return failures.non_unique(t0, t1, desc, lcs, int(ivars[IV_FAILMASK]))
+            return failures.non_unique(t0, t1, desc, lcs, from_words(self.state.fail))
         if status == STEP_NONFINITE:
             return failures.non_finite(t0, t1, desc)
         i = int(ivars[IV_FAILSW])

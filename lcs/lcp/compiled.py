@@ -13,8 +13,8 @@ whose λ is basic) as the step before. The integrators therefore try, in order:
    basis when Lemke fails and ``m`` is small (:func:`enumerate_nb`).
 
 An active set is accepted when ``λ_a >= -rtol |λ_a|_max`` and ``w_i >= -rtol Σ|terms|`` off
-``a``: round-off, not modelling, accuracy. Active sets are int64 bitmasks (bit i: pair i
-active), so these paths serve ``m <= MAX_MASK_M``; larger problems go to the pivoting solvers.
+``a``: round-off, not modelling, accuracy. Active sets are bitsets of any size: int64 arrays
+of :func:`words` words (bit ``i & 63`` of word ``i >> 6``: pair i active).
 
 :func:`distinct_images` enumerates every solution to tell whether they map to different
 states ``x = x_free + K λ`` (non-uniqueness that matters).
@@ -26,10 +26,12 @@ from collections import namedtuple
 
 import numpy as np
 
+from ..bits import bit as bit
+from ..bits import clear_bits, from_int, set_bit, words
 from ..jit import inline, kernel
 from .lemke import LEMKE_SOLVED, LEMKE_TRIVIAL, lemke_nb
 
-MAX_MASK_M = 62  # active sets are int64 bitmasks
+MAX_ENUM_M = 62  # enumeration runs over int64 bitmasks (and 2^m bases: tiny m only)
 
 # Entries of the integer counters array the cache updates (the integrators' counters arrays
 # keep these two indices for it).
@@ -40,22 +42,23 @@ ActiveSets = namedtuple("ActiveSets", ["keys", "na", "idx", "G"])
 ActiveSets.__doc__ = """Cached factorisations of Q LCP matrices (stacked ``M (Q, m, m)``, one per
 switch mode), ``S`` active sets each.
 
-For matrix ``j``: ``keys[j] (S,)`` the active-set bitmask of each slot (-1: empty); ``na[j]
-(S,)`` its size (-1: the principal submatrix is singular, no fast path); ``idx[j] (S, m)`` the
+For matrix ``j``: ``keys[j] (S, W)`` the active-set bitset of each slot; ``na[j] (S,)`` its size
+(-1: the principal submatrix is singular, no fast path; -2: an empty slot); ``idx[j] (S, m)`` the
 active indices first, then the others; ``G[j] (S, m, m)`` ``-(M_aa)^-1`` in its top-left
 ``na x na`` block. (Indexing the stacks with ``j`` inside the loops, rather than taking views
 per matrix, keeps reference counting out of the steps.)
 """
 
-LcpWork = namedtuple("LcpWork", ["z", "w", "active", "tableau", "basis", "aug"])
+LcpWork = namedtuple("LcpWork", ["z", "w", "active", "tableau", "basis", "aug", "mask"])
 LcpWork.__doc__ = """Work arrays of the pivoting and basis solvers, for ``m`` pairs: ``z, w (m,)``,
-``active (m,) bool``, ``tableau (m, 2m + 2)``, ``basis (m,) int64``, ``aug (m, m + 1)``."""
+``active (m,) bool``, ``tableau (m, 2m + 2)``, ``basis (m,) int64``, ``aug (m, m + 1)``, a
+bitset ``mask (W,)``."""
 
 
 def lcp_work(m: int) -> LcpWork:
     """Allocate the work arrays of :class:`LcpWork` for ``m`` pairs."""
     return LcpWork(np.zeros(m), np.zeros(m), np.zeros(m, np.bool_), np.zeros((m, 2 * m + 2)),
-                   np.zeros(m, np.int64), np.zeros((m, m + 1)))
+                   np.zeros(m, np.int64), np.zeros((m, m + 1)), np.zeros(words(m), np.int64))
 
 
 @kernel
@@ -70,12 +73,12 @@ def factor_active(M, j, mask, slot, sets):
     m = M.shape[0]
     na = 0
     for i in range(m):
-        if (mask >> i) & 1:
+        if bit(mask, i):
             cidx[slot, na] = i
             na += 1
     ni = na
     for i in range(m):
-        if not (mask >> i) & 1:
+        if not bit(mask, i):
             cidx[slot, ni] = i
             ni += 1
     if na == 0:
@@ -124,25 +127,33 @@ def lookup(M, j, mask, sets, counters):
     """Cache slot of active set ``mask`` of matrix ``M[j]``, factorising it on a miss
     (``counters``: see :data:`AS_NEXT_SLOT`, :data:`AS_MISSES`)."""
     S = sets.keys.shape[1]
+    W = sets.keys.shape[2]
     for s in range(S):
-        if sets.keys[j, s] == mask:
+        if sets.na[j, s] == -2:
+            continue
+        same = True
+        for w in range(W):
+            if sets.keys[j, s, w] != mask[w]:
+                same = False
+                break
+        if same:
             return s
     s = counters[AS_NEXT_SLOT]
     counters[AS_NEXT_SLOT] = (s + 1) % S
     counters[AS_MISSES] += 1
-    sets.keys[j, s] = mask
+    for w in range(W):
+        sets.keys[j, s, w] = mask[w]
     factor_active(M, j, mask, s, sets)
     return s
 
 
 @kernel
-def mask_of(active):
-    """Bitmask of a boolean active-set vector."""
-    mask = 0
+def mask_of(active, mask):
+    """The bitset ``mask`` of a boolean active-set vector."""
+    clear_bits(mask)
     for i in range(active.shape[0]):
         if active[i]:
-            mask |= 1 << i
-    return mask
+            set_bit(mask, i)
 
 
 @inline
@@ -194,7 +205,7 @@ def basis_solution(M, q, mask, z, aug):
     idx = np.empty(m, np.int64)
     for i in range(m):
         z[i] = 0.0
-        if (mask >> i) & 1:
+        if bit(mask, i):
             idx[na] = i
             na += 1
     if na == 0:
@@ -251,7 +262,7 @@ def solve_basis(M, q, mask, work, lam, rtol):
         if z[i] < -rtol * zmax:
             return False
     for i in range(m):
-        if (mask >> i) & 1:
+        if bit(mask, i):
             continue
         v = q[i]
         sc = abs(v)
@@ -276,16 +287,17 @@ def _popcount(v):
 
 
 @kernel
-def enumerate_nb(M, q, feas_tol, z, w, aug):
+def enumerate_nb(M, q, feas_tol, z, w, aug, bits):
     """Try every complementary basis, fewest active pairs first (the compiled twin of
-    :func:`lcs.lcp.enumerate_lcp`). Returns the basis bitmask with the solution in ``z``, or
-    -1 when there is none."""
+    :func:`lcs.lcp.enumerate_lcp`; ``m <= MAX_ENUM_M``). Returns True with the solution in
+    ``z`` and its basis in the bitset ``bits``, or False when there is none."""
     m = q.shape[0]
     for cnt in range(m + 1):
         for mask in range(1 << m):
             if _popcount(mask) != cnt:
                 continue
-            if not basis_solution(M, q, mask, z, aug):
+            from_int(mask, bits)
+            if not basis_solution(M, q, bits, z, aug):
                 continue
             zs = 0.0
             for i in range(m):
@@ -310,51 +322,48 @@ def enumerate_nb(M, q, feas_tol, z, w, aug):
                 for i in range(m):
                     if z[i] < 0.0:
                         z[i] = 0.0
-                return mask
-    return -1
+                return True
+    return False
 
 
 @kernel
-def solve_pivoting(M, q, work, max_piv, pivot_tol, lex_tol, feas_tol, enum_max_m, lam):
+def solve_pivoting(M, q, work, max_piv, pivot_tol, lex_tol, feas_tol, enum_max_m, lam, mask):
     """Lemke, then enumeration (``m <= enum_max_m``) when Lemke fails.
 
-    Returns ``(mask, pivots, lemke_status)``: the active set of the solution (its λ in ``lam``,
-    negative round-off clipped to 0), or ``mask = -1`` when neither found a solution;
-    ``lemke_status`` is Lemke's ``LEMKE_*`` code.
+    Returns ``(ok, pivots, lemke_status)``: with ``ok``, the active set of the solution in the
+    bitset ``mask`` and its λ in ``lam`` (negative round-off clipped to 0); ``lemke_status``
+    is Lemke's ``LEMKE_*`` code.
     """
     m = q.shape[0]
     z = work.z
     status, piv = lemke_nb(M, q, max_piv, pivot_tol, lex_tol, work.tableau, work.basis, z,
                            work.w, work.active)
     if status == LEMKE_SOLVED or status == LEMKE_TRIVIAL:
-        mask = mask_of(work.active)
-    else:
-        mask = -1
-        if m <= enum_max_m:
-            mask = enumerate_nb(M, q, feas_tol, z, work.w, work.aug)
-        if mask < 0:
-            return -1, piv, status
+        mask_of(work.active, mask)
+    elif not (m <= enum_max_m and m <= MAX_ENUM_M
+              and enumerate_nb(M, q, feas_tol, z, work.w, work.aug, mask)):
+        return False, piv, status
     for i in range(m):
         lam[i] = z[i] if z[i] > 0.0 else 0.0
-    return mask, piv, status
+    return True, piv, status
 
 
 @kernel
-def negative_q_mask(q):
-    """Pairs with ``q_i < 0`` (forward-biased / reverse current with every λ = 0): the pairs
-    to name when an LCP has no solution."""
-    fm = 0
+def negative_q_mask(q, mask):
+    """The bitset of the pairs with ``q_i < 0`` (forward-biased / reverse current with every
+    λ = 0): the pairs to name when an LCP has no solution."""
+    clear_bits(mask)
     for i in range(q.shape[0]):
         if q[i] < 0.0:
-            fm |= 1 << i
-    return fm
+            set_bit(mask, i)
 
 
 @kernel
-def distinct_images(M, q, K, xf, lam, uniq_tol, feas_tol, zalt, aug):
-    """Enumerate every complementary basis; return the bitmask of pairs whose λ differs in a
-    solution whose image ``x_free + K λ`` differs from that of ``lam`` by more than
-    ``uniq_tol`` (relative), or 0 when every solution gives the same image."""
+def distinct_images(M, q, K, xf, lam, uniq_tol, feas_tol, zalt, aug, bits, diff):
+    """Enumerate every complementary basis (``m <= MAX_ENUM_M``); return True, with the pairs
+    whose λ differs in the bitset ``diff``, when a solution's image ``x_free + K λ`` differs
+    from that of ``lam`` by more than ``uniq_tol`` (relative); False when every solution gives
+    the same image. ``bits`` is work space (a bitset)."""
     m = q.shape[0]
     n = K.shape[0]
     xscale = 0.0
@@ -365,7 +374,8 @@ def distinct_images(M, q, K, xf, lam, uniq_tol, feas_tol, zalt, aug):
         if s > xscale:
             xscale = s
     for mask in range(1 << m):
-        if not basis_solution(M, q, mask, zalt, aug):
+        from_int(mask, bits)
+        if not basis_solution(M, q, bits, zalt, aug):
             continue
         zs = 0.0
         for i in range(m):
@@ -394,9 +404,14 @@ def distinct_images(M, q, K, xf, lam, uniq_tol, feas_tol, zalt, aug):
             # The absolute floor ignores differences among subnormal numbers (a state that
             # decayed to ~1e-310 has lost its relative precision; it is zero in practice).
             if abs(dx) > uniq_tol * xscale and abs(dx) > 1e-250:
-                diff = 0
+                clear_bits(diff)
+                count = 0
                 for j in range(m):
                     if abs(zalt[j] - lam[j]) > uniq_tol * max(abs(zalt[j]), abs(lam[j])):
-                        diff |= 1 << j
-                return diff if diff != 0 else (1 << m) - 1
-    return 0
+                        set_bit(diff, j)
+                        count += 1
+                if count == 0:
+                    for j in range(m):
+                        set_bit(diff, j)
+                return True
+    return False

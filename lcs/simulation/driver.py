@@ -19,6 +19,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..bits import words
 from ..lcp import LcpOptions
 from ..results import SimulationError, SimulationResult, SimulationStats
 from .initial import InconsistentHandler, initial_state
@@ -86,7 +87,7 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
     u0 = evaluate_inputs(inputs, np.array([t_start]), +1)[0]
     init = initial_state(problem, plan, sched.mode_src, sched.src_maps, guess, x0, u0, t_start,
                          ctrls, on_inconsistent, lcp or LcpOptions(), notes)
-    recorder = Recorder(out0.names, 64, 64, out0.duty)
+    recorder = Recorder(out0.names, 64, 64, out0.duty, words(k))
     recorder.append(t_start, problem.output(init.mode).row(init.key, -1, 0.0, init.x, init.lam,
                                                            u0))
     table = InputTable(inputs, t_start, t_stop)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..bits import from_words
 from ..model import ModeKey
 from .problem import key_of, mode_tuple
 
@@ -41,16 +42,19 @@ class Recorder:
     ----------
     T, Y : ndarray, shapes (cap,), (cap, r)
         Times (s) and probes; rows ``< pos`` are valid.
-    ev_t, ev_key, ev_info : ndarray, shape (cap_e,)
-        Event records; entries ``< evpos`` are valid.
+    ev_t, ev_info : ndarray, shape (cap_e,)
+    ev_key : ndarray, shape (cap_e, key_words)
+        Event records (the switch keys as bitsets, :mod:`lcs.bits`); entries ``< evpos`` are
+        valid.
     """
 
-    def __init__(self, names: tuple[str, ...], rows: int, events: int, duty: np.ndarray):
+    def __init__(self, names: tuple[str, ...], rows: int, events: int, duty: np.ndarray,
+                 key_words: int = 1):
         self.names = tuple(names)
         self.T = np.empty(rows)
         self.Y = np.empty((rows, len(self.names)))
         self.ev_t = np.empty(events)
-        self.ev_key = np.empty(events, np.int64)
+        self.ev_key = np.empty((events, key_words), np.int64)
         self.ev_info = np.empty(events, np.int64)
         self.duty = np.ascontiguousarray(duty, dtype=np.int64)
         self.pos = 0
@@ -94,12 +98,16 @@ class Recorder:
         k = len(switch_names)
         count = self.evpos
         t = self.ev_t[:count]
-        keys = self.ev_key[:count]
+        rows = self.ev_key[:count]
         info = self.ev_info[:count]
         keep = t <= t_last
-        t, keys, info = t[keep], keys[keep], info[keep]
+        t, rows, info = t[keep], rows[keep], info[keep]
+        if k <= 63:
+            keys = rows[:, 0]  # (one word, no sign bit: the integers themselves)
+        else:
+            keys = np.array([from_words(r) for r in rows], dtype=object)
         k0 = key_of(mode0)
-        prev = np.concatenate(([k0], keys[:-1]))
+        prev = np.concatenate(([k0], keys[:-1])) if len(keys) else keys
         change = keys != prev
         tuples: dict[int, ModeKey] = {}
         ct = t[change].tolist()

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..bits import to_words, words
 from ..model import ModeKey, SwitchedLCS
 from .inputs import InputFunction, collect_breakpoints, merge_close
 from .problem import Problem, mode_tuple
@@ -39,7 +40,9 @@ def periodic(period: float, phase: float, t0: float, t1: float) -> np.ndarray:
 @dataclass
 class KnownSwitchings:
     """Switchings at known instants: ``t (L,)`` in s, ``op (L,)`` (``OP_*``), arguments
-    ``a (L,)``, ``b (L,)`` (int64), sorted by time then operation."""
+    ``a (L, Wk)``, ``b (L, Wk)`` (bitsets of the switches, :mod:`lcs.bits`: ``OP_SET`` sets the
+    key to ``(key & ~a) | b``; ``OP_REARM`` re-arms switch ``a[:, 0]``), sorted by time then
+    operation."""
 
     t: np.ndarray
     op: np.ndarray
@@ -56,10 +59,11 @@ class KnownSwitchings:
         hi = np.searchsorted(self.t, we - tol, side="left")
         e_t, e_op, e_a, e_b = self.t[lo:hi], self.op[lo:hi], self.a[lo:hi], self.b[lo:hi]
         if pending:
+            Wk = self.a.shape[1]
             e_t = np.concatenate([e_t, [max(e[0], ws) for e in pending]])
             e_op = np.concatenate([e_op, np.array([e[1] for e in pending], np.int64)])
-            e_a = np.concatenate([e_a, np.array([e[2] for e in pending], np.int64)])
-            e_b = np.concatenate([e_b, np.array([e[3] for e in pending], np.int64)])
+            e_a = np.concatenate([e_a, np.array([to_words(e[2], Wk) for e in pending])])
+            e_b = np.concatenate([e_b, np.array([to_words(e[3], Wk) for e in pending])])
             order = np.lexsort((e_op, e_t))
             e_t, e_op, e_a, e_b = e_t[order], e_op[order], e_a[order], e_b[order]
         return KnownSwitchings(e_t, e_op, e_a, e_b)
@@ -117,13 +121,17 @@ def plan_run(system: SwitchedLCS, inputs: Sequence[InputFunction], plan: SwitchP
                                                         h, which=plan.source, base=guess,
                                                         maps_out=src_maps, as_arrays=True)
     else:
-        mode_src, src_t, src_k = (), np.empty(0), np.empty(0, np.int64)
-    smask = plan.source_mask
+        mode_src, src_t, src_k = (), np.empty(0), np.empty((0, 1), np.int64)
+    Wk = words(k)
+    smask = to_words(plan.source_mask, Wk)
+    latch_a = np.zeros((len(latch_i), Wk), np.int64)
+    latch_a[:, 0] = latch_i
     st_t = np.concatenate([src_t, latch_t])
     st_op = np.concatenate([np.full(len(src_t), OP_SET, np.int64),
                             np.full(len(latch_t), OP_REARM, np.int64)])
-    st_a = np.concatenate([np.full(len(src_t), smask, np.int64), latch_i])
-    st_b = np.concatenate([src_k & smask, np.zeros(len(latch_t), np.int64)])
+    st_a = np.concatenate([np.tile(smask, (len(src_t), 1)), latch_a])
+    st_b = np.concatenate([src_k.reshape(len(src_t), Wk) & smask,
+                           np.zeros((len(latch_t), Wk), np.int64)])
     order = np.lexsort((st_op, st_t))
     known = KnownSwitchings(st_t[order], st_op[order], st_a[order], st_b[order])
     return RunPlan(bps, save_at, known, tuple(mode_src), src_maps)

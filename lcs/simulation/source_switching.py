@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from ..bits import from_words, to_words, words
 from ..model import SwitchedLCS
 from .inputs import MERGE_FRACTION, InputFunction, evaluate_inputs
 
@@ -185,27 +186,29 @@ def _linear_events(maps, mode0, active, vt, vh, bounds, u_start, u_end, linear_i
         times.append(out_t[:ne])
         sw_idx.append(np.full(ne, i))
         states.append(out_on[:ne])
+    k = len(mode0)
+    Wk = words(k)
     if not times:
-        return tuple(mode0), (np.empty(0), np.empty(0, np.int64))
+        return tuple(mode0), (np.empty(0), np.empty((0, Wk), np.int64))
     t_all = np.concatenate(times)
     i_all = np.concatenate(sw_idx).astype(np.int64)
     on_all = np.concatenate(states)
     order = np.argsort(t_all, kind="stable")
     t_all, i_all, on_all = t_all[order], i_all[order], on_all[order]
-    key0 = sum(1 << i for i, on in enumerate(mode0) if on)
+    key0 = to_words(sum(1 << i for i, on in enumerate(mode0) if on), Wk)
     out_t = np.empty(len(t_all))
-    out_k = np.empty(len(t_all), np.int64)
-    key0, ne = _merge_keys(np.ascontiguousarray(t_all), np.ascontiguousarray(i_all),
-                           np.ascontiguousarray(on_all), key0, float(t0), float(tol), out_t,
-                           out_k)
-    k = len(mode0)
+    out_k = np.empty((len(t_all), Wk), np.int64)
+    ne = _merge_keys(np.ascontiguousarray(t_all), np.ascontiguousarray(i_all),
+                     np.ascontiguousarray(on_all), key0, float(t0), float(tol), out_t, out_k,
+                     np.empty(Wk, np.int64))
 
-    def mode_of(key):
+    def mode_of(key_words):
+        key = from_words(key_words)
         return tuple(bool((key >> i) & 1) for i in range(k))
 
     # The rows must be the same in every mode reached (else the generic path decides).
     scale = np.abs(rows[idx]).max() if idx else 0.0
-    for key in set(out_k[:ne].tolist()) | {key0}:
+    for key in {tuple(r) for r in out_k[:ne].tolist()} | {tuple(key0.tolist())}:
         if not np.allclose(maps.rows(mode_of(key))[idx], rows[idx], rtol=0.0,
                            atol=1e-13 * scale):
             return None
@@ -213,36 +216,46 @@ def _linear_events(maps, mode0, active, vt, vh, bounds, u_start, u_end, linear_i
 
 
 @njit(cache=True)
-def _merge_keys(t_all, i_all, on_all, key0, t0, tol, out_t, out_k):
-    """Switch keys after each instant: simultaneous instants (within ``tol``) merged, instants
-    at ``t0`` folded into the initial key, instants that change nothing dropped."""
-    key = key0
+def _merge_keys(t_all, i_all, on_all, key0, t0, tol, out_t, out_k, key):
+    """Switch keys (bitsets, :mod:`lcs.bits`) after each instant: simultaneous instants (within
+    ``tol``) merged, instants at ``t0`` folded into the initial key ``key0`` (updated), instants
+    that change nothing dropped. Returns the number of instants kept."""
+    W = key0.shape[0]
+    for w in range(W):
+        key[w] = key0[w]
     ne = 0
     for e in range(t_all.shape[0]):
         i = i_all[e]
         if on_all[e]:
-            key |= 1 << i
+            key[i >> 6] |= np.int64(1) << (i & 63)
         else:
-            key &= ~(1 << i)
+            key[i >> 6] &= ~(np.int64(1) << (i & 63))
         t = t_all[e]
         if ne > 0 and abs(out_t[ne - 1] - t) <= tol:
-            out_k[ne - 1] = key
+            for w in range(W):
+                out_k[ne - 1, w] = key[w]
         elif t <= t0 + tol:
-            key0 = key
+            for w in range(W):
+                key0[w] = key[w]
         else:
             out_t[ne] = t
-            out_k[ne] = key
+            for w in range(W):
+                out_k[ne, w] = key[w]
             ne += 1
     # Drop the instants that do not change the key.
     m = 0
-    prev = key0
     for e in range(ne):
-        if out_k[e] != prev:
+        same = True
+        for w in range(W):
+            prev = key0[w] if m == 0 else out_k[m - 1, w]
+            if out_k[e, w] != prev:
+                same = False
+        if not same:
             out_t[m] = out_t[e]
-            out_k[m] = out_k[e]
-            prev = out_k[e]
+            for w in range(W):
+                out_k[m, w] = out_k[e, w]
             m += 1
-    return key0, m
+    return m
 
 
 def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t0: float,
@@ -295,7 +308,8 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
     maps = _ControlMaps(system, {} if maps_out is None else maps_out, frozenset(active))
     if not active:
         m0 = tuple(bool(b) for b in base) if base is not None else tuple(False for _ in sw)
-        return m0, ((np.empty(0), np.empty(0, np.int64)) if as_arrays else [])
+        return m0, ((np.empty(0), np.empty((0, words(len(sw))), np.int64)) if as_arrays
+                    else [])
     linear_inputs = all(getattr(f, "piecewise_linear", False) for f in inputs)
 
     def controls(mode, t, side):
@@ -330,8 +344,9 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
         if as_arrays:
             return m0, (ft, fk)
         k = len(sw)
+        keys = [from_words(row) for row in fk]
         return m0, [(t, tuple(bool((key >> i) & 1) for i in range(k)))
-                    for t, key in zip(ft.tolist(), fk.tolist(), strict=True)]
+                    for t, key in zip(ft.tolist(), keys, strict=True)]
     lin_cache: dict = {}
 
     def linear_rows(mode) -> list[bool]:
@@ -404,8 +419,10 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
             out.append((t, md))
             prev = md
     if as_arrays:
-        return mode0, (np.array([t for t, _ in out], dtype=float),
-                       np.array([sum(1 << i for i, on in enumerate(md) if on) for _, md in out],
-                                dtype=np.int64))
+        Wk = words(len(sw))
+        keys = np.zeros((len(out), Wk), np.int64)
+        for r_, (_, md) in enumerate(out):
+            keys[r_] = to_words(sum(1 << i for i, on in enumerate(md) if on), Wk)
+        return mode0, (np.array([t for t, _ in out], dtype=float), keys)
     return mode0, out
 

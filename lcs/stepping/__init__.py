@@ -40,7 +40,6 @@ Switches (``SwitchArrays.kind``):
 
 from __future__ import annotations
 
-from ..lcp.compiled import MAX_MASK_M
 from .discretise import Discretisation, discretise, discretise_nb
 from .grid import run_grid
 from .layout import (
@@ -49,18 +48,19 @@ from .layout import (
     ModeArrays,
     ModeStack,
     Schedule,
+    State,
     Store,
     SwitchArrays,
 )
 
 __all__ = [
-    "MAX_MASK_M",
     "Chunk",
     "Discretisation",
     "Limits",
     "ModeArrays",
     "ModeStack",
     "Schedule",
+    "State",
     "Store",
     "SwitchArrays",
     "discretise",

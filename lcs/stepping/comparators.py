@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..bits import bit, clear_bit, set_bit
 from ..jit import inline, kernel
 from .layout import SW_LOCATED, SW_SAMPLED, SWF_LATCH
 
@@ -54,7 +55,7 @@ def crossing(mats, j, ja, d, sws, key, slide, x, lam, lama, u, c, cs, g, gt):
         gt[i] = 0.0
         if sws.kind[i] != SW_LOCATED or i == slide:
             continue
-        on = (key >> i) & 1
+        on = bit(key, i)
         if (not on) and (sws.flags[i] & SWF_LATCH) != 0:
             continue
         v, sc = row_value(Cc, Dc, Fc, j, i, x, lam, u)
@@ -89,25 +90,24 @@ def sampled_controls(mats, j, ja, d, slide, sws, x, lam, lama, u, c):
         c[i] = v
 
 
-@kernel
+@inline
 def sample_switches(sws, key, c):
-    """New switch key from the sampled comparators' controls ``c`` (hysteresis band kept),
-    and the first switch that flipped (-1: none)."""
-    newkey = key
+    """Flip in ``key`` the sampled comparators whose controls ``c`` left the hysteresis band;
+    returns the first switch that flipped (-1: none)."""
     first = -1
     for i in range(sws.kind.shape[0]):
         if sws.kind[i] != SW_SAMPLED:
             continue
-        on = (key >> i) & 1
+        on = bit(key, i)
         if on and c[i] < sws.vt[i] - sws.vh[i]:
-            newkey &= ~(1 << i)
+            clear_bit(key, i)
         elif (not on) and c[i] > sws.vt[i] + sws.vh[i]:
-            newkey |= 1 << i
+            set_bit(key, i)
         else:
             continue
         if first < 0:
             first = i
-    return newkey, first
+    return first
 
 
 @kernel

@@ -20,6 +20,17 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..bits import (
+    bit,
+    clear_bit,
+    clear_bits,
+    copy_bits,
+    copy_row,
+    equal_bits,
+    flip_bit,
+    row_equals,
+    set_bit,
+)
 from ..jit import kernel
 from ..lcp.compiled import LcpWork, lookup
 from .comparators import crossing, row_value, sample_switches, sampled_controls
@@ -40,12 +51,8 @@ from .layout import (
     IV_GSTEP,
     IV_INIT,
     IV_K,
-    IV_KEY,
     IV_LASTSW,
     IV_LOCATED,
-    IV_MASK,
-    IV_MASK_ALT,
-    IV_NEED,
     IV_NMODES,
     IV_NSW,
     IV_ODD,
@@ -79,18 +86,18 @@ def _work(n, m, k, p):
     W = StepWork(np.zeros(n), np.zeros(m), np.zeros(m), np.zeros((n, m)), np.zeros((m, m)),
                  np.zeros((n, n + 1 + m)),
                  LcpWork(np.zeros(m), np.zeros(m), np.zeros(m, np.bool_),
-                         np.zeros((m, 2 * m + 2)), np.zeros(m, np.int64), np.zeros((m, m + 1))))
+                         np.zeros((m, 2 * m + 2)), np.zeros(m, np.int64), np.zeros((m, m + 1)),
+                         np.zeros(max(1, (m + 63) // 64), np.int64)))
     S = LocateWork(np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(p), np.zeros(n),
                    np.zeros(p), np.zeros(n), np.zeros(m), np.zeros(m), np.zeros(n), np.zeros(k),
                    np.zeros(k), np.zeros(n), np.zeros(m), np.zeros(m), np.zeros(3),
-                   np.zeros(4, np.int64))
+                   np.zeros((2, max(1, (m + 63) // 64)), np.int64), np.zeros(2, np.int64))
     return W, S
 
 
 @kernel
-def plain_steps(stack, j, key, chunk, kk, kstop, x, lam, ms, W, xn, lamn, store, ivars, fvars,
-                lim,
-                countdown, cap_row):
+def plain_steps(stack, j, key, chunk, kk, kstop, x, lam, act, slots, W, xn, lamn, store, fail,
+                ivars, fvars, lim, countdown, cap_row):
     """Regular grid steps ``kk .. kstop-1`` of mode ``j`` with no comparator, no sliding and
     no schedule entry: :func:`run_grid`'s regular step without its per-step switching
     machinery (the same arithmetic, so the same numbers). Stops at the first step it cannot
@@ -107,12 +114,12 @@ def plain_steps(stack, j, key, chunk, kk, kstop, x, lam, ms, W, xn, lamn, store,
     while kk < kstop:
         if chunk.odd[kk] or pos > cap_row:
             break
-        if m > 0 and ms[1] < 0:
-            ms[1] = lookup(stack.mats.M, j, ms[0], stack.sets, ivars)
-        if not regular_cached_step(stack, j, x, U0, U1, kk, ms[1], W, xn, lamn, rtol):
+        if m > 0 and slots[0] < 0:
+            slots[0] = lookup(stack.mats.M, j, act[0], stack.sets, ivars)
+        if not regular_cached_step(stack, j, x, U0, U1, kk, slots[0], W, xn, lamn, rtol):
             # (the general step, as run_grid would take it: Lemke, uniqueness check)
             st = mode_step(stack, j, fvars[FV_H], True, fvars[FV_THETA], x, U0[kk], U1[kk], U0,
-                           U1, kk, ms, 0, W, xn, lamn, ivars, fvars, lim, True)
+                           U1, kk, act, slots, 0, W, xn, lamn, fail, ivars, fvars, lim, True)
             if st != STEP_OK:
                 break
         for i in range(n):
@@ -136,15 +143,16 @@ def plain_steps(stack, j, key, chunk, kk, kstop, x, lam, ms, W, xn, lamn, store,
 
 @kernel
 def _rearm(mats, j, sws, i, key, x, lam, u):
-    """Switch key after the re-arm of latched switch ``i``: on iff its control >= vt - vh."""
+    """Re-arm latched switch ``i`` in ``key``: on iff its control >= vt - vh."""
     c, sc = row_value(mats.Cc, mats.Dc, mats.Fc, j, i, x, lam, u)
     if c >= sws.vt[i] - sws.vh[i]:
-        return key | (1 << i)
-    return key & ~(1 << i)
+        set_bit(key, i)
+    else:
+        clear_bit(key, i)
 
 
 @kernel
-def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, plain_mode):
+def run_grid(stack, sws, chunk, sched, state, lim, store, plain_mode):
     """Advance ``x`` over the grid chunk through every mode change.
 
     Parameters
@@ -157,11 +165,11 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
         The grid chunk and its inputs.
     sched : Schedule
         Switchings at known grid steps of the chunk.
-    x, lam, lama : float64[:]
-        State (n,), multipliers (m,) and, while a switch slides, the other mode's multipliers
-        (m,); updated in place.
-    ivars, fvars : int64[:], float64[:]
-        Counters, kernel state and options (``IV_*``, ``FV_*``).
+    state : State
+        The kernel's state, updated in place: ``x (n,)``, ``lam (m,)``, ``lama (m,)`` (the
+        other mode's multipliers while a switch slides), the switch key ``key (Wk,)``, the
+        active sets ``act (2, W)``, ``fail``, ``need`` (the key of a mode to build), counters
+        and options ``ivars``, ``fvars`` (``IV_*``, ``FV_*``).
     lim : Limits
     store : Store
         Output and event buffers.
@@ -176,6 +184,8 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
         ``STEP_OK`` (chunk done) or another ``STEP_*``; ``ivars[IV_K]`` and
         ``fvars[FV_TCUR]`` say where the kernel stopped (x, lam hold the state there).
     """
+    x, lam, lama, key, act = state.x, state.lam, state.lama, state.key, state.act
+    fail, ivars, fvars = state.fail, state.ivars, state.fvars
     n = x.shape[0]
     m = lam.shape[0]
     p = chunk.U0.shape[1]
@@ -200,12 +210,15 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
     g = np.zeros(k)
     gt = np.zeros(k)
     ua = np.zeros(p)
-    ms = np.zeros(4, np.int64)
-    ms0 = np.zeros(4, np.int64)
-    ms[0] = ivars[IV_MASK]
-    ms[1] = -1
-    ms[2] = ivars[IV_MASK_ALT]
-    ms[3] = -1
+    # Cache slots of the active sets act[0] (mode j) and act[1] (mode ja); the active sets and
+    # slots at the start of a step, for the instant search.
+    slots = np.full(2, -1, np.int64)
+    slots0 = np.zeros(2, np.int64)
+    act0 = np.zeros_like(act)
+    Wk = key.shape[0]
+    akey = np.zeros(Wk, np.int64)
+    tkey = np.zeros(Wk, np.int64)
+    flips = np.zeros(Wk, np.int64)
     has_located = False
     has_sampled = False
     for i in range(k):
@@ -213,7 +226,6 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
             has_located = True
         elif sws.kind[i] == SW_SAMPLED:
             has_sampled = True
-    key = ivars[IV_KEY]
     slide = ivars[IV_SLIDE]
     tcur = fvars[FV_TCUR]
     nsched = sched.k.shape[0]
@@ -245,7 +257,7 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
             status = STEP_FULL
             break
         if plain_mode is not None:
-            if (plain and slide < 0 and kk != plain_skip and j >= 0 and mkey[j] == key
+            if (plain and slide < 0 and kk != plain_skip and j >= 0 and row_equals(mkey, j, key)
                     and tcur <= ta_grid and ivars[IV_INIT] != kk):
                 # No comparator and no sliding: the regular steps up to the next schedule entry
                 # by the plain loop; it stops where this loop must take over.
@@ -256,9 +268,9 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
                 # (only for runs of PLAIN_MIN steps or more: a call costs the views of the
                 # mode's matrices, more than a few steps gain)
                 if kstop - kk >= PLAIN_MIN and (m == 0 or flags[j, MF_FAST] != 0):
-                    k2, countdown, st = plain_steps(stack, j, key, chunk, kk, kstop, x, lam, ms,
-                                                    W, xn, lamn, store, ivars, fvars, lim,
-                                                    countdown, cap_out - max_sw - 3)
+                    k2, countdown, st = plain_steps(stack, j, key, chunk, kk, kstop, x, lam, act,
+                                                    slots, W, xn, lamn, store, fail, ivars,
+                                                    fvars, lim, countdown, cap_out - max_sw - 3)
                     plain_skip = k2
                     if st != STEP_OK:
                         ivars[IV_FAILMODE] = j
@@ -282,53 +294,56 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
             ivars[IV_INIT] = kk
             ivars[IV_NSW] = 0
         # Scheduled switchings at the start of the step.
-        need = -1
+        need = False
         while tcur == ta_grid and ivars[IV_SCHED] < nsched and sched.k[ivars[IV_SCHED]] <= kk:
             sp = ivars[IV_SCHED]
             if sched.k[sp] < kk:  # (an entry before the resume point: already past)
                 ivars[IV_SCHED] = sp + 1
                 continue
+            copy_bits(key, tkey)
             if sched.op[sp] == OP_SET:
-                newkey = (key & ~sched.a[sp]) | sched.b[sp]
+                for w in range(Wk):
+                    tkey[w] = (tkey[w] & ~sched.a[sp, w]) | sched.b[sp, w]
                 info = -1
             else:
-                i = sched.a[sp]
+                i = sched.a[sp, 0]
                 j = find_mode(mkey, ivars[IV_NMODES], key)
                 if j < 0:
-                    need = key
+                    copy_bits(key, state.need)
+                    need = True
                     break
-                newkey = _rearm(mats, j, sws, i, key, x, lam, U0[kk])
+                _rearm(mats, j, sws, i, tkey, x, lam, U0[kk])
                 info = i
             ivars[IV_SCHED] = sp + 1
-            if newkey != key:
-                key = newkey
+            if not equal_bits(tkey, key):
+                copy_bits(tkey, key)
                 record(store, ivars, ta_grid, key, info)
                 if slide >= 0 and info == slide:
                     slide = -1
-        if need >= 0:
+        if need:
             status = STEP_NEED_MODE
-            ivars[IV_NEED] = need
             break
-        if j < 0 or mkey[j] != key:
+        if j < 0 or not row_equals(mkey, j, key):
             j = find_mode(mkey, ivars[IV_NMODES], key)
-            ms[1] = -1
+            slots[0] = -1
             if j < 0:
                 status = STEP_NEED_MODE
-                ivars[IV_NEED] = key
+                copy_bits(key, state.need)
                 break
         if slide >= 0:
-            akey = key ^ (1 << slide)
-            if ja < 0 or mkey[ja] != akey:
+            copy_bits(key, akey)
+            flip_bit(akey, slide)
+            if ja < 0 or not row_equals(mkey, ja, akey):
                 ja = find_mode(mkey, ivars[IV_NMODES], akey)
-                ms[3] = -1
+                slots[1] = -1
                 if ja < 0:
                     status = STEP_NEED_MODE
-                    ivars[IV_NEED] = akey
+                    copy_bits(akey, state.need)
                     break
         else:
             ja = -1
         # Sub-steps: the whole grid step, or its parts between switching instants.
-        need = -1
+        need = False
         while True:
             if tb - tcur <= min_step:
                 # (a switching within round-off of the grid point: nothing left to integrate)
@@ -345,36 +360,38 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
                 tau_a = (ta - ta_grid) / (tb - ta_grid)
                 u_interp(chunk, kk, tau_a, ua)
             ub = U1[kk]
-            base_on = slide >= 0 and ((key >> slide) & 1) == 1
+            base_on = slide >= 0 and bit(key, slide) == 1
             vts = sws.vt[slide] if slide >= 0 else 0.0
-            for i in range(4):
-                ms0[i] = ms[i]
+            copy_row(act, 0, act0, 0)
+            copy_row(act, 1, act0, 1)
+            slots0[0] = slots[0]
+            slots0[1] = slots[1]
             done = False
             st = STEP_OK
             dd = 0.0
             if slide >= 0 and regular and (m == 0 or (flags[j, MF_FAST] != 0
                                                       and flags[ja, MF_FAST] != 0)):
                 # Sliding, regular step: both modes by their cached active sets, then the relay.
-                if m > 0 and ms[1] < 0:
-                    ms[1] = lookup(mats.M, j, ms[0], stack.sets, ivars)
-                if m > 0 and ms[3] < 0:
-                    ms[3] = lookup(mats.M, ja, ms[2], stack.sets, ivars)
-                if (regular_cached_step(stack, j, x, U0, U1, kk, ms[1], W, xn, lamn, rtol)
-                        and regular_cached_step(stack, ja, x, U0, U1, kk, ms[3], W, xa, lamna,
+                if m > 0 and slots[0] < 0:
+                    slots[0] = lookup(mats.M, j, act[0], stack.sets, ivars)
+                if m > 0 and slots[1] < 0:
+                    slots[1] = lookup(mats.M, ja, act[1], stack.sets, ivars)
+                if (regular_cached_step(stack, j, x, U0, U1, kk, slots[0], W, xn, lamn, rtol)
+                        and regular_cached_step(stack, ja, x, U0, U1, kk, slots[1], W, xa, lamna,
                                                 rtol)):
                     dd = relay_combine(mats, j, ja, slide, base_on, vts, ub, xn, lamn, xa, lamna,
                                        sg)
                     done = True
             elif slide < 0 and regular and (m == 0 or flags[j, MF_FAST] != 0):
-                if m > 0 and ms[1] < 0:
-                    ms[1] = lookup(mats.M, j, ms[0], stack.sets, ivars)
-                done = regular_cached_step(stack, j, x, U0, U1, kk, ms[1], W, xn, lamn, rtol)
+                if m > 0 and slots[0] < 0:
+                    slots[0] = lookup(mats.M, j, act[0], stack.sets, ivars)
+                done = regular_cached_step(stack, j, x, U0, U1, kk, slots[0], W, xn, lamn, rtol)
             elif slide < 0 and (m == 0 or flags[j, MF_FAST] != 0):
-                done = odd_basis_step(stack, j, s, theta, x, ua, ub, ms[0], W, xn, lamn, rtol)
+                done = odd_basis_step(stack, j, s, theta, x, ua, ub, act[0], W, xn, lamn, rtol)
             if not done:
                 st, dd = advance(stack, j, ja, slide, base_on, vts, s, regular, theta, x, ua,
-                                 ub, U0, U1, kk, ms, W, xn, lamn, xa, lamna, sg, ivars, fvars,
-                                 lim, True)
+                                 ub, U0, U1, kk, act, slots, W, xn, lamn, xa, lamna, sg, fail,
+                                 ivars, fvars, lim, True)
             if st != STEP_OK:
                 status = st
                 fvars[FV_FAIL_T0] = ta
@@ -409,15 +426,16 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
                     elif dd == 1.0:
                         sga = sg[1]
                         if (sga < -tol) if base_on else (sga > tol):
-                            key = key ^ (1 << slide)
+                            flip_bit(key, slide)
                             jt = j
                             j = ja
                             ja = jt
-                            mt = ms[0]
-                            ms[0] = ms[2]
-                            ms[2] = mt
-                            ms[1] = -1
-                            ms[3] = -1
+                            for w in range(act.shape[1]):
+                                mt = act[0, w]
+                                act[0, w] = act[1, w]
+                                act[1, w] = mt
+                            slots[0] = -1
+                            slots[1] = -1
                             for i in range(m):
                                 lam[i] = lamna[i]
                             d = 0.0
@@ -426,30 +444,33 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
                             ja = -1
                 break
             # A comparator crossed its threshold inside the step: locate the instant.
-            for i in range(4):
-                ms[i] = ms0[i]
+            copy_row(act0, 0, act, 0)
+            copy_row(act0, 1, act, 1)
+            slots[0] = slots0[0]
+            slots[1] = slots0[1]
             st, s_star, dstar = locate(stack, j, ja, slide, base_on, vts, ta, s, theta, x,
-                                       lam, ua, ub, ms, ivars, fvars, lim, sws, key, xn, lamn,
-                                       lamna, dd, c, cs, g, gt, W, S, chunk, kk, tau_a)
+                                       lam, ua, ub, act, slots, fail, ivars, fvars, lim, sws,
+                                       key, xn, lamn, lamna, dd, c, cs, g, gt, W, S, chunk, kk,
+                                       tau_a)
             if st != STEP_OK:
                 status = st
                 fvars[FV_FAIL_T0] = ta
                 fvars[FV_FAIL_T1] = tb
                 break
-            flips = 0
+            clear_bits(flips)
             first = -1
             for i in range(k):
                 if g[i] != -np.inf and g[i] >= -gt[i]:
-                    flips |= 1 << i
+                    set_bit(flips, i)
                     if first < 0:
                         first = i
-            if flips == 0:  # (cannot happen: the instant search ends on a crossing)
+            if first < 0:  # (cannot happen: the instant search ends on a crossing)
                 gm = -np.inf
                 for i in range(k):
                     if g[i] > gm:
                         gm = g[i]
                         first = i
-                flips = 1 << first
+                set_bit(flips, first)
             if s_star > min_step:
                 for i in range(n):
                     x[i] = S.xs[i]
@@ -475,12 +496,14 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
                     slide = first
                     record(store, ivars, tcur, key, slide + EV_SLIDE_START)
                     ivars[IV_LASTSW] = -1
-                    akey = key ^ (1 << slide)
+                    copy_bits(key, akey)
+                    flip_bit(akey, slide)
                     ja = find_mode(mkey, ivars[IV_NMODES], akey)
-                    ms[2] = ms[0]
-                    ms[3] = -1
+                    copy_row(act, 0, act, 1)
+                    slots[1] = -1
                     if ja < 0:
-                        need = akey
+                        copy_bits(akey, state.need)
+                        need = True
                         break
                     continue
                 status = STEP_SLIDING
@@ -488,7 +511,8 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
                 fvars[FV_FAIL_T0] = tcur
                 fvars[FV_FAIL_T1] = tb
                 break
-            key = key ^ flips
+            for w in range(Wk):
+                key[w] ^= flips[w]
             record(store, ivars, tcur, key, first)
             ivars[IV_LASTSW] = first
             fvars[FV_LASTT] = tcur
@@ -501,22 +525,24 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
                 fvars[FV_FAIL_T1] = tb
                 break
             j = find_mode(mkey, ivars[IV_NMODES], key)
-            ms[1] = -1
+            slots[0] = -1
             if j < 0:
-                need = key
+                copy_bits(key, state.need)
+                need = True
                 break
             if slide >= 0:
-                akey = key ^ (1 << slide)
+                copy_bits(key, akey)
+                flip_bit(akey, slide)
                 ja = find_mode(mkey, ivars[IV_NMODES], akey)
-                ms[3] = -1
+                slots[1] = -1
                 if ja < 0:
-                    need = akey
+                    copy_bits(akey, state.need)
+                    need = True
                     break
         if status != STEP_OK:
             break
-        if need >= 0:
+        if need:
             status = STEP_NEED_MODE
-            ivars[IV_NEED] = need
             break
         # End of the grid step: output, sampled comparators.
         ivars[IV_GSTEP] += 1
@@ -530,15 +556,11 @@ def run_grid(stack, sws, chunk, sched, x, lam, lama, ivars, fvars, lim, store, p
             ivars[IV_OUTPOS] = pos + 1
         if has_sampled:
             sampled_controls(mats, j, ja, d, slide, sws, x, lam, lama, U1[kk], c)
-            newkey, first = sample_switches(sws, key, c)
-            if newkey != key:
-                key = newkey
+            first = sample_switches(sws, key, c)
+            if first >= 0:
                 record(store, ivars, tb, key, first)
         kk += 1
     ivars[IV_K] = kk
-    ivars[IV_KEY] = key
     ivars[IV_SLIDE] = slide
-    ivars[IV_MASK] = ms[0]
-    ivars[IV_MASK_ALT] = ms[2]
     fvars[FV_TCUR] = tcur
     return status

@@ -13,16 +13,16 @@ array access; a mode is an index ``j`` into the stack):
 
 The kernel's running state (counters, the current switch key, where it stopped) lives in the
 ``ivars`` (int64) and ``fvars`` (float64) arrays indexed by ``IV_*`` and ``FV_*``, which the
-driver reads after each call.
+driver reads after each call, and in ``act (2, W)``, the active sets (bitsets of the pairs with
+basic λ) of the current mode and of the other mode of a sliding switch, and ``fail (W,)``, the
+pairs involved in a failure.
 """
 
 from __future__ import annotations
 
 from collections import namedtuple
 
-import numpy as np
-
-from ..lcp.compiled import AS_MISSES, AS_NEXT_SLOT, lcp_work
+from ..lcp.compiled import AS_MISSES, AS_NEXT_SLOT
 from ..simulation.recorder import EV_SLIDE_END as EV_SLIDE_END
 from ..simulation.recorder import EV_SLIDE_START as EV_SLIDE_START
 from ..simulation.recorder import EV_SWITCH as EV_SWITCH
@@ -39,25 +39,21 @@ STEP_OK = 0
 STEP_LCP_FAILED = 1  # Lemke and enumeration found no solution (or the pivot budget ran out)
 STEP_NONFINITE = 2
 STEP_NONUNIQUE = 3
-STEP_NEED_MODE = 4  # build the mode of key ivars[IV_NEED], append it, call again
+STEP_NEED_MODE = 4  # build the mode of key state.need, append it, call again
 STEP_FULL = 5  # grow the output / event buffers, call again
 STEP_CHATTER = 6  # more than max_switchings switchings in one grid step
 STEP_SLIDING = 7  # a comparator toggles without progress and may not slide
 
 # Layout of the int64 "ivars" array shared between the driver and the kernel.
-IV_MASK = 0  # active set (bitmask of pairs with basic λ) of the last step
 IV_NEXT_SLOT = AS_NEXT_SLOT  # next active-set cache slot to (re)use
 IV_FALLBACKS = 2  # Lemke calls
 IV_PIVOTS = 3  # Lemke pivots in total
 IV_GSTEP = 4  # grid steps completed (for ``every``)
 IV_OUTPOS = 5  # rows written to the output buffers
 IV_ODD = 6  # steps not of the regular length h (shortened, split, sliding-mode partial)
-IV_FAILMASK = 7  # pairs involved in a failure (bitmask, valid when the kernel fails)
 IV_UNIQ = 8  # uniqueness checks done
 IV_MISSES = AS_MISSES  # active-set cache misses (factorisations)
-IV_KEY = 10  # switch states, bit i = switch i on
 IV_NMODES = 11  # modes in the stacks
-IV_NEED = 12  # key of the mode the kernel needs (STEP_NEED_MODE)
 IV_EVPOS = 13  # event records written
 IV_K = 14  # grid step (index within the chunk) to resume at / where the kernel stopped
 IV_SCHED = 15  # next schedule entry of the chunk
@@ -71,7 +67,6 @@ IV_STEPS = 22  # steps taken (grid steps and the extra parts of split steps)
 IV_LOCATED = 23  # comparator switchings located inside a step
 IV_ROOTEVALS = 24  # trial steps of the instant search
 IV_SLIDESTEPS = 25  # steps taken in sliding mode
-IV_MASK_ALT = 26  # active set of the other mode of the sliding switch
 IV_LEMKE = 27  # Lemke status of a failed LCP
 IV_LEN = 28
 
@@ -123,7 +118,8 @@ ModeStack = namedtuple("ModeStack", ["mats", "sets", "key", "flags"])
 ModeStack.__doc__ = """Every mode built so far, stacked by mode id ``j`` (capacity Q).
 
 ``mats``: :class:`ModeArrays` of (Q, ., .) arrays; ``sets``: :class:`ActiveSets` of (Q, S, ...)
-arrays; ``key (Q,)``: the switch key of each mode (bit i: switch i on); ``flags (Q, MF_LEN)``.
+arrays; ``key (Q, Wk)``: the switch key of each mode (a bitset, :mod:`lcs.bits`: bit i, switch
+i on); ``flags (Q, MF_LEN)``.
 """
 
 SwitchArrays = namedtuple("SwitchArrays", ["kind", "flags", "vt", "vh"])
@@ -139,14 +135,25 @@ not piecewise linear (quadratic interpolation, O(h³)), else ``(0, p)``; ``force
 store the end of this step whatever ``every`` says."""
 
 Schedule = namedtuple("Schedule", ["k", "op", "a", "b"])
-Schedule.__doc__ = """Known switchings of a chunk (L,): before grid step ``k[i]``, operation
-``op[i]`` (``OP_*``) with arguments ``a[i]``, ``b[i]``; sorted by ``k``."""
+Schedule.__doc__ = """Known switchings of a chunk: before grid step ``k[i]`` (L,), operation
+``op[i]`` (L,) (``OP_*``) with arguments ``a[i]``, ``b[i]`` (L, Wk): the bitsets of
+``OP_SET`` (key = (key & ~a) | b), the switch index ``a[i, 0]`` of ``OP_REARM``; sorted by
+``k``."""
 
 Store = namedtuple("Store", ["T", "Y", "duty", "ev_t", "ev_key", "ev_info"])
 Store.__doc__ = """Output buffers: times ``T (cap,)`` in s and probes ``Y (cap, r)``, written from
 row ``ivars[IV_OUTPOS]``; ``duty (r,)`` per probe -1 (``Cy x + Dy λ + Fy u``) or a switch
 index (its on-fraction: 0/1, or the equivalent duty while it slides); events: time (s),
-switch key after it, ``switch + EV_*`` (-1: schedule), written from ``ivars[IV_EVPOS]``."""
+switch key after it (cap_e, Wk), ``switch + EV_*`` (-1: schedule), written from
+``ivars[IV_EVPOS]``."""
+
+State = namedtuple("State", ["x", "lam", "lama", "key", "act", "fail", "need", "ivars",
+                             "fvars"])
+State.__doc__ = """The kernel's state between calls: state ``x (n,)``, multipliers ``lam (m,)`` and,
+while a switch slides, the other mode's ``lama (m,)``; the switch key ``key (Wk,)``; the active
+sets ``act (2, W)`` of the current mode and of the other mode of a sliding switch; ``fail
+(W,)`` the pairs of a failed step; ``need (Wk,)`` the key of the mode to build
+(``STEP_NEED_MODE``); counters and options ``ivars``, ``fvars``."""
 
 Limits = namedtuple("Limits", ["max_piv", "enum_max_m", "every", "max_sw"])
 Limits.__doc__ = """Lemke's pivot budget; enumeration fallback up to this m (-1: never); store
@@ -159,13 +166,6 @@ elimination array ``(n, n + 1 + m)`` and the LCP solvers' :class:`LcpWork`."""
 
 LocateWork = namedtuple("LocateWork", ["ga", "gta", "rate_a", "rate_b", "udot", "xdot", "ut",
                                        "xt", "lamt", "lamat", "xat", "g_hi", "gt_hi", "xs",
-                                       "lams", "lamas", "sg", "msl"])
+                                       "lams", "lamas", "sg", "act", "slots"])
 LocateWork.__doc__ = """Scratch of the instant search; on return ``xs, lams, lamas`` hold the
 state and multipliers at the located instant."""
-
-
-def step_work(n: int, m: int) -> StepWork:
-    """Allocate a :class:`StepWork` (from Python; the kernel builds its own)."""
-    return StepWork(np.zeros(n), np.zeros(m), np.zeros(m), np.zeros((n, m)), np.zeros((m, m)),
-                    np.zeros((n, n + 1 + m)), lcp_work(m))
-

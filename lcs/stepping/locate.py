@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..bits import copy_row
 from ..jit import inline, kernel
 from .comparators import control_rates, crossing, hermite_root
 from .layout import FV_H, FV_ROOT_TOL, IV_ROOTEVALS, STEP_OK
@@ -36,17 +37,17 @@ def u_interp(chunk, kk, tau, out):
 
 
 @kernel
-def locate(stack, j, ja, slide, base_on, vt_s, ta, s, theta, x, lam, ua, ub, ms, ivars,
-           fvars, lim, sws, key, xfull, lamfull, lamafull, dfull, c, cs, g, gt, W, S, chunk,
-           kk, tau_a):
+def locate(stack, j, ja, slide, base_on, vt_s, ta, s, theta, x, lam, ua, ub, act, slots, fail,
+           ivars, fvars, lim, sws, key, xfull, lamfull, lamafull, dfull, c, cs, g, gt, W, S,
+           chunk, kk, tau_a):
     """Locate the first comparator crossing inside the step ``[ta, ta + s]`` of grid step
     ``kk`` (which starts at the fraction ``tau_a`` of that grid step).
 
     On entry ``g``/``gt`` hold the crossing functions at the end of the full step (some
-    ``g > 0``), ``xfull, lamfull, lamafull, dfull`` the full step's result, and ``ms`` the
-    active sets at the start. Returns ``(status, s_star, d_star)``; the state at the instant
-    is in ``S.xs, S.lams, S.lamas``, the crossing functions there in ``g``/``gt``, and ``ms``
-    holds the active sets of the step that ends there.
+    ``g > 0``), ``xfull, lamfull, lamafull, dfull`` the full step's result, and ``act``,
+    ``slots`` the active sets at the start. Returns ``(status, s_star, d_star)``; the state at
+    the instant is in ``S.xs, S.lams, S.lamas``, the crossing functions there in ``g``/``gt``,
+    and ``act``, ``slots`` hold the active sets of the step that ends there.
     """
     k = g.shape[0]
     n = x.shape[0]
@@ -54,7 +55,8 @@ def locate(stack, j, ja, slide, base_on, vt_s, ta, s, theta, x, lam, ua, ub, ms,
     p = ua.shape[0]
     h = fvars[FV_H]
     stol = max(fvars[FV_ROOT_TOL] * h, 8.9e-16 * abs(ta + s))
-    msl = S.msl
+    act_t = S.act
+    slots_t = S.slots
     # Crossing functions at the start (mode j; λ of the previous step, an estimate).
     mats = stack.mats
     Ga = crossing(mats, j, ja, 0.0, sws, key, slide, x, lam, lam, ua, c, cs, S.ga, S.gta)
@@ -97,13 +99,12 @@ def locate(stack, j, ja, slide, base_on, vt_s, ta, s, theta, x, lam, ua, ub, ms,
         if s1 >= hi:
             s1 = 0.5 * (lo + hi)
         u_interp(chunk, kk, tau_a + (1.0 - tau_a) * (s1 / s), S.ut)
-        for i in range(4):
-            msl[i] = ms[i]
-        msl[1] = -1
-        msl[3] = -1
+        for r in range(2):
+            copy_row(act, r, act_t, r)
+            slots_t[r] = -1
         st, d1 = advance(stack, j, ja, slide, base_on, vt_s, s1, False, theta, x, ua, S.ut,
-                         chunk.U0, chunk.U1, kk, msl, W, S.xt, S.lamt, S.xat, S.lamat, S.sg,
-                         ivars, fvars, lim, False)
+                         chunk.U0, chunk.U1, kk, act_t, slots_t, W, S.xt, S.lamt, S.xat,
+                         S.lamat, S.sg, fail, ivars, fvars, lim, False)
         ivars[IV_ROOTEVALS] += 1
         if st != STEP_OK:
             return st, s1, 0.0
@@ -153,8 +154,9 @@ def locate(stack, j, ja, slide, base_on, vt_s, ta, s, theta, x, lam, ua, ub, ms,
         for i in range(m):
             S.lams[i] = S.lamt[i]
             S.lamas[i] = S.lamat[i]
-        for i in range(4):
-            ms[i] = msl[i]
+        for r in range(2):
+            copy_row(act_t, r, act, r)
+            slots[r] = slots_t[r]
         return STEP_OK, s1, d1
     for i in range(k):
         g[i] = S.g_hi[i]

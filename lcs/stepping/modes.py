@@ -13,8 +13,9 @@ import weakref
 
 import numpy as np
 
+from ..bits import to_words, words
 from ..lcp import is_p_matrix
-from ..lcp.compiled import MAX_MASK_M, ActiveSets
+from ..lcp.compiled import ActiveSets
 from ..model import LCS, ModeKey, OutputMap
 from ..simulation.problem import Problem, mode_tuple
 from ..simulation.switches import SwitchPlan
@@ -48,7 +49,8 @@ class ModeStackBuilder:
         k = len(plan.names)
         self.k = k
         self.shapes = mode_shapes(n, m, p, r, k)
-        self.S = max(1, int(opts.cache_slots))
+        self.S = cache_slots(int(opts.cache_slots), m)
+        self.Wk, self.Wm = words(k), words(m)
         self.src_maps = src_maps
         self.base = base
         self.keys: list[int] = []
@@ -56,9 +58,9 @@ class ModeStackBuilder:
         self.lcs: list[LCS] = []
         self.cap = 0
         self.mats = ModeArrays(*(np.zeros((0, *s)) for s in self.shapes))
-        self.mkey = np.zeros(0, np.int64)
+        self.mkey = np.zeros((0, self.Wk), np.int64)
         self.mflags = np.zeros((0, MF_LEN), np.int64)
-        self.ckeys = np.zeros((0, self.S), np.int64)
+        self.ckeys = np.zeros((0, self.S, self.Wm), np.int64)
         self.cna = np.zeros((0, self.S), np.int64)
         self.cidx = np.zeros((0, self.S, m), np.int64)
         self.cG = np.zeros((0, self.S, m, m))
@@ -73,10 +75,10 @@ class ModeStackBuilder:
             return new
 
         self.mats = ModeArrays(*(grown(a) for a in self.mats))
-        self.mkey = grown(self.mkey, -1)
+        self.mkey = grown(self.mkey)
         self.mflags = grown(self.mflags)
-        self.ckeys = grown(self.ckeys, -1)
-        self.cna = grown(self.cna)
+        self.ckeys = grown(self.ckeys)
+        self.cna = grown(self.cna, -2)  # (-2: an empty cache slot)
         self.cidx = grown(self.cidx)
         self.cG = grown(self.cG)
         self.cap = cap
@@ -111,7 +113,7 @@ class ModeStackBuilder:
                                             disc.K, disc.M, out.Cy, out.Dy, out.Fy, Cc, Dc,
                                             Fc), strict=True):
             stacked[j] = arr
-        fast = bool(self.opts.fast_path and m <= MAX_MASK_M)
+        fast = bool(self.opts.fast_path)
         # Enumeration-based uniqueness checks only for small m, and not for P-matrices
         # (unique λ for every q).
         check = 0 < m <= self.opts.uniqueness_max_m and not is_p_matrix(disc.M)
@@ -122,11 +124,22 @@ class ModeStackBuilder:
         self.mflags[j, MF_FAST] = int(fast)
         self.mflags[j, MF_UNIQ] = int(m) if check else -1
         self.mflags[j, MF_OUTSTATE] = int(out_is_state)
-        self.mkey[j] = key
+        self.mkey[j] = to_words(key, self.Wk)
         self.keys.append(key)
         self.index[key] = j
         self.lcs.append(prob.lcs(mode))
         return j
+
+
+# Memory for the active-set factorisations of one mode: fewer cache slots for large m.
+CACHE_BYTES_PER_MODE = 8 << 20
+
+
+def cache_slots(wanted: int, m: int) -> int:
+    """Active-set cache slots per mode: ``wanted``, fewer when ``m x m`` factorisations would
+    take more than :data:`CACHE_BYTES_PER_MODE` (at least 4)."""
+    fit = CACHE_BYTES_PER_MODE // max(1, 8 * m * m)
+    return max(1, min(int(wanted), max(4, fit)))
 
 
 _STACK_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()

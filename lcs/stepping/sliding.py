@@ -55,24 +55,25 @@ def relay_combine(mats, j, ja, sw, base_on, vt, u, xn, lamn, xa, lama, sg):
 
 
 @kernel
-def advance(stack, j, ja, sw, base_on, vt, s, regular, theta, x, u0, u1, U0, U1, kk, ms, W,
-            xn, lamn, xa, lama, sg, ivars, fvars, lim, commit):
+def advance(stack, j, ja, sw, base_on, vt, s, regular, theta, x, u0, u1, U0, U1, kk, act,
+            slots, W, xn, lamn, xa, lama, sg, fail, ivars, fvars, lim, commit):
     """One step of length ``s``: in mode ``j`` of ``stack``, or while switch ``sw`` slides
     (``sw >= 0``) the Filippov combination of modes ``j`` and ``ja`` (``sw`` toggled).
 
-    ``ms = [mask, slot, mask_alt, slot_alt]`` (updated). Returns ``(status, d)`` with ``d``
+    ``act (2, W)``: the active sets (bitsets) of the two modes, ``slots (2,)`` their cache
+    slots (updated). Returns ``(status, d)`` with ``d``
     the fraction of the step in the toggled mode (0 when not sliding); the multipliers of each
     mode are left in ``lamn``, ``lama``.
     """
-    st = mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, ms, 0, W, xn, lamn,
-                   ivars, fvars, lim, commit)
+    st = mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, 0, W, xn,
+                   lamn, fail, ivars, fvars, lim, commit)
     if st != STEP_OK:
         ivars[IV_FAILMODE] = j
         return st, 0.0
     if sw < 0:
         return STEP_OK, 0.0
-    st = mode_step(stack, ja, s, regular, theta, x, u0, u1, U0, U1, kk, ms, 2, W, xa, lama,
-                   ivars, fvars, lim, commit)
+    st = mode_step(stack, ja, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, 1, W, xa,
+                   lama, fail, ivars, fvars, lim, commit)
     if st != STEP_OK:
         ivars[IV_FAILMODE] = ja
         return st, 0.0

@@ -13,6 +13,7 @@ loop takes a step, so that the hot loops pay no call overhead:
 
 from __future__ import annotations
 
+from ..bits import copy_bits
 from ..jit import inline, kernel
 from ..lcp.compiled import (
     distinct_images,
@@ -29,7 +30,6 @@ from .layout import (
     FV_PIVOT_TOL,
     FV_RTOL,
     FV_UNIQ_TOL,
-    IV_FAILMASK,
     IV_FALLBACKS,
     IV_LEMKE,
     IV_PIVOTS,
@@ -117,15 +117,16 @@ def odd_basis_step(stack, j, s, theta, x, u0, u1, mask, W, xn, lamn, rtol):
 
 
 @kernel
-def mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, ms, mi, W, xn, lamn, ivars,
-              fvars, lim, commit):
+def mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, ai, W, xn, lamn,
+              fail, ivars, fvars, lim, commit):
     """One θ step of length ``s`` of mode ``j`` of ``stack`` from ``x`` into ``xn``, ``lamn``.
 
     ``regular`` steps (length h from a grid point) use the stored matrices and the inputs
     ``U0[kk]``, ``U1[kk]``; others are discretised for ``s`` with inputs ``u0`` to ``u1``.
-    ``ms[mi]`` is the active set to try first and ``ms[mi + 1]`` its cache slot (-1:
+    ``act[ai]`` is the active set (bitset) to try first and ``slots[ai]`` its cache slot (-1:
     unknown); both are updated. With ``commit``, a pivoting solution is checked for a unique
-    next state. Returns a ``STEP_*`` status.
+    next state. On failure, ``fail`` receives the pairs involved. Returns a ``STEP_*``
+    status.
     """
     mats = stack.mats
     fast = stack.flags[j, MF_FAST] != 0
@@ -148,41 +149,41 @@ def mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, ms, mi, W, xn,
             xn[i] = xf[i]
         return STEP_OK
     rtol = fvars[FV_RTOL]
+    mask = act[ai]
     if regular and fast:
-        slot = ms[mi + 1]
+        slot = slots[ai]
         if slot < 0:
-            slot = lookup(mats.M, j, ms[mi], stack.sets, ivars)
-            ms[mi + 1] = slot
+            slot = lookup(mats.M, j, mask, stack.sets, ivars)
+            slots[ai] = slot
         na = solve_cached(mats.M, j, q, stack.sets, slot, W.za, rtol)
         if na >= 0:
             if impulse_cached(xf, mats.K, j, stack.sets, slot, na, W.za, lamn, xn):
                 return STEP_OK
             return STEP_NONFINITE
-    elif fast and solve_basis(Mk, q, ms[mi], W.lcp, lamn, rtol):
+    elif fast and solve_basis(Mk, q, mask, W.lcp, lamn, rtol):
         if impulse_dense(xf, Kk, lamn, xn):
             return STEP_OK
         return STEP_NONFINITE
-    mask, piv, lstat = solve_pivoting(Mk, q, W.lcp, lim.max_piv, fvars[FV_PIVOT_TOL],
-                                      fvars[FV_LEX_TOL], fvars[FV_FEAS_TOL], lim.enum_max_m,
-                                      lamn)
+    new = W.lcp.mask
+    ok, piv, lstat = solve_pivoting(Mk, q, W.lcp, lim.max_piv, fvars[FV_PIVOT_TOL],
+                                    fvars[FV_LEX_TOL], fvars[FV_FEAS_TOL], lim.enum_max_m,
+                                    lamn, new)
     ivars[IV_FALLBACKS] += 1
     ivars[IV_PIVOTS] += piv
-    if mask < 0:
+    if not ok:
         ivars[IV_LEMKE] = lstat
-        ivars[IV_FAILMASK] = negative_q_mask(q)
+        negative_q_mask(q, fail)
         return STEP_LCP_FAILED
+    copy_bits(new, mask)
     if commit and m <= stack.flags[j, MF_UNIQ]:
         ivars[IV_UNIQ] += 1
-        diff = distinct_images(Mk, q, Kk, xf, lamn, fvars[FV_UNIQ_TOL], 1e-9, W.lcp.w,
-                               W.lcp.aug)
-        if diff != 0:
-            ivars[IV_FAILMASK] = diff
+        if distinct_images(Mk, q, Kk, xf, lamn, fvars[FV_UNIQ_TOL], 1e-9, W.lcp.w, W.lcp.aug,
+                           new, fail):
             return STEP_NONUNIQUE
-    ms[mi] = mask
     if regular and fast:
-        ms[mi + 1] = lookup(mats.M, j, mask, stack.sets, ivars)
+        slots[ai] = lookup(mats.M, j, mask, stack.sets, ivars)
     else:
-        ms[mi + 1] = -1
+        slots[ai] = -1
     if impulse_dense(xf, Kk, lamn, xn):
         return STEP_OK
     return STEP_NONFINITE

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from ..bits import bit
 from ..jit import inline, kernel
 from .layout import IV_EVPOS, MF_OUTSTATE
 
@@ -42,7 +43,7 @@ def store_row(stack, j, ja, d, slide, key, duty, duty_value, x, lam, lama, U, ur
             if sw == slide:
                 Y[pos, r] = duty_value
             else:
-                Y[pos, r] = 1.0 if (key >> sw) & 1 else 0.0
+                Y[pos, r] = 1.0 if bit(key, sw) else 0.0
             continue
         v = _row_at(Cy, Dy, Fy, j, r, x, lam, U, ur)
         if sliding:
@@ -56,15 +57,22 @@ def record(store, ivars, t, key, info):
     """Append an event record (time, switch key after it, ``switch + EV_*``)."""
     e = ivars[IV_EVPOS]
     store.ev_t[e] = t
-    store.ev_key[e] = key
+    for w in range(key.shape[0]):
+        store.ev_key[e, w] = key[w]
     store.ev_info[e] = info
     ivars[IV_EVPOS] = e + 1
 
 
 @kernel
 def find_mode(mkey, nmodes, key):
-    """Id of the mode of switch key ``key`` among the first ``nmodes``, or -1."""
+    """Id of the mode of switch key ``key`` (a bitset) among the first ``nmodes``, or -1."""
+    W = key.shape[0]
     for i in range(nmodes):
-        if mkey[i] == key:
+        same = True
+        for w in range(W):
+            if mkey[i, w] != key[w]:
+                same = False
+                break
+        if same:
             return i
     return -1
