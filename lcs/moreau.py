@@ -102,6 +102,7 @@ from .stepping.layout import (
     IV_SLIDESTEPS,
     IV_STEPS,
     IV_UNIQ,
+    IV_WARM,
     PLAIN_MIN,
     STEP_CHATTER,
     STEP_FULL,
@@ -173,6 +174,10 @@ class MoreauOptions:
     root_tol : float
         Comparator instants are located to this fraction of h (or to round-off of the
         switching function, whichever comes first).
+    warm_iter : int
+        When a regular step's cached active set is not accepted, at most this many iterations
+        of block principal pivoting from it (:func:`lcs.lcp.compiled.solve_warm`) before
+        Lemke; 0 goes to Lemke directly.
     """
 
     lcp: LcpOptions = field(default_factory=LcpOptions)
@@ -185,6 +190,7 @@ class MoreauOptions:
     switching: str = "auto"
     max_switchings: int = 16
     root_tol: float = 1e-12
+    warm_iter: int = 32
 
 
 class MoreauIntegrator(Integrator):
@@ -243,7 +249,8 @@ class MoreauIntegrator(Integrator):
         max_piv = opts.lcp.pivots_for(m)
         enum_max_m = int(opts.lcp.enum_max_m) if opts.lcp.method == "auto" else -1
         self.max_sw = max(1, int(opts.max_switchings))
-        self.limits = Limits(max_piv, enum_max_m, run.every, self.max_sw)
+        self.limits = Limits(max_piv, enum_max_m, run.every, self.max_sw,
+                             max(0, int(opts.warm_iter)))
         known = sched.known
         self.est_steps = int((run.t_stop - run.t_start) / h) + len(sched.breakpoints) + 2
         run.recorder.reserve(self.est_steps // run.every + len(sched.save_at) + 63,
@@ -354,6 +361,7 @@ class MoreauIntegrator(Integrator):
             steps=int(iv[IV_STEPS]),
             odd_steps=int(iv[IV_ODD]),
             fallbacks=int(iv[IV_FALLBACKS]),
+            warm_solves=int(iv[IV_WARM]),
             lcp_pivots=int(iv[IV_PIVOTS]),
             factorisations=int(iv[IV_MISSES]),
             uniqueness_checks=int(iv[IV_UNIQ]),

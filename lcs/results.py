@@ -61,6 +61,9 @@ class SimulationStats:
         switching).
     fallbacks : int
         Steps whose LCP went to Lemke (the active-set fast path was not accepted).
+    warm_solves : int
+        Steps whose cached active set was not accepted and that pivoted from it
+        (``MoreauOptions.warm_iter``); those that did not converge went on to Lemke.
     lcp_pivots : int
         Lemke pivots in total.
     factorisations : int
@@ -84,6 +87,7 @@ class SimulationStats:
     steps: int = 0
     odd_steps: int = 0
     fallbacks: int = 0
+    warm_solves: int = 0
     lcp_pivots: int = 0
     factorisations: int = 0
     uniqueness_checks: int = 0

@@ -7,9 +7,12 @@ whose λ is basic) as the step before. The integrators therefore try, in order:
 1. :func:`solve_cached` -- the previous active set with a cached ``-(M_aa)^-1`` (regular steps:
    ``M`` is fixed per mode, so its factorisations are kept per active set in an
    :class:`ActiveSets` cache);
-2. :func:`solve_basis` -- the previous active set by a direct solve of the basis (steps of
+2. :func:`solve_warm` -- when it is not accepted (regular steps), block principal pivoting
+   from it: the few pairs that changed are flipped and the new bases factorised through the
+   same cache;
+3. :func:`solve_basis` -- the previous active set by a direct solve of the basis (steps of
    another length, whose ``M`` is new);
-3. :func:`solve_pivoting` -- Lemke with lexicographic tie-breaking, then every complementary
+4. :func:`solve_pivoting` -- Lemke with lexicographic tie-breaking, then every complementary
    basis when Lemke fails and ``m`` is small (:func:`enumerate_nb`).
 
 An active set is accepted when ``λ_a >= -rtol |λ_a|_max`` and ``w_i >= -rtol Σ|terms|`` off
@@ -49,16 +52,18 @@ active indices first, then the others; ``G[j] (S, m, m)`` ``-(M_aa)^-1`` in its 
 per matrix, keeps reference counting out of the steps.)
 """
 
-LcpWork = namedtuple("LcpWork", ["z", "w", "active", "tableau", "basis", "aug", "mask"])
+LcpWork = namedtuple("LcpWork", ["z", "w", "active", "tableau", "basis", "aug", "mask",
+                                 "prev"])
 LcpWork.__doc__ = """Work arrays of the pivoting and basis solvers, for ``m`` pairs: ``z, w (m,)``,
-``active (m,) bool``, ``tableau (m, 2m + 2)``, ``basis (m,) int64``, ``aug (m, m + 1)``, a
-bitset ``mask (W,)``."""
+``active (m,) bool``, ``tableau (m, 2m + 2)``, ``basis (m,) int64``, ``aug (m, m + 1)``, two
+bitsets ``mask, prev (W,)``."""
 
 
 def lcp_work(m: int) -> LcpWork:
     """Allocate the work arrays of :class:`LcpWork` for ``m`` pairs."""
     return LcpWork(np.zeros(m), np.zeros(m), np.zeros(m, np.bool_), np.zeros((m, 2 * m + 2)),
-                   np.zeros(m, np.int64), np.zeros((m, m + 1)), np.zeros(words(m), np.int64))
+                   np.zeros(m, np.int64), np.zeros((m, m + 1)), np.zeros(words(m), np.int64),
+                   np.zeros(words(m), np.int64))
 
 
 @kernel
@@ -195,6 +200,96 @@ def solve_cached(M, j, q, sets, slot, za, rtol):
 
 
 @kernel
+def solve_warm(M, j, q, mask, sets, counters, za, rtol, max_iter, viol, prev):
+    """Block principal pivoting from the active set ``mask`` (Júdice–Pires, with Murty's
+    single-index rule when the number of infeasibilities stops decreasing) for
+    ``w = M[j] λ + q``, each basis factorised through the cache of matrix ``j``.
+
+    A step's active set is usually a few flips away from the previous step's: each iteration
+    flips the infeasible pairs (``λ_a < 0`` in the set, ``w < 0`` out of it) and solves the
+    new basis, a cached factorisation when the set was seen before; a flip that makes the
+    basis singular is undone and the pivoting goes on one index at a time. Finite for
+    P-matrices; stops after ``max_iter`` iterations otherwise. Returns ``(slot, na)`` of the
+    solution's cache slot (``λ_a`` in ``za[:na]``, ``mask`` its active set), or ``(-1, 0)``.
+    ``viol`` (m,) int64 and the bitset ``prev`` are work space.
+    """
+    m = q.shape[0]
+    best = m + 1
+    tries = 0
+    for it in range(max_iter):
+        slot = lookup(M, j, mask, sets, counters)
+        na = sets.na[j, slot]
+        if na < 0:
+            if tries > 3:
+                return -1, 0
+            if it == 0:
+                # (the previous step's set is singular here, e.g. a pair's λ changed meaning
+                # with the mode: start from every λ = 0)
+                for w in range(mask.shape[0]):
+                    mask[w] = 0
+                continue
+            # A singular basis: back to the last one, one index at a time from there.
+            for w in range(mask.shape[0]):
+                mask[w] = prev[w]
+            tries = 4
+            continue
+        cidx = sets.idx
+        cG = sets.G
+        zmax = 0.0
+        for ii in range(na):
+            v = 0.0
+            for jj in range(na):
+                v += cG[j, slot, ii, jj] * q[cidx[j, slot, jj]]
+            za[ii] = v
+            if abs(v) > zmax:
+                zmax = abs(v)
+        nv = 0
+        for ii in range(na):
+            if za[ii] < -rtol * zmax:
+                viol[nv] = cidx[j, slot, ii]
+                nv += 1
+        for ii in range(na, m):
+            i = cidx[j, slot, ii]
+            v = q[i]
+            sc = abs(v)
+            for jj in range(na):
+                t = M[j, i, cidx[j, slot, jj]] * za[jj]
+                v += t
+                sc += abs(t)
+            if v < -rtol * sc:
+                viol[nv] = i
+                nv += 1
+        if nv == 0:
+            return slot, na
+        _pivot(mask, prev, viol, nv, best, tries)
+        if nv < best:
+            best = nv
+            tries = 0
+        elif tries < 3:
+            tries += 1
+    return -1, 0
+
+
+@inline
+def _pivot(mask, prev, viol, nv, best, tries):
+    """Flip the ``nv`` infeasible indices ``viol`` in ``mask`` (the block rule while the count
+    decreases, or for three more tries), else only the smallest (Murty's rule); the set before
+    is kept in ``prev``."""
+    for w in range(mask.shape[0]):
+        prev[w] = mask[w]
+    if nv < best or tries < 3:
+        for e in range(nv):
+            flip = viol[e]
+            mask[flip >> 6] ^= np.int64(1) << (flip & 63)
+    else:
+        low = viol[0]
+        for e in range(1, nv):
+            if viol[e] < low:
+                low = viol[e]
+        mask[low >> 6] ^= np.int64(1) << (low & 63)
+
+
+@kernel
 def basis_solution(M, q, mask, z, aug):
     """Solve the complementary basis ``mask`` (``w_a = 0``, ``z_n = 0``) into ``z``.
 
@@ -275,6 +370,61 @@ def solve_basis(M, q, mask, work, lam, rtol):
     for i in range(m):
         lam[i] = z[i] if z[i] > 0.0 else 0.0
     return True
+
+
+@kernel
+def solve_warm_direct(M, q, mask, work, lam, rtol, max_iter, viol):
+    """:func:`solve_warm` for a matrix without a cache (a step of another length): the same
+    pivoting, each basis solved directly (:func:`basis_solution`). Returns True with λ in
+    ``lam`` (negative round-off clipped to 0) and the active set in ``mask``."""
+    m = q.shape[0]
+    z = work.z
+    prev = work.prev
+    best = m + 1
+    tries = 0
+    for it in range(max_iter):
+        if not basis_solution(M, q, mask, z, work.aug):
+            if tries > 3:
+                return False
+            if it == 0:
+                for w in range(mask.shape[0]):
+                    mask[w] = 0
+                continue
+            for w in range(mask.shape[0]):
+                mask[w] = prev[w]
+            tries = 4
+            continue
+        zmax = 0.0
+        for i in range(m):
+            if abs(z[i]) > zmax:
+                zmax = abs(z[i])
+        nv = 0
+        for i in range(m):
+            if bit(mask, i):
+                if z[i] < -rtol * zmax:
+                    viol[nv] = i
+                    nv += 1
+                continue
+            v = q[i]
+            sc = abs(v)
+            for jj in range(m):
+                t = M[i, jj] * z[jj]
+                v += t
+                sc += abs(t)
+            if v < -rtol * sc:
+                viol[nv] = i
+                nv += 1
+        if nv == 0:
+            for i in range(m):
+                lam[i] = z[i] if z[i] > 0.0 else 0.0
+            return True
+        _pivot(mask, prev, viol, nv, best, tries)
+        if nv < best:
+            best = nv
+            tries = 0
+        elif tries < 3:
+            tries += 1
+    return False
 
 
 @kernel

@@ -68,6 +68,7 @@ IV_LOCATED = 23  # comparator switchings located inside a step
 IV_ROOTEVALS = 24  # trial steps of the instant search
 IV_SLIDESTEPS = 25  # steps taken in sliding mode
 IV_LEMKE = 27  # Lemke status of a failed LCP
+IV_WARM = 7  # warm-started principal pivoting solves (cached active set not accepted)
 IV_LEN = 28
 
 # Layout of the float64 "fvars" array.
@@ -155,9 +156,10 @@ sets ``act (2, W)`` of the current mode and of the other mode of a sliding switc
 (W,)`` the pairs of a failed step; ``need (Wk,)`` the key of the mode to build
 (``STEP_NEED_MODE``); counters and options ``ivars``, ``fvars``."""
 
-Limits = namedtuple("Limits", ["max_piv", "enum_max_m", "every", "max_sw"])
+Limits = namedtuple("Limits", ["max_piv", "enum_max_m", "every", "max_sw", "warm_iter"])
 Limits.__doc__ = """Lemke's pivot budget; enumeration fallback up to this m (-1: never); store
-every ``every``-th grid step; at most ``max_sw`` comparator switchings per grid step."""
+every ``every``-th grid step; at most ``max_sw`` comparator switchings per grid step; at most
+``warm_iter`` iterations of warm-started principal pivoting (0: none, straight to Lemke)."""
 
 StepWork = namedtuple("StepWork", ["xf", "q", "za", "Ko", "Mo", "augn", "lcp"])
 StepWork.__doc__ = """Scratch of one θ step: ``x_free (n,)``, ``q (m,)``, the cached path's

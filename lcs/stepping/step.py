@@ -22,6 +22,8 @@ from ..lcp.compiled import (
     solve_basis,
     solve_cached,
     solve_pivoting,
+    solve_warm,
+    solve_warm_direct,
 )
 from .discretise import free_odd, free_regular
 from .layout import (
@@ -34,6 +36,7 @@ from .layout import (
     IV_LEMKE,
     IV_PIVOTS,
     IV_UNIQ,
+    IV_WARM,
     MF_FAST,
     MF_UNIQ,
     STEP_LCP_FAILED,
@@ -160,10 +163,41 @@ def mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, ai
             if impulse_cached(xf, mats.K, j, stack.sets, slot, na, W.za, lamn, xn):
                 return STEP_OK
             return STEP_NONFINITE
-    elif fast and solve_basis(Mk, q, mask, W.lcp, lamn, rtol):
-        if impulse_dense(xf, Kk, lamn, xn):
-            return STEP_OK
-        return STEP_NONFINITE
+        if lim.warm_iter > 0:
+            slot, na = solve_warm(mats.M, j, q, mask, stack.sets, ivars, W.za, rtol,
+                                  lim.warm_iter, W.lcp.basis, W.lcp.prev)
+            ivars[IV_WARM] += 1
+            if slot >= 0:
+                slots[ai] = slot
+                if not impulse_cached(xf, mats.K, j, stack.sets, slot, na, W.za, lamn, xn):
+                    return STEP_NONFINITE
+                if commit and m <= stack.flags[j, MF_UNIQ]:
+                    ivars[IV_UNIQ] += 1
+                    if distinct_images(Mk, q, Kk, xf, lamn, fvars[FV_UNIQ_TOL], 1e-9,
+                                       W.lcp.w, W.lcp.aug, W.lcp.mask, fail):
+                        return STEP_NONUNIQUE
+                return STEP_OK
+            slots[ai] = -1
+    elif fast:
+        if solve_basis(Mk, q, mask, W.lcp, lamn, rtol):
+            if impulse_dense(xf, Kk, lamn, xn):
+                return STEP_OK
+            return STEP_NONFINITE
+        if lim.warm_iter > 0:
+            copy_bits(mask, W.lcp.mask)
+            ivars[IV_WARM] += 1
+            if solve_warm_direct(Mk, q, W.lcp.mask, W.lcp, lamn, rtol, lim.warm_iter,
+                                 W.lcp.basis):
+                if not impulse_dense(xf, Kk, lamn, xn):
+                    return STEP_NONFINITE
+                if commit and m <= stack.flags[j, MF_UNIQ]:
+                    ivars[IV_UNIQ] += 1
+                    if distinct_images(Mk, q, Kk, xf, lamn, fvars[FV_UNIQ_TOL], 1e-9,
+                                       W.lcp.w, W.lcp.aug, fail, fail):
+                        return STEP_NONUNIQUE
+                copy_bits(W.lcp.mask, mask)
+                slots[ai] = -1
+                return STEP_OK
     new = W.lcp.mask
     ok, piv, lstat = solve_pivoting(Mk, q, W.lcp, lim.max_piv, fvars[FV_PIVOT_TOL],
                                     fvars[FV_LEX_TOL], fvars[FV_FEAS_TOL], lim.enum_max_m,
