@@ -105,17 +105,20 @@ def rectifier_6pulse(vpk: float = 325.0, f: float = 50.0, lout: float = 5e-3,
 def rectifier_12pulse(vpk: float = 325.0, f: float = 50.0, lout: float = 5e-3,
                       cout: float = 1e-3, rload: float = 20.0, periods: int = 10,
                       steps_per_period: int = 2000) -> str:
-    """Two six-pulse bridges in series fed by sources 30° apart (12 diodes)."""
+    """Two six-pulse bridges in series fed by isolated three-phase sources 30° apart (12
+    diodes): bridge u between ``p`` and ``m``, bridge v between ``m`` and ground; each source
+    star point tied to its bridge's lower rail by 1 kΩ (a grounding resistor, which fixes
+    the winding's common-mode voltage)."""
     lines = ["Three-phase 12-pulse rectifier"]
     _three_phase(lines, "u", vpk, f, 90.0)
     _three_phase(lines, "v", vpk, f, 60.0)
-    lines += ["Rnu un 0 1e6", "Rnv vn m 1e6"]
+    lines += ["Rnu un m 1e3", "Rnv vn 0 1e3"]
     for k, ph in enumerate(("a", "b", "c")):
         lines.append(f"D{k + 1} u{ph} p DIDEAL")
         lines.append(f"D{k + 4} m u{ph} DIDEAL")
         lines.append(f"D{k + 7} v{ph} m DIDEAL")
-        lines.append(f"D{k + 10} n v{ph} DIDEAL")
-    lines += [f"L1 p q {lout:g}", f"C1 q n {cout:g} IC=0", f"R1 q n {rload:g}", _MODELS]
+        lines.append(f"D{k + 10} 0 v{ph} DIDEAL")
+    lines += [f"L1 p q {lout:g}", f"C1 q 0 {cout:g} IC=0", f"R1 q 0 {rload:g}", _MODELS]
     T = 1.0 / f
     h = T / steps_per_period
     lines += [f".tran {h:g} {periods * T:g} 0 {h:g} UIC", ".end"]
@@ -125,12 +128,13 @@ def rectifier_12pulse(vpk: float = 325.0, f: float = 50.0, lout: float = 5e-3,
 def mmc_arm(cells: int = 4, vdc: float = 400.0, fs: float = 1e3, f: float = 50.0,
             ccell: float = 2e-3, larm: float = 5e-3, rload: float = 10.0, periods: int = 2,
             steps_per_period: int = 4000) -> str:
-    """An MMC arm: ``cells`` half-bridge cells in series with ``larm`` and a load to the
-    midpoint of a split DC source; cell k inserts its capacitor while its phase-shifted
-    triangular carrier is below a sinusoidal reference (sampled by the gate sources as PWL
-    waveforms is unnecessary: each cell's upper switch gate is a PULSE of the duty the
-    reference averages to 0.5, shifted by k/cells of the carrier period; the lower switch is
-    complementary)."""
+    """An MMC arm: ``cells`` half-bridge cells in series with ``larm`` and a load, fed by a DC
+    source. Cell k (terminals ``x{k-1}``, ``x{k}``; capacitor from ``c{k}`` to ``x{k}``)
+    inserts its capacitor while its upper switch ``Su{k}`` is on and is bypassed by the lower
+    switch ``Sl{k}`` otherwise; the antiparallel diodes ``Du{k}`` (terminal to capacitor) and
+    ``Dl{k}`` (capacitor minus to terminal) carry the arm current the other way. Gates: 50 %
+    duty at ``fs``, cell k shifted by (k-1)/cells of the period (phase-shifted PWM), the lower
+    switch complementary."""
     _check("cells", cells, 1, 256)
     T = 1.0 / fs
     vcell = vdc / cells
@@ -142,7 +146,7 @@ def mmc_arm(cells: int = 4, vdc: float = 400.0, fs: float = 1e3, f: float = 50.0
         # cell: Su from node to cap+, Sl from node to out (bypass); capacitor from cap+ to out;
         # antiparallel diodes across each switch.
         lines.append(f"Su{k} {node} c{k} gu{k} 0 SWIDEAL")
-        lines.append(f"Du{k} c{k} {node} DIDEAL")
+        lines.append(f"Du{k} {node} c{k} DIDEAL")
         lines.append(f"Sl{k} {node} {out} gl{k} 0 SWIDEAL")
         lines.append(f"Dl{k} {out} {node} DIDEAL")
         lines.append(f"C{k} c{k} {out} {ccell:g} IC={vcell:g}")

@@ -354,6 +354,10 @@ class _Formulator:
             dx[rows] = self.Linv @ v_l
         w = np.array([sol.evaluate(mna.w_form(d)) for d in self.diodes]).reshape(m, self.nxi)
         dx, w = _clean(dx), _clean(w)
+        # A diode shorted by closed switches (e.g. a switch's antiparallel diode while it
+        # conducts) has w = 0 identically; its row is round-off of the elimination, whose
+        # sign would make the step's LCP infeasible (w < 0 that no λ can lift).
+        w[self._shorted(on)] = 0.0
         pairs = tuple(
             ComplementarityPair(d.name, LAMBDA_VOLTAGE if d.key in mna.vdiodes else LAMBDA_CURRENT)
             for d in self.diodes
@@ -381,6 +385,14 @@ class _Formulator:
             return OutputMap(names=names, Cy=y[:, :n], Dy=y[:, n:n + m], Fy=y[:, n + m:])
 
         return ModeModel(lcs=lcs, output=output)
+
+    def _shorted(self, on: frozenset[str]) -> list[int]:
+        """Indices of the diodes whose terminals closed switches join."""
+        uf = UnionFind()
+        for sw in self.switches:
+            if sw.key in on:
+                uf.union(*sw.nodes)
+        return [i for i, d in enumerate(self.diodes) if uf.find(d.nodes[0]) == uf.find(d.nodes[1])]
 
     def _check_topology(self, on: frozenset[str], desc: str) -> None:
         """Reject loops of voltage-defined and cutsets of current-defined branches."""

@@ -35,6 +35,10 @@ from ..jit import inline, kernel
 from .lemke import LEMKE_SOLVED, LEMKE_TRIVIAL, lemke_nb
 
 MAX_ENUM_M = 62  # enumeration runs over int64 bitmasks (and 2^m bases: tiny m only)
+# Active sets of at least UPDATE_MIN_NA pairs, within UPDATE_MAX_FLIPS flips of a cached set,
+# are factorised by rank-one updates of its inverse.
+UPDATE_MIN_NA = 16
+UPDATE_MAX_FLIPS = 6
 
 # Entries of the integer counters array the cache updates (the integrators' counters arrays
 # keep these two indices for it).
@@ -146,10 +150,151 @@ def lookup(M, j, mask, sets, counters):
     s = counters[AS_NEXT_SLOT]
     counters[AS_NEXT_SLOT] = (s + 1) % S
     counters[AS_MISSES] += 1
+    # A large set a few flips away from a cached one: rank-one updates of its inverse
+    # (O(k na²) instead of O(na³)).
+    src = -1
+    nbits = 0
+    for w in range(W):
+        nbits += _popcount_word(mask[w])
+    if nbits >= UPDATE_MIN_NA:
+        best = UPDATE_MAX_FLIPS + 1
+        for r in range(S):
+            if r == s or sets.na[j, r] < 0:
+                continue
+            dist = 0
+            for w in range(W):
+                dist += _popcount_word(sets.keys[j, r, w] ^ mask[w])
+            if dist < best:
+                best = dist
+                src = r
     for w in range(W):
         sets.keys[j, s, w] = mask[w]
+    if src >= 0 and factor_update(M, j, mask, s, src, sets):
+        return s
     factor_active(M, j, mask, s, sets)
     return s
+
+
+@kernel
+def _popcount_word(v):
+    c = 0
+    while v != 0:
+        v &= v - 1
+        c += 1
+    return c
+
+
+@kernel
+def factor_update(M, j, mask, slot, src, sets):
+    """Factorise active set ``mask`` of ``M[j]`` into cache ``slot`` from the cached set of
+    slot ``src`` by rank-one updates of the inverse: a removed index deletes its row and
+    column (``H - H[:, r] H[r, :] / H[r, r]``), an added one borders the matrix with its Schur
+    complement. Returns False (nothing trusted) when a pivot is small or the result fails a
+    residual check; the caller then factorises from scratch."""
+    m = M.shape[1]
+    na0 = sets.na[j, src]
+    cidx = sets.idx
+    H = np.empty((m, m))
+    T = np.empty((m, m))
+    lst = np.empty(m, np.int64)
+    na = na0
+    for a in range(na0):
+        lst[a] = cidx[j, src, a]
+        for b in range(na0):
+            H[a, b] = -sets.G[j, src, a, b]
+    u = np.empty(m)
+    v = np.empty(m)
+    # Removals.
+    r = 0
+    while r < na:
+        e = lst[r]
+        if bit(mask, e):
+            r += 1
+            continue
+        hmax = 0.0
+        for a in range(na):
+            for b in range(na):
+                if abs(H[a, b]) > hmax:
+                    hmax = abs(H[a, b])
+        piv = H[r, r]
+        if not abs(piv) > 1e-10 * hmax:
+            return False
+        for a in range(na):
+            for b in range(na):
+                T[a, b] = H[a, b] - H[a, r] * H[r, b] / piv
+        k = 0
+        for a in range(na):
+            if a == r:
+                continue
+            kk = 0
+            for b in range(na):
+                if b == r:
+                    continue
+                H[k, kk] = T[a, b]
+                kk += 1
+            lst[k] = lst[a]
+            k += 1
+        na -= 1
+    # Additions.
+    for e in range(m):
+        if not bit(mask, e):
+            continue
+        present = False
+        for a in range(na):
+            if lst[a] == e:
+                present = True
+                break
+        if present:
+            continue
+        Mj = M[j]
+        for a in range(na):
+            s_ = 0.0
+            t_ = 0.0
+            for b in range(na):
+                s_ += H[a, b] * Mj[lst[b], e]
+                t_ += Mj[e, lst[b]] * H[b, a]
+            u[a] = s_
+            v[a] = t_
+        sch = Mj[e, e]
+        scale = abs(Mj[e, e])
+        for a in range(na):
+            sch -= Mj[e, lst[a]] * u[a]
+            scale += abs(Mj[e, lst[a]] * u[a])
+        if not abs(sch) > 1e-10 * scale:
+            return False
+        for a in range(na):
+            for b in range(na):
+                H[a, b] += u[a] * v[b] / sch
+            H[a, na] = -u[a] / sch
+            H[na, a] = -v[a] / sch
+        H[na, na] = 1.0 / sch
+        lst[na] = e
+        na += 1
+    # Residual check on one column: M_aa H e_0 = e_0.
+    if na > 0:
+        Mj = M[j]
+        res = 0.0
+        ref = 0.0
+        for a in range(na):
+            acc = 0.0
+            for b in range(na):
+                t = Mj[lst[a], lst[b]] * H[b, 0]
+                acc += t
+                ref += abs(t)
+            res = max(res, abs(acc - (1.0 if a == 0 else 0.0)))
+        if not res <= 1e-9 * max(1.0, ref):
+            return False
+    k = na
+    for i in range(m):
+        if not bit(mask, i):
+            cidx[j, slot, k] = i
+            k += 1
+    for a in range(na):
+        cidx[j, slot, a] = lst[a]
+        for b in range(na):
+            sets.G[j, slot, a, b] = -H[a, b]
+    sets.na[j, slot] = na
+    return True
 
 
 @kernel

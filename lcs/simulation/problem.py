@@ -173,6 +173,7 @@ class Problem:
         n, m, p = len(system.states), len(system.diodes), len(system.inputs)
         k = len(system.switches)
         Cc, Dc, Fc = np.zeros((k, n)), np.zeros((k, m)), np.zeros((k, p))
+        sources = []
         for i, s in enumerate(system.switches):
             if i in plan.surface:
                 ctrl = plan.surface[i]
@@ -186,17 +187,26 @@ class Problem:
                 continue
             if plan.kind[i] == SW_SCHEDULED:
                 if i in plan.source:
-                    self._check_source_control(i, s, mode, plan, src_maps, base)
+                    sources.append(i)
                 continue
             om = system.outputs(mode, [s.control])
             Cc[i] = contiguous(om.Cy, (1, n))[0]
             Dc[i] = contiguous(om.Dy, (1, m))[0]
             Fc[i] = contiguous(om.Fy, (1, p))[0]
+        if sources:
+            self._check_source_controls(sources, mode, plan, src_maps, base)
         return Cc, Dc, Fc
 
-    def _check_source_control(self, i, s, mode: ModeKey, plan, src_maps, base) -> None:
-        om = self.system.outputs(mode, [s.control])
-        if np.any(np.asarray(om.Cy) != 0) or np.any(np.asarray(om.Dy) != 0):
+    def _check_source_controls(self, idx: list[int], mode: ModeKey, plan, src_maps,
+                               base) -> None:
+        """The controls of the source-driven switches ``idx`` must not depend on the state in
+        ``mode``, nor differ from the rows their instants were computed with."""
+        switches = self.system.switches
+        om = self.system.outputs(mode, [switches[i].control for i in idx])
+        state_dep = np.any(np.asarray(om.Cy) != 0, axis=1) | np.any(np.asarray(om.Dy) != 0,
+                                                                      axis=1)
+        if state_dep.any():
+            s = switches[idx[int(np.flatnonzero(state_dep)[0])]]
             raise NotImplementedError(
                 f"switch {s.name}: its control {s.control!r} is driven by sources alone in the "
                 f"initial mode but depends on the circuit state in mode "
@@ -206,8 +216,12 @@ class Problem:
         src = set(plan.source)
         ref_mode = tuple(on if j in src else base[j] for j, on in enumerate(mode))
         rows = src_maps.get(ref_mode)
-        if rows is not None and not np.allclose(rows[i], np.asarray(om.Fy).ravel(),
-                                                rtol=1e-12, atol=0.0):
+        if rows is None:
+            return
+        Fy = np.asarray(om.Fy, dtype=float).reshape(len(idx), -1)
+        ok = np.isclose(rows[idx], Fy, rtol=1e-12, atol=0.0).all(axis=1)
+        if not ok.all():
+            s = switches[idx[int(np.flatnonzero(~ok)[0])]]
             raise NotImplementedError(
                 f"switch {s.name}: its gate {s.control!r} depends on the state of a "
                 "comparator-driven switch; source-driven instants are computed with the "

@@ -77,8 +77,6 @@ def classify_switches(system: SwitchedLCS, controllers, method: str, guess: Mode
                          f"{method!r}")
     sw = system.switches
     k = len(sw)
-    if k > 62:
-        raise ValueError(f"{k} switches: at most 62 are supported (mode keys are bitmasks)")
     lower = {s.name.lower(): i for i, s in enumerate(sw)}
     out = SwitchPlan(tuple(s.name for s in sw), np.zeros(k, np.int64), np.zeros(k, np.int64),
                     np.array([float(s.vt) for s in sw]),

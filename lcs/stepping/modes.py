@@ -132,7 +132,7 @@ class ModeStackBuilder:
 
 
 # Memory for the active-set factorisations of one mode: fewer cache slots for large m.
-CACHE_BYTES_PER_MODE = 8 << 20
+CACHE_BYTES_PER_MODE = 2 << 20
 
 
 def cache_slots(wanted: int, m: int) -> int:
