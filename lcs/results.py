@@ -68,6 +68,8 @@ class SimulationStats:
         Lemke pivots in total.
     factorisations : int
         Active-set factorisations computed (cache misses).
+    factor_updates : int
+        Of those, the ones made by rank-one updates of a cached active set a few pairs away.
     uniqueness_checks : int
         Lemke solutions checked for a unique next state by enumeration.
     intervals : int
@@ -90,6 +92,7 @@ class SimulationStats:
     warm_solves: int = 0
     lcp_pivots: int = 0
     factorisations: int = 0
+    factor_updates: int = 0
     uniqueness_checks: int = 0
     intervals: int = 0
     located: int = 0

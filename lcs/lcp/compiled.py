@@ -44,6 +44,7 @@ UPDATE_MAX_FLIPS = 6
 # keep these two indices for it).
 AS_NEXT_SLOT = 1  # next cache slot to (re)use, round robin over every mode's cache
 AS_MISSES = 9  # cache misses (factorisations)
+AS_UPDATES = 26  # of which by rank-one updates of a cached neighbour
 
 ActiveSets = namedtuple("ActiveSets", ["keys", "na", "idx", "G"])
 ActiveSets.__doc__ = """Cached factorisations of Q LCP matrices (stacked ``M (Q, m, m)``, one per
@@ -170,6 +171,7 @@ def lookup(M, j, mask, sets, counters):
     for w in range(W):
         sets.keys[j, s, w] = mask[w]
     if src >= 0 and factor_update(M, j, mask, s, src, sets):
+        counters[AS_UPDATES] += 1
         return s
     factor_active(M, j, mask, s, sets)
     return s

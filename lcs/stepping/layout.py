@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from collections import namedtuple
 
-from ..lcp.compiled import AS_MISSES, AS_NEXT_SLOT
+from ..lcp.compiled import AS_MISSES, AS_NEXT_SLOT, AS_UPDATES
 from ..simulation.recorder import EV_SLIDE_END as EV_SLIDE_END
 from ..simulation.recorder import EV_SLIDE_START as EV_SLIDE_START
 from ..simulation.recorder import EV_SWITCH as EV_SWITCH
@@ -53,6 +53,7 @@ IV_OUTPOS = 5  # rows written to the output buffers
 IV_ODD = 6  # steps not of the regular length h (shortened, split, sliding-mode partial)
 IV_UNIQ = 8  # uniqueness checks done
 IV_MISSES = AS_MISSES  # active-set cache misses (factorisations)
+IV_UPDATES = AS_UPDATES  # factorisations by rank-one updates
 IV_NMODES = 11  # modes in the stacks
 IV_EVPOS = 13  # event records written
 IV_K = 14  # grid step (index within the chunk) to resume at / where the kernel stopped
