@@ -35,7 +35,6 @@ from lcs.model import LCS, SwitchedLCS
 from lcs.moreau import MoreauOptions, simulate
 from lcs.results import SimulationResult
 from lcs.signals import Dc, Pulse, Signal, Sin, resolve
-from lcs.wellposed import state_jump
 
 from .circuit import GROUND, Capacitor, Circuit, CurrentSource, Inductor, VoltageSource
 from .errors import Diagnostic, NetlistError
@@ -304,6 +303,9 @@ class _JumpRecorder:
         self.note: str | None = None
 
     def __call__(self, lcs: LCS, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, str]:
+        # (imported here: scipy.linalg is only needed for an inconsistent initial state)
+        from lcs.wellposed import state_jump
+
         try:
             jump = state_jump(lcs, x, u, energy=self.energy)
         except ValueError as exc:

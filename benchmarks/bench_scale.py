@@ -1,0 +1,147 @@
+"""Scaling study (issue #14.1): pelcs against ngspice on converters with many diodes and
+switches, whole commands side by side.
+
+Families (``converters/scaling.py``, near-ideal models in the text both programs read):
+Cockcroft-Walton multipliers of N stages (2N diodes), interleaved bucks of P phases (P switches,
+P diodes), three-phase 6- and 12-pulse rectifiers, MMC arms of N half-bridge cells (2N switches,
+2N diodes).
+
+For each netlist:
+
+* ``pelcs``: the whole command ``pelcs simulate FILE -o OUT.npz`` in a fresh process (start-up,
+  parsing, formulation, simulation, writing), and, in process, the time per step and the solver
+  counters;
+* ``ngspice``: ``ngspice -b -r OUT.raw FILE`` in a fresh process, the netlist as written; when
+  that fails ("timestep too small": ngspice's Newton iterations do not converge on the
+  near-ideal models at this size), the same with softened models (diodes ``N=1 RS=10m``,
+  switches ``RON=10m``), reported as such: pelcs simulates the ideal elements either way.
+
+Run: ``.venv/bin/python benchmarks/bench_scale.py [--quick] [--family NAME]... [--timeout S]``;
+prints a table and writes ``benchmarks/results/bench_scale.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(HERE))
+
+from converters import scaling  # noqa: E402
+
+# Run lengths of a design study (a few hundred switching periods), long enough that start-up
+# does not decide the comparison.
+FAMILIES = {
+    "cockcroft_walton": (lambda n: scaling.cockcroft_walton(n, periods=200),
+                         (5, 10, 20, 50, 100)),
+    "interleaved_buck": (lambda p: scaling.interleaved_buck(p, periods=200),
+                         (2, 4, 8, 16, 32, 64)),
+    "rectifier_6pulse": (lambda _: scaling.rectifier_6pulse(periods=20), (1,)),
+    "rectifier_12pulse": (lambda _: scaling.rectifier_12pulse(periods=20), (1,)),
+    "mmc_arm": (lambda c: scaling.mmc_arm(c, periods=4), (4, 8, 16, 32, 64)),
+}
+QUICK = {"cockcroft_walton": (5, 20), "interleaved_buck": (2, 8), "rectifier_6pulse": (1,),
+         "rectifier_12pulse": (1,), "mmc_arm": (4, 8)}
+
+
+def _pelcs_inprocess(text: str) -> dict:
+    from netlist.parser import parse_string
+    from netlist.transient import run_setup, transient_setup
+
+    setup = transient_setup(parse_string(text))
+    t0 = time.perf_counter()
+    res = run_setup(setup)
+    dt = time.perf_counter() - t0
+    st = res.stats
+    return dict(n=len(setup.system.states), m=len(setup.system.diodes),
+                k=len(setup.system.switches), steps=st.steps,
+                us_per_step=1e6 * dt / max(st.steps, 1), lemke=st.fallbacks,
+                warm=st.warm_solves, factorisations=st.factorisations,
+                updates=st.factor_updates, modes=st.modes_built,
+                error=res.error.kind if res.error else None)
+
+
+def _whole(cmd: list[str], timeout: float) -> tuple[float | None, str]:
+    t0 = time.perf_counter()
+    try:
+        r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return None, f"timeout {timeout:g} s"
+    dt = time.perf_counter() - t0
+    out = r.stdout + r.stderr
+    if r.returncode != 0 or "Timestep too small" in out or "aborted" in out.lower():
+        return None, out.strip().splitlines()[-1][:120] if out.strip() else f"exit {r.returncode}"
+    return dt, ""
+
+
+def run_case(family: str, size: int, timeout: float) -> dict:
+    text = FAMILIES[family][0](size)
+    row = dict(family=family, size=size)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"{family}_{size}.cir"
+        path.write_text(text)
+        pelcs = str(HERE / ".venv" / "bin" / "pelcs")
+        row["pelcs_s"], row["pelcs_note"] = _whole(
+            [pelcs, "simulate", str(path), "-o", str(Path(tmp) / "out.npz")], timeout)
+        row.update(_pelcs_inprocess(text))
+        raw = str(Path(tmp) / "out.raw")
+        row["ngspice_s"], note = _whole(["ngspice", "-b", "-r", raw, str(path)], timeout)
+        row["ngspice_models"] = "near-ideal"
+        if row["ngspice_s"] is None:
+            soft = path.with_name("soft.cir")
+            soft.write_text(text.replace("D(IS=1e-12 N=0.05 RS=1m)", "D(IS=1e-12 N=1 RS=10m)")
+                            .replace("RON=1m", "RON=10m"))
+            row["ngspice_s"], note2 = _whole(["ngspice", "-b", "-r", raw, str(soft)], timeout)
+            row["ngspice_models"] = "softened"
+            if row["ngspice_s"] is None:
+                row["ngspice_models"] = None
+                row["ngspice_note"] = f"near-ideal: {note}; softened: {note2}"
+    if row.get("pelcs_s") and row.get("ngspice_s"):
+        row["ratio"] = row["ngspice_s"] / row["pelcs_s"]
+    return row
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="two sizes per family")
+    ap.add_argument("--family", action="append", choices=sorted(FAMILIES))
+    ap.add_argument("--timeout", type=float, default=600.0)
+    args = ap.parse_args(argv)
+    from lcs.stepping.warmup import warm_up
+
+    warm_up()
+    rows = []
+    print(f"{'case':24s} {'n':>4s} {'m':>4s} {'k':>4s} {'steps':>7s} {'us/step':>8s} "
+          f"{'lemke':>5s} {'warm':>5s} {'modes':>5s} {'pelcs s':>8s} {'ngspice s':>10s} "
+          f"{'models':>10s} {'ratio':>6s}")
+    for family in args.family or sorted(FAMILIES):
+        sizes = QUICK[family] if args.quick else FAMILIES[family][1]
+        for size in sizes:
+            row = run_case(family, size, args.timeout)
+            rows.append(row)
+            ng = row.get("ngspice_s")
+            print(f"{family + ' ' + str(size):24s} {row['n']:4d} {row['m']:4d} {row['k']:4d} "
+                  f"{row['steps']:7d} {row['us_per_step']:8.2f} {row['lemke']:5d} "
+                  f"{row['warm']:5d} {row['modes']:5d} "
+                  f"{row['pelcs_s'] if row['pelcs_s'] else float('nan'):8.2f} "
+                  f"{ng if ng else float('nan'):10.2f} {str(row.get('ngspice_models')):>10s} "
+                  f"{row.get('ratio', float('nan')):6.1f}"
+                  + (f"  pelcs: {row['error']}" if row.get("error") else "")
+                  + (f"  ngspice: {row['ngspice_note']}" if row.get("ngspice_note") else ""),
+                  flush=True)
+    out = HERE / "benchmarks" / "results"
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "bench_scale.json").write_text(json.dumps(rows, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    os.environ.setdefault("PYTHONHASHSEED", "0")
+    sys.exit(main())
