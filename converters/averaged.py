@@ -37,7 +37,7 @@ from scipy.linalg import expm
 
 from converters.design import _check_topology
 
-__all__ = ["AveragedModel", "averaged_model", "ripple", "effective_k"]
+__all__ = ["AveragedModel", "averaged_model", "ripple", "effective_k", "small_signal_model"]
 
 
 @dataclass(frozen=True)
@@ -190,3 +190,34 @@ def ripple(topology: str, vin: float, duty: float, fs: float, rload: float, *,
     return {"i(L1)": vin * D * T / l1, "v(C1)": I1 * (1 - D) * T / c1, "i(L2)": di2,
             "v(C2)": di2 * T / (8 * c2)}
 
+
+
+def small_signal_model(topology: str, vin: float, duty: float, rload: float, **elements):
+    """The averaged model linearised at its equilibrium, as a python-control ``StateSpace``.
+
+    The averaged matrices are affine in the duty D (``A = D A_on + (1-D) A_off``), so the
+    derivative in D is ``A(1) - A(0)`` exactly: ``δx' = A δx + (A_D x_e + b_D vin) δd +
+    b δvin``.
+
+    Parameters
+    ----------
+    topology, vin, duty, rload, **elements
+        As :func:`averaged_model` (``lind``, ``cout`` or the Čuk's ``l1 c1 l2 c2``).
+
+    Returns
+    -------
+    control.StateSpace
+        Inputs ``("d", "vin")`` (duty, per unit; input voltage, V), outputs the states
+        (``i(L1)``, ``v(C1)``, ...), continuous time.
+    """
+    import control
+
+    model = averaged_model(topology, vin, duty, rload, **elements)
+    at1 = averaged_model(topology, vin, 1.0, rload, **elements)
+    at0 = averaged_model(topology, vin, 0.0, rload, **elements)
+    xe = model.equilibrium()
+    bd = (at1.A - at0.A) @ xe + (at1.b - at0.b) * vin
+    B = np.column_stack([bd, model.b])
+    n = len(model.states)
+    return control.ss(model.A, B, np.eye(n), np.zeros((n, 2)), inputs=["d", "vin"],
+                      outputs=list(model.states), states=list(model.states))

@@ -19,12 +19,12 @@ from typing import TYPE_CHECKING
 __version__ = "0.1.0"
 
 if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names load lazily
-    from .api import SimulationError, SimulationResult, formulate, load, simulate
+    from .api import SimulationError, SimulationResult, ac, formulate, load, simulate
 
-__all__ = ["SimulationError", "SimulationResult", "__version__", "formulate", "load",
+__all__ = ["SimulationError", "SimulationResult", "__version__", "ac", "formulate", "load",
            "simulate"]
 
-_API = {"load", "formulate", "simulate", "SimulationError", "SimulationResult"}
+_API = {"load", "formulate", "simulate", "ac", "SimulationError", "SimulationResult"}
 
 
 def __getattr__(name: str):

@@ -28,7 +28,7 @@ from lcs.results import SimulationError, SimulationResult
 from netlist.circuit import Circuit
 from netlist.errors import Diagnostic, NetlistError
 
-__all__ = ["SimulationError", "SimulationResult", "formulate", "load", "simulate"]
+__all__ = ["SimulationError", "SimulationResult", "ac", "formulate", "load", "simulate"]
 
 Source = Circuit | str | os.PathLike
 
@@ -151,6 +151,68 @@ def simulate(
     if check:
         result.raise_if_error()
     return result
+
+
+def ac(
+    circuit: Source,
+    *,
+    period: float | str,
+    inject: str | None = None,
+    probes: Sequence[str] = (),
+    freqs: Sequence[float] | None = None,
+    loop: str | None = None,
+    method: str = "exact",
+    params: Mapping[str, float] | None = None,
+    **options,
+):
+    """Small-signal frequency response of a switching converter around its periodic steady
+    state (``pelcs ac``).
+
+    ::
+
+        fr = pelcs.ac("buck_vc.cir", period="ts", inject="Vc", probes=["v(out)"],
+                      freqs=np.logspace(2, 4.7, 50))
+        fr.freq, fr["v(out)"]            # Hz, complex V/V
+        fr.mag_db("v(out)"), fr.phase_deg("v(out)")
+        fr.to_frd()                      # python-control FrequencyResponseData
+        fr.model                         # sampled-data model: discrete-time StateSpace
+
+    Parameters
+    ----------
+    circuit : Circuit, path or netlist text
+    period : float or str
+        Switching period, s (SPICE text or a ``.param`` name).
+    inject : str
+        Independent source to perturb (control-to-output: a DC control source;
+        line-to-output: the input source; output impedance: a zero-valued current source).
+    probes : sequence of str
+    freqs : sequence of float, optional
+        Hz (default 30 points from fs/1000 to fs/2).
+    loop : str, optional
+        Zero-volt source in the feedback path: loop gain ``"T"`` and ``.margins``.
+    method : str
+        ``"exact"`` or ``"sweep"``.
+    params : mapping, optional
+        ``.param`` overrides (with a path or text).
+    **options
+        Passed to :func:`netlist.ac.ac_analysis` (``step``, ``theta``, ``amplitude``,
+        ``settle``, ``cycles``, ...).
+
+    Returns
+    -------
+    lcs.smallsignal.FrequencyResponse
+    """
+    from netlist.ac import ac_analysis
+    from netlist.sweep import parse_value
+
+    c = _circuit(circuit, params)
+    if isinstance(period, str):
+        try:
+            period = parse_value(period, "period")
+        except NetlistError:
+            pass  # a .param name
+    return ac_analysis(c, period=period, inject=inject, probes=probes, freqs=freqs,
+                       loop=loop, method=method, **options)
 
 
 def _circuit(source: Source, params: Mapping[str, float] | None) -> Circuit:

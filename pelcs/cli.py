@@ -16,7 +16,7 @@ import sys
 from pelcs import __version__
 
 COMMANDS = ["info", "lcs", "simulate", "check", "bifurcation", "orbit", "continue", "basins",
-            "sweep"]
+            "sweep", "ac"]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,504 @@
+"""The exact periodic steady state of a switched LCS with piecewise-linear sources.
+
+Between events a mode (switch configuration, pairs held at ``w = 0``) is an affine ODE whose
+flow over an interval of linear inputs is one matrix exponential (:mod:`.modeflow`). From a
+state at ``t0`` one period is followed mode by mode: every interval between fixed instants
+(source breakpoints, latch clocks, the period end) is sampled on a uniform grid (one matrix
+exponential, repeated), the first sign change of an event function (a switch's comparator
+margin, a held pair's λ, a free pair's w) is refined by Brent's method on the exact flow,
+and the next mode is the consistent one nearest the current (``_select``). Newton's method
+on the start state, with the exact monodromy matrix of the saltation-corrected linearisation
+(:mod:`.ltp`), converges to the periodic orbit: event instants and states to round-off, not
+to a time step.
+
+Scope: sources DC, PULSE and PWL (piecewise linear); switches driven by comparators (with
+hysteresis) or latched PWM; no Python controllers, no sliding modes.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.linalg import expm
+from scipy.optimize import brentq
+
+from ..model import ModeKey, SwitchedLCS
+from .modeflow import ModeFlow, ModeFlowError, flow_matrix, mode_flow
+
+__all__ = ["PwlOrbit", "PwlOrbitError", "Segment", "Event", "SwitchRule", "switch_rules",
+           "exact_orbit", "follow_period"]
+
+# Samples per interval between fixed instants when looking for an event.
+_SAMPLES = 24
+# Events in a row at one instant before the run is declared stuck (sliding, chattering).
+_MAX_SAME_INSTANT = 12
+
+
+class PwlOrbitError(RuntimeError):
+    """The exact orbit could not be followed or did not converge (the message says why and
+    names the elements involved)."""
+
+
+@dataclass(frozen=True)
+class SwitchRule:
+    """A switch's comparator: on while ``control > vt + vh``, off while ``< vt - vh``; a
+    latched switch turns on only at ``phase + k period``."""
+
+    name: str
+    control: str
+    vt: float
+    vh: float
+    latch_period: float | None = None
+    latch_phase: float = 0.0
+
+
+def switch_rules(system: SwitchedLCS) -> list[SwitchRule]:
+    """The comparator of every switch of ``system`` (``LATCH``, ``PERIOD``, ``PHASE`` model
+    options make it latched, see ``docs/switching.md``)."""
+    rules = []
+    for s in system.switches:
+        opts = {str(k).lower(): v for k, v in (s.options or {}).items()}
+        latch = bool(opts.get("latch", 0))
+        period = float(opts["period"]) if latch and opts.get("period") else None
+        rules.append(SwitchRule(s.name, s.control, float(s.vt), float(s.vh), period,
+                                float(opts.get("phase", 0.0) or 0.0)))
+    return rules
+
+
+@dataclass
+class Segment:
+    """An interval of one mode and linear inputs ``u = u0 + u1 (t - t_start)``.
+
+    Attributes
+    ----------
+    t_start, t_end : float
+        s.
+    key : ModeKey
+        Switch states.
+    flow : ModeFlow
+        Dynamics (held pairs ``flow.held``).
+    u0, u1 : ndarray (p,)
+        Inputs at ``t_start`` and their rates (unit/s).
+    x_start : ndarray (n,)
+        State at ``t_start``.
+    """
+
+    t_start: float
+    t_end: float
+    key: ModeKey
+    flow: ModeFlow
+    u0: np.ndarray
+    u1: np.ndarray
+    x_start: np.ndarray
+
+    @property
+    def duration(self) -> float:
+        return self.t_end - self.t_start
+
+
+@dataclass
+class Event:
+    """The boundary between segment ``index`` and ``index + 1``.
+
+    Attributes
+    ----------
+    t : float
+        s.
+    kind : str
+        ``"switch"`` or ``"pair"`` (state-dependent instants), ``"clock"`` (latch re-arm) or
+        ``"breakpoint"`` (a source corner): fixed instants.
+    name : str
+        Switch or diode name ("" for a breakpoint).
+    index : int
+        Segment before the event.
+    hx, hu, hd : ndarray (n,), (p,), (p,) or None
+        The event function ``h = hx x + hu u + hd u' (+ const)`` of a state-dependent
+        instant, in the mode before.
+    hdot : float
+        dh/dt just before the event.
+    """
+
+    t: float
+    kind: str
+    name: str
+    index: int
+    hx: np.ndarray | None = None
+    hu: np.ndarray | None = None
+    hd: np.ndarray | None = None
+    hdot: float = 0.0
+
+    @property
+    def moves(self) -> bool:
+        """Whether the instant moves with the state and the inputs."""
+        return self.hx is not None
+
+
+@dataclass
+class PwlOrbit:
+    """A periodic orbit followed exactly.
+
+    Attributes
+    ----------
+    t0, period : float
+        Sampling instant and period, s.
+    x0 : ndarray (n,)
+        State at ``t0``.
+    segments : list of Segment
+        Over ``[t0, t0 + period]`` in time order.
+    events : list of Event
+        ``len(segments) - 1`` boundaries.
+    monodromy : ndarray (n, n)
+        Jacobian of the period map at ``x0`` (saltation included).
+    residual : float
+        ``max |P(x0) - x0|`` (state units).
+    iterations : int
+        Newton iterations.
+    states, inputs : tuple of str
+    diodes : tuple of str
+    """
+
+    t0: float
+    period: float
+    x0: np.ndarray
+    segments: list
+    events: list
+    monodromy: np.ndarray
+    residual: float
+    iterations: int
+    states: tuple
+    inputs: tuple
+    diodes: tuple
+    notes: list = field(default_factory=list)
+
+    @property
+    def multipliers(self) -> np.ndarray:
+        """Eigenvalues of the monodromy matrix, by decreasing modulus."""
+        mu = np.linalg.eigvals(self.monodromy)
+        return mu[np.argsort(-np.abs(mu))]
+
+    def describe(self) -> list[str]:
+        """One line per mode change: instant (fraction of the period), what changed."""
+        lines = []
+        for ev in self.events:
+            if ev.kind == "breakpoint":
+                continue
+            seg = self.segments[ev.index + 1]
+            held = ", ".join(self.diodes[i] for i in seg.flow.held) or "none"
+            lines.append(f"{(ev.t - self.t0) / self.period:.6f} T: {ev.kind} {ev.name} -> "
+                         f"held diodes {held}")
+        return lines
+
+
+class _Period:
+    """What following one period needs: the system, the sources, the rules and caches."""
+
+    def __init__(self, system: SwitchedLCS, signals: Sequence, t0: float, period: float):
+        bad = [name for name, s in zip(system.inputs, signals, strict=True)
+               if not getattr(s, "piecewise_linear", False)]
+        if bad:
+            raise PwlOrbitError(
+                f"the exact method needs piecewise-linear sources (DC, PULSE, PWL); "
+                f"{', '.join(bad)} {'is' if len(bad) == 1 else 'are'} not: use the sweep "
+                "method")
+        self.system = system
+        self.signals = list(signals)
+        self.t0 = float(t0)
+        self.T = float(period)
+        self.rules = switch_rules(system)
+        self.n, self.m, self.p = len(system.states), len(system.diodes), len(system.inputs)
+        self._flows: dict = {}
+        self._controls: dict = {}
+        t1 = self.t0 + self.T
+        fixed = [self.t0, t1]
+        for s in self.signals:
+            fixed.extend(float(v) for v in s.breakpoints(self.t0, t1))
+        self.clocks: list[tuple[float, int]] = []
+        for j, r in enumerate(self.rules):
+            if r.latch_period:
+                k0 = int(np.ceil((self.t0 - r.latch_phase) / r.latch_period - 1e-9))
+                tc = r.latch_phase + k0 * r.latch_period
+                while tc < t1 - 1e-12 * self.T:
+                    self.clocks.append((tc, j))
+                    fixed.append(tc)
+                    tc += r.latch_period
+        fixed = np.unique(np.clip(np.asarray(fixed, dtype=float), self.t0, t1))
+        keep = [fixed[0]]
+        for v in fixed[1:]:
+            if v - keep[-1] > 1e-12 * self.T:
+                keep.append(v)
+        keep[-1] = t1
+        self.fixed = np.asarray(keep)
+
+    # --- modes -----------------------------------------------------------------------------
+    def flow(self, key: ModeKey, held: tuple[int, ...]) -> ModeFlow:
+        ck = (key, held)
+        if ck not in self._flows:
+            self._flows[ck] = mode_flow(self.system.mode(key), held)
+        return self._flows[ck]
+
+    def controls(self, key: ModeKey):
+        if key not in self._controls:
+            names = [r.control for r in self.rules]
+            self._controls[key] = self.system.outputs(key, names) if names else None
+        return self._controls[key]
+
+    def inputs_on(self, ta: float, tb: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(u(ta), u')`` of the linear piece on ``[ta, tb]`` (sampled inside it, so that a
+        corner at an end does not count)."""
+        d = tb - ta
+        s1, s2 = ta + 0.25 * d, ta + 0.75 * d
+        v1 = np.array([float(np.asarray(s(np.array([s1])))[0]) for s in self.signals])
+        v2 = np.array([float(np.asarray(s(np.array([s2])))[0]) for s in self.signals])
+        u1 = (v2 - v1) / (s2 - s1) if d > 0 else np.zeros(self.p)
+        return v1 - 0.25 * d * u1, u1
+
+    def guards(self, key: ModeKey, flow: ModeFlow):
+        """Event functions of a mode, each ``>= 0`` while the mode lasts: rows
+        ``(gx, gu, gd, g0)`` and their labels ``(kind, name, index)``."""
+        gx, gu, gd, g0, labels = [], [], [], [], []
+        for i in range(self.m):
+            if i in flow.held:
+                gx.append(flow.Lx[i]), gu.append(flow.Lu[i]), gd.append(flow.Ld[i])
+            else:
+                gx.append(flow.Wx[i]), gu.append(flow.Wu[i]), gd.append(flow.Wd[i])
+            g0.append(0.0)
+            labels.append(("pair", self.system.diodes[i], i))
+        ctl = self.controls(key)
+        if ctl is not None:
+            cx, cu, cd = flow.affine(ctl.Cy, ctl.Dy, ctl.Fy)
+            for j, r in enumerate(self.rules):
+                if key[j]:
+                    gx.append(cx[j]), gu.append(cu[j]), gd.append(cd[j])
+                    g0.append(-(r.vt - r.vh))
+                elif r.latch_period is None:
+                    gx.append(-cx[j]), gu.append(-cu[j]), gd.append(-cd[j])
+                    g0.append(r.vt + r.vh)
+                else:
+                    continue
+                labels.append(("switch", r.name, j))
+        return (np.array(gx).reshape(-1, self.n), np.array(gu).reshape(-1, self.p),
+                np.array(gd).reshape(-1, self.p), np.array(g0), labels)
+
+    def control_value(self, key: ModeKey, flow: ModeFlow, j: int, x, u, u1) -> float:
+        ctl = self.controls(key)
+        cx, cu, cd = flow.affine(ctl.Cy, ctl.Dy, ctl.Fy)
+        return float(cx[j] @ x + cu[j] @ u + cd[j] @ u1)
+
+    # --- mode selection --------------------------------------------------------------------
+    def _consistent(self, key, held, x, ta, tb) -> ModeFlow | None:
+        try:
+            flow = self.flow(key, held)
+        except ModeFlowError:
+            return None
+        u0, u1 = self.inputs_on(ta, tb)
+        if flow.Kx.shape[0]:
+            res = flow.Kx @ x + flow.Ku @ u0
+            scale = np.abs(flow.Kx) @ np.abs(x) + np.abs(flow.Ku) @ np.abs(u0) + 1e-300
+            if np.any(np.abs(res) > 1e-8 * scale + 1e-14):
+                return None
+        gx, gu, gd, g0, labels = self.guards(key, flow)
+        pairs = [k for k, lab in enumerate(labels) if lab[0] == "pair"]
+        if not pairs:
+            return flow
+        gx, gu, gd, g0 = gx[pairs], gu[pairs], gd[pairs], g0[pairs]
+        tol = 1e-9 * (np.abs(gx) @ np.abs(x) + np.abs(gu) @ np.abs(u0)
+                      + np.abs(gd) @ np.abs(u1)) + 1e-13
+        g = gx @ x + gu @ u0 + gd @ u1 + g0
+        if np.any(g < -tol):
+            return None
+        # Pairs at zero must not go negative right away.
+        delta = min(1e-6 * self.T, 0.25 * (tb - ta))
+        G = flow_matrix(flow, u0, u1)
+        z = expm(G * delta) @ np.concatenate([x, [1.0, 0.0]])
+        gz = np.column_stack([gx, gu @ u0 + gd @ u1 + g0, gu @ u1])
+        g2 = gz @ z
+        if np.any((np.abs(g) <= tol) & (g2 < -tol)):
+            return None
+        return flow
+
+    def select(self, key, prefer: tuple[int, ...], x, ta, tb, why: str) -> ModeFlow:
+        """The consistent held set nearest ``prefer`` in the switch configuration ``key``."""
+        flow = self._consistent(key, prefer, x, ta, tb)
+        if flow is not None:
+            return flow
+        pref = set(prefer)
+        others = range(self.m)
+        max_flip = self.m if self.m <= 12 else 2
+        for k in range(1, max_flip + 1):
+            for flip in itertools.combinations(others, k):
+                held = tuple(sorted(pref.symmetric_difference(flip)))
+                flow = self._consistent(key, held, x, ta, tb)
+                if flow is not None:
+                    return flow
+        sw = ", ".join(f"{r.name} {'on' if on else 'off'}" for r, on in
+                       zip(self.rules, key, strict=True)) or "no switches"
+        raise PwlOrbitError(f"no consistent diode configuration at t = {ta:.9g} s ({why}; "
+                            f"{sw}): the exact method cannot continue; use the sweep method")
+
+    # --- one period ------------------------------------------------------------------------
+    def follow(self, x0, key0: ModeKey) -> tuple[list[Segment], list[Event], np.ndarray]:
+        """Segments and events of one period from ``x0`` at t0 with switch states ``key0``."""
+        x = np.asarray(x0, dtype=float).copy()
+        t = self.t0
+        key = tuple(key0)
+        key = self._apply_clocks(key, t, x, None)
+        fi = 1  # index of the next fixed instant
+        flow = self.select(key, (), x, t, self.fixed[1], "start of the period")
+        segs: list[Segment] = []
+        events: list[Event] = []
+        same_instant = 0
+        while True:
+            tb = self.fixed[fi]
+            u0, u1 = self.inputs_on(t, tb)
+            G = flow_matrix(flow, u0, u1)
+            hit = self._first_event(key, flow, G, x, u0, u1, t, tb)
+            if hit is None:
+                z = expm(G * (tb - t)) @ np.concatenate([x, [1.0, 0.0]])
+                segs.append(Segment(t, tb, key, flow, u0, u1, x))
+                x = z[:self.n]
+                if fi == len(self.fixed) - 1:
+                    return segs, events, x
+                kind, name = "breakpoint", ""
+                new_key = self._apply_clocks(key, tb, x, flow)
+                if new_key != key:
+                    kind = "clock"
+                    name = ", ".join(r.name for r, a, b in zip(self.rules, key, new_key,
+                                                                strict=True) if a != b)
+                events.append(Event(tb, kind, name, len(segs) - 1))
+                t, key = tb, new_key
+                fi += 1
+                nb = self.fixed[fi]
+                flow = self.select(key, flow.held, x, t, nb, f"{kind} at {t:.9g} s")
+                same_instant = 0
+                continue
+            s, row, (kind, name, idx), hrow = hit
+            z = expm(G * s) @ np.concatenate([x, [1.0, 0.0]])
+            segs.append(Segment(t, t + s, key, flow, u0, u1, x))
+            x = z[:self.n]
+            gx, gu, gd = hrow
+            f_minus = flow.Af @ x + flow.Ef @ (u0 + u1 * s) + flow.Ed @ u1
+            hdot = float(gx @ f_minus + gu @ u1)
+            events.append(Event(t + s, kind, name, len(segs) - 1, gx.copy(), gu.copy(),
+                                gd.copy(), hdot))
+            same_instant = same_instant + 1 if s <= 1e-12 * self.T else 0
+            if same_instant > _MAX_SAME_INSTANT:
+                raise PwlOrbitError(
+                    f"{name} changes state again and again at t = {t:.9g} s (a sliding mode "
+                    "or chattering): the exact method does not handle it; use the sweep method")
+            t = t + s
+            if kind == "switch":
+                key = tuple((not v) if j == idx else v for j, v in enumerate(key))
+                prefer = flow.held
+            else:
+                prefer = tuple(sorted(set(flow.held).symmetric_difference({idx})))
+            flow = self.select(key, prefer, x, t, tb, f"{kind} {name} at {t:.9g} s")
+
+    def _apply_clocks(self, key, t, x, flow) -> ModeKey:
+        """Latched switches turn on at their clock instants unless their comparator demands
+        off."""
+        out = list(key)
+        for tc, j in self.clocks:
+            if abs(tc - t) <= 1e-12 * self.T and not out[j]:
+                r = self.rules[j]
+                if flow is None:
+                    out[j] = True  # at t0: the comparator is checked by the first segment
+                    continue
+                u0, u1 = self.inputs_on(t, t + 1e-9 * self.T)
+                c = self.control_value(tuple(out), flow, j, x, u0, u1)
+                out[j] = c >= r.vt - r.vh
+        return tuple(out)
+
+    def _first_event(self, key, flow, G, x, u0, u1, ta, tb):
+        gx, gu, gd, g0, labels = self.guards(key, flow)
+        if not labels:
+            return None
+        gz = np.column_stack([gx, gu @ u0 + gd @ u1 + g0, gu @ u1])
+        z0 = np.concatenate([x, [1.0, 0.0]])
+        d = tb - ta
+        step = expm(G * (d / _SAMPLES))
+        zs = [z0]
+        for _ in range(_SAMPLES):
+            zs.append(step @ zs[-1])
+        Z = np.array(zs)
+        g = Z @ gz.T  # (samples + 1, rows)
+        scale = np.abs(Z) @ np.abs(gz).T
+        tol = 1e-9 * scale + 1e-13
+        best = None
+        for r in range(g.shape[1]):
+            neg = np.nonzero(g[1:, r] < -tol[1:, r])[0]
+            if not neg.size:
+                continue
+            k = int(neg[0]) + 1
+            sa, sb = (k - 1) * d / _SAMPLES, k * d / _SAMPLES
+            if g[k - 1, r] <= 0.0:
+                root = sa
+            else:
+                def fn(s, r=r):
+                    return float(gz[r] @ (expm(G * s) @ z0))
+                root = brentq(fn, sa, sb, xtol=1e-16 * self.T, rtol=1e-15)
+            if best is None or root < best[0]:
+                best = (root, r)
+        if best is None:
+            return None
+        root, r = best
+        return root, r, labels[r], (gx[r], gu[r], gd[r])
+
+
+def follow_period(system: SwitchedLCS, signals: Sequence, x0, key0: ModeKey, t0: float,
+                  period: float):
+    """Segments, events and end state of one period from ``x0`` (see :class:`_Period`)."""
+    return _Period(system, signals, t0, period).follow(x0, key0)
+
+
+def exact_orbit(system: SwitchedLCS, signals: Sequence, x_guess, key0: ModeKey, t0: float,
+                period: float, *, tol: float = 1e-11, max_iter: int = 30) -> PwlOrbit:
+    """The period-1 orbit through ``t0`` by Newton's method with the exact monodromy.
+
+    Parameters
+    ----------
+    system : SwitchedLCS
+    signals : sequence
+        One piecewise-linear source per input, resolved (:func:`lcs.signals.resolve`).
+    x_guess : array_like (n,)
+        A state near the orbit at ``t0`` (e.g. from the Moreau stroboscopic map).
+    key0 : ModeKey
+        Switch states at ``t0`` (the comparators with hysteresis need it).
+    t0, period : float
+        s.
+    tol : float
+        Convergence when ``|P(x) - x| <= tol (|x| + 1)`` componentwise (max).
+
+    Raises
+    ------
+    PwlOrbitError
+        A mode with no consistent continuation, sliding, a non-PWL source, or no
+        convergence.
+    """
+    from .ltp import affine_period
+
+    ctx = _Period(system, signals, t0, period)
+    x = np.asarray(x_guess, dtype=float).copy()
+    n = x.size
+    res = np.inf
+    for it in range(1, max_iter + 1):
+        segs, events, x_end = ctx.follow(x, key0)
+        Phi = affine_period(segs, events, 0.0, np.zeros(ctx.p)).P.real
+        r = x_end - x
+        sc = np.abs(x) + np.abs(x_end) + 1.0
+        res = float(np.max(np.abs(r) / sc))
+        if res <= tol:
+            orbit = PwlOrbit(t0, period, x, segs, events, Phi, float(np.max(np.abs(r))), it,
+                             tuple(system.states), tuple(system.inputs),
+                             tuple(system.diodes))
+            return orbit
+        try:
+            dx = np.linalg.solve(Phi - np.eye(n), -r)
+        except np.linalg.LinAlgError:
+            raise PwlOrbitError("the monodromy matrix has a multiplier 1: the orbit is not "
+                                "isolated") from None
+        x = x + dx
+    raise PwlOrbitError(f"Newton's method did not converge in {max_iter} iterations "
+                        f"(relative residual {res:.3g})")

@@ -1,0 +1,264 @@
+"""``pelcs ac FILE``: small-signal frequency response of the switching converter.
+
+::
+
+    pelcs ac FILE --period T (--inject SOURCE | --loop NAME) --probe EXPR...
+             [--freq FMIN:FMAX:N] [--param NAME=VALUE]... [--method exact|sweep]
+             [--amplitude A] [--settle T] [--cycles K] [--step H] [--theta TH] [--json]
+             [-o OUT.csv] [--plot OUT.png] [--averaged TOPOLOGY:NAME=VALUE,...]
+
+The periodic steady state (period T) is found by Newton shooting; the independent source
+``--inject`` is perturbed at each frequency (default: 30 points, log-spaced from fs/1000 to
+fs/2) and the probes' components at that frequency are reported. ``--method exact`` (default)
+linearises the exact orbit, every switching instant moving with the perturbation (saltation);
+``--method sweep`` perturbs the source by a sinusoid in the time domain and measures, as a
+PLECS AC sweep does. ``--loop NAME``: loop gain ``T = -v(n-)/v(n+)`` by Middlebrook voltage
+injection at the zero-volt source NAME (positive node facing the controller), with crossover,
+phase and gain margins.
+
+``--json`` prints ``{"freq": [...], "probes": {"v(out)": {"mag_db": [...], "phase_deg": [...],
+"re": [...], "im": [...]}}, "orbit": {...}, "loop": {...}}``; ``-o`` writes the responses as CSV
+(``freq,<probe>_mag_db,<probe>_phase_deg,...``); ``--plot`` a Bode plot (magnitude in dB, phase
+in degrees, fs/2 marked), with ``--averaged`` the CCM averaged model overlaid
+(:func:`converters.averaged.small_signal_model`, e.g. ``buck:vin=12,d=0.5,r=1,l=100u,c=100u,
+gain=1`` with ``gain`` the duty per unit of the injected source, ``input=vin`` for
+line-to-output; probes named like its states, ``v(out)`` as the output capacitor voltage).
+
+Exit status: 0 success; 2 input errors; 3 the steady state or a run failed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .orbit import EXIT_FAILED, usage_error, write_outputs
+
+
+def register(subparsers) -> None:
+    """Add the ``ac`` subcommand."""
+    p = subparsers.add_parser(
+        "ac", help="small-signal frequency response (Bode plot, loop gain)",
+        description="Frequency response of probes to a small perturbation of a source, "
+        "around the periodic steady state of the switching converter.",
+        epilog="example: pelcs ac buck_vc.cir --period ts --inject Vc --probe 'v(out)' "
+        "--freq 100:50k:40 --plot bode.png")
+    p.add_argument("file", help="netlist file")
+    p.add_argument("--period", required=True, metavar="T",
+                   help="switching period: seconds with SPICE suffix (10u) or a .param name")
+    p.add_argument("--inject", metavar="SOURCE", help="independent source to perturb")
+    p.add_argument("--loop", metavar="NAME",
+                   help="zero-volt source in the feedback path (positive node facing the "
+                   "controller): loop gain and margins")
+    p.add_argument("--probe", action="append", default=[], metavar="EXPR",
+                   help="probe, e.g. 'v(out)' (repeatable or comma-separated)")
+    p.add_argument("--freq", metavar="FMIN:FMAX:N", help="log-spaced frequencies (Hz)")
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                   help="override a global .param (repeatable)")
+    p.add_argument("--method", choices=("exact", "sweep"), default="exact",
+                   help="exact: linearised exact orbit (default); sweep: time-domain "
+                   "sinusoidal perturbation")
+    p.add_argument("--amplitude", metavar="A",
+                   help="perturbation amplitude in the source's unit (default 1 %% of its "
+                   "value, 1 mV or 1 mA for a zero source)")
+    p.add_argument("--settle", metavar="T",
+                   help="sweep: settling time before each measurement (default: until the "
+                   "slowest multiplier of the orbit has decayed to 1e-4, and 2 excitation "
+                   "periods)")
+    p.add_argument("--cycles", metavar="K", default="3",
+                   help="excitation periods measured per frequency (default 3)")
+    p.add_argument("--step", metavar="H", help="time step (default: the .tran step)")
+    p.add_argument("--theta", metavar="TH", default="0.5", help="Moreau θ (default 0.5)")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.add_argument("-o", "--output", metavar="OUT.csv", help="write the response as CSV")
+    p.add_argument("--plot", metavar="OUT.png", help="Bode plot")
+    p.add_argument("--averaged", metavar="TOPOLOGY:NAME=VALUE,...",
+                   help="overlay the CCM averaged model on the plot, e.g. "
+                   "buck:vin=12,d=0.5,r=1,l=100u,c=100u,gain=1")
+    p.set_defaults(func=run)
+
+
+def _freqs(text: str | None):
+    """``FMIN:FMAX:N`` -> N log-spaced frequencies (Hz), or a single ``F``."""
+    from netlist.sweep import parse_value
+
+    if not text:
+        return None
+    parts = text.split(":")
+    if len(parts) == 1:
+        f = parse_value(parts[0], "--freq")
+        if f <= 0:
+            raise usage_error("ac", f"--freq {text}: need a positive frequency")
+        return np.array([f])
+    if len(parts) != 3:
+        raise usage_error("ac", f"--freq {text}: expected FMIN:FMAX:N", "e.g. --freq 100:50k:40")
+    fmin, fmax = parse_value(parts[0], "--freq FMIN"), parse_value(parts[1], "--freq FMAX")
+    count = parse_value(parts[2], "--freq N")
+    if not (0 < fmin < fmax) or count != int(count) or count < 2:
+        raise usage_error("ac", f"--freq {text}: need 0 < FMIN < FMAX and an integer N >= 2")
+    return np.logspace(np.log10(fmin), np.log10(fmax), int(count))
+
+
+_AVERAGED_KEYS = {"vin": "vin", "d": "duty", "r": "rload", "l": "lind", "c": "cout",
+                  "l1": "l1", "c1": "c1", "l2": "l2", "c2": "c2", "gain": "gain",
+                  "input": "input"}
+
+
+def _averaged(spec: str | None):
+    """``TOPOLOGY:NAME=VALUE,...`` -> (python-control model, gain, input name) or None."""
+    from netlist.sweep import parse_value
+
+    if not spec:
+        return None
+    topo, _, rest = spec.partition(":")
+    kw: dict = {}
+    for item in filter(None, (v.strip() for v in rest.split(","))):
+        name, eq, val = item.partition("=")
+        key = _AVERAGED_KEYS.get(name.strip().lower())
+        if not eq or key is None:
+            raise usage_error("ac", f"--averaged: cannot read {item!r}",
+                              "use TOPOLOGY:vin=..,d=..,r=..,l=..,c=..[,gain=..][,input=d|vin]")
+        kw[key] = val.strip() if key == "input" else parse_value(val.strip(), "--averaged")
+    gain = float(kw.pop("gain", 1.0))
+    inp = str(kw.pop("input", "d")).lower()
+    missing = [k for k in ("vin", "duty", "rload") if k not in kw]
+    if missing or inp not in ("d", "vin"):
+        raise usage_error("ac", f"--averaged {spec}: need vin, d, r (and the elements), "
+                          "input d or vin")
+    from converters.averaged import small_signal_model
+
+    try:
+        model = small_signal_model(topo.strip().lower(), kw.pop("vin"), kw.pop("duty"),
+                                   kw.pop("rload"), **kw)
+    except (TypeError, ValueError) as exc:
+        raise usage_error("ac", f"--averaged {spec}: {exc}") from None
+    return model, gain, inp
+
+
+def run(args: argparse.Namespace) -> int:
+    from netlist.ac import ac_analysis
+    from netlist.parser import parse_file, parse_overrides
+    from netlist.sweep import parse_value
+
+    if not args.inject and not args.loop:
+        raise usage_error("ac", "nothing to perturb", "pass --inject SOURCE or --loop NAME")
+    probes = [p.strip() for item in args.probe for p in item.split(",") if p.strip()]
+    if not probes and not args.loop:
+        raise usage_error("ac", "no probe", "pass --probe, e.g. --probe 'v(out)'")
+    circuit = parse_file(args.file, params=parse_overrides(args.param) or None)
+    period: float | str = args.period
+    try:
+        period = parse_value(args.period, "--period")
+    except Exception:  # noqa: BLE001 (a .param name, resolved by the analysis)
+        pass
+    cycles = int(parse_value(args.cycles, "--cycles"))
+    if cycles < 1:
+        raise usage_error("ac", f"--cycles {args.cycles}: at least 1")
+    averaged = _averaged(args.averaged)
+    try:
+        fr = ac_analysis(
+            circuit, period=period, inject=args.inject, probes=probes,
+            freqs=_freqs(args.freq), method=args.method,
+            amplitude=parse_value(args.amplitude, "--amplitude") if args.amplitude else None,
+            step=parse_value(args.step, "--step") if args.step else None,
+            theta=parse_value(args.theta, "--theta"), cycles=cycles,
+            settle=parse_value(args.settle, "--settle") if args.settle else None,
+            loop=args.loop)
+    except Exception as exc:  # noqa: BLE001
+        from lcs.analysis.maps import MapError
+        from lcs.results import SimulationError
+        from lcs.smallsignal.pwl_orbit import PwlOrbitError
+
+        if isinstance(exc, (MapError, SimulationError, PwlOrbitError)):
+            print(f"pelcs ac: {exc}", file=sys.stderr)
+            return EXIT_FAILED
+        raise
+    margins = fr.margins
+    data = fr.to_dict()
+    out = Path(args.output) if args.output else None
+    plot = Path(args.plot) if args.plot else None
+    written = write_outputs("ac", [(out, lambda p: _write_csv(p, fr)),
+                                   (plot, lambda p: _plot(p, fr, margins, args.file,
+                                                                   averaged))])
+    if args.json:
+        print(json.dumps(data))
+        return 0
+    print(f"{args.file}: response to {fr.inject} ({fr.method}), fs = {1 / fr.period:.6g} Hz")
+    for note in fr.notes:
+        print(f"  {note}")
+    header = "freq (Hz)   " + "  ".join(f"{p + ' dB':>14s} {'deg':>8s}" for p in fr.probes)
+    print(header)
+    for i, f in enumerate(fr.freq):
+        row = "  ".join(f"{fr.mag_db(p)[i]:14.3f} {fr.phase_deg(p)[i]:8.2f}" for p in fr.probes)
+        print(f"{f:<11.5g} {row}")
+    if margins is not None:
+        pm = "n/a" if margins.phase_margin is None else f"{margins.phase_margin:.1f} deg"
+        fc = "n/a" if margins.crossover is None else f"{margins.crossover:.5g} Hz"
+        gm = "n/a" if margins.gain_margin is None else f"{margins.gain_margin:.1f} dB"
+        print(f"loop gain: crossover {fc}, phase margin {pm}, gain margin {gm}")
+    for path in written:
+        print(f"wrote {path}")
+    return 0
+
+
+def _write_csv(path: Path, fr) -> None:
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["freq"] + [f"{p}_{k}" for p in fr.probes for k in ("mag_db", "phase_deg")])
+        for i, f in enumerate(fr.freq):
+            w.writerow([f"{f:.9g}"] + [f"{v:.9g}" for p in fr.probes
+                                       for v in (fr.mag_db(p)[i], fr.phase_deg(p)[i])])
+
+
+def _averaged_curve(averaged, probe: str, freq):
+    """The averaged model's response of ``probe`` (None if it has no such state)."""
+    model, gain, inp = averaged
+    names = [s.lower() for s in model.output_labels]
+    p = probe.lower()
+    if p not in names:
+        if p == "v(out)":
+            p = names[-1]
+        else:
+            return None
+    H = model(2j * np.pi * np.asarray(freq))  # (outputs, inputs, F)
+    return H[names.index(p), 0 if inp == "d" else 1, :] * (gain if inp == "d" else 1.0)
+
+
+def _plot(path: Path, fr, margins, title: str, averaged=None) -> None:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(8, 6))
+    FigureCanvasAgg(fig)
+    ax1, ax2 = fig.subplots(2, 1, sharex=True)
+    for p in fr.probes:
+        line, = ax1.semilogx(fr.freq, fr.mag_db(p), marker=".", label=f"{p} ({fr.method})")
+        ax2.semilogx(fr.freq, fr.phase_deg(p), marker=".", color=line.get_color(),
+                     label=f"{p} ({fr.method})")
+        if averaged is not None:
+            ff = np.logspace(np.log10(fr.freq[0]), np.log10(fr.freq[-1]), 400)
+            Ha = _averaged_curve(averaged, p, ff)
+            if Ha is not None:
+                ph = np.degrees(np.unwrap(np.angle(Ha)))
+                # Same branch of the phase as the measured curve at the first point.
+                ph += 360.0 * np.round((fr.phase_deg(p)[0] - ph[0]) / 360.0)
+                ax1.semilogx(ff, 20 * np.log10(np.abs(Ha)), ls="--", color=line.get_color(),
+                             label=f"{p} (averaged)")
+                ax2.semilogx(ff, ph, ls="--", color=line.get_color(), label=f"{p} (averaged)")
+    for ax in (ax1, ax2):
+        ax.axvline(0.5 / fr.period, color="grey", ls="--", lw=0.8, label="fs/2")
+        ax.grid(True, which="both", alpha=0.3)
+    if margins is not None and margins.crossover:
+        ax1.axvline(margins.crossover, color="red", ls=":", lw=0.8, label="crossover")
+    ax1.set_ylabel("magnitude (dB)")
+    ax2.set_ylabel("phase (deg)")
+    ax2.set_xlabel("frequency (Hz)")
+    ax1.set_title(f"{Path(title).name}: response to {fr.inject} ({fr.method})")
+    ax1.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
