@@ -20,7 +20,7 @@ import numpy as np
 
 from lcs.analysis.orbits import find_orbit
 from lcs.moreau import MoreauOptions, simulate
-from lcs.smallsignal.ltp import harmonic_response, probe_forms, sampled_data_model
+from lcs.smallsignal.ltp import harmonic_response, probe_forms, sampled_data
 from lcs.smallsignal.pwl_orbit import PwlOrbitError, exact_orbit
 from lcs.smallsignal.response import FrequencyResponse, loop_margins
 from lcs.smallsignal.sweep import sweep_response
@@ -111,8 +111,8 @@ def ac_analysis(circuit: Circuit, *, period: float | str, inject: str | None = N
     Returns
     -------
     FrequencyResponse
-        With ``orbit`` (the steady state), ``margins`` (with a loop) and ``model`` (the
-        sampled-data model, exact method).
+        With ``orbit`` (the steady state), ``margins`` (with a loop) and ``sampled`` /
+        ``model`` (the sampled-data model, exact method).
 
     Raises
     ------
@@ -160,7 +160,7 @@ def ac_analysis(circuit: Circuit, *, period: float | str, inject: str | None = N
         fr = harmonic_response(eo, Y, probes, idx, freqs)
         fr.orbit = _orbit_dict(system.states, eo.x0, eo.multipliers, eo.events, m.t0, T,
                                "exact")
-        fr.model = sampled_data_model(eo)
+        fr.sampled = sampled_data(eo)
     else:
         x_ss = np.asarray(orbit.points[0], dtype=float)
         # The transient excited when the sinusoid starts decays as rho^k per period; let it

@@ -50,6 +50,11 @@ EXCLUDED = {
     # warning): ngspice's comparator toggles several times per period on the noisy control
     # voltage, so the two simulators run different circuits by design.
     "tests/netlists/closed_loop/vm_buck_latched.cir": "latched PWM is pelcs-only",
+    # The same pelcs-only LATCH=1 PERIOD=... (peak-current-mode clock): ngspice runs a plain
+    # comparator on the sensed current, which chatters instead of holding the switch off
+    # until the next clock; these netlists test `pelcs ac` (tests/test_smallsignal.py).
+    "tests/netlists/ac/cm_buck.cir": "latched PWM is pelcs-only",
+    "tests/netlists/ac/cm_buck_current_loop.cir": "latched PWM is pelcs-only",
     # Two phases share the load through inductors with no series resistance: the split of
     # the current between L1 and L2 is neutrally stable, so any difference (ngspice's RON,
     # diode drops, its comparator instants landing on time steps) shifts it for good
@@ -76,6 +81,10 @@ RUNS: dict[str, dict] = {
     # to zero impulsively, ngspice drives it into ROFF = 1 GOhm, and the two runs part
     # ways. Until then the circuit is well defined.
     "tests/netlists/closed_loop/sync_buck.cir": {"tstop": 0.2e-3},
+    # The PI controller's integrator v(Cz) is where the loop absorbs ngspice's device drops
+    # (0.42 % of 12 V): it settles 1.4 % higher, by design of the loop, while v(out) and
+    # i(L1) agree within 0.5 %. The integrator's level is not a pelcs quantity to check.
+    "tests/netlists/ac/buck_pi_loop.cir": {"probes": ["i(L1)", "v(C1)"]},
 }
 
 
@@ -105,8 +114,8 @@ def test_every_netlist_is_compared_or_excluded_with_a_reason():
 @pytest.mark.parametrize("path", CASES)
 def test_pelcs_agrees_with_ngspice(ngspice, path):
     opts = RUNS.get(path, {})
-    cmp = compare(ROOT / path, params=opts.get("params"), tstop=opts.get("tstop"),
-                  timeout=120)
+    cmp = compare(ROOT / path, probes=opts.get("probes"), params=opts.get("params"),
+                  tstop=opts.get("tstop"), timeout=120)
     assert cmp.ok, f"{path}: out of tolerance: {cmp.failures}"
     assert cmp.probes  # something was compared
     # the deck ngspice ran is the parsed circuit written back (a rung adds at most options,

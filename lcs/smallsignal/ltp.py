@@ -34,8 +34,8 @@ from scipy.linalg import expm
 from .pwl_orbit import Event, PwlOrbit, Segment
 from .response import FrequencyResponse
 
-__all__ = ["AffinePeriod", "affine_period", "harmonic_response", "sampled_data_model",
-           "probe_forms"]
+__all__ = ["AffinePeriod", "SampledData", "affine_period", "harmonic_response", "probe_forms",
+           "sampled_data", "sampled_data_model"]
 
 
 @dataclass
@@ -165,19 +165,52 @@ def harmonic_response(orbit: PwlOrbit, Y: Sequence, probes: Sequence[str], injec
                              orbit.inputs[inject], "exact", float(T))
 
 
-def sampled_data_model(orbit: PwlOrbit):
+@dataclass
+class SampledData:
     """The linearised period map ``δx_{k+1} = Φ δx_k + Γ δu_k`` (inputs held over each
-    period) as a discrete-time python-control ``StateSpace`` (``dt`` = T) whose states,
-    inputs and outputs (the states) are named."""
-    import control
+    period, the state sampled at ``t0 + k T``).
 
+    Attributes
+    ----------
+    Phi : ndarray (n, n)
+        Monodromy matrix (its eigenvalues are the Floquet multipliers).
+    Gamma : ndarray (n, p)
+        Derivative of the period map in each input (state unit per input unit).
+    states, inputs : tuple of str
+    period : float
+        T, s.
+    """
+
+    Phi: np.ndarray
+    Gamma: np.ndarray
+    states: tuple
+    inputs: tuple
+    period: float
+
+    def to_statespace(self):
+        """A discrete-time python-control ``StateSpace`` (``dt`` = T) with named states,
+        inputs and outputs (the states)."""
+        import control  # 0.7 s of imports: only when asked
+
+        n, p = self.Gamma.shape
+        names = list(self.states)
+        return control.ss(self.Phi, self.Gamma, np.eye(n), np.zeros((n, p)), self.period,
+                          inputs=list(self.inputs), outputs=names,
+                          states=[f"x[{s}]" for s in names])
+
+
+def sampled_data(orbit: PwlOrbit) -> SampledData:
+    """The sampled-data model of the orbit's period map (see :class:`SampledData`)."""
     n, p = orbit.x0.size, len(orbit.inputs)
     Gam = np.zeros((n, p))
     for j in range(p):
         d = np.zeros(p)
         d[j] = 1.0
         Gam[:, j] = affine_period(orbit.segments, orbit.events, 0.0, d).r.real
-    names = list(orbit.states)
-    return control.ss(orbit.monodromy, Gam, np.eye(n), np.zeros((n, p)), orbit.period,
-                      inputs=list(orbit.inputs), outputs=names,
-                      states=[f"x[{s}]" for s in names])
+    return SampledData(orbit.monodromy.copy(), Gam, tuple(orbit.states), tuple(orbit.inputs),
+                       float(orbit.period))
+
+
+def sampled_data_model(orbit: PwlOrbit):
+    """:func:`sampled_data` as a discrete-time python-control ``StateSpace``."""
+    return sampled_data(orbit).to_statespace()

@@ -34,9 +34,9 @@ class FrequencyResponse:
         at the sampling instant, multipliers, switching instants).
     margins : LoopMargins or None
         For a loop gain (probe ``"T"``): crossover and margins.
-    model : control.StateSpace or None
+    sampled : lcs.smallsignal.ltp.SampledData or None
         The sampled-data model of the period map (exact method): ``δx_{k+1} = Φ δx_k +
-        Γ δu_k``, discrete time with ``dt`` = T, named states, inputs and outputs.
+        Γ δu_k``; :attr:`model` gives it as a python-control ``StateSpace``.
     """
 
     freq: np.ndarray
@@ -48,7 +48,13 @@ class FrequencyResponse:
     notes: list = field(default_factory=list)
     orbit: dict | None = None
     margins: LoopMargins | None = None
-    model: object | None = None
+    sampled: object | None = None
+
+    @property
+    def model(self):
+        """The sampled-data model as a discrete-time python-control ``StateSpace`` (``dt`` =
+        T, named states, inputs and outputs), None for the sweep method."""
+        return None if self.sampled is None else self.sampled.to_statespace()
 
     def __getitem__(self, probe: str) -> np.ndarray:
         """The complex response of one probe, shape (F,)."""
