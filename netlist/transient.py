@@ -47,6 +47,7 @@ __all__ = [
     "initial_state",
     "run_setup",
     "simulate_circuit",
+    "state_growth",
     "transient_setup",
     "warm_up",
 ]
@@ -90,6 +91,7 @@ class TransientSetup:
     t_save: float = 0.0
     energy: np.ndarray | None = None
     notes: list[str] = field(default_factory=list)
+    nonpassive: list = field(default_factory=list)
 
 
 def _input_error(circuit: Circuit, message: str, hint: str) -> NetlistError:
@@ -135,8 +137,15 @@ def transient_setup(
     tstop: float | None = None,
     step: float | None = None,
     system: SwitchedLCS | None = None,
+    strict: bool = False,
 ) -> TransientSetup:
     """Collect the switched LCS, sources, initial state and time span of a circuit.
+
+    The modes are screened for passivity (:func:`lcs.passivity.screen_modes`: exact
+    necessary conditions, cached with the formulation): a mode that fails gives a
+    :class:`~lcs.passivity.NonPassiveWarning` (once per set-up), a note and
+    ``setup.nonpassive``. The ideal model of a non-passive circuit may grow without bound;
+    the run goes on, as the model says, unless ``strict``.
 
     Parameters
     ----------
@@ -148,10 +157,14 @@ def transient_setup(
     system : SwitchedLCS, optional
         An already formulated system of this circuit (formulated here when omitted).
 
+    strict : bool
+        Refuse a non-passive circuit (NetlistError) instead of warning.
+
     Raises
     ------
     NetlistError
-        No ``.tran`` and no tstop given, a non-positive time, or a step longer than the run.
+        No ``.tran`` and no tstop given, a non-positive time, a step longer than the run, or
+        (with ``strict``) a non-passive circuit.
     """
     tran = circuit.tran
     notes: list[str] = []
@@ -191,8 +204,35 @@ def transient_setup(
         notes.append("pelcs starts from the given initial conditions (as ngspice with UIC); "
                      "without UIC ngspice first computes a DC operating point")
     t_save = tran.tstart if tran is not None and tran.tstart < tstop else 0.0
+    energy = storage_matrix(circuit)
+    nonpassive = _screen_passivity(circuit, system, energy, notes, strict)
     return TransientSetup(system, signals, x0, float(tstop), float(step), float(t_save),
-                          storage_matrix(circuit), notes)
+                          energy, notes, nonpassive)
+
+
+def _screen_passivity(circuit: Circuit, system: SwitchedLCS, energy: np.ndarray,
+                      notes: list[str], strict: bool) -> list:
+    """Warn (or with ``strict`` refuse) when a mode is certainly not passive."""
+    import warnings
+
+    from lcs.passivity import NonPassiveWarning, screen_modes
+
+    bad = screen_modes(system, energy)
+    if not bad:
+        return bad
+    message = bad[0].message()
+    if len(bad) > 1:
+        message += f" (and {len(bad) - 1} other mode{'s' if len(bad) > 2 else ''})"
+    if strict:
+        raise _input_error(circuit, message,
+                           "the ideal model of a non-passive circuit may grow without bound "
+                           "or have no solution; drop --strict (strict=False) to run it "
+                           "anyway, or see `pelcs lcs` for every mode")
+    note = message + "; the run follows the ideal model, which may grow without bound"
+    notes.append(note)
+    where = f"{circuit.file}: " if circuit.file and circuit.file != "<string>" else ""
+    warnings.warn(NonPassiveWarning(where + note), stacklevel=3)
+    return bad
 
 
 def initial_state(circuit: Circuit, states: Sequence[str], notes: list[str] | None = None
@@ -348,6 +388,7 @@ def simulate_circuit(
     switching: str | None = None,
     controllers: Sequence = (),
     save_at: Sequence[float] = (),
+    strict: bool = False,
 ) -> SimulationResult:
     """Simulate a parsed circuit with the Moreau θ scheme.
 
@@ -378,6 +419,8 @@ def simulate_circuit(
         control (open-loop PWM, sampled PI PWM, sliding surfaces).
     save_at : sequence of float, optional
         Extra instants (s) to land on and store (e.g. stroboscopic samples).
+    strict : bool
+        Refuse a non-passive circuit instead of warning (see :func:`transient_setup`).
 
     Returns
     -------
@@ -396,7 +439,7 @@ def simulate_circuit(
     if probes is not None:
         # A typo is an input error before any work, not a failure in the middle of a run.
         probes = check_probes(circuit, probes)
-    setup = transient_setup(circuit, tstop=tstop, step=step, system=system)
+    setup = transient_setup(circuit, tstop=tstop, step=step, system=system, strict=strict)
     return run_setup(setup, theta=theta, probes=probes, every=every, progress=progress,
                      options=options, switching=switching, controllers=controllers,
                      save_at=save_at)
@@ -427,10 +470,41 @@ def run_setup(
         controllers=controllers,
     )
     result.notes[:0] = setup.notes
+    growth = state_growth(result)
+    if growth is not None:
+        result.notes.append(growth)
     if setup.t_save > 0:
         keep = result.t >= setup.t_save
         result.t, result.y = result.t[keep], result.y[keep]
     return result
+
+
+#: growth of the recorded signals over a run beyond which the summary says so
+GROWTH_LIMIT = 1e6
+
+
+def state_growth(result: SimulationResult) -> str | None:
+    """A note when the recorded signals grew by more than :data:`GROWTH_LIMIT` over the run.
+
+    The reference is the largest magnitude in the first tenth of the run (the start alone
+    is often zero); the end is the last point. None when the growth is below the limit.
+    """
+    y = np.asarray(result.y, dtype=float)
+    t = np.asarray(result.t, dtype=float)
+    if y.ndim != 2 or y.shape[0] < 3 or not y.shape[1]:
+        return None
+    first = t <= t[0] + 0.1 * (t[-1] - t[0])
+    first[0] = True
+    ref = float(np.max(np.abs(y[first])))
+    end = float(np.max(np.abs(y[-1])))
+    if not np.isfinite(end):
+        return "the recorded signals became non-finite during the run"
+    if ref <= 0.0 or end <= GROWTH_LIMIT * ref:
+        return None
+    k = int(np.argmax(np.abs(y[-1])))
+    return (f"the state grew by a factor of {end / ref:.3g} over the run ({result.names[k]} "
+            f"= {y[-1, k]:.4g} at the end, largest magnitude {ref:.4g} in the first tenth): "
+            "an unstable or non-passive circuit?")
 
 
 def warm_up() -> float:

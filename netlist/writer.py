@@ -59,6 +59,7 @@ def _num(v: float) -> str:
 
 
 # field order of each waveform, and the fields whose missing value ngspice also takes for 0
+_ZERO_DEFAULTS = frozenset({"td", "theta", "phase"})
 _WAVE_FIELDS = {
     Pulse: ("PULSE", ("v1", "v2", "td", "tr", "tf", "pw", "per", "np_")),
     Sin: ("SIN", ("vo", "va", "freq", "td", "theta", "phase")),
@@ -73,7 +74,10 @@ def _waveform(sig: Signal, circuit: Circuit) -> str:
         return f"PWL({pairs})"
     keyword, names = _WAVE_FIELDS[type(sig)]
     vals = [getattr(sig, n) for n in names]
-    while vals and vals[-1] is None:
+    # Trailing defaults are left out: a None, or a 0 that only stands for SIN's default
+    # delay, damping or phase (writing them would turn an omitted FREQ into FREQ = 0).
+    while vals and (vals[-1] is None
+                    or (vals[-1] == 0 and names[len(vals) - 1] in _ZERO_DEFAULTS)):
         vals.pop()
     out = []
     for n, v in zip(names, vals, strict=False):

@@ -19,10 +19,12 @@ from typing import TYPE_CHECKING
 __version__ = "0.1.0"
 
 if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names load lazily
+    from lcs.notices import NonPassiveWarning
+
     from .api import SimulationError, SimulationResult, ac, formulate, load, simulate
 
-__all__ = ["SimulationError", "SimulationResult", "__version__", "ac", "formulate", "load",
-           "simulate"]
+__all__ = ["NonPassiveWarning", "SimulationError", "SimulationResult", "__version__", "ac",
+           "formulate", "load", "simulate"]
 
 _API = {"load", "formulate", "simulate", "ac", "SimulationError", "SimulationResult"}
 
@@ -34,6 +36,10 @@ def __getattr__(name: str):
         from . import api
 
         return getattr(api, name)
+    if name == "NonPassiveWarning":
+        from lcs.notices import NonPassiveWarning
+
+        return NonPassiveWarning
     raise AttributeError(f"module 'pelcs' has no attribute {name!r}")
 
 

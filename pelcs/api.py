@@ -95,6 +95,7 @@ def simulate(
     progress: bool = False,
     switching: str | None = None,
     controllers: Sequence = (),
+    strict: bool = False,
 ) -> SimulationResult:
     """Simulate a circuit with the Moreau θ time-stepping scheme.
 
@@ -123,6 +124,11 @@ def simulate(
     controllers : sequence, optional
         :mod:`lcs.controllers` objects driving named switches (e.g.
         ``OpenLoopPWM("S1", 50e3, 0.4)``) instead of their netlist control.
+    strict : bool
+        A circuit that is certainly not passive (a negative resistance, an active source
+        feeding a diode) raises :class:`NetlistError` instead of a
+        :class:`~lcs.passivity.NonPassiveWarning` (the run then goes on and may grow
+        without bound; a state growth beyond 1e6 is noted in ``res.notes``).
 
     Returns
     -------
@@ -146,7 +152,7 @@ def simulate(
     result = simulate_circuit(
         circuit, tstop=_seconds(circuit, "tstop", tstop), step=_seconds(circuit, "step", step),
         theta=theta, probes=probes, every=every, progress=progress, switching=switching,
-        controllers=controllers,
+        controllers=controllers, strict=strict,
     )
     if check:
         result.raise_if_error()

@@ -32,7 +32,19 @@ def build_parser() -> argparse.ArgumentParser:
         module = importlib.import_module(
             f"pelcs.commands.{name.replace('continue', 'continuation')}")
         module.register(sub)
+    for name in COMMANDS:
+        if name in ("info", "lcs"):
+            continue  # they simulate nothing (lcs gives the full passivity verdict)
+        sub.choices[name].add_argument(
+            "--strict", action="store_true",
+            help="refuse a circuit that is not passive (default: warn and run the ideal "
+            "model, which may grow without bound)")
     return parser
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    # A user-facing one-liner, not Python's "file:line: Category: ..." with a source line.
+    print(f"warning: {message}", file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -43,16 +55,30 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
-    try:
-        return int(args.func(args) or 0)
-    except NetlistError as exc:
-        print(exc.format(), file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("pelcs: interrupted", file=sys.stderr)
-        return 130
-    except BrokenPipeError:
-        return 0
+    import warnings
+
+    from lcs.notices import NonPassiveWarning
+
+    with warnings.catch_warnings():
+        warnings.showwarning = _show_warning
+        warnings.simplefilter("error" if getattr(args, "strict", False) else "once",
+                              NonPassiveWarning)
+        try:
+            return int(args.func(args) or 0)
+        except NonPassiveWarning as exc:
+            text = str(exc).split("; the run follows the ideal model")[0]
+            print(f"error: {text}\n  hint: --strict refuses a circuit that is not passive; "
+                  "drop it to run the ideal model anyway (`pelcs lcs FILE` checks every mode)",
+                  file=sys.stderr)
+            return 2
+        except NetlistError as exc:
+            print(exc.format(), file=sys.stderr)
+            return 2
+        except KeyboardInterrupt:
+            print("pelcs: interrupted", file=sys.stderr)
+            return 130
+        except BrokenPipeError:
+            return 0
 
 
 if __name__ == "__main__":

@@ -1,0 +1,11 @@
+"""Warning categories that runs emit (kept free of heavy imports: the CLI filters on them
+before anything numerical loads)."""
+
+from __future__ import annotations
+
+__all__ = ["NonPassiveWarning"]
+
+
+class NonPassiveWarning(UserWarning):
+    """A simulated circuit is not passive: its ideal model may grow without bound (the run
+    goes on, unless asked to be strict). See :func:`lcs.passivity.screen_modes`."""

@@ -1,0 +1,107 @@
+"""A non-passive circuit is simulated as its ideal model says, with a warning before the run,
+a note on the growth after it, and ``--strict`` / ``strict=True`` to refuse it (issue #16).
+
+The circuit (tests/netlists/sim/tunnel_nonpassive.cir): a 1 A source into Rn = -50 Ω in
+parallel with L1 = 1 mH in series with C1 = 1 µF, a diode to a 10 Ω load. With the diode
+off, by hand: i' = (Rn (I - i) - v)/L, v' = i/C, so A = [[-Rn/L, -1/L], [1/C, 0]] =
+[[5e4, -1e3], [1e6, 0]], with eigenvalues 2.5e4 ± 1.936e4j 1/s: unstable.
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pelcs
+from lcs import passivity
+from lcs.notices import NonPassiveWarning
+from lcs.results import SimulationResult
+from netlist.errors import NetlistError
+from netlist.transient import state_growth
+from pelcs.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+TUNNEL = str(ROOT / "tests" / "netlists" / "sim" / "tunnel_nonpassive.cir")
+BOOST = str(ROOT / "converters" / "netlists" / "boost.cir")
+
+
+def test_cli_warns_before_the_run_and_notes_the_growth(capsys):
+    code = main(["simulate", TUNNEL])
+    out, err = capsys.readouterr()
+    assert code == 0  # the ideal model's growth is its true solution: the run goes on
+    warning = [line for line in err.splitlines() if line.startswith("warning:")]
+    assert len(warning) == 1, err
+    assert "not passive" in warning[0] and "tunnel_nonpassive.cir" in warning[0]
+    # the reason is `pelcs lcs`'s: the unstable eigenvalue, 2.5e4 1/s by hand
+    m = re.search(r"unstable eigenvalue (\S+)j 1/s", warning[0])
+    lam = complex(m.group(1) + "j")
+    assert abs(lam.real - 2.5e4) < 1.0 and abs(abs(lam.imag) - np.sqrt(1e9 - 6.25e8)) < 10
+    assert "the state grew by a factor of" in out
+    # e^(2.5e4 * 4.5 ms) over the last nine tenths: ~1e48 at least
+    factor = float(re.search(r"grew by a factor of ([0-9.e+]+)", out).group(1))
+    assert factor > 1e40
+
+
+def test_cli_strict_refuses(capsys):
+    code = main(["simulate", TUNNEL, "--strict"])
+    out, err = capsys.readouterr()
+    assert code == 2
+    assert "error:" in err and "not passive" in err and "--strict" in err
+    assert "final values" not in out  # nothing was run
+
+
+def test_api_warns_and_strict_raises():
+    with pytest.warns(NonPassiveWarning, match="not passive"):
+        res = pelcs.simulate(TUNNEL, tstop="1m")
+    assert any("not passive" in n for n in res.notes)
+    with pytest.raises(NetlistError, match="not passive"):
+        pelcs.simulate(TUNNEL, tstop="1m", strict=True)
+    assert pelcs.NonPassiveWarning is NonPassiveWarning
+
+
+def test_passive_converter_runs_without_warning():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", NonPassiveWarning)
+        res = pelcs.simulate(BOOST, tstop="50u")
+    assert not any("not passive" in n for n in res.notes)
+    assert not any("grew by" in n for n in res.notes)
+
+
+def test_analysis_commands_warn_too(capsys):
+    # the stroboscopic map of every analysis command is set up the same way
+    from netlist.sweep import circuit_map
+
+    circuit = pelcs.load(TUNNEL)
+    with pytest.warns(NonPassiveWarning):
+        circuit_map(circuit, 1e-4)
+
+
+def test_screen_is_cached_with_the_formulation(monkeypatch):
+    system = pelcs.formulate(TUNNEL)
+    from netlist.formulation import storage_matrix
+
+    energy = storage_matrix(pelcs.load(TUNNEL))
+    first = passivity.screen_modes(system, energy)
+    assert len(first) == 1 and "unstable eigenvalue" in first[0].reason
+
+    def fail(*args, **kwargs):
+        raise AssertionError("check_passivity called again")
+
+    monkeypatch.setattr(passivity, "check_passivity", fail)
+    assert passivity.screen_modes(system, energy) == first
+
+
+def test_growth_note_threshold():
+    t = np.linspace(0.0, 1.0, 101)
+    grows = SimulationResult(t=t, names=("x",), y=np.exp(20.0 * t)[:, None],
+                             x_final=np.zeros(1), lambda_final=np.zeros(0))
+    note = state_growth(grows)
+    # first tenth peaks at e^2, the end is e^20: a factor e^18 = 6.6e7 > 1e6
+    assert note and f"{np.exp(18.0):.3g}" in note
+    mild = SimulationResult(t=t, names=("x",), y=np.exp(10.0 * t)[:, None],
+                            x_final=np.zeros(1), lambda_final=np.zeros(0))
+    assert state_growth(mild) is None  # e^9 = 8.1e3 < 1e6
