@@ -157,19 +157,25 @@ class _Session:
 
         lib, ffi = self.ng._ngspice_shared, self._ffi
         names = self.vector_names(plot)
+        alias = {n.lower(): n.lower() for n in names}
         if wanted is not None:
-            keys = {w.lower() for w in wanted}
-            names = [n for n in names if n.lower() in keys]
+            # a node named by a number has the vector "v(1)", not "1"
+            alias = {}
+            for w in wanted:
+                alias.setdefault(f"v({w.lower()})", w.lower())
+            for w in wanted:
+                alias[w.lower()] = w.lower()
+            names = [n for n in names if n.lower() in alias]
         out = {}
         for name in names:
             info = lib.ngGet_Vec_Info(f"{plot}.{name}".encode())
             n = info.v_length
             if info.v_realdata != ffi.NULL:
                 buf = ffi.buffer(info.v_realdata, n * 8)
-                out[name.lower()] = np.frombuffer(buf, dtype=np.float64).copy()
+                out[alias[name.lower()]] = np.frombuffer(buf, dtype=np.float64).copy()
             elif info.v_compdata != ffi.NULL:
                 buf = ffi.buffer(info.v_compdata, n * 16)
-                out[name.lower()] = np.frombuffer(buf, dtype=np.complex128).copy()
+                out[alias[name.lower()]] = np.frombuffer(buf, dtype=np.complex128).copy()
         return out
 
 

@@ -904,6 +904,9 @@ def compare(
     # pelcs also records every diode and switch current: the drop estimate needs them
     extra = [f"i({el.name})" for el in circuit.elements if isinstance(el, (Diode, Switch))]
     pel_probes = list(dict.fromkeys(list(probes) + extra + controls))
+    # every node voltage too: their values at t = 0+ give ngspice a consistent start
+    node_probes = [f"v({n})" for n in circuit.nodes if n != GROUND]
+    pel_probes = list(dict.fromkeys(pel_probes + node_probes))
 
     # ngspice missing: say so before spending time on the pelcs run
     ngspice_version()
@@ -917,9 +920,10 @@ def compare(
     notes.extend(f"pelcs: {n}" for n in result.notes)
 
     deck = write_circuit(circuit)
+    start = {p[2:-1]: float(result[p][0]) for p in node_probes}
     try:
         ng = run_ngspice(deck, list(dict.fromkeys(ng_probes + controls)), settings=settings,
-                         timeout=timeout,
+                         timeout=timeout, initial_voltages=start,
                          workdir=Path(file).parent if file and file != "<string>" else None)
     except ProbeError as exc:
         raise _input_error(f"ngspice cannot measure a probe: {exc}",

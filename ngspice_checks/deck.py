@@ -168,6 +168,29 @@ def add_options(text: str, options: Mapping[str, str | float | None]) -> str:
 
 
 # ------------------------------------------------------------------------------------------
+# .ic
+
+
+def add_initial_conditions(text: str, voltages: Mapping[str, float]) -> str:
+    """Append ``.ic v(node)=value ...`` lines just before ``.end``.
+
+    Written last, they override the user's own ``.ic`` for the same nodes. With UIC, ngspice
+    starts the transient from them; without, they hold the nodes during the operating
+    point. Ground (``0``) is left out.
+    """
+    items = [(n, v) for n, v in voltages.items() if str(n) not in ("0", "gnd")]
+    if not items:
+        return text
+    lines = logical_lines(text)
+    end = _end_index(lines)
+    chunk = 8  # a few nodes per line, so that a large circuit gives readable lines
+    new = [".ic " + " ".join(f"v({n})={format_number(float(v))}" for n, v in items[k:k + chunk])
+           for k in range(0, len(items), chunk)]
+    lines[end:end] = new
+    return _join(lines)
+
+
+# ------------------------------------------------------------------------------------------
 # .model
 
 
@@ -266,6 +289,10 @@ def replace_switch_models(text: str, ron: float, roff: float, vh_min: float = 0.
 # PULSE sources
 
 _PULSE = re.compile(r"\bpulse\s*\(", re.IGNORECASE)
+# PULSE written without parentheses: ``PULSE 0 1 0 1n 1n 5u 10u`` up to the end of the line
+# or the next keyword of a source line (AC, DC, DISTOF1/2).
+_PULSE_BARE = re.compile(r"\bpulse\b(?!\s*\()((?:\s+(?!(?:ac|dc|distof[12])\b)[^\s()]+)*)",
+                         re.IGNORECASE)
 
 
 def _closing_paren(text: str, start: int) -> int:
@@ -334,9 +361,9 @@ def finite_pulse_edges(text: str, min_edge: float) -> str:
     """Give every ``PULSE(...)`` source a pulse width and nonzero edges of at least min_edge.
 
     ngspice 39 takes "timestep too small" at the corners of a PULSE with PW=0 (a sawtooth) or
-    with edges of a few ps; 1 ns on a 400 us period changes nothing measurable. Only the
-    parenthesised form ``PULSE(...)`` is edited (``PULSE 0 1 ...`` without parentheses is
-    left as it is).
+    with edges of a few ps; 1 ns on a 400 us period changes nothing measurable. Both the
+    parenthesised form ``PULSE(...)`` and ``PULSE 0 1 ...`` without parentheses are edited
+    (the latter is written back with parentheses).
 
     Parameters
     ----------
@@ -358,6 +385,12 @@ def finite_pulse_edges(text: str, min_edge: float) -> str:
             pos = close
         if out:
             lines[i] = "".join(out) + line[pos:]
+            continue
+        m = _PULSE_BARE.search(line)
+        if m and m.group(1).strip():
+            args = split_tokens(m.group(1).replace(",", " "))
+            fixed = _finite_pulse(args, min_edge)
+            lines[i] = line[: m.start()] + "PULSE(" + " ".join(fixed) + ")" + line[m.end():]
     return _join(lines)
 
 

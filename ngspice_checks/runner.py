@@ -78,6 +78,17 @@ once halted by the watchdog under a 20 s budget; the verdict now has to persist,
 
 0. ``as-written``: the netlist unchanged (except ``tstop``/``tstep`` overrides and sense
    sources, see *Probes* and *The diode audit*).
+(``initial-state``, between rungs 0 and 1, only when the caller gives
+   ``initial_voltages``, as ``pelcs check`` does with pelcs' node voltages at t = 0+ after
+   its initial jump: ``.ic`` for every node, and for the sense sources' nodes. With UIC,
+   ngspice otherwise starts every node without an IC at 0 V; when the diodes must conduct
+   at once (the Siconos DiodeBridge: an LC tank charged to 10 V on a bridge and a 1 kOhm
+   load) its first step fails on every other rung with "Timestep too small; time = 1e-17".
+   The classic rungs after it run without the .ic (kept in them, it made the boost's diode
+   audit fail on every rung), and a last rung ``smooth-models+initial-state`` combines
+   everything. A capacitor-input bridge switched on while charging is not rescued by it
+   (the ideal voltages leave the steep diodes' drops out: "trouble with node n"); the
+   shunts are.)
 1. ``finite-edges``: every PULSE gets a pulse width and nonzero rise/fall times of at least
    1 ns (TR/TF written as 0 already mean TSTEP in ngspice and are left alone); TR is
    shortened when the pulse would no longer fit in its period. A sawtooth written with
@@ -155,7 +166,7 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -248,6 +259,9 @@ class NgspiceSettings:
         Parameters given to every D model (replacing the user's); None keeps them.
     switch_model : SwitchModel or None
         RON/ROFF/VH floor for every SW model; None keeps the user's.
+    initial_voltages : bool
+        Add ``.ic`` lines with the node voltages given to :func:`run_ngspice`
+        (``initial_voltages=``: pelcs' consistent state at t = 0+).
     """
 
     name: str
@@ -256,6 +270,7 @@ class NgspiceSettings:
     pulse_min_edge: float | None = None
     diode_model: dict[str, str] | None = None
     switch_model: SwitchModel | None = None
+    initial_voltages: bool = False
 
 
 _AS_WRITTEN = NgspiceSettings("as-written", "the netlist unchanged")
@@ -299,6 +314,14 @@ _SMOOTH = replace(
     switch_model=SwitchModel(ron=1e-3, roff=1e9, vh_min=1e-3),
 )
 
+#: rung 1 when :func:`run_ngspice` is given ``initial_voltages`` (see the module docstring)
+_INITIAL = replace(
+    _AS_WRITTEN,
+    name="initial-state",
+    description=".ic with the consistent node voltages at t = 0+ (pelcs')",
+    initial_voltages=True,
+)
+
 #: the rungs tried by :func:`run_ngspice`, least invasive first (see the module docstring)
 DEFAULT_LADDER: tuple[NgspiceSettings, ...] = (
     _AS_WRITTEN,
@@ -310,9 +333,12 @@ DEFAULT_LADDER: tuple[NgspiceSettings, ...] = (
 )
 
 
-def apply_settings(netlist: str, settings: NgspiceSettings) -> str:
+def apply_settings(netlist: str, settings: NgspiceSettings,
+                   initial_voltages: Mapping[str, float] | None = None) -> str:
     """The netlist text adjusted as ``settings`` says (pure text edit, see :mod:`.deck`)."""
     text = netlist
+    if settings.initial_voltages and initial_voltages:
+        text = deck.add_initial_conditions(text, initial_voltages)
     if settings.pulse_min_edge:
         text = deck.finite_pulse_edges(text, settings.pulse_min_edge)
     if settings.diode_model is not None:
@@ -878,9 +904,19 @@ def _netlist_text(netlist: Any) -> str:
 
 def _ladder(
     settings: NgspiceSettings | Sequence[NgspiceSettings] | None,
+    initial: bool = False,
 ) -> tuple[NgspiceSettings, ...]:
     if settings is None:
-        return DEFAULT_LADDER
+        if not initial:
+            return DEFAULT_LADDER
+        # The initial-state rung right after the netlist as written, then the classic rungs
+        # without it (kept in them, the .ic made the boost's diode audit fail at every rung:
+        # a start on the orbit pins the switch node where ngspice's first step needs
+        # freedom), and last everything together.
+        first, *rest = DEFAULT_LADDER
+        last = replace(rest[-1], name=rest[-1].name + "+initial-state", initial_voltages=True,
+                       description=rest[-1].description + " + the rung-1 .ic")
+        return (first, _INITIAL, *rest, last)
     if isinstance(settings, NgspiceSettings):
         return (settings,)
     ladder = tuple(settings)
@@ -899,6 +935,7 @@ def run_ngspice(
     timeout: float | None = 600.0,
     workdir: str | os.PathLike[str] | None = None,
     audit_diodes: bool = True,
+    initial_voltages: Mapping[str, float] | None = None,
 ) -> NgspiceResult:
     """Simulate a netlist's ``.tran`` analysis in ngspice, climbing the ladder on failure.
 
@@ -924,6 +961,11 @@ def run_ngspice(
         Put a sense source on every top-level diode with a static model and fail a rung in
         which one conducts in reverse (more than ``REVERSE_CHARGE_LIMIT`` of its forward
         charge): ngspice's known shoot-through artefact, see :func:`_audit_diodes`.
+    initial_voltages : mapping, optional
+        Node name -> voltage (V) of a consistent state at t = 0+ (``pelcs check`` passes
+        pelcs' own, after its initial jump). With the default ladder they add the
+        ``initial-state`` rung after the netlist as written, kept by every later rung;
+        with a custom ladder, rungs with ``initial_voltages=True`` use them.
 
     Returns
     -------
@@ -947,14 +989,24 @@ def run_ngspice(
         raise NgspiceError("the netlist has no usable .tran line; give tstop")
     audited = _audited_diodes(text) if audit_diodes else []
     plan = _plan_probes(text, probes, audited)
+    initial = dict(initial_voltages or {})
     for element in plan.sensed:
+        if initial:
+            # the sense source's new node sits at the element's second node's voltage
+            el = next((e for e in deck.top_level_elements(text)
+                       if e.name.lower() == element.lower()), None)
+            if el is not None and len(el.tokens) > 2:
+                n_minus = el.tokens[2].lower()
+                v = 0.0 if n_minus in ("0", "gnd") else initial.get(n_minus)
+                if v is not None:
+                    initial[deck.sense_names(element)[1]] = v
         text = deck.insert_sense_source(text, element)
     elements = [el.name for el in deck.top_level_elements(text)]
     cwd = None if workdir is None else str(Path(workdir).resolve())
 
     attempts: list[NgspiceAttempt] = []
-    for rung, rung_settings in enumerate(_ladder(settings)):
-        candidate = apply_settings(text, rung_settings)
+    for rung, rung_settings in enumerate(_ladder(settings, bool(initial))):
+        candidate = apply_settings(text, rung_settings, initial)
         reply = _simulate_in_worker(candidate, plan.vectors, timeout, cwd)
         reason = _diagnose(reply)
         if reason is None and audited:

@@ -300,3 +300,71 @@ def test_circuit_objects_are_written_and_flattened_names_probed(ngspice, tmp_pat
     res = run_ngspice(parser.parse_file(path), ["i(X1.D1)", "i(R1)", "v(x1.m)"])
     np.testing.assert_allclose(res["i(X1.D1)"], res["i(R1)"], rtol=1e-6)
     assert res["i(R1)"][-1] == pytest.approx((2 - 0.034) / 2e3, rel=0.02)
+
+
+# ------------------------------------------------------------------------------------------
+# issue #16: PULSE without parentheses, and the initial-state rung
+
+
+def test_bare_pulse_gets_finite_edges():
+    text = ("t\nV1 a 0 PULSE 0 1 0 1p 1p 0 10u\n"
+            "V2 b 0 DC 0 PULSE 0 5 0 0 0 2u 4u AC 1\n"
+            "V3 c 0 pulse(0 1 0 1p 1p 0 10u)\n")
+    lines = deck.finite_pulse_edges(text, 1e-9).splitlines()
+    assert lines[1] == "V1 a 0 PULSE(0 1 0 1e-09 1e-09 1e-09 10u)"
+    # zero edges mean TSTEP and stay; the AC keyword after the arguments is kept
+    assert lines[2] == "V2 b 0 DC 0 PULSE(0 5 0 0 0 2u 4u) AC 1"
+    assert lines[3] == "V3 c 0 pulse(0 1 0 1e-09 1e-09 1e-09 10u)"
+
+
+def test_initial_conditions_are_written_before_end():
+    out = deck.add_initial_conditions("t\nR1 a 0 1\n.end\n", {"a": 2.5, "0": 0.0, "b": -1e-3})
+    lines = out.splitlines()
+    assert lines[-2] == ".ic v(a)=2.5 v(b)=-0.001" and lines[-1] == ".end"
+    many = deck.add_initial_conditions("t\n.end\n", {f"n{k}": float(k) for k in range(10)})
+    assert sum(line.startswith(".ic ") for line in many.splitlines()) == 2
+
+
+BRIDGE_TANK = (Path(__file__).parent / "netlists" / "ngspice" / "diode_bridge_tank.cir")
+BRIDGE_CAP = (Path(__file__).parent / "netlists" / "ngspice" / "bridge_cap_input.cir")
+
+
+def test_initial_state_rung_starts_the_siconos_diode_bridge(ngspice):
+    """The issue's case: every classic rung fails at t = 1e-17 s; the node voltages of the
+    consistent state (here by hand: the bridge conducts through D1 and D4, v(2) = v(1) =
+    10 V, v(3) = 0) let ngspice start, as rung 1."""
+    text = BRIDGE_TANK.read_text()
+    with pytest.raises(NgspiceFailed) as info:
+        run_ngspice(text, ["v(1)"], timeout=60)
+    assert all("too small" in a.reason.lower() for a in info.value.attempts)
+    res = run_ngspice(text, ["v(1)", "v(2,3)"], timeout=60,
+                      initial_voltages={"1": 10.0, "2": 10.0, "3": 0.0})
+    assert res.rung == 1 and res.settings_used.name == "initial-state"
+    assert ".ic v(1)=10.0 v(2)=10.0 v(3)=0.0" in res.netlist
+    # the sensed diodes' new nodes start at the voltage of the node they were cut from
+    assert "v(pelcs_d1_s)=10.0" in res.netlist
+    # 1 ms later the tank (f0 = 1.59 kHz) has swung; the load sees |v(1)| through the bridge
+    t, v1, vl = res.time, res["v(1)"], res["v(2,3)"]
+    k = np.searchsorted(t, 1e-3)
+    assert abs(vl[k] - abs(v1[k])) < 0.05 and v1[0] == pytest.approx(10.0, abs=1e-3)
+
+
+def test_pelcs_check_hands_its_initial_state_to_ngspice(ngspice):
+    from ngspice_checks.compare import compare
+
+    cmp = compare(BRIDGE_TANK, timeout=60)
+    assert cmp.ok and cmp.settings.name == "initial-state"
+
+
+def test_capacitor_input_bridge_climbs_with_the_initial_state(ngspice):
+    """A capacitor-input bridge switched on while it must conduct (1.88 A at t = 0): the
+    initial state alone does not carry it ("trouble with node n": the ideal node voltages
+    leave the steep diodes' drops out), the shunts rung does; the result agrees with pelcs
+    (compare)."""
+    from ngspice_checks.compare import compare
+
+    cmp = compare(BRIDGE_CAP, timeout=60)
+    assert cmp.ok
+    names = [name for _, name, _ in cmp.attempts]
+    assert names[:2] == ["as-written", "initial-state"]
+    assert cmp.settings.name == "shunts"
