@@ -58,8 +58,8 @@ def main() -> int:
     args = ap.parse_args()
 
     from lcs.analysis.orbits import find_orbit
+    from lcs.exact.orbit import exact_orbit
     from lcs.smallsignal.ltp import harmonic_response, probe_forms
-    from lcs.smallsignal.pwl_orbit import exact_orbit
     from netlist.ac import ac_analysis, default_frequencies
     from netlist.parser import parse_file
     from netlist.sweep import circuit_map

@@ -87,3 +87,25 @@ class NetlistError(Exception):
     def format(self) -> str:
         default = self.file or "<netlist>"
         return "\n".join(d.format(default) for d in self.diagnostics)
+
+
+def ordered_diagnostics(diags: list[Diagnostic], files: list[str]) -> list[Diagnostic]:
+    """Drop repeats (one definition used by many instances) and sort in file order."""
+    seen = set()
+    unique = []
+    for d in diags:
+        loc = d.location
+        key = (d.message, loc.file, loc.line, loc.column) if loc else (d.message, d.elements)
+        if key not in seen:
+            seen.add(key)
+            unique.append(d)
+    order = {f: i for i, f in enumerate(files)}
+
+    def sort_key(item: tuple[int, Diagnostic]) -> tuple:
+        i, d = item
+        loc = d.location
+        if loc is None:
+            return (1, 0, 0, 0, i)
+        return (0, order.get(loc.file, len(order)), loc.line, loc.column, i)
+
+    return [d for _, d in sorted(enumerate(unique), key=sort_key)]

@@ -48,9 +48,9 @@ from .circuit import (
     Vcvs,
     VoltageSource,
 )
-from .errors import Diagnostic, Location, NetlistError
+from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
 from .expressions import CONSTANTS, ExpressionError
-from .parser import Body, Deck, RawElement, RawParam, Statement, Value
+from .rawdeck import Body, Deck, RawElement, RawParam, Statement, Value
 
 # default parameters of ngspice's SW model that pelcs uses
 SW_DEFAULTS = {"vt": 0.0, "vh": 0.0}
@@ -82,7 +82,7 @@ def build_circuit(deck: Deck, overrides: Mapping[str, float] | None = None) -> C
     diags = builder.diags + check_circuit(circuit, builder.ref_locs,
                                           topology=not builder.incomplete)
     if diags:
-        raise NetlistError(_ordered(diags, deck.files), deck.file)
+        raise NetlistError(ordered_diagnostics(diags, deck.files), deck.file)
     return circuit
 
 
@@ -102,28 +102,6 @@ def independent_problems(deck: Deck, overrides: Mapping[str, float] | None = Non
     diags += [d for d in check_circuit(circuit, builder.ref_locs, topology=False)
               if d.message.startswith("duplicate element name")]
     return diags
-
-
-def _ordered(diags: list[Diagnostic], files: list[str]) -> list[Diagnostic]:
-    """Drop repeats (one definition used by many instances) and sort in file order."""
-    seen = set()
-    unique = []
-    for d in diags:
-        loc = d.location
-        key = (d.message, loc.file, loc.line, loc.column) if loc else (d.message, d.elements)
-        if key not in seen:
-            seen.add(key)
-            unique.append(d)
-    order = {f: i for i, f in enumerate(files)}
-
-    def sort_key(item: tuple[int, Diagnostic]) -> tuple:
-        i, d = item
-        loc = d.location
-        if loc is None:
-            return (1, 0, 0, 0, i)
-        return (0, order.get(loc.file, len(order)), loc.line, loc.column, i)
-
-    return [d for _, d in sorted(enumerate(unique), key=sort_key)]
 
 
 class _Builder:

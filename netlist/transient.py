@@ -215,7 +215,7 @@ def _screen_passivity(circuit: Circuit, system: SwitchedLCS, energy: np.ndarray,
     """Warn (or with ``strict`` refuse) when a mode is certainly not passive."""
     import warnings
 
-    from lcs.passivity import NonPassiveWarning, screen_modes
+    from lcs.screening import NonPassiveWarning, screen_modes
 
     bad = screen_modes(system, energy)
     if not bad:

@@ -35,7 +35,7 @@ def _eng(value: float, unit: str = "") -> str:
 
 
 def _unit(probe: str) -> str:
-    from pelcs.plotting import probe_unit
+    from lcs.axes import probe_unit
 
     return probe_unit(probe)
 
@@ -135,7 +135,8 @@ def plot_comparison(cmp: Comparison, path: str | os.PathLike, *, dpi: int = 110,
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from pelcs.plotting import _envelope, time_unit
+    from lcs.axes import envelope as _envelope
+    from lcs.axes import time_unit
 
     res, ng = cmp.pelcs_result, cmp.ngspice_result
     if res is None or ng is None:

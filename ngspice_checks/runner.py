@@ -156,14 +156,9 @@ same settings can later be applied to a ``Circuit`` before ``netlist.writer.writ
 
 from __future__ import annotations
 
-import atexit
 import math
 import os
-import queue
 import re
-import subprocess
-import sys
-import tempfile
 import threading
 import time
 from collections.abc import Mapping, Sequence
@@ -173,7 +168,9 @@ from typing import Any
 
 import numpy as np
 
-from . import _worker, deck
+from . import deck
+from .audit import _audit_diodes, _audited_diodes
+from .workers import _POOL, _WorkerDied
 
 __all__ = [
     "DEFAULT_LADDER",
@@ -190,10 +187,7 @@ __all__ = [
     "run_ngspice",
 ]
 
-_WORKER_SCRIPT = Path(__file__).with_name("_worker.py")
 
-#: seconds allowed for a worker to start (cold start compiles PySpice's .pyc: ~20 s seen)
-STARTUP_TIMEOUT = 120.0
 
 
 # ------------------------------------------------------------------------------------------
@@ -560,139 +554,7 @@ def _all_signals(vectors: dict[str, np.ndarray], elements: list[str]) -> dict[st
 
 
 # ------------------------------------------------------------------------------------------
-# worker processes
-
-
-class _WorkerDied(Exception):
-    pass
-
-
-class _Worker:
-    """One child process running ``_worker.py``; a thread reads its replies into a queue."""
-
-    def __init__(self) -> None:
-        self._stderr = tempfile.TemporaryFile()
-        env = dict(os.environ)
-        env.setdefault("PYTHONUNBUFFERED", "1")
-        self.proc = subprocess.Popen(
-            [sys.executable, str(_WORKER_SCRIPT)],
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            stderr=self._stderr,
-            env=env,
-        )
-        self._replies: queue.Queue[Any] = queue.Queue()
-        self._reader = threading.Thread(target=self._read, daemon=True)
-        self._reader.start()
-        self.hello: dict | None = None
-
-    def _read(self) -> None:
-        assert self.proc.stdout is not None
-        while True:
-            try:
-                msg = _worker._recv(self.proc.stdout)
-            except Exception:  # a torn message means the child died mid-write
-                msg = None
-            self._replies.put(msg)
-            if msg is None:
-                return
-
-    def receive(self, timeout: float | None) -> dict:
-        try:
-            msg = self._replies.get(timeout=timeout)
-        except queue.Empty:
-            self.kill()
-            raise TimeoutError(f"no answer from the ngspice worker within {timeout} s") from None
-        if msg is None:
-            rc = self.proc.wait()
-            raise _WorkerDied(f"the ngspice worker died (exit code {rc}){self._stderr_tail()}")
-        return msg
-
-    def _stderr_tail(self) -> str:
-        try:
-            self._stderr.seek(0)
-            text = self._stderr.read().decode("utf-8", "replace").strip()
-        except (OSError, ValueError):
-            return ""
-        return ":\n" + text[-2000:] if text else ""
-
-    def handshake(self) -> dict:
-        if self.hello is None:
-            self.hello = self.receive(STARTUP_TIMEOUT)
-        return self.hello
-
-    def send(self, obj: Any) -> None:
-        assert self.proc.stdin is not None
-        try:
-            _worker._send(self.proc.stdin, obj)
-        except (BrokenPipeError, OSError) as exc:
-            raise _WorkerDied(f"the ngspice worker is gone: {exc}{self._stderr_tail()}") from exc
-
-    def alive(self) -> bool:
-        return self.proc.poll() is None
-
-    def kill(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.kill()
-        self.proc.wait()
-        self._close_pipes()
-
-    def close(self) -> None:
-        """Let an idle worker exit (EOF on its stdin), killing it if it lingers."""
-        try:
-            if self.proc.stdin is not None:
-                self.proc.stdin.close()
-            self.proc.wait(timeout=2.0)
-        except (OSError, subprocess.TimeoutExpired):
-            self.kill()
-        self._close_pipes()
-
-    def _close_pipes(self) -> None:
-        for stream in (self.proc.stdin, self.proc.stdout, self._stderr):
-            try:
-                if stream is not None:
-                    stream.close()
-            except OSError:
-                pass
-
-
-class _Pool:
-    """At most one idle, pre-started worker; each simulation takes one and starts the next.
-
-    Set ``PELCS_NGSPICE_PREFETCH=0`` to start workers only on demand.
-    """
-
-    def __init__(self) -> None:
-        self._lock = threading.Lock()
-        self._spare: _Worker | None = None
-
-    def take(self, prefetch: bool = True) -> _Worker:
-        with self._lock:
-            worker = self._spare if self._spare is not None and self._spare.alive() else None
-            self._spare = None
-            if worker is None:
-                worker = _Worker()
-            if prefetch and os.environ.get("PELCS_NGSPICE_PREFETCH", "1") != "0":
-                self._spare = _Worker()
-        return worker
-
-    def give_back(self, worker: _Worker) -> None:
-        """Keep an unused (handshaken, idle) worker as the spare, or let it go."""
-        with self._lock:
-            if self._spare is None and worker.alive():
-                self._spare = worker
-                return
-        worker.close()
-
-    def shutdown(self) -> None:
-        with self._lock:
-            spare, self._spare = self._spare, None
-        if spare is not None:
-            spare.kill()
-
-
-_POOL = _Pool()
-atexit.register(_POOL.shutdown)
+# worker processes: :mod:`.workers`
 
 _INSTALL_HINT = (
     "install ngspice's shared library (Debian/Ubuntu: apt install libngspice0-dev; "
@@ -825,69 +687,7 @@ def _diagnose(reply: dict) -> str | None:
 
 
 # ------------------------------------------------------------------------------------------
-# diode audit
-
-#: a diode whose reverse charge exceeds this fraction of its forward charge is an artefact
-REVERSE_CHARGE_LIMIT = 1e-3
-
-#: a reverse current that never exceeds this (A) is leakage, not an artefact: ngspice puts
-#: GMIN (1e-12 S, 1e-10 S at the relaxed rung) across every junction, so a diode that never
-#: conducts carries GMIN times its reverse voltage (25 pA at 24 V), which the charge ratio
-#: alone would flag
-LEAKAGE_CURRENT = 1e-6
-
-_DYNAMIC_DIODE_PARAMS = ("tt", "cjo", "cj0", "cj")
-
-
-def _audited_diodes(text: str) -> list[str]:
-    """Top-level diodes whose model is static (no TT, no junction capacitance).
-
-    Those cannot carry reverse current beyond their leakage, so a reverse current is a
-    numerical artefact; diodes with a transit time or CJO may legitimately recover.
-    """
-    models = {m.name.lower(): m for m in deck.models(text)}
-    out = []
-    for el in deck.top_level_elements(text):
-        if not el.name.lower().startswith("d") or len(el.tokens) < 4:
-            continue
-        model = models.get(el.tokens[3].lower())
-        dynamic = model is not None and any(
-            deck.spice_number(model.params.get(k, "0")) not in (0.0,)
-            for k in _DYNAMIC_DIODE_PARAMS
-            if k in model.params
-        )
-        if not dynamic:
-            out.append(el.name)
-    return out
-
-
-def _audit_diodes(vectors: dict[str, np.ndarray], diodes: Sequence[str]) -> str | None:
-    """Reason if a static diode conducted a non-negligible charge in reverse, else None.
-
-    ngspice 39 accepts non-converged time points when a switch closes onto a conducting
-    near-ideal diode (boost converters: the switch node is pulled to ground while D1 still
-    carries the inductor current). For a few ns the diode then conducts kiloamperes in
-    reverse and drains the output capacitor, and the run still "succeeds". The device's own
-    ``@d1[id]`` does not show it (the accepted point violates the diode equation); the
-    branch current of the series sense source, which obeys KCL, does.
-    """
-    t = np.real(vectors["time"])
-    for name in diodes:
-        i = np.real(vectors.get(deck.sense_names(name)[0] + "#branch", np.zeros(0)))
-        if len(i) != len(t) or len(t) < 2:
-            continue
-        if -i.min() <= LEAKAGE_CURRENT:
-            continue
-        reverse = float(np.trapezoid(np.maximum(-i, 0.0), t))
-        forward = float(np.trapezoid(np.maximum(i, 0.0), t))
-        if reverse > REVERSE_CHARGE_LIMIT * max(forward, 1e-12) or -i.min() > max(i.max(), 1e-3):
-            k = int(np.argmin(i))
-            return (
-                f"artefact: diode {name} conducted {reverse:.3g} C in reverse (vs {forward:.3g} C"
-                f" forward; peak {i[k]:.3g} A at t = {t[k]:.4g} s): ngspice accepted "
-                "non-converged time points"
-            )
-    return None
+# diode audit: :mod:`.audit`
 
 
 # ------------------------------------------------------------------------------------------

@@ -54,12 +54,9 @@ def load(path_or_text: str | os.PathLike, params: Mapping[str, float] | None = N
     NetlistError
         Every problem found in the netlist, or a missing file.
     """
-    from netlist.parser import parse_file, parse_string
+    from netlist.parser import load_source
 
-    values = _params(params)
-    if isinstance(path_or_text, str) and "\n" in path_or_text:
-        return parse_string(path_or_text, params=values)
-    return parse_file(path_or_text, params=values)
+    return load_source(path_or_text, params)
 
 
 def formulate(circuit: Source, params: Mapping[str, float] | None = None) -> SwitchedLCS:
@@ -231,18 +228,6 @@ def _circuit(source: Source, params: Mapping[str, float] | None) -> Circuit:
         return load(source, params)
     raise TypeError(f"expected a Circuit, a netlist path or netlist text, got "
                     f"{type(source).__name__}")
-
-
-def _params(params: Mapping[str, float | str] | None) -> dict[str, float] | None:
-    """Overrides with SPICE text values (``"100k"``) converted to floats."""
-    if not params:
-        return None
-    from netlist.parser import parse_overrides
-
-    text = [f"{k}={v}" for k, v in params.items() if isinstance(v, str)]
-    out = {k: float(v) for k, v in params.items() if not isinstance(v, str)}
-    out.update(parse_overrides(text))
-    return out
 
 
 def _seconds(circuit: Circuit, what: str, value: float | str | None) -> float | None:

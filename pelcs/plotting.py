@@ -9,13 +9,14 @@ alone), which also makes them work without a display.
 from __future__ import annotations
 
 import csv
-import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from lcs.axes import envelope as _envelope  # shared with ngspice_checks
+from lcs.axes import probe_unit, time_unit
 from lcs.results import SimulationResult
 
 __all__ = [
@@ -28,56 +29,6 @@ __all__ = [
     "write_npz",
     "write_result",
 ]
-
-# Above this many points per panel the curve is drawn as its min/max envelope over buckets
-# of samples: a switching ripple of 10^5 points looks the same and draws 10x faster.
-_ENVELOPE_POINTS = 20000
-_ENVELOPE_BUCKETS = 4000
-
-_TIME_UNITS = [(1.0, "s"), (1e-3, "ms"), (1e-6, "µs"), (1e-9, "ns")]
-
-
-def probe_unit(name: str) -> str:
-    """SI unit of a probe: ``"V"`` for ``v(...)``, ``"A"`` for ``i(...)``, else ``""``."""
-    head = name.strip()[:2].lower()
-    return {"v(": "V", "i(": "A"}.get(head, "")
-
-
-def time_unit(t_end: float) -> tuple[float, str]:
-    """Scale and unit name for a time axis ending at ``t_end`` (s).
-
-    Returns
-    -------
-    (float, str)
-        ``(scale, unit)`` with ``t / scale`` between 1 and 1000 at the end of the axis, e.g.
-        ``(1e-3, "ms")`` for a 5 ms run.
-    """
-    for scale, unit in _TIME_UNITS:
-        if abs(t_end) >= scale:
-            return scale, unit
-    return _TIME_UNITS[-1]
-
-
-def _envelope(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Min/max of ``y`` over buckets of consecutive samples, as one zigzag curve.
-
-    Keeps the visible shape of a dense waveform (its ripple band and every spike) with
-    2 points per bucket.
-    """
-    n = len(t)
-    if n <= _ENVELOPE_POINTS:
-        return t, y
-    per = math.ceil(n / _ENVELOPE_BUCKETS)
-    cut = (n // per) * per
-    yb = y[:cut].reshape(-1, per)
-    tb = t[:cut].reshape(-1, per)
-    lo, hi = yb.argmin(axis=1), yb.argmax(axis=1)
-    rows = np.arange(len(yb))
-    first = np.minimum(lo, hi)
-    second = np.maximum(lo, hi)
-    tt = np.column_stack([tb[rows, first], tb[rows, second]]).ravel()
-    yy = np.column_stack([yb[rows, first], yb[rows, second]]).ravel()
-    return np.concatenate([tt, t[cut:]]), np.concatenate([yy, y[cut:]])
 
 
 def period_mean(t: np.ndarray, y: np.ndarray) -> float:

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import pelcs
-from lcs import passivity
+from lcs import screening
 from lcs.notices import NonPassiveWarning
 from lcs.results import SimulationResult
 from netlist.errors import NetlistError
@@ -85,14 +85,14 @@ def test_screen_is_cached_with_the_formulation(monkeypatch):
     from netlist.formulation import storage_matrix
 
     energy = storage_matrix(pelcs.load(TUNNEL))
-    first = passivity.screen_modes(system, energy)
+    first = screening.screen_modes(system, energy)
     assert len(first) == 1 and "unstable eigenvalue" in first[0].reason
 
     def fail(*args, **kwargs):
         raise AssertionError("check_passivity called again")
 
-    monkeypatch.setattr(passivity, "check_passivity", fail)
-    assert passivity.screen_modes(system, energy) == first
+    monkeypatch.setattr(screening.passivity, "check_passivity", fail)
+    assert screening.screen_modes(system, energy) == first
 
 
 def test_growth_note_threshold():

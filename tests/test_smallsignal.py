@@ -14,10 +14,10 @@ import pytest
 from scipy.optimize import brentq
 
 from converters.averaged import small_signal_model
+from lcs.exact.flow import ModeFlowError, mode_flow
+from lcs.exact.orbit import PwlOrbitError, exact_orbit, follow_period
 from lcs.model import LCS, ComplementarityPair
 from lcs.smallsignal.ltp import sampled_data_model
-from lcs.smallsignal.modeflow import ModeFlowError, mode_flow
-from lcs.smallsignal.pwl_orbit import PwlOrbitError, exact_orbit, follow_period
 from lcs.smallsignal.response import loop_margins
 from netlist.ac import ac_analysis
 from netlist.errors import NetlistError

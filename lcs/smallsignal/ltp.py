@@ -2,7 +2,7 @@
 system, its sampled-data model and its harmonic transfer function at the excitation
 frequency.
 
-Around the orbit of :mod:`.pwl_orbit`, a perturbation ``δu(t) = d e^{jωt}`` of the inputs
+Around the orbit of :mod:`lcs.exact.orbit`, a perturbation ``δu(t) = d e^{jωt}`` of the inputs
 (direction ``d``, shape (p,)) gives ``δx(t) = e^{jωt} q(t)`` with q T-periodic in the steady
 state. On a segment of mode k::
 
@@ -29,24 +29,13 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import expm
 
-from .pwl_orbit import Event, PwlOrbit, Segment
+from ..exact.orbit import PwlOrbit
+from ..exact.saltation import AffinePeriod, affine_period
 from .response import FrequencyResponse
 
 __all__ = ["AffinePeriod", "SampledData", "affine_period", "harmonic_response", "probe_forms",
            "sampled_data", "sampled_data_model"]
-
-
-@dataclass
-class AffinePeriod:
-    """``q(t0 + T) = P q(t0) + r`` and ``∫ p dt = Iq q(t0) + Ir`` over the period (the
-    outputs' perturbation ``δy = e^{jωt} p(t)``; Iq, Ir None without outputs)."""
-
-    P: np.ndarray
-    r: np.ndarray
-    Iq: np.ndarray | None = None
-    Ir: np.ndarray | None = None
 
 
 def probe_forms(orbit: PwlOrbit, outputs: Callable) -> list:
@@ -57,81 +46,6 @@ def probe_forms(orbit: PwlOrbit, outputs: Callable) -> list:
 
 def _cdf(om):
     return om.Cy, om.Dy, om.Fy
-
-
-def _field(seg: Segment, x: np.ndarray, at_end: bool) -> np.ndarray:
-    s = seg.duration if at_end else 0.0
-    f = seg.flow
-    return f.Af @ x + f.Ef @ (seg.u0 + seg.u1 * s) + f.Ed @ seg.u1
-
-
-def _output(seg: Segment, Y, x: np.ndarray, at_end: bool) -> np.ndarray:
-    s = seg.duration if at_end else 0.0
-    Yx, Yu, Yd = Y
-    return Yx @ x + Yu @ (seg.u0 + seg.u1 * s) + Yd @ seg.u1
-
-
-def affine_period(segments: Sequence[Segment], events: Sequence[Event], omega: float,
-                  d: np.ndarray, Y: Sequence | None = None) -> AffinePeriod:
-    """Compose the period's segments and events for the excitation ``d e^{jωt}``.
-
-    Parameters
-    ----------
-    segments, events
-        From :func:`.pwl_orbit.exact_orbit` (or ``follow_period``).
-    omega : float
-        rad/s (0: real arithmetic).
-    d : ndarray (p,)
-        Input direction.
-    Y : list of (Yx, Yu, Yd), optional
-        Output forms per segment (:func:`probe_forms`); then Iq, Ir are computed.
-    """
-    n = segments[0].flow.Af.shape[0]
-    dtype = complex if omega else float
-    jw = 1j * omega if omega else 0.0
-    X = np.eye(n + 1, dtype=dtype)  # [q; 1] = X [q0; 1]
-    q_out = 0 if Y is None else Y[0][0].shape[0]
-    Iacc = np.zeros((q_out, n + 1), dtype=dtype) if Y is not None else None
-    for k, seg in enumerate(segments):
-        f = seg.flow
-        tau = seg.duration
-        Gaug = np.zeros((n + 1, n + 1), dtype=dtype)
-        Gaug[:n, :n] = f.Af - jw * np.eye(n)
-        Gaug[:n, n] = f.Ef @ d + jw * (f.Ed @ d)
-        if Y is None:
-            X = expm(Gaug * tau) @ X
-        else:
-            big = np.zeros((2 * (n + 1), 2 * (n + 1)), dtype=dtype)
-            big[:n + 1, :n + 1] = Gaug
-            big[:n + 1, n + 1:] = np.eye(n + 1)
-            Eb = expm(big * tau)
-            integral = Eb[:n + 1, n + 1:] @ X  # ∫ [q; 1] dt over the segment
-            Yx, Yu, Yd = Y[k]
-            Iacc += np.hstack([Yx, (Yu @ d + jw * (Yd @ d))[:, None]]) @ integral
-            X = Eb[:n + 1, :n + 1] @ X
-        if k == len(segments) - 1:
-            break
-        ev = events[k]
-        if not ev.moves:
-            continue
-        nxt = segments[k + 1]
-        xe = nxt.x_start
-        df = _field(nxt, xe, False) - _field(seg, xe, True)
-        if abs(ev.hdot) <= 1e-300:
-            raise ZeroDivisionError(f"event {ev.kind} {ev.name} at t = {ev.t:.9g} s is "
-                                    "tangential (dh/dt = 0): no saltation")
-        # dt = -(row @ X) / hdot per unit of [q0; 1]
-        row = np.concatenate([ev.hx, [ev.hu @ d + jw * (ev.hd @ d)]]).astype(dtype)
-        dt_row = -(row @ X) / ev.hdot
-        if Y is not None:
-            dy = _output(seg, Y[k], xe, True) - _output(nxt, Y[k + 1], xe, False)
-            Iacc += np.outer(dy, dt_row)
-        X = X.copy()
-        X[:n] -= np.outer(df, dt_row)
-    P, r = X[:n, :n], X[:n, n]
-    if Y is None:
-        return AffinePeriod(P, r)
-    return AffinePeriod(P, r, Iacc[:, :n], Iacc[:, n])
 
 
 def harmonic_response(orbit: PwlOrbit, Y: Sequence, probes: Sequence[str], inject: int,

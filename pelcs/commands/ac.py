@@ -171,8 +171,8 @@ def run(args: argparse.Namespace) -> int:
             loop=args.loop)
     except Exception as exc:  # noqa: BLE001
         from lcs.analysis.maps import MapError
+        from lcs.exact.orbit import PwlOrbitError
         from lcs.results import SimulationError
-        from lcs.smallsignal.pwl_orbit import PwlOrbitError
 
         if isinstance(exc, (MapError, SimulationError, PwlOrbitError)):
             print(f"pelcs ac: {exc}", file=sys.stderr)

@@ -1,45 +1,47 @@
-"""The exact periodic steady state of a switched LCS with piecewise-linear sources.
+"""Event-driven following of a switched LCS with exact flows between events.
 
 Between events a mode (switch configuration, pairs held at ``w = 0``) is an affine ODE whose
-flow over an interval of linear inputs is one matrix exponential (:mod:`.modeflow`). From a
-state at ``t0`` one period is followed mode by mode: every interval between fixed instants
-(source breakpoints, latch clocks, the period end) is sampled on a uniform grid (one matrix
-exponential, repeated), the first sign change of an event function (a switch's comparator
-margin, a held pair's λ, a free pair's w) is refined by Brent's method on the exact flow,
-and the next mode is the consistent one nearest the current (``_select``). Newton's method
-on the start state, with the exact monodromy matrix of the saltation-corrected linearisation
-(:mod:`.ltp`), converges to the periodic orbit: event instants and states to round-off, not
-to a time step.
+flow over an interval of linear inputs is one matrix exponential (:mod:`.flow`). From a state
+at ``t0`` the span ``[t0, t1]`` is followed mode by mode: every interval between fixed
+instants (source breakpoints, latch clocks, the span's end) is sampled (one matrix
+exponential, repeated; the spacing also resolves the mode's fastest oscillation and decay),
+the first sign change of an event function (a switch's comparator margin, a held pair's λ, a
+free pair's w) is refined by Brent's method on the exact flow, and the next mode is the
+consistent one nearest the current (:meth:`Follower.select`).
 
 Scope: sources DC, PULSE and PWL (piecewise linear); switches driven by comparators (with
-hysteresis) or latched PWM; no Python controllers, no sliding modes.
+hysteresis) or latched PWM; no Python controllers. A sliding mode on a comparator surface
+(events piling up at one instant) stops with :class:`ExactError` naming the switch.
 """
 
 from __future__ import annotations
 
 import itertools
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.linalg import expm
 from scipy.optimize import brentq
 
 from ..model import ModeKey, SwitchedLCS
-from .modeflow import ModeFlow, ModeFlowError, flow_matrix, mode_flow
+from .flow import ModeFlow, ModeFlowError, flow_matrix, mode_flow
 
-__all__ = ["PwlOrbit", "PwlOrbitError", "Segment", "Event", "SwitchRule", "switch_rules",
-           "exact_orbit", "follow_period"]
+__all__ = ["Event", "ExactError", "Follower", "Segment", "SwitchRule", "switch_rules"]
 
-# Samples per interval between fixed instants when looking for an event.
+# Samples per interval between fixed instants when looking for an event (at least).
 _SAMPLES = 24
+# Sample spacing: at most this fraction of a radian of the mode's fastest oscillation.
+_PHASE_STEP = 0.25
+# Most samples per interval (a very long interval is cut in pieces of this many samples).
+_MAX_SAMPLES = 4096
 # Events in a row at one instant before the run is declared stuck (sliding, chattering).
 _MAX_SAME_INSTANT = 12
 
 
-class PwlOrbitError(RuntimeError):
-    """The exact orbit could not be followed or did not converge (the message says why and
-    names the elements involved)."""
+class ExactError(RuntimeError):
+    """The exact flow could not be followed (the message says why and names the elements
+    involved)."""
 
 
 @dataclass(frozen=True)
@@ -136,70 +138,14 @@ class Event:
         return self.hx is not None
 
 
-@dataclass
-class PwlOrbit:
-    """A periodic orbit followed exactly.
-
-    Attributes
-    ----------
-    t0, period : float
-        Sampling instant and period, s.
-    x0 : ndarray (n,)
-        State at ``t0``.
-    segments : list of Segment
-        Over ``[t0, t0 + period]`` in time order.
-    events : list of Event
-        ``len(segments) - 1`` boundaries.
-    monodromy : ndarray (n, n)
-        Jacobian of the period map at ``x0`` (saltation included).
-    residual : float
-        ``max |P(x0) - x0|`` (state units).
-    iterations : int
-        Newton iterations.
-    states, inputs : tuple of str
-    diodes : tuple of str
-    """
-
-    t0: float
-    period: float
-    x0: np.ndarray
-    segments: list
-    events: list
-    monodromy: np.ndarray
-    residual: float
-    iterations: int
-    states: tuple
-    inputs: tuple
-    diodes: tuple
-    notes: list = field(default_factory=list)
-
-    @property
-    def multipliers(self) -> np.ndarray:
-        """Eigenvalues of the monodromy matrix, by decreasing modulus."""
-        mu = np.linalg.eigvals(self.monodromy)
-        return mu[np.argsort(-np.abs(mu))]
-
-    def describe(self) -> list[str]:
-        """One line per mode change: instant (fraction of the period), what changed."""
-        lines = []
-        for ev in self.events:
-            if ev.kind == "breakpoint":
-                continue
-            seg = self.segments[ev.index + 1]
-            held = ", ".join(self.diodes[i] for i in seg.flow.held) or "none"
-            lines.append(f"{(ev.t - self.t0) / self.period:.6f} T: {ev.kind} {ev.name} -> "
-                         f"held diodes {held}")
-        return lines
-
-
-class _Period:
+class Follower:
     """What following one period needs: the system, the sources, the rules and caches."""
 
     def __init__(self, system: SwitchedLCS, signals: Sequence, t0: float, period: float):
         bad = [name for name, s in zip(system.inputs, signals, strict=True)
                if not getattr(s, "piecewise_linear", False)]
         if bad:
-            raise PwlOrbitError(
+            raise ExactError(
                 f"the exact method needs piecewise-linear sources (DC, PULSE, PWL); "
                 f"{', '.join(bad)} {'is' if len(bad) == 1 else 'are'} not: use the sweep "
                 "method")
@@ -335,8 +281,9 @@ class _Period:
                     return flow
         sw = ", ".join(f"{r.name} {'on' if on else 'off'}" for r, on in
                        zip(self.rules, key, strict=True)) or "no switches"
-        raise PwlOrbitError(f"no consistent diode configuration at t = {ta:.9g} s ({why}; "
-                            f"{sw}): the exact method cannot continue; use the sweep method")
+        raise ExactError(f"no consistent diode configuration at t = {ta:.9g} s ({why}; "
+                            f"{sw}): the exact method cannot continue; use a time-stepping method "
+                         "(Moreau; for pelcs ac the sweep method)")
 
     # --- one period ------------------------------------------------------------------------
     def follow(self, x0, key0: ModeKey) -> tuple[list[Segment], list[Event], np.ndarray]:
@@ -385,9 +332,10 @@ class _Period:
                                 gd.copy(), hdot))
             same_instant = same_instant + 1 if s <= 1e-12 * self.T else 0
             if same_instant > _MAX_SAME_INSTANT:
-                raise PwlOrbitError(
+                raise ExactError(
                     f"{name} changes state again and again at t = {t:.9g} s (a sliding mode "
-                    "or chattering): the exact method does not handle it; use the sweep method")
+                    "or chattering): the exact method does not handle it; use a time-stepping "
+                    "method (Moreau; for pelcs ac the sweep method)")
             t = t + s
             if kind == "switch":
                 key = tuple((not v) if j == idx else v for j, v in enumerate(key))
@@ -447,58 +395,3 @@ class _Period:
         return root, r, labels[r], (gx[r], gu[r], gd[r])
 
 
-def follow_period(system: SwitchedLCS, signals: Sequence, x0, key0: ModeKey, t0: float,
-                  period: float):
-    """Segments, events and end state of one period from ``x0`` (see :class:`_Period`)."""
-    return _Period(system, signals, t0, period).follow(x0, key0)
-
-
-def exact_orbit(system: SwitchedLCS, signals: Sequence, x_guess, key0: ModeKey, t0: float,
-                period: float, *, tol: float = 1e-11, max_iter: int = 30) -> PwlOrbit:
-    """The period-1 orbit through ``t0`` by Newton's method with the exact monodromy.
-
-    Parameters
-    ----------
-    system : SwitchedLCS
-    signals : sequence
-        One piecewise-linear source per input, resolved (:func:`lcs.signals.resolve`).
-    x_guess : array_like (n,)
-        A state near the orbit at ``t0`` (e.g. from the Moreau stroboscopic map).
-    key0 : ModeKey
-        Switch states at ``t0`` (the comparators with hysteresis need it).
-    t0, period : float
-        s.
-    tol : float
-        Convergence when ``|P(x) - x| <= tol (|x| + 1)`` componentwise (max).
-
-    Raises
-    ------
-    PwlOrbitError
-        A mode with no consistent continuation, sliding, a non-PWL source, or no
-        convergence.
-    """
-    from .ltp import affine_period
-
-    ctx = _Period(system, signals, t0, period)
-    x = np.asarray(x_guess, dtype=float).copy()
-    n = x.size
-    res = np.inf
-    for it in range(1, max_iter + 1):
-        segs, events, x_end = ctx.follow(x, key0)
-        Phi = affine_period(segs, events, 0.0, np.zeros(ctx.p)).P.real
-        r = x_end - x
-        sc = np.abs(x) + np.abs(x_end) + 1.0
-        res = float(np.max(np.abs(r) / sc))
-        if res <= tol:
-            orbit = PwlOrbit(t0, period, x, segs, events, Phi, float(np.max(np.abs(r))), it,
-                             tuple(system.states), tuple(system.inputs),
-                             tuple(system.diodes))
-            return orbit
-        try:
-            dx = np.linalg.solve(Phi - np.eye(n), -r)
-        except np.linalg.LinAlgError:
-            raise PwlOrbitError("the monodromy matrix has a multiplier 1: the orbit is not "
-                                "isolated") from None
-        x = x + dx
-    raise PwlOrbitError(f"Newton's method did not converge in {max_iter} iterations "
-                        f"(relative residual {res:.3g})")

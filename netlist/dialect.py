@@ -1,0 +1,134 @@
+"""The ngspice dialect pelcs reads: element letters and their grammar rules, what is refused
+(with the ideal equivalent to use), commands ignored, model types, source functions, and the
+spelling of node and element names."""
+
+from __future__ import annotations
+
+import re
+
+from .circuit import GROUND
+
+# ------------------------------------------------------------------------------ tables
+
+# element letter -> (start rule of grammar.lark, description, usage)
+ELEMENTS: dict[str, tuple[str, str, str]] = {
+    "R": ("passive", "resistor", "Rname n+ n- value"),
+    "L": ("passive", "inductor", "Lname n+ n- value [IC=current]"),
+    "C": ("passive", "capacitor", "Cname n+ n- value [IC=voltage]"),
+    "V": ("source", "voltage source",
+          "Vname n+ n- [[DC] value] [PULSE(...)|SIN(...)|PWL(...)|EXP(...)]"),
+    "I": ("source", "current source",
+          "Iname n+ n- [[DC] value] [PULSE(...)|SIN(...)|PWL(...)|EXP(...)]"),
+    "D": ("diode", "diode", "Dname anode cathode model"),
+    "S": ("switch", "switch", "Sname n+ n- nc+ nc- model [ON|OFF]"),
+    "E": ("vcontrolled", "voltage-controlled voltage source", "Ename n+ n- nc+ nc- gain"),
+    "G": ("vcontrolled", "voltage-controlled current source", "Gname n+ n- nc+ nc- gm"),
+    "F": ("ccontrolled", "current-controlled current source", "Fname n+ n- Vcontrol gain"),
+    "H": ("ccontrolled", "current-controlled voltage source", "Hname n+ n- Vcontrol r"),
+    "K": ("coupling", "coupling", "Kname L1 L2 k"),
+    "X": ("instance", "subcircuit instance", "Xname node... subckt [params: name=value...]"),
+}
+
+_IDEAL = ("pelcs simulates ideal elements: model its function with R, L, C, sources, "
+          "controlled sources (E F G H), ideal diodes (D) and ideal switches (S)")
+
+# element letter -> (what it is, hint)
+UNSUPPORTED_ELEMENTS: dict[str, tuple[str, str]] = {
+    "M": ("MOSFET", "pelcs simulates ideal elements: use an S switch driven by the gate "
+          "voltage (Sname drain source gate source SWMOD, .model SWMOD SW(VT=...)), with a D "
+          "across it for the body diode"),
+    "Q": ("BJT", "pelcs simulates ideal elements: use an S switch driven by the base voltage "
+          "(or linear controlled sources for a small-signal model)"),
+    "J": ("JFET", "pelcs simulates ideal elements: use an S switch driven by the gate voltage"),
+    "Z": ("MESFET", "pelcs simulates ideal elements: use an S switch driven by the gate voltage"),
+    "B": ("behavioural source", "use a linear E (voltage) or G (current) controlled source, "
+          "or an independent V/I source with PULSE/SIN/PWL/EXP for a known waveform"),
+    "T": ("transmission line", "approximate the line with a ladder of L and C sections"),
+    "O": ("lossy transmission line", "approximate the line with a ladder of R, L, C sections"),
+    "U": ("uniform RC line", "approximate the line with a ladder of R and C sections"),
+    "P": ("coupled transmission line", "approximate it with coupled inductors (K) and C"),
+    "Y": ("transmission line", "approximate the line with a ladder of L and C sections"),
+    "W": ("current-controlled switch", "use an S switch driven by a voltage: sense the current "
+          "with an H source (v = r * i) and control the switch with that voltage"),
+    "A": ("XSPICE code model", _IDEAL),
+    "N": ("Verilog-A/OSDI device", _IDEAL),
+}
+
+# dot commands that pelcs accepts and lists in Circuit.ignored
+IGNORED_COMMANDS = {
+    ".print", ".save", ".plot", ".probe", ".meas", ".measure", ".four", ".fourier", ".op",
+    ".width", ".temp", ".nodeset", ".ac", ".dc", ".noise", ".tf", ".sens", ".pz", ".disto",
+    ".sp", ".csparam",
+}
+
+UNSUPPORTED_COMMANDS: dict[str, str] = {
+    ".func": "user-defined functions are not supported: write the expression in a .param",
+    ".if": "conditional netlists are not supported: choose with --param and expressions",
+    ".elseif": "conditional netlists are not supported",
+    ".else": "conditional netlists are not supported",
+    ".endif": "conditional netlists are not supported",
+    ".step": "parameter sweeps are not done in the netlist: run pelcs with --param NAME=VALUE",
+    ".data": "data tables are not supported",
+    ".endl": ".endl closes a section of a library file read with .lib FILE SECTION",
+    ".endc": ".endc without .control",
+}
+
+SUPPORTED_COMMANDS = (".param .subckt/.ends .model .ic .tran .options .include .lib .global "
+                      ".title .control/.endc .end")
+
+_MODEL_TYPES = {"D": "D", "SW": "SW"}
+_UNSUPPORTED_MODELS = {
+    "NMOS": "MOSFET", "PMOS": "MOSFET", "VDMOS": "MOSFET", "NPN": "BJT", "PNP": "BJT",
+    "NJF": "JFET", "PJF": "JFET", "NMF": "MESFET", "PMF": "MESFET", "CSW": "current switch",
+    "R": "semiconductor resistor", "C": "semiconductor capacitor", "L": "inductor",
+    "LTRA": "lossy line", "URC": "uniform RC line", "TRANSLINE": "line",
+}
+
+# instance parameters accepted (and ignored: they do not change the nominal value) besides IC
+_PASSIVE_IGNORED = {"tc1", "tc2", "tce", "temp", "dtemp", "noisy", "ac"}
+
+# waveform -> (minimum, maximum number of arguments)
+WAVE_ARGS = {"pulse": (2, 8), "sin": (2, 6), "exp": (2, 6), "pwl": (2, None)}
+
+_WORD = re.compile(r"[^\s(){}=,'\"]+")
+_NONLINEAR = re.compile(r"(?i)\b(poly|value|table|laplace|freq|vol|cur)\s*[=(]")
+_NUL_HINT = "pelcs reads plain-text SPICE netlists"
+
+_TOKEN_NAMES = {
+    "WORD": "a name or a value", "EXPR": "an {expression}", "LPAR": "'('", "RPAR": "')'",
+    "EQUAL": "'='", "COMMA": "','", "STRING": "a quoted path", "PARAMS": "'params:'",
+    "$END": "end of line", "DC": "DC", "AC": "AC", "UIC": "UIC", "ON": "ON", "OFF": "OFF",
+    "PULSE": "PULSE", "SIN": "SIN", "PWL": "PWL", "EXP": "EXP",
+}
+
+
+def node_name(word: str) -> str:
+    """The canonical node name: lower case, ``gnd`` is ``0``."""
+    n = word.lower()
+    return GROUND if n == "gnd" else n
+
+
+def hierarchical_name(word: str, kind: str | None = None) -> str:
+    """Map ngspice's flattened spelling ``L.X1.L1`` back to the hierarchical name ``X1.L1``.
+
+    Parameters
+    ----------
+    word : str
+        An element name as written.
+    kind : str, optional
+        The element letter; by default the first letter of ``word``.
+    """
+    if "." not in word:
+        return word
+    parts = word.split(".")
+    letter = (kind or word[0]).upper()
+    if (
+        len(parts) >= 3
+        and len(parts[0]) == 1
+        and parts[0].upper() == letter
+        and parts[1][:1] in ("x", "X")
+    ):
+        return word[2:]
+    return word
+
+

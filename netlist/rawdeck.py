@@ -1,0 +1,169 @@
+"""The raw deck: what the reader (:mod:`netlist.reader`) makes of netlist text before any
+evaluation. Statements keep their source location; values stay as text or parsed
+expressions; subcircuits, models and parameters are as written. :mod:`netlist.flatten`
+elaborates a deck into a :class:`~netlist.circuit.Circuit`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from .circuit import IgnoredCommand
+from .errors import Location
+from .expressions import Expression
+
+__all__ = ["Body", "Deck", "RawElement", "RawIc", "RawModel", "RawParam", "RawTran", "Statement",
+           "SubcktDef", "Value"]
+
+# ------------------------------------------------------------------------------ statements
+
+
+class Statement:
+    """One logical statement: the joined text of a line and its continuation lines.
+
+    Parameters
+    ----------
+    text : str
+        The statement with comments removed and continuation lines joined by one space
+        (the ``+`` itself becomes a space).
+    file : str
+        File name as shown to the user.
+    segments : list of (int, int, int, str)
+        For each physical line: offset of its first character in ``text``, its 1-based line
+        number, the 0-based column of that character in the line, and the whole line.
+    """
+
+    __slots__ = ("text", "file", "segments")
+
+    def __init__(self, text: str, file: str, segments: list[tuple[int, int, int, str]]):
+        self.text = text
+        self.file = file
+        self.segments = segments
+
+    def loc(self, offset: int = 0) -> Location:
+        """Location of the character at ``offset`` in :attr:`text` (past the end allowed)."""
+        segs = self.segments
+        i = len(segs) - 1
+        while i > 0 and segs[i][0] > offset:
+            i -= 1
+        start, line, col0, raw = segs[i]
+        return Location(self.file, line, col0 + (offset - start) + 1, raw)
+
+    def __repr__(self) -> str:
+        return f"Statement({self.text!r})"
+
+
+# ------------------------------------------------------------------------------ the deck
+
+
+@dataclass(slots=True, eq=False)
+class Value:
+    """A number or an expression as written, and where.
+
+    ``number`` is set for a literal (and for a constant expression); otherwise ``expr`` is
+    evaluated during elaboration.
+    """
+
+    number: float | None
+    expr: Expression | None
+    st: Statement
+    offset: int
+
+    @property
+    def loc(self) -> Location:
+        return self.st.loc(self.offset)
+
+
+@dataclass(slots=True, eq=False)
+class RawParam:
+    """``name=value`` in ``.param``, a ``.subckt`` header or an ``X`` line (name lower case)."""
+
+    name: str
+    value: Value
+    st: Statement
+    offset: int
+
+    @property
+    def loc(self) -> Location:
+        return self.st.loc(self.offset)
+
+
+@dataclass(slots=True, eq=False)
+class RawElement:
+    """An element line after syntax analysis, before evaluation and flattening.
+
+    ``ref`` is the model (D, S), the controlling source (F, H) or the subcircuit (X); ``refs``
+    are the two inductors of a K; ``wave`` is ``(kind, args, offset)`` of a V/I transient
+    function; ``params`` are the parameter overrides of an X.
+    """
+
+    kind: str
+    name: str
+    st: Statement
+    nodes: tuple[str, ...]
+    control: tuple[str, ...] = ()
+    ref: str = ""
+    ref_offset: int = 0
+    value: Value | None = None
+    ic: Value | None = None
+    wave: tuple[str, list[Value], int] | None = None
+    refs: tuple[tuple[str, int], ...] = ()
+    params: list[RawParam] = field(default_factory=list)
+    state: bool | None = None
+
+
+@dataclass(slots=True, eq=False)
+class RawIc:
+    node: str
+    value: Value
+    st: Statement
+    offset: int
+
+
+@dataclass(eq=False)
+class Body:
+    """Statements of the top level or of one subcircuit definition, in file order."""
+
+    elements: list[RawElement] = field(default_factory=list)
+    params: list[RawParam] = field(default_factory=list)
+    ics: list[RawIc] = field(default_factory=list)
+
+
+@dataclass(eq=False)
+class SubcktDef:
+    name: str
+    ports: list[str]
+    defaults: list[RawParam]
+    body: Body
+    st: Statement
+
+
+@dataclass(eq=False)
+class RawModel:
+    name: str
+    type: str
+    params: list[RawParam]
+    st: Statement
+
+
+@dataclass(eq=False)
+class RawTran:
+    values: list[Value]
+    uic: bool
+    st: Statement
+
+
+@dataclass(eq=False)
+class Deck:
+    """Everything read from a netlist and its includes, not yet evaluated or flattened."""
+
+    file: str
+    title: str = ""
+    top: Body = field(default_factory=Body)
+    subckts: dict[str, SubcktDef] = field(default_factory=dict)  # lower-case name
+    models: list[RawModel] = field(default_factory=list)
+    trans: list[RawTran] = field(default_factory=list)
+    options: dict[str, str] = field(default_factory=dict)
+    ignored: list[IgnoredCommand] = field(default_factory=list)
+    globals: set[str] = field(default_factory=set)
+    files: list[str] = field(default_factory=list)  # display names in reading order
+

@@ -1,0 +1,757 @@
+"""Reading and syntax: netlist text (and its includes) -> :class:`~netlist.rawdeck.Deck`.
+
+Stages 1 and 2 of :mod:`netlist.parser` (see its docstring): decoding, statements with their
+locations, ``+`` continuations, comments, ``.control`` blocks, ``.include``/``.lib``, and the
+lark parse of each statement with specific messages for what pelcs does not read.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Callable
+from pathlib import Path
+
+from lark import Token, Tree
+from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+
+from .circuit import IgnoredCommand
+from .dialect import (
+    _MODEL_TYPES,
+    _NONLINEAR,
+    _NUL_HINT,
+    _PASSIVE_IGNORED,
+    _TOKEN_NAMES,
+    _UNSUPPORTED_MODELS,
+    _WORD,
+    ELEMENTS,
+    IGNORED_COMMANDS,
+    SUPPORTED_COMMANDS,
+    UNSUPPORTED_COMMANDS,
+    UNSUPPORTED_ELEMENTS,
+    WAVE_ARGS,
+    hierarchical_name,
+    node_name,
+)
+from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
+from .expressions import ExpressionError, lark_parser, parse_expression
+from .rawdeck import (
+    Body,
+    Deck,
+    RawElement,
+    RawIc,
+    RawModel,
+    RawParam,
+    RawTran,
+    Statement,
+    SubcktDef,
+    Value,
+)
+from .units import parse_number
+
+# ------------------------------------------------------------------------------ reading
+
+
+def _decode(data: bytes, file: str) -> str:
+    """Bytes -> text; binary or non-UTF-8 content is an input error with its location."""
+    nul = data.find(b"\x00")
+    if nul >= 0:
+        line = data.count(b"\n", 0, nul) + 1
+        col = nul - (data.rfind(b"\n", 0, nul) + 1) + 1
+        raise NetlistError(Diagnostic(
+            "not a text netlist: the file contains NUL bytes (binary data?)",
+            Location(file, line, col), _NUL_HINT), file)
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        bol = data.rfind(b"\n", 0, exc.start) + 1
+        eol = data.find(b"\n", exc.start)
+        raw = data[bol: eol if eol >= 0 else len(data)].decode("utf-8", errors="replace")
+        col = len(data[bol:exc.start].decode("utf-8", errors="replace")) + 1
+        raise NetlistError(Diagnostic(
+            f"not UTF-8 text: byte 0x{data[exc.start]:02x} cannot be decoded",
+            Location(file, line, col, raw),
+            "save the netlist as UTF-8 (or plain ASCII)"), file) from None
+    if text.startswith("\ufeff"):
+        text = text[1:]
+    return text
+
+
+def _read_bytes(path: Path, display: str, at: Location | None) -> bytes:
+    try:
+        if path.is_dir():
+            raise NetlistError(Diagnostic(f"'{display}' is a directory, not a netlist file", at,
+                                          "give the path of a netlist file"), display)
+        return path.read_bytes()
+    except FileNotFoundError:
+        raise NetlistError(Diagnostic(f"file not found: '{display}'", at,
+                                      "check the path (relative paths in .include and .lib "
+                                      "are relative to the including file)"),
+                           display) from None
+    except OSError as exc:
+        raise NetlistError(Diagnostic(f"cannot read '{display}': {exc.strerror or exc}", at,
+                                      "check the path and its permissions"), display) from None
+
+
+def _strip_comment(line: str) -> str:
+    """Remove ``;`` and ``$`` inline comments (``$`` only after white space, before a space)."""
+    i = line.find(";")
+    if i >= 0:
+        line = line[:i]
+    if "$" in line:
+        j = line.find("$")
+        while j >= 0:
+            before_ok = j == 0 or line[j - 1] in " \t"
+            after_ok = j + 1 == len(line) or line[j + 1] in " \t"
+            if before_ok and after_ok:
+                return line[:j]
+            j = line.find("$", j + 1)
+    return line
+
+
+class _Block:
+    """A ``.control ... .endc`` block: kept verbatim, listed as ignored."""
+
+    __slots__ = ("text", "loc")
+
+    def __init__(self, text: str, loc: Location):
+        self.text = text
+        self.loc = loc
+
+
+def split_statements(lines: list[tuple[int, str]], file: str, diags: list[Diagnostic]
+                     ) -> list[Statement | _Block]:
+    """Numbered physical lines -> logical statements (title line already removed).
+
+    Parameters
+    ----------
+    lines : list of (int, str)
+        1-based line number and text, in order (a library section gives a subset).
+    file : str
+        File name for locations.
+    diags : list of Diagnostic
+        Problems are appended here (a stray ``+`` line, an unterminated ``.control``).
+    """
+    out: list[Statement | _Block] = []
+    cur: Statement | None = None
+    control: list[str] | None = None
+    control_loc: Location | None = None
+    for lineno, raw in lines:
+        if control is not None:
+            control.append(raw.rstrip())
+            if raw.strip().lower().startswith(".endc"):
+                out.append(_Block("\n".join(control), control_loc))
+                control = None
+            continue
+        code = _strip_comment(raw) if (";" in raw or "$" in raw) else raw
+        stripped = code.strip()
+        if not stripped or stripped[0] == "*":
+            continue
+        col0 = len(code) - len(code.lstrip())
+        if stripped[0] == "+":
+            if cur is None:
+                diags.append(Diagnostic(
+                    "continuation line '+' with no statement before it",
+                    Location(file, lineno, col0 + 1, raw),
+                    "a line starting with '+' continues the previous statement"))
+                continue
+            rest = code[col0 + 1:].rstrip()
+            start = len(cur.text) + 1
+            cur.text = f"{cur.text} {rest}"
+            cur.segments.append((start, lineno, col0 + 1, raw))
+            continue
+        first = stripped.split(None, 1)[0].lower()
+        if first == ".control":
+            control = [raw.rstrip()]
+            control_loc = Location(file, lineno, col0 + 1, raw)
+            cur = None
+            continue
+        if first == ".end":
+            break
+        cur = Statement(stripped.rstrip(), file, [(0, lineno, col0, raw)])
+        out.append(cur)
+    if control is not None:
+        diags.append(Diagnostic(".control block without .endc", control_loc,
+                                "close the block with a .endc line"))
+    return out
+
+
+# ------------------------------------------------------------------------------ the reader
+
+
+class _Reader:
+    """Reads a netlist and its includes into a :class:`Deck`, collecting diagnostics."""
+
+    def __init__(self, file: str):
+        self.deck = Deck(file=file)
+        self.diags: list[Diagnostic] = []
+        self.stack: list[Path] = []  # resolved paths being read, for include cycles
+        self.sub: SubcktDef | None = None
+        self.lark = lark_parser()
+
+    # -- diagnostics
+
+    def error(self, message: str, st: Statement | None, offset: int = 0, hint: str = "",
+              loc: Location | None = None) -> None:
+        if loc is None and st is not None:
+            loc = st.loc(offset)
+        self.diags.append(Diagnostic(message, loc, hint))
+
+    def raise_problems(self, overrides: dict[str, float] | None,
+                       independent: Callable | None = None) -> None:
+        """Raise the syntax problems, with the problems of the rest that they cannot cause.
+
+        Parameters
+        ----------
+        overrides : dict, optional
+            Parameter overrides, for evaluating the statements that could be read; ``None``
+            to report the syntax problems alone.
+        independent : callable, optional
+            ``independent(deck, overrides) -> list of Diagnostic``: the problems of the
+            statements that could be read (:func:`netlist.flatten.independent_problems`,
+            passed in by :mod:`netlist.parser` so that reading does not import elaboration).
+        """
+        if not self.diags:
+            return
+        diags = list(self.diags)
+        if overrides is not None and independent is not None:
+            diags += independent(self.deck, overrides)
+        raise NetlistError(ordered_diagnostics(diags, self.deck.files), self.deck.file)
+
+    # -- files
+
+    def read_top(self, text: str, file: str, base: Path | None) -> None:
+        if text.startswith("\ufeff"):
+            text = text[1:]
+        lines = text.split("\n")
+        if not text.strip():
+            self.diags.append(Diagnostic("empty netlist", Location(file, 1, 1, ""),
+                                         "a netlist starts with a title line, then elements"))
+            return
+        self.deck.title = lines[0].strip().rstrip("\r")
+        numbered = [(i + 1, s.rstrip("\r")) for i, s in enumerate(lines[1:], start=1)]
+        self.deck.files.append(file)
+        if base is not None:
+            self.stack.append(base)
+        self.run(split_statements(numbered, file, self.diags))
+        if self.sub is not None:
+            self.error(f"subcircuit '{self.sub.name}' has no .ends", self.sub.st, 0,
+                       "close the definition with .ends")
+
+    def include(self, path_text: str, st: Statement, offset: int, section: str | None) -> None:
+        including = st.file
+        base_dir = os.path.dirname(including) if not including.startswith("<") else ""
+        display = os.path.normpath(os.path.join(base_dir, path_text))
+        path = Path(display)
+        at = st.loc(offset)
+        try:
+            resolved = path.resolve()
+        except (OSError, RuntimeError):
+            resolved = path
+        if resolved in self.stack:
+            chain = " -> ".join([p.name for p in self.stack] + [path.name])
+            self.error(f"include cycle: {chain}", st, offset,
+                       "a file must not include itself, directly or through other files")
+            return
+        try:
+            text = _decode(_read_bytes(path, display, at), display)
+        except NetlistError as exc:
+            self.diags.extend(exc.diagnostics)
+            return
+        numbered = [(i + 1, s.rstrip("\r")) for i, s in enumerate(text.split("\n"))]
+        if section is not None:
+            numbered = self._section(numbered, section, display, st, offset)
+            if numbered is None:
+                return
+        self.deck.files.append(display)
+        self.stack.append(resolved)
+        try:
+            self.run(split_statements(numbered, display, self.diags))
+        finally:
+            self.stack.pop()
+
+    def _section(self, numbered: list[tuple[int, str]], section: str, display: str,
+                 st: Statement, offset: int) -> list[tuple[int, str]] | None:
+        """The lines between ``.lib SECTION`` and ``.endl`` of a library file."""
+        inside = False
+        out: list[tuple[int, str]] = []
+        found = False
+        for lineno, raw in numbered:
+            words = raw.split()
+            head = words[0].lower() if words else ""
+            if not inside:
+                if head == ".lib" and len(words) == 2 and words[1].lower() == section.lower():
+                    inside = found = True
+                continue
+            if head == ".endl":
+                inside = False
+                break
+            out.append((lineno, raw))
+        if not found:
+            self.error(f"library section '{section}' not found in '{display}'", st, offset,
+                       "the library file must contain '.lib SECTION' ... '.endl'")
+            return None
+        return out
+
+    # -- statements
+
+    def run(self, statements: list[Statement | _Block]) -> None:
+        for st in statements:
+            if isinstance(st, _Block):
+                self.deck.ignored.append(IgnoredCommand(st.text, st.loc))
+                continue
+            try:
+                self.statement(st)
+            except _Abandon:
+                pass
+
+    def parse(self, st: Statement, rule: str, what: str, usage: str) -> Tree:
+        try:
+            return self.lark.parse(st.text, start=rule)
+        except UnexpectedInput as exc:
+            self._syntax(st, exc, what, usage)
+            raise _Abandon from None
+
+    def _syntax(self, st: Statement, exc: UnexpectedInput, what: str, usage: str) -> None:
+        hint = f"syntax: {usage}"
+        name = _WORD.match(st.text)
+        label = f"{what} '{name.group()}'" if name and what[0] != "." else what
+        if isinstance(exc, UnexpectedEOF) or (
+            isinstance(exc, UnexpectedToken) and exc.token.type == "$END"
+        ):
+            expected = getattr(exc, "expected", set()) or set()
+            words = list(_WORD.finditer(st.text))
+            if expected == {"EQUAL"} and words and words[-1].end() == len(st.text):
+                # a word too many at the end: the parser took it for the start of NAME=VALUE
+                prev = words[-1]
+                self.error(f"unexpected '{prev.group()}' in {label}: expected NAME=VALUE or "
+                           "the end of the line", st, prev.start(), hint)
+                return
+            self.error(f"incomplete {label}: {_expected(expected)} missing", st,
+                       len(st.text), hint)
+        elif isinstance(exc, UnexpectedToken):
+            tok = exc.token
+            if exc.expected == {"EQUAL"} and exc.token_history:
+                prev = exc.token_history[-1]
+                self.error(f"unexpected '{prev}' in {label}: expected NAME=VALUE", st,
+                           prev.start_pos, hint)
+                return
+            self.error(f"unexpected '{tok}' in {label}", st, tok.start_pos, hint)
+        elif isinstance(exc, UnexpectedCharacters):
+            ch = st.text[exc.pos_in_stream]
+            what_ch = "quote" if ch in "'\"" else "character"
+            self.error(f"unexpected {what_ch} {ch!r} in {label}", st, exc.pos_in_stream,
+                       hint + ("; quotes and braces must be closed on the same statement"
+                               if ch in "'\"{" else ""))
+        else:  # pragma: no cover - lark raises only the three above
+            self.error(f"cannot parse {label}", st, 0, hint)
+
+    def statement(self, st: Statement) -> None:
+        m = _WORD.match(st.text)
+        if m is None:
+            self.error(f"unexpected {st.text[0]!r} at the start of a statement", st, 0,
+                       "a statement starts with an element name (R1, L1, ...) or a dot "
+                       "command (.param, .tran, ...)")
+            return
+        word = m.group()
+        if word[0] == ".":
+            self.command(word.lower(), st)
+            return
+        letter = word[0].upper()
+        if letter in ELEMENTS:
+            self.element(letter, st)
+            return
+        if letter in UNSUPPORTED_ELEMENTS:
+            what, hint = UNSUPPORTED_ELEMENTS[letter]
+            self.error(f"unknown element type '{letter}' ({what})", st, 0, hint)
+            return
+        self.error(f"unknown element type '{word[0]}' in '{word}'", st, 0,
+                   "pelcs knows the elements R L C V I D S E F G H K X and dot commands")
+
+    # -- values
+
+    def value(self, tok: Token, st: Statement, bare_expression: bool = False) -> Value | None:
+        """A WORD or EXPR token -> Value; ``None`` (and a diagnostic) if it is not valid."""
+        if tok.type == "EXPR":
+            return self.expression(tok[1:-1], st, tok.start_pos + 1)
+        num = parse_number(tok)
+        if num is not None:
+            return Value(num, None, st, tok.start_pos)
+        if bare_expression:
+            return self.expression(str(tok), st, tok.start_pos)
+        hint = ("a value is a number with an optional suffix (f p n u m k meg g t mil) and "
+                "unit, or an expression in braces")
+        if re.fullmatch(r"[A-Za-z_][\w.]*", tok):
+            hint = f"to use the parameter '{tok}', write {{{tok}}}"
+        elif re.search(r"[-+*/^]", tok[1:]):
+            hint = f"write expressions in braces: {{{tok}}}"
+        self.error(f"invalid number '{tok}'", st, tok.start_pos, hint)
+        return None
+
+    def expression(self, text: str, st: Statement, offset: int) -> Value | None:
+        try:
+            expr = parse_expression(text)
+        except ExpressionError as exc:
+            self.error(exc.message, st, offset + exc.offset, exc.hint)
+            return None
+        if expr.constant:
+            try:
+                return Value(expr.evaluate({}), None, st, offset)
+            except ExpressionError as exc:
+                self.error(exc.message, st, offset + exc.offset, exc.hint)
+                return None
+        return Value(None, expr, st, offset)
+
+    def assigns(self, items: list, st: Statement, bare_expression: bool = False
+                ) -> list[RawParam]:
+        out = []
+        for t in items:
+            name_tok, val_tok = t.children
+            v = self.value(val_tok, st, bare_expression)
+            if v is not None:
+                out.append(RawParam(name_tok.lower(), v, st, name_tok.start_pos))
+        return out
+
+    @property
+    def body(self) -> Body:
+        return self.sub.body if self.sub is not None else self.deck.top
+
+    # -- elements
+
+    def element(self, letter: str, st: Statement) -> None:
+        rule, what, usage = ELEMENTS[letter]
+        if letter in "EFGH":
+            m = _NONLINEAR.search(st.text)
+            if m:
+                self.error(f"nonlinear or behavioural {letter} source ('{m.group(1)}') is not "
+                           "supported", st, m.start(1),
+                           f"pelcs needs linear controlled sources: {usage}")
+                return
+        tree = self.parse(st, rule, what, usage)
+        ch = tree.children
+        name = hierarchical_name(str(ch[0]), letter)
+        if rule == "passive":
+            self.passive(letter, name, ch, st, what)
+        elif rule == "source":
+            self.source(letter, name, ch, st)
+        elif rule == "diode":
+            self.body.elements.append(RawElement(
+                "D", name, st, (node_name(ch[1]), node_name(ch[2])), ref=str(ch[3]),
+                ref_offset=ch[3].start_pos))
+        elif rule == "switch":
+            state = None
+            if len(ch) > 6:
+                state = ch[6].children[0].type == "ON"
+            self.body.elements.append(RawElement(
+                "S", name, st, (node_name(ch[1]), node_name(ch[2])),
+                control=(node_name(ch[3]), node_name(ch[4])), ref=str(ch[5]),
+                ref_offset=ch[5].start_pos, state=state))
+        elif rule == "vcontrolled":
+            v = self.value(ch[5], st)
+            if v is not None:
+                self.body.elements.append(RawElement(
+                    letter, name, st, (node_name(ch[1]), node_name(ch[2])),
+                    control=(node_name(ch[3]), node_name(ch[4])), value=v))
+        elif rule == "ccontrolled":
+            v = self.value(ch[4], st)
+            if v is not None:
+                self.body.elements.append(RawElement(
+                    letter, name, st, (node_name(ch[1]), node_name(ch[2])),
+                    ref=hierarchical_name(str(ch[3])), ref_offset=ch[3].start_pos, value=v))
+        elif rule == "coupling":
+            v = self.value(ch[3], st)
+            if v is not None:
+                self.body.elements.append(RawElement(
+                    "K", name, st, (), value=v,
+                    refs=((hierarchical_name(str(ch[1])), ch[1].start_pos),
+                          (hierarchical_name(str(ch[2])), ch[2].start_pos))))
+        else:
+            self.instance(name, ch, st)
+
+    def passive(self, letter: str, name: str, ch: list, st: Statement, what: str) -> None:
+        v = self.value(ch[3], st)
+        ic = None
+        for t in ch[4:]:
+            key_tok, val_tok = t.children
+            key = key_tok.lower()
+            if key == "ic" and letter in "LC":
+                ic = self.value(val_tok, st)
+                if ic is None:
+                    return
+            elif key in _PASSIVE_IGNORED:
+                if self.value(val_tok, st) is None:
+                    return
+            else:
+                accepted = "IC=" if letter in "LC" else "none that change the value"
+                hint = f"instance parameters accepted for a {what}: {accepted}"
+                if key in ("m", "scale"):
+                    hint = "fold the multiplier into the value"
+                self.error(f"unsupported parameter '{key_tok}' on {what} '{name}'", st,
+                           key_tok.start_pos, hint)
+                return
+        if v is None:
+            return
+        self.body.elements.append(RawElement(
+            letter, name, st, (node_name(ch[1]), node_name(ch[2])), value=v, ic=ic))
+
+    def source(self, letter: str, name: str, ch: list, st: Statement) -> None:
+        dc: Value | None = None
+        wave = None
+        ok = True
+        for part in ch[3:]:
+            if part.data == "dc_part":
+                dc = self.value(part.children[-1], st)
+                ok = ok and dc is not None
+            elif part.data == "ac_part":
+                for t in part.children[1:]:
+                    ok = ok and self.value(t, st) is not None
+            else:
+                kw = part.children[0].children[0]
+                kind = kw.lower()
+                toks = part.children[1].children if len(part.children) > 1 else []
+                args = [self.value(t, st) for t in toks]
+                if any(a is None for a in args):
+                    return
+                lo, hi = WAVE_ARGS[kind]
+                if len(args) < lo or (hi is not None and len(args) > hi):
+                    names = {
+                        "pulse": "V1 V2 [TD [TR [TF [PW [PER [NP]]]]]]",
+                        "sin": "VO VA [FREQ [TD [THETA [PHASE]]]]",
+                        "exp": "V1 V2 [TD1 [TAU1 [TD2 [TAU2]]]]",
+                    }.get(kind, "T1 V1 [T2 V2 ...]")
+                    self.error(f"{kw.upper()} takes {lo} to {hi} values, got {len(args)}"
+                               if hi else f"{kw.upper()} needs at least {lo} values",
+                               st, kw.start_pos, f"syntax: {kw.upper()}({names})")
+                    return
+                if kind == "pwl" and len(args) % 2:
+                    self.error(f"PWL needs time-value pairs, got {len(args)} values", st,
+                               kw.start_pos, "syntax: PWL(T1 V1 T2 V2 ...)")
+                    return
+                wave = (kind, args, kw.start_pos)
+        if not ok:
+            return
+        self.body.elements.append(RawElement(
+            letter, name, st, (node_name(ch[1]), node_name(ch[2])), value=dc, wave=wave))
+
+    def instance(self, name: str, ch: list, st: Statement) -> None:
+        words: list[Token] = []
+        params: list[RawParam] = []
+        seen_params = False
+        for item in ch[1:]:
+            if item.data == "x_word":
+                if seen_params or params:
+                    tok = item.children[0]
+                    self.error(f"unexpected '{tok}' after the parameters of '{name}'", st,
+                               tok.start_pos, "syntax: Xname node... subckt [params: a=1 ...]")
+                    return
+                words.append(item.children[0])
+            elif item.data == "x_params":
+                seen_params = True
+            else:
+                params.extend(self.assigns([item], st))
+        if not words:
+            self.error(f"subcircuit instance '{name}' names no subcircuit", st, len(st.text),
+                       "syntax: Xname node... subckt [params: a=1 ...]")
+            return
+        sub = words[-1]
+        self.body.elements.append(RawElement(
+            "X", name, st, tuple(node_name(w) for w in words[:-1]), ref=str(sub),
+            ref_offset=sub.start_pos, params=params))
+
+    # -- dot commands
+
+    def command(self, cmd: str, st: Statement) -> None:
+        handler = _COMMANDS.get(cmd)
+        if handler is not None:
+            handler(self, st)
+            return
+        if cmd in IGNORED_COMMANDS:
+            self.deck.ignored.append(IgnoredCommand(" ".join(st.text.split()), st.loc(0)))
+            return
+        if cmd in UNSUPPORTED_COMMANDS:
+            self.error(f"{cmd} is not supported", st, 0, UNSUPPORTED_COMMANDS[cmd])
+            return
+        self.error(f"unknown dot command '{st.text.split()[0]}'", st, 0,
+                   f"supported: {SUPPORTED_COMMANDS}; accepted and ignored: "
+                   + " ".join(sorted(IGNORED_COMMANDS)))
+
+    def cmd_param(self, st: Statement) -> None:
+        tree = self.parse(st, "param_cmd", ".param", ".param name=value [name=value ...]")
+        items = tree.children[1:]
+        if not items:
+            self.error(".param defines no parameter", st, len(st.text),
+                       "syntax: .param name=value [name=value ...]")
+            return
+        self.body.params.extend(self.assigns(items, st, bare_expression=True))
+
+    def cmd_subckt(self, st: Statement) -> None:
+        usage = ".subckt name node... [params: name=value ...]"
+        tree = self.parse(st, "subckt_cmd", ".subckt", usage)
+        if self.sub is not None:
+            self.error("nested .subckt definitions are not supported", st, 0,
+                       f"close '{self.sub.name}' with .ends first and define "
+                       "subcircuits at the top level")
+            raise _Abandon
+        name_tok = tree.children[1]
+        ports: list[str] = []
+        defaults: list[RawParam] = []
+        for item in tree.children[2:]:
+            if item.data == "x_word":
+                if defaults:
+                    tok = item.children[0]
+                    self.error(f"unexpected '{tok}' after the parameters of .subckt "
+                               f"'{name_tok}'", st, tok.start_pos, f"syntax: {usage}")
+                else:
+                    ports.append(node_name(item.children[0]))
+            elif item.data == "assign":
+                defaults.extend(self.assigns([item], st, bare_expression=True))
+        key = name_tok.lower()
+        sub = SubcktDef(str(name_tok), ports, defaults, Body(), st)
+        if key in self.deck.subckts:
+            prev = self.deck.subckts[key].st.loc(0)
+            self.error(f"subcircuit '{name_tok}' is defined twice (first at line {prev.line})",
+                       st, name_tok.start_pos, "rename one of the definitions")
+        else:
+            self.deck.subckts[key] = sub
+        self.sub = sub
+
+    def cmd_ends(self, st: Statement) -> None:
+        tree = self.parse(st, "ends_cmd", ".ends", ".ends [name]")
+        if self.sub is None:
+            self.error(".ends without .subckt", st, 0, "remove it or add the .subckt line")
+            return
+        if len(tree.children) > 1:
+            tok = tree.children[1]
+            if tok.lower() != self.sub.name.lower():
+                self.error(f".ends '{tok}' closes subcircuit '{self.sub.name}'", st,
+                           tok.start_pos, f"write .ends {self.sub.name}")
+        self.sub = None
+
+    def cmd_model(self, st: Statement) -> None:
+        tree = self.parse(st, "model_cmd", ".model", ".model name D(...) or .model name SW(...)")
+        name_tok, type_tok = tree.children[1], tree.children[2]
+        mtype = type_tok.upper()
+        if mtype not in _MODEL_TYPES:
+            what = _UNSUPPORTED_MODELS.get(mtype)
+            hint = "pelcs knows diode models (D) and voltage-controlled switch models (SW)"
+            if what in ("MOSFET", "BJT", "JFET", "MESFET"):
+                hint = (f"a {what} used as a switch is an S element driven by its gate/base "
+                        "voltage with a .model NAME SW(VT=... VH=...)")
+            elif what == "current switch":
+                hint = "use an S switch with a SW model, controlled by a voltage"
+            label = f" ({what})" if what else ""
+            self.error(f"model type '{type_tok}'{label} is not supported", st,
+                       type_tok.start_pos, hint)
+            return
+        items = tree.children[3].children if len(tree.children) > 3 else []
+        params = self.assigns(items, st)
+        self.deck.models.append(RawModel(str(name_tok), _MODEL_TYPES[mtype], params, st))
+
+    def cmd_ic(self, st: Statement) -> None:
+        tree = self.parse(st, "ic_cmd", ".ic", ".ic v(node)=value [v(node)=value ...]")
+        for item in tree.children[1:]:
+            v_tok, node_tok, val_tok = item.children
+            if v_tok.lower() != "v":
+                self.error(f".ic sets node voltages: expected v(node), got {v_tok}(...)", st,
+                           v_tok.start_pos, "inductor currents are set with IC= on the L line")
+                continue
+            v = self.value(val_tok, st)
+            if v is not None:
+                self.body.ics.append(RawIc(node_name(node_tok), v, st, node_tok.start_pos))
+
+    def cmd_tran(self, st: Statement) -> None:
+        tree = self.parse(st, "tran_cmd", ".tran", ".tran TSTEP TSTOP [TSTART [TMAX]] [UIC]")
+        if self.sub is not None:
+            self.error(".tran inside a subcircuit", st, 0, "move it to the top level")
+            return
+        ch = tree.children[1:]
+        uic = bool(ch) and ch[-1].type == "UIC"
+        if uic:
+            ch = ch[:-1]
+        values = [self.value(t, st) for t in ch]
+        if any(v is None for v in values):
+            return
+        self.deck.trans.append(RawTran(values, uic, st))
+
+    def cmd_options(self, st: Statement) -> None:
+        tree = self.parse(st, "options_cmd", ".options", ".options name[=value] ...")
+        for item in tree.children[1:]:
+            key = item.children[0].lower()
+            self.deck.options[key] = str(item.children[1]) if len(item.children) > 1 else ""
+
+    def cmd_include(self, st: Statement) -> None:
+        tree = self.parse(st, "include_cmd", ".include", ".include FILE")
+        tok = tree.children[1]
+        self.include(_unquote(tok), st, tok.start_pos, None)
+
+    def cmd_lib(self, st: Statement) -> None:
+        tree = self.parse(st, "lib_cmd", ".lib", ".lib FILE SECTION")
+        tok = tree.children[1]
+        if len(tree.children) < 3:
+            self.error(".lib needs a file and a section name", st, len(st.text),
+                       "syntax: .lib FILE SECTION (use .include FILE for a whole file)")
+            return
+        self.include(_unquote(tok), st, tok.start_pos, str(tree.children[2]))
+
+    def cmd_global(self, st: Statement) -> None:
+        tree = self.parse(st, "global_cmd", ".global", ".global node ...")
+        self.deck.globals.update(node_name(t) for t in tree.children[1:])
+
+    def cmd_title(self, st: Statement) -> None:
+        parts = st.text.split(None, 1)
+        self.deck.title = parts[1].strip() if len(parts) > 1 else ""
+
+
+def _unquote(tok: Token) -> str:
+    s = str(tok)
+    if len(s) >= 2 and s[0] in "\"'{" and s[-1] in "\"'}":
+        return s[1:-1].strip()
+    return s
+
+
+def _expected(expected: set[str]) -> str:
+    names = sorted({_TOKEN_NAMES.get(e, e.lower()) for e in expected if e != "$END"})
+    if not names:
+        return "a field"
+    if len(names) == 1:
+        return names[0]
+    return ", ".join(names[:-1]) + " or " + names[-1]
+
+
+class _Abandon(Exception):
+    """A statement was reported as wrong; go on with the next one."""
+
+
+_COMMANDS = {
+    ".param": _Reader.cmd_param,
+    ".subckt": _Reader.cmd_subckt,
+    ".ends": _Reader.cmd_ends,
+    ".model": _Reader.cmd_model,
+    ".ic": _Reader.cmd_ic,
+    ".tran": _Reader.cmd_tran,
+    ".options": _Reader.cmd_options,
+    ".option": _Reader.cmd_options,
+    ".opt": _Reader.cmd_options,
+    ".include": _Reader.cmd_include,
+    ".inc": _Reader.cmd_include,
+    ".lib": _Reader.cmd_lib,
+    ".global": _Reader.cmd_global,
+    ".title": _Reader.cmd_title,
+}
+
+
+
+
+def read_deck(text: str, file: str = "<string>", path: Path | None = None) -> Deck:
+    """Read netlist text (and its includes) into a :class:`Deck`, without evaluating it.
+
+    Raises
+    ------
+    NetlistError
+        With every syntax problem found.
+    """
+    reader = _Reader(file)
+    reader.read_top(text, file, path.resolve() if path is not None else None)
+    reader.raise_problems(None)
+    return reader.deck

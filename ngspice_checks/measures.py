@@ -1,0 +1,291 @@
+"""What :mod:`ngspice_checks.compare` measures on both runs: the steady-state period and
+window, means and scales, switching instants (and their Hausdorff distance), and the
+relative drop of ngspice's diode and switch models against the ideal ones (which sets the
+tolerances, see the module docstring of :mod:`.compare`)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from lcs.results import SimulationResult
+from lcs.signals import Pulse, Sin
+from netlist.circuit import (
+    GROUND,
+    Circuit,
+    CurrentSource,
+    Diode,
+    Switch,
+    VoltageSource,
+)
+
+from .runner import NgspiceSettings
+
+#: thermal voltage kT/q at ngspice's nominal 27 °C (V)
+VT_THERMAL = 0.025852
+
+# ngspice defaults of the model parameters the drop estimate uses
+_DIODE_DEFAULTS = {"is": 1e-14, "n": 1.0, "rs": 0.0}
+_SWITCH_DEFAULTS = {"vt": 0.0, "vh": 0.0, "ron": 1.0, "roff": 1e12}
+
+
+
+@dataclass
+class NonIdeality:
+    """The drops of ngspice's diode and switch models, estimated from the pelcs currents.
+
+    Attributes
+    ----------
+    diode_drops : dict
+        Diode -> forward drop at its largest current (V).
+    switch_drops : dict
+        Switch -> RON·I at its largest current (V).
+    v_ref : float
+        Largest independent source voltage (V).
+    delta : float
+        (sum of the drops) / v_ref, dimensionless.
+    """
+
+    diode_drops: dict[str, float]
+    switch_drops: dict[str, float]
+    v_ref: float
+    delta: float
+
+
+# ------------------------------------------------------------------------------------------
+# the period
+
+
+def _source_period(wave) -> float | None:
+    if isinstance(wave, Pulse) and wave.per:
+        return float(wave.per)
+    if isinstance(wave, Sin) and wave.freq:
+        return 1.0 / float(wave.freq)
+    return None
+
+
+def detect_period(
+    circuit: Circuit, result: SimulationResult | None = None, period: float | None = None
+) -> tuple[float | None, str]:
+    """The period of the steady state, and where it comes from.
+
+    Parameters
+    ----------
+    circuit : Circuit
+    result : SimulationResult, optional
+        A pelcs run, for free-running converters (period from the switching events).
+    period : float, optional
+        Given by the user (s): returned as it is.
+
+    Returns
+    -------
+    (float or None, str)
+        Period (s) and a phrase for the report, e.g. ``"PULSE period of Vg (gate of S1)"``.
+    """
+    if period is not None:
+        return float(period), "given (--period)"
+    tstop = circuit.tran.tstop if circuit.tran is not None else math.inf
+    sources = []
+    for el in circuit.elements:
+        if isinstance(el, (VoltageSource, CurrentSource)) and el.waveform is not None:
+            per = _source_period(el.waveform)
+            if per is not None and 0 < per < tstop:
+                sources.append((el, per))
+    # a source directly across a switch's control terminals sets its switching period
+    for sw in circuit.of_kind("S"):
+        ctrl = set(sw.control)
+        for el, per in sources:
+            if isinstance(el, VoltageSource) and (
+                set(el.nodes) == ctrl or (GROUND in ctrl and set(el.nodes) & ctrl - {GROUND}
+                                          and GROUND in el.nodes)
+            ):
+                kind = "PULSE" if isinstance(el.waveform, Pulse) else "SIN"
+                return per, f"{kind} period of {el.name} (control of {sw.name})"
+    if sources:
+        el, per = max(sources, key=lambda s: s[1])
+        kind = "PULSE period" if isinstance(el.waveform, Pulse) else "SIN period"
+        return per, f"{kind} of {el.name} (longest source period)"
+    if result is not None and len(result.events) >= 4:
+        last = result.events[-1][1]
+        starts = np.array([t for t, mode in result.events if mode == last])
+        half = starts[starts >= 0.5 * (result.t[-1] + result.t[0])]
+        if len(half) >= 3:
+            return float(np.median(np.diff(half))), "median recurrence of the last switch " \
+                "mode in the pelcs run (free-running)"
+    return None, "no periodic source or switching: last 20 % of the run"
+
+
+def _window(span: tuple[float, float], period: float | None) -> tuple[tuple[float, float], int]:
+    t0, t1 = span
+    if period is not None and period > 0:
+        n = min(10, int((t1 - t0) / 4.0 / period + 1e-9))
+        if n >= 1:
+            return (t1 - n * period, t1), n
+        if period <= t1 - t0:
+            return (t1 - period, t1), 1
+    return (t1 - 0.2 * (t1 - t0), t1), 0
+
+
+# ------------------------------------------------------------------------------------------
+# signal helpers
+
+
+def _in_window(t: np.ndarray, y: np.ndarray, a: float, b: float) -> tuple[np.ndarray, np.ndarray]:
+    """Samples inside [a, b] with the end points interpolated in (exact window ends)."""
+    sel = (t > a) & (t < b)
+    tt = np.concatenate([[a], t[sel], [b]])
+    yy = np.concatenate([[np.interp(a, t, y)], y[sel], [np.interp(b, t, y)]])
+    return tt, yy
+
+
+def _mean(t: np.ndarray, y: np.ndarray) -> float:
+    return float(np.trapezoid(y, t) / (t[-1] - t[0]))
+
+
+def _scale(y: np.ndarray) -> float:
+    y = np.asarray(y, dtype=float)
+    rms = float(np.sqrt(np.mean(y * y))) if len(y) else 0.0
+    return max(rms, 0.5 * float(np.ptp(y)) if len(y) else 0.0, 1e-12)
+
+
+def _strictly_increasing(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Drop repeated time points (keep the last value, after a jump) for interpolation."""
+    keep = np.append(np.diff(t) > 0, True)
+    return t[keep], y[keep]
+
+
+# ------------------------------------------------------------------------------------------
+# switching instants
+
+
+@dataclass
+class _Instants:
+    on: np.ndarray
+    off: np.ndarray
+
+
+def _pelcs_instants(result: SimulationResult, switches: Sequence[str]) -> dict[str, _Instants]:
+    """Turn-on and turn-off instants of each switch from ``result.events``."""
+    ons: dict[str, list[float]] = {s: [] for s in switches}
+    offs: dict[str, list[float]] = {s: [] for s in switches}
+    prev = result.modes_visited[0] if result.modes_visited else (False,) * len(switches)
+    for t, mode in result.events:
+        for k, name in enumerate(switches):
+            if mode[k] != prev[k]:
+                (ons if mode[k] else offs)[name].append(float(t))
+        prev = mode
+    return {s: _Instants(np.array(ons[s]), np.array(offs[s])) for s in switches}
+
+
+def _ngspice_instants(
+    t: np.ndarray, c: np.ndarray, vt: float, vh: float, initial: bool | None
+) -> _Instants:
+    """Instants at which ngspice's SW model changes state, from its control voltage.
+
+    ngspice's rule: on above VT + VH, off below VT - VH, unchanged in between (in the band at
+    t = 0: the ON/OFF flag, default off). The crossing of the threshold is interpolated
+    linearly between the two time points around it.
+    """
+    hi, lo = vt + vh, vt - vh
+    # ngspice lands some switchings exactly on a band edge (c = VT - VH to 1e-10): compare
+    # with a margin of round-off size; a sample within it of both edges (VH = 0) decides
+    # nothing
+    eps = 1e-6 * max(float(np.max(np.abs(c))) if len(c) else 0.0, abs(vt) + vh, 1e-3)
+    above, below = c >= hi - eps, c <= lo + eps
+    above, below = above & ~below, below & ~above
+    decided = above | below
+    idx = np.where(decided, np.arange(len(c)), -1)
+    np.maximum.accumulate(idx, out=idx)
+    state = np.where(idx >= 0, above[np.maximum(idx, 0)], bool(initial))
+    change = np.flatnonzero(state[1:] != state[:-1]) + 1
+    on, off = [], []
+    for k in change:
+        level = hi if state[k] else lo
+        c0, c1 = c[k - 1], c[k]
+        frac = (level - c0) / (c1 - c0) if c1 != c0 else 1.0
+        tk = t[k - 1] + min(max(frac, 0.0), 1.0) * (t[k] - t[k - 1])
+        (on if state[k] else off).append(float(tk))
+    return _Instants(np.array(on), np.array(off))
+
+
+def _hausdorff(a: np.ndarray, b: np.ndarray, lo: float, hi: float) -> float:
+    """Largest distance from an instant in [lo, hi] of one set to the nearest of the other (s).
+
+    The partner may lie outside [lo, hi] (an instant just inside the window can have its
+    partner just outside). An instant without any partner counts as ``hi - lo`` (the
+    comparison fails).
+    """
+    a, b = np.sort(a), np.sort(b)
+    a_in, b_in = a[(a >= lo) & (a <= hi)], b[(b >= lo) & (b <= hi)]
+    if len(a_in) == 0 and len(b_in) == 0:
+        return 0.0
+    if len(a) == 0 or len(b) == 0:
+        return hi - lo
+
+    def one_way(x: np.ndarray, y: np.ndarray) -> float:
+        k = np.clip(np.searchsorted(y, x), 1, len(y) - 1) if len(y) > 1 else np.zeros(
+            len(x), dtype=int)
+        d = np.abs(x - y[k])
+        if len(y) > 1:
+            d = np.minimum(d, np.abs(x - y[k - 1]))
+        return float(d.max())
+
+    return max(one_way(a_in, b) if len(a_in) else 0.0, one_way(b_in, a) if len(b_in) else 0.0)
+
+
+def _frequency(on: np.ndarray, a: float, b: float) -> float:
+    x = on[(on >= a) & (on <= b)]
+    return (len(x) - 1) / (x[-1] - x[0]) if len(x) >= 3 else math.nan
+
+
+# ------------------------------------------------------------------------------------------
+# the non-ideality estimate
+
+
+def _model_params(circuit: Circuit, model: str, defaults: Mapping[str, float]) -> dict:
+    m = circuit.models.get(model.lower())
+    params = dict(defaults)
+    if m is not None:
+        params.update({k: v for k, v in m.params.items() if k in defaults})
+    return params
+
+
+def _nonideality(
+    circuit: Circuit, settings: NgspiceSettings, currents: Mapping[str, np.ndarray]
+) -> NonIdeality:
+    """δ of the module docstring, with the models of the ngspice rung that ran."""
+    diodes, switches = {}, {}
+    for el in circuit.elements:
+        i_max = float(np.max(np.abs(currents[el.name]))) if el.name in currents else 0.0
+        if isinstance(el, Diode):
+            p = _model_params(circuit, el.model, _DIODE_DEFAULTS)
+            if settings.diode_model is not None:
+                p.update({k: float(v) for k, v in settings.diode_model.items() if k in p})
+            drop = p["n"] * VT_THERMAL * math.log1p(i_max / p["is"]) + p["rs"] * i_max
+            diodes[el.name] = drop
+        elif isinstance(el, Switch):
+            p = _model_params(circuit, el.model, _SWITCH_DEFAULTS)
+            if settings.switch_model is not None:
+                p["ron"] = settings.switch_model.ron
+            switches[el.name] = p["ron"] * i_max
+    v_ref = 0.0
+    for el in circuit.elements:
+        if isinstance(el, VoltageSource):
+            v_ref = max(v_ref, abs(el.dc), _peak(el.waveform))
+    total = sum(diodes.values()) + sum(switches.values())
+    delta = total / v_ref if v_ref > 0 else 0.0
+    return NonIdeality(diodes, switches, v_ref, delta)
+
+
+def _peak(wave) -> float:
+    if isinstance(wave, Pulse):
+        return max(abs(wave.v1), abs(wave.v2))
+    if isinstance(wave, Sin):
+        return abs(wave.vo) + abs(wave.va)
+    values = getattr(wave, "values", None)
+    return max((abs(v) for v in values), default=0.0) if values else 0.0
+
+

@@ -1,0 +1,121 @@
+"""The layering of docs/architecture.md, checked on the source: no import cycles between
+modules, ``lcs`` imports nothing of ``netlist``/``pelcs``/``ngspice_checks``, ``netlist``
+nothing of ``pelcs``/``ngspice_checks``, ``ngspice_checks`` nothing of ``pelcs``, nothing
+imports the CLI, and no code module is much over 800 lines (issue #15).
+
+Imports are read statically (every ``import`` statement, also those inside functions: a lazy
+import is still a dependency).
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("lcs", "netlist", "pelcs", "ngspice_checks", "converters")
+MAX_LINES = 850
+
+
+def _modules() -> dict[str, Path]:
+    out = {}
+    for pkg in PACKAGES:
+        for path in (ROOT / pkg).rglob("*.py"):
+            parts = path.relative_to(ROOT).with_suffix("").parts
+            name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+            out[name] = path
+    return out
+
+
+def _imports(name: str, path: Path, modules: dict[str, Path]) -> set[str]:
+    """Modules of ours that ``name`` imports (submodule granularity)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    is_pkg = path.name == "__init__.py"
+    base = name.split(".") if is_pkg else name.split(".")[:-1]
+    found: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            targets = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                stem = base[: len(base) - node.level + 1]
+                mod = ".".join(stem + ([node.module] if node.module else []))
+            else:
+                mod = node.module or ""
+            targets = [f"{mod}.{a.name}" for a in node.names] + [mod]
+        else:
+            continue
+        for t in targets:
+            while t and t not in modules:
+                t = t.rpartition(".")[0]
+            if t and t != name:
+                found.add(t)
+    return found
+
+
+def _graph() -> dict[str, set[str]]:
+    modules = _modules()
+    return {name: _imports(name, path, modules) for name, path in modules.items()}
+
+
+def _is_package_init(name: str, target: str) -> bool:
+    # "from . import x" inside a package, or a package's __init__ re-exporting its own
+    # modules, is how packages are built, not a dependency cycle between concepts.
+    return target == name.rpartition(".")[0] or name == target.rpartition(".")[0]
+
+
+def test_no_import_cycles():
+    graph = {k: {t for t in v if not _is_package_init(k, t)} for k, v in _graph().items()}
+    index, low, stack, on_stack, cycles = {}, {}, [], set(), []
+
+    def strong(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                strong(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                cycles.append(sorted(comp))
+
+    for v in sorted(graph):
+        if v not in index:
+            strong(v)
+    assert not cycles, f"import cycles: {cycles}"
+
+
+FORBIDDEN = {
+    "lcs": ("netlist", "pelcs", "ngspice_checks", "converters"),
+    "netlist": ("pelcs", "ngspice_checks"),
+    "ngspice_checks": ("pelcs",),
+}
+
+
+def test_layers():
+    bad = []
+    for name, targets in _graph().items():
+        top = name.split(".")[0]
+        for t in targets:
+            if t.split(".")[0] in FORBIDDEN.get(top, ()):
+                bad.append(f"{name} -> {t}")
+            if t == "pelcs.cli" or t.startswith("pelcs.commands"):
+                if not name.startswith(("pelcs.cli", "pelcs.commands")):
+                    bad.append(f"{name} -> {t} (nothing imports the CLI)")
+    assert not bad, "layering violations:\n" + "\n".join(sorted(bad))
+
+
+def test_module_sizes():
+    big = {str(p.relative_to(ROOT)): n for p in _modules().values()
+           if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES}
+    assert not big, f"modules over {MAX_LINES} lines: {big}"
