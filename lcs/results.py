@@ -137,6 +137,8 @@ class SimulationResult:
     switching : dict[str, str]
         How each switch was driven: ``"source"``, ``"controller"``, ``"implicit"``,
         ``"hysteresis"``, ``"explicit"`` or ``"latched"`` (``docs/switching.md``).
+    event_log : list of lcs.exact.integrator.ExactEvent
+        Exact method only: every event (time, element, kind, mode after).
     """
 
     t: np.ndarray
@@ -151,6 +153,7 @@ class SimulationResult:
     error: SimulationError | None = None
     sliding: list = field(default_factory=list)
     switching: dict = field(default_factory=dict)
+    event_log: list = field(default_factory=list)
 
     @property
     def ok(self) -> bool:

@@ -277,6 +277,7 @@ def circuit_map(
     param_name: str | None = None,
     options: MoreauOptions | None = None,
     max_periods: int = 20,
+    method: str = "moreau",
 ) -> StroboscopicMap | EventMap:
     """The stroboscopic (or event) map of a parsed circuit.
 
@@ -293,6 +294,10 @@ def circuit_map(
         Sampling phase, s.
     event : str, optional
         ``"S1:on"``, ``"D1:on"``, ``"v(out)>12"``...: an event map instead.
+    method : str
+        ``"moreau"`` (θ time-stepping, finite-difference Jacobians) or ``"exact"``
+        (:class:`lcs.exact.maps.ExactStroboscopicMap`: exact flows and events, exact
+        Jacobian; stroboscopic maps only).
 
     Returns
     -------
@@ -315,6 +320,20 @@ def circuit_map(
     tstop = circuit.tran.tstop if circuit.tran is not None else T
     setup = transient_setup(circuit, tstop=max(tstop, T), step=h)
     system = setup.system
+    if method == "exact":
+        if event:
+            raise _usage("--event needs the Moreau method", "drop --method exact")
+        from lcs.exact.maps import ExactStroboscopicMap
+        from lcs.simulation.switches import initially_on
+
+        key0 = tuple(initially_on(s.options) for s in system.switches)
+        em = ExactStroboscopicMap(system, setup.signals, T, t0=t0, key0=key0, param=param,
+                                  param_name=param_name)
+        em.x0 = setup.x0.copy()
+        em.notes[:0] = list(setup.notes)
+        return em
+    if method != "moreau":
+        raise _usage(f"unknown method {method!r}", "moreau or exact")
     kwargs = dict(theta=theta, t0=t0, param=param, param_name=param_name,
                   on_inconsistent=_StateJump(setup.energy), options=options,
                   diode_probes=[f"i({d})" for d in system.diodes])
@@ -360,6 +379,7 @@ class CircuitMapFactory:
     t0: float = 0.0
     event: str | None = None
     text: str | None = field(default=None, repr=False)
+    method: str = "moreau"
 
     def portable(self) -> CircuitMapFactory:
         """A copy that carries the netlist text, for workers on other machines.
@@ -398,4 +418,4 @@ def _build_map(factory: CircuitMapFactory, value: float | None):
     circuit = factory.circuit(value)
     return circuit_map(circuit, factory.period, step=factory.step, theta=factory.theta,
                        t0=factory.t0, event=factory.event, param=value,
-                       param_name=factory.param)
+                       param_name=factory.param, method=factory.method)

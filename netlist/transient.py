@@ -389,8 +389,9 @@ def simulate_circuit(
     controllers: Sequence = (),
     save_at: Sequence[float] = (),
     strict: bool = False,
+    method: str = "moreau",
 ) -> SimulationResult:
-    """Simulate a parsed circuit with the Moreau θ scheme.
+    """Simulate a parsed circuit with the Moreau θ scheme (or exactly, ``method="exact"``).
 
     :func:`transient_setup` followed by :func:`run_setup`.
 
@@ -421,6 +422,10 @@ def simulate_circuit(
         Extra instants (s) to land on and store (e.g. stroboscopic samples).
     strict : bool
         Refuse a non-passive circuit instead of warning (see :func:`transient_setup`).
+    method : str
+        ``"moreau"`` (time-stepping) or ``"exact"`` (event-driven, exact between events:
+        :mod:`lcs.exact`; the step is then the output spacing; piecewise-linear sources and
+        netlist comparators only).
 
     Returns
     -------
@@ -442,7 +447,7 @@ def simulate_circuit(
     setup = transient_setup(circuit, tstop=tstop, step=step, system=system, strict=strict)
     return run_setup(setup, theta=theta, probes=probes, every=every, progress=progress,
                      options=options, switching=switching, controllers=controllers,
-                     save_at=save_at)
+                     save_at=save_at, method=method)
 
 
 def run_setup(
@@ -456,6 +461,7 @@ def run_setup(
     switching: str | None = None,
     controllers: Sequence = (),
     save_at: Sequence[float] = (),
+    method: str = "moreau",
 ) -> SimulationResult:
     """Run a prepared :class:`TransientSetup` (arguments as in :func:`simulate_circuit`).
 
@@ -463,12 +469,25 @@ def run_setup(
     a note of its own; points before ``setup.t_save`` are dropped.
     """
     jump = _JumpRecorder(setup.energy)
-    result = simulate(
-        setup.system, setup.signals, setup.x0, setup.t_stop, setup.h, theta=theta,
-        probes=None if probes is None else list(probes), every=every, progress=progress,
-        on_inconsistent=jump, options=options, switching=switching, save_at=save_at,
-        controllers=controllers,
-    )
+    if method == "exact":
+        from lcs.exact.simulate import simulate_exact
+
+        if controllers:
+            raise ValueError("the exact method follows the netlist's comparators, not Python "
+                             "controllers: use method='moreau'")
+        result = simulate_exact(
+            setup.system, setup.signals, setup.x0, setup.t_stop, setup.h,
+            probes=None if probes is None else list(probes), save_at=save_at,
+            on_inconsistent=jump)
+    elif method != "moreau":
+        raise ValueError(f"unknown method {method!r}: 'moreau' or 'exact'")
+    else:
+        result = simulate(
+            setup.system, setup.signals, setup.x0, setup.t_stop, setup.h, theta=theta,
+            probes=None if probes is None else list(probes), every=every,
+            progress=progress, on_inconsistent=jump, options=options, switching=switching,
+            save_at=save_at, controllers=controllers,
+        )
     result.notes[:0] = setup.notes
     growth = state_growth(result)
     if growth is not None:

@@ -139,7 +139,8 @@ class Event:
 
 
 class Follower:
-    """What following one period needs: the system, the sources, the rules and caches."""
+    """Follows ``[t0, t0 + period]`` (a switching period, or any span): the system, the
+    sources, the switch rules and the caches of mode flows."""
 
     def __init__(self, system: SwitchedLCS, signals: Sequence, t0: float, period: float):
         bad = [name for name, s in zip(system.inputs, signals, strict=True)
@@ -147,8 +148,8 @@ class Follower:
         if bad:
             raise ExactError(
                 f"the exact method needs piecewise-linear sources (DC, PULSE, PWL); "
-                f"{', '.join(bad)} {'is' if len(bad) == 1 else 'are'} not: use the sweep "
-                "method")
+                f"{', '.join(bad)} {'is' if len(bad) == 1 else 'are'} not: use a "
+                "time-stepping method (Moreau; for pelcs ac the sweep method)")
         self.system = system
         self.signals = list(signals)
         self.t0 = float(t0)
@@ -157,6 +158,7 @@ class Follower:
         self.n, self.m, self.p = len(system.states), len(system.diodes), len(system.inputs)
         self._flows: dict = {}
         self._controls: dict = {}
+        self._rate_cache: dict = {}
         t1 = self.t0 + self.T
         fixed = [self.t0, t1]
         for s in self.signals:
@@ -242,7 +244,10 @@ class Follower:
         u0, u1 = self.inputs_on(ta, tb)
         if flow.Kx.shape[0]:
             res = flow.Kx @ x + flow.Ku @ u0
-            scale = np.abs(flow.Kx) @ np.abs(x) + np.abs(flow.Ku) @ np.abs(u0) + 1e-300
+            # relative to the whole state's size: at an event the constraint is zero only to
+            # the root's accuracy, and its own terms may all be near zero (i(L) = 1e-13 A)
+            scale = (np.abs(flow.Kx) @ np.abs(x) + np.abs(flow.Ku) @ np.abs(u0)
+                     + np.abs(flow.Kx).sum(axis=1) * np.max(np.abs(x), initial=0.0) + 1e-300)
             if np.any(np.abs(res) > 1e-8 * scale + 1e-14):
                 return None
         gx, gu, gd, g0, labels = self.guards(key, flow)
@@ -265,6 +270,15 @@ class Follower:
             return None
         return flow
 
+    def project(self, flow: ModeFlow, x: np.ndarray, t: float) -> np.ndarray:
+        """``x`` moved onto the held set's state constraints ``Kx x + Ku u = 0`` (by the
+        least change), which it satisfies up to an event's round-off."""
+        if not flow.Kx.shape[0]:
+            return x
+        u0, _ = self.inputs_on(t, t + 1e-9 * self.T)
+        res = flow.Kx @ x + flow.Ku @ u0
+        return x - np.linalg.lstsq(flow.Kx, res, rcond=None)[0]
+
     def select(self, key, prefer: tuple[int, ...], x, ta, tb, why: str) -> ModeFlow:
         """The consistent held set nearest ``prefer`` in the switch configuration ``key``."""
         flow = self._consistent(key, prefer, x, ta, tb)
@@ -286,26 +300,43 @@ class Follower:
                          "(Moreau; for pelcs ac the sweep method)")
 
     # --- one period ------------------------------------------------------------------------
-    def follow(self, x0, key0: ModeKey) -> tuple[list[Segment], list[Event], np.ndarray]:
-        """Segments and events of one period from ``x0`` at t0 with switch states ``key0``."""
+    def follow(self, x0, key0: ModeKey, held0: tuple[int, ...] = ()
+               ) -> tuple[list[Segment], list[Event], np.ndarray]:
+        """Segments and events over the span from ``x0`` at t0 with switch states ``key0``.
+
+        ``held0`` is the preferred held set at the start (the consistent one nearest it is
+        taken). While it runs, ``self.segments`` and ``self.events`` hold what is done, so
+        that a caller catching :class:`ExactError` keeps the partial result.
+        """
         x = np.asarray(x0, dtype=float).copy()
         t = self.t0
         key = tuple(key0)
         key = self._apply_clocks(key, t, x, None)
         fi = 1  # index of the next fixed instant
-        flow = self.select(key, (), x, t, self.fixed[1], "start of the period")
+        flow = self.select(key, tuple(held0), x, t, self.fixed[1], "start of the span")
+        x = self.project(flow, x, t)
         segs: list[Segment] = []
         events: list[Event] = []
+        self.segments, self.events, self.x = segs, events, x
         same_instant = 0
         while True:
             tb = self.fixed[fi]
+            # a long interval is searched in pieces (each a whole number of samples)
+            tc = min(tb, t + self.search_span(flow))
+            if tb - tc <= 1e-12 * self.T:
+                tc = tb
             u0, u1 = self.inputs_on(t, tb)
             G = flow_matrix(flow, u0, u1)
-            hit = self._first_event(key, flow, G, x, u0, u1, t, tb)
+            hit = self._first_event(key, flow, G, x, u0, u1, t, tc)
             if hit is None:
-                z = expm(G * (tb - t)) @ np.concatenate([x, [1.0, 0.0]])
-                segs.append(Segment(t, tb, key, flow, u0, u1, x))
+                z = expm(G * (tc - t)) @ np.concatenate([x, [1.0, 0.0]])
+                segs.append(Segment(t, tc, key, flow, u0, u1, x))
                 x = z[:self.n]
+                self.x = x
+                if tc < tb:  # a piece of a long interval: same mode, no event
+                    events.append(Event(tc, "breakpoint", "", len(segs) - 1))
+                    t = tc
+                    continue
                 if fi == len(self.fixed) - 1:
                     return segs, events, x
                 kind, name = "breakpoint", ""
@@ -319,12 +350,14 @@ class Follower:
                 fi += 1
                 nb = self.fixed[fi]
                 flow = self.select(key, flow.held, x, t, nb, f"{kind} at {t:.9g} s")
+                x = self.project(flow, x, t)
                 same_instant = 0
                 continue
             s, row, (kind, name, idx), hrow = hit
             z = expm(G * s) @ np.concatenate([x, [1.0, 0.0]])
             segs.append(Segment(t, t + s, key, flow, u0, u1, x))
             x = z[:self.n]
+            self.x = x
             gx, gu, gd = hrow
             f_minus = flow.Af @ x + flow.Ef @ (u0 + u1 * s) + flow.Ed @ u1
             hdot = float(gx @ f_minus + gu @ u1)
@@ -343,6 +376,41 @@ class Follower:
             else:
                 prefer = tuple(sorted(set(flow.held).symmetric_difference({idx})))
             flow = self.select(key, prefer, x, t, tb, f"{kind} {name} at {t:.9g} s")
+            x = self.project(flow, x, t)
+
+    # --- event search ----------------------------------------------------------------------
+    def _rates(self, flow: ModeFlow) -> tuple[float, np.ndarray]:
+        """The mode's fastest oscillation (rad/s) and its fast decay rates (1/s)."""
+        ck = id(flow)  # flows live in self._flows as long as self: ids stay unique
+        if ck not in self._rate_cache:
+            ev = np.linalg.eigvals(flow.Af) if flow.Af.size else np.zeros(0)
+            omega = float(np.max(np.abs(ev.imag))) if ev.size else 0.0
+            decay = np.unique(-ev.real[ev.real < 0]) if ev.size else np.zeros(0)
+            self._rate_cache[ck] = (omega, decay)
+        return self._rate_cache[ck]
+
+    def search_span(self, flow: ModeFlow) -> float:
+        """Longest interval searched in one piece: ``_MAX_SAMPLES`` samples that resolve the
+        mode's fastest oscillation (a quarter radian apart)."""
+        omega, _ = self._rates(flow)
+        if omega <= 0.0:
+            return np.inf
+        return _MAX_SAMPLES * _PHASE_STEP / omega
+
+    def _samples(self, flow: ModeFlow, d: float) -> tuple[int, np.ndarray]:
+        """Uniform sample count over ``[0, d]`` and extra early instants for fast decays
+        (a sign change inside a fast transient would fall between uniform samples)."""
+        omega, decay = self._rates(flow)
+        n = max(_SAMPLES, int(np.ceil(d * omega / _PHASE_STEP)) if omega > 0 else 0)
+        n = min(n, _MAX_SAMPLES)
+        spacing = d / n
+        extra = []
+        for rate in decay:
+            tau = 1.0 / rate
+            if tau < 0.5 * spacing:
+                extra.extend(v for v in (0.1 * tau, 0.3 * tau, tau, 3.0 * tau, 10.0 * tau)
+                             if v < spacing)
+        return n, np.unique(np.asarray(extra, dtype=float))
 
     def _apply_clocks(self, key, t, x, flow) -> ModeKey:
         """Latched switches turn on at their clock instants unless their comparator demands
@@ -366,12 +434,20 @@ class Follower:
         gz = np.column_stack([gx, gu @ u0 + gd @ u1 + g0, gu @ u1])
         z0 = np.concatenate([x, [1.0, 0.0]])
         d = tb - ta
-        step = expm(G * (d / _SAMPLES))
+        count, extra = self._samples(flow, d)
+        step = expm(G * (d / count))
         zs = [z0]
-        for _ in range(_SAMPLES):
+        for _ in range(count):
             zs.append(step @ zs[-1])
+        times = np.arange(count + 1) * (d / count)
+        if extra.size:
+            times = np.concatenate([times, extra])
+            zs.extend(expm(G * s) @ z0 for s in extra)
+            order = np.argsort(times, kind="stable")
+            times = times[order]
+            zs = [zs[i] for i in order]
         Z = np.array(zs)
-        g = Z @ gz.T  # (samples + 1, rows)
+        g = Z @ gz.T  # (samples, rows)
         scale = np.abs(Z) @ np.abs(gz).T
         tol = 1e-9 * scale + 1e-13
         best = None
@@ -380,12 +456,17 @@ class Follower:
             if not neg.size:
                 continue
             k = int(neg[0]) + 1
-            sa, sb = (k - 1) * d / _SAMPLES, k * d / _SAMPLES
-            if g[k - 1, r] <= 0.0:
+            sa, sb = float(times[k - 1]), float(times[k])
+            def fn(s, r=r):
+                return float(gz[r] @ (expm(G * s) @ z0))
+
+            # the samples came by repeated products, fn by one exponential: their round-off
+            # differs, so the bracket is checked on fn itself
+            if g[k - 1, r] <= 0.0 or fn(sa) <= 0.0:
                 root = sa
+            elif fn(sb) >= 0.0:
+                root = sb
             else:
-                def fn(s, r=r):
-                    return float(gz[r] @ (expm(G * s) @ z0))
                 root = brentq(fn, sa, sb, xtol=1e-16 * self.T, rtol=1e-15)
             if best is None or root < best[0]:
                 best = (root, r)
@@ -393,5 +474,6 @@ class Follower:
             return None
         root, r = best
         return root, r, labels[r], (gx[r], gu[r], gd[r])
+
 
 

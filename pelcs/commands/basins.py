@@ -107,7 +107,7 @@ def summary(bm, file: str, title: str, m, written: list[str]) -> str:
     lines.append(f"simple cell mapping: {a0.name} {a0.lo:g}..{a0.hi:g} ({a0.count} cells) x "
                  f"{a1.name} {a1.lo:g}..{a1.hi:g} ({a1.count} cells)"
                  + (f", {', '.join(others)}" if others else "")
-                 + f"; T = {format_eng(m.period, 's')}, h = {format_eng(m.h, 's')}; "
+                 + f"; T = {format_eng(m.period, 's')}, {_how(m)}; "
                  f"{bm.wall_time:.3g} s" + (f" on {bm.engine}" if bm.engine else ""))
     sink = int(np.count_nonzero(bm.group == 0))
     lines.append(f"{len(bm.attractors)} attractor(s); {sink} of {n} cells "
@@ -124,3 +124,12 @@ def summary(bm, file: str, title: str, m, written: list[str]) -> str:
     if written:
         lines.append(f"wrote {', '.join(written)}")
     return "\n".join(lines)
+
+
+def _how(m) -> str:
+    """How the map integrates: its step, or "exact"."""
+    from netlist.units import format_eng
+
+    if getattr(m, "method", "moreau") == "exact":
+        return "exact flows and events"
+    return f"h = {format_eng(m.h, 's')}"

@@ -180,7 +180,7 @@ def summary(diagram, file: str, title: str, m, written: list[str]) -> str:
     mode = ("follow (" + " and ".join(b.direction for b in diagram.branches) + ")"
             if diagram.follow else "fixed initial state")
     lines.append(f"{diagram.param_name}: {k} values, {mode}; T = {format_eng(m.period, 's')}, "
-                 f"h = {format_eng(m.h, 's')}; {diagram.transient} periods discarded, "
+                 f"{_how(m)}; {diagram.transient} periods discarded, "
                  f"{diagram.record} recorded; {diagram.wall_time:.3g} s"
                  + (f" on {diagram.engine}" if diagram.engine else ""))
     for b in diagram.branches:
@@ -193,3 +193,12 @@ def summary(diagram, file: str, title: str, m, written: list[str]) -> str:
     if written:
         lines.append(f"wrote {', '.join(written)}")
     return "\n".join(lines)
+
+
+def _how(m) -> str:
+    """How the map integrates: its step, or "exact"."""
+    from netlist.units import format_eng
+
+    if getattr(m, "method", "moreau") == "exact":
+        return "exact flows and events"
+    return f"h = {format_eng(m.h, 's')}"

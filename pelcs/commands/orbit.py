@@ -52,6 +52,10 @@ def add_map_options(p: argparse.ArgumentParser, *, param_help: str) -> None:
                    help="sampling phase: the map samples at t0 + k T (default 0)")
     p.add_argument("--x0", metavar="STATE=V,...",
                    help="initial state, e.g. 'v(C1)=12,i(L1)=1' (others: the netlist's IC)")
+    p.add_argument("--method", choices=("moreau", "exact"), default="moreau",
+                   help="moreau: θ time-stepping map, finite-difference Jacobians (default); "
+                   "exact: exact flows and events, exact Jacobians (saltation), for "
+                   "piecewise-linear sources and netlist comparators")
 
 
 def add_event_option(p: argparse.ArgumentParser) -> None:
@@ -123,7 +127,7 @@ def make_factory(args: argparse.Namespace, command: str, *, swept: str | None = 
     return CircuitMapFactory(
         path=args.file, period=period, param=swept,
         overrides=tuple(sorted((fixed or {}).items())), step=step, theta=theta, t0=t0,
-        event=event or None,
+        event=event or None, method=getattr(args, "method", "moreau"),
     )
 
 
@@ -153,7 +157,10 @@ def fmt_complex(mu: complex) -> str:
 
 
 def map_header(m, factory) -> dict:
-    return {"period": m.period, "step": m.h, "theta": m.theta, "t0": m.t0,
+    """Map settings for reports; the exact map has no step or θ (None)."""
+    return {"period": m.period, "step": getattr(m, "h", None),
+            "theta": getattr(m, "theta", None), "t0": m.t0,
+            "method": getattr(m, "method", "moreau"),
             "params": dict(factory.overrides), "event": factory.event}
 
 
@@ -221,9 +228,10 @@ def format_orbit(r: dict, name: str) -> str:
     lines = [f"{name}: {r['title']}".rstrip(": ")]
     params = ", ".join(f"{k} = {v:g}" for k, v in r["params"].items())
     kind = f"event map ({r['event']})" if r.get("event") else "stroboscopic map"
+    how = ("exact flows and events" if r.get("method") == "exact" else
+           f"h = {format_eng(r['step'], 's')}, θ = {r['theta']:g}")
     lines.append(f"period-{r['order']} orbit of the {kind}: T = "
-                 f"{format_eng(r['period'], 's')}, h = {format_eng(r['step'], 's')}, "
-                 f"θ = {r['theta']:g}" + (f"; {params}" if params else ""))
+                 f"{format_eng(r['period'], 's')}, {how}" + (f"; {params}" if params else ""))
     states = r["states"]
     width = max(15, *(len(s) + 2 for s in states))
     lines.append("points:")

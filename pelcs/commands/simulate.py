@@ -4,6 +4,11 @@
 
     pelcs simulate FILE [--tstop T] [--step H] [--theta TH] [--param NAME=VALUE]...
                         [--probe EXPR]... [--every N] [-o OUT.csv|OUT.npz] [--plot OUT.png]
+                        [--method moreau|exact] [--events]
+
+``--method exact`` integrates exactly between events (:mod:`lcs.exact`: one matrix
+exponential per stretch, events located to round-off); the step is then the output spacing.
+``--events`` prints the exact run's event list (time, element, kind, mode after).
 
 Defaults come from the netlist's ``.tran`` (stop time TSTOP, step TMAX if given, else TSTEP);
 times accept SPICE suffixes (``--tstop 5m``, ``--step 0.1u``). Probes are ``v(out)``,
@@ -55,6 +60,12 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", metavar="OUT", help="write the probes to OUT.csv or OUT.npz")
     p.add_argument("--plot", metavar="OUT.png", help="plot the probes, one panel each")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--method", choices=("moreau", "exact"), default="moreau",
+                   help="moreau: θ time-stepping (default); exact: event-driven, exact "
+                   "between events (piecewise-linear sources, netlist comparators), the step "
+                   "is then the output spacing")
+    p.add_argument("--events", action="store_true",
+                   help="with --method exact: print every event (time, element, kind, mode)")
     p.set_defaults(func=run)
 
 
@@ -161,7 +172,7 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     try:
         result = run_setup(setup, theta=theta, probes=probes, every=every,
-                           progress=not args.no_progress)
+                           progress=not args.no_progress, method=args.method)
     except NotImplementedError as exc:
         # A circuit the stepper cannot handle yet: say so like an input error, no traceback.
         raise NetlistError(Diagnostic(message=f"not supported: {exc}",
@@ -173,7 +184,14 @@ def run(args: argparse.Namespace) -> int:
                      setup.t_stop)
     switches = [s.name for s in setup.system.switches]
     print(summary(result, args.file, circuit.title, tstop=setup.t_stop, step=setup.h,
-                  theta=theta, wall=wall, written=written, switches=switches, load=load))
+                  theta=theta, wall=wall, written=written, switches=switches, load=load,
+                  method=args.method))
+    if args.events:
+        for ev in result.event_log:
+            mode = ", ".join(f"{k} {v}" for k, v in ev.mode.items() if k != "held")
+            held = ", ".join(ev.mode.get("held", ())) or "none"
+            print(f"event {_eng(ev.t, 's'):>12}  {ev.kind:<10} {ev.element or '-':<8} "
+                  f"-> {mode or 'no switches'}; w = 0 held: {held}")
     if result.error is not None:
         err = result.error
         where = (f"results up to t = {_eng(err.t_prev, 's')} written to {', '.join(written)}"
@@ -215,7 +233,7 @@ def _eng(value: float, unit: str) -> str:
 
 def summary(result, file: str, title: str, *, tstop: float, step: float, theta: float,
             wall: float, written: list[str], switches: list[str] = (),
-            load: float | None = None) -> str:
+            load: float | None = None, method: str = "moreau") -> str:
     """The text printed after a run: steps and timing, modes, final values, notes, files.
 
     Parameters
@@ -241,18 +259,23 @@ def summary(result, file: str, title: str, *, tstop: float, step: float, theta: 
     lines = [f"{file}: {title}".rstrip(": ")]
     shortened = (f" ({st.odd_steps} shortened to land on source edges and switching "
                  "instants)") if st.odd_steps else ""
-    lines.append(
-        f"simulated 0 to {_eng(tstop, 's')}, h = {_eng(step, 's')}, θ = {theta:g}: "
-        f"{st.steps} steps{shortened} in {wall:.3g} s ({1e6 * wall / max(st.steps, 1):.3g} "
-        "µs/step)" + (f", after {load:.2g} s loading the compiled kernels" if load else "")
-    )
+    if method == "exact":
+        lines.append(
+            f"simulated 0 to {_eng(tstop, 's')} exactly (event-driven): {st.steps} stretches "
+            f"between {st.located} events in {wall:.3g} s; output every {_eng(step, 's')}")
+    else:
+        lines.append(
+            f"simulated 0 to {_eng(tstop, 's')}, h = {_eng(step, 's')}, θ = {theta:g}: "
+            f"{st.steps} steps{shortened} in {wall:.3g} s "
+            f"({1e6 * wall / max(st.steps, 1):.3g} µs/step)"
+            + (f", after {load:.2g} s loading the compiled kernels" if load else ""))
     if switches:
         modes = ["(" + ", ".join(f"{n} {'on' if on else 'off'}" for n, on in
                                  zip(switches, mode, strict=True)) + ")"
                  for mode in result.modes_visited]
         lines.append(f"switch modes visited: {' '.join(modes)}; {len(result.events)} "
                      "switching events")
-    if st.steps:
+    if st.steps and method != "exact":
         lines.append(f"LCPs: {st.steps - st.fallbacks} of {st.steps} solved by the previous "
                      f"step's active set, {st.fallbacks} by Lemke ({st.lcp_pivots} pivots)")
     if len(result.t):
