@@ -229,9 +229,54 @@ def test_cli_simulate_exact_lists_events(capsys):
     assert "diode      D1" in out
 
 
-def test_exact_refuses_sin_sources_by_name(capsys):
-    code = main(["simulate", str(ROOT / "converters" / "netlists" / "bridge_rectifier.cir"),
-                 "--method", "exact", "--tstop", "1m"])
+def test_exact_refuses_exp_sources_by_name(tmp_path, capsys):
+    text = (EXACT / "halfwave_triangle.cir").read_text().replace(
+        "PWL(0 0 1m 10 2m -10 3m 0)", "EXP(0 10 0 1m 1.5m 1m)")
+    path = tmp_path / "exp.cir"
+    path.write_text(text)
+    code = main(["simulate", str(path), "--method", "exact"])
     err = capsys.readouterr().err
     assert code == 3
-    assert "Vs" in err and "piecewise-linear" in err
+    assert "V1" in err and "piecewise-linear or SIN" in err
+
+
+# --- SIN sources: the oscillator in the augmented system ------------------------------------
+
+
+def test_half_wave_sine_conduction_angle():
+    res = simulate_circuit(pelcs.load(EXACT / "halfwave_sin.cir"), method="exact")
+    assert res.error is None
+    Vm, w, Rl, Cl = 10.0, 2 * np.pi * 50, 1e3, 10e-6
+    tau = Rl * Cl
+    ev = [e.t for e in res.event_log if e.element == "D1"]
+    # by hand: off where i(D1) = C Vm w cos wt + Vm sin(wt)/R = 0, then on again where the
+    # next rising sine meets the decaying v(out)
+    expected = []
+    t_on = 0.0
+    for _ in range(3):
+        k = np.floor(w * t_on / (2 * np.pi))
+        t_off = (2 * np.pi * k + np.pi - np.arctan(w * tau)) / w
+        v_off = Vm * np.sin(w * t_off)
+        t_next = brentq(lambda t, t_off=t_off, v_off=v_off: Vm * np.sin(w * t)
+                        - v_off * np.exp(-(t - t_off) / tau),
+                        (2 * np.pi * (k + 1)) / w, (2 * np.pi * (k + 1) + np.pi / 2) / w,
+                        xtol=1e-15)
+        expected += [t_off, t_next]
+        t_on = t_next
+    assert len(ev) >= 5
+    assert np.allclose(ev[:5], expected[:5], rtol=1e-10, atol=0)
+    # between, v(out) follows the sine exactly
+    t = res.t
+    on = (t > 1e-3) & (t < expected[0] - 1e-5)
+    assert np.allclose(res["v(C1)"][on], Vm * np.sin(w * t[on]), rtol=0, atol=1e-9)
+
+
+def test_bridge_rectifier_sine_agrees_with_moreau():
+    c = pelcs.load(ROOT / "converters" / "netlists" / "bridge_rectifier.cir")
+    ex = simulate_circuit(c, method="exact", tstop=0.06)
+    mo = simulate_circuit(c, tstop=0.06, step=1e-6)
+    assert ex.error is None
+    # Moreau at h = 1 us (second order) against exact: 5e-9 relative measured
+    assert abs(ex["v(C1)"][-1] - mo["v(C1)"][-1]) < 1e-6 * abs(ex["v(C1)"][-1])
+    kinds = {e.kind for e in ex.event_log}
+    assert kinds == {"diode"}

@@ -161,7 +161,7 @@ def test_monodromy_and_input_matrix_against_finite_differences():
 
 def test_exact_orbit_rejects_non_pwl_sources():
     text = (AC / "buck_vc.cir").read_text().replace(
-        "Vin in 0 DC {vin}", "Vin in 0 SIN({vin} 0.1 1k)")
+        "Vin in 0 DC {vin}", "Vin in 0 EXP({vin} 13 0 1m 2m 1m)")
     c = parse_string(text)
     with pytest.raises(PwlOrbitError, match="piecewise-linear.*Vin.*sweep"):
         ac_analysis(c, period="ts", inject="Vc", probes=["v(out)"], freqs=[1e3])

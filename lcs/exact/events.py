@@ -25,7 +25,7 @@ from scipy.linalg import expm
 from scipy.optimize import brentq
 
 from ..model import ModeKey, SwitchedLCS
-from .flow import ModeFlow, ModeFlowError, flow_matrix, mode_flow
+from .flow import InputPiece, ModeFlow, ModeFlowError, flow_matrix, linear_piece, mode_flow
 
 __all__ = ["Event", "ExactError", "Follower", "Segment", "SwitchRule", "switch_rules"]
 
@@ -37,6 +37,12 @@ _PHASE_STEP = 0.25
 _MAX_SAMPLES = 4096
 # Events in a row at one instant before the run is declared stuck (sliding, chattering).
 _MAX_SAME_INSTANT = 12
+
+
+def _is_sin(signal) -> bool:
+    """A resolved SIN source (a damped sinusoid after its delay)."""
+    return (type(signal).__name__ == "Sin" and getattr(signal, "freq", None) is not None
+            and hasattr(signal, "theta"))
 
 
 class ExactError(RuntimeError):
@@ -72,7 +78,8 @@ def switch_rules(system: SwitchedLCS) -> list[SwitchRule]:
 
 @dataclass
 class Segment:
-    """An interval of one mode and linear inputs ``u = u0 + u1 (t - t_start)``.
+    """An interval of one mode and its inputs (:class:`~.flow.InputPiece`, s from
+    ``t_start``).
 
     Attributes
     ----------
@@ -82,8 +89,8 @@ class Segment:
         Switch states.
     flow : ModeFlow
         Dynamics (held pairs ``flow.held``).
-    u0, u1 : ndarray (p,)
-        Inputs at ``t_start`` and their rates (unit/s).
+    piece : InputPiece
+        The inputs over the interval.
     x_start : ndarray (n,)
         State at ``t_start``.
     """
@@ -92,13 +99,17 @@ class Segment:
     t_end: float
     key: ModeKey
     flow: ModeFlow
-    u0: np.ndarray
-    u1: np.ndarray
+    piece: InputPiece
     x_start: np.ndarray
 
     @property
     def duration(self) -> float:
         return self.t_end - self.t_start
+
+    @property
+    def u0(self) -> np.ndarray:
+        """Inputs at ``t_start``."""
+        return self.piece.u(0.0)
 
 
 @dataclass
@@ -144,14 +155,16 @@ class Follower:
 
     def __init__(self, system: SwitchedLCS, signals: Sequence, t0: float, period: float):
         bad = [name for name, s in zip(system.inputs, signals, strict=True)
-               if not getattr(s, "piecewise_linear", False)]
+               if not (getattr(s, "piecewise_linear", False) or _is_sin(s))]
         if bad:
             raise ExactError(
-                f"the exact method needs piecewise-linear sources (DC, PULSE, PWL); "
-                f"{', '.join(bad)} {'is' if len(bad) == 1 else 'are'} not: use a "
+                f"the exact method needs piecewise-linear or SIN sources (DC, PULSE, PWL, "
+                f"SIN); {', '.join(bad)} {'is' if len(bad) == 1 else 'are'} not: use a "
                 "time-stepping method (Moreau; for pelcs ac the sweep method)")
         self.system = system
         self.signals = list(signals)
+        self.omega_in = max((2 * np.pi * s.freq for s in self.signals if _is_sin(s)),
+                            default=0.0)
         self.t0 = float(t0)
         self.T = float(period)
         self.rules = switch_rules(system)
@@ -193,15 +206,46 @@ class Follower:
             self._controls[key] = self.system.outputs(key, names) if names else None
         return self._controls[key]
 
-    def inputs_on(self, ta: float, tb: float) -> tuple[np.ndarray, np.ndarray]:
-        """``(u(ta), u')`` of the linear piece on ``[ta, tb]`` (sampled inside it, so that a
-        corner at an end does not count)."""
+    def inputs_on(self, ta: float, tb: float) -> InputPiece:
+        """The inputs on ``[ta, tb]`` (a stretch inside one piece of every source: sampled
+        inside it, so that a corner at an end does not count)."""
         d = tb - ta
         s1, s2 = ta + 0.25 * d, ta + 0.75 * d
-        v1 = np.array([float(np.asarray(s(np.array([s1])))[0]) for s in self.signals])
-        v2 = np.array([float(np.asarray(s(np.array([s2])))[0]) for s in self.signals])
-        u1 = (v2 - v1) / (s2 - s1) if d > 0 else np.zeros(self.p)
-        return v1 - 0.25 * d * u1, u1
+        u0 = np.zeros(self.p)
+        u1 = np.zeros(self.p)
+        osc = []
+        for k, sig in enumerate(self.signals):
+            if getattr(sig, "piecewise_linear", False):
+                v1 = float(np.asarray(sig(np.array([s1])))[0])
+                v2 = float(np.asarray(sig(np.array([s2])))[0])
+                u1[k] = (v2 - v1) / (s2 - s1) if d > 0 else 0.0
+                u0[k] = v1 - 0.25 * d * u1[k]
+            elif ta < sig.td - 1e-12 * self.T:  # before its delay: a constant
+                u0[k] = sig.vo + sig.va * np.sin(sig.phase * np.pi / 180.0)
+            else:
+                osc.append(k)
+        if not osc:
+            return linear_piece(u0, u1)
+        q = 2 + 2 * len(osc)
+        U = np.zeros((self.p, q))
+        U[:, 0], U[:, 1] = u0, u1
+        M = np.zeros((q, q))
+        M[1, 0] = 1.0
+        z0 = np.zeros(q)
+        z0[0] = 1.0
+        for r, k in enumerate(osc):
+            sig = self.signals[k]
+            w = 2 * np.pi * sig.freq
+            age = max(ta - sig.td, 0.0)
+            alpha = w * age + sig.phase * np.pi / 180.0
+            amp = sig.va * np.exp(-sig.theta * age)
+            a, b = 2 + 2 * r, 3 + 2 * r  # e^{-θs} sin ωs, e^{-θs} cos ωs
+            U[k, 0] = sig.vo
+            U[k, a], U[k, b] = amp * np.cos(alpha), amp * np.sin(alpha)
+            M[a, a], M[a, b] = -sig.theta, w
+            M[b, a], M[b, b] = -w, -sig.theta
+            z0[b] = 1.0
+        return InputPiece(U, M, z0)
 
     def guards(self, key: ModeKey, flow: ModeFlow):
         """Event functions of a mode, each ``>= 0`` while the mode lasts: rows
@@ -230,10 +274,11 @@ class Follower:
         return (np.array(gx).reshape(-1, self.n), np.array(gu).reshape(-1, self.p),
                 np.array(gd).reshape(-1, self.p), np.array(g0), labels)
 
-    def control_value(self, key: ModeKey, flow: ModeFlow, j: int, x, u, u1) -> float:
+    def control_value(self, key: ModeKey, flow: ModeFlow, j: int, x, u, du) -> float:
+        """Switch j's control voltage at state x, inputs u and their rates du."""
         ctl = self.controls(key)
         cx, cu, cd = flow.affine(ctl.Cy, ctl.Dy, ctl.Fy)
-        return float(cx[j] @ x + cu[j] @ u + cd[j] @ u1)
+        return float(cx[j] @ x + cu[j] @ u + cd[j] @ du)
 
     # --- mode selection --------------------------------------------------------------------
     def _consistent(self, key, held, x, ta, tb) -> ModeFlow | None:
@@ -241,7 +286,8 @@ class Follower:
             flow = self.flow(key, held)
         except ModeFlowError:
             return None
-        u0, u1 = self.inputs_on(ta, tb)
+        piece = self.inputs_on(ta, tb)
+        u0, u1 = piece.u(0.0), piece.du(0.0)
         if flow.Kx.shape[0]:
             res = flow.Kx @ x + flow.Ku @ u0
             # relative to the whole state's size: at an event the constraint is zero only to
@@ -262,9 +308,9 @@ class Follower:
             return None
         # Pairs at zero must not go negative right away.
         delta = min(1e-6 * self.T, 0.25 * (tb - ta))
-        G = flow_matrix(flow, u0, u1)
-        z = expm(G * delta) @ np.concatenate([x, [1.0, 0.0]])
-        gz = np.column_stack([gx, gu @ u0 + gd @ u1 + g0, gu @ u1])
+        G = flow_matrix(flow, piece)
+        z = expm(G * delta) @ np.concatenate([x, piece.z0])
+        gz = self._event_rows(gx, gu, gd, g0, piece)
         g2 = gz @ z
         if np.any((np.abs(g) <= tol) & (g2 < -tol)):
             return None
@@ -275,7 +321,7 @@ class Follower:
         least change), which it satisfies up to an event's round-off."""
         if not flow.Kx.shape[0]:
             return x
-        u0, _ = self.inputs_on(t, t + 1e-9 * self.T)
+        u0 = self.inputs_on(t, t + 1e-9 * self.T).u(0.0)
         res = flow.Kx @ x + flow.Ku @ u0
         return x - np.linalg.lstsq(flow.Kx, res, rcond=None)[0]
 
@@ -325,12 +371,12 @@ class Follower:
             tc = min(tb, t + self.search_span(flow))
             if tb - tc <= 1e-12 * self.T:
                 tc = tb
-            u0, u1 = self.inputs_on(t, tb)
-            G = flow_matrix(flow, u0, u1)
-            hit = self._first_event(key, flow, G, x, u0, u1, t, tc)
+            piece = self.inputs_on(t, tb)
+            G = flow_matrix(flow, piece)
+            hit = self._first_event(key, flow, G, x, piece, t, tc)
             if hit is None:
-                z = expm(G * (tc - t)) @ np.concatenate([x, [1.0, 0.0]])
-                segs.append(Segment(t, tc, key, flow, u0, u1, x))
+                z = expm(G * (tc - t)) @ np.concatenate([x, piece.z0])
+                segs.append(Segment(t, tc, key, flow, piece, x))
                 x = z[:self.n]
                 self.x = x
                 if tc < tb:  # a piece of a long interval: same mode, no event
@@ -354,13 +400,14 @@ class Follower:
                 same_instant = 0
                 continue
             s, row, (kind, name, idx), hrow = hit
-            z = expm(G * s) @ np.concatenate([x, [1.0, 0.0]])
-            segs.append(Segment(t, t + s, key, flow, u0, u1, x))
+            z = expm(G * s) @ np.concatenate([x, piece.z0])
+            segs.append(Segment(t, t + s, key, flow, piece, x))
             x = z[:self.n]
             self.x = x
             gx, gu, gd = hrow
-            f_minus = flow.Af @ x + flow.Ef @ (u0 + u1 * s) + flow.Ed @ u1
-            hdot = float(gx @ f_minus + gu @ u1)
+            du = piece.du(s)
+            f_minus = flow.Af @ x + flow.Ef @ piece.u(s) + flow.Ed @ du
+            hdot = float(gx @ f_minus + gu @ du + gd @ piece.d2u(s))
             events.append(Event(t + s, kind, name, len(segs) - 1, gx.copy(), gu.copy(),
                                 gd.copy(), hdot))
             same_instant = same_instant + 1 if s <= 1e-12 * self.T else 0
@@ -392,15 +439,18 @@ class Follower:
     def search_span(self, flow: ModeFlow) -> float:
         """Longest interval searched in one piece: ``_MAX_SAMPLES`` samples that resolve the
         mode's fastest oscillation (a quarter radian apart)."""
-        omega, _ = self._rates(flow)
+        omega = max(self._rates(flow)[0], self.omega_in)
         if omega <= 0.0:
             return np.inf
         return _MAX_SAMPLES * _PHASE_STEP / omega
 
-    def _samples(self, flow: ModeFlow, d: float) -> tuple[int, np.ndarray]:
+    def _samples(self, flow: ModeFlow, d: float, omega_in: float = 0.0
+                 ) -> tuple[int, np.ndarray]:
         """Uniform sample count over ``[0, d]`` and extra early instants for fast decays
-        (a sign change inside a fast transient would fall between uniform samples)."""
+        (a sign change inside a fast transient would fall between uniform samples).
+        ``omega_in``: the inputs' fastest oscillation, rad/s."""
         omega, decay = self._rates(flow)
+        omega = max(omega, omega_in)
         n = max(_SAMPLES, int(np.ceil(d * omega / _PHASE_STEP)) if omega > 0 else 0)
         n = min(n, _MAX_SAMPLES)
         spacing = d / n
@@ -422,19 +472,26 @@ class Follower:
                 if flow is None:
                     out[j] = True  # at t0: the comparator is checked by the first segment
                     continue
-                u0, u1 = self.inputs_on(t, t + 1e-9 * self.T)
-                c = self.control_value(tuple(out), flow, j, x, u0, u1)
+                piece = self.inputs_on(t, t + 1e-9 * self.T)
+                c = self.control_value(tuple(out), flow, j, x, piece.u(0.0), piece.du(0.0))
                 out[j] = c >= r.vt - r.vh
         return tuple(out)
 
-    def _first_event(self, key, flow, G, x, u0, u1, ta, tb):
+    @staticmethod
+    def _event_rows(gx, gu, gd, g0, piece: InputPiece) -> np.ndarray:
+        """Event functions as rows on ``[x; z]``: ``gx x + gu U z + gd U M z + g0 z[0]``."""
+        rows = np.column_stack([gx, gu @ piece.U + gd @ (piece.U @ piece.M)])
+        rows[:, gx.shape[1]] += g0
+        return rows
+
+    def _first_event(self, key, flow, G, x, piece: InputPiece, ta, tb):
         gx, gu, gd, g0, labels = self.guards(key, flow)
         if not labels:
             return None
-        gz = np.column_stack([gx, gu @ u0 + gd @ u1 + g0, gu @ u1])
-        z0 = np.concatenate([x, [1.0, 0.0]])
+        gz = self._event_rows(gx, gu, gd, g0, piece)
+        z0 = np.concatenate([x, piece.z0])
         d = tb - ta
-        count, extra = self._samples(flow, d)
+        count, extra = self._samples(flow, d, piece.omega)
         step = expm(G * (d / count))
         zs = [z0]
         for _ in range(count):

@@ -13,8 +13,9 @@ state, the inputs and the inputs' time derivatives::
 
     λ = Lx x + Lu u + Ld u',    x' = Af x + Ef u + Ed u',    w = Wx x + Wu u + Wd u'.
 
-Inputs are piecewise linear between breakpoints, so ``u'`` is piecewise constant and the
-flow over an interval is one matrix exponential (:func:`flow_matrix`).
+The inputs of a stretch are the output of a small linear generator (:class:`InputPiece`:
+ramps of piecewise-linear sources, oscillators of SIN sources), so the flow over a stretch is
+one matrix exponential of the augmented system (:func:`flow_matrix`).
 """
 
 from __future__ import annotations
@@ -26,7 +27,8 @@ from scipy.linalg import expm
 
 from ..model import LCS
 
-__all__ = ["ModeFlow", "mode_flow", "flow_matrix", "ModeFlowError"]
+__all__ = ["InputPiece", "ModeFlow", "ModeFlowError", "flow_matrix", "linear_piece",
+           "mode_flow"]
 
 # Singular values of D_ZZ below this (relative to the largest entry of D, and absolutely
 # to round-off) are zero: such pairs are held by a state constraint.
@@ -133,17 +135,66 @@ def mode_flow(lcs: LCS, held) -> ModeFlow:
     return ModeFlow(Z, Af, Ef, Ed, Lx, Lu, Ld, Wx, Wu, Wd, Kx, Ku)
 
 
-def flow_matrix(flow: ModeFlow, u0: np.ndarray, u1: np.ndarray) -> np.ndarray:
-    """The generator ``G`` of ``z = [x; 1; s]`` on an interval where ``u = u0 + u1 s``.
+@dataclass(frozen=True)
+class InputPiece:
+    """The inputs on a stretch as the output of a linear generator: ``u(s) = U z(s)``,
+    ``z' = M z``, ``z(0) = z0`` (s from the stretch's start).
 
-    ``z(s) = expm(G s) z(0)`` with ``z(0) = [x(0); 1; 0]``; shape (n + 2, n + 2).
+    ``z = [1, s]`` carries the constant and the ramp of piecewise-linear sources; every
+    SIN source adds a damped oscillator pair ``e^{-θs} (sin ωs, cos ωs)``. Shapes: U (p, q),
+    M (q, q), z0 (q,); ``z[0] = 1`` always (the event functions' constants ride on it).
+    """
+
+    U: np.ndarray
+    M: np.ndarray
+    z0: np.ndarray
+
+    @property
+    def linear(self) -> bool:
+        return self.U.shape[1] == 2
+
+    def z(self, s: float) -> np.ndarray:
+        if self.linear:
+            return np.array([1.0, s])
+        return expm(self.M * s) @ self.z0
+
+    def u(self, s: float = 0.0) -> np.ndarray:
+        """Inputs at s, shape (p,)."""
+        return self.U @ self.z(s)
+
+    def du(self, s: float = 0.0) -> np.ndarray:
+        """Their rates, per second."""
+        return self.U @ (self.M @ self.z(s))
+
+    def d2u(self, s: float = 0.0) -> np.ndarray:
+        return self.U @ (self.M @ (self.M @ self.z(s)))
+
+    @property
+    def omega(self) -> float:
+        """Fastest oscillation of the inputs, rad/s (0 for piecewise-linear inputs)."""
+        if self.linear:
+            return 0.0
+        return float(np.max(np.abs(self.M[2:, 2:]))) if self.M.shape[0] > 2 else 0.0
+
+
+def linear_piece(u0: np.ndarray, u1: np.ndarray) -> InputPiece:
+    """``u = u0 + u1 s``."""
+    M = np.array([[0.0, 0.0], [1.0, 0.0]])
+    return InputPiece(np.column_stack([u0, u1]), M, np.array([1.0, 0.0]))
+
+
+def flow_matrix(flow: ModeFlow, piece: InputPiece) -> np.ndarray:
+    """The generator ``G`` of ``[x; z]`` on a stretch whose inputs are ``piece``.
+
+    ``[x(s); z(s)] = expm(G s) [x(0); piece.z0]``; shape (n + q, n + q). With ``u = U z``
+    and ``u' = U M z``: ``x' = Af x + (Ef U + Ed U M) z``.
     """
     n = flow.Af.shape[0]
-    G = np.zeros((n + 2, n + 2))
+    q = piece.M.shape[0]
+    G = np.zeros((n + q, n + q))
     G[:n, :n] = flow.Af
-    G[:n, n] = flow.Ef @ u0 + flow.Ed @ u1
-    G[:n, n + 1] = flow.Ef @ u1
-    G[n + 1, n] = 1.0
+    G[:n, n:] = flow.Ef @ piece.U + flow.Ed @ (piece.U @ piece.M)
+    G[n:, n:] = piece.M
     return G
 
 

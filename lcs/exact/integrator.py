@@ -8,8 +8,9 @@ of a latched switch, a source corner), each computed from the exact flow of its 
 Every event is also listed in ``result.event_log`` (:class:`ExactEvent`: time, element,
 kind, mode after).
 
-The switches follow their netlist comparators (with hysteresis) and latches; Python
-controllers and sliding modes are refused with a named error (use the Moreau integrator).
+Sources: DC, PULSE, PWL and SIN (an oscillator in the augmented system). The switches
+follow their netlist comparators (with hysteresis) and latches; Python controllers and
+sliding modes are refused with a named error (use the Moreau integrator).
 """
 
 from __future__ import annotations
@@ -134,14 +135,14 @@ class ExactIntegrator(Integrator):
     # --- output --------------------------------------------------------------------------
     def _multipliers(self, seg: Segment, x: np.ndarray, s: float) -> np.ndarray:
         f = seg.flow
-        lam = f.Lx @ x + f.Lu @ (seg.u0 + seg.u1 * s) + f.Ld @ seg.u1
+        lam = f.Lx @ x + f.Lu @ seg.piece.u(s) + f.Ld @ seg.piece.du(s)
         free = np.ones(lam.size, dtype=bool)
         free[list(f.held)] = False
         lam[free] = 0.0
         return lam
 
     def _row(self, seg: Segment, x: np.ndarray, s: float) -> np.ndarray:
-        u = seg.u0 + seg.u1 * s
+        u = seg.piece.u(s)
         key = seg.key
         return self.run.problem.output(key).row(key_of(key), -1, 0.0, x, self._multipliers(
             seg, x, s), u)
@@ -170,8 +171,8 @@ class ExactIntegrator(Integrator):
                                                             else []]))
             self._next_out = max(self._next_out, j1 + 1)
             if times.size:
-                G = flow_matrix(seg.flow, seg.u0, seg.u1)
-                z0 = np.concatenate([seg.x_start, [1.0, 0.0]])
+                G = flow_matrix(seg.flow, seg.piece)
+                z0 = np.concatenate([seg.x_start, seg.piece.z0])
                 rec.reserve(times.size, 0)
                 # one exponential for the first instant and one for the output step; the
                 # uniform grid then costs a matrix-vector product per point

@@ -80,10 +80,11 @@ class ExactStroboscopicMap(Map):
             flow = f.select(tuple(key), (), x, f.t0, tb, "start of the period")
         except ExactError:
             return tuple(key)
-        u0, u1 = f.inputs_on(f.t0, tb)
+        piece = f.inputs_on(f.t0, tb)
+        u0, du = piece.u(0.0), piece.du(0.0)
         for j, r in enumerate(f.rules):
             if r.vh == 0.0 and r.latch_period is None:
-                key[j] = f.control_value(tuple(key), flow, j, x, u0, u1) > r.vt
+                key[j] = f.control_value(tuple(key), flow, j, x, u0, du) > r.vt
         return tuple(key)
 
     def follow(self, x):

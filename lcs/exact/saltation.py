@@ -36,13 +36,13 @@ class AffinePeriod:
 def segment_field(seg: Segment, x: np.ndarray, at_end: bool) -> np.ndarray:
     s = seg.duration if at_end else 0.0
     f = seg.flow
-    return f.Af @ x + f.Ef @ (seg.u0 + seg.u1 * s) + f.Ed @ seg.u1
+    return f.Af @ x + f.Ef @ seg.piece.u(s) + f.Ed @ seg.piece.du(s)
 
 
 def segment_output(seg: Segment, Y, x: np.ndarray, at_end: bool) -> np.ndarray:
     s = seg.duration if at_end else 0.0
     Yx, Yu, Yd = Y
-    return Yx @ x + Yu @ (seg.u0 + seg.u1 * s) + Yd @ seg.u1
+    return Yx @ x + Yu @ seg.piece.u(s) + Yd @ seg.piece.du(s)
 
 
 def affine_period(segments: Sequence[Segment], events: Sequence[Event], omega: float,
