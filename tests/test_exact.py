@@ -280,3 +280,32 @@ def test_bridge_rectifier_sine_agrees_with_moreau():
     assert abs(ex["v(C1)"][-1] - mo["v(C1)"][-1]) < 1e-6 * abs(ex["v(C1)"][-1])
     kinds = {e.kind for e in ex.event_log}
     assert kinds == {"diode"}
+
+
+# --- sliding -------------------------------------------------------------------------------
+
+
+def test_sliding_mode_boost_follows_the_closed_form():
+    """Boost under the ideal relay s = i(L1) - Iref (VH = 0): once both modes cross the
+    surface back, i(L1) stays at Iref and by power balance C v v' = Vin Iref - v^2/R, so
+    v^2 = R Vin Iref + (v_a^2 - R Vin Iref) e^{-2 (t - t_a)/(R C)}; the equivalent duty is
+    1 - Vin/v. Moreau's implicit relay converges to it at first order."""
+    circuit = pelcs.load(ROOT / "tests" / "netlists" / "closed_loop" / "boost_smc.cir")
+    res = simulate_circuit(circuit, method="exact", tstop=3e-3,
+                           probes=["i(L1)", "v(C1)", "d(S1)"])
+    assert res.error is None
+    assert len(res.sliding) == 1 and res.sliding[0][0] == "S1" and res.sliding[0][2] is None
+    R_, vin, iref, C_ = 50.0, 12.0, 2.0, 100e-6
+    t0 = res.sliding[0][1]
+    assert any(e.kind == "slide" and e.mode["S1"] == "sliding" for e in res.event_log)
+    t, v = res.t, res["v(C1)"]
+    k = np.searchsorted(t, t0) + 1
+    ta, va = t[k], v[k]
+    ref = np.sqrt(R_ * vin * iref + (va**2 - R_ * vin * iref) * np.exp(-2 * (t[k:] - ta)
+                                                                        / (R_ * C_)))
+    assert np.max(np.abs(v[k:] - ref)) < 1e-9
+    assert np.max(np.abs(res["i(L1)"][k:] - iref)) < 1e-12
+    assert np.allclose(res["d(S1)"][k:], 1 - vin / v[k:], rtol=0, atol=1e-9)
+    errors = [abs(simulate_circuit(circuit, tstop=3e-3, step=h, probes=["v(C1)"])["v(C1)"][-1]
+                  - v[-1]) for h in (2e-7, 1e-7)]
+    assert 1.8 < errors[0] / errors[1] < 2.2  # first order (measured 2.0)

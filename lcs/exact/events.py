@@ -9,9 +9,10 @@ the first sign change of an event function (a switch's comparator margin, a held
 free pair's w) is refined by Brent's method on the exact flow, and the next mode is the
 consistent one nearest the current (:meth:`Follower.select`).
 
-Scope: sources DC, PULSE and PWL (piecewise linear); switches driven by comparators (with
-hysteresis) or latched PWM; no Python controllers. A sliding mode on a comparator surface
-(events piling up at one instant) stops with :class:`ExactError` naming the switch.
+Scope: sources DC, PULSE, PWL and SIN; switches driven by comparators (with hysteresis) or
+latched PWM; no Python controllers. A comparator without hysteresis whose surface both modes
+cross back slides (:mod:`.sliding`: Filippov's equivalent dynamics); other accumulations of
+events at one instant stop with :class:`ExactError` naming the element.
 """
 
 from __future__ import annotations
@@ -364,6 +365,7 @@ class Follower:
         segs: list[Segment] = []
         events: list[Event] = []
         self.segments, self.events, self.x = segs, events, x
+        self.sliding: int | None = None
         same_instant = 0
         while True:
             tb = self.fixed[fi]
@@ -418,12 +420,77 @@ class Follower:
                     "method (Moreau; for pelcs ac the sweep method)")
             t = t + s
             if kind == "switch":
+                slid = self._slide(idx, key, flow, x, t, fi, segs, events)
+                if slid is not None:
+                    done, t, fi, key, flow, x = slid
+                    if done:
+                        return segs, events, x
+                    same_instant = 0
+                    continue
                 key = tuple((not v) if j == idx else v for j, v in enumerate(key))
                 prefer = flow.held
             else:
                 prefer = tuple(sorted(set(flow.held).symmetric_difference({idx})))
             flow = self.select(key, prefer, x, t, tb, f"{kind} {name} at {t:.9g} s")
             x = self.project(flow, x, t)
+
+    # --- sliding ---------------------------------------------------------------------------
+    def _slide(self, j: int, key: ModeKey, flow: ModeFlow, x, t: float, fi: int, segs, events):
+        """Switch j has reached its surface at t: if both modes drive the state back across
+        it, follow the Filippov sliding motion (:mod:`.sliding`) until it ends. Returns None
+        when there is no sliding, else ``(done, t, fi, key, flow, x)`` after it (``done``:
+        the span ended while sliding)."""
+        from .sliding import slide
+
+        r = self.rules[j]
+        if r.vh != 0.0 or r.latch_period is not None:
+            return None
+        k_off = tuple(False if i == j else v for i, v in enumerate(key))
+        k_on = tuple(True if i == j else v for i, v in enumerate(key))
+        tb = self.fixed[fi]
+        f_off = self._consistent(k_off, flow.held, x, t, tb)
+        f_on = self._consistent(k_on, flow.held, x, t, tb)
+        if f_off is None or f_on is None:
+            return None
+        rows = []
+        for k_m, f_m in ((k_off, f_off), (k_on, f_on)):
+            ctl = self.controls(k_m)
+            cx, cu, cd = f_m.affine(ctl.Cy, ctl.Dy, ctl.Fy)
+            rows.append((cx[j], cu[j], cd[j]))
+        piece = self.inputs_on(t, tb)
+
+        def rate(row, f):
+            du = piece.du(0.0)
+            fx = f.Af @ x + f.Ef @ piece.u(0.0) + f.Ed @ du
+            return float(row[0] @ fx + row[1] @ du + row[2] @ piece.d2u(0.0))
+
+        c_off, c_on = rate(rows[0], f_off), rate(rows[1], f_on)
+        tol = 1e-9 * (abs(c_off) + abs(c_on)) + 1e-300
+        if not (c_on < -tol and c_off > tol):
+            return None
+        if events:
+            events[-1].kind = "slide"  # the crossing starts a sliding motion
+        scale = float(np.max(np.abs(x), initial=0.0)) or 1.0
+        name = r.name
+        while True:
+            piece = self.inputs_on(t, tb)
+            seg, x, exit_ = slide(j, k_on, (f_off, f_on), tuple(rows), piece, t, x, t, tb,
+                                  scale)
+            segs.append(seg)
+            self.x = x
+            if exit_ is None:  # reached the fixed instant tb, still sliding
+                if fi == len(self.fixed) - 1:
+                    self.sliding = j
+                    return True, tb, fi, k_on, f_on, x
+                events.append(Event(tb, "breakpoint", "", len(segs) - 1))
+                t, fi = tb, fi + 1
+                tb = self.fixed[fi]
+                continue
+            t = seg.t_end
+            events.append(Event(t, "slide-end", name, len(segs) - 1))
+            key = k_on if exit_ == 1 else k_off
+            flow = self.select(key, flow.held, x, t, tb, f"end of {name}'s sliding at {t:.9g} s")
+            return False, t, fi, key, flow, self.project(flow, x, t)
 
     # --- event search ----------------------------------------------------------------------
     def _rates(self, flow: ModeFlow) -> tuple[float, np.ndarray]:

@@ -9,8 +9,9 @@ Every event is also listed in ``result.event_log`` (:class:`ExactEvent`: time, e
 kind, mode after).
 
 Sources: DC, PULSE, PWL and SIN (an oscillator in the augmented system). The switches
-follow their netlist comparators (with hysteresis) and latches; Python controllers and
-sliding modes are refused with a named error (use the Moreau integrator).
+follow their netlist comparators (with hysteresis) and latches; Python controllers are
+refused with a named error (use the Moreau integrator); a comparator without hysteresis
+slides (:mod:`.sliding`).
 """
 
 from __future__ import annotations
@@ -23,9 +24,10 @@ from scipy.linalg import expm
 from ..results import SimulationError
 from ..simulation.integrator import Integrator, Run, Snapshot, Window
 from ..simulation.problem import key_of
-from ..simulation.recorder import EV_SWITCH
+from ..simulation.recorder import EV_SLIDE_END, EV_SLIDE_START, EV_SWITCH
 from .events import Event, ExactError, Follower, Segment
 from .flow import flow_matrix
+from .sliding import SlidingSegment
 
 __all__ = ["ExactEvent", "ExactIntegrator"]
 
@@ -95,6 +97,7 @@ class ExactIntegrator(Integrator):
         self.lam = np.asarray(init.lam, dtype=float).copy()
         self.held: tuple[int, ...] = tuple(int(i) for i in np.flatnonzero(self.lam > 0))
         self._next_out = 1  # index of the next multiple of h to store
+        self.slide, self.duty = -1, 0.0
 
     def advance(self, window: Window) -> SimulationError | None:
         run = self.run
@@ -118,16 +121,24 @@ class ExactIntegrator(Integrator):
             last = segs[-1]
             self.t = last.t_end
             self.mode = tuple(last.key)
-            self.held = tuple(last.flow.held)
             self.x = np.asarray(follower.x, dtype=float).copy()
-            self.lam = self._multipliers(last, self.x, last.duration)
+            if isinstance(last, SlidingSegment):
+                self.held = tuple(last.flows[1].held)
+                self.lam, _ = self._sliding_values(last, self.x, last.t_end)
+                self.slide = last.switch
+                self.duty = last.duty(last.t_end, self.x)
+            else:
+                self.held = tuple(last.flow.held)
+                self.lam = self._multipliers(last, self.x, last.duration)
+                self.slide, self.duty = -1, 0.0
         if error is not None:
             return self._error(error, self.t)
         self.t = float(window.t1)
         return None
 
     def snapshot(self) -> Snapshot:
-        return Snapshot(self.t, key_of(self.mode), self.x.copy(), self.lam.copy(), -1, 0.0)
+        return Snapshot(self.t, key_of(self.mode), self.x.copy(), self.lam.copy(), self.slide,
+                        self.duty)
 
     def stats(self) -> dict:
         return dict(steps=self._segments, located=self._events, modes_built=self._flows)
@@ -158,6 +169,14 @@ class ExactIntegrator(Integrator):
         switches = [s.name for s in run.problem.system.switches]
         for k, seg in enumerate(segs):
             last = k == len(segs) - 1
+            if isinstance(seg, SlidingSegment):
+                self._store_sliding(seg, last, t_end)
+                self._segments += 1
+                if k < len(events) and k + 1 < len(segs):
+                    ev = events[k]
+                    if ev.kind != "breakpoint" or self.log_breakpoints:
+                        self._log(ev, segs[k + 1], names, switches)
+                continue
             # output instants in (t_start, t_end] of the segment (its start belongs to the
             # segment before, or is the run's first row)
             hi = seg.t_end
@@ -195,6 +214,9 @@ class ExactIntegrator(Integrator):
                     continue
                 if ev.kind != "breakpoint" or self.log_breakpoints:
                     self._log(ev, nxt, names, switches)
+                if isinstance(nxt, SlidingSegment):
+                    self._event_record(ev.t, seg.key, EV_SLIDE_START + nxt.switch)
+                    continue
                 if nxt.key != seg.key:
                     rec.reserve(0, 1)
                     from ..bits import to_words
@@ -207,12 +229,63 @@ class ExactIntegrator(Integrator):
                 if ev.kind != "breakpoint" and (rec.pos == 0 or rec.last_time() < ev.t):
                     rec.append(float(ev.t), self._row(nxt, nxt.x_start, 0.0))
 
-    def _log(self, ev: Event, nxt: Segment, diodes, switches) -> None:
+    def _log(self, ev: Event, nxt, diodes, switches) -> None:
         self._events += 1
         kind = "diode" if ev.kind == "pair" else ev.kind
         mode = {nm: ("on" if on else "off") for nm, on in zip(switches, nxt.key, strict=True)}
-        mode["held"] = tuple(diodes[i] for i in nxt.flow.held)
+        if isinstance(nxt, SlidingSegment):
+            mode[switches[nxt.switch]] = "sliding"
+            held = nxt.flows[1].held
+        else:
+            held = nxt.flow.held
+        mode["held"] = tuple(diodes[i] for i in held)
         self.event_log.append(ExactEvent(float(ev.t), ev.name, kind, mode))
+
+    def _event_record(self, t: float, key, info: int) -> None:
+        from ..bits import to_words
+
+        rec = self.run.recorder
+        rec.reserve(0, 1)
+        e = rec.evpos
+        rec.ev_t[e] = t
+        rec.ev_key[e] = to_words(key_of(key), rec.ev_key.shape[1])
+        rec.ev_info[e] = info
+        rec.evpos += 1
+
+    def _sliding_values(self, seg: SlidingSegment, x: np.ndarray, t: float):
+        """Multipliers and probes of the Filippov motion at (t, x): the modes' values
+        weighted by the equivalent duty."""
+        d = seg.duty(t, x)
+        s = t - seg.t_piece
+        u = seg.piece.u(s)
+        lams, rows = [], []
+        for m, on in ((0, False), (1, True)):
+            key = tuple(on if i == seg.switch else v for i, v in enumerate(seg.key))
+            f = seg.flows[m]
+            lam = f.Lx @ x + f.Lu @ u + f.Ld @ seg.piece.du(s)
+            free = np.ones(lam.size, dtype=bool)
+            free[list(f.held)] = False
+            lam[free] = 0.0
+            lams.append(lam)
+            rows.append(self.run.problem.output(key).row(key_of(key), seg.switch, d, x, lam, u))
+        return (1 - d) * lams[0] + d * lams[1], (1 - d) * rows[0] + d * rows[1]
+
+    def _store_sliding(self, seg: SlidingSegment, last: bool, t_end: float | None) -> None:
+        rec = self.run.recorder
+        t0, h = self.run.t_start, self.h
+        j1 = int(np.floor((seg.t_end - t0) / h * (1 + 1e-15) + 1e-9))
+        grid = t0 + h * np.arange(self._next_out, j1 + 1)
+        grid = grid[(grid > seg.t_start) & (grid <= seg.t_end + 1e-12 * h)]
+        extra = self.save_at[(self.save_at > seg.t_start) & (self.save_at <= seg.t_end)]
+        times = np.unique(np.concatenate([grid, extra]))
+        self._next_out = max(self._next_out, j1 + 1)
+        rec.reserve(times.size + 1, 1)
+        for tt in times:
+            tt = min(float(tt), seg.t_end)
+            x = np.asarray(seg.sol(tt), dtype=float)
+            rec.append(tt, self._sliding_values(seg, x, tt)[1])
+        if not (last and t_end is not None and seg.t_end >= t_end - 1e-12 * h):
+            self._event_record(seg.t_end, seg.key, EV_SLIDE_END + seg.switch)
 
     def _error(self, message: str, t: float) -> SimulationError:
         mode = self.run.problem.describe(self.mode)

@@ -67,6 +67,10 @@ def affine_period(segments: Sequence[Segment], events: Sequence[Event], omega: f
     q_out = 0 if Y is None else Y[0][0].shape[0]
     Iacc = np.zeros((q_out, n + 1), dtype=dtype) if Y is not None else None
     for k, seg in enumerate(segments):
+        if not hasattr(seg, "flow"):
+            raise ZeroDivisionError(
+                f"a sliding motion from t = {seg.t_start:.9g} s: the exact Jacobian through "
+                "a sliding mode is not computed (use the Moreau method's finite differences)")
         f = seg.flow
         tau = seg.duration
         Gaug = np.zeros((n + 1, n + 1), dtype=dtype)
