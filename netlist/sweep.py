@@ -328,7 +328,8 @@ def circuit_map(
 
         key0 = tuple(initially_on(s.options) for s in system.switches)
         em = ExactStroboscopicMap(system, setup.signals, T, t0=t0, key0=key0, param=param,
-                                  param_name=param_name)
+                                  param_name=param_name,
+                                  diode_probes=[f"i({d})" for d in system.diodes])
         em.x0 = setup.x0.copy()
         em.notes[:0] = list(setup.notes)
         return em

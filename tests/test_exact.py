@@ -309,3 +309,32 @@ def test_sliding_mode_boost_follows_the_closed_form():
     errors = [abs(simulate_circuit(circuit, tstop=3e-3, step=h, probes=["v(C1)"])["v(C1)"][-1]
                   - v[-1]) for h in (2e-7, 1e-7)]
     assert 1.8 < errors[0] / errors[1] < 2.2  # first order (measured 2.0)
+
+
+def test_exact_continuation_locates_the_dcm_border_collision(capsys):
+    """As the load grows the buck's inductor current touches zero before the next turn-on
+    and a stretch with every switch and diode off appears: a border collision. With exact
+    stretches the located load is where the current at the turn-on instant is zero."""
+    path = str(EXACT / "buck_border.cir")
+    code = main(["continue", path, "--period", "ts", "--param", "rload=3.9:4.1", "--steps",
+                 "3", "--method", "exact", "--tol", "1e-9", "--json"])
+    out = capsys.readouterr().out
+    assert code == 0
+    import json
+
+    r = json.loads(out)
+    border = [b for b in r["bifurcations"] if b["type"] == "border"]
+    assert len(border) == 1
+    r_b = border[0]["param"]
+    assert 3.98 < r_b < 3.99
+    f = CircuitMapFactory(path=path, period="ts", param="rload", method="exact")
+    for R_, sign in ((r_b - 1e-6, 1), (r_b + 1e-6, -1)):
+        m = f(R_)
+        orb = find_orbit(m, np.array([1.0, 6.0]), transient=300, tol=1e-12)
+        segs, _, _ = m.follow(orb.points[0])
+        # the inductor current at the turn-on instant (the last stretch's start, S1 on)
+        i_on = [s.x_start[0] for s in segs if s.key == (True,)][-1]
+        if sign > 0:
+            assert 0 < i_on < 1e-5  # CCM just before: a current that vanishes at the border
+        else:
+            assert abs(i_on) < 1e-12  # DCM just after: the current is held at zero

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..analysis.base import Map, MapError
-from ..analysis.patterns import SwitchingPattern
+from ..analysis.patterns import PatternSegment, SwitchingPattern
 from ..model import ModeKey, SwitchedLCS
 from .events import ExactError, Follower
 from .saltation import affine_period
@@ -42,13 +42,16 @@ class ExactStroboscopicMap(Map):
     param, param_name : optional
     scale : array_like (n,), optional
         Typical state magnitudes.
+    diode_probes : sequence of str
+        One probe per diode, positive while it conducts (``"i(D1)"``): the pattern's diode
+        states.
     """
 
     method = "exact"
 
     def __init__(self, system: SwitchedLCS, signals: Sequence, period: float, *,
                  t0: float = 0.0, key0: ModeKey | None = None, param: float | None = None,
-                 param_name: str | None = None, scale=None):
+                 param_name: str | None = None, scale=None, diode_probes=()):
         self.system = system
         self.signals = list(signals)
         self.period = float(period)
@@ -57,6 +60,7 @@ class ExactStroboscopicMap(Map):
         self.param, self.param_name = param, param_name
         self._scale = None if scale is None else np.asarray(scale, dtype=float)
         self.notes: list[str] = []
+        self.diode_probes = tuple(diode_probes)
         try:
             self._follower = Follower(system, self.signals, self.t0, self.period)
         except ExactError as exc:
@@ -118,5 +122,56 @@ class ExactStroboscopicMap(Map):
         return J
 
     def pattern(self, x, k: int = 1) -> SwitchingPattern | None:
-        """None: the exact map reports its events instead (:meth:`follow`)."""
-        return None
+        """Switch and diode configurations over k periods from ``x``: one per stretch
+        (a diode conducts when its current, ``diode_probes``, is positive at the stretch's
+        midpoint). Continuation compares them to detect border collisions; with exact
+        stretches the instants are exact too."""
+        if not self.diode_probes and not self.system.switches:
+            return None
+        y = np.asarray(x, dtype=float)
+        segs_all, t_shift = [], 0.0
+        for _ in range(int(k)):
+            segs, _, y = self.follow(y)
+            segs_all += [(seg, t_shift) for seg in segs]
+            t_shift += self.period
+        out: list[PatternSegment] = []
+        for seg, shift in segs_all:
+            if seg.duration <= 0.0:
+                continue
+            sw = tuple(bool(v) for v in seg.key)
+            dio = self._conducting(seg)
+            start = seg.t_start - self.t0 + shift
+            if out and out[-1].switches == sw and out[-1].diodes == dio:
+                last = out[-1]
+                out[-1] = PatternSegment(last.start, start + seg.duration - last.start, sw,
+                                         dio)
+            else:
+                out.append(PatternSegment(start, seg.duration, sw, dio))
+        return SwitchingPattern(tuple(s.name for s in self.system.switches),
+                                tuple(self.system.diodes), tuple(out),
+                                int(k) * self.period)
+
+    def _conducting(self, seg) -> tuple:
+        if not self.diode_probes:
+            return tuple(False for _ in self.system.diodes)
+        s = 0.5 * seg.duration
+        if hasattr(seg, "flow"):
+            from scipy.linalg import expm
+
+            from .flow import flow_matrix
+
+            G = flow_matrix(seg.flow, seg.piece)
+            xm = (expm(G * s) @ np.concatenate([seg.x_start, seg.piece.z0]))[:seg.x_start.size]
+            f, key = seg.flow, seg.key
+        else:  # sliding: the on mode's view
+            xm = np.asarray(seg.sol(seg.t_start + s), dtype=float)
+            f, key = seg.flows[1], seg.key
+        u, du = seg.piece.u(s), seg.piece.du(s)
+        lam = f.Lx @ xm + f.Lu @ u + f.Ld @ du
+        free = np.ones(lam.size, dtype=bool)
+        free[list(f.held)] = False
+        lam[free] = 0.0
+        om = self.system.outputs(key, list(self.diode_probes))
+        cur = om.Cy @ xm + om.Dy @ lam + om.Fy @ u
+        scale = max(float(np.max(np.abs(cur), initial=0.0)), 1e-12)
+        return tuple(bool(c > 1e-9 * scale + 1e-12) for c in cur)
