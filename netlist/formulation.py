@@ -362,6 +362,13 @@ class _Formulator:
             ComplementarityPair(d.name, LAMBDA_VOLTAGE if d.key in mna.vdiodes else LAMBDA_CURRENT)
             for d in self.diodes
         )
+        # A diode that only open switches connect to the rest (in series with an open
+        # switch) carries no current: its w (the current, λ its reverse voltage) is zero
+        # identically, and the elimination's round-off there (1e-16 with either sign) would
+        # read as a non-passive D.
+        for i in self._isolated(on):
+            if pairs[i].lam == LAMBDA_VOLTAGE:
+                w[i] = 0.0
         lcs = LCS(
             A=dx[:, :n], B=dx[:, n:n + m], E=dx[:, n + m:],
             C=w[:, :n], D=w[:, n:n + m], F=w[:, n + m:],
@@ -393,6 +400,20 @@ class _Formulator:
             if sw.key in on:
                 uf.union(*sw.nodes)
         return [i for i, d in enumerate(self.diodes) if uf.find(d.nodes[0]) == uf.find(d.nodes[1])]
+
+    def _isolated(self, on: frozenset[str]) -> list[int]:
+        """Indices of the diodes whose terminals no other path joins once the open switches
+        are removed (every element but the diode and the open switches carries current)."""
+        out = []
+        for i, d in enumerate(self.diodes):
+            uf = UnionFind()
+            for el in self.two_terminal:
+                if el.key == d.key or (el.kind == "S" and el.key not in on):
+                    continue
+                uf.union(*el.nodes[:2])
+            if uf.find(d.nodes[0]) != uf.find(d.nodes[1]):
+                out.append(i)
+        return out
 
     def _check_topology(self, on: frozenset[str], desc: str) -> None:
         """Reject loops of voltage-defined and cutsets of current-defined branches."""

@@ -338,3 +338,33 @@ def test_exact_continuation_locates_the_dcm_border_collision(capsys):
             assert 0 < i_on < 1e-5  # CCM just before: a current that vanishes at the border
         else:
             assert abs(i_on) < 1e-12  # DCM just after: the current is held at zero
+
+
+def test_state_jump_at_an_event_conserves_charge():
+    """S1 closes a diode path from C1 (10 V) onto C2 (0 V) at 1 ms: no continuation without
+    an impulse, so the state jumps to the charge-conserving 5 V on both, which then decay
+    together through R2: 5 V e^{-(t - 1 ms)/(R2 (C1 + C2))}."""
+    res = simulate_circuit(pelcs.load(EXACT / "cap_share.cir"), method="exact")
+    assert res.error is None
+    assert [e.kind for e in res.event_log] == ["switch", "jump"]
+    t = res.t
+    t_j = res.event_log[0].t  # the gate crosses VT half-way up its 1 ns edge
+    assert t_j == pytest.approx(1e-3 + 0.5e-9, rel=1e-12)
+    after = t > t_j
+    ref = 5.0 * np.exp(-(t[after] - t_j) / 2e-3)
+    assert np.allclose(res["v(C1)"][after], ref, rtol=1e-11, atol=0)
+    assert np.allclose(res["v(C2)"][after], ref, rtol=1e-11, atol=0)
+    before = t < 1e-3
+    assert np.all(res["v(C1)"][before] == 10.0) and np.all(res["v(C2)"][before] == 0.0)
+
+
+def test_diode_behind_an_open_switch_is_not_flagged_non_passive():
+    import warnings
+
+    from lcs.notices import NonPassiveWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", NonPassiveWarning)
+        system = pelcs.formulate(EXACT / "cap_share.cir")
+    off = system.mode({"S1": False})
+    assert np.all(off.C == 0) and np.all(off.D == 0)  # its current is zero identically

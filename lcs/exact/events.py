@@ -133,6 +133,9 @@ class Event:
         instant, in the mode before.
     hdot : float
         dh/dt just before the event.
+    jump : bool
+        The state jumped at the event (impulsive diode currents, :mod:`lcs.wellposed`):
+        the next segment starts from the state after the jump.
     """
 
     t: float
@@ -143,6 +146,7 @@ class Event:
     hu: np.ndarray | None = None
     hd: np.ndarray | None = None
     hdot: float = 0.0
+    jump: bool = False
 
     @property
     def moves(self) -> bool:
@@ -154,7 +158,8 @@ class Follower:
     """Follows ``[t0, t0 + period]`` (a switching period, or any span): the system, the
     sources, the switch rules and the caches of mode flows."""
 
-    def __init__(self, system: SwitchedLCS, signals: Sequence, t0: float, period: float):
+    def __init__(self, system: SwitchedLCS, signals: Sequence, t0: float, period: float,
+                 jump=None):
         bad = [name for name, s in zip(system.inputs, signals, strict=True)
                if not (getattr(s, "piecewise_linear", False) or _is_sin(s))]
         if bad:
@@ -163,6 +168,10 @@ class Follower:
                 f"SIN); {', '.join(bad)} {'is' if len(bad) == 1 else 'are'} not: use a "
                 "time-stepping method (Moreau; for pelcs ac the sweep method)")
         self.system = system
+        # on_inconsistent(lcs, x, u) -> x_plus (or (x_plus, note)): the state jump when an
+        # event leaves no consistent continuation (a switch closing a diode onto a charged
+        # capacitor); None: such an event stops the run
+        self.jump = jump
         self.signals = list(signals)
         self.omega_in = max((2 * np.pi * s.freq for s in self.signals if _is_sin(s)),
                             default=0.0)
@@ -317,6 +326,25 @@ class Follower:
             return None
         return flow
 
+    def enter(self, key, prefer, x, t, tb, why: str, events) -> tuple[ModeFlow, np.ndarray]:
+        """The mode after an event and the state in it: :meth:`select`, and when no held set
+        is consistent, the state jump of ``self.jump`` (marked on the last event)."""
+        try:
+            flow = self.select(key, prefer, x, t, tb, why)
+        except ExactError:
+            if self.jump is None:
+                raise
+            u0 = self.inputs_on(t, tb).u(0.0)
+            out = self.jump(self.system.mode(key), np.asarray(x, dtype=float).copy(), u0)
+            x_plus = np.asarray(out[0] if isinstance(out, tuple) else out, dtype=float)
+            if np.allclose(x_plus, x, rtol=1e-12, atol=0.0):
+                raise
+            flow = self.select(key, prefer, x_plus, t, tb, why + ", after a state jump")
+            if events:
+                events[-1].jump = True
+            x = x_plus
+        return flow, self.project(flow, x, t)
+
     def project(self, flow: ModeFlow, x: np.ndarray, t: float) -> np.ndarray:
         """``x`` moved onto the held set's state constraints ``Kx x + Ku u = 0`` (by the
         least change), which it satisfies up to an event's round-off."""
@@ -397,8 +425,8 @@ class Follower:
                 t, key = tb, new_key
                 fi += 1
                 nb = self.fixed[fi]
-                flow = self.select(key, flow.held, x, t, nb, f"{kind} at {t:.9g} s")
-                x = self.project(flow, x, t)
+                flow, x = self.enter(key, flow.held, x, t, nb, f"{kind} at {t:.9g} s",
+                                     events)
                 same_instant = 0
                 continue
             s, row, (kind, name, idx), hrow = hit
@@ -431,8 +459,7 @@ class Follower:
                 prefer = flow.held
             else:
                 prefer = tuple(sorted(set(flow.held).symmetric_difference({idx})))
-            flow = self.select(key, prefer, x, t, tb, f"{kind} {name} at {t:.9g} s")
-            x = self.project(flow, x, t)
+            flow, x = self.enter(key, prefer, x, t, tb, f"{kind} {name} at {t:.9g} s", events)
 
     # --- sliding ---------------------------------------------------------------------------
     def _slide(self, j: int, key: ModeKey, flow: ModeFlow, x, t: float, fi: int, segs, events):

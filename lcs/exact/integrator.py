@@ -71,8 +71,9 @@ class ExactIntegrator(Integrator):
 
     name = "exact"
 
-    def __init__(self, h: float, save_at=(), log_breakpoints: bool = False):
+    def __init__(self, h: float, save_at=(), log_breakpoints: bool = False, jump=None):
         self.h = float(h)
+        self.jump = jump
         self.save_at = np.sort(np.asarray(save_at, dtype=float))
         self.log_breakpoints = log_breakpoints
         self.event_log: list[ExactEvent] = []
@@ -106,7 +107,7 @@ class ExactIntegrator(Integrator):
         if span <= 0:
             return None
         try:
-            follower = Follower(system, run.inputs, self.t, span)
+            follower = Follower(system, run.inputs, self.t, span, jump=self.jump)
         except ExactError as exc:
             return self._error(str(exc), self.t)
         try:
@@ -240,6 +241,8 @@ class ExactIntegrator(Integrator):
             held = nxt.flow.held
         mode["held"] = tuple(diodes[i] for i in held)
         self.event_log.append(ExactEvent(float(ev.t), ev.name, kind, mode))
+        if getattr(ev, "jump", False):
+            self.event_log.append(ExactEvent(float(ev.t), ev.name, "jump", dict(mode)))
 
     def _event_record(self, t: float, key, info: int) -> None:
         from ..bits import to_words

@@ -90,6 +90,9 @@ def affine_period(segments: Sequence[Segment], events: Sequence[Event], omega: f
         if k == len(segments) - 1:
             break
         ev = events[k]
+        if getattr(ev, "jump", False):
+            raise ZeroDivisionError(f"the state jumps at t = {ev.t:.9g} s: the exact Jacobian "
+                                    "through a jump is not computed")
         if not ev.moves:
             continue
         nxt = segments[k + 1]

@@ -46,7 +46,9 @@ def simulate_exact(
     save_at : sequence of float
         Further output instants, s.
     on_inconsistent : callable, optional
-        Initial state jump, as for :func:`lcs.moreau.simulate`.
+        State jump, as for :func:`lcs.moreau.simulate`: for an inconsistent initial state,
+        and after an event that leaves no consistent continuation (a switch closing a diode
+        onto a charged capacitor); ``result.event_log`` then has a ``"jump"`` entry.
     log_breakpoints : bool
         Also list source corners in ``result.event_log``.
 
@@ -61,7 +63,7 @@ def simulate_exact(
     if not (h > 0 and np.isfinite(h)):
         raise ValueError(f"output step h must be positive, got {h}")
     driver.check_args(system, signals, x0, t_start, t_stop, 1)
-    integ = ExactIntegrator(float(h), save_at, log_breakpoints)
+    integ = ExactIntegrator(float(h), save_at, log_breakpoints, jump=on_inconsistent)
     result = driver.run(Problem(system, probes), list(signals), np.asarray(x0, dtype=float),
                         float(t_start), float(t_stop), integ, save_at=save_at,
                         on_inconsistent=on_inconsistent, switching="auto", t_wall=t_wall)
