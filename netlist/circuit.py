@@ -180,6 +180,8 @@ class Circuit:
     options: dict[str, str] = field(default_factory=dict)
     params: dict[str, float] = field(default_factory=dict)  # global .param values
     ignored: list[IgnoredCommand] = field(default_factory=list)
+    # .step param lines: (parameter, values), one sweep axis each (run by pelcs sweep)
+    steps: list[tuple[str, tuple[float, ...]]] = field(default_factory=list)
     file: str = "<string>"
 
     def element(self, name: str) -> Element:

@@ -67,14 +67,13 @@ UNSUPPORTED_COMMANDS: dict[str, str] = {
     ".elseif": "conditional netlists are not supported",
     ".else": "conditional netlists are not supported",
     ".endif": "conditional netlists are not supported",
-    ".step": "parameter sweeps are not done in the netlist: run pelcs with --param NAME=VALUE",
     ".data": "data tables are not supported",
     ".endl": ".endl closes a section of a library file read with .lib FILE SECTION",
     ".endc": ".endc without .control",
 }
 
-SUPPORTED_COMMANDS = (".param .subckt/.ends .model .ic .tran .options .include .lib .global "
-                      ".title .control/.endc .end")
+SUPPORTED_COMMANDS = (".param .subckt/.ends .model .ic .tran .step .options .include .lib "
+                      ".global .title .control/.endc .end")
 
 _MODEL_TYPES = {"D": "D", "SW": "SW"}
 _UNSUPPORTED_MODELS = {

@@ -29,7 +29,7 @@ GRAMMAR_FILE = Path(__file__).with_name("grammar.lark")
 START_RULES = [
     "passive", "source", "diode", "switch", "vcontrolled", "ccontrolled", "coupling",
     "instance", "param_cmd", "subckt_cmd", "ends_cmd", "model_cmd", "ic_cmd", "tran_cmd",
-    "options_cmd", "include_cmd", "lib_cmd", "global_cmd", "expression",
+    "step_cmd", "options_cmd", "include_cmd", "lib_cmd", "global_cmd", "expression",
 ]
 
 

@@ -258,6 +258,7 @@ class _Builder:
         c.params = dict(self.global_env)
         self.models()
         self.tran()
+        self.steps()
         c.options = dict(deck.options)
         c.ignored = list(deck.ignored)
         self.expand(deck.top, "", "", None, self.global_env, self.global_failed, ())
@@ -279,6 +280,46 @@ class _Builder:
                 if v is not None:
                     params[p.name] = v
             self.circuit.models[key] = Model(m.name, m.type, params, loc)
+
+    def steps(self) -> None:
+        """``.step param`` lines -> ``circuit.steps`` (name, values), one sweep axis each."""
+        seen: dict[str, int] = {}
+        known = {k.lower(): k for k in self.circuit.params}
+        for st in self.deck.steps:
+            loc = st.st.loc(st.name_pos)
+            key = st.name.lower()
+            if key not in known:
+                self.error(f".step: '{st.name}' is not a .param of the netlist", loc,
+                           "define it with .param (its value is the nominal one) or step one of "
+                           f"{', '.join(sorted(known.values())) or 'the parameters'}",
+                           dependent=True)
+                continue
+            if key in seen:
+                self.error(f".step: '{st.name}' is stepped twice (first at line {seen[key]})",
+                           loc, "give all its values on one .step line")
+                continue
+            seen[key] = loc.line
+            vals = [self.evaluate(v, self.global_env, self.global_failed) for v in st.values]
+            if any(v is None for v in vals):
+                continue
+            if st.linear:
+                start, stop, incr = vals
+                n = (stop - start) / incr if incr else -1.0
+                if not incr or n < -1e-9:
+                    self.error(f".step param {st.name}: INCR {incr:g} does not lead from "
+                               f"{start:g} to {stop:g}", st.values[2].loc,
+                               "give INCR with the sign of STOP - START (and not 0)")
+                    continue
+                count = int(math.floor(n + 1e-9)) + 1
+                if count > 100000:
+                    self.error(f".step param {st.name}: {count} values", st.values[2].loc,
+                               "at most 100000 values per .step: use a larger INCR")
+                    continue
+                # 12 digits: 0.2 + 2 * 0.2 is 0.6, not 0.6000000000000001
+                values = tuple(float(f"{start + k * incr:.12g}") for k in range(count))
+            else:
+                values = tuple(float(v) for v in vals)
+            self.circuit.steps.append((known[key], values))
 
     def tran(self) -> None:
         trans = self.deck.trans

@@ -372,7 +372,8 @@ def run_sweep(
         ``FUNCTION(PROBE)`` (:data:`netlist.measure.FUNCTIONS`), e.g. ``"mean(v(out))"``.
     params : mapping, optional
         ``.param`` values: a number (fixed) or a sequence (swept). The grid is every
-        combination, the first swept parameter varying slowest.
+        combination, the first swept parameter varying slowest. The netlist's ``.step
+        param`` lines add swept parameters (after these) unless ``params`` sets them.
     tolerances : sequence of str or Tolerance
         ``"R1=5%"``, ``"C*=10%"``... (Monte Carlo; needs ``runs``).
     runs : int
@@ -407,6 +408,13 @@ def run_sweep(
     t_wall = time.perf_counter()
     text, path = _read(source)
     params = dict(params or {})
+    # The netlist's .step lines sweep what params does not set (a given value wins).
+    given = {k.lower() for k in params}
+    step_notes = []
+    for name, values in parse_string(text, file=path).steps:
+        if name.lower() not in given:
+            params[name] = np.asarray(values, dtype=float)
+            step_notes.append(f"{name}: {len(values)} values from the netlist's .step")
     fixed = {k: float(v) for k, v in params.items() if np.ndim(v) == 0}
     swept = {k: np.asarray(v, dtype=float).ravel() for k, v in params.items()
              if np.ndim(v) > 0}
@@ -476,7 +484,7 @@ def run_sweep(
     units = {m.text: probe_unit(m.probe) for m in mlist}
     for n, _ in matched:
         units[n] = _VALUE_ATTR[circuit.element(n).kind][1]
-    notes = _notes(results, ok)
+    notes = step_notes + _notes(results, ok)
     tol_text = [f"{n} {t.describe(units[n])}" + ("" if t.exact else f" ({t.text})")
                 for n, t in matched]
     return SweepTable(

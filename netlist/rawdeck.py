@@ -11,8 +11,8 @@ from .circuit import IgnoredCommand
 from .errors import Location
 from .expressions import Expression
 
-__all__ = ["Body", "Deck", "RawElement", "RawIc", "RawModel", "RawParam", "RawTran", "Statement",
-           "SubcktDef", "Value"]
+__all__ = ["Body", "Deck", "RawElement", "RawIc", "RawModel", "RawParam", "RawStep", "RawTran",
+           "Statement", "SubcktDef", "Value"]
 
 # ------------------------------------------------------------------------------ statements
 
@@ -152,6 +152,18 @@ class RawTran:
     st: Statement
 
 
+@dataclass
+class RawStep:
+    """``.step param NAME START STOP INCR`` or ``.step param NAME list V1 V2 ...``: the
+    parameter and its values (evaluated in elaboration)."""
+
+    name: str
+    values: list[Value]
+    linear: bool  # START STOP INCR (else a list)
+    st: Statement
+    name_pos: int
+
+
 @dataclass(eq=False)
 class Deck:
     """Everything read from a netlist and its includes, not yet evaluated or flattened."""
@@ -162,6 +174,7 @@ class Deck:
     subckts: dict[str, SubcktDef] = field(default_factory=dict)  # lower-case name
     models: list[RawModel] = field(default_factory=list)
     trans: list[RawTran] = field(default_factory=list)
+    steps: list[RawStep] = field(default_factory=list)
     options: dict[str, str] = field(default_factory=dict)
     ignored: list[IgnoredCommand] = field(default_factory=list)
     globals: set[str] = field(default_factory=set)

@@ -42,6 +42,7 @@ from .rawdeck import (
     RawIc,
     RawModel,
     RawParam,
+    RawStep,
     RawTran,
     Statement,
     SubcktDef,
@@ -674,6 +675,43 @@ class _Reader:
             return
         self.deck.trans.append(RawTran(values, uic, st))
 
+    def cmd_step(self, st: Statement) -> None:
+        usage = ".step param NAME START STOP INCR  or  .step param NAME list V1 V2 ..."
+        tree = self.parse(st, "step_cmd", ".step", usage)
+        if self.sub is not None:
+            self.error(".step inside a subcircuit", st, 0, "move it to the top level")
+            return
+        toks = list(tree.children[1:])
+        words = [str(t).lower() for t in toks]
+        if words and words[0] in ("oct", "dec", "lin"):
+            if words[0] != "lin":
+                self.error(f".step {words[0]} is not supported", st, toks[0].start_pos,
+                           "give the values with .step param NAME list V1 V2 ...")
+                return
+            toks, words = toks[1:], words[1:]
+        if words and words[0] == "param":
+            toks, words = toks[1:], words[1:]
+        if not toks or toks[0].type != "WORD" or not re.fullmatch(r"[A-Za-z_][\w.]*",
+                                                                  str(toks[0])):
+            self.error(".step needs a parameter name", st, toks[0].start_pos if toks else 0,
+                       f"syntax: {usage} (a .param of the netlist)")
+            return
+        name, name_pos = str(toks[0]), toks[0].start_pos
+        rest, linear = toks[1:], True
+        if rest and str(rest[0]).lower() == "list":
+            rest, linear = rest[1:], False
+            if not rest:
+                self.error(".step ... list needs values", st, len(st.text), f"syntax: {usage}")
+                return
+        elif len(rest) != 3:
+            self.error(f".step param {name}: expected START STOP INCR or list V1 V2 ...",
+                       st, rest[0].start_pos if rest else len(st.text), f"syntax: {usage}")
+            return
+        values = [self.value(t, st) for t in rest]
+        if any(v is None for v in values):
+            return
+        self.deck.steps.append(RawStep(name, values, linear, st, name_pos))
+
     def cmd_options(self, st: Statement) -> None:
         tree = self.parse(st, "options_cmd", ".options", ".options name[=value] ...")
         for item in tree.children[1:]:
@@ -730,6 +768,7 @@ _COMMANDS = {
     ".model": _Reader.cmd_model,
     ".ic": _Reader.cmd_ic,
     ".tran": _Reader.cmd_tran,
+    ".step": _Reader.cmd_step,
     ".options": _Reader.cmd_options,
     ".option": _Reader.cmd_options,
     ".opt": _Reader.cmd_options,

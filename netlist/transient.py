@@ -203,6 +203,10 @@ def transient_setup(
     ):
         notes.append("pelcs starts from the given initial conditions (as ngspice with UIC); "
                      "without UIC ngspice first computes a DC operating point")
+    if circuit.steps:
+        names = ", ".join(name for name, _ in circuit.steps)
+        notes.append(f"the netlist's .step ({names}) is run by `pelcs sweep`; this run uses "
+                     "the nominal .param values")
     t_save = tran.tstart if tran is not None and tran.tstart < tstop else 0.0
     energy = storage_matrix(circuit)
     nonpassive = _screen_passivity(circuit, system, energy, notes, strict)

@@ -9,6 +9,7 @@
                 [--period T] [--workers W] [--scheduler ADDRESS]
                 [-o OUT.csv] [--plot OUT.png] [--json]
 
+The netlist's own ``.step param`` lines are swept too (a ``--param`` for the same name wins).
 Every combination of the swept ``.param`` values is simulated (SPICE's ``.step param``) and
 measured over the steady-state window (the last whole periods, up to 10, as ``pelcs check``):
 ``mean``, ``rms``, ``ripple`` (peak-to-peak), ``min``, ``max`` of any probe, or its ``final``
