@@ -78,9 +78,12 @@ class CurrentSource(Element):
 
 @dataclass
 class Diode(Element):
-    """Ideal diode, nodes (anode, cathode). ``model`` is kept for ngspice only."""
+    """Ideal diode, nodes (anode, cathode). ``model`` is kept for ngspice only.
+    ``part_of``: the idealised transistor whose body diode this is (ngspice simulates the
+    transistor's own), else ""."""
 
     model: str = ""
+    part_of: str = field(default="", compare=False)
     kind: ClassVar[str] = "D"
 
 
@@ -91,6 +94,8 @@ class Switch(Element):
     control: tuple[str, str] = ("0", "0")
     model: str = ""
     initial: bool | None = None  # ON (True) / OFF (False) as written on the S line, else None
+    # an idealised transistor: (letter, all its nodes, its model), written back for ngspice
+    device: tuple | None = field(default=None, compare=False)
     kind: ClassVar[str] = "S"
 
 
@@ -180,6 +185,8 @@ class Circuit:
     options: dict[str, str] = field(default_factory=dict)
     params: dict[str, float] = field(default_factory=dict)  # global .param values
     ignored: list[IgnoredCommand] = field(default_factory=list)
+    # transistors idealised as switches (netlist.devices.Replacement), in netlist order
+    replacements: list = field(default_factory=list)
     # .step param lines: (parameter, values), one sweep axis each (run by pelcs sweep)
     steps: list[tuple[str, tuple[float, ...]]] = field(default_factory=list)
     file: str = "<string>"

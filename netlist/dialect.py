@@ -26,6 +26,8 @@ ELEMENTS: dict[str, tuple[str, str, str]] = {
     "F": ("ccontrolled", "current-controlled current source", "Fname n+ n- Vcontrol gain"),
     "H": ("ccontrolled", "current-controlled voltage source", "Hname n+ n- Vcontrol r"),
     "K": ("coupling", "coupling", "Kname L1 L2 k"),
+    "M": ("device", "MOSFET", "Mname drain gate source [bulk] model [L=.. W=..]"),
+    "Q": ("device", "BJT", "Qname collector base emitter [substrate] model [area]"),
     "X": ("instance", "subcircuit instance", "Xname node... subckt [params: name=value...]"),
 }
 
@@ -34,11 +36,6 @@ _IDEAL = ("pelcs simulates ideal elements: model its function with R, L, C, sour
 
 # element letter -> (what it is, hint)
 UNSUPPORTED_ELEMENTS: dict[str, tuple[str, str]] = {
-    "M": ("MOSFET", "pelcs simulates ideal elements: use an S switch driven by the gate "
-          "voltage (Sname drain source gate source SWMOD, .model SWMOD SW(VT=...)), with a D "
-          "across it for the body diode"),
-    "Q": ("BJT", "pelcs simulates ideal elements: use an S switch driven by the base voltage "
-          "(or linear controlled sources for a small-signal model)"),
     "J": ("JFET", "pelcs simulates ideal elements: use an S switch driven by the gate voltage"),
     "Z": ("MESFET", "pelcs simulates ideal elements: use an S switch driven by the gate voltage"),
     "B": ("behavioural source", "use a linear E (voltage) or G (current) controlled source, "
@@ -75,9 +72,9 @@ UNSUPPORTED_COMMANDS: dict[str, str] = {
 SUPPORTED_COMMANDS = (".param .subckt/.ends .model .ic .tran .step .options .include .lib "
                       ".global .title .control/.endc .end")
 
-_MODEL_TYPES = {"D": "D", "SW": "SW"}
+_MODEL_TYPES = {"D": "D", "SW": "SW", "NMOS": "NMOS", "PMOS": "PMOS", "VDMOS": "VDMOS",
+                "NPN": "NPN", "PNP": "PNP"}
 _UNSUPPORTED_MODELS = {
-    "NMOS": "MOSFET", "PMOS": "MOSFET", "VDMOS": "MOSFET", "NPN": "BJT", "PNP": "BJT",
     "NJF": "JFET", "PJF": "JFET", "NMF": "MESFET", "PMF": "MESFET", "CSW": "current switch",
     "R": "semiconductor resistor", "C": "semiconductor capacitor", "L": "inductor",
     "LTRA": "lossy line", "URC": "uniform RC line", "TRANSLINE": "line",

@@ -27,7 +27,7 @@ GRAMMAR_FILE = Path(__file__).with_name("grammar.lark")
 
 # Start rules of grammar.lark: one per statement shape, and the expression rule.
 START_RULES = [
-    "passive", "source", "diode", "switch", "vcontrolled", "ccontrolled", "coupling",
+    "passive", "source", "diode", "switch", "device", "vcontrolled", "ccontrolled", "coupling",
     "instance", "param_cmd", "subckt_cmd", "ends_cmd", "model_cmd", "ic_cmd", "tran_cmd",
     "step_cmd", "options_cmd", "include_cmd", "lib_cmd", "global_cmd", "expression",
 ]

@@ -48,6 +48,7 @@ from .circuit import (
     Vcvs,
     VoltageSource,
 )
+from .devices import Replacement, threshold
 from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
 from .expressions import CONSTANTS, ExpressionError
 from .rawdeck import Body, Deck, RawElement, RawParam, Statement, Value
@@ -59,7 +60,8 @@ _MAX_DEPTH = 100  # subcircuit nesting; deeper is surely a generated mistake
 _NAN = float("nan")  # the value of an element whose value could not be evaluated
 
 
-def build_circuit(deck: Deck, overrides: Mapping[str, float] | None = None) -> Circuit:
+def build_circuit(deck: Deck, overrides: Mapping[str, float] | None = None,
+                  thresholds: Mapping[str, float] | None = None) -> Circuit:
     """Evaluate, flatten and check a deck.
 
     Parameters
@@ -68,6 +70,9 @@ def build_circuit(deck: Deck, overrides: Mapping[str, float] | None = None) -> C
         From :func:`netlist.parser.read_deck`.
     overrides : mapping of str to float, optional
         Global parameter values that replace the netlist's definitions.
+    thresholds : mapping of str to float, optional
+        Switch thresholds (V) of idealised transistors, by element or model name
+        (:mod:`netlist.devices`).
 
     Raises
     ------
@@ -75,6 +80,7 @@ def build_circuit(deck: Deck, overrides: Mapping[str, float] | None = None) -> C
         With all problems found, in file order (problems without a location last).
     """
     builder = _Builder(deck)
+    builder.thresholds = dict(thresholds or {})
     circuit = builder.build(overrides or {})
     # Elements whose values failed are kept (with NaN values) so that the topology checks
     # see the whole circuit; only a subcircuit instance that could not be expanded leaves a
@@ -107,6 +113,7 @@ def independent_problems(deck: Deck, overrides: Mapping[str, float] | None = Non
 class _Builder:
     def __init__(self, deck: Deck):
         self.deck = deck
+        self.thresholds: dict[str, float] = {}  # idealised transistors' thresholds, V
         self.diags: list[Diagnostic] = []
         self.ref_locs: dict[tuple[str, str], Location] = {}
         self.circuit = Circuit(title=deck.title, file=deck.file)
@@ -381,9 +388,54 @@ class _Builder:
         for el in body.elements:
             if el.kind == "X":
                 self.instance(el, name_prefix, node_prefix, mapnode, env, failed, stack)
+            elif el.kind in "MQ":
+                self.circuit.elements.extend(self.device(el, name_prefix, mapnode))
             else:
                 self.circuit.elements.append(
                     self.element(el, name_prefix, mapnode, env, failed))
+
+    def device(self, el: RawElement, prefix: str, mapnode: Callable[[str], str]) -> list:
+        """An M or Q element idealised: a switch, the VDMOS body diode (netlist.devices)."""
+        name = prefix + el.name if prefix else el.name
+        loc = el.st.loc(0)
+        nodes = tuple(map(mapnode, el.nodes))
+        model = self.circuit.models.get(el.ref.lower())
+        want = ("NMOS", "PMOS", "VDMOS") if el.kind == "M" else ("NPN", "PNP")
+        if model is None:
+            self.error(f"{name}: unknown model '{el.ref}'", el.st.loc(el.ref_offset),
+                       f"define it with .model {el.ref} {'/'.join(want)}(...)", (name,),
+                       dependent=True)
+            return []
+        if model.type not in want:
+            self.error(f"{name}: model '{el.ref}' is a {model.type} model, not "
+                       f"{' or '.join(want)}", el.st.loc(el.ref_offset),
+                       "use a model of the device's type", (name,))
+            return []
+        thr, source = threshold(name, model.name, model.type, model.params, self.thresholds)
+        mt = model.type
+        pchan = mt in ("PMOS", "PNP") or (mt == "VDMOS" and bool(model.params.get("pchan")))
+        a, g, b = nodes[0], nodes[1], nodes[2]  # drain/collector, gate/base, source/emitter
+        control = (b, g) if pchan else (g, b)
+        sw_model = f"pelcs_sw_{name.lower().replace('.', '_')}"
+        self.circuit.models[sw_model] = Model(sw_model, "SW", {**SW_DEFAULTS, "vt": thr}, loc)
+        out: list = [Switch(name, (a, b), loc, control, sw_model, None,
+                            device=(el.kind, nodes, model.name))]
+        body = None
+        if mt == "VDMOS":
+            body = f"{name}_body"
+            out.append(Diode(body, (a, b) if pchan else (b, a), loc, "", part_of=name))
+        terms = ("drain", "source", "gate") if el.kind == "M" else ("collector", "emitter",
+                                                                      "base")
+        ctl = f"v({control[0]})" if control[1] == GROUND else f"v({control[0]},{control[1]})"
+        became = (f"ideal switch {terms[0]} {a} - {terms[1]} {b}, on while {ctl} > {thr:g} V")
+        dropped = ["capacitances", "on-resistance and drops"]
+        if len(nodes) > 3:
+            dropped.append(f"{'bulk' if el.kind == 'M' else 'substrate'} terminal {nodes[3]}")
+        if el.kind == "M" and mt != "VDMOS":
+            dropped.append("bulk diodes")
+        self.circuit.replacements.append(Replacement(name, model.name, mt, became, thr, source,
+                                                     body, tuple(dropped)))
+        return out
 
     def instance(self, el: RawElement, name_prefix: str, node_prefix: str,
                  mapnode: Callable[[str], str], env: Mapping[str, float], failed: set[str],

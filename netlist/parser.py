@@ -56,7 +56,8 @@ __all__ = ["parse_file", "parse_string", "parse_overrides", "load_source", "read
 
 
 def parse_string(text: str, file: str = "<string>",
-                 params: dict[str, float] | None = None) -> Circuit:
+                 params: dict[str, float] | None = None,
+                 thresholds: Mapping[str, float] | None = None) -> Circuit:
     """Parse netlist text into a flattened, checked circuit.
 
     Parameters
@@ -69,6 +70,9 @@ def parse_string(text: str, file: str = "<string>",
     params : dict of str to float, optional
         Values that replace global ``.param`` definitions (case-insensitive names); naming a
         parameter that the netlist does not define is an error.
+    thresholds : mapping of str to float, optional
+        Switch thresholds (V) of transistors idealised as switches, by element or model
+        name (:mod:`netlist.devices`); ``circuit.replacements`` reports each.
 
     Returns
     -------
@@ -85,10 +89,11 @@ def parse_string(text: str, file: str = "<string>",
     reader = _Reader(file)
     reader.read_top(text, file, None)
     reader.raise_problems(params, independent_problems)
-    return build_circuit(reader.deck, params)
+    return _idealised(build_circuit(reader.deck, params, thresholds))
 
 
-def parse_file(path: str | os.PathLike, params: dict[str, float] | None = None) -> Circuit:
+def parse_file(path: str | os.PathLike, params: dict[str, float] | None = None,
+               thresholds: Mapping[str, float] | None = None) -> Circuit:
     """Read and parse a netlist file.
 
     Parameters
@@ -114,7 +119,7 @@ def parse_file(path: str | os.PathLike, params: dict[str, float] | None = None) 
         resolved = p
     reader.read_top(text, display, resolved)
     reader.raise_problems(params, independent_problems)
-    return build_circuit(reader.deck, params)
+    return _idealised(build_circuit(reader.deck, params, thresholds))
 
 
 _OVERRIDE = re.compile(r"\s*([A-Za-z_][\w.]*)\s*=\s*(\S.*?)\s*")
@@ -164,8 +169,8 @@ def parse_overrides(items: list[str] | None) -> dict[str, float]:
     return out
 
 
-def load_source(path_or_text: str | os.PathLike, params: Mapping[str, float | str] | None = None
-                ) -> Circuit:
+def load_source(path_or_text: str | os.PathLike, params: Mapping[str, float | str] | None = None,
+                thresholds: Mapping[str, float] | None = None) -> Circuit:
     """A netlist file or netlist text (a string with a line break) as a parsed circuit.
 
     Parameters
@@ -185,5 +190,22 @@ def load_source(path_or_text: str | os.PathLike, params: Mapping[str, float | st
         values = {k: float(v) for k, v in params.items() if not isinstance(v, str)}
         values.update(parse_overrides(text))
     if isinstance(path_or_text, str) and "\n" in path_or_text:
-        return parse_string(path_or_text, params=values)
-    return parse_file(path_or_text, params=values)
+        return parse_string(path_or_text, params=values, thresholds=thresholds)
+    return parse_file(path_or_text, params=values, thresholds=thresholds)
+
+
+def _idealised(circuit: Circuit) -> Circuit:
+    """Warn (:class:`~lcs.notices.IdealisedDeviceWarning`) that transistors became switches;
+    ``--strict`` turns the warning into an error."""
+    if circuit.replacements:
+        import warnings
+
+        from lcs.notices import IdealisedDeviceWarning
+
+        n = len(circuit.replacements)
+        names = ", ".join(r.element for r in circuit.replacements[:6])
+        more = f" and {n - 6} more" if n > 6 else ""
+        warnings.warn(IdealisedDeviceWarning(
+            f"{circuit.file}: {n} transistor{'s' if n > 1 else ''} idealised as switches "
+            f"({names}{more}); `pelcs info` lists what each became"), stacklevel=3)
+    return circuit

@@ -414,6 +414,26 @@ class _Reader:
                 out.append(RawParam(name_tok.lower(), v, st, name_tok.start_pos))
         return out
 
+    def device(self, letter: str, name: str, ch: list, st: Statement, usage: str) -> None:
+        """M and Q lines: nodes, then the model (the last word that is not a number or a
+        flag), then instance parameters (ignored: the device becomes an ideal switch)."""
+        words = [t for t in ch[1:] if isinstance(t, Token)]
+        cands = [i for i, t in enumerate(words)
+                 if parse_number(t) is None and t.lower() not in ("on", "off")]
+        if not cands:
+            self.error(f"{name}: no model name", st, len(st.text), f"syntax: {usage}")
+            return
+        mi = cands[-1]
+        nodes = words[:mi]
+        if len(nodes) not in (3, 4):
+            where = words[mi].start_pos
+            self.error(f"{name}: {len(nodes)} nodes before the model '{words[mi]}', expected "
+                       "3 or 4", st, where, f"syntax: {usage}")
+            return
+        self.body.elements.append(RawElement(
+            letter, name, st, tuple(node_name(n) for n in nodes), ref=str(words[mi]),
+            ref_offset=words[mi].start_pos))
+
     @property
     def body(self) -> Body:
         return self.sub.body if self.sub is not None else self.deck.top
@@ -448,6 +468,8 @@ class _Reader:
                 "S", name, st, (node_name(ch[1]), node_name(ch[2])),
                 control=(node_name(ch[3]), node_name(ch[4])), ref=str(ch[5]),
                 ref_offset=ch[5].start_pos, state=state))
+        elif rule == "device":
+            self.device(letter, name, ch, st, usage)
         elif rule == "vcontrolled":
             v = self.value(ch[5], st)
             if v is not None:
@@ -630,7 +652,8 @@ class _Reader:
         self.sub = None
 
     def cmd_model(self, st: Statement) -> None:
-        tree = self.parse(st, "model_cmd", ".model", ".model name D(...) or .model name SW(...)")
+        tree = self.parse(st, "model_cmd", ".model",
+                          ".model name D(...), SW(...), NMOS/PMOS/VDMOS(...) or NPN/PNP(...)")
         name_tok, type_tok = tree.children[1], tree.children[2]
         mtype = type_tok.upper()
         if mtype not in _MODEL_TYPES:
@@ -646,7 +669,18 @@ class _Reader:
                        type_tok.start_pos, hint)
             return
         items = tree.children[3].children if len(tree.children) > 3 else []
-        params = self.assigns(items, st)
+        if mtype in ("D", "SW"):
+            params = self.assigns(items, st)
+        else:
+            # A vendor's transistor model: only its threshold matters to pelcs, and such
+            # files carry text values (mfg=..., type=...): those are skipped, not errors.
+            params = []
+            for t in items:
+                name_t, val_t = t.children
+                if val_t.type == "EXPR" or parse_number(val_t) is not None:
+                    v = self.value(val_t, st)
+                    if v is not None:
+                        params.append(RawParam(name_t.lower(), v, st, name_t.start_pos))
         self.deck.models.append(RawModel(str(name_tok), _MODEL_TYPES[mtype], params, st))
 
     def cmd_ic(self, st: Statement) -> None:

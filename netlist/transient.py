@@ -203,6 +203,8 @@ def transient_setup(
     ):
         notes.append("pelcs starts from the given initial conditions (as ngspice with UIC); "
                      "without UIC ngspice first computes a DC operating point")
+    for r in circuit.replacements:
+        notes.append("idealised: " + r.line())
     if circuit.steps:
         names = ", ".join(name for name, _ in circuit.steps)
         notes.append(f"the netlist's .step ({names}) is run by `pelcs sweep`; this run uses "

@@ -110,6 +110,10 @@ def _element(el: Element, circuit: Circuit, kinds: dict[str, str]) -> str:
         return line
     if isinstance(el, Diode):
         return f"{name} {nodes} {el.model}"
+    if isinstance(el, Switch) and el.device is not None:
+        # an idealised transistor: ngspice simulates the device itself, with its model
+        letter, all_nodes, model = el.device
+        return f"{spice_name(el.name, letter)} {' '.join(all_nodes)} {model}"
     if isinstance(el, Switch):
         state = {True: " ON", False: " OFF", None: ""}[el.initial]
         return f"{name} {nodes} {' '.join(el.control)} {el.model}{state}"
@@ -145,8 +149,15 @@ def write_circuit(circuit: Circuit) -> str:
         lines.append(f".param {name}={_num(value)}")
     kinds = {el.key: el.kind for el in circuit.elements}
     for el in circuit.elements:
+        if isinstance(el, Diode) and el.part_of:
+            continue  # a transistor's body diode: part of its model in ngspice
         lines.append(_element(el, circuit, kinds))
-    for model in circuit.models.values():
+    devices = {el.model.lower() for el in circuit.elements
+               if isinstance(el, Switch) and el.device is not None}
+    for key, model in circuit.models.items():
+        if key in devices:
+            continue  # the switch stand-in of a transistor's threshold: pelcs-only
+
         params = " ".join(f"{k}={_num(v)}" for k, v in model.params.items())
         lines.append(f".model {model.name} {model.type}({params})")
     if circuit.initial_conditions:

@@ -694,7 +694,9 @@ def compare(
 
     currents = {el.name: result[f"i({el.name})"] for el in circuit.elements
                 if isinstance(el, (Diode, Switch))}
-    nonideal = _nonideality(circuit, ng.settings_used, currents)
+    drives = {sw.name: float(np.max(np.abs(result[ctrl])))
+              for sw, ctrl in zip(switch_els, controls, strict=True)}
+    nonideal = _nonideality(circuit, ng.settings_used, currents, drives)
     kd = tol.k_nonideal * nonideal.delta
     if nonideal.delta > 0.05:
         notes.append(f"ngspice's diode and switch models drop {100 * nonideal.delta:.3g} % of "

@@ -253,10 +253,32 @@ def _model_params(circuit: Circuit, model: str, defaults: Mapping[str, float]) -
     return params
 
 
+def _device_drop(circuit: Circuit, sw: Switch, i_max: float, drive: float | None) -> float:
+    """The conduction drop of an idealised transistor (netlist.devices) in ngspice, V.
+
+    MOSFET: ``(RD + RS + 1/(KP (Vgs - VTO))) I`` with Vgs the largest gate drive of the
+    pelcs run (the triode-region channel resistance, KP in A/V²); BJT: a saturated
+    collector–emitter drop of 0.2 V plus ``(RC + RE) I``.
+    """
+    letter, _, model_name = sw.device
+    m = circuit.models.get(model_name.lower())
+    p = {k.lower(): float(v) for k, v in (m.params.items() if m else ())}
+    if letter == "Q":
+        return 0.2 + (p.get("rc", 0.0) + p.get("re", 0.0)) * i_max
+    vt = abs(p.get("vto", p.get("vth", 0.0)))
+    kp = p.get("kp", 0.0)
+    over = max((drive if drive is not None else vt + 5.0) - vt, 0.5)
+    r_channel = 1.0 / (kp * over) if kp > 0 else 0.0
+    return (p.get("rd", 0.0) + p.get("rs", 0.0) + r_channel) * i_max
+
+
 def _nonideality(
-    circuit: Circuit, settings: NgspiceSettings, currents: Mapping[str, np.ndarray]
+    circuit: Circuit, settings: NgspiceSettings, currents: Mapping[str, np.ndarray],
+    drives: Mapping[str, float] | None = None,
 ) -> NonIdeality:
-    """δ of the module docstring, with the models of the ngspice rung that ran."""
+    """δ of the module docstring, with the models of the ngspice rung that ran. ``drives``:
+    the largest control voltage of each switch (V), for idealised transistors."""
+    drives = drives or {}
     diodes, switches = {}, {}
     for el in circuit.elements:
         i_max = float(np.max(np.abs(currents[el.name]))) if el.name in currents else 0.0
@@ -266,6 +288,8 @@ def _nonideality(
                 p.update({k: float(v) for k, v in settings.diode_model.items() if k in p})
             drop = p["n"] * VT_THERMAL * math.log1p(i_max / p["is"]) + p["rs"] * i_max
             diodes[el.name] = drop
+        elif isinstance(el, Switch) and getattr(el, "device", None) is not None:
+            switches[el.name] = _device_drop(circuit, el, i_max, drives.get(el.name))
         elif isinstance(el, Switch):
             p = _model_params(circuit, el.model, _SWITCH_DEFAULTS)
             if settings.switch_model is not None:

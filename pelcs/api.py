@@ -33,8 +33,8 @@ __all__ = ["SimulationError", "SimulationResult", "ac", "formulate", "load", "si
 Source = Circuit | str | os.PathLike
 
 
-def load(path_or_text: str | os.PathLike, params: Mapping[str, float] | None = None
-         ) -> Circuit:
+def load(path_or_text: str | os.PathLike, params: Mapping[str, float] | None = None,
+         *, thresholds: Mapping[str, float] | None = None) -> Circuit:
     """Parse a netlist file or netlist text into a flattened circuit.
 
     Parameters
@@ -44,6 +44,10 @@ def load(path_or_text: str | os.PathLike, params: Mapping[str, float] | None = N
         text (its first line is the title, as in SPICE).
     params : mapping of str to float or str, optional
         Overrides of global ``.param`` values; a value may be SPICE text (``"100k"``).
+    thresholds : mapping of str to float, optional
+        Switch thresholds (V) of transistors (M, Q) idealised as switches, by element or
+        model name; ``circuit.replacements`` lists what each device became
+        (:mod:`netlist.devices`).
 
     Returns
     -------
@@ -56,7 +60,7 @@ def load(path_or_text: str | os.PathLike, params: Mapping[str, float] | None = N
     """
     from netlist.parser import load_source
 
-    return load_source(path_or_text, params)
+    return load_source(path_or_text, params, thresholds)
 
 
 def formulate(circuit: Source, params: Mapping[str, float] | None = None) -> SwitchedLCS:

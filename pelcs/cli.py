@@ -57,14 +57,19 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     import warnings
 
-    from lcs.notices import NonPassiveWarning
+    from lcs.notices import IdealisedDeviceWarning, NonPassiveWarning
 
     with warnings.catch_warnings():
         warnings.showwarning = _show_warning
-        warnings.simplefilter("error" if getattr(args, "strict", False) else "once",
-                              NonPassiveWarning)
+        for category in (NonPassiveWarning, IdealisedDeviceWarning):
+            warnings.simplefilter("error" if getattr(args, "strict", False) else "once",
+                                  category)
         try:
             return int(args.func(args) or 0)
+        except IdealisedDeviceWarning as exc:
+            print(f"error: {exc}\n  hint: --strict refuses transistors (M, Q); drop it to "
+                  "simulate them as ideal switches", file=sys.stderr)
+            return 2
         except NonPassiveWarning as exc:
             text = str(exc).split("; the run follows the ideal model")[0]
             print(f"error: {text}\n  hint: --strict refuses a circuit that is not passive; "

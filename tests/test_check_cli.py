@@ -70,7 +70,7 @@ def test_input_errors_exit_2(argv, message, capsys):
 
 def test_bad_netlist_exits_2(tmp_path, capsys):
     bad = tmp_path / "bad.cir"
-    bad.write_text("bad\nM1 d g 0 0 NMOS\n.tran 1u 1m\n.end\n")
+    bad.write_text("bad\nJ1 d g 0 NJF\n.tran 1u 1m\n.end\n")
     assert main(["check", str(bad)]) == 2
     assert "bad.cir:2:1: error" in capsys.readouterr().err
     assert main(["check", str(tmp_path / "missing.cir")]) == 2

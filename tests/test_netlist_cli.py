@@ -70,11 +70,11 @@ def test_info_unknown_param_override(capsys):
 
 def test_info_on_a_bad_file(capsys, tmp_path):
     bad = tmp_path / "bad.cir"
-    bad.write_text("bad netlist\nV1 a 0 1\nR1 a 0 1k\nM1 a g 0 0 NMOS\nL1 a 0 {2*lx}\n")
+    bad.write_text("bad netlist\nV1 a 0 1\nR1 a 0 1k\nJ1 a g 0 NJF\nL1 a 0 {2*lx}\n")
     status, out, err = run(capsys, "info", str(bad))
     assert status == 2 and out == ""
-    assert f"{bad}:4:1: error: unknown element type 'M' (MOSFET)" in err
-    assert "    M1 a g 0 0 NMOS\n    ^\n" in err
+    assert f"{bad}:4:1: error: unknown element type 'J' (JFET)" in err
+    assert "    J1 a g 0 NJF\n    ^\n" in err
     assert "hint: pelcs simulates ideal elements" in err
     assert "Traceback" not in err
 

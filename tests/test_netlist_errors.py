@@ -15,9 +15,12 @@ OK = "V1 a 0 1\nR1 a 0 1k\n"  # a valid body to put next to a mistake
 
 # (id, netlist text, message substring, line, column, hint substring)
 CATALOGUE = [
-    ("mosfet", "t\nV1 a 0 1\nM1 a g 0 0 NMOS\n",
-     "unknown element type 'M' (MOSFET)", 3, 1, "S switch driven by the gate"),
-    ("bjt", "t\nV1 a 0 1\nQ1 a b 0 NPN\n", "unknown element type 'Q' (BJT)", 3, 1, "S switch"),
+    ("jfet", "t\nV1 a 0 1\nJ1 a g 0 NJF\n",
+     "unknown element type 'J' (JFET)", 3, 1, "S switch driven by the gate"),
+    ("mosfet-model", "t\nV1 a 0 1\nM1 a g 0 0 NMOS\n",
+     "M1: unknown model 'NMOS'", 3, 12, ".model NMOS NMOS/PMOS/VDMOS"),
+    ("bjt-model", "t\nV1 a 0 1\nQ1 a b 0 NPN\n", "Q1: unknown model 'NPN'", 3, 10,
+     ".model NPN NPN/PNP"),
     ("b-source", "t\nV1 a 0 1\nB1 b 0 V={v(a)**2}\n", "(behavioural source)", 3, 1,
      "linear E"),
     ("t-line", "t\nV1 a 0 1\nT1 a 0 b 0 Z0=50 TD=1n\n", "(transmission line)", 3, 1,
@@ -60,8 +63,8 @@ CATALOGUE = [
      "a diode needs a D model", 4, 8, "D(...)"),
     ("switch-model-type", "t\n" + OK + "S1 a 0 a 0 DM\n.model DM D\n",
      "a switch needs a SW model", 4, 12, "SW(...)"),
-    ("unsupported-model", "t\n" + OK + ".model Q2N NPN(BF=100)\n",
-     "model type 'NPN' (BJT) is not supported", 4, 12, "S element"),
+    ("unsupported-model", "t\n" + OK + ".model J2N NJF(BETA=1m)\n",
+     "model type 'NJF' (JFET) is not supported", 4, 12, "S element"),
     ("duplicate-model", "t\n" + OK + ".model DM D\n.model dm D(IS=1n)\n",
      "model 'dm' is defined twice (first at line 4)", 5, 1, "rename"),
     ("negative-l", "t\nV1 a 0 1\nL1 a 0 -1u\n", "L1: inductance must be positive", 3, 8, ""),
@@ -190,7 +193,7 @@ def test_all_independent_problems_are_reported_in_file_order():
         "t\n"
         "V1 a 0 1\n"
         "R1 a 0 {nope}\n"  # 3: unknown parameter
-        "M1 a b 0 0 NMOS\n"  # 4: unsupported element
+        "J1 a b 0 NJF\n"  # 4: unsupported element
         "L1 a 0 -1u\n"  # 5: negative inductance
         "D1 a 0 NOMODEL\n"  # 6: unknown model
         "R1 a 0 5\n"  # 7: duplicate
@@ -202,7 +205,7 @@ def test_all_independent_problems_are_reported_in_file_order():
     # are reported too (5: value, 7: duplicate); unknown names wait (a missing line could
     # define them)
     assert [d.location.line for d in info.value.diagnostics] == [4, 5, 7, 8]
-    fixed = text.replace("M1 a b 0 0 NMOS", "* no M").replace("1k3", "1k")
+    fixed = text.replace("J1 a b 0 NJF", "* no J").replace("1k3", "1k")
     with pytest.raises(NetlistError) as info:
         parse_string(fixed)
     lines = [d.location.line for d in info.value.diagnostics]

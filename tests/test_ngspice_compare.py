@@ -59,6 +59,9 @@ EXCLUDED = {
     "tests/netlists/ac/cm_buck.cir": "latched PWM is pelcs-only",
     "tests/netlists/ac/cm_buck_current_loop.cir": "latched PWM is pelcs-only",
     "tests/netlists/exact/cm_buck_issue.cir": "latched PWM is pelcs-only",
+    # Resistive loads only: no state to compare by default; its switching instants are
+    # checked against the sources' crossings in tests/test_devices.py.
+    "tests/netlists/devices/pmos_npn.cir": "no inductor or capacitor: nothing to compare",
     # Two phases share the load through inductors with no series resistance: the split of
     # the current between L1 and L2 is neutrally stable, so any difference (ngspice's RON,
     # diode drops, its comparator instants landing on time steps) shifts it for good
@@ -127,6 +130,8 @@ def test_pelcs_agrees_with_ngspice(ngspice, path):
     deck = cmp.ngspice_result.netlist.lower()
     circuit = load(ROOT / path, opts.get("params"))
     for el in circuit.elements:
+        if getattr(el, "part_of", ""):
+            continue  # an idealised transistor's body diode: inside its device in ngspice
         assert re.search(rf"^{re.escape(el.name.lower())}\s", deck, re.M) or "." in el.name
     # switching instants are compared wherever both define them
     for sw in cmp.switches:

@@ -183,6 +183,13 @@ def describe(circuit: Circuit) -> str:
     if circuit.options:
         lines.append("options: " + " ".join(f"{k}={v}" if v else k
                                              for k, v in circuit.options.items()))
+    if circuit.replacements:
+        lines.append(f"idealised ({len(circuit.replacements)}; --strict refuses them):")
+        for r in circuit.replacements:
+            lines.append(f"    {r.line()}")
+    if circuit.steps:
+        lines.append("steps (.step, run by pelcs sweep): " + "; ".join(
+            f"{name} = {', '.join(f'{v:g}' for v in vals)}" for name, vals in circuit.steps))
     if circuit.ignored:
         lines.append(f"ignored ({len(circuit.ignored)}):")
         for cmd in circuit.ignored:

@@ -60,6 +60,9 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", metavar="OUT", help="write the probes to OUT.csv or OUT.npz")
     p.add_argument("--plot", metavar="OUT.png", help="plot the probes, one panel each")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--threshold", action="append", default=[], metavar="NAME=V",
+                   help="switch threshold of an idealised transistor (M, Q), by element or "
+                   "model name (default: VTO of a MOSFET model, 0.7 V for a BJT); repeatable")
     p.add_argument("--method", choices=("moreau", "exact"), default="moreau",
                    help="moreau: θ time-stepping (default); exact: event-driven, exact "
                    "between events (piecewise-linear sources, netlist comparators), the step "
@@ -163,7 +166,8 @@ def run(args: argparse.Namespace) -> int:
     plot = _check_path("--plot", args.plot, (".png", ".svg", ".pdf")) if args.plot else None
 
     params = parse_overrides(args.param)
-    circuit = parse_file(args.file, params=params or None)
+    thresholds = parse_overrides(args.threshold)
+    circuit = parse_file(args.file, params=params or None, thresholds=thresholds or None)
     probes = check_probes(circuit, split_probes(args.probe)) if args.probe else None
     setup = transient_setup(circuit, tstop=tstop, step=step)
 

@@ -1,0 +1,131 @@
+"""Transistors idealised as switches (issue #11, first part): M (NMOS/PMOS/VDMOS) and Q
+(NPN/PNP) elements become ideal switches (and a VDMOS its body diode), reported, refused
+with --strict, written back as the devices for ngspice."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pelcs
+from lcs.notices import IdealisedDeviceWarning
+from netlist.errors import NetlistError
+from netlist.parser import parse_file, parse_string
+from netlist.transient import simulate_circuit
+from netlist.writer import write_circuit
+from pelcs.cli import main
+
+DEV = Path(__file__).parent / "netlists" / "devices"
+
+
+def load(name: str, **kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdealisedDeviceWarning)
+        return parse_file(str(DEV / name), **kw)
+
+
+def test_vdmos_buck_is_the_switch_and_body_diode_buck():
+    dev = load("buck_vdmos.cir")
+    ref = load("buck_switch.cir")
+    a = simulate_circuit(dev, probes=["i(L1)", "v(C1)"])
+    b = simulate_circuit(ref, probes=["i(L1)", "v(C1)"])
+    assert np.array_equal(a.t, b.t)
+    assert np.allclose(a.y, b.y, rtol=1e-12, atol=1e-12)
+    (r,) = dev.replacements
+    assert (r.element, r.device, r.model, r.threshold) == ("M1", "VDMOS", "MPOW", 3.5)
+    assert r.source == "VTO of the model" and r.body_diode == "M1_body"
+    assert "v(g,sw) > 3.5 V" in r.became
+
+
+def test_pmos_and_npn_switch_where_their_thresholds_say():
+    c = load("pmos_npn.cir")
+    res = simulate_circuit(c, probes=["v(d)", "i(Rc)"])
+    on = {mode: t for t, mode in res.events}
+    # M1 on once v(s,g) = 5 - v(g) > 2 V: the gate falls 5 V in 1 us from 1 ms (at 0.4 us)
+    t_m1 = [t for t, mode in res.events if mode == (True, False)][0]
+    assert t_m1 == pytest.approx(1e-3 + 0.4e-6, rel=1e-12)
+    # Q1 on once v(b) > 0.7 V: the base rises 1 V in 1 us from 2 ms
+    t_q1 = [t for t, mode in res.events if mode == (True, True)][0]
+    assert t_q1 == pytest.approx(2e-3 + 0.7e-6, rel=1e-12)
+    assert on and res["v(d)"][-1] == pytest.approx(5.0)
+    assert res["i(Rc)"][-1] == pytest.approx(0.05)
+    # a threshold given by element name wins (and says so)
+    c2 = load("pmos_npn.cir", thresholds={"q1": 0.5, "PCH": 4.0})
+    r = {x.element: x for x in c2.replacements}
+    assert r["Q1"].threshold == 0.5 and r["Q1"].source == "--threshold"
+    assert r["M1"].threshold == 4.0
+    res2 = simulate_circuit(c2, probes=["v(d)"])
+    t_q1b = [t for t, mode in res2.events if mode == (True, True)][0]
+    assert t_q1b == pytest.approx(2e-3 + 0.5e-6, rel=1e-12)
+
+
+def test_report_in_info_and_simulate(capsys):
+    assert main(["info", str(DEV / "pmos_npn.cir")]) == 0
+    out, err = capsys.readouterr()
+    assert "idealised (2" in out and "M1 (PMOS PCH)" in out and "Q1 (NPN QN)" in out
+    assert "bulk terminal s" in out
+    assert "warning:" in err and "idealised as switches" in err
+    assert main(["simulate", str(DEV / "pmos_npn.cir"), "--threshold", "Q1=0.5"]) == 0
+    out = capsys.readouterr().out
+    assert "note: idealised: Q1 (NPN QN)" in out and "threshold 0.5 V (--threshold)" in out
+
+
+def test_strict_refuses_transistors(capsys):
+    assert main(["simulate", str(DEV / "buck_vdmos.cir"), "--strict"]) == 2
+    err = capsys.readouterr().err
+    assert "idealised as switches" in err and "--strict" in err
+    with pytest.warns(IdealisedDeviceWarning):
+        pelcs.load(DEV / "buck_vdmos.cir")
+
+
+def test_written_back_as_devices_for_ngspice():
+    c = load("pmos_npn.cir")
+    text = write_circuit(c)
+    assert "M1 d g s s PCH" in text and "Q1 c b 0 QN" in text
+    assert ".model PCH PMOS(" in text and ".model QN NPN(" in text
+    assert "pelcs_sw" not in text
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdealisedDeviceWarning)
+        again = parse_string(text, file=c.file)
+    assert again.replacements == c.replacements
+    assert [e.name for e in again.elements] == [e.name for e in c.elements]
+    body = write_circuit(load("buck_vdmos.cir"))
+    assert "M1_body" not in body and "M1 in g sw MPOW" in body
+
+
+@pytest.mark.parametrize("line, message", [
+    ("M1 d g s NOPE", "unknown model 'NOPE'"),
+    ("M1 d g s QN", "is a NPN model, not NMOS or PMOS or VDMOS"),
+    ("M1 d g MPOW", "2 nodes before the model"),
+])
+def test_device_errors(line, message):
+    text = f"t\nV1 d 0 DC 1\nVg g 0 DC 5\nR1 s 0 1\n{line}\n.model MPOW NMOS(VTO=1)\n" \
+           ".model QN NPN\n.end\n"
+    with pytest.raises(NetlistError) as info:
+        parse_string(text, file="dev.cir")
+    d = info.value.diagnostics[0]
+    assert message in d.message and d.location.line == 5
+
+
+def test_vendor_model_text_values_are_skipped():
+    text = ("t\nVd d 0 DC 10\nVg g 0 DC 10\nM1 d g 0 IRF\nR1 d 0 1\n"
+            ".model IRF VDMOS(Rg=3 Vto=4 Rd=.1 Ks=.5 mfg=International_Rectifier Vds=100)\n"
+            ".end\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdealisedDeviceWarning)
+        c = parse_string(text)
+    assert c.replacements[0].threshold == 4.0
+
+
+def test_ngspice_runs_the_real_device(ngspice):
+    from ngspice_checks.compare import compare
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdealisedDeviceWarning)
+        cmp = compare(DEV / "buck_vdmos.cir", timeout=60)
+    assert cmp.ok
+    # (RD + RS + 1/(KP (Vgs - VTO))) I_max = 23 mOhm x the start-up peak, not ngspice's 1 ohm
+    assert 0 < cmp.nonideal.switch_drops["M1"] < 0.3
