@@ -159,6 +159,18 @@ class SimulationResult:
     def ok(self) -> bool:
         return self.error is None
 
+    def to_pandas(self):
+        """The probes as a ``pandas.DataFrame``: one column per probe (SI units), indexed by
+        time (s, index name ``"time"``); the notes and the error message in ``.attrs``."""
+        import pandas as pd
+
+        df = pd.DataFrame(np.asarray(self.y), columns=list(self.names),
+                          index=pd.Index(np.asarray(self.t), name="time"))
+        df.attrs["notes"] = list(self.notes)
+        if self.error is not None:
+            df.attrs["error"] = str(self.error)
+        return df
+
     def __getitem__(self, name: str) -> np.ndarray:
         """Column of probe ``name`` (case-insensitive), shape (N,)."""
         try:

@@ -84,6 +84,8 @@ class Diode(Element):
 
     model: str = ""
     part_of: str = field(default="", compare=False)
+    # a diode macro-model instance: ("X", its nodes, the subcircuit), written back for ngspice
+    device: tuple | None = field(default=None, compare=False)
     kind: ClassVar[str] = "D"
 
 
@@ -187,6 +189,8 @@ class Circuit:
     ignored: list[IgnoredCommand] = field(default_factory=list)
     # transistors idealised as switches (netlist.devices.Replacement), in netlist order
     replacements: list = field(default_factory=list)
+    # macro-model subcircuits replaced by ideal elements: name -> definition text (ngspice)
+    subckt_texts: dict = field(default_factory=dict, compare=False)
     # .step param lines: (parameter, values), one sweep axis each (run by pelcs sweep)
     steps: list[tuple[str, tuple[float, ...]]] = field(default_factory=list)
     file: str = "<string>"

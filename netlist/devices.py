@@ -61,6 +61,9 @@ class Replacement:
     dropped: tuple[str, ...]
 
     def line(self) -> str:
+        if self.device == "diode macro-model":
+            return (f"{self.element} (diode macro-model {self.model}) -> {self.became}; "
+                    f"dropped: {', '.join(self.dropped) or 'nothing'}")
         body = f", body diode {self.body_diode}" if self.body_diode else ", no body diode"
         return (f"{self.element} ({self.device} {self.model}) -> {self.became}, threshold "
                 f"{self.threshold:g} V ({self.source}){body}; dropped: "
@@ -68,13 +71,15 @@ class Replacement:
 
 
 def threshold(name: str, model: str, mtype: str, params: Mapping[str, float],
-              overrides: Mapping[str, float]) -> tuple[float, str]:
+              overrides: Mapping[str, float], also: tuple[str, ...] = ()) -> tuple[float, str]:
     """The switch threshold of a device, V (as a positive control voltage), and its source.
 
-    ``overrides`` (case-insensitive keys) name an element or a model.
+    ``overrides`` (case-insensitive keys) name an element, a model, or one of ``also`` (a
+    macro-model's subcircuit).
     """
     low = {k.lower(): v for k, v in overrides.items()}
-    for key in (name.lower(), name.split(".")[-1].lower(), model.lower()):
+    for key in (name.lower(), name.split(".")[-1].lower(), model.lower(),
+                *(a.lower() for a in also)):
         if key in low:
             return float(low[key]), "--threshold"
     if mtype in ("NPN", "PNP"):
@@ -85,3 +90,100 @@ def threshold(name: str, model: str, mtype: str, params: Mapping[str, float],
     vto = float(vto)
     return (-vto if mtype == "PMOS" or (mtype == "VDMOS" and params.get("pchan")) else vto,
             "VTO of the model")
+
+
+# --------------------------------------------------------------------------------------------
+# Vendor macro-models
+
+
+@dataclass(frozen=True)
+class Macro:
+    """A subcircuit recognised as a device macro-model.
+
+    ``kind`` is ``"transistor"`` (one M or Q inside: ``ports`` maps its terminals
+    ``drain/gate/source`` or ``collector/base/emitter`` to the subcircuit's ports, ``device``
+    is that element, ``body`` the (anode port, cathode port) of a diode across the power
+    ports or None) or ``"diode"`` (two ports joined only by diodes, resistors and
+    capacitors: ``ports`` = (anode port, cathode port)). ``dropped`` names the other
+    elements of the body.
+    """
+
+    kind: str
+    ports: tuple
+    device: object = None
+    body: tuple | None = None
+    dropped: tuple[str, ...] = ()
+
+
+def _resistive_reach(body, ports) -> dict:
+    """Node -> the port it reaches through resistors only (itself if it is a port)."""
+    adj: dict[str, set[str]] = {}
+    for el in body.elements:
+        if el.kind == "R":
+            a, b = el.nodes[:2]
+            adj.setdefault(a, set()).add(b)
+            adj.setdefault(b, set()).add(a)
+    reach = {}
+    for port in ports:
+        stack, seen = [port], {port}
+        while stack:
+            n = stack.pop()
+            reach.setdefault(n, port)
+            for m in adj.get(n, ()):
+                if m not in seen and m not in ports:
+                    seen.add(m)
+                    stack.append(m)
+    return reach
+
+
+def classify_macro(sub) -> Macro | None:
+    """Whether a subcircuit definition (``netlist.rawdeck.SubcktDef``) is a transistor or
+    diode macro-model, and how its ports map (None: expand it as it is)."""
+    els = sub.body.elements
+    ports = [p.lower() for p in sub.ports]
+    if any(e.kind == "X" for e in els):
+        return None
+    reach = _resistive_reach(sub.body, ports)
+    devices = [e for e in els if e.kind in "MQ"]
+    if len(devices) == 1 and len(ports) >= 3:
+        dev = devices[0]
+        main, ctl, ret = dev.nodes[0], dev.nodes[1], dev.nodes[2]
+        pm, pc, pr = reach.get(main), reach.get(ctl), reach.get(ret)
+        if None in (pm, pc, pr) or len({pm, pc, pr}) < 3:
+            return None
+        body, body_el = None, None
+        for e in els:
+            if e.kind == "D" and {reach.get(e.nodes[0]), reach.get(e.nodes[1])} == {pm, pr}:
+                body, body_el = (reach[e.nodes[0]], reach[e.nodes[1]]), e
+                break
+        dropped = tuple(e.name for e in els if e is not dev and e is not body_el)
+        return Macro("transistor", (pm, pc, pr), dev, body, dropped)
+    if len(ports) == 2 and els and all(e.kind in "DRC" for e in els):
+        diodes = [e for e in els if e.kind == "D"]
+        if not diodes:
+            return None
+        dirs = {(reach.get(d.nodes[0]), reach.get(d.nodes[1])) for d in diodes}
+        if len(dirs) != 1 or None in next(iter(dirs)) or len(set(next(iter(dirs)))) != 2:
+            return None
+        a, k = next(iter(dirs))
+        dropped = tuple(e.name for e in els if e.kind != "D") + tuple(
+            d.name for d in diodes[1:])
+        return Macro("diode", (a, k), diodes[0], None, dropped)
+    return None
+
+
+def subckt_text(sub) -> str:
+    """A subcircuit definition as netlist text, from its statements (for ngspice, which
+    simulates the macro-model itself)."""
+    ports = " ".join(sub.ports)
+    defaults = " ".join(f"{p.name}={p.st.text[p.offset:].split()[0].split('=', 1)[-1]}"
+                        for p in sub.defaults)
+    lines = [f".subckt {sub.name} {ports}" + (f" params: {defaults}" if defaults else "")]
+    seen = set()
+    for item in [*sub.body.params, *sub.body.elements, *sub.body.ics]:
+        st = item.st
+        if id(st) not in seen:
+            seen.add(id(st))
+            lines.append(st.text)
+    lines.append(f".ends {sub.name}")
+    return "\n".join(lines)

@@ -48,7 +48,7 @@ from .circuit import (
     Vcvs,
     VoltageSource,
 )
-from .devices import Replacement, threshold
+from .devices import Replacement, classify_macro, subckt_text, threshold
 from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
 from .expressions import CONSTANTS, ExpressionError
 from .rawdeck import Body, Deck, RawElement, RawParam, Statement, Value
@@ -114,6 +114,7 @@ class _Builder:
     def __init__(self, deck: Deck):
         self.deck = deck
         self.thresholds: dict[str, float] = {}  # idealised transistors' thresholds, V
+        self._macros: dict = {}  # subcircuit name -> netlist.devices.Macro or None
         self.diags: list[Diagnostic] = []
         self.ref_locs: dict[tuple[str, str], Location] = {}
         self.circuit = Circuit(title=deck.title, file=deck.file)
@@ -437,6 +438,53 @@ class _Builder:
                                                      body, tuple(dropped)))
         return out
 
+    def macro(self, el: RawElement, sub, macro, name: str, port_map: Mapping[str, str]
+              ) -> None:
+        """A device macro-model instance as one ideal switch (and body diode) or one ideal
+        diode between its ports (netlist.devices.classify_macro)."""
+        loc = el.st.loc(0)
+        ports = {p.lower(): n for p, n in port_map.items()}
+        inst_nodes = tuple(port_map[p] for p in sub.ports)
+        origin = ("X", inst_nodes, sub.name)
+        self.circuit.subckt_texts[sub.name.lower()] = subckt_text(sub)
+        if macro.kind == "diode":
+            a, k = (ports[p] for p in macro.ports)
+            self.circuit.elements.append(Diode(name, (a, k), loc, "", device=origin))
+            self.circuit.replacements.append(Replacement(
+                name, sub.name, "diode macro-model", f"ideal diode {a} -> {k}", 0.0,
+                "no threshold", None, macro.dropped))
+            return
+        dev = macro.device
+        model = self.circuit.models.get(dev.ref.lower())
+        want = ("NMOS", "PMOS", "VDMOS") if dev.kind == "M" else ("NPN", "PNP")
+        if model is None or model.type not in want:
+            self.error(f"{name}: the transistor {dev.name} of macro-model '{sub.name}' has no "
+                       f"{'/'.join(want)} model '{dev.ref}'", dev.st.loc(dev.ref_offset),
+                       "define the model inside the subcircuit or at the top level", (name,))
+            return
+        thr, source = threshold(name, model.name, model.type, model.params,
+                                self.thresholds, also=(sub.name,))
+        mt = model.type
+        pchan = mt in ("PMOS", "PNP") or (mt == "VDMOS" and bool(model.params.get("pchan")))
+        a, g, b = (ports[p] for p in macro.ports)
+        control = (b, g) if pchan else (g, b)
+        sw_model = f"pelcs_sw_{name.lower().replace('.', '_')}"
+        self.circuit.models[sw_model] = Model(sw_model, "SW", {**SW_DEFAULTS, "vt": thr}, loc)
+        self.circuit.elements.append(Switch(name, (a, b), loc, control, sw_model, None,
+                                            device=origin))
+        body = None
+        if macro.body is not None or mt == "VDMOS":
+            body = f"{name}_body"
+            an, ca = ((ports[macro.body[0]], ports[macro.body[1]]) if macro.body is not None
+                      else ((a, b) if pchan else (b, a)))
+            self.circuit.elements.append(Diode(body, (an, ca), loc, "", part_of=name))
+        terms = ("drain", "source") if dev.kind == "M" else ("collector", "emitter")
+        ctl = f"v({control[0]})" if control[1] == GROUND else f"v({control[0]},{control[1]})"
+        self.circuit.replacements.append(Replacement(
+            name, f"{sub.name}: {dev.name} {model.name}", f"{mt} macro-model",
+            f"ideal switch {terms[0]} {a} - {terms[1]} {b}, on while {ctl} > {thr:g} V",
+            thr, source, body, macro.dropped))
+
     def instance(self, el: RawElement, name_prefix: str, node_prefix: str,
                  mapnode: Callable[[str], str], env: Mapping[str, float], failed: set[str],
                  stack: tuple[str, ...]) -> None:
@@ -486,6 +534,12 @@ class _Builder:
         values, child_failed = self.scope(sub.defaults + sub.body.params, fixed,
                                           self.global_env, self.global_failed)
         port_map = {port: mapnode(n) for port, n in zip(sub.ports, el.nodes, strict=True)}
+        if key not in self._macros:
+            self._macros[key] = classify_macro(sub)
+        macro = self._macros[key]
+        if macro is not None:
+            self.macro(el, sub, macro, f"{name_prefix}{el.name}", port_map)
+            return
         self.expand(sub.body, f"{name_prefix}{el.name}.", f"{node_prefix}{el.name.lower()}.",
                     port_map, ChainMap(values, self.global_env),
                     child_failed | child_failed_extra, (*stack, key))

@@ -42,6 +42,7 @@ import itertools
 import math
 import re
 from collections.abc import Iterator, Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -57,7 +58,7 @@ from lcs.model import (
     SwitchedLCS,
 )
 
-from .circuit import GROUND, Circuit, Element
+from .circuit import GROUND, Capacitor, Circuit, Element, VoltageSource
 from .errors import Diagnostic, NetlistError
 from .topology import UnionFind, find_cutset, find_loop
 
@@ -83,6 +84,22 @@ _VOLTAGE_KINDS = frozenset("VCEH")
 _CURRENT_KINDS = frozenset("LIFG")
 
 _PROBE_RE = re.compile(r"^\s*([vi])\s*\(\s*([^,()\s]+)\s*(?:,\s*([^,()\s]+)\s*)?\)\s*$", re.I)
+
+
+def source_capacitors(circuit: Circuit) -> list[str]:
+    """Keys of the capacitors whose terminals independent voltage sources alone join (an
+    input capacitor across the supply): their voltage is set by the sources, so they hold no
+    state; :func:`formulate` leaves them out (a note says so in a run)."""
+    uf = UnionFind()
+    for el in circuit.elements:
+        if isinstance(el, VoltageSource):
+            uf.union(*el.nodes[:2])
+    out = []
+    for el in circuit.elements:
+        if isinstance(el, Capacitor) and el.nodes[0] != el.nodes[1] and \
+                uf.find(el.nodes[0]) == uf.find(el.nodes[1]):
+            out.append(el.key)
+    return out
 
 
 def formulate(circuit: Circuit) -> SwitchedLCS:
@@ -119,6 +136,12 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         For invalid element values or references, or a singular inductance matrix; later,
         when a mode is built, for a degenerate topology in that mode.
     """
+    held = source_capacitors(circuit)
+    if held:
+        # such a capacitor's voltage is the sources': no state, and nothing else depends on
+        # its current (only the source's own current would)
+        circuit = replace(circuit, elements=[el for el in circuit.elements
+                                             if el.key not in held])
     formulator = _Formulator(circuit)
     return SwitchedLCS(
         switches=formulator.switch_controls,

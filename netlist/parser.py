@@ -206,6 +206,6 @@ def _idealised(circuit: Circuit) -> Circuit:
         names = ", ".join(r.element for r in circuit.replacements[:6])
         more = f" and {n - 6} more" if n > 6 else ""
         warnings.warn(IdealisedDeviceWarning(
-            f"{circuit.file}: {n} transistor{'s' if n > 1 else ''} idealised as switches "
-            f"({names}{more}); `pelcs info` lists what each became"), stacklevel=3)
+            f"{circuit.file}: {n} device{'s' if n > 1 else ''} (transistors, macro-models) "
+            f"idealised ({names}{more}); `pelcs info` lists what each became"), stacklevel=3)
     return circuit

@@ -205,6 +205,12 @@ def transient_setup(
                      "without UIC ngspice first computes a DC operating point")
     for r in circuit.replacements:
         notes.append("idealised: " + r.line())
+    from .formulation import source_capacitors
+
+    held = [el.name for el in circuit.elements if el.key in set(source_capacitors(circuit))]
+    if held:
+        notes.append(f"{', '.join(held)}: across voltage sources only, so no state (the "
+                     "sources set its voltage; the source currents leave out its charging)")
     if circuit.steps:
         names = ", ".join(name for name, _ in circuit.steps)
         notes.append(f"the netlist's .step ({names}) is run by `pelcs sweep`; this run uses "

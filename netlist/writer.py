@@ -108,12 +108,16 @@ def _element(el: Element, circuit: Circuit, kinds: dict[str, str]) -> str:
         if el.waveform is not None:
             line += " " + _waveform(el.waveform, circuit)
         return line
+    if isinstance(el, Diode) and el.device is not None:
+        _, all_nodes, sub = el.device
+        return f"{spice_name(el.name, 'X')} {' '.join(all_nodes)} {sub}"
     if isinstance(el, Diode):
         return f"{name} {nodes} {el.model}"
     if isinstance(el, Switch) and el.device is not None:
         # an idealised transistor: ngspice simulates the device itself, with its model
         letter, all_nodes, model = el.device
         return f"{spice_name(el.name, letter)} {' '.join(all_nodes)} {model}"
+
     if isinstance(el, Switch):
         state = {True: " ON", False: " OFF", None: ""}[el.initial]
         return f"{name} {nodes} {' '.join(el.control)} {el.model}{state}"
@@ -160,6 +164,8 @@ def write_circuit(circuit: Circuit) -> str:
 
         params = " ".join(f"{k}={_num(v)}" for k, v in model.params.items())
         lines.append(f".model {model.name} {model.type}({params})")
+    for text in circuit.subckt_texts.values():
+        lines.extend(text.split("\n"))
     if circuit.initial_conditions:
         ics = " ".join(f"v({n})={_num(v)}" for n, v in circuit.initial_conditions.items())
         lines.append(f".ic {ics}")

@@ -493,8 +493,11 @@ def default_probes(circuit: Circuit) -> list[str]:
     NetlistError
         The circuit has no inductor and no capacitor.
     """
+    from netlist.formulation import source_capacitors
+
+    held = set(source_capacitors(circuit))  # across sources only: no state
     out = [f"i({el.name})" if el.kind == "L" else f"v({el.name})"
-           for el in circuit.elements if el.kind in ("L", "C")]
+           for el in circuit.elements if el.kind in ("L", "C") and el.key not in held]
     if not out:
         raise _input_error("the circuit has no inductor or capacitor to compare by default",
                            "give the probes: --probe 'v(out)'", circuit.file)

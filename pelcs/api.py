@@ -39,9 +39,10 @@ def load(path_or_text: str | os.PathLike, params: Mapping[str, float] | None = N
 
     Parameters
     ----------
-    path_or_text : str or path-like
+    path_or_text : str, path-like or PySpice Circuit
         A file path, or the netlist itself: a string with a line break is taken as netlist
-        text (its first line is the title, as in SPICE).
+        text (its first line is the title, as in SPICE); a ``PySpice.Spice.Netlist.Circuit``
+        is read from the SPICE text PySpice renders (its ``.include`` files too).
     params : mapping of str to float or str, optional
         Overrides of global ``.param`` values; a value may be SPICE text (``"100k"``).
     thresholds : mapping of str to float, optional
@@ -58,8 +59,22 @@ def load(path_or_text: str | os.PathLike, params: Mapping[str, float] | None = N
     NetlistError
         Every problem found in the netlist, or a missing file.
     """
-    from netlist.parser import load_source
+    from netlist.parser import load_source, parse_string
 
+    if _is_pyspice(path_or_text):
+        # PySpice renders its circuit as SPICE text (includes as absolute paths)
+        text = str(path_or_text)
+        if not text.lstrip().lower().startswith(".title"):
+            text = f"{path_or_text.title}\n" + text
+        values = None
+        if params:
+            from netlist.parser import parse_overrides
+
+            values = {k: float(v) for k, v in params.items() if not isinstance(v, str)}
+            values.update(parse_overrides([f"{k}={v}" for k, v in params.items()
+                                           if isinstance(v, str)]))
+        return parse_string(text, file=f"<PySpice circuit {path_or_text.title}>",
+                            params=values, thresholds=thresholds)
     return load_source(path_or_text, params, thresholds)
 
 
@@ -228,10 +243,15 @@ def _circuit(source: Source, params: Mapping[str, float] | None) -> Circuit:
             raise TypeError("params need a netlist path or text: a parsed Circuit has its "
                             "parameters evaluated already (pelcs.load(path, params=...))")
         return source
-    if isinstance(source, (str, os.PathLike)):
+    if isinstance(source, (str, os.PathLike)) or _is_pyspice(source):
         return load(source, params)
-    raise TypeError(f"expected a Circuit, a netlist path or netlist text, got "
-                    f"{type(source).__name__}")
+    raise TypeError(f"expected a Circuit, a netlist path, netlist text or a PySpice Circuit, "
+                    f"got {type(source).__name__}")
+
+
+def _is_pyspice(obj) -> bool:
+    """A PySpice ``Circuit`` (duck-typed: pelcs does not import PySpice for it)."""
+    return type(obj).__module__.startswith("PySpice") and hasattr(obj, "title")
 
 
 def _seconds(circuit: Circuit, what: str, value: float | str | None) -> float | None:

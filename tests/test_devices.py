@@ -67,7 +67,7 @@ def test_report_in_info_and_simulate(capsys):
     out, err = capsys.readouterr()
     assert "idealised (2" in out and "M1 (PMOS PCH)" in out and "Q1 (NPN QN)" in out
     assert "bulk terminal s" in out
-    assert "warning:" in err and "idealised as switches" in err
+    assert "warning:" in err and "idealised (M1, Q1)" in err
     assert main(["simulate", str(DEV / "pmos_npn.cir"), "--threshold", "Q1=0.5"]) == 0
     out = capsys.readouterr().out
     assert "note: idealised: Q1 (NPN QN)" in out and "threshold 0.5 V (--threshold)" in out
@@ -76,7 +76,7 @@ def test_report_in_info_and_simulate(capsys):
 def test_strict_refuses_transistors(capsys):
     assert main(["simulate", str(DEV / "buck_vdmos.cir"), "--strict"]) == 2
     err = capsys.readouterr().err
-    assert "idealised as switches" in err and "--strict" in err
+    assert "idealised (M1)" in err and "--strict" in err
     with pytest.warns(IdealisedDeviceWarning):
         pelcs.load(DEV / "buck_vdmos.cir")
 
@@ -129,3 +129,70 @@ def test_ngspice_runs_the_real_device(ngspice):
     assert cmp.ok
     # (RD + RS + 1/(KP (Vgs - VTO))) I_max = 23 mOhm x the start-up peak, not ngspice's 1 ohm
     assert 0 < cmp.nonideal.switch_drops["M1"] < 0.3
+
+
+# --- vendor macro-models, PySpice circuits, pandas ---------------------------------------
+
+
+def test_vendor_macro_models_become_one_switch_and_one_diode():
+    c = load("buck_vendor.cir")
+    r = {x.element: x for x in c.replacements}
+    q, d = r["XQ"], r["XD"]
+    assert q.device == "NMOS macro-model" and q.threshold == 3.9 and q.body_diode == "XQ_body"
+    assert "v(gate,source) > 3.9 V" in q.became
+    # the gate network, the charge-emulating diodes and controlled sources are dropped
+    assert {"RG", "D2", "D3", "D4", "EV16", "FI1", "FI2", "CAP"} <= set(q.dropped)
+    assert d.device == "diode macro-model" and d.became == "ideal diode 0 -> source"
+    assert d.dropped == ("Dgr",)  # two parallel diodes merged into one ideal diode
+    kinds = {el.name: el.kind for el in c.elements}
+    assert kinds["XQ"] == "S" and kinds["XD"] == "D" and kinds["XQ_body"] == "D"
+    assert not any(n.startswith(("XQ.", "XD.")) for n in kinds)  # nothing of the bodies
+
+
+def test_vendor_buck_output_is_the_ideal_one():
+    """Ideal switch and diode: mean v(out) = D_eff Vin R/(R + RL), D_eff the fraction of the
+    period the 24 V gate pulse (10 ns edges) is above VTO = 3.9 V."""
+    c = load("buck_vendor.cir")
+    res = simulate_circuit(c, probes=["v(out)"])
+    assert any("Cin: across voltage sources only" in n for n in res.notes)
+    ts = 2.5e-6
+    d_eff = (5 / 12 * ts + 10e-9 + 10e-9 * (24 - 3.9) / 24 - 10e-9 * 3.9 / 24) / ts
+    t, v = res.t, res["v(out)"]
+    win = t >= t[-1] - 10 * ts
+    mean = np.trapezoid(v[win], t[win]) / (t[win][-1] - t[win][0])
+    assert mean == pytest.approx(d_eff * 12 * 3.1 / (3.1 + 0.037), rel=2e-3)
+
+
+def test_vendor_buck_is_written_back_with_its_subcircuits():
+    text = write_circuit(load("buck_vendor.cir"))
+    assert "XQ in gate source pwrfet" in text and "XD 0 source schottky" in text
+    assert ".subckt pwrfet 1 2 3" in text.lower() and "EV16 10 0 9 7 1" in text
+    assert "XQ_body" not in text and "pelcs_sw" not in text
+    assert "Cin in 0" in text  # ngspice simulates it
+
+
+def test_pyspice_circuit_in_pandas_out():
+    pytest.importorskip("PySpice")
+    from PySpice.Spice.Netlist import Circuit
+
+    lib = DEV / "lib"
+    c = Circuit("Buck Converter")
+    c.include(str(lib / "pwrfet.lib"))
+    c.include(str(lib / "schottky.lib"))
+    c.V("in", "vin", c.gnd, 12)
+    c.C("in", "vin", c.gnd, 10e-6)
+    c.X("Q", "pwrfet", "vin", "gate", "source")
+    c.R("gate", "gate", "clock", 1)
+    c.PulseVoltageSource("pulse", "clock", "source", 0, 24, 1e-6, 2.5e-6)
+    c.X("D", "schottky", c.gnd, "source")
+    c.L(1, "source", "out", 8.5e-6)
+    c.C(1, "out", c.gnd, 20e-6)
+    c.R("load", "out", c.gnd, 3.1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdealisedDeviceWarning)
+        res = pelcs.simulate(c, tstop="100u", step="10n", probes=["v(out)", "i(L1)"])
+    df = res.to_pandas()
+    assert list(df.columns) == ["v(out)", "i(L1)"] and df.index.name == "time"
+    assert np.array_equal(df["v(out)"].to_numpy(), res["v(out)"])
+    assert any("idealised: XQ" in n for n in df.attrs["notes"])
+    assert 0 < df["v(out)"].iloc[-1] < 12

@@ -627,17 +627,37 @@ def diag_of(exc: pytest.ExceptionInfo) -> tuple:
 
 
 def test_capacitor_voltage_source_loop_rejected():
+    # two capacitors in series across a source: their split is not set by the source
     c = circuit(
         VoltageSource("V1", ("in", "0"), dc=1.0),
         Resistor("R1", ("in", "0"), value=10.0),
-        Capacitor("C1", ("in", "0"), value=1e-6),
+        Capacitor("C1", ("in", "mid"), value=1e-6),
+        Capacitor("C2", ("mid", "0"), value=1e-6),
     )
     sys = formulate(c)  # lazy: nothing is checked per mode yet
     with pytest.raises(NetlistError) as exc:
         sys.mode()
     d = diag_of(exc)
-    assert set(d.elements) == {"V1", "C1"}
+    assert set(d.elements) == {"V1", "C1", "C2"}
     assert "loop" in d.message and "resistance" in d.hint
+
+
+def test_capacitor_across_a_voltage_source_holds_no_state():
+    """An input capacitor straight across the supply (PySpice's buck example): its voltage
+    is the source's, so it is no state and nothing else depends on it."""
+    from netlist.formulation import source_capacitors
+
+    c = circuit(
+        VoltageSource("V1", ("in", "0"), dc=1.0),
+        Capacitor("Cin", ("in", "0"), value=1e-6),
+        Resistor("R1", ("in", "out"), value=10.0),
+        Capacitor("C1", ("out", "0"), value=1e-6),
+    )
+    assert source_capacitors(c) == ["cin"]
+    sys = formulate(c)
+    assert sys.states == ("v(C1)",)
+    lcs = sys.mode()
+    assert lcs.A[0, 0] == pytest.approx(-1 / (10.0 * 1e-6))
 
 
 def test_switch_shorting_a_capacitor_rejected_only_when_on():

@@ -62,6 +62,11 @@ EXCLUDED = {
     # Resistive loads only: no state to compare by default; its switching instants are
     # checked against the sources' crossings in tests/test_devices.py.
     "tests/netlists/devices/pmos_npn.cir": "no inductor or capacitor: nothing to compare",
+    # The macro's gate network (RG + 1 ohm with the gate-charge capacitor, ~13 ohm x 3.5 nF)
+    # delays ngspice's turn-off by ~80 ns of 2.5 us: 5.6 V out against the ideal 5.02 V. The
+    # idealisation drops the gate network by design (issue #11); tests/test_devices.py
+    # checks pelcs against the ideal duty instead.
+    "tests/netlists/devices/buck_vendor.cir": "gate-network delay dropped by design",
     # Two phases share the load through inductors with no series resistance: the split of
     # the current between L1 and L2 is neutrally stable, so any difference (ngspice's RON,
     # diode drops, its comparator instants landing on time steps) shifts it for good

@@ -294,7 +294,7 @@ def test_circuit_objects_are_written_and_flattened_names_probed(ngspice, tmp_pat
     path = tmp_path / "sub.cir"
     path.write_text(
         "subcircuit diode\nV1 a 0 DC 2\nX1 a k half\nR1 k 0 1k\n"
-        ".subckt half p n\nRs p m 1k\nD1 m n DX\n.ends\n"
+        ".subckt half p n\nRs p m 1k\nD1 m q DX\nLs q n 1n\n.ends\n"
         ".model DX D(IS=1e-12 N=0.05 RS=1m)\n.tran 1u 10u 0 UIC\n.end\n"
     )
     res = run_ngspice(parser.parse_file(path), ["i(X1.D1)", "i(R1)", "v(x1.m)"])
