@@ -175,7 +175,7 @@ def load_source(path_or_text: str | os.PathLike, params: Mapping[str, float | st
 
     Parameters
     ----------
-    path_or_text : str or path-like
+    path_or_text : str, path-like or PySpice Circuit
     params : mapping, optional
         ``.param`` overrides: numbers, or SPICE text (``"100k"``, ``"{2*ts}"``).
 
@@ -189,9 +189,21 @@ def load_source(path_or_text: str | os.PathLike, params: Mapping[str, float | st
         text = [f"{k}={v}" for k, v in params.items() if isinstance(v, str)]
         values = {k: float(v) for k, v in params.items() if not isinstance(v, str)}
         values.update(parse_overrides(text))
+    if is_pyspice_circuit(path_or_text):
+        # PySpice renders its circuit as SPICE text, its includes as absolute paths
+        text = str(path_or_text)
+        if not text.lstrip().lower().startswith(".title"):
+            text = f"{path_or_text.title}\n" + text
+        return parse_string(text, file=f"<PySpice circuit {path_or_text.title}>",
+                            params=values, thresholds=thresholds)
     if isinstance(path_or_text, str) and "\n" in path_or_text:
         return parse_string(path_or_text, params=values, thresholds=thresholds)
     return parse_file(path_or_text, params=values, thresholds=thresholds)
+
+
+def is_pyspice_circuit(obj) -> bool:
+    """A PySpice ``Circuit`` (duck-typed: pelcs does not import PySpice for it)."""
+    return type(obj).__module__.startswith("PySpice") and hasattr(obj, "title")
 
 
 def _idealised(circuit: Circuit) -> Circuit:

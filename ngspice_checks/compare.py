@@ -595,7 +595,7 @@ def compare(
 
     Parameters
     ----------
-    source : path, netlist text or Circuit
+    source : path, netlist text, Circuit or PySpice Circuit
         The netlist (a string with a line break is netlist text).
     probes : sequence of str, optional
         pelcs probes (``v(out)``, ``v(a,b)``, ``i(L1)``, ``v(C1)``); default

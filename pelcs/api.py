@@ -59,22 +59,8 @@ def load(path_or_text: str | os.PathLike, params: Mapping[str, float] | None = N
     NetlistError
         Every problem found in the netlist, or a missing file.
     """
-    from netlist.parser import load_source, parse_string
+    from netlist.parser import load_source
 
-    if _is_pyspice(path_or_text):
-        # PySpice renders its circuit as SPICE text (includes as absolute paths)
-        text = str(path_or_text)
-        if not text.lstrip().lower().startswith(".title"):
-            text = f"{path_or_text.title}\n" + text
-        values = None
-        if params:
-            from netlist.parser import parse_overrides
-
-            values = {k: float(v) for k, v in params.items() if not isinstance(v, str)}
-            values.update(parse_overrides([f"{k}={v}" for k, v in params.items()
-                                           if isinstance(v, str)]))
-        return parse_string(text, file=f"<PySpice circuit {path_or_text.title}>",
-                            params=values, thresholds=thresholds)
     return load_source(path_or_text, params, thresholds)
 
 
@@ -250,8 +236,9 @@ def _circuit(source: Source, params: Mapping[str, float] | None) -> Circuit:
 
 
 def _is_pyspice(obj) -> bool:
-    """A PySpice ``Circuit`` (duck-typed: pelcs does not import PySpice for it)."""
-    return type(obj).__module__.startswith("PySpice") and hasattr(obj, "title")
+    from netlist.parser import is_pyspice_circuit
+
+    return is_pyspice_circuit(obj)
 
 
 def _seconds(circuit: Circuit, what: str, value: float | str | None) -> float | None:
