@@ -139,6 +139,10 @@ class SimulationResult:
         ``"hysteresis"``, ``"explicit"`` or ``"latched"`` (``docs/switching.md``).
     event_log : list of lcs.exact.integrator.ExactEvent
         Exact method only: every event (time, element, kind, mode after).
+    device_fits : list of netlist.pwl.PwlFit
+        With piecewise-linear devices: each diode's and switch's Vf and Ron.
+    losses : netlist.losses.LossReport or None
+        When asked for: conduction losses, input and output power, efficiency.
     """
 
     t: np.ndarray
@@ -154,6 +158,8 @@ class SimulationResult:
     sliding: list = field(default_factory=list)
     switching: dict = field(default_factory=dict)
     event_log: list = field(default_factory=list)
+    device_fits: list = field(default_factory=list)
+    losses: object = None
 
     @property
     def ok(self) -> bool:

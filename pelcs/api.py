@@ -98,6 +98,9 @@ def simulate(
     switching: str | None = None,
     controllers: Sequence = (),
     strict: bool = False,
+    devices: str = "ideal",
+    losses: bool = False,
+    load: str | None = None,
 ) -> SimulationResult:
     """Simulate a circuit with the Moreau θ time-stepping scheme.
 
@@ -131,6 +134,13 @@ def simulate(
         feeding a diode) raises :class:`NetlistError` instead of a
         :class:`~lcs.passivity.NonPassiveWarning` (the run then goes on and may grow
         without bound; a state growth beyond 1e6 is noted in ``res.notes``).
+    devices : str
+        ``"ideal"`` or ``"pwl"``: diodes with a Vf and Ron fitted to their models, switches
+        with their on-resistance (``res.device_fits``; :mod:`netlist.pwl`).
+    losses : bool
+        ``res.losses`` (:class:`netlist.losses.LossReport`): conduction losses per device,
+        input and output power (``load``: the load resistor's name, default the resistor
+        taking the most power) and efficiency over the steady-state window.
 
     Returns
     -------
@@ -151,11 +161,15 @@ def simulate(
     circuit = _circuit(circuit_or_path, params)
     if isinstance(probes, str):
         probes = [probes]
-    result = simulate_circuit(
-        circuit, tstop=_seconds(circuit, "tstop", tstop), step=_seconds(circuit, "step", step),
-        theta=theta, probes=probes, every=every, progress=progress, switching=switching,
-        controllers=controllers, strict=strict,
-    )
+    kw = dict(tstop=_seconds(circuit, "tstop", tstop), step=_seconds(circuit, "step", step),
+              theta=theta, probes=probes, every=every, progress=progress,
+              switching=switching, controllers=controllers, strict=strict)
+    if devices != "ideal" or losses:
+        from netlist.realistic import simulate_devices
+
+        result = simulate_devices(circuit, devices=devices, losses=losses, load=load, **kw)
+    else:
+        result = simulate_circuit(circuit, **kw)
     if check:
         result.raise_if_error()
     return result

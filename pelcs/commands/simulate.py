@@ -63,6 +63,15 @@ def register(subparsers) -> None:
     p.add_argument("--threshold", action="append", default=[], metavar="NAME=V",
                    help="switch threshold of an idealised transistor (M, Q), by element or "
                    "model name (default: VTO of a MOSFET model, 0.7 V for a BJT); repeatable")
+    p.add_argument("--devices", choices=("ideal", "pwl"), default="ideal",
+                   help="ideal (default) or pwl: diodes with a Vf and Ron fitted to their "
+                   "model, switches with their on-resistance (still an LCS)")
+    p.add_argument("--losses", action="store_true",
+                   help="conduction losses, input/output power and efficiency over the "
+                   "steady-state window")
+    p.add_argument("--load", metavar="NAME",
+                   help="with --losses: the load resistor (default: the one taking the most "
+                   "power)")
     p.add_argument("--method", choices=("moreau", "exact"), default="moreau",
                    help="moreau: θ time-stepping (default); exact: event-driven, exact "
                    "between events (piecewise-linear sources, netlist comparators), the step "
@@ -175,8 +184,17 @@ def run(args: argparse.Namespace) -> int:
     load = warm_up()
     t0 = time.perf_counter()
     try:
-        result = run_setup(setup, theta=theta, probes=probes, every=every,
-                           progress=not args.no_progress, method=args.method)
+        if args.devices == "pwl" or args.losses:
+            from netlist.realistic import simulate_devices
+
+            result = simulate_devices(circuit, tstop=tstop, step=step, theta=theta,
+                                      probes=probes, every=every,
+                                      progress=not args.no_progress, method=args.method,
+                                      devices=args.devices, losses=args.losses,
+                                      load=args.load)
+        else:
+            result = run_setup(setup, theta=theta, probes=probes, every=every,
+                               progress=not args.no_progress, method=args.method)
     except NotImplementedError as exc:
         # A circuit the stepper cannot handle yet: say so like an input error, no traceback.
         raise NetlistError(Diagnostic(message=f"not supported: {exc}",
@@ -190,6 +208,8 @@ def run(args: argparse.Namespace) -> int:
     print(summary(result, args.file, circuit.title, tstop=setup.t_stop, step=setup.h,
                   theta=theta, wall=wall, written=written, switches=switches, load=load,
                   method=args.method))
+    if result.losses is not None:
+        print("\n".join(result.losses.lines()))
     if args.events:
         for ev in result.event_log:
             mode = ", ".join(f"{k} {v}" for k, v in ev.mode.items() if k != "held")

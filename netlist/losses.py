@@ -1,0 +1,150 @@
+"""Conduction losses, input and output power and efficiency over the steady-state window
+(``--losses``, issue #11).
+
+Over the window ``pelcs check`` uses (the last whole periods of the switching source, up to
+10; :func:`netlist.measure.steady_state_window`):
+
+- conduction loss of every diode and switch, ``mean(Vf |i| + Ron i²)`` with the device's
+  piecewise-linear parameters (zero for ideal devices), W;
+- loss in every resistor, ``mean(R i²)``;
+- input power, the power the independent voltage sources deliver, ``mean(-v i)`` (SPICE's
+  current direction, from n+ through the source);
+- output power, the power of the load: the resistor named by ``load``, else the resistor
+  that takes the most power;
+- efficiency ``P_out / P_in``.
+
+What is neither loss nor output (the change of the stored energy over the window, other
+resistors) is reported as the balance.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .circuit import Circuit, Diode, Resistor, Switch, VoltageSource
+from .measure import steady_state_period, steady_state_window
+
+__all__ = ["LossReport", "loss_probes", "losses"]
+
+
+@dataclass
+class LossReport:
+    """Powers over the steady-state window (W), and the efficiency.
+
+    Attributes
+    ----------
+    window : (float, float)
+        s.
+    periods : int
+        Whole periods in it (0: the last 20 % of the run).
+    devices : dict
+        Conduction loss per diode and switch, W.
+    resistors : dict
+        Loss per resistor other than the load, W.
+    p_in, p_out : float
+        W.
+    load : str
+    efficiency : float
+        ``p_out / p_in`` (nan without input power).
+    """
+
+    window: tuple
+    periods: int
+    devices: dict = field(default_factory=dict)
+    resistors: dict = field(default_factory=dict)
+    p_in: float = float("nan")
+    p_out: float = float("nan")
+    load: str = ""
+    efficiency: float = float("nan")
+
+    @property
+    def balance(self) -> float:
+        """``p_in - p_out - losses`` (W): stored-energy change and rounding."""
+        return self.p_in - self.p_out - sum(self.devices.values()) - sum(
+            self.resistors.values())
+
+    def to_dict(self) -> dict:
+        return {"window": list(self.window), "periods": self.periods,
+                "devices_W": dict(self.devices), "resistors_W": dict(self.resistors),
+                "input_W": self.p_in, "output_W": self.p_out, "load": self.load,
+                "efficiency": self.efficiency, "balance_W": self.balance}
+
+    def lines(self) -> list[str]:
+        out = [f"losses over {self.window[0]:.6g}..{self.window[1]:.6g} s "
+               f"({self.periods} periods): input {self.p_in:.4g} W, output {self.p_out:.4g} W "
+               f"({self.load})"]
+        parts = [f"{k} {v:.4g} W" for k, v in {**self.devices, **self.resistors}.items()]
+        if parts:
+            out.append("  conduction: " + ", ".join(parts))
+        out.append(f"efficiency: {100 * self.efficiency:.2f} %")
+        return out
+
+
+def _sources(circuit: Circuit) -> list[VoltageSource]:
+    return [el for el in circuit.elements
+            if isinstance(el, VoltageSource) and "#" not in el.name]
+
+
+def _vprobe(a: str, b: str) -> str:
+    return f"v({a})" if b == "0" else f"v({a},{b})"
+
+
+def loss_probes(circuit: Circuit) -> list[str]:
+    """The probes :func:`losses` needs."""
+    probes = []
+    for el in circuit.elements:
+        if isinstance(el, (Diode, Switch, Resistor)) and "#" not in el.name:
+            probes.append(f"i({el.name})")
+    for v in _sources(circuit):
+        probes += [f"i({v.name})", _vprobe(*v.nodes[:2])]
+    return list(dict.fromkeys(probes))
+
+
+def losses(result, circuit: Circuit, fits: Sequence = (), load: str | None = None,
+           period: float | None = None) -> LossReport:
+    """The :class:`LossReport` of a run that recorded :func:`loss_probes`.
+
+    ``fits``: :class:`netlist.pwl.PwlFit` of the devices (none: ideal, zero loss);
+    ``circuit``: the circuit as written (not the piecewise-linear one).
+    """
+    t = np.asarray(result.t, dtype=float)
+    per, _ = steady_state_period(circuit, result) if period is None else (period, "")
+    (a, b), n = steady_state_window((float(t[0]), float(t[-1])), per)
+    sel = (t >= a) & (t <= b)
+    tw = t[sel]
+    span = tw[-1] - tw[0] if tw.size > 1 else 0.0
+
+    def mean(y):
+        y = np.asarray(y, dtype=float)[sel]
+        return float(np.trapezoid(y, tw) / span) if span > 0 else float(np.mean(y))
+
+    fit = {f.element: f for f in fits}
+    rep = LossReport((a, b), n)
+    for el in circuit.elements:
+        if isinstance(el, (Diode, Switch)):
+            f = fit.get(el.name)
+            if f is None:
+                rep.devices[el.name] = 0.0
+                continue
+            i = np.asarray(result[f"i({el.name})"], dtype=float)
+            rep.devices[el.name] = mean(f.vf * np.abs(i) + f.ron * i * i)
+    powers = {}
+    for el in circuit.elements:
+        if isinstance(el, Resistor):
+            i = np.asarray(result[f"i({el.name})"], dtype=float)
+            powers[el.name] = mean(el.value * i * i)
+    if powers:
+        rep.load = next((k for k in powers if load and k.lower() == load.lower()), None) or \
+            max(powers, key=powers.get)
+        rep.p_out = powers.pop(rep.load)
+        rep.resistors = powers
+    p_in = 0.0
+    for v in _sources(circuit):
+        p_in += mean(-np.asarray(result[_vprobe(*v.nodes[:2])], dtype=float)
+                     * np.asarray(result[f"i({v.name})"], dtype=float))
+    rep.p_in = p_in
+    rep.efficiency = rep.p_out / p_in if p_in > 0 else float("nan")
+    return rep

@@ -1,0 +1,76 @@
+"""Runs with real-device effects: piecewise-linear diodes and switches (:mod:`.pwl`) and the
+losses and efficiency of the steady state (:mod:`.losses`), on top of
+:func:`netlist.transient.simulate_circuit`."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from lcs.results import SimulationResult
+
+from .circuit import GROUND, Circuit, Diode, Switch
+from .losses import loss_probes
+from .losses import losses as loss_report
+from .pwl import pwl_circuit
+from .transient import simulate_circuit
+
+__all__ = ["simulate_devices"]
+
+
+def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool = False,
+                     load: str | None = None, probes: Sequence[str] | None = None,
+                     **kw) -> SimulationResult:
+    """:func:`netlist.transient.simulate_circuit` with piecewise-linear devices and/or
+    losses.
+
+    Parameters
+    ----------
+    circuit : Circuit
+    devices : str
+        ``"ideal"``, or ``"pwl"``: diodes with a fitted Vf and Ron, switches with their Ron
+        (:mod:`netlist.pwl`; an ideal run first gives the current range of the fit);
+        ``result.device_fits`` lists them.
+    losses : bool
+        Also compute ``result.losses`` (:mod:`netlist.losses`): conduction losses, input and
+        output power (``load``: the load resistor, default the one taking the most power)
+        and efficiency over the steady-state window.
+    probes : sequence of str, optional
+        The result's probes (default every state); the losses' own probes are not kept.
+    **kw
+        The other arguments of :func:`~netlist.transient.simulate_circuit`.
+    """
+    if devices not in ("ideal", "pwl"):
+        raise ValueError(f"devices must be 'ideal' or 'pwl', got {devices!r}")
+    fits: list = []
+    run_circuit = circuit
+    if devices == "pwl":
+        sws = [el for el in circuit.elements if isinstance(el, Switch)]
+        pre = [f"i({el.name})" for el in circuit.elements if isinstance(el, (Diode, Switch))]
+        pre += [f"v({a})" if b == GROUND else f"v({a},{b})" for a, b in
+                (sw.control for sw in sws)]
+        ideal = simulate_circuit(circuit, probes=list(dict.fromkeys(pre)), **kw)
+        i_max = {el.name: float(np.max(np.abs(ideal[f"i({el.name})"]), initial=0.0))
+                 for el in circuit.elements if isinstance(el, (Diode, Switch))}
+        drives = {}
+        for sw in sws:
+            a, b = sw.control
+            drives[sw.name] = float(np.max(ideal[f"v({a})" if b == GROUND
+                                                  else f"v({a},{b})"]))
+        run_circuit, fits = pwl_circuit(circuit, i_max, drives)
+    want = list(probes) if probes is not None else None
+    extra = loss_probes(circuit) if losses else []
+    if want is None:
+        from .formulation import formulate as _formulate
+
+        want = list(_formulate(run_circuit).states)
+    res = simulate_circuit(run_circuit, probes=list(dict.fromkeys(want + extra)), **kw)
+    res.device_fits = fits
+    res.notes.extend(f"pwl: {f.line()}" for f in fits)
+    if losses:
+        res.losses = loss_report(res, circuit, fits, load)
+    if extra:  # the losses' probes are not the user's: they came after them
+        k = len(dict.fromkeys(want))
+        res.names, res.y = tuple(res.names[:k]), res.y[:, :k]
+    return res
