@@ -189,6 +189,8 @@ class Circuit:
     ignored: list[IgnoredCommand] = field(default_factory=list)
     # transistors idealised as switches (netlist.devices.Replacement), in netlist order
     replacements: list = field(default_factory=list)
+    # what reading the netlist changed (LTspice parasitics made explicit, libraries skipped)
+    notes: list = field(default_factory=list, compare=False)
     # macro-model subcircuits replaced by ideal elements: name -> definition text (ngspice)
     subckt_texts: dict = field(default_factory=dict, compare=False)
     # .step param lines: (parameter, values), one sweep axis each (run by pelcs sweep)

@@ -53,6 +53,7 @@ UNSUPPORTED_ELEMENTS: dict[str, tuple[str, str]] = {
 
 # dot commands that pelcs accepts and lists in Circuit.ignored
 IGNORED_COMMANDS = {
+    ".backanno",
     ".print", ".save", ".plot", ".probe", ".meas", ".measure", ".four", ".fourier", ".op",
     ".width", ".temp", ".nodeset", ".ac", ".dc", ".noise", ".tf", ".sens", ".pz", ".disto",
     ".sp", ".csparam",

@@ -269,6 +269,7 @@ class _Builder:
         self.steps()
         c.options = dict(deck.options)
         c.ignored = list(deck.ignored)
+        c.notes[:0] = list(deck.notes)
         self.expand(deck.top, "", "", None, self.global_env, self.global_failed, ())
         return c
 
@@ -342,6 +343,13 @@ class _Builder:
             return
         names = ["TSTEP", "TSTOP", "TSTART", "TMAX"]
         ok = True
+        if vals[0] == 0 and vals[1] > 0:
+            # LTspice writes `.tran 0 TSTOP [TSTART [TMAX]]`: no print step
+            tmax = vals[3] if len(vals) > 3 and vals[3] > 0 else None
+            vals[0] = tmax if tmax is not None else vals[1] / 1000.0
+            self.circuit.notes.append(
+                f".tran TSTEP 0 (LTspice): taken as {'TMAX' if tmax else 'TSTOP/1000'} = "
+                f"{vals[0]:g} s")
         for i, (name, v) in enumerate(zip(names, vals, strict=False)):
             if (v < 0 if name == "TSTART" else v <= 0):
                 self.error(f".tran {name} must be {'>= 0' if i == 2 else 'positive'}, got "

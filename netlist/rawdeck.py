@@ -177,6 +177,7 @@ class Deck:
     steps: list[RawStep] = field(default_factory=list)
     options: dict[str, str] = field(default_factory=dict)
     ignored: list[IgnoredCommand] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)  # what the reader did the user should know
     globals: set[str] = field(default_factory=set)
     files: list[str] = field(default_factory=list)  # display names in reading order
 

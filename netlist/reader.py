@@ -35,6 +35,8 @@ from .dialect import (
 )
 from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
 from .expressions import ExpressionError, lark_parser, parse_expression
+from .ltspice import PARASITICS as _PARASITICS
+from .ltspice import explicit_parasitics
 from .rawdeck import (
     Body,
     Deck,
@@ -42,12 +44,12 @@ from .rawdeck import (
     RawIc,
     RawModel,
     RawParam,
-    RawStep,
     RawTran,
     Statement,
     SubcktDef,
     Value,
 )
+from .steps import read_step
 from .units import parse_number
 
 # ------------------------------------------------------------------------------ reading
@@ -495,6 +497,7 @@ class _Reader:
     def passive(self, letter: str, name: str, ch: list, st: Statement, what: str) -> None:
         v = self.value(ch[3], st)
         ic = None
+        parasitics: dict = {}
         for t in ch[4:]:
             key_tok, val_tok = t.children
             key = key_tok.lower()
@@ -505,8 +508,16 @@ class _Reader:
             elif key in _PASSIVE_IGNORED:
                 if self.value(val_tok, st) is None:
                     return
+            elif key in _PARASITICS.get(letter, ()):
+                pv = self.value(val_tok, st)
+                if pv is None:
+                    return
+                parasitics[key] = (pv, key_tok)
             else:
                 accepted = "IC=" if letter in "LC" else "none that change the value"
+                if letter in _PARASITICS:
+                    accepted += ", and LTspice's " + ", ".join(
+                        k.capitalize() + "=" for k in _PARASITICS[letter])
                 hint = f"instance parameters accepted for a {what}: {accepted}"
                 if key in ("m", "scale"):
                     hint = "fold the multiplier into the value"
@@ -515,14 +526,34 @@ class _Reader:
                 return
         if v is None:
             return
-        self.body.elements.append(RawElement(
-            letter, name, st, (node_name(ch[1]), node_name(ch[2])), value=v, ic=ic))
+        a, b = node_name(ch[1]), node_name(ch[2])
+        b_main = self.parasitics(letter, name, a, b, parasitics, st)
+        self.body.elements.append(RawElement(letter, name, st, (a, b_main), value=v, ic=ic))
+
+    def parasitics(self, letter: str, name: str, a: str, b: str, found: dict,
+                   st: Statement) -> str:
+        """LTspice's parasitics as elements (:func:`netlist.ltspice.explicit_parasitics`)."""
+        return explicit_parasitics(self.body.elements, self.deck.notes, letter, name, a, b,
+                                   found, st)
 
     def source(self, letter: str, name: str, ch: list, st: Statement) -> None:
         dc: Value | None = None
         wave = None
         ok = True
+        parasitics: dict = {}
         for part in ch[3:]:
+            if part.data == "assign":
+                key_tok, val_tok = part.children
+                key = key_tok.lower()
+                if key not in _PARASITICS.get(letter, ()):
+                    self.error(f"unsupported parameter '{key_tok}' on source '{name}'", st,
+                               key_tok.start_pos, "LTspice's Rser= and Cpar= are accepted")
+                    return
+                pv = self.value(val_tok, st)
+                if pv is None:
+                    return
+                parasitics[key] = (pv, key_tok)
+                continue
             if part.data == "dc_part":
                 dc = self.value(part.children[-1], st)
                 ok = ok and dc is not None
@@ -554,8 +585,10 @@ class _Reader:
                 wave = (kind, args, kw.start_pos)
         if not ok:
             return
-        self.body.elements.append(RawElement(
-            letter, name, st, (node_name(ch[1]), node_name(ch[2])), value=dc, wave=wave))
+        a, b = node_name(ch[1]), node_name(ch[2])
+        b_main = self.parasitics(letter, name, a, b, parasitics, st)
+        self.body.elements.append(RawElement(letter, name, st, (a, b_main), value=dc,
+                                             wave=wave))
 
     def instance(self, name: str, ch: list, st: Statement) -> None:
         words: list[Token] = []
@@ -710,41 +743,7 @@ class _Reader:
         self.deck.trans.append(RawTran(values, uic, st))
 
     def cmd_step(self, st: Statement) -> None:
-        usage = ".step param NAME START STOP INCR  or  .step param NAME list V1 V2 ..."
-        tree = self.parse(st, "step_cmd", ".step", usage)
-        if self.sub is not None:
-            self.error(".step inside a subcircuit", st, 0, "move it to the top level")
-            return
-        toks = list(tree.children[1:])
-        words = [str(t).lower() for t in toks]
-        if words and words[0] in ("oct", "dec", "lin"):
-            if words[0] != "lin":
-                self.error(f".step {words[0]} is not supported", st, toks[0].start_pos,
-                           "give the values with .step param NAME list V1 V2 ...")
-                return
-            toks, words = toks[1:], words[1:]
-        if words and words[0] == "param":
-            toks, words = toks[1:], words[1:]
-        if not toks or toks[0].type != "WORD" or not re.fullmatch(r"[A-Za-z_][\w.]*",
-                                                                  str(toks[0])):
-            self.error(".step needs a parameter name", st, toks[0].start_pos if toks else 0,
-                       f"syntax: {usage} (a .param of the netlist)")
-            return
-        name, name_pos = str(toks[0]), toks[0].start_pos
-        rest, linear = toks[1:], True
-        if rest and str(rest[0]).lower() == "list":
-            rest, linear = rest[1:], False
-            if not rest:
-                self.error(".step ... list needs values", st, len(st.text), f"syntax: {usage}")
-                return
-        elif len(rest) != 3:
-            self.error(f".step param {name}: expected START STOP INCR or list V1 V2 ...",
-                       st, rest[0].start_pos if rest else len(st.text), f"syntax: {usage}")
-            return
-        values = [self.value(t, st) for t in rest]
-        if any(v is None for v in values):
-            return
-        self.deck.steps.append(RawStep(name, values, linear, st, name_pos))
+        read_step(self, st)
 
     def cmd_options(self, st: Statement) -> None:
         tree = self.parse(st, "options_cmd", ".options", ".options name[=value] ...")
@@ -761,8 +760,15 @@ class _Reader:
         tree = self.parse(st, "lib_cmd", ".lib", ".lib FILE SECTION")
         tok = tree.children[1]
         if len(tree.children) < 3:
-            self.error(".lib needs a file and a section name", st, len(st.text),
-                       "syntax: .lib FILE SECTION (use .include FILE for a whole file)")
+            path = _unquote(tok)
+            base = path.replace("\\", "/").rsplit("/", 1)[-1].lower()
+            if base.startswith("standard."):
+                # LTspice's own device libraries (standard.dio, .mos, .bjt ...): the models
+                # a schematic uses are in the netlist or its includes, not needed here
+                self.deck.notes.append(f"line {st.loc(0).line}: .lib {path} (LTspice's "
+                                       "standard library) ignored")
+                return
+            self.include(path, st, tok.start_pos, None)  # LTspice: .lib FILE = .include
             return
         self.include(_unquote(tok), st, tok.start_pos, str(tree.children[2]))
 

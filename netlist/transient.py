@@ -203,6 +203,7 @@ def transient_setup(
     ):
         notes.append("pelcs starts from the given initial conditions (as ngspice with UIC); "
                      "without UIC ngspice first computes a DC operating point")
+    notes.extend(circuit.notes)
     for r in circuit.replacements:
         notes.append("idealised: " + r.line())
     from .formulation import source_capacitors

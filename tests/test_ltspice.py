@@ -1,0 +1,61 @@
+"""Netlists exported from LTspice schematics (issue #11): Rser/Lser/Rpar/Cpar made explicit,
+`.tran 0 ...`, `.backanno` and `.lib standard.*` accepted with notes; anything else a clear
+error naming it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from netlist.circuit import Capacitor, Inductor, Resistor
+from netlist.errors import NetlistError
+from netlist.parser import parse_file, parse_string
+from netlist.writer import write_circuit
+
+LT = Path(__file__).parent / "netlists" / "ltspice" / "buck_ltspice.cir"
+
+
+def test_parasitics_become_elements_with_notes():
+    c = parse_file(str(LT))
+    by = {el.name: el for el in c.elements}
+    # Rser in series between the element and its second node
+    assert by["L1"].nodes == ("sw", "l1_rser") and by["R_L1_ser"].nodes == ("l1_rser", "out")
+    assert by["R_L1_ser"].value == pytest.approx(20e-3)
+    assert by["C1"].nodes == ("out", "c1_rser") and by["R_C1_ser"].value == pytest.approx(5e-3)
+    assert by["V1"].nodes == ("in", "v1_rser") and by["R_V1_ser"].nodes == ("v1_rser", "0")
+    assert any("L1: LTspice parasitics made explicit" in n for n in c.notes)
+    assert any(".lib standard.dio" in n and "ignored" in n for n in c.notes)
+    assert c.tran.tstep == pytest.approx(1e-7)  # `.tran 0 2m 0 0.1u`: TSTEP from TMAX
+    assert any(".backanno" in ig.text.lower() for ig in c.ignored)
+    # written back for ngspice as plain elements
+    text = write_circuit(c)
+    assert "R_L1_ser l1_rser out" in text and "Rser" not in text
+
+
+def test_parallel_parasitics_and_lser():
+    c = parse_string("t\nV1 a 0 1\nR0 a b 1\nC1 b 0 1u Rser=1m Lser=2n Rpar=1Meg Cpar=1p\n"
+                     "L1 b 0 1m Rpar=10k Cpar=2p\n.tran 1u 1m\n.end\n")
+    by = {el.name: el for el in c.elements}
+    assert isinstance(by["L_C1_ser"], Inductor) and isinstance(by["R_C1_ser"], Resistor)
+    assert by["C1"].nodes[0] == "b" and by["L_C1_ser"].nodes[1] == "0"
+    assert isinstance(by["C_C1_par"], Capacitor) and by["C_C1_par"].nodes == ("b", "0")
+    assert by["R_L1_par"].value == pytest.approx(1e4) and by["C_L1_par"].nodes == ("b", "0")
+
+
+@pytest.mark.parametrize("line, message", [
+    ("L1 a 0 1m Rx=1", "unsupported parameter 'Rx' on inductor 'L1'"),
+    ("V2 a 0 1 Lser=1n", "unsupported parameter 'Lser' on source 'V2'"),
+])
+def test_other_parameters_are_named_errors(line, message):
+    with pytest.raises(NetlistError) as info:
+        parse_string(f"t\nV1 a 0 1\n{line}\n.end\n", file="lt.cir")
+    d = info.value.diagnostics[0]
+    assert message in d.message and d.location.line == 3
+
+
+def test_lib_with_one_file_is_an_include(tmp_path):
+    (tmp_path / "m.lib").write_text(".model DX D(IS=1e-12)\n")
+    (tmp_path / "top.cir").write_text("t\nV1 a 0 1\nD1 a 0 DX\n.lib m.lib\n.end\n")
+    c = parse_file(str(tmp_path / "top.cir"))
+    assert "dx" in c.models
