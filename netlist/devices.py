@@ -113,6 +113,7 @@ class Macro:
     device: object = None
     body: tuple | None = None
     dropped: tuple[str, ...] = ()
+    body_model: str = ""
 
 
 def _resistive_reach(body, ports) -> dict:
@@ -157,7 +158,8 @@ def classify_macro(sub) -> Macro | None:
                 body, body_el = (reach[e.nodes[0]], reach[e.nodes[1]]), e
                 break
         dropped = tuple(e.name for e in els if e is not dev and e is not body_el)
-        return Macro("transistor", (pm, pc, pr), dev, body, dropped)
+        return Macro("transistor", (pm, pc, pr), dev, body, dropped,
+                     body_el.ref if body_el is not None else "")
     if len(ports) == 2 and els and all(e.kind in "DRC" for e in els):
         diodes = [e for e in els if e.kind == "D"]
         if not diodes:

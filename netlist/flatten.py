@@ -457,7 +457,10 @@ class _Builder:
         self.circuit.subckt_texts[sub.name.lower()] = subckt_text(sub)
         if macro.kind == "diode":
             a, k = (ports[p] for p in macro.ports)
-            self.circuit.elements.append(Diode(name, (a, k), loc, "", device=origin))
+            models = tuple(e.ref for e in sub.body.elements if e.kind == "D")
+            series = sum(self._resistance(e) for e in sub.body.elements if e.kind == "R")
+            self.circuit.elements.append(Diode(name, (a, k), loc, models[0],
+                                               device=(*origin, models, series)))
             self.circuit.replacements.append(Replacement(
                 name, sub.name, "diode macro-model", f"ideal diode {a} -> {k}", 0.0,
                 "no threshold", None, macro.dropped))
@@ -478,20 +481,30 @@ class _Builder:
         control = (b, g) if pchan else (g, b)
         sw_model = f"pelcs_sw_{name.lower().replace('.', '_')}"
         self.circuit.models[sw_model] = Model(sw_model, "SW", {**SW_DEFAULTS, "vt": thr}, loc)
+        series = sum(self._resistance(e) for e in sub.body.elements
+                     if e.kind == "R" and set(e.nodes[:2]) & {dev.nodes[0], dev.nodes[2]}
+                     and len(set(map(str.lower, e.nodes[:2])) & {p.lower() for p in
+                                                                    sub.ports}) == 1)
         self.circuit.elements.append(Switch(name, (a, b), loc, control, sw_model, None,
-                                            device=origin))
+                                            device=(*origin, model.name, series)))
         body = None
         if macro.body is not None or mt == "VDMOS":
             body = f"{name}_body"
             an, ca = ((ports[macro.body[0]], ports[macro.body[1]]) if macro.body is not None
                       else ((a, b) if pchan else (b, a)))
-            self.circuit.elements.append(Diode(body, (an, ca), loc, "", part_of=name))
+            self.circuit.elements.append(Diode(body, (an, ca), loc, macro.body_model,
+                                               part_of=name))
         terms = ("drain", "source") if dev.kind == "M" else ("collector", "emitter")
         ctl = f"v({control[0]})" if control[1] == GROUND else f"v({control[0]},{control[1]})"
         self.circuit.replacements.append(Replacement(
             name, f"{sub.name}: {dev.name} {model.name}", f"{mt} macro-model",
             f"ideal switch {terms[0]} {a} - {terms[1]} {b}, on while {ctl} > {thr:g} V",
             thr, source, body, macro.dropped))
+
+    def _resistance(self, el: RawElement) -> float:
+        """A macro's resistor value (global parameters only; nan-free: 0 if unknown)."""
+        v = self.evaluate(el.value, self.global_env, set()) if el.value is not None else None
+        return float(v) if v is not None and math.isfinite(v) else 0.0
 
     def instance(self, el: RawElement, name_prefix: str, node_prefix: str,
                  mapnode: Callable[[str], str], env: Mapping[str, float], failed: set[str],

@@ -28,7 +28,8 @@ import numpy as np
 
 from .circuit import Circuit, Diode, Resistor, Switch, VoltageSource
 
-__all__ = ["PwlFit", "VT_THERMAL", "diode_fit", "pwl_circuit", "switch_resistance"]
+__all__ = ["PwlFit", "VT_THERMAL", "diode_fit", "parallel_fit", "pwl_circuit",
+           "switch_resistance"]
 
 #: thermal voltage at ngspice's nominal 27 °C, V
 VT_THERMAL = 0.025852
@@ -61,11 +62,40 @@ class PwlFit:
 def diode_fit(is_: float, n: float, rs: float, i_max: float) -> tuple[float, float]:
     """Least-squares ``(Vf, Ron)`` of ``N Vt ln(1 + i/IS) + RS i`` over ``[i_max/20, i_max]``
     (50 log-spaced currents), V and Ω."""
-    if not (i_max > 0 and math.isfinite(i_max)):
+    if not (i_max > 1e-9 and math.isfinite(i_max)):  # it carries nothing worth a fit
         return n * VT_THERMAL * math.log1p(1e-3 / is_), rs
     i = np.logspace(np.log10(i_max / 20.0), np.log10(i_max), 50)
     v = n * VT_THERMAL * np.log1p(i / is_) + rs * i
     ron, vf = np.polyfit(i, v, 1)
+    return float(vf), float(max(ron, 0.0))
+
+
+def _branch_current(v: np.ndarray, is_: float, n: float, rs: float) -> np.ndarray:
+    """Current of one diode branch at voltage v: solve v = n Vt ln(1 + i/IS) + RS i."""
+    i = is_ * np.expm1(np.minimum(v / (n * VT_THERMAL), 700.0))
+    if rs <= 0:
+        return i
+    lo, hi = np.zeros_like(v), np.minimum(i, np.maximum(v, 0) / rs)
+    for _ in range(200):  # bisection: monotone in i
+        mid = 0.5 * (lo + hi)
+        f = n * VT_THERMAL * np.log1p(mid / is_) + rs * mid - v
+        lo, hi = np.where(f < 0, mid, lo), np.where(f < 0, hi, mid)
+    return 0.5 * (lo + hi)
+
+
+def parallel_fit(params: list[dict], i_max: float) -> tuple[float, float]:
+    """:func:`diode_fit` of diodes in parallel (a Schottky macro's junction and guard ring):
+    the total current's characteristic, inverted on a fine voltage grid."""
+    if len(params) == 1:
+        p = params[0]
+        return diode_fit(p["is"], p["n"], p["rs"], i_max)
+    if not (i_max > 1e-9 and math.isfinite(i_max)):
+        i_max = 1e-3
+    v = np.linspace(0.0, 3.0, 6001)
+    total = sum(_branch_current(v, p["is"], p["n"], p["rs"]) for p in params)
+    i = np.logspace(np.log10(i_max / 20.0), np.log10(i_max), 50)
+    vi = np.interp(i, total, v)
+    ron, vf = np.polyfit(i, vi, 1)
     return float(vf), float(max(ron, 0.0))
 
 
@@ -78,20 +108,23 @@ def switch_resistance(circuit: Circuit, sw: Switch, drive: float | None) -> tupl
         ron = float(m.params.get("ron", 1.0)) if m is not None else 1.0
         return ron, 0.0, "RON of its SW model" if m and "ron" in m.params else \
             "ngspice's default RON = 1 Ω"
-    letter, _, model_name = device
+    letter, _, model_name = device[:3]
+    extra = 0.0
+    if letter == "X":  # a macro-model: its transistor's model, and its series resistors
+        model_name, extra = device[3], float(device[4])
     m = circuit.models.get(str(model_name).lower())
     p = {k.lower(): float(v) for k, v in (m.params.items() if m else ())}
-    if letter == "Q":
-        return p.get("rc", 0.0) + p.get("re", 0.0), 0.2, "RC + RE, 0.2 V saturation"
-    if letter == "X":  # a macro-model: its transistor's model is not at hand here
-        return 0.0, 0.0, "macro-model: no channel resistance"
+    if m is not None and m.type in ("NPN", "PNP"):
+        return p.get("rc", 0.0) + p.get("re", 0.0) + extra, 0.2, "RC + RE, 0.2 V saturation"
     vt = abs(p.get("vto", p.get("vth", 0.0)))
     kp = p.get("kp", 0.0)
     vgs = drive if drive is not None else vt + 5.0
     r_ch = 1.0 / (kp * max(vgs - vt, 0.1)) if kp > 0 else 0.0
     how = (f"RD + RS + 1/(KP (Vgs - VTO)) at Vgs = {vgs:.3g} V" if kp > 0
            else "RD + RS (no KP)")
-    return p.get("rd", 0.0) + p.get("rs", 0.0) + r_ch, 0.0, how
+    if extra:
+        how += f" + the macro's series resistors {extra:.3g} Ω"
+    return p.get("rd", 0.0) + p.get("rs", 0.0) + r_ch + extra, 0.0, how
 
 
 def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, float]
@@ -101,18 +134,26 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
     out, fits = [], []
     for el in circuit.elements:
         if isinstance(el, Diode):
-            if el.part_of or el.device is not None:
-                m = None
-            else:
-                m = circuit.models.get(el.model.lower())
-            p = dict(_DIODE_DEFAULTS)
-            if m is not None:
-                p.update({k.lower(): float(v) for k, v in m.params.items()
-                          if k.lower() in p})
+            names = [el.model] if el.model else []
+            series = 0.0
+            if el.device is not None and len(el.device) > 4:  # a diode macro-model
+                names, series = list(el.device[3]), float(el.device[4])
+            params = []
+            for nm in names:
+                m = circuit.models.get(str(nm).lower())
+                p = dict(_DIODE_DEFAULTS)
+                if m is not None:
+                    p.update({k.lower(): float(v) for k, v in m.params.items()
+                              if k.lower() in p})
+                params.append(p)
+            if not params:
+                params = [dict(_DIODE_DEFAULTS)]
             imax = i_max.get(el.name, 0.0)
-            vf, ron = diode_fit(p["is"], p["n"], p["rs"], imax)
-            fits.append(PwlFit(el.name, vf, ron, f"fit of IS={p['is']:.3g} N={p['n']:.3g} "
-                                                 f"RS={p['rs']:.3g} over {imax / 20:.3g}.."
+            vf, ron = parallel_fit(params, imax)
+            ron += series
+            what = " || ".join(f"IS={p['is']:.3g} N={p['n']:.3g} RS={p['rs']:.3g}"
+                               for p in params)
+            fits.append(PwlFit(el.name, vf, ron, f"fit of {what} over {imax / 20:.3g}.."
                                                  f"{imax:.3g} A"))
             out.extend(_series(el, vf, ron))
         elif isinstance(el, Switch):

@@ -109,13 +109,13 @@ def _element(el: Element, circuit: Circuit, kinds: dict[str, str]) -> str:
             line += " " + _waveform(el.waveform, circuit)
         return line
     if isinstance(el, Diode) and el.device is not None:
-        _, all_nodes, sub = el.device
+        _, all_nodes, sub = el.device[:3]
         return f"{spice_name(el.name, 'X')} {' '.join(all_nodes)} {sub}"
     if isinstance(el, Diode):
         return f"{name} {nodes} {el.model}"
     if isinstance(el, Switch) and el.device is not None:
         # an idealised transistor: ngspice simulates the device itself, with its model
-        letter, all_nodes, model = el.device
+        letter, all_nodes, model = el.device[:3]
         return f"{spice_name(el.name, letter)} {' '.join(all_nodes)} {model}"
 
     if isinstance(el, Switch):

@@ -260,7 +260,9 @@ def _device_drop(circuit: Circuit, sw: Switch, i_max: float, drive: float | None
     pelcs run (the triode-region channel resistance, KP in A/V²); BJT: a saturated
     collector–emitter drop of 0.2 V plus ``(RC + RE) I``.
     """
-    letter, _, model_name = sw.device
+    letter, _, model_name = sw.device[:3]
+    if letter == "X" and len(sw.device) > 4:  # a macro-model: its transistor and resistors
+        model_name = sw.device[3]
     m = circuit.models.get(model_name.lower())
     p = {k.lower(): float(v) for k, v in (m.params.items() if m else ())}
     if letter == "Q":
