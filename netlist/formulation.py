@@ -102,6 +102,21 @@ def source_capacitors(circuit: Circuit) -> list[str]:
     return out
 
 
+def parallel_diodes(circuit: Circuit) -> dict[str, str]:
+    """Ideal diodes in parallel with an earlier one of the same orientation (same anode and
+    cathode nodes): key -> the name of the diode that carries them both."""
+    first: dict[tuple[str, str], str] = {}
+    out = {}
+    for el in circuit.elements:
+        if el.kind == "D":
+            pair = (el.nodes[0], el.nodes[1])
+            if pair in first:
+                out[el.key] = first[pair]
+            else:
+                first[pair] = el.name
+    return out
+
+
 def formulate(circuit: Circuit) -> SwitchedLCS:
     """The switched LCS of a flattened circuit; modes are built lazily on first use.
 
@@ -136,10 +151,12 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         For invalid element values or references, or a singular inductance matrix; later,
         when a mode is built, for a degenerate topology in that mode.
     """
-    held = source_capacitors(circuit)
+    held = set(source_capacitors(circuit)) | set(parallel_diodes(circuit))
     if held:
-        # such a capacitor's voltage is the sources': no state, and nothing else depends on
-        # its current (only the source's own current would)
+        # A capacitor across sources only: its voltage is the sources', no state, and
+        # nothing else depends on its current. An ideal diode in parallel with another of
+        # the same orientation: one complementarity pair carries both (two would leave the
+        # split of the current undetermined: a non-unique λ).
         circuit = replace(circuit, elements=[el for el in circuit.elements
                                              if el.key not in held])
     formulator = _Formulator(circuit)

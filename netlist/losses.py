@@ -94,9 +94,13 @@ def _vprobe(a: str, b: str) -> str:
 
 def loss_probes(circuit: Circuit) -> list[str]:
     """The probes :func:`losses` needs."""
+    from .formulation import parallel_diodes
+
+    merged = parallel_diodes(circuit)
     probes = []
     for el in circuit.elements:
-        if isinstance(el, (Diode, Switch, Resistor)) and "#" not in el.name:
+        if isinstance(el, (Diode, Switch, Resistor)) and "#" not in el.name \
+                and el.key not in merged:
             probes.append(f"i({el.name})")
     for v in _sources(circuit):
         probes += [f"i({v.name})", _vprobe(*v.nodes[:2])]
@@ -123,8 +127,11 @@ def losses(result, circuit: Circuit, fits: Sequence = (), load: str | None = Non
 
     fit = {f.element: f for f in fits}
     rep = LossReport((a, b), n)
+    from .formulation import parallel_diodes
+
+    merged = parallel_diodes(circuit)
     for el in circuit.elements:
-        if isinstance(el, (Diode, Switch)):
+        if isinstance(el, (Diode, Switch)) and el.key not in merged:
             f = fit.get(el.name)
             if f is None:
                 rep.devices[el.name] = 0.0

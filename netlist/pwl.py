@@ -131,8 +131,13 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
                 ) -> tuple[Circuit, list[PwlFit]]:
     """The circuit with every diode and switch made piecewise linear (see the module
     docstring); ``i_max`` (A) and ``drives`` (V) by element name, from an ideal run."""
+    from .formulation import parallel_diodes
+
+    merged = parallel_diodes(circuit)
     out, fits = [], []
     for el in circuit.elements:
+        if el.key in merged:
+            continue  # carried by the diode it is in parallel with (one pair)
         if isinstance(el, Diode):
             names = [el.model] if el.model else []
             series = 0.0

@@ -46,13 +46,18 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
     fits: list = []
     run_circuit = circuit
     if devices == "pwl":
+        from .formulation import parallel_diodes
+
+        merged = parallel_diodes(circuit)
         sws = [el for el in circuit.elements if isinstance(el, Switch)]
-        pre = [f"i({el.name})" for el in circuit.elements if isinstance(el, (Diode, Switch))]
+        pre = [f"i({el.name})" for el in circuit.elements
+               if isinstance(el, (Diode, Switch)) and el.key not in merged]
         pre += [f"v({a})" if b == GROUND else f"v({a},{b})" for a, b in
                 (sw.control for sw in sws)]
         ideal = simulate_circuit(circuit, probes=list(dict.fromkeys(pre)), **kw)
         i_max = {el.name: float(np.max(np.abs(ideal[f"i({el.name})"]), initial=0.0))
-                 for el in circuit.elements if isinstance(el, (Diode, Switch))}
+                 for el in circuit.elements
+                 if isinstance(el, (Diode, Switch)) and el.key not in merged}
         drives = {}
         for sw in sws:
             a, b = sw.control

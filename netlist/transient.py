@@ -206,8 +206,12 @@ def transient_setup(
     notes.extend(circuit.notes)
     for r in circuit.replacements:
         notes.append("idealised: " + r.line())
-    from .formulation import source_capacitors
+    from .formulation import parallel_diodes, source_capacitors
 
+    for key, into in parallel_diodes(circuit).items():
+        name = next(el.name for el in circuit.elements if el.key == key)
+        notes.append(f"{name} is in parallel with {into}: merged into it (one ideal diode, "
+                     f"i({into}) is their sum)")
     held = [el.name for el in circuit.elements if el.key in set(source_capacitors(circuit))]
     if held:
         notes.append(f"{', '.join(held)}: across voltage sources only, so no state (the "
@@ -313,6 +317,9 @@ def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
     capacitors = {k for k, el in two_terminal.items() if el.kind == "C"}
     out, bad = [], []
     switches = {el.key for el in circuit.elements if el.kind == "S"}
+    from .formulation import parallel_diodes
+
+    merged = parallel_diodes(circuit)
     for probe in probes:
         m = _PROBE_RE.match(probe)
         ok = False
@@ -325,7 +332,13 @@ def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
                 ok = (a in nodes and (b is None or b.lower() in nodes)) or (
                     b is None and a in capacitors)
             else:
-                ok = b is None and a in two_terminal
+                ok = b is None and a in two_terminal and a not in merged
+                if b is None and a in merged:
+                    raise NetlistError([Diagnostic(
+                        message=f"probe {probe.strip()!r}: {two_terminal[a].name} is merged "
+                                f"into {merged[a]} (ideal diodes in parallel)",
+                        hint=f"probe i({merged[a]}): the current of both")],
+                        file=circuit.file)
         (out if ok else bad).append(probe.strip())
     if bad:
         node_list = ", ".join(n for n in circuit.nodes)

@@ -657,7 +657,11 @@ def compare(
     controls = [f"v({a},{b})" if b != GROUND else f"v({a})" for a, b in
                 (sw.control for sw in switch_els)]
     # pelcs also records every diode and switch current: the drop estimate needs them
-    extra = [f"i({el.name})" for el in circuit.elements if isinstance(el, (Diode, Switch))]
+    from netlist.formulation import parallel_diodes
+
+    merged = parallel_diodes(circuit)  # carried by another diode's pair in pelcs
+    extra = [f"i({el.name})" for el in circuit.elements
+             if isinstance(el, (Diode, Switch)) and el.key not in merged]
     pel_probes = list(dict.fromkeys(list(probes) + extra + controls))
     # every node voltage too: their values at t = 0+ give ngspice a consistent start
     node_probes = [f"v({n})" for n in circuit.nodes if n != GROUND]
@@ -696,7 +700,7 @@ def compare(
     window, n_periods = _window(span, per)
 
     currents = {el.name: result[f"i({el.name})"] for el in circuit.elements
-                if isinstance(el, (Diode, Switch))}
+                if isinstance(el, (Diode, Switch)) and el.key not in merged}
     drives = {sw.name: float(np.max(np.abs(result[ctrl])))
               for sw, ctrl in zip(switch_els, controls, strict=True)}
     nonideal = _nonideality(circuit, ng.settings_used, currents, drives)

@@ -243,3 +243,17 @@ def test_check_takes_the_pyspice_buck_and_gives_ngspice_the_vendor_models(ngspic
     assert "xq in gate source irf150" in deck
     assert any("idealised: XQ" in n for n in cmp.notes)
     assert cmp.probes
+
+
+def test_parallel_ideal_diodes_are_merged():
+    from netlist.formulation import formulate, parallel_diodes
+
+    text = (Path(__file__).parent / "netlists" / "ac" / "buck_vc.cir").read_text().replace(
+        "D1 0 sw DIDEAL", "D1 0 sw DIDEAL\nD2 0 sw DIDEAL")
+    c = parse_string(text)
+    assert parallel_diodes(c) == {"d2": "D1"}
+    assert formulate(c).diodes == ("D1",)
+    res = simulate_circuit(c, tstop=1e-4, probes=["v(out)", "i(D1)"])
+    assert any("D2 is in parallel with D1: merged" in n for n in res.notes)
+    with pytest.raises(NetlistError, match="D2 is merged into D1"):
+        simulate_circuit(c, tstop=1e-4, probes=["i(D2)"])
