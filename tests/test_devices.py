@@ -257,3 +257,18 @@ def test_parallel_ideal_diodes_are_merged():
     assert any("D2 is in parallel with D1: merged" in n for n in res.notes)
     with pytest.raises(NetlistError, match="D2 is merged into D1"):
         simulate_circuit(c, tstop=1e-4, probes=["i(D2)"])
+
+
+def test_pnp_switches_on_when_its_base_is_below_its_emitter():
+    text = ("PNP high-side switch\nVe e 0 DC 5\nVb b 0 PWL(0 5 1m 5 1.001m 4)\n"
+            "Q1 c b e QP\nR1 c 0 100\n.model QP PNP(BF=50)\n.tran 1u 2m\n.end\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdealisedDeviceWarning)
+        c = parse_string(text)
+    (r,) = c.replacements
+    assert r.device == "PNP" and "v(e,b) > 0.7 V" in r.became
+    res = simulate_circuit(c, probes=["i(R1)"])
+    (t_on, mode), = res.events
+    # v(e,b) = 5 - v(b) passes 0.7 V when the base has fallen 0.7 of its 1 V step
+    assert mode == (True,) and t_on == pytest.approx(1e-3 + 0.7e-6, rel=1e-12)
+    assert res["i(R1)"][-1] == pytest.approx(0.05)
