@@ -14,13 +14,12 @@ import numpy as np
 from lcs.results import SimulationResult
 from lcs.signals import Pulse, Sin
 from netlist.circuit import (
-    GROUND,
     Circuit,
-    CurrentSource,
     Diode,
     Switch,
     VoltageSource,
 )
+from netlist.measure import steady_state_period, steady_state_window
 
 from .runner import NgspiceSettings
 
@@ -59,74 +58,20 @@ class NonIdeality:
 # the period
 
 
-def _source_period(wave) -> float | None:
-    if isinstance(wave, Pulse) and wave.per:
-        return float(wave.per)
-    if isinstance(wave, Sin) and wave.freq:
-        return 1.0 / float(wave.freq)
-    return None
-
-
 def detect_period(
     circuit: Circuit, result: SimulationResult | None = None, period: float | None = None
 ) -> tuple[float | None, str]:
-    """The period of the steady state, and where it comes from.
-
-    Parameters
-    ----------
-    circuit : Circuit
-    result : SimulationResult, optional
-        A pelcs run, for free-running converters (period from the switching events).
-    period : float, optional
-        Given by the user (s): returned as it is.
-
-    Returns
-    -------
-    (float or None, str)
-        Period (s) and a phrase for the report, e.g. ``"PULSE period of Vg (gate of S1)"``.
-    """
-    if period is not None:
-        return float(period), "given (--period)"
-    tstop = circuit.tran.tstop if circuit.tran is not None else math.inf
-    sources = []
-    for el in circuit.elements:
-        if isinstance(el, (VoltageSource, CurrentSource)) and el.waveform is not None:
-            per = _source_period(el.waveform)
-            if per is not None and 0 < per < tstop:
-                sources.append((el, per))
-    # a source directly across a switch's control terminals sets its switching period
-    for sw in circuit.of_kind("S"):
-        ctrl = set(sw.control)
-        for el, per in sources:
-            if isinstance(el, VoltageSource) and (
-                set(el.nodes) == ctrl or (GROUND in ctrl and set(el.nodes) & ctrl - {GROUND}
-                                          and GROUND in el.nodes)
-            ):
-                kind = "PULSE" if isinstance(el.waveform, Pulse) else "SIN"
-                return per, f"{kind} period of {el.name} (control of {sw.name})"
-    if sources:
-        el, per = max(sources, key=lambda s: s[1])
-        kind = "PULSE period" if isinstance(el.waveform, Pulse) else "SIN period"
-        return per, f"{kind} of {el.name} (longest source period)"
-    if result is not None and len(result.events) >= 4:
-        last = result.events[-1][1]
-        starts = np.array([t for t, mode in result.events if mode == last])
-        half = starts[starts >= 0.5 * (result.t[-1] + result.t[0])]
-        if len(half) >= 3:
-            return float(np.median(np.diff(half))), "median recurrence of the last switch " \
-                "mode in the pelcs run (free-running)"
-    return None, "no periodic source or switching: last 20 % of the run"
+    """The period of the steady state (s) and a phrase for the report, e.g. ``"PULSE period
+    of Vg (control of S1)"``: :func:`netlist.measure.steady_state_period`, the one rule
+    ``pelcs sweep`` and ``--losses`` use too (``result``: the pelcs run, for free-running
+    converters; ``period``: given by the user)."""
+    per, why = steady_state_period(circuit, result, period)
+    return per, why.replace("mode (free-running)", "mode in the pelcs run (free-running)")
 
 
 def _window(span: tuple[float, float], period: float | None) -> tuple[tuple[float, float], int]:
-    t0, t1 = span
-    if period is not None and period > 0:
-        n = min(10, int((t1 - t0) / 4.0 / period + 1e-9))
-        if n >= 1:
-            return (t1 - n * period, t1), n
-        if period <= t1 - t0:
-            return (t1 - period, t1), 1
-    return (t1 - 0.2 * (t1 - t0), t1), 0
+    """:func:`netlist.measure.steady_state_window`."""
+    return steady_state_window(span, period)
 
 
 # ------------------------------------------------------------------------------------------
