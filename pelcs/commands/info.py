@@ -183,6 +183,8 @@ def describe(circuit: Circuit) -> str:
     if circuit.options:
         lines.append("options: " + " ".join(f"{k}={v}" if v else k
                                              for k, v in circuit.options.items()))
+    for note in circuit.notes:
+        lines.append(f"note: {note}")
     if circuit.replacements:
         lines.append(f"idealised ({len(circuit.replacements)}; --strict refuses them):")
         for r in circuit.replacements:
