@@ -100,9 +100,10 @@ def threshold(name: str, model: str, mtype: str, params: Mapping[str, float],
 class Macro:
     """A subcircuit recognised as a device macro-model.
 
-    ``kind`` is ``"transistor"`` (one M or Q inside: ``ports`` maps its terminals
-    ``drain/gate/source`` or ``collector/base/emitter`` to the subcircuit's ports, ``device``
-    is that element, ``body`` the (anode port, cathode port) of a diode across the power
+    ``kind`` is ``"transistor"`` (one M or Q inside, or IGBT-like: one MOSFET driving other
+    transistors; ``ports`` maps the terminals ``drain/gate/source``, ``collector/base/emitter``
+    or ``collector/gate/emitter`` to the subcircuit's ports, ``device`` is the (controlling)
+    transistor, ``body`` the (anode port, cathode port) of a diode across the power
     ports or None) or ``"diode"`` (two ports joined only by diodes, resistors and
     capacitors: ``ports`` = (anode port, cathode port)). ``dropped`` names the other
     elements of the body.
@@ -114,6 +115,7 @@ class Macro:
     body: tuple | None = None
     dropped: tuple[str, ...] = ()
     body_model: str = ""
+    igbt: bool = False
 
 
 def _resistive_reach(body, ports) -> dict:
@@ -160,6 +162,24 @@ def classify_macro(sub) -> Macro | None:
         dropped = tuple(e.name for e in els if e is not dev and e is not body_el)
         return Macro("transistor", (pm, pc, pr), dev, body, dropped,
                      body_el.ref if body_el is not None else "")
+    mos = [e for e in devices if e.kind == "M"]
+    if len(devices) >= 2 and len(mos) == 1 and len(ports) >= 3:
+        # IGBT-like: a MOSFET drives the rest (its gate and source are the IGBT's gate and
+        # emitter); the collector is the remaining port
+        m = mos[0]
+        pg, pe = reach.get(m.nodes[1]), reach.get(m.nodes[2])
+        rest = [p for p in ports if p not in (pg, pe)]
+        if None in (pg, pe) or pg == pe or len(rest) != 1:
+            return None
+        pc = rest[0]
+        body, body_el = None, None
+        for e in els:
+            if e.kind == "D" and (reach.get(e.nodes[0]), reach.get(e.nodes[1])) == (pe, pc):
+                body, body_el = (pe, pc), e
+                break
+        dropped = tuple(e.name for e in els if e is not m and e is not body_el)
+        return Macro("transistor", (pc, pg, pe), m, body, dropped,
+                     body_el.ref if body_el is not None else "", igbt=True)
     if len(ports) == 2 and els and all(e.kind in "DRC" for e in els):
         diodes = [e for e in els if e.kind == "D"]
         if not diodes:

@@ -494,10 +494,12 @@ class _Builder:
                       else ((a, b) if pchan else (b, a)))
             self.circuit.elements.append(Diode(body, (an, ca), loc, macro.body_model,
                                                part_of=name))
-        terms = ("drain", "source") if dev.kind == "M" else ("collector", "emitter")
+        terms = ("drain", "source") if dev.kind == "M" and not macro.igbt else (
+            "collector", "emitter")
         ctl = f"v({control[0]})" if control[1] == GROUND else f"v({control[0]},{control[1]})"
         self.circuit.replacements.append(Replacement(
-            name, f"{sub.name}: {dev.name} {model.name}", f"{mt} macro-model",
+            name, f"{sub.name}: {dev.name} {model.name}",
+            "IGBT-like macro-model" if macro.igbt else f"{mt} macro-model",
             f"ideal switch {terms[0]} {a} - {terms[1]} {b}, on while {ctl} > {thr:g} V",
             thr, source, body, macro.dropped))
 

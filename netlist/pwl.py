@@ -7,7 +7,9 @@ LCP's solution unique, and ``Vf`` enters F. The pair is **fitted** to the diode'
 ``v(i) = N Vt ln(1 + i/IS) + RS i`` (Vt = 25.85 mV at 27 °C; ngspice's defaults IS = 1e-14 A,
 N = 1, RS = 0), by least squares on 50 currents log-spaced over ``[I/20, I]``, I the largest
 current the diode carries in an ideal run of the same circuit (the current range the circuit
-carries); a diode that carries nothing keeps ``Vf`` at 1 mA and no resistance.
+carries); a diode that carries nothing keeps ``Vf`` at 1 mA and no resistance. Diodes merged
+in parallel are fitted together (their total current). ``Vf`` and ``Ron`` may also be given
+per element or model (``--pwl NAME=VF:RON``), then used as they are.
 
 A switch is ``Ron`` when on: ``RON`` of its SW model (ngspice's default 1 Ω), or for an
 idealised MOSFET the channel resistance at its gate drive from the model, ``RD + RS +
@@ -127,22 +129,34 @@ def switch_resistance(circuit: Circuit, sw: Switch, drive: float | None) -> tupl
     return p.get("rd", 0.0) + p.get("rs", 0.0) + r_ch + extra, 0.0, how
 
 
-def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, float]
-                ) -> tuple[Circuit, list[PwlFit]]:
+def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, float],
+                explicit: dict | None = None) -> tuple[Circuit, list[PwlFit]]:
     """The circuit with every diode and switch made piecewise linear (see the module
-    docstring); ``i_max`` (A) and ``drives`` (V) by element name, from an ideal run."""
+    docstring); ``i_max`` (A) and ``drives`` (V) by element name, from an ideal run;
+    ``explicit``: ``{element or model name: (vf, ron)}`` given by the user (V, Ω), used as
+    they are instead of a fit."""
     from .formulation import parallel_diodes
 
     merged = parallel_diodes(circuit)
+    given = {str(k).lower(): v for k, v in (explicit or {}).items()}
     out, fits = [], []
     for el in circuit.elements:
         if el.key in merged:
             continue  # carried by the diode it is in parallel with (one pair)
+        model = str(getattr(el, "model", "") or "").lower()
+        key = el.key if el.key in given else model if model in given else None
+        if key is not None and isinstance(el, (Diode, Switch)):
+            vf, ron = (float(v) for v in given[key])
+            fits.append(PwlFit(el.name, vf, ron, "given"))
+            out.extend(_series(el, vf, ron))
+            continue
         if isinstance(el, Diode):
             names = [el.model] if el.model else []
             series = 0.0
             if el.device is not None and len(el.device) > 4:  # a diode macro-model
                 names, series = list(el.device[3]), float(el.device[4])
+            names += [e.model for e in circuit.elements
+                      if merged.get(e.key) == el.name and getattr(e, "model", "")]
             params = []
             for nm in names:
                 m = circuit.models.get(str(nm).lower())

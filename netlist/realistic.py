@@ -21,7 +21,7 @@ __all__ = ["simulate_devices"]
 
 def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool = False,
                      load: str | None = None, probes: Sequence[str] | None = None,
-                     **kw) -> SimulationResult:
+                     pwl: dict | None = None, **kw) -> SimulationResult:
     """:func:`netlist.transient.simulate_circuit` with piecewise-linear devices and/or
     losses.
 
@@ -38,6 +38,8 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         and efficiency over the steady-state window.
     probes : sequence of str, optional
         The result's probes (default every state); the losses' own probes are not kept.
+    pwl : mapping, optional
+        ``{element or model name: (vf, ron)}`` (V, Ω) given instead of the fit.
     **kw
         The other arguments of :func:`~netlist.transient.simulate_circuit`.
     """
@@ -63,7 +65,7 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
             a, b = sw.control
             drives[sw.name] = float(np.max(ideal[f"v({a})" if b == GROUND
                                                   else f"v({a},{b})"]))
-        run_circuit, fits = pwl_circuit(circuit, i_max, drives)
+        run_circuit, fits = pwl_circuit(circuit, i_max, drives, pwl)
     want = list(probes) if probes is not None else None
     extra = loss_probes(circuit) if losses else []
     if want is None:

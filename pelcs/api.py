@@ -101,6 +101,7 @@ def simulate(
     devices: str = "ideal",
     losses: bool = False,
     load: str | None = None,
+    pwl: Mapping[str, tuple[float, float]] | None = None,
 ) -> SimulationResult:
     """Simulate a circuit with the Moreau θ time-stepping scheme.
 
@@ -136,7 +137,8 @@ def simulate(
         without bound; a state growth beyond 1e6 is noted in ``res.notes``).
     devices : str
         ``"ideal"`` or ``"pwl"``: diodes with a Vf and Ron fitted to their models, switches
-        with their on-resistance (``res.device_fits``; :mod:`netlist.pwl`).
+        with their on-resistance (``res.device_fits``; :mod:`netlist.pwl`); ``pwl``
+        gives ``{element or model name: (vf, ron)}`` instead of the fit.
     losses : bool
         ``res.losses`` (:class:`netlist.losses.LossReport`): conduction losses per device,
         input and output power (``load``: the load resistor's name, default the resistor
@@ -167,7 +169,8 @@ def simulate(
     if devices != "ideal" or losses:
         from netlist.realistic import simulate_devices
 
-        result = simulate_devices(circuit, devices=devices, losses=losses, load=load, **kw)
+        result = simulate_devices(circuit, devices=devices, losses=losses, load=load,
+                                  pwl=dict(pwl or {}), **kw)
     else:
         result = simulate_circuit(circuit, **kw)
     if check:

@@ -272,3 +272,51 @@ def test_pnp_switches_on_when_its_base_is_below_its_emitter():
     # v(e,b) = 5 - v(b) passes 0.7 V when the base has fallen 0.7 of its 1 V step
     assert mode == (True,) and t_on == pytest.approx(1e-3 + 0.7e-6, rel=1e-12)
     assert res["i(R1)"][-1] == pytest.approx(0.05)
+
+
+def test_more_vendor_parts_as_they_come():
+    """NXP's 1N4148 (a subcircuit: diode + leakage resistor) and BAV21 (a model), onsemi's
+    2N2222A (an NPN model) from PySpice's libraries (origin in vendor/ORIGIN.md)."""
+    c = load("vendor_parts.cir")
+    r = {x.element: x for x in c.replacements}
+    assert r["X1"].device == "diode macro-model" and r["X1"].dropped == ("R1",)
+    assert r["Q1"].device == "NPN" and r["Q1"].threshold == 0.7
+    res = simulate_circuit(c, probes=["v(k1)", "v(k2)", "i(Rc)"])
+    t = res.t
+    pos = (t > 0.1e-3) & (t < 0.4e-3)  # source at +10 V: both diodes conduct (ideal)
+    assert np.allclose(res["v(k1)"][pos], 10.0) and np.allclose(res["v(k2)"][pos], 10.0)
+    neg = (t > 0.6e-3) & (t < 0.9e-3)  # at -10 V: both block
+    assert np.allclose(res["v(k1)"][neg], 0.0) and np.allclose(res["v(k2)"][neg], 0.0)
+    assert res["i(Rc)"][-1] == pytest.approx(0.05)  # Q1 on: 5 V across 100 ohm
+    from netlist.realistic import simulate_devices
+
+    pwl = simulate_devices(c, devices="pwl", probes=["v(k2)", "i(Rc)"])
+    fit = {f.element: f for f in pwl.device_fits}
+    # BAV21: IS = 21.91 nA, N = 2.233, RS = 1 mOhm, fitted over the ~10 mA it carries
+    assert 0.5 < fit["D2"].vf < 0.9 and "IS=2.19e-08" in fit["D2"].how
+    assert fit["Q1"].ron == pytest.approx(0.426673 + 0.0001) and fit["Q1"].vf == 0.2
+
+
+def test_igbt_like_macro_becomes_one_switch_with_its_copack_diode():
+    c = load("igbt_chopper.cir")
+    (r,) = c.replacements
+    assert r.device == "IGBT-like macro-model" and r.threshold == 5.0
+    assert "ideal switch collector c - emitter 0, on while v(g) > 5 V" in r.became
+    assert r.body_diode == "X1_body" and set(r.dropped) == {"Rg", "Q1", "Cge"}
+    res = simulate_circuit(c, probes=["i(Rl)"])
+    # on while the 15 V gate pulse is above 5 V: 10 A through 10 ohm from 100 V
+    t, i = res.t, res["i(Rl)"]
+    assert np.allclose(i[(t > 11e-6) & (t < 29e-6)], 10.0)
+    assert np.allclose(i[(t > 31e-6) & (t < 59e-6)], 0.0)
+    (t_on, _), (t_off, _) = res.events[:2]
+    assert t_on == pytest.approx(10e-6 + 100e-9 / 3, rel=1e-9)  # 5 V of the 15 V rise
+
+
+def test_explicit_vf_ron(capsys):
+    assert main(["simulate", str(DEV / "boost_sw_pwl.cir"), "--devices", "pwl", "--pwl",
+                 "D1=0.7:0.05", "--pwl", "SWR=0:0.2", "--tstop", "1m"]) == 0
+    out = capsys.readouterr().out
+    assert "D1: Vf = 0.7 V, Ron = 0.05 Ω (given)" in out
+    assert "S1: Vf = 0 V, Ron = 0.2 Ω (given)" in out  # by model name
+    assert main(["simulate", str(DEV / "boost_sw_pwl.cir"), "--devices", "pwl", "--pwl",
+                 "D1=x"]) == 2

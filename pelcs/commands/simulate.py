@@ -66,6 +66,9 @@ def register(subparsers) -> None:
     p.add_argument("--devices", choices=("ideal", "pwl"), default="ideal",
                    help="ideal (default) or pwl: diodes with a Vf and Ron fitted to their "
                    "model, switches with their on-resistance (still an LCS)")
+    p.add_argument("--pwl", action="append", default=[], metavar="NAME=VF:RON",
+                   help="with --devices pwl: a diode's or switch's forward voltage (V) and "
+                   "on-resistance (ohm), by element or model name, instead of the fit")
     p.add_argument("--losses", action="store_true",
                    help="conduction losses, input/output power and efficiency over the "
                    "steady-state window")
@@ -187,7 +190,16 @@ def run(args: argparse.Namespace) -> int:
         if args.devices == "pwl" or args.losses:
             from netlist.realistic import simulate_devices
 
-            result = simulate_devices(circuit, tstop=tstop, step=step, theta=theta,
+            given = {}
+            for item in args.pwl:
+                name, _, vals = item.partition("=")
+                try:
+                    vf, ron = (float(_number("--pwl", v)) for v in vals.split(":"))
+                except (ValueError, NetlistError):
+                    raise _usage_error(f"--pwl {item}: expected NAME=VF:RON",
+                                       "e.g. --pwl D1=0.7:0.05 (volts, ohms)") from None
+                given[name.strip()] = (vf, ron)
+            result = simulate_devices(circuit, pwl=given, tstop=tstop, step=step, theta=theta,
                                       probes=probes, every=every,
                                       progress=not args.no_progress, method=args.method,
                                       devices=args.devices, losses=args.losses,
