@@ -16,6 +16,7 @@ ngspice still runs the device with its real model (the writer writes the origina
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -198,8 +199,11 @@ def subckt_text(sub) -> str:
     """A subcircuit definition as netlist text, from its statements (for ngspice, which
     simulates the macro-model itself)."""
     ports = " ".join(sub.ports)
-    defaults = " ".join(f"{p.name}={p.st.text[p.offset:].split()[0].split('=', 1)[-1]}"
-                        for p in sub.defaults)
+    def written(p) -> str:  # the default's value as written (a number or {expression})
+        m = re.match(r"\s*[\w.]+\s*=\s*(\{[^}]*\}|'[^']*'|\S+)", p.st.text[p.offset:])
+        return m.group(1) if m else "0"
+
+    defaults = " ".join(f"{p.name}={written(p)}" for p in sub.defaults)
     lines = [f".subckt {sub.name} {ports}" + (f" params: {defaults}" if defaults else "")]
     seen = set()
     for item in [*sub.body.params, *sub.body.elements, *sub.body.ics]:
