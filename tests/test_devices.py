@@ -320,3 +320,14 @@ def test_explicit_vf_ron(capsys):
     assert "S1: Vf = 0 V, Ron = 0.2 Ω (given)" in out  # by model name
     assert main(["simulate", str(DEV / "boost_sw_pwl.cir"), "--devices", "pwl", "--pwl",
                  "D1=x"]) == 2
+
+
+def test_macro_subcircuit_text_keeps_its_parameter_defaults():
+    from netlist.devices import subckt_text
+    from netlist.parser import read_deck
+
+    deck = read_deck("t\n.subckt s a b params: r = 1m  c={2*x}\nD1 a b DX\nR1 a b {r}\n"
+                     ".ends\n.end\n")
+    text = subckt_text(deck.subckts["s"])
+    assert text.splitlines() == [".subckt s a b params: r=1m c={2*x}", "D1 a b DX",
+                                 "R1 a b {r}", ".ends s"]
