@@ -48,6 +48,23 @@ def _ridley(f, D, vo, vr, vin=12.0, ri=0.1, L=20e-6, C=50e-6, R=2.5):
     return (R / ri) / (1 + R * TS * k / L) / (1 + s / wp) / (1 + s / (wn * q) + s**2 / wn**2), q
 
 
+def _finish(fig, a1, a2, title: str, path: Path, **legend) -> None:
+    """Both Bode panels: fs/2 marker, grid, axes labels with units, title, legend; save."""
+    import matplotlib.pyplot as plt
+
+    for ax in (a1, a2):
+        ax.axvline(5e4, color="grey", ls=":", lw=1, label="fs/2")
+        ax.grid(True, which="both", alpha=0.3)
+    a1.set_ylabel("|v(out)/v(con)| (dB)")
+    a2.set_ylabel("phase (deg)")
+    a2.set_xlabel("frequency (Hz)")
+    a1.set_title(title)
+    a1.legend(**legend)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def main(argv: list[str] | None = None) -> dict:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--out", default=f"out/{NAME}", help="output directory (default %(default)s)")
@@ -100,17 +117,8 @@ def main(argv: list[str] | None = None) -> dict:
                 label="averaged model")
     a2.semilogx(sw.freq, sw.phase_deg("v(out)"), "o", color="C3", mfc="none",
                 label="time-domain sweep")
-    for ax in (a1, a2):
-        ax.axvline(5e4, color="grey", ls=":", lw=1, label="fs/2")
-        ax.grid(True, which="both", alpha=0.3)
-    a1.set_ylabel("|v(out)/v(con)| (dB)")
-    a2.set_ylabel("phase (deg)")
-    a2.set_xlabel("frequency (Hz)")
-    a1.set_title("Voltage-mode buck, control-to-output (fs = 100 kHz)")
-    a1.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(out / "bode_vm_buck.png", dpi=110)
-    plt.close(fig)
+    _finish(fig, a1, a2, "Voltage-mode buck, control-to-output (fs = 100 kHz)",
+            out / "bode_vm_buck.png", fontsize=8)
     for label, ff, mag, ph in (("exact", f, ex.mag_db("v(out)"), ex.phase_deg("v(out)")),
                                ("averaged", f, 20 * np.log10(np.abs(Ha)),
                                 np.degrees(np.unwrap(np.angle(Ha)))),
@@ -140,17 +148,8 @@ def main(argv: list[str] | None = None) -> dict:
         rows += [("cm_buck", f"exact vr={vr:g}", a, b, d)
                  for a, b, d in zip(f2, fr.mag_db("v(out)"), fr.phase_deg("v(out)"),
                                     strict=True)]
-    for ax in (a1, a2):
-        ax.axvline(5e4, color="grey", ls=":", lw=1, label="fs/2")
-        ax.grid(True, which="both", alpha=0.3)
-    a1.set_ylabel("|v(out)/v(con)| (dB)")
-    a2.set_ylabel("phase (deg)")
-    a2.set_xlabel("frequency (Hz)")
-    a1.set_title("Peak-current-mode buck: the sampling double pole at fs/2")
-    a1.legend(fontsize=7, ncol=2)
-    fig.tight_layout()
-    fig.savefig(out / "bode_cm_buck.png", dpi=110)
-    plt.close(fig)
+    _finish(fig, a1, a2, "Peak-current-mode buck: the sampling double pole at fs/2",
+            out / "bode_cm_buck.png", fontsize=7, ncol=2)
 
     with open(out / "bode_plots.csv", "w", newline="") as fh:
         w = csv.writer(fh)

@@ -246,16 +246,12 @@ def _circuit(source: Source, params: Mapping[str, float] | None) -> Circuit:
             raise TypeError("params need a netlist path or text: a parsed Circuit has its "
                             "parameters evaluated already (pelcs.load(path, params=...))")
         return source
-    if isinstance(source, (str, os.PathLike)) or _is_pyspice(source):
+    from netlist.parser import is_pyspice_circuit
+
+    if isinstance(source, (str, os.PathLike)) or is_pyspice_circuit(source):
         return load(source, params)
     raise TypeError(f"expected a Circuit, a netlist path, netlist text or a PySpice Circuit, "
                     f"got {type(source).__name__}")
-
-
-def _is_pyspice(obj) -> bool:
-    from netlist.parser import is_pyspice_circuit
-
-    return is_pyspice_circuit(obj)
 
 
 def _seconds(circuit: Circuit, what: str, value: float | str | None) -> float | None:

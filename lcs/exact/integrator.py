@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import expm
 
+from ..bits import to_words
 from ..results import SimulationError
 from ..simulation.integrator import Integrator, Run, Snapshot, Window
 from ..simulation.problem import key_of
@@ -219,14 +220,7 @@ class ExactIntegrator(Integrator):
                     self._event_record(ev.t, seg.key, EV_SLIDE_START + nxt.switch)
                     continue
                 if nxt.key != seg.key:
-                    rec.reserve(0, 1)
-                    from ..bits import to_words
-
-                    e = rec.evpos
-                    rec.ev_t[e] = ev.t
-                    rec.ev_key[e] = to_words(key_of(nxt.key), rec.ev_key.shape[1])
-                    rec.ev_info[e] = EV_SWITCH
-                    rec.evpos += 1
+                    self._event_record(ev.t, nxt.key, EV_SWITCH)
                 if ev.kind != "breakpoint" and (rec.pos == 0 or rec.last_time() < ev.t):
                     rec.append(float(ev.t), self._row(nxt, nxt.x_start, 0.0))
 
@@ -245,8 +239,6 @@ class ExactIntegrator(Integrator):
             self.event_log.append(ExactEvent(float(ev.t), ev.name, "jump", dict(mode)))
 
     def _event_record(self, t: float, key, info: int) -> None:
-        from ..bits import to_words
-
         rec = self.run.recorder
         rec.reserve(0, 1)
         e = rec.evpos
