@@ -58,8 +58,10 @@ from lcs.model import (
     SwitchedLCS,
 )
 
-from .circuit import GROUND, Capacitor, Circuit, Element, VoltageSource
+from .circuit import GROUND, Circuit, Element
 from .errors import Diagnostic, NetlistError
+from .mna_solve import Solution, clean
+from .reductions import parallel_diodes, source_capacitors
 from .topology import UnionFind, find_cutset, find_loop
 
 __all__ = ["formulate", "storage_matrix", "EXHAUSTIVE_DIODE_LIMIT"]
@@ -67,14 +69,6 @@ __all__ = ["formulate", "storage_matrix", "EXHAUSTIVE_DIODE_LIMIT"]
 # With up to this many diodes every λ-type assignment may be tried (2**m MNA solves).
 EXHAUSTIVE_DIODE_LIMIT = 12
 
-# Relative tolerance on singular values of the equilibrated MNA matrix: below it a direction
-# counts as null (floating part, or a singular companion network).
-RANK_RTOL = 1e-10
-# Relative tolerance for "this quantity does not depend on the null space" and "the
-# equations are consistent for every ξ".
-DETERMINED_RTOL = 1e-8
-# Entries of the final matrices smaller than this, relative to their row, are round-off.
-CLEAN_RTOL = 1e-12
 
 _TWO_TERMINAL = frozenset("RLCVIDSEFGH")
 _KNOWN_KINDS = _TWO_TERMINAL | {"K"}
@@ -84,37 +78,6 @@ _VOLTAGE_KINDS = frozenset("VCEH")
 _CURRENT_KINDS = frozenset("LIFG")
 
 _PROBE_RE = re.compile(r"^\s*([vi])\s*\(\s*([^,()\s]+)\s*(?:,\s*([^,()\s]+)\s*)?\)\s*$", re.I)
-
-
-def source_capacitors(circuit: Circuit) -> list[str]:
-    """Keys of the capacitors whose terminals independent voltage sources alone join (an
-    input capacitor across the supply): their voltage is set by the sources, so they hold no
-    state; :func:`formulate` leaves them out (a note says so in a run)."""
-    uf = UnionFind()
-    for el in circuit.elements:
-        if isinstance(el, VoltageSource):
-            uf.union(*el.nodes[:2])
-    out = []
-    for el in circuit.elements:
-        if isinstance(el, Capacitor) and el.nodes[0] != el.nodes[1] and \
-                uf.find(el.nodes[0]) == uf.find(el.nodes[1]):
-            out.append(el.key)
-    return out
-
-
-def parallel_diodes(circuit: Circuit) -> dict[str, str]:
-    """Ideal diodes in parallel with an earlier one of the same orientation (same anode and
-    cathode nodes): key -> the name of the diode that carries them both."""
-    first: dict[tuple[str, str], str] = {}
-    out = {}
-    for el in circuit.elements:
-        if el.kind == "D":
-            pair = (el.nodes[0], el.nodes[1])
-            if pair in first:
-                out[el.key] = first[pair]
-            else:
-                first[pair] = el.name
-    return out
 
 
 def formulate(circuit: Circuit) -> SwitchedLCS:
@@ -393,7 +356,7 @@ class _Formulator:
             rows = [self.state_index[el.key] for el in self.inductors]
             dx[rows] = self.Linv @ v_l
         w = np.array([sol.evaluate(mna.w_form(d)) for d in self.diodes]).reshape(m, self.nxi)
-        dx, w = _clean(dx), _clean(w)
+        dx, w = clean(dx), clean(w)
         # A diode shorted by closed switches (e.g. a switch's antiparallel diode while it
         # conducts) has w = 0 identically; its row is round-off of the elimination, whose
         # sign would make the step's LCP infeasible (w < 0 that no λ can lift).
@@ -428,7 +391,7 @@ class _Formulator:
                         "quantity that does not depend on it",
                         file=self.file)
                 rows.append(sol.evaluate(form))
-            y = _clean(np.array(rows).reshape(len(names), self.nxi))
+            y = clean(np.array(rows).reshape(len(names), self.nxi))
             return OutputMap(names=names, Cy=y[:, :n], Dy=y[:, n:n + m], Fy=y[:, n + m:])
 
         return ModeModel(lcs=lcs, output=output)
@@ -504,7 +467,7 @@ class _Formulator:
     def _try(self, on: frozenset[str], vdiodes: frozenset[str]):
         """MNA of one λ-type assignment and its defects, (text, element) pairs; [] = usable."""
         mna = _Mna(self, on, vdiodes)
-        sol = _Solution(mna.M, mna.K)
+        sol = Solution(mna.M, mna.K)
         defects = [(f"{label} is constrained by Kirchhoff's laws", name)
                    for label, name in map(self._xi_name, sol.inconsistent)]
         defects += [(f"{label} is not determined", name)
@@ -768,71 +731,3 @@ class _Mna:
             return self.current(diode)
         anode, cathode = diode.nodes
         return self.voltage(cathode, anode)
-
-
-class _Solution:
-    """Least-squares solution ``z = Z ξ`` of ``M z = K ξ``, with its null space.
-
-    ``M`` is equilibrated (rows and columns scaled to unit max) before the SVD so that the
-    rank decision does not depend on the units of the rows (A vs V) or on element values.
-    """
-
-    def __init__(self, M: np.ndarray, K: np.ndarray):
-        nz, nxi = K.shape
-        r, c = _equilibrate(M)
-        self.col_scale = c
-        if nz == 0:
-            self.Z = np.zeros((0, nxi))
-            self.null = np.zeros((0, 0))
-            self.inconsistent = []
-            return
-        Ms = r[:, None] * M * c[None, :]
-        Ks = r[:, None] * K
-        U, s, Vt = np.linalg.svd(Ms)
-        rank = int(np.sum(s > RANK_RTOL * s[0])) if s[0] > 0 else 0
-        self.null = Vt[rank:].T  # (nz, nz - rank), orthonormal, scaled coordinates
-        residual = U[:, rank:].T @ Ks
-        scale = np.linalg.norm(Ks, axis=0)
-        self.inconsistent = [
-            j for j in range(nxi)
-            if np.linalg.norm(residual[:, j]) > DETERMINED_RTOL * scale[j]
-        ]
-        zs = Vt[:rank].T @ ((U[:, :rank].T @ Ks) / s[:rank, None])
-        self.Z = c[:, None] * zs
-
-    def determined(self, form_z: np.ndarray) -> bool:
-        """Whether ``form_z @ z`` is the same for every solution z."""
-        g = form_z * self.col_scale
-        norm = np.linalg.norm(g)
-        if norm == 0 or self.null.shape[1] == 0:
-            return True
-        return bool(np.linalg.norm(g @ self.null) <= DETERMINED_RTOL * norm)
-
-    def evaluate(self, form: np.ndarray) -> np.ndarray:
-        """Row over ξ of a quantity given by its form over (z, ξ)."""
-        nz = self.Z.shape[0]
-        return form[:nz] @ self.Z + form[nz:]
-
-
-def _equilibrate(M: np.ndarray, iterations: int = 8) -> tuple[np.ndarray, np.ndarray]:
-    """Row and column scalings ``r, c`` with ``diag(r) M diag(c)`` near unit max entries."""
-    A = np.abs(M)
-    r = np.ones(A.shape[0])
-    c = np.ones(A.shape[1])
-    for _ in range(iterations):
-        rowmax = (A * c[None, :]).max(axis=1, initial=0.0) * r
-        rowmax[rowmax == 0] = 1.0
-        r /= np.sqrt(rowmax)
-        colmax = (A * r[:, None]).max(axis=0, initial=0.0) * c
-        colmax[colmax == 0] = 1.0
-        c /= np.sqrt(colmax)
-    return r, c
-
-
-def _clean(matrix: np.ndarray) -> np.ndarray:
-    """Zero the entries that are round-off relative to the largest entry of their row."""
-    out = np.array(matrix, dtype=float)
-    if out.size:
-        row_max = np.abs(out).max(axis=1, keepdims=True)
-        out[np.abs(out) <= CLEAN_RTOL * row_max] = 0.0
-    return out

@@ -26,6 +26,7 @@ import numpy as np
 
 from .circuit import Circuit, Diode, Resistor, Switch, VoltageSource
 from .measure import steady_state_period, steady_state_window
+from .reductions import parallel_diodes
 
 __all__ = ["LossReport", "loss_probes", "losses"]
 
@@ -94,8 +95,6 @@ def _vprobe(a: str, b: str) -> str:
 
 def loss_probes(circuit: Circuit) -> list[str]:
     """The probes :func:`losses` needs."""
-    from .formulation import parallel_diodes
-
     merged = parallel_diodes(circuit)
     probes = []
     for el in circuit.elements:
@@ -127,8 +126,6 @@ def losses(result, circuit: Circuit, fits: Sequence = (), load: str | None = Non
 
     fit = {f.element: f for f in fits}
     rep = LossReport((a, b), n)
-    from .formulation import parallel_diodes
-
     merged = parallel_diodes(circuit)
     for el in circuit.elements:
         if isinstance(el, (Diode, Switch)) and el.key not in merged:

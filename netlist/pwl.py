@@ -29,6 +29,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .circuit import Circuit, Diode, Resistor, Switch, VoltageSource
+from .reductions import parallel_diodes
 
 __all__ = ["PwlFit", "VT_THERMAL", "diode_fit", "parallel_fit", "pwl_circuit",
            "switch_resistance"]
@@ -135,8 +136,6 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
     docstring); ``i_max`` (A) and ``drives`` (V) by element name, from an ideal run;
     ``explicit``: ``{element or model name: (vf, ron)}`` given by the user (V, Ω), used as
     they are instead of a fit."""
-    from .formulation import parallel_diodes
-
     merged = parallel_diodes(circuit)
     given = {str(k).lower(): v for k, v in (explicit or {}).items()}
     out, fits = [], []

@@ -14,6 +14,7 @@ from .circuit import GROUND, Circuit, Diode, Switch
 from .losses import loss_probes
 from .losses import losses as loss_report
 from .pwl import pwl_circuit
+from .reductions import parallel_diodes
 from .transient import simulate_circuit
 
 __all__ = ["simulate_devices"]
@@ -48,8 +49,6 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
     fits: list = []
     run_circuit = circuit
     if devices == "pwl":
-        from .formulation import parallel_diodes
-
         merged = parallel_diodes(circuit)
         sws = [el for el in circuit.elements if isinstance(el, Switch)]
         pre = [f"i({el.name})" for el in circuit.elements

@@ -39,6 +39,7 @@ from lcs.signals import Dc, Pulse, Signal, Sin, resolve
 from .circuit import GROUND, Capacitor, Circuit, CurrentSource, Inductor, VoltageSource
 from .errors import Diagnostic, NetlistError
 from .formulation import formulate, storage_matrix
+from .reductions import parallel_diodes, source_capacitors
 
 __all__ = [
     "TransientSetup",
@@ -206,13 +207,12 @@ def transient_setup(
     notes.extend(circuit.notes)
     for r in circuit.replacements:
         notes.append("idealised: " + r.line())
-    from .formulation import parallel_diodes, source_capacitors
-
     for key, into in parallel_diodes(circuit).items():
         name = next(el.name for el in circuit.elements if el.key == key)
         notes.append(f"{name} is in parallel with {into}: merged into it (one ideal diode, "
                      f"i({into}) is their sum)")
-    held = [el.name for el in circuit.elements if el.key in set(source_capacitors(circuit))]
+    across = set(source_capacitors(circuit))
+    held = [el.name for el in circuit.elements if el.key in across]
     if held:
         notes.append(f"{', '.join(held)}: across voltage sources only, so no state (the "
                      "sources set its voltage; the source currents leave out its charging)")
@@ -317,8 +317,6 @@ def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
     capacitors = {k for k, el in two_terminal.items() if el.kind == "C"}
     out, bad = [], []
     switches = {el.key for el in circuit.elements if el.kind == "S"}
-    from .formulation import parallel_diodes
-
     merged = parallel_diodes(circuit)
     for probe in probes:
         m = _PROBE_RE.match(probe)

@@ -1,0 +1,227 @@
+"""Element lines of the reader (:mod:`netlist.reader`): R L C, V I sources with their
+transient functions, D, S, E F G H, K, X instances, and M Q devices (idealised later,
+:mod:`netlist.devices`), each into a :class:`~netlist.rawdeck.RawElement` with its location.
+A mixin of the reader: it uses the reader's ``parse``, ``value``, ``assigns``, ``error``,
+``body`` and ``deck``."""
+
+from __future__ import annotations
+
+from lark import Token
+
+from .dialect import (
+    _NONLINEAR,
+    _PASSIVE_IGNORED,
+    ELEMENTS,
+    WAVE_ARGS,
+    hierarchical_name,
+    node_name,
+)
+from .ltspice import PARASITICS as _PARASITICS
+from .ltspice import explicit_parasitics
+from .rawdeck import (
+    RawElement,
+    RawParam,
+    Statement,
+    Value,
+)
+from .units import parse_number
+
+# ------------------------------------------------------------------------------ reading
+
+
+class ElementLines:
+    """The element-line handlers of :class:`netlist.reader._Reader`."""
+
+    def element(self, letter: str, st: Statement) -> None:
+        rule, what, usage = ELEMENTS[letter]
+        if letter in "EFGH":
+            m = _NONLINEAR.search(st.text)
+            if m:
+                self.error(f"nonlinear or behavioural {letter} source ('{m.group(1)}') is not "
+                           "supported", st, m.start(1),
+                           f"pelcs needs linear controlled sources: {usage}")
+                return
+        tree = self.parse(st, rule, what, usage)
+        ch = tree.children
+        name = hierarchical_name(str(ch[0]), letter)
+        if rule == "passive":
+            self.passive(letter, name, ch, st, what)
+        elif rule == "source":
+            self.source(letter, name, ch, st)
+        elif rule == "diode":
+            self.body.elements.append(RawElement(
+                "D", name, st, (node_name(ch[1]), node_name(ch[2])), ref=str(ch[3]),
+                ref_offset=ch[3].start_pos))
+        elif rule == "switch":
+            state = None
+            if len(ch) > 6:
+                state = ch[6].children[0].type == "ON"
+            self.body.elements.append(RawElement(
+                "S", name, st, (node_name(ch[1]), node_name(ch[2])),
+                control=(node_name(ch[3]), node_name(ch[4])), ref=str(ch[5]),
+                ref_offset=ch[5].start_pos, state=state))
+        elif rule == "device":
+            self.device(letter, name, ch, st, usage)
+        elif rule == "vcontrolled":
+            v = self.value(ch[5], st)
+            if v is not None:
+                self.body.elements.append(RawElement(
+                    letter, name, st, (node_name(ch[1]), node_name(ch[2])),
+                    control=(node_name(ch[3]), node_name(ch[4])), value=v))
+        elif rule == "ccontrolled":
+            v = self.value(ch[4], st)
+            if v is not None:
+                self.body.elements.append(RawElement(
+                    letter, name, st, (node_name(ch[1]), node_name(ch[2])),
+                    ref=hierarchical_name(str(ch[3])), ref_offset=ch[3].start_pos, value=v))
+        elif rule == "coupling":
+            v = self.value(ch[3], st)
+            if v is not None:
+                self.body.elements.append(RawElement(
+                    "K", name, st, (), value=v,
+                    refs=((hierarchical_name(str(ch[1])), ch[1].start_pos),
+                          (hierarchical_name(str(ch[2])), ch[2].start_pos))))
+        else:
+            self.instance(name, ch, st)
+
+    def passive(self, letter: str, name: str, ch: list, st: Statement, what: str) -> None:
+        v = self.value(ch[3], st)
+        ic = None
+        parasitics: dict = {}
+        for t in ch[4:]:
+            key_tok, val_tok = t.children
+            key = key_tok.lower()
+            if key == "ic" and letter in "LC":
+                ic = self.value(val_tok, st)
+                if ic is None:
+                    return
+            elif key in _PASSIVE_IGNORED:
+                if self.value(val_tok, st) is None:
+                    return
+            elif key in _PARASITICS.get(letter, ()):
+                pv = self.value(val_tok, st)
+                if pv is None:
+                    return
+                parasitics[key] = (pv, key_tok)
+            else:
+                accepted = "IC=" if letter in "LC" else "none that change the value"
+                if letter in _PARASITICS:
+                    accepted += ", and LTspice's " + ", ".join(
+                        k.capitalize() + "=" for k in _PARASITICS[letter])
+                hint = f"instance parameters accepted for a {what}: {accepted}"
+                if key in ("m", "scale"):
+                    hint = "fold the multiplier into the value"
+                self.error(f"unsupported parameter '{key_tok}' on {what} '{name}'", st,
+                           key_tok.start_pos, hint)
+                return
+        if v is None:
+            return
+        a, b = node_name(ch[1]), node_name(ch[2])
+        b_main = self.parasitics(letter, name, a, b, parasitics, st)
+        self.body.elements.append(RawElement(letter, name, st, (a, b_main), value=v, ic=ic))
+
+    def parasitics(self, letter: str, name: str, a: str, b: str, found: dict,
+                   st: Statement) -> str:
+        """LTspice's parasitics as elements (:func:`netlist.ltspice.explicit_parasitics`)."""
+        return explicit_parasitics(self.body.elements, self.deck.notes, letter, name, a, b,
+                                   found, st)
+
+    def source(self, letter: str, name: str, ch: list, st: Statement) -> None:
+        dc: Value | None = None
+        wave = None
+        ok = True
+        parasitics: dict = {}
+        for part in ch[3:]:
+            if part.data == "assign":
+                key_tok, val_tok = part.children
+                key = key_tok.lower()
+                if key not in _PARASITICS.get(letter, ()):
+                    self.error(f"unsupported parameter '{key_tok}' on source '{name}'", st,
+                               key_tok.start_pos, "LTspice's Rser= and Cpar= are accepted")
+                    return
+                pv = self.value(val_tok, st)
+                if pv is None:
+                    return
+                parasitics[key] = (pv, key_tok)
+                continue
+            if part.data == "dc_part":
+                dc = self.value(part.children[-1], st)
+                ok = ok and dc is not None
+            elif part.data == "ac_part":
+                for t in part.children[1:]:
+                    ok = ok and self.value(t, st) is not None
+            else:
+                kw = part.children[0].children[0]
+                kind = kw.lower()
+                toks = part.children[1].children if len(part.children) > 1 else []
+                args = [self.value(t, st) for t in toks]
+                if any(a is None for a in args):
+                    return
+                lo, hi = WAVE_ARGS[kind]
+                if len(args) < lo or (hi is not None and len(args) > hi):
+                    names = {
+                        "pulse": "V1 V2 [TD [TR [TF [PW [PER [NP]]]]]]",
+                        "sin": "VO VA [FREQ [TD [THETA [PHASE]]]]",
+                        "exp": "V1 V2 [TD1 [TAU1 [TD2 [TAU2]]]]",
+                    }.get(kind, "T1 V1 [T2 V2 ...]")
+                    self.error(f"{kw.upper()} takes {lo} to {hi} values, got {len(args)}"
+                               if hi else f"{kw.upper()} needs at least {lo} values",
+                               st, kw.start_pos, f"syntax: {kw.upper()}({names})")
+                    return
+                if kind == "pwl" and len(args) % 2:
+                    self.error(f"PWL needs time-value pairs, got {len(args)} values", st,
+                               kw.start_pos, "syntax: PWL(T1 V1 T2 V2 ...)")
+                    return
+                wave = (kind, args, kw.start_pos)
+        if not ok:
+            return
+        a, b = node_name(ch[1]), node_name(ch[2])
+        b_main = self.parasitics(letter, name, a, b, parasitics, st)
+        self.body.elements.append(RawElement(letter, name, st, (a, b_main), value=dc,
+                                             wave=wave))
+
+    def instance(self, name: str, ch: list, st: Statement) -> None:
+        words: list[Token] = []
+        params: list[RawParam] = []
+        seen_params = False
+        for item in ch[1:]:
+            if item.data == "x_word":
+                if seen_params or params:
+                    tok = item.children[0]
+                    self.error(f"unexpected '{tok}' after the parameters of '{name}'", st,
+                               tok.start_pos, "syntax: Xname node... subckt [params: a=1 ...]")
+                    return
+                words.append(item.children[0])
+            elif item.data == "x_params":
+                seen_params = True
+            else:
+                params.extend(self.assigns([item], st))
+        if not words:
+            self.error(f"subcircuit instance '{name}' names no subcircuit", st, len(st.text),
+                       "syntax: Xname node... subckt [params: a=1 ...]")
+            return
+        sub = words[-1]
+        self.body.elements.append(RawElement(
+            "X", name, st, tuple(node_name(w) for w in words[:-1]), ref=str(sub),
+            ref_offset=sub.start_pos, params=params))
+
+
+    def device(self, letter: str, name: str, ch: list, st: Statement, usage: str) -> None:
+        """M and Q lines: nodes, then the model (the last word that is not a number or a
+        flag), then instance parameters (ignored: the device becomes an ideal switch)."""
+        words = [t for t in ch[1:] if isinstance(t, Token)]
+        cands = [i for i, t in enumerate(words)
+                 if parse_number(t) is None and t.lower() not in ("on", "off")]
+        if not cands:
+            self.error(f"{name}: no model name", st, len(st.text), f"syntax: {usage}")
+            return
+        mi = cands[-1]
+        nodes = words[:mi]
+        if len(nodes) not in (3, 4):
+            where = words[mi].start_pos
+            self.error(f"{name}: {len(nodes)} nodes before the model '{words[mi]}', expected "
+                       "3 or 4", st, where, f"syntax: {usage}")
+            return
+        self.body.elements.append(RawElement(
+            letter, name, st, tuple(node_name(n) for n in nodes), ref=str(words[mi]),
+            ref_offset=words[mi].start_pos))

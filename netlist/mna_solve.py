@@ -1,0 +1,86 @@
+"""The rank-revealing solve of a mode's MNA system ``M z = K ξ`` (netlist.formulation):
+equilibration, SVD, the null space (floating parts, singular companion networks) and which
+quantities it leaves undetermined, and the round-off cleaning of the final matrices."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["CLEAN_RTOL", "DETERMINED_RTOL", "RANK_RTOL", "Solution", "clean", "equilibrate"]
+
+# Relative tolerance on singular values of the equilibrated MNA matrix: below it a direction
+# counts as null (floating part, or a singular companion network).
+RANK_RTOL = 1e-10
+# Relative tolerance for "this quantity does not depend on the null space" and "the
+# equations are consistent for every ξ".
+DETERMINED_RTOL = 1e-8
+# Entries of the final matrices smaller than this, relative to their row, are round-off.
+CLEAN_RTOL = 1e-12
+
+
+class Solution:
+    """Least-squares solution ``z = Z ξ`` of ``M z = K ξ``, with its null space.
+
+    ``M`` is equilibrated (rows and columns scaled to unit max) before the SVD so that the
+    rank decision does not depend on the units of the rows (A vs V) or on element values.
+    """
+
+    def __init__(self, M: np.ndarray, K: np.ndarray):
+        nz, nxi = K.shape
+        r, c = equilibrate(M)
+        self.col_scale = c
+        if nz == 0:
+            self.Z = np.zeros((0, nxi))
+            self.null = np.zeros((0, 0))
+            self.inconsistent = []
+            return
+        Ms = r[:, None] * M * c[None, :]
+        Ks = r[:, None] * K
+        U, s, Vt = np.linalg.svd(Ms)
+        rank = int(np.sum(s > RANK_RTOL * s[0])) if s[0] > 0 else 0
+        self.null = Vt[rank:].T  # (nz, nz - rank), orthonormal, scaled coordinates
+        residual = U[:, rank:].T @ Ks
+        scale = np.linalg.norm(Ks, axis=0)
+        self.inconsistent = [
+            j for j in range(nxi)
+            if np.linalg.norm(residual[:, j]) > DETERMINED_RTOL * scale[j]
+        ]
+        zs = Vt[:rank].T @ ((U[:, :rank].T @ Ks) / s[:rank, None])
+        self.Z = c[:, None] * zs
+
+    def determined(self, form_z: np.ndarray) -> bool:
+        """Whether ``form_z @ z`` is the same for every solution z."""
+        g = form_z * self.col_scale
+        norm = np.linalg.norm(g)
+        if norm == 0 or self.null.shape[1] == 0:
+            return True
+        return bool(np.linalg.norm(g @ self.null) <= DETERMINED_RTOL * norm)
+
+    def evaluate(self, form: np.ndarray) -> np.ndarray:
+        """Row over ξ of a quantity given by its form over (z, ξ)."""
+        nz = self.Z.shape[0]
+        return form[:nz] @ self.Z + form[nz:]
+
+
+def equilibrate(M: np.ndarray, iterations: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """Row and column scalings ``r, c`` with ``diag(r) M diag(c)`` near unit max entries."""
+    A = np.abs(M)
+    r = np.ones(A.shape[0])
+    c = np.ones(A.shape[1])
+    for _ in range(iterations):
+        rowmax = (A * c[None, :]).max(axis=1, initial=0.0) * r
+        rowmax[rowmax == 0] = 1.0
+        r /= np.sqrt(rowmax)
+        colmax = (A * r[:, None]).max(axis=0, initial=0.0) * c
+        colmax[colmax == 0] = 1.0
+        c /= np.sqrt(colmax)
+    return r, c
+
+
+def clean(matrix: np.ndarray) -> np.ndarray:
+    """Zero the entries that are round-off relative to the largest entry of their row."""
+    out = np.array(matrix, dtype=float)
+    if out.size:
+        row_max = np.abs(out).max(axis=1, keepdims=True)
+        out[np.abs(out) <= CLEAN_RTOL * row_max] = 0.0
+    return out

@@ -1,0 +1,51 @@
+"""What the formulation leaves out of the LCS, and why (decided on the circuit, once, before
+any mode is built):
+
+- a capacitor whose terminals independent voltage sources alone join (an input capacitor
+  across the supply): its voltage is the sources', so it holds no state, and nothing else
+  depends on its current (only the sources' own currents would);
+- an ideal diode in parallel with an earlier one of the same orientation: one
+  complementarity pair carries both (two would leave the split of their current
+  undetermined, a non-unique λ).
+
+:func:`netlist.formulation.formulate` drops them; runs note them, probes of a merged diode are
+refused with the name of the diode that carries it.
+"""
+
+from __future__ import annotations
+
+from .circuit import Capacitor, Circuit, VoltageSource
+from .topology import UnionFind
+
+__all__ = ["parallel_diodes", "source_capacitors"]
+
+
+def source_capacitors(circuit: Circuit) -> list[str]:
+    """Keys of the capacitors whose terminals independent voltage sources alone join (an
+    input capacitor across the supply): their voltage is set by the sources, so they hold no
+    state; :func:`formulate` leaves them out (a note says so in a run)."""
+    uf = UnionFind()
+    for el in circuit.elements:
+        if isinstance(el, VoltageSource):
+            uf.union(*el.nodes[:2])
+    out = []
+    for el in circuit.elements:
+        if isinstance(el, Capacitor) and el.nodes[0] != el.nodes[1] and \
+                uf.find(el.nodes[0]) == uf.find(el.nodes[1]):
+            out.append(el.key)
+    return out
+
+
+def parallel_diodes(circuit: Circuit) -> dict[str, str]:
+    """Ideal diodes in parallel with an earlier one of the same orientation (same anode and
+    cathode nodes): key -> the name of the diode that carries them both."""
+    first: dict[tuple[str, str], str] = {}
+    out = {}
+    for el in circuit.elements:
+        if el.kind == "D":
+            pair = (el.nodes[0], el.nodes[1])
+            if pair in first:
+                out[el.key] = first[pair]
+            else:
+                first[pair] = el.name
+    return out

@@ -1,0 +1,309 @@
+"""What :func:`ngspice_checks.compare.compare` returns: the tolerances it applies and the
+per-probe, per-switch and overall comparison records (presented by
+:mod:`ngspice_checks.report`, serialised by ``to_dict``)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from lcs.results import SimulationResult
+
+from .measures import NonIdeality
+from .runner import NgspiceResult, NgspiceSettings
+
+__all__ = ["Comparison", "ProbeComparison", "SwitchingComparison", "Tolerances"]
+
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """How far ngspice may be from pelcs (see the module docstring for the reasons).
+
+    Attributes
+    ----------
+    nrms : float
+        NRMS floor (fraction of the probe's scale); k·δ is added.
+    mean : float
+        Floor of the mean tolerance (fraction of the scale); the tolerance is max(mean, k·δ).
+    ripple_rel : float
+        Part of the ripple tolerance proportional to pelcs' ripple.
+    ripple_floor : float
+        Part of the ripple tolerance proportional to the scale (k·δ is added).
+    k_nonideal : float
+        Multiplier of the relative non-ideal drop δ.
+    switching_steps : float
+        Switching-instant tolerance in ngspice steps (TMAX).
+    frequency : float
+        Relative tolerance of the switching frequency of free-running switches.
+    """
+
+    nrms: float = 0.03
+    mean: float = 0.01
+    ripple_rel: float = 0.10
+    ripple_floor: float = 0.005
+    k_nonideal: float = 2.0
+    switching_steps: float = 3.0
+    frequency: float = 0.10
+
+
+@dataclass
+class ProbeComparison:
+    """The metrics of one probe (SI units of the probe: V or A).
+
+    Attributes
+    ----------
+    probe : str
+        The probe as given (pelcs syntax).
+    ngspice_probe : str
+        What ngspice measured for it (``v(C1)`` becomes ``v(out)`` or ``v(a,b)``).
+    scale : float
+        max(RMS, ½ peak-to-peak) of the pelcs waveform over the run.
+    nrms, nrms_tol : float
+        RMS difference on the common grid / scale, and its tolerance.
+    mean_pelcs, mean_ngspice, mean_tol : float
+        Averages over the steady-state window and the allowed |difference| (absolute).
+    ripple_pelcs, ripple_ngspice, ripple_tol : float
+        Peak-to-peak over the window and the allowed |difference| (absolute).
+    excluded : float
+        Fraction of grid points left out of the NRMS (near switching instants).
+    """
+
+    probe: str
+    ngspice_probe: str
+    scale: float
+    nrms: float
+    nrms_tol: float
+    mean_pelcs: float
+    mean_ngspice: float
+    mean_tol: float
+    ripple_pelcs: float
+    ripple_ngspice: float
+    ripple_tol: float
+    excluded: float
+
+    @property
+    def mean_error(self) -> float:
+        """ngspice mean - pelcs mean."""
+        return self.mean_ngspice - self.mean_pelcs
+
+    @property
+    def ripple_error(self) -> float:
+        """ngspice ripple - pelcs ripple."""
+        return self.ripple_ngspice - self.ripple_pelcs
+
+    @property
+    def failures(self) -> list[str]:
+        """Names of the metrics out of tolerance (empty: the probe passes)."""
+        out = []
+        if not self.nrms <= self.nrms_tol:
+            out.append("nrms")
+        if not abs(self.mean_error) <= self.mean_tol:
+            out.append("mean")
+        if not abs(self.ripple_error) <= self.ripple_tol:
+            out.append("ripple")
+        return out
+
+    @property
+    def ok(self) -> bool:
+        return not self.failures
+
+
+@dataclass
+class SwitchingComparison:
+    """Switching instants of one switch in both simulators.
+
+    Attributes
+    ----------
+    switch : str
+    driven : str
+        How pelcs drove it (``source``, ``implicit``, ``hysteresis``, ...).
+    control : str
+        The ngspice probe of its control voltage, ``v(nc+,nc-)``.
+    method : str
+        ``"instants"`` (instants compared), ``"frequency"`` (free-running: frequency
+        compared) or ``"none"`` (not comparable; ``reason`` says why).
+    n_pelcs, n_ngspice : int
+        Switchings counted over the compared span.
+    max_offset : float
+        Largest distance from an instant of one simulator to the nearest instant of the
+        same direction in the other (s); NaN when not compared by instants.
+    tol : float
+        Its tolerance (s), or the relative frequency tolerance for ``"frequency"``.
+    freq_pelcs, freq_ngspice : float
+        Turn-on frequency over the steady-state window (Hz); NaN if too few switchings.
+    span : tuple of float
+        The time span compared (s).
+    reason : str
+        Why nothing was compared, or a remark.
+    """
+
+    switch: str
+    driven: str
+    control: str
+    method: str
+    n_pelcs: int
+    n_ngspice: int
+    max_offset: float
+    tol: float
+    freq_pelcs: float
+    freq_ngspice: float
+    span: tuple[float, float]
+    reason: str = ""
+
+    @property
+    def ok(self) -> bool:
+        if self.method == "instants":
+            return self.max_offset <= self.tol
+        if self.method == "frequency":
+            return abs(self.freq_ngspice - self.freq_pelcs) <= self.tol * abs(self.freq_pelcs)
+        return True
+
+
+@dataclass
+class Comparison:
+    """Everything :func:`compare` found; :mod:`ngspice_checks.report` presents it.
+
+    Attributes
+    ----------
+    file, title : str
+        Netlist file (or ``"<string>"``) and its title line.
+    params, pelcs_params : dict
+        ``.param`` overrides for both sides, and those applied to pelcs only (a deliberate
+        difference: ``pelcs check --pelcs-param``).
+    probes : list of ProbeComparison
+    switches : list of SwitchingComparison
+    tstop, step : float
+        Stop time and pelcs step (s).
+    theta : float
+    span : tuple of float
+        Common time span of both results (s).
+    period : float or None
+        Period used for the steady-state window (s), and ``period_source`` says where from.
+    window : tuple of float
+        The steady-state window (s); ``n_periods`` whole periods in it (0 without a period).
+    nonideal : NonIdeality
+    tolerances : Tolerances
+    rung : int
+        Ladder rung ngspice needed (0 = the netlist as written).
+    settings : NgspiceSettings
+        The rung's settings.
+    attempts : list of (int, str, str)
+        Failed rungs before it: (rung, name, reason).
+    pelcs_wall, pelcs_load : float
+        pelcs run time, and the one-off kernel loading before it (s).
+    pelcs_steps : int
+    ngspice_wall, ngspice_total : float
+        ngspice load+run time of the successful rung, and the whole call with failed rungs
+        and process start-up (s).
+    ngspice_points : int
+    notes : list of str
+    pelcs_result : SimulationResult
+    ngspice_result : NgspiceResult
+    """
+
+    file: str
+    title: str
+    params: dict[str, Any]
+    pelcs_params: dict[str, Any]
+    probes: list[ProbeComparison]
+    switches: list[SwitchingComparison]
+    tstop: float
+    step: float
+    theta: float
+    span: tuple[float, float]
+    period: float | None
+    period_source: str
+    window: tuple[float, float]
+    n_periods: int
+    nonideal: NonIdeality
+    tolerances: Tolerances
+    rung: int
+    settings: NgspiceSettings
+    attempts: list[tuple[int, str, str]]
+    pelcs_wall: float
+    pelcs_load: float
+    pelcs_steps: int
+    ngspice_wall: float
+    ngspice_total: float
+    ngspice_points: int
+    notes: list[str] = field(default_factory=list)
+    pelcs_result: SimulationResult | None = field(default=None, repr=False)
+    ngspice_result: NgspiceResult | None = field(default=None, repr=False)
+
+    @property
+    def ok(self) -> bool:
+        """True when every probe and every switch is within tolerance."""
+        return all(p.ok for p in self.probes) and all(s.ok for s in self.switches)
+
+    @property
+    def failures(self) -> list[str]:
+        """``"v(out): mean"``-style names of everything out of tolerance."""
+        out = [f"{p.probe}: {', '.join(p.failures)}" for p in self.probes if not p.ok]
+        out += [f"{s.switch}: switching {s.method}" for s in self.switches if not s.ok]
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-ready summary (SI units; the waveforms are not included)."""
+        s = self.settings
+        return {
+            "file": self.file,
+            "title": self.title,
+            "ok": self.ok,
+            "failures": self.failures,
+            "params": _jsonable(self.params),
+            "pelcs_params": _jsonable(self.pelcs_params),
+            "tstop": self.tstop,
+            "step": self.step,
+            "theta": self.theta,
+            "span": list(self.span),
+            "period": self.period,
+            "period_source": self.period_source,
+            "window": list(self.window),
+            "n_periods": self.n_periods,
+            "ngspice": {
+                "rung": self.rung,
+                "settings": {
+                    "name": s.name,
+                    "description": s.description,
+                    "options": dict(s.options),
+                    "pulse_min_edge": s.pulse_min_edge,
+                    "diode_model": s.diode_model,
+                    "switch_model": None if s.switch_model is None
+                    else vars(s.switch_model).copy(),
+                },
+                "failed_rungs": [
+                    {"rung": r, "name": n, "reason": why} for r, n, why in self.attempts
+                ],
+                "wall_time": self.ngspice_wall,
+                "total_time": self.ngspice_total,
+                "points": self.ngspice_points,
+            },
+            "pelcs": {
+                "wall_time": self.pelcs_wall,
+                "kernel_load_time": self.pelcs_load,
+                "steps": self.pelcs_steps,
+            },
+            "nonideal": {
+                "diode_drops": self.nonideal.diode_drops,
+                "switch_drops": self.nonideal.switch_drops,
+                "v_ref": self.nonideal.v_ref,
+                "delta": self.nonideal.delta,
+            },
+            "tolerances": vars(self.tolerances).copy(),
+            "probes": [
+                {**vars(p).copy(), "mean_error": p.mean_error, "ripple_error": p.ripple_error,
+                 "ok": p.ok, "failures": p.failures}
+                for p in self.probes
+            ],
+            "switches": [
+                {**{k: v for k, v in vars(w).items()}, "span": list(w.span), "ok": w.ok}
+                for w in self.switches
+            ],
+            "notes": list(self.notes),
+        }
+
+
+def _jsonable(d: Mapping[str, Any]) -> dict[str, Any]:
+    return {str(k): (v if isinstance(v, (int, float, str)) else str(v)) for k, v in d.items()}
