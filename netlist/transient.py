@@ -448,8 +448,8 @@ def simulate_circuit(
         Refuse a non-passive circuit instead of warning (see :func:`transient_setup`).
     method : str
         ``"moreau"`` (time-stepping) or ``"exact"`` (event-driven, exact between events:
-        :mod:`lcs.exact`; the step is then the output spacing; piecewise-linear sources and
-        netlist comparators only).
+        :mod:`lcs.exact`; the step is then the output spacing; DC, PULSE, PWL and SIN
+        sources and netlist comparators only).
 
     Returns
     -------

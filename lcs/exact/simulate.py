@@ -35,7 +35,7 @@ def simulate_exact(
     ----------
     system : SwitchedLCS
     signals : sequence
-        One resolved piecewise-linear waveform per input (DC, PULSE, PWL).
+        One resolved waveform per input (DC, PULSE, PWL or SIN).
     x0 : array_like (n,)
         Initial state.
     t_stop, h : float

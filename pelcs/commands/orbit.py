@@ -55,7 +55,7 @@ def add_map_options(p: argparse.ArgumentParser, *, param_help: str) -> None:
     p.add_argument("--method", choices=("moreau", "exact"), default="moreau",
                    help="moreau: θ time-stepping map, finite-difference Jacobians (default); "
                    "exact: exact flows and events, exact Jacobians (saltation), for "
-                   "piecewise-linear sources and netlist comparators")
+                   "DC, PULSE, PWL and SIN sources and netlist comparators")
 
 
 def add_event_option(p: argparse.ArgumentParser) -> None:

@@ -77,7 +77,7 @@ def register(subparsers) -> None:
                    "power)")
     p.add_argument("--method", choices=("moreau", "exact"), default="moreau",
                    help="moreau: θ time-stepping (default); exact: event-driven, exact "
-                   "between events (piecewise-linear sources, netlist comparators), the step "
+                   "between events (DC, PULSE, PWL, SIN sources; netlist comparators), the step "
                    "is then the output spacing")
     p.add_argument("--events", action="store_true",
                    help="with --method exact: print every event (time, element, kind, mode)")
