@@ -246,7 +246,8 @@ def test_check_takes_the_pyspice_buck_and_gives_ngspice_the_vendor_models(ngspic
 
 
 def test_parallel_ideal_diodes_are_merged():
-    from netlist.formulation import formulate, parallel_diodes
+    from netlist.formulation import formulate
+    from netlist.reductions import parallel_diodes
 
     text = (Path(__file__).parent / "netlists" / "ac" / "buck_vc.cir").read_text().replace(
         "D1 0 sw DIDEAL", "D1 0 sw DIDEAL\nD2 0 sw DIDEAL")

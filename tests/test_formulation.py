@@ -645,7 +645,7 @@ def test_capacitor_voltage_source_loop_rejected():
 def test_capacitor_across_a_voltage_source_holds_no_state():
     """An input capacitor straight across the supply (PySpice's buck example): its voltage
     is the source's, so it is no state and nothing else depends on it."""
-    from netlist.formulation import source_capacitors
+    from netlist.reductions import source_capacitors
 
     c = circuit(
         VoltageSource("V1", ("in", "0"), dc=1.0),
