@@ -195,3 +195,52 @@ class SimulationResult:
         if self.error is not None:
             raise self.error
         return self
+
+
+def output_times(t_first: float, t_last: float, dt: float) -> np.ndarray:
+    """The instants ``k dt`` (k = 0, 1, ...) in ``[t_first, t_last]``, and ``t_last`` itself
+    when it is not one of them (a stop time that is no multiple of ``dt``, a failed run), s."""
+    if not dt > 0:
+        raise ValueError(f"output step must be positive, got {dt!r}")
+    k0 = int(np.ceil(t_first / dt - 1e-9))
+    k1 = int(np.floor(t_last / dt + 1e-9))
+    t = np.arange(k0, k1 + 1, dtype=float) * dt
+    if t.size and abs(t[-1] - t_last) <= 1e-9 * dt:
+        t[-1] = t_last
+    elif t_last > (t[-1] if t.size else -np.inf):
+        t = np.append(t, t_last)
+    if t.size and abs(t[0] - t_first) <= 1e-9 * dt:
+        t[0] = t_first
+    return t
+
+
+def resample(result: SimulationResult, dt: float) -> SimulationResult:
+    """The result at the instants of :func:`output_times` (``k dt``, as ngspice writes a
+    ``.tran TSTEP`` grid), linearly interpolated between the stored points.
+
+    Where an output instant is a stored step (the usual case when ``dt`` is a multiple of the
+    step), its value is the step's exactly. Everything but ``t`` and ``y`` is shared with
+    ``result``.
+
+    Parameters
+    ----------
+    result : SimulationResult
+    dt : float
+        Output spacing, s.
+
+    Returns
+    -------
+    SimulationResult
+        ``t`` shape (N',), ``y`` shape (N', q).
+    """
+    from dataclasses import replace
+
+    t = np.asarray(result.t, dtype=float)
+    if t.size == 0:
+        return replace(result)
+    tout = output_times(float(t[0]), float(t[-1]), dt)
+    y = np.asarray(result.y, dtype=float)
+    yout = np.empty((tout.size, y.shape[1]))
+    for j in range(y.shape[1]):
+        yout[:, j] = np.interp(tout, t, y[:, j])
+    return replace(result, t=tout, y=yout)

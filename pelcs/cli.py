@@ -19,7 +19,22 @@ COMMANDS = ["info", "lcs", "simulate", "check", "bifurcation", "orbit", "continu
             "sweep", "ac"]
 
 
-def build_parser() -> argparse.ArgumentParser:
+def _wanted(argv: list[str] | None) -> list[str]:
+    """The subcommands whose modules the parser needs: the one named on the command line, or
+    all of them (for help, a mistyped command or none). Importing one command module instead
+    of ten saves about 0.1 s of every run."""
+    args = sys.argv[1:] if argv is None else argv
+    first = next((a for a in args if not a.startswith("-")), None)
+    if first in COMMANDS and not any(a in ("-h", "--help") for a in args[:args.index(first)]):
+        return [first]
+    return COMMANDS
+
+
+def build_parser(argv: list[str] | None = None, commands: list[str] | None = None
+                 ) -> argparse.ArgumentParser:
+    """The argument parser with the subcommands ``commands`` (default: those :func:`_wanted`
+    finds in ``argv``)."""
+    commands = _wanted(argv) if commands is None else commands
     parser = argparse.ArgumentParser(
         prog="pelcs",
         description="Power-electronics netlists with ideal diodes and switches as linear "
@@ -27,12 +42,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"pelcs {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name in COMMANDS:
+    for name in commands:
         # "continue" is a Python keyword, so its module is named continuation.
         module = importlib.import_module(
             f"pelcs.commands.{name.replace('continue', 'continuation')}")
         module.register(sub)
-    for name in COMMANDS:
+    for name in commands:
         if name in ("info", "lcs"):
             continue  # they simulate nothing (lcs gives the full passivity verdict)
         sub.choices[name].add_argument(
@@ -50,7 +65,7 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 def main(argv: list[str] | None = None) -> int:
     from netlist.errors import NetlistError
 
-    parser = build_parser()
+    parser = build_parser(argv)
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()

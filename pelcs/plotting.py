@@ -1,4 +1,4 @@
-"""Plots and files of simulation results: PNG (one panel per probe), CSV and NPZ.
+"""Plots of simulation results: PNG (one panel per probe); the files are :mod:`pelcs.writers`'.
 
 Probe units follow from the probe syntax: ``v(...)`` is in volts, ``i(...)`` in amperes. The
 time axis is scaled to s, ms, µs or ns from the length of the run. Figures are drawn on
@@ -8,7 +8,6 @@ alone), which also makes them work without a display.
 
 from __future__ import annotations
 
-import csv
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -18,6 +17,7 @@ import numpy as np
 from lcs.axes import envelope as _envelope  # shared with ngspice_checks
 from lcs.axes import probe_unit, time_unit
 from lcs.results import SimulationResult
+from pelcs.writers import write_csv, write_npz, write_result  # noqa: F401  (their old home)
 
 __all__ = [
     "auto_zoom",
@@ -183,52 +183,3 @@ def _zoom_panel(ax, t: np.ndarray, y: np.ndarray, window: tuple[float, float], c
         ax.set_title(f"mean {_fmt_si(mean, unit)}", loc="right", fontsize=8, color="0.3",
                      pad=3)
     ax.tick_params(labelsize=8)
-
-
-def write_csv(result: SimulationResult, path: str | os.PathLike) -> Path:
-    """Write ``time,<probe>,...`` rows in SI units (s, V, A).
-
-    A probe name with a comma (``v(a,b)``) is quoted in the header, as CSV requires.
-    """
-    out = Path(path)
-    with open(out, "w", newline="") as fh:
-        csv.writer(fh, lineterminator="\n").writerow(["time", *result.names])
-        data = np.column_stack([result.t, result.y]) if len(result.t) else np.empty((0, 1))
-        # 10 significant digits: below the accuracy of any run, and a quarter smaller files
-        # than repr precision.
-        np.savetxt(fh, data, fmt="%.10g", delimiter=",")
-    return out
-
-
-def write_npz(result: SimulationResult, path: str | os.PathLike) -> Path:
-    """Write a NumPy ``.npz`` archive of the run.
-
-    Keys: ``t`` (s), ``y`` (shape (N, q)), ``names`` (probe names, the columns of ``y``),
-    one array per probe under its name (``data["v(out)"]``), ``notes``, and ``error`` (the
-    error message, empty for a complete run).
-    """
-    out = Path(path)
-    arrays = {name: result.y[:, j] for j, name in enumerate(result.names)}
-    np.savez_compressed(
-        out, t=result.t, y=result.y, names=np.array(result.names, dtype=str),
-        notes=np.array(result.notes, dtype=str),
-        error=np.array(result.error.message if result.error is not None else ""),
-        **arrays,
-    )
-    return out
-
-
-def write_result(result: SimulationResult, path: str | os.PathLike) -> Path:
-    """Write a result as CSV or NPZ, chosen by the extension of ``path``.
-
-    Raises
-    ------
-    ValueError
-        For any other extension.
-    """
-    suffix = Path(path).suffix.lower()
-    if suffix == ".csv":
-        return write_csv(result, path)
-    if suffix == ".npz":
-        return write_npz(result, path)
-    raise ValueError(f"unknown output format {suffix or '(no extension)'!r}: use .csv or .npz")

@@ -1,15 +1,18 @@
 """After the set-up's warm-up, the README's commands compile no kernel (issue #16.3).
 
-Not a timed test: numba's own counters say whether a dispatcher found each signature it was
-called with in its on-disk cache (``stats.cache_hits``) or had to compile it
-(``stats.cache_misses``). A fresh process runs :func:`lcs.stepping.warmup.warm_up` (which
-compiles only when the cache is cold, as right after a checkout); another fresh process then
-runs the README's commands (shortened) and reports every kernel that missed.
+The processes run with ``PELCS_AOT=0``: the ahead-of-time module (``tests/test_aot.py``)
+would serve the commands without numba. Not a timed test: numba's own counters say whether
+a dispatcher found each signature it was called with in its on-disk cache
+(``stats.cache_hits``) or had to compile it (``stats.cache_misses``). A fresh process runs
+:func:`lcs.stepping.warmup.warm_up` (which compiles only when the cache is cold, as right
+after a checkout); another fresh process then runs the README's commands (shortened) and
+reports every kernel that missed.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -39,17 +42,18 @@ _RUNNER = """
 import atexit, json, sys, contextlib, io
 
 def report():
-    from numba.core.registry import CPUDispatcher
-    misses = {}
-    for name, mod in list(sys.modules.items()):
-        if not name.split(".")[0] in ("lcs", "netlist", "pelcs", "converters"):
+    import lcs.jit as jit
+    misses, hits = {}, 0
+    for k in jit._KERNELS:
+        d = k._dispatcher
+        if d is None or d._cache is None:
             continue
-        for attr, obj in list(vars(mod).items()):
-            if isinstance(obj, CPUDispatcher) and obj._cache is not None:
-                n = sum(obj.stats.cache_misses.values())
-                if n:
-                    misses[f"{name}.{attr}"] = n
+        hits += sum(d.stats.cache_hits.values())
+        n = sum(d.stats.cache_misses.values())
+        if n:
+            misses[f"{k.py_func.__module__}.{k.__name__}"] = n
     sys.__stdout__.write("MISSES " + json.dumps(misses) + "\\n")
+    sys.__stdout__.write(f"HITS {hits}\\n")
 
 atexit.register(report)
 from pelcs.cli import main
@@ -63,18 +67,21 @@ for args in json.loads(sys.argv[1]):
 
 
 def test_readme_commands_compile_nothing_after_warm_up(tmp_path):
+    env = {**os.environ, "PELCS_AOT": "0"}
     warm = subprocess.run([sys.executable, "-c",
                            "from lcs.stepping.warmup import warm_up; warm_up()"],
-                          cwd=ROOT, capture_output=True, text=True, timeout=900)
+                          cwd=ROOT, capture_output=True, text=True, timeout=900, env=env)
     assert warm.returncode == 0, warm.stderr
     cmds = [[a.replace("{out}", str(tmp_path)) for a in c] for c in COMMANDS]
     run = subprocess.run([sys.executable, "-c", _RUNNER, json.dumps(cmds)], cwd=ROOT,
-                         capture_output=True, text=True, timeout=900)
+                         capture_output=True, text=True, timeout=900, env=env)
     assert run.returncode == 0, run.stderr[-3000:]
     line = [ln for ln in run.stdout.splitlines() if ln.startswith("MISSES ")]
     assert line, run.stdout[-2000:] + run.stderr[-2000:]
     misses = json.loads(line[-1][len("MISSES "):])
     assert misses == {}, f"kernels compiled after warm_up: {misses}"
+    hits = [ln for ln in run.stdout.splitlines() if ln.startswith("HITS ")]
+    assert int(hits[-1].split()[1]) >= 5  # numba really served the kernels from its cache
     # The commands ran for real (the first one wrote its files).
     assert (tmp_path / "boost.csv").stat().st_size > 1000
     assert (tmp_path / "boost.png").exists()

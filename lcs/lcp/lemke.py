@@ -9,8 +9,8 @@ semidefinite matrices: every passive circuit) it proves that none exists.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from ..jit import jitted
 from .problem import (
     _STATUS_NAMES,
     LEMKE_MAX_PIVOTS,
@@ -125,7 +125,7 @@ def lemke(M: np.ndarray, q: np.ndarray, options: LcpOptions | None = None) -> Lc
 
 
 
-@njit(cache=True)
+@jitted
 def _lex_less_nb(T, i, ci, j, cj, m, lex_tol, largest, rhs_zero):
     """True when the ratio vector of row i beats row j (smaller, or larger if ``largest``).
 
@@ -146,7 +146,7 @@ def _lex_less_nb(T, i, ci, j, cj, m, lex_tol, largest, rhs_zero):
     return False
 
 
-@njit(cache=True)
+@jitted
 def _rhs_max(T, m):
     v = 0.0
     for i in range(m):
@@ -155,7 +155,7 @@ def _rhs_max(T, m):
     return v
 
 
-@njit(cache=True)
+@jitted
 def lemke_nb(M, q, max_pivots, pivot_tol, lex_tol, T, basis, z, w, active):
     """Lemke's method, numba version of :func:`lemke` (same pivoting rules).
 

@@ -14,9 +14,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from ..bits import from_words, to_words, words
+from ..jit import jitted
 from ..model import SwitchedLCS
 from .inputs import MERGE_FRACTION, InputFunction, evaluate_inputs
 
@@ -119,7 +119,7 @@ def _first_crossing(fun, sa: float, sb: float, ca: float, cb: float, thr: float,
     return float(lo)
 
 
-@njit(cache=True)
+@jitted
 def _linear_switch_events(sa, sb, ca, cb, on0, up, down, out_t, out_on):
     """Switching instants of one switch whose control is linear on every segment
     ``[sa[s], sb[s]]`` (from ``ca[s]`` to ``cb[s]``): on above ``up``, off below ``down``.
@@ -215,7 +215,7 @@ def _linear_events(maps, mode0, active, vt, vh, bounds, u_start, u_end, linear_i
     return mode_of(key0), (out_t[:ne].copy(), out_k[:ne].copy())
 
 
-@njit(cache=True)
+@jitted
 def _merge_keys(t_all, i_all, on_all, key0, t0, tol, out_t, out_k, key):
     """Switch keys (bitsets, :mod:`lcs.bits`) after each instant: simultaneous instants (within
     ``tol``) merged, instants at ``t0`` folded into the initial key ``key0`` (updated), instants

@@ -6,8 +6,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
+from ..jit import jitted
 from ..simulation.inputs import MERGE_FRACTION, SNAP_FRACTION
 
 
@@ -42,7 +42,7 @@ class GridPlan:
         return int(self.start[-1])
 
 
-@njit(cache=True)
+@jitted
 def _plan_nb(bounds, h, merge, snap_frac, n_reg, last, start):
     nseg = bounds.shape[0] - 1
     start[0] = 0
@@ -80,7 +80,7 @@ def plan_grid(bounds: np.ndarray, h: float) -> GridPlan:
     return GridPlan(bounds, float(h), n_reg, last, start)
 
 
-@njit(cache=True)
+@jitted
 def _fill_grid(bounds, n_regular, last, start, h, g0, g1, t_prev, t, odd, seg_out):
     """Step ends ``t[1:]``, odd flags and segment indices of global steps ``g0 .. g1-1``."""
     t[0] = t_prev

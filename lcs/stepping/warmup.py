@@ -10,7 +10,8 @@ whatever n, m, p), so a few tiny runs reach every signature a run can use:
   (``plain_mode=True``, what a source-driven PWM converter uses);
 * a switch driven by a hysteretic comparator -- located switchings, the instant search;
 * the same switch without hysteresis on an attractive surface -- Filippov sliding;
-* the same switch sampled (explicit method).
+* the same switch sampled (explicit method);
+* a switch driven by a PWM source (its instants planned before stepping).
 
 ``tests/test_warmup.py`` checks, in fresh processes, that after :func:`warm_up` the README's
 commands find every kernel signature they use in the cache.
@@ -32,6 +33,29 @@ def _diode_rc() -> LCS:
     one = np.ones((1, 1))
     return LCS(A=-one, B=one, C=-one, D=one, E=0 * one, F=one, states=("x",),
                pairs=(ComplementarityPair("D"),), inputs=("u",))
+
+
+def _gated_rc() -> SwitchedLCS:
+    """``x' = -x + s`` with a switch ``s`` driven by the input (a PWM source): its instants
+    are computed before stepping (the source-switching planner)."""
+
+    def builder(mode):
+        on = 1.0 if mode[0] else 0.0
+        one = np.ones((1, 1))
+        lcs = LCS(A=-one, B=one, C=-one, D=one, E=np.array([[on, 0.0]]),
+                  F=np.zeros((1, 2)), states=("x",), pairs=(ComplementarityPair("D"),),
+                  inputs=("one", "gate"))
+
+        def outputs(names):
+            rows = {"c": (0.0, [0.0, 1.0]), "x": (1.0, [0.0, 0.0])}
+            Cy = np.array([[rows[nm][0]] for nm in names])
+            Fy = np.array([rows[nm][1] for nm in names])
+            return OutputMap(tuple(names), Cy, np.zeros((len(names), 1)), Fy)
+
+        return ModeModel(lcs, outputs)
+
+    switch = SwitchControl("S", "c", vt=0.5, vh=0.0)
+    return SwitchedLCS([switch], ("x",), ("one", "gate"), ("D",), builder)
 
 
 def _relay_system(vh: float, explicit: bool = False) -> SwitchedLCS:
@@ -67,6 +91,8 @@ def warm_up() -> float:
     lcs = _diode_rc()
     simulate_lcs(lcs, [Dc(1.0)], [0.0], 1e-3, 1e-4)
     simulate_lcs(lcs, [Pulse(0.0, 1.0, 0.0, 1e-6, 1e-6, 1e-4, 2e-4)], [0.0], 2e-3, 1e-5)
+    gate = Pulse(0.0, 1.0, 0.0, 1e-6, 1e-6, 4e-5, 1e-4)
+    simulate(_gated_rc(), [Dc(1.0), gate], [0.0], 2e-3, 1e-6)
     for vh, explicit in ((0.1, False), (0.0, False), (0.1, True)):
         simulate(_relay_system(vh, explicit), [Dc(1.0)], [0.0], 5e-2, 1e-3)
     return time.perf_counter() - t0

@@ -3,7 +3,8 @@
 ::
 
     pelcs simulate FILE [--tstop T] [--step H] [--theta TH] [--param NAME=VALUE]...
-                        [--probe EXPR]... [--every N] [-o OUT.csv|OUT.npz] [--plot OUT.png]
+                        [--probe EXPR]... [--output-step T | --all-steps | --every N]
+                        [-o OUT.csv|OUT.npz|OUT.parquet] [--plot OUT.png]
                         [--method moreau|exact] [--events]
 
 ``--method exact`` integrates exactly between events (:mod:`lcs.exact`: one matrix
@@ -12,8 +13,10 @@ exponential per stretch, events located to round-off); the step is then the outp
 
 Defaults come from the netlist's ``.tran`` (stop time TSTOP, step TMAX if given, else TSTEP);
 times accept SPICE suffixes (``--tstop 5m``, ``--step 0.1u``). Probes are ``v(out)``,
-``v(a,b)``, ``i(L1)``, ``i(D1)``...; the default is every state. The CSV has the header
-``time,<probe>,...`` and SI units. A short summary goes to stdout.
+``v(a,b)``, ``i(L1)``, ``i(D1)``...; the default is every state. The points written (and
+plotted) are the ``.tran TSTEP`` grid, as ngspice writes it (``--output-step`` another
+spacing, ``--all-steps`` every step). The CSV has the header ``time,<probe>,...`` and SI
+units. A short summary goes to stdout.
 
 Exit status: 0 success; 2 input errors (bad netlist, option or probe; printed gcc-style by
 :mod:`pelcs.cli`); 3 the run failed (an LCP without solution, a non-finite state): the
@@ -29,7 +32,9 @@ import sys
 import time
 from pathlib import Path
 
+from lcs.results import resample
 from netlist.errors import Diagnostic, NetlistError
+from pelcs.writers import FORMATS
 
 EXIT_FAILED = 3
 
@@ -56,8 +61,16 @@ def register(subparsers) -> None:
     p.add_argument("--probe", action="append", default=[], metavar="EXPR",
                    help="v(NODE), v(NODE,NODE) or i(ELEMENT) (repeatable, or a "
                    "comma-separated list); default: every state")
-    p.add_argument("--every", metavar="N", default="1", help="keep every N-th step")
-    p.add_argument("-o", "--output", metavar="OUT", help="write the probes to OUT.csv or OUT.npz")
+    p.add_argument("--output-step", metavar="T",
+                   help="spacing of the points written and plotted (default: .tran TSTEP, as "
+                   "ngspice; linear interpolation between steps)")
+    p.add_argument("--all-steps", action="store_true",
+                   help="write every integration step (and every switching instant) instead "
+                   "of the .tran TSTEP grid")
+    p.add_argument("--every", metavar="N",
+                   help="write every N-th integration step (implies --all-steps)")
+    p.add_argument("-o", "--output", metavar="OUT",
+                   help="write the probes to OUT.csv, OUT.npz or OUT.parquet")
     p.add_argument("--plot", metavar="OUT.png", help="plot the probes, one panel each")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--threshold", action="append", default=[], metavar="NAME=V",
@@ -170,11 +183,18 @@ def run(args: argparse.Namespace) -> int:
     if not 0.5 <= theta <= 1.0:
         raise _usage_error(f"--theta {args.theta}: θ must be in [0.5, 1]",
                            "0.5 is the trapezoidal scheme (second order), 1 backward Euler")
-    every_f = _number("--every", args.every)
+    every_f = _number("--every", args.every or "1")
     if every_f != int(every_f) or every_f < 1:
         raise _usage_error(f"--every {args.every}: not a positive integer", "e.g. --every 10")
     every = int(every_f)
-    out = _check_path("-o", args.output, (".csv", ".npz")) if args.output else None
+    output_step = _number("--output-step", args.output_step, ("", "s"))
+    if output_step is not None and not output_step > 0:
+        raise _usage_error(f"--output-step {args.output_step}: must be positive",
+                           "e.g. --output-step 1u")
+    if output_step is not None and (args.all_steps or args.every):
+        raise _usage_error("--output-step and --all-steps/--every both choose the points "
+                           "written", "give one of them")
+    out = _check_path("-o", args.output, FORMATS) if args.output else None
     plot = _check_path("--plot", args.plot, (".png", ".svg", ".pdf")) if args.plot else None
 
     params = parse_overrides(args.param)
@@ -214,12 +234,21 @@ def run(args: argparse.Namespace) -> int:
                            file=args.file) from exc
     wall = time.perf_counter() - t0
 
+    steps_stored = len(result.t)
+    spacing = _output_spacing(output_step, args.all_steps or bool(args.every), circuit, setup)
+    if spacing is not None:
+        result = resample(result, spacing[0])
     written = _write(result, out, plot, circuit.title or Path(args.file).name, args.file,
                      setup.t_stop)
     switches = [s.name for s in setup.system.switches]
+    if spacing is not None:
+        points = (f"every {_eng(spacing[0], 's')} ({spacing[1]}; --all-steps writes all "
+                  f"{steps_stored})")
+    else:
+        points = "every step" if every == 1 else f"every {every}th step"
     print(summary(result, args.file, circuit.title, tstop=setup.t_stop, step=setup.h,
                   theta=theta, wall=wall, written=written, switches=switches, load=load,
-                  method=args.method))
+                  method=args.method, points=points))
     if result.losses is not None:
         print("\n".join(result.losses.lines()))
     if args.events:
@@ -238,10 +267,29 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _output_spacing(output_step: float | None, all_steps: bool, circuit, setup
+                    ) -> tuple[float, str] | None:
+    """The spacing of the points written and where it comes from, or None for every step.
+
+    As ngspice writes its ``.tran TSTEP`` grid, so does pelcs by default; a TSTEP finer than
+    the integration step (or a run without ``.tran``) writes every step instead, since
+    interpolating below the step adds points and no information.
+    """
+    if output_step is not None:
+        return output_step, "--output-step"
+    if all_steps:
+        return None
+    tran = circuit.tran
+    if tran is None or not tran.tstep > 0 or tran.tstep < setup.h * (1 - 1e-9):
+        return None
+    return float(tran.tstep), ".tran TSTEP"
+
+
 def _write(result, out: Path | None, plot: Path | None, title: str, file: str,
            t_stop: float) -> list[str]:
     """Write the requested files (also for a failed run); returns their names."""
-    from pelcs.plotting import plot_result, write_result
+    from pelcs.plotting import plot_result
+    from pelcs.writers import write_result
 
     written = []
     for path, writer in ((out, write_result), (plot, None)):
@@ -269,7 +317,7 @@ def _eng(value: float, unit: str) -> str:
 
 def summary(result, file: str, title: str, *, tstop: float, step: float, theta: float,
             wall: float, written: list[str], switches: list[str] = (),
-            load: float | None = None, method: str = "moreau") -> str:
+            load: float | None = None, method: str = "moreau", points: str = "") -> str:
     """The text printed after a run: steps and timing, modes, final values, notes, files.
 
     Parameters
@@ -288,6 +336,10 @@ def summary(result, file: str, title: str, *, tstop: float, step: float, theta: 
         Switch names in mode-key order.
     load : float, optional
         Time spent loading the compiled kernels before the run, s.
+    method : str
+        ``"moreau"`` or ``"exact"``.
+    points : str
+        Which points were written (``"every 200 ns (.tran TSTEP)"``).
     """
     from pelcs.plotting import probe_unit
 
@@ -321,5 +373,6 @@ def summary(result, file: str, title: str, *, tstop: float, step: float, theta: 
     for note in result.notes:
         lines.append(f"note: {note}")
     if written:
-        lines.append(f"wrote {', '.join(written)} ({len(result.t)} points)")
+        lines.append(f"wrote {', '.join(written)} ({len(result.t)} points"
+                     + (f", {points}" if points else "") + ")")
     return "\n".join(lines)

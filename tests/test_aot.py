@@ -1,0 +1,120 @@
+"""The ahead-of-time kernel module (issue #14.2, start-up): built by ``scripts/setup``, it runs
+the same compiled code as numba's dispatchers, and a run served by it never imports numba.
+
+Not timed here (``benchmarks/bench_command.py`` times whole commands): these tests check that
+the module is there, that results are bit-for-bit those of numba's kernels on every kind of
+run (plain PWM loop, comparators, Filippov sliding, many pairs with factorisation updates,
+Lemke fallbacks), and what a command imports.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from converters.scaling import cockcroft_walton, interleaved_buck, mmc_arm
+from lcs import kernels
+
+ROOT = Path(__file__).resolve().parents[1]
+NETLISTS = ROOT / "converters" / "netlists"
+
+# (label, netlist text or file, stop time): one of each kind of kernel path.
+CASES = [
+    ("boost", str(NETLISTS / "boost.cir"), "0.5m"),        # source-driven PWM, plain loop
+    ("vm_buck", str(NETLISTS / "vm_buck.cir"), "1m"),      # comparator, located switchings
+    ("boost_smc", str(NETLISTS / "boost_smc.cir"), "0.2m"),  # implicit sliding mode
+    ("prc", str(NETLISTS / "prc.cir"), "0.2m"),            # 4-diode bridge
+    ("bridge", str(NETLISTS / "bridge_rectifier.cir"), "5m"),  # SIN source
+    ("cw12", cockcroft_walton(12), "1m"),                  # 24 pairs: warm starts, updates
+    ("ib4", interleaved_buck(4), "0.2m"),                  # 4 switches, 4 diodes
+    ("mmc4", mmc_arm(4), "2m"),                            # 8 switches, 8 diodes
+]
+
+_RUN = """
+import json, sys, warnings
+import numpy as np
+warnings.simplefilter("ignore")
+import pelcs
+out = {}
+for label, src, tstop in json.loads(sys.argv[1]):
+    r = pelcs.simulate(src, tstop=tstop, check=False)
+    out[label] = dict(t=r.t.tolist(), y=r.y.tolist(), steps=r.stats.steps,
+                      lemke=r.stats.fallbacks, error=None if r.error is None else r.error.kind)
+import lcs.jit
+print("NUMBA", "numba" in sys.modules, lcs.jit.materialized())
+print("RESULT " + json.dumps(out))
+"""
+
+
+def _run(env_aot: str) -> tuple[dict, str]:
+    env = {**os.environ, "PELCS_AOT": env_aot}
+    p = subprocess.run([sys.executable, "-c", _RUN, json.dumps(CASES)], cwd=ROOT, env=env,
+                       capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr[-3000:]
+    line = next(ln for ln in p.stdout.splitlines() if ln.startswith("RESULT "))
+    numba = next(ln for ln in p.stdout.splitlines() if ln.startswith("NUMBA "))
+    return json.loads(line[len("RESULT "):]), numba
+
+
+@pytest.fixture(scope="module")
+def aot_built():
+    if not kernels.aot_path().is_file():
+        msg = (f"the ahead-of-time kernel module {kernels.aot_path()} is not built: run "
+               "scripts/setup (python -m lcs.aot)")
+        if os.environ.get("PELCS_REQUIRE_AOT") == "1":
+            pytest.fail(msg)
+        pytest.skip(msg)
+    return kernels.aot_path()
+
+
+def test_aot_results_equal_numba_bit_for_bit(aot_built):
+    aot, aot_numba = _run("1")
+    jit, jit_numba = _run("0")
+    # The AOT process ran without numba; the other one used it.
+    assert aot_numba == "NUMBA False False"
+    assert jit_numba == "NUMBA True True"
+    for label, _, _ in CASES:
+        a, j = aot[label], jit[label]
+        assert a["error"] is None and j["error"] is None, label
+        assert a["steps"] == j["steps"] > 100, label
+        assert np.array_equal(np.array(a["t"]), np.array(j["t"])), label
+        assert np.array_equal(np.array(a["y"]), np.array(j["y"])), label
+    assert aot["cw12"]["steps"] > 1000
+
+
+def test_simulate_command_imports_neither_numba_nor_scipy(aot_built, tmp_path):
+    code = ("import sys; from pelcs.cli import main; "
+            f"rc = main(['simulate', {str(NETLISTS / 'boost.cir')!r}, '-o', "
+            f"{str(tmp_path / 'b.csv')!r}, '--no-progress']); "
+            "print('MODS', rc, sorted(m for m in ('numba', 'scipy', 'matplotlib', 'pandas', "
+            "'cvxpy', 'control') if m in sys.modules))")
+    p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
+                       timeout=300, env={**os.environ, "PELCS_AOT": "1"})
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert "MODS 0 []" in p.stdout, p.stdout[-2000:]
+    assert (tmp_path / "b.csv").stat().st_size > 1000
+
+
+def test_missing_or_stale_module_falls_back_to_numba(tmp_path):
+    # Another cache directory holds no module for these sources: numba serves the run.
+    code = ("import lcs.kernels as k, pelcs, sys; "
+            f"r = pelcs.simulate({str(NETLISTS / 'buck.cir')!r}, tstop='0.1m'); "
+            "print('USING', k.using_aot(), 'numba' in sys.modules, r.stats.steps)")
+    p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
+                       timeout=600, env={**os.environ, "PELCS_CACHE_DIR": str(tmp_path)})
+    assert p.returncode == 0, p.stderr[-2000:]
+    words = p.stdout.split("USING ")[1].split()
+    assert words[:2] == ["False", "True"] and int(words[2]) > 100
+
+
+def test_module_path_names_the_sources_and_numba():
+    path = kernels.aot_path()
+    assert kernels.kernel_stamp().hex()[:16] in str(path)
+    assert f"numba{kernels._numba_version()}" in str(path)
+    assert path.name.startswith(kernels.AOT_MODULE)
