@@ -143,6 +143,8 @@ class SimulationResult:
         With piecewise-linear devices: each diode's and switch's Vf and Ron.
     losses : netlist.losses.LossReport or None
         When asked for: conduction losses, input and output power, efficiency.
+    theta : float or None
+        θ of a Moreau run of a netlist (:func:`netlist.transient.choose_theta`).
     """
 
     t: np.ndarray
@@ -160,6 +162,7 @@ class SimulationResult:
     event_log: list = field(default_factory=list)
     device_fits: list = field(default_factory=list)
     losses: object = None
+    theta: float | None = None
 
     @property
     def ok(self) -> bool:

@@ -403,7 +403,7 @@ def simulate_circuit(
     *,
     tstop: float | None = None,
     step: float | None = None,
-    theta: float = 0.5,
+    theta: float | None = None,
     probes: Sequence[str] | None = None,
     every: int = 1,
     progress: bool = False,
@@ -424,8 +424,9 @@ def simulate_circuit(
     circuit : Circuit
     tstop, step : float, optional
         Override the ``.tran`` stop time and step (s).
-    theta : float
-        θ in [1/2, 1] (1/2: trapezoidal, second order; 1: backward Euler).
+    theta : float, optional
+        θ in [1/2, 1] (1/2: trapezoidal, second order; 1: backward Euler). Default: 1/2,
+        or 1 where θ < 1 is not reliable (:func:`choose_theta`).
     probes : sequence of str, optional
         ``v(n)``, ``v(a,b)``, ``i(X)`` or state names; default every state.
     every : int
@@ -477,7 +478,7 @@ def simulate_circuit(
 def run_setup(
     setup: TransientSetup,
     *,
-    theta: float = 0.5,
+    theta: float | None = None,
     probes: Sequence[str] | None = None,
     every: int = 1,
     progress: bool = False,
@@ -490,9 +491,13 @@ def run_setup(
     """Run a prepared :class:`TransientSetup` (arguments as in :func:`simulate_circuit`).
 
     The set-up's notes come first in ``result.notes``; an initial state jump is reported by
-    a note of its own; points before ``setup.t_save`` are dropped.
+    a note of its own; points before ``setup.t_save`` are dropped. ``result.theta`` is the θ
+    used (:func:`choose_theta`).
     """
     jump = _JumpRecorder(setup.energy)
+    theta_note = None
+    if method == "moreau":
+        theta, theta_note = choose_theta(setup, theta)
     if method == "exact":
         from lcs.exact.simulate import simulate_exact
 
@@ -512,7 +517,9 @@ def run_setup(
             progress=progress, on_inconsistent=jump, options=options, switching=switching,
             save_at=save_at, controllers=controllers,
         )
-    result.notes[:0] = setup.notes
+    result.notes[:0] = setup.notes + ([theta_note] if theta_note else [])
+    if method == "moreau":
+        result.theta = theta
     growth = state_growth(result)
     if growth is not None:
         result.notes.append(growth)
@@ -520,6 +527,33 @@ def run_setup(
         keep = result.t >= setup.t_save
         result.t, result.y = result.t[keep], result.y[keep]
     return result
+
+
+#: θ of a run when none is given and θ < 1 is reliable
+DEFAULT_THETA = 0.5
+
+
+def choose_theta(setup: TransientSetup, theta: float | None) -> tuple[float, str | None]:
+    """θ for a Moreau run of ``setup``, and a note when θ < 1 is not reliable there.
+
+    ``theta=None``: :data:`DEFAULT_THETA`, unless :func:`lcs.theta_screen.screen_theta`
+    finds a mode whose λ = 0 configuration has stiff dynamics that its diodes cancel; then
+    θ = 1 (backward Euler, first order) with a note saying why. A θ < 1 given explicitly is
+    kept, with the same finding as a note.
+    """
+    from lcs.theta_screen import screen_theta
+
+    wanted = DEFAULT_THETA if theta is None else float(theta)
+    risks = screen_theta(setup.system, setup.h, wanted)
+    if not risks:
+        return wanted, None
+    r = min(risks, key=lambda r: r.g)
+    text = r.message(setup.h, wanted)
+    if theta is None:
+        return 1.0, (f"{text}: the run uses θ = 1 (backward Euler, first order); θ = "
+                     f"{wanted:g} would need a step below {r.h_max:.3g} s")
+    return wanted, (f"{text}; θ = 1 (backward Euler) or a step below {r.h_max:.3g} s avoids "
+                    "it")
 
 
 #: growth of the recorded signals over a run beyond which the summary says so

@@ -88,7 +88,7 @@ def simulate(
     circuit_or_path: Source,
     tstop: float | str | None = None,
     step: float | str | None = None,
-    theta: float = 0.5,
+    theta: float | None = None,
     probes: Sequence[str] | str | None = None,
     every: int = 1,
     params: Mapping[str, float] | None = None,
@@ -111,8 +111,10 @@ def simulate(
     tstop, step : float or str, optional
         Stop time and step, s (or SPICE text such as ``"5m"``); default from ``.tran``
         (step: TMAX if given, else TSTEP).
-    theta : float
+    theta : float, optional
         θ in [1/2, 1]: 1/2 trapezoidal (second order between events), 1 backward Euler.
+        Default 1/2, or 1 where :mod:`lcs.theta_screen` finds θ < 1 unreliable (noted;
+        ``res.theta`` is the value used).
     probes : sequence of str, or str, optional
         ``"v(out)"``, ``"v(a,b)"``, ``"i(L1)"``, ``"i(D1)"``...; default every state.
     every : int

@@ -54,8 +54,9 @@ def register(subparsers) -> None:
     p.add_argument("--tstop", metavar="T", help="stop time (default: .tran TSTOP)")
     p.add_argument("--step", metavar="H",
                    help="time step (default: .tran TMAX if given, else TSTEP)")
-    p.add_argument("--theta", metavar="TH", default="0.5",
-                   help="θ in [0.5, 1]: 0.5 trapezoidal (default), 1 backward Euler")
+    p.add_argument("--theta", metavar="TH",
+                   help="θ in [0.5, 1]: 0.5 trapezoidal (default; 1 where θ < 1 is found "
+                   "unreliable, with a note), 1 backward Euler")
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                    help="override a global .param (repeatable; SPICE suffixes allowed)")
     p.add_argument("--probe", action="append", default=[], metavar="EXPR",
@@ -180,7 +181,7 @@ def run(args: argparse.Namespace) -> int:
     tstop = _number("--tstop", args.tstop, ("", "s"))
     step = _number("--step", args.step, ("", "s"))
     theta = _number("--theta", args.theta)
-    if not 0.5 <= theta <= 1.0:
+    if theta is not None and not 0.5 <= theta <= 1.0:
         raise _usage_error(f"--theta {args.theta}: θ must be in [0.5, 1]",
                            "0.5 is the trapezoidal scheme (second order), 1 backward Euler")
     every_f = _number("--every", args.every or "1")
@@ -246,8 +247,9 @@ def run(args: argparse.Namespace) -> int:
                   f"{steps_stored})")
     else:
         points = "every step" if every == 1 else f"every {every}th step"
+    used = result.theta if result.theta is not None else (theta or 0.5)
     print(summary(result, args.file, circuit.title, tstop=setup.t_stop, step=setup.h,
-                  theta=theta, wall=wall, written=written, switches=switches, load=load,
+                  theta=used, wall=wall, written=written, switches=switches, load=load,
                   method=args.method, points=points))
     if result.losses is not None:
         print("\n".join(result.losses.lines()))
