@@ -94,6 +94,8 @@ from .stepping.layout import (
     IV_MISSES,
     IV_NMODES,
     IV_ODD,
+    IV_ODDHIT,
+    IV_ODDMISS,
     IV_OUTPOS,
     IV_PIVOTS,
     IV_ROOTEVALS,
@@ -179,6 +181,10 @@ class MoreauOptions:
         When a regular step's cached active set is not accepted, at most this many iterations
         of block principal pivoting from it (:func:`lcs.lcp.compiled.solve_warm`) before
         Lemke; 0 goes to Lemke directly.
+    odd_slots : int
+        Discretisations of shortened steps kept per mode (fewer for large circuits: 1 MiB a
+        mode, :func:`lcs.stepping.modes.odd_slots`); 0 discretises every shortened step
+        afresh.
     """
 
     lcp: LcpOptions = field(default_factory=LcpOptions)
@@ -192,6 +198,7 @@ class MoreauOptions:
     max_switchings: int = 16
     root_tol: float = 1e-12
     warm_iter: int = 32
+    odd_slots: int = 8
 
 
 class MoreauIntegrator(Integrator):
@@ -367,6 +374,8 @@ class MoreauIntegrator(Integrator):
             factorisations=int(iv[IV_MISSES]),
             factor_updates=int(iv[IV_UPDATES]),
             uniqueness_checks=int(iv[IV_UNIQ]),
+            odd_stored=int(iv[IV_ODDHIT]),
+            odd_discretised=int(iv[IV_ODDMISS]),
             located=int(iv[IV_LOCATED]),
             root_evaluations=int(iv[IV_ROOTEVALS]),
             sliding_steps=int(iv[IV_SLIDESTEPS]),

@@ -72,6 +72,10 @@ class SimulationStats:
         Of those, the ones made by rank-one updates of a cached active set a few pairs away.
     uniqueness_checks : int
         Lemke solutions checked for a unique next state by enumeration.
+    odd_stored : int
+        Shortened steps served by a stored discretisation of their length.
+    odd_discretised : int
+        Shortened-step lengths discretised and stored.
     intervals : int
         Intervals of constant switch mode.
     located : int
@@ -94,6 +98,8 @@ class SimulationStats:
     factorisations: int = 0
     factor_updates: int = 0
     uniqueness_checks: int = 0
+    odd_stored: int = 0
+    odd_discretised: int = 0
     intervals: int = 0
     located: int = 0
     root_evaluations: int = 0

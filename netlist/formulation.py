@@ -62,7 +62,7 @@ from .circuit import GROUND, Circuit, Element
 from .errors import Diagnostic, NetlistError
 from .mna_solve import Solution, clean
 from .reductions import parallel_diodes, source_capacitors
-from .topology import UnionFind, find_cutset, find_loop
+from .topology import UnionFind, bridges, find_cutset, find_loop
 
 __all__ = ["formulate", "storage_matrix", "EXHAUSTIVE_DIODE_LIMIT"]
 
@@ -407,16 +407,12 @@ class _Formulator:
     def _isolated(self, on: frozenset[str]) -> list[int]:
         """Indices of the diodes whose terminals no other path joins once the open switches
         are removed (every element but the diode and the open switches carries current)."""
-        out = []
-        for i, d in enumerate(self.diodes):
-            uf = UnionFind()
-            for el in self.two_terminal:
-                if el.key == d.key or (el.kind == "S" and el.key not in on):
-                    continue
-                uf.union(*el.nodes[:2])
-            if uf.find(d.nodes[0]) != uf.find(d.nodes[1]):
-                out.append(i)
-        return out
+        # A diode is isolated exactly when it is a bridge of the graph of the elements that
+        # carry current (one search for every diode, not a union-find per diode).
+        kept = [el for el in self.two_terminal if not (el.kind == "S" and el.key not in on)]
+        cut = bridges([tuple(el.nodes[:2]) for el in kept])
+        at = {el.key: k for k, el in enumerate(kept)}
+        return [i for i, d in enumerate(self.diodes) if at.get(d.key) in cut]
 
     def _check_topology(self, on: frozenset[str], desc: str) -> None:
         """Reject loops of voltage-defined and cutsets of current-defined branches."""
@@ -503,16 +499,11 @@ class _Formulator:
         others = [el.nodes for el in self.two_terminal
                   if el.kind not in _CURRENT_KINDS and el.kind != "D"
                   and (el.kind != "S" or el.key in on)]
-        forced_voltage = set()
-        for d in self.diodes:
-            uf = UnionFind()
-            for a, b in others:
-                uf.union(a, b)
-            for other in self.diodes:
-                if other is not d:
-                    uf.union(*other.nodes)
-            if uf.find(d.nodes[0]) != uf.find(d.nodes[1]):
-                forced_voltage.add(d.key)
+        # d is in a cutset with current-defined branches exactly when it is a bridge of the
+        # other branches and the diodes.
+        cut = bridges([tuple(nodes[:2]) for nodes in others]
+                      + [tuple(d.nodes[:2]) for d in self.diodes])
+        forced_voltage = {d.key for i, d in enumerate(self.diodes) if len(others) + i in cut}
         return forced_voltage, forced_current - forced_voltage
 
     def _candidates(self, on: frozenset[str], free: list[str],

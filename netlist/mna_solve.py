@@ -14,6 +14,13 @@ RANK_RTOL = 1e-10
 # Relative tolerance for "this quantity does not depend on the null space" and "the
 # equations are consistent for every ξ".
 DETERMINED_RTOL = 1e-8
+# Systems of at least this many unknowns try an LU factorisation first (scipy's LAPACK: worth
+# its 0.2 s import only where SVDs take tens of milliseconds per mode), accepted when the
+# 1-norm reciprocal condition estimate exceeds LU_RCOND: then the smallest singular value is
+# at least about LU_RCOND / n of the largest, far above RANK_RTOL, and the SVD would find
+# full rank.
+LU_MIN_SIZE = 150
+LU_RCOND = 1e-6
 # Entries of the final matrices smaller than this, relative to their row, are round-off.
 CLEAN_RTOL = 1e-12
 
@@ -36,6 +43,8 @@ class Solution:
             return
         Ms = r[:, None] * M * c[None, :]
         Ks = r[:, None] * K
+        if nz >= LU_MIN_SIZE and Ms.shape[0] == nz and self._lu(Ms, Ks, c):
+            return
         U, s, Vt = np.linalg.svd(Ms)
         rank = int(np.sum(s > RANK_RTOL * s[0])) if s[0] > 0 else 0
         self.null = Vt[rank:].T  # (nz, nz - rank), orthonormal, scaled coordinates
@@ -47,6 +56,26 @@ class Solution:
         ]
         zs = Vt[:rank].T @ ((U[:, :rank].T @ Ks) / s[:rank, None])
         self.Z = c[:, None] * zs
+
+    def _lu(self, Ms: np.ndarray, Ks: np.ndarray, c: np.ndarray) -> bool:
+        """The regular case by an LU factorisation (a 600-unknown system: 3 ms against 45 ms
+        for the SVD), when LAPACK's condition estimate leaves no doubt about the rank (the
+        SVD decides otherwise)."""
+        from scipy.linalg import lapack
+
+        lu, piv, info = lapack.dgetrf(Ms)
+        if info != 0:
+            return False
+        rcond, info = lapack.dgecon(lu, float(np.abs(Ms).sum(axis=0).max()), norm="1")
+        if info != 0 or not rcond > LU_RCOND:
+            return False
+        zs, info = lapack.dgetrs(lu, piv, Ks)
+        if info != 0 or not np.all(np.isfinite(zs)):
+            return False
+        self.null = np.zeros((Ms.shape[0], 0))
+        self.inconsistent = []
+        self.Z = c[:, None] * zs
+        return True
 
     def determined(self, form_z: np.ndarray) -> bool:
         """Whether ``form_z @ z`` is the same for every solution z."""

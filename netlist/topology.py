@@ -135,3 +135,48 @@ def find_cutset(
     if not cuts:
         return None
     return min(cuts.values(), key=len)
+
+
+def bridges(edges: Sequence[tuple[str, str]]) -> set[int]:
+    """Indices of the bridges of a multigraph: the edges whose removal disconnects their two
+    ends (a self-loop never is one; of two parallel edges, neither is).
+
+    One depth-first search (Tarjan's low-link), O(nodes + edges), iterative.
+    """
+    adjacency: dict[str, list[tuple[str, int]]] = {}
+    for i, (a, b) in enumerate(edges):
+        if a == b:
+            continue
+        adjacency.setdefault(a, []).append((b, i))
+        adjacency.setdefault(b, []).append((a, i))
+    order: dict[str, int] = {}
+    low: dict[str, int] = {}
+    out: set[int] = set()
+    for root in adjacency:
+        if root in order:
+            continue
+        order[root] = low[root] = len(order)
+        # (node, edge it was reached by, position in its adjacency list)
+        stack: list[list] = [[root, -1, 0]]
+        while stack:
+            frame = stack[-1]
+            node, via, pos = frame
+            nbrs = adjacency[node]
+            if pos < len(nbrs):
+                frame[2] = pos + 1
+                nxt, eid = nbrs[pos]
+                if eid == via:
+                    continue
+                if nxt in order:
+                    low[node] = min(low[node], order[nxt])
+                else:
+                    order[nxt] = low[nxt] = len(order)
+                    stack.append([nxt, eid, 0])
+                continue
+            stack.pop()
+            if stack:
+                parent = stack[-1][0]
+                low[parent] = min(low[parent], low[node])
+                if low[node] > order[parent]:
+                    out.add(via)
+    return out

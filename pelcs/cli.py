@@ -11,9 +11,16 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
-from pelcs import __version__
+from pelcs import __version__  # (imports nothing: numpy is not loaded yet)
+
+# One BLAS thread: the matrices of a formulation are small, and OpenBLAS's second thread only
+# spins beside the single-threaded kernels (15-30 % of a core measured on the scaling
+# benchmark). Set before numpy is imported; a user's own setting wins.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
 COMMANDS = ["info", "lcs", "simulate", "check", "bifurcation", "orbit", "continue", "basins",
             "sweep", "ac"]

@@ -81,7 +81,10 @@ def test_boost_orbit_matches_expm_reference(netlists, h):  # noqa: F811
     x_ref = np.linalg.solve(np.eye(2) - Phi, c)
     mu_ref = np.sort_complex(np.linalg.eigvals(Phi))
     m = CircuitMapFactory(netlists["boost"], period="ts", step=h)()
-    o = find_orbit(m, m.x0)
+    # From a state in continuous conduction the map is affine: Newton with finite
+    # differences needs two steps. (From the netlist's state at rest, i(L1) = 0, the first
+    # period is discontinuous and the count depends on round-off.)
+    o = find_orbit(m, [1.5, 22.0])
     assert o.converged and o.iterations <= 2  # the map is affine
     mu = np.sort_complex(o.multipliers)
     # Measured: 6.0e-7 A / 4.0e-6 V and 3.3e-8 in μ at h = 0.2 µs; /4 at 0.1 µs.

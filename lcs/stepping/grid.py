@@ -77,7 +77,7 @@ from .layout import (
 )
 from .locate import locate, u_interp
 from .sliding import advance, relay_combine
-from .step import mode_step, odd_basis_step, regular_cached_step
+from .step import mode_step, odd_basis_step, odd_cached_step, regular_cached_step
 from .store import find_mode, record, store_row
 
 
@@ -388,7 +388,13 @@ def run_grid(stack, sws, chunk, sched, state, lim, store, plain_mode):
                     slots[0] = lookup(mats.M, j, act[0], stack.sets, ivars)
                 done = regular_cached_step(stack, j, x, U0, U1, kk, slots[0], W, xn, lamn, rtol)
             elif slide < 0 and (m == 0 or flags[j, MF_FAST] != 0):
-                done = odd_basis_step(stack, j, s, theta, x, ua, ub, act[0], W, xn, lamn, rtol)
+                if odd[kk] and ta == ta_grid:
+                    # A shortened step onto a boundary: its length recurs every period.
+                    done = odd_cached_step(stack, j, s, fvars[FV_H], theta, x, ua, ub, act[0],
+                                           slots, W, xn, lamn, rtol, ivars, lim)
+                else:
+                    done = odd_basis_step(stack, j, s, theta, x, ua, ub, act[0], W, xn, lamn,
+                                          rtol)
             if not done:
                 st, dd = advance(stack, j, ja, slide, base_on, vts, s, regular, theta, x, ua,
                                  ub, U0, U1, kk, act, slots, W, xn, lamn, xa, lamna, sg, fail,

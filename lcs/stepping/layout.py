@@ -70,7 +70,9 @@ IV_ROOTEVALS = 24  # trial steps of the instant search
 IV_SLIDESTEPS = 25  # steps taken in sliding mode
 IV_LEMKE = 27  # Lemke status of a failed LCP
 IV_WARM = 7  # warm-started principal pivoting solves (cached active set not accepted)
-IV_LEN = 28
+IV_ODDHIT = 28  # shortened steps served by a stored discretisation of their length
+IV_ODDMISS = 29  # shortened steps whose length was discretised and stored
+IV_LEN = 30
 
 # Layout of the float64 "fvars" array.
 FV_RTOL = 0  # fast-path acceptance tolerance (relative)
@@ -116,12 +118,20 @@ def mode_shapes(n: int, m: int, p: int, r: int, k: int) -> ModeArrays:
                       (n, m), (m, m), (r, n), (r, m), (r, p), (k, n), (k, m), (k, p))
 
 
-ModeStack = namedtuple("ModeStack", ["mats", "sets", "key", "flags"])
+OddSteps = namedtuple("OddSteps", ["s", "Phi", "G0", "G1", "K", "M", "next"])
+OddSteps.__doc__ = """Discretisations of shortened steps, ``OS`` per mode: the step length
+``s (Q, OS)`` in s (-1: an empty slot) and its ``Phi (Q, OS, n, n)``, ``G0, G1 (Q, OS, n, p)``,
+``K (Q, OS, n, m)``, ``M (Q, OS, m, m)``; ``next (Q,)`` the slot to fill next (round robin).
+Source-driven switchings and PULSE edges fall at the same offsets from the grid every period,
+so the same few lengths recur: a stored discretisation saves the elimination (O(n^3)) of every
+shortened step after the first of its length."""
+
+ModeStack = namedtuple("ModeStack", ["mats", "sets", "key", "flags", "odd"])
 ModeStack.__doc__ = """Every mode built so far, stacked by mode id ``j`` (capacity Q).
 
 ``mats``: :class:`ModeArrays` of (Q, ., .) arrays; ``sets``: :class:`ActiveSets` of (Q, S, ...)
 arrays; ``key (Q, Wk)``: the switch key of each mode (a bitset, :mod:`lcs.bits`: bit i, switch
-i on); ``flags (Q, MF_LEN)``.
+i on); ``flags (Q, MF_LEN)``; ``odd``: :class:`OddSteps`.
 """
 
 SwitchArrays = namedtuple("SwitchArrays", ["kind", "flags", "vt", "vh"])

@@ -20,7 +20,16 @@ from ..model import LCS, ModeKey, OutputMap
 from ..simulation.problem import Problem, mode_tuple
 from ..simulation.switches import SwitchPlan
 from .discretise import discretise
-from .layout import MF_FAST, MF_LEN, MF_OUTSTATE, MF_UNIQ, ModeArrays, ModeStack, mode_shapes
+from .layout import (
+    MF_FAST,
+    MF_LEN,
+    MF_OUTSTATE,
+    MF_UNIQ,
+    ModeArrays,
+    ModeStack,
+    OddSteps,
+    mode_shapes,
+)
 
 
 class ModeStackBuilder:
@@ -64,13 +73,21 @@ class ModeStackBuilder:
         self.cna = np.zeros((0, self.S), np.int64)
         self.cidx = np.zeros((0, self.S, m), np.int64)
         self.cG = np.zeros((0, self.S, m, m))
+        self.OS = odd_slots(n, m, p, int(getattr(opts, "odd_slots", ODD_SLOTS)))
+        OS = self.OS
+        self.odd = OddSteps(np.zeros((0, OS)), np.zeros((0, OS, n, n)), np.zeros((0, OS, n, p)),
+                            np.zeros((0, OS, n, p)), np.zeros((0, OS, n, m)),
+                            np.zeros((0, OS, m, m)), np.zeros(0, np.int64))
         self._grow(4)
 
     def _grow(self, cap: int) -> None:
         c = self.count
 
         def grown(a, fill=0):
-            new = np.full((cap, *a.shape[1:]), fill, dtype=a.dtype)
+            # np.zeros maps zeroed pages lazily: the active-set caches (2 MiB a mode) cost
+            # nothing until used, where np.full wrote them all on every doubling.
+            shape = (cap, *a.shape[1:])
+            new = np.zeros(shape, a.dtype) if fill == 0 else np.full(shape, fill, a.dtype)
             new[:c] = a[:c]
             return new
 
@@ -81,6 +98,7 @@ class ModeStackBuilder:
         self.cna = grown(self.cna, -2)  # (-2: an empty cache slot)
         self.cidx = grown(self.cidx)
         self.cG = grown(self.cG)
+        self.odd = OddSteps(grown(self.odd.s, -1.0), *(grown(a) for a in self.odd[1:]))
         self.cap = cap
 
     @property
@@ -93,7 +111,7 @@ class ModeStackBuilder:
     def arrays(self) -> ModeStack:
         """The stack as the kernel takes it."""
         return ModeStack(self.mats, ActiveSets(self.ckeys, self.cna, self.cidx, self.cG),
-                         self.mkey, self.mflags)
+                         self.mkey, self.mflags, self.odd)
 
     def add(self, key: int) -> int:
         """Build the mode of ``key`` (switch i on when bit i is set) and append it; returns its
@@ -107,7 +125,7 @@ class ModeStackBuilder:
         out = prob.output(mode)
         Cc, Dc, Fc = prob.control_rows(mode, self.plan, self.src_maps, self.base)
         if self.count == self.cap:
-            self._grow(2 * self.cap)
+            self._grow(4 * self.cap)  # (fewer copies of the caches as modes accrue)
         j = self.count
         for stacked, arr in zip(self.mats, (A, B, C, D, E, F, disc.Phi, disc.G0, disc.G1,
                                             disc.K, disc.M, out.Cy, out.Dy, out.Fy, Cc, Dc,
@@ -129,6 +147,20 @@ class ModeStackBuilder:
         self.index[key] = j
         self.lcs.append(prob.lcs(mode))
         return j
+
+
+# Memory for the stored discretisations of shortened steps of one mode, and their number.
+ODD_BYTES_PER_MODE = 1 << 20
+ODD_SLOTS = 8
+
+
+def odd_slots(n: int, m: int, p: int, wanted: int = ODD_SLOTS) -> int:
+    """Stored shortened-step discretisations per mode: ``wanted``, fewer when they would take
+    more than :data:`ODD_BYTES_PER_MODE` (at least 1; 0 when ``wanted`` is 0)."""
+    if wanted <= 0:
+        return 0
+    size = 8 * (n * n + 2 * n * p + n * m + m * m)
+    return max(1, min(wanted, ODD_BYTES_PER_MODE // max(1, size)))
 
 
 # Memory for the active-set factorisations of one mode: fewer cache slots for large m.
@@ -158,6 +190,7 @@ def cached_stack(problem: Problem, plan: SwitchPlan, h, theta, opts, n, m, p, na
                         for i, c in plan.surface.items()))
     key = (float(h), float(theta), probe_key, tuple(plan.kind.tolist()), surf,
            tuple(plan.source), bool(opts.fast_path), int(opts.cache_slots),
+           int(getattr(opts, "odd_slots", ODD_SLOTS)),
            int(opts.uniqueness_max_m), tuple(guess))
     try:
         per_system = _STACK_CACHE.setdefault(problem.system, {})

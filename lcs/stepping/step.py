@@ -6,7 +6,8 @@ loop takes a step, so that the hot loops pay no call overhead:
 * :func:`regular_cached_step` -- a regular step (length h, stored matrices) by the cached
   factorisation of the previous active set: the fast path of almost every step;
 * :func:`odd_basis_step` -- a step of another length by a direct solve of the previous
-  active set;
+  active set; :func:`odd_cached_step` the same with the discretisation of that length
+  stored (shortened steps at recurring offsets from the grid);
 * :func:`mode_step` -- the general step: the two above, then Lemke and enumeration
   (:func:`lcs.lcp.compiled.solve_pivoting`), and the uniqueness check of a pivoting solution.
 """
@@ -25,7 +26,7 @@ from ..lcp.compiled import (
     solve_warm,
     solve_warm_direct,
 )
-from .discretise import free_odd, free_regular
+from .discretise import discretise_nb, free_odd, free_regular
 from .layout import (
     FV_FEAS_TOL,
     FV_LEX_TOL,
@@ -34,6 +35,8 @@ from .layout import (
     FV_UNIQ_TOL,
     IV_FALLBACKS,
     IV_LEMKE,
+    IV_ODDHIT,
+    IV_ODDMISS,
     IV_PIVOTS,
     IV_UNIQ,
     IV_WARM,
@@ -117,6 +120,85 @@ def odd_basis_step(stack, j, s, theta, x, u0, u1, mask, W, xn, lamn, rtol):
     if W.q.shape[0] > 0 and not solve_basis(W.Mo, W.q, mask, W.lcp, lamn, rtol):
         return False
     return impulse_dense(W.xf, W.Ko, lamn, xn)
+
+
+@inline
+def odd_cached_step(stack, j, s, h, theta, x, u0, u1, mask, slots, W, xn, lamn, rtol, ivars,
+                    lim):
+    """A shortened step of length ``s`` of mode ``j`` by the active set ``mask`` (or, when it
+    is not accepted, by principal pivoting from it: ``mask`` is then updated and ``slots[0]``
+    forgotten), with the discretisation of that length stored in ``stack.odd`` (made and
+    stored on the first step of a length within 1e-9 h of it). Falls back to
+    :func:`odd_basis_step` once stored lengths do not recur (more misses than hits after 64
+    misses). False when not taken this way (:func:`mode_step` decides: Lemke, uniqueness)."""
+    odd = stack.odd
+    mats = stack.mats
+    nslots = odd.s.shape[1]
+    if nslots == 0:
+        return odd_basis_step(stack, j, s, theta, x, u0, u1, mask, W, xn, lamn, rtol)
+    slot = -1
+    tol = 1e-9 * h
+    for sl in range(nslots):
+        if abs(odd.s[j, sl] - s) <= tol:
+            slot = sl
+            break
+    if slot < 0:
+        if ivars[IV_ODDMISS] > 64 and ivars[IV_ODDMISS] > ivars[IV_ODDHIT]:
+            return odd_basis_step(stack, j, s, theta, x, u0, u1, mask, W, xn, lamn, rtol)
+        slot = odd.next[j]
+        odd.next[j] = (slot + 1) % nslots
+        odd.s[j, slot] = -1.0
+        if not discretise_nb(mats.A[j], mats.B[j], mats.C[j], mats.D[j], mats.E[j], s, theta,
+                             odd.Phi[j, slot], odd.G0[j, slot], odd.G1[j, slot],
+                             odd.K[j, slot], odd.M[j, slot]):
+            return False
+        odd.s[j, slot] = s
+        ivars[IV_ODDMISS] += 1
+    else:
+        ivars[IV_ODDHIT] += 1
+    Phi = odd.Phi[j, slot]
+    G0 = odd.G0[j, slot]
+    G1 = odd.G1[j, slot]
+    C = mats.C[j]
+    F = mats.F[j]
+    xf = W.xf
+    q = W.q
+    n = x.shape[0]
+    m = q.shape[0]
+    p = u0.shape[0]
+    chk = 0.0
+    for i in range(n):
+        v = 0.0
+        for jj in range(n):
+            v += Phi[i, jj] * x[jj]
+        for jj in range(p):
+            v += G0[i, jj] * u0[jj] + G1[i, jj] * u1[jj]
+        xf[i] = v
+        chk += v
+    for i in range(m):
+        v = 0.0
+        for jj in range(n):
+            v += C[i, jj] * xf[jj]
+        for jj in range(p):
+            v += F[i, jj] * u1[jj]
+        q[i] = v
+        chk += v
+    if not chk - chk == 0.0:
+        return False
+    if m > 0 and not solve_basis(odd.M[j, slot], q, mask, W.lcp, lamn, rtol):
+        # A switching changes the active set: pivot from the previous one here, on the stored
+        # matrices, rather than discretise again in mode_step (unless its solutions must be
+        # checked for uniqueness, which mode_step does).
+        if lim.warm_iter <= 0 or m <= stack.flags[j, MF_UNIQ]:
+            return False
+        copy_bits(mask, W.lcp.mask)
+        ivars[IV_WARM] += 1
+        if not solve_warm_direct(odd.M[j, slot], q, W.lcp.mask, W.lcp, lamn, rtol,
+                                 lim.warm_iter, W.lcp.basis):
+            return False
+        copy_bits(W.lcp.mask, mask)
+        slots[0] = -1
+    return impulse_dense(xf, odd.K[j, slot], lamn, xn)
 
 
 @kernel
