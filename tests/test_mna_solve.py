@@ -1,0 +1,44 @@
+"""netlist.mna_solve.Solution: the LU path of large regular systems equals the SVD path, and a
+singular system (a floating node) still goes through the SVD with its null space."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import netlist.mna_solve as ms
+
+
+def _svd_only(M, K):
+    old = ms.LU_MIN_SIZE
+    ms.LU_MIN_SIZE = 10**9
+    try:
+        return ms.Solution(M, K)
+    finally:
+        ms.LU_MIN_SIZE = old
+
+
+def test_lu_equals_svd_on_a_large_regular_system():
+    rng = np.random.default_rng(3)
+    n = 200
+    # A conductance-like matrix with entries over six decades (units of A and V rows).
+    M = rng.normal(size=(n, n)) * np.logspace(-3, 3, n)[:, None] + 50 * np.eye(n)
+    K = rng.normal(size=(n, 40))
+    lu, svd = ms.Solution(M, K), _svd_only(M, K)
+    assert lu.null.shape == (n, 0) and lu.inconsistent == []
+    np.testing.assert_allclose(lu.Z, svd.Z, rtol=1e-9, atol=1e-12 * np.abs(svd.Z).max())
+    np.testing.assert_allclose(M @ lu.Z, K, atol=1e-9 * np.abs(K).max())
+
+
+def test_singular_large_system_keeps_its_null_space():
+    rng = np.random.default_rng(4)
+    n = 180
+    M = rng.normal(size=(n, n)) + 30 * np.eye(n)
+    M[:, 7] = 0.0  # an unknown nothing determines (a floating node's voltage)
+    M[7, :] = 0.0
+    K = rng.normal(size=(n, 5))
+    K[7] = 0.0
+    sol = ms.Solution(M, K)
+    assert sol.null.shape[1] == 1
+    e = np.zeros(n)
+    e[7] = 1.0
+    assert not sol.determined(e) and sol.determined(np.eye(n)[3])
