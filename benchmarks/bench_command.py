@@ -8,8 +8,8 @@ near-ideal models for ngspice) run for P switching periods (default 800 and 8000
 * ``pelcs simulate FILE -o OUT`` in a fresh process, for OUT = CSV, NPZ, Parquet and no file
   (the default output grid: ``.tran`` TSTEP, here every step), with the ahead-of-time kernels
   and, for comparison, with ``PELCS_AOT=0`` (numba's cache);
-* ``ngspice -b -r OUT.raw FILE`` (binary raw file, every accepted time point) and the same deck
-  with ``set filetype=ascii`` (an ASCII raw file, the CSV's counterpart), in a fresh process.
+* ``ngspice -b -r OUT.raw FILE`` (binary raw file, every accepted time point) and the same with
+  ``SPICE_ASCIIRAWFILE=1`` (an ASCII raw file, the CSV's counterpart), in a fresh process.
 
 Each time is the best of ``--repeat`` runs (wall clock around the process). Then a breakdown
 of one pelcs command by stage, measured inside a fresh process: interpreter start, imports,
@@ -70,15 +70,6 @@ def _deck(periods: int, tmp: Path) -> Path:
     return path
 
 
-def _ascii_deck(path: Path, out: Path) -> Path:
-    text = path.read_text().splitlines()
-    end = max(i for i, ln in enumerate(text) if ln.strip().lower() == ".end")
-    ctrl = [".control", "set filetype=ascii", "run", f"write {out}", ".endc"]
-    deck = path.with_name(path.stem + "_ascii.cir")
-    deck.write_text("\n".join(text[:end] + ctrl + text[end:]) + "\n")
-    return deck
-
-
 def _best(cmd: list[str], repeat: int, env: dict | None = None) -> float:
     best = float("inf")
     for _ in range(repeat):
@@ -108,18 +99,18 @@ def main(argv=None) -> int:
             if have_ngspice:
                 ng_raw = _best(["ngspice", "-b", "-r", str(tmp / "o.raw"), str(deck)],
                                args.repeat)
-                ng_ascii = _best(["ngspice", "-b", str(_ascii_deck(deck, tmp / "a.raw"))],
-                                 args.repeat)
+                ng_ascii = _best(["ngspice", "-b", "-r", str(tmp / "a.raw"), str(deck)],
+                                 args.repeat, {**os.environ, "SPICE_ASCIIRAWFILE": "1"})
             rows = [("no file", [], ng_raw), ("NPZ", ["-o", str(tmp / "o.npz")], ng_raw),
                     ("Parquet", ["-o", str(tmp / "o.parquet")], ng_raw),
                     ("CSV", ["-o", str(tmp / "o.csv")], ng_ascii)]
             for label, extra, ng in rows:
                 t = _best([str(PELCS), "simulate", str(deck), "--no-progress", *extra],
                           args.repeat, env)
-                peer = "raw" if ng is ng_raw else "ascii"
+                peer = "binary" if ng is ng_raw else "ASCII"
                 ratio = f"{ng / t:6.1f}" if ng else "   n/a"
                 print(f"{periods:5d} periods, {label:9s} {'':10s} {t:8.3f} "
-                      f"{(ng or float('nan')):10.3f} {ratio}  (ngspice {peer} raw file)")
+                      f"{(ng or float('nan')):10.3f} {ratio}  (ngspice: {peer} raw file)")
             t = _best([str(PELCS), "simulate", str(deck), "--no-progress", "-o",
                        str(tmp / "o.npz")], args.repeat, env_numba)
             print(f"{periods:5d} periods, NPZ, numba cache (PELCS_AOT=0): {t:8.3f} s")
