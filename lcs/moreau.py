@@ -182,7 +182,7 @@ class MoreauOptions:
         of block principal pivoting from it (:func:`lcs.lcp.compiled.solve_warm`) before
         Lemke; 0 goes to Lemke directly.
     odd_slots : int
-        Discretisations of shortened steps kept per mode (fewer for large circuits: 1 MiB a
+        Discretisations of shortened steps kept per mode (fewer for large circuits: 4 MiB a
         mode, :func:`lcs.stepping.modes.odd_slots`); 0 discretises every shortened step
         afresh.
     """

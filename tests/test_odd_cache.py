@@ -13,6 +13,7 @@ import pytest
 
 from converters.scaling import interleaved_buck, mmc_arm
 from lcs.moreau import MoreauOptions
+from lcs.stepping.layout import ODD_SETS
 from lcs.stepping.modes import ODD_BYTES_PER_MODE, odd_slots
 from netlist.parser import parse_file, parse_string
 from netlist.transient import simulate_circuit
@@ -76,5 +77,6 @@ def test_slots_per_mode_are_bounded_by_memory():
     assert odd_slots(3, 2, 2) == 8
     assert odd_slots(3, 2, 2, 0) == 0
     n = m = 200
-    assert odd_slots(n, m, 4) == max(1, ODD_BYTES_PER_MODE // (8 * (3 * n * n + 8 * n)))
+    size = 8 * (n * n + 2 * n * 4 + n * m + (1 + ODD_SETS) * m * m)
+    assert odd_slots(n, m, 4) == max(1, ODD_BYTES_PER_MODE // size) == 2
     assert odd_slots(2000, 2000, 1) == 1

@@ -118,13 +118,21 @@ def mode_shapes(n: int, m: int, p: int, r: int, k: int) -> ModeArrays:
                       (n, m), (m, m), (r, n), (r, m), (r, p), (k, n), (k, m), (k, p))
 
 
-OddSteps = namedtuple("OddSteps", ["s", "Phi", "G0", "G1", "K", "M", "next"])
+OddSteps = namedtuple("OddSteps", ["s", "Phi", "G0", "G1", "K", "M", "next", "sets",
+                                   "counters"])
 OddSteps.__doc__ = """Discretisations of shortened steps, ``OS`` per mode: the step length
-``s (Q, OS)`` in s (-1: an empty slot) and its ``Phi (Q, OS, n, n)``, ``G0, G1 (Q, OS, n, p)``,
-``K (Q, OS, n, m)``, ``M (Q, OS, m, m)``; ``next (Q,)`` the slot to fill next (round robin).
+``s (Q, OS)`` in s (-1: an empty slot); the matrices of slot ``o`` of mode ``j`` at index
+``jj = j OS + o`` of ``Phi (Q OS, n, n)``, ``G0, G1 (Q OS, n, p)``, ``K (Q OS, n, m)``,
+``M (Q OS, m, m)``, with an :class:`~lcs.lcp.compiled.ActiveSets` cache ``sets`` of
+:data:`ODD_SETS` active sets each (its own round-robin ``counters``, laid out as the
+kernel's ``ivars``, whose unused entry 0 counts evictions); ``next (Q,)`` the slot of each
+mode to fill next.
 Source-driven switchings and PULSE edges fall at the same offsets from the grid every period,
-so the same few lengths recur: a stored discretisation saves the elimination (O(n^3)) of every
-shortened step after the first of its length."""
+so the same few lengths, and at each the same active sets, recur: the elimination (O(n^3))
+and the active set's factorisation are done once."""
+
+#: active-set factorisations kept per stored shortened-step length
+ODD_SETS = 2
 
 ModeStack = namedtuple("ModeStack", ["mats", "sets", "key", "flags", "odd"])
 ModeStack.__doc__ = """Every mode built so far, stacked by mode id ``j`` (capacity Q).

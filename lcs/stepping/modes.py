@@ -21,10 +21,12 @@ from ..simulation.problem import Problem, mode_tuple
 from ..simulation.switches import SwitchPlan
 from .discretise import discretise
 from .layout import (
+    IV_LEN,
     MF_FAST,
     MF_LEN,
     MF_OUTSTATE,
     MF_UNIQ,
+    ODD_SETS,
     ModeArrays,
     ModeStack,
     OddSteps,
@@ -75,9 +77,13 @@ class ModeStackBuilder:
         self.cG = np.zeros((0, self.S, m, m))
         self.OS = odd_slots(n, m, p, int(getattr(opts, "odd_slots", ODD_SLOTS)))
         OS = self.OS
-        self.odd = OddSteps(np.zeros((0, OS)), np.zeros((0, OS, n, n)), np.zeros((0, OS, n, p)),
-                            np.zeros((0, OS, n, p)), np.zeros((0, OS, n, m)),
-                            np.zeros((0, OS, m, m)), np.zeros(0, np.int64))
+        self.odd = OddSteps(
+            np.zeros((0, OS)), np.zeros((0, n, n)), np.zeros((0, n, p)), np.zeros((0, n, p)),
+            np.zeros((0, n, m)), np.zeros((0, m, m)), np.zeros(0, np.int64),
+            ActiveSets(np.zeros((0, ODD_SETS, self.Wm), np.int64),
+                       np.zeros((0, ODD_SETS), np.int64), np.zeros((0, ODD_SETS, m), np.int64),
+                       np.zeros((0, ODD_SETS, m, m))),
+            np.zeros(IV_LEN, np.int64))
         self._grow(4)
 
     def _grow(self, cap: int) -> None:
@@ -98,7 +104,22 @@ class ModeStackBuilder:
         self.cna = grown(self.cna, -2)  # (-2: an empty cache slot)
         self.cidx = grown(self.cidx)
         self.cG = grown(self.cG)
-        self.odd = OddSteps(grown(self.odd.s, -1.0), *(grown(a) for a in self.odd[1:]))
+        OS = self.OS
+
+        def grown_flat(a, fill=0):
+            # (the leading axis holds OS slots per mode)
+            shape = (cap * OS, *a.shape[1:])
+            new = np.zeros(shape, a.dtype) if fill == 0 else np.full(shape, fill, a.dtype)
+            new[:c * OS] = a[:c * OS]
+            return new
+
+        o = self.odd
+        self.odd = OddSteps(
+            grown(o.s, -1.0), *(grown_flat(a) for a in (o.Phi, o.G0, o.G1, o.K, o.M)),
+            grown(o.next),
+            ActiveSets(grown_flat(o.sets.keys), grown_flat(o.sets.na, -2),
+                       grown_flat(o.sets.idx), grown_flat(o.sets.G)),
+            o.counters)
         self.cap = cap
 
     @property
@@ -150,16 +171,17 @@ class ModeStackBuilder:
 
 
 # Memory for the stored discretisations of shortened steps of one mode, and their number.
-ODD_BYTES_PER_MODE = 1 << 20
+ODD_BYTES_PER_MODE = 4 << 20
 ODD_SLOTS = 8
 
 
 def odd_slots(n: int, m: int, p: int, wanted: int = ODD_SLOTS) -> int:
-    """Stored shortened-step discretisations per mode: ``wanted``, fewer when they would take
-    more than :data:`ODD_BYTES_PER_MODE` (at least 1; 0 when ``wanted`` is 0)."""
+    """Stored shortened-step discretisations per mode: ``wanted``, fewer when they (with their
+    :data:`~lcs.stepping.layout.ODD_SETS` active-set factorisations) would take more than
+    :data:`ODD_BYTES_PER_MODE` (at least 1; 0 when ``wanted`` is 0)."""
     if wanted <= 0:
         return 0
-    size = 8 * (n * n + 2 * n * p + n * m + m * m)
+    size = 8 * (n * n + 2 * n * p + n * m + (1 + ODD_SETS) * m * m)
     return max(1, min(wanted, ODD_BYTES_PER_MODE // max(1, size)))
 
 

@@ -125,12 +125,13 @@ def odd_basis_step(stack, j, s, theta, x, u0, u1, mask, W, xn, lamn, rtol):
 @inline
 def odd_cached_step(stack, j, s, h, theta, x, u0, u1, mask, slots, W, xn, lamn, rtol, ivars,
                     lim):
-    """A shortened step of length ``s`` of mode ``j`` by the active set ``mask`` (or, when it
-    is not accepted, by principal pivoting from it: ``mask`` is then updated and ``slots[0]``
-    forgotten), with the discretisation of that length stored in ``stack.odd`` (made and
-    stored on the first step of a length within 1e-9 h of it). Falls back to
-    :func:`odd_basis_step` once stored lengths do not recur (more misses than hits after 64
-    misses). False when not taken this way (:func:`mode_step` decides: Lemke, uniqueness)."""
+    """A shortened step of length ``s`` of mode ``j`` by the active set ``mask``, with the
+    discretisation of that length and the factorisation of that active set stored in
+    ``stack.odd`` (made on the first step of a length within 1e-9 h of it); when the set is
+    not accepted, by principal pivoting from it on the stored matrices (``mask`` is then
+    updated and ``slots[0]`` forgotten). Falls back to :func:`odd_basis_step` once stored
+    lengths do not recur (more evictions than hits after 64 evictions). False when not taken
+    this way (:func:`mode_step` decides: Lemke, uniqueness)."""
     odd = stack.odd
     mats = stack.mats
     nslots = odd.s.shape[1]
@@ -143,22 +144,31 @@ def odd_cached_step(stack, j, s, h, theta, x, u0, u1, mask, slots, W, xn, lamn, 
             slot = sl
             break
     if slot < 0:
-        if ivars[IV_ODDMISS] > 64 and ivars[IV_ODDMISS] > ivars[IV_ODDHIT]:
+        # Evictions (misses on a mode whose slots are all in use) mean lengths that do not
+        # recur, or more of them than the slots: then stop storing (the counters[0] entry of
+        # the odd caches is free, see OddSteps).
+        evictions = odd.counters[0]
+        if evictions > 64 and evictions > ivars[IV_ODDHIT]:
             return odd_basis_step(stack, j, s, theta, x, u0, u1, mask, W, xn, lamn, rtol)
         slot = odd.next[j]
         odd.next[j] = (slot + 1) % nslots
+        if odd.s[j, slot] >= 0.0:
+            odd.counters[0] = evictions + 1
+        jj = j * nslots + slot
         odd.s[j, slot] = -1.0
+        for k in range(odd.sets.na.shape[1]):
+            odd.sets.na[jj, k] = -2
         if not discretise_nb(mats.A[j], mats.B[j], mats.C[j], mats.D[j], mats.E[j], s, theta,
-                             odd.Phi[j, slot], odd.G0[j, slot], odd.G1[j, slot],
-                             odd.K[j, slot], odd.M[j, slot]):
+                             odd.Phi[jj], odd.G0[jj], odd.G1[jj], odd.K[jj], odd.M[jj]):
             return False
         odd.s[j, slot] = s
         ivars[IV_ODDMISS] += 1
     else:
         ivars[IV_ODDHIT] += 1
-    Phi = odd.Phi[j, slot]
-    G0 = odd.G0[j, slot]
-    G1 = odd.G1[j, slot]
+    jj = j * nslots + slot
+    Phi = odd.Phi[jj]
+    G0 = odd.G0[jj]
+    G1 = odd.G1[jj]
     C = mats.C[j]
     F = mats.F[j]
     xf = W.xf
@@ -169,36 +179,43 @@ def odd_cached_step(stack, j, s, h, theta, x, u0, u1, mask, slots, W, xn, lamn, 
     chk = 0.0
     for i in range(n):
         v = 0.0
-        for jj in range(n):
-            v += Phi[i, jj] * x[jj]
-        for jj in range(p):
-            v += G0[i, jj] * u0[jj] + G1[i, jj] * u1[jj]
+        for jc in range(n):
+            v += Phi[i, jc] * x[jc]
+        for jc in range(p):
+            v += G0[i, jc] * u0[jc] + G1[i, jc] * u1[jc]
         xf[i] = v
         chk += v
     for i in range(m):
         v = 0.0
-        for jj in range(n):
-            v += C[i, jj] * xf[jj]
-        for jj in range(p):
-            v += F[i, jj] * u1[jj]
+        for jc in range(n):
+            v += C[i, jc] * xf[jc]
+        for jc in range(p):
+            v += F[i, jc] * u1[jc]
         q[i] = v
         chk += v
     if not chk - chk == 0.0:
         return False
-    if m > 0 and not solve_basis(odd.M[j, slot], q, mask, W.lcp, lamn, rtol):
-        # A switching changes the active set: pivot from the previous one here, on the stored
-        # matrices, rather than discretise again in mode_step (unless its solutions must be
-        # checked for uniqueness, which mode_step does).
-        if lim.warm_iter <= 0 or m <= stack.flags[j, MF_UNIQ]:
-            return False
-        copy_bits(mask, W.lcp.mask)
-        ivars[IV_WARM] += 1
-        if not solve_warm_direct(odd.M[j, slot], q, W.lcp.mask, W.lcp, lamn, rtol,
-                                 lim.warm_iter, W.lcp.basis):
-            return False
-        copy_bits(W.lcp.mask, mask)
-        slots[0] = -1
-    return impulse_dense(xf, odd.K[j, slot], lamn, xn)
+    if m == 0:
+        for i in range(n):
+            xn[i] = xf[i]
+        return True
+    so = lookup(odd.M, jj, mask, odd.sets, odd.counters)
+    na = solve_cached(odd.M, jj, q, odd.sets, so, W.za, rtol)
+    if na >= 0:
+        return impulse_cached(xf, odd.K, jj, odd.sets, so, na, W.za, lamn, xn)
+    # A switching changes the active set: pivot from the previous one here, on the stored
+    # matrices, rather than discretise again in mode_step (unless its solutions must be
+    # checked for uniqueness, which mode_step does).
+    if lim.warm_iter <= 0 or m <= stack.flags[j, MF_UNIQ]:
+        return False
+    copy_bits(mask, W.lcp.mask)
+    ivars[IV_WARM] += 1
+    if not solve_warm_direct(odd.M[jj], q, W.lcp.mask, W.lcp, lamn, rtol, lim.warm_iter,
+                             W.lcp.basis):
+        return False
+    copy_bits(W.lcp.mask, mask)
+    slots[0] = -1
+    return impulse_dense(xf, odd.K[jj], lamn, xn)
 
 
 @kernel
