@@ -254,7 +254,7 @@ class _Job:
     measures: tuple[Measurement, ...]
     tstop: float | None
     step: float | None
-    theta: float
+    theta: float | None
     period: float | str | None
     toleranced: tuple[tuple[str, bool], ...]  # (element, relative)
 
@@ -356,7 +356,7 @@ def run_sweep(
     distribution: str = "uniform",
     tstop: float | None = None,
     step: float | None = None,
-    theta: float = 0.5,
+    theta: float | None = None,
     period: float | str | None = None,
     workers: int | None = None,
     scheduler=None,
@@ -384,7 +384,9 @@ def run_sweep(
         ``"uniform"`` or ``"gaussian"`` (tolerance = 3 σ).
     tstop, step : float, optional
         Stop time and step, s (default: the netlist's ``.tran``).
-    theta : float
+    theta : float, optional
+        Default: 0.5, or 1 where θ < 1 is not reliable
+        (:func:`netlist.transient.choose_theta`).
     period : float or str, optional
         Steady-state period, s, or a ``.param`` name (evaluated per point); default the
         period of the source at a switch's control (as ``pelcs check``).
@@ -430,7 +432,7 @@ def run_sweep(
     if distribution not in DISTRIBUTIONS:
         raise _usage(f"unknown distribution {distribution!r}",
                      f"use {' or '.join(DISTRIBUTIONS)}")
-    if not 0.5 <= float(theta) <= 1.0:
+    if theta is not None and not 0.5 <= float(theta) <= 1.0:
         raise _usage(f"theta {theta}: θ must be in [0.5, 1]")
 
     # Check everything at the first grid point (names, probes, tolerances) before any run.
@@ -446,7 +448,8 @@ def run_sweep(
     deviations = draw_deviations(matched, runs, seed, distribution) if runs else None
 
     job = _Job(text, path, tuple(sorted(fixed.items())), tuple(mlist), tstop, step,
-               float(theta), period, tuple((n, t.relative) for n, t in matched))
+               None if theta is None else float(theta), period,
+               tuple((n, t.relative) for n, t in matched))
     names = list(swept)
     points: list[tuple[tuple, np.ndarray | None]] = []
     rows_in: list[list[float]] = []

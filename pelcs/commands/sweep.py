@@ -74,8 +74,9 @@ def register(subparsers) -> None:
                    help="uniform within ±tol (default), or gaussian with σ = tol/3")
     p.add_argument("--tstop", metavar="T", help="stop time (default: .tran TSTOP)")
     p.add_argument("--step", metavar="H", help="time step (default: the .tran step)")
-    p.add_argument("--theta", metavar="TH", default="0.5",
-                   help="Moreau θ in [0.5, 1] (default 0.5)")
+    p.add_argument("--theta", metavar="TH",
+                   help="Moreau θ in [0.5, 1] (default 0.5, or 1 where θ < 1 is found "
+                   "unreliable)")
     p.add_argument("--period", metavar="T",
                    help="steady-state period (seconds or a .param name); default the period "
                    "of the source at a switch's control")
@@ -107,7 +108,7 @@ def run(args: argparse.Namespace) -> int:
     runs = positive_int("sweep", "--runs", args.runs) if args.runs else 0
     seed = positive_int("sweep", "--seed", args.seed, 0) if args.seed is not None else None
     workers = positive_int("sweep", "--workers", args.workers) if args.workers else None
-    theta = parse_value(args.theta, "--theta")
+    theta = parse_value(args.theta, "--theta") if args.theta is not None else None
     tstop = _number("--tstop", args.tstop, ("", "s"))
     step = _number("--step", args.step, ("", "s"))
     period: float | str | None = args.period
