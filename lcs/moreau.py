@@ -232,6 +232,10 @@ class MoreauIntegrator(Integrator):
         names = run.recorder.names
         self.stack = cached_stack(problem, plan, h, self.theta, opts, n, m, p, names,
                                   sched.src_maps, run.base)
+        if len(sched.known) and k:
+            # The source-driven switchings say how many modes the run will build at least:
+            # room for them at once, not by copies of every cache as they come.
+            self.stack.reserve(min(len(np.unique(sched.known.b, axis=0)) + 2, 4096))
         self.stack.add(init.key)
         Wk, Wm = words(k), words(m)
         ivars = np.zeros(IV_LEN, np.int64)

@@ -42,3 +42,27 @@ def test_singular_large_system_keeps_its_null_space():
     e = np.zeros(n)
     e[7] = 1.0
     assert not sol.determined(e) and sol.determined(np.eye(n)[3])
+
+
+def test_sparse_lu_equals_svd_and_refuses_a_near_singular_system():
+    rng = np.random.default_rng(5)
+    n = 300
+    # A ladder-like MNA pattern: a diagonal and two off-diagonals, units over six decades.
+    M = np.diag(rng.uniform(1, 2, n) * np.logspace(-3, 3, n))
+    for k in (1, 7):
+        idx = np.arange(n - k)
+        M[idx, idx + k] = rng.normal(size=n - k) * 0.3 * np.diag(M)[idx]
+        M[idx + k, idx] = rng.normal(size=n - k) * 0.3 * np.diag(M)[idx + k]
+    assert np.count_nonzero(M) <= 0.05 * n * n  # the sparse path
+    K = rng.normal(size=(n, 30))
+    lu, svd = ms.Solution(M, K), _svd_only(M, K)
+    assert lu.null.shape == (n, 0)
+    np.testing.assert_allclose(lu.Z, svd.Z, rtol=1e-8, atol=1e-11 * np.abs(svd.Z).max())
+    # Two rows equal up to 1e-13 (a near-singular system): the condition estimate sends it
+    # to the SVD, which finds the null direction.
+    M2 = M.copy()
+    M2[5] = M2[4] * (1 + 1e-13)
+    K2 = K.copy()
+    K2[5] = K2[4]
+    sol = ms.Solution(M2, K2)
+    assert sol.null.shape[1] == 1

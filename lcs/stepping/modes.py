@@ -122,6 +122,11 @@ class ModeStackBuilder:
             o.counters)
         self.cap = cap
 
+    def reserve(self, cap: int) -> None:
+        """Room for ``cap`` modes (zeroed lazily: memory is touched as modes are built)."""
+        if cap > self.cap:
+            self._grow(int(cap))
+
     @property
     def count(self) -> int:
         return len(self.keys)
