@@ -16,6 +16,7 @@ the signatures exported are those :func:`~lcs.stepping.warmup.warm_up` compiles.
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import sys
@@ -61,6 +62,21 @@ def flat_wrapper(dispatcher, sig):
     return njit(env["_flat"]), leaf_types
 
 
+def leaf_spec(ty) -> list:
+    """A JSON-able description of a leaf argument type, checked by
+    :func:`lcs.kernels.aot_function` before every call: ``["array", dtype, ndim, layout,
+    mutable]``, ``["int"]``, ``["float"]`` or ``["bool"]``."""
+    if isinstance(ty, types.Array):
+        return ["array", str(ty.dtype), int(ty.ndim), str(ty.layout), bool(ty.mutable)]
+    if isinstance(ty, types.Boolean):
+        return ["bool"]
+    if isinstance(ty, types.Integer):
+        return ["int"]
+    if isinstance(ty, types.Float):
+        return ["float"]
+    raise TypeError(f"no ahead-of-time argument check for numba type {ty}")
+
+
 def build(out_dir: Path | None = None, verbose: bool = False) -> Path:
     """Compile (or load from numba's cache) every kernel specialisation, then link them into
     the extension module of :func:`lcs.kernels.aot_path`; returns its path."""
@@ -78,6 +94,7 @@ def build(out_dir: Path | None = None, verbose: bool = False) -> Path:
     name = kernels.AOT_MODULE
     cc = CC(name)
     cc.verbose = verbose
+    specs = {}
     for export, dispatcher, select in kernels.exported_dispatchers():
         sigs = [s for s in dispatcher.signatures if select(s)]
         if len(sigs) != 1:
@@ -85,6 +102,7 @@ def build(out_dir: Path | None = None, verbose: bool = False) -> Path:
                                f"export {export} after warm_up (want 1)")
         sig = sigs[0]
         fn, leaf_types = flat_wrapper(dispatcher, sig)
+        specs[export] = [leaf_spec(t) for t in leaf_types]
         ret = dispatcher.overloads[sig].signature.return_type
         cc.export(export, ret(*leaf_types))(fn.py_func)
     tmp = Path(tempfile.mkdtemp(prefix="pelcs-aot-"))
@@ -94,12 +112,15 @@ def build(out_dir: Path | None = None, verbose: bool = False) -> Path:
         built = tmp / Path(cc._output_file).name
         target.parent.mkdir(parents=True, exist_ok=True)
         part = target.with_suffix(".part")
+        types_file = target.with_name(name + ".types.json")
+        types_file.write_text(json.dumps(specs))
         shutil.copyfile(built, part)
         os.replace(part, target)
-        # Modules of other kernel versions are stale for good.
-        for old in target.parent.parent.glob("aot-*"):
-            if old != target.parent:
-                shutil.rmtree(old, ignore_errors=True)
+        if out_dir is None:
+            # Modules of other kernel versions in pelcs' own cache are stale for good.
+            for old in target.parent.parent.glob("aot-*"):
+                if old != target.parent:
+                    shutil.rmtree(old, ignore_errors=True)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     if verbose:

@@ -79,20 +79,30 @@ class Kernel:
         return self._dispatcher
 
     def __call__(self, *args):
-        fn = kernels.aot_function(self.py_func.__module__, self.py_func.__name__, args)
-        if fn is not None:
-            return fn(*args)
+        bound = kernels.aot_function(self.py_func.__module__, self.py_func.__name__, args)
+        if bound is not None:
+            return bound()
         return self.dispatcher(*args)
+
+    def __reduce__(self):
+        # Pickled by name (process pools): the module defines it again on import.
+        return _kernel_by_name, (self.py_func.__module__, self.py_func.__qualname__)
 
     def __getattr__(self, name):
         # Only reached for attributes a Kernel does not have: the dispatcher's (signatures,
-        # overloads, stats...).
-        if name.startswith("__"):
+        # overloads, stats, and _numba_type_ when numba types a call to it).
+        if name.startswith("__") or name in ("_options", "_dispatcher", "py_func"):
             raise AttributeError(name)
         return getattr(self.dispatcher, name)
 
     def __repr__(self) -> str:
         return f"<pelcs kernel {self.py_func.__module__}.{self.py_func.__qualname__}>"
+
+
+def _kernel_by_name(module: str, qualname: str):
+    import importlib
+
+    return getattr(importlib.import_module(module), qualname)
 
 
 def _decorate(fn, options):

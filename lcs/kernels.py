@@ -26,14 +26,18 @@ import sysconfig
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["AOT_MODULE", "KERNEL_SOURCES", "aot_function", "aot_module", "aot_path",
-           "kernel_stamp", "using_aot"]
+__all__ = ["AOT_MODULE", "AOT_SOURCES", "KERNEL_SOURCES", "aot_function", "aot_module",
+           "aot_path", "aot_stamp", "aot_types_path", "kernel_stamp", "using_aot"]
 
 _LCS = Path(__file__).resolve().parent
 # The packages whose compiled functions call or inline each other's, the other files with
 # compiled functions, and the compiler passes: a change to any of them recompiles every kernel.
 KERNEL_SOURCES = (_LCS / "jit.py", _LCS / "jit_passes.py", _LCS / "bits.py", _LCS / "lcp",
-                  _LCS / "stepping", _LCS / "simulation" / "source_switching.py")
+                  _LCS / "stepping", _LCS / "simulation" / "source_switching.py",
+                  _LCS / "simulation" / "codes.py")
+# What the ahead-of-time module also depends on: the export table and argument flattening
+# here, the flat wrappers of aot.py, the signatures warmup.py compiles.
+AOT_SOURCES = (_LCS / "kernels.py", _LCS / "aot.py", _LCS / "stepping" / "warmup.py")
 # Files in those packages that no kernel compiles or reads (Python only): editing them must
 # not recompile every kernel (2-3 minutes).
 PYTHON_ONLY = frozenset({"__init__.py", "driver.py", "enumeration.py", "modes.py",
@@ -96,10 +100,25 @@ def _numba_version() -> str:
     return names[-1][len("numba-"):-len(".dist-info")] if names else "unknown"
 
 
+@functools.cache
+def aot_stamp() -> bytes:
+    """SHA-256 of the kernel stamp and the sources the ahead-of-time module depends on."""
+    h = hashlib.sha256(kernel_stamp())
+    for f in AOT_SOURCES:
+        h.update(f.name.encode())
+        h.update(f.read_bytes())
+    return h.digest()
+
+
 def aot_path() -> Path:
     """Where the extension module built from the current sources lives (it may not exist)."""
-    tag = f"aot-{kernel_stamp().hex()[:16]}-{platform.machine()}-numba{_numba_version()}"
+    tag = f"aot-{aot_stamp().hex()[:16]}-{platform.machine()}-numba{_numba_version()}"
     return _cache_root() / tag / aot_filename()
+
+
+def aot_types_path() -> Path:
+    """The module's argument types (JSON, written by :func:`lcs.aot.build` beside it)."""
+    return aot_path().with_name(AOT_MODULE + ".types.json")
 
 
 @functools.lru_cache(maxsize=1)
@@ -166,9 +185,11 @@ def _exports_of(module: str, attr: str) -> tuple[tuple[str, str], ...]:
 
 
 def aot_function(module: str, attr: str, args: tuple) -> Callable | None:
-    """The ahead-of-time function for a call of kernel ``module.attr`` with ``args``, taking
-    the same arguments as the numba one (named tuples are flattened on the way), or None when
-    there is no ahead-of-time module or it does not export that kernel."""
+    """The ahead-of-time function of kernel ``module.attr`` bound to ``args`` (named tuples
+    flattened), ready to call with no arguments; None when there is no ahead-of-time module,
+    it does not export that kernel, or ``args`` do not have exactly the types it was
+    compiled for (numba's dispatcher then compiles or loads the right specialisation; the
+    extension module would reinterpret the memory of a wrong dtype or a strided array)."""
     exports = _exports_of(module, attr)
     if not exports:
         return None
@@ -180,15 +201,46 @@ def aot_function(module: str, attr: str, args: tuple) -> Callable | None:
             continue
         if which == "plain" and args[-1] is None:
             continue
-        return _aot_call(mod, export)
+        fn = getattr(mod, export, None)
+        specs = _aot_types().get(export)
+        if fn is None or specs is None:
+            return None
+        flat = _flatten(args, [])
+        if len(flat) != len(specs) or not all(map(_matches, flat, specs)):
+            return None
+        return functools.partial(fn, *flat)
     return None
 
 
 @functools.cache
-def _aot_call(mod, export: str) -> Callable:
-    fn = getattr(mod, export)
-    if export.startswith("run_grid"):
-        def call(*args):
-            return fn(*_flatten(args, []))
-        return call
-    return fn
+def _aot_types() -> dict:
+    import json
+
+    try:
+        return json.loads(aot_types_path().read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def _matches(value, spec) -> bool:
+    """Whether ``value`` is of the leaf type ``spec`` (see :func:`lcs.aot.leaf_spec`)."""
+    import numpy as np
+
+    kind = spec[0]
+    if kind == "array":
+        _, dtype, ndim, layout, mutable = spec
+        if not (isinstance(value, np.ndarray) and value.dtype == np.dtype(dtype)
+                and value.ndim == ndim):
+            return False
+        if layout == "C" and not value.flags.c_contiguous:
+            return False
+        if layout == "F" and not value.flags.f_contiguous:
+            return False
+        return value.flags.writeable or not mutable
+    if isinstance(value, (bool, np.bool_)):
+        return kind == "bool"
+    if kind == "int":
+        return isinstance(value, (int, np.integer))
+    if kind == "float":
+        return isinstance(value, (int, float, np.integer, np.floating))
+    return False

@@ -236,6 +236,9 @@ class MoreauIntegrator(Integrator):
             # The source-driven switchings say how many modes the run will build at least:
             # room for them at once, not by copies of every cache as they come.
             self.stack.reserve(min(len(np.unique(sched.known.b, axis=0)) + 2, 4096))
+        # Evictions of stored shortened steps are weighed against this run's hits (the store
+        # itself is kept for the next run of this system).
+        self.stack.odd.counters[0] = 0
         self.stack.add(init.key)
         Wk, Wm = words(k), words(m)
         ivars = np.zeros(IV_LEN, np.int64)

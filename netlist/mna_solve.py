@@ -43,7 +43,7 @@ class Solution:
             return
         Ms = r[:, None] * M * c[None, :]
         Ks = r[:, None] * K
-        if nz >= LU_MIN_SIZE and Ms.shape[0] == nz and self._lu(Ms, Ks, c):
+        if nz >= LU_MIN_SIZE and Ms.shape[1] == nz and self._lu(Ms, Ks, c):
             return
         U, s, Vt = np.linalg.svd(Ms)
         rank = int(np.sum(s > RANK_RTOL * s[0])) if s[0] > 0 else 0

@@ -544,7 +544,7 @@ def choose_theta(setup: TransientSetup, theta: float | None) -> tuple[float, str
     from lcs.theta_screen import screen_theta
 
     wanted = DEFAULT_THETA if theta is None else float(theta)
-    risks = screen_theta(setup.system, setup.h, wanted)
+    risks = screen_theta(setup.system, setup.h, wanted, energy=setup.energy)
     if not risks:
         return wanted, None
     r = min(risks, key=lambda r: r.g)

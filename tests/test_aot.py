@@ -115,6 +115,34 @@ def test_missing_or_stale_module_falls_back_to_numba(tmp_path):
 
 def test_module_path_names_the_sources_and_numba():
     path = kernels.aot_path()
-    assert kernels.kernel_stamp().hex()[:16] in str(path)
+    assert kernels.aot_stamp().hex()[:16] in str(path)
     assert f"numba{kernels._numba_version()}" in str(path)
     assert path.name.startswith(kernels.AOT_MODULE)
+    # The stamp covers the kernels and what the module's wrappers depend on.
+    names = {f.name for f in kernels._kernel_files()} | {f.name for f in kernels.AOT_SOURCES}
+    assert {"grid.py", "step.py", "codes.py", "kernels.py", "aot.py", "warmup.py"} <= names
+    assert "modes.py" not in names
+
+
+def test_arguments_of_another_type_go_to_numba_not_the_module(aot_built):
+    # The extension module reads the memory of whatever array it is given: an int64 or a
+    # strided array where it was compiled for contiguous float64 must not reach it.
+    import numpy as np
+
+    bounds = np.array([0.0, 10.0, 25.0])
+    args = (bounds, 1.0, 0.5, 0.5, np.empty(2, np.int64), np.empty(2), np.empty(3, np.int64))
+    mod = "lcs.stepping.gridplan"
+    assert kernels.aot_function(mod, "_plan_nb", args) is not None
+    wrong_dtype = (np.array([0, 10, 25]),) + args[1:]
+    strided = (np.array([[0.0, 1], [10, 1], [25, 1]])[:, 0],) + args[1:]
+    read_only = args[:5] + (np.empty(2),) + args[6:]
+    read_only[5].flags.writeable = False
+    for bad in (wrong_dtype, strided, read_only):
+        assert kernels.aot_function(mod, "_plan_nb", bad) is None
+    # Through the Kernel: the dispatcher takes them and gives the right numbers.
+    from lcs.stepping.gridplan import _plan_nb, plan_grid
+
+    ref = plan_grid(bounds, 1.0)
+    n_reg, last, start = np.empty(2, np.int64), np.empty(2), np.empty(3, np.int64)
+    _plan_nb(np.array([[0.0, 1], [10, 1], [25, 1]])[:, 0], 1.0, 0.5, 0.5, n_reg, last, start)
+    assert np.array_equal(n_reg, ref.n_regular) and np.array_equal(start, ref.start)

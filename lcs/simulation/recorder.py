@@ -12,11 +12,8 @@ import numpy as np
 
 from ..bits import from_words
 from ..model import ModeKey
+from .codes import EV_SLIDE_END, EV_SLIDE_START, EV_SWITCH  # noqa: F401  (kernel codes)
 from .problem import key_of, mode_tuple
-
-EV_SWITCH = 0
-EV_SLIDE_START = 1 << 20
-EV_SLIDE_END = 2 << 20
 
 
 def grown(a: np.ndarray, n: int) -> np.ndarray:

@@ -19,14 +19,11 @@ import numpy as np
 
 from ..bits import to_words, words
 from ..model import ModeKey, SwitchedLCS
+from .codes import OP_REARM, OP_SET  # noqa: F401  (operations of known switchings)
 from .inputs import InputFunction, collect_breakpoints, merge_close
 from .problem import Problem, mode_tuple
 from .source_switching import source_switch_events
 from .switches import SwitchPlan
-
-# Operations of known switchings (applied at their instant, before integrating from it).
-OP_SET = 0  # key = (key & ~a) | b   (source- or controller-driven switches)
-OP_REARM = 1  # latched switch a: on iff its control >= vt - vh
 
 
 def periodic(period: float, phase: float, t0: float, t1: float) -> np.ndarray:

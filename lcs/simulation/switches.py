@@ -10,11 +10,13 @@ import numpy as np
 from ..model import ModeKey, SwitchedLCS
 
 # Switch kinds (what drives it) and flags.
-SW_SCHEDULED = 0  # sources or a Python controller: instants known in advance
-SW_LOCATED = 1  # comparator: crossings located inside the step
-SW_SAMPLED = 2  # comparator sampled at the end of each step (explicit method)
-SWF_LATCH = 1  # an off switch turns on only at the re-arm instants (clock period starts)
-SWF_RELAY = 2  # may enter a Filippov sliding mode
+from .codes import (  # noqa: F401  (kernel codes)
+    SW_LOCATED,
+    SW_SAMPLED,
+    SW_SCHEDULED,
+    SWF_LATCH,
+    SWF_RELAY,
+)
 
 SWITCHING_METHODS = ("auto", "implicit", "hysteresis", "explicit")
 

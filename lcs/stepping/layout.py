@@ -23,16 +23,16 @@ from __future__ import annotations
 from collections import namedtuple
 
 from ..lcp.compiled import AS_MISSES, AS_NEXT_SLOT, AS_UPDATES
-from ..simulation.recorder import EV_SLIDE_END as EV_SLIDE_END
-from ..simulation.recorder import EV_SLIDE_START as EV_SLIDE_START
-from ..simulation.recorder import EV_SWITCH as EV_SWITCH
-from ..simulation.schedule import OP_REARM as OP_REARM
-from ..simulation.schedule import OP_SET as OP_SET
-from ..simulation.switches import SW_LOCATED as SW_LOCATED
-from ..simulation.switches import SW_SAMPLED as SW_SAMPLED
-from ..simulation.switches import SW_SCHEDULED as SW_SCHEDULED
-from ..simulation.switches import SWF_LATCH as SWF_LATCH
-from ..simulation.switches import SWF_RELAY as SWF_RELAY
+from ..simulation.codes import EV_SLIDE_END as EV_SLIDE_END
+from ..simulation.codes import EV_SLIDE_START as EV_SLIDE_START
+from ..simulation.codes import EV_SWITCH as EV_SWITCH
+from ..simulation.codes import OP_REARM as OP_REARM
+from ..simulation.codes import OP_SET as OP_SET
+from ..simulation.codes import SW_LOCATED as SW_LOCATED
+from ..simulation.codes import SW_SAMPLED as SW_SAMPLED
+from ..simulation.codes import SW_SCHEDULED as SW_SCHEDULED
+from ..simulation.codes import SWF_LATCH as SWF_LATCH
+from ..simulation.codes import SWF_RELAY as SWF_RELAY
 
 # Kernel return codes.
 STEP_OK = 0

@@ -187,7 +187,9 @@ def odd_slots(n: int, m: int, p: int, wanted: int = ODD_SLOTS) -> int:
     if wanted <= 0:
         return 0
     size = 8 * (n * n + 2 * n * p + n * m + (1 + ODD_SETS) * m * m)
-    return max(1, min(wanted, ODD_BYTES_PER_MODE // max(1, size)))
+    # (none when one slot alone is over the budget: a very large circuit discretises its
+    # shortened steps afresh rather than keep 10 MiB a mode)
+    return min(wanted, ODD_BYTES_PER_MODE // max(1, size))
 
 
 # Memory for the active-set factorisations of one mode: fewer cache slots for large m.
