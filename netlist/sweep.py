@@ -30,7 +30,7 @@ from lcs.wellposed import state_jump
 from .circuit import Circuit
 from .errors import Diagnostic, NetlistError
 from .parser import parse_file, parse_overrides, parse_string
-from .transient import transient_setup
+from .transient import choose_theta, transient_setup
 from .units import parse_number
 
 __all__ = [
@@ -270,7 +270,7 @@ def circuit_map(
     period: float | str,
     *,
     step: float | None = None,
-    theta: float = 0.5,
+    theta: float | None = None,
     t0: float = 0.0,
     event: str | None = None,
     param: float | None = None,
@@ -289,7 +289,9 @@ def circuit_map(
     step : float, optional
         Time step h, s; default the ``.tran`` step (TMAX or TSTEP), reduced if needed so that
         T/h is an integer (every period then has the same grid).
-    theta : float
+    theta : float, optional
+        Default 0.5, or 1 where θ < 1 is not reliable (:func:`netlist.transient.choose_theta`;
+        the map's ``notes`` say why).
     t0 : float
         Sampling phase, s.
     event : str, optional
@@ -335,6 +337,7 @@ def circuit_map(
         return em
     if method != "moreau":
         raise _usage(f"unknown method {method!r}", "moreau or exact")
+    theta, theta_note = choose_theta(setup, theta)
     kwargs = dict(theta=theta, t0=t0, param=param, param_name=param_name,
                   on_inconsistent=_StateJump(setup.energy), options=options,
                   diode_probes=[f"i({d})" for d in system.diodes])
@@ -343,7 +346,7 @@ def circuit_map(
     else:
         m = StroboscopicMap(system, setup.signals, T, h, **kwargs)
     m.x0 = setup.x0.copy()
-    m.notes[:0] = list(setup.notes)
+    m.notes[:0] = list(setup.notes) + ([theta_note] if theta_note else [])
     return m
 
 
@@ -363,7 +366,9 @@ class CircuitMapFactory:
         Fixed ``.param`` overrides.
     step : float or None
         Time step, s (default from ``.tran``).
-    theta, t0 : float
+    theta : float or None
+        None: 0.5, or 1 where θ < 1 is not reliable (see :func:`circuit_map`).
+    t0 : float
     event : str or None
         Event section (see :func:`circuit_map`); None for the stroboscopic map.
     text : str or None
@@ -376,7 +381,7 @@ class CircuitMapFactory:
     param: str | None = None
     overrides: tuple[tuple[str, float], ...] = ()
     step: float | None = None
-    theta: float = 0.5
+    theta: float | None = None
     t0: float = 0.0
     event: str | None = None
     text: str | None = field(default=None, repr=False)

@@ -108,3 +108,15 @@ def test_a_snubbered_diode_is_caught_although_p_has_no_eigenvalue():
     err_half = abs(_mean_out(half) - _mean_out(ref))
     # Measured: 6e-4 V against 0.20 V (the mean output is 9.64 V).
     assert err_chosen < 2e-3 and err_half > 50 * err_chosen
+
+
+def test_maps_choose_theta_the_same_way():
+    from netlist.parser import parse_string
+    from netlist.sweep import circuit_map
+
+    m = circuit_map(parse_string(rectifier_12pulse(periods=1)), 0.02)
+    assert m.theta == 1.0 and any("not reliable" in n for n in m.notes)
+    kept = circuit_map(parse_string(rectifier_12pulse(periods=1)), 0.02, theta=0.5)
+    assert kept.theta == 0.5
+    plain = circuit_map(parse_string(rectifier_6pulse(periods=1)), 0.02)
+    assert plain.theta == 0.5 and not any("not reliable" in n for n in plain.notes)

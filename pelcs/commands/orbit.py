@@ -46,8 +46,9 @@ def add_map_options(p: argparse.ArgumentParser, *, param_help: str) -> None:
                    help=param_help)
     p.add_argument("--step", metavar="H",
                    help="time step (default: the .tran step, rounded down to T/integer)")
-    p.add_argument("--theta", metavar="TH", default="0.5",
-                   help="Moreau θ in [0.5, 1] (default 0.5)")
+    p.add_argument("--theta", metavar="TH",
+                   help="Moreau θ in [0.5, 1] (default 0.5, or 1 where θ < 1 is found "
+                   "unreliable, with a note)")
     p.add_argument("--t0", metavar="T0", default="0",
                    help="sampling phase: the map samples at t0 + k T (default 0)")
     p.add_argument("--x0", metavar="STATE=V,...",
@@ -103,8 +104,8 @@ def make_factory(args: argparse.Namespace, command: str, *, swept: str | None = 
     """The :class:`~netlist.sweep.CircuitMapFactory` of the parsed options."""
     from netlist.sweep import CircuitMapFactory, parse_value
 
-    theta = parse_value(args.theta, "--theta")
-    if not 0.5 <= theta <= 1.0:
+    theta = parse_value(args.theta, "--theta") if args.theta is not None else None
+    if theta is not None and not 0.5 <= theta <= 1.0:
         raise usage_error(command, f"--theta {args.theta}: θ must be in [0.5, 1]")
     step = parse_value(args.step, "--step") if args.step else None
     if step is not None and step <= 0:
