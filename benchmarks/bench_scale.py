@@ -16,8 +16,9 @@ For each netlist:
   near-ideal models at this size), the same with softened models (diodes ``N=1 RS=10m``,
   switches ``RON=10m``), reported as such: pelcs simulates the ideal elements either way.
 
-Run: ``.venv/bin/python benchmarks/bench_scale.py [--quick] [--family NAME]... [--timeout S]``;
-prints a table and writes ``benchmarks/results/bench_scale.json``.
+Run: ``.venv/bin/python benchmarks/bench_scale.py [--quick] [--family NAME]... [--timeout S]
+[--plot OUT.png]``; prints a table and writes ``benchmarks/results/bench_scale.json``
+(``--replot --plot OUT.png`` draws that file again).
 """
 
 from __future__ import annotations
@@ -108,12 +109,69 @@ def run_case(family: str, size: int, timeout: float) -> dict:
     return row
 
 
+LABELS = {"cockcroft_walton": "Cockcroft-Walton", "interleaved_buck": "interleaved buck",
+          "mmc_arm": "MMC arm"}
+
+
+def plot(rows: list[dict], path: Path) -> Path:
+    """Two panels from a run's rows: time per step against the circuit's size (states +
+    pairs), with a line of slope 1 and one of slope 2 for reference; whole-command speed-up
+    over ngspice against the size."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(10, 4.2), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax1, ax2 = fig.subplots(1, 2)
+    sizes = []
+    for family, label in LABELS.items():
+        rs = sorted((r for r in rows if r["family"] == family and r.get("steps")),
+                    key=lambda r: r["n"] + r["m"])
+        if not rs:
+            continue
+        x = [r["n"] + r["m"] for r in rs]
+        sizes += x
+        ax1.loglog(x, [r["us_per_step"] for r in rs], "o-", label=label)
+        ok = [(xi, r["ratio"]) for xi, r in zip(x, rs, strict=True) if r.get("ratio")]
+        if ok:
+            ax2.semilogx(*zip(*ok, strict=True), "o-", label=label)
+    if sizes:
+        lo, hi = min(sizes), max(sizes)
+        for slope, style in ((1, ":"), (2, "--")):
+            ax1.loglog([lo, hi], [0.3 * (v / lo) ** slope for v in (lo, hi)], "k" + style,
+                       lw=0.8, label=f"∝ size^{slope}")
+    ax1.set_xlabel("states + complementarity pairs")
+    ax1.set_ylabel("time per step [µs]")
+    ax1.set_title("pelcs: time per step against circuit size", fontsize=10)
+    ax1.grid(True, which="both", color="0.9")
+    ax1.legend(fontsize=8)
+    ax2.axhline(1.0, color="0.4", lw=0.8, label="as fast as ngspice")
+    ax2.axhline(5.0, color="0.4", lw=0.8, ls="--", label="5x (issue #14 target)")
+    ax2.set_xlabel("states + complementarity pairs")
+    ax2.set_ylabel("ngspice time / pelcs time (whole command) [-]")
+    ax2.set_title("whole command: speed-up over ngspice -b", fontsize=10)
+    ax2.grid(True, which="both", color="0.9")
+    ax2.legend(fontsize=8)
+    fig.savefig(path, dpi=110)
+    return path
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="two sizes per family")
     ap.add_argument("--family", action="append", choices=sorted(FAMILIES))
     ap.add_argument("--timeout", type=float, default=600.0)
+    ap.add_argument("--plot", metavar="OUT.png",
+                    help="draw the results (of this run, or with --replot of the last one)")
+    ap.add_argument("--replot", action="store_true",
+                    help="only draw benchmarks/results/bench_scale.json (with --plot)")
     args = ap.parse_args(argv)
+    if args.replot:
+        if not args.plot:
+            ap.error("--replot needs --plot OUT.png")
+        rows = json.loads((HERE / "benchmarks" / "results" / "bench_scale.json").read_text())
+        print(plot(rows, Path(args.plot)))
+        return 0
     from lcs.stepping.warmup import warm_up
 
     warm_up()
@@ -139,6 +197,8 @@ def main(argv=None) -> int:
     out = HERE / "benchmarks" / "results"
     out.mkdir(parents=True, exist_ok=True)
     (out / "bench_scale.json").write_text(json.dumps(rows, indent=1))
+    if args.plot:
+        print(plot(rows, Path(args.plot)))
     return 0
 
 
