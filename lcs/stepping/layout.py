@@ -100,7 +100,7 @@ MF_LEN = 3
 PLAIN_MIN = 16
 
 MODE_FIELDS = ["A", "B", "C", "D", "E", "F", "Phi", "G0", "G1", "K", "M", "Cy", "Dy", "Fy",
-               "Cc", "Dc", "Fc"]
+               "Cc", "Dc", "Fc", "PhiT", "CT", "KT"]
 ModeArrays = namedtuple("ModeArrays", MODE_FIELDS)
 ModeArrays.__doc__ = """The matrices of a switch mode.
 
@@ -108,14 +108,19 @@ The LCS ``A (n, n)``, ``B (n, m)``, ``C (m, n)``, ``D (m, m)``, ``E (n, p)``, ``
 step of the regular length h, ``Phi (n, n)``, ``G0, G1 (n, p)``, ``K (n, m)``, ``M (m, m)``
 (:func:`lcs.stepping.discretise`); the stored probes ``y = Cy x + Dy λ + Fy u`` with ``Cy (r, n)``,
 ``Dy (r, m)``, ``Fy (r, p)``; the switch controls ``c = Cc x + Dc λ + Fc u`` with ``Cc (k, n)``,
-``Dc (k, m)``, ``Fc (k, p)``. In a :class:`ModeStack` every field has a leading mode axis.
+``Dc (k, m)``, ``Fc (k, p)``; and ``PhiT (n, n)``, ``CT (n, m)``, ``KT (m, n)``, the transposes
+of ``Phi``, ``C`` and ``K`` for the regular step's products, taken a column at a time: each
+output entry sums its terms in the same order as a row-by-row product (the same numbers, bit
+for bit), and the inner loop runs over contiguous memory, which the compiler vectorises. In a
+:class:`ModeStack` every field has a leading mode axis.
 """
 
 
 def mode_shapes(n: int, m: int, p: int, r: int, k: int) -> ModeArrays:
     """The shape of each field of :class:`ModeArrays` for one mode."""
     return ModeArrays((n, n), (n, m), (m, n), (m, m), (n, p), (m, p), (n, n), (n, p), (n, p),
-                      (n, m), (m, m), (r, n), (r, m), (r, p), (k, n), (k, m), (k, p))
+                      (n, m), (m, m), (r, n), (r, m), (r, p), (k, n), (k, m), (k, p), (n, n),
+                      (n, m), (m, n))
 
 
 OddSteps = namedtuple("OddSteps", ["s", "Phi", "G0", "G1", "K", "M", "next", "sets",

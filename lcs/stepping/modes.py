@@ -155,7 +155,8 @@ class ModeStackBuilder:
         j = self.count
         for stacked, arr in zip(self.mats, (A, B, C, D, E, F, disc.Phi, disc.G0, disc.G1,
                                             disc.K, disc.M, out.Cy, out.Dy, out.Fy, Cc, Dc,
-                                            Fc), strict=True):
+                                            Fc, disc.Phi.T, np.asarray(C).T, disc.K.T),
+                                strict=True):
             stacked[j] = arr
         fast = bool(self.opts.fast_path)
         # Enumeration-based uniqueness checks only for small m, and not for P-matrices

@@ -72,6 +72,30 @@ def impulse_cached(xf, K, j, sets, slot, na, za, lamn, xn):
 
 
 @inline
+def impulse_cached_t(xf, KT, j, sets, slot, na, za, lamn, xn):
+    """:func:`impulse_cached` with the transposes ``KT`` of the stored ``K`` (see
+    :class:`~lcs.stepping.layout.ModeArrays`): the same numbers, a column at a time."""
+    n = xf.shape[0]
+    m = lamn.shape[0]
+    idx = sets.idx
+    for i in range(m):
+        lamn[i] = 0.0
+    for jj in range(na):
+        lamn[idx[j, slot, jj]] = za[jj]
+    for i in range(n):
+        xn[i] = xf[i]
+    for jj in range(na):
+        c = idx[j, slot, jj]
+        z = za[jj]
+        for i in range(n):
+            xn[i] += KT[j, c, i] * z
+    chk = 0.0
+    for i in range(n):
+        chk += xn[i]
+    return chk - chk == 0.0
+
+
+@inline
 def impulse_dense(xf, K, lamn, xn):
     """``xn = xf + K λ``. Returns False when ``xn`` or ``λ`` is not finite."""
     n = xf.shape[0]
@@ -108,7 +132,7 @@ def regular_cached_step(stack, j, x, U0, U1, kk, slot, W, xn, lamn, rtol):
     na = solve_cached(mats.M, j, W.q, stack.sets, slot, W.za, rtol)
     if na < 0:
         return False
-    return impulse_cached(W.xf, mats.K, j, stack.sets, slot, na, W.za, lamn, xn)
+    return impulse_cached_t(W.xf, mats.KT, j, stack.sets, slot, na, W.za, lamn, xn)
 
 
 @inline
@@ -259,7 +283,7 @@ def mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, ai
             slots[ai] = slot
         na = solve_cached(mats.M, j, q, stack.sets, slot, W.za, rtol)
         if na >= 0:
-            if impulse_cached(xf, mats.K, j, stack.sets, slot, na, W.za, lamn, xn):
+            if impulse_cached_t(xf, mats.KT, j, stack.sets, slot, na, W.za, lamn, xn):
                 return STEP_OK
             return STEP_NONFINITE
         if lim.warm_iter > 0:
@@ -268,7 +292,7 @@ def mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, ai
             ivars[IV_WARM] += 1
             if slot >= 0:
                 slots[ai] = slot
-                if not impulse_cached(xf, mats.K, j, stack.sets, slot, na, W.za, lamn, xn):
+                if not impulse_cached_t(xf, mats.KT, j, stack.sets, slot, na, W.za, lamn, xn):
                     return STEP_NONFINITE
                 if commit and m <= stack.flags[j, MF_UNIQ]:
                     ivars[IV_UNIQ] += 1
