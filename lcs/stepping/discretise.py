@@ -134,34 +134,56 @@ def discretise(A, B, C, D, E, h: float, theta: float) -> Discretisation:
     return Discretisation(float(h), float(theta), Phi, G0, G1, K, M)
 
 
+# States from which the regular step's products are taken a column at a time (vectorised);
+# below, row by row (fewer passes over tiny arrays). The numbers are the same either way.
+COLUMN_MIN = 16
+
+
 @inline
 def free_regular(mats, j, x, U0, U1, kk, xf, q):
     """Free state ``xf = Phi x + G0 u0 + G1 u1`` and ``q = C xf + F u1`` of a regular step
     of mode ``j`` of the stacked matrices ``mats`` (:class:`~lcs.stepping.layout.ModeArrays`),
     with ``u0 = U0[kk]`` and ``u1 = U1[kk]``. Returns False when they are not finite."""
-    PhiT, G0, G1, CT, F = mats.PhiT, mats.G0, mats.G1, mats.CT, mats.F
+    G0, G1, F = mats.G0, mats.G1, mats.F
     n = x.shape[0]
     m = q.shape[0]
     p = U0.shape[1]
-    # Column by column (PhiT, CT: see ModeArrays): each entry adds its terms in the order of
-    # a row-by-row product, so the numbers are the same; the inner loops vectorise.
-    for i in range(n):
-        xf[i] = 0.0
-    for jj in range(n):
-        xj = x[jj]
+    if n < COLUMN_MIN:
+        Phi, C = mats.Phi, mats.C
         for i in range(n):
-            xf[i] += PhiT[j, jj, i] * xj
-    for i in range(n):
-        v = xf[i]
-        for jj in range(p):
-            v += G0[j, i, jj] * U0[kk, jj] + G1[j, i, jj] * U1[kk, jj]
-        xf[i] = v
-    for i in range(m):
-        q[i] = 0.0
-    for jj in range(n):
-        xj = xf[jj]
+            v = 0.0
+            for jj in range(n):
+                v += Phi[j, i, jj] * x[jj]
+            for jj in range(p):
+                v += G0[j, i, jj] * U0[kk, jj] + G1[j, i, jj] * U1[kk, jj]
+            xf[i] = v
         for i in range(m):
-            q[i] += CT[j, jj, i] * xj
+            v = 0.0
+            for jj in range(n):
+                v += C[j, i, jj] * xf[jj]
+            q[i] = v
+    else:
+        # Column by column (PhiT, CT: see ModeArrays): each entry adds its terms in the order
+        # of the row-by-row loops above, so the numbers are the same; the inner loops
+        # vectorise.
+        PhiT, CT = mats.PhiT, mats.CT
+        for i in range(n):
+            xf[i] = 0.0
+        for jj in range(n):
+            xj = x[jj]
+            for i in range(n):
+                xf[i] += PhiT[j, jj, i] * xj
+        for i in range(n):
+            v = xf[i]
+            for jj in range(p):
+                v += G0[j, i, jj] * U0[kk, jj] + G1[j, i, jj] * U1[kk, jj]
+            xf[i] = v
+        for i in range(m):
+            q[i] = 0.0
+        for jj in range(n):
+            xj = xf[jj]
+            for i in range(m):
+                q[i] += CT[j, jj, i] * xj
     chk = 0.0
     for i in range(m):
         v = q[i]

@@ -26,7 +26,7 @@ from ..lcp.compiled import (
     solve_warm,
     solve_warm_direct,
 )
-from .discretise import discretise_nb, free_odd, free_regular
+from .discretise import COLUMN_MIN, discretise_nb, free_odd, free_regular
 from .layout import (
     FV_FEAS_TOL,
     FV_LEX_TOL,
@@ -72,10 +72,13 @@ def impulse_cached(xf, K, j, sets, slot, na, za, lamn, xn):
 
 
 @inline
-def impulse_cached_t(xf, KT, j, sets, slot, na, za, lamn, xn):
-    """:func:`impulse_cached` with the transposes ``KT`` of the stored ``K`` (see
-    :class:`~lcs.stepping.layout.ModeArrays`): the same numbers, a column at a time."""
+def impulse_cached_t(xf, K, KT, j, sets, slot, na, za, lamn, xn):
+    """:func:`impulse_cached`, with the transposes ``KT`` of the stored ``K`` a column at a
+    time from :data:`~lcs.stepping.discretise.COLUMN_MIN` states on (see
+    :class:`~lcs.stepping.layout.ModeArrays`): the same numbers."""
     n = xf.shape[0]
+    if n < COLUMN_MIN:
+        return impulse_cached(xf, K, j, sets, slot, na, za, lamn, xn)
     m = lamn.shape[0]
     idx = sets.idx
     for i in range(m):
@@ -132,7 +135,8 @@ def regular_cached_step(stack, j, x, U0, U1, kk, slot, W, xn, lamn, rtol):
     na = solve_cached(mats.M, j, W.q, stack.sets, slot, W.za, rtol)
     if na < 0:
         return False
-    return impulse_cached_t(W.xf, mats.KT, j, stack.sets, slot, na, W.za, lamn, xn)
+    return impulse_cached_t(W.xf, mats.K, mats.KT, j, stack.sets, slot, na, W.za, lamn,
+                            xn)
 
 
 @inline
@@ -283,7 +287,7 @@ def mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, ai
             slots[ai] = slot
         na = solve_cached(mats.M, j, q, stack.sets, slot, W.za, rtol)
         if na >= 0:
-            if impulse_cached_t(xf, mats.KT, j, stack.sets, slot, na, W.za, lamn, xn):
+            if impulse_cached_t(xf, mats.K, mats.KT, j, stack.sets, slot, na, W.za, lamn, xn):
                 return STEP_OK
             return STEP_NONFINITE
         if lim.warm_iter > 0:
@@ -292,7 +296,8 @@ def mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, ai
             ivars[IV_WARM] += 1
             if slot >= 0:
                 slots[ai] = slot
-                if not impulse_cached_t(xf, mats.KT, j, stack.sets, slot, na, W.za, lamn, xn):
+                if not impulse_cached_t(xf, mats.K, mats.KT, j, stack.sets, slot, na, W.za,
+                                        lamn, xn):
                     return STEP_NONFINITE
                 if commit and m <= stack.flags[j, MF_UNIQ]:
                     ivars[IV_UNIQ] += 1
