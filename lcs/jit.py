@@ -106,14 +106,10 @@ def _kernel_by_name(module: str, qualname: str):
 
 
 def _decorate(fn, options):
-    if _STATE["numba"]:
-        # After materialize: a module of kernels imported now gets dispatchers directly.
-        k = Kernel(fn, options)
-        _KERNELS.append(k)
-        return k._make()
     k = Kernel(fn, options)
     _KERNELS.append(k)
-    return k
+    # After materialize, a module of kernels imported now gets dispatchers directly.
+    return k._make() if _STATE["numba"] else k
 
 
 def kernel(fn=None, **options):

@@ -89,12 +89,13 @@ class ModeStackBuilder:
     def _grow(self, cap: int) -> None:
         c = self.count
 
-        def grown(a, fill=0):
+        def grown(a, fill=0, per=1):
+            # (``per`` rows a mode: the stored shortened steps hold OS slots a mode.)
             # np.zeros maps zeroed pages lazily: the active-set caches (2 MiB a mode) cost
             # nothing until used, where np.full wrote them all on every doubling.
-            shape = (cap, *a.shape[1:])
+            shape = (cap * per, *a.shape[1:])
             new = np.zeros(shape, a.dtype) if fill == 0 else np.full(shape, fill, a.dtype)
-            new[:c] = a[:c]
+            new[:c * per] = a[:c * per]
             return new
 
         self.mats = ModeArrays(*(grown(a) for a in self.mats))
@@ -105,20 +106,12 @@ class ModeStackBuilder:
         self.cidx = grown(self.cidx)
         self.cG = grown(self.cG)
         OS = self.OS
-
-        def grown_flat(a, fill=0):
-            # (the leading axis holds OS slots per mode)
-            shape = (cap * OS, *a.shape[1:])
-            new = np.zeros(shape, a.dtype) if fill == 0 else np.full(shape, fill, a.dtype)
-            new[:c * OS] = a[:c * OS]
-            return new
-
         o = self.odd
         self.odd = OddSteps(
-            grown(o.s, -1.0), *(grown_flat(a) for a in (o.Phi, o.G0, o.G1, o.K, o.M)),
+            grown(o.s, -1.0), *(grown(a, per=OS) for a in (o.Phi, o.G0, o.G1, o.K, o.M)),
             grown(o.next),
-            ActiveSets(grown_flat(o.sets.keys), grown_flat(o.sets.na, -2),
-                       grown_flat(o.sets.idx), grown_flat(o.sets.G)),
+            ActiveSets(grown(o.sets.keys, per=OS), grown(o.sets.na, -2, OS),
+                       grown(o.sets.idx, per=OS), grown(o.sets.G, per=OS)),
             o.counters)
         self.cap = cap
 
@@ -184,7 +177,7 @@ ODD_SLOTS = 8
 def odd_slots(n: int, m: int, p: int, wanted: int = ODD_SLOTS) -> int:
     """Stored shortened-step discretisations per mode: ``wanted``, fewer when they (with their
     :data:`~lcs.stepping.layout.ODD_SETS` active-set factorisations) would take more than
-    :data:`ODD_BYTES_PER_MODE` (at least 1; 0 when ``wanted`` is 0)."""
+    :data:`ODD_BYTES_PER_MODE` (0 when one slot alone would, or when ``wanted`` is 0)."""
     if wanted <= 0:
         return 0
     size = 8 * (n * n + 2 * n * p + n * m + (1 + ODD_SETS) * m * m)

@@ -50,17 +50,23 @@ from .layout import (
 
 
 @inline
+def scatter_active(idx, j, slot, na, za, lamn):
+    """``lamn`` = λ with the cached active set's ``λ_a`` (``za[:na]``, in the order
+    ``idx[j, slot, :na]``) and zeros elsewhere."""
+    for i in range(lamn.shape[0]):
+        lamn[i] = 0.0
+    for jj in range(na):
+        lamn[idx[j, slot, jj]] = za[jj]
+
+
+@inline
 def impulse_cached(xf, K, j, sets, slot, na, za, lamn, xn):
     """``λ`` from the cached active set's ``λ_a`` (``za[:na]``) into ``lamn``, and
     ``xn = xf + K[j] λ`` over the active pairs only. Returns False when ``xn`` is not
     finite."""
     n = xf.shape[0]
-    m = lamn.shape[0]
     idx = sets.idx
-    for i in range(m):
-        lamn[i] = 0.0
-    for jj in range(na):
-        lamn[idx[j, slot, jj]] = za[jj]
+    scatter_active(idx, j, slot, na, za, lamn)
     chk = 0.0
     for i in range(n):
         v = xf[i]
@@ -79,12 +85,8 @@ def impulse_cached_t(xf, K, KT, j, sets, slot, na, za, lamn, xn):
     n = xf.shape[0]
     if n < COLUMN_MIN:
         return impulse_cached(xf, K, j, sets, slot, na, za, lamn, xn)
-    m = lamn.shape[0]
     idx = sets.idx
-    for i in range(m):
-        lamn[i] = 0.0
-    for jj in range(na):
-        lamn[idx[j, slot, jj]] = za[jj]
+    scatter_active(idx, j, slot, na, za, lamn)
     for i in range(n):
         xn[i] = xf[i]
     for jj in range(na):
