@@ -349,13 +349,15 @@ class _Formulator:
         n, m = self.n, self.m
 
         dx = np.zeros((n, self.nxi))
-        for el in self.capacitors:
-            dx[self.state_index[el.key]] = sol.evaluate(mna.current(el)) / float(el.value)
+        if self.capacitors:
+            i_c = sol.evaluate_many([mna.current(el) for el in self.capacitors])
+            rows = [self.state_index[el.key] for el in self.capacitors]
+            dx[rows] = i_c / np.array([float(el.value) for el in self.capacitors])[:, None]
         if self.inductors:
-            v_l = np.array([sol.evaluate(mna.voltage(*el.nodes)) for el in self.inductors])
+            v_l = sol.evaluate_many([mna.voltage(*el.nodes) for el in self.inductors])
             rows = [self.state_index[el.key] for el in self.inductors]
             dx[rows] = self.Linv @ v_l
-        w = np.array([sol.evaluate(mna.w_form(d)) for d in self.diodes]).reshape(m, self.nxi)
+        w = sol.evaluate_many([mna.w_form(d) for d in self.diodes])
         dx, w = clean(dx), clean(w)
         # A diode shorted by closed switches (e.g. a switch's antiparallel diode while it
         # conducts) has w = 0 identically; its row is round-off of the elimination, whose
@@ -380,7 +382,7 @@ class _Formulator:
 
         def output(probes: Sequence[str]) -> OutputMap:
             names = tuple(probes)
-            rows = []
+            forms = []
             for probe in names:
                 form = self._probe_form(mna, probe)
                 if not sol.determined(form[:mna.nz]):
@@ -390,8 +392,8 @@ class _Formulator:
                         "only through an open switch, or with no path to ground); probe a "
                         "quantity that does not depend on it",
                         file=self.file)
-                rows.append(sol.evaluate(form))
-            y = clean(np.array(rows).reshape(len(names), self.nxi))
+                forms.append(form)
+            y = clean(sol.evaluate_many(forms))
             return OutputMap(names=names, Cy=y[:, :n], Dy=y[:, n:n + m], Fy=y[:, n + m:])
 
         return ModeModel(lcs=lcs, output=output)
@@ -466,9 +468,10 @@ class _Formulator:
         sol = Solution(mna.M, mna.K)
         defects = [(f"{label} is constrained by Kirchhoff's laws", name)
                    for label, name in map(self._xi_name, sol.inconsistent)]
-        defects += [(f"{label} is not determined", name)
-                    for label, name, form in self._needed_forms(mna)
-                    if not sol.determined(form[:mna.nz])]
+        if sol.null.shape[1]:  # (with no null space every quantity is determined)
+            defects += [(f"{label} is not determined", name)
+                        for label, name, form in self._needed_forms(mna)
+                        if not sol.determined(form[:mna.nz])]
         return mna, sol, defects
 
     def _xi_name(self, j: int) -> tuple[str, str]:
@@ -643,18 +646,63 @@ class _Mna:
                 self.branch[el.key] = nn + len(self.branch)
         self.nz = nn + len(self.branch)
         self.width = self.nz + f.nxi
-        rows = np.zeros((self.nz, self.width))
+        # Stamped as (row, column, value) terms in element order and summed by np.add.at
+        # in that order: the sums of adding each element's dense current form row by row,
+        # without a dense vector per element (600 elements: 0.6 ms instead of 5 ms).
+        ri: list[int] = []
+        ci: list[int] = []
+        vals: list[float] = []
         for el in f.two_terminal:
-            current = self.current(el)
-            a, b = el.nodes
+            terms = self._current_terms(el)
+            a, b = el.nodes[:2]
             if a != GROUND:
-                rows[f.node_index[a]] += current
+                ra = f.node_index[a]
+                for c, v in terms:
+                    ri.append(ra)
+                    ci.append(c)
+                    vals.append(v)
             if b != GROUND:
-                rows[f.node_index[b]] -= current
+                rb = f.node_index[b]
+                for c, v in terms:
+                    ri.append(rb)
+                    ci.append(c)
+                    vals.append(-v)
+        rows = np.zeros((self.nz, self.width))
+        if ri:
+            np.add.at(rows, (np.array(ri), np.array(ci)), np.array(vals))
+        for el in f.two_terminal:
             if el.key in self.branch:
                 rows[self.branch[el.key]] = self._branch_equation(el)
         self.M = rows[:, :self.nz]
         self.K = -rows[:, self.nz:]
+
+    def _current_terms(self, el: Element) -> list[tuple[int, float]]:
+        """:meth:`current` as (column, coefficient) terms, in the order of its dense form's
+        additions."""
+        f, kind = self.f, el.kind
+        if el.key in self.branch:
+            return [(self.branch[el.key], 1.0)]
+        if kind == "R":
+            return [(c, v / float(el.value)) for c, v in self._voltage_terms(*el.nodes)]
+        if kind == "L":
+            return [(self.nz + f.state_index[el.key], 1.0)]
+        if kind == "D":
+            return [(self.nz + f.n + f.diode_index[el.key], 1.0)]
+        if kind == "I":
+            return [(self.nz + f.n + f.m + f.input_index[el.key], 1.0)]
+        if kind == "S":  # open
+            return []
+        # (G, F: rare; their dense forms)
+        form = self.current(el)
+        return [(int(c), float(form[c])) for c in np.flatnonzero(form)]
+
+    def _voltage_terms(self, a: str, b: str = GROUND) -> list[tuple[int, float]]:
+        terms = []
+        if a != GROUND:
+            terms.append((self.f.node_index[a], 1.0))
+        if b != GROUND:
+            terms.append((self.f.node_index[b], -1.0))
+        return terms
 
     def _voltage_defined(self, el: Element) -> bool:
         return (el.kind in _VOLTAGE_KINDS or (el.kind == "S" and el.key in self.on)

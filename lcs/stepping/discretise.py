@@ -140,21 +140,24 @@ COLUMN_MIN = 16
 
 
 @inline
-def free_regular(mats, j, x, U0, U1, kk, xf, q):
+def free_regular(mats, inp, j, x, U0, U1, kk, xf, q):
     """Free state ``xf = Phi x + G0 u0 + G1 u1`` and ``q = C xf + F u1`` of a regular step
     of mode ``j`` of the stacked matrices ``mats`` (:class:`~lcs.stepping.layout.ModeArrays`),
-    with ``u0 = U0[kk]`` and ``u1 = U1[kk]``. Returns False when they are not finite."""
+    with ``u0 = U0[kk]`` and ``u1 = U1[kk]``; the input terms over the mode's input columns
+    ``inp[j]`` only (:class:`~lcs.stepping.layout.ModeStack`). Returns False when they are not
+    finite."""
     G0, G1, F = mats.G0, mats.G1, mats.F
     n = x.shape[0]
     m = q.shape[0]
-    p = U0.shape[1]
+    nu = inp[j, 0]
     if n < COLUMN_MIN:
         Phi, C = mats.Phi, mats.C
         for i in range(n):
             v = 0.0
             for jj in range(n):
                 v += Phi[j, i, jj] * x[jj]
-            for jj in range(p):
+            for t in range(nu):
+                jj = inp[j, 1 + t]
                 v += G0[j, i, jj] * U0[kk, jj] + G1[j, i, jj] * U1[kk, jj]
             xf[i] = v
         for i in range(m):
@@ -175,7 +178,8 @@ def free_regular(mats, j, x, U0, U1, kk, xf, q):
                 xf[i] += PhiT[j, jj, i] * xj
         for i in range(n):
             v = xf[i]
-            for jj in range(p):
+            for t in range(nu):
+                jj = inp[j, 1 + t]
                 v += G0[j, i, jj] * U0[kk, jj] + G1[j, i, jj] * U1[kk, jj]
             xf[i] = v
         for i in range(m):
@@ -187,7 +191,8 @@ def free_regular(mats, j, x, U0, U1, kk, xf, q):
     chk = 0.0
     for i in range(m):
         v = q[i]
-        for jj in range(p):
+        for t in range(nu):
+            jj = inp[j, 1 + t]
             v += F[j, i, jj] * U1[kk, jj]
         q[i] = v
         chk += v
@@ -198,21 +203,23 @@ def free_regular(mats, j, x, U0, U1, kk, xf, q):
 
 
 @inline
-def free_odd(mats, j, s, theta, x, u0, u1, xf, q, Ko, Mo, augn):
+def free_odd(mats, inp, j, s, theta, x, u0, u1, xf, q, Ko, Mo, augn):
     """Free state ``xf``, ``K`` (into ``Ko``), ``M`` (into ``Mo``) and ``q`` of a step of
-    length ``s`` (not the stored h) of mode ``j``, from inputs ``u0`` to ``u1``.
+    length ``s`` (not the stored h) of mode ``j``, from inputs ``u0`` to ``u1`` (over the
+    mode's input columns ``inp[j]``).
     Returns False when ``I - s θ A`` is singular or the result is not finite."""
     A, B, C, D, E, F = mats.A, mats.B, mats.C, mats.D, mats.E, mats.F
     n = x.shape[0]
     m = q.shape[0]
-    p = u0.shape[0]
+    nu = inp[j, 0]
     a1 = s * (1.0 - theta)
     for i in range(n):
         v = x[i]
         for jj in range(n):
             augn[i, jj] = (1.0 if i == jj else 0.0) - s * theta * A[j, i, jj]
             v += a1 * A[j, i, jj] * x[jj]
-        for jj in range(p):
+        for t in range(nu):
+            jj = inp[j, 1 + t]
             v += s * E[j, i, jj] * ((1.0 - theta) * u0[jj] + theta * u1[jj])
         augn[i, n] = v
         for jj in range(m):
@@ -234,7 +241,8 @@ def free_odd(mats, j, s, theta, x, u0, u1, xf, q, Ko, Mo, augn):
         v = 0.0
         for jj in range(n):
             v += C[j, i, jj] * xf[jj]
-        for jj in range(p):
+        for t in range(nu):
+            jj = inp[j, 1 + t]
             v += F[j, i, jj] * u1[jj]
         q[i] = v
         chk += v

@@ -139,12 +139,16 @@ and the active set's factorisation are done once."""
 #: active-set factorisations kept per stored shortened-step length
 ODD_SETS = 2
 
-ModeStack = namedtuple("ModeStack", ["mats", "sets", "key", "flags", "odd"])
+ModeStack = namedtuple("ModeStack", ["mats", "sets", "key", "flags", "odd", "inp"])
 ModeStack.__doc__ = """Every mode built so far, stacked by mode id ``j`` (capacity Q).
 
 ``mats``: :class:`ModeArrays` of (Q, ., .) arrays; ``sets``: :class:`ActiveSets` of (Q, S, ...)
 arrays; ``key (Q, Wk)``: the switch key of each mode (a bitset, :mod:`lcs.bits`: bit i, switch
-i on); ``flags (Q, MF_LEN)``; ``odd``: :class:`OddSteps`.
+i on); ``flags (Q, MF_LEN)``; ``odd``: :class:`OddSteps`; ``inp (Q, p + 1)`` the inputs that
+enter mode j's dynamics or LCP (a non-zero column of ``E`` or ``F``): their number
+``inp[j, 0]``, then their indices in increasing order. The steps sum the input terms over
+those only: gate drives are inputs that only the switches see (an MMC arm of 64 cells has
+129 inputs, 1 in its dynamics), and the skipped terms are exact zeros.
 """
 
 SwitchArrays = namedtuple("SwitchArrays", ["kind", "flags", "vt", "vh"])

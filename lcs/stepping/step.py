@@ -128,7 +128,7 @@ def regular_cached_step(stack, j, x, U0, U1, kk, slot, W, xn, lamn, rtol):
     non-finite result); :func:`mode_step` then decides.
     """
     mats = stack.mats
-    if not free_regular(mats, j, x, U0, U1, kk, W.xf, W.q):
+    if not free_regular(mats, stack.inp, j, x, U0, U1, kk, W.xf, W.q):
         return False
     if W.q.shape[0] == 0:
         for i in range(x.shape[0]):
@@ -145,7 +145,8 @@ def regular_cached_step(stack, j, x, U0, U1, kk, slot, W, xn, lamn, rtol):
 def odd_basis_step(stack, j, s, theta, x, u0, u1, mask, W, xn, lamn, rtol):
     """A step of length ``s`` (discretised on the fly) of mode ``j`` by the active set
     ``mask``; False when not taken this way."""
-    if not free_odd(stack.mats, j, s, theta, x, u0, u1, W.xf, W.q, W.Ko, W.Mo, W.augn):
+    if not free_odd(stack.mats, stack.inp, j, s, theta, x, u0, u1, W.xf, W.q, W.Ko, W.Mo,
+                    W.augn):
         return False
     if W.q.shape[0] > 0 and not solve_basis(W.Mo, W.q, mask, W.lcp, lamn, rtol):
         return False
@@ -156,17 +157,20 @@ def odd_basis_step(stack, j, s, theta, x, u0, u1, mask, W, xn, lamn, rtol):
 def odd_cached_step(stack, j, s, h, theta, x, u0, u1, mask, slots, W, xn, lamn, rtol, ivars,
                     lim):
     """A shortened step of length ``s`` of mode ``j`` by the active set ``mask``, with the
-    discretisation of that length and the factorisation of that active set stored in
+    discretisation of that length and the factorisations of its active sets stored in
     ``stack.odd`` (made on the first step of a length within 1e-9 h of it); when the set is
-    not accepted, by principal pivoting from it on the stored matrices (``mask`` is then
-    updated and ``slots[0]`` forgotten). Falls back to :func:`odd_basis_step` once stored
-    lengths do not recur (more evictions than hits after 64 evictions). False when not taken
-    this way (:func:`mode_step` decides: Lemke, uniqueness)."""
+    not accepted, by block principal pivoting from it through the same store (``mask`` is
+    then updated and ``slots[0]`` forgotten): a PWM edge changes the same pairs at the same
+    offset every period, so the new set is factorised once. Falls back to
+    :func:`odd_basis_step` once stored lengths do not recur (more evictions than hits after
+    64 evictions). False when not taken this way (:func:`mode_step` decides: Lemke,
+    uniqueness)."""
     odd = stack.odd
     mats = stack.mats
     nslots = odd.s.shape[1]
     if nslots == 0:
         return odd_basis_step(stack, j, s, theta, x, u0, u1, mask, W, xn, lamn, rtol)
+    n = x.shape[0]
     slot = -1
     tol = 1e-9 * h
     for sl in range(nslots):
@@ -191,40 +195,18 @@ def odd_cached_step(stack, j, s, h, theta, x, u0, u1, mask, slots, W, xn, lamn, 
         if not discretise_nb(mats.A[j], mats.B[j], mats.C[j], mats.D[j], mats.E[j], s, theta,
                              odd.Phi[jj], odd.G0[jj], odd.G1[jj], odd.K[jj], odd.M[jj]):
             return False
+        if n >= COLUMN_MIN:
+            transpose_square(odd.Phi[jj])
         odd.s[j, slot] = s
         ivars[IV_ODDMISS] += 1
     else:
         ivars[IV_ODDHIT] += 1
     jj = j * nslots + slot
-    Phi = odd.Phi[jj]
-    G0 = odd.G0[jj]
-    G1 = odd.G1[jj]
-    C = mats.C[j]
-    F = mats.F[j]
+    if not odd_free(stack, j, jj, x, u0, u1, W.xf, W.q):
+        return False
     xf = W.xf
     q = W.q
-    n = x.shape[0]
     m = q.shape[0]
-    p = u0.shape[0]
-    chk = 0.0
-    for i in range(n):
-        v = 0.0
-        for jc in range(n):
-            v += Phi[i, jc] * x[jc]
-        for jc in range(p):
-            v += G0[i, jc] * u0[jc] + G1[i, jc] * u1[jc]
-        xf[i] = v
-        chk += v
-    for i in range(m):
-        v = 0.0
-        for jc in range(n):
-            v += C[i, jc] * xf[jc]
-        for jc in range(p):
-            v += F[i, jc] * u1[jc]
-        q[i] = v
-        chk += v
-    if not chk - chk == 0.0:
-        return False
     if m == 0:
         for i in range(n):
             xn[i] = xf[i]
@@ -233,19 +215,96 @@ def odd_cached_step(stack, j, s, h, theta, x, u0, u1, mask, slots, W, xn, lamn, 
     na = solve_cached(odd.M, jj, q, odd.sets, so, W.za, rtol)
     if na >= 0:
         return impulse_cached(xf, odd.K, jj, odd.sets, so, na, W.za, lamn, xn)
-    # A switching changes the active set: pivot from the previous one here, on the stored
-    # matrices, rather than discretise again in mode_step (unless its solutions must be
-    # checked for uniqueness, which mode_step does).
+    # A switching changes the active set: pivot from the previous one here, through the
+    # stored factorisations, rather than discretise again in mode_step (unless its solutions
+    # must be checked for uniqueness, which mode_step does).
     if lim.warm_iter <= 0 or m <= stack.flags[j, MF_UNIQ]:
         return False
     copy_bits(mask, W.lcp.mask)
     ivars[IV_WARM] += 1
-    if not solve_warm_direct(odd.M[jj], q, W.lcp.mask, W.lcp, lamn, rtol, lim.warm_iter,
-                             W.lcp.basis):
+    so, na = solve_warm(odd.M, jj, q, W.lcp.mask, odd.sets, odd.counters, W.za, rtol,
+                        lim.warm_iter, W.lcp.basis, W.lcp.prev)
+    if so < 0:
         return False
     copy_bits(W.lcp.mask, mask)
     slots[0] = -1
-    return impulse_dense(xf, odd.K[jj], lamn, xn)
+    return impulse_cached(xf, odd.K, jj, odd.sets, so, na, W.za, lamn, xn)
+
+
+@inline
+def transpose_square(a):
+    """Transpose the square matrix ``a`` in place."""
+    for i in range(a.shape[0]):
+        for k in range(i + 1, a.shape[0]):
+            t = a[i, k]
+            a[i, k] = a[k, i]
+            a[k, i] = t
+
+
+@inline
+def odd_free(stack, j, jj, x, u0, u1, xf, q):
+    """Free state ``xf`` and ``q`` of a shortened step of mode ``j`` from the stored
+    discretisation ``jj`` of :class:`~lcs.stepping.layout.OddSteps` (``Phi`` stored
+    transposed from :data:`~lcs.stepping.discretise.COLUMN_MIN` states on, and the products
+    then taken a column at a time, with ``C``'s stored transpose: the same numbers as row by
+    row, see :func:`~lcs.stepping.discretise.free_regular`), inputs over the mode's input
+    columns only. Returns False when they are not finite."""
+    odd = stack.odd
+    mats = stack.mats
+    inp = stack.inp
+    Phi = odd.Phi[jj]
+    G0 = odd.G0[jj]
+    G1 = odd.G1[jj]
+    F = mats.F
+    n = x.shape[0]
+    m = q.shape[0]
+    nu = inp[j, 0]
+    if n < COLUMN_MIN:
+        C = mats.C
+        for i in range(n):
+            v = 0.0
+            for jc in range(n):
+                v += Phi[i, jc] * x[jc]
+            for t in range(nu):
+                jc = inp[j, 1 + t]
+                v += G0[i, jc] * u0[jc] + G1[i, jc] * u1[jc]
+            xf[i] = v
+        for i in range(m):
+            v = 0.0
+            for jc in range(n):
+                v += C[j, i, jc] * xf[jc]
+            q[i] = v
+    else:
+        CT = mats.CT
+        for i in range(n):
+            xf[i] = 0.0
+        for jc in range(n):
+            xj = x[jc]
+            for i in range(n):
+                xf[i] += Phi[jc, i] * xj
+        for i in range(n):
+            v = xf[i]
+            for t in range(nu):
+                jc = inp[j, 1 + t]
+                v += G0[i, jc] * u0[jc] + G1[i, jc] * u1[jc]
+            xf[i] = v
+        for i in range(m):
+            q[i] = 0.0
+        for jc in range(n):
+            xj = xf[jc]
+            for i in range(m):
+                q[i] += CT[j, jc, i] * xj
+    chk = 0.0
+    for i in range(m):
+        v = q[i]
+        for t in range(nu):
+            jc = inp[j, 1 + t]
+            v += F[j, i, jc] * u1[jc]
+        q[i] = v
+        chk += v
+    for i in range(n):
+        chk += xf[i]
+    return chk - chk == 0.0
 
 
 @kernel
@@ -263,11 +322,12 @@ def mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, ai
     mats = stack.mats
     fast = stack.flags[j, MF_FAST] != 0
     if regular:
-        finite = free_regular(mats, j, x, U0, U1, kk, W.xf, W.q)
+        finite = free_regular(mats, stack.inp, j, x, U0, U1, kk, W.xf, W.q)
         Kk = mats.K[j]
         Mk = mats.M[j]
     else:
-        finite = free_odd(mats, j, s, theta, x, u0, u1, W.xf, W.q, W.Ko, W.Mo, W.augn)
+        finite = free_odd(mats, stack.inp, j, s, theta, x, u0, u1, W.xf, W.q, W.Ko, W.Mo,
+                          W.augn)
         Kk = W.Ko
         Mk = W.Mo
     if not finite:
