@@ -78,5 +78,5 @@ def test_slots_per_mode_are_bounded_by_memory():
     assert odd_slots(3, 2, 2, 0) == 0
     n = m = 200
     size = 8 * (n * n + 2 * n * 4 + n * m + (1 + ODD_SETS) * m * m)
-    assert odd_slots(n, m, 4) == max(1, ODD_BYTES_PER_MODE // size) == 2
+    assert odd_slots(n, m, 4) == max(1, ODD_BYTES_PER_MODE // size) == 1
     assert odd_slots(2000, 2000, 1) == 0  # one slot over the budget: none

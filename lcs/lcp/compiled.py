@@ -52,8 +52,10 @@ switch mode), ``S`` active sets each.
 
 For matrix ``j``: ``keys[j] (S, W)`` the active-set bitset of each slot; ``na[j] (S,)`` its size
 (-1: the principal submatrix is singular, no fast path; -2: an empty slot); ``idx[j] (S, m)`` the
-active indices first, then the others; ``G[j] (S, m, m)`` ``-(M_aa)^-1`` in its top-left
-``na x na`` block. (Indexing the stacks with ``j`` inside the loops, rather than taking views
+active indices first, then the others; ``G[j] (S, m, m)`` the transpose of ``-(M_aa)^-1`` in
+its top-left ``na x na`` block (stored transposed so that ``λ_a = -(M_aa)^-1 q_a`` is summed a
+column at a time over contiguous memory: the same sums, in the same order, as row by row; the
+loops vectorise). (Indexing the stacks with ``j`` inside the loops, rather than taking views
 per matrix, keeps reference counting out of the steps.)
 """
 
@@ -128,7 +130,7 @@ def factor_active(M, j, mask, slot, sets):
                         aug[r, j] -= f * aug[c, j]
     for i in range(na):
         for j in range(na):
-            cG[slot, i, j] = -aug[i, na + j]
+            cG[slot, j, i] = -aug[i, na + j]
     cna[slot] = na
 
 
@@ -203,7 +205,7 @@ def factor_update(M, j, mask, slot, src, sets):
     for a in range(na0):
         lst[a] = cidx[j, src, a]
         for b in range(na0):
-            H[a, b] = -sets.G[j, src, a, b]
+            H[a, b] = -sets.G[j, src, b, a]
     u = np.empty(m)
     v = np.empty(m)
     # Removals.
@@ -294,7 +296,7 @@ def factor_update(M, j, mask, slot, src, sets):
     for a in range(na):
         cidx[j, slot, a] = lst[a]
         for b in range(na):
-            sets.G[j, slot, a, b] = -H[a, b]
+            sets.G[j, slot, b, a] = -H[a, b]
     sets.na[j, slot] = na
     return True
 
@@ -306,6 +308,26 @@ def mask_of(active, mask):
     for i in range(active.shape[0]):
         if active[i]:
             set_bit(mask, i)
+
+
+@inline
+def active_lambda(sets, j, slot, na, q, za):
+    """``λ_a = -(M_aa)^-1 q_a`` of cache ``slot`` of matrix ``j`` into ``za[:na]``, a column
+    of the stored transpose at a time (each entry sums its terms in the order of a row-by-row
+    product); returns ``max |λ_a|``."""
+    cidx = sets.idx
+    GT = sets.G
+    for ii in range(na):
+        za[ii] = 0.0
+    for jj in range(na):
+        qj = q[cidx[j, slot, jj]]
+        for ii in range(na):
+            za[ii] += GT[j, slot, jj, ii] * qj
+    zmax = 0.0
+    for ii in range(na):
+        if abs(za[ii]) > zmax:
+            zmax = abs(za[ii])
+    return zmax
 
 
 @inline
@@ -321,15 +343,7 @@ def solve_cached(M, j, q, sets, slot, za, rtol):
     if na < 0:
         return -1
     cidx = sets.idx
-    cG = sets.G
-    zmax = 0.0
-    for ii in range(na):
-        v = 0.0
-        for jj in range(na):
-            v += cG[j, slot, ii, jj] * q[cidx[j, slot, jj]]
-        za[ii] = v
-        if abs(v) > zmax:
-            zmax = abs(v)
+    zmax = active_lambda(sets, j, slot, na, q, za)
     for ii in range(na):
         if za[ii] < -rtol * zmax:
             return -1
@@ -381,15 +395,7 @@ def solve_warm(M, j, q, mask, sets, counters, za, rtol, max_iter, viol, prev):
             tries = 4
             continue
         cidx = sets.idx
-        cG = sets.G
-        zmax = 0.0
-        for ii in range(na):
-            v = 0.0
-            for jj in range(na):
-                v += cG[j, slot, ii, jj] * q[cidx[j, slot, jj]]
-            za[ii] = v
-            if abs(v) > zmax:
-                zmax = abs(v)
+        zmax = active_lambda(sets, j, slot, na, q, za)
         nv = 0
         for ii in range(na):
             if za[ii] < -rtol * zmax:

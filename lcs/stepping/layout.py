@@ -123,21 +123,24 @@ def mode_shapes(n: int, m: int, p: int, r: int, k: int) -> ModeArrays:
                       (n, m), (m, n))
 
 
-OddSteps = namedtuple("OddSteps", ["s", "Phi", "G0", "G1", "K", "M", "next", "sets",
+OddSteps = namedtuple("OddSteps", ["s", "Phi", "G0", "G1", "KT", "M", "next", "sets",
                                    "counters"])
 OddSteps.__doc__ = """Discretisations of shortened steps, ``OS`` per mode: the step length
 ``s (Q, OS)`` in s (-1: an empty slot); the matrices of slot ``o`` of mode ``j`` at index
-``jj = j OS + o`` of ``Phi (Q OS, n, n)``, ``G0, G1 (Q OS, n, p)``, ``K (Q OS, n, m)``,
-``M (Q OS, m, m)``, with an :class:`~lcs.lcp.compiled.ActiveSets` cache ``sets`` of
-:data:`ODD_SETS` active sets each (its own round-robin ``counters``, laid out as the
-kernel's ``ivars``, whose unused entry 0 counts evictions); ``next (Q,)`` the slot of each
-mode to fill next.
+``jj = j OS + o`` of ``Phi (Q OS, n, n)`` (transposed from
+:data:`~lcs.stepping.discretise.COLUMN_MIN` states on), ``G0, G1 (Q OS, n, p)``, the transpose
+of ``K``, ``KT (Q OS, m, n)``, and ``M (Q OS, m, m)``, with an
+:class:`~lcs.lcp.compiled.ActiveSets` cache ``sets`` of :data:`ODD_SETS` active sets each (its
+own round-robin ``counters``, laid out as the kernel's ``ivars``, whose unused entry 0 counts
+evictions); ``next (Q,)`` the slot of each mode to fill next.
 Source-driven switchings and PULSE edges fall at the same offsets from the grid every period,
 so the same few lengths, and at each the same active sets, recur: the elimination (O(n^3))
 and the active set's factorisation are done once."""
 
-#: active-set factorisations kept per stored shortened-step length
-ODD_SETS = 2
+#: active-set factorisations kept per stored shortened-step length (a PWM edge's step sees the
+#: set before and after it, and block pivoting's intermediate sets: with 2, a 64-phase
+#: interleaved buck refactorised 52,000 sets in 200 periods, with 4, 3,000)
+ODD_SETS = 4
 
 ModeStack = namedtuple("ModeStack", ["mats", "sets", "key", "flags", "odd", "inp"])
 ModeStack.__doc__ = """Every mode built so far, stacked by mode id ``j`` (capacity Q).

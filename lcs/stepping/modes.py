@@ -80,7 +80,7 @@ class ModeStackBuilder:
         OS = self.OS
         self.odd = OddSteps(
             np.zeros((0, OS)), np.zeros((0, n, n)), np.zeros((0, n, p)), np.zeros((0, n, p)),
-            np.zeros((0, n, m)), np.zeros((0, m, m)), np.zeros(0, np.int64),
+            np.zeros((0, m, n)), np.zeros((0, m, m)), np.zeros(0, np.int64),
             ActiveSets(np.zeros((0, ODD_SETS, self.Wm), np.int64),
                        np.zeros((0, ODD_SETS), np.int64), np.zeros((0, ODD_SETS, m), np.int64),
                        np.zeros((0, ODD_SETS, m, m))),
@@ -110,7 +110,7 @@ class ModeStackBuilder:
         OS = self.OS
         o = self.odd
         self.odd = OddSteps(
-            grown(o.s, -1.0), *(grown(a, per=OS) for a in (o.Phi, o.G0, o.G1, o.K, o.M)),
+            grown(o.s, -1.0), *(grown(a, per=OS) for a in (o.Phi, o.G0, o.G1, o.KT, o.M)),
             grown(o.next),
             ActiveSets(grown(o.sets.keys, per=OS), grown(o.sets.na, -2, OS),
                        grown(o.sets.idx, per=OS), grown(o.sets.G, per=OS)),

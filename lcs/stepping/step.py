@@ -82,9 +82,35 @@ def impulse_cached_t(xf, K, KT, j, sets, slot, na, za, lamn, xn):
     """:func:`impulse_cached`, with the transposes ``KT`` of the stored ``K`` a column at a
     time from :data:`~lcs.stepping.discretise.COLUMN_MIN` states on (see
     :class:`~lcs.stepping.layout.ModeArrays`): the same numbers."""
-    n = xf.shape[0]
-    if n < COLUMN_MIN:
+    if xf.shape[0] < COLUMN_MIN:
         return impulse_cached(xf, K, j, sets, slot, na, za, lamn, xn)
+    return impulse_columns(xf, KT, j, sets, slot, na, za, lamn, xn)
+
+
+@inline
+def impulse_kt(xf, KT, j, sets, slot, na, za, lamn, xn):
+    """:func:`impulse_cached` from the transposes ``KT`` alone (the stored shortened steps
+    keep ``K`` transposed): row by row below :data:`~lcs.stepping.discretise.COLUMN_MIN`
+    states, a column at a time from there; the same numbers either way."""
+    n = xf.shape[0]
+    if n >= COLUMN_MIN:
+        return impulse_columns(xf, KT, j, sets, slot, na, za, lamn, xn)
+    idx = sets.idx
+    scatter_active(idx, j, slot, na, za, lamn)
+    chk = 0.0
+    for i in range(n):
+        v = xf[i]
+        for jj in range(na):
+            v += KT[j, idx[j, slot, jj], i] * za[jj]
+        xn[i] = v
+        chk += v
+    return chk - chk == 0.0
+
+
+@inline
+def impulse_columns(xf, KT, j, sets, slot, na, za, lamn, xn):
+    """``xn = xf + K[j] λ`` over the active pairs, a column of ``KT[j]`` at a time."""
+    n = xf.shape[0]
     idx = sets.idx
     scatter_active(idx, j, slot, na, za, lamn)
     for i in range(n):
@@ -192,11 +218,16 @@ def odd_cached_step(stack, j, s, h, theta, x, u0, u1, mask, slots, W, xn, lamn, 
         odd.s[j, slot] = -1.0
         for k in range(odd.sets.na.shape[1]):
             odd.sets.na[jj, k] = -2
+        Ko = W.Ko
         if not discretise_nb(mats.A[j], mats.B[j], mats.C[j], mats.D[j], mats.E[j], s, theta,
-                             odd.Phi[jj], odd.G0[jj], odd.G1[jj], odd.K[jj], odd.M[jj]):
+                             odd.Phi[jj], odd.G0[jj], odd.G1[jj], Ko, odd.M[jj]):
             return False
         if n >= COLUMN_MIN:
             transpose_square(odd.Phi[jj])
+        KT = odd.KT[jj]
+        for i in range(n):
+            for c in range(Ko.shape[1]):
+                KT[c, i] = Ko[i, c]
         odd.s[j, slot] = s
         ivars[IV_ODDMISS] += 1
     else:
@@ -214,7 +245,7 @@ def odd_cached_step(stack, j, s, h, theta, x, u0, u1, mask, slots, W, xn, lamn, 
     so = lookup(odd.M, jj, mask, odd.sets, odd.counters)
     na = solve_cached(odd.M, jj, q, odd.sets, so, W.za, rtol)
     if na >= 0:
-        return impulse_cached(xf, odd.K, jj, odd.sets, so, na, W.za, lamn, xn)
+        return impulse_kt(xf, odd.KT, jj, odd.sets, so, na, W.za, lamn, xn)
     # A switching changes the active set: pivot from the previous one here, through the
     # stored factorisations, rather than discretise again in mode_step (unless its solutions
     # must be checked for uniqueness, which mode_step does).
@@ -228,7 +259,7 @@ def odd_cached_step(stack, j, s, h, theta, x, u0, u1, mask, slots, W, xn, lamn, 
         return False
     copy_bits(W.lcp.mask, mask)
     slots[0] = -1
-    return impulse_cached(xf, odd.K, jj, odd.sets, so, na, W.za, lamn, xn)
+    return impulse_kt(xf, odd.KT, jj, odd.sets, so, na, W.za, lamn, xn)
 
 
 @inline
