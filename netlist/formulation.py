@@ -60,6 +60,8 @@ from lcs.model import (
 
 from .circuit import GROUND, Circuit, Element
 from .errors import Diagnostic, NetlistError
+from .mna import VOLTAGE_KINDS as _VOLTAGE_KINDS
+from .mna import Mna as _Mna
 from .mna_solve import Solution, clean
 from .reductions import parallel_diodes, source_capacitors
 from .topology import UnionFind, bridges, find_cutset, find_loop
@@ -72,8 +74,6 @@ EXHAUSTIVE_DIODE_LIMIT = 12
 
 _TWO_TERMINAL = frozenset("RLCVIDSEFGH")
 _KNOWN_KINDS = _TWO_TERMINAL | {"K"}
-# Branches whose voltage is imposed (a loop of them is degenerate); closed switches too.
-_VOLTAGE_KINDS = frozenset("VCEH")
 # Branches whose current is imposed (a cutset of them is degenerate).
 _CURRENT_KINDS = frozenset("LIFG")
 
@@ -350,14 +350,15 @@ class _Formulator:
 
         dx = np.zeros((n, self.nxi))
         if self.capacitors:
-            i_c = sol.evaluate_many([mna.current(el) for el in self.capacitors])
+            i_c = sol.evaluate_terms([mna._current_terms(el) for el in self.capacitors])
             rows = [self.state_index[el.key] for el in self.capacitors]
             dx[rows] = i_c / np.array([float(el.value) for el in self.capacitors])[:, None]
         if self.inductors:
-            v_l = sol.evaluate_many([mna.voltage(*el.nodes) for el in self.inductors])
+            v_l = sol.evaluate_terms([mna._voltage_terms(*el.nodes[:2])
+                                      for el in self.inductors])
             rows = [self.state_index[el.key] for el in self.inductors]
             dx[rows] = self.Linv @ v_l
-        w = sol.evaluate_many([mna.w_form(d) for d in self.diodes])
+        w = sol.evaluate_terms([mna.w_terms(d) for d in self.diodes])
         dx, w = clean(dx), clean(w)
         # A diode shorted by closed switches (e.g. a switch's antiparallel diode while it
         # conducts) has w = 0 identically; its row is round-off of the elimination, whose
@@ -465,7 +466,7 @@ class _Formulator:
     def _try(self, on: frozenset[str], vdiodes: frozenset[str]):
         """MNA of one λ-type assignment and its defects, (text, element) pairs; [] = usable."""
         mna = _Mna(self, on, vdiodes)
-        sol = Solution(mna.M, mna.K)
+        sol = Solution(None, mna.K, entries=mna.entries)
         defects = [(f"{label} is constrained by Kirchhoff's laws", name)
                    for label, name in map(self._xi_name, sol.inconsistent)]
         if sol.null.shape[1]:  # (with no null space every quantity is determined)
@@ -621,152 +622,3 @@ def _short_list(names: Sequence[str], limit: int = 30) -> str:
     names = list(names)
     text = ", ".join(names[:limit])
     return text + (f", ... ({len(names)} in all)" if len(names) > limit else "")
-
-
-class _Mna:
-    """The MNA companion network of one mode and λ-type assignment.
-
-    Unknowns ``z``: the voltages of the non-ground nodes (V), then the currents (A) of the
-    voltage-defined branches (V, C, E, H, closed S, voltage-type D) in netlist order, each
-    flowing from n+ through the element to n-. Linear *forms* are vectors over ``(z, ξ)``,
-    ``ξ = (x, λ, u)``; a quantity's value is ``form[:nz] @ z + form[nz:] @ ξ``.
-    Equations: KCL at every non-ground node (sum of currents leaving = 0), then one branch
-    equation per voltage-defined branch; stacked as ``rows @ (z, ξ) = 0`` and split into
-    ``M z = K ξ``.
-    """
-
-    def __init__(self, f: _Formulator, on: frozenset[str], vdiodes: frozenset[str]):
-        self.f = f
-        self.on = on
-        self.vdiodes = vdiodes
-        nn = len(f.nodes)
-        self.branch: dict[str, int] = {}
-        for el in f.two_terminal:
-            if self._voltage_defined(el):
-                self.branch[el.key] = nn + len(self.branch)
-        self.nz = nn + len(self.branch)
-        self.width = self.nz + f.nxi
-        # Stamped as (row, column, value) terms in element order and summed by np.add.at
-        # in that order: the sums of adding each element's dense current form row by row,
-        # without a dense vector per element (600 elements: 0.6 ms instead of 5 ms).
-        ri: list[int] = []
-        ci: list[int] = []
-        vals: list[float] = []
-        for el in f.two_terminal:
-            terms = self._current_terms(el)
-            a, b = el.nodes[:2]
-            if a != GROUND:
-                ra = f.node_index[a]
-                for c, v in terms:
-                    ri.append(ra)
-                    ci.append(c)
-                    vals.append(v)
-            if b != GROUND:
-                rb = f.node_index[b]
-                for c, v in terms:
-                    ri.append(rb)
-                    ci.append(c)
-                    vals.append(-v)
-        rows = np.zeros((self.nz, self.width))
-        if ri:
-            np.add.at(rows, (np.array(ri), np.array(ci)), np.array(vals))
-        for el in f.two_terminal:
-            if el.key in self.branch:
-                rows[self.branch[el.key]] = self._branch_equation(el)
-        self.M = rows[:, :self.nz]
-        self.K = -rows[:, self.nz:]
-
-    def _current_terms(self, el: Element) -> list[tuple[int, float]]:
-        """:meth:`current` as (column, coefficient) terms, in the order of its dense form's
-        additions."""
-        f, kind = self.f, el.kind
-        if el.key in self.branch:
-            return [(self.branch[el.key], 1.0)]
-        if kind == "R":
-            return [(c, v / float(el.value)) for c, v in self._voltage_terms(*el.nodes)]
-        if kind == "L":
-            return [(self.nz + f.state_index[el.key], 1.0)]
-        if kind == "D":
-            return [(self.nz + f.n + f.diode_index[el.key], 1.0)]
-        if kind == "I":
-            return [(self.nz + f.n + f.m + f.input_index[el.key], 1.0)]
-        if kind == "S":  # open
-            return []
-        # (G, F: rare; their dense forms)
-        form = self.current(el)
-        return [(int(c), float(form[c])) for c in np.flatnonzero(form)]
-
-    def _voltage_terms(self, a: str, b: str = GROUND) -> list[tuple[int, float]]:
-        terms = []
-        if a != GROUND:
-            terms.append((self.f.node_index[a], 1.0))
-        if b != GROUND:
-            terms.append((self.f.node_index[b], -1.0))
-        return terms
-
-    def _voltage_defined(self, el: Element) -> bool:
-        return (el.kind in _VOLTAGE_KINDS or (el.kind == "S" and el.key in self.on)
-                or (el.kind == "D" and el.key in self.vdiodes))
-
-    def _unit(self, index: int) -> np.ndarray:
-        form = np.zeros(self.width)
-        form[index] = 1.0
-        return form
-
-    def _xi(self, index: int) -> np.ndarray:
-        return self._unit(self.nz + index)
-
-    def voltage(self, a: str, b: str = GROUND) -> np.ndarray:
-        """Form of v(a) - v(b), V."""
-        form = np.zeros(self.width)
-        if a != GROUND:
-            form[self.f.node_index[a]] += 1.0
-        if b != GROUND:
-            form[self.f.node_index[b]] -= 1.0
-        return form
-
-    def current(self, el: Element) -> np.ndarray:
-        """Form of the current from n+ through ``el`` to n- (anode -> cathode for a diode), A."""
-        f, kind = self.f, el.kind
-        if el.key in self.branch:
-            return self._unit(self.branch[el.key])
-        if kind == "R":
-            return self.voltage(*el.nodes) / float(el.value)
-        if kind == "L":
-            return self._xi(f.state_index[el.key])
-        if kind == "D":
-            return self._xi(f.n + f.diode_index[el.key])
-        if kind == "I":
-            return self._xi(f.n + f.m + f.input_index[el.key])
-        if kind == "S":  # open
-            return np.zeros(self.width)
-        if kind == "G":
-            return float(el.gain) * self.voltage(*el.control)
-        if kind == "F":
-            return float(el.gain) * self._unit(self.branch[el.source.lower()])
-        raise AssertionError(f"no current form for {el.kind}")  # pragma: no cover
-
-    def _branch_equation(self, el: Element) -> np.ndarray:
-        """Form that vanishes on a voltage-defined branch's constitutive law."""
-        f, kind = self.f, el.kind
-        v = self.voltage(*el.nodes)
-        if kind == "V":
-            return v - self._xi(f.n + f.m + f.input_index[el.key])
-        if kind == "C":
-            return v - self._xi(f.state_index[el.key])
-        if kind == "S":
-            return v
-        if kind == "D":  # v(a) - v(k) = -λ
-            return v + self._xi(f.n + f.diode_index[el.key])
-        if kind == "E":
-            return v - float(el.gain) * self.voltage(*el.control)
-        if kind == "H":
-            return v - float(el.gain) * self._unit(self.branch[el.source.lower()])
-        raise AssertionError(f"no branch equation for {el.kind}")  # pragma: no cover
-
-    def w_form(self, diode: Element) -> np.ndarray:
-        """Form of the diode's w: reverse voltage (current-type λ) or current (voltage-type)."""
-        if diode.key in self.vdiodes:
-            return self.current(diode)
-        anode, cathode = diode.nodes
-        return self.voltage(cathode, anode)

@@ -32,13 +32,19 @@ class Solution:
     rank decision does not depend on the units of the rows (A vs V) or on element values.
     """
 
-    def __init__(self, M: np.ndarray, K: np.ndarray):
+    def __init__(self, M: np.ndarray | None, K: np.ndarray,
+                 entries: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None):
         nz, nxi = K.shape
         # The non-zero entries once (an MNA row has a few): the scaling, the LU's sparse
         # matrix and its norm from them, no dense pass over nz x nz per step of the way.
-        I, J = np.nonzero(M)
-        v = M[I, J]
-        r, c = _equilibrate_terms(M.shape[0], M.shape[1], I, J, np.abs(v))
+        if entries is None:
+            I, J = np.nonzero(M)
+            v = M[I, J]
+            ncols = M.shape[1]
+        else:  # (M square, given by its non-zero entries, row-major)
+            I, J, v = entries
+            ncols = nz
+        r, c = _equilibrate_terms(nz, ncols, I, J, np.abs(v))
         self.col_scale = c
         if nz == 0:
             self.Z = np.zeros((0, nxi))
@@ -46,8 +52,11 @@ class Solution:
             self.inconsistent = []
             return
         Ks = r[:, None] * K
-        if nz >= LU_MIN_SIZE and M.shape[1] == nz and self._lu(I, J, r[I] * v * c[J], Ks, c):
+        if nz >= LU_MIN_SIZE and ncols == nz and self._lu(I, J, r[I] * v * c[J], Ks, c):
             return
+        if M is None:
+            M = np.zeros((nz, ncols))
+            M[I, J] = v
         Ms = r[:, None] * M * c[None, :]
         U, s, Vt = np.linalg.svd(Ms)
         rank = int(np.sum(s > RANK_RTOL * s[0])) if s[0] > 0 else 0
@@ -119,6 +128,28 @@ class Solution:
         """Row over ξ of a quantity given by its form over (z, ξ)."""
         nz = self.Z.shape[0]
         return form[:nz] @ self.Z + form[nz:]
+
+    def evaluate_terms(self, terms: list[list[tuple[int, float]]]) -> np.ndarray:
+        """:meth:`evaluate_many` of forms given as lists of (column over (z, ξ),
+        coefficient) terms, the same sums without the dense forms."""
+        nz, nxi = self.Z.shape
+        rows = [k for k, form in enumerate(terms) for _ in form]
+        flat = [t for form in terms for t in form]
+        out = np.zeros((len(terms), nxi))
+        if not flat:
+            return out
+        r = np.array(rows, dtype=np.int64)
+        c = np.array([t[0] for t in flat], dtype=np.int64)
+        v = np.array([t[1] for t in flat], dtype=float)
+        xi = c >= nz
+        np.add.at(out, (r[xi], c[xi] - nz), v[xi])
+        zr, zc, zv = r[~xi], c[~xi], v[~xi]
+        if zr.size:
+            order = np.argsort(zr, kind="stable")
+            zr, zc, zv = zr[order], zc[order], zv[order]
+            starts = np.flatnonzero(np.r_[True, zr[1:] != zr[:-1]])
+            out[zr[starts]] += np.add.reduceat(zv[:, None] * self.Z[zc], starts, axis=0)
+        return out
 
     def evaluate_many(self, forms: np.ndarray) -> np.ndarray:
         """Rows over ξ, shape (k, nξ), of the quantities given by the rows of ``forms``
