@@ -177,3 +177,23 @@ def test_plot_envelope_keeps_the_extremes_of_dense_waveforms():
     assert len(tt) < 10_000 and np.all(np.diff(tt) >= 0)
     assert yy.max() == y.max() and yy.min() == y.min()
     assert tt[0] == t[0] and tt[-1] == t[-1] or yy[-1] == y[-1]
+
+
+def test_summary_of_many_switches_and_probes_stays_short(tmp_path, capsys):
+    # A 13-phase interleaved buck: 13 switches, 14 states; the summary names at most six
+    # modes, each by its closed switches, and twelve final values.
+    from converters.scaling import interleaved_buck
+
+    net = tmp_path / "ib13.cir"
+    net.write_text(interleaved_buck(13, periods=2))
+    out = tmp_path / "ib13.npz"
+    code, text, err = run(capsys, "simulate", str(net), "-o", str(out))
+    assert code == 0, err
+    line = next(ln for ln in text.splitlines() if ln.startswith("switch modes visited:"))
+    assert line.startswith("switch modes visited: (all off) (on: S1) (on: S1, S2) ")
+    assert "S13 off" not in line and "in all); " in line
+    finals = next(ln for ln in text.splitlines() if ln.startswith("final values"))
+    assert finals.count(" = ") == 13  # (t = ..., then twelve values)
+    assert finals.endswith("(14 probes, all in the output)")
+    with np.load(out) as data:
+        assert data["y"].shape[1] == len(data["names"]) == 14

@@ -317,6 +317,23 @@ def _eng(value: float, unit: str) -> str:
     return format_eng(float(value), unit)
 
 
+# The summary names at most this many modes and final values (a 64-phase converter visits
+# 150 modes of 64 switches; the output file has everything).
+_MAX_MODES_SHOWN = 6
+_MAX_FINALS_SHOWN = 12
+# Up to this many switches a mode is written in full, beyond by its closed switches.
+_FULL_MODE_SWITCHES = 4
+
+
+def _mode_text(switches, mode) -> str:
+    """``(S1 on, S2 off)``, or with many switches ``(on: S1, S7)`` / ``(all off)``."""
+    if len(switches) <= _FULL_MODE_SWITCHES:
+        return "(" + ", ".join(f"{n} {'on' if on else 'off'}"
+                               for n, on in zip(switches, mode, strict=True)) + ")"
+    on = [n for n, closed in zip(switches, mode, strict=True) if closed]
+    return f"(on: {', '.join(on)})" if on else "(all off)"
+
+
 def summary(result, file: str, title: str, *, tstop: float, step: float, theta: float,
             wall: float, written: list[str], switches: list[str] = (),
             load: float | None = None, method: str = "moreau", points: str = "") -> str:
@@ -360,17 +377,20 @@ def summary(result, file: str, title: str, *, tstop: float, step: float, theta: 
             f"({1e6 * wall / max(st.steps, 1):.3g} µs/step)"
             + (f", after {load:.2g} s loading the compiled kernels" if load else ""))
     if switches:
-        modes = ["(" + ", ".join(f"{n} {'on' if on else 'off'}" for n, on in
-                                 zip(switches, mode, strict=True)) + ")"
-                 for mode in result.modes_visited]
+        visited = list(result.modes_visited)
+        modes = [_mode_text(switches, mode) for mode in visited[:_MAX_MODES_SHOWN]]
+        if len(visited) > _MAX_MODES_SHOWN:
+            modes.append(f"... ({len(visited)} in all)")
         lines.append(f"switch modes visited: {' '.join(modes)}; {len(result.events)} "
                      "switching events")
     if st.steps and method != "exact":
         lines.append(f"LCPs: {st.steps - st.fallbacks} of {st.steps} solved by the previous "
                      f"step's active set, {st.fallbacks} by Lemke ({st.lcp_pivots} pivots)")
     if len(result.t):
-        finals = ", ".join(f"{n} = {_eng(v, probe_unit(n))}"
-                           for n, v in zip(result.names, result.y[-1], strict=True))
+        finals = ", ".join(f"{n} = {_eng(v, probe_unit(n))}" for n, v in
+                           zip(result.names[:_MAX_FINALS_SHOWN], result.y[-1], strict=False))
+        if len(result.names) > _MAX_FINALS_SHOWN:
+            finals += f", ... ({len(result.names)} probes, all in the output)"
         lines.append(f"final values (t = {_eng(result.t[-1], 's')}): {finals}")
     for note in result.notes:
         lines.append(f"note: {note}")
