@@ -192,53 +192,62 @@ def _popcount_word(v):
 def factor_update(M, j, mask, slot, src, sets):
     """Factorise active set ``mask`` of ``M[j]`` into cache ``slot`` from the cached set of
     slot ``src`` by rank-one updates of the inverse: a removed index deletes its row and
-    column (``H - H[:, r] H[r, :] / H[r, r]``), an added one borders the matrix with its Schur
-    complement. Returns False (nothing trusted) when a pivot is small or the result fails a
-    residual check; the caller then factorises from scratch."""
+    column (``H - H[:, r] H[r, :] / H[r, r]``, in place after swapping it to the last
+    position), an added one borders the matrix with its Schur complement. Returns False
+    (nothing trusted) when a pivot is small or the result fails a residual check; the caller
+    then factorises from scratch."""
     m = M.shape[1]
+    Mj = M[j]
     na0 = sets.na[j, src]
     cidx = sets.idx
-    H = np.empty((m, m))
-    T = np.empty((m, m))
+    nbits = 0
+    for w in range(mask.shape[0]):
+        nbits += _popcount_word(mask[w])
+    cap = max(na0, nbits, 1)
+    H = np.empty((cap, cap))
     lst = np.empty(m, np.int64)
     na = na0
+    hmax = 0.0
     for a in range(na0):
         lst[a] = cidx[j, src, a]
-        for b in range(na0):
-            H[a, b] = -sets.G[j, src, b, a]
-    u = np.empty(m)
-    v = np.empty(m)
-    # Removals.
+    for b in range(na0):
+        for a in range(na0):
+            v = -sets.G[j, src, b, a]
+            H[a, b] = v
+            if abs(v) > hmax:
+                hmax = abs(v)
+    u = np.empty(cap)
+    v = np.empty(cap)
+    mcol = np.empty(cap)
+    # Removals: the index to remove is swapped to the last position, and the leading block
+    # updated in place (row by row, contiguous).
     r = 0
     while r < na:
         e = lst[r]
         if bit(mask, e):
             r += 1
             continue
-        hmax = 0.0
-        for a in range(na):
+        last = na - 1
+        if r != last:
             for b in range(na):
-                if abs(H[a, b]) > hmax:
-                    hmax = abs(H[a, b])
-        piv = H[r, r]
+                t = H[r, b]
+                H[r, b] = H[last, b]
+                H[last, b] = t
+            for a in range(na):
+                t = H[a, r]
+                H[a, r] = H[a, last]
+                H[a, last] = t
+            lst[r] = lst[last]
+            lst[last] = e
+        piv = H[last, last]
         if not abs(piv) > 1e-10 * hmax:
             return False
-        for a in range(na):
-            for b in range(na):
-                T[a, b] = H[a, b] - H[a, r] * H[r, b] / piv
-        k = 0
-        for a in range(na):
-            if a == r:
-                continue
-            kk = 0
-            for b in range(na):
-                if b == r:
-                    continue
-                H[k, kk] = T[a, b]
-                kk += 1
-            lst[k] = lst[a]
-            k += 1
-        na -= 1
+        for a in range(last):
+            f = H[a, last] / piv
+            if f != 0.0:
+                for b in range(last):
+                    H[a, b] -= f * H[last, b]
+        na = last
     # Additions.
     for e in range(m):
         if not bit(mask, e):
@@ -250,15 +259,19 @@ def factor_update(M, j, mask, slot, src, sets):
                 break
         if present:
             continue
-        Mj = M[j]
+        for b in range(na):
+            mcol[b] = Mj[lst[b], e]
         for a in range(na):
             s_ = 0.0
-            t_ = 0.0
             for b in range(na):
-                s_ += H[a, b] * Mj[lst[b], e]
-                t_ += Mj[e, lst[b]] * H[b, a]
+                s_ += H[a, b] * mcol[b]
             u[a] = s_
-            v[a] = t_
+            v[a] = 0.0
+        for b in range(na):
+            coef = Mj[e, lst[b]]
+            if coef != 0.0:
+                for a in range(na):
+                    v[a] += coef * H[b, a]
         sch = Mj[e, e]
         scale = abs(Mj[e, e])
         for a in range(na):
@@ -267,8 +280,10 @@ def factor_update(M, j, mask, slot, src, sets):
         if not abs(sch) > 1e-10 * scale:
             return False
         for a in range(na):
-            for b in range(na):
-                H[a, b] += u[a] * v[b] / sch
+            ua = u[a] / sch
+            if ua != 0.0:
+                for b in range(na):
+                    H[a, b] += ua * v[b]
             H[a, na] = -u[a] / sch
             H[na, a] = -v[a] / sch
         H[na, na] = 1.0 / sch
@@ -276,7 +291,6 @@ def factor_update(M, j, mask, slot, src, sets):
         na += 1
     # Residual check on one column: M_aa H e_0 = e_0.
     if na > 0:
-        Mj = M[j]
         res = 0.0
         ref = 0.0
         for a in range(na):
@@ -295,7 +309,8 @@ def factor_update(M, j, mask, slot, src, sets):
             k += 1
     for a in range(na):
         cidx[j, slot, a] = lst[a]
-        for b in range(na):
+    for b in range(na):
+        for a in range(na):
             sets.G[j, slot, b, a] = -H[a, b]
     sets.na[j, slot] = na
     return True
