@@ -10,7 +10,8 @@ For each netlist:
 
 * ``pelcs``: the whole command ``pelcs simulate FILE -o OUT.npz`` in a fresh process (start-up,
   parsing, formulation, simulation, writing), and, in process, the time per step and the solver
-  counters;
+  counters, of a first run (modes formulated as they are reached) and of a second one (modes
+  built: the stepping alone), and the formulation's cost per mode (their difference);
 * ``ngspice``: ``ngspice -b -r OUT.raw FILE`` in a fresh process, the netlist as written; when
   that fails ("timestep too small": ngspice's Newton iterations do not converge on the
   near-ideal models at this size), the same with softened models (diodes ``N=1 RS=10m``,
@@ -61,9 +62,17 @@ def _pelcs_inprocess(text: str) -> dict:
     res = run_setup(setup)
     dt = time.perf_counter() - t0
     st = res.stats
+    # Again, with the modes formulated and discretised and the caches filled: the stepping
+    # alone (what a sweep or a longer run pays per step).
+    t0 = time.perf_counter()
+    run_setup(setup)
+    dt2 = time.perf_counter() - t0
     return dict(n=len(setup.system.states), m=len(setup.system.diodes),
                 k=len(setup.system.switches), steps=st.steps,
-                us_per_step=1e6 * dt / max(st.steps, 1), lemke=st.fallbacks,
+                us_per_step=1e6 * dt / max(st.steps, 1),
+                us_per_step_stepping=1e6 * dt2 / max(st.steps, 1),
+                ms_per_mode=1e3 * max(dt - dt2, 0.0) / max(st.modes_built, 1),
+                lemke=st.fallbacks,
                 warm=st.warm_solves, factorisations=st.factorisations,
                 updates=st.factor_updates, modes=st.modes_built,
                 error=res.error.kind if res.error else None)
@@ -131,7 +140,12 @@ def plot(rows: list[dict], path: Path) -> Path:
             continue
         x = [r["n"] + r["m"] for r in rs]
         sizes += x
-        ax1.loglog(x, [r["us_per_step"] for r in rs], "o-", label=label)
+        line, = ax1.loglog(x, [r["us_per_step"] for r in rs], "o-",
+                           label=f"{label}: first run (with the modes' formulation)")
+        if all("us_per_step_stepping" in r for r in rs):
+            ax1.loglog(x, [r["us_per_step_stepping"] for r in rs], "s--",
+                       color=line.get_color(), mfc="none",
+                       label=f"{label}: stepping (modes built)")
         ok = [(xi, r["ratio"]) for xi, r in zip(x, rs, strict=True) if r.get("ratio")]
         if ok:
             ax2.semilogx(*zip(*ok, strict=True), "o-", label=label)
@@ -144,7 +158,7 @@ def plot(rows: list[dict], path: Path) -> Path:
     ax1.set_ylabel("time per step [µs]")
     ax1.set_title("pelcs: time per step against circuit size", fontsize=10)
     ax1.grid(True, which="both", color="0.9")
-    ax1.legend(fontsize=8)
+    ax1.legend(fontsize=6.5)
     ax2.axhline(1.0, color="0.4", lw=0.8, label="as fast as ngspice")
     ax2.axhline(5.0, color="0.4", lw=0.8, ls="--", label="5x (issue #14 target)")
     ax2.set_xlabel("states + complementarity pairs")
@@ -177,6 +191,7 @@ def main(argv=None) -> int:
     warm_up()
     rows = []
     print(f"{'case':24s} {'n':>4s} {'m':>4s} {'k':>4s} {'steps':>7s} {'us/step':>8s} "
+          f"{'stepping':>8s} {'ms/mode':>7s} "
           f"{'lemke':>5s} {'warm':>5s} {'modes':>5s} {'pelcs s':>8s} {'ngspice s':>10s} "
           f"{'models':>10s} {'ratio':>6s}")
     for family in args.family or sorted(FAMILIES):
@@ -186,7 +201,9 @@ def main(argv=None) -> int:
             rows.append(row)
             ng = row.get("ngspice_s")
             print(f"{family + ' ' + str(size):24s} {row['n']:4d} {row['m']:4d} {row['k']:4d} "
-                  f"{row['steps']:7d} {row['us_per_step']:8.2f} {row['lemke']:5d} "
+                  f"{row['steps']:7d} {row['us_per_step']:8.2f} "
+                  f"{row['us_per_step_stepping']:8.2f} {row['ms_per_mode']:7.2f} "
+                  f"{row['lemke']:5d} "
                   f"{row['warm']:5d} {row['modes']:5d} "
                   f"{row['pelcs_s'] if row['pelcs_s'] else float('nan'):8.2f} "
                   f"{ng if ng else float('nan'):10.2f} {str(row.get('ngspice_models')):>10s} "

@@ -147,7 +147,16 @@ class ModeStackBuilder:
         mode = self.mode_tuple(key)
         prob, n, m = self.prob, self.n, self.m
         A, B, C, D, E, F = prob.mode_arrays(mode)
-        disc = discretise(A, B, C, D, E, self.h, self.theta)
+        E = np.asarray(E, dtype=float)
+        used = np.flatnonzero(np.any(E != 0, axis=0) | np.any(np.asarray(F) != 0, axis=0))
+        # (the inputs outside the dynamics, gate drives, have zero columns of G0, G1: the
+        # elimination runs over the others only; 129 -> 1 right-hand sides on a 64-cell MMC)
+        disc = discretise(A, B, C, D, E[:, used], self.h, self.theta)
+        p = E.shape[1]
+        for name in ("G0", "G1"):
+            full = np.zeros((n, p))
+            full[:, used] = getattr(disc, name)
+            setattr(disc, name, full)
         out = prob.output(mode)
         Cc, Dc, Fc = prob.control_rows(mode, self.plan, self.src_maps, self.base)
         if self.count == self.cap:
@@ -169,8 +178,6 @@ class ModeStackBuilder:
         self.mflags[j, MF_FAST] = int(fast)
         self.mflags[j, MF_UNIQ] = int(m) if check else -1
         self.mflags[j, MF_OUTSTATE] = int(out_is_state)
-        used = np.flatnonzero(np.any(np.asarray(E) != 0, axis=0) | np.any(np.asarray(F) != 0,
-                                                                          axis=0))
         self.minp[j, 0] = used.size
         self.minp[j, 1:1 + used.size] = used
         self.mkey[j] = to_words(key, self.Wk)
