@@ -251,6 +251,11 @@ def resample(result: SimulationResult, dt: float) -> SimulationResult:
     y = np.asarray(result.y, dtype=float)
     if tout.size == t.size and np.all(np.abs(tout - t) <= 1e-9 * dt):
         return replace(result, t=tout)  # (the output grid is the step grid)
+    if y.shape[1] <= 8:  # (few columns: np.interp's own loop is the faster)
+        yout = np.empty((tout.size, y.shape[1]))
+        for j in range(y.shape[1]):
+            yout[:, j] = np.interp(tout, t, y[:, j])
+        return replace(result, t=tout, y=yout)
     # np.interp's arithmetic for every column at once: the last stored point at or before
     # each instant (the later of two points at one instant, as np.interp takes), then
     # slope * (x - x0) + y0, and exactly the stored value on a stored instant.
