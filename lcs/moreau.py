@@ -55,6 +55,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .arrays import unique_sorted
 from .bits import from_words, to_words, words
 from .lcp import LcpOptions
 from .model import LCS, ModeModel, OutputMap, SwitchedLCS
@@ -300,7 +301,7 @@ class MoreauIntegrator(Integrator):
         save_at = run.schedule.save_at
         table = run.table
         p = self.p
-        bounds = np.unique(np.concatenate(([ws, we], window.breakpoints,
+        bounds = unique_sorted(np.concatenate(([ws, we], window.breakpoints,
                                            e_t[(e_t > ws) & (e_t < we)])))
         bounds = merge_close(bounds, MERGE_FRACTION * h)
         bounds[0], bounds[-1] = ws, we

@@ -229,7 +229,7 @@ def resample(result: SimulationResult, dt: float) -> SimulationResult:
 
     Where an output instant is a stored step (the usual case when ``dt`` is a multiple of the
     step), its value is the step's exactly. Everything but ``t`` and ``y`` is shared with
-    ``result``.
+    ``result`` (``y`` too when the output grid is the step grid).
 
     Parameters
     ----------
@@ -251,7 +251,8 @@ def resample(result: SimulationResult, dt: float) -> SimulationResult:
     y = np.asarray(result.y, dtype=float)
     if tout.size == t.size and np.all(np.abs(tout - t) <= 1e-9 * dt):
         return replace(result, t=tout)  # (the output grid is the step grid)
-    if y.shape[1] <= 8:  # (few columns: np.interp's own loop is the faster)
+    if y.shape[1] <= 8 or not np.all(np.isfinite(y)):
+        # (few columns: np.interp's own loop is the faster; non-finite values: its rules)
         yout = np.empty((tout.size, y.shape[1]))
         for j in range(y.shape[1]):
             yout[:, j] = np.interp(tout, t, y[:, j])

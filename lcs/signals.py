@@ -13,6 +13,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .arrays import unique_sorted
+
 
 @dataclass(frozen=True)
 class Dc:
@@ -86,7 +88,7 @@ class Pulse:
                 k1 = min(k1, int(self.np_) - 1)
             ks = np.arange(k0, max(k1, k0) + 1)
             pts = (self.td + ks[:, None] * self.per + edges[None, :]).ravel()
-        pts = np.unique(pts)
+        pts = unique_sorted(pts)
         return pts[(pts >= t0) & (pts <= t1)]
 
 
@@ -158,7 +160,7 @@ class Exp:
 
     def breakpoints(self, t0: float, t1: float) -> np.ndarray:
         pts = np.array([self.td1, self.td2 if self.td2 is not None else self.td1])
-        return np.unique(pts[(pts >= t0) & (pts <= t1)])
+        return unique_sorted(pts[(pts >= t0) & (pts <= t1)])
 
 
 Signal = Dc | Pulse | Sin | Pwl | Exp

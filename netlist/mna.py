@@ -119,6 +119,8 @@ class Mna:
         if el.key in self.branch:
             return [(self.branch[el.key], 1.0)]
         if kind == "R":
+            if el.nodes[0] == el.nodes[1]:  # (shorted on itself: no current, no terms)
+                return []
             return [(c, v / float(el.value)) for c, v in self._voltage_terms(*el.nodes)]
         if kind == "L":
             return [(self.nz + f.state_index[el.key], 1.0)]

@@ -93,7 +93,7 @@ def test_simulate_command_imports_neither_numba_nor_scipy(aot_built, tmp_path):
             f"rc = main(['simulate', {str(NETLISTS / 'boost.cir')!r}, '-o', "
             f"{str(tmp_path / 'b.csv')!r}, '--no-progress']); "
             "print('MODS', rc, sorted(m for m in ('numba', 'scipy', 'matplotlib', 'pandas', "
-            "'cvxpy', 'control') if m in sys.modules))")
+            "'cvxpy', 'control', 'numpy.ma') if m in sys.modules))")
     p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
                        timeout=300, env={**os.environ, "PELCS_AOT": "1"})
     assert p.returncode == 0, p.stderr[-2000:]

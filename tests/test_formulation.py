@@ -992,3 +992,23 @@ Vc ctl 0 DC 0
     sw1, sw2 = formulate(parse_string(text)).switches
     assert sw1.options["initial"] is True and sw1.vt == 0.5 and sw1.vh == 0.1
     assert "initial" not in sw2.options
+
+
+def test_resistor_on_one_node_changes_nothing():
+    # A resistor whose two terminals are one node carries no current: the LCS is the one
+    # without it, entry for entry (its stamps are skipped, not added and cancelled).
+    from netlist.parser import parse_string
+
+    base = """rl with a diode
+V1 in 0 DC 10
+R1 in a 2
+L1 a k 1m
+D1 k out DI
+C1 out 0 10u
+R2 out 0 5
+.model DI D
+"""
+    a = formulate(parse_string(base + ".end\n")).mode()
+    b = formulate(parse_string(base + "R9 a a 1k\n.end\n")).mode()
+    for name in "ABCDEF":
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name

@@ -68,6 +68,13 @@ def test_resample_equals_numpy_interp_column_by_column():
         r = resample(_result(t, y, names=tuple(f"p{k}" for k in range(q))), dt)
         ref = np.column_stack([np.interp(r.t, t, y[:, j]) for j in range(q)])
         assert np.array_equal(r.y, ref)
+    # Non-finite values (a run that blew up) follow np.interp's rules too.
+    t = np.linspace(0.0, 1.0, 7)
+    y = rng.normal(size=(7, 12))
+    y[2, 3], y[4, 5], y[5, 6] = np.inf, -np.inf, np.nan
+    r = resample(_result(t, y, names=tuple(f"p{k}" for k in range(12))), 0.07)
+    ref = np.column_stack([np.interp(r.t, t, y[:, j]) for j in range(12)])
+    assert np.array_equal(r.y, ref, equal_nan=True)
     # The output grid is the step grid: the stored rows themselves.
     t = np.arange(11) * 0.1
     y = np.column_stack([t, t ** 2])

@@ -207,15 +207,11 @@ def factor_update(M, j, mask, slot, src, sets):
     H = np.empty((cap, cap))
     lst = np.empty(m, np.int64)
     na = na0
-    hmax = 0.0
     for a in range(na0):
         lst[a] = cidx[j, src, a]
     for b in range(na0):
         for a in range(na0):
-            v = -sets.G[j, src, b, a]
-            H[a, b] = v
-            if abs(v) > hmax:
-                hmax = abs(v)
+            H[a, b] = -sets.G[j, src, b, a]
     u = np.empty(cap)
     v = np.empty(cap)
     mcol = np.empty(cap)
@@ -240,7 +236,12 @@ def factor_update(M, j, mask, slot, src, sets):
             lst[r] = lst[last]
             lst[last] = e
         piv = H[last, last]
-        if not abs(piv) > 1e-10 * hmax:
+        # (the pivot against its own row and column, as they are now: earlier removals may
+        # have grown the entries)
+        scale = 0.0
+        for b in range(na):
+            scale = max(scale, abs(H[last, b]), abs(H[b, last]))
+        if not abs(piv) > 1e-10 * scale:
             return False
         for a in range(last):
             f = H[a, last] / piv

@@ -11,6 +11,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from ..arrays import unique_sorted
 from ..signals import Pwl
 
 InputFunction = Callable[[np.ndarray], np.ndarray]
@@ -86,7 +87,7 @@ class InputTable:
                     and not (isinstance(f, Pwl)
                              and np.any(np.diff(np.asarray(f.times, float)) == 0))):
                 pts = np.asarray(bp(t0, t1), dtype=float).ravel()
-                pts = np.unique(np.concatenate(([t0, t1], pts[(pts > t0) & (pts < t1)])))
+                pts = unique_sorted(np.concatenate(([t0, t1], pts[(pts > t0) & (pts < t1)])))
                 if len(pts) <= 4_000_000:
                     table = (pts, np.asarray(f(pts), dtype=float).ravel())
             self.tables.append(table)
@@ -130,7 +131,7 @@ def collect_breakpoints(inputs: Sequence[InputFunction], t0: float, t1: float,
         bp = getattr(f, "breakpoints", None)
         if bp is not None:
             pts.append(np.asarray(bp(t0, t1), dtype=float).ravel())
-    allp = np.unique(np.concatenate(pts)) if pts else np.empty(0)
+    allp = unique_sorted(np.concatenate(pts)) if pts else np.empty(0)
     return allp[(allp > t0) & (allp < t1)]
 
 

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..arrays import unique_sorted
 from ..bits import to_words, words
 from ..model import ModeKey, SwitchedLCS
 from .codes import OP_REARM, OP_SET  # noqa: F401  (operations of known switchings)
@@ -101,7 +102,7 @@ def plan_run(system: SwitchedLCS, inputs: Sequence[InputFunction], plan: SwitchP
     ``merge`` the distance under which two instants are one (s).
     """
     k = len(system.switches)
-    save_at = np.unique(np.asarray(save_at, dtype=float).ravel())
+    save_at = unique_sorted(np.asarray(save_at, dtype=float).ravel())
     save_at = save_at[(save_at > t_start) & (save_at <= t_stop)]
     # Schedule entries (time, op, a, b) as arrays: latch re-arms, then source events.
     lt, li = [np.empty(0)], [np.empty(0, np.int64)]
@@ -177,7 +178,7 @@ class Controllers:
         for ctrl in self.ctrls:
             ts = np.asarray(ctrl.sample_times(t_start, t_stop) if hasattr(ctrl, "sample_times")
                             else (), dtype=float).ravel()
-            self.samples[id(ctrl)] = np.unique(ts[(ts > t_start + tol) & (ts < t_stop - tol)])
+            self.samples[id(ctrl)] = unique_sorted(ts[(ts > t_start + tol) & (ts < t_stop - tol)])
         self.pending: list[tuple[float, int, int, int]] = []
 
     def __bool__(self) -> bool:
@@ -187,7 +188,7 @@ class Controllers:
         """Window boundaries: the start, every sampling instant, the stop (s)."""
         tol = self.tol
         samples = list(self.samples.values())
-        samp = np.unique(np.concatenate(samples)) if samples else np.empty(0)
+        samp = unique_sorted(np.concatenate(samples)) if samples else np.empty(0)
         samp = merge_close(samp[(samp > t_start + tol) & (samp < t_stop - tol)], tol)
         return np.concatenate(([t_start], samp, [t_stop]))
 

@@ -194,8 +194,8 @@ def _small_pages():
     row, a factorised cache slot): with huge pages every first write zeroes and maps 2 MiB,
     which on a 64-phase interleaved buck made the run touch 930 MB and spend 1.5 s in the
     kernel's page faults, against 590 MB and 0.5 s with 4 KiB pages."""
-    setter = getattr(getattr(np, "_core", None), "multiarray", None)
-    setter = getattr(setter, "_set_madvise_hugepage", None)
+    core = getattr(np, "_core", None) or getattr(np, "core", None)  # (numpy 2 / 1.x)
+    setter = getattr(getattr(core, "multiarray", None), "_set_madvise_hugepage", None)
     if setter is None:
         yield
         return
