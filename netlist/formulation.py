@@ -473,9 +473,10 @@ class _Formulator:
         defects = [(f"{label} is constrained by Kirchhoff's laws", name)
                    for label, name in map(self._xi_name, sol.inconsistent)]
         if sol.null.shape[1]:  # (with no null space every quantity is determined)
+            needed = self._needed_forms(mna)
+            ok = sol.determined_many([form[:mna.nz] for _, _, form in needed])
             defects += [(f"{label} is not determined", name)
-                        for label, name, form in self._needed_forms(mna)
-                        if not sol.determined(form[:mna.nz])]
+                        for (label, name, _), good in zip(needed, ok, strict=True) if not good]
         return mna, sol, defects
 
     def _xi_name(self, j: int) -> tuple[str, str]:

@@ -114,6 +114,15 @@ class Solution:
         self.Z = c[:, None] * zs
         return True
 
+    def determined_many(self, forms_z: np.ndarray) -> np.ndarray:
+        """:meth:`determined` of every row of ``forms_z`` (k, nz) at once, bool (k,)."""
+        forms_z = np.asarray(forms_z, dtype=float).reshape(-1, self.null.shape[0])
+        if self.null.shape[1] == 0:
+            return np.ones(forms_z.shape[0], dtype=bool)
+        g = forms_z * self.col_scale
+        norm = np.linalg.norm(g, axis=1)
+        return (norm == 0) | (np.linalg.norm(g @ self.null, axis=1) <= DETERMINED_RTOL * norm)
+
     def determined(self, form_z: np.ndarray) -> bool:
         """Whether ``form_z @ z`` is the same for every solution z."""
         if self.null.shape[1] == 0:
