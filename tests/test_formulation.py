@@ -1012,3 +1012,60 @@ R2 out 0 5
     b = formulate(parse_string(base + "R9 a a 1k\n.end\n")).mode()
     for name in "ABCDEF":
         assert np.array_equal(getattr(a, name), getattr(b, name)), name
+
+
+def _random_diode_network(rng, nodes=5, elements=9):
+    """A random connected network of R, L, C, diodes and a source on ``nodes`` nodes."""
+    names = ["0"] + [f"n{k}" for k in range(1, nodes)]
+    els = [VoltageSource("V1", ("n1", "0"), dc=5.0)]
+    # (a spanning chain first, so that every node is connected)
+    kinds = ["R", "L", "C", "D", "D"]
+    for k in range(1, elements + 1):
+        if k < nodes - 1:
+            a, b = names[k], names[k + 1]
+        else:
+            a, b = rng.choice(names, 2, replace=False)
+        kind = kinds[rng.integers(len(kinds))]
+        if kind == "R":
+            els.append(Resistor(f"R{k}", (a, b), value=float(rng.uniform(1, 100))))
+        elif kind == "L":
+            els.append(Inductor(f"L{k}", (a, b), value=float(rng.uniform(1e-4, 1e-3))))
+        elif kind == "C":
+            els.append(Capacitor(f"C{k}", (a, b), value=float(rng.uniform(1e-6, 1e-5))))
+        else:
+            els.append(Diode(f"D{k}", (a, b)))
+    return circuit(*els)
+
+
+def _outcome(c):
+    try:
+        lcs = formulate(c).mode()
+    except NetlistError as exc:
+        return ("error", str(exc))
+    return ("lcs", [p.lam for p in lcs.pairs], *(getattr(lcs, k) for k in "ABCDEF"))
+
+
+def test_skipping_too_small_assignments_picks_the_same_one(monkeypatch):
+    # The λ-type search skips assignments with fewer voltage-type diodes than a normal tree
+    # has (they cannot be usable): on random networks it picks what the full search picks,
+    # and fails with the same message where the full search fails.
+    rng = np.random.default_rng(11)
+    skipped = 0
+    for trial in range(150):
+        c = _random_diode_network(rng, nodes=int(rng.integers(3, 7)),
+                                  elements=int(rng.integers(4, 12)))
+        with_skip = _outcome(c)
+        f = fm._Formulator(c)
+        if with_skip[0] == "lcs" and f.diodes:
+            skipped += len(f._tree_assignment(frozenset())) > 0
+        monkeypatch.setattr(fm._Formulator, "_min_voltage_diodes", lambda self, on: 0)
+        full = _outcome(c)
+        monkeypatch.undo()
+        assert with_skip[0] == full[0], (trial, with_skip[:2], full[:2])
+        if full[0] == "error":
+            assert with_skip[1] == full[1]
+        else:
+            assert with_skip[1] == full[1]
+            for got, want in zip(with_skip[2:], full[2:], strict=True):
+                assert np.array_equal(got, want)
+    assert skipped > 10  # (the bound was above zero on many of them)
