@@ -102,8 +102,7 @@ class Mna:
         if kind == "D":
             return v + [(nz + f.n + f.diode_index[el.key], 1.0)]
         # (E, H: rare; their dense forms)
-        form = self._branch_equation(el)
-        return [(int(c), float(form[c])) for c in np.flatnonzero(form)]
+        return _terms(self._branch_equation(el))
 
     def w_terms(self, diode: Element) -> list[tuple[int, float]]:
         """:meth:`w_form` as (column, coefficient) terms."""
@@ -131,8 +130,7 @@ class Mna:
         if kind == "S":  # open
             return []
         # (G, F: rare; their dense forms)
-        form = self.current(el)
-        return [(int(c), float(form[c])) for c in np.flatnonzero(form)]
+        return _terms(self.current(el))
 
     def _voltage_terms(self, a: str, b: str = GROUND) -> list[tuple[int, float]]:
         terms = []
@@ -208,3 +206,8 @@ class Mna:
             return self.current(diode)
         anode, cathode = diode.nodes
         return self.voltage(cathode, anode)
+
+
+def _terms(form: np.ndarray) -> list[tuple[int, float]]:
+    """A dense form as (column, coefficient) terms."""
+    return [(int(c), float(form[c])) for c in np.flatnonzero(form)]

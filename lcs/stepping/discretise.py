@@ -143,22 +143,36 @@ COLUMN_MIN = 16
 def free_regular(mats, inp, j, x, U0, U1, kk, xf, q):
     """Free state ``xf = Phi x + G0 u0 + G1 u1`` and ``q = C xf + F u1`` of a regular step
     of mode ``j`` of the stacked matrices ``mats`` (:class:`~lcs.stepping.layout.ModeArrays`),
-    with ``u0 = U0[kk]`` and ``u1 = U1[kk]``; the input terms over the mode's input columns
-    ``inp[j]`` only (:class:`~lcs.stepping.layout.ModeStack`). Returns False when they are not
-    finite."""
-    G0, G1, F = mats.G0, mats.G1, mats.F
+    with ``u0 = U0[kk]`` and ``u1 = U1[kk]`` (:func:`free_state`). Returns False when they
+    are not finite."""
+    return free_state(mats.Phi, mats.PhiT, mats.G0, mats.G1, j, mats, inp, j, x, U0, U1, kk,
+                      xf, q)
+
+
+@inline
+def free_state(P, PT, G0, G1, ip, mats, inp, j, x, U0, U1, kk, xf, q):
+    """``xf = P[ip] x + G0[ip] u0 + G1[ip] u1`` and ``q = C xf + F u1`` with mode ``j``'s
+    ``C``, ``F`` of ``mats`` and ``u0 = U0[kk]``, ``u1 = U1[kk]``; the input terms over the
+    mode's input columns ``inp[j]`` only (:class:`~lcs.stepping.layout.ModeStack`). Below
+    :data:`COLUMN_MIN` states the products run row by row from ``P``, from there a column at
+    a time from the transposes ``PT`` and ``mats.CT`` (each entry adds its terms in the same
+    order, so the numbers are the same; the inner loops vectorise). The stacks are indexed
+    (``ip``, ``j``) rather than viewed, which keeps reference counting out of the steps; a
+    store that keeps one form of ``P`` only passes it as both. Returns False when the results
+    are not finite."""
+    F = mats.F
     n = x.shape[0]
     m = q.shape[0]
     nu = inp[j, 0]
     if n < COLUMN_MIN:
-        Phi, C = mats.Phi, mats.C
+        C = mats.C
         for i in range(n):
             v = 0.0
             for jj in range(n):
-                v += Phi[j, i, jj] * x[jj]
+                v += P[ip, i, jj] * x[jj]
             for t in range(nu):
                 jj = inp[j, 1 + t]
-                v += G0[j, i, jj] * U0[kk, jj] + G1[j, i, jj] * U1[kk, jj]
+                v += G0[ip, i, jj] * U0[kk, jj] + G1[ip, i, jj] * U1[kk, jj]
             xf[i] = v
         for i in range(m):
             v = 0.0
@@ -166,21 +180,18 @@ def free_regular(mats, inp, j, x, U0, U1, kk, xf, q):
                 v += C[j, i, jj] * xf[jj]
             q[i] = v
     else:
-        # Column by column (PhiT, CT: see ModeArrays): each entry adds its terms in the order
-        # of the row-by-row loops above, so the numbers are the same; the inner loops
-        # vectorise.
-        PhiT, CT = mats.PhiT, mats.CT
+        CT = mats.CT
         for i in range(n):
             xf[i] = 0.0
         for jj in range(n):
             xj = x[jj]
             for i in range(n):
-                xf[i] += PhiT[j, jj, i] * xj
+                xf[i] += PT[ip, jj, i] * xj
         for i in range(n):
             v = xf[i]
             for t in range(nu):
                 jj = inp[j, 1 + t]
-                v += G0[j, i, jj] * U0[kk, jj] + G1[j, i, jj] * U1[kk, jj]
+                v += G0[ip, i, jj] * U0[kk, jj] + G1[ip, i, jj] * U1[kk, jj]
             xf[i] = v
         for i in range(m):
             q[i] = 0.0

@@ -26,7 +26,7 @@ from ..lcp.compiled import (
     solve_warm,
     solve_warm_direct,
 )
-from .discretise import COLUMN_MIN, discretise_nb, free_odd, free_regular
+from .discretise import COLUMN_MIN, discretise_nb, free_odd, free_regular, free_state
 from .layout import (
     FV_FEAS_TOL,
     FV_LEX_TOL,
@@ -275,67 +275,14 @@ def transpose_square(a):
 @inline
 def odd_free(stack, j, jj, x, u0, u1, xf, q):
     """Free state ``xf`` and ``q`` of a shortened step of mode ``j`` from the stored
-    discretisation ``jj`` of :class:`~lcs.stepping.layout.OddSteps` (``Phi`` stored
-    transposed from :data:`~lcs.stepping.discretise.COLUMN_MIN` states on, and the products
-    then taken a column at a time, with ``C``'s stored transpose: the same numbers as row by
-    row, see :func:`~lcs.stepping.discretise.free_regular`), inputs over the mode's input
-    columns only. Returns False when they are not finite."""
+    discretisation ``jj`` of :class:`~lcs.stepping.layout.OddSteps` (its ``Phi`` holds the
+    row form below :data:`~lcs.stepping.discretise.COLUMN_MIN` states, the transpose from
+    there), inputs ``u0`` to ``u1``: :func:`~lcs.stepping.discretise.free_state`. Returns
+    False when they are not finite."""
+    p = u0.shape[0]
     odd = stack.odd
-    mats = stack.mats
-    inp = stack.inp
-    Phi = odd.Phi[jj]
-    G0 = odd.G0[jj]
-    G1 = odd.G1[jj]
-    F = mats.F
-    n = x.shape[0]
-    m = q.shape[0]
-    nu = inp[j, 0]
-    if n < COLUMN_MIN:
-        C = mats.C
-        for i in range(n):
-            v = 0.0
-            for jc in range(n):
-                v += Phi[i, jc] * x[jc]
-            for t in range(nu):
-                jc = inp[j, 1 + t]
-                v += G0[i, jc] * u0[jc] + G1[i, jc] * u1[jc]
-            xf[i] = v
-        for i in range(m):
-            v = 0.0
-            for jc in range(n):
-                v += C[j, i, jc] * xf[jc]
-            q[i] = v
-    else:
-        CT = mats.CT
-        for i in range(n):
-            xf[i] = 0.0
-        for jc in range(n):
-            xj = x[jc]
-            for i in range(n):
-                xf[i] += Phi[jc, i] * xj
-        for i in range(n):
-            v = xf[i]
-            for t in range(nu):
-                jc = inp[j, 1 + t]
-                v += G0[i, jc] * u0[jc] + G1[i, jc] * u1[jc]
-            xf[i] = v
-        for i in range(m):
-            q[i] = 0.0
-        for jc in range(n):
-            xj = xf[jc]
-            for i in range(m):
-                q[i] += CT[j, jc, i] * xj
-    chk = 0.0
-    for i in range(m):
-        v = q[i]
-        for t in range(nu):
-            jc = inp[j, 1 + t]
-            v += F[j, i, jc] * u1[jc]
-        q[i] = v
-        chk += v
-    for i in range(n):
-        chk += xf[i]
-    return chk - chk == 0.0
+    return free_state(odd.Phi, odd.Phi, odd.G0, odd.G1, jj, stack.mats, stack.inp, j, x,
+                      u0.reshape((1, p)), u1.reshape((1, p)), 0, xf, q)
 
 
 @kernel
