@@ -37,7 +37,8 @@ KERNEL_SOURCES = (_LCS / "jit.py", _LCS / "jit_passes.py", _LCS / "bits.py", _LC
                   _LCS / "simulation" / "codes.py")
 # What the ahead-of-time module also depends on: the export table and argument flattening
 # here, the flat wrappers of aot.py, the signatures warmup.py compiles.
-AOT_SOURCES = (_LCS / "kernels.py", _LCS / "aot.py", _LCS / "stepping" / "warmup.py")
+AOT_SOURCES = (_LCS / "kernels.py", _LCS / "aot.py", _LCS / "stepping" / "warmup.py",
+               _LCS / "sparse_lu.py")
 # Files in those packages that no kernel compiles or reads (Python only): editing them must
 # not recompile every kernel (2-3 minutes).
 PYTHON_ONLY = frozenset({"__init__.py", "driver.py", "enumeration.py", "modes.py",
@@ -54,6 +55,11 @@ _EXPORTS = {
     "fill_grid_nb": ("lcs.stepping.gridplan", "_fill_grid", ""),
     "linear_switch_events_nb": ("lcs.simulation.source_switching", "_linear_switch_events", ""),
     "merge_keys_nb": ("lcs.simulation.source_switching", "_merge_keys", ""),
+    "lu_factor_nb": ("lcs.sparse_lu", "_factor", ""),
+    "lu_count_nb": ("lcs.sparse_lu", "_count", ""),
+    "lu_compress_nb": ("lcs.sparse_lu", "_compress", ""),
+    "lu_solve_rows_nb": ("lcs.sparse_lu", "_solve_rows", ""),
+    "lu_inv_norm1_nb": ("lcs.sparse_lu", "_inv_norm1", ""),
 }
 
 

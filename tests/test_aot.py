@@ -101,6 +101,20 @@ def test_simulate_command_imports_neither_numba_nor_scipy(aot_built, tmp_path):
     assert (tmp_path / "b.csv").stat().st_size > 1000
 
 
+def test_large_circuit_run_imports_no_scipy(aot_built, tmp_path):
+    # 195 MNA unknowns a mode: the formulation's LU path (lcs.sparse_lu), no scipy.sparse.
+    net = tmp_path / "mmc24.cir"
+    net.write_text(mmc_arm(24, periods=1))
+    code = ("import sys; from pelcs.cli import main; "
+            f"rc = main(['simulate', {str(net)!r}, '-o', {str(tmp_path / 'm.npz')!r}, "
+            "'--no-progress']); "
+            "print('MODS', rc, sorted(m for m in ('numba', 'scipy') if m in sys.modules))")
+    p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
+                       timeout=300, env={**os.environ, "PELCS_AOT": "1"})
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert "MODS 0 []" in p.stdout, p.stdout[-2000:]
+
+
 def test_missing_or_stale_module_falls_back_to_numba(tmp_path):
     # Another cache directory holds no module for these sources: numba serves the run.
     code = ("import lcs.kernels as k, pelcs, sys; "

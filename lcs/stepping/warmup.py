@@ -25,6 +25,7 @@ import numpy as np
 
 from ..model import LCS, ComplementarityPair, ModeModel, OutputMap, SwitchControl, SwitchedLCS
 from ..signals import Dc, Pulse
+from ..sparse_lu import lu_factor, lu_rcond, lu_solve
 
 
 def _diode_rc() -> LCS:
@@ -95,4 +96,8 @@ def warm_up() -> float:
     simulate(_gated_rc(), [Dc(1.0), gate], [0.0], 2e-3, 1e-6)
     for vh, explicit in ((0.1, False), (0.0, False), (0.1, True)):
         simulate(_relay_system(vh, explicit), [Dc(1.0)], [0.0], 5e-2, 1e-3)
+    # The sparse LU of the formulation (netlist.mna_solve).
+    lu = lu_factor(2, np.array([0, 1, 1]), np.array([0, 0, 1]), np.array([2.0, 1.0, 3.0]))
+    lu_rcond(lu, 3.0)
+    lu_solve(lu, np.eye(2))
     return time.perf_counter() - t0
