@@ -30,9 +30,12 @@ def _pair(circuit, **kw):
 
 
 def _close(a, b, rtol=1e-9):
-    # (located comparator instants move with the round-off of the states)
+    # Located comparator instants move with the round-off of the states, which the voltage-
+    # mode buck (a chaos benchmark) amplifies over its 10 ms: 1e-14 s at the end when the
+    # formulation's LU and SVD solves differ in their last bits. 1e-10 of the run still
+    # tells a stored step of the wrong length (a whole sub-step, 1e-7 of it here).
     assert a.t.shape == b.t.shape
-    assert np.allclose(a.t, b.t, rtol=0, atol=1e-12 * b.t[-1])
+    assert np.allclose(a.t, b.t, rtol=0, atol=1e-10 * b.t[-1])
     scale = np.abs(b.y).max(axis=0)
     assert np.all(np.abs(a.y - b.y) <= rtol * scale + 1e-300)
 
