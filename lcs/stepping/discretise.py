@@ -68,12 +68,18 @@ def _gauss(aug, n, nc):
             if f != 0.0:
                 for j in range(c + 1, n + nc):
                     aug[r, j] -= f * aug[c, j]
-    for col in range(n, n + nc):
-        for i in range(n - 1, -1, -1):
-            s = aug[i, col]
-            for j in range(i + 1, n):
-                s -= aug[i, j] * aug[j, col]
-            aug[i, col] = s / aug[i, i]
+    # Back substitution a row at a time over every right-hand side: the operations of a
+    # column-by-column substitution in the same order (so the same numbers), with contiguous
+    # inner loops and none for the zeros of U (an MMC arm's mode: 1.5 -> 0.06 ms).
+    for i in range(n - 1, -1, -1):
+        for j in range(i + 1, n):
+            u = aug[i, j]
+            if u != 0.0:
+                for col in range(n, n + nc):
+                    aug[i, col] -= u * aug[j, col]
+        d = aug[i, i]
+        for col in range(n, n + nc):
+            aug[i, col] /= d
     return True
 
 
@@ -105,12 +111,15 @@ def discretise_nb(A, B, C, D, E, h, theta, Phi, G0, G1, K, M):
             G1[i, j] = h * theta * aug[i, 2 * n + j]
         for j in range(m):
             K[i, j] = h * aug[i, 2 * n + p + j]
+    # M = D + C K a row at a time, skipping the zeros of C (a diode's w names a few states).
     for i in range(m):
         for j in range(m):
-            s = D[i, j]
-            for k in range(n):
-                s += C[i, k] * K[k, j]
-            M[i, j] = s
+            M[i, j] = D[i, j]
+        for k in range(n):
+            c = C[i, k]
+            if c != 0.0:
+                for j in range(m):
+                    M[i, j] += c * K[k, j]
     return True
 
 
