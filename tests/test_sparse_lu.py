@@ -41,6 +41,20 @@ def test_solve_matches_lapack_within_the_condition_bound():
     assert solved > 150
 
 
+def test_heavy_fill_in_grows_the_pattern_pools():
+    # A random pattern at 5 % fills most of the factors: far more entries than the pools'
+    # first size (twice the matrix's entries), so the elimination restarts with larger ones.
+    rng = np.random.default_rng(2)
+    n = 200
+    M = _random_sparse(rng, n, 0.05) + 5 * np.eye(n)
+    I, J = np.nonzero(M)
+    lu = lu_factor(n, I, J, M[I, J])
+    assert lu.Lx.size + lu.Ux.size > 4 * I.size
+    B = rng.normal(size=(n, 3))
+    ref = np.linalg.solve(M, B)
+    assert np.abs(lu_solve(lu, B) - ref).max() <= 1e-13 * np.linalg.cond(M, 1) * np.abs(ref).max()
+
+
 def test_repeated_positions_are_summed_and_pivoting_handles_zero_diagonals():
     # [[0, 2], [1, 1]] with the (0, 1) entry given as 1.5 + 0.5: needs a row exchange.
     lu = lu_factor(2, np.array([0, 0, 1, 1]), np.array([1, 1, 0, 1]),
