@@ -94,6 +94,9 @@ def build(out_dir: Path | None = None, verbose: bool = False) -> Path:
     name = kernels.AOT_MODULE
     cc = CC(name)
     cc.verbose = verbose
+    # For this processor, as numba's JIT compiles (the module's path names its extensions,
+    # kernels.cpu_tag); the portable generic target only where they cannot be told.
+    cc.target_cpu = "" if kernels.cpu_tag() == "generic" else "host"
     specs = {}
     for export, dispatcher, select in kernels.exported_dispatchers():
         sigs = [s for s in dispatcher.signatures if select(s)]

@@ -27,7 +27,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 __all__ = ["AOT_MODULE", "AOT_SOURCES", "KERNEL_SOURCES", "aot_function", "aot_module",
-           "aot_path", "aot_stamp", "aot_types_path", "kernel_stamp", "using_aot"]
+           "aot_path", "aot_stamp", "aot_types_path", "cpu_tag", "kernel_stamp", "using_aot"]
 
 _LCS = Path(__file__).resolve().parent
 # The packages whose compiled functions call or inline each other's, the other files with
@@ -116,9 +116,30 @@ def aot_stamp() -> bytes:
     return h.digest()
 
 
+@functools.lru_cache(maxsize=1)
+def cpu_tag() -> str:
+    """The instruction-set extensions of this machine's processor, hashed (8 hex digits), from
+    the first processor's ``flags`` in ``/proc/cpuinfo``; ``"generic"`` where there is no
+    such file. The ahead-of-time module is compiled for the host processor (AVX2, AVX-512:
+    the multiplier's step 25 % faster than with the generic x86-64 target), so a machine with
+    other extensions (a cluster node sharing the home directory) must not load it: it finds
+    no module under its own tag and builds or falls back to numba."""
+    try:
+        with open("/proc/cpuinfo", encoding="ascii", errors="replace") as fh:
+            for line in fh:
+                if line.startswith("flags"):
+                    return hashlib.sha256(line.encode()).hexdigest()[:8]
+                if not line.strip():
+                    break
+    except OSError:
+        pass
+    return "generic"
+
+
 def aot_path() -> Path:
     """Where the extension module built from the current sources lives (it may not exist)."""
-    tag = f"aot-{aot_stamp().hex()[:16]}-{platform.machine()}-numba{_numba_version()}"
+    tag = (f"aot-{aot_stamp().hex()[:16]}-{platform.machine()}-cpu{cpu_tag()}"
+           f"-numba{_numba_version()}")
     return _cache_root() / tag / aot_filename()
 
 

@@ -134,8 +134,40 @@ def test_module_path_names_the_sources_and_numba():
     assert path.name.startswith(kernels.AOT_MODULE)
     # The stamp covers the kernels and what the module's wrappers depend on.
     names = {f.name for f in kernels._kernel_files()} | {f.name for f in kernels.AOT_SOURCES}
-    assert {"grid.py", "step.py", "codes.py", "kernels.py", "aot.py", "warmup.py"} <= names
+    assert {"grid.py", "step.py", "codes.py", "kernels.py", "aot.py", "warmup.py",
+            "sparse_lu.py"} <= names
     assert "modes.py" not in names
+
+
+def test_module_path_names_the_processor_it_was_compiled_for(monkeypatch):
+    # Compiled for the host processor: another processor's extensions give another path.
+    tag = kernels.cpu_tag()
+    assert f"-cpu{tag}-" in str(kernels.aot_path())
+    try:
+        flags = next(line for line in open("/proc/cpuinfo") if line.startswith("flags"))
+    except (OSError, StopIteration):
+        assert tag == "generic"
+        return
+    assert len(tag) == 8 and int(tag, 16) >= 0
+    import builtins
+    import io
+
+    real_open = builtins.open
+
+    def fake(path, *a, **kw):
+        if path == "/proc/cpuinfo":
+            return io.StringIO(flags.replace(" avx2", ""))
+        return real_open(path, *a, **kw)
+
+    monkeypatch.setattr(builtins, "open", fake)
+    kernels.cpu_tag.cache_clear()
+    kernels.aot_stamp.cache_clear()
+    try:
+        other = kernels.cpu_tag()
+    finally:
+        monkeypatch.undo()
+        kernels.cpu_tag.cache_clear()
+    assert (other != tag) == (" avx2" in flags)
 
 
 def test_arguments_of_another_type_go_to_numba_not_the_module(aot_built):
