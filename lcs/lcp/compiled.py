@@ -347,12 +347,33 @@ def active_lambda(sets, j, slot, na, q, za):
 
 
 @inline
-def solve_cached(M, j, q, sets, slot, za, rtol):
+def _inactive_w(MT, j, cidx, slot, na, q, za, wv, ws):
+    """``wv = q + M[j][:, a] λ_a`` and ``ws = |q| + Σ |M[j][:, a] λ_a|`` for every pair, a
+    column of the transpose ``MT[j]`` at a time (the terms in the order of a row-by-row sum)."""
+    m = q.shape[0]
+    for i in range(m):
+        wv[i] = q[i]
+        ws[i] = abs(q[i])
+    for jj in range(na):
+        c = cidx[j, slot, jj]
+        z = za[jj]
+        for i in range(m):
+            t = MT[j, c, i] * z
+            wv[i] += t
+            ws[i] += abs(t)
+
+
+@inline
+def solve_cached(M, MT, columns, j, q, sets, slot, za, rtol, wv, ws):
     """The active set of cache ``slot`` of matrix ``j`` (see :class:`ActiveSets`) for
     ``w = M[j] λ + q``.
 
     Returns its size ``na`` with ``λ_a`` in ``za[:na]`` (in the order
-    ``sets.idx[j, slot, :na]``), or -1 when the set is singular or not accepted.
+    ``sets.idx[j, slot, :na]``), or -1 when the set is singular or not accepted. With
+    ``columns``, the inactive pairs' ``w`` and its scale are summed a column of the transpose
+    ``MT[j]`` at a time into ``wv``, ``ws`` (m,), in the order of the row-by-row sums (the same
+    numbers; a dot product per inactive pair is a chain of dependent additions that does not
+    vectorise: 10,000 of them a step on the 100-stage multiplier).
     """
     m = q.shape[0]
     na = sets.na[j, slot]
@@ -363,6 +384,13 @@ def solve_cached(M, j, q, sets, slot, za, rtol):
     for ii in range(na):
         if za[ii] < -rtol * zmax:
             return -1
+    if columns:
+        _inactive_w(MT, j, cidx, slot, na, q, za, wv, ws)
+        for ii in range(na, m):
+            i = cidx[j, slot, ii]
+            if wv[i] < -rtol * ws[i]:
+                return -1
+        return na
     for ii in range(na, m):
         i = cidx[j, slot, ii]
         v = q[i]
@@ -377,7 +405,8 @@ def solve_cached(M, j, q, sets, slot, za, rtol):
 
 
 @kernel
-def solve_warm(M, j, q, mask, sets, counters, za, rtol, max_iter, viol, prev):
+def solve_warm(M, MT, columns, j, q, mask, sets, counters, za, rtol, max_iter, viol, prev, wv,
+               ws):
     """Block principal pivoting from the active set ``mask`` (Júdice–Pires, with Murty's
     single-index rule when the number of infeasibilities stops decreasing) for
     ``w = M[j] λ + q``, each basis factorised through the cache of matrix ``j``.
@@ -388,7 +417,9 @@ def solve_warm(M, j, q, mask, sets, counters, za, rtol, max_iter, viol, prev):
     basis singular is undone and the pivoting goes on one index at a time. Finite for
     P-matrices; stops after ``max_iter`` iterations otherwise. Returns ``(slot, na)`` of the
     solution's cache slot (``λ_a`` in ``za[:na]``, ``mask`` its active set), or ``(-1, 0)``.
-    ``viol`` (m,) int64 and the bitset ``prev`` are work space.
+    ``viol`` (m,) int64 and the bitset ``prev`` are work space; with ``columns`` the inactive
+    pairs' ``w`` is summed from the transpose ``MT`` into ``wv``, ``ws`` as in
+    :func:`solve_cached`.
     """
     m = q.shape[0]
     best = m + 1
@@ -417,17 +448,25 @@ def solve_warm(M, j, q, mask, sets, counters, za, rtol, max_iter, viol, prev):
             if za[ii] < -rtol * zmax:
                 viol[nv] = cidx[j, slot, ii]
                 nv += 1
-        for ii in range(na, m):
-            i = cidx[j, slot, ii]
-            v = q[i]
-            sc = abs(v)
-            for jj in range(na):
-                t = M[j, i, cidx[j, slot, jj]] * za[jj]
-                v += t
-                sc += abs(t)
-            if v < -rtol * sc:
-                viol[nv] = i
-                nv += 1
+        if columns:
+            _inactive_w(MT, j, cidx, slot, na, q, za, wv, ws)
+            for ii in range(na, m):
+                i = cidx[j, slot, ii]
+                if wv[i] < -rtol * ws[i]:
+                    viol[nv] = i
+                    nv += 1
+        else:
+            for ii in range(na, m):
+                i = cidx[j, slot, ii]
+                v = q[i]
+                sc = abs(v)
+                for jj in range(na):
+                    t = M[j, i, cidx[j, slot, jj]] * za[jj]
+                    v += t
+                    sc += abs(t)
+                if v < -rtol * sc:
+                    viol[nv] = i
+                    nv += 1
         if nv == 0:
             return slot, na
         _pivot(mask, prev, viol, nv, best, tries)

@@ -149,26 +149,28 @@ COLUMN_MIN = 16
 
 
 @inline
-def free_regular(mats, inp, j, x, U0, U1, kk, xf, q):
+def free_regular(mats, inp, span, j, x, U0, U1, kk, xf, q):
     """Free state ``xf = Phi x + G0 u0 + G1 u1`` and ``q = C xf + F u1`` of a regular step
     of mode ``j`` of the stacked matrices ``mats`` (:class:`~lcs.stepping.layout.ModeArrays`),
     with ``u0 = U0[kk]`` and ``u1 = U1[kk]`` (:func:`free_state`). Returns False when they
     are not finite."""
-    return free_state(mats.Phi, mats.PhiT, mats.G0, mats.G1, j, mats, inp, j, x, U0, U1, kk,
-                      xf, q)
+    return free_state(mats.Phi, mats.PhiT, mats.G0, mats.G1, j, True, mats, inp, span, j, x,
+                      U0, U1, kk, xf, q)
 
 
 @inline
-def free_state(P, PT, G0, G1, ip, mats, inp, j, x, U0, U1, kk, xf, q):
+def free_state(P, PT, G0, G1, ip, p_span, mats, inp, span, j, x, U0, U1, kk, xf, q):
     """``xf = P[ip] x + G0[ip] u0 + G1[ip] u1`` and ``q = C xf + F u1`` with mode ``j``'s
     ``C``, ``F`` of ``mats`` and ``u0 = U0[kk]``, ``u1 = U1[kk]``; the input terms over the
     mode's input columns ``inp[j]`` only (:class:`~lcs.stepping.layout.ModeStack`). Below
     :data:`COLUMN_MIN` states the products run row by row from ``P``, from there a column at
     a time from the transposes ``PT`` and ``mats.CT`` (each entry adds its terms in the same
-    order, so the numbers are the same; the inner loops vectorise). The stacks are indexed
-    (``ip``, ``j``) rather than viewed, which keeps reference counting out of the steps; a
-    store that keeps one form of ``P`` only passes it as both. Returns False when the results
-    are not finite."""
+    order, so the numbers are the same; the inner loops vectorise), each column over the
+    rows between its first and last non-zero entries only (``span[j]``, for ``P`` when
+    ``p_span``, i.e. ``P`` is the mode's regular ``Phi``; the skipped terms are exact zeros).
+    The stacks are indexed (``ip``, ``j``) rather than viewed, which keeps reference counting
+    out of the steps; a store that keeps one form of ``P`` only passes it as both. Returns
+    False when the results are not finite."""
     F = mats.F
     n = x.shape[0]
     m = q.shape[0]
@@ -192,9 +194,13 @@ def free_state(P, PT, G0, G1, ip, mats, inp, j, x, U0, U1, kk, xf, q):
         CT = mats.CT
         for i in range(n):
             xf[i] = 0.0
+        # (unsigned bounds: a signed index loaded from memory could be negative, and the
+        # wrap-around test per element keeps the loop from vectorising: 2-4x slower)
         for jj in range(n):
             xj = x[jj]
-            for i in range(n):
+            lo = np.uint64(span[j, 0, jj, 0]) if p_span else np.uint64(0)
+            hi = np.uint64(span[j, 0, jj, 1]) if p_span else np.uint64(n)
+            for i in range(lo, hi):
                 xf[i] += PT[ip, jj, i] * xj
         for i in range(n):
             v = xf[i]
@@ -206,7 +212,7 @@ def free_state(P, PT, G0, G1, ip, mats, inp, j, x, U0, U1, kk, xf, q):
             q[i] = 0.0
         for jj in range(n):
             xj = xf[jj]
-            for i in range(m):
+            for i in range(np.uint64(span[j, 1, jj, 0]), np.uint64(span[j, 1, jj, 1])):
                 q[i] += CT[j, jj, i] * xj
     chk = 0.0
     for i in range(m):
@@ -253,11 +259,14 @@ def free_odd(mats, inp, j, s, theta, x, u0, u1, xf, q, Ko, Mo, augn):
         for jj in range(m):
             Ko[i, jj] = s * augn[i, n + 1 + jj]
     for i in range(m):
+        # (a row at a time, skipping the zeros of C: the sums of discretise_nb)
         for jj in range(m):
-            v = D[j, i, jj]
-            for k in range(n):
-                v += C[j, i, k] * Ko[k, jj]
-            Mo[i, jj] = v
+            Mo[i, jj] = D[j, i, jj]
+        for k in range(n):
+            c = C[j, i, k]
+            if c != 0.0:
+                for jj in range(m):
+                    Mo[i, jj] += c * Ko[k, jj]
         v = 0.0
         for jj in range(n):
             v += C[j, i, jj] * xf[jj]

@@ -88,7 +88,8 @@ def _work(n, m, k, p):
                  LcpWork(np.zeros(m), np.zeros(m), np.zeros(m, np.bool_),
                          np.zeros((m, 2 * m + 2)), np.zeros(m, np.int64), np.zeros((m, m + 1)),
                          np.zeros(max(1, (m + 63) // 64), np.int64),
-                         np.zeros(max(1, (m + 63) // 64), np.int64)))
+                         np.zeros(max(1, (m + 63) // 64), np.int64)),
+                 np.zeros(m), np.zeros(m))
     S = LocateWork(np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(p), np.zeros(n),
                    np.zeros(p), np.zeros(n), np.zeros(m), np.zeros(m), np.zeros(n), np.zeros(k),
                    np.zeros(k), np.zeros(n), np.zeros(m), np.zeros(m), np.zeros(3),

@@ -100,7 +100,7 @@ MF_LEN = 3
 PLAIN_MIN = 16
 
 MODE_FIELDS = ["A", "B", "C", "D", "E", "F", "Phi", "G0", "G1", "K", "M", "Cy", "Dy", "Fy",
-               "Cc", "Dc", "Fc", "PhiT", "CT", "KT"]
+               "Cc", "Dc", "Fc", "PhiT", "CT", "KT", "MT"]
 ModeArrays = namedtuple("ModeArrays", MODE_FIELDS)
 ModeArrays.__doc__ = """The matrices of a switch mode.
 
@@ -108,8 +108,9 @@ The LCS ``A (n, n)``, ``B (n, m)``, ``C (m, n)``, ``D (m, m)``, ``E (n, p)``, ``
 step of the regular length h, ``Phi (n, n)``, ``G0, G1 (n, p)``, ``K (n, m)``, ``M (m, m)``
 (:func:`lcs.stepping.discretise`); the stored probes ``y = Cy x + Dy λ + Fy u`` with ``Cy (r, n)``,
 ``Dy (r, m)``, ``Fy (r, p)``; the switch controls ``c = Cc x + Dc λ + Fc u`` with ``Cc (k, n)``,
-``Dc (k, m)``, ``Fc (k, p)``; and ``PhiT (n, n)``, ``CT (n, m)``, ``KT (m, n)``, the transposes
-of ``Phi``, ``C`` and ``K`` for the regular step's products, taken a column at a time: each
+``Dc (k, m)``, ``Fc (k, p)``; and ``PhiT (n, n)``, ``CT (n, m)``, ``KT (m, n)``, ``MT (m, m)``,
+the transposes of ``Phi``, ``C``, ``K`` and ``M`` for the regular step's products, taken a
+column at a time: each
 output entry sums its terms in the same order as a row-by-row product (the same numbers, bit
 for bit), and the inner loop runs over contiguous memory, which the compiler vectorises. In a
 :class:`ModeStack` every field has a leading mode axis.
@@ -120,7 +121,7 @@ def mode_shapes(n: int, m: int, p: int, r: int, k: int) -> ModeArrays:
     """The shape of each field of :class:`ModeArrays` for one mode."""
     return ModeArrays((n, n), (n, m), (m, n), (m, m), (n, p), (m, p), (n, n), (n, p), (n, p),
                       (n, m), (m, m), (r, n), (r, m), (r, p), (k, n), (k, m), (k, p), (n, n),
-                      (n, m), (m, n))
+                      (n, m), (m, n), (m, m))
 
 
 OddSteps = namedtuple("OddSteps", ["s", "Phi", "G0", "G1", "KT", "M", "next", "sets",
@@ -142,7 +143,7 @@ and the active set's factorisation are done once."""
 #: interleaved buck refactorised 52,000 sets in 200 periods, with 4, 3,000)
 ODD_SETS = 4
 
-ModeStack = namedtuple("ModeStack", ["mats", "sets", "key", "flags", "odd", "inp"])
+ModeStack = namedtuple("ModeStack", ["mats", "sets", "key", "flags", "odd", "inp", "span"])
 ModeStack.__doc__ = """Every mode built so far, stacked by mode id ``j`` (capacity Q).
 
 ``mats``: :class:`ModeArrays` of (Q, ., .) arrays; ``sets``: :class:`ActiveSets` of (Q, S, ...)
@@ -151,7 +152,11 @@ i on); ``flags (Q, MF_LEN)``; ``odd``: :class:`OddSteps`; ``inp (Q, p + 1)`` the
 enter mode j's dynamics or LCP (a non-zero column of ``E`` or ``F``): their number
 ``inp[j, 0]``, then their indices in increasing order. The steps sum the input terms over
 those only: gate drives are inputs that only the switches see (an MMC arm of 64 cells has
-129 inputs, 1 in its dynamics), and the skipped terms are exact zeros.
+129 inputs, 1 in its dynamics), and the skipped terms are exact zeros. ``span (Q, 2, n, 2)``:
+for each column of ``Phi`` (``span[j, 0]``) and of ``C`` (``span[j, 1]``) the rows from its
+first to past its last non-zero entry (0, 0 for a zero column): the regular step's column
+products run over those (a multiplier's ``C`` is triangular and its ``Phi`` the identity but
+for the part the load couples; an MMC arm's ``C`` has two entries a column).
 """
 
 SwitchArrays = namedtuple("SwitchArrays", ["kind", "flags", "vt", "vh"])
@@ -192,10 +197,11 @@ Limits.__doc__ = """Lemke's pivot budget; enumeration fallback up to this m (-1:
 every ``every``-th grid step; at most ``max_sw`` comparator switchings per grid step; at most
 ``warm_iter`` iterations of warm-started principal pivoting (0: none, straight to Lemke)."""
 
-StepWork = namedtuple("StepWork", ["xf", "q", "za", "Ko", "Mo", "augn", "lcp"])
+StepWork = namedtuple("StepWork", ["xf", "q", "za", "Ko", "Mo", "augn", "lcp", "wv", "ws"])
 StepWork.__doc__ = """Scratch of one θ step: ``x_free (n,)``, ``q (m,)``, the cached path's
 ``λ_a (m,)``, the matrices of a step of another length ``K (n, m)``, ``M (m, m)``, the
-elimination array ``(n, n + 1 + m)`` and the LCP solvers' :class:`LcpWork`."""
+elimination array ``(n, n + 1 + m)``, the LCP solvers' :class:`LcpWork`, and the cached path's
+``w (m,)`` and its scale ``ws (m,)`` (:func:`lcs.lcp.compiled.solve_cached`)."""
 
 LocateWork = namedtuple("LocateWork", ["ga", "gta", "rate_a", "rate_b", "udot", "xdot", "ut",
                                        "xt", "lamt", "lamat", "xat", "g_hi", "gt_hi", "xs",

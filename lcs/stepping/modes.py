@@ -73,6 +73,7 @@ class ModeStackBuilder:
         self.mkey = np.zeros((0, self.Wk), np.int64)
         self.mflags = np.zeros((0, MF_LEN), np.int64)
         self.minp = np.zeros((0, p + 1), np.int64)
+        self.mspan = np.zeros((0, 2, n, 2), np.int64)
         self.ckeys = np.zeros((0, self.S, self.Wm), np.int64)
         self.cna = np.zeros((0, self.S), np.int64)
         self.cidx = np.zeros((0, self.S, m), np.int64)
@@ -108,6 +109,7 @@ class ModeStackBuilder:
         self.mkey = grown(self.mkey)
         self.mflags = grown(self.mflags)
         self.minp = grown(self.minp)
+        self.mspan = grown(self.mspan)
         self.ckeys = grown(self.ckeys)
         self.cna = grown(self.cna, -2)  # (-2: an empty cache slot)
         self.cidx = grown(self.cidx)
@@ -137,7 +139,7 @@ class ModeStackBuilder:
     def arrays(self) -> ModeStack:
         """The stack as the kernel takes it."""
         return ModeStack(self.mats, ActiveSets(self.ckeys, self.cna, self.cidx, self.cG),
-                         self.mkey, self.mflags, self.odd, self.minp)
+                         self.mkey, self.mflags, self.odd, self.minp, self.mspan)
 
     def add(self, key: int) -> int:
         """Build the mode of ``key`` (switch i on when bit i is set) and append it; returns its
@@ -164,7 +166,8 @@ class ModeStackBuilder:
         j = self.count
         for stacked, arr in zip(self.mats, (A, B, C, D, E, F, disc.Phi, disc.G0, disc.G1,
                                             disc.K, disc.M, out.Cy, out.Dy, out.Fy, Cc, Dc,
-                                            Fc, disc.Phi.T, np.asarray(C).T, disc.K.T),
+                                            Fc, disc.Phi.T, np.asarray(C).T, disc.K.T,
+                                            disc.M.T),
                                 strict=True):
             stacked[j] = arr
         fast = bool(self.opts.fast_path)
@@ -180,11 +183,27 @@ class ModeStackBuilder:
         self.mflags[j, MF_OUTSTATE] = int(out_is_state)
         self.minp[j, 0] = used.size
         self.minp[j, 1:1 + used.size] = used
+        self.mspan[j, 0] = column_spans(disc.Phi)
+        self.mspan[j, 1] = column_spans(C)
         self.mkey[j] = to_words(key, self.Wk)
         self.keys.append(key)
         self.index[key] = j
         self.lcs.append(prob.lcs(mode))
         return j
+
+
+def column_spans(a) -> np.ndarray:
+    """Per column of ``a`` (r, c): the row of its first non-zero entry and the row past its
+    last, (c, 2) int64; (0, 0) for a zero column."""
+    nz = np.asarray(a) != 0
+    r = nz.shape[0]
+    spans = np.zeros((nz.shape[1], 2), np.int64)
+    if r == 0:
+        return spans
+    any_ = nz.any(axis=0)
+    spans[:, 0] = np.where(any_, nz.argmax(axis=0), 0)
+    spans[:, 1] = np.where(any_, r - nz[::-1].argmax(axis=0), 0)
+    return spans
 
 
 @contextlib.contextmanager

@@ -154,13 +154,14 @@ def regular_cached_step(stack, j, x, U0, U1, kk, slot, W, xn, lamn, rtol):
     non-finite result); :func:`mode_step` then decides.
     """
     mats = stack.mats
-    if not free_regular(mats, stack.inp, j, x, U0, U1, kk, W.xf, W.q):
+    if not free_regular(mats, stack.inp, stack.span, j, x, U0, U1, kk, W.xf, W.q):
         return False
     if W.q.shape[0] == 0:
         for i in range(x.shape[0]):
             xn[i] = W.xf[i]
         return True
-    na = solve_cached(mats.M, j, W.q, stack.sets, slot, W.za, rtol)
+    na = solve_cached(mats.M, mats.MT, W.q.shape[0] >= COLUMN_MIN, j, W.q, stack.sets, slot,
+                      W.za, rtol, W.wv, W.ws)
     if na < 0:
         return False
     return impulse_cached_t(W.xf, mats.K, mats.KT, j, stack.sets, slot, na, W.za, lamn,
@@ -243,7 +244,7 @@ def odd_cached_step(stack, j, s, h, theta, x, u0, u1, mask, slots, W, xn, lamn, 
             xn[i] = xf[i]
         return True
     so = lookup(odd.M, jj, mask, odd.sets, odd.counters)
-    na = solve_cached(odd.M, jj, q, odd.sets, so, W.za, rtol)
+    na = solve_cached(odd.M, odd.M, False, jj, q, odd.sets, so, W.za, rtol, W.wv, W.ws)
     if na >= 0:
         return impulse_kt(xf, odd.KT, jj, odd.sets, so, na, W.za, lamn, xn)
     # A switching changes the active set: pivot from the previous one here, through the
@@ -253,8 +254,8 @@ def odd_cached_step(stack, j, s, h, theta, x, u0, u1, mask, slots, W, xn, lamn, 
         return False
     copy_bits(mask, W.lcp.mask)
     ivars[IV_WARM] += 1
-    so, na = solve_warm(odd.M, jj, q, W.lcp.mask, odd.sets, odd.counters, W.za, rtol,
-                        lim.warm_iter, W.lcp.basis, W.lcp.prev)
+    so, na = solve_warm(odd.M, odd.M, False, jj, q, W.lcp.mask, odd.sets, odd.counters, W.za,
+                        rtol, lim.warm_iter, W.lcp.basis, W.lcp.prev, W.wv, W.ws)
     if so < 0:
         return False
     copy_bits(W.lcp.mask, mask)
@@ -281,8 +282,8 @@ def odd_free(stack, j, jj, x, u0, u1, xf, q):
     False when they are not finite."""
     p = u0.shape[0]
     odd = stack.odd
-    return free_state(odd.Phi, odd.Phi, odd.G0, odd.G1, jj, stack.mats, stack.inp, j, x,
-                      u0.reshape((1, p)), u1.reshape((1, p)), 0, xf, q)
+    return free_state(odd.Phi, odd.Phi, odd.G0, odd.G1, jj, False, stack.mats, stack.inp,
+                      stack.span, j, x, u0.reshape((1, p)), u1.reshape((1, p)), 0, xf, q)
 
 
 @kernel
@@ -300,7 +301,7 @@ def mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, ai
     mats = stack.mats
     fast = stack.flags[j, MF_FAST] != 0
     if regular:
-        finite = free_regular(mats, stack.inp, j, x, U0, U1, kk, W.xf, W.q)
+        finite = free_regular(mats, stack.inp, stack.span, j, x, U0, U1, kk, W.xf, W.q)
         Kk = mats.K[j]
         Mk = mats.M[j]
     else:
@@ -325,14 +326,16 @@ def mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, ai
         if slot < 0:
             slot = lookup(mats.M, j, mask, stack.sets, ivars)
             slots[ai] = slot
-        na = solve_cached(mats.M, j, q, stack.sets, slot, W.za, rtol)
+        na = solve_cached(mats.M, mats.MT, q.shape[0] >= COLUMN_MIN, j, q, stack.sets, slot,
+                          W.za, rtol, W.wv, W.ws)
         if na >= 0:
             if impulse_cached_t(xf, mats.K, mats.KT, j, stack.sets, slot, na, W.za, lamn, xn):
                 return STEP_OK
             return STEP_NONFINITE
         if lim.warm_iter > 0:
-            slot, na = solve_warm(mats.M, j, q, mask, stack.sets, ivars, W.za, rtol,
-                                  lim.warm_iter, W.lcp.basis, W.lcp.prev)
+            slot, na = solve_warm(mats.M, mats.MT, m >= COLUMN_MIN, j, q, mask, stack.sets,
+                                  ivars, W.za, rtol, lim.warm_iter, W.lcp.basis, W.lcp.prev,
+                                  W.wv, W.ws)
             ivars[IV_WARM] += 1
             if slot >= 0:
                 slots[ai] = slot
