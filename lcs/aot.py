@@ -16,6 +16,7 @@ the signatures exported are those :func:`~lcs.stepping.warmup.warm_up` compiles.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
@@ -29,7 +30,7 @@ from numba.core import types
 
 from . import kernels
 
-__all__ = ["build", "flat_wrapper"]
+__all__ = ["build", "flat_wrapper", "stale_modules"]
 
 
 def _leaves(ty, names: list[str], out: list):
@@ -96,7 +97,8 @@ def build(out_dir: Path | None = None, verbose: bool = False) -> Path:
     cc.verbose = verbose
     # For this processor, as numba's JIT compiles (the module's path names its extensions,
     # kernels.cpu_tag); the portable generic target only where they cannot be told.
-    cc.target_cpu = "" if kernels.cpu_tag() == "generic" else "host"
+    host = kernels.cpu_tag() != "generic"
+    cc.target_cpu = "host" if host else ""
     specs = {}
     for export, dispatcher, select in kernels.exported_dispatchers():
         sigs = [s for s in dispatcher.signatures if select(s)]
@@ -111,7 +113,8 @@ def build(out_dir: Path | None = None, verbose: bool = False) -> Path:
     tmp = Path(tempfile.mkdtemp(prefix="pelcs-aot-"))
     try:
         cc.output_dir = str(tmp)
-        cc.compile()
+        with _host_features(host):
+            cc.compile()
         built = tmp / Path(cc._output_file).name
         target.parent.mkdir(parents=True, exist_ok=True)
         part = target.with_suffix(".part")
@@ -120,15 +123,42 @@ def build(out_dir: Path | None = None, verbose: bool = False) -> Path:
         shutil.copyfile(built, part)
         os.replace(part, target)
         if out_dir is None:
-            # Modules of other kernel versions in pelcs' own cache are stale for good.
-            for old in target.parent.parent.glob("aot-*"):
-                if old != target.parent:
-                    shutil.rmtree(old, ignore_errors=True)
+            for old in stale_modules(target.parent):
+                shutil.rmtree(old, ignore_errors=True)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     if verbose:
         print(f"built {target} in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return target
+
+
+def stale_modules(current: Path) -> list[Path]:
+    """The directories of modules of other kernel versions for the same machine, processor
+    and numba as ``current`` (``aot-STAMP-MACHINE-cpuTAG-numbaVERSION``) beside it: stale for
+    good. Another processor's, in a home directory a cluster shares, are that node's."""
+    suffix = current.name.split("-", 2)[2]
+    return sorted(p for p in current.parent.glob(f"aot-*-{suffix}") if p != current)
+
+
+@contextlib.contextmanager
+def _host_features(host: bool):
+    """Compile for the host's instruction-set extensions as LLVM reports them, as numba's JIT
+    does: pycc's ``target_cpu = "host"`` alone takes the processor model's name and every
+    extension that model implies, which a virtual machine may mask (an illegal instruction
+    at the first call)."""
+    from numba.core import codegen
+
+    cls = getattr(codegen, "AOTCPUCodegen", None)
+    if not host or cls is None or not hasattr(cls, "_customize_tm_features"):
+        yield
+        return
+    features = codegen.get_host_cpu_features()
+    original = cls._customize_tm_features
+    cls._customize_tm_features = lambda self: features
+    try:
+        yield
+    finally:
+        cls._customize_tm_features = original
 
 
 if __name__ == "__main__":

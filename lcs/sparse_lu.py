@@ -365,6 +365,8 @@ def lu_factor(n: int, rows: np.ndarray, cols: np.ndarray, values: np.ndarray
 def lu_solve(lu: LUFactors, B: np.ndarray) -> np.ndarray:
     """``M⁻¹ B`` for B of shape (n,) or (n, r)."""
     B = np.ascontiguousarray(B, dtype=np.float64)
+    if lu.n == 0:
+        return np.zeros(B.shape)
     vec = B.ndim == 1
     B2 = B.reshape(lu.n, -1)
     Y = np.empty(B2.shape)

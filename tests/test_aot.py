@@ -170,6 +170,34 @@ def test_module_path_names_the_processor_it_was_compiled_for(monkeypatch):
     assert (other != tag) == (" avx2" in flags)
 
 
+def test_a_rebuild_removes_only_this_processors_stale_modules(tmp_path):
+    from lcs.aot import stale_modules
+
+    names = ["aot-aaaa-x86_64-cpu11111111-numba0.68.1", "aot-bbbb-x86_64-cpu11111111-numba0.68.1",
+             "aot-cccc-x86_64-cpu22222222-numba0.68.1", "aot-dddd-aarch64-cpugeneric-numba0.68.1",
+             "aot-eeee-x86_64-cpu11111111-numba0.60.0"]
+    for name in names:
+        (tmp_path / name).mkdir()
+    current = tmp_path / names[1]
+    assert stale_modules(current) == [tmp_path / names[0]]
+
+
+def test_module_is_compiled_for_the_host_extensions_llvm_reports():
+    # pycc's "host" alone takes the processor model's name and all it implies, which a
+    # virtual machine may mask: the build passes the features numba's JIT would use.
+    from numba.core import codegen
+
+    from lcs.aot import _host_features
+
+    before = codegen.AOTCPUCodegen._customize_tm_features
+    with _host_features(True):
+        assert codegen.AOTCPUCodegen._customize_tm_features(None) == \
+            codegen.get_host_cpu_features()
+    assert codegen.AOTCPUCodegen._customize_tm_features is before
+    with _host_features(False):
+        assert codegen.AOTCPUCodegen._customize_tm_features is before
+
+
 def test_arguments_of_another_type_go_to_numba_not_the_module(aot_built):
     # The extension module reads the memory of whatever array it is given: an int64 or a
     # strided array where it was compiled for contiguous float64 must not reach it.

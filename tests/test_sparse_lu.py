@@ -129,3 +129,9 @@ def test_formulation_equals_superlus(text, monkeypatch):
             a, b = getattr(mine, name), getattr(ref, name)
             assert np.allclose(a, b, rtol=1e-12, atol=1e-12 * max(np.abs(b).max(), 1.0)), name
     assert min(sizes) >= 150
+
+
+def test_empty_system():
+    lu = lu_factor(0, np.zeros(0, int), np.zeros(0, int), np.zeros(0))
+    assert lu_solve(lu, np.zeros((0, 3))).shape == (0, 3)
+    assert lu_rcond(lu, 0.0) == 1.0

@@ -223,7 +223,7 @@ def free_state(P, PT, G0, G1, ip, p_span, mats, inp, span, j, x, U0, U1, kk, xf,
         q[i] = v
         chk += v
     for i in range(n):
-        chk += xf[i]
+        chk += xf[i] + x[i]  # (x too: a column skipped by its span drops a NaN of x)
     # Never a silent NaN: inf - inf and NaN both give NaN.
     return chk - chk == 0.0
 
