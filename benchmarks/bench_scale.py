@@ -36,6 +36,9 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(HERE))
+# One BLAS thread in this process, as the command sets for itself (pelcs/cli.py), so that
+# the in-process figures are measured as the command runs.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from converters import scaling  # noqa: E402
 
