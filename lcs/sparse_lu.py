@@ -48,6 +48,20 @@ def _link(head, nxt, val, at, item, free):
 
 
 @jitted
+def _add_entry(S, r, c, rhead, rnext, rcol, chead, cnext, crow, fr, fc):
+    """Mark ``(r, c)`` in the pattern ``S`` and link it into its row's and column's lists,
+    unless it is there; returns the pools' next free slots (``fr < 0``: a pool is full)."""
+    if S[r, c] != 0:
+        return fr, fc
+    S[r, c] = 1
+    fr = _link(rhead, rnext, rcol, r, c, fr)
+    fc = _link(chead, cnext, crow, c, r, fc)
+    if fc < 0:
+        fr = -1
+    return fr, fc
+
+
+@jitted
 def _factor(I, J, v, q, pos, W, S, rhead, rnext, rcol, chead, cnext, crow, p):
     """Eliminate the matrix of entries ``v`` at ``(I, J)`` (summed) in the column order ``q``
     (``pos[q[k]] = k``): values in ``W`` (n, n, zero on entry), the non-zero pattern in ``S``
@@ -63,12 +77,9 @@ def _factor(I, J, v, q, pos, W, S, rhead, rnext, rcol, chead, cnext, crow, p):
         r = I[t]
         c = J[t]
         W[r, c] += v[t]
-        if S[r, c] == 0:
-            S[r, c] = 1
-            fr = _link(rhead, rnext, rcol, r, c, fr)
-            fc = _link(chead, cnext, crow, c, r, fc)
-            if fr < 0 or fc < 0:
-                return -2
+        fr, fc = _add_entry(S, r, c, rhead, rnext, rcol, chead, cnext, crow, fr, fc)
+        if fr < 0:
+            return -2
     done = np.zeros(n, np.bool_)
     cand = np.empty(n, np.int64)
     cols = np.empty(n, np.int64)
@@ -112,12 +123,9 @@ def _factor(I, J, v, q, pos, W, S, rhead, rnext, rcol, chead, cnext, crow, p):
             W[r, c] = mult
             for s in range(ncol):
                 j = cols[s]
-                if S[r, j] == 0:
-                    S[r, j] = 1
-                    fr = _link(rhead, rnext, rcol, r, j, fr)
-                    fc = _link(chead, cnext, crow, j, r, fc)
-                    if fr < 0 or fc < 0:
-                        return -2
+                fr, fc = _add_entry(S, r, j, rhead, rnext, rcol, chead, cnext, crow, fr, fc)
+                if fr < 0:
+                    return -2
                 W[r, j] -= mult * W[pr, j]
     return -1
 

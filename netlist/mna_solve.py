@@ -16,9 +16,9 @@ RANK_RTOL = 1e-10
 # Relative tolerance for "this quantity does not depend on the null space" and "the
 # equations are consistent for every ξ".
 DETERMINED_RTOL = 1e-8
-# A square system (of at least LU_MIN_SIZE unknowns) tries an LU factorisation first
-# (lcs.sparse_lu: a fraction of a millisecond where the SVD takes 1.5 ms at 130 unknowns and
-# 45 ms at 600), accepted when the 1-norm
+# A square system (of at least LU_MIN_SIZE unknowns: every one; the tests raise it to compare
+# with the SVD) tries an LU factorisation first (lcs.sparse_lu: a fraction of a millisecond
+# where the SVD takes 1.5 ms at 130 unknowns and 45 ms at 600), accepted when the 1-norm
 # reciprocal condition estimate exceeds LU_RCOND: then the smallest singular value is at
 # least about LU_RCOND / n of the largest, far above RANK_RTOL, and the SVD would find full
 # rank.

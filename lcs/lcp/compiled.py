@@ -347,20 +347,35 @@ def active_lambda(sets, j, slot, na, q, za):
 
 
 @inline
-def _inactive_w(MT, j, cidx, slot, na, q, za, wv, ws):
-    """``wv = q + M[j][:, a] λ_a`` and ``ws = |q| + Σ |M[j][:, a] λ_a|`` for every pair, a
-    column of the transpose ``MT[j]`` at a time (the terms in the order of a row-by-row sum)."""
+def _inactive_w(M, MT, columns, j, cidx, slot, na, q, za, wv, ws):
+    """``wv = q + M[j][:, a] λ_a`` and its scale ``ws = |q| + Σ |M[j][:, a] λ_a|`` at the
+    inactive pairs of cache ``slot``: with ``columns`` for every pair, a column of the
+    transpose ``MT[j]`` at a time (the terms in the order of a row-by-row sum, so the same
+    numbers; one dependent dot product per pair does not vectorise), else row by row from
+    ``M[j]``."""
     m = q.shape[0]
-    for i in range(m):
-        wv[i] = q[i]
-        ws[i] = abs(q[i])
-    for jj in range(na):
-        c = cidx[j, slot, jj]
-        z = za[jj]
+    if columns:
         for i in range(m):
-            t = MT[j, c, i] * z
-            wv[i] += t
-            ws[i] += abs(t)
+            wv[i] = q[i]
+            ws[i] = abs(q[i])
+        for jj in range(na):
+            c = cidx[j, slot, jj]
+            z = za[jj]
+            for i in range(m):
+                t = MT[j, c, i] * z
+                wv[i] += t
+                ws[i] += abs(t)
+        return
+    for ii in range(na, m):
+        i = cidx[j, slot, ii]
+        v = q[i]
+        sc = abs(v)
+        for jj in range(na):
+            t = M[j, i, cidx[j, slot, jj]] * za[jj]
+            v += t
+            sc += abs(t)
+        wv[i] = v
+        ws[i] = sc
 
 
 @inline
@@ -369,11 +384,9 @@ def solve_cached(M, MT, columns, j, q, sets, slot, za, rtol, wv, ws):
     ``w = M[j] λ + q``.
 
     Returns its size ``na`` with ``λ_a`` in ``za[:na]`` (in the order
-    ``sets.idx[j, slot, :na]``), or -1 when the set is singular or not accepted. With
-    ``columns``, the inactive pairs' ``w`` and its scale are summed a column of the transpose
-    ``MT[j]`` at a time into ``wv``, ``ws`` (m,), in the order of the row-by-row sums (the same
-    numbers; a dot product per inactive pair is a chain of dependent additions that does not
-    vectorise: 10,000 of them a step on the 100-stage multiplier).
+    ``sets.idx[j, slot, :na]``), or -1 when the set is singular or not accepted. The inactive
+    pairs' ``w`` and its scale go to ``wv``, ``ws`` (m,) (:func:`_inactive_w`; ``columns``:
+    from the transpose ``MT``).
     """
     m = q.shape[0]
     na = sets.na[j, slot]
@@ -384,22 +397,10 @@ def solve_cached(M, MT, columns, j, q, sets, slot, za, rtol, wv, ws):
     for ii in range(na):
         if za[ii] < -rtol * zmax:
             return -1
-    if columns:
-        _inactive_w(MT, j, cidx, slot, na, q, za, wv, ws)
-        for ii in range(na, m):
-            i = cidx[j, slot, ii]
-            if wv[i] < -rtol * ws[i]:
-                return -1
-        return na
+    _inactive_w(M, MT, columns, j, cidx, slot, na, q, za, wv, ws)
     for ii in range(na, m):
         i = cidx[j, slot, ii]
-        v = q[i]
-        sc = abs(v)
-        for jj in range(na):
-            t = M[j, i, cidx[j, slot, jj]] * za[jj]
-            v += t
-            sc += abs(t)
-        if v < -rtol * sc:
+        if wv[i] < -rtol * ws[i]:
             return -1
     return na
 
@@ -448,25 +449,12 @@ def solve_warm(M, MT, columns, j, q, mask, sets, counters, za, rtol, max_iter, v
             if za[ii] < -rtol * zmax:
                 viol[nv] = cidx[j, slot, ii]
                 nv += 1
-        if columns:
-            _inactive_w(MT, j, cidx, slot, na, q, za, wv, ws)
-            for ii in range(na, m):
-                i = cidx[j, slot, ii]
-                if wv[i] < -rtol * ws[i]:
-                    viol[nv] = i
-                    nv += 1
-        else:
-            for ii in range(na, m):
-                i = cidx[j, slot, ii]
-                v = q[i]
-                sc = abs(v)
-                for jj in range(na):
-                    t = M[j, i, cidx[j, slot, jj]] * za[jj]
-                    v += t
-                    sc += abs(t)
-                if v < -rtol * sc:
-                    viol[nv] = i
-                    nv += 1
+        _inactive_w(M, MT, columns, j, cidx, slot, na, q, za, wv, ws)
+        for ii in range(na, m):
+            i = cidx[j, slot, ii]
+            if wv[i] < -rtol * ws[i]:
+                viol[nv] = i
+                nv += 1
         if nv == 0:
             return slot, na
         _pivot(mask, prev, viol, nv, best, tries)
