@@ -88,16 +88,23 @@ def test_aot_results_equal_numba_bit_for_bit(aot_built):
     assert aot["cw12"]["steps"] > 1000
 
 
-def test_simulate_command_imports_neither_numba_nor_scipy(aot_built, tmp_path):
+def _simulate_modules(netlist: Path, out: Path, modules: tuple[str, ...]) -> str:
+    """Stdout of ``pelcs simulate NETLIST -o OUT`` in a fresh process with the AOT module,
+    ending ``MODS <rc> [the modules of ``modules`` it imported]``."""
     code = ("import sys; from pelcs.cli import main; "
-            f"rc = main(['simulate', {str(NETLISTS / 'boost.cir')!r}, '-o', "
-            f"{str(tmp_path / 'b.csv')!r}, '--no-progress']); "
-            "print('MODS', rc, sorted(m for m in ('numba', 'scipy', 'matplotlib', 'pandas', "
-            "'cvxpy', 'control', 'numpy.ma') if m in sys.modules))")
+            f"rc = main(['simulate', {str(netlist)!r}, '-o', {str(out)!r}, '--no-progress']); "
+            f"print('MODS', rc, sorted(m for m in {modules!r} if m in sys.modules))")
     p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
                        timeout=300, env={**os.environ, "PELCS_AOT": "1"})
     assert p.returncode == 0, p.stderr[-2000:]
-    assert "MODS 0 []" in p.stdout, p.stdout[-2000:]
+    return p.stdout
+
+
+def test_simulate_command_imports_neither_numba_nor_scipy(aot_built, tmp_path):
+    out = _simulate_modules(NETLISTS / "boost.cir", tmp_path / "b.csv",
+                            ("numba", "scipy", "matplotlib", "pandas", "cvxpy", "control",
+                             "numpy.ma"))
+    assert "MODS 0 []" in out, out[-2000:]
     assert (tmp_path / "b.csv").stat().st_size > 1000
 
 
@@ -105,14 +112,8 @@ def test_large_circuit_run_imports_no_scipy(aot_built, tmp_path):
     # 195 MNA unknowns a mode: the formulation's LU path (lcs.sparse_lu), no scipy.sparse.
     net = tmp_path / "mmc24.cir"
     net.write_text(mmc_arm(24, periods=1))
-    code = ("import sys; from pelcs.cli import main; "
-            f"rc = main(['simulate', {str(net)!r}, '-o', {str(tmp_path / 'm.npz')!r}, "
-            "'--no-progress']); "
-            "print('MODS', rc, sorted(m for m in ('numba', 'scipy') if m in sys.modules))")
-    p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
-                       timeout=300, env={**os.environ, "PELCS_AOT": "1"})
-    assert p.returncode == 0, p.stderr[-2000:]
-    assert "MODS 0 []" in p.stdout, p.stdout[-2000:]
+    out = _simulate_modules(net, tmp_path / "m.npz", ("numba", "scipy"))
+    assert "MODS 0 []" in out, out[-2000:]
 
 
 def test_missing_or_stale_module_falls_back_to_numba(tmp_path):
