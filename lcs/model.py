@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .network import NetworkRealisation
+
 # What λ stands for in a diode's complementarity pair.
 LAMBDA_CURRENT = "current"  # λ = diode current (A), w = reverse voltage (V)
 LAMBDA_VOLTAGE = "voltage"  # λ = reverse voltage (V), w = diode current (A)
@@ -127,10 +129,13 @@ ModeKey = tuple[bool, ...]
 
 @dataclass
 class ModeModel:
-    """What the builder returns for one switch configuration."""
+    """What the builder returns for one switch configuration: the LCS, its output maps, and
+    where the LCS comes from a sparse network, that network
+    (:class:`~lcs.network.NetworkRealisation`, for the sparse KKT stepping)."""
 
     lcs: LCS
     output: Callable[[Sequence[str]], OutputMap]
+    network: NetworkRealisation | None = None
 
 
 class SwitchedLCS:
@@ -187,6 +192,11 @@ class SwitchedLCS:
     def mode(self, config=None) -> LCS:
         """The LCS of one switch configuration."""
         return self._mode_model(self.key(config)).lcs
+
+    def network(self, config=None) -> NetworkRealisation | None:
+        """The sparse network of one switch configuration's LCS, or None (an LCS given by
+        its matrices, or a mode whose network matrix is singular)."""
+        return self._mode_model(self.key(config)).network
 
     def outputs(self, config, probes: Sequence[str]) -> OutputMap:
         """Output maps of the given probes in one switch configuration."""

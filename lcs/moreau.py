@@ -57,6 +57,8 @@ import numpy as np
 
 from .arrays import unique_sorted
 from .bits import from_words, to_words, words
+from .kkt import integrate as sparse_kernel
+from .kkt.layout import STEP_FALLBACK, STEP_GROW
 from .lcp import LcpOptions
 from .model import LCS, ModeModel, OutputMap, SwitchedLCS
 from .results import SimulationError, SimulationResult
@@ -186,6 +188,18 @@ class MoreauOptions:
         Discretisations of shortened steps kept per mode (fewer for large circuits: 4 MiB a
         mode, :func:`lcs.stepping.modes.odd_slots`); 0 discretises every shortened step
         afresh.
+    kernel : str
+        How the steps are solved: ``"dense"``, each mode's θ-discretised matrices stored
+        (:mod:`lcs.stepping`: fastest while they are small or sparse); ``"sparse"``,
+        factorised KKT systems of the circuit's network (:mod:`lcs.kkt`: a step costs the
+        non-zeros of its factors, linear in the circuit's size where the LCS's matrices are
+        dense, as on a voltage multiplier); ``"auto"`` (default), the sparse kernel where
+        it can take the run and its estimated cost per step is lower. The sparse kernel
+        takes runs of circuits (modes with a :class:`~lcs.network.NetworkRealisation`)
+        whose switches are driven by sources or controllers; a step whose block pivoting
+        finds no solution goes to the dense kernel (Lemke) and back.
+    kkt_bytes : int
+        Memory for the sparse kernel's cached factorisations (bytes, shared by every mode).
     """
 
     lcp: LcpOptions = field(default_factory=LcpOptions)
@@ -200,6 +214,8 @@ class MoreauOptions:
     root_tol: float = 1e-12
     warm_iter: int = 32
     odd_slots: int = 8
+    kernel: str = "auto"
+    kkt_bytes: int = 64 << 20
 
 
 class MoreauIntegrator(Integrator):
@@ -231,18 +247,12 @@ class MoreauIntegrator(Integrator):
         n, m, p = len(system.states), len(system.diodes), len(system.inputs)
         self.k, self.m, self.p = k, m, p
         names = run.recorder.names
-        self.stack = cached_stack(problem, plan, h, self.theta, opts, n, m, p, names,
-                                  sched.src_maps, run.base)
-        if len(sched.known) and k:
-            # The source-driven switchings say how many modes the run will build at least:
-            # room for them at once, not by copies of every cache as they come.
-            # (distinct rows by their bytes: np.unique(axis=0) imports numpy.ma, 7 ms)
-            distinct = len(set(map(bytes, np.ascontiguousarray(sched.known.b))))
-            self.stack.reserve(min(distinct + 2, 4096))
-        # Evictions of stored shortened steps are weighed against this run's hits (the store
-        # itself is kept for the next run of this system).
-        self.stack.odd.counters[0] = 0
-        self.stack.add(init.key)
+        self._stack_args = (problem, plan, h, self.theta, opts, n, m, p, names,
+                            sched.src_maps, run.base)
+        self.stack = None
+        self.sparse = sparse_kernel.choose(run, h, self.theta, opts)
+        if not self.sparse:
+            self._dense()
         Wk, Wm = words(k), words(m)
         ivars = np.zeros(IV_LEN, np.int64)
         fvars = np.zeros(FV_LEN)
@@ -283,6 +293,27 @@ class MoreauIntegrator(Integrator):
         self.plain_mode = (None if (np.any((kind == SW_LOCATED) | (kind == SW_SAMPLED))
                                     or self.est_steps < 2 * PLAIN_MIN * (len(known) + 1))
                            else True)
+
+    def _dense(self):
+        """The dense kernel's mode stack (built when first needed: a sparse run builds it
+        only for the grid steps it hands over)."""
+        if self.stack is not None:
+            return self.stack
+        problem, plan, h, theta, opts, n, m, p, names, src_maps, base = self._stack_args
+        self.stack = cached_stack(problem, plan, h, theta, opts, n, m, p, names, src_maps,
+                                  base)
+        sched = self.run.schedule
+        if len(sched.known) and problem.k:
+            # The source-driven switchings say how many modes the run will build at least:
+            # room for them at once, not by copies of every cache as they come.
+            # (distinct rows by their bytes: np.unique(axis=0) imports numpy.ma, 7 ms)
+            distinct = len(set(map(bytes, np.ascontiguousarray(sched.known.b))))
+            self.stack.reserve(min(distinct + 2, 4096))
+        # Evictions of stored shortened steps are weighed against this run's hits (the store
+        # itself is kept for the next run of this system).
+        self.stack.odd.counters[0] = 0
+        self.stack.add(self.run.initial.key)
+        return self.stack
 
     def expected_cost(self, run: Run) -> tuple[int, float]:
         n_known = len(run.schedule.known)
@@ -346,27 +377,91 @@ class MoreauIntegrator(Integrator):
             ivars[IV_SCHED] = 0
             ivars[IV_INIT] = -1
             while True:
-                ivars[IV_NMODES] = self.stack.count
                 ivars[IV_OUTPOS] = rec.pos
                 ivars[IV_EVPOS] = rec.evpos
-                status = run_grid(
-                    self.stack.arrays(), self.sw_arrays, chunk, sched, self.state, self.limits,
-                    Store(rec.T, rec.Y, rec.duty, rec.ev_t, rec.ev_key, rec.ev_info),
-                    self.plain_mode,
-                )
+                store = Store(rec.T, rec.Y, rec.duty, rec.ev_t, rec.ev_key, rec.ev_info)
+                if self.sparse:
+                    status = self.sparse.run(chunk, sched, self.state, self.limits, store)
+                else:
+                    ivars[IV_NMODES] = self.stack.count
+                    status = run_grid(self.stack.arrays(), self.sw_arrays, chunk, sched,
+                                      self.state, self.limits, store, self.plain_mode)
                 rec.pos = int(ivars[IV_OUTPOS])
                 rec.evpos = int(ivars[IV_EVPOS])
                 if status == STEP_OK:
                     break
                 if status == STEP_NEED_MODE:
-                    self.stack.add(from_words(self.state.need))
+                    if not self.sparse:
+                        self.stack.add(from_words(self.state.need))
+                    elif not self.sparse.add(from_words(self.state.need)):
+                        # (a mode without a network: the dense kernel takes the rest of the
+                        # run from this grid step, whose schedule has been applied)
+                        self.sparse_note()
+                        self.sparse = None
+                        self._dense()
+                        ivars[IV_INIT] = -1
                     continue
                 if status == STEP_FULL:
                     rec.reserve(self.max_sw + 3, 2 * self.max_sw + self.k + 6 + len(sched.k))
                     continue
+                if status == STEP_FALLBACK:
+                    err = self._dense_step(chunk)
+                    if err is not None:
+                        return err
+                    continue
+                if status == STEP_GROW:
+                    self.sparse.grow()
+                    continue
                 return self._error(status)
             self._done += N
         return None
+
+    def _dense_step(self, chunk: Chunk) -> SimulationError | None:
+        """The dense kernel takes grid step ``ivars[IV_K]`` of ``chunk`` (its schedule already
+        applied), then the sparse kernel goes on from the next."""
+        ivars, rec = self.ivars, self.run.recorder
+        stack = self._dense()
+        kk = int(ivars[IV_K])
+        um = chunk.Um[kk:kk + 1] if chunk.Um.shape[0] else chunk.Um
+        sub = Chunk(chunk.t[kk:kk + 2], chunk.odd[kk:kk + 1], chunk.U0[kk:kk + 1],
+                    chunk.U1[kk:kk + 1], um, chunk.force_out[kk:kk + 1])
+        Wk = self.state.key.shape[0]
+        none = Schedule(np.zeros(0, np.int64), np.zeros(0, np.int64),
+                        np.zeros((0, Wk), np.int64), np.zeros((0, Wk), np.int64))
+        sp = ivars[IV_SCHED]
+        ivars[IV_K] = 0
+        ivars[IV_SCHED] = 0
+        ivars[IV_INIT] = -1
+        while True:
+            ivars[IV_NMODES] = stack.count
+            ivars[IV_OUTPOS] = rec.pos
+            ivars[IV_EVPOS] = rec.evpos
+            status = run_grid(stack.arrays(), self.sw_arrays, sub, none, self.state,
+                              self.limits, Store(rec.T, rec.Y, rec.duty, rec.ev_t,
+                                                 rec.ev_key, rec.ev_info), None)
+            rec.pos = int(ivars[IV_OUTPOS])
+            rec.evpos = int(ivars[IV_EVPOS])
+            if status == STEP_OK:
+                break
+            if status == STEP_NEED_MODE:
+                stack.add(from_words(self.state.need))
+                continue
+            if status == STEP_FULL:
+                rec.reserve(self.max_sw + 3, 2 * self.max_sw + self.k + 6)
+                continue
+            return self._error(status)
+        ivars[IV_K] = kk + 1
+        ivars[IV_SCHED] = sp
+        self.sparse.dense_steps += 1
+        return None
+
+    def sparse_note(self) -> None:
+        """Say that a sparse run went on with the dense kernel."""
+        self.run.notes.append(
+            "the sparse kernel handed the run to the dense one at "
+            f"t = {float(self.fvars[FV_TCUR]):.6g} s (a switch mode without a regular "
+            "network matrix)")
+        self._sparse_used = self.sparse
 
     def snapshot(self) -> Snapshot:
         st = self.state
@@ -375,13 +470,16 @@ class MoreauIntegrator(Integrator):
 
     def stats(self) -> dict:
         iv = self.ivars
+        sparse = self.sparse or getattr(self, "_sparse_used", None)
+        extra = sparse.stats() if sparse else {}
+        modes = max(sparse.count if sparse else 0, self.stack.count if self.stack else 0)
         return dict(
             steps=int(iv[IV_STEPS]),
             odd_steps=int(iv[IV_ODD]),
             fallbacks=int(iv[IV_FALLBACKS]),
             warm_solves=int(iv[IV_WARM]),
             lcp_pivots=int(iv[IV_PIVOTS]),
-            factorisations=int(iv[IV_MISSES]),
+            factorisations=int(iv[IV_MISSES]) + extra.get("factorisations", 0),
             factor_updates=int(iv[IV_UPDATES]),
             uniqueness_checks=int(iv[IV_UNIQ]),
             odd_stored=int(iv[IV_ODDHIT]),
@@ -389,7 +487,9 @@ class MoreauIntegrator(Integrator):
             located=int(iv[IV_LOCATED]),
             root_evaluations=int(iv[IV_ROOTEVALS]),
             sliding_steps=int(iv[IV_SLIDESTEPS]),
-            modes_built=self.stack.count,
+            modes_built=modes,
+            kernel="sparse" if sparse else "dense",
+            dense_steps=extra.get("dense_steps", 0),
         )
 
     def _error(self, status: int) -> SimulationError:
@@ -397,13 +497,15 @@ class MoreauIntegrator(Integrator):
         ivars, fvars, stack, opts = self.ivars, self.fvars, self.stack, self.opts
         problem, plan = self.run.problem, self.run.plan
         t0, t1 = float(fvars[FV_FAIL_T0]), float(fvars[FV_FAIL_T1])
+        if self.sparse:
+            stack = self.sparse.builder
         if status in (STEP_LCP_FAILED, STEP_NONUNIQUE, STEP_NONFINITE):
             jf = int(ivars[IV_FAILMODE])
         else:
             jf = stack.index.get(from_words(self.state.key), 0)
         mode = stack.mode_tuple(stack.keys[jf]) if stack.keys else ()
         desc = problem.describe(mode)
-        lcs = stack.lcs[jf]
+        lcs = problem.lcs(mode)
         if status == STEP_LCP_FAILED:
             enum = opts.lcp.method == "auto" and lcs.m <= opts.lcp.enum_max_m
             how = ("Lemke ray termination, confirmed by enumeration" if enum

@@ -86,6 +86,13 @@ class SimulationStats:
         Steps taken in sliding mode (Filippov relay: two modes per step).
     modes_built : int
         Switch modes whose matrices were built.
+    kernel : str
+        How the Moreau steps were solved: ``"dense"`` (each mode's stored θ-discretised
+        matrices, :mod:`lcs.stepping`) or ``"sparse"`` (factorised KKT systems of the
+        circuit's network, :mod:`lcs.kkt`).
+    dense_steps : int
+        In a sparse run, grid steps handed to the dense kernel (block pivoting found no
+        accepted active set: Lemke decides), or taken by it after a mode without a network.
     wall_time : float
         Seconds spent in :func:`simulate` / :func:`simulate_lcs`.
     """
@@ -105,6 +112,8 @@ class SimulationStats:
     root_evaluations: int = 0
     sliding_steps: int = 0
     modes_built: int = 0
+    kernel: str = "dense"
+    dense_steps: int = 0
     wall_time: float = 0.0
 
     @property

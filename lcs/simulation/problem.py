@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import LCS, ModeKey, OutputMap, SwitchedLCS
+from ..network import NetworkRealisation
 from .switches import SW_SCHEDULED
 
 
@@ -107,6 +108,10 @@ class Problem:
 
     def lcs(self, mode: ModeKey) -> LCS:
         return self.system.mode(mode)
+
+    def network(self, mode: ModeKey) -> NetworkRealisation | None:
+        """The sparse network of a mode's LCS (:mod:`lcs.network`), or None."""
+        return self.system.network(mode)
 
     def describe(self, mode: ModeKey) -> dict[str, str]:
         return self.system.describe_mode(mode) if self.system.switches else {}

@@ -1,0 +1,1 @@
+"""Sparse KKT stepping (placeholder docstring, replaced below)."""

@@ -1,0 +1,449 @@
+"""One θ step of one mode by its sparse KKT system.
+
+For a step of length ``s`` from ``x_k`` (inputs ``u0`` to ``u1``, ``u_θ = (1-θ) u0 + θ u1``),
+Moreau's step (:mod:`lcs.stepping.discretise`) in the network's unknowns ``z``
+(:mod:`lcs.network`), with ``v = θ x_k+1 + (1-θ) x_k`` (so that ``A v`` carries the θ
+weighting and no solve of ``x_k``'s own network is needed)::
+
+    (Y - s θ S_x Rx) z - S_λ λ = S_x x_k + S_u u_θ       (the companion network: z at v)
+    θ w = Rw z + (θ - 1) D λ - F u_θ + θ F u1 - (1-θ) C x_k
+    x_k+1 = x_k + s Rx z
+
+(``Rx z = A v + B λ + E u_θ`` and ``v - x_k = s θ (A v + B λ + E u_θ)`` give the state
+equation; ``Rw z = C v + D λ + F u_θ`` the pairs'). ``c = C x_k`` is carried from step to
+step (``c_k+1 = w - D λ - F u1``) and computed afresh with Y's factors at a mode change, on
+entry and every :data:`SYNC_STEPS` steps (with θ = 1/2 its round-off neither grows nor decays:
+the fresh computation bounds it).
+
+For an active set ``a`` (the pairs with λ basic) the rows ``w_a = 0`` and ``λ_i = 0`` off
+``a`` close the system: one sparse LU per mode, length and active set (:func:`lookup`, cached
+in :class:`~lcs.kkt.layout.KKTCache`), one solve per step; the set is accepted when
+``λ_a >= -rtol max|λ_a|`` and ``w_i >= -rtol Σ|terms|`` off ``a``, else block principal
+pivoting goes on from it (:func:`kkt_step`), each basis a factorisation of its own. No dense
+matrix of the LCS is touched: a step costs the non-zeros of its factors.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import namedtuple
+
+import numpy as np
+
+from ..bits import bit
+from ..jit import jitted
+from ..stepping.layout import IV_WARM
+from .layout import (
+    C_FACTOR,
+    C_GROW,
+    C_NEXT,
+    C_SINGULAR,
+    C_TRIALS,
+    K_BOTH_ACTIVE,
+    K_COL_ACTIVE,
+    K_COL_INACTIVE,
+    K_ROW_ACTIVE,
+    ST_D,
+    ST_F,
+    ST_RW,
+    ST_RX,
+    ST_SU,
+    ST_SX,
+    ST_TEMPLATE,
+    ST_YL,
+    ST_YU,
+    VF_YCOL,
+    VF_YROW,
+    VI_ORDER,
+    VI_YORDER,
+    VI_YPINV,
+)
+from .lu import FACTOR_FULL, FACTOR_OK, factor, solve_into
+
+KKTWork = namedtuple("KKTWork", ["Ap", "Ai", "Ax", "x", "xi", "mark", "rhs", "sol", "y",
+                                 "zy", "v", "fd", "fu", "c", "wt", "csync", "viol", "prev"])
+KKTWork.__doc__ = """Scratch and carried values of the KKT steps: the assembled matrix
+``Ap (Nmax + 1,)``, ``Ai, Ax (capA,)``; the factorisation's ``x (Nmax,)``, ``xi (2 Nmax,)``,
+``mark (Nmax,)``; the system's right-hand side and solution ``rhs, sol, y (Nmax,)``;
+``zy (nzmax,)`` for Y's solve; ``v (p,)`` = u_θ; ``fd (m,)`` = F u_θ - θ F u1, ``fu (m,)`` =
+F u1; ``c (m,)`` = C x carried, ``csync (1,)`` its age in steps (-1: not valid); ``wt (m,)``
+= θ w; ``viol (m,)`` the infeasible pairs; ``prev (Wm,)`` an active set."""
+
+#: the diagonal row is the pivot when its entry is at least this fraction of the column's
+#: largest (KLU's rule; the column order was chosen for diagonal pivots)
+PIVOT_TOL = 0.1
+#: a pivot below this (on the matrix scaled to entries of about 1) is a singular basis
+PIVOT_MIN = 1e-13
+
+
+@jitted
+def assemble(net, j, s, mask, Ap, Ai, Ax, rs, cs):
+    """The KKT matrix of mode ``j``, step ``s`` and active set ``mask`` into ``Ap, Ai, Ax``
+    (CSC), scaled by powers of two (rows ``rs``, columns ``cs``) to unit maxima. Returns its
+    size N, or -1 when ``Ai`` is too short."""
+    nz = net.dims[j, 0]
+    N = net.dims[j, 1]
+    base = net.tab[j, ST_TEMPLATE]
+    ptr = net.ptr
+    cap = Ai.shape[0]
+    cnt = 0
+    for c in range(N):
+        Ap[c] = cnt
+        cact = c >= nz and bit(mask, c - nz) == 1
+        for t in range(ptr[base + c], ptr[base + c + 1]):
+            k = net.kind[t]
+            r = net.idx[t]
+            if k == K_ROW_ACTIVE:
+                keep = bit(mask, r - nz) == 1
+            elif k == K_COL_ACTIVE:
+                keep = cact
+            elif k == K_BOTH_ACTIVE:
+                keep = cact and bit(mask, r - nz) == 1
+            elif k == K_COL_INACTIVE:
+                keep = c >= nz and not cact
+            else:
+                keep = True
+            if keep:
+                if cnt >= cap:
+                    return -1
+                Ai[cnt] = r
+                Ax[cnt] = net.val[t] + s * net.val2[t]
+                cnt += 1
+    Ap[N] = cnt
+    for r in range(N):
+        rs[r] = 0.0
+    for t in range(cnt):
+        a = abs(Ax[t])
+        if a > rs[Ai[t]]:
+            rs[Ai[t]] = a
+    for r in range(N):
+        rs[r] = _pow2_inverse(rs[r])
+    for c in range(N):
+        big = 0.0
+        for t in range(Ap[c], Ap[c + 1]):
+            a = abs(Ax[t]) * rs[Ai[t]]
+            if a > big:
+                big = a
+        sc = _pow2_inverse(big)
+        cs[c] = sc
+        for t in range(Ap[c], Ap[c + 1]):
+            Ax[t] *= rs[Ai[t]] * sc
+    return N
+
+
+@jitted
+def _pow2_inverse(a):
+    """The power of two nearest ``1/a`` (1 for 0 or non-finite ``a``): scaling by it is
+    exact."""
+    if not (a > 0.0) or not np.isfinite(a):
+        return 1.0
+    m, e = math.frexp(a)
+    return math.ldexp(1.0, -e + (1 if m < 0.7071067811865476 else 0))
+
+
+@jitted
+def lookup(net, cache, j, s, stol, mask, W):
+    """The cache slot of mode ``j``, length ``s`` (within ``stol``) and active set ``mask``,
+    factorised now on a miss (the next slot round robin). Returns the slot (its ``state``
+    -1 for a singular set), or -1 when the slot's storage is too small
+    (``counters[C_GROW]`` then names the mode)."""
+    T = cache.mode.shape[0]
+    Wm = mask.shape[0]
+    for t in range(T):
+        if cache.mode[t] != j or cache.state[t] == -2 or abs(cache.s[t] - s) > stol:
+            continue
+        same = True
+        for w in range(Wm):
+            if cache.sets[t, w] != mask[w]:
+                same = False
+                break
+        if same:
+            return t
+    t = cache.counters[C_NEXT]
+    cache.counters[C_NEXT] = (t + 1) % T
+
+    cache.mode[t] = j
+    cache.s[t] = s
+    for w in range(Wm):
+        cache.sets[t, w] = mask[w]
+    cache.state[t] = -2
+    N = assemble(net, j, s, mask, W.Ap, W.Ai, W.Ax, cache.rs[t], cache.cs[t])
+    if N < 0:
+        cache.counters[C_GROW] = j
+        return -1
+    q = net.ivec[net.vtab[j, VI_ORDER]:net.vtab[j, VI_ORDER] + N]
+    st = factor(N, W.Ap, W.Ai, W.Ax, q, PIVOT_TOL, PIVOT_MIN, cache.Lp[t], cache.Li[t],
+                cache.Lx[t], cache.Up[t], cache.Ui[t], cache.Ux[t], cache.pinv[t], W.x, W.xi,
+                W.mark)
+    cache.counters[C_FACTOR] += 1
+    if st == FACTOR_FULL:
+        cache.counters[C_GROW] = j
+        return -1
+    if st == FACTOR_OK:
+        cache.state[t] = 0
+    else:
+        cache.state[t] = -1
+        cache.counters[C_SINGULAR] += 1
+    return t
+
+
+#: steps after which ``c = C x`` is computed afresh from Y's factors
+SYNC_STEPS = 32
+
+
+@jitted
+def sync_c(net, j, x, W):
+    """``W.c = C x = Rw Y⁻¹ S_x x`` with mode ``j``'s factors of Y. False when not finite."""
+    n = x.shape[0]
+    m = W.c.shape[0]
+    nz = net.dims[j, 0]
+    ptr, idx, val = net.ptr, net.idx, net.val
+    rhs = W.rhs
+    for r in range(nz):
+        rhs[r] = 0.0
+    sx = net.tab[j, ST_SX]
+    for c in range(n):
+        xc = x[c]
+        if xc != 0.0:
+            for t in range(ptr[sx + c], ptr[sx + c + 1]):
+                rhs[idx[t]] += val[t] * xc
+    yrow = net.vtab[j, VF_YROW]
+    ycol = net.vtab[j, VF_YCOL]
+    for r in range(nz):
+        rhs[r] *= net.fvec[yrow + r]
+    _solve_stored(nz, net.ivec, net.vtab[j, VI_YORDER], net.vtab[j, VI_YPINV], ptr, idx, val,
+                  net.tab[j, ST_YL], net.tab[j, ST_YU], rhs, W.y, W.zy)
+    for r in range(nz):
+        W.zy[r] *= net.fvec[ycol + r]
+    rw = net.tab[j, ST_RW]
+    chk = 0.0
+    for i in range(m):
+        acc = 0.0
+        for t in range(ptr[rw + i], ptr[rw + i + 1]):
+            acc += val[t] * W.zy[idx[t]]
+        W.c[i] = acc
+        chk += acc
+    return chk - chk == 0.0
+
+
+@jitted
+def _solve_stored(N, ivec, qo, po, ptr, idx, val, lo, uo, b, y, out):
+    """:func:`lcs.kkt.lu.solve_into` with the factors kept in a :class:`NetStack` (pointers
+    ``ptr[lo:]``, ``ptr[uo:]``, order ``ivec[qo:]``, pivots ``ivec[po:]``)."""
+    for r in range(N):
+        y[ivec[po + r]] = b[r]
+    for k in range(N):
+        v = y[k]
+        if v != 0.0:
+            for p in range(ptr[lo + k], ptr[lo + k + 1]):
+                y[idx[p]] -= val[p] * v
+    for k in range(N - 1, -1, -1):
+        end = ptr[uo + k + 1] - 1
+        v = y[k] / val[end]
+        y[k] = v
+        if v != 0.0:
+            for p in range(ptr[uo + k], end):
+                y[idx[p]] -= val[p] * v
+    for k in range(N):
+        out[ivec[qo + k]] = y[k]
+
+
+@jitted
+def inputs_part(net, j, theta, u0, u1, W):
+    """``W.v = u_θ = (1-θ) u0 + θ u1``, ``W.fd = F u_θ - θ F u1`` and ``W.fu = F u1`` over
+    the mode's inputs."""
+    nu = net.inp[j, 0]
+    for t in range(nu):
+        i = net.inp[j, 1 + t]
+        W.v[i] = (1.0 - theta) * u0[i] + theta * u1[i]
+    m = W.fd.shape[0]
+    fo = net.tab[j, ST_F]
+    ptr, idx, val = net.ptr, net.idx, net.val
+    for i in range(m):
+        a = 0.0
+        b = 0.0
+        for t in range(ptr[fo + i], ptr[fo + i + 1]):
+            a += val[t] * W.v[idx[t]]
+            b += val[t] * u1[idx[t]]
+        W.fd[i] = a - theta * b
+        W.fu[i] = b
+
+
+@jitted
+def trial(net, cache, t, j, s, theta, x, mask, rtol, W, xn, lamn):
+    """Solve the KKT system of cache slot ``t`` (mode ``j``, length ``s``, active set
+    ``mask``) from ``x`` with the inputs of :func:`inputs_part` and ``W.c = C x``; the new
+    state into ``xn``, λ into ``lamn``, ``θ w`` into ``W.wt``, the infeasible pairs into
+    ``W.viol``. Returns their number, or -1 when the result is not finite."""
+    nz = net.dims[j, 0]
+    N = net.dims[j, 1]
+    n = xn.shape[0]
+    m = lamn.shape[0]
+    ptr, idx, val = net.ptr, net.idx, net.val
+    rhs = W.rhs
+    for r in range(N):
+        rhs[r] = 0.0
+    sx = net.tab[j, ST_SX]
+    for c in range(n):
+        xc = x[c]
+        if xc != 0.0:
+            for p in range(ptr[sx + c], ptr[sx + c + 1]):
+                rhs[idx[p]] += val[p] * xc
+    su = net.tab[j, ST_SU]
+    nu = net.inp[j, 0]
+    for tt in range(nu):
+        c = net.inp[j, 1 + tt]
+        vc = W.v[c]
+        if vc != 0.0:
+            for p in range(ptr[su + c], ptr[su + c + 1]):
+                rhs[idx[p]] += val[p] * vc
+    g = 1.0 - theta
+    for i in range(m):
+        if bit(mask, i) == 1:
+            rhs[nz + i] = W.fd[i] + g * W.c[i]
+    rs = cache.rs[t]
+    cs = cache.cs[t]
+    for r in range(N):
+        rhs[r] *= rs[r]
+    q = net.ivec[net.vtab[j, VI_ORDER]:net.vtab[j, VI_ORDER] + N]
+    sol = W.sol
+    solve_into(N, q, cache.Lp[t], cache.Li[t], cache.Lx[t], cache.Up[t], cache.Ui[t],
+               cache.Ux[t], cache.pinv[t], rhs, W.y, sol)
+    for r in range(N):
+        sol[r] *= cs[r]
+    rx = net.tab[j, ST_RX]
+    chk = 0.0
+    for i in range(n):
+        acc = 0.0
+        for p in range(ptr[rx + i], ptr[rx + i + 1]):
+            acc += val[p] * sol[idx[p]]
+        v = x[i] + s * acc
+        xn[i] = v
+        chk += v
+    lmax = 0.0
+    for i in range(m):
+        if bit(mask, i) == 1:
+            v = sol[nz + i]
+            lamn[i] = v
+            chk += v
+            if abs(v) > lmax:
+                lmax = abs(v)
+        else:
+            lamn[i] = 0.0
+    if not chk - chk == 0.0:
+        return -1
+    nv = 0
+    for i in range(m):
+        if bit(mask, i) == 1 and lamn[i] < -rtol * lmax:
+            W.viol[nv] = i
+            nv += 1
+    # θ w of every pair (the active ones' is their row's residual), the inactive ones checked
+    rw = net.tab[j, ST_RW]
+    dm = net.tab[j, ST_D]
+    h = theta - 1.0
+    for i in range(m):
+        w = -W.fd[i] - g * W.c[i]
+        sc = abs(W.fd[i]) + abs(g * W.c[i])
+        for p in range(ptr[rw + i], ptr[rw + i + 1]):
+            term = val[p] * sol[idx[p]]
+            w += term
+            sc += abs(term)
+        if h != 0.0:
+            for p in range(ptr[dm + i], ptr[dm + i + 1]):
+                term = h * val[p] * lamn[idx[p]]
+                w += term
+                sc += abs(term)
+        W.wt[i] = w
+        if bit(mask, i) == 0 and net.zw[j, i] == 0 and w < -rtol * sc:
+            W.viol[nv] = i
+            nv += 1
+    return nv
+
+
+@jitted
+def carry_c(net, j, theta, lamn, W):
+    """``W.c = C x_k+1 = w - D λ - F u1`` after an accepted step."""
+    m = lamn.shape[0]
+    ptr, idx, val = net.ptr, net.idx, net.val
+    dm = net.tab[j, ST_D]
+    for i in range(m):
+        acc = W.wt[i] / theta - W.fu[i]
+        for p in range(ptr[dm + i], ptr[dm + i + 1]):
+            acc -= val[p] * lamn[idx[p]]
+        W.c[i] = acc
+
+
+@jitted
+def kkt_step(net, cache, j, s, stol, theta, x, u0, u1, mask, slot, rtol, max_iter, W, xn,
+             lamn, ivars):
+    """One θ step of length ``s`` of mode ``j`` from ``x`` into ``xn``, ``lamn``, from the
+    active set ``mask`` (cache slot ``slot[0]``, -1: unknown), by block principal pivoting
+    (Júdice–Pires, Murty's single flip once the infeasibilities stop decreasing, as
+    :func:`lcs.lcp.compiled.solve_warm`) when it is not accepted. ``mask`` and ``slot[0]``
+    are updated; a step that pivots counts in ``ivars[IV_WARM]``; ``W.c`` must hold
+    ``C x`` (``W.csync[0]`` steps old, -1: not valid) and is carried to ``C xn``. Returns 0
+    (taken), 1 (no accepted set within ``max_iter`` bases: the caller takes the step
+    otherwise), 2 (not finite) or 3 (a factorisation needs more room)."""
+    if theta < 1.0 and (W.csync[0] < 0 or W.csync[0] >= SYNC_STEPS):
+        if not sync_c(net, j, x, W):
+            return 2
+        W.csync[0] = 0
+    inputs_part(net, j, theta, u0, u1, W)
+    m = lamn.shape[0]
+    # pairs whose w vanishes identically stay inactive
+    for i in range(m):
+        if net.zw[j, i] != 0 and bit(mask, i) == 1:
+            mask[i >> 6] ^= np.int64(1) << (i & 63)
+            slot[0] = -1
+    best = m + 1
+    tries = 0
+    prev = W.prev
+    for it in range(max_iter):
+        t = slot[0]
+        if t < 0:
+            t = lookup(net, cache, j, s, stol, mask, W)
+            if t < 0:
+                return 3
+            slot[0] = t
+        if cache.state[t] < 0:
+            slot[0] = -1
+            if tries > 3:
+                return 1
+            if it == 0:
+                for w in range(mask.shape[0]):
+                    mask[w] = 0
+                continue
+            for w in range(mask.shape[0]):
+                mask[w] = prev[w]
+            tries = 4
+            continue
+        nv = trial(net, cache, t, j, s, theta, x, mask, rtol, W, xn, lamn)
+        cache.counters[C_TRIALS] += 1
+        if nv < 0:
+            return 2
+        if nv == 0:
+            if theta < 1.0:
+                carry_c(net, j, theta, lamn, W)
+                W.csync[0] += 1
+            return 0
+        if it == 0:
+            ivars[IV_WARM] += 1
+        for w in range(mask.shape[0]):
+            prev[w] = mask[w]
+        if nv < best or tries < 3:
+            for e in range(nv):
+                f = W.viol[e]
+                mask[f >> 6] ^= np.int64(1) << (f & 63)
+        else:
+            low = W.viol[0]
+            for e in range(1, nv):
+                if W.viol[e] < low:
+                    low = W.viol[e]
+            mask[low >> 6] ^= np.int64(1) << (low & 63)
+        slot[0] = -1
+        if nv < best:
+            best = nv
+            tries = 0
+        elif tries < 3:
+            tries += 1
+    return 1
