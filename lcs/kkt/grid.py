@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..bits import bit, copy_bits, equal_bits, row_equals
-from ..jit import jitted
+from ..jit import kernel
 from ..stepping.layout import (
     FV_FAIL_T0,
     FV_FAIL_T1,
@@ -40,7 +40,7 @@ from .layout import NF_OUTSTATE, STEP_FALLBACK, STEP_GROW
 from .step import kkt_step
 
 
-@jitted
+@kernel
 def _find(keys, nmodes, key):
     for i in range(nmodes):
         if row_equals(keys, i, key):
@@ -48,7 +48,7 @@ def _find(keys, nmodes, key):
     return -1
 
 
-@jitted
+@kernel
 def _record(store, ivars, t, key, info):
     e = ivars[IV_EVPOS]
     store.ev_t[e] = t
@@ -58,7 +58,7 @@ def _record(store, ivars, t, key, info):
     ivars[IV_EVPOS] = e + 1
 
 
-@jitted
+@kernel
 def _store_row(net, j, key, duty, x, lam, U, ur, T, Y, pos, t):
     T[pos] = t
     if net.flags[j, NF_OUTSTATE] != 0:
@@ -80,7 +80,7 @@ def _store_row(net, j, key, duty, x, lam, U, ur, T, Y, pos, t):
         Y[pos, r] = v
 
 
-@jitted
+@kernel
 def run_kkt(net, cache, chunk, sched, state, lim, store, W, stol):
     """Advance the state over the grid chunk (from grid step ``ivars[IV_K]``) by sparse KKT
     steps through the schedule's mode changes.

@@ -25,15 +25,20 @@ __all__ = ["SparseRun", "choose", "dense_cost", "sparse_cost"]
 #: the sparse kernel is considered ("auto") from this many states plus pairs, and pairs
 AUTO_MIN_SIZE = 48
 AUTO_MIN_PAIRS = 8
-#: factor of the sparse step's cost per factor entry over the dense step's per matrix entry
-#: (indirect, dependent updates against contiguous, vectorised products), measured on the
-#: voltage multipliers and MMC arms of ``converters/scaling.py``
-SPARSE_ENTRY_COST = 3.0
+#: cost of the sparse step per entry of its factors and vectors over the dense step's per
+#: matrix entry (indirect, dependent updates against contiguous, vectorised products, and
+#: the pivoting steps' further solves), from the voltage multipliers, interleaved bucks and
+#: MMC arms of ``converters/scaling.py`` (``benchmarks/bench_scale.py --kernels``)
+SPARSE_ENTRY_COST = 10.0
+#: room for each factor (L, U) of a cached factorisation, in entries of the largest KKT
+#: matrix (grown by STEP_GROW when a factorisation needs more)
+CAP_FACTOR = 4
 #: step lengths within this fraction of h share factorisations (as the dense kernel's
 #: stored shortened steps)
 LENGTH_RTOL = 1e-9
 
 _BUILDERS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+STORES_PER_SYSTEM = 8
 
 
 def dense_cost(A, C, m: int) -> float:
@@ -44,10 +49,10 @@ def dense_cost(A, C, m: int) -> float:
                  + m * m / 4)
 
 
-def sparse_cost(lu_entries: int, y_entries: int, theta: float, m: int) -> float:
-    """Estimated cost of a sparse step in dense-entry units: the KKT solve, Y's solve when
-    θ < 1, the pairs' checks."""
-    return SPARSE_ENTRY_COST * (lu_entries + (y_entries if theta < 1.0 else 0) + m)
+def sparse_cost(lu_entries: int, N: int, n: int, m: int) -> float:
+    """Estimated cost of a sparse step in dense-entry units: the KKT solve (its factors'
+    entries and its N unknowns), the new state, the pairs' checks."""
+    return SPARSE_ENTRY_COST * (lu_entries + N + n + 3 * m)
 
 
 class SparseRun:
@@ -83,7 +88,7 @@ class SparseRun:
         b = self.builder
         cap = cap or 2 * self.cache.Li.shape[1]
         self.cache = _new_cache(b, self.opts, cap)
-        _BUILDERS.get(b.prob.system, {})[b.cache_key] = (b, self.cache)
+        _remember(b.prob.system, b, self.cache)
         self._work = None
 
     def work(self) -> KKTWork:
@@ -94,10 +99,10 @@ class SparseRun:
             self._work = KKTWork(np.zeros(N + 1, np.int64), np.zeros(b.tpl_nnz + m, np.int64),
                                  np.zeros(b.tpl_nnz + m), np.zeros(N),
                                  np.zeros(2 * N, np.int64), np.zeros(N, np.int64), np.zeros(N),
-                                 np.zeros(N), np.zeros(N), np.zeros(b.nzmax), np.zeros(b.p),
-                                 np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(m),
-                                 np.full(1, -1, np.int64), np.zeros(m, np.int64),
-                                 np.zeros(words(m), np.int64))
+                                 np.zeros(N), np.zeros(N), np.zeros(N), np.zeros(b.nzmax),
+                                 np.zeros(b.p), np.zeros(m), np.zeros(m), np.zeros(m),
+                                 np.zeros(m), np.full(1, -1, np.int64), np.zeros(1, np.int64),
+                                 np.zeros(m, np.int64), np.zeros(words(m), np.int64))
         return self._work
 
     def run(self, chunk, sched, state, limits, store) -> int:
@@ -112,6 +117,18 @@ class SparseRun:
 
     def needs_room(self) -> int:
         return int(self.cache.counters[C_GROW])
+
+
+def _remember(system, b: NetStackBuilder, cache: KKTCache) -> None:
+    """Keep the store and cache of this configuration for the system's next runs (at most
+    :data:`STORES_PER_SYSTEM` configurations per system)."""
+    try:
+        per_system = _BUILDERS.setdefault(system, {})
+    except TypeError:  # not weak-referenceable: no keeping
+        return
+    if b.cache_key not in per_system and len(per_system) >= STORES_PER_SYSTEM:
+        per_system.pop(next(iter(per_system)))
+    per_system[b.cache_key] = (b, cache)
 
 
 def _new_cache(b: NetStackBuilder, opts, cap: int) -> KKTCache:
@@ -130,10 +147,9 @@ def _builder(run, h: float, theta: float, opts):
     key = (float(h), float(theta), tuple(names), tuple(plan.kind.tolist()),
            tuple(plan.source), int(getattr(opts, "kkt_bytes", 64 << 20)), tuple(run.base))
     try:
-        per_system = _BUILDERS.setdefault(system, {})
-    except TypeError:
-        per_system = {}
-    found = per_system.get(key)
+        found = _BUILDERS.get(system, {}).get(key)
+    except TypeError:  # not weak-referenceable
+        found = None
     if found is not None and found[0].prob.probes is problem.probes:
         b, cache = found
         b.src_maps = sched.src_maps
@@ -165,20 +181,27 @@ def choose(run, h: float, theta: float, opts) -> SparseRun | None:
     if kind == "auto" and (n + m < AUTO_MIN_SIZE or m < AUTO_MIN_PAIRS):
         return None
     init = run.initial
-    if problem.network(init.mode) is None:
+    net = problem.network(init.mode)
+    if net is None:
         return None
+    if kind == "auto":
+        A, _B, C = problem.mode_arrays(init.mode)[:3]
+        dense = dense_cost(A, C, m)
+        # (the factors hold at least the network matrix: when even that costs more, no
+        # store is built and no kernel loaded)
+        if sparse_cost(len(net.Y[0]), net.nz + m, n, m) >= dense:
+            return None
     b, cache = _builder(run, h, theta, opts)
     try:
         j = b.add(init.key)
     except NoNetwork:
         return None
     if cache is None or b.nmax + 1 > cache.Lp.shape[1]:
-        cache = _new_cache(b, opts, 4 * b.tpl_nnz + 64)
-        _BUILDERS.get(system, {})[b.cache_key] = (b, cache)
+        cache = _new_cache(b, opts, CAP_FACTOR * b.tpl_nnz + 64)
+        _remember(system, b, cache)
     sr = SparseRun(b, cache, h, opts)
     if kind == "sparse":
         return sr
-    A, _B, C = problem.mode_arrays(init.key)[:3]
     mask = to_words(init.active, words(m))
     W = sr.work()
     slot = -1
@@ -191,7 +214,7 @@ def choose(run, h: float, theta: float, opts) -> SparseRun | None:
         return None
     N = int(b.arrays().dims[j, 1])
     lu = int(sr.cache.Lp[slot, N] + sr.cache.Up[slot, N])
-    if sparse_cost(lu, b.y_entries[j], theta, m) < dense_cost(A, C, m):
+    if sparse_cost(lu, N, n, m) < dense:
         return sr
     return None
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..jit import jitted
+from ..jit import inline, kernel
 
 __all__ = ["FACTOR_OK", "FACTOR_SINGULAR", "FACTOR_FULL", "factor", "solve", "solve_into",
            "lu_arrays"]
@@ -31,7 +31,7 @@ FACTOR_SINGULAR = -1  # a column with no usable pivot
 FACTOR_FULL = -2  # the storage for L or U is too small
 
 
-@jitted
+@kernel
 def _reach(k, Ap, Ai, col, Lp, Li, pinv, mark, stamp, xi, top):
     """The rows reachable from column ``col`` of A through the columns of L found so far
     (``pinv[r] >= 0``: row r was pivot of step ``pinv[r]``), in topological order in
@@ -73,7 +73,7 @@ def _reach(k, Ap, Ai, col, Lp, Li, pinv, mark, stamp, xi, top):
     return top
 
 
-@jitted
+@kernel
 def factor(N, Ap, Ai, Ax, q, tol, pivmin, Lp, Li, Lx, Up, Ui, Ux, pinv, x, xi, mark):
     """Factorise the N x N matrix of columns ``Ap, Ai, Ax`` (CSC, any row order within a
     column, no duplicates) as ``P A Q = L U`` with the column order ``q``; a column whose
@@ -163,7 +163,7 @@ def factor(N, Ap, Ai, Ax, q, tol, pivmin, Lp, Li, Lx, Up, Ui, Ux, pinv, x, xi, m
     return FACTOR_OK
 
 
-@jitted
+@inline
 def solve_into(N, q, Lp, Li, Lx, Up, Ui, Ux, pinv, b, y, out):
     """``out = A⁻¹ b`` from the factors of :func:`factor` (``y (N,)`` work space)."""
     for r in range(N):

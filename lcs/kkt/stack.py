@@ -354,9 +354,11 @@ def cache_for(slots: int, nmax: int, cap: int, Wm: int) -> KKTCache:
     """An empty :class:`~lcs.kkt.layout.KKTCache` of ``slots`` slots for matrices up to
     ``nmax`` unknowns with ``cap`` entries in each factor."""
     T = max(1, int(slots))
+    H = 1 << max(4, (4 * T - 1).bit_length())
     return KKTCache(np.full(T, -1, np.int64), np.zeros(T), np.zeros((T, Wm), np.int64),
                     np.full(T, -2, np.int64), np.zeros((T, nmax + 1), np.int64),
                     np.zeros((T, cap), np.int64), np.zeros((T, cap)),
                     np.zeros((T, nmax + 1), np.int64), np.zeros((T, cap), np.int64),
                     np.zeros((T, cap)), np.zeros((T, nmax), np.int64), np.ones((T, nmax)),
-                    np.ones((T, nmax)), np.zeros(C_LEN, np.int64))
+                    np.ones((T, nmax)), np.zeros(C_LEN, np.int64), np.full(T, -1, np.int64),
+                    np.full(H, -1, np.int64), np.full(H, -1, np.int64))
