@@ -11,7 +11,9 @@ For each netlist:
 * ``pelcs``: the whole command ``pelcs simulate FILE -o OUT.npz`` in a fresh process (start-up,
   parsing, formulation, simulation, writing), and, in process, the time per step and the solver
   counters, of a first run (modes formulated as they are reached) and of a second one (modes
-  built: the stepping alone), and the formulation's cost per mode (their difference);
+  built: the stepping alone), and the formulation's cost per mode (their difference); the
+  kernel "auto" chose, and the stepping with each kernel forced (``dense``: stored
+  θ-discretised matrices; ``sparse``: the circuit's factorised network, ``lcs.kkt``);
 * ``ngspice``: ``ngspice -b -r OUT.raw FILE`` in a fresh process, the netlist as written; when
   that fails ("timestep too small": ngspice's Newton iterations do not converge on the
   near-ideal models at this size), the same with softened models (diodes ``N=1 RS=10m``,
@@ -46,7 +48,7 @@ from converters import scaling  # noqa: E402
 # does not decide the comparison.
 FAMILIES = {
     "cockcroft_walton": (lambda n: scaling.cockcroft_walton(n, periods=200),
-                         (5, 10, 20, 50, 100)),
+                         (5, 10, 20, 50, 100, 200)),
     "interleaved_buck": (lambda p: scaling.interleaved_buck(p, periods=200),
                          (2, 4, 8, 16, 32, 64)),
     "rectifier_6pulse": (lambda _: scaling.rectifier_6pulse(periods=20), (1,)),
@@ -78,8 +80,27 @@ def _pelcs_inprocess(text: str) -> dict:
                 ms_per_mode=1e3 * max(dt - dt2, 0.0) / max(st.modes_built, 1),
                 lemke=st.fallbacks,
                 warm=st.warm_solves, factorisations=st.factorisations,
-                updates=st.factor_updates, modes=st.modes_built,
-                error=res.error.kind if res.error else None)
+                updates=st.factor_updates, modes=st.modes_built, kernel=st.kernel,
+                error=res.error.kind if res.error else None, **_kernels(setup))
+
+
+def _kernels(setup) -> dict:
+    """The stepping (second run, µs per step) with each kernel forced: the dense one's stored
+    θ-discretised matrices and the sparse one's factorised network (lcs.kkt)."""
+    from lcs.moreau import MoreauOptions
+    from netlist.transient import run_setup
+
+    out = {}
+    for kernel in ("dense", "sparse"):
+        opts = MoreauOptions(kernel=kernel)
+        run_setup(setup, options=opts)
+        t0 = time.perf_counter()
+        res = run_setup(setup, options=opts)
+        dt = time.perf_counter() - t0
+        out[f"us_{kernel}"] = 1e6 * dt / max(res.stats.steps, 1)
+        if kernel == "sparse":
+            out["sparse_dense_steps"] = res.stats.dense_steps
+    return out
 
 
 # The processes run as on a user's machine: without this workplace's PYTHONDONTWRITEBYTECODE
@@ -139,8 +160,8 @@ LABELS = {"cockcroft_walton": "Cockcroft-Walton", "interleaved_buck": "interleav
 
 def plot(rows: list[dict], path: Path) -> Path:
     """Two panels from a run's rows: time per step against the circuit's size (states +
-    pairs), with a line of slope 1 and one of slope 2 for reference; whole-command speed-up
-    over ngspice against the size."""
+    pairs) with each kernel, with a line of slope 1 and one of slope 2 for reference;
+    whole-command speed-up over ngspice against the size."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -155,11 +176,13 @@ def plot(rows: list[dict], path: Path) -> Path:
             continue
         x = [r["n"] + r["m"] for r in rs]
         sizes += x
-        line, = ax1.loglog(x, [r["us_per_step"] for r in rs], "o-",
-                           label=f"{label}: first run (with the modes' formulation)")
-        if all("us_per_step_stepping" in r for r in rs):
-            ax1.loglog(x, [r["us_per_step_stepping"] for r in rs], "s--",
-                       color=line.get_color(), mfc="none",
+        if all("us_dense" in r for r in rs):
+            line, = ax1.loglog(x, [r["us_sparse"] for r in rs], "o-",
+                               label=f"{label}: sparse kernel")
+            ax1.loglog(x, [r["us_dense"] for r in rs], "s--", color=line.get_color(),
+                       mfc="none", label=f"{label}: dense kernel")
+        else:  # (results of the benchmark before the sparse kernel)
+            ax1.loglog(x, [r["us_per_step_stepping"] for r in rs], "s--", mfc="none",
                        label=f"{label}: stepping (modes built)")
         ok = [(xi, r["ratio"]) for xi, r in zip(x, rs, strict=True) if r.get("ratio")]
         if ok:
@@ -171,7 +194,7 @@ def plot(rows: list[dict], path: Path) -> Path:
                        lw=0.8, label=f"∝ size^{slope}")
     ax1.set_xlabel("states + complementarity pairs")
     ax1.set_ylabel("time per step [µs]")
-    ax1.set_title("pelcs: time per step against circuit size", fontsize=10)
+    ax1.set_title("pelcs: time per step (modes built) against circuit size", fontsize=10)
     ax1.grid(True, which="both", color="0.9")
     ax1.legend(fontsize=6.5)
     ax2.axhline(1.0, color="0.4", lw=0.8, label="as fast as ngspice")
@@ -210,7 +233,7 @@ def main(argv=None) -> int:
     warm_up()
     rows = []
     print(f"{'case':24s} {'n':>4s} {'m':>4s} {'k':>4s} {'steps':>7s} {'us/step':>8s} "
-          f"{'stepping':>8s} {'ms/mode':>7s} "
+          f"{'stepping':>8s} {'dense':>7s} {'sparse':>7s} {'kernel':>6s} {'ms/mode':>7s} "
           f"{'lemke':>5s} {'warm':>5s} {'modes':>5s} {'pelcs s':>8s} {'ngspice s':>10s} "
           f"{'models':>10s} {'ratio':>6s}")
     for family in args.family or sorted(FAMILIES):
@@ -221,7 +244,8 @@ def main(argv=None) -> int:
             ng = row.get("ngspice_s")
             print(f"{family + ' ' + str(size):24s} {row['n']:4d} {row['m']:4d} {row['k']:4d} "
                   f"{row['steps']:7d} {row['us_per_step']:8.2f} "
-                  f"{row['us_per_step_stepping']:8.2f} {row['ms_per_mode']:7.2f} "
+                  f"{row['us_per_step_stepping']:8.2f} {row['us_dense']:7.2f} "
+                  f"{row['us_sparse']:7.2f} {row['kernel']:>6s} {row['ms_per_mode']:7.2f} "
                   f"{row['lemke']:5d} "
                   f"{row['warm']:5d} {row['modes']:5d} "
                   f"{row['pelcs_s'] if row['pelcs_s'] else float('nan'):8.2f} "

@@ -33,7 +33,7 @@ _LCS = Path(__file__).resolve().parent
 # The packages whose compiled functions call or inline each other's, the other files with
 # compiled functions, and the compiler passes: a change to any of them recompiles every kernel.
 KERNEL_SOURCES = (_LCS / "jit.py", _LCS / "jit_passes.py", _LCS / "bits.py", _LCS / "lcp",
-                  _LCS / "stepping", _LCS / "simulation" / "source_switching.py",
+                  _LCS / "stepping", _LCS / "kkt", _LCS / "simulation" / "source_switching.py",
                   _LCS / "simulation" / "codes.py")
 # What the ahead-of-time module also depends on: the export table and argument flattening
 # here, the flat wrappers of aot.py, the signatures warmup.py compiles.
@@ -42,7 +42,7 @@ AOT_SOURCES = (_LCS / "kernels.py", _LCS / "aot.py", _LCS / "stepping" / "warmup
 # Files in those packages that no kernel compiles or reads (Python only): editing them must
 # not recompile every kernel (2-3 minutes).
 PYTHON_ONLY = frozenset({"__init__.py", "driver.py", "enumeration.py", "modes.py",
-                         "warmup.py"})
+                         "warmup.py", "stack.py", "integrate.py"})
 AOT_MODULE = "pelcs_kernels"
 
 # export name -> (module, attribute, which signature: "plain" = run_grid's plain-loop
@@ -60,6 +60,10 @@ _EXPORTS = {
     "lu_compress_nb": ("lcs.sparse_lu", "_compress", ""),
     "lu_solve_rows_nb": ("lcs.sparse_lu", "_solve_rows", ""),
     "lu_inv_norm1_nb": ("lcs.sparse_lu", "_inv_norm1", ""),
+    "run_kkt": ("lcs.kkt.grid", "run_kkt", ""),
+    "kkt_lookup": ("lcs.kkt.step", "lookup", ""),
+    "kkt_factor": ("lcs.kkt.lu", "factor", ""),
+    "kkt_min_degree": ("lcs.kkt.ordering", "_minimum_degree", ""),
 }
 
 

@@ -16,11 +16,11 @@ from ..bits import to_words, words
 from ..simulation.codes import SW_LOCATED, SW_SAMPLED, SWF_LATCH
 from ..stepping.layout import IV_NMODES
 from .grid import run_kkt
-from .layout import C_FACTOR, C_GROW, C_SINGULAR, KKTCache
+from .layout import C_FACTOR, C_SINGULAR, KKTCache
 from .stack import NetStackBuilder, NoNetwork, cache_for
 from .step import KKTWork, lookup
 
-__all__ = ["SparseRun", "choose", "dense_cost", "sparse_cost"]
+__all__ = ["SparseRun", "choose", "dense_cost", "kept", "sparse_cost"]
 
 #: the sparse kernel is considered ("auto") from this many states plus pairs, and pairs
 AUTO_MIN_SIZE = 48
@@ -115,8 +115,32 @@ class SparseRun:
         return dict(factorisations=int(c[C_FACTOR]) - self.f0, dense_steps=self.dense_steps,
                     singular=int(c[C_SINGULAR]))
 
-    def needs_room(self) -> int:
-        return int(self.cache.counters[C_GROW])
+    def factor_entries(self, j: int, active: int) -> int:
+        """Entries of the factors of mode ``j``'s KKT matrix for a regular step and the active
+        set ``active`` (a bitmask), factorised now if not cached; -1 for a singular set."""
+        b = self.builder
+        mask = to_words(active, words(b.m))
+        slot = -1
+        for _ in range(4):
+            slot = lookup(b.arrays(), self.cache, j, self.h, LENGTH_RTOL * self.h, mask,
+                          self.work())
+            if slot >= 0:
+                break
+            self.grow()
+        if slot < 0 or self.cache.state[slot] != 0:
+            return -1
+        N = int(b.arrays().dims[j, 1])
+        return int(self.cache.Lp[slot, N] + self.cache.Up[slot, N])
+
+
+def kept(system) -> list[SparseRun]:
+    """The sparse kernel's stores and caches kept for ``system`` (one per configuration run),
+    as :class:`SparseRun` objects."""
+    try:
+        found = list(_BUILDERS.get(system, {}).values())
+    except TypeError:
+        return []
+    return [SparseRun(b, cache, b.h, b.opts) for b, cache in found]
 
 
 def _remember(system, b: NetStackBuilder, cache: KKTCache) -> None:
@@ -158,6 +182,7 @@ def _builder(run, h: float, theta: float, opts):
     n, m, p = len(system.states), len(system.diodes), len(system.inputs)
     b = NetStackBuilder(problem, plan, theta, n, m, p, len(names), sched.src_maps, run.base)
     b.cache_key = key
+    b.h, b.opts = float(h), opts
     return b, None
 
 
@@ -202,19 +227,8 @@ def choose(run, h: float, theta: float, opts) -> SparseRun | None:
     sr = SparseRun(b, cache, h, opts)
     if kind == "sparse":
         return sr
-    mask = to_words(init.active, words(m))
-    W = sr.work()
-    slot = -1
-    for _ in range(4):
-        slot = lookup(b.arrays(), sr.cache, j, h, LENGTH_RTOL * h, mask, W)
-        if slot >= 0:
-            break
-        sr.grow()
-    if slot < 0 or sr.cache.state[slot] != 0:
-        return None
-    N = int(b.arrays().dims[j, 1])
-    lu = int(sr.cache.Lp[slot, N] + sr.cache.Up[slot, N])
-    if sparse_cost(lu, N, n, m) < dense:
+    lu = sr.factor_entries(j, init.active)
+    if lu >= 0 and sparse_cost(lu, int(b.arrays().dims[j, 1]), n, m) < dense:
         return sr
     return None
 

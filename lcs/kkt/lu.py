@@ -32,12 +32,12 @@ FACTOR_FULL = -2  # the storage for L or U is too small
 
 
 @kernel
-def _reach(k, Ap, Ai, col, Lp, Li, pinv, mark, stamp, xi, top):
-    """The rows reachable from column ``col`` of A through the columns of L found so far
-    (``pinv[r] >= 0``: row r was pivot of step ``pinv[r]``), in topological order in
-    ``xi[top:]`` (depth first, without recursion: ``xi[:N]`` is the stack, ``xi[N:2N]`` the
-    position in each node's list). Returns ``top``."""
-    N = pinv.shape[0]
+def _reach(N, Ap, Ai, col, Lp, Li, pinv, mark, stamp, xi, top):
+    """The rows reachable from column ``col`` of the N x N matrix A through the columns of L
+    found so far (``pinv[r] >= 0``: row r was pivot of step ``pinv[r]``), in topological
+    order in ``xi[top:]`` (depth first, without recursion: ``xi[:N]`` is the stack,
+    ``xi[N:2N]`` the position in each node's list; ``pinv`` and ``xi`` may be longer).
+    Returns ``top``."""
     for t in range(Ap[col], Ap[col + 1]):
         r0 = Ai[t]
         if mark[r0] == stamp:
@@ -104,7 +104,7 @@ def factor(N, Ap, Ai, Ax, q, tol, pivmin, Lp, Li, Lx, Up, Ui, Ux, pinv, x, xi, m
         Up[k] = unz
         col = q[k]
         stamp += 1
-        top = _reach(k, Ap, Ai, col, Lp, Li, pinv, mark, stamp, xi, N)
+        top = _reach(N, Ap, Ai, col, Lp, Li, pinv, mark, stamp, xi, N)
         for t in range(top, N):
             x[xi[t]] = 0.0
         for t in range(Ap[col], Ap[col + 1]):

@@ -11,7 +11,8 @@ whatever n, m, p), so a few tiny runs reach every signature a run can use:
 * a switch driven by a hysteretic comparator -- located switchings, the instant search;
 * the same switch without hysteresis on an attractive surface -- Filippov sliding;
 * the same switch sampled (explicit method);
-* a switch driven by a PWM source (its instants planned before stepping).
+* a switch driven by a PWM source (its instants planned before stepping);
+* a circuit's network stepped by the sparse KKT kernel (:mod:`lcs.kkt`).
 
 ``tests/test_warmup.py`` checks, in fresh processes, that after :func:`warm_up` the README's
 commands find every kernel signature they use in the cache.
@@ -24,6 +25,7 @@ import time
 import numpy as np
 
 from ..model import LCS, ComplementarityPair, ModeModel, OutputMap, SwitchControl, SwitchedLCS
+from ..network import NetworkRealisation
 from ..signals import Dc, Pulse
 from ..sparse_lu import lu_factor, lu_rcond, lu_solve
 
@@ -83,10 +85,38 @@ def _relay_system(vh: float, explicit: bool = False) -> SwitchedLCS:
     return SwitchedLCS([switch], ("x",), ("u",), ("D",), builder)
 
 
+def _diode_rc_network() -> SwitchedLCS:
+    """:func:`_diode_rc`'s circuit with its network (:class:`~lcs.network.NetworkRealisation`:
+    nodes a, b, the source's and the capacitor's currents; 1 Ω, 1 F), for the sparse KKT
+    kernel: the same LCS ``x' = -x + λ``, ``w = x - u``."""
+    i64 = np.int64
+
+    def coo(r, c, v):
+        return np.array(r, i64), np.array(c, i64), np.array(v, dtype=float)
+
+    net = NetworkRealisation(
+        nz=4, n=1, m=1, p=1,
+        Y=coo([0, 1, 1, 2, 3], [2, 1, 3, 0, 1], [1.0, 1.0, 1.0, 1.0, 1.0]),
+        S=coo([0, 1, 2, 3], [1, 1, 2, 0], [-1.0, 1.0, 1.0, 1.0]),
+        Rx=coo([0], [3], [1.0]), Rw=coo([0, 0], [0, 1], [-1.0, 1.0]))
+    A, B, C, D, E, F = net.dense()
+    lcs = LCS(A=A, B=B, C=C, D=D, E=E, F=F, states=("x",), pairs=(ComplementarityPair("D"),),
+              inputs=("u",))
+
+    def builder(mode):
+        def outputs(names):
+            return OutputMap(tuple(names), np.ones((len(names), 1)), np.zeros((len(names), 1)),
+                             np.zeros((len(names), 1)))
+
+        return ModeModel(lcs, outputs, network=net)
+
+    return SwitchedLCS([], ("x",), ("u",), ("D",), builder)
+
+
 def warm_up() -> float:
     """Load (or, the first time, compile) every Moreau kernel specialisation; returns the
     time it took, s."""
-    from ..moreau import simulate, simulate_lcs
+    from ..moreau import MoreauOptions, simulate, simulate_lcs
 
     t0 = time.perf_counter()
     lcs = _diode_rc()
@@ -96,6 +126,15 @@ def warm_up() -> float:
     simulate(_gated_rc(), [Dc(1.0), gate], [0.0], 2e-3, 1e-6)
     for vh, explicit in ((0.1, False), (0.0, False), (0.1, True)):
         simulate(_relay_system(vh, explicit), [Dc(1.0)], [0.0], 5e-2, 1e-3)
+    # The sparse KKT kernel (lcs.kkt): its grid loop, factorisations, ordering, and the
+    # factorisation "auto" makes to estimate its cost.
+    from ..kkt.integrate import kept
+
+    network = _diode_rc_network()
+    simulate(network, [Pulse(0.0, 1.0, 0.0, 1e-4, 1e-4, 2e-4, 5e-4)], [0.0], 2e-3, 1e-5,
+             options=MoreauOptions(kernel="sparse"))
+    for sparse in kept(network):
+        sparse.factor_entries(0, 1)
     # The sparse LU of the formulation (netlist.mna_solve).
     lu = lu_factor(2, np.array([0, 1, 1]), np.array([0, 0, 1]), np.array([2.0, 1.0, 3.0]))
     lu_rcond(lu, 3.0)

@@ -3,6 +3,7 @@
 ::
 
     pelcs simulate FILE [--tstop T] [--step H] [--theta TH] [--param NAME=VALUE]...
+                        [--kernel auto|dense|sparse]
                         [--probe EXPR]... [--output-step T | --all-steps | --every N]
                         [-o OUT.csv|OUT.npz|OUT.parquet] [--plot OUT.png]
                         [--method moreau|exact] [--events]
@@ -95,6 +96,11 @@ def register(subparsers) -> None:
                    "is then the output spacing")
     p.add_argument("--events", action="store_true",
                    help="with --method exact: print every event (time, element, kind, mode)")
+    p.add_argument("--kernel", choices=("auto", "dense", "sparse"), default="auto",
+                   help="how Moreau steps are solved: dense (stored θ-discretised matrices per "
+                   "mode), sparse (factorised KKT systems of the circuit's network: a step "
+                   "costs time proportional to the circuit's size) or auto (default: the one "
+                   "whose estimated step is cheaper)")
     p.set_defaults(func=run)
 
 
@@ -226,8 +232,14 @@ def run(args: argparse.Namespace) -> int:
                                       devices=args.devices, losses=args.losses,
                                       load=args.load)
         else:
+            options = None
+            if args.kernel != "auto":
+                from lcs.moreau import MoreauOptions
+
+                options = MoreauOptions(kernel=args.kernel)
             result = run_setup(setup, theta=theta, probes=probes, every=every,
-                               progress=not args.no_progress, method=args.method)
+                               progress=not args.no_progress, method=args.method,
+                               options=options)
     except NotImplementedError as exc:
         # A circuit the stepper cannot handle yet: say so like an input error, no traceback.
         raise NetlistError(Diagnostic(message=f"not supported: {exc}",
@@ -383,7 +395,13 @@ def summary(result, file: str, title: str, *, tstop: float, step: float, theta: 
             modes.append(f"... ({len(visited)} in all)")
         lines.append(f"switch modes visited: {' '.join(modes)}; {len(result.events)} "
                      "switching events")
-    if st.steps and method != "exact":
+    if st.steps and method != "exact" and st.kernel == "sparse":
+        lines.append(f"LCPs: solved on the circuit's network (sparse kernel): "
+                     f"{st.steps - st.warm_solves - st.dense_steps} of {st.steps} by the "
+                     f"previous step's active set, {st.warm_solves} by pivoting, "
+                     f"{st.factorisations} factorisations; {st.dense_steps} steps by the "
+                     f"dense kernel ({st.fallbacks} by Lemke)")
+    elif st.steps and method != "exact":
         lines.append(f"LCPs: {st.steps - st.fallbacks} of {st.steps} solved by the previous "
                      f"step's active set, {st.fallbacks} by Lemke ({st.lcp_pivots} pivots)")
     if len(result.t):
