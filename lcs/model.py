@@ -131,11 +131,12 @@ ModeKey = tuple[bool, ...]
 class ModeModel:
     """What the builder returns for one switch configuration: the LCS, its output maps, and
     where the LCS comes from a sparse network, that network
-    (:class:`~lcs.network.NetworkRealisation`, for the sparse KKT stepping)."""
+    (:class:`~lcs.network.NetworkRealisation`, for the sparse KKT stepping; or a function
+    building it when first asked for)."""
 
     lcs: LCS
     output: Callable[[Sequence[str]], OutputMap]
-    network: NetworkRealisation | None = None
+    network: NetworkRealisation | Callable[[], NetworkRealisation] | None = None
 
 
 class SwitchedLCS:
@@ -196,7 +197,10 @@ class SwitchedLCS:
     def network(self, config=None) -> NetworkRealisation | None:
         """The sparse network of one switch configuration's LCS, or None (an LCS given by
         its matrices, or a mode whose network matrix is singular)."""
-        return self._mode_model(self.key(config)).network
+        model = self._mode_model(self.key(config))
+        if callable(model.network):
+            model.network = model.network()
+        return model.network
 
     def outputs(self, config, probes: Sequence[str]) -> OutputMap:
         """Output maps of the given probes in one switch configuration."""

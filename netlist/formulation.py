@@ -363,10 +363,13 @@ class _Formulator:
         isolated = self._isolated(on)
         network = None
         if not sol.null.shape[1]:
-            network = self._network(mna, shorted, isolated)
-        # (the mode's output maps keep mna and sol; the equations themselves are not needed
-        # again: 0.4 MB a mode on a 64-phase interleaved buck)
-        mna.K = mna.entries = None
+            # (built when asked for: the sparse kernel needs it, the dense one does not; 1-2
+            # ms a mode on a 64-cell MMC arm)
+            def network():
+                return self._network(mna, shorted, isolated)
+        # (the mode's output maps keep mna and sol; the dense K is not needed again: 0.4 MB a
+        # mode on a 64-phase interleaved buck; its entries and the matrix's are kept)
+        mna.K = None
 
         dx = np.zeros((n, self.nxi))
         if self.capacitors:
@@ -425,8 +428,7 @@ class _Formulator:
         state derivatives ``Rx z`` and the pairs' ``w`` ``Rw z`` (:mod:`lcs.network`)."""
         nz = mna.nz
         Y = tuple(np.ascontiguousarray(a) for a in mna.entries)
-        sr, sc = np.nonzero(mna.K)
-        S = (sr.astype(np.int64), sc.astype(np.int64), mna.K[sr, sc])
+        S = tuple(np.ascontiguousarray(a) for a in mna.K_entries)
         rows: list[int] = []
         cols: list[int] = []
         vals: list[float] = []

@@ -80,6 +80,13 @@ class Mna:
         self.K = np.zeros((nz, f.nxi))
         ik = ~inz
         np.add.at(self.K, (r[ik], c[ik] - nz), -v[ik])
+        # (and K's entries, coalesced: what a mode's sparse network keeps once the dense K
+        # is dropped)
+        lin = r[ik] * f.nxi + (c[ik] - nz)
+        uniq, inv = np.unique(lin, return_inverse=True)
+        kv = np.bincount(inv, weights=-v[ik], minlength=uniq.size)
+        keep = kv != 0
+        self.K_entries = (uniq[keep] // f.nxi, uniq[keep] % f.nxi, kv[keep])
 
     @property
     def M(self) -> np.ndarray:
