@@ -449,7 +449,7 @@ class MoreauIntegrator(Integrator):
             if status == STEP_FULL:
                 rec.reserve(self.max_sw + 3, 2 * self.max_sw + self.k + 6)
                 continue
-            return self._error(status)
+            return self._error(status, dense=True)
         ivars[IV_K] = kk + 1
         ivars[IV_SCHED] = sp
         self.sparse.dense_steps += 1
@@ -462,6 +462,7 @@ class MoreauIntegrator(Integrator):
             f"t = {float(self.fvars[FV_TCUR]):.6g} s (a switch mode without a regular "
             "network matrix)")
         self._sparse_used = self.sparse
+        self.sparse.handed_at = int(self.ivars[IV_STEPS])
 
     def snapshot(self) -> Snapshot:
         st = self.state
@@ -471,7 +472,7 @@ class MoreauIntegrator(Integrator):
     def stats(self) -> dict:
         iv = self.ivars
         sparse = self.sparse or getattr(self, "_sparse_used", None)
-        extra = sparse.stats() if sparse else {}
+        extra = sparse.stats(int(iv[IV_STEPS])) if sparse else {}
         modes = max(sparse.count if sparse else 0, self.stack.count if self.stack else 0)
         return dict(
             steps=int(iv[IV_STEPS]),
@@ -492,12 +493,13 @@ class MoreauIntegrator(Integrator):
             dense_steps=extra.get("dense_steps", 0),
         )
 
-    def _error(self, status: int) -> SimulationError:
-        """The :class:`SimulationError` of a kernel failure."""
+    def _error(self, status: int, dense: bool = False) -> SimulationError:
+        """The :class:`SimulationError` of a kernel failure (``dense``: of the dense kernel,
+        in a grid step a sparse run handed to it: its mode ids are the dense stack's)."""
         ivars, fvars, stack, opts = self.ivars, self.fvars, self.stack, self.opts
         problem, plan = self.run.problem, self.run.plan
         t0, t1 = float(fvars[FV_FAIL_T0]), float(fvars[FV_FAIL_T1])
-        if self.sparse:
+        if self.sparse and not dense:
             stack = self.sparse.builder
         if status in (STEP_LCP_FAILED, STEP_NONUNIQUE, STEP_NONFINITE):
             jf = int(ivars[IV_FAILMODE])

@@ -33,7 +33,6 @@ from ..stepping.layout import (
     OP_SET,
     STEP_FULL,
     STEP_NEED_MODE,
-    STEP_NONFINITE,
     STEP_OK,
 )
 from .layout import NF_OUTSTATE, STEP_FALLBACK, STEP_GROW
@@ -88,13 +87,14 @@ def run_kkt(net, cache, chunk, sched, state, lim, store, W, stol):
     Parameters are those of :func:`lcs.stepping.grid.run_grid` with the mode store ``net``
     (:class:`~lcs.kkt.layout.NetStack`, ``ivars[IV_NMODES]`` modes), the factorisation cache
     ``cache`` (:class:`~lcs.kkt.layout.KKTCache`), its work space ``W``
-    (:class:`~lcs.kkt.step.KKTWork`) and ``stol``, the tolerance (s) within which two step
-    lengths share factorisations.
+    (:class:`~lcs.kkt.step.KKTWork`) and ``stol``, the difference (s) within which two step
+    lengths share factorisations (a step then has the factorised length, as the dense
+    kernel's stored shortened steps).
 
     Returns ``STEP_OK`` (chunk done), ``STEP_NEED_MODE`` (build ``state.need``),
     ``STEP_FULL``, ``STEP_FALLBACK`` (the dense kernel takes grid step ``ivars[IV_K]``, whose
-    schedule has been applied), ``STEP_GROW`` (a factorisation needs more room) or
-    ``STEP_NONFINITE``.
+    schedule has been applied: no accepted active set, or a result that is not finite, which
+    the dense kernel then reports) or ``STEP_GROW`` (a factorisation needs more room).
     """
     x, lam, key, act = state.x, state.lam, state.key, state.act
     ivars, fvars = state.ivars, state.fvars
@@ -158,12 +158,7 @@ def run_kkt(net, cache, chunk, sched, state, lim, store, W, stol):
             fvars[FV_FAIL_T0] = ta
             fvars[FV_FAIL_T1] = tb
             ivars[IV_FAILMODE] = j
-            if st == 1:
-                status = STEP_FALLBACK
-            elif st == 3:
-                status = STEP_GROW
-            else:
-                status = STEP_NONFINITE
+            status = STEP_GROW if st == 3 else STEP_FALLBACK
             break
         for i in range(n):
             x[i] = xn[i]

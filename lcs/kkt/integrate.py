@@ -65,7 +65,9 @@ class SparseRun:
         self.h = h
         self.opts = opts
         self.dense_steps = 0
+        self.handed_at = -1  # steps taken when the run went on with the dense kernel
         self.f0 = int(cache.counters[C_FACTOR])
+        self.f_done = 0  # factorisations in caches replaced by grow()
         self._work = None
 
     @property
@@ -87,7 +89,9 @@ class SparseRun:
         factorisations are made again as they are needed)."""
         b = self.builder
         cap = cap or 2 * self.cache.Li.shape[1]
+        self.f_done += int(self.cache.counters[C_FACTOR]) - self.f0
         self.cache = _new_cache(b, self.opts, cap)
+        self.f0 = 0
         _remember(b.prob.system, b, self.cache)
         self._work = None
 
@@ -110,10 +114,12 @@ class SparseRun:
         return run_kkt(self.builder.arrays(), self.cache, chunk, sched, state, limits, store,
                        self.work(), LENGTH_RTOL * self.h)
 
-    def stats(self) -> dict:
+    def stats(self, steps: int) -> dict:
+        """This run's counters (``steps``: the run's steps so far, of both kernels)."""
         c = self.cache.counters
-        return dict(factorisations=int(c[C_FACTOR]) - self.f0, dense_steps=self.dense_steps,
-                    singular=int(c[C_SINGULAR]))
+        handed = steps - self.handed_at if self.handed_at >= 0 else 0
+        return dict(factorisations=self.f_done + int(c[C_FACTOR]) - self.f0,
+                    dense_steps=self.dense_steps + handed, singular=int(c[C_SINGULAR]))
 
     def factor_entries(self, j: int, active: int) -> int:
         """Entries of the factors of mode ``j``'s KKT matrix for a regular step and the active

@@ -531,14 +531,18 @@ def kkt_step(net, cache, j, s, stol, theta, x, u0, u1, mask, slot, rtol, max_ite
     active set ``mask`` (cache slot ``slot[0]``, -1: unknown), by block principal pivoting
     (Júdice–Pires, Murty's single flip once the infeasibilities stop decreasing, as
     :func:`lcs.lcp.compiled.solve_warm`) when it is not accepted, and around a flip that
-    makes the set singular the single flips and swaps of :func:`_alternative`. ``mask`` and
-    ``slot[0]`` are updated; a step that pivots counts in ``ivars[IV_WARM]``; ``W.c`` must hold
-    ``C x`` (``W.csync[0]`` steps old, -1: not valid) and is carried to ``C xn``. Returns 0
-    (taken), 1 (no accepted set within ``max_iter`` bases: the caller takes the step
-    otherwise), 2 (not finite) or 3 (a factorisation needs more room)."""
+    makes the set singular the single flips and swaps of :func:`_alternative`
+    (``max_iter`` bases at most; 0: the previous set only). ``mask`` and ``slot[0]`` are
+    updated; a step taken after pivoting counts in ``ivars[IV_WARM]``; ``W.c`` must hold
+    ``C x`` (``W.csync[0]`` steps old, -1: not valid) and is carried to ``C xn``. Step lengths
+    within ``stol`` (s) of each other share factorisations, and the step taken is one of the
+    factorised length (as the dense kernel's stored shortened steps: the matrix and the state
+    update of one length). Returns 0 (taken), 1 (no accepted set, or a basis whose solution
+    is not finite: the caller takes the step otherwise) or 3 (a factorisation needs more
+    room)."""
     if theta < 1.0 and (W.csync[0] < 0 or W.csync[0] >= SYNC_STEPS):
         if not sync_c(net, j, x, W):
-            return 2
+            return 1
         W.csync[0] = 0
     inputs_part(net, j, theta, u0, u1, W)
     m = lamn.shape[0]
@@ -552,7 +556,7 @@ def kkt_step(net, cache, j, s, stol, theta, x, u0, u1, mask, slot, rtol, max_ite
     prev = W.prev
     nvp = 0  # infeasible pairs of prev (still in W.viol while alternatives are tried)
     alt = -1  # the alternative around prev being tried after a singular set
-    for it in range(max_iter):
+    for it in range(max(1, max_iter)):
         t = slot[0]
         if t < 0:
             t = lookup(net, cache, j, s, stol, mask, W)
@@ -571,17 +575,17 @@ def kkt_step(net, cache, j, s, stol, theta, x, u0, u1, mask, slot, rtol, max_ite
                 return 1
             continue
         alt = -1
-        nv = trial(net, cache, t, j, s, theta, x, mask, rtol, W, xn, lamn)
+        nv = trial(net, cache, t, j, cache.s[t], theta, x, mask, rtol, W, xn, lamn)
         cache.counters[C_TRIALS] += 1
         if nv < 0:
-            return 2
+            return 1
         if nv == 0:
             if theta < 1.0:
                 carry_c(net, j, theta, lamn, W)
                 W.csync[0] += 1
+            if it > 0:
+                ivars[IV_WARM] += 1
             return 0
-        if it == 0:
-            ivars[IV_WARM] += 1
         for w in range(mask.shape[0]):
             prev[w] = mask[w]
         nvp = nv

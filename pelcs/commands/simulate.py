@@ -396,11 +396,10 @@ def summary(result, file: str, title: str, *, tstop: float, step: float, theta: 
         lines.append(f"switch modes visited: {' '.join(modes)}; {len(result.events)} "
                      "switching events")
     if st.steps and method != "exact" and st.kernel == "sparse":
-        lines.append(f"LCPs: solved on the circuit's network (sparse kernel): "
-                     f"{st.steps - st.warm_solves - st.dense_steps} of {st.steps} by the "
-                     f"previous step's active set, {st.warm_solves} by pivoting, "
-                     f"{st.factorisations} factorisations; {st.dense_steps} steps by the "
-                     f"dense kernel ({st.fallbacks} by Lemke)")
+        lines.append(f"LCPs: {st.steps - st.dense_steps} of {st.steps} steps solved on the "
+                     f"circuit's network (sparse kernel, {st.factorisations} factorisations), "
+                     f"{st.dense_steps} by the dense kernel ({st.fallbacks} by Lemke); "
+                     f"{st.warm_solves} pivoted from the previous step's active set")
     elif st.steps and method != "exact":
         lines.append(f"LCPs: {st.steps - st.fallbacks} of {st.steps} solved by the previous "
                      f"step's active set, {st.fallbacks} by Lemke ({st.lcp_pivots} pivots)")
