@@ -377,17 +377,11 @@ class MoreauIntegrator(Integrator):
             ivars[IV_SCHED] = 0
             ivars[IV_INIT] = -1
             while True:
-                ivars[IV_OUTPOS] = rec.pos
-                ivars[IV_EVPOS] = rec.evpos
-                store = Store(rec.T, rec.Y, rec.duty, rec.ev_t, rec.ev_key, rec.ev_info)
                 if self.sparse:
-                    status = self.sparse.run(chunk, sched, self.state, self.limits, store)
+                    status = self._kernel_call(lambda store, c=chunk, s=sched: self.sparse.run(
+                        c, s, self.state, self.limits, store))
                 else:
-                    ivars[IV_NMODES] = self.stack.count
-                    status = run_grid(self.stack.arrays(), self.sw_arrays, chunk, sched,
-                                      self.state, self.limits, store, self.plain_mode)
-                rec.pos = int(ivars[IV_OUTPOS])
-                rec.evpos = int(ivars[IV_EVPOS])
+                    status = self._dense_call(chunk, sched, self.plain_mode)
                 if status == STEP_OK:
                     break
                 if status == STEP_NEED_MODE:
@@ -416,6 +410,24 @@ class MoreauIntegrator(Integrator):
             self._done += N
         return None
 
+    def _kernel_call(self, call) -> int:
+        """``call(store)``, a kernel's call with the recorder's buffers; the rows and events it
+        wrote are taken back. Returns its status."""
+        ivars, rec = self.ivars, self.run.recorder
+        ivars[IV_OUTPOS] = rec.pos
+        ivars[IV_EVPOS] = rec.evpos
+        status = call(Store(rec.T, rec.Y, rec.duty, rec.ev_t, rec.ev_key, rec.ev_info))
+        rec.pos = int(ivars[IV_OUTPOS])
+        rec.evpos = int(ivars[IV_EVPOS])
+        return status
+
+    def _dense_call(self, chunk: Chunk, sched: Schedule, plain) -> int:
+        """The dense kernel over ``chunk`` (``plain``: its plain-loop specialisation)."""
+        self.ivars[IV_NMODES] = self.stack.count
+        return self._kernel_call(lambda store: run_grid(
+            self.stack.arrays(), self.sw_arrays, chunk, sched, self.state, self.limits, store,
+            plain))
+
     def _dense_step(self, chunk: Chunk) -> SimulationError | None:
         """The dense kernel takes grid step ``ivars[IV_K]`` of ``chunk`` (its schedule already
         applied), then the sparse kernel goes on from the next."""
@@ -433,14 +445,7 @@ class MoreauIntegrator(Integrator):
         ivars[IV_SCHED] = 0
         ivars[IV_INIT] = -1
         while True:
-            ivars[IV_NMODES] = stack.count
-            ivars[IV_OUTPOS] = rec.pos
-            ivars[IV_EVPOS] = rec.evpos
-            status = run_grid(stack.arrays(), self.sw_arrays, sub, none, self.state,
-                              self.limits, Store(rec.T, rec.Y, rec.duty, rec.ev_t,
-                                                 rec.ev_key, rec.ev_info), None)
-            rec.pos = int(ivars[IV_OUTPOS])
-            rec.evpos = int(ivars[IV_EVPOS])
+            status = self._dense_call(sub, none, None)
             if status == STEP_OK:
                 break
             if status == STEP_NEED_MODE:

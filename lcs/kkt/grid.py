@@ -35,26 +35,9 @@ from ..stepping.layout import (
     STEP_NEED_MODE,
     STEP_OK,
 )
+from ..stepping.store import find_mode, record
 from .layout import NF_OUTSTATE, STEP_FALLBACK, STEP_GROW
 from .step import kkt_step
-
-
-@kernel
-def _find(keys, nmodes, key):
-    for i in range(nmodes):
-        if row_equals(keys, i, key):
-            return i
-    return -1
-
-
-@kernel
-def _record(store, ivars, t, key, info):
-    e = ivars[IV_EVPOS]
-    store.ev_t[e] = t
-    for w in range(key.shape[0]):
-        store.ev_key[e, w] = key[w]
-    store.ev_info[e] = info
-    ivars[IV_EVPOS] = e + 1
 
 
 @kernel
@@ -138,9 +121,9 @@ def run_kkt(net, cache, chunk, sched, state, lim, store, W, stol):
                 tkey[w] = (tkey[w] & ~sched.a[sp, w]) | sched.b[sp, w]
             if not equal_bits(tkey, key):
                 copy_bits(tkey, key)
-                _record(store, ivars, ta, key, -1)
+                record(store, ivars, ta, key, -1)
         if j < 0 or not row_equals(net.key, j, key):
-            j = _find(net.key, ivars[IV_NMODES], key)
+            j = find_mode(net.key, ivars[IV_NMODES], key)
             slot[0] = -1
             W.csync[0] = -1
             if j < 0:

@@ -85,6 +85,21 @@ PROBES = 8
 REFINE_RTOL = 1e-6
 
 
+@inline
+def _present(kind, r, c, nz, mask, cact):
+    """Whether a template entry of kind ``kind`` at row ``r``, column ``c`` is part of the
+    matrix of the active set ``mask`` (``cact``: column c is an active pair's)."""
+    if kind == K_ROW_ACTIVE:
+        return bit(mask, r - nz) == 1
+    if kind == K_COL_ACTIVE:
+        return cact
+    if kind == K_BOTH_ACTIVE:
+        return cact and bit(mask, r - nz) == 1
+    if kind == K_COL_INACTIVE:
+        return c >= nz and not cact
+    return True
+
+
 @kernel
 def assemble(net, j, s, mask, Ap, Ai, Ax, rs, cs):
     """The KKT matrix of mode ``j``, step ``s`` and active set ``mask`` into ``Ap, Ai, Ax``
@@ -100,19 +115,8 @@ def assemble(net, j, s, mask, Ap, Ai, Ax, rs, cs):
         Ap[c] = cnt
         cact = c >= nz and bit(mask, c - nz) == 1
         for t in range(ptr[base + c], ptr[base + c + 1]):
-            k = net.kind[t]
             r = net.idx[t]
-            if k == K_ROW_ACTIVE:
-                keep = bit(mask, r - nz) == 1
-            elif k == K_COL_ACTIVE:
-                keep = cact
-            elif k == K_BOTH_ACTIVE:
-                keep = cact and bit(mask, r - nz) == 1
-            elif k == K_COL_INACTIVE:
-                keep = c >= nz and not cact
-            else:
-                keep = True
-            if keep:
+            if _present(net.kind[t], r, c, nz, mask, cact):
                 if cnt >= cap:
                     return -1
                 Ai[cnt] = r
@@ -318,19 +322,8 @@ def residual(net, j, s, mask, sol, r):
             continue
         cact = c >= nz and bit(mask, c - nz) == 1
         for t in range(ptr[base + c], ptr[base + c + 1]):
-            k = net.kind[t]
             rr = net.idx[t]
-            if k == K_ROW_ACTIVE:
-                keep = bit(mask, rr - nz) == 1
-            elif k == K_COL_ACTIVE:
-                keep = cact
-            elif k == K_BOTH_ACTIVE:
-                keep = cact and bit(mask, rr - nz) == 1
-            elif k == K_COL_INACTIVE:
-                keep = c >= nz and not cact
-            else:
-                keep = True
-            if keep:
+            if _present(net.kind[t], rr, c, nz, mask, cact):
                 r[rr] -= (net.val[t] + s * net.val2[t]) * xc
 
 
