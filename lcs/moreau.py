@@ -251,6 +251,7 @@ class MoreauIntegrator(Integrator):
                             sched.src_maps, run.base)
         self.stack = None
         self.sparse = sparse_kernel.choose(run, h, self.theta, opts)
+        self._sparse_used = self.sparse  # (kept when a mode without a network ends it)
         if not self.sparse:
             self._dense()
         Wk, Wm = words(k), words(m)
@@ -388,12 +389,7 @@ class MoreauIntegrator(Integrator):
                     if not self.sparse:
                         self.stack.add(from_words(self.state.need))
                     elif not self.sparse.add(from_words(self.state.need)):
-                        # (a mode without a network: the dense kernel takes the rest of the
-                        # run from this grid step, whose schedule has been applied)
-                        self.sparse_note()
-                        self.sparse = None
-                        self._dense()
-                        ivars[IV_INIT] = -1
+                        self._hand_over()
                     continue
                 if status == STEP_FULL:
                     rec.reserve(self.max_sw + 3, 2 * self.max_sw + self.k + 6 + len(sched.k))
@@ -460,14 +456,17 @@ class MoreauIntegrator(Integrator):
         self.sparse.dense_steps += 1
         return None
 
-    def sparse_note(self) -> None:
-        """Say that a sparse run went on with the dense kernel."""
+    def _hand_over(self) -> None:
+        """A mode without a network: the dense kernel takes the rest of the run from this
+        grid step, whose schedule has been applied; a note says so."""
         self.run.notes.append(
             "the sparse kernel handed the run to the dense one at "
             f"t = {float(self.fvars[FV_TCUR]):.6g} s (a switch mode without a regular "
             "network matrix)")
-        self._sparse_used = self.sparse
         self.sparse.handed_at = int(self.ivars[IV_STEPS])
+        self.sparse = None
+        self._dense()
+        self.ivars[IV_INIT] = -1
 
     def snapshot(self) -> Snapshot:
         st = self.state
@@ -476,7 +475,7 @@ class MoreauIntegrator(Integrator):
 
     def stats(self) -> dict:
         iv = self.ivars
-        sparse = self.sparse or getattr(self, "_sparse_used", None)
+        sparse = self._sparse_used
         extra = sparse.stats(int(iv[IV_STEPS])) if sparse else {}
         modes = max(sparse.count if sparse else 0, self.stack.count if self.stack else 0)
         return dict(

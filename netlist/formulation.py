@@ -63,6 +63,7 @@ from .circuit import GROUND, Circuit, Element
 from .errors import Diagnostic, NetlistError
 from .mna import VOLTAGE_KINDS as _VOLTAGE_KINDS
 from .mna import Mna as _Mna
+from .mna import coalesce
 from .mna_solve import Solution, clean
 from .reductions import parallel_diodes, source_capacitors
 from .topology import UnionFind, bridges, find_cutset, find_loop
@@ -429,34 +430,35 @@ class _Formulator:
         nz = mna.nz
         Y = tuple(np.ascontiguousarray(a) for a in mna.entries)
         S = tuple(np.ascontiguousarray(a) for a in mna.K_entries)
-        rows: list[int] = []
-        cols: list[int] = []
-        vals: list[float] = []
+        xr: list[int] = []
+        xc: list[int] = []
+        xv: list[float] = []
         for el in self.capacitors:
             i = self.state_index[el.key]
             for c, v in mna._current_terms(el):
-                rows.append(i)
-                cols.append(c)
-                vals.append(v / float(el.value))
+                xr.append(i)
+                xc.append(c)
+                xv.append(v / float(el.value))
         if self.inductors:
             index = [self.state_index[el.key] for el in self.inductors]
             for a, el in enumerate(self.inductors):
                 for c, v in mna._voltage_terms(*el.nodes[:2]):
                     for b in np.flatnonzero(self.Linv[:, a]):
-                        rows.append(index[b])
-                        cols.append(c)
-                        vals.append(self.Linv[b, a] * v)
-        Rx = _coo(rows, cols, vals)
-        rows, cols, vals = [], [], []
+                        xr.append(index[b])
+                        xc.append(c)
+                        xv.append(self.Linv[b, a] * v)
+        wr: list[int] = []
+        wc: list[int] = []
+        wv: list[float] = []
         for i, d in enumerate(self.diodes):
             for c, v in mna.w_terms(d):
-                rows.append(i)
-                cols.append(c)
-                vals.append(v)
-        Rw = _coo(rows, cols, vals)
-        zero = set(shorted) | {i for i in isolated if self.diodes[i].key in mna.vdiodes}
-        if any(c >= nz for c in np.concatenate([Rx[1], Rw[1]])):  # pragma: no cover
+                wr.append(i)
+                wc.append(c)
+                wv.append(v)
+        if any(c >= nz for c in xc + wc):  # pragma: no cover
             raise AssertionError("a derivative or w form names a source directly")
+        Rx, Rw = coalesce(xr, xc, xv, nz), coalesce(wr, wc, wv, nz)
+        zero = set(shorted) | {i for i in isolated if self.diodes[i].key in mna.vdiodes}
         return NetworkRealisation(nz=nz, n=self.n, m=self.m, p=self.p, Y=Y, S=S, Rx=Rx,
                                   Rw=Rw, zero_w=tuple(sorted(zero)))
 
@@ -696,20 +698,6 @@ class _Formulator:
 
     def _is_node(self, name: str) -> bool:
         return name == GROUND or name in self.node_index
-
-
-def _coo(rows: list[int], cols: list[int], vals: list[float]):
-    """Coalesced (row, column, value) arrays: repeated positions summed, zeros dropped."""
-    r = np.array(rows, dtype=np.int64)
-    c = np.array(cols, dtype=np.int64)
-    v = np.array(vals, dtype=float)
-    if not r.size:
-        return r, c, v
-    width = int(c.max()) + 1
-    uniq, inv = np.unique(r * width + c, return_inverse=True)
-    total = np.bincount(inv, weights=v, minlength=uniq.size)
-    keep = total != 0
-    return uniq[keep] // width, uniq[keep] % width, total[keep]
 
 
 def _short_list(names: Sequence[str], limit: int = 30) -> str:

@@ -8,7 +8,7 @@ import numpy as np
 
 from .circuit import GROUND, Element
 
-__all__ = ["VOLTAGE_KINDS", "Mna"]
+__all__ = ["VOLTAGE_KINDS", "Mna", "coalesce"]
 
 # Branches whose voltage is imposed (a loop of them is degenerate); closed switches too.
 VOLTAGE_KINDS = frozenset("VCEH")
@@ -71,22 +71,13 @@ class Mna:
         nz = self.nz
         inz = c < nz
         # M's entries coalesced (summed in stamping order), row-major as np.nonzero gives
-        # them; K = -(the ξ columns) as a dense array (the solve's right-hand sides).
-        lin = r[inz] * nz + c[inz]
-        uniq, inv = np.unique(lin, return_inverse=True)
-        mv = np.bincount(inv, weights=v[inz], minlength=uniq.size)
-        keep = mv != 0
-        self.entries = (uniq[keep] // nz, uniq[keep] % nz, mv[keep])
+        # them; K = -(the ξ columns) as a dense array (the solve's right-hand sides), and
+        # K's entries (what a mode's sparse network keeps once the dense K is dropped).
+        self.entries = coalesce(r[inz], c[inz], v[inz], nz)
         self.K = np.zeros((nz, f.nxi))
         ik = ~inz
         np.add.at(self.K, (r[ik], c[ik] - nz), -v[ik])
-        # (and K's entries, coalesced: what a mode's sparse network keeps once the dense K
-        # is dropped)
-        lin = r[ik] * f.nxi + (c[ik] - nz)
-        uniq, inv = np.unique(lin, return_inverse=True)
-        kv = np.bincount(inv, weights=-v[ik], minlength=uniq.size)
-        keep = kv != 0
-        self.K_entries = (uniq[keep] // f.nxi, uniq[keep] % f.nxi, kv[keep])
+        self.K_entries = coalesce(r[ik], c[ik] - nz, -v[ik], f.nxi)
 
     @property
     def M(self) -> np.ndarray:
@@ -213,6 +204,18 @@ class Mna:
             return self.current(diode)
         anode, cathode = diode.nodes
         return self.voltage(cathode, anode)
+
+
+def coalesce(rows, cols, vals, width: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The (row, column, value) entries of a matrix of ``width`` columns with repeated
+    positions summed (in the order given) and zeros dropped, row-major."""
+    r = np.asarray(rows, dtype=np.int64)
+    c = np.asarray(cols, dtype=np.int64)
+    v = np.asarray(vals, dtype=float)
+    uniq, inv = np.unique(r * width + c, return_inverse=True)
+    total = np.bincount(inv, weights=v, minlength=uniq.size)
+    keep = total != 0
+    return uniq[keep] // width, uniq[keep] % width, total[keep]
 
 
 def _terms(form: np.ndarray) -> list[tuple[int, float]]:

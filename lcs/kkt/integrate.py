@@ -16,7 +16,7 @@ from ..bits import to_words, words
 from ..simulation.codes import SW_LOCATED, SW_SAMPLED, SWF_LATCH
 from ..stepping.layout import IV_NMODES
 from .grid import run_kkt
-from .layout import C_FACTOR, C_SINGULAR, KKTCache
+from .layout import C_FACTOR, KKTCache
 from .stack import NetStackBuilder, NoNetwork, cache_for
 from .step import KKTWork, lookup
 
@@ -28,7 +28,7 @@ AUTO_MIN_PAIRS = 8
 #: cost of the sparse step per entry of its factors and vectors over the dense step's per
 #: matrix entry (indirect, dependent updates against contiguous, vectorised products, and
 #: the pivoting steps' further solves), from the voltage multipliers, interleaved bucks and
-#: MMC arms of ``converters/scaling.py`` (``benchmarks/bench_scale.py --kernels``)
+#: MMC arms of ``converters/scaling.py`` (``benchmarks/bench_scale.py``: both kernels timed)
 SPARSE_ENTRY_COST = 10.0
 #: room for each factor (L, U) of a cached factorisation, in entries of the largest KKT
 #: matrix (grown by STEP_GROW when a factorisation needs more)
@@ -119,7 +119,7 @@ class SparseRun:
         c = self.cache.counters
         handed = steps - self.handed_at if self.handed_at >= 0 else 0
         return dict(factorisations=self.f_done + int(c[C_FACTOR]) - self.f0,
-                    dense_steps=self.dense_steps + handed, singular=int(c[C_SINGULAR]))
+                    dense_steps=self.dense_steps + handed)
 
     def factor_entries(self, j: int, active: int) -> int:
         """Entries of the factors of mode ``j``'s KKT matrix for a regular step and the active

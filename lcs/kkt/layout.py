@@ -73,14 +73,14 @@ Slot t holds the matrix of mode ``mode[t]``, step length ``s[t]`` (s) and active
 (:func:`lcs.kkt.lu.factor`: ``Lp, Up (T, Nmax + 1)``, ``Li, Lx, Ui, Ux (T, cap)``,
 ``pinv (T, Nmax)``) are those of the matrix scaled by rows ``rs`` and columns ``cs``
 (T, Nmax), powers of two. ``counters (C_LEN,)``: the next slot to reuse, factorisations,
-singular sets, the mode needing more room (:data:`STEP_GROW`), KKT solves, refinements.
+singular sets, KKT solves, refinements (the last three diagnostics, read from
+:func:`lcs.kkt.integrate.kept`).
 ``hkey (T,)``: each slot's key hash; ``table, thash (H,)``: the slots by hash (open
 addressing, H a power of two >= 4 T; -1 empty) and the hash each entry was stored under."""
 
 C_NEXT = 0
 C_FACTOR = 1
 C_SINGULAR = 2
-C_GROW = 3
-C_TRIALS = 4  # KKT solves (one per step, more while pivoting)
-C_REFINE = 5  # solutions refined before their set was judged
-C_LEN = 6
+C_TRIALS = 3  # KKT solves (one per step, more while pivoting)
+C_REFINE = 4  # solutions refined before their set was judged
+C_LEN = 5

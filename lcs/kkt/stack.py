@@ -123,9 +123,7 @@ class NetStackBuilder:
         self.rows: dict[str, np.ndarray] = {}
         self.nmax = 1
         self.nzmax = 1
-        self.lu_nnz = 1  # the largest factor (L or U) seen at mode build
         self.tpl_nnz = 1  # the largest template
-        self.y_entries: list[int] = []  # entries of each mode's factors of Y
         self.cache_key = None
         self._grow(4)
 
@@ -244,8 +242,6 @@ class NetStackBuilder:
         self.nmax = max(self.nmax, N)
         self.nzmax = max(self.nzmax, nz)
         self.tpl_nnz = max(self.tpl_nnz, len(ti))
-        self.lu_nnz = max(self.lu_nnz, len(Li) + len(Ui))
-        self.y_entries.append(len(Li) + len(Ui))
         self.keys.append(key)
         self.index[key] = j
         return j

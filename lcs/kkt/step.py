@@ -35,7 +35,6 @@ from ..jit import inline, kernel
 from ..stepping.layout import IV_WARM
 from .layout import (
     C_FACTOR,
-    C_GROW,
     C_NEXT,
     C_REFINE,
     C_SINGULAR,
@@ -178,8 +177,7 @@ def _matches(cache, t, j, s, stol, mask):
 def lookup(net, cache, j, s, stol, mask, W):
     """The cache slot of mode ``j``, length ``s`` (within ``stol``) and active set ``mask``,
     factorised now on a miss (the next slot round robin). Returns the slot (its ``state``
-    -1 for a singular set), or -1 when the slot's storage is too small
-    (``counters[C_GROW]`` then names the mode).
+    -1 for a singular set), or -1 when the slot's storage is too small.
 
     Slots are found through an open-addressing table (``cache.table``: :data:`PROBES`
     positions from the key's hash; an entry whose slot was reused for another key is stale
@@ -208,7 +206,6 @@ def lookup(net, cache, j, s, stol, mask, W):
     cache.state[t] = -2
     N = assemble(net, j, s, mask, W.Ap, W.Ai, W.Ax, cache.rs[t], cache.cs[t])
     if N < 0:
-        cache.counters[C_GROW] = j
         return -1
     q = net.ivec[net.vtab[j, VI_ORDER]:net.vtab[j, VI_ORDER] + N]
     st = factor(N, W.Ap, W.Ai, W.Ax, q, PIVOT_TOL, PIVOT_MIN, cache.Lp[t], cache.Li[t],
@@ -216,7 +213,6 @@ def lookup(net, cache, j, s, stol, mask, W):
                 W.mark)
     cache.counters[C_FACTOR] += 1
     if st == FACTOR_FULL:
-        cache.counters[C_GROW] = j
         return -1
     if st == FACTOR_OK:
         cache.state[t] = 0
@@ -226,6 +222,20 @@ def lookup(net, cache, j, s, stol, mask, W):
     return t
 
 
+@inline
+def _network_rhs(net, j, x, N, rhs):
+    """``rhs[:N] = S_x x`` (zero beyond the rows of mode ``j``'s network equations)."""
+    for r in range(N):
+        rhs[r] = 0.0
+    sx = net.tab[j, ST_SX]
+    ptr, idx, val = net.ptr, net.idx, net.val
+    for c in range(x.shape[0]):
+        xc = x[c]
+        if xc != 0.0:
+            for t in range(ptr[sx + c], ptr[sx + c + 1]):
+                rhs[idx[t]] += val[t] * xc
+
+
 #: steps after which ``c = C x`` is computed afresh from Y's factors
 SYNC_STEPS = 32
 
@@ -233,25 +243,22 @@ SYNC_STEPS = 32
 @kernel
 def sync_c(net, j, x, W):
     """``W.c = C x = Rw Y⁻¹ S_x x`` with mode ``j``'s factors of Y. False when not finite."""
-    n = x.shape[0]
     m = W.c.shape[0]
     nz = net.dims[j, 0]
     ptr, idx, val = net.ptr, net.idx, net.val
     rhs = W.rhs
-    for r in range(nz):
-        rhs[r] = 0.0
-    sx = net.tab[j, ST_SX]
-    for c in range(n):
-        xc = x[c]
-        if xc != 0.0:
-            for t in range(ptr[sx + c], ptr[sx + c + 1]):
-                rhs[idx[t]] += val[t] * xc
+    _network_rhs(net, j, x, nz, rhs)
     yrow = net.vtab[j, VF_YROW]
     ycol = net.vtab[j, VF_YCOL]
     for r in range(nz):
         rhs[r] *= net.fvec[yrow + r]
-    _solve_stored(nz, net.ivec, net.vtab[j, VI_YORDER], net.vtab[j, VI_YPINV], ptr, idx, val,
-                  net.tab[j, ST_YL], net.tab[j, ST_YU], rhs, W.y, W.zy)
+    # (the factors' pointers in the store are absolute: they index idx and val as they are)
+    yl = net.tab[j, ST_YL]
+    yu = net.tab[j, ST_YU]
+    yq = net.vtab[j, VI_YORDER]
+    yp = net.vtab[j, VI_YPINV]
+    solve_into(nz, net.ivec[yq:yq + nz], ptr[yl:yl + nz + 1], idx, val, ptr[yu:yu + nz + 1],
+               idx, val, net.ivec[yp:yp + nz], rhs, W.y, W.zy)
     for r in range(nz):
         W.zy[r] *= net.fvec[ycol + r]
     rw = net.tab[j, ST_RW]
@@ -263,28 +270,6 @@ def sync_c(net, j, x, W):
         W.c[i] = acc
         chk += acc
     return chk - chk == 0.0
-
-
-@kernel
-def _solve_stored(N, ivec, qo, po, ptr, idx, val, lo, uo, b, y, out):
-    """:func:`lcs.kkt.lu.solve_into` with the factors kept in a :class:`NetStack` (pointers
-    ``ptr[lo:]``, ``ptr[uo:]``, order ``ivec[qo:]``, pivots ``ivec[po:]``)."""
-    for r in range(N):
-        y[ivec[po + r]] = b[r]
-    for k in range(N):
-        v = y[k]
-        if v != 0.0:
-            for p in range(ptr[lo + k], ptr[lo + k + 1]):
-                y[idx[p]] -= val[p] * v
-    for k in range(N - 1, -1, -1):
-        end = ptr[uo + k + 1] - 1
-        v = y[k] / val[end]
-        y[k] = v
-        if v != 0.0:
-            for p in range(ptr[uo + k], end):
-                y[idx[p]] -= val[p] * v
-    for k in range(N):
-        out[ivec[qo + k]] = y[k]
 
 
 @inline
@@ -362,18 +347,10 @@ def trial(net, cache, t, j, s, theta, x, mask, rtol, W, xn, lamn):
     pivoting steps and 6,700 fewer factorisations in 40,000 steps)."""
     nz = net.dims[j, 0]
     N = net.dims[j, 1]
-    n = xn.shape[0]
     m = lamn.shape[0]
     ptr, idx, val = net.ptr, net.idx, net.val
     rhs = W.rhs
-    for r in range(N):
-        rhs[r] = 0.0
-    sx = net.tab[j, ST_SX]
-    for c in range(n):
-        xc = x[c]
-        if xc != 0.0:
-            for p in range(ptr[sx + c], ptr[sx + c + 1]):
-                rhs[idx[p]] += val[p] * xc
+    _network_rhs(net, j, x, N, rhs)
     su = net.tab[j, ST_SU]
     nu = net.inp[j, 0]
     for tt in range(nu):
