@@ -106,6 +106,7 @@ class SparseRun:
                                  np.zeros(N), np.zeros(N), np.zeros(N), np.zeros(b.nzmax),
                                  np.zeros(b.p), np.zeros(m), np.zeros(m), np.zeros(m),
                                  np.zeros(m), np.full(1, -1, np.int64), np.zeros(1, np.int64),
+                                 np.zeros(m, np.int64), np.zeros(words(m), np.int64),
                                  np.zeros(m, np.int64), np.zeros(words(m), np.int64))
         return self._work
 

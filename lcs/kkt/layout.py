@@ -65,7 +65,7 @@ m)``, ``Fy (Q, r, p)``: the stored probes.
 
 KKTCache = namedtuple("KKTCache", ["mode", "s", "sets", "state", "Lp", "Li", "Lx", "Up",
                                    "Ui", "Ux", "pinv", "rs", "cs", "counters", "hkey", "table",
-                                   "thash"])
+                                   "thash", "succ", "succ_key"])
 KKTCache.__doc__ = """Factorisations of KKT matrices, T slots shared by every mode.
 
 Slot t holds the matrix of mode ``mode[t]``, step length ``s[t]`` (s) and active set
@@ -76,7 +76,10 @@ Slot t holds the matrix of mode ``mode[t]``, step length ``s[t]`` (s) and active
 singular sets, KKT solves, refinements (the last three diagnostics, read from
 :func:`lcs.kkt.integrate.kept`).
 ``hkey (T,)``: each slot's key hash; ``table, thash (H,)``: the slots by hash (open
-addressing, H a power of two >= 4 T; -1 empty) and the hash each entry was stored under."""
+addressing, H a power of two >= 4 T; -1 empty) and the hash each entry was stored under.
+``succ, succ_key (T,)``: the slot of the set a step last ended in after pivoting away from
+slot t's set, and that slot's key hash when it was recorded (-1: none): the set tried next
+when t's fails again (:func:`lcs.kkt.step.kkt_step`)."""
 
 C_NEXT = 0
 C_FACTOR = 1

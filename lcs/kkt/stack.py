@@ -357,4 +357,5 @@ def cache_for(slots: int, nmax: int, cap: int, Wm: int) -> KKTCache:
                     np.zeros((T, nmax + 1), np.int64), np.zeros((T, cap), np.int64),
                     np.zeros((T, cap)), np.zeros((T, nmax), np.int64), np.ones((T, nmax)),
                     np.ones((T, nmax)), np.zeros(C_LEN, np.int64), np.full(T, -1, np.int64),
-                    np.full(H, -1, np.int64), np.full(H, -1, np.int64))
+                    np.full(H, -1, np.int64), np.full(H, -1, np.int64),
+                    np.full(T, -1, np.int64), np.full(T, -1, np.int64))
