@@ -64,7 +64,7 @@ from .circuit import GROUND, Circuit, Element
 from .errors import Diagnostic, NetlistError
 from .mna import VOLTAGE_KINDS as _VOLTAGE_KINDS
 from .mna import Mna as _Mna
-from .mna import coalesce
+from .mna import Stamps, coalesce
 from .mna_solve import Solution, clean
 from .reductions import parallel_diodes, source_capacitors
 from .topology import Partition, SwitchedBridges, UnionFind, find_cutset, find_loop
@@ -265,6 +265,8 @@ class _Formulator:
                 options={**params, "initial": sw.initial} if sw.initial is not None
                 else dict(params)))
 
+        # What each probe asked for names (probe -> ("v", node, node) or ("i", element)).
+        self._probes: dict[str, tuple] = {}
         self.Lmat = np.zeros((0, 0))  # set by _inductance_inverse
         self.Linv = self._inductance_inverse(bad)
         if diagnostics:
@@ -335,6 +337,11 @@ class _Formulator:
                 [k.name for k in ks] + [el.name for el in involved])
             return np.diag(1.0 / np.diag(lmat))
         return np.linalg.inv(lmat)
+
+    @cached_property
+    def stamps(self) -> Stamps:
+        """Every element's MNA terms, for any mode (:class:`~netlist.mna.Stamps`)."""
+        return Stamps(self)
 
     # -- topology of the switch modes -------------------------------------------------
     # Modes differ only in their closed switches: the components and bridges of the other
@@ -465,8 +472,9 @@ class _Formulator:
             names = tuple(probes)
             forms = []
             for probe in names:
-                form = self._probe_form(mna, probe)
-                if not sol.determined(form[:mna.nz]):
+                form = self._probe_terms(mna, probe)
+                # (with no null space every quantity is determined)
+                if sol.null.shape[1] and not sol.determined(_dense(form, mna.nz)):
                     raise _error(
                         f"probe {probe} is not determined with {desc or 'this circuit'}",
                         "part of the circuit floats in this configuration (e.g. a node reached "
@@ -474,7 +482,7 @@ class _Formulator:
                         "quantity that does not depend on it",
                         file=self.file)
                 forms.append(form)
-            y = clean(sol.evaluate_many(forms))
+            y = clean(sol.evaluate_forms(forms, mna.width))
             return OutputMap(names=names, Cy=y[:, :n], Dy=y[:, n:n + m], Fy=y[:, n + m:])
 
         return ModeModel(lcs=lcs, output=output, network=network)
@@ -716,7 +724,19 @@ class _Formulator:
 
     # -- probes ------------------------------------------------------------------------
 
-    def _probe_form(self, mna: _Mna, probe: str) -> np.ndarray:
+    def _probe_terms(self, mna: _Mna, probe: str) -> list[tuple[int, float]]:
+        """A probe's linear form in ``mna``'s mode as (column over (z, ξ), coefficient)
+        terms, added in the order of its dense form (:meth:`_Mna.voltage`,
+        :meth:`_Mna.current`)."""
+        what = self._probes.get(probe)
+        if what is None:
+            what = self._probes[probe] = self._resolve_probe(probe)
+        if what[0] == "v":
+            return mna._voltage_terms(what[1], what[2])
+        return mna._current_terms(what[1])
+
+    def _resolve_probe(self, probe: str) -> tuple:
+        """What a probe names: ``("v", node, node)`` or ``("i", element)``."""
         match = _PROBE_RE.match(probe)
         if match:
             kind, a, b = match.group(1).lower(), match.group(2).lower(), match.group(3)
@@ -726,14 +746,14 @@ class _Formulator:
                     b = b.lower()
                     b = GROUND if b == "gnd" else b
                     if self._is_node(a) and self._is_node(b):
-                        return mna.voltage(a, b)
+                        return "v", a, b
                 elif self._is_node(a):
-                    return mna.voltage(a, GROUND)
+                    return "v", a, GROUND
                 elif a in self.by_key and self.by_key[a].kind == "C":
                     # The state name v(C1) (a node of that name wins, as in SPICE).
-                    return mna.voltage(*self.by_key[a].nodes)
+                    return ("v", *self.by_key[a].nodes[:2])
             elif b is None and a in self.by_key and self.by_key[a].kind in _TWO_TERMINAL:
-                return mna.current(self.by_key[a])
+                return "i", self.by_key[a]
         nodes = sorted(self.nodes)
         elements = [el.name for el in self.two_terminal]
         raise _error(
@@ -744,6 +764,15 @@ class _Formulator:
 
     def _is_node(self, name: str) -> bool:
         return name == GROUND or name in self.node_index
+
+
+def _dense(terms: list[tuple[int, float]], width: int) -> np.ndarray:
+    """The first ``width`` entries of the form that ``terms`` add up to (in their order)."""
+    form = np.zeros(width)
+    for c, v in terms:
+        if c < width:
+            form[c] += v
+    return form
 
 
 def _short_list(names: Sequence[str], limit: int = 30) -> str:
