@@ -171,7 +171,17 @@ class Solution:
             order = np.argsort(zr, kind="stable")
             zr, zc, zv = zr[order], zc[order], zv[order]
             starts = np.flatnonzero(np.r_[True, zr[1:] != zr[:-1]])
-            out[zr[starts]] += np.add.reduceat(zv[:, None] * self.Z[zc], starts, axis=0)
+            count = np.diff(np.r_[starts, zr.size])
+            if count.max() > 2:
+                sums = np.add.reduceat(zv[:, None] * self.Z[zc], starts, axis=0)
+            else:
+                # A form of one or two terms (every voltage, every current but a G
+                # source's): their sum in either order is the same, that of reduceat, which
+                # along the rows took 0.7 ms for 128 diodes of a 64-cell MMC arm.
+                sums = zv[starts, None] * self.Z[zc[starts]]
+                two = starts[count == 2] + 1
+                sums[count == 2] += zv[two, None] * self.Z[zc[two]]
+            out[zr[starts]] += sums
         return out
 
 
