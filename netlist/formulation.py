@@ -431,10 +431,6 @@ class _Formulator:
             # ms a mode on a 64-cell MMC arm)
             def network():
                 return self._network(mna, shorted, isolated)
-        # (the mode's output maps keep mna and sol; the dense K is not needed again: 0.4 MB a
-        # mode on a 64-phase interleaved buck; its entries and the matrix's are kept)
-        mna.K = None
-
         dx = np.zeros((n, self.nxi))
         if self.capacitors:
             i_c = sol.evaluate_terms([mna._current_terms(el) for el in self.capacitors])
@@ -590,7 +586,7 @@ class _Formulator:
     def _try(self, on: frozenset[str], vdiodes: frozenset[str]):
         """MNA of one λ-type assignment and its defects, (text, element) pairs; [] = usable."""
         mna = _Mna(self, on, vdiodes)
-        sol = Solution(None, mna.K, entries=mna.entries)
+        sol = Solution(None, (*mna.K_entries, (mna.nz, self.nxi)), entries=mna.entries)
         defects = [(f"{label} is constrained by Kirchhoff's laws", name)
                    for label, name in map(self._xi_name, sol.inconsistent)]
         if sol.null.shape[1]:  # (with no null space every quantity is determined)

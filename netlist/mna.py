@@ -35,12 +35,10 @@ class Mna:
         nz = self.nz
         inz = c < nz
         # M's entries coalesced (summed in stamping order), row-major as np.nonzero gives
-        # them; K = -(the ξ columns) as a dense array (the solve's right-hand sides), and
-        # K's entries (what a mode's sparse network keeps once the dense K is dropped).
+        # them; K = -(the ξ columns) by its entries likewise (the solve's right-hand sides
+        # are written from them, and a mode's sparse network keeps them).
         self.entries = coalesce(r[inz], c[inz], v[inz], nz)
-        self.K = np.zeros((nz, f.nxi))
         ik = ~inz
-        np.add.at(self.K, (r[ik], c[ik] - nz), -v[ik])
         self.K_entries = coalesce(r[ik], c[ik] - nz, -v[ik], f.nxi)
 
     def _unknowns(self, f, on: frozenset[str], vdiodes: frozenset[str],
@@ -75,6 +73,14 @@ class Mna:
         M = np.zeros((self.nz, self.nz))
         M[I, J] = V
         return M
+
+    @property
+    def K(self) -> np.ndarray:
+        """The right-hand side matrix (nz, nξ) of ``M z = K ξ``, dense."""
+        I, J, V = self.K_entries
+        K = np.zeros((self.nz, self.f.nxi))
+        K[I, J] = V
+        return K
 
     def _branch_terms(self, el: Element) -> list[tuple[int, float]]:
         """:meth:`_branch_equation` as (column, coefficient) terms."""

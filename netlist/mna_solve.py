@@ -37,9 +37,15 @@ class Solution:
     rank decision does not depend on the units of the rows (A vs V) or on element values.
     """
 
-    def __init__(self, M: np.ndarray | None, K: np.ndarray,
+    def __init__(self, M: np.ndarray | None, K: np.ndarray | tuple,
                  entries: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None):
-        nz, nxi = K.shape
+        # (K dense, or as its non-zero entries (rows, cols, values, (nz, nξ)): the scaled
+        # right-hand sides are then written straight from them, without a dense K first)
+        if isinstance(K, tuple):
+            *k_entries, (nz, nxi) = K
+        else:
+            k_entries = None
+            nz, nxi = K.shape
         # The non-zero entries once (an MNA row has a few): the scaling, the LU's sparse
         # matrix and its norm from them, no dense pass over nz x nz per step of the way.
         if entries is None:
@@ -56,7 +62,12 @@ class Solution:
             self.null = np.zeros((0, 0))
             self.inconsistent = []
             return
-        Ks = r[:, None] * K
+        if k_entries is None:
+            Ks = r[:, None] * K
+        else:
+            kr, kc, kv = k_entries
+            Ks = np.zeros((nz, nxi))
+            Ks[kr, kc] = r[kr] * kv
         if nz >= LU_MIN_SIZE and ncols == nz and self._lu(I, J, r[I] * v * c[J], Ks, c):
             return
         if M is None:
@@ -109,7 +120,8 @@ class Solution:
             return False
         self.null = np.zeros((nz, 0))
         self.inconsistent = []
-        self.Z = c[:, None] * zs
+        zs *= c[:, None]  # (in place: the same products, no second dense array)
+        self.Z = zs
         return True
 
     def determined_many(self, forms_z: np.ndarray) -> np.ndarray:
