@@ -234,11 +234,12 @@ class SwitchedBridges:
 
     The bridges of the fixed edges alone are found once, and their 2-edge-connected
     components contracted (contracting a connected subgraph keeps the bridge status of every
-    edge outside it): the fixed bridges form a forest over the components. An optional edge
-    inside one component changes nothing; the others are added to the trees of the forest
-    that they touch, and only those trees are searched again. On a 64-cell MMC arm every
-    switch lies inside one component: no search a mode, where two searches of about 450
-    edges each took 2-4 ms.
+    edge outside it): the fixed bridges form a forest over the components, less its branches
+    that no optional edge reaches (a gate drive's source: a bridge in every query). An
+    optional edge inside one component changes nothing; the others are added to the trees of
+    the forest that they touch, and only those trees are searched again. On a 64-cell MMC
+    arm every switch lies inside one component: no search a mode, where two searches of about
+    450 edges each took 2-4 ms.
 
     Parameters
     ----------
@@ -262,15 +263,17 @@ class SwitchedBridges:
                 if node not in comp:
                     comp[node] = uf.find(node)
         # The forest: the fixed bridges between components, grouped by tree.
+        self._optional = [(comp[a], comp[b]) for a, b in optional]
+        forest = _prune([(comp[fixed[i][0]], comp[fixed[i][1]], i)
+                         for i in sorted(self._fixed_bridges)],
+                        {c for edge in self._optional for c in edge})
         trees = UnionFind()
-        forest = [(comp[fixed[i][0]], comp[fixed[i][1]], i) for i in sorted(self._fixed_bridges)]
         for ca, cb, _ in forest:
             trees.union(ca, cb)
         self._tree = {c: trees.find(c) for c in set(comp.values())}
         self._forest: dict[str, list[tuple[str, str, int]]] = {}
         for edge in forest:
             self._forest.setdefault(self._tree[edge[0]], []).append(edge)
-        self._optional = [(comp[a], comp[b]) for a, b in optional]
 
     def bridges(self, present: Iterable[int]) -> set[int]:
         """Indices of the fixed edges that are bridges of the fixed edges and the optional
@@ -286,3 +289,28 @@ class SwitchedBridges:
         cut = bridges([(ca, cb) for ca, cb, _ in forest] + added)
         out.difference_update(i for k, (_, _, i) in enumerate(forest) if k not in cut)
         return out
+
+
+def _prune(forest: list[tuple[str, str, int]], keep: set[str]) -> list[tuple[str, str, int]]:
+    """The edges of a forest less its branches without a vertex of ``keep``: leaves not in
+    ``keep`` are cut off, then the leaves that leaves, until none is left."""
+    degree: dict[str, int] = {}
+    at: dict[str, list[int]] = {}
+    for k, (a, b, _) in enumerate(forest):
+        for v in (a, b):
+            degree[v] = degree.get(v, 0) + 1
+            at.setdefault(v, []).append(k)
+    cut = [False] * len(forest)
+    leaves = [v for v, d in degree.items() if d == 1 and v not in keep]
+    while leaves:
+        v = leaves.pop()
+        for k in at[v]:
+            if cut[k]:
+                continue
+            cut[k] = True
+            a, b, _ = forest[k]
+            other = b if a == v else a
+            degree[other] -= 1
+            if degree[other] == 1 and other not in keep:
+                leaves.append(other)
+    return [edge for k, edge in enumerate(forest) if not cut[k]]
