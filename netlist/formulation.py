@@ -65,7 +65,7 @@ from .errors import Diagnostic, NetlistError
 from .mna import VOLTAGE_KINDS as _VOLTAGE_KINDS
 from .mna import Mna as _Mna
 from .mna import Stamps, coalesce
-from .mna_solve import Solution, clean
+from .mna_solve import Entries, Solution, clean
 from .reductions import parallel_diodes, source_capacitors
 from .topology import Partition, SwitchedBridges, UnionFind, find_cutset, find_loop
 
@@ -586,7 +586,7 @@ class _Formulator:
     def _try(self, on: frozenset[str], vdiodes: frozenset[str]):
         """MNA of one λ-type assignment and its defects, (text, element) pairs; [] = usable."""
         mna = _Mna(self, on, vdiodes)
-        sol = Solution(None, (*mna.K_entries, (mna.nz, self.nxi)), entries=mna.entries)
+        sol = Solution(None, Entries(*mna.K_entries, (mna.nz, self.nxi)), entries=mna.entries)
         defects = [(f"{label} is constrained by Kirchhoff's laws", name)
                    for label, name in map(self._xi_name, sol.inconsistent)]
         if sol.null.shape[1]:  # (with no null space every quantity is determined)

@@ -4,13 +4,16 @@ quantities it leaves undetermined, and the round-off cleaning of the final matri
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from lcs import sparse_lu
 
 from .mna import coalesce
 
-__all__ = ["CLEAN_RTOL", "DETERMINED_RTOL", "RANK_RTOL", "Solution", "clean", "equilibrate"]
+__all__ = ["CLEAN_RTOL", "DETERMINED_RTOL", "RANK_RTOL", "Entries", "Solution", "clean",
+           "equilibrate"]
 
 # Relative tolerance on singular values of the equilibrated MNA matrix: below it a direction
 # counts as null (floating part, or a singular companion network).
@@ -30,6 +33,15 @@ LU_RCOND = 1e-6
 CLEAN_RTOL = 1e-12
 
 
+class Entries(NamedTuple):
+    """A matrix of ``shape`` by its non-zero entries ``values`` at ``(rows, cols)``."""
+
+    rows: np.ndarray
+    cols: np.ndarray
+    values: np.ndarray
+    shape: tuple[int, int]
+
+
 class Solution:
     """Least-squares solution ``z = Z ξ`` of ``M z = K ξ``, with its null space.
 
@@ -37,15 +49,11 @@ class Solution:
     rank decision does not depend on the units of the rows (A vs V) or on element values.
     """
 
-    def __init__(self, M: np.ndarray | None, K: np.ndarray | tuple,
+    def __init__(self, M: np.ndarray | None, K: np.ndarray | Entries,
                  entries: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None):
-        # (K dense, or as its non-zero entries (rows, cols, values, (nz, nξ)): the scaled
-        # right-hand sides are then written straight from them, without a dense K first)
-        if isinstance(K, tuple):
-            *k_entries, (nz, nxi) = K
-        else:
-            k_entries = None
-            nz, nxi = K.shape
+        # (K dense, or by its non-zero Entries: the scaled right-hand sides are then written
+        # straight from them, without a dense K first)
+        nz, nxi = K.shape
         # The non-zero entries once (an MNA row has a few): the scaling, the LU's sparse
         # matrix and its norm from them, no dense pass over nz x nz per step of the way.
         if entries is None:
@@ -62,12 +70,11 @@ class Solution:
             self.null = np.zeros((0, 0))
             self.inconsistent = []
             return
-        if k_entries is None:
-            Ks = r[:, None] * K
-        else:
-            kr, kc, kv = k_entries
+        if isinstance(K, Entries):
             Ks = np.zeros((nz, nxi))
-            Ks[kr, kc] = r[kr] * kv
+            Ks[K.rows, K.cols] = r[K.rows] * K.values
+        else:
+            Ks = r[:, None] * K
         if nz >= LU_MIN_SIZE and ncols == nz and self._lu(I, J, r[I] * v * c[J], Ks, c):
             return
         if M is None:
