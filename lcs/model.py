@@ -140,7 +140,8 @@ class ModeModel:
 
 
 class SwitchedLCS:
-    """One LCS per switch configuration, computed lazily and cached.
+    """One LCS per switch configuration, computed lazily and cached (a configuration the
+    builder rejects too: its error is raised again without rebuilding).
 
     Parameters
     ----------
@@ -168,6 +169,7 @@ class SwitchedLCS:
         self.diodes = tuple(diodes)
         self._builder = builder
         self._modes: dict[ModeKey, ModeModel] = {}
+        self._failed: dict[ModeKey, Exception] = {}
         self._outputs: dict[tuple[ModeKey, tuple[str, ...]], OutputMap] = {}
 
     def key(self, config: dict[str, bool] | ModeKey | None = None) -> ModeKey:
@@ -213,7 +215,16 @@ class SwitchedLCS:
 
     def _mode_model(self, key: ModeKey) -> ModeModel:
         if key not in self._modes:
-            self._modes[key] = self._builder(key)
+            # A rejected configuration is asked for again by the next caller (the passivity
+            # screen, then the θ screen, each try the all-on mode; a 64-cell MMC arm's
+            # shoot-through took 0.12 s to reject): its error is kept and raised again.
+            if key in self._failed:
+                raise self._failed[key]
+            try:
+                self._modes[key] = self._builder(key)
+            except Exception as exc:
+                self._failed[key] = exc
+                raise
         return self._modes[key]
 
     def describe_mode(self, config) -> dict[str, str]:

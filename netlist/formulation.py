@@ -43,6 +43,7 @@ import math
 import re
 from collections.abc import Iterator, Sequence
 from dataclasses import replace
+from functools import cached_property
 
 import numpy as np
 
@@ -63,10 +64,10 @@ from .circuit import GROUND, Circuit, Element
 from .errors import Diagnostic, NetlistError
 from .mna import VOLTAGE_KINDS as _VOLTAGE_KINDS
 from .mna import Mna as _Mna
-from .mna import coalesce
-from .mna_solve import Solution, clean
+from .mna import Stamps, coalesce
+from .mna_solve import Entries, Solution, clean
 from .reductions import parallel_diodes, source_capacitors
-from .topology import UnionFind, bridges, find_cutset, find_loop
+from .topology import Partition, SwitchedBridges, UnionFind, find_cutset, find_loop
 
 __all__ = ["formulate", "storage_matrix", "EXHAUSTIVE_DIODE_LIMIT"]
 
@@ -264,6 +265,8 @@ class _Formulator:
                 options={**params, "initial": sw.initial} if sw.initial is not None
                 else dict(params)))
 
+        # What each probe asked for names (probe -> ("v", node, node) or ("i", element)).
+        self._probes: dict[str, tuple] = {}
         self.Lmat = np.zeros((0, 0))  # set by _inductance_inverse
         self.Linv = self._inductance_inverse(bad)
         if diagnostics:
@@ -335,6 +338,62 @@ class _Formulator:
             return np.diag(1.0 / np.diag(lmat))
         return np.linalg.inv(lmat)
 
+    @cached_property
+    def stamps(self) -> Stamps:
+        """Every element's MNA terms, for any mode (:class:`~netlist.mna.Stamps`)."""
+        return Stamps(self)
+
+    # -- topology of the switch modes -------------------------------------------------
+    # Modes differ only in their closed switches: the components and bridges of the other
+    # branches are found once (when the first mode is built), each mode adds its switches.
+
+    @cached_property
+    def _voltage_partition(self) -> Partition:
+        """Components of the voltage-defined branches but the switches (V C E H)."""
+        return Partition([tuple(el.nodes[:2]) for el in self.two_terminal
+                          if el.kind in _VOLTAGE_KINDS])
+
+    @cached_property
+    def _tree_partition(self) -> Partition:
+        """Components of those and the resistors (a normal tree's first branches)."""
+        return Partition([tuple(el.nodes[:2]) for el in self.two_terminal
+                          if el.kind in _VOLTAGE_KINDS or el.kind == "R"])
+
+    @cached_property
+    def _current_bridges(self) -> SwitchedBridges:
+        """Bridges of the branches that carry current (all but the open switches); the
+        diodes are the fixed edges ``k0 ..``, ``k0 = len(fixed) - m``."""
+        fixed = [tuple(el.nodes[:2]) for el in self.two_terminal
+                 if el.kind != "S" and el.kind != "D"]
+        return SwitchedBridges(fixed + [tuple(d.nodes[:2]) for d in self.diodes],
+                               [tuple(sw.nodes[:2]) for sw in self.switches])
+
+    @cached_property
+    def _cutset_bridges(self) -> SwitchedBridges:
+        """Bridges of the branches that are not current-defined (and not open switches);
+        the diodes last, as in :attr:`_current_bridges`."""
+        fixed = [tuple(el.nodes[:2]) for el in self.two_terminal
+                 if el.kind not in _CURRENT_KINDS and el.kind not in "DS"]
+        return SwitchedBridges(fixed + [tuple(d.nodes[:2]) for d in self.diodes],
+                               [tuple(sw.nodes[:2]) for sw in self.switches])
+
+    def _closed(self, on: frozenset[str]) -> list[int]:
+        """Indices of the closed switches."""
+        return [j for j, sw in enumerate(self.switches) if sw.key in on]
+
+    def _diode_bridges(self, graph: SwitchedBridges, on: frozenset[str]) -> list[int]:
+        """Indices of the diodes that are bridges of ``graph`` in mode ``on``."""
+        cut = graph.bridges(self._closed(on))
+        k0 = graph.size - self.m
+        return [i for i in range(self.m) if k0 + i in cut]
+
+    def _voltage_loop(self, on: frozenset[str]) -> bool:
+        """Whether the voltage-defined branches of the mode (V C E H and closed switches)
+        close a loop (what :meth:`_check_topology` reports first)."""
+        partition = self._voltage_partition
+        closed = [tuple(self.switches[j].nodes[:2]) for j in self._closed(on)]
+        return partition.has_cycle or partition.joined(closed)[1]
+
     # -- one mode ----------------------------------------------------------------------
 
     def describe(self, on: frozenset[str]) -> str:
@@ -347,6 +406,10 @@ class _Formulator:
             raise ValueError(f"mode key needs {len(self.switches)} entries, got {len(key)}")
         on = frozenset(sw.key for sw, closed in zip(self.switches, key, strict=True) if closed)
         desc = self.describe(on)
+        if self._voltage_loop(on):
+            # (the search below would fail, or find a singular matrix, and this be reported:
+            # a 64-cell MMC arm's shoot-through took 0.12 s, an SVD, to get there)
+            self._check_topology(on, desc)
         # A loop of voltage-defined branches or a cutset of current-defined ones makes the MNA
         # matrix singular (its branch or KCL rows sum to zero): with a regular matrix and no
         # controlled source (whose gains can keep such a loop regular) the check cannot fail,
@@ -368,10 +431,6 @@ class _Formulator:
             # ms a mode on a 64-cell MMC arm)
             def network():
                 return self._network(mna, shorted, isolated)
-        # (the mode's output maps keep mna and sol; the dense K is not needed again: 0.4 MB a
-        # mode on a 64-phase interleaved buck; its entries and the matrix's are kept)
-        mna.K = None
-
         dx = np.zeros((n, self.nxi))
         if self.capacitors:
             i_c = sol.evaluate_terms([mna._current_terms(el) for el in self.capacitors])
@@ -409,8 +468,9 @@ class _Formulator:
             names = tuple(probes)
             forms = []
             for probe in names:
-                form = self._probe_form(mna, probe)
-                if not sol.determined(form[:mna.nz]):
+                form = self._probe_terms(mna, probe)
+                # (with no null space every quantity is determined)
+                if sol.null.shape[1] and not sol.determined(_dense(form, mna.nz)):
                     raise _error(
                         f"probe {probe} is not determined with {desc or 'this circuit'}",
                         "part of the circuit floats in this configuration (e.g. a node reached "
@@ -418,7 +478,7 @@ class _Formulator:
                         "quantity that does not depend on it",
                         file=self.file)
                 forms.append(form)
-            y = clean(sol.evaluate_many(forms))
+            y = clean(sol.evaluate_forms(forms, mna.width))
             return OutputMap(names=names, Cy=y[:, :n], Dy=y[:, n:n + m], Fy=y[:, n + m:])
 
         return ModeModel(lcs=lcs, output=output, network=network)
@@ -475,10 +535,7 @@ class _Formulator:
         are removed (every element but the diode and the open switches carries current)."""
         # A diode is isolated exactly when it is a bridge of the graph of the elements that
         # carry current (one search for every diode, not a union-find per diode).
-        kept = [el for el in self.two_terminal if not (el.kind == "S" and el.key not in on)]
-        cut = bridges([tuple(el.nodes[:2]) for el in kept])
-        at = {el.key: k for k, el in enumerate(kept)}
-        return [i for i, d in enumerate(self.diodes) if at.get(d.key) in cut]
+        return self._diode_bridges(self._current_bridges, on)
 
     def _check_topology(self, on: frozenset[str], desc: str) -> None:
         """Reject loops of voltage-defined and cutsets of current-defined branches."""
@@ -529,7 +586,7 @@ class _Formulator:
     def _try(self, on: frozenset[str], vdiodes: frozenset[str]):
         """MNA of one λ-type assignment and its defects, (text, element) pairs; [] = usable."""
         mna = _Mna(self, on, vdiodes)
-        sol = Solution(None, mna.K, entries=mna.entries)
+        sol = Solution(None, Entries(*mna.K_entries, (mna.nz, self.nxi)), entries=mna.entries)
         defects = [(f"{label} is constrained by Kirchhoff's laws", name)
                    for label, name in map(self._xi_name, sol.inconsistent)]
         if sol.null.shape[1]:  # (with no null space every quantity is determined)
@@ -558,20 +615,17 @@ class _Formulator:
         Assignments breaking either rule make the MNA inconsistent, so skipping them does not
         change which assignment the search finds first.
         """
-        voltage_defined = [el for el in self.two_terminal
-                           if el.kind in _VOLTAGE_KINDS or (el.kind == "S" and el.key in on)]
-        uf = UnionFind()
-        for el in voltage_defined:
-            uf.union(*el.nodes)
-        forced_current = {d.key for d in self.diodes if uf.find(d.nodes[0]) == uf.find(d.nodes[1])}
-        others = [el.nodes for el in self.two_terminal
-                  if el.kind not in _CURRENT_KINDS and el.kind != "D"
-                  and (el.kind != "S" or el.key in on)]
+        # (the voltage-defined branches: V C E H and the closed switches)
+        partition = self._voltage_partition
+        closed = [tuple(self.switches[j].nodes[:2]) for j in self._closed(on)]
+        uf, _ = partition.joined(closed)
+        root = partition.root
+        forced_current = {d.key for d in self.diodes
+                          if uf.find(root(d.nodes[0])) == uf.find(root(d.nodes[1]))}
         # d is in a cutset with current-defined branches exactly when it is a bridge of the
         # other branches and the diodes.
-        cut = bridges([tuple(nodes[:2]) for nodes in others]
-                      + [tuple(d.nodes[:2]) for d in self.diodes])
-        forced_voltage = {d.key for i, d in enumerate(self.diodes) if len(others) + i in cut}
+        forced_voltage = {self.diodes[i].key
+                          for i in self._diode_bridges(self._cutset_bridges, on)}
         return forced_voltage, forced_current - forced_voltage
 
     def _candidates(self, on: frozenset[str], free: list[str],
@@ -609,18 +663,14 @@ class _Formulator:
         a diode that enters the tree must have its voltage as λ. This keeps as many diodes
         current-type as the topology allows.
         """
-        uf = UnionFind()
-        order = (
-            [el for el in self.two_terminal
-             if el.kind in _VOLTAGE_KINDS or (el.kind == "S" and el.key in on)]
-            + [el for el in self.two_terminal if el.kind == "R"]
-            + self.diodes
-        )
-        vdiodes = set()
-        for el in order:
-            if uf.union(*el.nodes) and el.kind == "D":
-                vdiodes.add(el.key)
-        return frozenset(vdiodes)
+        # (the components of the voltage-defined branches and resistors do not depend on
+        # the order they are added in: those of the switchless ones are found once)
+        partition = self._tree_partition
+        closed = [tuple(self.switches[j].nodes[:2]) for j in self._closed(on)]
+        uf, _ = partition.joined(closed)
+        root = partition.root
+        return frozenset(d.key for d in self.diodes
+                         if uf.union(root(d.nodes[0]), root(d.nodes[1])))
 
     def _choose_diode_types(self, on: frozenset[str], desc: str):
         """The first usable λ-type assignment (see :meth:`_candidates`), MNA and solution."""
@@ -670,7 +720,19 @@ class _Formulator:
 
     # -- probes ------------------------------------------------------------------------
 
-    def _probe_form(self, mna: _Mna, probe: str) -> np.ndarray:
+    def _probe_terms(self, mna: _Mna, probe: str) -> list[tuple[int, float]]:
+        """A probe's linear form in ``mna``'s mode as (column over (z, ξ), coefficient)
+        terms, added in the order of its dense form (:meth:`_Mna.voltage`,
+        :meth:`_Mna.current`)."""
+        what = self._probes.get(probe)
+        if what is None:
+            what = self._probes[probe] = self._resolve_probe(probe)
+        if what[0] == "v":
+            return mna._voltage_terms(what[1], what[2])
+        return mna._current_terms(what[1])
+
+    def _resolve_probe(self, probe: str) -> tuple:
+        """What a probe names: ``("v", node, node)`` or ``("i", element)``."""
         match = _PROBE_RE.match(probe)
         if match:
             kind, a, b = match.group(1).lower(), match.group(2).lower(), match.group(3)
@@ -680,14 +742,14 @@ class _Formulator:
                     b = b.lower()
                     b = GROUND if b == "gnd" else b
                     if self._is_node(a) and self._is_node(b):
-                        return mna.voltage(a, b)
+                        return "v", a, b
                 elif self._is_node(a):
-                    return mna.voltage(a, GROUND)
+                    return "v", a, GROUND
                 elif a in self.by_key and self.by_key[a].kind == "C":
                     # The state name v(C1) (a node of that name wins, as in SPICE).
-                    return mna.voltage(*self.by_key[a].nodes)
+                    return ("v", *self.by_key[a].nodes[:2])
             elif b is None and a in self.by_key and self.by_key[a].kind in _TWO_TERMINAL:
-                return mna.current(self.by_key[a])
+                return "i", self.by_key[a]
         nodes = sorted(self.nodes)
         elements = [el.name for el in self.two_terminal]
         raise _error(
@@ -698,6 +760,15 @@ class _Formulator:
 
     def _is_node(self, name: str) -> bool:
         return name == GROUND or name in self.node_index
+
+
+def _dense(terms: list[tuple[int, float]], width: int) -> np.ndarray:
+    """The first ``width`` entries of the form that ``terms`` add up to (in their order)."""
+    form = np.zeros(width)
+    for c, v in terms:
+        if c < width:
+            form[c] += v
+    return form
 
 
 def _short_list(names: Sequence[str], limit: int = 30) -> str:

@@ -8,7 +8,7 @@ import numpy as np
 
 from .circuit import GROUND, Element
 
-__all__ = ["VOLTAGE_KINDS", "Mna", "coalesce"]
+__all__ = ["VOLTAGE_KINDS", "Mna", "Stamps", "coalesce"]
 
 # Branches whose voltage is imposed (a loop of them is degenerate); closed switches too.
 VOLTAGE_KINDS = frozenset("VCEH")
@@ -27,57 +27,44 @@ class Mna:
     """
 
     def __init__(self, f, on: frozenset[str], vdiodes: frozenset[str]):
-        # (f: the circuit's netlist.formulation._Formulator, its mode-independent bookkeeping)
+        # (f: the circuit's netlist.formulation._Formulator, its mode-independent bookkeeping,
+        # with its Stamps as f.stamps)
+        is_branch = f.stamps.voltage_defined(on, vdiodes)
+        self._unknowns(f, on, vdiodes, is_branch)
+        r, c, v = f.stamps.terms(is_branch, self.nz)
+        nz = self.nz
+        inz = c < nz
+        # M's entries coalesced (summed in stamping order), row-major as np.nonzero gives
+        # them; K = -(the ξ columns) by its entries likewise (the solve's right-hand sides
+        # are written from them, and a mode's sparse network keeps them).
+        self.entries = coalesce(r[inz], c[inz], v[inz], nz)
+        ik = ~inz
+        self.K_entries = coalesce(r[ik], c[ik] - nz, -v[ik], f.nxi)
+
+    def _unknowns(self, f, on: frozenset[str], vdiodes: frozenset[str],
+                  is_branch: np.ndarray) -> None:
+        """Set the mode's unknowns (``branch``, ``nz``, ``width``) from which elements of
+        ``f.two_terminal`` are voltage-defined (``is_branch``, bool)."""
         self.f = f
         self.on = on
         self.vdiodes = vdiodes
         nn = len(f.nodes)
-        self.branch: dict[str, int] = {}
-        for el in f.two_terminal:
-            if self._voltage_defined(el):
-                self.branch[el.key] = nn + len(self.branch)
-        self.nz = nn + len(self.branch)
+        index = np.flatnonzero(is_branch).tolist()
+        elements = f.two_terminal
+        self.branch: dict[str, int] = dict(zip([elements[e].key for e in index],
+                                               range(nn, nn + len(index)), strict=True))
+        self.nz = nn + len(index)
         self.width = self.nz + f.nxi
-        # Stamped as (row, column, value) terms in element order and summed in that order:
-        # the sums of adding each element's dense form row by row, without a dense vector per
-        # element, nor a dense matrix (an MMC arm of 64 cells: 515 unknowns, 771 non-zeros).
-        ri: list[int] = []
-        ci: list[int] = []
-        vals: list[float] = []
-        for el in f.two_terminal:
-            terms = self._current_terms(el)
-            a, b = el.nodes[:2]
-            if a != GROUND:
-                ra = f.node_index[a]
-                for c, v in terms:
-                    ri.append(ra)
-                    ci.append(c)
-                    vals.append(v)
-            if b != GROUND:
-                rb = f.node_index[b]
-                for c, v in terms:
-                    ri.append(rb)
-                    ci.append(c)
-                    vals.append(-v)
-            if el.key in self.branch:
-                rb = self.branch[el.key]
-                for c, v in self._branch_terms(el):
-                    ri.append(rb)
-                    ci.append(c)
-                    vals.append(v)
-        r = np.array(ri, dtype=np.int64)
-        c = np.array(ci, dtype=np.int64)
-        v = np.array(vals, dtype=float)
-        nz = self.nz
-        inz = c < nz
-        # M's entries coalesced (summed in stamping order), row-major as np.nonzero gives
-        # them; K = -(the ξ columns) as a dense array (the solve's right-hand sides), and
-        # K's entries (what a mode's sparse network keeps once the dense K is dropped).
-        self.entries = coalesce(r[inz], c[inz], v[inz], nz)
-        self.K = np.zeros((nz, f.nxi))
-        ik = ~inz
-        np.add.at(self.K, (r[ik], c[ik] - nz), -v[ik])
-        self.K_entries = coalesce(r[ik], c[ik] - nz, -v[ik], f.nxi)
+
+    @classmethod
+    def unknowns_only(cls, f, on: frozenset[str], vdiodes: frozenset[str]) -> Mna:
+        """An Mna whose unknowns are set and nothing stamped (what :class:`Stamps` reads
+        the elements' terms from)."""
+        mna = cls.__new__(cls)
+        is_branch = np.array([el.kind in VOLTAGE_KINDS or el.key in on or el.key in vdiodes
+                              for el in f.two_terminal], dtype=bool)
+        mna._unknowns(f, on, vdiodes, is_branch)
+        return mna
 
     @property
     def M(self) -> np.ndarray:
@@ -86,6 +73,14 @@ class Mna:
         M = np.zeros((self.nz, self.nz))
         M[I, J] = V
         return M
+
+    @property
+    def K(self) -> np.ndarray:
+        """The right-hand side matrix (nz, nξ) of ``M z = K ξ``, dense."""
+        I, J, V = self.K_entries
+        K = np.zeros((self.nz, self.f.nxi))
+        K[I, J] = V
+        return K
 
     def _branch_terms(self, el: Element) -> list[tuple[int, float]]:
         """:meth:`_branch_equation` as (column, coefficient) terms."""
@@ -137,10 +132,6 @@ class Mna:
         if b != GROUND:
             terms.append((self.f.node_index[b], -1.0))
         return terms
-
-    def _voltage_defined(self, el: Element) -> bool:
-        return (el.kind in VOLTAGE_KINDS or (el.kind == "S" and el.key in self.on)
-                or (el.kind == "D" and el.key in self.vdiodes))
 
     def _unit(self, index: int) -> np.ndarray:
         form = np.zeros(self.width)
@@ -204,6 +195,102 @@ class Mna:
             return self.current(diode)
         anode, cathode = diode.nodes
         return self.voltage(cathode, anode)
+
+
+class Stamps:
+    """Every element's MNA terms of a circuit, for any mode: (row, column, value) in element
+    order, each row and column named by what it stands for (a node, an element's branch
+    current, an entry of ξ) instead of its index, which depends on the mode's unknowns.
+
+    A mode's terms are the rows whose element is (or is not) voltage-defined in it, as the
+    terms say, with the names turned into indices: the same terms in the same order as
+    stamping element by element (:meth:`Mna._current_terms`, :meth:`Mna._branch_terms`, from
+    which they are read), so the same sums, in numpy (an MMC arm of 64 cells: 0.2 ms a mode,
+    where stamping took 2 ms).
+    """
+
+    # What a term's row or column stands for.
+    NODE, BRANCH, XI = 0, 1, 2
+    # When an element's term is there: always, when it is voltage-defined, when it is not.
+    ALWAYS, IF_BRANCH, IF_NOT = 0, 1, 2
+
+    def __init__(self, f):
+        elements = f.two_terminal
+        self._index = {el.key: e for e, el in enumerate(elements)}
+        self._fixed = np.array([el.kind in VOLTAGE_KINDS for el in elements], dtype=bool)
+        # Switches and diodes are voltage-defined in some modes: their terms are read in
+        # both cases (every one voltage-defined, none), the others' once.
+        self._nn = len(f.nodes)
+        every = Mna.unknowns_only(f, frozenset(el.key for el in elements if el.kind == "S"),
+                                  frozenset(el.key for el in elements if el.kind == "D"))
+        none = Mna.unknowns_only(f, frozenset(), frozenset())
+        rows: list[tuple[int, int, int, int, int, int, float]] = []
+        for when, mna in ((self.IF_BRANCH, every), (self.IF_NOT, none)):
+            owner = {i: self._index[k] for k, i in mna.branch.items()}
+            for e, el in enumerate(elements):
+                if el.kind not in "SD":
+                    if mna is every:
+                        continue  # (read from `none`: the same terms)
+                    case = self.ALWAYS
+                else:
+                    case = when
+                for row, col, v in _element_terms(mna, el):
+                    rows.append((e, case, *self._name(mna, owner, row),
+                                 *self._name(mna, owner, col), v))
+        # (in element order; an element's terms in the order read)
+        rows.sort(key=lambda t: t[0])
+        table = np.array([t[:6] for t in rows], dtype=np.int64).reshape(-1, 6)
+        self._element, self._when = table[:, 0], table[:, 1]
+        self._row_kind, self._row = table[:, 2], table[:, 3]
+        self._col_kind, self._col = table[:, 4], table[:, 5]
+        self._value = np.array([t[6] for t in rows], dtype=float)
+
+    def _name(self, mna: Mna, owner: dict[int, int], index: int) -> tuple[int, int]:
+        """What row or column ``index`` of ``mna``'s (z, ξ) stands for, (kind, which);
+        ``owner``: the element of each branch current's index."""
+        if index < self._nn:
+            return self.NODE, index
+        if index < mna.nz:
+            return self.BRANCH, owner[index]
+        return self.XI, index - mna.nz
+
+    def voltage_defined(self, on: frozenset[str], vdiodes: frozenset[str]) -> np.ndarray:
+        """Which elements are voltage-defined (V C E H, closed S, voltage-type D), bool."""
+        out = self._fixed.copy()
+        out[[self._index[k] for k in on]] = True
+        out[[self._index[k] for k in vdiodes]] = True
+        return out
+
+    def terms(self, is_branch: np.ndarray, nz: int) -> tuple[np.ndarray, np.ndarray,
+                                                              np.ndarray]:
+        """The (row, column, value) terms of the mode where ``is_branch`` elements are
+        voltage-defined (``nz`` unknowns), in stamping order; columns ``>= nz`` are ξ's."""
+        branch = self._nn + np.cumsum(is_branch) - 1  # (where is_branch)
+        voltage = is_branch[self._element]
+        keep = ((self._when == self.ALWAYS) | ((self._when == self.IF_BRANCH) & voltage)
+                | ((self._when == self.IF_NOT) & ~voltage))
+        rk, rv = self._row_kind[keep], self._row[keep]
+        ck, cv = self._col_kind[keep], self._col[keep]
+        r = np.where(rk == self.NODE, rv, branch[rv])
+        c = np.where(ck == self.NODE, cv, np.where(ck == self.BRANCH, branch[cv], nz + cv))
+        return r, c, self._value[keep]
+
+
+def _element_terms(mna: Mna, el: Element) -> list[tuple[int, int, float]]:
+    """An element's (row, column, value) MNA terms in ``mna``'s mode, in stamping order:
+    its current leaving node a, entering node b, then its branch equation (if
+    voltage-defined)."""
+    f = mna.f
+    terms = mna._current_terms(el)
+    a, b = el.nodes[:2]
+    out = []
+    if a != GROUND:
+        out += [(f.node_index[a], c, v) for c, v in terms]
+    if b != GROUND:
+        out += [(f.node_index[b], c, -v) for c, v in terms]
+    if el.key in mna.branch:
+        out += [(mna.branch[el.key], c, v) for c, v in mna._branch_terms(el)]
+    return out
 
 
 def coalesce(rows, cols, vals, width: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

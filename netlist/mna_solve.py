@@ -4,11 +4,16 @@ quantities it leaves undetermined, and the round-off cleaning of the final matri
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from lcs import sparse_lu
 
-__all__ = ["CLEAN_RTOL", "DETERMINED_RTOL", "RANK_RTOL", "Solution", "clean", "equilibrate"]
+from .mna import coalesce
+
+__all__ = ["CLEAN_RTOL", "DETERMINED_RTOL", "RANK_RTOL", "Entries", "Solution", "clean",
+           "equilibrate"]
 
 # Relative tolerance on singular values of the equilibrated MNA matrix: below it a direction
 # counts as null (floating part, or a singular companion network).
@@ -28,6 +33,15 @@ LU_RCOND = 1e-6
 CLEAN_RTOL = 1e-12
 
 
+class Entries(NamedTuple):
+    """A matrix of ``shape`` by its non-zero entries ``values`` at ``(rows, cols)``."""
+
+    rows: np.ndarray
+    cols: np.ndarray
+    values: np.ndarray
+    shape: tuple[int, int]
+
+
 class Solution:
     """Least-squares solution ``z = Z ξ`` of ``M z = K ξ``, with its null space.
 
@@ -35,8 +49,10 @@ class Solution:
     rank decision does not depend on the units of the rows (A vs V) or on element values.
     """
 
-    def __init__(self, M: np.ndarray | None, K: np.ndarray,
+    def __init__(self, M: np.ndarray | None, K: np.ndarray | Entries,
                  entries: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None):
+        # (K dense, or by its non-zero Entries: the scaled right-hand sides are then written
+        # straight from them, without a dense K first)
         nz, nxi = K.shape
         # The non-zero entries once (an MNA row has a few): the scaling, the LU's sparse
         # matrix and its norm from them, no dense pass over nz x nz per step of the way.
@@ -54,7 +70,11 @@ class Solution:
             self.null = np.zeros((0, 0))
             self.inconsistent = []
             return
-        Ks = r[:, None] * K
+        if isinstance(K, Entries):
+            Ks = np.zeros((nz, nxi))
+            Ks[K.rows, K.cols] = r[K.rows] * K.values
+        else:
+            Ks = r[:, None] * K
         if nz >= LU_MIN_SIZE and ncols == nz and self._lu(I, J, r[I] * v * c[J], Ks, c):
             return
         if M is None:
@@ -107,7 +127,8 @@ class Solution:
             return False
         self.null = np.zeros((nz, 0))
         self.inconsistent = []
-        self.Z = c[:, None] * zs
+        zs *= c[:, None]  # (in place: the same products, no second dense array)
+        self.Z = zs
         return True
 
     def determined_many(self, forms_z: np.ndarray) -> np.ndarray:
@@ -131,6 +152,16 @@ class Solution:
         return self._sum_terms(len(terms), np.array(rows, dtype=np.int64),
                                np.array([t[0] for t in flat], dtype=np.int64),
                                np.array([t[1] for t in flat], dtype=float))
+
+    def evaluate_forms(self, terms: list[list[tuple[int, float]]], width: int) -> np.ndarray:
+        """:meth:`evaluate_many` of the dense forms (of ``width`` columns) that the lists of
+        (column, coefficient) terms add up to, in their order, without building them: the
+        same non-zero coefficients in the same order, so the same sums (128 probes of a
+        64-cell MMC arm: dense forms 2 ms a mode)."""
+        rows = [k for k, form in enumerate(terms) for _ in form]
+        flat = [t for form in terms for t in form]
+        r, c, v = coalesce(rows, [t[0] for t in flat], [t[1] for t in flat], width)
+        return self._sum_terms(len(terms), r, c, v)
 
     def evaluate_many(self, forms: np.ndarray) -> np.ndarray:
         """Rows over ξ, shape (k, nξ), of the quantities given by the rows of ``forms``
@@ -159,7 +190,17 @@ class Solution:
             order = np.argsort(zr, kind="stable")
             zr, zc, zv = zr[order], zc[order], zv[order]
             starts = np.flatnonzero(np.r_[True, zr[1:] != zr[:-1]])
-            out[zr[starts]] += np.add.reduceat(zv[:, None] * self.Z[zc], starts, axis=0)
+            count = np.diff(np.r_[starts, zr.size])
+            if count.max() > 2:
+                sums = np.add.reduceat(zv[:, None] * self.Z[zc], starts, axis=0)
+            else:
+                # A form of one or two terms (every voltage, every current but a G
+                # source's): their sum in either order is the same, that of reduceat, which
+                # along the rows took 0.7 ms for 128 diodes of a 64-cell MMC arm.
+                sums = zv[starts, None] * self.Z[zc[starts]]
+                two = starts[count == 2] + 1
+                sums[count == 2] += zv[two, None] * self.Z[zc[two]]
+            out[zr[starts]] += sums
         return out
 
 

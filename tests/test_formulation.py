@@ -823,6 +823,37 @@ def test_formulate_is_lazy():
     assert calls == [(True,)]
 
 
+
+def test_a_rejected_mode_is_not_formulated_again():
+    # The error of a degenerate mode is kept: the passivity screen and the θ screen each ask
+    # for the all-on mode of a half-bridge, whose shoot-through is a loop.
+    c = circuit(
+        VoltageSource("V1", ("in", "0"), dc=1.0),
+        Switch("S1", ("in", "mid"), control=("g1", "0")),
+        Switch("S2", ("mid", "0"), control=("g2", "0")),
+        Resistor("R1", ("mid", "0"), value=10.0),
+        VoltageSource("Vg1", ("g1", "0"), dc=1.0),
+        VoltageSource("Vg2", ("g2", "0"), dc=0.0),
+    )
+    calls = []
+    sys = formulate(c)
+    original = sys._builder
+
+    def counting(key):
+        calls.append(key)
+        return original(key)
+
+    sys._builder = counting
+    messages = []
+    for _ in range(2):
+        with pytest.raises(NetlistError) as exc:
+            sys.mode((True, True))
+        messages.append(str(exc.value))
+    assert calls == [(True, True)]
+    assert messages[0] == messages[1] and "loop" in messages[0]
+    sys.mode((True, False))
+    assert calls == [(True, True), (True, False)]
+
 def test_bad_element_values_rejected():
     with pytest.raises(NetlistError, match="R1"):
         formulate(circuit(VoltageSource("V1", ("a", "0")), Resistor("R1", ("a", "0"), value=0)))

@@ -66,3 +66,28 @@ def test_sparse_lu_equals_svd_and_refuses_a_near_singular_system():
     K2[5] = K2[4]
     sol = ms.Solution(M2, K2)
     assert sol.null.shape[1] == 1
+
+
+
+def test_terms_are_summed_as_reduceat_sums_them():
+    # Forms of one or two z terms are summed without np.add.reduceat, the others with it:
+    # the sums must be reduceat's over each form's terms (round-off included).
+    rng = np.random.default_rng(8)
+    n, nxi, k = 30, 7, 40
+    sol = ms.Solution(rng.normal(size=(n, n)) + 10 * np.eye(n), rng.normal(size=(n, nxi)))
+    for most in (2, 5):
+        for _ in range(20):
+            r = np.repeat(np.arange(k), rng.integers(0, most + 1, size=k))
+            c = rng.integers(0, n + nxi, size=r.size)
+            v = rng.normal(size=r.size) * 10.0 ** rng.integers(-8, 8, size=r.size)
+            order = rng.permutation(r.size)  # (the forms' terms interleaved)
+            r, c, v = r[order], c[order], v[order]
+            want = np.zeros((k, nxi))
+            xi = c >= n
+            np.add.at(want, (r[xi], c[xi] - n), v[xi])
+            z = np.argsort(np.where(xi, k, r), kind="stable")[:np.count_nonzero(~xi)]
+            zr = r[z]
+            starts = np.flatnonzero(np.r_[True, zr[1:] != zr[:-1]]) if zr.size else []
+            if zr.size:
+                want[zr[starts]] += np.add.reduceat(v[z, None] * sol.Z[c[z]], starts, axis=0)
+            assert np.array_equal(sol._sum_terms(k, r, c, v), want)

@@ -224,6 +224,8 @@ class Problem:
         if rows is None:
             return
         Fy = np.asarray(om.Fy, dtype=float).reshape(len(idx), -1)
+        if np.array_equal(rows[idx], Fy):  # (the usual case; isclose was 0.3 ms a mode)
+            return
         ok = np.isclose(rows[idx], Fy, rtol=1e-12, atol=0.0).all(axis=1)
         if not ok.all():
             s = switches[idx[int(np.flatnonzero(~ok)[0])]]
