@@ -105,3 +105,53 @@ def test_growth_note_threshold():
     mild = SimulationResult(t=t, names=("x",), y=np.exp(10.0 * t)[:, None],
                             x_final=np.zeros(1), lambda_final=np.zeros(0))
     assert state_growth(mild) is None  # e^9 = 8.1e3 < 1e6
+
+
+def test_structurally_passive_circuits_skip_the_screen(monkeypatch):
+    """Positive R, L, C (and K with a positive definite inductance matrix), ideal diodes and
+    switches, independent sources: passive in every mode by construction, so the numerical
+    screen is not run for them; it still runs for a negative resistance, a controlled source
+    or an indefinite coupling. The claim is checked on the circuits themselves: the numerical
+    screen finds no non-passive mode in any of them."""
+    from converters import scaling
+    from netlist.formulation import formulate, storage_matrix
+    from netlist.parser import parse_string
+    from netlist.passive import structurally_passive
+
+    passive = [scaling.cockcroft_walton(5), scaling.interleaved_buck(3), scaling.mmc_arm(2),
+               scaling.rectifier_6pulse(), Path(BOOST).read_text()]
+    coupled = """* coupled inductors, k < 1
+V1 in 0 PULSE(0 10 0 1n 1n 5u 10u)
+L1 in a 1m
+L2 b 0 2m
+K1 L1 L2 0.9
+D1 b out DI
+C1 out 0 1u
+R1 out 0 10
+Ra a 0 1
+.model DI D
+.tran 1u 100u
+.end
+"""
+    for text in [*passive, coupled]:
+        circuit = parse_string(text)
+        energy = storage_matrix(circuit)
+        assert structurally_passive(circuit, energy)
+        assert screening.screen_modes(formulate(circuit), energy) == []
+    controlled = coupled.replace("Ra a 0 1", "Ra a 0 1\nE1 c 0 a 0 2\nRc c 0 5")
+    negative = coupled.replace("Ra a 0 1", "Ra a 0 -1")
+    for text in (controlled, negative, Path(TUNNEL).read_text()):
+        circuit = parse_string(text)
+        assert not structurally_passive(circuit, storage_matrix(circuit))
+
+    calls = []
+    real = screening.screen_modes
+    monkeypatch.setattr(screening, "screen_modes",
+                        lambda *a, **k: calls.append(1) or real(*a, **k))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", NonPassiveWarning)
+        pelcs.simulate(BOOST, tstop="50u")
+    assert calls == []
+    with pytest.warns(NonPassiveWarning):
+        pelcs.simulate(TUNNEL, tstop="1m")
+    assert calls == [1]
