@@ -381,6 +381,10 @@ class _Formulator:
         """Indices of the closed switches."""
         return [j for j, sw in enumerate(self.switches) if sw.key in on]
 
+    def _closed_edges(self, on: frozenset[str]) -> list[tuple[str, str]]:
+        """The closed switches' (node, node) edges."""
+        return [tuple(self.switches[j].nodes[:2]) for j in self._closed(on)]
+
     def _diode_bridges(self, graph: SwitchedBridges, on: frozenset[str]) -> list[int]:
         """Indices of the diodes that are bridges of ``graph`` in mode ``on``."""
         cut = graph.bridges(self._closed(on))
@@ -391,8 +395,7 @@ class _Formulator:
         """Whether the voltage-defined branches of the mode (V C E H and closed switches)
         close a loop (what :meth:`_check_topology` reports first)."""
         partition = self._voltage_partition
-        closed = [tuple(self.switches[j].nodes[:2]) for j in self._closed(on)]
-        return partition.has_cycle or partition.joined(closed)[1]
+        return partition.has_cycle or partition.joined(self._closed_edges(on))[1]
 
     # -- one mode ----------------------------------------------------------------------
 
@@ -617,8 +620,7 @@ class _Formulator:
         """
         # (the voltage-defined branches: V C E H and the closed switches)
         partition = self._voltage_partition
-        closed = [tuple(self.switches[j].nodes[:2]) for j in self._closed(on)]
-        uf, _ = partition.joined(closed)
+        uf, _ = partition.joined(self._closed_edges(on))
         root = partition.root
         forced_current = {d.key for d in self.diodes
                           if uf.find(root(d.nodes[0])) == uf.find(root(d.nodes[1]))}
@@ -666,8 +668,7 @@ class _Formulator:
         # (the components of the voltage-defined branches and resistors do not depend on
         # the order they are added in: those of the switchless ones are found once)
         partition = self._tree_partition
-        closed = [tuple(self.switches[j].nodes[:2]) for j in self._closed(on)]
-        uf, _ = partition.joined(closed)
+        uf, _ = partition.joined(self._closed_edges(on))
         root = partition.root
         return frozenset(d.key for d in self.diodes
                          if uf.union(root(d.nodes[0]), root(d.nodes[1])))

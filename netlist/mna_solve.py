@@ -147,21 +147,14 @@ class Solution:
     def evaluate_terms(self, terms: list[list[tuple[int, float]]]) -> np.ndarray:
         """:meth:`evaluate_many` of forms given as lists of (column over (z, ξ),
         coefficient) terms, the same sums without the dense forms."""
-        rows = [k for k, form in enumerate(terms) for _ in form]
-        flat = [t for form in terms for t in form]
-        return self._sum_terms(len(terms), np.array(rows, dtype=np.int64),
-                               np.array([t[0] for t in flat], dtype=np.int64),
-                               np.array([t[1] for t in flat], dtype=float))
+        return self._sum_terms(len(terms), *_flat_terms(terms))
 
     def evaluate_forms(self, terms: list[list[tuple[int, float]]], width: int) -> np.ndarray:
         """:meth:`evaluate_many` of the dense forms (of ``width`` columns) that the lists of
         (column, coefficient) terms add up to, in their order, without building them: the
         same non-zero coefficients in the same order, so the same sums (128 probes of a
         64-cell MMC arm: dense forms 2 ms a mode)."""
-        rows = [k for k, form in enumerate(terms) for _ in form]
-        flat = [t for form in terms for t in form]
-        r, c, v = coalesce(rows, [t[0] for t in flat], [t[1] for t in flat], width)
-        return self._sum_terms(len(terms), r, c, v)
+        return self._sum_terms(len(terms), *coalesce(*_flat_terms(terms), width))
 
     def evaluate_many(self, forms: np.ndarray) -> np.ndarray:
         """Rows over ξ, shape (k, nξ), of the quantities given by the rows of ``forms``
@@ -237,3 +230,12 @@ def clean(matrix: np.ndarray) -> np.ndarray:
         row_max = np.abs(out).max(axis=1, keepdims=True)
         out[np.abs(out) <= CLEAN_RTOL * row_max] = 0.0
     return out
+
+
+def _flat_terms(terms: list[list[tuple[int, float]]]
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Lists of (column, coefficient) terms as (form, column, coefficient) arrays, in order."""
+    rows = [k for k, form in enumerate(terms) for _ in form]
+    flat = [t for form in terms for t in form]
+    return (np.array(rows, dtype=np.int64), np.array([t[0] for t in flat], dtype=np.int64),
+            np.array([t[1] for t in flat], dtype=float))
