@@ -436,27 +436,24 @@ def evaluate(net, cs, big, j, s, theta, x, mask, rtol, W, xn, lamn):
     dm = net.tab[j, ST_D]
     h = theta - 1.0
     for i in range(m):
+        checked = bit(mask, i) == 0 and net.zw[j, i] == 0
         w = -W.fd[i] - g * W.c[i]
-        if bit(mask, i) == 1 or net.zw[j, i] != 0:
-            for p in range(ptr[rw + i], ptr[rw + i + 1]):
-                w += val[p] * sol[idx[p]]
-            if h != 0.0:
-                for p in range(ptr[dm + i], ptr[dm + i + 1]):
-                    w += h * val[p] * lamn[idx[p]]
-            W.wt[i] = w
-            continue
-        sc = abs(W.fd[i]) + abs(g * W.c[i])
+        sc = 0.0
+        if checked:
+            sc = abs(W.fd[i]) + abs(g * W.c[i])
         for p in range(ptr[rw + i], ptr[rw + i + 1]):
             term = val[p] * sol[idx[p]]
             w += term
-            sc += abs(term)
+            if checked:
+                sc += abs(term)
         if h != 0.0:
             for p in range(ptr[dm + i], ptr[dm + i + 1]):
                 term = h * val[p] * lamn[idx[p]]
                 w += term
-                sc += abs(term)
+                if checked:
+                    sc += abs(term)
         W.wt[i] = w
-        if w < -rtol * sc:
+        if checked and w < -rtol * sc:
             W.viol[nv] = i
             nv += 1
             if w < -REFINE_RTOL * sc:
