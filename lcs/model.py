@@ -219,7 +219,8 @@ class SwitchedLCS:
             # screen, then the θ screen, each try the all-on mode; a 64-cell MMC arm's
             # shoot-through took 0.12 s to reject): its error is kept and raised again.
             if key in self._failed:
-                raise self._failed[key]
+                # (without its old traceback, which a plain re-raise would extend each time)
+                raise self._failed[key].with_traceback(None)
             try:
                 self._modes[key] = self._builder(key)
             except Exception as exc:
