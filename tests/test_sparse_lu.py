@@ -55,6 +55,55 @@ def test_heavy_fill_in_grows_the_pattern_pools():
     assert np.abs(lu_solve(lu, B) - ref).max() <= 1e-13 * np.linalg.cond(M, 1) * np.abs(ref).max()
 
 
+def test_kept_work_arrays_are_zero_after_every_kind_of_call():
+    # lu_factor reuses this thread's dense work arrays, which must be zero on entry: after a
+    # regular factorisation, an exactly singular one and one whose pattern pools overflowed
+    # (heavy fill-in), they are zero again, and a factorisation after them equals one made
+    # with fresh arrays bit for bit.
+    rng = np.random.default_rng(5)
+    M = _random_sparse(rng, 40, 0.1) + 4 * np.eye(40)
+    I, J = np.nonzero(M)
+    sparse_lu._WORK.__dict__.pop("dense", None)
+    fresh = lu_factor(40, I, J, M[I, J])
+    heavy = _random_sparse(rng, 120, 0.05) + 5 * np.eye(120)
+    Ih, Jh = np.nonzero(heavy)
+    singular = np.array([[1.0, 2.0, 0.0], [1.0, 2.0, 0.0], [0.0, 0.0, 1.0]])
+    Is, Js = np.nonzero(singular)
+    for call in (lambda: lu_factor(120, Ih, Jh, heavy[Ih, Jh]),
+                 lambda: lu_factor(3, Is, Js, singular[Is, Js]),
+                 lambda: lu_factor(40, I, J, M[I, J])):
+        call()
+        W, S = sparse_lu._WORK.dense
+        assert not W.any() and not S.any()
+        again = lu_factor(40, I, J, M[I, J])
+        for name in ("p", "q", "Lp", "Li", "Lx", "Up", "Ui", "Ux"):
+            assert np.array_equal(getattr(again, name), getattr(fresh, name)), name
+
+
+def test_threads_factorise_with_their_own_work_arrays():
+    import threading
+
+    rng = np.random.default_rng(8)
+    mats = [_random_sparse(rng, 60, 0.08) + 4 * np.eye(60) for _ in range(6)]
+    B = rng.normal(size=(60, 2))
+    errors = []
+
+    def work(M):
+        I, J = np.nonzero(M)
+        ref = np.linalg.solve(M, B)
+        for _ in range(30):
+            Z = lu_solve(lu_factor(60, I, J, M[I, J]), B)
+            if not np.abs(Z - ref).max() <= 1e-12 * np.linalg.cond(M, 1) * np.abs(ref).max():
+                errors.append(1)
+
+    threads = [threading.Thread(target=work, args=(M,)) for M in mats]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors
+
+
 def test_repeated_positions_are_summed_and_pivoting_handles_zero_diagonals():
     # [[0, 2], [1, 1]] with the (0, 1) entry given as 1.5 + 0.5: needs a row exchange.
     lu = lu_factor(2, np.array([0, 0, 1, 1]), np.array([1, 1, 0, 1]),
