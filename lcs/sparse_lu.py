@@ -419,15 +419,23 @@ def _rows_work(n: int, r: int) -> np.ndarray:
     return buf[:n * r].reshape(n, r)
 
 
-def lu_solve(lu: LUFactors, B: np.ndarray) -> np.ndarray:
-    """``M⁻¹ B`` for B of shape (n,) or (n, r)."""
+def lu_solve(lu: LUFactors, B: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """``M⁻¹ B`` for B of shape (n,) or (n, r), into ``out`` when given (float64,
+    C-contiguous, B's shape, not sharing B's memory)."""
     B = np.ascontiguousarray(B, dtype=np.float64)
     if lu.n == 0:
         return np.zeros(B.shape)
     vec = B.ndim == 1
     B2 = B.reshape(lu.n, -1)
     Y = _rows_work(*B2.shape)
-    Z = np.empty(B2.shape)
+    if out is None:
+        Z = np.empty(B2.shape)
+    else:
+        if (out.shape != B.shape or out.dtype != np.float64
+                or not out.flags.c_contiguous or np.may_share_memory(out, B)):
+            raise ValueError("lu_solve: out must be a C-contiguous float64 array of B's "
+                             "shape, apart from B")
+        Z = out.reshape(B2.shape)
     _solve_rows(*lu._args(), B2, Y, Z)
     return Z.reshape(lu.n) if vec else Z
 

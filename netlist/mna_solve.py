@@ -4,6 +4,7 @@ quantities it leaves undetermined, and the round-off cleaning of the final matri
 
 from __future__ import annotations
 
+import threading
 from typing import NamedTuple
 
 import numpy as np
@@ -66,15 +67,25 @@ class Solution:
         r, c = _equilibrate_terms(nz, ncols, I, J, np.abs(v))
         self.col_scale = c
         if nz == 0:
-            self.Z = np.zeros((0, nxi))
+            self._set_z(np.zeros((0, nxi)))
             self.null = np.zeros((0, 0))
             self.inconsistent = []
             return
-        if isinstance(K, Entries):
-            Ks = np.zeros((nz, nxi))
-            Ks[K.rows, K.cols] = r[K.rows] * K.values
-        else:
-            Ks = r[:, None] * K
+        if not isinstance(K, Entries):
+            self._solve(M, I, J, v, ncols, r, c, r[:, None] * K)
+            return
+        # The scaled right-hand sides in this thread's kept array (zero outside its use):
+        # a fresh one is mapped a page fault at a time, 1.3 MB a mode on a 64-cell MMC arm.
+        Ks = _work(_WORK_RHS, nz, nxi, zero=True)
+        Ks[K.rows, K.cols] = r[K.rows] * K.values
+        try:
+            self._solve(M, I, J, v, ncols, r, c, Ks)
+        finally:
+            Ks[K.rows, K.cols] = 0.0
+
+    def _solve(self, M: np.ndarray | None, I: np.ndarray, J: np.ndarray, v: np.ndarray,
+               ncols: int, r: np.ndarray, c: np.ndarray, Ks: np.ndarray) -> None:
+        nz, nxi = Ks.shape
         if nz >= LU_MIN_SIZE and ncols == nz and self._lu(I, J, r[I] * v * c[J], Ks, c):
             return
         if M is None:
@@ -91,7 +102,7 @@ class Solution:
             if np.linalg.norm(residual[:, j]) > DETERMINED_RTOL * scale[j]
         ]
         zs = Vt[:rank].T @ ((U[:, :rank].T @ Ks) / s[:rank, None])
-        self.Z = c[:, None] * zs
+        self._set_z(c[:, None] * zs)
 
     def _lu(self, I: np.ndarray, J: np.ndarray, vs: np.ndarray, Ks: np.ndarray,
             c: np.ndarray) -> bool:
@@ -108,7 +119,7 @@ class Solution:
                 return False
             if not sparse_lu.lu_rcond(lu, anorm) > LU_RCOND:
                 return False
-            zs = sparse_lu.lu_solve(lu, Ks)
+            zs = sparse_lu.lu_solve(lu, Ks, out=_work(_WORK_Z, nz, Ks.shape[1]))
         else:
             from scipy.sparse import csc_matrix
             from scipy.sparse.linalg import LinearOperator, onenormest, splu
@@ -128,8 +139,36 @@ class Solution:
         self.null = np.zeros((nz, 0))
         self.inconsistent = []
         zs *= c[:, None]  # (in place: the same products, no second dense array)
-        self.Z = zs
+        self._set_z(zs)
         return True
+
+    def _set_z(self, Z: np.ndarray) -> None:
+        """Keep ``Z`` (nz, nξ) by its non-zero entries, row by row: about 1 % of it on the
+        switched families of ``converters/scaling.py`` (a 64-cell MMC arm's 97 modes kept
+        129 MB of dense Z), and a form's rows are gathered from them (:meth:`_rows`)."""
+        zr, zc = np.nonzero(Z)
+        self._zshape = Z.shape
+        self._zp = np.zeros(Z.shape[0] + 1, np.int64)
+        np.cumsum(np.bincount(zr, minlength=Z.shape[0]), out=self._zp[1:])
+        self._zi = zc
+        self._zx = Z[zr, zc]
+
+    @property
+    def Z(self) -> np.ndarray:
+        """The solution's matrix, ``z = Z ξ``, (nz, nξ), dense (a copy)."""
+        return self._rows(np.arange(self._zshape[0]))
+
+    def _rows(self, idx: np.ndarray) -> np.ndarray:
+        """Rows ``idx`` of ``Z``, dense (len(idx), nξ)."""
+        out = np.zeros((idx.size, self._zshape[1]))
+        if idx.size:
+            start = self._zp[idx]
+            count = self._zp[idx + 1] - start
+            total = int(count.sum())
+            if total:
+                pos = np.repeat(start - np.cumsum(count) + count, count) + np.arange(total)
+                out[np.repeat(np.arange(idx.size), count), self._zi[pos]] = self._zx[pos]
+        return out
 
     def determined_many(self, forms_z: np.ndarray) -> np.ndarray:
         """:meth:`determined` of every row of ``forms_z`` (k, nz) at once, bool (k,)."""
@@ -164,7 +203,7 @@ class Solution:
         runs over its non-zero coefficients only, for every form at once (an MMC arm of 64
         cells: 0.4 ms for 200 forms, where one product per form took 9 ms).
         """
-        forms = np.asarray(forms, dtype=float).reshape(-1, self.Z.shape[0] + self.Z.shape[1])
+        forms = np.asarray(forms, dtype=float).reshape(-1, sum(self._zshape))
         r, c = np.nonzero(forms)
         return self._sum_terms(forms.shape[0], r, c, forms[r, c])
 
@@ -172,7 +211,7 @@ class Solution:
         """Rows (k, nξ) of the forms given as terms: coefficient ``v`` of column ``c`` over
         (z, ξ) in form ``r``. The ξ terms are added in place, the z terms as ``v Z[c]``
         summed form by form in the order given."""
-        nz, nxi = self.Z.shape
+        nz, nxi = self._zshape
         out = np.zeros((k, nxi))
         if not r.size:
             return out
@@ -185,16 +224,36 @@ class Solution:
             starts = np.flatnonzero(np.r_[True, zr[1:] != zr[:-1]])
             count = np.diff(np.r_[starts, zr.size])
             if count.max() > 2:
-                sums = np.add.reduceat(zv[:, None] * self.Z[zc], starts, axis=0)
+                sums = np.add.reduceat(zv[:, None] * self._rows(zc), starts, axis=0)
             else:
                 # A form of one or two terms (every voltage, every current but a G
                 # source's): their sum in either order is the same, that of reduceat, which
                 # along the rows took 0.7 ms for 128 diodes of a 64-cell MMC arm.
-                sums = zv[starts, None] * self.Z[zc[starts]]
+                sums = zv[starts, None] * self._rows(zc[starts])
                 two = starts[count == 2] + 1
-                sums[count == 2] += zv[two, None] * self.Z[zc[two]]
+                sums[count == 2] += zv[two, None] * self._rows(zc[two])
             out[zr[starts]] += sums
         return out
+
+
+# This thread's kept work arrays (flat; see _work): the scaled right-hand sides and the LU's
+# solution before it is kept sparse.
+_WORK_RHS = threading.local()
+_WORK_Z = threading.local()
+#: largest work array kept between modes (values; 8 MB)
+WORK_KEPT = 1 << 20
+
+
+def _work(store: threading.local, n: int, r: int, zero: bool = False) -> np.ndarray:
+    """An (n, r) float64 array from ``store``'s kept buffer (zero throughout when ``zero``:
+    the caller sets back to zero what it wrote), or a new one above :data:`WORK_KEPT`."""
+    if n * r > WORK_KEPT:
+        return np.zeros((n, r)) if zero else np.empty((n, r))
+    buf = getattr(store, "buf", None)
+    if buf is None or buf.size < n * r:
+        buf = np.zeros(max(n * r, 4096))
+        store.buf = buf
+    return buf[:n * r].reshape(n, r)
 
 
 def equilibrate(M: np.ndarray, iterations: int = 8) -> tuple[np.ndarray, np.ndarray]:

@@ -91,3 +91,28 @@ def test_terms_are_summed_as_reduceat_sums_them():
             if zr.size:
                 want[zr[starts]] += np.add.reduceat(v[z, None] * sol.Z[c[z]], starts, axis=0)
             assert np.array_equal(sol._sum_terms(k, r, c, v), want)
+
+
+def test_sparse_entries_path_keeps_z_by_its_entries_and_leaves_the_work_array_zero():
+    # A right-hand side given by its entries goes through this thread's kept (zeroed) work
+    # array; Z is kept by its non-zero entries. Z and every gathered row equal the dense
+    # right-hand side's solution bit for bit, and the work array is zero afterwards, also
+    # after a singular system that went on to the SVD.
+    rng = np.random.default_rng(12)
+    for n, nxi, singular in ((60, 25, False), (40, 9, True), (60, 25, False)):
+        M = np.where(rng.random((n, n)) < 0.05, rng.normal(size=(n, n)), 0.0) + 6 * np.eye(n)
+        if singular:
+            M[:, 3] = 0.0
+            M[3, :] = 0.0
+        K = np.where(rng.random((n, nxi)) < 0.1, rng.normal(size=(n, nxi)), 0.0)
+        I, J = np.nonzero(M)
+        rows, cols = np.nonzero(K)
+        sol = ms.Solution(None, ms.Entries(rows, cols, K[rows, cols], (n, nxi)),
+                          entries=(I, J, M[I, J]))
+        dense = ms.Solution(M, K)
+        assert np.array_equal(sol.Z, dense.Z)
+        idx = rng.integers(0, n, size=17)
+        assert np.array_equal(sol._rows(idx), dense.Z[idx])
+        assert sol._zx.size == np.count_nonzero(dense.Z)
+        assert not ms._WORK_RHS.buf.any()
+        assert (sol.null.shape[1] > 0) == singular
