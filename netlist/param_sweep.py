@@ -689,7 +689,10 @@ def _notes(results, labels: Sequence[str]) -> list[str]:
         worst = max(loose, key=lambda i: max(c.drift / c.limit if c.limit > 0 else math.inf
                                              for c in results[i][4][4]))
         t_end = max(results[i][4][5] for i in loose)
-        notes.append(f"not settled: {len(loose)} of {len(results)} run(s) ({named}): "
+        nominal = sum(label.startswith("nominal") for label in labels)
+        count = f"{len(loose)} of {len(results)} run(s)" + (
+            f", {len(results) - nominal} drawn + {nominal} nominal," if nominal else "")
+        notes.append(f"not settled: {count} ({named}): "
                      f"{_describe(results[worst][4][4])}; the measurement still drifts with the "
                      f"start-up transient: simulate longer than {format_eng(t_end, 's')}, "
                      f"e.g. --tstop {_spice_time(2 * t_end)}")

@@ -363,6 +363,8 @@ M = ("--measure", "mean(v(out))")
     ((), "nothing to measure"),
     # Checked before any run (they were failed runs, exit 3):
     ((*M, "--tstop", "0"), "--tstop 0: must be positive"),
+    ((*M, "--tstop", "5x"), "--tstop: '5x' is not a number"),
+    ((*M, "--theta", "abc"), "--theta: 'abc' is not a number"),
     ((*M, "--step=-1u"), "--step -1u: must be positive"),
     ((*M, "--step", "1"), "--step 1 s exceeds the stop time 4 ms"),
     ((*M, "--tstop", "0.2u"), "the .tran step 500 ns exceeds the stop time 200 ns"),

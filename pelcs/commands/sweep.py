@@ -118,9 +118,10 @@ def run(args: argparse.Namespace) -> int:
     try:
         return _run(args)
     except NetlistError as exc:
-        # The shared option parsers (netlist.sweep, netlist.measure) name the tool only:
-        # every error of this command starts "pelcs sweep: error:".
-        if exc.file == "pelcs":
+        # The shared option parsers (netlist.sweep, netlist.measure, simulate's numbers)
+        # name another command or the tool only: every error of this command starts
+        # "pelcs sweep: error:".
+        if exc.file in ("pelcs", "pelcs simulate"):
             exc.file = "pelcs sweep"
         raise
 
