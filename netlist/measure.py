@@ -31,10 +31,14 @@ from .transient import check_probes
 
 __all__ = [
     "FUNCTIONS",
+    "SETTLE_LEVEL",
+    "SETTLE_SHAPE",
     "Measurement",
+    "Settling",
     "evaluate",
     "parse_measurements",
     "probe_unit",
+    "settling",
     "steady_state_period",
     "steady_state_window",
 ]
@@ -115,6 +119,16 @@ def parse_measurements(items: Sequence[str], circuit: Circuit) -> list[Measureme
     diags: list[Diagnostic] = []
     functions = ", ".join(f for f in FUNCTIONS)
     for item in items:
+        opened, closed = item.count("("), item.count(")")
+        if opened != closed:
+            # Checked before the split: an unclosed '(' would swallow the rest of the item,
+            # and the probe check would then blame a probe 'v(out' instead.
+            diags.append(Diagnostic(
+                message=f"bad measurement {item.strip()!r}: unbalanced parentheses "
+                f"({opened} '(' and {closed} ')')",
+                hint="close every parenthesis, e.g. mean(v(out)) or ripple(v(a,b)); quote the "
+                "argument in the shell"))
+            continue
         for text in _split_top(item):
             m = _MEASURE_RE.match(text)
             bare_probe = m is not None and m.group(1).lower() in ("v", "i", "d") and \
@@ -280,4 +294,121 @@ def evaluate(result: SimulationResult, measurements: Sequence[Measurement],
             out[k] = float(np.max(yy))
         else:  # pragma: no cover - parse_measurements admits only FUNCTIONS
             raise ValueError(m.func)
+    return out
+
+
+# -- has the run settled? ---------------------------------------------------------------------
+
+#: A level measurement (mean, rms, final) is taken as settled when the averages of its probe
+#: over the successive periods of the window spread by at most this fraction of the probe's
+#: RMS over the window: the measurement is then off by less than about that fraction.
+SETTLE_LEVEL = 1e-3
+#: A shape measurement (ripple, min, max) is taken as settled when the period averages of its
+#: probe spread by at most this fraction of the probe's peak-to-peak within one period (its
+#: ripple): a drifting signal adds its drift to the ripple, min and max it shows.
+SETTLE_SHAPE = 0.1
+
+_SHAPE = ("ripple", "min", "max")
+
+
+@dataclass(frozen=True)
+class Settling:
+    """The steady-state check of one measurement (:func:`settling`).
+
+    Attributes
+    ----------
+    measure : str
+        The measurement (``ripple(v(out))``).
+    probe : str
+    drift : float
+        Spread (max - min) of the probe's averages over the parts of the window, in the
+        probe's unit.
+    limit : float
+        The largest spread taken as settled, same unit.
+    basis : str
+        What the limit is a fraction of, e.g. ``"10 % of its ripple per period (15 mV)"``.
+    parts : str
+        The parts compared, e.g. ``"the last 10 periods"``.
+    """
+
+    measure: str
+    probe: str
+    drift: float
+    limit: float
+    basis: str
+    parts: str
+
+    @property
+    def settled(self) -> bool:
+        return not self.drift > self.limit
+
+
+def settling(result: SimulationResult, measurements: Sequence[Measurement],
+             window: tuple[float, float], period: float | None) -> list[Settling]:
+    """Whether each measurement's probe has settled over the steady-state window.
+
+    The window is cut into its periods (into the last two periods of the run when the window
+    holds only one; into four equal parts without a period) and the probe is averaged over
+    each part. In a periodic steady state these averages are equal up to round-off; their
+    spread (max - min) is the drift that the measurement still sees. The limit is
+    :data:`SETTLE_LEVEL` times the probe's RMS over the window for ``mean``, ``rms`` and
+    ``final`` (and for every measurement without a period), and :data:`SETTLE_SHAPE` times its
+    median peak-to-peak within one part for ``ripple``, ``min`` and ``max``.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        The run; it recorded every measured probe.
+    measurements : sequence of Measurement
+    window : (float, float)
+        The steady-state window, s (:func:`steady_state_window`).
+    period : float or None
+        Steady-state period, s.
+
+    Returns
+    -------
+    list of Settling
+        One per measurement; empty when the run is too short to tell (less than two periods).
+    """
+    from .units import format_eng
+
+    t = np.asarray(result.t, dtype=float)
+    a, b = window
+    if period is not None and period > 0:
+        count = int(round((b - a) / period))
+        if count < 2:
+            count, a = 2, b - 2 * period
+            if a < t[0] - 1e-12 * max(abs(b), 1.0):
+                return []
+        edges = a + period * np.arange(count + 1)
+        edges[-1] = b
+        parts = f"the last {count} periods"
+    else:
+        count = 4
+        edges = np.linspace(a, b, count + 1)
+        parts = "four quarters of the window (no period)"
+    out = []
+    cache: dict[str, tuple[float, float, float]] = {}
+    for m in measurements:
+        if m.probe not in cache:
+            y = np.asarray(result[m.probe], dtype=float)
+            means, spans = [], []
+            for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+                tt, yy = _in_window(t, y, lo, hi)
+                means.append(np.trapezoid(yy, tt) / (hi - lo))
+                spans.append(float(np.max(yy) - np.min(yy)))
+            tt, yy = _in_window(t, y, edges[0], edges[-1])
+            rms = math.sqrt(max(np.trapezoid(yy * yy, tt) / (edges[-1] - edges[0]), 0.0))
+            cache[m.probe] = (float(np.max(means) - np.min(means)), float(np.median(spans)),
+                              rms)
+        drift, ripple, rms = cache[m.probe]
+        unit = probe_unit(m.probe)
+        if m.func in _SHAPE and period is not None and ripple > 0:
+            limit = SETTLE_SHAPE * ripple
+            basis = f"{100 * SETTLE_SHAPE:g} % of its ripple per period " \
+                f"({format_eng(ripple, unit)})"
+        else:
+            limit = SETTLE_LEVEL * rms
+            basis = f"{100 * SETTLE_LEVEL:g} % of its RMS ({format_eng(rms, unit)})"
+        out.append(Settling(m.text, m.probe, drift, limit, basis, parts))
     return out

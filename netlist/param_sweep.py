@@ -21,7 +21,12 @@ element independently:
 The draws are made up front, here, from ``numpy.random.default_rng(seed)`` (a matrix of runs
 by toleranced elements, in run order then netlist order), so that a seed gives the same runs
 whatever executes them and however the runs are split into tasks. With a parameter grid, run k
-uses the same draws at every grid point (common random numbers).
+uses the same draws at every grid point (common random numbers), every grid point has its own
+nominal run, and the statistics are per grid point (:meth:`SweepTable.point_statistics`).
+
+Every run is checked for a settled window (:func:`netlist.measure.settling`): a run whose
+measured probes still drift over it gets a message, ``settled`` False in the table, and a note
+that names it and suggests a longer stop time.
 """
 
 from __future__ import annotations
@@ -29,6 +34,7 @@ from __future__ import annotations
 import fnmatch
 import functools
 import itertools
+import math
 import secrets
 import time
 from collections.abc import Mapping, Sequence
@@ -46,6 +52,7 @@ from .measure import (
     evaluate,
     parse_measurements,
     probe_unit,
+    settling,
     steady_state_period,
     steady_state_window,
 )
@@ -56,8 +63,11 @@ from .units import parse_number
 
 __all__ = [
     "DISTRIBUTIONS",
+    "MAX_RUNS",
+    "MAX_VALUES",
     "Tolerance",
     "draw_deviations",
+    "grid_values",
     "match_tolerances",
     "parse_sweep_param",
     "parse_tolerance",
@@ -66,6 +76,12 @@ __all__ = [
 
 DISTRIBUTIONS = ("uniform", "gaussian")
 
+#: Values of one swept parameter at most (as a netlist's ``.step``).
+MAX_VALUES = 100_000
+#: Runs of one sweep at most (grid points times Monte Carlo runs, nominal runs included):
+#: the list of runs is built up front, and a typo such as ``1e9`` should not exhaust memory.
+MAX_RUNS = 1_000_000
+
 # Element kind -> the attribute a tolerance changes, and its unit.
 _VALUE_ATTR = {"R": ("value", "Ω"), "L": ("value", "H"), "C": ("value", "F"),
                "V": ("dc", "V"), "I": ("dc", "A"), "E": ("gain", ""), "F": ("gain", ""),
@@ -73,7 +89,8 @@ _VALUE_ATTR = {"R": ("value", "Ω"), "L": ("value", "H"), "C": ("value", "F"),
 
 
 def _usage(message: str, hint: str = "") -> NetlistError:
-    return NetlistError(Diagnostic(message=message, hint=hint), file="pelcs")
+    # Named after the command, as its own option errors are ("pelcs sweep: error: ...").
+    return NetlistError(Diagnostic(message=message, hint=hint), file="pelcs sweep")
 
 
 # -- parameters ------------------------------------------------------------------------------
@@ -108,11 +125,25 @@ def parse_sweep_param(text: str) -> tuple[str, float | np.ndarray]:
         count = _number(parts[2], f"range {text!r}")
         if count != int(count) or count < 1:
             raise _usage(f"range {text!r}: COUNT must be an integer >= 1")
-        return name, np.linspace(start, stop, int(count))
+        if count > MAX_VALUES:
+            raise _usage(f"range {text!r}: {count:.6g} values, at most {MAX_VALUES} per "
+                         "parameter (as a .step)", "give a smaller COUNT")
+        return name, grid_values(start, stop, int(count))
     if "," in val and not val.startswith(("{", "'")):
-        return name, np.array([_number(v, f"parameter {name}") for v in val.split(",")
-                               if v.strip()])
+        items = [v for v in val.split(",") if v.strip()]
+        if len(items) > MAX_VALUES:
+            raise _usage(f"parameter {name}: {len(items)} values, at most {MAX_VALUES}")
+        return name, np.array([_number(v, f"parameter {name}") for v in items])
     return name, _number(val, f"parameter {name}")
+
+
+def grid_values(start: float, stop: float, count: int) -> np.ndarray:
+    """``count`` values from ``start`` to ``stop``, rounded to 12 significant digits.
+
+    ``np.linspace(0.2, 0.8, 4)`` holds ``0.6000000000000001``; rounded, the values print as
+    they would be typed (and as a netlist's ``.step`` gives them).
+    """
+    return np.array([float(f"{v:.12g}") for v in np.linspace(start, stop, count)])
 
 
 # -- tolerances ------------------------------------------------------------------------------
@@ -177,9 +208,24 @@ def match_tolerances(circuit: Circuit, tolerances: Sequence[Tolerance]
     Raises
     ------
     NetlistError
-        A pattern that matches no element with a value (D, S and PULSE/SIN/... sources have
-        none), or that names one exactly and it has no value.
+        A pattern given twice; a pattern that matches no element with a value (D, S and
+        PULSE/SIN/... sources have none), that names one exactly and it has no value, or
+        whose every element has a tolerance naming it exactly.
     """
+    diags = []
+    first: dict[str, Tolerance] = {}
+    for tol in tolerances:
+        key = tol.pattern.lower()
+        if key in first:
+            was = first[key]
+            what = was.pattern if was.exact else f"pattern {was.pattern!r}"
+            diags.append(Diagnostic(
+                message=f"{what} is given twice: --tolerance {was.text!r} and "
+                f"--tolerance {tol.text!r}", hint="give one tolerance per element or pattern"))
+        else:
+            first[key] = tol
+    if diags:
+        raise NetlistError(diags, file="pelcs sweep")
     tolerable = [el for el in circuit.elements if _tolerable(el)]
     out: list[tuple[str, Tolerance]] = []
     used: set[int] = set()
@@ -198,8 +244,8 @@ def match_tolerances(circuit: Circuit, tolerances: Sequence[Tolerance]
         if chosen is not None:
             used.add(chosen)
             out.append((el.name, tolerances[chosen]))
-    diags = []
     names = ", ".join(el.name for el in tolerable) or "none"
+    exact = {t.pattern.lower(): t for t in tolerances if t.exact}
     for i, tol in enumerate(tolerances):
         if i in used:
             continue
@@ -207,17 +253,29 @@ def match_tolerances(circuit: Circuit, tolerances: Sequence[Tolerance]
             el = circuit.element(tol.pattern) if tol.exact else None
         except KeyError:
             el = None
+        hint = f"elements with a value: {names}"
         if el is not None:
             msg = (f"tolerance {tol.text!r}: {el.name} has no value to vary"
                    + (" (a source with a waveform)" if el.kind in "VI" else ""))
         else:
-            hidden = any(fnmatch.fnmatchcase(e.name.lower(), tol.pattern.lower())
-                         for e in circuit.elements)
-            msg = (f"tolerance {tol.text!r} matches " + ("only elements without a value"
-                                                         if hidden else "no element"))
-        diags.append(Diagnostic(message=msg, hint=f"elements with a value: {names}"))
+            matches = [e for e in circuit.elements
+                       if fnmatch.fnmatchcase(e.name.lower(), tol.pattern.lower())]
+            # Elements that an exact tolerance takes: the pattern varies none of them.
+            taken = [e for e in matches if _tolerable(e) and e.name.lower() in exact]
+            if taken:
+                msg = (f"tolerance {tol.text!r} varies nothing: it matches only "
+                       + ", ".join(f"{e.name} (given as {exact[e.name.lower()].text!r})"
+                                   for e in taken)
+                       + (" and elements without a value" if len(taken) < len(matches)
+                          else ""))
+                hint = "an element takes the tolerance that names it exactly: drop the " \
+                    "pattern, or the exact tolerance"
+            else:
+                msg = (f"tolerance {tol.text!r} matches "
+                       + ("only elements without a value" if matches else "no element"))
+        diags.append(Diagnostic(message=msg, hint=hint))
     if diags:
-        raise NetlistError(diags, file="pelcs")
+        raise NetlistError(diags, file="pelcs sweep")
     return out
 
 
@@ -264,30 +322,56 @@ def _parse(text: str, path: str, params: tuple[tuple[str, float], ...]) -> Circu
     return parse_string(text, file=path, params=dict(params) or None)
 
 
+class _DrawError(ValueError):
+    """A drawn value the element cannot take; ``values`` are all the run's draws (for its
+    row in the table: the value that failed is seen there)."""
+
+    def __init__(self, message: str, values: list[float]):
+        super().__init__(message)
+        self.values = values
+
+
 def _perturbed(circuit: Circuit, toleranced, deviations) -> tuple[Circuit, list[float]]:
-    """A copy of the circuit with the deviations applied, and the values used."""
+    """A copy of the circuit with the deviations applied, and the values used.
+
+    Raises
+    ------
+    _DrawError
+        An R, L or C drawn as zero or with the opposite sign of its nominal value.
+    """
     if deviations is None:
         return circuit, []
     elements = list(circuit.elements)
     index = {el.name.lower(): i for i, el in enumerate(elements)}
     used = []
+    problem = ""
     for (name, relative), d in zip(toleranced, deviations, strict=True):
         i = index[name.lower()]
         el = elements[i]
         attr = _VALUE_ATTR[el.kind][0]
         nominal = float(getattr(el, attr))
         value = nominal * (1.0 + d) if relative else nominal + d
-        if el.kind in "RLC" and not value > 0:
-            raise ValueError(f"{el.name} drawn as {value:.6g}, not positive (nominal "
-                             f"{nominal:.6g}): narrow its tolerance")
+        # A negative R (a model of an active device) may vary; only the draws that change
+        # the element's sign or make it zero change what it is.
+        if el.kind in "RLC" and not value * nominal > 0 and not problem:
+            what = "zero" if value == 0 else f"{value:.6g}, the opposite sign of"
+            problem = f"{el.name} drawn as {what} its nominal {nominal:.6g}: narrow its " \
+                "tolerance"
         elements[i] = replace(el, **{attr: value})
         used.append(value)
+    if problem:
+        raise _DrawError(problem, used)
     return replace(circuit, elements=elements), used
 
 
 def _run_point(job: _Job, params: tuple[tuple[str, float], ...], deviations
                ) -> tuple[np.ndarray, list[float], bool, str, tuple]:
-    """Measure one run: (values, component values used, ok, message, window info)."""
+    """Measure one run: (values, component values used, ok, message, window info).
+
+    The window info of a run that succeeded is ``(window, periods, period, source,
+    unsettled, t_end)``: ``unsettled`` holds the :class:`~netlist.measure.Settling` of the
+    measurements whose probe still drifts over the window.
+    """
     nm = len(job.measures)
     nan = np.full(nm, np.nan)
     drawn = [np.nan] * len(job.toleranced) if deviations is not None else []
@@ -302,6 +386,8 @@ def _run_point(job: _Job, params: tuple[tuple[str, float], ...], deviations
         period = resolve_period(circuit, job.period) if job.period is not None else None
     except (NetlistError, ValueError) as exc:
         msg = exc.message if isinstance(exc, NetlistError) else str(exc)
+        if isinstance(exc, _DrawError):
+            drawn = exc.values
         return nan, drawn, False, msg, ()
     if res.error is not None:
         return nan, drawn, False, f"simulation failed at t = {res.error.time:.6g} s: " \
@@ -310,7 +396,9 @@ def _run_point(job: _Job, params: tuple[tuple[str, float], ...], deviations
         return nan, drawn, False, "the run has fewer than two time points", ()
     per, source = steady_state_period(circuit, res, period)
     window, n = steady_state_window((float(res.t[0]), float(res.t[-1])), per)
-    return evaluate(res, job.measures, window), drawn, True, "", (window, n, per, source)
+    checks = tuple(c for c in settling(res, job.measures, window, per) if not c.settled)
+    return (evaluate(res, job.measures, window), drawn, True, "",
+            (window, n, per, source, checks, float(res.t[-1])))
 
 
 def _sweep_task(task, report) -> list:
@@ -399,30 +487,44 @@ def run_sweep(
     Returns
     -------
     SweepTable
-        One row per (grid point, run); failed runs have NaN measurements and a message.
+        One row per (grid point, run); failed runs have NaN measurements and a message. A
+        Monte Carlo run also simulates every grid point with the nominal values
+        (``table.nominal``). Runs whose window has not settled
+        (:func:`netlist.measure.settling`) have ``settled`` False, a message and a note.
 
     Raises
     ------
     NetlistError
-        Bad netlist, parameter, measurement, probe or tolerance (checked at the first grid
-        point before any run).
+        Bad netlist, parameter, measurement, probe or tolerance, a non-positive stop time or
+        step, a step longer than the run, more than :data:`MAX_VALUES` values of a parameter
+        or :data:`MAX_RUNS` runs (checked at the first grid point before any run).
     """
     t_wall = time.perf_counter()
     text, path = _read(source)
     params = dict(params or {})
-    # The netlist's .step lines sweep what params does not set (a given value wins).
-    given = {k.lower() for k in params}
+    # The netlist's .step lines sweep what params does not set (a given value wins, and the
+    # note says so: the netlist's author meant that parameter to be swept).
+    given = {k.lower(): k for k in params}
     step_notes = []
     for name, values in parse_string(text, file=path).steps:
-        if name.lower() not in given:
+        key = given.get(name.lower())
+        if key is None:
             params[name] = np.asarray(values, dtype=float)
             step_notes.append(f"{name}: {len(values)} values from the netlist's .step")
+            continue
+        v = params[key]
+        now = f"{key} = {float(np.ravel(v)[0]):.6g}" if np.ndim(v) == 0 else \
+            f"{key} over {np.size(v)} given value(s)"
+        step_notes.append(f"{now} replaces the netlist's .step of {name} ({len(values)} "
+                          "values)")
     fixed = {k: float(v) for k, v in params.items() if np.ndim(v) == 0}
     swept = {k: np.asarray(v, dtype=float).ravel() for k, v in params.items()
              if np.ndim(v) > 0}
     for k, v in swept.items():
         if v.size == 0:
             raise _usage(f"parameter {k}: no values")
+        if v.size > MAX_VALUES:
+            raise _usage(f"parameter {k}: {v.size} values, at most {MAX_VALUES}")
     tols = [t if isinstance(t, Tolerance) else parse_tolerance(t) for t in tolerances]
     runs = int(runs)
     if tols and runs < 1:
@@ -434,11 +536,18 @@ def run_sweep(
                      f"use {' or '.join(DISTRIBUTIONS)}")
     if theta is not None and not 0.5 <= float(theta) <= 1.0:
         raise _usage(f"theta {theta}: θ must be in [0.5, 1]")
+    n_points = math.prod(v.size for v in swept.values())
+    total = n_points * (runs + 1 if runs else 1)
+    if total > MAX_RUNS:
+        raise _usage(f"{total} runs ({n_points} grid point(s)"
+                     + (f" x ({runs} + 1 nominal) runs" if runs else "") + f"), at most "
+                     f"{MAX_RUNS}", "sweep fewer values, or split the sweep")
 
-    # Check everything at the first grid point (names, probes, tolerances) before any run.
-    grid = list(itertools.product(*swept.values())) if swept else [()]
+    # Check everything at the first grid point (names, probes, tolerances, times) before any
+    # run: an input error is reported as such, not as every run failing.
     first = {**fixed, **{k: float(v[0]) for k, v in swept.items()}}
     circuit = parse_string(text, file=path, params=first or None)
+    _check_times(circuit, tstop, step)
     mlist = parse_measurements(list(measures), circuit)
     if period is not None:
         resolve_period(circuit, period)
@@ -451,18 +560,29 @@ def run_sweep(
                None if theta is None else float(theta), period,
                tuple((n, t.relative) for n, t in matched))
     names = list(swept)
+    grid = list(itertools.product(*swept.values())) if swept else [()]
     points: list[tuple[tuple, np.ndarray | None]] = []
     rows_in: list[list[float]] = []
+    labels: list[str] = []
     for combo in grid:
         p = tuple(zip(names, (float(v) for v in combo), strict=True))
+        where = " ".join(f"{n}={v:.6g}" for n, v in p)
         if runs:
             for k in range(runs):
                 points.append((p, deviations[k]))
                 rows_in.append([*combo, k])
+                labels.append(f"{where} run {k}".strip())
         else:
             points.append((p, None))
             rows_in.append(list(combo))
-    extra = [((), np.zeros(len(matched)))] if runs and not swept else []
+            labels.append(where or "the run")
+    # Monte Carlo: one nominal run per grid point, so that every point's spread is seen
+    # against its own nominal value.
+    extra = [(tuple(zip(names, (float(v) for v in combo), strict=True)),
+              np.zeros(len(matched))) for combo in grid] if runs else []
+    labels += ["nominal" + (" at " + " ".join(f"{n}={float(v):.6g}"
+                                               for n, v in zip(names, combo, strict=True))
+                            if names else "") for combo in grid] if runs else []
 
     all_points = points + extra
     with task_engine(scheduler, workers) as engine:
@@ -474,7 +594,8 @@ def run_sweep(
                                              unit="run")
                    for r in chunk]
         engine_name = engine.description
-    nominal = results[-1][0] if extra else None
+    nominal = np.stack([r[0] for r in results[len(points):]]) if extra else None
+    notes = step_notes + _notes(results, labels)
     results = results[:len(points)]
 
     inputs = names + (["run"] if runs else []) + [n for n, _ in matched]
@@ -483,11 +604,12 @@ def run_sweep(
                             dtype=float).reshape(len(points), len(inputs))
     values = np.stack([r[0] for r in results])
     ok = np.array([r[2] for r in results], dtype=bool)
-    messages = [r[3] for r in results]
+    settled = np.array([r[2] and not r[4][4] for r in results], dtype=bool)
+    messages = [r[3] if not r[2] else
+                ("not settled: " + _describe(r[4][4]) if r[4][4] else "") for r in results]
     units = {m.text: probe_unit(m.probe) for m in mlist}
     for n, _ in matched:
         units[n] = _VALUE_ATTR[circuit.element(n).kind][1]
-    notes = step_notes + _notes(results, ok)
     tol_text = [f"{n} {t.describe(units[n])}" + ("" if t.exact else f" ({t.text})")
                 for n, t in matched]
     return SweepTable(
@@ -496,17 +618,57 @@ def run_sweep(
         swept=tuple(names), units=units, nominal=nominal, runs=runs,
         seed=int(seed) if runs else None, distribution=distribution if runs else "",
         tolerances=tol_text, notes=notes, wall_time=time.perf_counter() - t_wall,
-        engine=engine_name,
+        engine=engine_name, settled=settled,
+        unsettled=[tuple(c.measure for c in r[4][4]) if r[2] else () for r in results],
     )
 
 
-def _notes(results, ok) -> list[str]:
+def _check_times(circuit: Circuit, tstop: float | None, step: float | None) -> None:
+    """The stop time and step every run would use: positive, the step within the run."""
+    from .units import format_eng
+
+    tran = circuit.tran
+    if tstop is not None and not (np.isfinite(tstop) and tstop > 0):
+        raise _usage(f"--tstop {tstop:g}: the stop time must be positive",
+                     "e.g. --tstop 20m")
+    if step is not None and not (np.isfinite(step) and step > 0):
+        raise _usage(f"--step {step:g}: the time step must be positive", "e.g. --step 0.1u")
+    t_end = tstop if tstop is not None else tran.tstop if tran is not None else None
+    if t_end is None:
+        raise _usage("no .tran in the netlist and no stop time given",
+                     "give --tstop, e.g. --tstop 20m")
+    h = step if step is not None else (tran.tmax or tran.tstep) if tran is not None else None
+    if h is not None and h > t_end:
+        given = "--step" if step is not None else "the .tran step"
+        raise _usage(f"{given} {format_eng(h, 's')} exceeds the stop time "
+                     f"{format_eng(t_end, 's')}",
+                     "give a smaller --step" if step is not None else "give a longer --tstop")
+
+
+def _describe(checks) -> str:
+    """The worst unsettled measurement of a run, in words."""
+    from .units import format_eng
+
+    c = max(checks, key=lambda c: c.drift / c.limit if c.limit > 0 else math.inf)
+    unit = probe_unit(c.probe)
+    return (f"{c.measure}: the averages of {c.probe} over {c.parts} spread "
+            f"{format_eng(c.drift, unit)}, more than {c.basis}")
+
+
+def _spice_time(t: float) -> str:
+    from .units import format_eng
+
+    return format_eng(float(f"{t:.2g}"), "").replace(" ", "").replace("µ", "u")
+
+
+def _notes(results, labels: Sequence[str]) -> list[str]:
+    """The window, the failed runs and the runs not settled, in words."""
     from .units import format_eng
 
     notes = []
     windows = [r[4] for r in results if r[2]]
     if windows:
-        (a, b), n, per, source = windows[0]
+        (a, b), n, per, source = windows[0][:4]
         same = all(w[1] == n and w[2] == per for w in windows)
         if n and per:
             what = (f"the last {n} period(s) of {format_eng(per, 's')} ({source})")
@@ -514,8 +676,24 @@ def _notes(results, ok) -> list[str]:
             what = f"the last 20 % of the run ({source})"
         notes.append(f"measured over {what}" + ("" if same else
                                                  " at the first point; per point elsewhere"))
-    failed = int((~ok).sum())
+    failed = [i for i, r in enumerate(results) if not r[2]]
     if failed:
-        first = next(r[3] for r in results if not r[2])
-        notes.append(f"{failed} run(s) failed (NaN in the table); first: {first}")
+        first = results[failed[0]]
+        notes.append(f"{len(failed)} run(s) failed (NaN in the table); first ("
+                     f"{labels[failed[0]]}): {first[3]}")
+    loose = [i for i, r in enumerate(results) if r[2] and r[4][4]]
+    if loose:
+        named = "; ".join(labels[i] for i in loose[:5])
+        if len(loose) > 5:
+            named += f" and {len(loose) - 5} more"
+        worst = max(loose, key=lambda i: max(c.drift / c.limit if c.limit > 0 else math.inf
+                                             for c in results[i][4][4]))
+        t_end = max(results[i][4][5] for i in loose)
+        nominal = sum(label.startswith("nominal") for label in labels)
+        count = f"{len(loose)} of {len(results)} run(s)" + (
+            f", {len(results) - nominal} drawn + {nominal} nominal," if nominal else "")
+        notes.append(f"not settled: {count} ({named}): "
+                     f"{_describe(results[worst][4][4])}; the measurement still drifts with the "
+                     f"start-up transient: simulate longer than {format_eng(t_end, 's')}, "
+                     f"e.g. --tstop {_spice_time(2 * t_end)}")
     return notes

@@ -92,3 +92,42 @@ def test_writer_leaves_step_out():
 
     text = write_circuit(parse_file(str(STEP)))
     assert not any(line.lower().startswith(".step") for line in text.splitlines())
+
+
+def test_sweep_plots_the_netlist_steps(capsys, tmp_path):
+    """--plot was refused ("needs a swept --param") before the .step lines were read."""
+    png = tmp_path / "p.png"
+    code = main(["sweep", str(STEP), "--measure", "mean(v(out))", "--plot", str(png),
+                 "--tstop", "0.2m", "--workers", "1", "--no-progress"])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    assert "duty 0.2..0.6 (3 values): 3 run(s), 3 ok" in out
+    assert png.stat().st_size > 5000
+
+
+def test_sweep_says_a_given_value_replaces_the_step(capsys):
+    code = main(["sweep", str(STEP), "--measure", "mean(v(out))", "--param", "duty=0.5",
+                 "--tstop", "0.2m", "--workers", "1", "--no-progress"])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    assert "note: duty = 0.5 replaces the netlist's .step of duty (3 values)" in out
+    assert "one run: 1 run(s)" in out
+
+
+def test_simulate_names_the_step_values_it_uses(capsys):
+    assert main(["simulate", str(STEP), "--tstop", "0.1m", "--param", "duty=0.3"]) == 0
+    out = capsys.readouterr().out
+    assert ("note: the netlist's .step (duty) is run by `pelcs sweep`; this run uses "
+            "duty = 0.3 (--param)") in out
+    assert "nominal .param values" not in out
+    # Another parameter given: the stepped one is at its nominal value, and the note says so.
+    assert main(["simulate", str(STEP), "--tstop", "0.1m", "--param", "vin=10"]) == 0
+    out = capsys.readouterr().out
+    assert "this run uses the nominal .param values" in out
+
+
+def test_grid_values_like_step_values():
+    from netlist.param_sweep import parse_sweep_param
+
+    from_step = parse(".step param a 0.2 0.8 0.2").steps[0][1]
+    assert tuple(parse_sweep_param("a=0.2:0.8:4")[1]) == from_step == (0.2, 0.4, 0.6, 0.8)

@@ -156,9 +156,11 @@ def test_monte_carlo_uniform_against_analytic_propagation(rc):
     sig = np.array([tol_r, tol_r, tol_c]) / math.sqrt(3)
     _check_propagation(table, sig, runs)
     nominal = rc_steady_state(1e3, 1e3, 100e-9)
-    np.testing.assert_allclose(table.nominal, [nominal["mean"], nominal["ripple"]], atol=2e-4)
+    assert table.nominal.shape == (1, 2)  # one grid point
+    np.testing.assert_allclose(table.nominal[0], [nominal["mean"], nominal["ripple"]],
+                               atol=2e-4)
     stats = table.statistics()
-    assert stats["ripple(v(out))"]["nominal"] == table.nominal[1]
+    assert stats["ripple(v(out))"]["nominal"] == table.nominal[0, 1]
 
 
 def _check_propagation(table: SweepTable, sig: np.ndarray, runs: int) -> None:
@@ -219,7 +221,10 @@ def test_monte_carlo_with_a_parameter_grid_uses_common_draws(rc):
     np.testing.assert_array_equal(table["R1"][:4], table["R1"][4:])
     np.testing.assert_allclose(table["mean(v(out))"][4:], 2 * table["mean(v(out))"][:4],
                                rtol=1e-9)
-    assert table.nominal is None
+    # A nominal run per grid point: the RC filter is linear in vs.
+    assert table.nominal.shape == (2, 1)
+    assert table.nominal[0, 0] == pytest.approx(1.25, abs=2e-4)
+    assert table.nominal[1, 0] == pytest.approx(2 * table.nominal[0, 0], rel=1e-9)
 
 
 def test_tolerance_matching():
@@ -272,7 +277,8 @@ def test_failed_runs_are_nan_with_a_message(rc):
     bad = ~table.ok
     assert bad.any() and table.ok.any()
     assert np.isnan(table.values[bad]).all() and np.isfinite(table.values[~bad]).all()
-    assert all("not positive" in table.messages[i] for i in np.flatnonzero(bad))
+    assert all("the opposite sign of its nominal 1000" in table.messages[i]
+               for i in np.flatnonzero(bad))
     assert any("run(s) failed" in n for n in table.notes)
 
 
@@ -281,7 +287,7 @@ def test_dataframe_and_csv(rc, tmp_path):
                       tolerances=["C1=10%"], runs=3, seed=0, workers=1)
     df = table.to_dataframe()
     assert list(df.columns) == ["d", "run", "C1", "mean(v(out))", "ripple(v(out))", "ok",
-                                "message"]
+                                "settled", "message"]
     assert df["run"].dtype.kind == "i" and df["ok"].all() and len(df) == 6
     np.testing.assert_array_equal(df["ripple(v(out))"].to_numpy(), table["ripple(v(out))"])
     path = tmp_path / "t.csv"
@@ -311,7 +317,7 @@ def test_cli_sweep_table_csv_plot_json(capsys, tmp_path):
     assert "duty 0.25..0.75 (3 values): 3 run(s), 3 ok" in out
     assert "mean(v(out))" in out and "18 V" in out and "6 V" in out
     lines = csv_path.read_text().splitlines()
-    assert lines[0] == "duty,mean(v(out)),ripple(i(L1)),ok,message" and len(lines) == 4
+    assert lines[0] == "duty,mean(v(out)),ripple(i(L1)),ok,settled,message" and len(lines) == 4
     assert float(lines[2].split(",")[1]) == pytest.approx(12.0, abs=1e-4)
     assert png.stat().st_size > 5000
     code, out, err = run_cli(capsys, "sweep", str(BUCK), "--param", "duty=0.3,0.5",
@@ -342,18 +348,270 @@ def test_cli_monte_carlo_histogram(capsys, tmp_path, rc):
     assert [row["R1"] for row in json.loads(out2)["rows"]] == [row["R1"] for row in r1["rows"]]
 
 
+M = ("--measure", "mean(v(out))")
+
+
 @pytest.mark.parametrize("argv, words", [
-    (("--measure", "mean(v(out))", "--param", "nope=1:2:3"), "nope"),
+    ((*M, "--param", "nope=1:2:3"), "nope"),
     (("--measure", "mean(v(x9))",), "unknown probe"),
     (("--measure", "avgg(v(out))",), "unknown measurement function"),
-    (("--measure", "mean(v(out))", "--tolerance", "D9=5%", "--runs", "3"), "D9"),
-    (("--measure", "mean(v(out))", "--runs", "3"), "no tolerance"),
-    (("--measure", "mean(v(out))", "--tolerance", "R1=5%"), "no runs"),
-    (("--measure", "mean(v(out))", "--plot", "x.png"), "--plot needs"),
-    (("--measure", "mean(v(out))", "-o", "x.txt"), "cannot tell the format"),
+    ((*M, "--tolerance", "D9=5%", "--runs", "3"), "D9"),
+    ((*M, "--runs", "3"), "no tolerance"),
+    ((*M, "--tolerance", "R1=5%"), "no runs"),
+    ((*M, "--plot", "x.png"), "--plot needs"),
+    ((*M, "-o", "x.txt"), "cannot tell the format"),
     ((), "nothing to measure"),
+    # Checked before any run (they were failed runs, exit 3):
+    ((*M, "--tstop", "0"), "--tstop 0: must be positive"),
+    ((*M, "--tstop", "5x"), "--tstop: '5x' is not a number"),
+    ((*M, "--theta", "abc"), "--theta: 'abc' is not a number"),
+    ((*M, "--step=-1u"), "--step -1u: must be positive"),
+    ((*M, "--step", "1"), "--step 1 s exceeds the stop time 4 ms"),
+    ((*M, "--tstop", "0.2u"), "the .tran step 500 ns exceeds the stop time 200 ns"),
+    # A size that would exhaust memory (it raised _ArrayMemoryError):
+    ((*M, "--param", "d=0.1:0.9:1e9"), "1e+09 values, at most 100000 per parameter"),
+    ((*M, "--param", "d=0.1:0.9:1e5", "--param", "vs=1:2:20"),
+     "2000000 runs (2000000 grid point(s)), at most 1000000"),
+    ((*M, "--tolerance", "R1=5%", "--tolerance", "r1=10%", "--runs", "2"),
+     "R1 is given twice: --tolerance 'R1=5%' and --tolerance 'r1=10%'"),
+    ((*M, "--tolerance", "R*=5%", "--tolerance", "r*=1%", "--runs", "2"),
+     "pattern 'R*' is given twice"),
+    (("--measure", "mean(v(out)",), "bad measurement 'mean(v(out)': unbalanced parentheses"),
+    ((*M, "--param", "vs=1:2:3", "--tolerance", "R1=5%", "--runs", "2", "--plot", "h.png",
+      "--param", "d=0.1:0.5:5"), "--plot: 15 grid points, histograms of at most 12"),
 ])
 def test_cli_input_errors(capsys, rc, argv, words):
     code, out, err = run_cli(capsys, "sweep", rc, *argv)
     assert code == 2 and words in err, err
-    assert "Traceback" not in err
+    assert "Traceback" not in err and not out
+    # One prefix for the command's own errors; a netlist's errors name the netlist.
+    assert err.startswith("pelcs sweep: error: ") or (
+        err.startswith(f"{rc}: error: unknown p")), err
+
+
+def test_cli_unwritable_output_is_found_before_the_runs(capsys, rc, tmp_path, monkeypatch):
+    import netlist.param_sweep as ps
+
+    def no_runs(*args, **kwargs):
+        raise AssertionError("the sweep ran")
+
+    monkeypatch.setattr(ps, "run_sweep", no_runs)
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    (tmp_path / "dir.csv").mkdir()
+    for option, path in (("-o", blocker / "t.csv"), ("--plot", blocker / "h.png"),
+                         ("-o", tmp_path / "dir.csv")):
+        code, out, err = run_cli(capsys, "sweep", rc, *M, "--param", "d=0.3,0.5", option,
+                                 str(path))
+        assert code == 2 and f"pelcs sweep: error: {option}: cannot write {path}" in err, err
+    # The check leaves a writable path as it was (no empty file when the sweep then fails).
+    code, out, err = run_cli(capsys, "sweep", rc, *M, "--param", "d=0.3,0.5", "-o",
+                             str(tmp_path / "t.csv"), "--tstop", "0")
+    assert code == 2 and not (tmp_path / "t.csv").exists()
+
+
+# -- Monte Carlo over a grid: per grid point ------------------------------------------------
+
+
+def _strict_json(text: str):
+    def refuse(name):
+        raise ValueError(f"not JSON: {name}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_monte_carlo_grid_statistics_are_per_grid_point(capsys, rc):
+    code, out, err = run_cli(capsys, "sweep", rc, "--param", "vs=5,10", "--tolerance",
+                             "R*=5%", "--runs", "5", "--seed", "3", "--measure",
+                             "mean(v(out))", "--measure", "ripple(v(out))", "--json",
+                             "--workers", "1")
+    assert code == 0, err
+    r = _strict_json(out)
+    rows = r["rows"]
+    assert len(rows) == 10 and all(isinstance(row["run"], int) for row in rows)
+    assert [e["params"] for e in r["statistics"]] == [{"vs": 5.0}, {"vs": 10.0}]
+    for entry in r["statistics"]:
+        vs = entry["params"]["vs"]
+        for name in ("mean(v(out))", "ripple(v(out))"):
+            mine = np.array([row[name] for row in rows if row["vs"] == vs])
+            s = entry["statistics"][name]
+            assert s["n"] == 5 and isinstance(s["n"], int)
+            assert s["mean"] == pytest.approx(mine.mean(), rel=1e-12)
+            assert s["std"] == pytest.approx(mine.std(ddof=1), rel=1e-9)
+            assert s["min"] == mine.min() and s["max"] == mine.max()
+            assert s["p95"] == pytest.approx(np.percentile(mine, 95), rel=1e-12)
+        # Each grid point's own nominal run: the filter's mean is vs/4 at d = 0.5.
+        assert entry["statistics"]["mean(v(out))"]["nominal"] == pytest.approx(vs / 4,
+                                                                               abs=2e-4)
+    # The terminal table: one block of rows per grid point, never the mixture.
+    code, out, err = run_cli(capsys, "sweep", rc, "--param", "vs=5,10", "--tolerance",
+                             "R*=5%", "--runs", "5", "--seed", "3", "--measure",
+                             "mean(v(out))", "--workers", "1")
+    lines = [ln.split() for ln in out.splitlines()]
+    assert ["vs", "measurement", "nominal", "mean", "std", "min", "p5", "p95", "max"] in lines
+    assert [ln[:3] for ln in lines if ln[1:2] == ["mean(v(out))"]] == [
+        ["5", "mean(v(out))", "1.25"], ["10", "mean(v(out))", "2.5"]]
+
+
+def test_statistics_of_a_grid_need_a_point(rc):
+    table = run_sweep(rc, ["mean(v(out))"], params={"vs": [5.0, 10.0]},
+                      tolerances=["R1=5%"], runs=3, seed=4, workers=1)
+    assert table.n_points == 2 and list(table.point_index()) == [0, 0, 0, 1, 1, 1]
+    with pytest.raises(ValueError, match="2 grid points"):
+        table.statistics()
+    for k, vs in enumerate((5.0, 10.0)):
+        assert table.point_params(k) == {"vs": vs}
+        v = table["mean(v(out))"][table["vs"] == vs]
+        assert table.statistics(k)["mean(v(out))"]["mean"] == pytest.approx(v.mean(), 1e-12)
+
+
+def test_histogram_of_a_grid_one_panel_and_colour_per_point(rc):
+    table = run_sweep(rc, ["mean(v(out))"], params={"vs": [5.0, 10.0]},
+                      tolerances=["R*=5%"], runs=6, seed=2, workers=1)
+    fig = table.histogram_figure(title="RC: Monte Carlo")
+    axes = [ax for ax in fig.axes if ax.get_visible()]
+    assert [ax.get_title(loc="left") for ax in axes] == ["vs = 5", "vs = 10"]
+    colours = [ax.patches[0].get_facecolor() for ax in axes]
+    assert colours[0] != colours[1]
+    for ax, vs in zip(axes, (5, 10), strict=True):
+        labels = [t.get_text() for t in ax.get_legend().get_texts()]
+        assert labels[0] == f"vs = {vs}: 6 runs"
+        # Units on the legend's values and the axis.
+        assert labels[1].startswith("mean ") and labels[1].endswith(" V")
+        assert labels[2].startswith("±1 std (") and labels[2].endswith("V)")
+        assert labels[3].startswith("nominal ") and labels[3].endswith(" V")
+        assert ax.get_xlabel() in ("mean(v(out)) (V)", "mean(v(out)) (mV)")
+        # The counts are whole numbers.
+        fig.canvas.draw()
+        assert all(float(t) == int(float(t)) for t in ax.get_yticks())
+
+
+def test_histogram_title_fits_the_figure(rc):
+    table = run_sweep(rc, ["ripple(v(out))"], tolerances=["C1=10%"], runs=4, seed=1,
+                      workers=1)
+    title = ("RC low-pass filter driven by a square wave (Monte Carlo reference): Monte "
+             "Carlo, 4 runs (uniform, seed 1)")
+    fig = table.histogram_figure(title=title)
+    fig.canvas.draw()
+    box = fig._suptitle.get_window_extent(fig.canvas.get_renderer())
+    assert box.x0 >= 0 and box.x1 <= fig.bbox.width
+    assert fig._suptitle.get_text().replace("\n", " ") == title
+
+
+# -- the steady state -----------------------------------------------------------------------
+
+BUCK_5MS = ROOT / "converters" / "netlists" / "buck.cir"
+
+
+def test_unsettled_run_is_noted_5ms_but_not_20ms(capsys):
+    code, out, err = run_cli(capsys, "sweep", str(BUCK_5MS), "--measure", "ripple(v(out))",
+                             "--json", "--workers", "1")
+    assert code == 0, err
+    r = _strict_json(out)
+    row = r["rows"][0]
+    assert row["ok"] and row["settled"] is False
+    assert row["message"].startswith("not settled: ripple(v(out)): the averages of v(out)")
+    note = next(n for n in r["notes"] if n.startswith("not settled"))
+    assert "1 of 1 run(s) (the run)" in note and "10 % of its ripple per period" in note
+    assert "simulate longer than 5 ms, e.g. --tstop 10m" in note
+    assert row["ripple(v(out))"] == pytest.approx(55.6e-3, abs=0.2e-3)
+    # 20 ms: settled, and the ripple is the analytic (1 - D) Vout / (8 L C fs²) = 15 mV.
+    code, out, err = run_cli(capsys, "sweep", str(BUCK_5MS), "--measure", "ripple(v(out))",
+                             "--tstop", "20m", "--json", "--workers", "1")
+    r = _strict_json(out)
+    assert r["rows"][0]["settled"] is True and r["rows"][0]["message"] == ""
+    assert not any("settled" in n for n in r["notes"])
+    assert r["rows"][0]["ripple(v(out))"] == pytest.approx(15.0e-3, rel=0.01)
+    # The terminal marks the row and prints the note.
+    code, out, err = run_cli(capsys, "sweep", str(BUCK_5MS), "--measure", "ripple(v(out))",
+                             "--workers", "1", "--no-progress")
+    assert "note: not settled: 1 of 1 run(s)" in out and "(not settled: ripple(v(out)))" in out
+
+
+def test_settling_names_the_runs_of_a_sweep(tmp_path):
+    table = run_sweep(BUCK_5MS, ["mean(v(out))"], params={"duty": [0.3, 0.6]}, tstop=5e-3,
+                      workers=1)
+    assert not table.settled.any() and table.ok.all()
+    assert any(n.startswith("not settled: 2 of 2 run(s) (duty=0.3; duty=0.6)")
+               for n in table.notes)
+    table.to_csv(tmp_path / "t.csv")
+    lines = (tmp_path / "t.csv").read_text().splitlines()
+    assert lines[0] == "duty,mean(v(out)),ok,settled,message"
+    assert all(line.split(",")[2:4] == ["1", "0"] for line in lines[1:])
+
+
+def test_the_settled_reference_runs_are_settled(rc):
+    table = run_sweep(rc, ["mean(v(out))", "ripple(v(out))", "final(v(out))"],
+                      tolerances=["R*=5%"], runs=4, seed=0, workers=1)
+    assert table.settled.all() and all(m == "" for m in table.messages)
+    assert not any("settled" in n for n in table.notes)
+
+
+# -- JSON, grid values, tolerances ----------------------------------------------------------
+
+
+def test_json_is_strict_with_nan_nominal_and_failed_rows():
+    from pelcs.commands.sweep import to_json
+
+    table = SweepTable(inputs=("run", "R1"), input_values=np.array([[0.0, 1.0], [1.0, 2.0]]),
+                       measures=("mean(v(out))",), values=np.array([[1.5], [np.nan]]),
+                       ok=np.array([True, False]), messages=["", "failed"], runs=2, seed=1,
+                       nominal=np.array([np.nan]), distribution="uniform")
+    text = json.dumps(to_json(table, "f.cir", "t", []), allow_nan=False)
+    r = _strict_json(text)
+    assert r["statistics"][0]["statistics"]["mean(v(out))"]["nominal"] is None
+    assert r["statistics"][0]["statistics"]["mean(v(out))"]["n"] == 1
+    assert r["rows"][1]["mean(v(out))"] is None and r["rows"][1]["settled"] is None
+    assert [row["run"] for row in r["rows"]] == [0, 1]
+    assert all(type(row["run"]) is int for row in r["rows"])
+
+
+def test_grid_values_print_as_typed(capsys, tmp_path):
+    name, values = parse_sweep_param("duty=0.2:0.8:4")
+    assert list(values) == [0.2, 0.4, 0.6, 0.8]
+    assert [repr(float(v)) for v in parse_sweep_param("x=0:0.3:4")[1]] == [
+        "0.0", "0.1", "0.2", "0.3"]
+    with pytest.raises(NetlistError, match="at most 100000"):
+        parse_sweep_param("duty=0.1:0.9:1e9")
+
+
+def test_tolerance_messages():
+    only_r1 = parse_string("t\nV1 a 0 DC 1\nR1 a 0 1k\nC1 a 0 1u\n.tran 1u 1m\n.end\n")
+    with pytest.raises(NetlistError) as exc:
+        match_tolerances(only_r1, [parse_tolerance("R*=5%"), parse_tolerance("R1=10%")])
+    assert exc.value.message == ("tolerance 'R*=5%' varies nothing: it matches only R1 "
+                                 "(given as 'R1=10%')")
+    # With another R the pattern varies it: accepted, R1 keeps its exact tolerance.
+    rc_circuit = parse_string(RC_TEXT)
+    m = match_tolerances(rc_circuit, [parse_tolerance("R*=5%"), parse_tolerance("R1=10%")])
+    assert [(n, t.text) for n, t in m] == [("R1", "R1=10%"), ("R2", "R*=5%")]
+    with pytest.raises(NetlistError, match="R1 is given twice"):
+        match_tolerances(rc_circuit, [parse_tolerance("R1=5%"), parse_tolerance("r1=10%")])
+
+
+NEG_TEXT = """RC filter with a negative resistor in series (900 ohm in all)
+Vs in 0 PULSE(0 10 0 1n 1n 50u 100u)
+R1 in mid 1k
+Rneg mid out -100
+R2 out 0 1k
+C1 out 0 100n
+.tran 0.5u 2m 0 0.5u UIC
+.end
+"""
+
+
+def test_negative_resistor_keeps_its_sign():
+    table = run_sweep(NEG_TEXT, ["mean(v(out))"], tolerances=["Rneg=5%"], runs=6, seed=1,
+                      workers=1)
+    assert table.ok.all(), table.messages
+    assert ((table["Rneg"] < -95) & (table["Rneg"] > -105)).all()
+    # Mean of the Thevenin source: 0.5 * 10 V * R2 / (R1 + Rneg + R2).
+    want = 5.0 * 1e3 / (1e3 + table["Rneg"] + 1e3)
+    np.testing.assert_allclose(table["mean(v(out))"], want, atol=2e-3)
+    wide = run_sweep(NEG_TEXT, ["mean(v(out))"], tolerances=["Rneg=150%"], runs=8, seed=1,
+                     workers=1)
+    bad = np.flatnonzero(~wide.ok)
+    # The failed runs' rows show the value drawn (it was NaN).
+    assert bad.size and all(wide["Rneg"][i] > 0 for i in bad)
+    assert (wide["Rneg"][wide.ok] < 0).all()
+    assert all("the opposite sign of its nominal -100" in wide.messages[i] for i in bad)

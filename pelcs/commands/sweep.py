@@ -22,10 +22,25 @@ reproducible (without it a seed is chosen and printed).
 The runs go to local processes, or to the workers of a Dask scheduler with ``--scheduler
 ADDRESS`` (``local`` starts a Dask cluster on this machine); the table is the same.
 
-Outputs: a table on the terminal (Monte Carlo: the statistics of each measurement),
-``-o OUT.csv`` (one row per run: parameters, ``run``, the drawn values, the measurements,
-``ok``, ``message``; SI units), ``--plot`` (measurements against the first swept parameter,
-or histograms for a Monte Carlo run), ``--json`` (the table and statistics as JSON).
+With a parameter grid, every grid point also has a nominal run, and the statistics and
+histograms are per grid point.
+
+Every run is checked for a settled window: the probe of each measurement is averaged over each
+period of the window (the last two periods when the window has one; four quarters without a
+period), and the spread of these averages must stay within 0.1 % of the probe's RMS for
+``mean``, ``rms``, ``final``, within 10 % of its ripple per period for ``ripple``, ``min``,
+``max``. A run outside is flagged (``settled`` 0 in the CSV, a message, a note naming the runs
+and suggesting a longer ``--tstop``); its measurements stay in the table.
+
+Outputs: a table on the terminal (Monte Carlo: the statistics of each measurement per grid
+point), ``-o OUT.csv`` (one row per run: parameters, ``run``, the drawn values, the
+measurements, ``ok``, ``settled``, ``message``; SI units), ``--plot`` (measurements against the
+first swept parameter, or histograms for a Monte Carlo run, one panel per grid point and
+measurement), ``--json`` (the table and statistics as strict JSON: null for NaN).
+
+Limits: 100000 values per swept parameter (as ``.step``), 1000000 runs per sweep, histograms
+of at most 12 grid points. The options, the times and the output files are checked before any
+run.
 
 Exit status: 0 success (also when some runs failed: NaN, counted in the notes); 2 input
 errors; 3 every run failed.
@@ -35,9 +50,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from pathlib import Path
 
 import numpy as np
+
+from netlist.errors import NetlistError
 
 from .bifurcation import add_scheduler_option, check_output, scheduler_errors
 from .orbit import EXIT_FAILED, positive_int, usage_error, write_outputs
@@ -53,7 +71,11 @@ def register(subparsers) -> None:
         help="parameter sweeps and Monte Carlo runs, measured over the steady state",
         description="Simulate a netlist over a grid of .param values and/or with element "
         "values drawn within tolerances; measure mean, rms, ripple, min, max or the final "
-        "value of probes over the steady-state window; write a table.",
+        "value of probes over the steady-state window; write a table. Monte Carlo "
+        "statistics and histograms are per grid point. A run is flagged 'not settled' when "
+        "the averages of a measured probe over the periods of the window spread by more than "
+        "0.1 % of its RMS (mean, rms, final) or 10 % of its ripple per period (ripple, min, "
+        "max): simulate longer (--tstop).",
         epilog="examples: pelcs sweep buck.cir --param duty=0.2:0.8:7 --measure 'mean(v(out))'"
         " --measure 'ripple(i(L1))' -o duty.csv;  pelcs sweep buck.cir --tolerance 'C*=10%' "
         "--tolerance R1=5% --runs 200 --seed 1 --measure 'ripple(v(out))' --plot mc.png",
@@ -72,7 +94,9 @@ def register(subparsers) -> None:
     p.add_argument("--seed", metavar="S", help="random seed of the Monte Carlo draws")
     p.add_argument("--distribution", choices=("uniform", "gaussian"), default="uniform",
                    help="uniform within ±tol (default), or gaussian with σ = tol/3")
-    p.add_argument("--tstop", metavar="T", help="stop time (default: .tran TSTOP)")
+    p.add_argument("--tstop", metavar="T",
+                   help="stop time (default: .tran TSTOP); make it long enough for the "
+                   "measurements to settle (runs that have not are flagged)")
     p.add_argument("--step", metavar="H", help="time step (default: the .tran step)")
     p.add_argument("--theta", metavar="TH",
                    help="Moreau θ in [0.5, 1] (default 0.5, or 1 where θ < 1 is found "
@@ -91,7 +115,21 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    try:
+        return _run(args)
+    except NetlistError as exc:
+        # The shared option parsers (netlist.sweep, netlist.measure, simulate's numbers)
+        # name another command or the tool only: every error of this command starts
+        # "pelcs sweep: error:".
+        if exc.file in ("pelcs", "pelcs simulate"):
+            exc.file = "pelcs sweep"
+        raise
+
+
+def _run(args: argparse.Namespace) -> int:
+    from lcs.analysis.tables import MAX_HISTOGRAM_POINTS
     from netlist.param_sweep import parse_sweep_param, run_sweep
+    from netlist.parser import parse_file
     from netlist.sweep import parse_value
 
     from .simulate import _number
@@ -111,6 +149,10 @@ def run(args: argparse.Namespace) -> int:
     theta = parse_value(args.theta, "--theta") if args.theta is not None else None
     tstop = _number("--tstop", args.tstop, ("", "s"))
     step = _number("--step", args.step, ("", "s"))
+    for option, value, example in (("--tstop", tstop, "20m"), ("--step", step, "0.1u")):
+        if value is not None and not value > 0:
+            raise usage_error("sweep", f"{option} {getattr(args, option[2:])}: must be "
+                              "positive", f"e.g. {option} {example}")
     period: float | str | None = args.period
     if args.period is not None:
         try:
@@ -119,28 +161,60 @@ def run(args: argparse.Namespace) -> int:
             period = args.period
     out = check_output("sweep", "-o", args.output, (".csv",))
     plot = check_output("sweep", "--plot", args.plot, (".png", ".svg", ".pdf"))
-    swept = [k for k, v in params.items() if np.ndim(v) > 0]
-    if plot is not None and not swept and not runs:
-        raise usage_error("sweep", "--plot needs a swept --param or a Monte Carlo run")
+    # The netlist's .step lines are swept parameters too: read them before judging --plot.
+    circuit = parse_file(args.file, params={k: float(np.ravel(v)[0]) for k, v in
+                                            params.items()} or None)
+    given = {k.lower() for k in params}
+    sizes = [np.size(v) for v in params.values() if np.ndim(v) > 0]
+    sizes += [len(vals) for name, vals in circuit.steps if name.lower() not in given]
+    if plot is not None and not sizes and not runs:
+        raise usage_error("sweep", "--plot needs a swept parameter or a Monte Carlo run",
+                          "give --param NAME=START:STOP:N (or a .step in the netlist), or "
+                          "--tolerance with --runs")
+    points = math.prod(sizes)
+    if plot is not None and runs and points > MAX_HISTOGRAM_POINTS:
+        raise usage_error("sweep", f"--plot: {points} grid points, histograms of at most "
+                          f"{MAX_HISTOGRAM_POINTS}",
+                          "sweep fewer values for the plot, or write the runs with -o")
+    # Before the runs: an output that cannot be written is found now, not after them.
+    for option, path in (("-o", out), ("--plot", plot)):
+        if path is not None:
+            _check_writable(option, path)
     with scheduler_errors("sweep"):
         table = run_sweep(
             args.file, args.measure, params=params, tolerances=args.tolerance, runs=runs,
             seed=seed, distribution=args.distribution, tstop=tstop, step=step, theta=theta,
             period=period, workers=workers, scheduler=args.scheduler,
             progress=not args.no_progress)
-    from netlist.parser import parse_file
-
-    title = parse_file(args.file, params={k: float(np.ravel(v)[0]) for k, v in params.items()}
-                       or None).title
+    title = circuit.title
     written = write_outputs("sweep", (
         (out, table.to_csv),
         (plot, lambda path: table.plot(path, title=_plot_title(table, title, args.file))),
     ))
     if args.json:
-        print(json.dumps(to_json(table, args.file, title, written), indent=1))
+        print(json.dumps(to_json(table, args.file, title, written), indent=1,
+                         allow_nan=False))
     else:
         print(summary(table, args.file, title, written))
     return 0 if table.ok.any() else EXIT_FAILED
+
+
+def _check_writable(option: str, path: Path) -> None:
+    """Open ``path`` for writing without changing it (a new file is removed again)."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if path.is_dir():
+            raise IsADirectoryError(21, "it is a directory")
+        if path.exists():
+            with open(path, "r+b"):
+                pass
+        else:
+            with open(path, "xb"):
+                pass
+            path.unlink()
+    except OSError as exc:
+        raise usage_error("sweep", f"{option}: cannot write {path}: {exc.strerror or exc}",
+                          "choose a writable file") from None
 
 
 def _plot_title(table, title: str, file: str) -> str:
@@ -200,40 +274,73 @@ def _table_lines(table) -> list[str]:
         line = "".join(s.rjust(w) for s, w in zip(cells, width, strict=True))
         if not table.ok[i]:
             line += f"   failed: {table.messages[i]}"
+        elif not table.settled[i]:
+            line += f"   (not settled: {', '.join(table.unsettled[i])})"
         out.append(line)
     return out
 
 
 def _stats_lines(table) -> list[str]:
-    stats = table.statistics()
+    """The statistics of every measurement, one block of rows per grid point."""
     head = ["measurement", "nominal", "mean", "std", "min", "p5", "p95", "max"]
+    keys = ["", "nominal", "mean", "std", "min", "p5", "p95", "max"]
+    pre = list(table.swept)
+    pre_w = [max(10, len(c) + 2) for c in pre]
     width = [max(14, *(len(m) + 2 for m in table.measures))] + [13] * 7
-    out = ["".join(h.rjust(w) if k else h.ljust(w) for k, (h, w) in enumerate(
-        zip(head, width, strict=True)))]
-    for name in table.measures:
-        s, unit = stats[name], table.units.get(name, "")
-        cells = [name] + [_fmt(s[k], unit) if k in s else "-" for k in head[1:]]
-        out.append("".join(c.rjust(w) if k else c.ljust(w)
-                           for k, (c, w) in enumerate(zip(cells, width, strict=True))))
+
+    def line(first: list[str], cells: list[str]) -> str:
+        return "".join(c.rjust(w) for c, w in zip(first, pre_w, strict=True)) + \
+            ("  " if pre else "") + "".join(
+                c.rjust(w) if k else c.ljust(w)
+                for k, (c, w) in enumerate(zip(cells, width, strict=True)))
+
+    out = [line(pre, head)]
+    for entry in table.point_statistics():
+        where = [f"{entry['params'][n]:.6g}" for n in pre]
+        for name in table.measures:
+            s, unit = entry["statistics"][name], table.units.get(name, "")
+            cells = [name] + [_fmt(s[k], unit) if k in s else "-" for k in keys[1:]]
+            out.append(line(where, cells))
     return out
 
 
-def to_json(table, file: str, title: str, written: list[str]) -> dict:
-    def num(v):
-        v = float(v)
-        return v if np.isfinite(v) else None
+def _json_ready(value):
+    """NaN and infinities as null (strict JSON), integral counts as int."""
+    if isinstance(value, dict):
+        return {k: _json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_ready(v) for v in value]
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value) if np.isfinite(value) else None
+    return value
 
-    return {
+
+def to_json(table, file: str, title: str, written: list[str]) -> dict:
+    """The results as JSON-ready data (strict: no NaN; ``run`` and ``n`` are integers).
+
+    ``statistics`` (Monte Carlo) is a list with one entry per grid point:
+    ``{"params": {name: value}, "statistics": {measure: {n, nominal, mean, ...}}}``.
+    """
+    rows = []
+    for i in range(len(table)):
+        row = {n: (int(v) if n == "run" else v)
+               for n, v in zip(table.inputs, table.input_values[i], strict=True)}
+        row.update(zip(table.measures, table.values[i], strict=True))
+        row.update(ok=bool(table.ok[i]),
+                   settled=bool(table.settled[i]) if table.ok[i] else None,
+                   message=table.messages[i])
+        rows.append(row)
+    return _json_ready({
         "file": file, "title": title, "inputs": list(table.inputs),
         "measures": list(table.measures), "swept": list(table.swept),
         "units": table.units, "runs": table.runs, "seed": table.seed,
         "distribution": table.distribution, "tolerances": table.tolerances,
-        "rows": [{**{n: num(v) for n, v in zip(table.inputs, table.input_values[i],
-                                                strict=True)},
-                  **{n: num(v) for n, v in zip(table.measures, table.values[i], strict=True)},
-                  "ok": bool(table.ok[i]), "message": table.messages[i]}
-                 for i in range(len(table))],
-        "statistics": table.statistics() if table.runs else None,
+        "rows": rows,
+        "statistics": table.point_statistics() if table.runs else None,
         "notes": table.notes, "wall_time": table.wall_time, "engine": table.engine,
         "written": written,
-    }
+    })
