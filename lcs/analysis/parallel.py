@@ -18,7 +18,11 @@ is the ``scheduler``:
 an address (``"tcp://10.0.0.5:8786"``, ``"10.0.0.5:8786"``) or a ``distributed.Client`` -- the
     workers of that Dask scheduler. They need pelcs installed (same version); a task's
     ``report`` goes to the scheduler as a worker event (``Worker.log_event``) and the client
-    subscribes to it, so the bar follows the whole cluster.
+    subscribes to it, so the bar follows the whole cluster. An address is TCP only (TLS,
+    WebSocket, UCX need settings: pass a ``distributed.Client`` connected with them), and
+    is checked before a Client is made: a closed port fails at once, and an open port must
+    answer Dask's handshake as a scheduler within :data:`HANDSHAKE_TIMEOUT` (a dashboard or
+    web server never would). Ctrl-C cancels the tasks on the cluster.
 
 The results do not depend on the engine: a task is a pure function of its arguments (the
 analysis cores never let the split of the work into tasks change a number), so the pool, a
@@ -32,6 +36,9 @@ functions and dataclasses. Dask is imported only when a Dask engine is asked for
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
+import dataclasses
 import logging
 import multiprocessing as mp
 import os
@@ -39,6 +46,7 @@ import queue as queue_mod
 import socket
 import sys
 import threading
+import time
 import uuid
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -50,14 +58,37 @@ __all__ = ["LOCAL_DEFAULT", "SchedulerError", "TaskEngine", "default_workers", "
 # docstring and the README for the measurement behind the choice).
 LOCAL_DEFAULT = "processes"
 
-# Seconds to wait for a Dask scheduler to answer, and for its first worker.
+# Seconds to wait for a Dask scheduler's TCP port to accept, and for its first worker.
 CONNECT_TIMEOUT = 10.0
+
+# Seconds for whatever listens at a scheduler address to answer Dask's handshake. A scheduler
+# answers in milliseconds; anything else there (its dashboard, a web server) never does, and
+# Dask's own connect waits for that answer without a time limit.
+HANDSHAKE_TIMEOUT = 5.0
+
+# Address schemes Dask knows but a scheduler address string cannot use here: they need
+# settings (TLS certificates, UCX) that only a distributed.Client made by the caller carries.
+_OTHER_SCHEMES = {"tls": "TLS", "ws": "WebSocket", "wss": "WebSocket", "ucx": "UCX",
+                  "inproc": "in-process"}
 
 _QUEUE = None  # set in each pool worker by _init
 
 
 class SchedulerError(RuntimeError):
-    """A Dask scheduler cannot be reached, has no workers, or Dask is not installed."""
+    """A Dask scheduler cannot be reached, has no workers, or Dask is not installed.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong (one line).
+    hint : str
+        What to do, where it is not the usual (start a scheduler and workers); empty for
+        the usual.
+    """
+
+    def __init__(self, message: str, hint: str = ""):
+        super().__init__(message)
+        self.hint = hint
 
 
 def default_workers() -> int:
@@ -79,15 +110,61 @@ def progress_bar(show: bool, total: int, desc: str, unit: str):
     return tqdm(total=total, desc=desc, unit=unit, leave=False, dynamic_ncols=True)
 
 
+class _Progress:
+    """A bar fed whole units: reports (fractions of a step, Dask events) add up here, and
+    the bar moves by the whole units reached (tqdm shows a float count as ``12.0/60``).
+    ``bar`` None: nothing is shown, the reports are only counted."""
+
+    def __init__(self, bar, total: int):
+        self.bar = bar
+        self.total = int(total)
+        self.done = 0.0
+        self.shown = 0
+
+    def add(self, n: float = 1) -> None:
+        self.done += float(n)
+        # The allowance keeps a sum of fractions such as ten reports of 0.1 one whole unit.
+        self._show(min(int(self.done + 1e-9), self.total))
+
+    def finish(self) -> None:
+        """All tasks finished: the bar shows the total (the reports may fall short of it: a
+        continuation that stopped early, Dask events still on their way)."""
+        self._show(self.total)
+        refresh = getattr(self.bar, "refresh", None)
+        if callable(refresh):
+            refresh()  # drawn now: tqdm skips the draw of an update soon after the last one
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+    def _show(self, whole: int) -> None:
+        if whole > self.shown and self.bar is not None:
+            self.bar.update(whole - self.shown)
+        self.shown = max(self.shown, whole)
+
+
 def portable(obj: Any) -> Any:
-    """``obj.portable()`` if it has one, else ``obj``.
+    """``obj.portable()`` if it has one (with its netlist path made absolute), else ``obj``.
 
     A map factory that reads files (a netlist path) provides ``portable()``: a copy that
     carries the file's text, so that workers on other machines do not need the file, and
     that long-lived workers do not reuse maps cached for an older version of the file.
+    The workers still read the netlist's ``.include``/``.lib`` files, relative to the
+    netlist's directory: a relative ``path`` field of such a factory (a dataclass) is made
+    absolute here, against this process's working directory, because a Dask worker has a
+    working directory of its own. (The included files must then be at that absolute path
+    on the workers' machines: a shared or an identical file system.)
     """
     fn = getattr(obj, "portable", None)
-    return fn() if callable(fn) else obj
+    if not callable(fn):
+        return obj
+    out = fn()
+    path = getattr(out, "path", None)
+    if (dataclasses.is_dataclass(out) and isinstance(path, str) and path
+            and not path.startswith("<") and not os.path.isabs(path)):
+        out = dataclasses.replace(out, path=os.path.abspath(path))
+    return out
 
 
 # -- process pool ---------------------------------------------------------------------------
@@ -116,12 +193,10 @@ def _call(item):
     return fn(task, _report_to_queue)
 
 
-def _run_here(fn, tasks, bar) -> list:
-    def report(k: float = 1) -> None:
-        if bar is not None:
-            bar.update(k)
-
-    return [fn(t, report) for t in tasks]
+def _run_here(fn, tasks, progress: _Progress) -> list:
+    results = [fn(t, progress.add) for t in tasks]
+    progress.finish()
+    return results
 
 
 def _run_pool(fn, tasks, n: int, start_method: str | None, progress: bool, total: int,
@@ -132,25 +207,18 @@ def _run_pool(fn, tasks, n: int, start_method: str | None, progress: bool, total
     q = ctx.Queue()
     with ctx.Pool(n, initializer=_init, initargs=(q,)) as pool:
         # The bar is created after the workers exist: its monitor thread must not be forked.
-        bar = progress_bar(progress, total, desc, unit)
+        bar = _Progress(progress_bar(progress, total, desc, unit), total)
         try:
             async_result = pool.map_async(_call, [(fn, t) for t in tasks], chunksize=1)
             while not async_result.ready():
                 try:
-                    k = q.get(timeout=0.1)
+                    bar.add(q.get(timeout=0.1))
                 except queue_mod.Empty:
                     continue
-                if bar is not None:
-                    bar.update(k)
             results = async_result.get()
-            while bar is not None:
-                try:
-                    bar.update(q.get_nowait())
-                except queue_mod.Empty:
-                    break
+            bar.finish()
         finally:
-            if bar is not None:
-                bar.close()
+            bar.close()
     return results
 
 
@@ -171,9 +239,40 @@ def _dask_call(fn, task, topic: str | None):
 
     def report(n: float = 1) -> None:
         if worker is not None and n:
-            worker.log_event(topic, float(n))
+            worker.log_event(topic, float(n))  # the client adds up whole units (_Progress)
 
     return fn(task, report)
+
+
+def _drain(events: queue_mod.SimpleQueue, bar: _Progress) -> None:
+    while True:
+        try:
+            bar.add(events.get_nowait())
+        except queue_mod.Empty:
+            return
+
+
+def _wait_futures(futures: list, tick: Callable[[], None], interval: float = 0.02) -> None:
+    """Return when every future is finished, or one is not (an error, a cancel).
+
+    Polled from this thread instead of blocking in ``client.gather``: a Ctrl-C in the
+    middle of a gather leaves its coroutine on the client's event loop, and closing the
+    client then logs one "Task exception was never retrieved ... AllExit" traceback per
+    task. ``tick()`` runs between polls (it moves the progress bar).
+    """
+    pending = list(futures)
+    while pending:
+        still = []
+        for f in pending:
+            status = f.status
+            if status == "pending":
+                still.append(f)
+            elif status != "finished":
+                return  # an error or a cancel: gather raises it at once
+        pending = still
+        tick()
+        if pending:
+            time.sleep(interval)
 
 
 def _import_distributed():
@@ -226,45 +325,49 @@ class TaskEngine:
             return self._run_dask(fn, tasks, progress, total, desc, unit)
         n = min(self.workers, len(tasks)) if tasks else 1
         if self.kind == "serial" or n <= 1:
-            bar = progress_bar(progress, total, desc, unit)
+            bar = _Progress(progress_bar(progress, total, desc, unit), total)
             try:
                 return _run_here(fn, tasks, bar)
             finally:
-                if bar is not None:
-                    bar.close()
+                bar.close()
         return _run_pool(fn, tasks, n, self._start_method, progress, total, desc, unit)
 
     def _run_dask(self, fn, tasks, progress, total, desc, unit) -> list:
         if not tasks:
             return []
         client = self._client
-        topic = f"pelcs-progress-{uuid.uuid4().hex}"
-        bar = progress_bar(progress, total, desc, unit)
-        lock = threading.Lock()
-        open_ = [bar is not None]
-
-        def on_event(event) -> None:
-            _, n = event
-            with lock:
-                if open_[0]:
-                    bar.update(n)
-
-        if bar is not None:
-            client.subscribe_topic(topic, on_event)
+        shown = progress_bar(progress, total, desc, unit)
+        bar = _Progress(shown, total)
+        topic = f"pelcs-progress-{uuid.uuid4().hex}" if shown is not None else None
+        # Worker events arrive on the client's event-loop thread: queued there, and the bar
+        # moved only by this thread.
+        events: queue_mod.SimpleQueue = queue_mod.SimpleQueue()
+        if topic is not None:
+            client.subscribe_topic(topic, lambda event: events.put(event[1]))
+        futures: list = []
         try:
             # Keys named after the sweep: the dashboard's progress bars group them so.
             token = uuid.uuid4().hex
             name = "".join(c if c.isalnum() else "_" for c in (desc or "tasks"))
-            futures = [client.submit(_dask_call, fn, t, topic if bar is not None else None,
-                                     key=f"pelcs_{name}-{token}-{i}")
+            futures = [client.submit(_dask_call, fn, t, topic, key=f"pelcs_{name}-{token}-{i}")
                        for i, t in enumerate(tasks)]
+            _wait_futures(futures, lambda: _drain(events, bar))
             results = client.gather(futures)
+            _drain(events, bar)
+            bar.finish()
+        except BaseException:
+            # Ctrl-C, or an error in a task: the cluster drops the other tasks. Nothing of
+            # this run waits on the client's event loop (_wait_futures), so closing the
+            # client afterwards is quiet.
+            if futures:
+                with contextlib.suppress(Exception):
+                    client.cancel(futures)
+            raise
         finally:
-            if bar is not None:
-                client.unsubscribe_topic(topic)
-                with lock:
-                    open_[0] = False
-                    bar.close()
+            if topic is not None:
+                with contextlib.suppress(Exception):
+                    client.unsubscribe_topic(topic)
+            bar.close()
         return list(results)
 
     def close(self) -> None:
@@ -299,46 +402,167 @@ def _dask_engine(scheduler, workers: int | None) -> TaskEngine:
         client = distributed.Client(cluster, set_as_default=False)
         return TaskEngine("dask", n, f"Dask local cluster ({n} worker processes)",
                           client=client, cluster=cluster)
-    address = str(scheduler).strip()
-    if not address:
-        raise SchedulerError("empty scheduler address")
+    address = _check_address(str(scheduler))
     _probe(address)
+    # Made only now that a scheduler answered, and closed at once if it fails: a Client
+    # left half-made is closed by its __del__, which waits 20 s on a loop that is gone and
+    # then prints a traceback ("Exception ignored in Client.__del__").
+    client = distributed.Client.__new__(distributed.Client)
     try:
-        client = distributed.Client(address, timeout=CONNECT_TIMEOUT, set_as_default=False)
+        client.__init__(address, timeout=CONNECT_TIMEOUT, set_as_default=False)
     except (OSError, TimeoutError, ValueError) as exc:
+        _close_quietly(client)
         raise SchedulerError(f"cannot connect to the Dask scheduler at {address}: {exc}"
                              ) from None
+    except BaseException:
+        _close_quietly(client)
+        raise
     try:
         client.wait_for_workers(1, timeout=CONNECT_TIMEOUT)
     except (OSError, TimeoutError) as exc:
-        client.close()
+        _close_quietly(client)
         raise SchedulerError(f"the Dask scheduler at {address} has no workers (waited "
                              f"{CONNECT_TIMEOUT:g} s): start some with 'dask worker "
                              f"{address}'") from exc
+    except BaseException:
+        _close_quietly(client)
+        raise
     nthreads = client.nthreads()
     slots = sum(nthreads.values())
     return TaskEngine("dask", max(1, slots), f"Dask scheduler {client.scheduler.address} "
                       f"({len(nthreads)} workers, {slots} threads)", client=client)
 
 
-def _probe(address: str) -> None:
-    """Fail fast on a malformed address or a closed TCP port (the Dask client would retry
-    until its timeout, and leave a half-made client behind)."""
-    from distributed.comm.addressing import parse_address, parse_host_port
+def _close_quietly(client) -> None:
+    with contextlib.suppress(Exception):
+        client.close(timeout=CONNECT_TIMEOUT)
+
+
+def _check_address(address: str) -> str:
+    """``tcp://HOST:PORT`` of a scheduler address given as that or as ``HOST:PORT`` (Dask's
+    default scheme is TCP); any other scheme, or no port, is a :class:`SchedulerError`."""
+    address = address.strip()
+    example = "expected tcp://HOST:PORT, e.g. tcp://10.0.0.5:8786"
+    hint = "give the address that 'dask scheduler' prints as 'Scheduler at: tcp://HOST:PORT'"
+    if not address:
+        raise SchedulerError(f"empty scheduler address ({example})", hint)
+    scheme, sep, location = address.partition("://")
+    if not sep:
+        scheme, location = "tcp", address
+    scheme = scheme.lower()
+    if scheme in ("http", "https"):
+        raise SchedulerError(
+            f"{address} is a web address (a dashboard?), not a Dask scheduler's address",
+            "give the scheduler's tcp:// address: 'dask scheduler' prints it as 'Scheduler "
+            "at: tcp://HOST:8786' (the dashboard is the web page on port 8787)")
+    if scheme in _OTHER_SCHEMES:
+        raise SchedulerError(
+            f"{address}: {_OTHER_SCHEMES[scheme]} ({scheme}://) scheduler addresses are not "
+            "supported here, only tcp://HOST:PORT",
+            "in Python, connect a distributed.Client yourself (with the settings the "
+            "scheduler needs, e.g. security=) and pass the Client as scheduler= "
+            "(e.g. bifurcation_diagram(..., scheduler=client)); or give the scheduler a "
+            "tcp:// address")
+    if scheme != "tcp":
+        raise SchedulerError(f"bad scheduler address {address!r}: unknown scheme "
+                             f"{scheme}:// ({example})", hint)
+    from distributed.comm.addressing import parse_host_port
 
     try:
-        protocol, location = parse_address(address)
-        if protocol not in ("tcp", "tls"):
-            return
         host, port = parse_host_port(location)
     except ValueError as exc:
-        raise SchedulerError(f"bad scheduler address {address!r}: {exc} (expected "
-                             "tcp://HOST:PORT, e.g. tcp://10.0.0.5:8786)") from None
+        raise SchedulerError(f"bad scheduler address {address!r}: {exc} ({example})",
+                             hint) from None
+    if not host or not 0 < port < 65536:
+        raise SchedulerError(f"bad scheduler address {address!r}: "
+                             f"{'no host' if not host else f'port {port}'} ({example})", hint)
+    return f"tcp://{location}"
+
+
+def _probe(address: str) -> None:
+    """Fail fast, with a :class:`SchedulerError`, unless a Dask scheduler answers at
+    ``address`` (``tcp://HOST:PORT``).
+
+    A closed port is found in milliseconds (the Dask client would retry until its
+    timeout); an open one must answer Dask's handshake and say it is a scheduler within
+    :data:`HANDSHAKE_TIMEOUT` (Dask's connect would wait for a dashboard's or a web
+    server's answer forever).
+    """
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    host, port = parse_host_port(parse_address(address)[1])
     try:
-        socket.create_connection((host, int(port)), timeout=CONNECT_TIMEOUT).close()
+        socket.create_connection((host, port), timeout=CONNECT_TIMEOUT).close()
     except OSError as exc:
         raise SchedulerError(f"cannot connect to the Dask scheduler at {address}: "
                              f"{exc.strerror or exc}") from None
+    not_dask = (f"{address} is not a Dask scheduler", "is it a dashboard or another "
+                "service? Give the scheduler's address: 'dask scheduler' prints it as "
+                "'Scheduler at: tcp://HOST:PORT' (port 8786 by default)")
+    try:
+        identity = _ask_identity(address, HANDSHAKE_TIMEOUT)
+    except TimeoutError:
+        raise SchedulerError(f"{not_dask[0]} (no answer to Dask's handshake within "
+                             f"{HANDSHAKE_TIMEOUT:g} s)", not_dask[1]) from None
+    except OSError:  # Dask's CommClosedError among others
+        raise SchedulerError(f"{not_dask[0]} (it closed the connection at Dask's "
+                             "handshake)", not_dask[1]) from None
+    except Exception as exc:
+        raise SchedulerError(f"{not_dask[0]} (its answer to Dask's handshake is not Dask's:"
+                             f" {type(exc).__name__})", not_dask[1]) from None
+    kind = identity.get("type") if isinstance(identity, dict) else None
+    if not isinstance(kind, str):
+        raise SchedulerError(f"{not_dask[0]} (no identity after Dask's handshake)",
+                             not_dask[1])
+    if "scheduler" not in kind.lower():
+        raise SchedulerError(f"{address} is a Dask {kind}, not a scheduler",
+                             "give the scheduler's address: a worker logs it as "
+                             "'Registered to: tcp://HOST:PORT'")
+
+
+def _ask_identity(address: str, timeout: float) -> dict:
+    """The ``identity`` of the Dask server at ``address``, within ``timeout`` seconds.
+
+    Raises TimeoutError without an answer in time, else whatever the connection raised.
+    Runs its own event loop in a thread of its own: the caller's thread may have a loop
+    running already (a notebook).
+    """
+    from distributed.comm.addressing import parse_address
+    from distributed.comm.registry import get_backend
+
+    scheme, location = parse_address(address)
+
+    async def ask() -> dict:
+        comm = await get_backend(scheme).get_connector().connect(location, deserialize=True)
+        try:
+            # Dask's handshake, then one request, as distributed.comm.connect and rpc do
+            # (connect itself would wait for the handshake's answer without a limit).
+            await comm.write(comm.handshake_info())
+            await comm.read()
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    outcome: dict[str, Any] = {}
+
+    def run() -> None:
+        try:
+            outcome["identity"] = asyncio.run(asyncio.wait_for(ask(), timeout))
+        except BaseException as exc:  # handed to the caller's thread
+            outcome["error"] = exc
+
+    thread = threading.Thread(target=run, name="pelcs-dask-probe", daemon=True)
+    thread.start()
+    thread.join(timeout + 1.0)  # the loop's own wait_for ends it before this
+    if thread.is_alive():  # pragma: no cover - a connect stuck below asyncio
+        raise TimeoutError
+    if "error" in outcome:
+        exc = outcome["error"]
+        if isinstance(exc, asyncio.TimeoutError):
+            raise TimeoutError from None
+        raise exc
+    return outcome["identity"]
 
 
 def task_engine(scheduler=None, workers: int | None = None, *,
@@ -359,7 +583,8 @@ def task_engine(scheduler=None, workers: int | None = None, *,
     Raises
     ------
     SchedulerError
-        The scheduler cannot be reached or has no workers.
+        The address is not ``tcp://HOST:PORT`` (or ``HOST:PORT``), nothing listens there,
+        what listens is not a Dask scheduler, or the scheduler has no workers.
     """
     if scheduler is None:
         scheduler = LOCAL_DEFAULT

@@ -80,8 +80,10 @@ def register(subparsers) -> None:
 def add_scheduler_option(p: argparse.ArgumentParser) -> None:
     """``--scheduler ADDRESS``: run the tasks on a Dask cluster."""
     p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="run the tasks on the workers of a Dask scheduler (tcp://HOST:8786), "
-                   "or 'local' for a Dask cluster on this machine; default: local processes")
+                   help="run the tasks on the workers of a Dask scheduler (tcp://HOST:8786 "
+                   "or HOST:8786; TLS and other schemes: through the Python API with a "
+                   "distributed.Client), or 'local' for a Dask cluster on this machine; "
+                   "default: local processes")
 
 
 @contextlib.contextmanager
@@ -93,9 +95,9 @@ def scheduler_errors(command: str):
         yield
     except SchedulerError as exc:
         raise usage_error(command, f"--scheduler: {exc}",
-                          "start a scheduler with 'dask scheduler' and workers with "
-                          "'dask worker ADDRESS' (same pelcs version), or drop --scheduler to "
-                          "run on this machine") from None
+                          exc.hint or "start a scheduler with 'dask scheduler' and workers "
+                          "with 'dask worker ADDRESS' (same pelcs version), or drop "
+                          "--scheduler to run on this machine") from None
 
 
 def check_output(command: str, option: str, path: str | None, suffixes: tuple[str, ...]
