@@ -427,7 +427,9 @@ def _read(source) -> tuple[str, str]:
         raise NetlistError(Diagnostic(message=f"cannot read the netlist: {exc.strerror or exc}",
                                       hint="check the path"), file=s) from None
     try:
-        return data.decode("utf-8"), s
+        # (absolute: the runs may go to workers started in another directory, where a
+        # relative .include would otherwise be looked for)
+        return data.decode("utf-8"), str(p.absolute())
     except UnicodeDecodeError:
         raise NetlistError(Diagnostic(message="the netlist is not UTF-8 text",
                                       hint="save it as UTF-8"), file=s) from None

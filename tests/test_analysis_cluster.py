@@ -420,9 +420,6 @@ def test_relative_netlist_with_relative_includes_on_workers_elsewhere(cluster, t
             assert out.startswith(f"{rel}: Synchronous buck"), out
 
 
-@pytest.mark.xfail(reason="netlist/param_sweep.py (_read) sends the netlist path as given to "
-                   "the workers, where relative .include files are then looked up in the "
-                   "worker's directory: the path must be made absolute there", strict=False)
 def test_sweep_relative_includes_on_workers_elsewhere(cluster, tmp_path, monkeypatch):
     _copy_buck_sync(tmp_path / "sub")
     monkeypatch.chdir(tmp_path)
