@@ -125,3 +125,32 @@ def test_grid_errors():
         cell_basins(m, [("x", 0, 1, 2), ("x", 0, 1, 2)], workers=1)
     with pytest.raises(ValueError):
         GridAxis("x", 1, 0, 3)
+
+
+def test_plots_label_circuit_states_with_their_units(tmp_path, monkeypatch):
+    # Basins and bifurcation figures name the states on their axes with units (v(...) in
+    # V, i(...) in A); a state without a known unit keeps its bare name.
+    from matplotlib.figure import Figure
+
+    from lcs.analysis.bifurcation import bifurcation_diagram
+
+    labels = []
+    save = Figure.savefig
+
+    def capture(self, *args, **kwargs):
+        labels.append({lab for ax in self.axes for lab in (ax.get_xlabel(), ax.get_ylabel())})
+        return save(self, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", capture)
+    m = FunctionMap(two_wells, ("v(C1)", "i(L1)"))
+    cell_basins(m, [("v(C1)", -3, 3, 12), ("i(L1)", -1, 1, 4)], workers=1).plot(
+        tmp_path / "b.png")
+    assert {"v(C1) [V]", "i(L1) [A]"} <= labels[-1]
+
+    def factory(p):
+        return FunctionMap(lambda x, p=p: np.array([p * x[0] * (1 - x[0]), 0.0]),
+                           ("v(out)", "k"), param=p)
+
+    bifurcation_diagram(factory, [2.8, 3.0, 3.2], x0=[0.3, 0.0], transient=20, record=2,
+                        workers=1, param_name="p").plot(tmp_path / "d.png")
+    assert {"v(out) [V]", "k", "p"} <= labels[-1]

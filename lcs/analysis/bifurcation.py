@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..axes import probe_unit
 from .maps import Map, MapError
 from .parallel import portable, task_engine
 
@@ -160,7 +161,8 @@ class BifurcationDiagram:
                 ax.scatter(px, py, s=size, c=colours.get(b.direction, "k"), marker=".",
                            linewidths=0, rasterized=True,
                            label=b.direction if len(self.branches) > 1 else None)
-            ax.set_ylabel(name)
+            unit = probe_unit(name)
+            ax.set_ylabel(f"{name} [{unit}]" if unit else name)
             ax.grid(alpha=0.3)
         if len(self.branches) > 1:
             axes[0].legend(markerscale=20, loc="best")
