@@ -64,9 +64,9 @@ def _pelcs_inprocess(text: str, tmp: Path) -> dict:
     (modes formulated as they are reached, then stepping), the output (resampled onto the
     TSTEP grid and written as NPZ, as ``pelcs simulate -o out.npz``), and the stepping
     alone in a second run."""
+    from lcs.results import resample
     from netlist.parser import parse_file
     from netlist.transient import run_setup, transient_setup
-    from lcs.results import resample
     from pelcs.writers import write_npz
 
     path = tmp / "inprocess.cir"
