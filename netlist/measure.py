@@ -340,7 +340,8 @@ class Settling:
 
     @property
     def settled(self) -> bool:
-        return not self.drift > self.limit
+        # (a non-finite drift, from a probe that is not finite, is not a settled window)
+        return math.isfinite(self.drift) and not self.drift > self.limit
 
 
 def settling(result: SimulationResult, measurements: Sequence[Measurement],

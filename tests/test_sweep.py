@@ -410,6 +410,33 @@ def test_cli_unwritable_output_is_found_before_the_runs(capsys, rc, tmp_path, mo
     assert code == 2 and not (tmp_path / "t.csv").exists()
 
 
+def test_writable_check_takes_links_and_new_folders_and_changes_nothing(tmp_path):
+    import os
+
+    from pelcs.commands.sweep import _check_writable
+
+    kept = tmp_path / "kept.csv"
+    kept.write_text("old table\n")
+    os.utime(kept, (1e9, 1e9))
+    dangling = tmp_path / "link.csv"
+    dangling.symlink_to(tmp_path / "target.csv")  # (a link to a file not written yet)
+    nested = tmp_path / "new" / "deeper" / "t.csv"
+    for path in (kept, dangling, nested):
+        _check_writable("-o", path)
+    assert kept.read_text() == "old table\n" and kept.stat().st_mtime == 1e9
+    assert not (tmp_path / "target.csv").exists() and dangling.is_symlink()
+    assert not (tmp_path / "new").exists()  # (the writer makes the folders)
+
+
+def test_a_probe_that_is_not_finite_is_not_settled():
+    from netlist.measure import Settling
+
+    for drift, limit in ((float("nan"), float("nan")), (float("inf"), 1.0),
+                         (float("nan"), 1.0)):
+        assert not Settling("mean(v(out))", "v(out)", drift, limit, "", "").settled
+    assert Settling("mean(v(out))", "v(out)", 0.0, 0.0, "", "").settled
+
+
 # -- Monte Carlo over a grid: per grid point ------------------------------------------------
 
 

@@ -503,7 +503,9 @@ def _probe(address: str) -> None:
         identity = _ask_identity(address, HANDSHAKE_TIMEOUT)
     except TimeoutError:
         raise SchedulerError(f"{not_dask[0]} (no answer to Dask's handshake within "
-                             f"{HANDSHAKE_TIMEOUT:g} s)", not_dask[1]) from None
+                             f"{HANDSHAKE_TIMEOUT:g} s)",
+                             f"{not_dask[1]}; a scheduler too busy to answer in that time "
+                             "(a large graph, an overloaded head node): try again") from None
     except OSError:  # Dask's CommClosedError among others
         raise SchedulerError(f"{not_dask[0]} (it closed the connection at Dask's "
                              "handshake)", not_dask[1]) from None

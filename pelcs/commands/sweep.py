@@ -51,6 +51,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -200,18 +201,27 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _check_writable(option: str, path: Path) -> None:
-    """Open ``path`` for writing without changing it (a new file is removed again)."""
+    """Check that ``path`` can be written, without changing anything: an existing file (or a
+    symbolic link's target) is opened for writing without truncation; a new one is created
+    and removed again; a folder that does not exist yet is not made (the writer makes it):
+    its nearest existing ancestor must be a writable folder."""
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        if path.is_dir():
+        target = Path(os.path.realpath(path))  # (a symbolic link, dangling or not: its target)
+        if target.is_dir():
             raise IsADirectoryError(21, "it is a directory")
-        if path.exists():
-            with open(path, "r+b"):
-                pass
+        if target.exists():
+            os.close(os.open(target, os.O_WRONLY))
+        elif target.parent.is_dir():
+            os.close(os.open(target, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644))
+            target.unlink()
         else:
-            with open(path, "xb"):
-                pass
-            path.unlink()
+            ancestor = target.parent
+            while not ancestor.exists():
+                ancestor = ancestor.parent
+            if not ancestor.is_dir():
+                raise NotADirectoryError(20, f"{ancestor} is not a directory")
+            if not os.access(ancestor, os.W_OK | os.X_OK):
+                raise PermissionError(13, f"cannot create folders in {ancestor}")
     except OSError as exc:
         raise usage_error("sweep", f"{option}: cannot write {path}: {exc.strerror or exc}",
                           "choose a writable file") from None
