@@ -40,7 +40,7 @@ KERNEL_SOURCES = (_LCS / "jit.py", _LCS / "jit_passes.py", _LCS / "bits.py", _LC
 AOT_SOURCES = (_LCS / "kernels.py", _LCS / "aot.py", _LCS / "stepping" / "warmup.py",
                _LCS / "sparse_lu.py")
 # Files in those packages that no kernel compiles or reads (Python only): editing them must
-# not recompile every kernel (2-3 minutes).
+# not recompile every kernel (6-9 minutes on 2 cores).
 PYTHON_ONLY = frozenset({"__init__.py", "driver.py", "enumeration.py", "modes.py",
                          "warmup.py", "stack.py", "integrate.py"})
 AOT_MODULE = "pelcs_kernels"
