@@ -140,6 +140,7 @@ def transient_setup(
     step: float | None = None,
     system: SwitchedLCS | None = None,
     strict: bool = False,
+    given: dict[str, float] | None = None,
 ) -> TransientSetup:
     """Collect the switched LCS, sources, initial state and time span of a circuit.
 
@@ -164,6 +165,9 @@ def transient_setup(
 
     strict : bool
         Refuse a non-passive circuit (NetlistError) instead of warning.
+    given : dict of str to float, optional
+        The ``.param`` values given to the parser (``--param``): the note on a netlist's
+        ``.step`` names them as the values this run uses.
 
     Raises
     ------
@@ -221,14 +225,27 @@ def transient_setup(
         notes.append(f"{', '.join(held)}: across voltage sources only, so no state (the "
                      "sources set its voltage; the source currents leave out its charging)")
     if circuit.steps:
-        names = ", ".join(name for name, _ in circuit.steps)
-        notes.append(f"the netlist's .step ({names}) is run by `pelcs sweep`; this run uses "
-                     "the nominal .param values")
+        notes.append(_step_note(circuit, given or {}))
     t_save = tran.tstart if tran is not None and tran.tstart < tstop else 0.0
     energy = storage_matrix(circuit)
     nonpassive = _screen_passivity(circuit, system, energy, notes, strict)
     return TransientSetup(system, signals, x0, float(tstop), float(step), float(t_save),
                           energy, notes, nonpassive)
+
+
+def _step_note(circuit: Circuit, given: dict[str, float]) -> str:
+    """The note of a netlist with ``.step`` lines, which a simulation does not sweep: the
+    values of the stepped parameters it uses, nominal or ``given`` (``--param``)."""
+    names = ", ".join(name for name, _ in circuit.steps)
+    head = f"the netlist's .step ({names}) is run by `pelcs sweep`; this run uses "
+    given = {k.lower(): v for k, v in given.items()}
+    if not any(name.lower() in given for name, _ in circuit.steps):
+        return head + "the nominal .param values"
+    return head + ", ".join(
+        f"{name} = {given[name.lower()]:.6g} (--param)" if name.lower() in given
+        else f"{name} = {circuit.params.get(name, circuit.params.get(name.lower())):.6g} "
+        "(nominal)"
+        for name, _ in circuit.steps)
 
 
 def _screen_passivity(circuit: Circuit, system: SwitchedLCS, energy: np.ndarray,

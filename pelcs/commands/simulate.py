@@ -169,32 +169,6 @@ def split_probes(items: list[str]) -> list[str]:
     return [p.strip() for p in out if p.strip()]
 
 
-def _step_note(notes: list[str], circuit, params: dict[str, float]) -> None:
-    """Say which values of the netlist's ``.step`` parameters this run used.
-
-    The set-up's note speaks of "the nominal .param values", which is wrong for a parameter
-    that ``--param`` set: it is rewritten in place with the values used.
-    """
-    if not circuit.steps:
-        return
-    given = {k.lower(): v for k, v in params.items()}
-    if not any(name.lower() in given for name, _ in circuit.steps):
-        return
-    names = ", ".join(name for name, _ in circuit.steps)
-    used = [f"{name} = {given[name.lower()]:.6g} (--param)" if name.lower() in given
-            else f"{name} = {circuit.params.get(name, circuit.params.get(name.lower())):.6g} "
-            "(nominal)"
-            for name, _ in circuit.steps]
-    text = (f"the netlist's .step ({names}) is run by `pelcs sweep`; this run uses "
-            + ", ".join(used))
-    prefix = f"the netlist's .step ({names}) is run by `pelcs sweep`"
-    for k, note in enumerate(notes):
-        if note.startswith(prefix):
-            notes[k] = text
-            return
-    notes.append(text)
-
-
 def _check_path(option: str, path: str, suffixes: tuple[str, ...]) -> Path:
     p = Path(path)
     if p.suffix.lower() not in suffixes:
@@ -234,7 +208,7 @@ def run(args: argparse.Namespace) -> int:
     thresholds = parse_overrides(args.threshold)
     circuit = parse_file(args.file, params=params or None, thresholds=thresholds or None)
     probes = check_probes(circuit, split_probes(args.probe)) if args.probe else None
-    setup = transient_setup(circuit, tstop=tstop, step=step)
+    setup = transient_setup(circuit, tstop=tstop, step=step, given=params)
 
     # Load the compiled kernels first, so that the summary's time per step is the run's.
     load = warm_up()
@@ -272,7 +246,6 @@ def run(args: argparse.Namespace) -> int:
                                       hint="see README.md, section Simulation"),
                            file=args.file) from exc
     wall = time.perf_counter() - t0
-    _step_note(result.notes, circuit, params)
 
     steps_stored = len(result.t)
     spacing = _output_spacing(output_step, args.all_steps or bool(args.every), circuit, setup)
