@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-__all__ = ["envelope", "probe_unit", "time_unit"]
+__all__ = ["axis_label", "envelope", "probe_unit", "time_unit"]
 
 # Above this many points per panel the curve is drawn as its min/max envelope over buckets
 # of samples: a switching ripple of 10^5 points looks the same and draws 10x faster.
@@ -22,6 +22,12 @@ def probe_unit(name: str) -> str:
     """SI unit of a probe: ``"V"`` for ``v(...)``, ``"A"`` for ``i(...)``, else ``""``."""
     head = name.strip()[:2].lower()
     return {"v(": "V", "i(": "A"}.get(head, "")
+
+
+def axis_label(name: str) -> str:
+    """A probe's axis label with its unit, ``v(C1) [V]`` (the name alone without one)."""
+    unit = probe_unit(name)
+    return f"{name} [{unit}]" if unit else name
 
 
 def time_unit(t_end: float) -> tuple[float, str]:

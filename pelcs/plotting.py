@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from lcs.axes import axis_label, probe_unit, time_unit
 from lcs.axes import envelope as _envelope  # shared with ngspice_checks
-from lcs.axes import probe_unit, time_unit
 from lcs.results import SimulationResult
 from pelcs.writers import write_csv, write_npz, write_result  # noqa: F401  (their old home)
 
@@ -137,7 +137,7 @@ def plot_result(
         unit = probe_unit(name)
         tt, yy = _envelope(t, y)
         ax.plot(tt / scale, yy, color=color, lw=0.9)
-        ax.set_ylabel(f"{name} [{unit}]" if unit else name)
+        ax.set_ylabel(axis_label(name))
         ax.grid(True, color="0.88", lw=0.6)
         if len(t) > 1:
             ax.set_xlim(t[0] / scale, t_axis / scale)

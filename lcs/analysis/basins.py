@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..axes import probe_unit
+from ..axes import axis_label
 from .maps import Map, MapError
 from .parallel import portable, task_engine
 
@@ -288,7 +288,7 @@ class BasinMap:
                    vmin=-0.5, vmax=ng + 0.5, interpolation="nearest")
         for at in self.attractors:
             ax1.plot(at.points[:, 1], at.points[:, 0], "k.", ms=3)
-        xlabel, ylabel = _axis_label(a1.name), _axis_label(a0.name)
+        xlabel, ylabel = axis_label(a1.name), axis_label(a0.name)
         ax1.set_xlabel(xlabel)
         ax1.set_ylabel(ylabel)
         ax1.set_title("basins (grey: leaves the grid)" if title is None else title)
@@ -341,12 +341,6 @@ def merge_touching_groups(scm: ScmResult, grid: CellGrid) -> ScmResult:
                               if relabel[g] == k]) for k in range(1, len(roots) + 1)]
     return ScmResult(group=relabel[scm.group], steps=scm.steps, periodic=scm.periodic,
                      groups=groups)
-
-
-def _axis_label(name: str) -> str:
-    """A state's name with its unit, ``v(C1) [V]`` (the name alone when it has none)."""
-    unit = probe_unit(name)
-    return f"{name} [{unit}]" if unit else name
 
 
 def _palette(n: int) -> list:

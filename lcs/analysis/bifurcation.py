@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..axes import probe_unit
+from ..axes import axis_label
 from .maps import Map, MapError
 from .parallel import portable, task_engine
 
@@ -161,8 +161,7 @@ class BifurcationDiagram:
                 ax.scatter(px, py, s=size, c=colours.get(b.direction, "k"), marker=".",
                            linewidths=0, rasterized=True,
                            label=b.direction if len(self.branches) > 1 else None)
-            unit = probe_unit(name)
-            ax.set_ylabel(f"{name} [{unit}]" if unit else name)
+            ax.set_ylabel(axis_label(name))
             ax.grid(alpha=0.3)
         if len(self.branches) > 1:
             axes[0].legend(markerscale=20, loc="best")
