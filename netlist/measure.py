@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from lcs.axes import probe_unit  # (re-exported: the unit of a measurement is its probe's)
 from lcs.results import SimulationResult
 from lcs.signals import Pulse, Sin
 
@@ -80,12 +81,6 @@ class Measurement:
     def unit(self) -> str:
         """SI unit of the measured value (that of the probe)."""
         return probe_unit(self.probe)
-
-
-def probe_unit(probe: str) -> str:
-    """``"V"`` for ``v(...)``, ``"A"`` for ``i(...)``, ``""`` for ``d(...)``."""
-    p = probe.strip().lower()
-    return "V" if p.startswith("v") else "A" if p.startswith("i") else ""
 
 
 def _usage(message: str, hint: str = "") -> NetlistError:
