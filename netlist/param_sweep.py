@@ -59,7 +59,7 @@ from .measure import (
 from .parser import parse_string
 from .sweep import resolve_period
 from .transient import simulate_circuit
-from .units import parse_number
+from .units import format_eng, parse_number
 
 __all__ = [
     "DISTRIBUTIONS",
@@ -566,6 +566,10 @@ def run_sweep(
     points: list[tuple[tuple, np.ndarray | None]] = []
     rows_in: list[list[float]] = []
     labels: list[str] = []
+    # Monte Carlo: one nominal run per grid point, so that every point's spread is seen
+    # against its own nominal value (run after the drawn ones).
+    extra: list[tuple[tuple, np.ndarray]] = []
+    extra_labels: list[str] = []
     for combo in grid:
         p = tuple(zip(names, (float(v) for v in combo), strict=True))
         where = " ".join(f"{n}={v:.6g}" for n, v in p)
@@ -574,17 +578,13 @@ def run_sweep(
                 points.append((p, deviations[k]))
                 rows_in.append([*combo, k])
                 labels.append(f"{where} run {k}".strip())
+            extra.append((p, np.zeros(len(matched))))
+            extra_labels.append(f"nominal at {where}" if where else "nominal")
         else:
             points.append((p, None))
             rows_in.append(list(combo))
             labels.append(where or "the run")
-    # Monte Carlo: one nominal run per grid point, so that every point's spread is seen
-    # against its own nominal value.
-    extra = [(tuple(zip(names, (float(v) for v in combo), strict=True)),
-              np.zeros(len(matched))) for combo in grid] if runs else []
-    labels += ["nominal" + (" at " + " ".join(f"{n}={float(v):.6g}"
-                                               for n, v in zip(names, combo, strict=True))
-                            if names else "") for combo in grid] if runs else []
+    labels += extra_labels
 
     all_points = points + extra
     with task_engine(scheduler, workers) as engine:
@@ -597,7 +597,7 @@ def run_sweep(
                    for r in chunk]
         engine_name = engine.description
     nominal = np.stack([r[0] for r in results[len(points):]]) if extra else None
-    notes = step_notes + _notes(results, labels)
+    notes = step_notes + _notes(results, labels, len(extra))
     results = results[:len(points)]
 
     inputs = names + (["run"] if runs else []) + [n for n, _ in matched]
@@ -627,8 +627,6 @@ def run_sweep(
 
 def _check_times(circuit: Circuit, tstop: float | None, step: float | None) -> None:
     """The stop time and step every run would use: positive, the step within the run."""
-    from .units import format_eng
-
     tran = circuit.tran
     if tstop is not None and not (np.isfinite(tstop) and tstop > 0):
         raise _usage(f"--tstop {tstop:g}: the stop time must be positive",
@@ -647,26 +645,26 @@ def _check_times(circuit: Circuit, tstop: float | None, step: float | None) -> N
                      "give a smaller --step" if step is not None else "give a longer --tstop")
 
 
+def _excess(check) -> float:
+    """How many times its limit an unsettled measurement's drift is."""
+    return check.drift / check.limit if check.limit > 0 else math.inf
+
+
 def _describe(checks) -> str:
     """The worst unsettled measurement of a run, in words."""
-    from .units import format_eng
-
-    c = max(checks, key=lambda c: c.drift / c.limit if c.limit > 0 else math.inf)
+    c = max(checks, key=_excess)
     unit = probe_unit(c.probe)
     return (f"{c.measure}: the averages of {c.probe} over {c.parts} spread "
             f"{format_eng(c.drift, unit)}, more than {c.basis}")
 
 
 def _spice_time(t: float) -> str:
-    from .units import format_eng
-
     return format_eng(float(f"{t:.2g}"), "").replace(" ", "").replace("µ", "u")
 
 
-def _notes(results, labels: Sequence[str]) -> list[str]:
-    """The window, the failed runs and the runs not settled, in words."""
-    from .units import format_eng
-
+def _notes(results, labels: Sequence[str], nominal: int) -> list[str]:
+    """The window, the failed runs and the runs not settled, in words (``nominal``: the
+    Monte Carlo nominal runs, the last of ``results``)."""
     notes = []
     windows = [r[4] for r in results if r[2]]
     if windows:
@@ -688,10 +686,8 @@ def _notes(results, labels: Sequence[str]) -> list[str]:
         named = "; ".join(labels[i] for i in loose[:5])
         if len(loose) > 5:
             named += f" and {len(loose) - 5} more"
-        worst = max(loose, key=lambda i: max(c.drift / c.limit if c.limit > 0 else math.inf
-                                             for c in results[i][4][4]))
+        worst = max(loose, key=lambda i: max(map(_excess, results[i][4][4])))
         t_end = max(results[i][4][5] for i in loose)
-        nominal = sum(label.startswith("nominal") for label in labels)
         count = f"{len(loose)} of {len(results)} run(s)" + (
             f", {len(results) - nominal} drawn + {nominal} nominal," if nominal else "")
         notes.append(f"not settled: {count} ({named}): "

@@ -402,8 +402,8 @@ def _dask_engine(scheduler, workers: int | None) -> TaskEngine:
         client = distributed.Client(cluster, set_as_default=False)
         return TaskEngine("dask", n, f"Dask local cluster ({n} worker processes)",
                           client=client, cluster=cluster)
-    address = _check_address(str(scheduler))
-    _probe(address)
+    address, host, port = _check_address(str(scheduler))
+    _probe(address, host, port)
     # Made only now that a scheduler answered, and closed at once if it fails: a Client
     # left half-made is closed by its __del__, which waits 20 s on a loop that is gone and
     # then prints a traceback ("Exception ignored in Client.__del__").
@@ -438,9 +438,10 @@ def _close_quietly(client) -> None:
         client.close(timeout=CONNECT_TIMEOUT)
 
 
-def _check_address(address: str) -> str:
-    """``tcp://HOST:PORT`` of a scheduler address given as that or as ``HOST:PORT`` (Dask's
-    default scheme is TCP); any other scheme, or no port, is a :class:`SchedulerError`."""
+def _check_address(address: str) -> tuple[str, str, int]:
+    """``tcp://HOST:PORT``, the host and the port of a scheduler address given as that or
+    as ``HOST:PORT`` (Dask's default scheme is TCP); any other scheme, or no port, is a
+    :class:`SchedulerError`."""
     address = address.strip()
     example = "expected tcp://HOST:PORT, e.g. tcp://10.0.0.5:8786"
     hint = "give the address that 'dask scheduler' prints as 'Scheduler at: tcp://HOST:PORT'"
@@ -476,21 +477,18 @@ def _check_address(address: str) -> str:
     if not host or not 0 < port < 65536:
         raise SchedulerError(f"bad scheduler address {address!r}: "
                              f"{'no host' if not host else f'port {port}'} ({example})", hint)
-    return f"tcp://{location}"
+    return f"tcp://{location}", host, port
 
 
-def _probe(address: str) -> None:
+def _probe(address: str, host: str, port: int) -> None:
     """Fail fast, with a :class:`SchedulerError`, unless a Dask scheduler answers at
-    ``address`` (``tcp://HOST:PORT``).
+    ``address`` (``tcp://HOST:PORT``, checked by :func:`_check_address`).
 
     A closed port is found in milliseconds (the Dask client would retry until its
     timeout); an open one must answer Dask's handshake and say it is a scheduler within
     :data:`HANDSHAKE_TIMEOUT` (Dask's connect would wait for a dashboard's or a web
     server's answer forever).
     """
-    from distributed.comm.addressing import parse_address, parse_host_port
-
-    host, port = parse_host_port(parse_address(address)[1])
     try:
         socket.create_connection((host, port), timeout=CONNECT_TIMEOUT).close()
     except OSError as exc:
