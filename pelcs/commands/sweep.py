@@ -293,7 +293,6 @@ def _table_lines(table) -> list[str]:
 def _stats_lines(table) -> list[str]:
     """The statistics of every measurement, one block of rows per grid point."""
     head = ["measurement", "nominal", "mean", "std", "min", "p5", "p95", "max"]
-    keys = ["", "nominal", "mean", "std", "min", "p5", "p95", "max"]
     pre = list(table.swept)
     pre_w = [max(10, len(c) + 2) for c in pre]
     width = [max(14, *(len(m) + 2 for m in table.measures))] + [13] * 7
@@ -309,7 +308,7 @@ def _stats_lines(table) -> list[str]:
         where = [f"{entry['params'][n]:.6g}" for n in pre]
         for name in table.measures:
             s, unit = entry["statistics"][name], table.units.get(name, "")
-            cells = [name] + [_fmt(s[k], unit) if k in s else "-" for k in keys[1:]]
+            cells = [name] + [_fmt(s[k], unit) if k in s else "-" for k in head[1:]]
             out.append(line(where, cells))
     return out
 
