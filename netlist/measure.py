@@ -256,6 +256,16 @@ def _in_window(t: np.ndarray, y: np.ndarray, a: float, b: float
     return tt, yy
 
 
+def _average(tt: np.ndarray, yy: np.ndarray, a: float, b: float) -> float:
+    """Time average over [a, b] of the samples :func:`_in_window` gives (trapezoidal)."""
+    return np.trapezoid(yy, tt) / (b - a)
+
+
+def _rms(tt: np.ndarray, yy: np.ndarray, a: float, b: float) -> float:
+    """RMS over [a, b] of the samples :func:`_in_window` gives (trapezoidal)."""
+    return math.sqrt(max(np.trapezoid(yy * yy, tt) / (b - a), 0.0))
+
+
 def evaluate(result: SimulationResult, measurements: Sequence[Measurement],
              window: tuple[float, float]) -> np.ndarray:
     """The measurements of a run, shape (len(measurements),), in the probes' SI units.
@@ -278,9 +288,9 @@ def evaluate(result: SimulationResult, measurements: Sequence[Measurement],
             continue
         tt, yy = _in_window(t, y, a, b)
         if m.func == "mean":
-            out[k] = np.trapezoid(yy, tt) / (b - a)
+            out[k] = _average(tt, yy, a, b)
         elif m.func == "rms":
-            out[k] = math.sqrt(max(np.trapezoid(yy * yy, tt) / (b - a), 0.0))
+            out[k] = _rms(tt, yy, a, b)
         elif m.func == "ripple":
             out[k] = float(np.max(yy) - np.min(yy))
         elif m.func == "min":
@@ -391,10 +401,10 @@ def settling(result: SimulationResult, measurements: Sequence[Measurement],
             means, spans = [], []
             for lo, hi in zip(edges[:-1], edges[1:], strict=True):
                 tt, yy = _in_window(t, y, lo, hi)
-                means.append(np.trapezoid(yy, tt) / (hi - lo))
+                means.append(_average(tt, yy, lo, hi))
                 spans.append(float(np.max(yy) - np.min(yy)))
             tt, yy = _in_window(t, y, edges[0], edges[-1])
-            rms = math.sqrt(max(np.trapezoid(yy * yy, tt) / (edges[-1] - edges[0]), 0.0))
+            rms = _rms(tt, yy, edges[0], edges[-1])
             cache[m.probe] = (float(np.max(means) - np.min(means)), float(np.median(spans)),
                               rms)
         drift, ripple, rms = cache[m.probe]
