@@ -31,7 +31,7 @@ import numpy as np
 
 from .jit import jitted
 
-__all__ = ["MAX_SIZE", "LUFactors", "lu_factor", "lu_rcond", "lu_solve"]
+__all__ = ["MAX_SIZE", "LUFactors", "kept_array", "lu_factor", "lu_rcond", "lu_solve"]
 
 #: largest size factorised here (dense storage: 9 nz² bytes, 81 MB at 3000)
 MAX_SIZE = 3000
@@ -344,7 +344,8 @@ def lu_factor(n: int, rows: np.ndarray, cols: np.ndarray, values: np.ndarray
     pos = np.empty(n, np.int64)
     pos[q] = np.arange(n)
     p = np.empty(n, np.int64)
-    W, S = _dense_work(n)
+    # (zero on entry, left zero: the elimination writes the pattern's entries only)
+    W, S = kept_array(_WORK, "w", (n, n)), kept_array(_WORK, "s", (n, n), np.int8)
     clean = False
     try:
         # Pools for the pattern's lists: the entries and some fill-in, four times more on
@@ -381,7 +382,8 @@ def lu_factor(n: int, rows: np.ndarray, cols: np.ndarray, values: np.ndarray
         clean = True
     finally:
         if not clean:  # (an exception between: the work arrays are not known to be zero)
-            _WORK.__dict__.pop("dense", None)
+            _WORK.__dict__.pop("w", None)
+            _WORK.__dict__.pop("s", None)
     return LUFactors(n, p, q, Lp, Li, Lx, Up, Ui, Ux)
 
 
@@ -394,29 +396,30 @@ _WORK = threading.local()
 WORK_KEPT = 1000
 
 
-def _dense_work(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Zeroed ``W`` (n, n) float64 and ``S`` (n, n) int8 for :func:`_factor`, from this
-    thread's kept buffers when ``n <= WORK_KEPT`` (the caller leaves them zero)."""
-    if n > WORK_KEPT:
-        return np.zeros((n, n)), np.zeros((n, n), np.int8)
-    bufs = getattr(_WORK, "dense", None)
-    if bufs is None or bufs[0].size < n * n:
-        size = max(n * n, 4096)
-        bufs = (np.zeros(size), np.zeros(size, np.int8))
-        _WORK.dense = bufs
-    return bufs[0][:n * n].reshape(n, n), bufs[1][:n * n].reshape(n, n)
+def kept_array(store: threading.local, name: str, shape: tuple[int, int],
+               dtype=np.float64, limit: int = WORK_KEPT * WORK_KEPT) -> np.ndarray:
+    """An array of ``shape`` over this thread's buffer ``name`` of ``store``, kept between
+    calls (zero when made, grown as needed; what it holds between uses is the caller's
+    affair), or a new zero one above ``limit`` values.
 
-
-def _rows_work(n: int, r: int) -> np.ndarray:
-    """An (n, r) float64 work array for :func:`_solve_rows`, from this thread's kept buffer
-    when it holds at most ``WORK_KEPT**2`` values."""
-    if n * r > WORK_KEPT * WORK_KEPT:
-        return np.empty((n, r))
-    buf = getattr(_WORK, "rows", None)
-    if buf is None or buf.size < n * r:
-        buf = np.empty(max(n * r, 4096))
-        _WORK.rows = buf
-    return buf[:n * r].reshape(n, r)
+    Parameters
+    ----------
+    store : threading.local
+    name : str
+        The buffer's attribute in ``store``.
+    shape : (int, int)
+    dtype : numpy dtype
+    limit : int
+        Largest number of values kept.
+    """
+    size = shape[0] * shape[1]
+    if size > limit:
+        return np.zeros(shape, dtype)
+    buf = getattr(store, name, None)
+    if buf is None or buf.size < size:
+        buf = np.zeros(max(size, 4096), dtype)
+        setattr(store, name, buf)
+    return buf[:size].reshape(shape)
 
 
 def lu_solve(lu: LUFactors, B: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
@@ -427,7 +430,7 @@ def lu_solve(lu: LUFactors, B: np.ndarray, out: np.ndarray | None = None) -> np.
         return np.zeros(B.shape)
     vec = B.ndim == 1
     B2 = B.reshape(lu.n, -1)
-    Y = _rows_work(*B2.shape)
+    Y = kept_array(_WORK, "rows", B2.shape)
     if out is None:
         Z = np.empty(B2.shape)
     else:

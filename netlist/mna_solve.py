@@ -76,7 +76,7 @@ class Solution:
             return
         # The scaled right-hand sides in this thread's kept array (zero outside its use):
         # a fresh one is mapped a page fault at a time, 1.3 MB a mode on a 64-cell MMC arm.
-        Ks = _work(_WORK_RHS, nz, nxi, zero=True)
+        Ks = sparse_lu.kept_array(_WORK, "rhs", (nz, nxi), limit=WORK_KEPT)
         Ks[K.rows, K.cols] = r[K.rows] * K.values
         try:
             self._solve(M, I, J, v, ncols, r, c, Ks)
@@ -119,7 +119,8 @@ class Solution:
                 return False
             if not sparse_lu.lu_rcond(lu, anorm) > LU_RCOND:
                 return False
-            zs = sparse_lu.lu_solve(lu, Ks, out=_work(_WORK_Z, nz, Ks.shape[1]))
+            zs = sparse_lu.lu_solve(lu, Ks, out=sparse_lu.kept_array(
+                _WORK, "z", (nz, Ks.shape[1]), limit=WORK_KEPT))
         else:
             from scipy.sparse import csc_matrix
             from scipy.sparse.linalg import LinearOperator, onenormest, splu
@@ -236,24 +237,11 @@ class Solution:
         return out
 
 
-# This thread's kept work arrays (flat; see _work): the scaled right-hand sides and the LU's
-# solution before it is kept sparse.
-_WORK_RHS = threading.local()
-_WORK_Z = threading.local()
+# This thread's kept work arrays (sparse_lu.kept_array): the scaled right-hand sides ("rhs",
+# zero outside its use) and the LU's solution before it is kept sparse ("z").
+_WORK = threading.local()
 #: largest work array kept between modes (values; 8 MB)
 WORK_KEPT = 1 << 20
-
-
-def _work(store: threading.local, n: int, r: int, zero: bool = False) -> np.ndarray:
-    """An (n, r) float64 array from ``store``'s kept buffer (zero throughout when ``zero``:
-    the caller sets back to zero what it wrote), or a new one above :data:`WORK_KEPT`."""
-    if n * r > WORK_KEPT:
-        return np.zeros((n, r)) if zero else np.empty((n, r))
-    buf = getattr(store, "buf", None)
-    if buf is None or buf.size < n * r:
-        buf = np.zeros(max(n * r, 4096))
-        store.buf = buf
-    return buf[:n * r].reshape(n, r)
 
 
 def equilibrate(M: np.ndarray, iterations: int = 8) -> tuple[np.ndarray, np.ndarray]:

@@ -114,5 +114,5 @@ def test_sparse_entries_path_keeps_z_by_its_entries_and_leaves_the_work_array_ze
         idx = rng.integers(0, n, size=17)
         assert np.array_equal(sol._rows(idx), dense.Z[idx])
         assert sol._zx.size == np.count_nonzero(dense.Z)
-        assert not ms._WORK_RHS.buf.any()
+        assert not ms._WORK.rhs.any()
         assert (sol.null.shape[1] > 0) == singular

@@ -63,7 +63,8 @@ def test_kept_work_arrays_are_zero_after_every_kind_of_call():
     rng = np.random.default_rng(5)
     M = _random_sparse(rng, 40, 0.1) + 4 * np.eye(40)
     I, J = np.nonzero(M)
-    sparse_lu._WORK.__dict__.pop("dense", None)
+    sparse_lu._WORK.__dict__.pop("w", None)
+    sparse_lu._WORK.__dict__.pop("s", None)
     fresh = lu_factor(40, I, J, M[I, J])
     heavy = _random_sparse(rng, 120, 0.05) + 5 * np.eye(120)
     Ih, Jh = np.nonzero(heavy)
@@ -73,7 +74,7 @@ def test_kept_work_arrays_are_zero_after_every_kind_of_call():
                  lambda: lu_factor(3, Is, Js, singular[Is, Js]),
                  lambda: lu_factor(40, I, J, M[I, J])):
         call()
-        W, S = sparse_lu._WORK.dense
+        W, S = sparse_lu._WORK.w, sparse_lu._WORK.s
         assert not W.any() and not S.any()
         again = lu_factor(40, I, J, M[I, J])
         for name in ("p", "q", "Lp", "Li", "Lx", "Up", "Ui", "Ux"):
