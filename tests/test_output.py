@@ -114,6 +114,34 @@ def test_npz_and_parquet_round_trip(tmp_path):
         write_result(r, tmp_path / "r.txt")
 
 
+@pytest.mark.parametrize("compress", [False, True])
+def test_npz_is_numpys_archive_member_for_member(tmp_path, compress):
+    # The writer transposes a block of probes at a time (here 1200 probes of 1000 points over
+    # a 4 MB buffer: three blocks, the last one short); its archive must be the one numpy
+    # writes, the same members with the same bytes.
+    rng = np.random.default_rng(7)
+    t = np.linspace(0.0, 1e-3, 1000)
+    names = tuple(f"v(n{i})" for i in range(1200))
+    r = _result(t, rng.standard_normal((1000, 1200)), names=names)
+    ours = np.load(write_npz(r, tmp_path / "ours.npz", compress=compress))
+    save = np.savez_compressed if compress else np.savez
+    save(tmp_path / "numpy.npz", t=t, y=r.y, names=np.array(names, dtype=str),
+         notes=np.array(r.notes, dtype=str), error=np.array(""),
+         **{n: np.ascontiguousarray(r.y[:, j]) for j, n in enumerate(names)})
+    ref = np.load(tmp_path / "numpy.npz")
+    assert ours.files == ref.files
+    for key in ref.files:
+        assert ours.zip.read(key + ".npy") == ref.zip.read(key + ".npy"), key
+
+
+def test_npz_without_points_or_probes(tmp_path):
+    for t, y, names in [(np.zeros(0), np.zeros((0, 2)), ("v(out)", "i(L1)")),
+                        (np.linspace(0, 1, 5), np.zeros((5, 0)), ())]:
+        d = np.load(write_npz(_result(t, y, names=names), tmp_path / "e.npz"))
+        assert d["y"].shape == y.shape and list(d["names"]) == list(names)
+        assert all(d[n].shape == (len(t),) for n in names)
+
+
 def test_command_writes_the_tran_tstep_grid_by_default(tmp_path, capsys):
     # buck_ccm: .tran 0.1u ... with the step TMAX; ask for a step of 0.05 us: the file still
     # holds the TSTEP grid, like ngspice's, and its values are those of the steps there.
