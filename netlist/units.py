@@ -12,6 +12,8 @@ import math
 import re
 from decimal import Decimal
 
+from lcs.units_format import format_eng as _format_eng
+
 # Scale suffixes as powers of ten. Checked in this order so that "meg" and "mil" win over "m".
 _POW10 = {"t": 12, "g": 9, "k": 3, "m": -3, "u": -6, "n": -9, "p": -12, "f": -15, "a": -18}
 MIL = 25.4e-6  # m, one thousandth of an inch
@@ -78,11 +80,6 @@ _OUT = [(12, "T"), (9, "G"), (6, "Meg"), (3, "k"), (0, ""), (-3, "m"), (-6, "u")
         (-12, "p"), (-15, "f")]
 
 
-def _exponent3(value: float) -> int:
-    e = math.floor(math.log10(abs(value)))
-    return max(-15, min(12, 3 * math.floor(e / 3)))
-
-
 def format_number(value: float) -> str:
     """SPICE text for ``value`` that :func:`parse_number` reads back exactly.
 
@@ -117,7 +114,11 @@ def _plain(d: Decimal) -> str:
 
 
 def format_eng(value: float | None, unit: str = "", digits: int = 4) -> str:
-    """Readable engineering notation for people: ``format_eng(1e-4, "F") == "100 uF"``.
+    """Readable engineering notation for people: ``format_eng(1e-4, "F") == "100 µF"``.
+
+    :func:`lcs.units_format.format_eng` (a rounding that reaches 1000 carries into the next
+    prefix: ``format_eng(0.99996, "V") == "1 V"``), with ``None`` (a parameter left at its
+    default) written as ``"default"``.
 
     Parameters
     ----------
@@ -130,9 +131,4 @@ def format_eng(value: float | None, unit: str = "", digits: int = 4) -> str:
     """
     if value is None:
         return "default"
-    if value == 0 or not math.isfinite(value) or not 1e-15 <= abs(value) < 1e15:
-        return f"{value:.{digits}g} {unit}".rstrip()
-    p = _exponent3(value)
-    suffix = {-6: "µ", 6: "M"}.get(p, dict(_OUT)[p])
-    mant = f"{value / 10.0**p:.{digits}g}"
-    return f"{mant} {suffix}{unit}".rstrip()
+    return _format_eng(value, unit, digits)

@@ -21,27 +21,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ..units_format import format_eng, si_prefix
+
 __all__ = ["MAX_HISTOGRAM_POINTS", "SweepTable"]
 
 #: Grid points of a Monte Carlo histogram at most (one panel each).
 MAX_HISTOGRAM_POINTS = 12
-
-_PREFIXES = {-15: "f", -12: "p", -9: "n", -6: "µ", -3: "m", 0: "", 3: "k", 6: "M", 9: "G",
-             12: "T"}
-
-
-def _eng(value: float, unit: str = "", digits: int = 4) -> str:
-    """``7.172 V``, ``1.5 mV``: engineering notation for legends (SI prefixes)."""
-    value = float(value)
-    if value == 0 or not math.isfinite(value) or not 1e-15 <= abs(value) < 1e15:
-        return f"{value:.{digits}g} {unit}".rstrip()
-    p = int(math.floor(math.log10(abs(value)) / 3) * 3)
-    mant = f"{value / 10.0**p:.{digits}g}"
-    if abs(float(mant)) >= 1000:  # rounding carried into the next prefix
-        p += 3
-        mant = f"{value / 10.0**p:.{digits}g}"
-    return f"{mant} {_PREFIXES[p]}{unit}".rstrip()
-
 
 @dataclass
 class SweepTable:
@@ -345,14 +330,14 @@ class SweepTable:
                                      4, 10))
             if v.size:
                 ax.axvline(s["mean"] / scale, color="k", lw=1.5,
-                           label=f"mean {_eng(s['mean'], unit, digits)}")
+                           label=f"mean {format_eng(s['mean'], unit, digits)}")
                 for sign in (-1, 1):
                     ax.axvline((s["mean"] + sign * s["std"]) / scale, color="k", ls="--",
-                               lw=1, label=f"±1 std ({_eng(s['std'], unit)})" if sign > 0
+                               lw=1, label=f"±1 std ({format_eng(s['std'], unit)})" if sign > 0
                                else None)
             if "nominal" in s and math.isfinite(s["nominal"]):
                 ax.axvline(s["nominal"] / scale, color="tab:red", lw=1.5,
-                           label=f"nominal {_eng(s['nominal'], unit, digits)}")
+                           label=f"nominal {format_eng(s['nominal'], unit, digits)}")
             if where:
                 ax.set_title(where, loc="left", fontsize=9, color=colour)
             ax.set_xlabel(f"{name} ({prefix}{unit})" if unit else name)
@@ -370,11 +355,9 @@ class SweepTable:
 def _prefix(values: np.ndarray, unit: str) -> tuple[float, str]:
     """The SI prefix of the largest of ``values``: (its factor, its symbol); none without a
     unit."""
-    big = float(np.max(np.abs(values))) if np.size(values) else 0.0
-    if not unit or not (math.isfinite(big) and 1e-15 <= big < 1e15):
+    if not unit or not np.size(values):
         return 1.0, ""
-    p = int(math.floor(math.log10(big) / 3) * 3)
-    return 10.0**p, _PREFIXES[p]
+    return si_prefix(float(np.max(np.abs(values))))
 
 
 def _wrap(text: str, width_in: float, fontsize: float) -> str:

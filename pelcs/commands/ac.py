@@ -17,7 +17,9 @@ injection at the zero-volt source NAME (positive node facing the controller), wi
 phase and gain margins.
 
 ``--json`` prints ``{"freq": [...], "probes": {"v(out)": {"mag_db": [...], "phase_deg": [...],
-"re": [...], "im": [...]}}, "orbit": {...}, "loop": {...}}``; ``-o`` writes the responses as CSV
+"re": [...], "im": [...]}}, "orbit": {...}, "loop": {...}}`` as strict JSON: NaN and infinities
+are null (a probe that does not respond at all, |H| = 0, has ``mag_db`` null where the text
+table prints -inf); ``-o`` writes the responses as CSV
 (``freq,<probe>_mag_db,<probe>_phase_deg,...``); ``--plot`` a Bode plot (magnitude in dB, phase
 in degrees, fs/2 marked), with ``--averaged`` the CCM averaged model overlaid
 (:func:`converters.averaged.small_signal_model`, e.g. ``buck:vin=12,d=0.5,r=1,l=100u,c=100u,
@@ -31,11 +33,12 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import sys
 from pathlib import Path
 
 import numpy as np
+
+from pelcs.jsonout import dumps
 
 from .orbit import EXIT_FAILED, usage_error, write_outputs
 
@@ -74,7 +77,9 @@ def register(subparsers) -> None:
                    help="excitation periods measured per frequency (default 3)")
     p.add_argument("--step", metavar="H", help="time step (default: the .tran step)")
     p.add_argument("--theta", metavar="TH", default="0.5", help="Moreau θ (default 0.5)")
-    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.add_argument("--json", action="store_true",
+                   help="print the result as JSON (NaN and infinities as null, e.g. the "
+                   "-inf dB of a zero response)")
     p.add_argument("-o", "--output", metavar="OUT.csv", help="write the response as CSV")
     p.add_argument("--plot", metavar="OUT.png", help="Bode plot")
     p.add_argument("--averaged", metavar="TOPOLOGY:NAME=VALUE,...",
@@ -186,7 +191,7 @@ def run(args: argparse.Namespace) -> int:
                                    (plot, lambda p: _plot(p, fr, margins, args.file,
                                                                    averaged))])
     if args.json:
-        print(json.dumps(data))
+        print(dumps(data))
         return 0
     print(f"{args.file}: response to {fr.inject} ({fr.method}), fs = {1 / fr.period:.6g} Hz")
     for note in fr.notes:

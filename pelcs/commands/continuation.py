@@ -16,7 +16,7 @@ to ``--tol`` (default |STOP - START| * 1e-4). Bifurcations: ``flip`` (a multipli
 circle), ``border`` (the switching pattern changes: skipped cycle, a diode entering
 discontinuous conduction, a border collision). ``--json`` prints one object with
 ``bifurcations`` (a list of ``{"type", "param", "bracket", "detail", ...}``) and ``branch``
-(the orbits).
+(the orbits), strict JSON: NaN and infinities are null.
 
 ``--start`` (repeatable) continues from many starting states at once, to find and follow
 coexisting orbits: each ``--start`` item is ``STATE=VALUE`` or ``STATE=START:STOP:COUNT`` (every
@@ -36,9 +36,10 @@ Exit status: 0 success; 2 input errors; 3 no orbit at START or the continuation 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
+
+from pelcs.jsonout import dumps
 
 from .bifurcation import add_scheduler_option, scheduler_errors
 from .orbit import (
@@ -79,7 +80,8 @@ def register(subparsers) -> None:
                    help="with --start: worker processes (default: all cores)")
     add_scheduler_option(p)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object (NaN and infinities as null)")
     p.set_defaults(func=run)
 
 
@@ -125,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
               **map_header(m, factory), "order": order, "start": rng.start, "stop": rng.stop,
               "steps": steps, **res.to_dict()}
     if args.json:
-        print(json.dumps(report, indent=1))
+        print(dumps(report, indent=1))
     else:
         print(format_continuation(report, Path(args.file).name))
     return 0 if res.complete else EXIT_FAILED
@@ -168,7 +170,7 @@ def run_many(args: argparse.Namespace, factory, m, rng, x0, **kw) -> int:
               "stop": rng.stop, "steps": kw["steps"], "states": list(m.state_names),
               "continuations": conts}
     if args.json:
-        print(json.dumps(report, indent=1))
+        print(dumps(report, indent=1))
     else:
         name = Path(args.file).name
         blocks = [f"{name}: {report['title']}".rstrip(": "),

@@ -2,7 +2,8 @@
 
 Prints, for every requested switch mode, ``A B E`` (rows: state derivatives) and ``C D F``
 (rows: the complementarity variables w) with named rows and columns, what λ stands for per
-diode, and whether the mode is passive. ``--json`` prints one JSON object instead::
+diode, and whether the mode is passive. ``--json`` prints one JSON object instead (strict
+JSON: NaN and infinities, e.g. a switch model's ``VT=1e999``, are null)::
 
     {"file", "title", "states", "lambdas" (diode names), "inputs", "switches",
      "passive" (every listed mode passive), "modes": [
@@ -18,13 +19,13 @@ mode) raise :class:`~netlist.errors.NetlistError`, which the CLI prints and exit
 from __future__ import annotations
 
 import argparse
-import json
 import math
 
 import numpy as np
 
 from lcs.model import LCS, SwitchedLCS
 from netlist.errors import Diagnostic, NetlistError
+from pelcs.jsonout import dumps
 
 _ON = {"on": True, "1": True, "true": True, "closed": True,
        "off": False, "0": False, "false": False, "open": False}
@@ -45,7 +46,8 @@ def register(subparsers) -> None:
     p.add_argument("--mode", metavar="S1=on,S2=off",
                    help="only these switch states (switches not named: every state); "
                    "default: all modes")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object (NaN and infinities as null)")
     p.set_defaults(func=run)
 
 
@@ -62,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     report["file"] = args.file
     report["title"] = circuit.title
     if args.json:
-        print(json.dumps(report, indent=1))
+        print(dumps(report, indent=1))
     else:
         print(format_report(report))
     return 0

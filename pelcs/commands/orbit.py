@@ -11,7 +11,9 @@ circuit's initial state (``IC=``, ``.ic``, or ``--x0``) after ``--transient`` pe
 the orbit's points (states named as ``pelcs lcs`` names them), its Floquet multipliers (from a
 central-difference Jacobian of the K-period map), the stability and the switching pattern.
 ``--json`` prints one object: ``{"file", "title", "period", "step", "theta", "order",
-"states", "points", "multipliers" ([re, im] pairs), "stability", "pattern", ...}``.
+"states", "points", "multipliers" ([re, im] pairs), "stability", "pattern", ...}``, strict
+JSON: NaN and infinities are null (e.g. the scaled ``residual`` of an unconverged orbit of a
+strongly unstable circuit, beyond the largest float).
 ``--event S1:on`` (or ``D1:off``, ``'v(out)>12'``) uses the map sampled at that event instead;
 its state ends with ``phase`` (the event time modulo T, s) and it has one extra multiplier 0.
 
@@ -23,13 +25,13 @@ Exit status: 0 success; 2 input errors; 3 Newton did not converge or the map fai
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 import numpy as np
 
 from netlist.errors import Diagnostic, NetlistError
+from pelcs.jsonout import dumps
 
 EXIT_FAILED = 3
 
@@ -185,7 +187,8 @@ def register(subparsers) -> None:
                    help="periods simulated before Newton (default 100)")
     p.add_argument("--tol", default="1e-10", metavar="TOL",
                    help="Newton tolerance on the scaled residual (default 1e-10)")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object (NaN and infinities as null)")
     p.set_defaults(func=run)
 
 
@@ -216,7 +219,7 @@ def run(args: argparse.Namespace) -> int:
     report = {"file": args.file, "title": circuit_title, **map_header(m, factory),
               **orbit.to_dict(), "notes": list(m.notes) + list(orbit.notes)}
     if args.json:
-        print(json.dumps(report, indent=1))
+        print(dumps(report, indent=1))
     else:
         print(format_orbit(report, Path(args.file).name))
     return 0 if orbit.converged else EXIT_FAILED

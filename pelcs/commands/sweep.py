@@ -36,7 +36,8 @@ Outputs: a table on the terminal (Monte Carlo: the statistics of each measuremen
 point), ``-o OUT.csv`` (one row per run: parameters, ``run``, the drawn values, the
 measurements, ``ok``, ``settled``, ``message``; SI units), ``--plot`` (measurements against the
 first swept parameter, or histograms for a Monte Carlo run, one panel per grid point and
-measurement), ``--json`` (the table and statistics as strict JSON: null for NaN).
+measurement), ``--json`` (the table and statistics as strict JSON: null for NaN and
+infinities).
 
 Limits: 100000 values per swept parameter (as ``.step``), 1000000 runs per sweep, histograms
 of at most 12 grid points. The options, the times and the output files are checked before any
@@ -49,7 +50,6 @@ errors; 3 every run failed.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 from pathlib import Path
@@ -57,6 +57,7 @@ from pathlib import Path
 import numpy as np
 
 from netlist.errors import NetlistError
+from pelcs.jsonout import dumps, json_ready
 
 from .bifurcation import add_scheduler_option, check_output, scheduler_errors
 from .orbit import EXIT_FAILED, positive_int, usage_error, write_outputs
@@ -110,7 +111,8 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", metavar="OUT.csv", help="write the table")
     p.add_argument("--plot", metavar="OUT.png",
                    help="measurements against the first swept parameter, or histograms")
-    p.add_argument("--json", action="store_true", help="print the results as JSON")
+    p.add_argument("--json", action="store_true",
+                   help="print the results as JSON (NaN and infinities as null)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -193,8 +195,7 @@ def _run(args: argparse.Namespace) -> int:
         (plot, lambda path: table.plot(path, title=_plot_title(table, title, args.file))),
     ))
     if args.json:
-        print(json.dumps(to_json(table, args.file, title, written), indent=1,
-                         allow_nan=False))
+        print(dumps(to_json(table, args.file, title, written), indent=1))
     else:
         print(summary(table, args.file, title, written))
     return 0 if table.ok.any() else EXIT_FAILED
@@ -313,21 +314,6 @@ def _stats_lines(table) -> list[str]:
     return out
 
 
-def _json_ready(value):
-    """NaN and infinities as null (strict JSON), integral counts as int."""
-    if isinstance(value, dict):
-        return {k: _json_ready(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_ready(v) for v in value]
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    if isinstance(value, (int, np.integer)):
-        return int(value)
-    if isinstance(value, (float, np.floating)):
-        return float(value) if np.isfinite(value) else None
-    return value
-
-
 def to_json(table, file: str, title: str, written: list[str]) -> dict:
     """The results as JSON-ready data (strict: no NaN; ``run`` and ``n`` are integers).
 
@@ -343,7 +329,7 @@ def to_json(table, file: str, title: str, written: list[str]) -> dict:
                    settled=bool(table.settled[i]) if table.ok[i] else None,
                    message=table.messages[i])
         rows.append(row)
-    return _json_ready({
+    return json_ready({
         "file": file, "title": title, "inputs": list(table.inputs),
         "measures": list(table.measures), "swept": list(table.swept),
         "units": table.units, "runs": table.runs, "seed": table.seed,
