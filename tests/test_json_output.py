@@ -108,7 +108,7 @@ def test_every_json_command_uses_the_shared_writer():
 # -- commands on inputs that produce non-finite numbers ------------------------------------
 
 
-@pytest.mark.filterwarnings("ignore:divide by zero encountered in log10:RuntimeWarning")
+@pytest.mark.filterwarnings("error::RuntimeWarning")
 def test_ac_json_zero_response_is_null(capsys):
     # v(in) is held by the DC source Vin: its response to Vc is exactly 0, -inf dB.
     from netlist.ac import ac_analysis
@@ -118,7 +118,9 @@ def test_ac_json_zero_response_is_null(capsys):
     argv = ["ac", path, "--period", "ts", "--inject", "Vc", "--probe", "v(in),v(out)",
             "--freq", "100:10k:3", "--json"]
     assert main(argv) == 0
-    got = strict(capsys.readouterr().out)
+    captured = capsys.readouterr()
+    assert "warning" not in captured.err  # (-inf dB is the answer, not a numpy warning)
+    got = strict(captured.out)
     ref = ac_analysis(parse_file(path), period="ts", inject="Vc", probes=["v(in)", "v(out)"],
                       freqs=np.logspace(2, 4, 3)).to_dict()
     assert compare(got, ref) == 3
@@ -127,7 +129,7 @@ def test_ac_json_zero_response_is_null(capsys):
     assert all(isinstance(v, float) for v in got["probes"]["v(out)"]["mag_db"])
 
 
-@pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning")
+@pytest.mark.filterwarnings("error::RuntimeWarning")
 def test_orbit_json_overflowed_residual_is_null(capsys):
     # Rn = -50 Ohm grows like exp(2.5e4 t): over T = 16.2 ms the state stays finite (the
     # simulation fails from about 16.5 ms) but P(x) - x divided by the state scale exceeds
@@ -137,7 +139,9 @@ def test_orbit_json_overflowed_residual_is_null(capsys):
 
     path = str(NETLISTS / "sim" / "tunnel_nonpassive.cir")
     code = main(["orbit", path, "--period", "16.2m", "--transient", "0", "--json"])
-    out = capsys.readouterr().out
+    captured = capsys.readouterr()
+    out = captured.out
+    assert "overflow" not in captured.err
     assert code == 3
     got = strict(out)
     assert got["converged"] is False and got["residual"] is None

@@ -243,7 +243,10 @@ def find_orbit(
         return m.power(v, k)
 
     def resid(g):
-        return float(np.max(np.abs(g) / sc)) if g.size else 0.0
+        # (a state that has grown past float range gives an infinite residual, reported as
+        # such, not a numpy warning)
+        with np.errstate(over="ignore"):
+            return float(np.max(np.abs(g) / sc)) if g.size else 0.0
 
     g = pk(x) - x
     r = resid(g)

@@ -64,8 +64,10 @@ class FrequencyResponse:
         return self.H[:, lower.index(probe.lower())]
 
     def mag_db(self, probe: str) -> np.ndarray:
-        """|H| in dB, shape (F,)."""
-        return 20.0 * np.log10(np.abs(self[probe]))
+        """|H| in dB, shape (F,); -inf where the response is exactly zero (a probe the input
+        cannot move, such as a node held by a voltage source)."""
+        with np.errstate(divide="ignore"):
+            return 20.0 * np.log10(np.abs(self[probe]))
 
     def phase_deg(self, probe: str) -> np.ndarray:
         """Phase in degrees, unwrapped along the frequency axis, shape (F,)."""
@@ -117,7 +119,8 @@ def loop_margins(freq: np.ndarray, T: np.ndarray) -> LoopMargins:
     """Crossover and margins of a loop gain ``T(f)`` (log-linear interpolation between the
     sweep's points)."""
     freq = np.asarray(freq, dtype=float)
-    mag = 20.0 * np.log10(np.abs(T))
+    with np.errstate(divide="ignore"):  # (a zero loop gain is -inf dB: no crossover there)
+        mag = 20.0 * np.log10(np.abs(T))
     ph = np.degrees(np.unwrap(np.angle(T)))
     fc = pm = fp = gm = None
     lf = np.log10(freq)
