@@ -7,6 +7,7 @@ lark parse of each statement with specific messages for what pelcs does not read
 
 from __future__ import annotations
 
+import math
 import os
 import re
 from collections.abc import Callable
@@ -373,6 +374,11 @@ class _Reader(ElementLines):
         if tok.type == "EXPR":
             return self.expression(tok[1:-1], st, tok.start_pos + 1)
         num = parse_number(tok)
+        if num is not None and not math.isfinite(num):
+            self.error(f"number '{tok}' is too large: it is not a finite double", st,
+                       tok.start_pos, "write a value below 1.8e308; "
+                       "SPICE numbers are double precision")
+            return None
         if num is not None:
             return Value(num, None, st, tok.start_pos)
         if bare_expression:

@@ -153,12 +153,10 @@ def test_orbit_json_overflowed_residual_is_null(capsys):
     assert all(math.isfinite(v) for pair in got["multipliers"] for v in pair)
 
 
-def test_lcs_json_infinite_switch_threshold_is_null(tmp_path, capsys):
-    # A literal 1e999 in a .model overflows to inf (expressions and --param refuse it).
-    from netlist.formulation import formulate, storage_matrix
-    from netlist.parser import parse_file
-    from pelcs.commands.lcs import build_report
-
+def test_overflowing_number_in_a_netlist_is_an_input_error(tmp_path, capsys):
+    # A literal 1e999 used to read as inf (expressions and --param refused it) and reached
+    # `pelcs lcs --json` as an infinite switch threshold: it is now the netlist's error, with
+    # its place, like any invalid number.
     path = tmp_path / "never_on.cir"
     path.write_text("""Switch that never turns on
 Vin in 0 DC 12
@@ -171,12 +169,8 @@ R1 out 0 10
 .model DIDEAL D
 .end
 """)
-    assert main(["lcs", str(path), "--json"]) == 0
-    got = strict(capsys.readouterr().out)
-    assert got["switches"] == [{"name": "S1", "control": "v(con,0)", "vt": None, "vh": 0.0}]
-    circuit = parse_file(str(path))
-    system = formulate(circuit)
-    ref = {**build_report(system, system.all_keys(), storage_matrix(circuit)),
-           "file": str(path), "title": circuit.title}
-    assert compare(got, ref) == 1
-    assert got["modes"][0]["A"] == [[pytest.approx(-1e6)]]  # -R1/L1, finite: kept
+    assert main(["lcs", str(path), "--json"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert f"{path}:8:18" in captured.err and "'1e999' is too large" in captured.err
+    assert "Traceback" not in captured.err

@@ -3,7 +3,7 @@
 Prints, for every requested switch mode, ``A B E`` (rows: state derivatives) and ``C D F``
 (rows: the complementarity variables w) with named rows and columns, what λ stands for per
 diode, and whether the mode is passive. ``--json`` prints one JSON object instead (strict
-JSON: NaN and infinities, e.g. a switch model's ``VT=1e999``, are null)::
+JSON: NaN and infinities, should any arise, are null)::
 
     {"file", "title", "states", "lambdas" (diode names), "inputs", "switches",
      "passive" (every listed mode passive), "modes": [
