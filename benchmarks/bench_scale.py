@@ -22,7 +22,8 @@ For each netlist:
 Run: ``.venv/bin/python benchmarks/bench_scale.py [--quick] [--family NAME]... [--timeout S]
 [--repeat N] [--plot OUT.png]`` (``--repeat``: best of N whole commands, both programs);
 prints a table and writes ``benchmarks/results/bench_scale.json`` (``--replot --plot
-OUT.png`` draws that file again).
+OUT.png`` draws that file again). Each row also records the machine's state before its case
+(:func:`host_state`): this shared machine's speed varies within the hour.
 """
 
 from __future__ import annotations
@@ -144,9 +145,35 @@ def _whole(cmd: list[str], timeout: float) -> tuple[float | None, str]:
     return best, ""
 
 
+def host_state() -> dict:
+    """How fast this (shared) machine is right now: the best of 5 of a fixed pure-Python loop
+    (``cpu_ms``: the interpreter's speed, what start-up and parsing pay) and of filling 64 MB
+    of fresh memory (``fresh_mb_ms``: the kernel's page zeroing, what the first touch of a
+    run's stores and factors pays). A row's ratios can then be read against the machine's
+    state when it ran: on this 2-core virtual machine both vary by 30 % and more within an
+    hour, and they slow pelcs more than ngspice."""
+    import numpy as np
+
+    def best(fn) -> float:
+        out = []
+        for _ in range(5):
+            t0 = time.perf_counter()
+            fn()
+            out.append(time.perf_counter() - t0)
+        return 1e3 * min(out)
+
+    def loop():
+        acc = 0
+        for i in range(200_000):
+            acc += i * i
+        return acc
+
+    return dict(cpu_ms=best(loop), fresh_mb_ms=best(lambda: np.ones(8 << 20)))
+
+
 def run_case(family: str, size: int, timeout: float) -> dict:
     text = FAMILIES[family][0](size)
-    row = dict(family=family, size=size)
+    row = dict(family=family, size=size, host=host_state())
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / f"{family}_{size}.cir"
         path.write_text(text)
@@ -287,6 +314,12 @@ def main(argv=None) -> int:
               f"{row['parse_s']:7.3f} {row['setup_s']:7.3f} "
               f"{max(0.0, row['run_s'] - row['stepping_s']):7.3f} {row['stepping_s']:8.3f} "
               f"{row['output_s']:7.3f} {row['pelcs_s']:8.3f}")
+    cpu = [row["host"]["cpu_ms"] for row in rows]
+    mem = [row["host"]["fresh_mb_ms"] for row in rows]
+    if rows:
+        print(f"\nhost state over the run (best of 5 before each case): a pure-Python loop "
+              f"{min(cpu):.1f}-{max(cpu):.1f} ms, 64 MB of fresh memory "
+              f"{min(mem):.1f}-{max(mem):.1f} ms")
     out = HERE / "benchmarks" / "results"
     out.mkdir(parents=True, exist_ok=True)
     (out / "bench_scale.json").write_text(json.dumps(rows, indent=1))
