@@ -232,6 +232,10 @@ def output_times(t_first: float, t_last: float, dt: float) -> np.ndarray:
     return t
 
 
+#: entries of the output that :func:`resample` interpolates at a time
+_RESAMPLE_BLOCK = 1 << 16
+
+
 def resample(result: SimulationResult, dt: float) -> SimulationResult:
     """The result at the instants of :func:`output_times` (``k dt``, as ngspice writes a
     ``.tran TSTEP`` grid), linearly interpolated between the stored points.
@@ -274,6 +278,16 @@ def resample(result: SimulationResult, dt: float) -> SimulationResult:
     dx = t[i1] - t[i0]
     on_point = (tout == t[i0]) | (dx == 0)
     safe = np.where(on_point, 1.0, dx)
-    slope = (y[i1] - y[i0]) / safe[:, None]
-    yout = np.where(on_point[:, None], y[i0], slope * (tout - t[i0])[:, None] + y[i0])
+    offset = tout - t[i0]
+    # A block of output rows at a time: the temporaries of the whole output (five arrays of
+    # its size, fresh pages the kernel zeroes) took 0.4-0.8 s on 40,001 points of 400 probes;
+    # a block's are reused from one block to the next.
+    yout = np.empty((tout.size, y.shape[1]))
+    rows = max(1, _RESAMPLE_BLOCK // y.shape[1])
+    for a in range(0, tout.size, rows):
+        b = min(a + rows, tout.size)
+        y0 = y[i0[a:b]]
+        slope = (y[i1[a:b]] - y0) / safe[a:b, None]
+        np.copyto(yout[a:b], np.where(on_point[a:b, None], y0,
+                                      slope * offset[a:b, None] + y0))
     return replace(result, t=tout, y=yout)

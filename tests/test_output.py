@@ -82,6 +82,27 @@ def test_resample_equals_numpy_interp_column_by_column():
     assert r.y is y or np.array_equal(r.y, y)
 
 
+def test_resample_in_blocks_equals_numpy_interp(monkeypatch):
+    # The vectorised path interpolates a block of output rows at a time; with blocks of 1, 2
+    # and 3 rows (a last block short, repeated stored instants at block edges) the numbers are
+    # still np.interp's, bit for bit.
+    import lcs.results
+
+    rng = np.random.default_rng(11)
+    for block in (12, 25, 36):  # (1, 2 and 3 rows of 12 probes)
+        monkeypatch.setattr(lcs.results, "_RESAMPLE_BLOCK", block)
+        for _ in range(30):
+            n = int(rng.integers(3, 80))
+            t = np.sort(rng.uniform(0.0, 1.0, n))
+            t[0] = 0.0
+            t[n // 2] = t[n // 2 - 1]
+            y = rng.normal(size=(n, 12))
+            r = resample(_result(t, y, names=tuple(f"p{k}" for k in range(12))),
+                         float(rng.uniform(0.005, 0.2)))
+            ref = np.column_stack([np.interp(r.t, t, y[:, j]) for j in range(12)])
+            assert np.array_equal(r.y, ref)
+
+
 def test_csv_is_numpy_savetxt_text(tmp_path):
     rng = np.random.default_rng(1)
     t = np.sort(rng.random(9000)) * 1e-3
