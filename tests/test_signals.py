@@ -90,3 +90,33 @@ def test_waveforms_match_ngspice(tmp_path):
     for col, key in enumerate("abcde"):
         ours = resolve(WAVEFORMS[key], TSTEP, TSTOP)(t)
         np.testing.assert_allclose(ours, data[:, 2 * col + 1], atol=1e-9, err_msg=key)
+
+
+def test_inputs_by_row_blocks_equal_each_source_on_its_own(monkeypatch):
+    # evaluate_inputs and InputTable fill their (N, p) array a block of rows at a time; with
+    # blocks of 7 rows (a last block short) every column is still the source itself on the
+    # whole time array, bit for bit: tabulated PULSE/PWL/DC by np.interp, a SIN called, a PWL
+    # with a jump by its one-sided limits.
+    import lcs.simulation.inputs as inputs
+    from lcs.signals import Dc, Pulse, Pwl, Sin
+
+    sources = [Pulse(0.0, 5.0, 1e-6, 1e-7, 1e-7, 4e-6, 1e-5), Dc(3.3),
+               Pwl((0.0, 2e-5, 4e-5), (0.0, 1.0, -2.0)), Sin(0.0, 2.0, 5e4),
+               Pwl((0.0, 1e-5, 1e-5, 5e-5), (0.0, 1.0, 3.0, 3.0))]
+    t = np.linspace(0.0, 5e-5, 100)
+    full = inputs.evaluate_inputs(sources, t)
+    monkeypatch.setattr(inputs, "ROW_BLOCK", 7)
+    for side in (0, 1, -1):
+        got = inputs.evaluate_inputs(sources, t, side)
+        assert got.shape == (100, 5) and got.flags.c_contiguous
+        for j, f in enumerate(sources):
+            ref = (inputs._pwl_limit(f, t, side) if side and isinstance(f, Pwl)
+                   else np.broadcast_to(f(t), t.shape))
+            assert np.array_equal(got[:, j], ref), (side, j)
+    table = inputs.InputTable(sources, 0.0, 5e-5)
+    for side in (0, 1, -1):
+        got = table(t, side)
+        assert np.array_equal(got[:, [1, 3]], full[:, [1, 3]])
+        assert np.allclose(got, inputs.evaluate_inputs(sources, t, side), rtol=0, atol=1e-12)
+    assert inputs.evaluate_inputs(sources, np.empty(0)).shape == (0, 5)
+    assert inputs.evaluate_inputs([], t).shape == (100, 0)
