@@ -561,7 +561,9 @@ def simulate(
         exactly), by its comparator (a control that depends on the state: instants located
         inside the steps, see ``switching``), or by a controller (``controllers``).
     signals : sequence of Signal (or vectorised callables ``f(t) -> array``)
-        ``signals[j]`` drives input j, already resolved (:func:`lcs.signals.resolve`).
+        ``signals[j]`` drives input j, already resolved (:func:`lcs.signals.resolve`). A
+        callable is evaluated pointwise, on slices of the time grid
+        (:mod:`lcs.simulation.inputs`).
     x0 : array_like, shape (n,)
         Initial state (A for inductor currents, V for capacitor voltages).
     t_stop, h : float

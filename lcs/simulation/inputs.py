@@ -2,7 +2,10 @@
 
 Every integrator evaluates the inputs ``u(t)`` (one callable per independent source, a
 :mod:`lcs.signals` waveform or any vectorised function) through these functions, and lands on
-their breakpoints (PULSE edges, PWL corners), where a waveform is not smooth.
+their breakpoints (PULSE edges, PWL corners), where a waveform is not smooth. A callable is
+evaluated pointwise: it is called on consecutive slices of a time array
+(:data:`ROW_BLOCK` instants at a time), and its value at an instant must not depend on the
+other instants of the array.
 """
 
 from __future__ import annotations
