@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..bits import bit, copy_bits, equal_bits, row_equals
-from ..jit import kernel
+from ..jit import inline, kernel
 from ..stepping.layout import (
     FV_FAIL_T0,
     FV_FAIL_T1,
@@ -37,10 +37,10 @@ from ..stepping.layout import (
 )
 from ..stepping.store import find_mode, record
 from .layout import NF_OUTSTATE, STEP_FALLBACK, STEP_GROW
-from .step import kkt_step
+from .step import step_body
 
 
-@kernel
+@inline
 def _store_row(net, j, key, duty, x, lam, U, ur, T, Y, pos, t):
     T[pos] = t
     if net.flags[j, NF_OUTSTATE] != 0:
@@ -135,8 +135,9 @@ def run_kkt(net, cache, chunk, sched, state, lim, store, W, stol):
         if s != js:
             slot[0] = -1
             js = s
-        st = kkt_step(net, cache, j, s, stol, theta, x, U0[kk], U1[kk], mask, slot, rtol,
-                      lim.warm_iter, W, xn, lamn, ivars)
+        # (inlined: a call would incref and decref every array of net, cache and W each step)
+        st = step_body(net, cache, j, s, stol, theta, x, U0[kk], U1[kk], mask, slot, rtol,
+                       lim.warm_iter, W, xn, lamn, ivars)
         if st != 0:
             fvars[FV_FAIL_T0] = ta
             fvars[FV_FAIL_T1] = tb

@@ -295,7 +295,7 @@ def inputs_part(net, j, theta, u0, u1, W):
         W.fu[i] = b
 
 
-@kernel
+@inline
 def residual(net, j, s, mask, sol, r):
     """``r -= K sol`` for the KKT matrix of mode ``j``, length ``s`` and active set ``mask``
     (unscaled, from the template as :func:`assemble` takes it)."""
@@ -502,9 +502,9 @@ def _alternative(prev, viol, nv, a, m, mask):
     return False
 
 
-@kernel
-def kkt_step(net, cache, j, s, stol, theta, x, u0, u1, mask, slot, rtol, max_iter, W, xn,
-             lamn, ivars):
+@inline
+def step_body(net, cache, j, s, stol, theta, x, u0, u1, mask, slot, rtol, max_iter, W, xn,
+              lamn, ivars):
     """One θ step of length ``s`` of mode ``j`` from ``x`` into ``xn``, ``lamn``, from the
     active set ``mask`` (cache slot ``slot[0]``, -1: unknown), by block principal pivoting
     (Júdice–Pires, Murty's single flip once the infeasibilities stop decreasing, as
@@ -622,3 +622,16 @@ def kkt_step(net, cache, j, s, stol, theta, x, u0, u1, mask, slot, rtol, max_ite
         elif tries < 3:
             tries += 1
     return 1
+
+
+@kernel
+def kkt_step(net, cache, j, s, stol, theta, x, u0, u1, mask, slot, rtol, max_iter, W, xn,
+             lamn, ivars):
+    """:func:`step_body` as a kernel of its own, for one step called from Python.
+
+    The grid loop (:func:`lcs.kkt.grid.run_kkt`) inlines :func:`step_body` instead: a
+    compiled call that takes the mode store, the cache and the work space (108 arrays)
+    increfs each of them on entry and decrefs them on return, which was 10-14 % of a
+    50-stage multiplier's stepping in a perf profile."""
+    return step_body(net, cache, j, s, stol, theta, x, u0, u1, mask, slot, rtol, max_iter,
+                     W, xn, lamn, ivars)
