@@ -139,6 +139,15 @@ class ModeModel:
     network: NetworkRealisation | Callable[[], NetworkRealisation] | None = None
 
 
+def _switch_state(name: str, value) -> bool:
+    """One switch's state in a configuration: a boolean (numpy's too) or "on"/"off"."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, str) and value.strip().lower() in ("on", "off"):
+        return value.strip().lower() == "on"
+    raise ValueError(f"switch {name}: state {value!r} is neither a boolean nor 'on'/'off'")
+
+
 class SwitchedLCS:
     """One LCS per switch configuration, computed lazily and cached (a configuration the
     builder rejects too: its error is raised again without rebuilding).
@@ -172,20 +181,43 @@ class SwitchedLCS:
         self._failed: dict[ModeKey, Exception] = {}
         self._outputs: dict[tuple[ModeKey, tuple[str, ...]], OutputMap] = {}
 
-    def key(self, config: dict[str, bool] | ModeKey | None = None) -> ModeKey:
-        """Normalise a configuration (a dict by switch name, or a tuple) to a mode key."""
+    def key(self, config: dict[str, bool | str] | Sequence[bool | str] | None = None) -> ModeKey:
+        """Normalise a configuration to a mode key.
+
+        Parameters
+        ----------
+        config : dict, sequence or None
+            A dict by switch name (case-insensitive) naming every switch, or a sequence in the
+            order of :attr:`switches`; each state is a boolean (``True`` = on, a short) or the
+            string ``"on"``/``"off"``. None is every switch off.
+
+        Raises
+        ------
+        KeyError
+            A dict names an unknown switch or leaves one out.
+        ValueError
+            A state is neither a boolean nor ``"on"``/``"off"`` (``0``, ``"false"`` and ``0.5``
+            are refused rather than read by their truth value: ``bool("off")`` is True), or a
+            sequence has the wrong length.
+        """
         if config is None:
             return tuple(False for _ in self.switches)
         if isinstance(config, dict):
-            lower = {k.lower(): bool(v) for k, v in config.items()}
-            unknown = set(lower) - {s.name.lower() for s in self.switches}
+            given = {str(k).lower(): (k, v) for k, v in config.items()}
+            known = {s.name.lower() for s in self.switches}
+            unknown = sorted(k for k, _ in given.values() if str(k).lower() not in known)
             if unknown:
-                raise KeyError(f"unknown switch(es): {', '.join(sorted(unknown))}")
-            return tuple(lower.get(s.name.lower(), False) for s in self.switches)
-        key = tuple(bool(v) for v in config)
-        if len(key) != len(self.switches):
-            raise ValueError(f"mode key needs {len(self.switches)} entries, got {len(key)}")
-        return key
+                raise KeyError(f"unknown switch(es): {', '.join(map(str, unknown))}; "
+                               f"the switches are {', '.join(s.name for s in self.switches)}")
+            missing = [s.name for s in self.switches if s.name.lower() not in given]
+            if missing:
+                raise KeyError(f"no state given for switch(es) {', '.join(missing)}: name "
+                               "every switch (True/'on' or False/'off')")
+            return tuple(_switch_state(*given[s.name.lower()]) for s in self.switches)
+        values = tuple(config)
+        if len(values) != len(self.switches):
+            raise ValueError(f"mode key needs {len(self.switches)} entries, got {len(values)}")
+        return tuple(_switch_state(s.name, v) for s, v in zip(self.switches, values, strict=True))
 
     def all_keys(self) -> list[ModeKey]:
         """Every switch configuration (2**k of them), all-off first."""

@@ -117,15 +117,7 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         For invalid element values or references, or a singular inductance matrix; later,
         when a mode is built, for a degenerate topology in that mode.
     """
-    held = set(source_capacitors(circuit)) | set(parallel_diodes(circuit))
-    if held:
-        # A capacitor across sources only: its voltage is the sources', no state, and
-        # nothing else depends on its current. An ideal diode in parallel with another of
-        # the same orientation: one complementarity pair carries both (two would leave the
-        # split of the current undetermined: a non-unique λ).
-        circuit = replace(circuit, elements=[el for el in circuit.elements
-                                             if el.key not in held])
-    formulator = _Formulator(circuit)
+    formulator = _Formulator(_reduced(circuit))
     return SwitchedLCS(
         switches=formulator.switch_controls,
         states=formulator.state_names,
@@ -133,6 +125,18 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         diodes=[d.name for d in formulator.diodes],
         builder=formulator.build_mode,
     )
+
+
+def _reduced(circuit: Circuit) -> Circuit:
+    """The circuit without what the formulation leaves out (:mod:`netlist.reductions`): a
+    capacitor across sources only (its voltage is the sources', no state, and nothing else
+    depends on its current), and an ideal diode in parallel with another of the same
+    orientation (one complementarity pair carries both: two would leave the split of the
+    current undetermined, a non-unique λ)."""
+    held = set(source_capacitors(circuit)) | set(parallel_diodes(circuit))
+    if not held:
+        return circuit
+    return replace(circuit, elements=[el for el in circuit.elements if el.key not in held])
 
 
 def storage_matrix(circuit: Circuit) -> np.ndarray:
@@ -147,9 +151,10 @@ def storage_matrix(circuit: Circuit) -> np.ndarray:
     Returns
     -------
     ndarray, shape (n, n)
-        Symmetric; H on inductor rows/columns, F on capacitor ones.
+        Symmetric; H on inductor rows/columns, F on capacitor ones. A capacitor that
+        :func:`formulate` leaves out (across sources only) has no row.
     """
-    f = _Formulator(circuit)
+    f = _Formulator(_reduced(circuit))
     K = np.zeros((f.n, f.n))
     rows = [f.state_index[el.key] for el in f.inductors]
     K[np.ix_(rows, rows)] = f.Lmat

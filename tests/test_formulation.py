@@ -41,7 +41,7 @@ from netlist.circuit import (
     VoltageSource,
 )
 from netlist.errors import NetlistError
-from netlist.formulation import formulate
+from netlist.formulation import formulate, storage_matrix
 
 # ----------------------------------------------------------------------------------------
 # helpers
@@ -1106,3 +1106,40 @@ def test_skipping_too_small_assignments_picks_the_same_one(monkeypatch):
             for got, want in zip(with_skip[2:], full[2:], strict=True):
                 assert np.array_equal(got, want)
     assert skipped > 10  # (the bound was above zero on many of them)
+
+
+def test_mode_keys_take_booleans_or_on_off_and_name_every_switch():
+    sys = formulate(boost())
+    on, off = sys.mode({"S1": True}), sys.mode({"S1": False})
+    assert not np.array_equal(on.A, off.A)
+    for state, want in (("on", on), ("ON", on), ("off", off), (" Off ", off),
+                        (np.True_, on), (np.False_, off)):
+        close(sys.mode({"s1": state}).A, want.A)
+    close(sys.mode(("off",)).A, off.A)
+    # Truthiness would read each of these as on: refused instead.
+    for state in ("false", "0", "no", 0, 1, 2, 0.5, None):
+        with pytest.raises(ValueError, match="neither a boolean nor 'on'/'off'"):
+            sys.mode({"S1": state})
+    with pytest.raises(KeyError, match="no state given for switch"):
+        formulate(two_switch_boost_for_keys()).mode({"S1": True})
+    with pytest.raises(KeyError, match="unknown switch"):
+        sys.mode({"S1": True, "S9": False})
+    assert sys.describe_mode(("on",)) == {"S1": "on"}
+
+
+def two_switch_boost_for_keys():
+    c = boost()
+    c.elements.append(gate_switch("S2", "out", "x"))
+    c.elements.append(Resistor("R9", ("x", "0"), value=100.0))
+    return c
+
+
+def test_storage_matrix_leaves_out_a_capacitor_across_the_source():
+    # An input capacitor straight across the supply holds no state (netlist.reductions): the
+    # energy matrix has the LCS's states only (it was 3x3 for 2 states, and `pelcs lcs`
+    # stopped with a traceback).
+    c = boost(L=100e-6, C=47e-6)
+    c.elements.insert(1, Capacitor("Cin", ("in", "0"), value=10e-6))
+    sys = formulate(c)
+    assert sys.states == ("i(L1)", "v(C1)")
+    close(storage_matrix(c), np.diag([100e-6, 47e-6]))
