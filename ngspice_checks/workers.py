@@ -32,14 +32,23 @@ class _Worker:
 
     def __init__(self) -> None:
         self._stderr = tempfile.TemporaryFile()
+        # Hermetic: libngspice reads a ``.spiceinit`` from the working directory and from
+        # $HOME when it starts, and such a file may hold ``shell`` commands. A downloaded
+        # project's folder must not run anything: the child starts in an empty private
+        # folder that is also its HOME (the request's folder, for .include, is entered after
+        # ngspice has started).
+        self._home = tempfile.TemporaryDirectory(prefix="pelcs-ngspice-")
         env = dict(os.environ)
         env.setdefault("PYTHONUNBUFFERED", "1")
+        env["HOME"] = self._home.name
+        env.pop("SPICE_USERINIT_DIR", None)
         self.proc = subprocess.Popen(
             [sys.executable, str(_WORKER_SCRIPT)],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=self._stderr,
             env=env,
+            cwd=self._home.name,
         )
         self._replies: queue.Queue[Any] = queue.Queue()
         self._reader = threading.Thread(target=self._read, daemon=True)
@@ -114,6 +123,7 @@ class _Worker:
                     stream.close()
             except OSError:
                 pass
+        self._home.cleanup()
 
 
 class _Pool:

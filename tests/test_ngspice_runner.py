@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import os
 import warnings
 from pathlib import Path
 
@@ -368,3 +369,37 @@ def test_capacitor_input_bridge_climbs_with_the_initial_state(ngspice):
     names = [name for _, name, _ in cmp.attempts]
     assert names[:2] == ["as-written", "initial-state"]
     assert cmp.settings.name == "shunts"
+
+
+def test_ngspice_reads_no_start_up_file_of_the_working_folder_or_home(
+        ngspice, tmp_path, monkeypatch):
+    # A downloaded project's folder may hold a .spiceinit whose `shell` line runs at
+    # ngspice's start: the workers start in a private folder that is also their HOME.
+    marker = tmp_path / "ran"
+    for folder in ("project", "home"):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / ".spiceinit").write_text(f"shell touch {marker}_{folder}\n")
+    monkeypatch.chdir(tmp_path / "project")
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    res = run_ngspice(RC, ["v(out)"], workdir=tmp_path / "project")
+    assert res["v(out)"][-1] == pytest.approx(1 - np.exp(-5), abs=1e-3)
+    assert not list(tmp_path.glob("ran*")), "ngspice ran a command of a .spiceinit"
+
+
+def test_ngspice_workers_start_in_a_private_folder_that_is_their_home(tmp_path, monkeypatch):
+    # The mechanism behind the test above, which this machine's libngspice (it reads no
+    # .spiceinit) cannot make fail: other ngspice versions read one from both places.
+    from ngspice_checks.workers import _Worker
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("HOME", str(tmp_path))
+    worker = _Worker()
+    try:
+        pid = worker.proc.pid
+        cwd = os.readlink(f"/proc/{pid}/cwd")
+        environ = Path(f"/proc/{pid}/environ").read_bytes().split(b"\0")
+        home = next(e for e in environ if e.startswith(b"HOME=")).decode()[5:]
+    finally:
+        worker.close()
+    assert cwd == home and Path(cwd).resolve() != tmp_path.resolve()
+    assert "pelcs-ngspice-" in cwd and not Path(cwd).exists()  # removed when closed
