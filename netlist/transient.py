@@ -83,6 +83,11 @@ class TransientSetup:
         Stored-energy matrix (½ x'Kx, J), for jumps and energy balances.
     notes : list of str
         What the user should know about how the run was set up.
+    nonpassive : list
+        The modes the passivity screen found non-passive.
+    default_probes : list of str or None
+        The probes of a run that names none, where they are not the states (a circuit with
+        no inductor or capacitor: its node voltages).
     """
 
     system: SwitchedLCS
@@ -94,6 +99,7 @@ class TransientSetup:
     energy: np.ndarray | None = None
     notes: list[str] = field(default_factory=list)
     nonpassive: list = field(default_factory=list)
+    default_probes: list[str] | None = None
 
 
 def _input_error(circuit: Circuit, message: str, hint: str) -> NetlistError:
@@ -229,8 +235,14 @@ def transient_setup(
     t_save = tran.tstart if tran is not None and tran.tstart < tstop else 0.0
     energy = storage_matrix(circuit)
     nonpassive = _screen_passivity(circuit, system, energy, notes, strict)
+    default_probes = None
+    if not system.states:
+        # With no state the default probes (the states) would be none: a CSV of times only.
+        default_probes = [f"v({node})" for node in circuit.nodes[1:]]
+        notes.append("no inductor or capacitor: the default probes are the node voltages "
+                     f"({', '.join(default_probes)}); --probe chooses others")
     return TransientSetup(system, signals, x0, float(tstop), float(step), float(t_save),
-                          energy, notes, nonpassive)
+                          energy, notes, nonpassive, default_probes)
 
 
 def _step_note(circuit: Circuit, given: dict[str, float]) -> str:
@@ -520,6 +532,8 @@ def run_setup(
     used (:func:`choose_theta`).
     """
     jump = _JumpRecorder(setup.energy)
+    if probes is None:
+        probes = setup.default_probes
     theta_note = None
     if method == "moreau":
         theta, theta_note = choose_theta(setup, theta)

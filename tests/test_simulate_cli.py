@@ -197,3 +197,31 @@ def test_summary_of_many_switches_and_probes_stays_short(tmp_path, capsys):
     assert finals.endswith("(14 probes, all in the output)")
     with np.load(out) as data:
         assert data["y"].shape[1] == len(data["names"]) == 14
+
+
+def test_circuit_without_states_writes_its_node_voltages(tmp_path, capsys):
+    # A resistive half-wave rectifier has no inductor or capacitor: the default probes (the
+    # states) would be none, a CSV of times only. It writes the node voltages instead.
+    deck = tmp_path / "halfwave_r.cir"
+    deck.write_text("half-wave rectifier into a resistor\nV1 in 0 SIN(0 10 50)\n"
+                    "D1 in out DI\n.model DI D\nR1 out 0 1k\n.tran 1m 20m\n.end\n")
+    out = tmp_path / "r.csv"
+    code, text, err = run(capsys, "simulate", str(deck), "-o", str(out))
+    assert code == 0, err
+    header, data = read_csv(out)
+    assert header == ["time", "v(in)", "v(out)"]
+    t, vin, vout = data.T
+    np.testing.assert_allclose(vin, 10 * np.sin(2 * np.pi * 50 * t), atol=1e-9)
+    np.testing.assert_allclose(vout, np.maximum(vin, 0.0), atol=1e-9)  # ideal diode
+    assert "default probes are the node voltages" in text + err
+
+
+def test_lcs_of_a_capacitor_across_the_source(tmp_path, capsys):
+    # PySpice's buck puts Cin straight across Vin: no state, and no traceback.
+    deck = tmp_path / "cin.cir"
+    deck.write_text("buck with an input capacitor\nVin in 0 DC 12\nCin in 0 10u\n"
+                    "S1 in sw g 0 SWM\n.model SWM SW(RON=1m)\nVg g 0 DC 1\nD1 0 sw DI\n"
+                    ".model DI D\nL1 sw out 10u\nC1 out 0 47u\nR1 out 0 2.5\n.end\n")
+    code, text, err = run(capsys, "lcs", str(deck), "--mode", "S1=on")
+    assert code == 0, err
+    assert "Traceback" not in err and "passive" in text
