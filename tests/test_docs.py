@@ -121,7 +121,7 @@ def _params():
         yield pytest.param(b, id=b.id, marks=marks)
 
 
-@pytest.mark.parametrize("block", _params())
+@pytest.mark.parametrize("block", list(_params()))
 def test_block_runs(block: Block, workdir: Path, request) -> None:
     if block.lang == "python":
         script = workdir.parent / "block.py"
