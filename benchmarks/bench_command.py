@@ -1,4 +1,4 @@
-"""The whole command, side by side with ngspice (issue #14.2): what a user times.
+"""The whole command, side by side with ngspice: what a user times.
 
     .venv/bin/python benchmarks/bench_command.py [--repeat N] [--periods P ...]
 

@@ -1,4 +1,4 @@
-"""The exact event-driven method against Moreau time-stepping, side by side (issue #13).
+"""The exact event-driven method against Moreau time-stepping, side by side.
 
 Run by hand: ``.venv/bin/python benchmarks/bench_exact.py`` (about a minute on 2 cores).
 

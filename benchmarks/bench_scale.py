@@ -1,4 +1,4 @@
-"""Scaling study (issue #14.1): pelcs against ngspice on converters with many diodes and
+"""Scaling study: pelcs against ngspice on converters with many diodes and
 switches, whole commands side by side.
 
 Families (``converters/scaling.py``, near-ideal models in the text both programs read):
@@ -21,9 +21,11 @@ For each netlist:
 
 Run: ``.venv/bin/python benchmarks/bench_scale.py [--quick] [--family NAME]... [--timeout S]
 [--repeat N] [--plot OUT.png]`` (``--repeat``: best of N whole commands, both programs);
-prints a table and writes ``benchmarks/results/bench_scale.json`` (``--replot --plot
-OUT.png`` draws that file again). Each row also records the machine's state before its case
-(:func:`host_state`): this shared machine's speed varies within the hour.
+prints a table and writes ``benchmarks/results/bench_scale.json`` and the Markdown tables of
+``docs/performance.md``, ``benchmarks/results/bench_scale.md`` (``--replot --plot OUT.png``
+draws the JSON file again, ``--tables`` writes the Markdown from it again). Each row also
+records the machine's state before its case (:func:`host_state`): this shared machine's
+speed varies within the hour.
 """
 
 from __future__ import annotations
@@ -247,7 +249,7 @@ def plot(rows: list[dict], path: Path) -> Path:
     ax1.grid(True, which="both", color="0.9")
     ax1.legend(fontsize=6.5)
     ax2.axhline(1.0, color="0.4", lw=0.8, label="as fast as ngspice")
-    ax2.axhline(5.0, color="0.4", lw=0.8, ls="--", label="5x (issue #14 target)")
+    ax2.axhline(5.0, color="0.4", lw=0.8, ls="--", label="5x")
     ax2.set_xlabel("states + complementarity pairs")
     ax2.set_ylabel("ngspice time / pelcs time (whole command) [-]")
     ax2.set_title("whole command: speed-up over ngspice -b", fontsize=10)
@@ -255,6 +257,54 @@ def plot(rows: list[dict], path: Path) -> Path:
     ax2.legend(fontsize=8)
     fig.savefig(path, dpi=110)
     return path
+
+
+NAMES = {"cockcroft_walton": ("Cockcroft–Walton", "stages"),
+         "interleaved_buck": ("interleaved buck", "phases"), "mmc_arm": ("MMC arm", "cells")}
+
+
+def _case(row: dict) -> str:
+    """A row's case as the tables name it: "Cockcroft–Walton, 50 stages", "6-pulse
+    rectifier"."""
+    if row["family"] in NAMES:
+        name, unit = NAMES[row["family"]]
+        return f"{name}, {row['size']} {unit}"
+    if row["family"].startswith("rectifier_"):
+        return row["family"].split("_")[1].replace("pulse", "-pulse rectifier")
+    return f"{row['family']} {row['size']}"
+
+
+def tables(rows: list[dict]) -> str:
+    """The two Markdown tables of ``docs/performance.md`` from a run's rows: per case the time
+    per step with each kernel (the one "auto" picks in bold) and both whole commands; then
+    where the pelcs command's time goes."""
+    def us(v: float | None, bold: bool) -> str:
+        if v is None:
+            return "—"
+        text = f"{v:.2f}" if v < 1 else f"{v:.0f}" if v >= 100 else f"{v:.1f}"
+        return f"**{text}**" if bold else text
+
+    lines = ["| case | states / pairs / switches | dense µs/step | sparse µs/step | "
+             "pelcs command | ngspice command | ratio |", "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        ng = r.get("ngspice_s")
+        ngs = (f"{ng:.2f} s" + (" (softened models)" if r.get("ngspice_models") == "softened"
+                                else "")) if ng else "fails (aborted)"
+        ratio = f"{r['ratio']:.1f}x" if r.get("ratio") else "—"
+        pelcs_s = f"{r['pelcs_s']:.2f} s" if r.get("pelcs_s") else "fails"
+        lines.append(f"| {_case(r)} | {r['n']} / {r['m']} / {r['k']} | "
+                     f"{us(r.get('us_dense'), r.get('kernel') == 'dense')} | "
+                     f"{us(r.get('us_sparse'), r.get('kernel') == 'sparse')} | {pelcs_s} | "
+                     f"{ngs} | {ratio} |")
+    lines += ["", "| case | start-up | parsing | modes (count) | stepping | output (NPZ) | "
+              "command |", "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        if r.get("startup_s") is None:
+            continue
+        lines.append(f"| {_case(r)} | {r['startup_s']:.2f} s | {r['parse_s']:.3f} s | "
+                     f"{max(0.0, r['run_s'] - r['stepping_s']):.2f} s ({r['modes']}) | "
+                     f"{r['stepping_s']:.2f} s | {r['output_s']:.2f} s | {r['pelcs_s']:.2f} s |")
+    return "\n".join(lines) + "\n"
 
 
 def main(argv=None) -> int:
@@ -268,7 +318,15 @@ def main(argv=None) -> int:
                     help="draw the results (of this run, or with --replot of the last one)")
     ap.add_argument("--replot", action="store_true",
                     help="only draw benchmarks/results/bench_scale.json (with --plot)")
+    ap.add_argument("--tables", action="store_true",
+                    help="only write benchmarks/results/bench_scale.md from the JSON file")
     args = ap.parse_args(argv)
+    results = HERE / "benchmarks" / "results"
+    if args.tables:
+        rows = json.loads((results / "bench_scale.json").read_text())
+        (results / "bench_scale.md").write_text(tables(rows))
+        print(results / "bench_scale.md")
+        return 0
     if args.replot:
         if not args.plot:
             ap.error("--replot needs --plot OUT.png")
@@ -323,6 +381,7 @@ def main(argv=None) -> int:
     out = HERE / "benchmarks" / "results"
     out.mkdir(parents=True, exist_ok=True)
     (out / "bench_scale.json").write_text(json.dumps(rows, indent=1))
+    (out / "bench_scale.md").write_text(tables(rows))
     if args.plot:
         print(plot(rows, Path(args.plot)))
     return 0

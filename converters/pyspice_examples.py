@@ -1,4 +1,4 @@
-"""Circuits built with PySpice (issue #11): PySpice's own buck example, as its
+"""Circuits built with PySpice: PySpice's own buck example, as its
 ``examples/switched-power-supplies/buck-converter.py`` builds it, for tests and examples."""
 
 from __future__ import annotations

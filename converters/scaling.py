@@ -1,5 +1,5 @@
 """Large converters for scaling studies: netlists whose number of diodes, switches and states
-grows with one parameter (``benchmarks/bench_scale.py``, issue #14).
+grows with one parameter (``benchmarks/bench_scale.py``).
 
 Every factory returns ngspice-ready netlist text with near-ideal models (``D(IS=1e-12
 N=0.05 RS=1m)``, ``SW(RON=1m ROFF=1e9)``), as the bundled converters use, so that the same text

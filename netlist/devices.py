@@ -1,4 +1,4 @@
-"""Transistors idealised as switches (issue #11): what an M or Q element becomes, and the
+"""Transistors idealised as switches: what an M or Q element becomes, and the
 report of every replacement.
 
 A MOSFET (``M``, models NMOS/PMOS/VDMOS) becomes an ideal switch between drain and source,

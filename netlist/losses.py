@@ -1,5 +1,5 @@
 """Conduction losses, input and output power and efficiency over the steady-state window
-(``--losses``, issue #11).
+(``--losses``).
 
 Over the window ``pelcs check`` uses (the last whole periods of the switching source, up to
 10; :func:`netlist.measure.steady_state_window`):

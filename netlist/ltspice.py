@@ -1,4 +1,4 @@
-"""LTspice constructs in netlists exported from LTspice schematics (issue #11).
+"""LTspice constructs in netlists exported from LTspice schematics.
 
 - ``Rser=``, ``Lser=`` (in series) and ``Rpar=``, ``Cpar=`` (across) on L, C and V lines
   become explicit elements named ``R_<element>_ser``, ``C_<element>_par``... on an internal

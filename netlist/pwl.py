@@ -1,4 +1,4 @@
-"""Piecewise-linear devices (``--devices pwl``, issue #11): diodes with a forward voltage and
+"""Piecewise-linear devices (``--devices pwl``): diodes with a forward voltage and
 an on-resistance, switches with an on-resistance, still a linear complementarity system.
 
 A diode becomes an ideal diode in series with a source ``Vf`` and a resistor ``Ron`` (so

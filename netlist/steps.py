@@ -1,4 +1,4 @@
-"""``.step param`` lines (issue #14.3): the reader's part; :mod:`netlist.flatten` evaluates
+"""``.step param`` lines: the reader's part; :mod:`netlist.flatten` evaluates
 them into ``circuit.steps`` and ``pelcs sweep`` runs them."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The ahead-of-time kernel module (issue #14.2, start-up): built by ``scripts/setup``, it runs
+"""The ahead-of-time kernel module: built by ``scripts/setup``, it runs
 the same compiled code as numba's dispatchers, and a run served by it never imports numba.
 
 Not timed here (``benchmarks/bench_command.py`` times whole commands): these tests check that

@@ -1,7 +1,7 @@
 """The layering of docs/architecture.md, checked on the source: no import cycles between
 modules, ``lcs`` imports nothing of ``netlist``/``pelcs``/``ngspice_checks``, ``netlist``
 nothing of ``pelcs``/``ngspice_checks``, ``ngspice_checks`` nothing of ``pelcs``, nothing
-imports the CLI, and no code module is over 800 lines (issue #15).
+imports the CLI, and no code module is over 800 lines.
 
 Imports are read statically (every ``import`` statement, also those inside functions: a lazy
 import is still a dependency).

@@ -1,4 +1,4 @@
-"""Every bundled converter runs through `pelcs simulate` with its own .tran (issue 6)."""
+"""Every bundled converter runs through `pelcs simulate` with its own .tran."""
 
 from pathlib import Path
 
@@ -25,7 +25,7 @@ def test_bundled_netlist_simulates_to_its_tstop(path, tmp_path, capsys):
 
 
 def test_all_bundled_converters_are_present():
-    # The converter library the project promises (issue 6), as bundled netlists.
+    # The converter library the project promises, as bundled netlists.
     names = {p.stem for p in NETLISTS}
     assert {"boost", "buck", "buck_boost", "cuk", "prc", "vm_buck", "boost_smc",
             "bridge_rectifier"} <= names

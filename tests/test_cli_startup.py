@@ -1,4 +1,4 @@
-"""The CLI builds only the parser of the command it runs (start-up, issue #14.2), without
+"""The CLI builds only the parser of the command it runs (start-up), without
 changing what help, errors and the commands themselves say."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Transistors idealised as switches (issue #11, first part): M (NMOS/PMOS/VDMOS) and Q
+"""Transistors idealised as switches: M (NMOS/PMOS/VDMOS) and Q
 (NPN/PNP) elements become ideal switches (and a VDMOS its body diode), reported, refused
 with --strict, written back as the devices for ngspice."""
 

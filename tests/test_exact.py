@@ -1,4 +1,4 @@
-"""The exact event-driven integrator (issue #13) against closed forms and an independent
+"""The exact event-driven integrator against closed forms and an independent
 piecewise-linear reference written here.
 
 - RLC step response and the half-wave rectifier's turn-off instant: closed forms.

@@ -1,4 +1,4 @@
-"""Circuits with many diodes and switches (issue #14.1): no 64-bit limit anywhere, the
+"""Circuits with many diodes and switches: no 64-bit limit anywhere, the
 warm-started pivoting and the rank-one factorisation updates give the numbers of the plain
 paths.
 

@@ -1,4 +1,4 @@
-"""Netlists exported from LTspice schematics (issue #11): Rser/Lser/Rpar/Cpar made explicit,
+"""Netlists exported from LTspice schematics: Rser/Lser/Rpar/Cpar made explicit,
 `.tran 0 ...`, `.backanno` and `.lib standard.*` accepted with notes; anything else a clear
 error naming it."""
 

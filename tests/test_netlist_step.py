@@ -1,4 +1,4 @@
-"""``.step param`` in the netlist (issue #14.3): parsed into ``circuit.steps``, run by
+"""``.step param`` in the netlist: parsed into ``circuit.steps``, run by
 ``pelcs sweep`` (and ``run_sweep``) as swept parameters, errors with file, line and column."""
 
 from __future__ import annotations

@@ -66,7 +66,7 @@ EXCLUDED = {
     "tests/netlists/devices/vendor_parts.cir": "no inductor or capacitor: nothing to compare",
     # The macro's gate network (RG + 1 ohm with the gate-charge capacitor, ~13 ohm x 3.5 nF)
     # delays ngspice's turn-off by ~80 ns of 2.5 us: 5.6 V out against the ideal 5.02 V. The
-    # idealisation drops the gate network by design (issue #11); tests/test_devices.py
+    # idealisation drops the gate network by design; tests/test_devices.py
     # checks pelcs against the ideal duty instead.
     "tests/netlists/devices/buck_vendor.cir": "gate-network delay dropped by design",
     # Two phases share the load through inductors with no series resistance: the split of

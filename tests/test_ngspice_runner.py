@@ -304,7 +304,7 @@ def test_circuit_objects_are_written_and_flattened_names_probed(ngspice, tmp_pat
 
 
 # ------------------------------------------------------------------------------------------
-# issue #16: PULSE without parentheses, and the initial-state rung
+# PULSE without parentheses, and the initial-state rung
 
 
 def test_bare_pulse_gets_finite_edges():

@@ -1,5 +1,5 @@
 """A non-passive circuit is simulated as its ideal model says, with a warning before the run,
-a note on the growth after it, and ``--strict`` / ``strict=True`` to refuse it (issue #16).
+a note on the growth after it, and ``--strict`` / ``strict=True`` to refuse it.
 
 The circuit (tests/netlists/sim/tunnel_nonpassive.cir): a 1 A source into Rn = -50 Ω in
 parallel with L1 = 1 mH in series with C1 = 1 µF, a diode to a 10 Ω load. With the diode

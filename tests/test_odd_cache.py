@@ -1,4 +1,4 @@
-"""Stored discretisations of shortened steps (issue #14.1): PWM edges fall at the same offsets
+"""Stored discretisations of shortened steps: PWM edges fall at the same offsets
 from the grid every period, so the elimination of a shortened step is done once per length and
 mode. The results equal those of a fresh discretisation of every shortened step (to
 round-off), and the converter's mean output its analytic value."""

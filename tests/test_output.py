@@ -1,4 +1,4 @@
-"""Output of ``pelcs simulate`` (issue #14.2): the ``.tran TSTEP`` grid by default, every step
+"""Output of ``pelcs simulate``: the ``.tran TSTEP`` grid by default, every step
 on request, and the writers (CSV, NPZ, Parquet) against independent readers."""
 
 from __future__ import annotations

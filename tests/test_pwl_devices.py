@@ -1,4 +1,4 @@
-"""Piecewise-linear devices and losses (issue #11): the fit, the energy balance, and the
+"""Piecewise-linear devices and losses: the fit, the energy balance, and the
 accuracy target against ngspice on a 12 V -> 24 V boost at 50 kHz with a SW switch (RON =
 0.1) or a level-1 MOSFET (VTO = 3, KP = 20, 10 V gate) and a diode D(IS=1e-9 N=1.5 RS=0.05):
 with --devices pwl the steady-state mean output within 0.5 % and the efficiency within 1

@@ -1,4 +1,4 @@
-"""Small-signal frequency response (issue #12): the exact method (linearised exact orbit with
+"""Small-signal frequency response: the exact method (linearised exact orbit with
 saltations) against independent references: averaged models (buck, boost with its
 right-half-plane zero), Ridley's current-mode model (the current-loop multiplier, the
 sampling double pole at fs/2 and its Q), a closed loop whose loop gain is written by hand,

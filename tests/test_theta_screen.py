@@ -1,5 +1,5 @@
 """The θ screen (lcs.theta_screen): where Moreau's θ < 1 with λ fully implicit integrates a
-stiff cancellation explicitly, the run takes θ = 1 and says why (issue #14.1: the 12-pulse
+stiff cancellation explicitly, the run takes θ = 1 and says why (the 12-pulse
 rectifier, whose θ = 1/2 step LCP had no solution)."""
 
 from __future__ import annotations

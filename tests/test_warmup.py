@@ -1,4 +1,4 @@
-"""After the set-up's warm-up, the README's commands compile no kernel (issue #16.3).
+"""After the set-up's warm-up, the README's commands compile no kernel.
 
 The processes run with ``PELCS_AOT=0``: the ahead-of-time module (``tests/test_aot.py``)
 would serve the commands without numba. Not a timed test: numba's own counters say whether

@@ -1,4 +1,4 @@
-"""Nonsmooth bifurcation analysis of switched LCS (issue 8).
+"""Nonsmooth bifurcation analysis of switched LCS.
 
 * :mod:`.maps` -- stroboscopic and event maps built on :func:`lcs.moreau.simulate`, and
   :class:`~.maps.FunctionMap` for any Python function (the names of :mod:`.base`,

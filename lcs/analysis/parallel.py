@@ -8,7 +8,7 @@ is the ``scheduler``:
 ``None`` (default) -- locally, with the engine measured to be the faster one on this kind of
     machine (:data:`LOCAL_DEFAULT`): the process pool of this module. A Dask local cluster
     does the same work with the same numbers but costs 2-3 s more to start its worker
-    processes (``benchmarks/bench_analysis.py --engines``; numbers in the README).
+    processes (``benchmarks/bench_analysis.py --engines``; numbers in ``docs/performance.md``).
 ``"processes"`` -- the process pool: ``fork`` where available (workers inherit the imported
     modules and numba's compiled kernels, so they start in milliseconds), else ``spawn``;
     one process per core; a queue carries the progress counts to the parent. One worker (or
@@ -55,7 +55,7 @@ __all__ = ["LOCAL_DEFAULT", "SchedulerError", "TaskEngine", "default_workers", "
            "progress_bar", "run_tasks", "task_engine"]
 
 # The local engine used when no scheduler is given: "processes" or "local" (see the module
-# docstring and the README for the measurement behind the choice).
+# docstring and docs/performance.md for the measurement behind the choice).
 LOCAL_DEFAULT = "processes"
 
 # Seconds to wait for a Dask scheduler's TCP port to accept, and for its first worker.

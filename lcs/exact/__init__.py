@@ -1,4 +1,4 @@
-"""Exact event-driven integration of a switched LCS (issue #13).
+"""Exact event-driven integration of a switched LCS.
 
 - :mod:`.flow`: the affine dynamics of one mode (switch configuration, held diodes) and its
   exact flow over an interval of linear inputs (one matrix exponential);

@@ -116,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_CANNOT_COMPARE
     except NotImplementedError as exc:
         raise NetlistError(Diagnostic(message=f"not supported: {exc}",
-                                      hint="see README.md, section Simulation"),
+                                      hint="see docs/simulation.md"),
                            file=args.file) from exc
 
     written = []

@@ -243,7 +243,7 @@ def run(args: argparse.Namespace) -> int:
     except NotImplementedError as exc:
         # A circuit the stepper cannot handle yet: say so like an input error, no traceback.
         raise NetlistError(Diagnostic(message=f"not supported: {exc}",
-                                      hint="see README.md, section Simulation"),
+                                      hint="see docs/simulation.md"),
                            file=args.file) from exc
     wall = time.perf_counter() - t0
 
