@@ -34,6 +34,11 @@ more diodes a normal-tree assignment is tried and then improved greedily.
 Degenerate modes (a loop of capacitors / voltage sources / closed switches / E, H sources, a
 cutset of inductors / current sources / F, G sources, ``k = 1`` coupling) are rejected with a
 :class:`~netlist.errors.NetlistError` that names the elements and the switch configuration.
+One cutset is not degenerate: an inductor that no other branch parallels in any mode
+(:func:`netlist.reductions.open_inductors`, e.g. one end unconnected) carries no current. It
+keeps its state ``i(L)``, pinned at zero: the MNA takes it for a 0 V branch (whose current
+Kirchhoff's law makes zero, and whose voltage is that of ``L di/dt`` with ``di/dt = 0``, as
+in ngspice), and its state has no dynamics.
 """
 
 from __future__ import annotations
@@ -66,7 +71,7 @@ from .mna import VOLTAGE_KINDS as _VOLTAGE_KINDS
 from .mna import Mna as _Mna
 from .mna import Stamps, coalesce
 from .mna_solve import Entries, Solution, clean
-from .reductions import parallel_diodes, source_capacitors
+from .reductions import open_inductors, parallel_diodes, source_capacitors
 from .topology import Partition, SwitchedBridges, UnionFind, find_cutset, find_loop
 
 __all__ = ["formulate", "storage_matrix", "EXHAUSTIVE_DIODE_LIMIT"]
@@ -234,6 +239,10 @@ class _Formulator:
         self.diode_index = {el.key: i for i, el in enumerate(self.diodes)}
         self.switches = [el for el in self.two_terminal if el.kind == "S"]
         self.inductors = [el for el in self.two_terminal if el.kind == "L"]
+        # Inductors whose current Kirchhoff's law holds at zero in every mode: 0 V branches
+        # of the MNA, states without dynamics (see the module docstring).
+        self.pinned = frozenset(open_inductors(circuit))
+        self.live_inductors = [el for el in self.inductors if el.key not in self.pinned]
         self.capacitors = [el for el in self.two_terminal if el.kind == "C"]
         self.n = len(self.state_elements)
         self.m = len(self.diodes)
@@ -351,13 +360,14 @@ class _Formulator:
     def _voltage_partition(self) -> Partition:
         """Components of the voltage-defined branches but the switches (V C E H)."""
         return Partition([tuple(el.nodes[:2]) for el in self.two_terminal
-                          if el.kind in _VOLTAGE_KINDS])
+                          if el.kind in _VOLTAGE_KINDS or el.key in self.pinned])
 
     @cached_property
     def _tree_partition(self) -> Partition:
         """Components of those and the resistors (a normal tree's first branches)."""
         return Partition([tuple(el.nodes[:2]) for el in self.two_terminal
-                          if el.kind in _VOLTAGE_KINDS or el.kind == "R"])
+                          if el.kind in _VOLTAGE_KINDS or el.kind == "R"
+                          or el.key in self.pinned])
 
     @cached_property
     def _current_bridges(self) -> SwitchedBridges:
@@ -373,7 +383,8 @@ class _Formulator:
         """Bridges of the branches that are not current-defined (and not open switches);
         the diodes last, as in :attr:`_current_bridges`."""
         fixed = [tuple(el.nodes[:2]) for el in self.two_terminal
-                 if el.kind not in _CURRENT_KINDS and el.kind not in "DS"]
+                 if (el.kind not in _CURRENT_KINDS or el.key in self.pinned)
+                 and el.kind not in "DS"]
         return SwitchedBridges(fixed + [tuple(d.nodes[:2]) for d in self.diodes],
                                [tuple(sw.nodes[:2]) for sw in self.switches])
 
@@ -439,11 +450,14 @@ class _Formulator:
             i_c = sol.evaluate_terms([mna._current_terms(el) for el in self.capacitors])
             rows = [self.state_index[el.key] for el in self.capacitors]
             dx[rows] = i_c / np.array([float(el.value) for el in self.capacitors])[:, None]
-        if self.inductors:
+        if self.live_inductors:
+            # (a pinned inductor has no dynamics: its row stays zero; it is uncoupled, so
+            # the live inductors' block of Linv is the inverse of theirs of Lmat)
+            live = [a for a, el in enumerate(self.inductors) if el.key not in self.pinned]
             v_l = sol.evaluate_terms([mna._voltage_terms(*el.nodes[:2])
-                                      for el in self.inductors])
-            rows = [self.state_index[el.key] for el in self.inductors]
-            dx[rows] = self.Linv @ v_l
+                                      for el in self.live_inductors])
+            rows = [self.state_index[el.key] for el in self.live_inductors]
+            dx[rows] = self.Linv[np.ix_(live, live)] @ v_l
         w = sol.evaluate_terms([mna.w_terms(d) for d in self.diodes])
         dx, w = clean(dx), clean(w)
         # A diode shorted by closed switches (e.g. a switch's antiparallel diode while it
@@ -505,6 +519,8 @@ class _Formulator:
         if self.inductors:
             index = [self.state_index[el.key] for el in self.inductors]
             for a, el in enumerate(self.inductors):
+                if el.key in self.pinned:
+                    continue  # (no dynamics; uncoupled, so no other inductor's either)
                 for c, v in mna._voltage_terms(*el.nodes[:2]):
                     for b in np.flatnonzero(self.Linv[:, a]):
                         xr.append(index[b])
@@ -546,6 +562,7 @@ class _Formulator:
         voltage_branches = [
             (el.name, *el.nodes) for el in self.two_terminal
             if el.kind in _VOLTAGE_KINDS or (el.kind == "S" and el.key in on)
+            or el.key in self.pinned
         ]
         loop = find_loop(voltage_branches)
         if loop is not None:
@@ -559,11 +576,24 @@ class _Formulator:
                 loop, el=self.by_key[loop[-1].lower()], file=self.file)
         contracted = [
             el.nodes for el in self.two_terminal
-            if el.kind not in _CURRENT_KINDS and (el.kind != "S" or el.key in on)
+            if (el.kind not in _CURRENT_KINDS or el.key in self.pinned)
+            and (el.kind != "S" or el.key in on)
         ]
         current_branches = [(el.name, *el.nodes) for el in self.two_terminal
-                            if el.kind in _CURRENT_KINDS]
+                            if el.kind in _CURRENT_KINDS and el.key not in self.pinned]
         cut = find_cutset(contracted, current_branches, GROUND)
+        if cut is not None and all(self.by_key[c.lower()].kind == "L" for c in cut) \
+                and len(on) < len(self.switches):
+            # (inductors that only the open switches connect: what an ideal switch does to
+            # their current is a jump to zero, which the run does not model)
+            raise _error(
+                f"cutset of inductors{where}: {', '.join(cut)} (with these switches open, "
+                "no other branch carries the current of the inductors)",
+                "an ideal switch opening there would cut the inductor current to zero at "
+                "once (its flux lost, and ½ L i² with it), a jump that pelcs does not apply "
+                "during a run; give the current a path that stays: a freewheeling diode, an "
+                "RC snubber or a large resistance across the switch or the inductor",
+                cut, el=self.by_key[cut[0].lower()], file=self.file)
         if cut is not None:
             raise _error(
                 f"cutset of inductors/current sources{where}: {', '.join(cut)} (inductors, "
@@ -580,7 +610,7 @@ class _Formulator:
         """What the dynamics and the switches need: (label, element name, linear form)."""
         needed = [(f"i({el.name})", el.name, mna.current(el)) for el in self.capacitors]
         needed += [(f"the voltage across {el.name}", el.name, mna.voltage(*el.nodes))
-                   for el in self.inductors]
+                   for el in self.live_inductors]
         needed += [(f"w of diode {d.name}", d.name, mna.w_form(d)) for d in self.diodes]
         needed += [(f"the control voltage v({sw.control[0]},{sw.control[1]}) of {sw.name}",
                     sw.name, mna.voltage(*sw.control)) for sw in self.switches]
