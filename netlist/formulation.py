@@ -34,11 +34,15 @@ more diodes a normal-tree assignment is tried and then improved greedily.
 Degenerate modes (a loop of capacitors / voltage sources / closed switches / E, H sources, a
 cutset of inductors / current sources / F, G sources, ``k = 1`` coupling) are rejected with a
 :class:`~netlist.errors.NetlistError` that names the elements and the switch configuration.
-One cutset is not degenerate: an inductor that no other branch parallels in any mode
-(:func:`netlist.reductions.open_inductors`, e.g. one end unconnected) carries no current. It
-keeps its state ``i(L)``, pinned at zero: the MNA takes it for a 0 V branch (whose current
-Kirchhoff's law makes zero, and whose voltage is that of ``L di/dt`` with ``di/dt = 0``, as
-in ngspice), and its state has no dynamics.
+One cutset is not degenerate: an uncoupled inductor that no other branch parallels in a mode
+carries no current there. In every mode when nothing else joins its terminals
+(:func:`netlist.reductions.open_inductors`, e.g. one end unconnected); in the modes whose open
+switches leave it so (in series with a switch). It keeps its state ``i(L)``, pinned at zero in
+those modes (:attr:`lcs.model.ModeModel.pinned`): the MNA takes it for a 0 V branch (whose
+current Kirchhoff's law makes zero, and whose voltage is that of ``L di/dt`` with
+``di/dt = 0``, as in ngspice), and its state has no dynamics there. Entering such a mode with
+a current, an ideal switch cuts it to zero at once: the run applies that jump and notes the
+energy ``½ L i²`` lost (:mod:`lcs.simulation.driver`).
 """
 
 from __future__ import annotations
@@ -137,6 +141,7 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         inputs=formulator.input_names,
         diodes=[d.name for d in formulator.diodes],
         builder=formulator.build_mode,
+        pinnable=sorted(formulator.state_index[k] for k in formulator.pinnable),
     )
 
 
@@ -243,6 +248,8 @@ class _Formulator:
         # of the MNA, states without dynamics (see the module docstring).
         self.pinned = frozenset(open_inductors(circuit))
         self.live_inductors = [el for el in self.inductors if el.key not in self.pinned]
+        # ... and those that open switches may leave so (set with the switch controls below)
+        self.pinnable: frozenset[str] = frozenset()
         self.capacitors = [el for el in self.two_terminal if el.kind == "C"]
         self.n = len(self.state_elements)
         self.m = len(self.diodes)
@@ -274,6 +281,8 @@ class _Formulator:
                 options={**params, "initial": sw.initial} if sw.initial is not None
                 else dict(params)))
 
+        if self.switches and self.inductors:
+            self.pinnable = self._pinnable()
         # What each probe asked for names (probe -> ("v", node, node) or ("i", element)).
         self._probes: dict[str, tuple] = {}
         self.Lmat = np.zeros((0, 0))  # set by _inductance_inverse
@@ -346,6 +355,32 @@ class _Formulator:
                 [k.name for k in ks] + [el.name for el in involved])
             return np.diag(1.0 / np.diag(lmat))
         return np.linalg.inv(lmat)
+
+    def _pinnable(self) -> frozenset[str]:
+        """Uncoupled inductors, other than :attr:`pinned`, that are bridges of the branches
+        carrying current once every switch is open: the modes whose open switches leave
+        nothing else in series with them pin them at zero current."""
+        coupled = {str(name).lower() for el in self.elements if el.kind == "K"
+                   for name in el.inductors}
+        cut = self._current_bridges.bridges(())
+        return frozenset(key for key, i in self._fixed_current_index.items()
+                         if self.by_key[key].kind == "L" and i in cut and key not in coupled
+                         and key not in self.pinned)
+
+    @cached_property
+    def _fixed_current_index(self) -> dict[str, int]:
+        """Index of each non-switch, non-diode branch (by key) among
+        :attr:`_current_bridges`' fixed edges."""
+        fixed = [el for el in self.two_terminal if el.kind != "S" and el.kind != "D"]
+        return {el.key: i for i, el in enumerate(fixed)}
+
+    def _pinned_in(self, on: frozenset[str]) -> frozenset[str]:
+        """The inductors pinned at zero current with the switches ``on`` closed."""
+        if not self.pinnable:
+            return self.pinned
+        cut = self._current_bridges.bridges(self._closed(on))
+        index = self._fixed_current_index
+        return self.pinned | {key for key in self.pinnable if index[key] in cut}
 
     @cached_property
     def stamps(self) -> Stamps:
@@ -420,6 +455,10 @@ class _Formulator:
             raise ValueError(f"mode key needs {len(self.switches)} entries, got {len(key)}")
         on = frozenset(sw.key for sw, closed in zip(self.switches, key, strict=True) if closed)
         desc = self.describe(on)
+        # (from here on, `on` also holds the inductors the mode pins: 0 V branches, as the
+        # closed switches)
+        pins = self._pinned_in(on)
+        on = on | pins
         if self._voltage_loop(on):
             # (the search below would fail, or find a singular matrix, and this be reported:
             # a 64-cell MMC arm's shoot-through took 0.12 s, an SVD, to get there)
@@ -444,19 +483,19 @@ class _Formulator:
             # (built when asked for: the sparse kernel needs it, the dense one does not; 1-2
             # ms a mode on a 64-cell MMC arm)
             def network():
-                return self._network(mna, shorted, isolated)
+                return self._network(mna, shorted, isolated, pins)
         dx = np.zeros((n, self.nxi))
         if self.capacitors:
             i_c = sol.evaluate_terms([mna._current_terms(el) for el in self.capacitors])
             rows = [self.state_index[el.key] for el in self.capacitors]
             dx[rows] = i_c / np.array([float(el.value) for el in self.capacitors])[:, None]
-        if self.live_inductors:
+        live = [a for a, el in enumerate(self.inductors) if el.key not in pins]
+        if live:
             # (a pinned inductor has no dynamics: its row stays zero; it is uncoupled, so
             # the live inductors' block of Linv is the inverse of theirs of Lmat)
-            live = [a for a, el in enumerate(self.inductors) if el.key not in self.pinned]
-            v_l = sol.evaluate_terms([mna._voltage_terms(*el.nodes[:2])
-                                      for el in self.live_inductors])
-            rows = [self.state_index[el.key] for el in self.live_inductors]
+            v_l = sol.evaluate_terms([mna._voltage_terms(*self.inductors[a].nodes[:2])
+                                      for a in live])
+            rows = [self.state_index[self.inductors[a].key] for a in live]
             dx[rows] = self.Linv[np.ix_(live, live)] @ v_l
         w = sol.evaluate_terms([mna.w_terms(d) for d in self.diodes])
         dx, w = clean(dx), clean(w)
@@ -498,10 +537,12 @@ class _Formulator:
             y = clean(sol.evaluate_forms(forms, mna.width))
             return OutputMap(names=names, Cy=y[:, :n], Dy=y[:, n:n + m], Fy=y[:, n + m:])
 
-        return ModeModel(lcs=lcs, output=output, network=network)
+        return ModeModel(lcs=lcs, output=output, network=network,
+                         pinned={self.state_index[k]: float(self.by_key[k].value)
+                                 for k in sorted(pins, key=lambda k: self.state_index[k])})
 
-    def _network(self, mna: _Mna, shorted: list[int],
-                 isolated: list[int]) -> NetworkRealisation:
+    def _network(self, mna: _Mna, shorted: list[int], isolated: list[int],
+                 pins: frozenset[str]) -> NetworkRealisation:
         """The sparse network of a mode whose MNA matrix is regular: ``Y z = S ξ``, the
         state derivatives ``Rx z`` and the pairs' ``w`` ``Rw z`` (:mod:`lcs.network`)."""
         nz = mna.nz
@@ -519,7 +560,7 @@ class _Formulator:
         if self.inductors:
             index = [self.state_index[el.key] for el in self.inductors]
             for a, el in enumerate(self.inductors):
-                if el.key in self.pinned:
+                if el.key in pins:
                     continue  # (no dynamics; uncoupled, so no other inductor's either)
                 for c, v in mna._voltage_terms(*el.nodes[:2]):
                     for b in np.flatnonzero(self.Linv[:, a]):
@@ -561,8 +602,7 @@ class _Formulator:
         where = f" with {desc}" if desc else ""
         voltage_branches = [
             (el.name, *el.nodes) for el in self.two_terminal
-            if el.kind in _VOLTAGE_KINDS or (el.kind == "S" and el.key in on)
-            or el.key in self.pinned
+            if el.kind in _VOLTAGE_KINDS or (el.kind in "SL" and el.key in on)
         ]
         loop = find_loop(voltage_branches)
         if loop is not None:
@@ -576,23 +616,24 @@ class _Formulator:
                 loop, el=self.by_key[loop[-1].lower()], file=self.file)
         contracted = [
             el.nodes for el in self.two_terminal
-            if (el.kind not in _CURRENT_KINDS or el.key in self.pinned)
+            if (el.kind not in _CURRENT_KINDS or el.key in on)
             and (el.kind != "S" or el.key in on)
         ]
         current_branches = [(el.name, *el.nodes) for el in self.two_terminal
-                            if el.kind in _CURRENT_KINDS and el.key not in self.pinned]
+                            if el.kind in _CURRENT_KINDS and el.key not in on]
         cut = find_cutset(contracted, current_branches, GROUND)
         if cut is not None and all(self.by_key[c.lower()].kind == "L" for c in cut) \
-                and len(on) < len(self.switches):
+                and any(sw.key not in on for sw in self.switches):
             # (inductors that only the open switches connect: what an ideal switch does to
             # their current is a jump to zero, which the run does not model)
             raise _error(
                 f"cutset of inductors{where}: {', '.join(cut)} (with these switches open, "
                 "no other branch carries the current of the inductors)",
                 "an ideal switch opening there would cut the inductor current to zero at "
-                "once (its flux lost, and ½ L i² with it), a jump that pelcs does not apply "
-                "during a run; give the current a path that stays: a freewheeling diode, an "
-                "RC snubber or a large resistance across the switch or the inductor",
+                "once (its flux lost, and ½ L i² with it), a jump that pelcs applies only to "
+                "an uncoupled inductor with nothing else in series (not to coupled or "
+                "series-tied inductors); give the current a path that stays: a freewheeling "
+                "diode, an RC snubber or a large resistance across the switch or the inductor",
                 cut, el=self.by_key[cut[0].lower()], file=self.file)
         if cut is not None:
             raise _error(
@@ -610,7 +651,7 @@ class _Formulator:
         """What the dynamics and the switches need: (label, element name, linear form)."""
         needed = [(f"i({el.name})", el.name, mna.current(el)) for el in self.capacitors]
         needed += [(f"the voltage across {el.name}", el.name, mna.voltage(*el.nodes))
-                   for el in self.live_inductors]
+                   for el in self.inductors if el.key not in mna.on]
         needed += [(f"w of diode {d.name}", d.name, mna.w_form(d)) for d in self.diodes]
         needed += [(f"the control voltage v({sw.control[0]},{sw.control[1]}) of {sw.name}",
                     sw.name, mna.voltage(*sw.control)) for sw in self.switches]

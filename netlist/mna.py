@@ -223,14 +223,17 @@ class Stamps:
         # Switches and diodes are voltage-defined in some modes: their terms are read in
         # both cases (every one voltage-defined, none), the others' once.
         self._nn = len(f.nodes)
-        every = Mna.unknowns_only(f, frozenset(el.key for el in elements if el.kind == "S"),
+        # (the inductors some modes pin at zero current are voltage-defined there, as the
+        # closed switches)
+        every = Mna.unknowns_only(f, frozenset(el.key for el in elements if el.kind == "S")
+                                  | f.pinnable,
                                   frozenset(el.key for el in elements if el.kind == "D"))
         none = Mna.unknowns_only(f, frozenset(), frozenset())
         rows: list[tuple[int, int, int, int, int, int, float]] = []
         for when, mna in ((self.IF_BRANCH, every), (self.IF_NOT, none)):
             owner = {i: self._index[k] for k, i in mna.branch.items()}
             for e, el in enumerate(elements):
-                if el.kind not in "SD":
+                if el.kind not in "SD" and el.key not in f.pinnable:
                     if mna is every:
                         continue  # (read from `none`: the same terms)
                     case = self.ALWAYS

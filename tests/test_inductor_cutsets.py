@@ -1,0 +1,142 @@
+"""Inductors that Kirchhoff's current law holds at zero current: one end unconnected (every
+mode, as ngspice runs it), or in series with an ideal switch that opens (the current jumps to
+zero at the opening, the flux and ½ L i² lost, noted)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from netlist.errors import NetlistError
+from netlist.formulation import formulate
+from netlist.parser import parse_string
+from netlist.transient import simulate_circuit
+
+DANGLING = """dangling inductor
+V1 in 0 PULSE(0 10 0 1u 1u 5u 10u)
+R1 in a 10
+C1 a 0 1u
+L1 a b 1m {ic}
+.tran 10n 50u
+.end
+"""
+
+# An RL fed through a switch that opens at 50 µs and closes again at 80 µs: before the
+# opening i(t) = (V/R)(1 - exp(-t R/L)), then 0 while open, then from 0 again.
+RL_SWITCH = """RL through a switch that opens
+V1 in 0 10
+S1 in a ctl 0 SW1
+L1 a b 1m
+R1 b 0 10
+Vc ctl 0 PULSE(1 0 50u 1n 1n 30u 1)
+.model SW1 SW(VT=0.5)
+.tran 100n 150u
+.end
+"""
+
+
+def test_a_dangling_inductor_is_pinned_at_zero_current():
+    c = parse_string(DANGLING.format(ic=""))
+    system = formulate(c)
+    lcs = system.mode(())
+    k = system.states.index("i(L1)")
+    # no dynamics, and the state enters nothing else
+    assert not lcs.A[k].any() and not lcs.A[:, k].any() and not lcs.E[k].any()
+    out = system.outputs((), ["i(L1)", "v(b)", "v(a)"])
+    assert not out.Cy[0].any() and not out.Fy[0].any()  # i(L1) = 0
+    assert np.array_equal(out.Cy[1], out.Cy[2])  # v(b) = v(a): L di/dt = 0
+
+
+def test_dangling_inductor_against_ngspice(ngspice):
+    from ngspice_checks.runner import run_ngspice
+
+    text = DANGLING.format(ic="")
+    res = simulate_circuit(parse_string(text), probes=["v(a)", "v(b)", "i(L1)"])
+    assert any("L1: no other branch joins its terminals" in n for n in res.notes)
+    ng = run_ngspice(text, ["v(a)", "v(b)", "i(L1)"], timeout=60)
+    assert np.max(np.abs(ng["i(L1)"])) == 0.0
+    assert np.max(np.abs(res["i(L1)"])) == 0.0
+    assert np.array_equal(res["v(a)"], res["v(b)"])
+    v_ng = np.interp(res.t, ng.time, ng["v(a)"])
+    # the RC charging through R1 (10 Ω, 1 µF, τ = 10 µs): within 1 % of its swing
+    assert np.max(np.abs(res["v(a)"] - v_ng)) < 0.01 * np.max(np.abs(v_ng))
+
+
+def test_a_dangling_inductor_with_an_initial_current_loses_it_at_t0():
+    c = parse_string(DANGLING.format(ic="IC=2"))
+    res = simulate_circuit(c, probes=["i(L1)"])
+    assert res["i(L1)"][0] == 0.0 and res.x_final[formulate(c).states.index("i(L1)")] == 0.0
+    # ½ L i² = ½ 1 mH (2 A)² = 2 mJ
+    assert any("jumps to 0 at t = 0 and 2 mJ (½ L i²) is lost" in n for n in res.notes)
+
+
+def test_an_inductor_opened_by_a_switch_loses_its_current():
+    c = parse_string(RL_SWITCH)
+    system = formulate(c)
+    assert system.pinned((False,)) == {0: 1e-3} and system.pinned((True,)) == {}
+    res = simulate_circuit(c, probes=["i(L1)", "i(S1)"], step=1e-7)
+    t, i = res.t, res["i(L1)"]
+    tau, i_inf = 1e-3 / 10, 1.0
+    before = t < 50e-6 - 1e-12
+    exact = i_inf * (1 - np.exp(-t[before] / tau))
+    # θ-method error of a 100 ns step on τ = 100 µs
+    assert np.max(np.abs(i[before] - exact)) < 2e-3 * i_inf
+    i_open = i_inf * (1 - math.exp(-50e-6 / tau))  # 0.3935 A
+    assert abs(i[before][-1] - i_open) < 2e-3
+    off = (t > 50e-6 + 1e-12) & (t < 80e-6 - 1e-12)
+    assert off.any() and np.all(res["i(L1)"][off] == 0.0) and np.all(res["i(S1)"][off] == 0)
+    # closed again at 80 µs: from 0, i = (V/R)(1 - exp(-(t - 80 µs)/τ))
+    after = t > 80e-6 + 1e-12
+    exact_after = i_inf * (1 - np.exp(-(t[after] - 80e-6) / tau))
+    assert np.max(np.abs(i[after] - exact_after)) < 2e-3 * i_inf
+    note = next(n for n in res.notes if n.startswith("i(L1): the open switches"))
+    assert "once (first at t = 50 µs" in note
+    energy = float(note.split("lost, ")[1].split(" J")[0].split()[0])
+    unit = note.split("lost, ")[1].split()[1]
+    scale = {"mJ": 1e-3, "µJ": 1e-6, "J": 1.0}[unit]
+    # ½ L i(t_open)² = ½ 1 mH (0.3935 A)² = 77.4 µJ (4 significant digits in the note;
+    # the state is the θ step's, within 2 mA of the exact 0.3935 A)
+    assert energy * scale == pytest.approx(0.5 * 1e-3 * i_open ** 2, rel=1e-2)
+
+
+def test_switch_opened_inductor_before_the_opening_against_ngspice(ngspice):
+    """ngspice's SW has a finite ROFF: the current does not jump, it rings down through
+    ROFF. The semantics agree up to the opening only."""
+    from ngspice_checks.runner import run_ngspice
+
+    res = simulate_circuit(parse_string(RL_SWITCH), probes=["i(L1)"], step=1e-7)
+    ng = run_ngspice(RL_SWITCH, ["i(L1)"], timeout=60)
+    sel = res.t < 50e-6 - 1e-9
+    i_ng = np.interp(res.t[sel], ng.time, ng["i(L1)"])
+    assert np.max(np.abs(res["i(L1)"][sel] - i_ng)) < 5e-3
+
+
+def test_coupled_inductor_opened_by_a_switch_is_still_refused():
+    text = RL_SWITCH.replace("R1 b 0 10", "R1 b 0 10\nL2 c 0 1m\nR2 c 0 1\nK1 L1 L2 0.9")
+    system = formulate(parse_string(text))
+    with pytest.raises(NetlistError, match="cutset of inductors with S1=off: L1"):
+        system.mode((False,))
+
+
+def test_a_comparator_opening_the_last_path_stops_the_run():
+    # S1 opens when v(ref, b) = 5 V - 10 Ω i(L1) falls below VT - VH = 0.9 V, i.e. when
+    # i(L1) reaches 0.41 A: a comparator's switching, inside a window, where the run cannot
+    # apply the jump.
+    text = """comparator opens an RL
+V1 in 0 10
+Vref ref 0 5
+S1 in a ref b SW1
+L1 a b 1m
+R1 b 0 10
+.model SW1 SW(VT=1 VH=0.1)
+.tran 100n 100u
+.end
+"""
+    res = simulate_circuit(parse_string(text), probes=["i(L1)"])
+    assert res.error is not None and res.error.kind == "pinned_jump"
+    # i = (1 A)(1 - exp(-t/τ)) reaches 0.41 A at t = -τ ln(0.59) = 52.8 µs
+    assert res.error.time == pytest.approx(-1e-4 * math.log(0.59), rel=1e-2)
+    assert res.t[-1] <= res.error.time
+    assert "i(L1)" in str(res.error) and "freewheeling" in str(res.error)
