@@ -70,13 +70,15 @@ from lcs.model import (
 from lcs.network import NetworkRealisation
 
 from .circuit import GROUND, Circuit, Element
+from .degenerate import CURRENT_KINDS as _CURRENT_KINDS
+from .degenerate import check_topology, pinnable_inductors, pinned_in
 from .errors import Diagnostic, NetlistError
 from .mna import VOLTAGE_KINDS as _VOLTAGE_KINDS
 from .mna import Mna as _Mna
 from .mna import Stamps, coalesce
 from .mna_solve import Entries, Solution, clean
 from .reductions import open_inductors, parallel_diodes, source_capacitors
-from .topology import Partition, SwitchedBridges, UnionFind, find_cutset, find_loop
+from .topology import Partition, SwitchedBridges, UnionFind
 
 __all__ = ["formulate", "storage_matrix", "EXHAUSTIVE_DIODE_LIMIT"]
 
@@ -86,8 +88,6 @@ EXHAUSTIVE_DIODE_LIMIT = 12
 
 _TWO_TERMINAL = frozenset("RLCVIDSEFGH")
 _KNOWN_KINDS = _TWO_TERMINAL | {"K"}
-# Branches whose current is imposed (a cutset of them is degenerate).
-_CURRENT_KINDS = frozenset("LIFG")
 
 _PROBE_RE = re.compile(r"^\s*([vi])\s*\(\s*([^,()\s]+)\s*(?:,\s*([^,()\s]+)\s*)?\)\s*$", re.I)
 
@@ -282,7 +282,7 @@ class _Formulator:
                 else dict(params)))
 
         if self.switches and self.inductors:
-            self.pinnable = self._pinnable()
+            self.pinnable = pinnable_inductors(self)
         # What each probe asked for names (probe -> ("v", node, node) or ("i", element)).
         self._probes: dict[str, tuple] = {}
         self.Lmat = np.zeros((0, 0))  # set by _inductance_inverse
@@ -355,32 +355,6 @@ class _Formulator:
                 [k.name for k in ks] + [el.name for el in involved])
             return np.diag(1.0 / np.diag(lmat))
         return np.linalg.inv(lmat)
-
-    def _pinnable(self) -> frozenset[str]:
-        """Uncoupled inductors, other than :attr:`pinned`, that are bridges of the branches
-        carrying current once every switch is open: the modes whose open switches leave
-        nothing else in series with them pin them at zero current."""
-        coupled = {str(name).lower() for el in self.elements if el.kind == "K"
-                   for name in el.inductors}
-        cut = self._current_bridges.bridges(())
-        return frozenset(key for key, i in self._fixed_current_index.items()
-                         if self.by_key[key].kind == "L" and i in cut and key not in coupled
-                         and key not in self.pinned)
-
-    @cached_property
-    def _fixed_current_index(self) -> dict[str, int]:
-        """Index of each non-switch, non-diode branch (by key) among
-        :attr:`_current_bridges`' fixed edges."""
-        fixed = [el for el in self.two_terminal if el.kind != "S" and el.kind != "D"]
-        return {el.key: i for i, el in enumerate(fixed)}
-
-    def _pinned_in(self, on: frozenset[str]) -> frozenset[str]:
-        """The inductors pinned at zero current with the switches ``on`` closed."""
-        if not self.pinnable:
-            return self.pinned
-        cut = self._current_bridges.bridges(self._closed(on))
-        index = self._fixed_current_index
-        return self.pinned | {key for key in self.pinnable if index[key] in cut}
 
     @cached_property
     def stamps(self) -> Stamps:
@@ -457,7 +431,7 @@ class _Formulator:
         desc = self.describe(on)
         # (from here on, `on` also holds the inductors the mode pins: 0 V branches, as the
         # closed switches)
-        pins = self._pinned_in(on)
+        pins = pinned_in(self, on)
         on = on | pins
         if self._voltage_loop(on):
             # (the search below would fail, or find a singular matrix, and this be reported:
@@ -598,52 +572,9 @@ class _Formulator:
         return self._diode_bridges(self._current_bridges, on)
 
     def _check_topology(self, on: frozenset[str], desc: str) -> None:
-        """Reject loops of voltage-defined and cutsets of current-defined branches."""
-        where = f" with {desc}" if desc else ""
-        voltage_branches = [
-            (el.name, *el.nodes) for el in self.two_terminal
-            if el.kind in _VOLTAGE_KINDS or (el.kind in "SL" and el.key in on)
-        ]
-        loop = find_loop(voltage_branches)
-        if loop is not None:
-            raise _error(
-                f"loop of capacitors/voltage sources{where}: {' - '.join(loop)} (capacitors, "
-                "voltage sources, closed switches and E/H sources with no impedance between "
-                "them)",
-                "their voltages are tied by Kirchhoff's voltage law, so they cannot all be "
-                "states or sources; add a small series resistance in the loop (e.g. the "
-                "capacitor's ESR or a source resistance)",
-                loop, el=self.by_key[loop[-1].lower()], file=self.file)
-        contracted = [
-            el.nodes for el in self.two_terminal
-            if (el.kind not in _CURRENT_KINDS or el.key in on)
-            and (el.kind != "S" or el.key in on)
-        ]
-        current_branches = [(el.name, *el.nodes) for el in self.two_terminal
-                            if el.kind in _CURRENT_KINDS and el.key not in on]
-        cut = find_cutset(contracted, current_branches, GROUND)
-        if cut is not None and all(self.by_key[c.lower()].kind == "L" for c in cut) \
-                and any(sw.key not in on for sw in self.switches):
-            # (inductors that only the open switches connect: what an ideal switch does to
-            # their current is a jump to zero, which the run does not model)
-            raise _error(
-                f"cutset of inductors{where}: {', '.join(cut)} (with these switches open, "
-                "no other branch carries the current of the inductors)",
-                "an ideal switch opening there would cut the inductor current to zero at "
-                "once (its flux lost, and ½ L i² with it), a jump that pelcs applies only to "
-                "an uncoupled inductor with nothing else in series (not to coupled or "
-                "series-tied inductors); give the current a path that stays: a freewheeling "
-                "diode, an RC snubber or a large resistance across the switch or the inductor",
-                cut, el=self.by_key[cut[0].lower()], file=self.file)
-        if cut is not None:
-            raise _error(
-                f"cutset of inductors/current sources{where}: {', '.join(cut)} (inductors, "
-                "current sources and F/G sources are the only branches joining one part of the "
-                "circuit to the rest)",
-                "their currents are tied by Kirchhoff's current law, so they cannot all be "
-                "states or sources; give the current another path, e.g. a large resistance or "
-                "a freewheeling diode across the inductor",
-                cut, el=self.by_key[cut[0].lower()], file=self.file)
+        """Reject loops of voltage-defined and cutsets of current-defined branches
+        (:func:`netlist.degenerate.check_topology`)."""
+        check_topology(self, on, desc)
 
     # -- diode types -------------------------------------------------------------------
 
