@@ -5,8 +5,8 @@ ideal switch that opens) has its current pinned at zero in those modes
 (:attr:`lcs.model.ModeModel.pinned`): the LCS gives it no dynamics and takes it into nothing.
 An ideal switch cuts the current at once: entering such a mode with a current, the state
 jumps to zero and the energy ``½ L i²`` it stored is lost (a real switch turns it into a
-voltage spike across itself, or an arc; with its ``ROFF`` finite, ngspice rings it down
-instead). This is the inductor's counterpart of a capacitor whose charge jumps when a diode
+voltage spike across itself, or an arc; ngspice's SW, open, spends it in its ``ROFF`` within
+``L / ROFF``, through a spike of ``i ROFF``). This is the inductor's counterpart of a capacitor whose charge jumps when a diode
 closes it onto another voltage, except that no multiplier of the step can carry it (the
 constraint ``i = 0`` is two-sided), so the run applies it between two of its windows.
 
@@ -90,8 +90,8 @@ class PinnedJumps:
                 f"{name}: the open switches leave it no path, so the ideal switches cut it to "
                 f"0 {times} (first at t = {format_eng(t0, 's')}, from "
                 f"{format_eng(x0, unit)}): its flux is lost, {format_eng(energy, 'J')} "
-                "(½ L i²) in all; a real switch spends it in a voltage spike (ngspice, with "
-                "the SW's finite ROFF, rings it down instead)")
+                "(½ L i²) in all; a real switch spends it in a voltage spike across itself "
+                "(ngspice's SW in its ROFF)")
         return out
 
     def unhandled(self, mode0: ModeKey, events, tol: float) -> SimulationError | None:
