@@ -6,15 +6,17 @@ ideal switch that opens) has its current pinned at zero in those modes
 An ideal switch cuts the current at once: entering such a mode with a current, the state
 jumps to zero and the energy ``½ L i²`` it stored is lost (a real switch turns it into a
 voltage spike across itself, or an arc; ngspice's SW, open, spends it in its ``ROFF`` within
-``L / ROFF``, through a spike of ``i ROFF``). This is the inductor's counterpart of a capacitor whose charge jumps when a diode
-closes it onto another voltage, except that no multiplier of the step can carry it (the
-constraint ``i = 0`` is two-sided), so the run applies it between two of its windows.
+``L / ROFF``, through a spike of ``i ROFF``). This is the inductor's counterpart of a
+capacitor whose charge jumps when a diode closes it onto another voltage, except that no
+multiplier of the step can carry it (the constraint ``i = 0`` is two-sided), so the run
+applies it between two of its windows.
 
 The run therefore cuts its windows at every known switching instant (source-driven switches,
 Python controllers' commands) when the system has such states, and sets them to zero where
 the mode about to start pins them. A comparator-driven switching inside a window cannot be
-handled so: a run that enters a pinning mode there gets a :class:`~lcs.results.
-SimulationError` (``kind = "pinned_jump"``) saying so.
+handled so: a run that enters a pinning mode there gets a
+:class:`~lcs.results.SimulationError` (``kind = "pinned_jump"``) saying so, and its result
+ends there.
 """
 
 from __future__ import annotations
