@@ -137,6 +137,11 @@ class ModeModel:
     lcs: LCS
     output: Callable[[Sequence[str]], OutputMap]
     network: NetworkRealisation | Callable[[], NetworkRealisation] | None = None
+    #: States held at zero in this mode, ``{state index: k}`` with the stored energy
+    #: ``½ k x²`` (an inductor that the open switches leave with no path: ``k = L``, H). The
+    #: LCS gives them no dynamics and takes them into nothing; entering the mode, the run sets
+    #: them to zero (an ideal switch cutting an inductor's current) and notes the energy lost.
+    pinned: dict = field(default_factory=dict)
 
 
 def _switch_state(name: str, value) -> bool:
@@ -162,6 +167,9 @@ class SwitchedLCS:
         Diode names, one complementarity pair each (what λ stands for may differ per mode).
     builder : callable
         ``builder(mode_key) -> ModeModel``.
+    pinnable : sequence of int, optional
+        States that some modes hold at zero (:attr:`ModeModel.pinned`); a run applies the
+        jumps to zero only when there are some.
     """
 
     def __init__(
@@ -171,12 +179,14 @@ class SwitchedLCS:
         inputs: Sequence[str],
         diodes: Sequence[str],
         builder: Callable[[ModeKey], ModeModel],
+        pinnable: Sequence[int] = (),
     ):
         self.switches = tuple(switches)
         self.states = tuple(states)
         self.inputs = tuple(inputs)
         self.diodes = tuple(diodes)
         self._builder = builder
+        self.pinnable = tuple(pinnable)
         self._modes: dict[ModeKey, ModeModel] = {}
         self._failed: dict[ModeKey, Exception] = {}
         self._outputs: dict[tuple[ModeKey, tuple[str, ...]], OutputMap] = {}
@@ -235,6 +245,11 @@ class SwitchedLCS:
         if callable(model.network):
             model.network = model.network()
         return model.network
+
+    def pinned(self, config=None) -> dict:
+        """The states one switch configuration holds at zero, ``{state index: k}`` (energy
+        ``½ k x²``; :attr:`ModeModel.pinned`)."""
+        return self._mode_model(self.key(config)).pinned
 
     def outputs(self, config, probes: Sequence[str]) -> OutputMap:
         """Output maps of the given probes in one switch configuration."""

@@ -468,6 +468,11 @@ class MoreauIntegrator(Integrator):
         self._dense()
         self.ivars[IV_INIT] = -1
 
+    can_set_state = True
+
+    def set_state(self, x: np.ndarray) -> None:
+        self.state.x[:] = x
+
     def snapshot(self) -> Snapshot:
         st = self.state
         return Snapshot(float(self.fvars[FV_TCUR]), from_words(st.key), st.x, st.lam,

@@ -18,7 +18,9 @@ class SimulationError(RuntimeError):
         states), ``"non_finite"`` (NaN or infinity in the state), ``"chattering"`` (a
         comparator switched more than ``MoreauOptions.max_switchings`` times inside one
         step), ``"sliding"`` (a comparator toggles without progress and its method has no
-        sliding mode).
+        sliding mode), ``"pinned_jump"`` (a comparator's switching left an inductor's current
+        no path, a jump to zero the run applies only at known switching instants:
+        :mod:`lcs.simulation.pinned`).
     time : float
         End of the failing step, s (the LCP is posed at that instant).
     t_prev : float

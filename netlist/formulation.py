@@ -34,6 +34,15 @@ more diodes a normal-tree assignment is tried and then improved greedily.
 Degenerate modes (a loop of capacitors / voltage sources / closed switches / E, H sources, a
 cutset of inductors / current sources / F, G sources, ``k = 1`` coupling) are rejected with a
 :class:`~netlist.errors.NetlistError` that names the elements and the switch configuration.
+One cutset is not degenerate: an uncoupled inductor that no other branch parallels in a mode
+carries no current there. In every mode when nothing else joins its terminals
+(:func:`netlist.reductions.open_inductors`, e.g. one end unconnected); in the modes whose open
+switches leave it so (in series with a switch). It keeps its state ``i(L)``, pinned at zero in
+those modes (:attr:`lcs.model.ModeModel.pinned`): the MNA takes it for a 0 V branch (whose
+current Kirchhoff's law makes zero, and whose voltage is that of ``L di/dt`` with
+``di/dt = 0``, as in ngspice), and its state has no dynamics there. Entering such a mode with
+a current, an ideal switch cuts it to zero at once: the run applies that jump and notes the
+energy ``½ L i²`` lost (:mod:`lcs.simulation.driver`).
 """
 
 from __future__ import annotations
@@ -61,13 +70,15 @@ from lcs.model import (
 from lcs.network import NetworkRealisation
 
 from .circuit import GROUND, Circuit, Element
+from .degenerate import CURRENT_KINDS as _CURRENT_KINDS
+from .degenerate import check_topology, pinnable_inductors, pinned_in
 from .errors import Diagnostic, NetlistError
 from .mna import VOLTAGE_KINDS as _VOLTAGE_KINDS
 from .mna import Mna as _Mna
 from .mna import Stamps, coalesce
 from .mna_solve import Entries, Solution, clean
-from .reductions import parallel_diodes, source_capacitors
-from .topology import Partition, SwitchedBridges, UnionFind, find_cutset, find_loop
+from .reductions import open_inductors, parallel_diodes, source_capacitors
+from .topology import Partition, SwitchedBridges, UnionFind
 
 __all__ = ["formulate", "storage_matrix", "EXHAUSTIVE_DIODE_LIMIT"]
 
@@ -77,8 +88,6 @@ EXHAUSTIVE_DIODE_LIMIT = 12
 
 _TWO_TERMINAL = frozenset("RLCVIDSEFGH")
 _KNOWN_KINDS = _TWO_TERMINAL | {"K"}
-# Branches whose current is imposed (a cutset of them is degenerate).
-_CURRENT_KINDS = frozenset("LIFG")
 
 _PROBE_RE = re.compile(r"^\s*([vi])\s*\(\s*([^,()\s]+)\s*(?:,\s*([^,()\s]+)\s*)?\)\s*$", re.I)
 
@@ -124,6 +133,7 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         inputs=formulator.input_names,
         diodes=[d.name for d in formulator.diodes],
         builder=formulator.build_mode,
+        pinnable=sorted(formulator.state_index[k] for k in formulator.pinnable),
     )
 
 
@@ -239,6 +249,12 @@ class _Formulator:
         self.diode_index = {el.key: i for i, el in enumerate(self.diodes)}
         self.switches = [el for el in self.two_terminal if el.kind == "S"]
         self.inductors = [el for el in self.two_terminal if el.kind == "L"]
+        # Inductors whose current Kirchhoff's law holds at zero in every mode: 0 V branches
+        # of the MNA, states without dynamics (see the module docstring).
+        self.pinned = frozenset(open_inductors(circuit))
+        self.live_inductors = [el for el in self.inductors if el.key not in self.pinned]
+        # ... and those that open switches may leave so (set with the switch controls below)
+        self.pinnable: frozenset[str] = frozenset()
         self.capacitors = [el for el in self.two_terminal if el.kind == "C"]
         self.n = len(self.state_elements)
         self.m = len(self.diodes)
@@ -270,6 +286,8 @@ class _Formulator:
                 options={**params, "initial": sw.initial} if sw.initial is not None
                 else dict(params)))
 
+        if self.switches and self.inductors:
+            self.pinnable = pinnable_inductors(self)
         # What each probe asked for names (probe -> ("v", node, node) or ("i", element)).
         self._probes: dict[str, tuple] = {}
         self.Lmat = np.zeros((0, 0))  # set by _inductance_inverse
@@ -356,13 +374,14 @@ class _Formulator:
     def _voltage_partition(self) -> Partition:
         """Components of the voltage-defined branches but the switches (V C E H)."""
         return Partition([tuple(el.nodes[:2]) for el in self.two_terminal
-                          if el.kind in _VOLTAGE_KINDS])
+                          if el.kind in _VOLTAGE_KINDS or el.key in self.pinned])
 
     @cached_property
     def _tree_partition(self) -> Partition:
         """Components of those and the resistors (a normal tree's first branches)."""
         return Partition([tuple(el.nodes[:2]) for el in self.two_terminal
-                          if el.kind in _VOLTAGE_KINDS or el.kind == "R"])
+                          if el.kind in _VOLTAGE_KINDS or el.kind == "R"
+                          or el.key in self.pinned])
 
     @cached_property
     def _current_bridges(self) -> SwitchedBridges:
@@ -378,7 +397,8 @@ class _Formulator:
         """Bridges of the branches that are not current-defined (and not open switches);
         the diodes last, as in :attr:`_current_bridges`."""
         fixed = [tuple(el.nodes[:2]) for el in self.two_terminal
-                 if el.kind not in _CURRENT_KINDS and el.kind not in "DS"]
+                 if (el.kind not in _CURRENT_KINDS or el.key in self.pinned)
+                 and el.kind not in "DS"]
         return SwitchedBridges(fixed + [tuple(d.nodes[:2]) for d in self.diodes],
                                [tuple(sw.nodes[:2]) for sw in self.switches])
 
@@ -414,6 +434,10 @@ class _Formulator:
             raise ValueError(f"mode key needs {len(self.switches)} entries, got {len(key)}")
         on = frozenset(sw.key for sw, closed in zip(self.switches, key, strict=True) if closed)
         desc = self.describe(on)
+        # (from here on, `on` also holds the inductors the mode pins: 0 V branches, as the
+        # closed switches)
+        pins = pinned_in(self, on)
+        on = on | pins
         if self._voltage_loop(on):
             # (the search below would fail, or find a singular matrix, and this be reported:
             # a 64-cell MMC arm's shoot-through took 0.12 s, an SVD, to get there)
@@ -438,17 +462,20 @@ class _Formulator:
             # (built when asked for: the sparse kernel needs it, the dense one does not; 1-2
             # ms a mode on a 64-cell MMC arm)
             def network():
-                return self._network(mna, shorted, isolated)
+                return self._network(mna, shorted, isolated, pins)
         dx = np.zeros((n, self.nxi))
         if self.capacitors:
             i_c = sol.evaluate_terms([mna._current_terms(el) for el in self.capacitors])
             rows = [self.state_index[el.key] for el in self.capacitors]
             dx[rows] = i_c / np.array([float(el.value) for el in self.capacitors])[:, None]
-        if self.inductors:
-            v_l = sol.evaluate_terms([mna._voltage_terms(*el.nodes[:2])
-                                      for el in self.inductors])
-            rows = [self.state_index[el.key] for el in self.inductors]
-            dx[rows] = self.Linv @ v_l
+        live = [a for a, el in enumerate(self.inductors) if el.key not in pins]
+        if live:
+            # (a pinned inductor has no dynamics: its row stays zero; it is uncoupled, so
+            # the live inductors' block of Linv is the inverse of theirs of Lmat)
+            v_l = sol.evaluate_terms([mna._voltage_terms(*self.inductors[a].nodes[:2])
+                                      for a in live])
+            rows = [self.state_index[self.inductors[a].key] for a in live]
+            dx[rows] = self.Linv[np.ix_(live, live)] @ v_l
         w = sol.evaluate_terms([mna.w_terms(d) for d in self.diodes])
         dx, w = clean(dx), clean(w)
         # A diode shorted by closed switches (e.g. a switch's antiparallel diode while it
@@ -489,10 +516,12 @@ class _Formulator:
             y = clean(sol.evaluate_forms(forms, mna.width))
             return OutputMap(names=names, Cy=y[:, :n], Dy=y[:, n:n + m], Fy=y[:, n + m:])
 
-        return ModeModel(lcs=lcs, output=output, network=network)
+        return ModeModel(lcs=lcs, output=output, network=network,
+                         pinned={self.state_index[k]: float(self.by_key[k].value)
+                                 for k in sorted(pins, key=lambda k: self.state_index[k])})
 
-    def _network(self, mna: _Mna, shorted: list[int],
-                 isolated: list[int]) -> NetworkRealisation:
+    def _network(self, mna: _Mna, shorted: list[int], isolated: list[int],
+                 pins: frozenset[str]) -> NetworkRealisation:
         """The sparse network of a mode whose MNA matrix is regular: ``Y z = S ξ``, the
         state derivatives ``Rx z`` and the pairs' ``w`` ``Rw z`` (:mod:`lcs.network`)."""
         nz = mna.nz
@@ -510,6 +539,8 @@ class _Formulator:
         if self.inductors:
             index = [self.state_index[el.key] for el in self.inductors]
             for a, el in enumerate(self.inductors):
+                if el.key in pins:
+                    continue  # (no dynamics; uncoupled, so no other inductor's either)
                 for c, v in mna._voltage_terms(*el.nodes[:2]):
                     for b in np.flatnonzero(self.Linv[:, a]):
                         xr.append(index[b])
@@ -546,38 +577,9 @@ class _Formulator:
         return self._diode_bridges(self._current_bridges, on)
 
     def _check_topology(self, on: frozenset[str], desc: str) -> None:
-        """Reject loops of voltage-defined and cutsets of current-defined branches."""
-        where = f" with {desc}" if desc else ""
-        voltage_branches = [
-            (el.name, *el.nodes) for el in self.two_terminal
-            if el.kind in _VOLTAGE_KINDS or (el.kind == "S" and el.key in on)
-        ]
-        loop = find_loop(voltage_branches)
-        if loop is not None:
-            raise _error(
-                f"loop of capacitors/voltage sources{where}: {' - '.join(loop)} (capacitors, "
-                "voltage sources, closed switches and E/H sources with no impedance between "
-                "them)",
-                "their voltages are tied by Kirchhoff's voltage law, so they cannot all be "
-                "states or sources; add a small series resistance in the loop (e.g. the "
-                "capacitor's ESR or a source resistance)",
-                loop, el=self.by_key[loop[-1].lower()], file=self.file)
-        contracted = [
-            el.nodes for el in self.two_terminal
-            if el.kind not in _CURRENT_KINDS and (el.kind != "S" or el.key in on)
-        ]
-        current_branches = [(el.name, *el.nodes) for el in self.two_terminal
-                            if el.kind in _CURRENT_KINDS]
-        cut = find_cutset(contracted, current_branches, GROUND)
-        if cut is not None:
-            raise _error(
-                f"cutset of inductors/current sources{where}: {', '.join(cut)} (inductors, "
-                "current sources and F/G sources are the only branches joining one part of the "
-                "circuit to the rest)",
-                "their currents are tied by Kirchhoff's current law, so they cannot all be "
-                "states or sources; give the current another path, e.g. a large resistance or "
-                "a freewheeling diode across the inductor",
-                cut, el=self.by_key[cut[0].lower()], file=self.file)
+        """Reject loops of voltage-defined and cutsets of current-defined branches
+        (:func:`netlist.degenerate.check_topology`)."""
+        check_topology(self, on, desc)
 
     # -- diode types -------------------------------------------------------------------
 
@@ -585,7 +587,7 @@ class _Formulator:
         """What the dynamics and the switches need: (label, element name, linear form)."""
         needed = [(f"i({el.name})", el.name, mna.current(el)) for el in self.capacitors]
         needed += [(f"the voltage across {el.name}", el.name, mna.voltage(*el.nodes))
-                   for el in self.inductors]
+                   for el in self.inductors if el.key not in mna.on]
         needed += [(f"w of diode {d.name}", d.name, mna.w_form(d)) for d in self.diodes]
         needed += [(f"the control voltage v({sw.control[0]},{sw.control[1]}) of {sw.name}",
                     sw.name, mna.voltage(*sw.control)) for sw in self.switches]

@@ -15,20 +15,35 @@ Over the window ``pelcs check`` uses (the last whole periods of the switching so
 
 What is neither loss nor output (the change of the stored energy over the window, other
 resistors) is reported as the balance.
+
+The figures are those of a steady state only if the window is one: every inductor current and
+capacitor voltage is checked with :func:`netlist.measure.settling` (the averages over the
+window's periods agree within :data:`~netlist.measure.SETTLE_LEVEL` of the probe's RMS: no
+net inductor voltage, no net capacitor charge over a period). A window that has not settled
+is reported as such (:attr:`LossReport.settled`, the efficiency line says "not settled"):
+while an output capacitor still charges, part of the input goes into storage and the
+efficiency reads low.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .circuit import Circuit, Diode, Resistor, Switch, VoltageSource
-from .measure import steady_state_period, steady_state_window
+from .circuit import Capacitor, Circuit, Diode, Inductor, Resistor, Switch, VoltageSource
+from .measure import (
+    Measurement,
+    probe_unit,
+    settling,
+    steady_state_period,
+    steady_state_window,
+)
 from .reductions import parallel_diodes
 
-__all__ = ["LossReport", "loss_probes", "losses"]
+__all__ = ["LossReport", "loss_probes", "losses", "storage_probes"]
 
 
 @dataclass
@@ -50,6 +65,11 @@ class LossReport:
     load : str
     efficiency : float
         ``p_out / p_in`` (nan without input power).
+    unsettled : tuple of Settling
+        The storage probes (inductor currents, capacitor voltages) whose averages still drift
+        over the window's periods (:func:`netlist.measure.settling`); empty when settled.
+    checked : bool
+        Whether the check could be made (False: less than two periods in the run).
     """
 
     window: tuple
@@ -60,6 +80,28 @@ class LossReport:
     p_out: float = float("nan")
     load: str = ""
     efficiency: float = float("nan")
+    unsettled: tuple = ()
+    checked: bool = True
+
+    @property
+    def settled(self) -> bool:
+        """Whether the window was checked and every storage probe had settled over it."""
+        return self.checked and not self.unsettled
+
+    def settling_text(self) -> str:
+        """Why the window is not a steady state, in words ('' when it is one)."""
+        from .units import format_eng
+
+        if not self.checked:
+            return "not checked: the run holds less than two periods"
+        if not self.unsettled:
+            return ""
+        worst = max(self.unsettled, key=lambda c: c.drift / c.limit if c.limit > 0
+                    else math.inf)
+        unit = probe_unit(worst.probe)
+        more = f" and {len(self.unsettled) - 1} more" if len(self.unsettled) > 1 else ""
+        return (f"{worst.probe} averages drift by {format_eng(worst.drift, unit)} over "
+                f"{worst.parts} (limit {worst.basis}){more}; run longer")
 
     @property
     def balance(self) -> float:
@@ -71,7 +113,8 @@ class LossReport:
         return {"window": list(self.window), "periods": self.periods,
                 "devices_W": dict(self.devices), "resistors_W": dict(self.resistors),
                 "input_W": self.p_in, "output_W": self.p_out, "load": self.load,
-                "efficiency": self.efficiency, "balance_W": self.balance}
+                "efficiency": self.efficiency, "balance_W": self.balance,
+                "settled": self.settled, "settling": self.settling_text()}
 
     def lines(self) -> list[str]:
         out = [f"losses over {self.window[0]:.6g}..{self.window[1]:.6g} s "
@@ -80,7 +123,13 @@ class LossReport:
         parts = [f"{k} {v:.4g} W" for k, v in {**self.devices, **self.resistors}.items()]
         if parts:
             out.append("  conduction: " + ", ".join(parts))
-        out.append(f"efficiency: {100 * self.efficiency:.2f} %")
+        why = self.settling_text()
+        if why:
+            # (not a bare figure: the window is not a steady state, or was not checked)
+            out.append(f"efficiency: {100 * self.efficiency:.2f} % "
+                       f"({'not settled: ' if self.checked else ''}{why})")
+        else:
+            out.append(f"efficiency: {100 * self.efficiency:.2f} %")
         return out
 
 
@@ -93,6 +142,20 @@ def _vprobe(a: str, b: str) -> str:
     return f"v({a})" if b == "0" else f"v({a},{b})"
 
 
+def storage_probes(circuit: Circuit) -> list[str]:
+    """The inductor currents and capacitor voltages (as node voltages) whose settling
+    :func:`losses` checks."""
+    probes = []
+    for el in circuit.elements:
+        if "#" in el.name:
+            continue
+        if isinstance(el, Inductor):
+            probes.append(f"i({el.name})")
+        elif isinstance(el, Capacitor):
+            probes.append(_vprobe(*el.nodes[:2]))
+    return list(dict.fromkeys(probes))
+
+
 def loss_probes(circuit: Circuit) -> list[str]:
     """The probes :func:`losses` needs."""
     merged = parallel_diodes(circuit)
@@ -103,7 +166,7 @@ def loss_probes(circuit: Circuit) -> list[str]:
             probes.append(f"i({el.name})")
     for v in _sources(circuit):
         probes += [f"i({v.name})", _vprobe(*v.nodes[:2])]
-    return list(dict.fromkeys(probes))
+    return list(dict.fromkeys(probes + storage_probes(circuit)))
 
 
 def losses(result, circuit: Circuit, fits: Sequence = (), load: str | None = None,
@@ -151,4 +214,8 @@ def losses(result, circuit: Circuit, fits: Sequence = (), load: str | None = Non
                      * np.asarray(result[f"i({v.name})"], dtype=float))
     rep.p_in = p_in
     rep.efficiency = rep.p_out / p_in if p_in > 0 else float("nan")
+    checks = settling(result, [Measurement("mean", p, f"mean({p})")
+                               for p in storage_probes(circuit)], (a, b), per)
+    rep.checked = bool(checks) or not storage_probes(circuit)
+    rep.unsettled = tuple(c for c in checks if not c.settled)
     return rep

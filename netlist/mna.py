@@ -18,7 +18,8 @@ class Mna:
     """The MNA companion network of one mode and λ-type assignment.
 
     Unknowns ``z``: the voltages of the non-ground nodes (V), then the currents (A) of the
-    voltage-defined branches (V, C, E, H, closed S, voltage-type D) in netlist order, each
+    voltage-defined branches (V, C, E, H, closed S, voltage-type D, the inductors pinned at
+    zero current: 0 V branches) in netlist order, each
     flowing from n+ through the element to n-. Linear *forms* are vectors over ``(z, ξ)``,
     ``ξ = (x, λ, u)``; a quantity's value is ``form[:nz] @ z + form[nz:] @ ξ``.
     Equations: KCL at every non-ground node (sum of currents leaving = 0), then one branch
@@ -62,7 +63,7 @@ class Mna:
         the elements' terms from)."""
         mna = cls.__new__(cls)
         is_branch = np.array([el.kind in VOLTAGE_KINDS or el.key in on or el.key in vdiodes
-                              for el in f.two_terminal], dtype=bool)
+                              or el.key in f.pinned for el in f.two_terminal], dtype=bool)
         mna._unknowns(f, on, vdiodes, is_branch)
         return mna
 
@@ -90,7 +91,7 @@ class Mna:
             return v + [(nz + f.n + f.m + f.input_index[el.key], -1.0)]
         if kind == "C":
             return v + [(nz + f.state_index[el.key], -1.0)]
-        if kind == "S":
+        if kind in "SL":  # (a closed switch; an inductor pinned at zero current)
             return v
         if kind == "D":
             return v + [(nz + f.n + f.diode_index[el.key], 1.0)]
@@ -179,7 +180,7 @@ class Mna:
             return v - self._xi(f.n + f.m + f.input_index[el.key])
         if kind == "C":
             return v - self._xi(f.state_index[el.key])
-        if kind == "S":
+        if kind in "SL":
             return v
         if kind == "D":  # v(a) - v(k) = -λ
             return v + self._xi(f.n + f.diode_index[el.key])
@@ -217,18 +218,22 @@ class Stamps:
     def __init__(self, f):
         elements = f.two_terminal
         self._index = {el.key: e for e, el in enumerate(elements)}
-        self._fixed = np.array([el.kind in VOLTAGE_KINDS for el in elements], dtype=bool)
+        self._fixed = np.array([el.kind in VOLTAGE_KINDS or el.key in f.pinned
+                                for el in elements], dtype=bool)
         # Switches and diodes are voltage-defined in some modes: their terms are read in
         # both cases (every one voltage-defined, none), the others' once.
         self._nn = len(f.nodes)
-        every = Mna.unknowns_only(f, frozenset(el.key for el in elements if el.kind == "S"),
+        # (the inductors some modes pin at zero current are voltage-defined there, as the
+        # closed switches)
+        every = Mna.unknowns_only(f, frozenset(el.key for el in elements if el.kind == "S")
+                                  | f.pinnable,
                                   frozenset(el.key for el in elements if el.kind == "D"))
         none = Mna.unknowns_only(f, frozenset(), frozenset())
         rows: list[tuple[int, int, int, int, int, int, float]] = []
         for when, mna in ((self.IF_BRANCH, every), (self.IF_NOT, none)):
             owner = {i: self._index[k] for k, i in mna.branch.items()}
             for e, el in enumerate(elements):
-                if el.kind not in "SD":
+                if el.kind not in "SD" and el.key not in f.pinnable:
                     if mna is every:
                         continue  # (read from `none`: the same terms)
                     case = self.ALWAYS

@@ -76,6 +76,11 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
     res.notes.extend(f"pwl: {f.line()}" for f in fits)
     if losses:
         res.losses = loss_report(res, circuit, fits, load)
+        if not res.losses.settled:
+            a, b = res.losses.window
+            res.notes.append(f"losses: the window {a:.6g}..{b:.6g} s is not a steady state "
+                             f"({res.losses.settling_text()}): the efficiency is that of the "
+                             "transient, not of the converter")
     if extra:  # the losses' probes are not the user's: they came after them
         k = len(dict.fromkeys(want))
         res.names, res.y = tuple(res.names[:k]), res.y[:, :k]

@@ -6,7 +6,11 @@ any mode is built):
   depends on its current (only the sources' own currents would);
 - an ideal diode in parallel with an earlier one of the same orientation: one
   complementarity pair carries both (two would leave the split of their current
-  undetermined, a non-unique λ).
+  undetermined, a non-unique λ);
+- an inductor whose terminals no other branch joins, whatever the switches (one end left
+  unconnected, or a part of the circuit hung on it alone): Kirchhoff's current law holds its
+  current at zero, as ngspice finds it. It keeps its state name, but the state is pinned at
+  zero (the formulation takes it for a 0 V branch, with no dynamics).
 
 :func:`netlist.formulation.formulate` drops them; runs note them, probes of a merged diode are
 refused with the name of the diode that carries it.
@@ -14,10 +18,10 @@ refused with the name of the diode that carries it.
 
 from __future__ import annotations
 
-from .circuit import Capacitor, Circuit, VoltageSource
-from .topology import UnionFind
+from .circuit import Capacitor, Circuit, Inductor, VoltageSource
+from .topology import UnionFind, bridges
 
-__all__ = ["parallel_diodes", "source_capacitors"]
+__all__ = ["open_inductors", "parallel_diodes", "source_capacitors"]
 
 
 def source_capacitors(circuit: Circuit) -> list[str]:
@@ -49,3 +53,17 @@ def parallel_diodes(circuit: Circuit) -> dict[str, str]:
             else:
                 first[pair] = el.name
     return out
+
+
+def open_inductors(circuit: Circuit) -> list[str]:
+    """Keys of the inductors that no other branch parallels, switches closed or not: each is
+    a bridge of the graph of every two-terminal element, so Kirchhoff's current law holds its
+    current at zero (a dangling inductor, one end unconnected). Inductors coupled by a K
+    element are left out (a coupled winding's voltage is not zero: the formulation refuses
+    them as before)."""
+    coupled = {str(name).lower() for el in circuit.elements if el.kind == "K"
+               for name in el.inductors}
+    branches = [el for el in circuit.elements if el.kind != "K" and len(el.nodes) >= 2]
+    cut = bridges([tuple(el.nodes[:2]) for el in branches])
+    return [el.key for i, el in enumerate(branches)
+            if i in cut and isinstance(el, Inductor) and el.key not in coupled]

@@ -40,7 +40,7 @@ from .circuit import GROUND, Capacitor, Circuit, CurrentSource, Inductor, Voltag
 from .errors import Diagnostic, NetlistError
 from .formulation import formulate, storage_matrix
 from .passive import structurally_passive
-from .reductions import parallel_diodes, source_capacitors
+from .reductions import open_inductors, parallel_diodes, source_capacitors
 
 __all__ = [
     "TransientSetup",
@@ -225,6 +225,7 @@ def transient_setup(
         name = next(el.name for el in circuit.elements if el.key == key)
         notes.append(f"{name} is in parallel with {into}: merged into it (one ideal diode, "
                      f"i({into}) is their sum)")
+    _pin_open_inductors(circuit, system.states, x0, notes)
     across = set(source_capacitors(circuit))
     held = [el.name for el in circuit.elements if el.key in across]
     if held:
@@ -287,6 +288,27 @@ def _screen_passivity(circuit: Circuit, system: SwitchedLCS, energy: np.ndarray,
     where = f"{circuit.file}: " if circuit.file and circuit.file != "<string>" else ""
     warnings.warn(NonPassiveWarning(where + note), stacklevel=3)
     return bad
+
+
+def _pin_open_inductors(circuit: Circuit, states: Sequence[str], x0: np.ndarray,
+                        notes: list[str]) -> None:
+    """Note the inductors no other branch parallels (:func:`netlist.reductions.open_inductors`)
+    and set their initial current to zero: an ``IC=`` current there has nowhere to flow, and
+    its energy ``½ L i²`` is lost at t = 0 (said in the note)."""
+    from .units import format_eng
+
+    index = {name.lower(): k for k, name in enumerate(states)}
+    for key in open_inductors(circuit):
+        el = circuit.element(key)
+        k = index[f"i({el.name})".lower()]
+        text = (f"{el.name}: no other branch joins its terminals (one end unconnected?), so "
+                "its current is 0 (as ngspice finds it); its state is held at 0 A")
+        if x0[k] != 0.0:
+            lost = 0.5 * float(el.value) * x0[k] ** 2
+            text += (f"; its initial current {format_eng(x0[k], 'A')} has no path: it jumps "
+                     f"to 0 at t = 0 and {format_eng(lost, 'J')} (½ L i²) is lost")
+            x0[k] = 0.0
+        notes.append(text)
 
 
 def initial_state(circuit: Circuit, states: Sequence[str], notes: list[str] | None = None

@@ -686,7 +686,7 @@ def test_inductor_current_source_cutset_rejected():
     assert "cutset" in d.message
 
 
-def test_inductor_opened_by_switch_rejected_with_mode():
+def test_inductor_opened_by_switch_pinned_in_that_mode():
     c = circuit(
         VoltageSource("V1", ("in", "0"), dc=1.0),
         Inductor("L1", ("in", "a"), value=1e-3),
@@ -695,13 +695,38 @@ def test_inductor_opened_by_switch_rejected_with_mode():
         models=SW_MODEL,
     )
     sys = formulate(c)
+    assert sys.pinnable == (0,)
     lcs = sys.mode({"S1": True})
     close(lcs.E, [[1e3, 0]])  # L di/dt = V1
+    assert sys.pinned({"S1": True}) == {}
+    # S1 open: no path for i(L1): held at zero (no dynamics), its energy coefficient L
+    lcs = sys.mode({"S1": False})
+    close(lcs.A, [[0]])
+    close(lcs.E, [[0, 0]])
+    assert sys.pinned({"S1": False}) == {0: 1e-3}
+    out = sys.outputs({"S1": False}, ["i(L1)", "v(a)"])
+    close(out.Cy, [[0], [0]])
+    close(out.Fy, [[0, 0], [1, 0]])  # v(a) = V1: L di/dt = 0
+
+
+def test_coupled_inductor_opened_by_switch_rejected_with_mode():
+    c = circuit(
+        VoltageSource("V1", ("in", "0"), dc=1.0),
+        Inductor("L1", ("in", "a"), value=1e-3),
+        gate_switch("S1", "a", "0"),
+        VoltageSource("Vg", ("gate", "0"), dc=0.0),
+        Inductor("L2", ("b", "0"), value=1e-3),
+        Resistor("R2", ("b", "0"), value=1.0),
+        Coupling("K1", (), inductors=("L1", "L2"), k=0.9),
+        models=SW_MODEL,
+    )
+    sys = formulate(c)
+    assert sys.pinnable == ()
     with pytest.raises(NetlistError) as exc:
         sys.mode({"S1": False})
     d = diag_of(exc)
     assert d.elements == ("L1",)
-    assert "S1=off" in d.message
+    assert "S1=off" in d.message and "flux lost" in d.hint
 
 
 def test_unit_coupling_rejected():

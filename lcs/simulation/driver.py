@@ -25,6 +25,7 @@ from ..results import SimulationError, SimulationResult, SimulationStats
 from .initial import InconsistentHandler, initial_state
 from .inputs import MERGE_FRACTION, InputTable, evaluate_inputs
 from .integrator import Integrator, Run, Window
+from .pinned import PinnedJumps, key_after
 from .problem import Problem, mode_tuple
 from .recorder import Recorder
 from .schedule import Controllers, plan_run
@@ -87,6 +88,12 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
     u0 = evaluate_inputs(inputs, np.array([t_start]), +1)[0]
     init = initial_state(problem, plan, sched.mode_src, sched.src_maps, guess, x0, u0, t_start,
                          ctrls, on_inconsistent, lcp or LcpOptions(), notes)
+    # States some modes hold at zero (an inductor an open switch leaves with no path): set
+    # to zero where such a mode starts, at t_start and at every known switching instant.
+    pins = PinnedJumps(system, k) if system.pinnable else None
+    if pins is not None:
+        pins.apply(init.mode, init.x, t_start)
+    split = pins is not None and integrator.can_set_state
     recorder = Recorder(out0.names, 64, 64, out0.duty, words(k))
     recorder.append(t_start, problem.output(init.mode).row(init.key, -1, 0.0, init.x, init.lam,
                                                            u0))
@@ -110,7 +117,10 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
                 ctrls.commands(ctrls.due(ws), ws, snap.key, snap.x, snap.lam, u_ws, snap.slide,
                                snap.duty, apply=False)
             known = sched.known.window(ws, we, tol, ctrls.take_pending(we))
-            error = integrator.advance(Window(ws, we, known, bps[(bps > ws) & (bps < we)]))
+            if split:
+                error = _advance_pinned(integrator, pins, known, ws, we, bps, tol, k)
+            else:
+                error = integrator.advance(Window(ws, we, known, bps[(bps > ws) & (bps < we)]))
             if bar is not None:
                 bar.update(integrator.progress())
             if error is not None:
@@ -127,9 +137,18 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
         recorder.append(t_last, problem.output(mode_tuple(snap.key, k)).row(
             snap.key, snap.slide, snap.duty, snap.x, snap.lam, u_last))
     events, sliding, visited = recorder.events(plan.names, init.mode, t_last)
+    t_res, y_res = recorder.arrays()
+    if pins is not None:
+        notes.extend(pins.notes())
+        if error is None:
+            error = pins.unhandled(init.mode, events, tol)
+            if error is not None:
+                # (what follows may carry the current the switch cut: not kept)
+                keep = t_res <= error.time
+                t_res, y_res = t_res[keep], y_res[keep]
+                events = [e for e in events if e[0] <= error.time]
     stats = SimulationStats(**integrator.stats(), intervals=len(events) + 1,
                             wall_time=time.perf_counter() - t_wall)
-    t_res, y_res = recorder.arrays()
     result = SimulationResult(
         t=t_res,
         names=tuple(recorder.names),
@@ -147,3 +166,22 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
     if error is not None:
         error.result = result
     return result
+
+
+def _advance_pinned(integrator: Integrator, pins: PinnedJumps, known, ws: float, we: float,
+                    bps: np.ndarray, tol: float, k: int) -> SimulationError | None:
+    """Advance through ``[ws, we)`` in parts cut at the known switching instants, setting to
+    zero, where each part starts, the states its mode pins (:mod:`.pinned`)."""
+    cuts = known.t[(known.t > ws + tol) & (known.t < we - tol)]
+    edges = np.concatenate(([ws], np.unique(cuts), [we]))
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        part = known.window(a, b, tol) if len(edges) > 2 else known
+        snap = integrator.snapshot()
+        key = key_after(snap.key, part, a, tol)
+        x = np.array(snap.x, dtype=float)
+        if pins.apply(mode_tuple(key, k), x, a):
+            integrator.set_state(x)
+        error = integrator.advance(Window(a, b, part, bps[(bps > a) & (bps < b)]))
+        if error is not None:
+            return error
+    return None

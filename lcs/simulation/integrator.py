@@ -113,6 +113,9 @@ class Integrator:
 
     name = "integrator"
     h: float = 0.0
+    #: Whether :meth:`set_state` is implemented (the run then applies the jumps of pinned
+    #: states, :mod:`lcs.simulation.pinned`, between windows).
+    can_set_state = False
 
     def prepare(self, run: Run) -> None:
         """Set up the run (called once, after the initial state is known)."""
@@ -125,6 +128,10 @@ class Integrator:
 
     def snapshot(self) -> Snapshot:
         """The current time, mode and state."""
+        raise NotImplementedError
+
+    def set_state(self, x: np.ndarray) -> None:
+        """Replace the current state (between two windows: a state jump the run applies)."""
         raise NotImplementedError
 
     def stats(self) -> dict:

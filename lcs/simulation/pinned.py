@@ -1,0 +1,125 @@
+"""States that a switch mode holds at zero, and their jump to zero when the mode is entered.
+
+An inductor that the open switches leave with no path for its current (in series with an
+ideal switch that opens) has its current pinned at zero in those modes
+(:attr:`lcs.model.ModeModel.pinned`): the LCS gives it no dynamics and takes it into nothing.
+An ideal switch cuts the current at once: entering such a mode with a current, the state
+jumps to zero and the energy ``½ L i²`` it stored is lost (a real switch turns it into a
+voltage spike across itself, or an arc; ngspice's SW, open, spends it in its ``ROFF`` within
+``L / ROFF``, through a spike of ``i ROFF``). This is the inductor's counterpart of a
+capacitor whose charge jumps when a diode closes it onto another voltage, except that no
+multiplier of the step can carry it (the constraint ``i = 0`` is two-sided), so the run
+applies it between two of its windows.
+
+The run therefore cuts its windows at every known switching instant (source-driven switches,
+Python controllers' commands) when the system has such states, and sets them to zero where
+the mode about to start pins them. A comparator-driven switching inside a window cannot be
+handled so: a run that enters a pinning mode there gets a
+:class:`~lcs.results.SimulationError` (``kind = "pinned_jump"``) saying so, and its result
+ends there.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..model import ModeKey, SwitchedLCS
+from ..results import SimulationError
+from .codes import OP_SET
+from .problem import fmt_mode
+from .schedule import KnownSwitchings
+
+__all__ = ["PinnedJumps"]
+
+
+def key_after(key: int, known: KnownSwitchings, t: float, tol: float) -> int:
+    """The switch key once the ``OP_SET`` entries of ``known`` at ``t`` (to ``tol``) apply."""
+    from ..bits import from_words
+
+    for tk, op, a, b in zip(known.t, known.op, known.a, known.b, strict=True):
+        if abs(tk - t) <= tol and op == OP_SET:
+            key = (key & ~from_words(a)) | from_words(b)
+    return key
+
+
+@dataclass
+class PinnedJumps:
+    """The jumps to zero of the pinned states over one run, and their notes.
+
+    Attributes
+    ----------
+    system : SwitchedLCS
+    k : int
+        Number of switches.
+    jumps : dict
+        Per state index: ``[count, first time (s), first value, energy lost in all (J)]``.
+    instants : list of float
+        The instants where the run checked (window starts), s.
+    """
+
+    system: SwitchedLCS
+    k: int
+    jumps: dict = field(default_factory=dict)
+    instants: list = field(default_factory=list)
+
+    def apply(self, mode: ModeKey, x: np.ndarray, t: float) -> bool:
+        """Set to zero, in place, the states of ``x`` that ``mode`` pins; whether any was
+        nonzero."""
+        self.instants.append(t)
+        pinned = self.system.pinned(mode)
+        jumped = False
+        for i, coef in pinned.items():
+            if x[i] != 0.0:
+                rec = self.jumps.setdefault(i, [0, t, float(x[i]), 0.0])
+                rec[0] += 1
+                rec[3] += 0.5 * coef * float(x[i]) ** 2
+                x[i] = 0.0
+                jumped = True
+        return jumped
+
+    def notes(self) -> list[str]:
+        """One note per state that jumped."""
+        from ..units_format import format_eng
+
+        out = []
+        for i, (count, t0, x0, energy) in sorted(self.jumps.items()):
+            name = self.system.states[i]
+            unit = "A" if name.lower().startswith("i(") else ""
+            times = "once" if count == 1 else f"{count} times"
+            out.append(
+                f"{name}: the open switches leave it no path, so the ideal switches cut it to "
+                f"0 {times} (first at t = {format_eng(t0, 's')}, from "
+                f"{format_eng(x0, unit)}): its flux is lost, {format_eng(energy, 'J')} "
+                "(½ L i²) in all; a real switch spends it in a voltage spike across itself "
+                "(ngspice's SW in its ROFF)")
+        return out
+
+    def unhandled(self, mode0: ModeKey, events, tol: float) -> SimulationError | None:
+        """The error of a run (from ``mode0``, through the mode changes ``events``) that
+        entered a pinning mode between the instants it checked (a comparator's switching),
+        or None."""
+        checked = np.array(sorted(self.instants))
+        prev = self.system.pinned(mode0)
+        for t, mode in events:
+            pinned = self.system.pinned(mode)
+            new = [i for i in pinned if i not in prev]
+            prev = pinned
+            if not new:
+                continue
+            j = np.searchsorted(checked, t - tol)
+            if j < len(checked) and abs(checked[j] - t) <= tol:
+                continue
+            names = ", ".join(self.system.states[i] for i in new)
+            desc = {s.name: ("on" if on else "off")
+                    for s, on in zip(self.system.switches, mode, strict=True)}
+            msg = (f"t = {t:.9g} s, mode: {fmt_mode(desc)}: a comparator's switching leaves "
+                   f"{names} no path: an ideal switch cuts it to 0 there (its flux lost), a "
+                   "jump that pelcs applies only at known switching instants (switches "
+                   "driven by sources or Python controllers); the run after it may keep "
+                   "the old current. Give the current a path that stays (a freewheeling "
+                   "diode, an RC snubber), or drive the switch from a source")
+            return SimulationError(msg, kind="pinned_jump", time=t, t_prev=t, mode=desc)
+        return None
+
