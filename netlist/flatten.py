@@ -496,9 +496,17 @@ class _Builder:
         rg = sum(self._resistance(e) for e in sub.body.elements if e.kind == "R"
                  and {n.lower() for n in e.nodes[:2]} == {gate_port.lower(),
                                                           dev.nodes[1].lower()})
+        # a feedback network's capacitor (Symmetry's power MOS macro: a capacitor on the
+        # output of a VCVS of the drain-gate voltage, its current mirrored into the gate)
+        feedback = {n.lower() for e in sub.body.elements if e.kind == "E"
+                    and {c.lower() for c in e.control} == {dev.nodes[0].lower(),
+                                                           dev.nodes[1].lower()}
+                    for n in e.nodes[:2]} - {"0"}
+        cgd = sum(self._resistance(e) for e in sub.body.elements if e.kind == "C"
+                  and {n.lower() for n in e.nodes[:2]} & feedback)
         self.circuit.elements.append(Switch(name, (a, b), loc, control, sw_model, None,
                                             device=(*origin, model.name, series),
-                                            gate_rc=_gate_rc(dev, model, rg)))
+                                            gate_rc=_gate_rc(dev, model, rg, cgd)))
         body = None
         if macro.body is not None or mt == "VDMOS":
             body = f"{name}_body"
@@ -685,13 +693,16 @@ def _instance_length(el: RawElement, key: str, default: float) -> float:
     return float(v) if v is not None and v > 0 else default
 
 
-def _gate_rc(el: RawElement, model: Model, rg: float) -> tuple[float, float] | None:
-    """An idealised MOSFET's gate as a linear RC (Ω, F), or None (a BJT, no capacitance).
+def _gate_rc(el: RawElement, model: Model, rg: float, cgd: float = 0.0
+             ) -> tuple[float, float, float] | None:
+    """An idealised MOSFET's gate as a linear RC: (R Ω, Cgs F, Cgd F), or None (a BJT, no
+    capacitance).
 
-    C is the model's gate capacitance at a fixed drain: for a level-1..3 model the overlap
-    capacitances ``(CGSO + CGDO) W``; for a VDMOS ``CGS + CGDMAX``. R is the model's ``RG``
-    (VDMOS) plus ``rg``, the macro-model's resistor between its gate port and the channel's
-    gate. What the switching instant depends on: the switch turns when this capacitor's
+    At a fixed bias: for a level-1..3 model the overlap capacitances ``CGSO W`` and ``CGDO W``
+    (W the instance's, ngspice's default 100 µm); for a VDMOS ``CGS`` and ``CGDMAX``; plus
+    ``cgd``, a macro-model's gate-drain feedback capacitor. R is the model's ``RG`` (VDMOS)
+    plus ``rg``, the macro-model's resistor between its gate port and the channel's gate.
+    They set the switching instants: the switch turns when the gate-source capacitor's
     voltage crosses the threshold (netlist.pwl).
     """
     if el.kind != "M":
@@ -699,8 +710,9 @@ def _gate_rc(el: RawElement, model: Model, rg: float) -> tuple[float, float] | N
     p = {k.lower(): float(v) for k, v in model.params.items()
          if isinstance(v, (int, float))}
     if model.type == "VDMOS":
-        c = p.get("cgs", 0.0) + p.get("cgdmax", 0.0)
+        cgs, cgd = p.get("cgs", 0.0), cgd + p.get("cgdmax", 0.0)
         rg += p.get("rg", 0.0)
     else:
-        c = (p.get("cgso", 0.0) + p.get("cgdo", 0.0)) * _instance_length(el, "w", 100e-6)
-    return (rg, c) if c > 0 else None
+        w = _instance_length(el, "w", 100e-6)
+        cgs, cgd = p.get("cgso", 0.0) * w, cgd + p.get("cgdo", 0.0) * w
+    return (rg, cgs, cgd) if cgs + cgd > 0 else None

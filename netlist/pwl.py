@@ -20,10 +20,10 @@ idealised MOSFET the channel resistance at its gate drive from the model, ``RD +
 1/(KP (Vgs - VTO))`` (the triode region at small drain-source voltage), Vgs the largest
 control voltage of the ideal run; for a BJT ``RC + RE`` and a saturation drop of 0.2 V (as a
 source in series, like a diode's Vf). A MOSFET keeps what sets its switching instants: its
-gate as a linear RC (``Switch.gate_rc``: the model's gate resistance and gate capacitance,
-``netlist.flatten``) between its gate and source, and the switch turns when that capacitor's
-voltage crosses the threshold, as the channel does (the turn-off of a gate driven from 24 V
-through 13 Ω into 3.6 nF comes about 80 ns after the command).
+gate as a linear RC (``Switch.gate_rc``, from ``netlist.flatten``: the model's gate
+resistance, its gate-source capacitance to the source and its gate-drain capacitance to the
+drain, at a fixed bias), and the switch turns when the gate-source voltage behind the gate
+resistance crosses the threshold, as the channel does.
 The added elements are named ``<element>#vf`` and ``<element>#ron`` on internal nodes
 ``<element>#a``/``#b``; they belong to pelcs' model only (ngspice keeps the real devices).
 """
@@ -222,7 +222,8 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
             if gate is not None:
                 el, gate_parts = _gate(el, *gate)
                 out.extend(gate_parts)
-                how += f"; gate RC {gate[0]:.3g} Ω (inside the device) x {gate[1]:.3g} F"
+                how += (f"; gate {gate[0]:.3g} Ω (inside the device), Cgs {gate[1]:.3g} F, "
+                        f"Cgd {gate[2]:.3g} F")
             fits.append(PwlFit(el.name, vdrop, ron, how))
             out.extend(_series(el, vdrop, ron))
         else:
@@ -295,20 +296,24 @@ def switch_residual(circuit: Circuit, sw: Switch, ron: float, i_max: float,
     return float(vov - math.sqrt(disc) - lin) if disc > 0 else float(max(vov, lin))
 
 
-def _gate(sw: Switch, rg: float, cg: float) -> tuple[Switch, list]:
+def _gate(sw: Switch, rg: float, cgs: float, cgd: float) -> tuple[Switch, list]:
     """A MOSFET switch's gate as a linear RC: ``rg`` from its gate terminal to an internal
-    gate node, ``cg`` from there to its source terminal; the switch is then controlled by
-    the internal node (it turns when the capacitor crosses the threshold)."""
-    g, src = sw.control
-    key = sw.name.lower()
-    inner = f"{key}#g"
+    gate node, ``cgs`` from there to its source terminal and ``cgd`` to its drain; the
+    switch is then controlled by the internal node (it turns when the gate-source voltage
+    there crosses the threshold)."""
+    drain, src = sw.nodes[0], sw.nodes[1]
+    n_chan = sw.control[1] == src  # (gate, source); a P-channel's is (source, gate)
+    g = sw.control[0] if n_chan else sw.control[1]
+    inner = f"{sw.name.lower()}#g" if rg > 0 else g
     parts: list = []
     if rg > 0:
         parts.append(Resistor(f"{sw.name}#rg", (g, inner), sw.location, rg))
-    else:
-        inner = g
-    parts.append(Capacitor(f"{sw.name}#cg", (inner, src), sw.location, cg))
-    return replace(sw, control=(inner, src)), parts
+    if cgs > 0:
+        parts.append(Capacitor(f"{sw.name}#cgs", (inner, src), sw.location, cgs))
+    if cgd > 0:
+        parts.append(Capacitor(f"{sw.name}#cgd", (inner, drain), sw.location, cgd))
+    control = (inner, sw.control[1]) if n_chan else (sw.control[0], inner)
+    return replace(sw, control=control), parts
 
 
 def _series(el, vf: float, ron: float) -> list:

@@ -451,7 +451,8 @@ def compare(
     kd = tol.k_nonideal * nonideal.delta
     if tol.nrms + kd > tol.conclusive:
         left = "what the fits leave of " if use_pwl and not rung_models else ""
-        notes.append(f"{left}ngspice's diode and switch models drop {100 * nonideal.delta:.3g} % of "
+        notes.append(f"{left}ngspice's diode and switch models drop "
+                     f"{100 * nonideal.delta:.3g} % of "
                      f"{nonideal.v_ref:.4g} V: tolerances of {100 * (tol.nrms + kd):.3g} % "
                      f"(over {100 * tol.conclusive:.3g} %) decide nothing, the comparison is "
                      "inconclusive; near-ideal models (D: IS=1e-12 N=0.05 RS=1m, SW: RON=1m "
