@@ -396,7 +396,7 @@ def compare(
                if isinstance(el, (Diode, Switch)) and el.key not in merged}
     drives = {sw.name: float(np.max(np.abs(result[ctrl])))
               for sw, ctrl in zip(switch_els, controls, strict=True)}
-    ideal_delta = _nonideality(circuit, NgspiceSettings(), carried, drives)
+    ideal_delta = _nonideality(circuit, NgspiceSettings("as-written"), carried, drives)
     use_pwl, why = _choose_devices(devices, circuit, ideal_delta, tol)
     fits: list = []
     if use_pwl:
