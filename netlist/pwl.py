@@ -213,8 +213,9 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
             ron += series
             what = " || ".join(f"IS={p['is']:.3g} N={p['n']:.3g} RS={p['rs']:.3g}"
                                for p in params)
-            fits.append(PwlFit(el.name, vf, ron, f"fit of {what} over {imax / 20:.3g}.."
-                                                 f"{imax:.3g} A"))
+            span = (f"over {imax / 20:.3g}..{imax:.3g} A" if imax > 1e-9
+                    else "at 1 mA: it carries no current in the ideal run")
+            fits.append(PwlFit(el.name, vf, ron, f"fit of {what} {span}"))
             out.extend(_series(el, vf, ron))
         elif isinstance(el, Switch):
             ron, vdrop, how = switch_resistance(circuit, el, drives.get(el.name))
