@@ -61,9 +61,9 @@ def _summary(cmp: Comparison) -> str:
         return "OUT OF TOLERANCE: " + "; ".join(cmp.failures)
     if cmp.verdict == "inconclusive":
         widest = max(p.widest for p in cmp.probes)
-        return (f"INCONCLUSIVE: within tolerances of up to {100 * widest:.3g} % (over "
-                f"{100 * cmp.tolerances.conclusive:.3g} %: they decide nothing) for "
-                + ", ".join(cmp.inconclusive))
+        return (f"INCONCLUSIVE: tolerances of up to {100 * widest:.3g} % (over "
+                f"{100 * cmp.tolerances.conclusive:.3g} %) decide nothing for "
+                + ", ".join(cmp.inconclusive) + "; no agreement shown")
     return "within tolerance"
 
 
