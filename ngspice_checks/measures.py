@@ -260,7 +260,8 @@ def _pwl_residual(
     """δ of what ngspice's models differ from pelcs' piecewise-linear devices
     (:mod:`netlist.pwl`): per diode the largest distance between its line and its model over
     the currents it carries (from a twentieth of the fitted current to the larger of the
-    fitted current and the one it carries in the pwl run, A), per switch what its ``Ron``
+    fitted current and the one it carries in the pwl run, A; nothing for a diode that
+    carries nothing), per switch what its ``Ron``
     leaves of its model (:func:`netlist.pwl.switch_residual`); over the largest source
     voltage."""
     from netlist.pwl import switch_residual
@@ -274,7 +275,11 @@ def _pwl_residual(
         i_fit, i_run = fitted.get(el.name, 0.0), carried.get(el.name, 0.0)
         if isinstance(el, Diode):
             i_hi = max(i_fit, i_run)
-            diodes[el.name] = (diode_residual(circuit, el, f.vf, f.ron, i_fit / 20.0, i_hi)
+            if not i_hi > 1e-9:  # it carries nothing: no drop to miss
+                diodes[el.name] = 0.0
+                continue
+            i_lo = (i_fit if i_fit > 1e-9 else i_hi) / 20.0
+            diodes[el.name] = (diode_residual(circuit, el, f.vf, f.ron, i_lo, i_hi)
                                if f.how != "given" else
                                _nonideality_drop(circuit, el, i_hi, f.vf, f.ron))
         elif isinstance(el, Switch):
