@@ -262,3 +262,13 @@ def test_check_with_ideal_devices_on_real_models_is_inconclusive(ngspice, capsys
                      capsys)
     assert rc == 4, out
     assert out.splitlines()[-1].startswith("INCONCLUSIVE: tolerances of up to")
+
+
+def test_check_does_not_agree_where_charge_storage_matters(ngspice, capsys):
+    """A Villard doubler at 100 MHz with 1N4148s: ideal devices get 250 % tolerances
+    (inconclusive), pwl devices a few % (and fail on the charge-up): never agreement."""
+    deck = str(DEV / "multiplier_100meg.cir")
+    for devices in ("ideal", "pwl"):
+        rc, out = _check([deck, "--probe", "v(n4)", "--devices", devices], capsys)
+        assert rc in (1, 4), out
+        assert out.splitlines()[-1].startswith(("OUT OF TOLERANCE", "INCONCLUSIVE"))
