@@ -1,11 +1,13 @@
 """Circuits built with PySpice: PySpice's own buck example, as its
-``examples/switched-power-supplies/buck-converter.py`` builds it, for tests and examples."""
+``examples/switched-power-supplies/buck-converter.py`` builds it, and its rectifiers
+(``examples/diode/rectification.py``: half-wave and bridge, with NXP's 1N4148), for tests and
+examples."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["pyspice_buck"]
+__all__ = ["pyspice_buck", "pyspice_rectifier"]
 
 VENDOR = Path(__file__).resolve().parents[1] / "tests" / "netlists" / "devices" / "vendor"
 
@@ -41,4 +43,38 @@ def pyspice_buck(vendor=None):
     c.R("L", 1, "out", 37e-3 @ u_Ω)
     c.C(1, "out", c.gnd, float(cout) @ u_F)
     c.R("load", "out", c.gnd, rload)
+    return c
+
+
+def pyspice_rectifier(kind: str = "half", capacitor: bool = False, vendor=None):
+    """PySpice's rectifiers (examples/diode/rectification.py), built the same way: a 10 V,
+    50 Hz sine through NXP's 1N4148 (a subcircuit: the diode and a 5.8 GΩ leakage resistor)
+    into 100 Ω, ``kind`` ``"half"`` (one diode) or ``"bridge"`` (four), with ``capacitor`` a
+    1 mF filter across the load; two periods, PySpice's step of a 200th of a period. Needs
+    PySpice."""
+    from PySpice.Spice.Netlist import Circuit
+    from PySpice.Unit import u_Hz, u_mF, u_V, u_Ω
+
+    if kind not in ("half", "bridge"):
+        raise ValueError(f"kind must be 'half' or 'bridge', got {kind!r}")
+    vendor = Path(vendor) if vendor is not None else VENDOR
+    c = Circuit(f"{kind}-wave rectification" if kind == "half" else "full-wave rectification")
+    c.include(str(vendor / "1N4148.lib"))
+    src = c.SinusoidalVoltageSource("input", "in", c.gnd, amplitude=10 @ u_V,
+                                    frequency=50 @ u_Hz)
+    if kind == "half":
+        c.X("D1", "1N4148", "in", "output")
+        c.R("load", "output", c.gnd, 100 @ u_Ω)
+        top, bottom = "output", c.gnd
+    else:
+        c.X("D1", "1N4148", "in", "output_plus")
+        c.R("load", "output_plus", "output_minus", 100 @ u_Ω)
+        c.X("D2", "1N4148", "output_minus", c.gnd)
+        c.X("D3", "1N4148", c.gnd, "output_plus")
+        c.X("D4", "1N4148", "output_minus", "in")
+        top, bottom = "output_plus", "output_minus"
+    if capacitor:
+        c.C("1", top, bottom, 1 @ u_mF)
+    period = float(src.period)
+    c.raw_spice = f".tran {period / 200:g} {2 * period:g}"
     return c

@@ -100,6 +100,10 @@ class Switch(Element):
     initial: bool | None = None  # ON (True) / OFF (False) as written on the S line, else None
     # an idealised transistor: (letter, all its nodes, its model), written back for ngspice
     device: tuple | None = field(default=None, compare=False)
+    # an idealised MOSFET's gate as a linear RC: (resistance inside the device between its
+    # gate terminal and the channel's gate, Ω; gate-source and gate-drain capacitances, F),
+    # for --devices pwl
+    gate_rc: tuple[float, float, float] | None = field(default=None, compare=False)
     kind: ClassVar[str] = "S"
 
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 from collections import ChainMap
 from collections.abc import Callable, Mapping
 
@@ -52,6 +53,7 @@ from .devices import Replacement, classify_macro, subckt_text, threshold
 from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
 from .expressions import CONSTANTS, ExpressionError
 from .rawdeck import Body, Deck, RawElement, RawParam, Statement, Value
+from .units import parse_number
 
 # default parameters of ngspice's SW model that pelcs uses
 SW_DEFAULTS = {"vt": 0.0, "vh": 0.0}
@@ -428,7 +430,8 @@ class _Builder:
         sw_model = f"pelcs_sw_{name.lower().replace('.', '_')}"
         self.circuit.models[sw_model] = Model(sw_model, "SW", {**SW_DEFAULTS, "vt": thr}, loc)
         out: list = [Switch(name, (a, b), loc, control, sw_model, None,
-                            device=(el.kind, nodes, model.name))]
+                            device=(el.kind, nodes, model.name),
+                            gate_rc=_gate_rc(el, model, 0.0))]
         body = None
         if mt == "VDMOS":
             body = f"{name}_body"
@@ -458,7 +461,11 @@ class _Builder:
         if macro.kind == "diode":
             a, k = (ports[p] for p in macro.ports)
             models = tuple(e.ref for e in sub.body.elements if e.kind == "D")
-            series = sum(self._resistance(e) for e in sub.body.elements if e.kind == "R")
+            # a resistor joining the two ports is a leakage in parallel (NXP's 1N4148 has
+            # 5.8 GΩ there), not in series with the junction
+            port_set = {p.lower() for p in sub.ports}
+            series = sum(self._resistance(e) for e in sub.body.elements if e.kind == "R"
+                         and not {n.lower() for n in e.nodes[:2]} <= port_set)
             self.circuit.elements.append(Diode(name, (a, k), loc, models[0],
                                                device=(*origin, models, series)))
             self.circuit.replacements.append(Replacement(
@@ -485,8 +492,21 @@ class _Builder:
                      if e.kind == "R" and set(e.nodes[:2]) & {dev.nodes[0], dev.nodes[2]}
                      and len(set(map(str.lower, e.nodes[:2])) & {p.lower() for p in
                                                                     sub.ports}) == 1)
+        gate_port = next(p for p in sub.ports if p.lower() == macro.ports[1])
+        rg = sum(self._resistance(e) for e in sub.body.elements if e.kind == "R"
+                 and {n.lower() for n in e.nodes[:2]} == {gate_port.lower(),
+                                                          dev.nodes[1].lower()})
+        # a feedback network's capacitor (Symmetry's power MOS macro: a capacitor on the
+        # output of a VCVS of the drain-gate voltage, its current mirrored into the gate)
+        feedback = {n.lower() for e in sub.body.elements if e.kind == "E"
+                    and {c.lower() for c in e.control} == {dev.nodes[0].lower(),
+                                                           dev.nodes[1].lower()}
+                    for n in e.nodes[:2]} - {"0"}
+        cgd = sum(self._resistance(e) for e in sub.body.elements if e.kind == "C"
+                  and {n.lower() for n in e.nodes[:2]} & feedback)
         self.circuit.elements.append(Switch(name, (a, b), loc, control, sw_model, None,
-                                            device=(*origin, model.name, series)))
+                                            device=(*origin, model.name, series),
+                                            gate_rc=_gate_rc(dev, model, rg, cgd)))
         body = None
         if macro.body is not None or mt == "VDMOS":
             body = f"{name}_body"
@@ -664,3 +684,35 @@ class _Builder:
                     return None
             return Exp(*vals)
         raise AssertionError(f"waveform {kind} at {loc}")
+
+
+def _instance_length(el: RawElement, key: str, default: float) -> float:
+    """``W=``/``L=`` of an M line (m), ngspice's DEFW/DEFL of 100 µm when not given."""
+    m = re.search(rf"(?i)(?<![\w.]){key}\s*=\s*([^\s=]+)", el.st.text)
+    v = parse_number(m.group(1)) if m else None
+    return float(v) if v is not None and v > 0 else default
+
+
+def _gate_rc(el: RawElement, model: Model, rg: float, cgd: float = 0.0
+             ) -> tuple[float, float, float] | None:
+    """An idealised MOSFET's gate as a linear RC: (R Ω, Cgs F, Cgd F), or None (a BJT, no
+    capacitance).
+
+    At a fixed bias: for a level-1..3 model the overlap capacitances ``CGSO W`` and ``CGDO W``
+    (W the instance's, ngspice's default 100 µm); for a VDMOS ``CGS`` and ``CGDMAX``; plus
+    ``cgd``, a macro-model's gate-drain feedback capacitor. R is the model's ``RG`` (VDMOS)
+    plus ``rg``, the macro-model's resistor between its gate port and the channel's gate.
+    They set the switching instants: the switch turns when the gate-source capacitor's
+    voltage crosses the threshold (netlist.pwl).
+    """
+    if el.kind != "M":
+        return None
+    p = {k.lower(): float(v) for k, v in model.params.items()
+         if isinstance(v, (int, float))}
+    if model.type == "VDMOS":
+        cgs, cgd = p.get("cgs", 0.0), cgd + p.get("cgdmax", 0.0)
+        rg += p.get("rg", 0.0)
+    else:
+        w = _instance_length(el, "w", 100e-6)
+        cgs, cgd = p.get("cgso", 0.0) * w, cgd + p.get("cgdo", 0.0) * w
+    return (rg, cgs, cgd) if cgs + cgd > 0 else None

@@ -13,7 +13,7 @@ from lcs.results import SimulationResult
 from .circuit import GROUND, Circuit, Diode, Switch
 from .losses import loss_probes
 from .losses import losses as loss_report
-from .pwl import pwl_circuit
+from .pwl import carried_current, pwl_circuit
 from .reductions import parallel_diodes
 from .transient import simulate_circuit
 
@@ -31,7 +31,8 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
     circuit : Circuit
     devices : str
         ``"ideal"``, or ``"pwl"``: diodes with a fitted Vf and Ron, switches with their Ron
-        (:mod:`netlist.pwl`; an ideal run first gives the current range of the fit);
+        (:mod:`netlist.pwl`; an ideal run first gives the current range of the fit,
+        :func:`netlist.pwl.carried_current`);
         ``result.device_fits`` lists them.
     losses : bool
         Also compute ``result.losses`` (:mod:`netlist.losses`): conduction losses, input and
@@ -56,7 +57,9 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         pre += [f"v({a})" if b == GROUND else f"v({a},{b})" for a, b in
                 (sw.control for sw in sws)]
         ideal = simulate_circuit(circuit, probes=list(dict.fromkeys(pre)), **kw)
-        i_max = {el.name: float(np.max(np.abs(ideal[f"i({el.name})"]), initial=0.0))
+        # the current each device carries, not an inrush only the time step limits
+        t = np.asarray(ideal.t, float)
+        i_max = {el.name: carried_current(t, ideal[f"i({el.name})"])
                  for el in circuit.elements
                  if isinstance(el, (Diode, Switch)) and el.key not in merged}
         drives = {}

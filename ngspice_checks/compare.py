@@ -125,6 +125,7 @@ from netlist.circuit import (
     Switch,
 )
 from netlist.errors import Diagnostic, NetlistError
+from netlist.pwl import carried_current, pwl_circuit
 
 from .comparison import Comparison, ProbeComparison, SwitchingComparison, Tolerances
 from .measures import (
@@ -139,6 +140,7 @@ from .measures import (
     _ngspice_instants,
     _nonideality,
     _pelcs_instants,
+    _pwl_residual,
     _scale,
     _strictly_increasing,
     _window,
@@ -294,6 +296,7 @@ def compare(
     tolerances: Tolerances | None = None,
     settings: NgspiceSettings | Sequence[NgspiceSettings] | None = None,
     timeout: float | None = 600.0,
+    devices: str = "auto",
 ) -> Comparison:
     """Simulate a netlist with pelcs and ngspice and compare them probe by probe.
 
@@ -319,6 +322,10 @@ def compare(
         ngspice ladder (default the runner's :data:`~ngspice_checks.runner.DEFAULT_LADDER`).
     timeout : float or None
         ngspice wall-time limit per rung (s).
+    devices : {"auto", "ideal", "pwl"}
+        pelcs' devices: ``"pwl"`` piecewise-linear fits of ngspice's models
+        (:mod:`netlist.pwl`), ``"ideal"`` ideal ones, ``"auto"`` (default) the fits when the
+        netlist has real device models (see the module docstring).
 
     Returns
     -------
@@ -337,6 +344,8 @@ def compare(
     from netlist.transient import check_probes, simulate_circuit, warm_up
     from netlist.writer import write_circuit
 
+    if devices not in ("auto", "ideal", "pwl"):
+        raise ValueError(f"devices must be 'auto', 'ideal' or 'pwl', got {devices!r}")
     tol = tolerances or Tolerances()
     notes: list[str] = []
     if isinstance(source, Circuit):
@@ -380,6 +389,28 @@ def compare(
     if result.error is not None:
         raise CheckError(f"pelcs failed at t = {result.error.time:.6g} s: "
                          f"{result.error.message}")
+    # like with like: real device models -> pelcs with piecewise-linear fits of them
+    t_ideal = np.asarray(result.t, dtype=float)
+    carried = {el.name: carried_current(t_ideal, result[f"i({el.name})"])
+               for el in circuit.elements
+               if isinstance(el, (Diode, Switch)) and el.key not in merged}
+    drives = {sw.name: float(np.max(np.abs(result[ctrl])))
+              for sw, ctrl in zip(switch_els, controls, strict=True)}
+    ideal_delta = _nonideality(circuit, NgspiceSettings("as-written"), carried, drives)
+    use_pwl, why = _choose_devices(devices, circuit, ideal_delta, tol)
+    fits: list = []
+    if use_pwl:
+        pwl_c, fits = pwl_circuit(pel, carried, drives)
+        t0 = time.perf_counter()
+        result = simulate_circuit(pwl_c, theta=theta, probes=pel_probes)
+        pelcs_wall = time.perf_counter() - t0
+        if result.error is not None:
+            raise CheckError(f"pelcs (--devices pwl) failed at t = "
+                             f"{result.error.time:.6g} s: {result.error.message}")
+        notes.append(f"pelcs ran with --devices pwl ({why}): "
+                     + "; ".join(f.line() for f in fits))
+    elif devices == "auto" and why:
+        notes.append(f"pelcs ran with ideal devices ({why})")
     notes.extend(f"pelcs: {n}" for n in result.notes)
 
     deck = write_circuit(circuit)
@@ -403,17 +434,29 @@ def compare(
     per, per_source = detect_period(pel, result, period)
     window, n_periods = _window(span, per)
 
-    currents = {el.name: result[f"i({el.name})"] for el in circuit.elements
+    t_run = np.asarray(result.t, dtype=float)
+    currents = {el.name: carried_current(t_run, result[f"i({el.name})"])
+                for el in circuit.elements
                 if isinstance(el, (Diode, Switch)) and el.key not in merged}
-    drives = {sw.name: float(np.max(np.abs(result[ctrl])))
-              for sw, ctrl in zip(switch_els, controls, strict=True)}
-    nonideal = _nonideality(circuit, ng.settings_used, currents, drives)
+    rung_models = (ng.settings_used.diode_model is not None
+                   or ng.settings_used.switch_model is not None)
+    if use_pwl and not rung_models:
+        nonideal = _pwl_residual(circuit, fits, carried, currents, drives)
+    else:
+        if use_pwl:
+            notes.append("ngspice's ladder replaced the device models (rung "
+                         f"{ng.rung}): the tolerances follow the drops of its models, not "
+                         "what the fits leave")
+        nonideal = _nonideality(circuit, ng.settings_used, currents, drives)
     kd = tol.k_nonideal * nonideal.delta
-    if nonideal.delta > 0.05:
-        notes.append(f"ngspice's diode and switch models drop {100 * nonideal.delta:.3g} % of "
-                     f"{nonideal.v_ref:.4g} V, and the tolerances widen with it: the check says "
-                     "little; near-ideal models (D: IS=1e-12 N=0.05 RS=1m, SW: RON=1m "
-                     "ROFF=1e9) make it sharp")
+    if tol.nrms + kd > tol.conclusive:
+        left = "what the fits leave of " if use_pwl and not rung_models else ""
+        notes.append(f"{left}ngspice's diode and switch models drop "
+                     f"{100 * nonideal.delta:.3g} % of "
+                     f"{nonideal.v_ref:.4g} V: tolerances of {100 * (tol.nrms + kd):.3g} % "
+                     f"(over {100 * tol.conclusive:.3g} %) decide nothing, the comparison is "
+                     "inconclusive; near-ideal models (D: IS=1e-12 N=0.05 RS=1m, SW: RON=1m "
+                     "ROFF=1e9) or --devices pwl make it sharp")
 
     # switching instants
     names = [sw.name for sw in switch_els]
@@ -437,6 +480,10 @@ def compare(
         else:
             ni = _ngspice_instants(t_n, ng.signals[ctrl], mp["vt"], 0.0, sw.initial)
             pi = p_inst[sw.name]
+            if use_pwl and getattr(sw, "gate_rc", None) is not None:
+                # the pwl switch turns on its internal gate capacitor, ngspice's instants
+                # are read at the gate terminal: both sides at the terminal
+                pi = _ngspice_instants(t_p, result[ctrl], mp["vt"], 0.0, sw.initial)
         all_instants += [pi.on, pi.off, ni.on, ni.off]
         driven = result.switching.get(sw.name, "?")
         switch_cmp.append(_compare_switch(sw.name, driven, ctrl, pi, ni, result, span, window,
@@ -491,7 +538,24 @@ def compare(
         pelcs_wall=pelcs_wall, pelcs_load=load_time, pelcs_steps=result.stats.steps,
         ngspice_wall=ng.wall_time, ngspice_total=ng.total_time, ngspice_points=len(t_n),
         notes=notes, pelcs_result=result, ngspice_result=ng,
+        devices="pwl" if use_pwl else "ideal", device_fits=list(fits),
     )
+
+
+def _choose_devices(devices: str, circuit: Circuit, ideal: NonIdeality, tol: Tolerances
+                    ) -> tuple[bool, str]:
+    """Whether pelcs runs with piecewise-linear devices, and why (see the module
+    docstring): asked for; or, with ``"auto"``, idealised transistors or device macro-models
+    in the netlist, or drops of its diode and switch models that would widen the tolerances
+    past their floors (k·δ of the ideal run > the mean floor)."""
+    if devices != "auto":
+        return devices == "pwl", "--devices " + devices
+    if circuit.replacements:
+        return True, "the netlist has transistors or device macro-models"
+    if tol.k_nonideal * ideal.delta > tol.mean:
+        return True, (f"its device models drop {100 * ideal.delta:.3g} % of "
+                      f"{ideal.v_ref:.4g} V at the currents they carry")
+    return False, ""
 
 
 def _compare_switch(
@@ -532,6 +596,12 @@ def _compare_switch(
         # is then ill-conditioned): compared in the steady-state window, as mean and ripple
         a, b = span = window
     offs = [_hausdorff(x, y, a, b) for x, y in ((pi.on, ni.on), (pi.off, ni.off))]
+    if (n_p == 0) != (n_n == 0):  # one side switches, the other never does: no agreement
+        who = "pelcs" if n_p else "ngspice"
+        return SwitchingComparison(
+            name, driven, control, "instants", count(pi, a, b), count(ni, a, b), math.inf,
+            limit, fp, fn, span, f"only {who} switches ({max(n_p, n_n)} switchings over the "
+            "run, none in the other)")
     return SwitchingComparison(
         name, driven, control, "instants", count(pi, a, b), count(ni, a, b), max(offs), limit,
-        fp, fn, span)
+        fp, fn, span, "" if n_p else "neither switches")

@@ -37,6 +37,10 @@ class Tolerances:
         Switching-instant tolerance in ngspice steps (TMAX).
     frequency : float
         Relative tolerance of the switching frequency of free-running switches.
+    conclusive : float
+        The widest relative tolerance that still decides anything: a comparison whose NRMS
+        or mean tolerance exceeds it (model drops that pelcs does not represent) is
+        *inconclusive*, never agreement.
     """
 
     nrms: float = 0.03
@@ -46,6 +50,7 @@ class Tolerances:
     k_nonideal: float = 2.0
     switching_steps: float = 3.0
     frequency: float = 0.10
+    conclusive: float = 0.10
 
 
 @dataclass
@@ -108,6 +113,11 @@ class ProbeComparison:
     @property
     def ok(self) -> bool:
         return not self.failures
+
+    @property
+    def widest(self) -> float:
+        """The widest of its NRMS and mean tolerances, relative to the scale."""
+        return max(self.nrms_tol, self.mean_tol / self.scale)
 
 
 @dataclass
@@ -201,6 +211,10 @@ class Comparison:
     notes : list of str
     pelcs_result : SimulationResult
     ngspice_result : NgspiceResult
+    devices : str
+        pelcs' devices: ``"ideal"`` or ``"pwl"`` (fitted to ngspice's models).
+    device_fits : list of netlist.pwl.PwlFit
+        The fits, with ``"pwl"``.
     """
 
     file: str
@@ -231,11 +245,33 @@ class Comparison:
     notes: list[str] = field(default_factory=list)
     pelcs_result: SimulationResult | None = field(default=None, repr=False)
     ngspice_result: NgspiceResult | None = field(default=None, repr=False)
+    devices: str = "ideal"
+    device_fits: list = field(default_factory=list)
+
+    @property
+    def within(self) -> bool:
+        """True when every probe and every switch is within its tolerance."""
+        return all(p.ok for p in self.probes) and all(s.ok for s in self.switches)
+
+    @property
+    def inconclusive(self) -> list[str]:
+        """The probes whose tolerance is too wide to decide anything (over
+        ``Tolerances.conclusive``)."""
+        return [p.probe for p in self.probes if p.widest > self.tolerances.conclusive]
+
+    @property
+    def verdict(self) -> str:
+        """``"ok"`` (every metric within tolerances that decide), ``"fail"`` (something out
+        of tolerance, however wide) or ``"inconclusive"`` (within tolerances wider than
+        ``Tolerances.conclusive``: no agreement shown)."""
+        if not self.within:
+            return "fail"
+        return "inconclusive" if self.inconclusive else "ok"
 
     @property
     def ok(self) -> bool:
-        """True when every probe and every switch is within tolerance."""
-        return all(p.ok for p in self.probes) and all(s.ok for s in self.switches)
+        """True when the verdict is agreement (within tolerances that decide)."""
+        return self.verdict == "ok"
 
     @property
     def failures(self) -> list[str]:
@@ -251,7 +287,12 @@ class Comparison:
             "file": self.file,
             "title": self.title,
             "ok": self.ok,
+            "verdict": self.verdict,
             "failures": self.failures,
+            "inconclusive": self.inconclusive,
+            "devices": self.devices,
+            "device_fits": [{"element": f.element, "vf": f.vf, "ron": f.ron, "how": f.how}
+                            for f in self.device_fits],
             "params": _jsonable(self.params),
             "pelcs_params": _jsonable(self.pelcs_params),
             "tstop": self.tstop,
@@ -294,7 +335,8 @@ class Comparison:
             "tolerances": vars(self.tolerances).copy(),
             "probes": [
                 {**vars(p).copy(), "mean_error": p.mean_error, "ripple_error": p.ripple_error,
-                 "ok": p.ok, "failures": p.failures}
+                 "ok": p.ok, "failures": p.failures,
+                 "conclusive": p.widest <= self.tolerances.conclusive}
                 for p in self.probes
             ],
             "switches": [

@@ -20,6 +20,7 @@ from netlist.circuit import (
     VoltageSource,
 )
 from netlist.measure import steady_state_period, steady_state_window
+from netlist.pwl import diode_residual
 
 from .runner import NgspiceSettings
 
@@ -223,17 +224,21 @@ def _nonideality(
     circuit: Circuit, settings: NgspiceSettings, currents: Mapping[str, np.ndarray],
     drives: Mapping[str, float] | None = None,
 ) -> NonIdeality:
-    """δ of the module docstring, with the models of the ngspice rung that ran. ``drives``:
-    the largest control voltage of each switch (V), for idealised transistors."""
+    """δ of the module docstring, with the models of the ngspice rung that ran.
+    ``currents``: the current each device carries (A, a number or a waveform whose largest
+    value is taken; :func:`netlist.pwl.carried_current`); ``drives``: the largest control
+    voltage of each switch (V), for idealised transistors."""
     drives = drives or {}
     diodes, switches = {}, {}
     for el in circuit.elements:
         i_max = float(np.max(np.abs(currents[el.name]))) if el.name in currents else 0.0
         if isinstance(el, Diode):
-            p = _model_params(circuit, el.model, _DIODE_DEFAULTS)
             if settings.diode_model is not None:
+                p = _model_params(circuit, el.model, _DIODE_DEFAULTS)
                 p.update({k: float(v) for k, v in settings.diode_model.items() if k in p})
-            drop = p["n"] * VT_THERMAL * math.log1p(i_max / p["is"]) + p["rs"] * i_max
+                drop = p["n"] * VT_THERMAL * math.log1p(i_max / p["is"]) + p["rs"] * i_max
+            else:  # the model as written: a macro-model's junctions in parallel, its series R
+                drop = diode_residual(circuit, el, 0.0, 0.0, i_max, i_max)
             diodes[el.name] = drop
         elif isinstance(el, Switch) and getattr(el, "device", None) is not None:
             switches[el.name] = _device_drop(circuit, el, i_max, drives.get(el.name))
@@ -242,13 +247,67 @@ def _nonideality(
             if settings.switch_model is not None:
                 p["ron"] = settings.switch_model.ron
             switches[el.name] = p["ron"] * i_max
+    v_ref = _v_ref(circuit)
+    total = sum(diodes.values()) + sum(switches.values())
+    delta = total / v_ref if v_ref > 0 else 0.0
+    return NonIdeality(diodes, switches, v_ref, delta)
+
+
+def _pwl_residual(
+    circuit: Circuit, fits: Sequence, fitted: Mapping[str, float],
+    carried: Mapping[str, float], drives: Mapping[str, float],
+) -> NonIdeality:
+    """δ of what ngspice's models differ from pelcs' piecewise-linear devices
+    (:mod:`netlist.pwl`): per diode the largest distance between its line and its model over
+    the currents it carries (from a twentieth of the fitted current to the larger of the
+    fitted current and the one it carries in the pwl run, A; nothing for a diode that
+    carries nothing), per switch what its ``Ron``
+    leaves of its model (:func:`netlist.pwl.switch_residual`); over the largest source
+    voltage."""
+    from netlist.pwl import switch_residual
+
+    by_name = {f.element: f for f in fits}
+    diodes, switches = {}, {}
+    for el in circuit.elements:
+        f = by_name.get(el.name)
+        if f is None:
+            continue
+        i_fit, i_run = fitted.get(el.name, 0.0), carried.get(el.name, 0.0)
+        if isinstance(el, Diode):
+            i_hi = max(i_fit, i_run)
+            if not i_hi > 1e-9:  # it carries nothing: no drop to miss
+                diodes[el.name] = 0.0
+                continue
+            i_lo = (i_fit if i_fit > 1e-9 else i_hi) / 20.0
+            diodes[el.name] = (diode_residual(circuit, el, f.vf, f.ron, i_lo, i_hi)
+                               if f.how != "given" else
+                               _nonideality_drop(circuit, el, i_hi, f.vf, f.ron))
+        elif isinstance(el, Switch):
+            if getattr(el, "device", None) is not None:
+                switches[el.name] = switch_residual(circuit, el, f.ron, i_run,
+                                                    drives.get(el.name))
+            else:
+                p = _model_params(circuit, el.model, _SWITCH_DEFAULTS)
+                switches[el.name] = abs(p["ron"] - f.ron) * i_run
+    v_ref = _v_ref(circuit)
+    total = sum(diodes.values()) + sum(switches.values())
+    return NonIdeality(diodes, switches, v_ref, total / v_ref if v_ref > 0 else 0.0)
+
+
+def _nonideality_drop(circuit: Circuit, el: Diode, i: float, vf: float, ron: float) -> float:
+    """A diode's model drop at ``i`` against a line given by the user (V)."""
+    p = _model_params(circuit, el.model, _DIODE_DEFAULTS)
+    v = p["n"] * VT_THERMAL * math.log1p(i / p["is"]) + p["rs"] * i
+    return abs(vf + ron * i - v)
+
+
+def _v_ref(circuit: Circuit) -> float:
+    """The largest independent source voltage (V)."""
     v_ref = 0.0
     for el in circuit.elements:
         if isinstance(el, VoltageSource):
             v_ref = max(v_ref, abs(el.dc), _peak(el.waveform))
-    total = sum(diodes.values()) + sum(switches.values())
-    delta = total / v_ref if v_ref > 0 else 0.0
-    return NonIdeality(diodes, switches, v_ref, delta)
+    return v_ref
 
 
 def _peak(wave) -> float:

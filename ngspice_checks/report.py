@@ -48,6 +48,31 @@ def _verdict(ok: bool) -> str:
     return "ok" if ok else "FAIL"
 
 
+def _probe_verdict(cmp: Comparison, p) -> str:
+    """A probe's verdict: a pass under a tolerance too wide to decide is not agreement."""
+    if not p.ok:
+        return "FAIL"
+    return "inconclusive" if p.widest > cmp.tolerances.conclusive else "ok"
+
+
+def _summary(cmp: Comparison) -> str:
+    """The last line: the verdict and what it rests on."""
+    if cmp.verdict == "fail":
+        return "OUT OF TOLERANCE: " + "; ".join(cmp.failures)
+    if cmp.verdict == "inconclusive":
+        widest = max(p.widest for p in cmp.probes)
+        return (f"INCONCLUSIVE: tolerances of up to {100 * widest:.3g} % (over "
+                f"{100 * cmp.tolerances.conclusive:.3g} %) decide nothing for "
+                + ", ".join(cmp.inconclusive) + "; no agreement shown")
+    return "within tolerance"
+
+
+def _devices_line(cmp: Comparison) -> str:
+    if cmp.devices == "pwl":
+        return "piecewise-linear diodes and switches fitted to ngspice's models"
+    return "ideal diodes and switches"
+
+
 def _settings_line(cmp: Comparison) -> str:
     s = cmp.settings
     line = f"rung {cmp.rung} ({s.name}"
@@ -75,7 +100,9 @@ def format_table(cmp: Comparison) -> str:
     per = (f"{cmp.n_periods} periods of {_eng(cmp.period, 's')} ({cmp.period_source})"
            if cmp.n_periods else cmp.period_source)
     lines.append(f"steady state: {_eng(cmp.window[0], 's')} to {_eng(cmp.window[1], 's')}, "
-                 f"{per}; non-ideal drops δ = {_pct(cmp.nonideal.delta)} of "
+                 f"{per}; pelcs devices: {cmp.devices}; "
+                 + ("model drops the fits leave" if cmp.devices == "pwl" else
+                    "non-ideal drops") + f" δ = {_pct(cmp.nonideal.delta)} of "
                  f"{_eng(cmp.nonideal.v_ref, 'V')}")
     head = (f"{'probe':<12} {'NRMS [tol]':>18} {'mean pelcs':>11} {'ngspice':>11} "
             f"{'diff [tol]':>19} {'ripple pelcs':>12} {'ngspice':>11} {'diff [tol]':>19}  ")
@@ -88,10 +115,14 @@ def format_table(cmp: Comparison) -> str:
             f"{_pct(p.mean_error / p.scale):>8} [{_pct(p.mean_tol / p.scale):>7}] "
             f"{_eng(p.ripple_pelcs, u):>12} {_eng(p.ripple_ngspice, u):>11} "
             f"{_pct(p.ripple_error / p.scale):>8} [{_pct(p.ripple_tol / p.scale):>7}]  "
-            f"{_verdict(p.ok)}" + (f" ({', '.join(p.failures)})" if p.failures else "")
+            f"{_probe_verdict(cmp, p)}" + (f" ({', '.join(p.failures)})" if p.failures
+                                           else "")
         )
     for s in cmp.switches:
-        if s.method == "instants":
+        if s.method == "instants" and s.reason:  # one side only, or neither, switches
+            what = (f"{s.n_pelcs}/{s.n_ngspice} switchings: {s.reason}"
+                    + (f", max offset [{_eng(s.tol, 's')}]" if not s.ok else ""))
+        elif s.method == "instants":
             what = (f"{s.n_pelcs}/{s.n_ngspice} switchings, max offset "
                     f"{_eng(s.max_offset, 's')} [{_eng(s.tol, 's')}]")
         elif s.method == "frequency":
@@ -103,8 +134,7 @@ def format_table(cmp: Comparison) -> str:
                      + (_verdict(s.ok) if s.method != "none" else ""))
     for n in cmp.notes:
         lines.append(f"note: {n}")
-    lines.append("within tolerance" if cmp.ok else
-                 "OUT OF TOLERANCE: " + "; ".join(cmp.failures))
+    lines.append(_summary(cmp))
     return "\n".join(line.rstrip() for line in lines)
 
 
@@ -186,7 +216,7 @@ def plot_comparison(cmp: Comparison, path: str | os.PathLike, *, dpi: int = 110,
     name = Path(cmp.file).name
     fig.suptitle(f"{cmp.title}  ({name})\npelcs (solid) vs ngspice (dashed, "
                  f"{_settings_line(cmp)}): "
-                 f"{'within tolerance' if cmp.ok else 'OUT OF TOLERANCE'}", fontsize=10,
+                 f"{_summary(cmp).split(':')[0]}", fontsize=10,
                  color="black" if cmp.ok else "red")
     out = Path(path)
     fig.savefig(out)
@@ -201,8 +231,8 @@ def markdown_report(cmp: Comparison, figure: str | None = None) -> str:
     """The Markdown report (``figure``: a path relative to the report, to embed)."""
     s = cmp.settings
     out = [f"# pelcs vs ngspice: {cmp.title or Path(cmp.file).name}", ""]
-    out.append(f"**{'Within tolerance' if cmp.ok else 'OUT OF TOLERANCE'}**"
-               + ("" if cmp.ok else ": " + "; ".join(cmp.failures)))
+    head, _, rest = _summary(cmp).partition(": ")
+    out.append(f"**{head[0].upper() + head[1:]}**" + (f": {rest}" if rest else ""))
     out += ["", f"Netlist: `{cmp.file}`"
             + (f", parameters {', '.join(f'{k}={v}' for k, v in cmp.params.items())}"
                if cmp.params else ""), ""]
@@ -213,7 +243,9 @@ def markdown_report(cmp: Comparison, figure: str | None = None) -> str:
             "process start-up and failed rungs) |",
             f"| time points | {cmp.pelcs_steps} steps of {_eng(cmp.step, 's')}, θ = "
             f"{cmp.theta:g} | {cmp.ngspice_points} (variable step) |",
-            f"| settings | ideal diodes and switches | {_settings_line(cmp)} |", ""]
+            f"| settings | {_devices_line(cmp)} | {_settings_line(cmp)} |", ""]
+    if cmp.device_fits:
+        out += ["pelcs' devices: " + "; ".join(f.line() for f in cmp.device_fits) + ".", ""]
     if s.options or s.pulse_min_edge or s.diode_model or s.switch_model:
         parts = []
         if s.options:
@@ -238,7 +270,10 @@ def markdown_report(cmp: Comparison, figure: str | None = None) -> str:
             f"state from {_eng(cmp.window[0], 's')}: {per}.", ""]
     ni = cmp.nonideal
     drops = [f"{k} {_eng(v, 'V')}" for k, v in {**ni.diode_drops, **ni.switch_drops}.items()]
-    out += [f"Non-ideal drops of ngspice's models at the largest pelcs currents: "
+    what = ("What the fits leave of ngspice's models at the currents the devices carry"
+            if cmp.devices == "pwl" else
+            "Non-ideal drops of ngspice's models at the currents the devices carry")
+    out += [f"{what}: "
             f"{', '.join(drops) or 'none'}; δ = {_pct(ni.delta)} of "
             f"{_eng(ni.v_ref, 'V')} (tolerances: module docstring of "
             "`ngspice_checks/compare.py`).", ""]
@@ -256,7 +291,7 @@ def markdown_report(cmp: Comparison, figure: str | None = None) -> str:
             f"{_pct(p.mean_error / p.scale)} [{_pct(p.mean_tol / p.scale)}] | "
             f"{_eng(p.ripple_pelcs, u)} | {_eng(p.ripple_ngspice, u)} | "
             f"{_pct(p.ripple_error / p.scale)} [{_pct(p.ripple_tol / p.scale)}] | "
-            f"{_verdict(p.ok)} |")
+            f"{_probe_verdict(cmp, p)} |")
     if cmp.probes:
         out += ["", f"NRMS leaves out {_pct(cmp.probes[0].excluded)} of the grid points "
                 "(those next to a switching instant).", ""]
