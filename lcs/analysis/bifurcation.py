@@ -31,7 +31,14 @@ from ..axes import axis_label
 from .maps import Map, MapError
 from .parallel import portable, task_engine
 
-__all__ = ["BifurcationDiagram", "SweepBranch", "attractor_period", "bifurcation_diagram"]
+__all__ = [
+    "Attractor",
+    "BifurcationDiagram",
+    "SweepBranch",
+    "attractor_period",
+    "bifurcation_diagram",
+    "classify_attractor",
+]
 
 MapFactory = Callable[[float], Map]
 
@@ -311,27 +318,162 @@ def bifurcation_diagram(
     )
 
 
+# The record's points of a settled periodic attractor repeat to round-off: changes of the
+# cycle's amplitude below this (relative to the largest sample) are noise, not a trend.
+_NOISE = 1e-12
+# ... and a change of the amplitude by less than this fraction over the record is no trend.
+_TREND = 1e-6
+# A shrinking amplitude whose extrapolated limit (Aitken) stays above this fraction of its
+# first value converges to a cycle of that period, not to a lower period.
+_LIMIT = 0.1
+
+
+@dataclass(frozen=True)
+class Attractor:
+    """What a record of iterates says about the attractor.
+
+    Attributes
+    ----------
+    period : int
+        Smallest k with the points repeating every k iterates over the record (within
+        ``rtol``), 0 when there is none up to ``max_period``.
+    settled : bool
+        The repetition is the attractor's, not a stage of a decaying transient: the
+        differences between points ``d`` apart (each proper divisor ``d`` of the period)
+        do not shrink geometrically towards zero across the record (the record must hold
+        at least ``k + d + 1`` iterates to tell). True for periods 0 and 1.
+    decay : float
+        The ratio of the cycle amplitude at the end of the record to the one at its start
+        (1.0 when not measured): about ``|mu|**(M - d - k)`` for a transient decaying with
+        the multiplier ``mu`` onto period d.
+    onto : int
+        When not settled: the lower period the record decays onto (0: the record is too
+        short to tell).
+    max_period : int
+        The longest period looked for.
+    """
+
+    period: int
+    settled: bool = True
+    decay: float = 1.0
+    onto: int = 0
+    max_period: int = 64
+
+    @property
+    def label(self) -> str:
+        """``"period k"``, ``"not settled"`` or ``"no period <= ..."`` for the summaries."""
+        if self.settled:
+            return f"period {self.period}" if self.period else \
+                f"no period <= {self.max_period} (not settled, quasi-periodic or chaotic)"
+        if not self.onto:
+            return (f"period-{self.period} pattern, too few points recorded to tell whether "
+                    "it has settled")
+        return f"not settled (a transient decaying onto period {self.onto})"
+
+
+def classify_attractor(samples: np.ndarray, rtol: float = 1e-7, max_period: int = 64
+                       ) -> Attractor:
+    """Period of a recorded sample sequence, and whether the record has settled.
+
+    A transient decaying onto a period-1 orbit through a multiplier near -1 alternates:
+    ``x_j = x* + c mu**j``. Its points two apart differ by ``|c| |mu|**j |1 - mu**2|``, ten
+    times less than neighbours for ``mu = -0.9``: a record in which the neighbours differ by
+    more than ``rtol`` and the points two apart by less looks like period 2. The two are told
+    apart by the amplitude of the cycle (the largest difference between points ``d`` apart,
+    ``d`` a proper divisor of the period, over one period of iterates): on a periodic
+    attractor it stays the same over the record, on the transient it shrinks geometrically
+    towards zero.
+
+    Parameters
+    ----------
+    samples : ndarray, shape (M,) or (M, q)
+        Recorded iterates of one parameter value.
+    rtol : float
+        Tolerance of the repetition relative to the largest sample magnitude (and 1e-12
+        absolute). Keep it small (1e-7): the points of a period-2 orbit may nearly coincide
+        in one probe (the voltage-mode buck's two v(out) samples differ by 1e-4 V near 26.6 V
+        while the currents differ).
+    max_period : int
+
+    Returns
+    -------
+    Attractor
+    """
+    s = np.asarray(samples, dtype=float)
+    if s.ndim == 1:
+        s = s[:, None]
+    if not np.all(np.isfinite(s)) or s.shape[0] < 2:
+        return Attractor(0)
+    scale = max(float(np.max(np.abs(s))), 1e-12)
+    m = s.shape[0]
+    for k in range(1, min(max_period, m - 1) + 1):
+        if np.max(np.abs(s[k:] - s[:-k])) <= rtol * scale + 1e-12:
+            break
+    else:
+        return Attractor(0, max_period=max_period)
+    for d in _maximal_divisors(k):
+        ratio = _shrinking(s, d, k, scale)
+        if ratio is not None:
+            return Attractor(k, settled=False, decay=ratio, onto=0 if np.isnan(ratio) else d)
+    return Attractor(k)
+
+
+def _maximal_divisors(k: int) -> list[int]:
+    """The proper divisors ``k / p`` of k, p its prime factors (every proper divisor divides
+    one of them): the lower periods a period-k pattern could be decaying onto."""
+    out, n, p = [], k, 2
+    while p * p <= n:
+        if n % p == 0:
+            out.append(k // p)
+            while n % p == 0:
+                n //= p
+        p += 1
+    if n > 1:
+        out.append(k // n)
+    return out
+
+
+def _shrinking(s: np.ndarray, d: int, k: int, scale: float) -> float | None:
+    """The ratio last/first of the period-k cycle's amplitude seen at lag d, when it shrinks
+    geometrically towards zero across the record; None when it does not; NaN when the record
+    is too short to tell (fewer than k + 1 differences)."""
+    e = np.max(np.abs(s[d:] - s[:-d]), axis=1)  # (M - d,)
+    n = e.size
+    if n < k + 1:
+        return float("nan")
+    # Amplitude over windows of k consecutive differences (every phase of the cycle once):
+    # at the start, in the middle and at the end, equally spaced by a whole number of
+    # cycles when three windows fit (for Aitken's extrapolation), else the first and last.
+    q = (n - k) // (2 * k) * k
+    ends = (0, q, 2 * q) if q else (0, n - k)
+    amp = [float(np.max(e[a:a + k])) for a in ends]
+    first, last = amp[0], amp[-1]
+    if first - last <= _NOISE * scale * 10 + _TREND * first:
+        return None  # the same amplitude: settled
+    ratio = last / first if first > 0 else 0.0
+    if q:
+        d1, d2 = amp[1] - first, last - amp[1]
+        if d1 < 0 and d2 < 0 and d2 / d1 < 1:
+            r = d2 / d1
+            # Aitken's extrapolation of a geometric approach: where the amplitude goes
+            limit = last + d2 * r / (1 - r)
+            if limit > _LIMIT * first:
+                return None  # converging onto a cycle of period k with that amplitude
+    return ratio
+
+
 def attractor_period(samples: np.ndarray, rtol: float = 1e-6, max_period: int = 64) -> int:
-    """Smallest period k of a recorded sample sequence (0 if none up to ``max_period``).
+    """Period of the attractor seen in a recorded sample sequence: the smallest period k of
+    the record (see :func:`classify_attractor`), 0 if none up to ``max_period`` or if the
+    record has not settled (a transient decaying onto a lower period).
 
     Parameters
     ----------
     samples : ndarray, shape (M, q)
         Recorded iterates of one parameter value.
     rtol : float
-        Tolerance relative to the largest sample magnitude (and 1e-12 absolute). Keep it
-        small (1e-7): the points of a period-2 orbit may nearly coincide in one probe (the
-        voltage-mode buck's two v(out) samples differ by 1e-4 V near 26.6 V while the
-        currents differ); a settled periodic attractor repeats to round-off.
+        Tolerance relative to the largest sample magnitude (and 1e-12 absolute).
+    max_period : int
     """
-    s = np.asarray(samples, dtype=float)
-    if s.ndim == 1:
-        s = s[:, None]
-    if not np.all(np.isfinite(s)):
-        return 0
-    scale = max(float(np.max(np.abs(s))), 1e-12)
-    for k in range(1, min(max_period, s.shape[0] - 1) + 1):
-        if np.max(np.abs(s[k:] - s[:-k])) <= rtol * scale + 1e-12:
-            return k
-    return 0
-
+    a = classify_attractor(samples, rtol, max_period)
+    return a.period if a.settled else 0
