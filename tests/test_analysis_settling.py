@@ -80,6 +80,6 @@ def test_logistic_periods_unchanged():
 
 
 def test_too_short_a_record_says_so():
-    s = np.array([[1.0], [2.0], [1.0]])
+    s = np.array([[1.0], [2.0], [1.0 + 1e-9]])
     a = classify_attractor(s, rtol=1e-7)
     assert a.period == 2 and not a.settled and "too few points" in a.label

@@ -323,6 +323,9 @@ def bifurcation_diagram(
 _NOISE = 1e-12
 # ... and a change of the amplitude by less than this fraction over the record is no trend.
 _TREND = 1e-6
+# A period-k pattern whose points k apart differ by more than this fraction of the cycle's
+# amplitude is not a cycle yet.
+_SEPARATION = 1e-2
 # A shrinking amplitude whose extrapolated limit (Aitken) stays above this fraction of its
 # first value converges to a cycle of that period, not to a lower period.
 _LIMIT = 0.1
@@ -434,11 +437,19 @@ def _maximal_divisors(k: int) -> list[int]:
 
 
 def _shrinking(s: np.ndarray, d: int, k: int, scale: float) -> float | None:
-    """The ratio last/first of the period-k cycle's amplitude seen at lag d, when it shrinks
-    geometrically towards zero across the record; None when it does not; NaN when the record
-    is too short to tell (fewer than k + 1 differences)."""
+    """Whether the record's period-k pattern is a transient onto period d.
+
+    Returns None when it is not (the points repeat every k iterates to round-off, or the
+    cycle's amplitude at lag d stays the same, or converges to a non-zero value), else the
+    ratio last/first of that amplitude (NaN: the record is too short to tell, fewer than
+    k + 1 differences).
+    """
     e = np.max(np.abs(s[d:] - s[:-d]), axis=1)  # (M - d,)
     n = e.size
+    noise = _NOISE * scale * 10
+    drift = float(np.max(np.abs(s[k:] - s[:-k])))
+    if drift <= noise:
+        return None  # repeats to round-off: a periodic orbit
     if n < k + 1:
         return float("nan")
     # Amplitude over windows of k consecutive differences (every phase of the cycle once):
@@ -448,9 +459,13 @@ def _shrinking(s: np.ndarray, d: int, k: int, scale: float) -> float | None:
     ends = (0, q, 2 * q) if q else (0, n - k)
     amp = [float(np.max(e[a:a + k])) for a in ends]
     first, last = amp[0], amp[-1]
-    if first - last <= _NOISE * scale * 10 + _TREND * first:
-        return None  # the same amplitude: settled
     ratio = last / first if first > 0 else 0.0
+    if drift > _SEPARATION * float(np.max(e)):
+        # the pattern moves by a sizeable part of its own amplitude over k iterates: no
+        # cycle is seen yet (a rotating transient sampled near the tolerance)
+        return ratio
+    if first - last <= noise + _TREND * first:
+        return None  # the same amplitude: settled
     if q:
         d1, d2 = amp[1] - first, last - amp[1]
         if d1 < 0 and d2 < 0 and d2 / d1 < 1:
