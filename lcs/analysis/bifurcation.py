@@ -326,9 +326,6 @@ _TREND = 1e-6
 # A period-k pattern whose points k apart differ by more than this fraction of the cycle's
 # amplitude is not a cycle yet.
 _SEPARATION = 1e-2
-# A shrinking amplitude whose extrapolated limit (Aitken) stays above this fraction of its
-# first value converges to a cycle of that period, not to a lower period.
-_LIMIT = 0.1
 
 
 @dataclass(frozen=True)
@@ -343,15 +340,19 @@ class Attractor:
     settled : bool
         The repetition is the attractor's, not a stage of a decaying transient: the
         differences between points ``d`` apart (each proper divisor ``d`` of the period)
-        do not shrink geometrically towards zero across the record (the record must hold
-        at least ``k + d + 1`` iterates to tell). True for periods 0 and 1.
+        do not shrink geometrically towards zero across the record, and the points k
+        apart differ by less than 1 % of those differences (the record must hold at least
+        ``2 k + 1`` iterates to tell). True for periods 0 and 1.
     decay : float
         The ratio of the cycle amplitude at the end of the record to the one at its start
         (1.0 when not measured): about ``|mu|**(M - d - k)`` for a transient decaying with
         the multiplier ``mu`` onto period d.
     onto : int
-        When not settled: the lower period the record decays onto (0: the record is too
-        short to tell).
+        When not settled: the lower period the pattern is measured against.
+    why : str
+        When not settled: ``"lower"`` (the cycle's amplitude shrinks geometrically: a
+        transient decaying onto period ``onto``), ``"moving"`` (points k apart still differ
+        by more than 1 % of the amplitude) or ``"short"`` (too few points to tell).
     max_period : int
         The longest period looked for.
     """
@@ -361,6 +362,7 @@ class Attractor:
     decay: float = 1.0
     onto: int = 0
     max_period: int = 64
+    why: str = ""
 
     @property
     def label(self) -> str:
@@ -368,9 +370,12 @@ class Attractor:
         if self.settled:
             return f"period {self.period}" if self.period else \
                 f"no period <= {self.max_period} (not settled, quasi-periodic or chaotic)"
-        if not self.onto:
+        if self.why == "short":
             return (f"period-{self.period} pattern, too few points recorded to tell whether "
                     "it has settled")
+        if self.why == "moving":
+            return (f"not settled (a period-{self.period} pattern whose points still move by "
+                    "more than 1 % of its amplitude)")
         return f"not settled (a transient decaying onto period {self.onto})"
 
 
@@ -415,9 +420,9 @@ def classify_attractor(samples: np.ndarray, rtol: float = 1e-7, max_period: int 
     else:
         return Attractor(0, max_period=max_period)
     for d in _maximal_divisors(k):
-        ratio = _shrinking(s, d, k, scale)
-        if ratio is not None:
-            return Attractor(k, settled=False, decay=ratio, onto=0 if np.isnan(ratio) else d)
+        verdict, ratio = _settling(s, d, k, scale)
+        if verdict != "settled":
+            return Attractor(k, settled=False, decay=ratio, onto=d, why=verdict)
     return Attractor(k)
 
 
@@ -436,45 +441,43 @@ def _maximal_divisors(k: int) -> list[int]:
     return out
 
 
-def _shrinking(s: np.ndarray, d: int, k: int, scale: float) -> float | None:
-    """Whether the record's period-k pattern is a transient onto period d.
+def _settling(s: np.ndarray, d: int, k: int, scale: float) -> tuple[str, float]:
+    """Whether the record's period-k pattern is the attractor's, seen against period d.
 
-    Returns None when it is not (the points repeat every k iterates to round-off, or the
-    cycle's amplitude at lag d stays the same, or converges to a non-zero value), else the
-    ratio last/first of that amplitude (NaN: the record is too short to tell, fewer than
-    k + 1 differences).
+    Returns ``(verdict, ratio)``: ``"settled"`` (the points repeat every k iterates to
+    round-off, or the cycle's amplitude at lag d stays while the k-apart differences die
+    out: convergence onto a period-k orbit), ``"lower"`` (the amplitude shrinks
+    geometrically with the k-apart differences: a transient onto period d), ``"moving"``
+    (the k-apart points differ by more than 1 % of the amplitude: no cycle yet) or
+    ``"short"`` (fewer than k + 1 differences); ``ratio`` is the amplitude's last/first.
     """
-    e = np.max(np.abs(s[d:] - s[:-d]), axis=1)  # (M - d,)
-    n = e.size
+    e = np.max(np.abs(s[d:] - s[:-d]), axis=1)  # lag-d differences, (M - d,)
+    r = np.max(np.abs(s[k:] - s[:-k]), axis=1)  # lag-k differences, (M - k,)
     noise = _NOISE * scale * 10
-    drift = float(np.max(np.abs(s[k:] - s[:-k])))
-    if drift <= noise:
-        return None  # repeats to round-off: a periodic orbit
+    if float(np.max(r)) <= noise:
+        return "settled", 1.0  # repeats to round-off: a periodic orbit
+    n = r.size
     if n < k + 1:
-        return float("nan")
-    # Amplitude over windows of k consecutive differences (every phase of the cycle once):
-    # at the start, in the middle and at the end, equally spaced by a whole number of
-    # cycles when three windows fit (for Aitken's extrapolation), else the first and last.
-    q = (n - k) // (2 * k) * k
-    ends = (0, q, 2 * q) if q else (0, n - k)
-    amp = [float(np.max(e[a:a + k])) for a in ends]
-    first, last = amp[0], amp[-1]
-    ratio = last / first if first > 0 else 0.0
-    if drift > _SEPARATION * float(np.max(e)):
-        # the pattern moves by a sizeable part of its own amplitude over k iterates: no
-        # cycle is seen yet (a rotating transient sampled near the tolerance)
-        return ratio
-    if first - last <= noise + _TREND * first:
-        return None  # the same amplitude: settled
-    if q:
-        d1, d2 = amp[1] - first, last - amp[1]
-        if d1 < 0 and d2 < 0 and d2 / d1 < 1:
-            r = d2 / d1
-            # Aitken's extrapolation of a geometric approach: where the amplitude goes
-            limit = last + d2 * r / (1 - r)
-            if limit > _LIMIT * first:
-                return None  # converging onto a cycle of period k with that amplitude
-    return ratio
+        return "short", float("nan")
+    # Windows of k consecutive differences (every phase of the cycle once) at the start
+    # and at the end of the record.
+    amp_first, amp_last = float(np.max(e[:k])), float(np.max(e[n - k:n]))
+    ratio = amp_last / amp_first if amp_first > 0 else 0.0
+    if float(np.max(r)) > _SEPARATION * float(np.max(e)):
+        return "moving", ratio
+    if amp_first - amp_last <= noise + _TREND * amp_first:
+        return "settled", ratio  # the same amplitude
+    # The amplitude shrinks. Onto period d, the k-apart differences are a fixed fraction of
+    # it (x_j = x* + c mu^j: |1 - mu^k| / |1 - mu^d|) and shrink at its rate; converging
+    # onto a period-k orbit, they die out while the amplitude stays.
+    drift_first, drift_last = float(np.max(r[:k])), float(np.max(r[n - k:]))
+    if drift_last <= noise or drift_first <= 0.0:
+        return "settled", ratio
+    rate_amp = np.log(max(ratio, 1e-300))
+    rate_drift = np.log(max(drift_last / drift_first, 1e-300))
+    if rate_drift < 0 and 2.0 * rate_drift <= rate_amp <= 0.5 * rate_drift:
+        return "lower", ratio  # both shrink at one rate (within a factor 2)
+    return "settled", ratio
 
 
 def attractor_period(samples: np.ndarray, rtol: float = 1e-6, max_period: int = 64) -> int:
