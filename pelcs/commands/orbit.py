@@ -240,18 +240,19 @@ def format_orbit(r: dict, name: str) -> str:
     kind = f"event map ({r['event']})" if r.get("event") else "stroboscopic map"
     how = ("exact flows and events" if r.get("method") == "exact" else
            f"h = {format_eng(r['step'], 's')}, θ = {r['theta']:g}")
-    lines.append(f"period-{r['order']} orbit of the {kind}: T = "
+    what = (f"period-{r['order']} orbit of the {kind}" if r["converged"] else
+            f"NO period-{r['order']} orbit found for the {kind}")
+    lines.append(f"{what}: T = "
                  f"{format_eng(r['period'], 's')}, {how}" + (f"; {params}" if params else ""))
     states = r["states"]
     width = max(15, *(len(s) + 2 for s in states))
-    lines.append("points:")
+    lines.append("points:" if r["converged"] else "last Newton iterate:")
     lines.append("  k " + "".join(s.rjust(width) for s in states))
     for k, pt in enumerate(r["points"]):
         lines.append(f"  {k:<2}" + "".join(f" {v:>{width - 1}.9g}" for v in pt))
     if r["multipliers"] is None:
-        lines.append("no periodic orbit: Newton did not converge, the points above are its "
-                     "last iterate (no Floquet multipliers: they would be a non-periodic "
-                     "point's)")
+        lines.append("no periodic orbit: Newton did not converge; the point above is its "
+                     "last iterate, not an orbit, and its multipliers are not printed")
     else:
         lines.append("Floquet multipliers (eigenvalues of the Jacobian of the map iterated "
                      f"{r['order']} time(s)):")
