@@ -372,6 +372,9 @@ def find_orbit(
         except MapError:
             break
         iterated += int(extra)
+        if float(np.max(np.abs(xt), initial=0.0)) > bound:
+            newton.notes.append("the transient grew without bound (diverged)")
+            break
         trial = newton.solve(xt, max_iter)
         if trial[2] or trial[1] < best[1]:
             best = trial
