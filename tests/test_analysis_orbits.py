@@ -129,6 +129,7 @@ def test_newton_reports_non_convergence():
     # x -> x + 1 has no fixed point.
     m = FunctionMap(lambda x: x + 1.0, ("x",))
     o = find_orbit(m, [0.0], max_iter=5, pattern=False)
-    assert not o.converged and any("diverged" in n for n in o.notes)
+    assert not o.converged and any("did not converge" in n for n in o.notes)
+    assert o.to_dict()["multipliers"] is None
     with pytest.raises(ValueError):
         find_orbit(m, [0.0], order=0)

@@ -31,7 +31,14 @@ from ..axes import axis_label
 from .maps import Map, MapError
 from .parallel import portable, task_engine
 
-__all__ = ["BifurcationDiagram", "SweepBranch", "attractor_period", "bifurcation_diagram"]
+__all__ = [
+    "Attractor",
+    "BifurcationDiagram",
+    "SweepBranch",
+    "attractor_period",
+    "bifurcation_diagram",
+    "classify_attractor",
+]
 
 MapFactory = Callable[[float], Map]
 
@@ -311,27 +318,180 @@ def bifurcation_diagram(
     )
 
 
+# The record's points of a settled periodic attractor repeat to round-off: changes of the
+# cycle's amplitude below this (relative to the largest sample) are noise, not a trend.
+_NOISE = 1e-12
+# ... and a change of the amplitude by less than this fraction over the record is no trend.
+_TREND = 1e-6
+# A period-k pattern whose points k apart differ by more than this fraction of the cycle's
+# amplitude is not a cycle yet.
+_SEPARATION = 1e-2
+
+
+@dataclass(frozen=True)
+class Attractor:
+    """What a record of iterates says about the attractor.
+
+    Attributes
+    ----------
+    period : int
+        Smallest k with the points repeating every k iterates over the record (within
+        ``rtol``), 0 when there is none up to ``max_period``.
+    settled : bool
+        The repetition is the attractor's, not a stage of a decaying transient: the
+        differences between points ``d`` apart (each proper divisor ``d`` of the period)
+        do not shrink geometrically towards zero across the record, and the points k
+        apart differ by less than 1 % of those differences (the record must hold at least
+        ``2 k + 1`` iterates to tell). True for periods 0 and 1.
+    decay : float
+        The ratio of the cycle amplitude at the end of the record to the one at its start
+        (1.0 when not measured): about ``|mu|**(M - d - k)`` for a transient decaying with
+        the multiplier ``mu`` onto period d.
+    onto : int
+        When not settled: the lower period the pattern is measured against.
+    why : str
+        When not settled: ``"lower"`` (the cycle's amplitude shrinks geometrically: a
+        transient decaying onto period ``onto``), ``"moving"`` (points k apart still differ
+        by more than 1 % of the amplitude) or ``"short"`` (too few points to tell).
+    max_period : int
+        The longest period looked for.
+    """
+
+    period: int
+    settled: bool = True
+    decay: float = 1.0
+    onto: int = 0
+    max_period: int = 64
+    why: str = ""
+
+    @property
+    def label(self) -> str:
+        """``"period k"``, ``"not settled"`` or ``"no period <= ..."`` for the summaries."""
+        if self.settled:
+            return f"period {self.period}" if self.period else \
+                f"no period <= {self.max_period} (not settled, quasi-periodic or chaotic)"
+        if self.why == "short":
+            return (f"period-{self.period} pattern, too few points recorded to tell whether "
+                    "it has settled")
+        if self.why == "moving":
+            return (f"not settled (a period-{self.period} pattern whose points still move by "
+                    "more than 1 % of its amplitude)")
+        return f"not settled (a transient decaying onto period {self.onto})"
+
+
+def classify_attractor(samples: np.ndarray, rtol: float = 1e-7, max_period: int = 64
+                       ) -> Attractor:
+    """Period of a recorded sample sequence, and whether the record has settled.
+
+    A transient decaying onto a period-1 orbit through a multiplier near -1 alternates:
+    ``x_j = x* + c mu**j``. Its points two apart differ by ``|c| |mu|**j |1 - mu**2|``, ten
+    times less than neighbours for ``mu = -0.9``: a record in which the neighbours differ by
+    more than ``rtol`` and the points two apart by less looks like period 2. The two are told
+    apart by the amplitude of the cycle (the largest difference between points ``d`` apart,
+    ``d`` a proper divisor of the period, over one period of iterates): on a periodic
+    attractor it stays the same over the record, on the transient it shrinks geometrically
+    towards zero.
+
+    Parameters
+    ----------
+    samples : ndarray, shape (M,) or (M, q)
+        Recorded iterates of one parameter value.
+    rtol : float
+        Tolerance of the repetition relative to the largest sample magnitude (and 1e-12
+        absolute). Keep it small (1e-7): the points of a period-2 orbit may nearly coincide
+        in one probe (the voltage-mode buck's two v(out) samples differ by 1e-4 V near 26.6 V
+        while the currents differ).
+    max_period : int
+
+    Returns
+    -------
+    Attractor
+    """
+    s = np.asarray(samples, dtype=float)
+    if s.ndim == 1:
+        s = s[:, None]
+    if not np.all(np.isfinite(s)) or s.shape[0] < 2:
+        return Attractor(0)
+    scale = max(float(np.max(np.abs(s))), 1e-12)
+    m = s.shape[0]
+    for k in range(1, min(max_period, m - 1) + 1):
+        if np.max(np.abs(s[k:] - s[:-k])) <= rtol * scale + 1e-12:
+            break
+    else:
+        return Attractor(0, max_period=max_period)
+    for d in _maximal_divisors(k):
+        verdict, ratio = _settling(s, d, k, scale)
+        if verdict != "settled":
+            return Attractor(k, settled=False, decay=ratio, onto=d, why=verdict)
+    return Attractor(k)
+
+
+def _maximal_divisors(k: int) -> list[int]:
+    """The proper divisors ``k / p`` of k, p its prime factors (every proper divisor divides
+    one of them): the lower periods a period-k pattern could be decaying onto."""
+    out, n, p = [], k, 2
+    while p * p <= n:
+        if n % p == 0:
+            out.append(k // p)
+            while n % p == 0:
+                n //= p
+        p += 1
+    if n > 1:
+        out.append(k // n)
+    return out
+
+
+def _settling(s: np.ndarray, d: int, k: int, scale: float) -> tuple[str, float]:
+    """Whether the record's period-k pattern is the attractor's, seen against period d.
+
+    Returns ``(verdict, ratio)``: ``"settled"`` (the points repeat every k iterates to
+    round-off, or the cycle's amplitude at lag d stays while the k-apart differences die
+    out: convergence onto a period-k orbit), ``"lower"`` (the amplitude shrinks
+    geometrically with the k-apart differences: a transient onto period d), ``"moving"``
+    (the k-apart points differ by more than 1 % of the amplitude: no cycle yet) or
+    ``"short"`` (fewer than k + 1 differences); ``ratio`` is the amplitude's last/first.
+    """
+    e = np.max(np.abs(s[d:] - s[:-d]), axis=1)  # lag-d differences, (M - d,)
+    r = np.max(np.abs(s[k:] - s[:-k]), axis=1)  # lag-k differences, (M - k,)
+    noise = _NOISE * scale * 10
+    if float(np.max(r)) <= noise:
+        return "settled", 1.0  # repeats to round-off: a periodic orbit
+    n = r.size
+    if n < k + 1:
+        return "short", float("nan")
+    # Windows of k consecutive differences (every phase of the cycle once) at the start
+    # and at the end of the record.
+    amp_first, amp_last = float(np.max(e[:k])), float(np.max(e[n - k:n]))
+    ratio = amp_last / amp_first if amp_first > 0 else 0.0
+    if float(np.max(r)) > _SEPARATION * float(np.max(e)):
+        return "moving", ratio
+    if amp_first - amp_last <= noise + _TREND * amp_first:
+        return "settled", ratio  # the same amplitude
+    # The amplitude shrinks. Onto period d, the k-apart differences are a fixed fraction of
+    # it (x_j = x* + c mu^j: |1 - mu^k| / |1 - mu^d|) and shrink at its rate; converging
+    # onto a period-k orbit, they die out while the amplitude stays.
+    drift_first, drift_last = float(np.max(r[:k])), float(np.max(r[n - k:]))
+    if drift_last <= noise or drift_first <= 0.0:
+        return "settled", ratio
+    rate_amp = np.log(max(ratio, 1e-300))
+    rate_drift = np.log(max(drift_last / drift_first, 1e-300))
+    if rate_drift < 0 and 2.0 * rate_drift <= rate_amp <= 0.5 * rate_drift:
+        return "lower", ratio  # both shrink at one rate (within a factor 2)
+    return "settled", ratio
+
+
 def attractor_period(samples: np.ndarray, rtol: float = 1e-6, max_period: int = 64) -> int:
-    """Smallest period k of a recorded sample sequence (0 if none up to ``max_period``).
+    """Period of the attractor seen in a recorded sample sequence: the smallest period k of
+    the record (see :func:`classify_attractor`), 0 if none up to ``max_period`` or if the
+    record has not settled (a transient decaying onto a lower period).
 
     Parameters
     ----------
     samples : ndarray, shape (M, q)
         Recorded iterates of one parameter value.
     rtol : float
-        Tolerance relative to the largest sample magnitude (and 1e-12 absolute). Keep it
-        small (1e-7): the points of a period-2 orbit may nearly coincide in one probe (the
-        voltage-mode buck's two v(out) samples differ by 1e-4 V near 26.6 V while the
-        currents differ); a settled periodic attractor repeats to round-off.
+        Tolerance relative to the largest sample magnitude (and 1e-12 absolute).
+    max_period : int
     """
-    s = np.asarray(samples, dtype=float)
-    if s.ndim == 1:
-        s = s[:, None]
-    if not np.all(np.isfinite(s)):
-        return 0
-    scale = max(float(np.max(np.abs(s))), 1e-12)
-    for k in range(1, min(max_period, s.shape[0] - 1) + 1):
-        if np.max(np.abs(s[k:] - s[:-k])) <= rtol * scale + 1e-12:
-            return k
-    return 0
-
+    a = classify_attractor(samples, rtol, max_period)
+    return a.period if a.settled else 0

@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .maps import Map, MapError
-from .orbits import PeriodicOrbit, find_orbit, multiplier_counts, state_scale
+from .orbits import NOT_AN_ORBIT, PeriodicOrbit, find_orbit, multiplier_counts, state_scale
 from .parallel import portable, progress_bar, task_engine
 
 __all__ = ["Bifurcation", "ContinuationResult", "continue_orbit", "continue_orbits",
@@ -129,8 +129,10 @@ class ContinuationResult:
             "branch": [{
                 "param": float(o.param) if o.param is not None else None,
                 "point": [float(v) for v in o.x],
-                "multipliers": [[float(m.real), float(m.imag)] for m in o.multipliers],
-                "stability": o.stability,
+                # a point Newton did not converge to has no multipliers of its own
+                "multipliers": [[float(m.real), float(m.imag)] for m in o.multipliers]
+                if o.converged else None,
+                "stability": o.stability if o.converged else NOT_AN_ORBIT,
                 "pattern": [list(map(list, s)) for s in o.pattern.signature]
                 if o.pattern is not None else None,
             } for o in self.orbits],
@@ -184,7 +186,8 @@ def _describe_multipliers(kind: str, a: PeriodicOrbit, b: PeriodicOrbit) -> str:
 def _solve(factory: MapFactory, p: float, guess, order: int, newton: dict
            ) -> PeriodicOrbit | None:
     try:
-        o = find_orbit(factory(float(p)), guess, order, **newton)
+        # no restart from a transient: it would leave the branch for the attractor
+        o = find_orbit(factory(float(p)), guess, order, restarts=(), **newton)
     except MapError:
         return None
     return o if o.converged else None

@@ -41,6 +41,8 @@ __all__ = [
 REAL_TOL = 1e-7
 # Multipliers within this distance of the unit circle are reported as critical.
 CRITICAL_TOL = 1e-6
+# The stability of a point Newton did not converge to.
+NOT_AN_ORBIT = "unknown: no orbit found (Newton did not converge)"
 
 
 def state_scale(x: np.ndarray, scale: np.ndarray | None = None, floor: float = 1e-3
@@ -163,25 +165,129 @@ class PeriodicOrbit:
         return classify_multipliers(self.multipliers)
 
     def to_dict(self) -> dict:
-        """JSON-ready description (``multipliers`` as ``[re, im]`` pairs)."""
+        """JSON-ready description (``multipliers`` as ``[re, im]`` pairs).
+
+        An orbit Newton did not converge to is no orbit: its ``multipliers``,
+        ``multiplier_moduli``, ``jacobian`` and ``stable`` are None and ``stability`` says
+        why (the last iterate's Jacobian describes a point that is not periodic).
+        """
+        ok = self.converged
         return {
             "param_name": self.param_name,
             "param": self.param,
             "order": self.order,
             "states": list(self.state_names),
             "points": [[float(v) for v in p] for p in self.points],
-            "multipliers": [[float(m.real), float(m.imag)] for m in self.multipliers],
-            "multiplier_moduli": [float(abs(m)) for m in self.multipliers],
-            "stability": self.stability,
-            "stable": bool(self.stable),
+            "multipliers": [[float(m.real), float(m.imag)] for m in self.multipliers]
+            if ok else None,
+            "multiplier_moduli": [float(abs(m)) for m in self.multipliers] if ok else None,
+            "stability": self.stability if ok else NOT_AN_ORBIT,
+            "stable": bool(self.stable) if ok else None,
             "converged": bool(self.converged),
             "residual": float(self.residual),
             "iterations": int(self.iterations),
-            "jacobian": [[float(v) for v in row] for row in self.jacobian],
+            "jacobian": [[float(v) for v in row] for row in self.jacobian] if ok else None,
             "pattern": self.pattern.to_list() if self.pattern is not None else None,
             "pattern_text": str(self.pattern) if self.pattern is not None else None,
             "notes": list(self.notes),
         }
+
+
+# Newton's damping: the smallest step fraction tried before the iteration is declared stalled.
+_LAMBDA_MIN = 1.0 / 1024
+# Periods of transient (times the order) simulated before each restart of a stalled Newton:
+# the map is then iterated towards the attractor, whose switching pattern the orbit shares.
+RESTARTS = (16, 64, 256, 1024)
+
+
+@dataclass
+class _Newton:
+    """Newton shooting on ``G(x) = P^k(x) - x`` with a natural-level-function line search."""
+
+    m: Map
+    k: int
+    nat: np.ndarray | None
+    tol: float
+    rel_step: float
+    bound: float
+    notes: list[str] = field(default_factory=list)
+    iterations: int = 0
+
+    def g(self, x: np.ndarray) -> np.ndarray:
+        return self.m.power(x, self.k) - x
+
+    @staticmethod
+    def norm(v: np.ndarray, sc: np.ndarray) -> float:
+        # (a state grown past float range gives an infinite norm, reported as such)
+        with np.errstate(over="ignore"):
+            return float(np.max(np.abs(v) / sc)) if v.size else 0.0
+
+    def solve(self, x: np.ndarray, max_iter: int) -> tuple[np.ndarray, float, bool, bool]:
+        """Iterate from ``x``: ``(x, scaled residual, converged, diverged)``.
+
+        The step ``dx = -(DG)^-1 G(x)`` is damped by the natural monotonicity test
+        (Deuflhard): a fraction ``lam`` is accepted when the simplified Newton correction at
+        ``x + lam dx``, ``(DG(x))^-1 G(x + lam dx)``, is shorter than ``(1 - lam/4) |dx|``.
+        The test measures the distance to the orbit in the state's own units whatever the
+        multipliers: the residual's norm does not, since a multiplier near 1 (a large output
+        capacitor, 0.9985) makes ``G`` tiny along its direction while the state is far from
+        the orbit, and a step that fixes that direction may raise the residual of the fast
+        ones.
+        """
+        from scipy.linalg import lu_factor, lu_solve
+
+        x = np.asarray(x, dtype=float).copy()
+        sc = state_scale(x, self.nat)
+        g = self.g(x)
+        r = self.norm(g, sc)
+        n = x.size
+        eye = np.eye(n)
+        for _ in range(max_iter):
+            if r <= self.tol:
+                return x, r, True, False
+            self.iterations += 1
+            A = self.m.jacobian(x, self.k, sc, self.rel_step) - eye
+            lu = lu_factor(A, check_finite=False)
+            if not np.all(np.isfinite(lu[0])) or np.min(np.abs(np.diag(lu[0]))) <= \
+                    1e-14 * max(float(np.max(np.abs(A))), 1e-300):
+                self.notes.append("singular Newton matrix (a multiplier at +1: fold?)")
+
+                def solve(b, A=A):
+                    return np.linalg.lstsq(A, b, rcond=None)[0]
+            else:
+                def solve(b, lu=lu):
+                    return lu_solve(lu, b, check_finite=False)
+            dx = solve(-g)
+            nd = self.norm(dx, sc)
+            if not np.isfinite(nd):
+                return x, r, False, False
+            lam, accepted = 1.0, False
+            while lam >= _LAMBDA_MIN:
+                xt = x + lam * dx
+                try:
+                    gt = self.g(xt)
+                except MapError:
+                    lam *= 0.5
+                    continue
+                rt = self.norm(gt, sc)
+                if rt <= self.tol:
+                    accepted = True
+                    break
+                nbar = self.norm(solve(-gt), sc)
+                if nbar <= (1.0 - 0.25 * lam) * nd:
+                    accepted = True
+                    break
+                lam *= 0.5
+            if not accepted:
+                return x, r, False, False
+            if float(np.max(np.abs(xt))) > self.bound:
+                self.notes.append("Newton diverged (the state grew without bound)")
+                return x, r, False, True
+            x, g, r = xt, gt, rt
+            sc = state_scale(x, self.nat)
+            if r <= self.tol or (lam == 1.0 and nd <= self.tol and r <= 1e3 * self.tol):
+                return x, r, True, False
+        return x, r, r <= self.tol, False
 
 
 def find_orbit(
@@ -195,8 +301,16 @@ def find_orbit(
     rel_step: float = 1e-5,
     scale=None,
     pattern: bool = True,
+    restarts: tuple[int, ...] = RESTARTS,
 ) -> PeriodicOrbit:
     """Period-``order`` orbit of ``m`` by Newton shooting from ``x0``.
+
+    Newton's step is damped by the natural monotonicity test (see ``_Newton.solve``). From
+    a guess whose switching pattern differs from the orbit's (a start-up state: the switch
+    on all period, the diode off) the Jacobian describes another piece of the piecewise-smooth
+    map and the damped steps can stall; Newton is then restarted from the guess iterated
+    further by the map (``restarts`` more periods each time, a continuation from the
+    transient), which brings it onto the attractor's pattern.
 
     Parameters
     ----------
@@ -212,18 +326,23 @@ def find_orbit(
         Convergence when the scaled residual ``max |P^k(x) - x| / scale`` or the scaled
         Newton step is below ``tol``.
     max_iter : int
+        Newton iterations per start.
     rel_step : float
         Central-difference step relative to the state scale.
     scale : array_like, optional
         State magnitudes (A, V); default from the guess and the map's natural scale.
     pattern : bool
         Also compute the switching pattern.
+    restarts : tuple of int
+        Iterates of ``P^k`` added to the guess before each restart of a stalled Newton
+        (cumulative); ``()``: no restart.
 
     Returns
     -------
     PeriodicOrbit
         With ``converged`` False if Newton did not reach ``tol`` (the last iterate is
-        returned, with its multipliers).
+        returned; its multipliers are not an orbit's, and :meth:`PeriodicOrbit.to_dict`
+        leaves them out).
 
     Raises
     ------
@@ -237,62 +356,39 @@ def find_orbit(
     if transient:
         x = m.power(x, k * int(transient))
     nat = m.natural_scale() if scale is None else np.asarray(scale, dtype=float)
-    sc = state_scale(x, nat)
-
-    def pk(v):
-        return m.power(v, k)
-
-    def resid(g):
-        # (a state that has grown past float range gives an infinite residual, reported as
-        # such, not a numpy warning)
-        with np.errstate(over="ignore"):
-            return float(np.max(np.abs(g) / sc)) if g.size else 0.0
-
-    g = pk(x) - x
-    r = resid(g)
     n = x.size
     # The residual is relative to the state: a map whose "fixed point" is at infinity (no
     # orbit) would look converged far out. Newton stops when the state grows this much.
     bound = 1e6 * max(1.0, float(np.max(np.abs(x))) if n else 1.0,
                       float(np.max(nat)) if nat is not None else 1.0)
-    eye = np.eye(n)
-    it = 0
-    converged = r <= tol
-    notes: list[str] = []
-    while not converged and it < max_iter:
-        it += 1
-        J = m.jacobian(x, k, sc, rel_step)
+    newton = _Newton(m, k, nat, float(tol), float(rel_step), bound)
+    best = newton.solve(x, max_iter)
+    xt, iterated = x, 0
+    for extra in restarts:
+        if best[2] or best[3]:
+            break
         try:
-            dx = np.linalg.solve(J - eye, -g)
-        except np.linalg.LinAlgError:
-            dx = np.linalg.lstsq(J - eye, -g, rcond=None)[0]
-            notes.append("singular Newton matrix (a multiplier at +1: fold?)")
-        # Damped step: halve until the residual decreases (or the map fails less).
-        lam = 1.0
-        accepted = False
-        for _ in range(12):
-            xt = x + lam * dx
-            try:
-                gt = pk(xt) - xt
-            except MapError:
-                lam *= 0.5
-                continue
-            rt = resid(gt)
-            if rt < r or lam < 1e-3:
-                accepted = True
-                break
-            lam *= 0.5
-        if not accepted:
+            xt = m.power(xt, k * int(extra))
+        except MapError:
             break
-        step = float(np.max(np.abs(lam * dx) / sc))
-        if float(np.max(np.abs(xt))) > bound:
-            notes.append("Newton diverged (the state grew without bound)")
+        iterated += int(extra)
+        if float(np.max(np.abs(xt), initial=0.0)) > bound:
+            newton.notes.append("the transient grew without bound (diverged)")
             break
-        x, g, r = xt, gt, rt
-        sc = state_scale(x, nat)
-        converged = r <= tol or (step <= tol and r <= 1e3 * tol)
+        trial = newton.solve(xt, max_iter)
+        if trial[2] or trial[1] < best[1]:
+            best = trial
+        if trial[2]:
+            newton.notes.append(f"Newton converged from the guess iterated {iterated} more "
+                                f"period(s) (it stalled from the guess itself)")
+    x, r, converged = best[0], best[1], best[2]
+    notes = list(dict.fromkeys(newton.notes))
+    it = newton.iterations
     if not converged:
-        notes.append(f"Newton did not converge in {it} iterations (scaled residual {r:.3g})")
+        notes.append(f"Newton did not converge in {it} iterations (scaled residual {r:.3g})"
+                     + (f", restarted after up to {iterated} more periods of transient"
+                        if iterated else ""))
+    sc = state_scale(x, nat)
     J = m.jacobian(x, k, sc, rel_step)
     mu = np.linalg.eigvals(J) if n else np.empty(0, complex)
     mu = mu[np.argsort(-np.abs(mu), kind="stable")]

@@ -6,7 +6,7 @@
                       [--probe EXPR]... [--follow [--direction up|down|both]] [--chunks C]
                       [--param OTHER=VALUE]... [--x0 ...] [--step H] [--theta TH] [--t0 T0]
                       [--workers W] [--scheduler ADDRESS] [-o OUT.csv|OUT.npz]
-                      [--plot OUT.png]
+                      [--plot OUT.png] [--confirm]
 
 For each of COUNT values from START to STOP the circuit is simulated for N + M periods T from
 the initial state (netlist ``IC=``/``.ic`` or ``--x0``); the probes (default: every state)
@@ -17,7 +17,11 @@ cores (``--workers``); a follow sweep is sequential per direction (the two direc
 parallel; ``--chunks C`` splits each direction into C pieces that each start from the initial
 state). ``--scheduler ADDRESS`` runs the values on the workers of a Dask scheduler instead
 (``tcp://host:8786``; ``local`` starts a Dask cluster on this machine): the diagram is the same.
-A summary of the attractor period along the parameter is printed.
+A summary of the attractor period along the parameter is printed: a period only where the
+recorded points have settled (a record whose cycle shrinks geometrically towards a lower
+period is a transient: "not settled"), and the reason of every failed value. ``--confirm``
+runs the orbit solver at the middle value of each run, from its recorded state, and prints
+the orbit's stability and multipliers.
 
 Outputs: ``-o OUT.csv`` (rows ``direction, NAME, k, probes...``) or ``-o OUT.npz`` (arrays
 per direction, see :meth:`lcs.analysis.bifurcation.BifurcationDiagram.to_npz`); ``--plot``
@@ -73,6 +77,9 @@ def register(subparsers) -> None:
     add_scheduler_option(p)
     p.add_argument("-o", "--output", metavar="OUT", help="write OUT.csv or OUT.npz")
     p.add_argument("--plot", metavar="OUT.png", help="scatter plot of the diagram")
+    p.add_argument("--confirm", action="store_true",
+                   help="confirm each run of the summary with the orbit solver (Newton from "
+                   "the recorded state at the run's middle value): the orbit's multipliers")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -148,23 +155,21 @@ def run(args: argparse.Namespace) -> int:
         (out, diagram.save),
         (plot, lambda path: diagram.plot(path, title=circuit.title or Path(args.file).name)),
     ))
-    print(summary(diagram, args.file, circuit.title, m, written))
+    confirmations = confirm_runs(diagram, factory) if args.confirm else None
+    print(summary(diagram, args.file, circuit.title, m, written, confirmations))
     return 0
 
 
-def period_runs(values: np.ndarray, samples: np.ndarray, ok: np.ndarray
-                ) -> list[tuple[float, float, str]]:
-    """Contiguous parameter runs with the same attractor period: ``(from, to, label)``."""
-    from lcs.analysis.bifurcation import attractor_period
+def period_runs(values: np.ndarray, samples: np.ndarray, ok: np.ndarray,
+                messages: list[str] | None = None) -> list[tuple[float, float, str]]:
+    """Contiguous parameter runs with the same verdict: ``(from, to, label)``.
 
-    labels = []
-    for s, good in zip(samples, ok, strict=True):
-        if not good:
-            labels.append("failed")
-            continue
-        k = attractor_period(s, rtol=1e-7)
-        labels.append(f"period {k}" if k else
-                      "no period <= 64 (not settled, quasi-periodic or chaotic)")
+    The verdict is :func:`~lcs.analysis.bifurcation.classify_attractor`'s (a period only
+    when the record has settled), or ``failed: <why>`` for a value whose run failed.
+    """
+    labels = [a.label if a is not None else f"failed: {msg or 'no reason given'}"
+              for a, msg in zip(verdicts(samples, ok), messages or [""] * len(ok),
+                                strict=True)]
     runs: list[tuple[float, float, str]] = []
     for v, lab in zip(values, labels, strict=True):
         if runs and runs[-1][2] == lab:
@@ -174,7 +179,61 @@ def period_runs(values: np.ndarray, samples: np.ndarray, ok: np.ndarray
     return runs
 
 
-def summary(diagram, file: str, title: str, m, written: list[str]) -> str:
+def verdicts(samples: np.ndarray, ok: np.ndarray) -> list:
+    """The :class:`~lcs.analysis.bifurcation.Attractor` of each value (None where it failed)."""
+    from lcs.analysis.bifurcation import classify_attractor
+
+    return [classify_attractor(s, rtol=1e-7) if good else None
+            for s, good in zip(samples, ok, strict=True)]
+
+
+def confirm_runs(diagram, factory, *, tol: float = 1e-10) -> list[str]:
+    """Lines confirming each run of the summary with the orbit solver.
+
+    For every contiguous run of values with one verdict, the value in its middle: Newton
+    shooting (:func:`~lcs.analysis.orbits.find_orbit`) from the recorded final state for the
+    orbit of the run's period (a run not settled: the period it decays onto), and its
+    multipliers. A run that is not the attractor the solver finds says so.
+    """
+    from lcs.analysis.maps import MapError
+    from lcs.analysis.orbits import find_orbit
+
+    from .orbit import fmt_complex
+
+    lines = []
+    for b in diagram.branches:
+        att = verdicts(b.samples, b.ok)
+        i = 0
+        while i < len(att):
+            j = i
+            lab = att[i].label if att[i] is not None else None
+            while j + 1 < len(att) and (att[j + 1].label if att[j + 1] is not None
+                                        else None) == lab:
+                j += 1
+            mid = (i + j) // 2
+            a, v = att[mid], float(b.values[mid])
+            i = j + 1
+            if a is None or (a.period == 0 and a.settled) or (not a.settled and not a.onto):
+                continue
+            order = a.period if a.settled else a.onto
+            where = f"{diagram.param_name} = {v:.6g} ({b.direction})"
+            try:
+                orb = find_orbit(factory(v), b.x_final[mid], order, tol=tol, pattern=False)
+            except MapError as exc:
+                lines.append(f"  {where}: the orbit solver failed: {exc}")
+                continue
+            if not orb.converged:
+                lines.append(f"  {where}: no period-{order} orbit found near the recorded "
+                             f"state (Newton: scaled residual {orb.residual:.3g})")
+                continue
+            mu = ", ".join(fmt_complex(m) for m in orb.multipliers)
+            lines.append(f"  {where}: period-{order} orbit, {orb.stability}; multipliers "
+                         f"{mu}")
+    return lines or ["  nothing to confirm (no run with a period)"]
+
+
+def summary(diagram, file: str, title: str, m, written: list[str],
+            confirmations: list[str] | None = None) -> str:
     from netlist.units import format_eng
 
     lines = [f"{file}: {title}".rstrip(": ")]
@@ -185,13 +244,22 @@ def summary(diagram, file: str, title: str, m, written: list[str]) -> str:
                  f"{_how(m)}; {diagram.transient} periods discarded, "
                  f"{diagram.record} recorded; {diagram.wall_time:.3g} s"
                  + (f" on {diagram.engine}" if diagram.engine else ""))
+    unsettled = 0
     for b in diagram.branches:
         lines.append(f"attractor period along {diagram.param_name} ({b.direction}):")
-        for lo, hi, lab in period_runs(b.values, b.samples, b.ok):
+        for lo, hi, lab in period_runs(b.values, b.samples, b.ok, b.messages):
             span = f"{lo:.6g}" if lo == hi else f"{lo:.6g} .. {hi:.6g}"
             lines.append(f"  {span:>24}: {lab}")
+        unsettled += sum(a is not None and not a.settled for a in verdicts(b.samples, b.ok))
+    if confirmations is not None:
+        lines.append("orbit solver, at the middle of each run (from its recorded state):")
+        lines.extend(confirmations)
     for note in diagram.notes:
         lines.append(f"note: {note}")
+    if unsettled:
+        lines.append(f"note: {unsettled} value(s) have not settled: lengthen --transient"
+                     + ("" if confirmations is not None else
+                        ", or --confirm the runs with the orbit solver"))
     if written:
         lines.append(f"wrote {', '.join(written)}")
     return "\n".join(lines)

@@ -198,6 +198,9 @@ def format_continuation(r: dict, name: str) -> str:
                  f"{r['stop']:g} ({len(r['branch'])} orbits, {r['wall_time']:.3g} s)")
     lines.append(f"  {pn:>12}  {'max |μ|':>10}  {'multipliers':<48} stability")
     for o in r["branch"]:
+        if o["multipliers"] is None:  # not an orbit: no multipliers to show
+            lines.append(f"  {o['param']:>12.6g}  {'-':>10}  {'-':<48} {o['stability']}")
+            continue
         mus = [complex(a, b) for a, b in o["multipliers"]]
         mx = max((abs(v) for v in mus), default=0.0)
         text = ", ".join(fmt_complex(v) for v in mus)

@@ -19,6 +19,12 @@ its state ends with ``phase`` (the event time modulo T, s) and it has one extra 
 
 This module also holds the options that ``bifurcation``, ``continue`` and ``basins`` share.
 
+Newton's steps are damped by the natural monotonicity test, and a Newton that stalls is
+restarted from the state iterated further by the map (16, 64, 256 and 1024 more periods), so
+that it converges from the initial state of a periodic converter. When it does not, the last
+iterate is printed without multipliers (``multipliers``, ``stability`` in JSON: null and
+"unknown: ...") and the exit status is 3.
+
 Exit status: 0 success; 2 input errors; 3 Newton did not converge or the map failed.
 """
 
@@ -234,18 +240,24 @@ def format_orbit(r: dict, name: str) -> str:
     kind = f"event map ({r['event']})" if r.get("event") else "stroboscopic map"
     how = ("exact flows and events" if r.get("method") == "exact" else
            f"h = {format_eng(r['step'], 's')}, θ = {r['theta']:g}")
-    lines.append(f"period-{r['order']} orbit of the {kind}: T = "
+    what = (f"period-{r['order']} orbit of the {kind}" if r["converged"] else
+            f"NO period-{r['order']} orbit found for the {kind}")
+    lines.append(f"{what}: T = "
                  f"{format_eng(r['period'], 's')}, {how}" + (f"; {params}" if params else ""))
     states = r["states"]
     width = max(15, *(len(s) + 2 for s in states))
-    lines.append("points:")
+    lines.append("points:" if r["converged"] else "last Newton iterate:")
     lines.append("  k " + "".join(s.rjust(width) for s in states))
     for k, pt in enumerate(r["points"]):
         lines.append(f"  {k:<2}" + "".join(f" {v:>{width - 1}.9g}" for v in pt))
-    lines.append("Floquet multipliers (eigenvalues of the Jacobian of the map iterated "
-                 f"{r['order']} time(s)):")
-    for (re_, im), mod in zip(r["multipliers"], r["multiplier_moduli"], strict=True):
-        lines.append(f"  {fmt_complex(complex(re_, im)):>32}   |μ| = {mod:.8g}")
+    if r["multipliers"] is None:
+        lines.append("no periodic orbit: Newton did not converge; the point above is its "
+                     "last iterate, not an orbit, and its multipliers are not printed")
+    else:
+        lines.append("Floquet multipliers (eigenvalues of the Jacobian of the map iterated "
+                     f"{r['order']} time(s)):")
+        for (re_, im), mod in zip(r["multipliers"], r["multiplier_moduli"], strict=True):
+            lines.append(f"  {fmt_complex(complex(re_, im)):>32}   |μ| = {mod:.8g}")
     lines.append(f"stability: {r['stability']}")
     if r.get("pattern_text"):
         lines.append(f"switching pattern: {r['pattern_text']}")
