@@ -35,13 +35,14 @@ from pathlib import Path
 
 import numpy as np
 
+from pelcs.outputs import write_outputs
+
 from .orbit import (
     add_map_options,
     initial_state,
     make_factory,
     positive_int,
     usage_error,
-    write_outputs,
 )
 
 
@@ -149,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
         (plot, lambda path: diagram.plot(path, title=circuit.title or Path(args.file).name)),
     ))
     print(summary(diagram, args.file, circuit.title, m, written))
-    return 0
+    return written.exit_status()
 
 
 def period_runs(values: np.ndarray, samples: np.ndarray, ok: np.ndarray
