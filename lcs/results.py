@@ -18,7 +18,8 @@ class SimulationError(RuntimeError):
         states), ``"non_finite"`` (NaN or infinity in the state), ``"chattering"`` (a
         comparator switched more than ``MoreauOptions.max_switchings`` times inside one
         step), ``"sliding"`` (a comparator toggles without progress and its method has no
-        sliding mode).
+        sliding mode), ``"interrupted"`` (SIGINT or SIGTERM inside
+        :func:`lcs.interrupt.deferred_interrupts`; ``time`` is then where it stopped).
     time : float
         End of the failing step, s (the LCP is posed at that instant).
     t_prev : float
