@@ -24,6 +24,7 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
+from lcs.atomic import atomic_path
 from lcs.model import (
     LCS,
     ComplementarityPair,
@@ -328,7 +329,11 @@ def save_npz(path: str | os.PathLike, obj: LCS | SwitchedLCS, probes: Sequence[s
     else:
         raise TypeError(f"cannot save {type(obj).__name__}")
     arrays["meta"] = np.array(json.dumps(meta))
-    np.savez(path, **arrays)
+    # numpy adds ``.npz`` to a name without it; the file is written whole or not at all
+    final = os.fspath(path)
+    final = final if final.endswith(".npz") else final + ".npz"
+    with atomic_path(final) as tmp, open(tmp, "wb") as fh:
+        np.savez(fh, **arrays)
 
 
 def load_npz(path: str | os.PathLike) -> LCS | SwitchedLCS:

@@ -20,7 +20,8 @@ class SimulationError(RuntimeError):
         step), ``"sliding"`` (a comparator toggles without progress and its method has no
         sliding mode), ``"pinned_jump"`` (a comparator's switching left an inductor's current
         no path, a jump to zero the run applies only at known switching instants:
-        :mod:`lcs.simulation.pinned`).
+        :mod:`lcs.simulation.pinned`), ``"interrupted"`` (SIGINT or SIGTERM inside
+        :func:`lcs.interrupt.deferred_interrupts`; ``time`` is then where it stopped).
     time : float
         End of the failing step, s (the LCP is posed at that instant).
     t_prev : float

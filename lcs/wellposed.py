@@ -122,12 +122,11 @@ class LinearForm:
 
     def as_dict(self, tol: float = 0.0) -> dict[str, float]:
         """Coefficients by name (states then inputs), dropping those with ``|c| <= tol``."""
-        out = {}
-        for nm, c in zip(self.states + self.inputs, np.concatenate([self.cx, self.cu]),
-                         strict=True):
-            if abs(c) > tol:
-                out[nm] = float(c)
-        return out
+        names = self.states + self.inputs
+        coeffs = np.concatenate([self.cx, self.cu])
+        # (the non-zero coefficients found at once: a form of a large circuit has hundreds of
+        # names and a handful of terms)
+        return {names[i]: float(coeffs[i]) for i in np.flatnonzero(np.abs(coeffs) > tol)}
 
     def __str__(self) -> str:
         coeffs = self.as_dict()
@@ -139,7 +138,7 @@ class LinearForm:
         for k, (nm, c) in enumerate(terms):
             sign = "-" if c < 0 else "+"
             mag = abs(c)
-            coef = "" if np.isclose(mag, 1.0, rtol=1e-12, atol=0) else f"{mag:.6g} "
+            coef = "" if abs(mag - 1.0) <= 1e-12 else f"{mag:.6g} "  # (isclose, 40x faster)
             if k == 0:
                 text += ("-" if c < 0 else "") + f"{coef}{nm}"
             else:

@@ -52,6 +52,7 @@ from .circuit import (
 from .devices import Replacement, classify_macro, subckt_text, threshold
 from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
 from .expressions import CONSTANTS, ExpressionError
+from .limits import ELEMENTS
 from .rawdeck import Body, Deck, RawElement, RawParam, Statement, Value
 from .units import parse_number
 
@@ -87,8 +88,9 @@ def build_circuit(deck: Deck, overrides: Mapping[str, float] | None = None,
     # Elements whose values failed are kept (with NaN values) so that the topology checks
     # see the whole circuit; only a subcircuit instance that could not be expanded leaves a
     # hole, and then connectivity problems would be artefacts of the hole.
-    diags = builder.diags + check_circuit(circuit, builder.ref_locs,
-                                          topology=not builder.incomplete)
+    # (a circuit over the element limit is not expanded: nothing to check)
+    diags = builder.diags + ([] if builder.too_large else check_circuit(
+        circuit, builder.ref_locs, topology=not builder.incomplete))
     if diags:
         raise NetlistError(ordered_diagnostics(diags, deck.files), deck.file)
     return circuit
@@ -123,6 +125,7 @@ class _Builder:
         self.global_env: dict[str, float] = {}
         self.global_failed: set[str] = set()
         self.incomplete = False  # an instance could not be expanded
+        self.too_large = False  # over the element limit: not expanded
         self.dependent: set[int] = set()  # indices in diags, see independent_problems
 
     def error(self, message: str, loc: Location | None, hint: str = "",
@@ -272,8 +275,48 @@ class _Builder:
         c.options = dict(deck.options)
         c.ignored = list(deck.ignored)
         c.notes[:0] = list(deck.notes)
-        self.expand(deck.top, "", "", None, self.global_env, self.global_failed, ())
+        if self.within_element_limit():
+            self.expand(deck.top, "", "", None, self.global_env, self.global_failed, ())
         return c
+
+    def within_element_limit(self) -> bool:
+        """Whether the expanded circuit stays within :data:`netlist.limits.ELEMENTS`,
+        counted before expanding (per subcircuit once: nested instances multiply, and a few
+        lines can ask for 2^25 elements); an error at the top-level instance that goes over
+        it otherwise. Unknown and recursive subcircuits count nothing here (their own errors
+        come from the expansion)."""
+        subckts = self.deck.subckts
+        sizes: dict[str, int] = {}
+
+        def size(body: Body, inside: tuple[str, ...]) -> int:
+            n = 0
+            for el in body.elements:
+                key = el.ref.lower() if el.kind == "X" else None
+                if key is None:
+                    n += 1
+                elif key in subckts and key not in inside and len(inside) < _MAX_DEPTH:
+                    if key not in sizes:
+                        # (the nesting depth is bounded by the subcircuits' count)
+                        sizes[key] = size(subckts[key].body, (*inside, key))
+                    n += sizes[key]
+            return n
+
+        try:
+            limit = ELEMENTS.value()
+        except ValueError as exc:
+            self.error(str(exc), None, "unset it or give a number of elements")
+            self.too_large = True
+            return False
+        total = 0
+        for el in self.deck.top.elements:
+            total += size(Body(elements=[el]), ())
+            if total > limit:
+                self.error(f"the circuit expands to more than {limit:.6g} elements (at "
+                           f"instance {el.name}: {size(self.deck.top, ()):.6g} in all)",
+                           el.st.loc(0), ELEMENTS.hint("1e6"))
+                self.too_large = True
+                return False
+        return True
 
     def models(self) -> None:
         env, failed = self.global_env, self.global_failed

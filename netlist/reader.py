@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import stat
 from collections.abc import Callable
 from pathlib import Path
 
@@ -33,6 +34,7 @@ from .dialect import (
 from .element_lines import ElementLines
 from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
 from .expressions import ExpressionError, lark_parser, parse_expression
+from .limits import FILE_BYTES
 from .rawdeck import (
     Body,
     Deck,
@@ -77,11 +79,25 @@ def _decode(data: bytes, file: str) -> str:
 
 
 def _read_bytes(path: Path, display: str, at: Location | None) -> bytes:
+    """The bytes of a netlist file (``at``: the ``.include`` asking for it, None for the top
+    file), bounded by :data:`netlist.limits.FILE_BYTES`. An include must be a regular file
+    (``/dev/zero`` or a pipe would never end); the top file may also be a pipe."""
+    try:
+        limit = FILE_BYTES.value()
+    except ValueError as exc:
+        raise NetlistError(Diagnostic(str(exc), at, "unset it or give a number of bytes"),
+                           display) from None
     try:
         if path.is_dir():
             raise NetlistError(Diagnostic(f"'{display}' is a directory, not a netlist file", at,
                                           "give the path of a netlist file"), display)
-        return path.read_bytes()
+        mode = os.stat(path).st_mode
+        if not (stat.S_ISREG(mode) or (at is None and stat.S_ISFIFO(mode))):
+            raise NetlistError(Diagnostic(
+                f"'{display}' is not a regular file (a device, a pipe or a socket)", at,
+                "give the path of a netlist file"), display)
+        with open(path, "rb") as fh:
+            data = fh.read(int(limit) + 1)
     except FileNotFoundError:
         raise NetlistError(Diagnostic(f"file not found: '{display}'", at,
                                       "check the path (relative paths in .include and .lib "
@@ -90,6 +106,11 @@ def _read_bytes(path: Path, display: str, at: Location | None) -> bytes:
     except OSError as exc:
         raise NetlistError(Diagnostic(f"cannot read '{display}': {exc.strerror or exc}", at,
                                       "check the path and its permissions"), display) from None
+    if len(data) > limit:
+        raise NetlistError(Diagnostic(
+            f"'{display}' is larger than {limit:.4g} bytes, the limit of a netlist file", at,
+            FILE_BYTES.hint("500M")), display)
+    return data
 
 
 def _strip_comment(line: str) -> str:

@@ -25,6 +25,7 @@ elements before the run, so that a typo is an input error with a hint and not a 
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -39,6 +40,7 @@ from lcs.signals import Dc, Pulse, Signal, Sin, resolve
 from .circuit import GROUND, Capacitor, Circuit, CurrentSource, Inductor, VoltageSource
 from .errors import Diagnostic, NetlistError
 from .formulation import formulate, storage_matrix
+from .limits import MEMORY, STEPS
 from .passive import structurally_passive
 from .reductions import open_inductors, parallel_diodes, source_capacitors
 
@@ -88,6 +90,8 @@ class TransientSetup:
     default_probes : list of str or None
         The probes of a run that names none, where they are not the states (a circuit with
         no inductor or capacitor: its node voltages).
+    file : str
+        The netlist file, for messages.
     """
 
     system: SwitchedLCS
@@ -100,6 +104,7 @@ class TransientSetup:
     notes: list[str] = field(default_factory=list)
     nonpassive: list = field(default_factory=list)
     default_probes: list[str] | None = None
+    file: str = ""
 
 
 def _input_error(circuit: Circuit, message: str, hint: str) -> NetlistError:
@@ -243,7 +248,7 @@ def transient_setup(
         notes.append("no inductor or capacitor: the default probes are the node voltages "
                      f"({', '.join(default_probes)}); --probe chooses others")
     return TransientSetup(system, signals, x0, float(tstop), float(step), float(t_save),
-                          energy, notes, nonpassive, default_probes)
+                          energy, notes, nonpassive, default_probes, circuit.file or "")
 
 
 def _step_note(circuit: Circuit, given: dict[str, float]) -> str:
@@ -553,9 +558,10 @@ def run_setup(
     a note of its own; points before ``setup.t_save`` are dropped. ``result.theta`` is the θ
     used (:func:`choose_theta`).
     """
-    jump = _JumpRecorder(setup.energy)
     if probes is None:
         probes = setup.default_probes
+    check_run_size(setup, len(setup.system.states) if probes is None else len(probes), every)
+    jump = _JumpRecorder(setup.energy)
     theta_note = None
     if method == "moreau":
         theta, theta_note = choose_theta(setup, theta)
@@ -588,6 +594,53 @@ def run_setup(
         keep = result.t >= setup.t_save
         result.t, result.y = result.t[keep], result.y[keep]
     return result
+
+
+def check_run_size(setup: TransientSetup, probes: int, every: int = 1) -> None:
+    """Refuse, before anything is allocated, a run whose steps or stored results exceed the
+    limits :data:`netlist.limits.STEPS` and :data:`netlist.limits.MEMORY`.
+
+    Parameters
+    ----------
+    setup : TransientSetup
+    probes : int
+        Columns stored per point.
+    every : int
+        One point stored every ``every`` steps.
+
+    Raises
+    ------
+    NetlistError
+        Naming the figure, the limit, its environment variable and what to change.
+    """
+    from netlist.units import format_eng
+
+    steps = setup.t_stop / setup.h
+    span = (f"0 to {format_eng(setup.t_stop, 's')} with h = {format_eng(setup.h, 's')}")
+    try:
+        max_steps, max_bytes = STEPS.value(), MEMORY.value()
+    except ValueError as exc:
+        raise NetlistError(Diagnostic(message=str(exc), hint="unset it or give a number"),
+                           file=setup.file) from None
+    if not steps <= max_steps:
+        raise NetlistError(Diagnostic(
+            message=f"the run takes {steps:.3g} time steps ({span}), more than the limit of "
+                    f"{max_steps:.3g}",
+            hint="a larger step (--step, .tran TMAX) or a shorter run (--tstop); "
+                 + STEPS.hint(f"{10 ** math.ceil(math.log10(steps)):.0e}")),
+            file=setup.file)
+    points = steps / max(1, int(every)) + 1
+    # the recorder's buffer, then the result copied out of it (or resampled)
+    need = 2.0 * points * (probes + 1) * 8.0
+    if not need <= max_bytes:
+        raise NetlistError(Diagnostic(
+            message=f"the run would store {points:.3g} points of {probes} probe"
+                    f"{'s' if probes != 1 else ''} ({span}): "
+                    f"{format_eng(need, 'B')} of memory, more than the limit of "
+                    f"{format_eng(max_bytes, 'B')}",
+            hint="store fewer points (--every N), fewer probes (--probe), a larger step or "
+                 f"a shorter run; {MEMORY.hint('64G')} (default: the memory available)"),
+            file=setup.file)
 
 
 #: θ of a run when none is given and θ < 1 is reliable

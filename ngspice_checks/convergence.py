@@ -42,6 +42,8 @@ from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from lcs.atomic import atomic_path
+
 from . import deck
 from .compare import compare
 from .runner import DEFAULT_LADDER
@@ -147,7 +149,7 @@ def run_study(converters: Sequence[str] = ("buck", "boost"),
 
 def write_csv(points: Sequence[ConvergencePoint], path: Path) -> Path:
     """One row per point, columns as :class:`ConvergencePoint` (SI units)."""
-    with open(path, "w", newline="") as fh:
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
         names = list(asdict(points[0]))
         writer = csv.DictWriter(fh, fieldnames=names, lineterminator="\n")
         writer.writeheader()
@@ -191,7 +193,8 @@ def plot(points: Sequence[ConvergencePoint], path: Path) -> Path:
         ax.legend(fontsize=8, loc="lower right")
     fig.suptitle("ngspice converges to pelcs as its diode and switch models approach the ideal",
                  fontsize=10)
-    fig.savefig(path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp)
     return path
 
 

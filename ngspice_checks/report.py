@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from lcs.atomic import atomic_path
+
 from .compare import Comparison
 
 __all__ = ["format_table", "markdown_report", "plot_comparison", "to_json", "write_report"]
@@ -219,7 +221,8 @@ def plot_comparison(cmp: Comparison, path: str | os.PathLike, *, dpi: int = 110,
                  f"{_summary(cmp).split(':')[0]}", fontsize=10,
                  color="black" if cmp.ok else "red")
     out = Path(path)
-    fig.savefig(out)
+    with atomic_path(out) as tmp:
+        fig.savefig(tmp)
     return out
 
 
@@ -335,13 +338,16 @@ def write_report(cmp: Comparison, directory: str | os.PathLike, *, plot: bool = 
         figure = plot_comparison(cmp, d / f"{stem}.png")
         written.append(figure)
     md = d / f"{stem}.md"
-    md.write_text(markdown_report(cmp, figure.name if figure else None))
+    with atomic_path(md) as tmp:
+        tmp.write_text(markdown_report(cmp, figure.name if figure else None))
     js = d / f"{stem}.json"
-    js.write_text(to_json(cmp) + "\n")
+    with atomic_path(js) as tmp:
+        tmp.write_text(to_json(cmp) + "\n")
     written += [md, js]
     if cmp.ngspice_result is not None:
         deck = d / f"{stem}.ngspice.cir"
-        deck.write_text(cmp.ngspice_result.netlist)
+        with atomic_path(deck) as tmp:
+            tmp.write_text(cmp.ngspice_result.netlist)
         written.append(deck)
     return written
 

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from lcs.atomic import atomic_path
 from lcs.axes import axis_label, probe_unit, time_unit
 from lcs.axes import envelope as _envelope  # shared with ngspice_checks
 from lcs.results import SimulationResult
@@ -163,7 +164,8 @@ def plot_result(
     if title:
         fig.suptitle(title, fontsize=11)
     out = Path(path)
-    fig.savefig(out)
+    with atomic_path(out) as tmp:
+        fig.savefig(tmp)
     return out
 
 

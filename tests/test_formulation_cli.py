@@ -131,3 +131,37 @@ def test_cli_text_and_errors(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "Csw" in err and "S1=on" in err
     assert main(["lcs", str(path), "--mode", "S9=on"]) == 2
+
+
+def test_cli_large_multiplier_scales(tmp_path, capsys, monkeypatch):
+    # A 60-stage multiplier (120 diodes, above GDCM_MAX_PAIRS): the GDCM conditions are left
+    # out with a note (their text grows as diodes² x states: a 200-stage multiplier ran for
+    # more than 10 minutes); --gdcm lists them, each naming its diode, as below the limit.
+    import time
+
+    from converters.scaling import cockcroft_walton
+    from pelcs.cli import main
+    from pelcs.commands import lcs as lcs_command
+
+    path = tmp_path / "cw60.cir"
+    path.write_text(cockcroft_walton(60))
+    t0 = time.perf_counter()
+    assert main(["lcs", str(path), "--json"]) == 0
+    assert time.perf_counter() - t0 < 20
+    report = json.loads(capsys.readouterr().out)
+    assert report["passive"] is True
+    assert "120 diodes" in report["gdcm_skipped"] and "--gdcm" in report["gdcm_skipped"]
+    assert report["modes"][0]["gdcm"] is None
+    assert main(["lcs", str(path)]) == 0
+    assert "note: GDCM conditions not listed: 120 diodes" in capsys.readouterr().out
+    small = tmp_path / "cw3.cir"
+    small.write_text(cockcroft_walton(3))
+    assert main(["lcs", str(small), "--json"]) == 0
+    listed = json.loads(capsys.readouterr().out)
+    assert listed["gdcm_skipped"] is None
+    assert [c["diode"] for c in listed["modes"][0]["gdcm"]] == listed["lambdas"]
+    monkeypatch.setattr(lcs_command, "GDCM_MAX_PAIRS", 2)
+    assert main(["lcs", str(small), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["modes"][0]["gdcm"] is None
+    assert main(["lcs", str(small), "--json", "--gdcm"]) == 0
+    assert json.loads(capsys.readouterr().out)["modes"][0]["gdcm"] == listed["modes"][0]["gdcm"]

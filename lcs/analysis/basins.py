@@ -19,6 +19,7 @@ images of any :class:`~.maps.Map` (in parallel) and runs it.
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -26,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..axes import axis_label
 from .maps import Map, MapError
 from .parallel import portable, task_engine
@@ -254,20 +256,23 @@ class BasinMap:
         attractors (``attractor_groups``, ``attractor_cells`` flat, ``attractor_offsets``)."""
         cells = [a.cells for a in self.attractors]
         offsets = np.cumsum([0] + [c.size for c in cells])
-        np.savez_compressed(
-            path,
-            group=self.group, steps=self.steps, image=self.image, failed=self.failed,
-            axis_names=np.array([a.name for a in self.grid.axes]),
-            axis_bounds=np.array([[a.lo, a.hi] for a in self.grid.axes]),
-            axis0_centres=self.grid.axes[0].centres(),
-            axis1_centres=self.grid.axes[1].centres(),
-            base_state=self.base_state, state_indices=np.array(self.state_indices),
-            attractor_groups=np.array([a.group for a in self.attractors], dtype=np.int64),
-            attractor_cells=np.concatenate(cells) if cells else np.empty(0, np.int64),
-            attractor_offsets=offsets,
-            param=np.array(np.nan if self.param is None else self.param),
-            param_name=np.array(self.param_name or ""),
-        )
+        final = os.fspath(path)  # (numpy adds .npz to a name without it)
+        final = final if final.endswith(".npz") else final + ".npz"
+        with atomic_path(final) as tmp, open(tmp, "wb") as fh:
+            np.savez_compressed(
+                fh,
+                group=self.group, steps=self.steps, image=self.image, failed=self.failed,
+                axis_names=np.array([a.name for a in self.grid.axes]),
+                axis_bounds=np.array([[a.lo, a.hi] for a in self.grid.axes]),
+                axis0_centres=self.grid.axes[0].centres(),
+                axis1_centres=self.grid.axes[1].centres(),
+                base_state=self.base_state, state_indices=np.array(self.state_indices),
+                attractor_groups=np.array([a.group for a in self.attractors], dtype=np.int64),
+                attractor_cells=np.concatenate(cells) if cells else np.empty(0, np.int64),
+                attractor_offsets=offsets,
+                param=np.array(np.nan if self.param is None else self.param),
+                param_name=np.array(self.param_name or ""),
+            )
 
     def plot(self, path: str | Path, title: str | None = None) -> None:
         """Two panels: basins (one colour per attractor, sink grey, attractor cells black)
@@ -298,7 +303,8 @@ class BasinMap:
         ax2.set_xlabel(xlabel)
         ax2.set_ylabel(ylabel)
         ax2.set_title("transient time")
-        fig.savefig(path, dpi=130)
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=130)
 
 
 def merge_touching_groups(scm: ScmResult, grid: CellGrid) -> ScmResult:

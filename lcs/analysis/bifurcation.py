@@ -20,6 +20,7 @@ Results go to NPZ or CSV and to a scatter plot (matplotlib, Agg canvas).
 from __future__ import annotations
 
 import csv
+import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -27,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..axes import axis_label
 from .maps import Map, MapError
 from .parallel import portable, task_engine
@@ -132,11 +134,14 @@ class BifurcationDiagram:
             arrays[f"{b.direction}_samples"] = b.samples
             arrays[f"{b.direction}_x_final"] = b.x_final
             arrays[f"{b.direction}_ok"] = b.ok
-        np.savez_compressed(path, **arrays)
+        final = os.fspath(path)  # (numpy adds .npz to a name without it)
+        final = final if final.endswith(".npz") else final + ".npz"
+        with atomic_path(final) as tmp, open(tmp, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
 
     def to_csv(self, path: str | Path) -> None:
         """One row per recorded sample: ``direction, <param>, k, <probes...>``."""
-        with open(path, "w", newline="") as fh:
+        with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow(["direction", self.param_name, "k", *self.probes])
             for b in self.branches:
@@ -175,7 +180,8 @@ class BifurcationDiagram:
         axes[-1].set_xlabel(self.param_name)
         if title:
             axes[0].set_title(title)
-        fig.savefig(path, dpi=150)
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=150)
 
 
 def _sweep_task(task, report) -> list[tuple[np.ndarray, np.ndarray, bool, str]]:

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..units_format import format_eng, si_prefix
 
 __all__ = ["MAX_HISTOGRAM_POINTS", "SweepTable"]
@@ -154,7 +155,7 @@ class SweepTable:
     def to_csv(self, path: str | Path) -> None:
         """CSV with a header row; numbers in full precision (``repr``), SI units; ``ok`` and
         ``settled`` are 1 or 0 (``settled`` empty for a failed run)."""
-        with open(path, "w", newline="") as fh:
+        with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow([*self.inputs, *self.measures, "ok", "settled", "message"])
             for i in range(len(self)):
@@ -265,12 +266,15 @@ class SweepTable:
                 ax.legend(fontsize="small", loc="best")
         axes[-1].set_xlabel(self._label(x_name))
         axes[0].set_title(_wrap(title or f"sweep of {', '.join(self.swept)}", 8, 12))
-        fig.savefig(path, dpi=130)
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=130)
 
     def histogram(self, path: str | Path, title: str | None = None, bins: int | None = None
                   ) -> None:
         """Write :meth:`histogram_figure` to ``path`` (format from the extension)."""
-        self.histogram_figure(title=title, bins=bins).savefig(path, dpi=130)
+        fig = self.histogram_figure(title=title, bins=bins)
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=130)
 
     def histogram_figure(self, title: str | None = None, bins: int | None = None):
         """One histogram per measurement (and grid point) over the successful runs, with the

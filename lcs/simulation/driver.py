@@ -8,7 +8,9 @@ integrator (:mod:`lcs.simulation.integrator`).
 4. windows between the Python controllers' sampling instants: at each, the controllers' new
    commands become known switchings, and the integrator advances through the window;
 5. the last state saved, the events collected, the result assembled (with the error that
-   stopped the run, if any: the result then ends at the last completed step).
+   stopped the run, if any: the result then ends at the last completed step). An interrupt
+   (:mod:`lcs.interrupt`) stops the run the same way, between windows or between the
+   integrator's own pieces.
 """
 
 from __future__ import annotations
@@ -19,9 +21,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from .. import interrupt
 from ..bits import words
 from ..lcp import LcpOptions
 from ..results import SimulationError, SimulationResult, SimulationStats
+from . import failures
 from .initial import InconsistentHandler, initial_state
 from .inputs import MERGE_FRACTION, InputTable, evaluate_inputs
 from .integrator import Integrator, Run, Window
@@ -123,6 +127,12 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
                 error = integrator.advance(Window(ws, we, known, bps[(bps > ws) & (bps < we)]))
             if bar is not None:
                 bar.update(integrator.progress())
+            signum = interrupt.requested()
+            if error is None and signum is not None and we < t_stop:
+                # (an integrator that does not check between its own pieces stops here)
+                snap = integrator.snapshot()
+                error = failures.interrupted(snap.t, problem.describe(mode_tuple(snap.key, k)),
+                                             signum)
             if error is not None:
                 break
     finally:

@@ -80,3 +80,13 @@ def sliding(t0: float, desc: dict[str, str], switch: str, method: str,
         f"comparator (a sliding mode); {why}."
     )
     return SimulationError(msg, kind="sliding", time=t0, t_prev=t0, mode=desc, switch=switch)
+
+
+def interrupted(t: float, desc: dict[str, str], signum: int) -> SimulationError:
+    """The run was stopped by a signal (:mod:`lcs.interrupt`) at ``t``, the end of its last
+    completed step."""
+    from ..interrupt import signal_name
+
+    msg = (f"interrupted ({signal_name(signum)}) at t = {t:.9g} s (mode: {fmt_mode(desc)}); "
+           "the results up to then are kept")
+    return SimulationError(msg, kind="interrupted", time=t, t_prev=t, mode=desc)

@@ -38,9 +38,11 @@ from pathlib import Path
 
 import numpy as np
 
+from lcs.atomic import atomic_path
 from pelcs.jsonout import dumps
+from pelcs.outputs import write_outputs
 
-from .orbit import EXIT_FAILED, usage_error, write_outputs
+from .orbit import EXIT_FAILED, usage_error
 
 
 def register(subparsers) -> None:
@@ -192,7 +194,7 @@ def run(args: argparse.Namespace) -> int:
                                                                    averaged))])
     if args.json:
         print(dumps(data))
-        return 0
+        return written.exit_status()
     print(f"{args.file}: response to {fr.inject} ({fr.method}), fs = {1 / fr.period:.6g} Hz")
     for note in fr.notes:
         print(f"  {note}")
@@ -208,11 +210,11 @@ def run(args: argparse.Namespace) -> int:
         print(f"loop gain: crossover {fc}, phase margin {pm}, gain margin {gm}")
     for path in written:
         print(f"wrote {path}")
-    return 0
+    return written.exit_status()
 
 
 def _write_csv(path: Path, fr) -> None:
-    with open(path, "w", newline="") as fh:
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["freq"] + [f"{p}_{k}" for p in fr.probes for k in ("mag_db", "phase_deg")])
         for i, f in enumerate(fr.freq):
@@ -266,4 +268,5 @@ def _plot(path: Path, fr, margins, title: str, averaged=None) -> None:
     ax1.set_title(f"{Path(title).name}: response to {fr.inject} ({fr.method})")
     ax1.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)

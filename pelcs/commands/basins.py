@@ -28,6 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
+from pelcs.outputs import write_outputs
+
 from .bifurcation import add_scheduler_option, check_output, scheduler_errors
 from .orbit import (
     add_map_options,
@@ -35,7 +37,6 @@ from .orbit import (
     make_factory,
     positive_int,
     usage_error,
-    write_outputs,
 )
 
 
@@ -92,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
         (plot, lambda path: bm.plot(path, title=f"basins: {title or Path(args.file).name}")),
     ))
     print(summary(bm, args.file, title, m, written))
-    return 0
+    return written.exit_status()
 
 
 def summary(bm, file: str, title: str, m, written: list[str]) -> str:

@@ -39,13 +39,14 @@ from pathlib import Path
 
 import numpy as np
 
+from pelcs.outputs import write_outputs
+
 from .orbit import (
     add_map_options,
     initial_state,
     make_factory,
     positive_int,
     usage_error,
-    write_outputs,
 )
 
 
@@ -157,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
     ))
     confirmations = confirm_runs(diagram, factory) if args.confirm else None
     print(summary(diagram, args.file, circuit.title, m, written, confirmations))
-    return 0
+    return written.exit_status()
 
 
 def period_runs(values: np.ndarray, samples: np.ndarray, ok: np.ndarray,

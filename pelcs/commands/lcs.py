@@ -6,7 +6,8 @@ diode, and whether the mode is passive. ``--json`` prints one JSON object instea
 JSON: NaN and infinities, should any arise, are null)::
 
     {"file", "title", "states", "lambdas" (diode names), "inputs", "switches",
-     "passive" (every listed mode passive), "modes": [
+     "passive" (every listed mode passive), "gdcm_skipped" (null, or why the modes'
+     "gdcm" are null: more than GDCM_MAX_PAIRS diodes without --gdcm), "modes": [
         {"switches": {"S1": "on"}, "A", "B", "C", "D", "E", "F" (lists of rows),
          "lambda_kinds": {"D1": "current" | "voltage"}, "lambda_labels", "w_labels",
          "passive", "passivity": {...}, "wellposedness": {...},
@@ -26,6 +27,11 @@ import numpy as np
 from lcs.model import LCS, SwitchedLCS
 from netlist.errors import Diagnostic, NetlistError
 from pelcs.jsonout import dumps
+
+#: Above this many diodes a mode's GDCM conditions are left out unless ``--gdcm`` asks for
+#: them: one condition per diode, each listing the sign conditions of every other diode (a
+#: 200-stage multiplier's 400 diodes took minutes and gave hundreds of MB of text).
+GDCM_MAX_PAIRS = 100
 
 _ON = {"on": True, "1": True, "true": True, "closed": True,
        "off": False, "0": False, "false": False, "open": False}
@@ -48,6 +54,11 @@ def register(subparsers) -> None:
                    "default: all modes")
     p.add_argument("--json", action="store_true",
                    help="print one JSON object (NaN and infinities as null)")
+    p.add_argument("--gdcm", action="store_true",
+                   help=f"list the GDCM conditions of every diode even above {GDCM_MAX_PAIRS} "
+                   "diodes (their text grows as diodes² x states: hundreds of MB for a "
+                   "200-stage multiplier)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
 
@@ -60,7 +71,8 @@ def run(args: argparse.Namespace) -> int:
     system = formulate(circuit)
     keys = select_modes(system, args.mode)
     energy = storage_matrix(circuit)
-    report = build_report(system, keys, energy)
+    report = build_report(system, keys, energy, gdcm=args.gdcm,
+                          progress=not args.no_progress)
     report["file"] = args.file
     report["title"] = circuit.title
     if args.json:
@@ -162,12 +174,33 @@ def _gdcm(lcs: LCS) -> list[dict] | None:
 
 
 def build_report(system: SwitchedLCS, keys: list[tuple[bool, ...]],
-                 energy: np.ndarray) -> dict:
-    """The JSON-ready description of the requested modes of a switched LCS."""
+                 energy: np.ndarray, gdcm: bool = False, progress: bool = False) -> dict:
+    """The JSON-ready description of the requested modes of a switched LCS.
+
+    Parameters
+    ----------
+    system : SwitchedLCS
+    keys : list of tuple of bool
+        The modes to describe.
+    energy : ndarray (n, n)
+        The circuit's storage matrix (first passivity certificate tried).
+    gdcm : bool
+        List the GDCM conditions even above :data:`GDCM_MAX_PAIRS` diodes (else ``"gdcm"``
+        is None there and ``"gdcm_skipped"`` says why).
+    progress : bool
+        A progress bar on a terminal (stderr) when the report takes more than a second.
+    """
     modes = []
+    skip_gdcm = not gdcm and len(system.diodes) > GDCM_MAX_PAIRS
+    bar = _progress_bar(progress, 3 * len(keys))
     for key in keys:
         lcs = system.mode(key)
         passivity, passivity_report = _passivity(lcs, energy)
+        _tick(bar)
+        wellposedness = _wellposedness(lcs, passivity_report)
+        _tick(bar)
+        conditions = None if skip_gdcm else _gdcm(lcs)
+        _tick(bar)
         modes.append({
             "switches": system.describe_mode(key),
             "A": _rows(lcs.A), "B": _rows(lcs.B), "C": _rows(lcs.C),
@@ -177,11 +210,16 @@ def build_report(system: SwitchedLCS, keys: list[tuple[bool, ...]],
             "w_labels": [p.w_label for p in lcs.pairs],
             "passive": passivity["passive"],
             "passivity": passivity,
-            "wellposedness": _wellposedness(lcs, passivity_report),
-            "gdcm": _gdcm(lcs),
+            "wellposedness": wellposedness,
+            "gdcm": conditions,
         })
+    if bar is not None:
+        bar.close()
     flags = [m["passive"] for m in modes]
+    skipped = (f"GDCM conditions not listed: {len(system.diodes)} diodes (above "
+               f"{GDCM_MAX_PAIRS}; --gdcm lists them)") if skip_gdcm else None
     return {
+        "gdcm_skipped": skipped,
         "states": list(system.states),
         "lambdas": list(system.diodes),
         "inputs": list(system.inputs),
@@ -190,6 +228,22 @@ def build_report(system: SwitchedLCS, keys: list[tuple[bool, ...]],
         "passive": None if any(f is None for f in flags) else all(flags),
         "modes": modes,
     }
+
+
+def _progress_bar(show: bool, total: int):
+    """A tqdm bar on stderr, shown after a second, on a terminal; else None."""
+    import sys
+
+    if not show or not sys.stderr.isatty():
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc="pelcs lcs", unit="check", delay=1.0, leave=False)
+
+
+def _tick(bar) -> None:
+    if bar is not None:
+        bar.update(1)
 
 
 def _fmt(value: float) -> str:
@@ -254,6 +308,9 @@ def format_report(report: dict) -> str:
                        f"{cond['relative_degree']}, "
                        f"{'unique' if cond['unique'] else 'non-unique'} continuation): "
                        + "; ".join(cond["region"] + cond["gamma_text"] + cond["others"]))
+    if report.get("gdcm_skipped"):
+        out.append("")
+        out.append(f"note: {report['gdcm_skipped']}")
     if report["modes"]:
         verdict = {True: "every mode passive", False: "not every mode passive",
                    None: "passivity unknown"}[report["passive"]]

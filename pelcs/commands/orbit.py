@@ -79,34 +79,6 @@ def usage_error(command: str, message: str, hint: str = "") -> NetlistError:
     return NetlistError(Diagnostic(message=message, hint=hint), file=f"pelcs {command}")
 
 
-def write_outputs(command: str, targets) -> list[str]:
-    """Write each ``(path, writer)`` whose path is given; an OSError is an input error.
-
-    Parameters
-    ----------
-    command : str
-        Subcommand name for the error message.
-    targets : iterable of (Path or None, callable)
-        ``writer(path)`` writes one file.
-
-    Returns
-    -------
-    list of str
-        The paths written.
-    """
-    written = []
-    for path, write in targets:
-        if path is None:
-            continue
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            write(path)
-        except OSError as exc:
-            raise usage_error(command, f"cannot write {path}: {exc.strerror or exc}") from exc
-        written.append(str(path))
-    return written
-
-
 def make_factory(args: argparse.Namespace, command: str, *, swept: str | None = None,
                  fixed: dict[str, float] | None = None):
     """The :class:`~netlist.sweep.CircuitMapFactory` of the parsed options."""

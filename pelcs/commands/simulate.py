@@ -20,9 +20,12 @@ spacing, ``--all-steps`` every step). The CSV has the header ``time,<probe>,...`
 units. A short summary goes to stdout.
 
 Exit status: 0 success; 2 input errors (bad netlist, option or probe; printed gcc-style by
-:mod:`pelcs.cli`); 3 the run failed (an LCP without solution, a non-finite state): the
-results up to the failure are written first, then the error (time, switch mode, diodes) is
-printed on stderr.
+:mod:`pelcs.cli`) and output files that could not be written (after the summary; an earlier
+file of the name is left as it was); 3 the run failed (an LCP without solution, a non-finite
+state): the results up to the failure are written first, then the error (time, switch mode,
+diodes) is printed on stderr; 130 the run was interrupted (SIGINT, i.e. Ctrl-C, or SIGTERM):
+it stops after its current piece of steps (a fraction of a second) and writes the results up
+to there, with a note; a second Ctrl-C aborts at once and writes nothing.
 """
 
 from __future__ import annotations
@@ -33,11 +36,16 @@ import sys
 import time
 from pathlib import Path
 
+from lcs import interrupt
+from lcs.interrupt import deferred_interrupts
 from lcs.results import resample
 from netlist.errors import Diagnostic, NetlistError
+from pelcs.outputs import Written, write_outputs
 from pelcs.writers import FORMATS
 
 EXIT_FAILED = 3
+#: Exit status of an interrupted run (128 + SIGINT, as a shell reports it).
+EXIT_INTERRUPTED = 130
 
 
 def register(subparsers) -> None:
@@ -182,7 +190,7 @@ def _check_path(option: str, path: str, suffixes: tuple[str, ...]) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     from netlist.parser import parse_file, parse_overrides
-    from netlist.transient import check_probes, run_setup, transient_setup, warm_up
+    from netlist.transient import check_probes, check_run_size, transient_setup, warm_up
 
     tstop = _number("--tstop", args.tstop, ("", "s"))
     step = _number("--step", args.step, ("", "s"))
@@ -210,8 +218,31 @@ def run(args: argparse.Namespace) -> int:
     probes = check_probes(circuit, split_probes(args.probe)) if args.probe else None
     setup = transient_setup(circuit, tstop=tstop, step=step, given=params)
 
+    # (before loading anything: a run too large for the machine is refused at once)
+    check_run_size(setup, len(probes) if probes is not None else len(setup.system.states),
+                   every)
     # Load the compiled kernels first, so that the summary's time per step is the run's.
     load = warm_up()
+    if args.method != "moreau":
+        # (the exact method follows a window in one Python call: Ctrl-C aborts it)
+        return _run(args, circuit, setup, probes, tstop, step, theta, every, output_step,
+                    out, plot, load)
+    with deferred_interrupts(_INTERRUPT_MESSAGE):
+        return _run(args, circuit, setup, probes, tstop, step, theta, every, output_step,
+                    out, plot, load)
+
+
+#: What the first Ctrl-C (or SIGTERM) of a run prints.
+_INTERRUPT_MESSAGE = ("pelcs simulate: interrupted: the run stops after its current piece "
+                      "of steps and the results so far are written (Ctrl-C again aborts at "
+                      "once, writing nothing)")
+
+
+def _run(args, circuit, setup, probes, tstop, step, theta, every, output_step, out, plot,
+         load) -> int:
+    """The run, its files and its summary; the exit status."""
+    from netlist.transient import run_setup
+
     t0 = time.perf_counter()
     try:
         if args.devices == "pwl" or args.losses:
@@ -251,6 +282,10 @@ def run(args: argparse.Namespace) -> int:
     spacing = _output_spacing(output_step, args.all_steps or bool(args.every), circuit, setup)
     if spacing is not None:
         result = resample(result, spacing[0])
+    err = result.error
+    if err is not None and err.kind == "interrupted":
+        result.notes.append(f"the run was interrupted at t = {_eng(err.time, 's')} "
+                            f"({_eng(setup.t_stop, 's')} asked): the results end there")
     written = _write(result, out, plot, circuit.title or Path(args.file).name, args.file,
                      setup.t_stop)
     switches = [s.name for s in setup.system.switches]
@@ -271,14 +306,22 @@ def run(args: argparse.Namespace) -> int:
             held = ", ".join(ev.mode.get("held", ())) or "none"
             print(f"event {_eng(ev.t, 's'):>12}  {ev.kind:<10} {ev.element or '-':<8} "
                   f"-> {mode or 'no switches'}; w = 0 held: {held}")
-    if result.error is not None:
-        err = result.error
-        where = (f"results up to t = {_eng(err.t_prev, 's')} written to {', '.join(written)}"
-                 if written else "no output file was requested (-o, --plot)")
+    not_written = written.exit_status()
+    where = (f"results up to t = {_eng(err.t_prev, 's')} written to {', '.join(written)}"
+             if written else "no output file written" if not_written
+             else "no output file was requested (-o, --plot)") if err is not None else ""
+    if err is not None and err.kind == "interrupted":
+        print(f"{args.file}: {err.message}\n  {where}", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    if interrupt.requested() is not None:
+        # (a signal while the files were written: they were completed first)
+        print(f"{args.file}: interrupted after the run; the files were completed",
+              file=sys.stderr)
+        return EXIT_INTERRUPTED
+    if err is not None:
         print(f"{args.file}: error: simulation failed ({err.kind}): {err.message}\n"
               f"  {where}", file=sys.stderr)
-        return EXIT_FAILED
-    return 0
+    return not_written or (EXIT_FAILED if err is not None else 0)
 
 
 def _output_spacing(output_step: float | None, all_steps: bool, circuit, setup
@@ -300,27 +343,17 @@ def _output_spacing(output_step: float | None, all_steps: bool, circuit, setup
 
 
 def _write(result, out: Path | None, plot: Path | None, title: str, file: str,
-           t_stop: float) -> list[str]:
-    """Write the requested files (also for a failed run); returns their names."""
+           t_stop: float) -> Written:
+    """Write the requested files (also for a failed or interrupted run); the names written
+    and the errors of those that could not be."""
     from pelcs.plotting import plot_result
     from pelcs.writers import write_result
 
-    written = []
-    for path, writer in ((out, write_result), (plot, None)):
-        if path is None:
-            continue
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            if writer is not None:
-                writer(result, path)
-            else:
-                plot_result(result, path, title=f"{title}  ({Path(file).name})",
-                            t_stop=t_stop)
-        except OSError as exc:
-            raise _usage_error(f"cannot write {path}: {exc.strerror or exc}",
-                               "check the directory and its permissions") from exc
-        written.append(str(path))
-    return written
+    return write_outputs("simulate", (
+        (out, lambda path: write_result(result, path)),
+        (plot, lambda path: plot_result(result, path, title=f"{title}  ({Path(file).name})",
+                                        t_stop=t_stop)),
+    ))
 
 
 def _eng(value: float, unit: str) -> str:
@@ -378,13 +411,19 @@ def summary(result, file: str, title: str, *, tstop: float, step: float, theta: 
     lines = [f"{file}: {title}".rstrip(": ")]
     shortened = (f" ({st.odd_steps} shortened to land on source edges and switching "
                  "instants)") if st.odd_steps else ""
+    if result.error is not None:
+        # (a run that stopped early: how far it went, and how far it was asked to)
+        tstop_text = (f"{_eng(result.error.t_prev, 's')} (of {_eng(tstop, 's')}: "
+                      f"{result.error.kind.replace('_', ' ')})")
+    else:
+        tstop_text = _eng(tstop, 's')
     if method == "exact":
         lines.append(
-            f"simulated 0 to {_eng(tstop, 's')} exactly (event-driven): {st.steps} stretches "
+            f"simulated 0 to {tstop_text} exactly (event-driven): {st.steps} stretches "
             f"between {st.located} events in {wall:.3g} s; output every {_eng(step, 's')}")
     else:
         lines.append(
-            f"simulated 0 to {_eng(tstop, 's')}, h = {_eng(step, 's')}, θ = {theta:g}: "
+            f"simulated 0 to {tstop_text}, h = {_eng(step, 's')}, θ = {theta:g}: "
             f"{st.steps} steps{shortened} in {wall:.3g} s "
             f"({1e6 * wall / max(st.steps, 1):.3g} µs/step)"
             + (f", after {load:.2g} s loading the compiled kernels" if load else ""))

@@ -58,9 +58,10 @@ import numpy as np
 
 from netlist.errors import NetlistError
 from pelcs.jsonout import dumps, json_ready
+from pelcs.outputs import write_outputs
 
 from .bifurcation import add_scheduler_option, check_output, scheduler_errors
-from .orbit import EXIT_FAILED, positive_int, usage_error, write_outputs
+from .orbit import EXIT_FAILED, positive_int, usage_error
 
 # Rows of a sweep printed on the terminal (the CSV has them all).
 MAX_ROWS = 60
@@ -198,7 +199,7 @@ def _run(args: argparse.Namespace) -> int:
         print(dumps(_results(table, args.file, title, written), indent=1))
     else:
         print(summary(table, args.file, title, written))
-    return 0 if table.ok.any() else EXIT_FAILED
+    return written.exit_status() or (0 if table.ok.any() else EXIT_FAILED)
 
 
 def _check_writable(option: str, path: Path) -> None:

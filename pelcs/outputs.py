@@ -1,0 +1,81 @@
+"""The files a command writes, each whole or not at all, and what it says when one fails.
+
+Every writer goes through :func:`lcs.atomic.atomic_path`, so a write that fails (a full
+disk, a folder that is not writable) or is interrupted leaves no partial file and an earlier
+file of the same name as it was. A command writes its files, prints its summary, then reports
+the files that could not be written (exit status 2) with :meth:`Written.exit_status`: the
+results of a long run are not hidden behind a full disk.
+"""
+
+from __future__ import annotations
+
+import errno
+import sys
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+from netlist.errors import Diagnostic, NetlistError
+
+__all__ = ["EXIT_NOT_WRITTEN", "Written", "write_outputs"]
+
+#: Exit status of a command whose output files could not all be written (the CLI's status of
+#: errors the user fixes: a path, a permission, disk space).
+EXIT_NOT_WRITTEN = 2
+
+
+class Written(list):
+    """The paths written (a list of str), and in :attr:`failed` the errors of those that
+    could not be."""
+
+    def __init__(self, command: str):
+        super().__init__()
+        self.command = command
+        self.failed: list[NetlistError] = []
+
+    def exit_status(self) -> int:
+        """Print the write errors on stderr; :data:`EXIT_NOT_WRITTEN` if there were any,
+        else 0."""
+        for exc in self.failed:
+            print(exc.format(), file=sys.stderr)
+        return EXIT_NOT_WRITTEN if self.failed else 0
+
+
+def write_outputs(command: str, targets: Iterable[tuple[Path | None, Callable[[Path], object]]]
+                  ) -> Written:
+    """Write each ``(path, writer)`` whose path is given (``writer(path)`` writes one file,
+    through :func:`~lcs.atomic.atomic_path`), making its folder; an OSError is kept in
+    ``failed`` and the next file is written.
+
+    Parameters
+    ----------
+    command : str
+        Subcommand name for the error messages.
+    targets : iterable of (Path or None, callable)
+
+    Returns
+    -------
+    Written
+        The paths written, and the errors.
+    """
+    written = Written(command)
+    for path, write in targets:
+        if path is None:
+            continue
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            write(path)
+        except OSError as exc:
+            written.failed.append(_write_error(command, path, exc))
+            continue
+        written.append(str(path))
+    return written
+
+
+def _write_error(command: str, path: Path, exc: OSError) -> NetlistError:
+    if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+        hint = "the disk is full (or over quota): free some space or write elsewhere"
+    else:
+        hint = "check the folder and its permissions"
+    hint += "; an earlier file of that name is left as it was"
+    return NetlistError(Diagnostic(message=f"cannot write {path}: {exc.strerror or exc}",
+                                   hint=hint), file=f"pelcs {command}")
