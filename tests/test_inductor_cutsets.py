@@ -101,6 +101,19 @@ def test_an_inductor_opened_by_a_switch_loses_its_current():
         "77.41 µJ (½ L i²) in all" in note
 
 
+def test_the_exact_method_applies_the_same_jump():
+    res = simulate_circuit(parse_string(RL_SWITCH), probes=["i(L1)"], step=1e-7,
+                           method="exact")
+    assert res.error is None
+    t, i = res.t, res["i(L1)"]
+    t_off, t_on, tau = 50.0005e-6, 80.0015e-6, 1e-4
+    before, after = t <= t_off + 1e-12, t > t_on + 1e-12
+    assert np.max(np.abs(i[before] - (1 - np.exp(-t[before] / tau)))) < 1e-12
+    assert np.all(i[~before & ~after] == 0.0)
+    assert np.max(np.abs(i[after] - (1 - np.exp(-(t[after] - t_on) / tau)))) < 1e-12
+    assert any("77.41 µJ (½ L i²) in all" in n for n in res.notes)
+
+
 def test_switch_opened_inductor_against_ngspice(ngspice):
     """ngspice's SW is open with ROFF = 1/GMIN = 1e12 Ω: the current decays in L/ROFF = 1 fs
     through a spike of megavolts across the switch, so it too loses the flux at the

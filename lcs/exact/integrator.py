@@ -138,6 +138,11 @@ class ExactIntegrator(Integrator):
         self.t = float(window.t1)
         return None
 
+    can_set_state = True
+
+    def set_state(self, x: np.ndarray) -> None:
+        self.x = np.array(x, dtype=float)
+
     def snapshot(self) -> Snapshot:
         return Snapshot(self.t, key_of(self.mode), self.x.copy(), self.lam.copy(), self.slide,
                         self.duty)

@@ -117,9 +117,9 @@ class PinnedJumps:
             msg = (f"t = {t:.9g} s, mode: {fmt_mode(desc)}: a comparator's switching leaves "
                    f"{names} no path: an ideal switch cuts it to 0 there (its flux lost), a "
                    "jump that pelcs applies only at known switching instants (switches "
-                   "driven by sources or Python controllers); the run after it may keep "
-                   "the old current. Give the current a path that stays (a freewheeling "
-                   "diode, an RC snubber), or drive the switch from a source")
+                   "driven by sources or Python controllers), so the results stop there. "
+                   "Give the current a path that stays (a freewheeling diode, an RC "
+                   "snubber), or drive the switch from a source")
             return SimulationError(msg, kind="pinned_jump", time=t, t_prev=t, mode=desc)
         return None
 
