@@ -465,6 +465,7 @@ def compare(
     switch_cmp: list[SwitchingComparison] = []
     all_instants: list[np.ndarray] = []
     for sw, ctrl in zip(switch_els, controls, strict=True):
+        at_terminal = False
         mp = _model_params(circuit, sw.model, _SWITCH_DEFAULTS)
         vh = mp["vh"]
         sm = ng.settings_used.switch_model
@@ -480,14 +481,17 @@ def compare(
         else:
             ni = _ngspice_instants(t_n, ng.signals[ctrl], mp["vt"], 0.0, sw.initial)
             pi = p_inst[sw.name]
-            if use_pwl and getattr(sw, "gate_rc", None) is not None:
-                # the pwl switch turns on its internal gate capacitor, ngspice's instants
-                # are read at the gate terminal: both sides at the terminal
+            at_terminal = use_pwl and getattr(sw, "gate_rc", None) is not None
+            if at_terminal:
+                # the pwl switch turns on its internal gate capacitor (and may slide there
+                # while the MOSFET follows its gate, as ngspice's does in its linear region);
+                # ngspice's instants are read at the gate terminal: both sides there
                 pi = _ngspice_instants(t_p, result[ctrl], mp["vt"], 0.0, sw.initial)
         all_instants += [pi.on, pi.off, ni.on, ni.off]
         driven = result.switching.get(sw.name, "?")
         switch_cmp.append(_compare_switch(sw.name, driven, ctrl, pi, ni, result, span, window,
-                                          per, per_source, tmax_ng, h, tol, kd))
+                                          per, per_source, tmax_ng, h, tol, kd,
+                                          at_terminal=vh <= 0 and at_terminal))
     instants = np.sort(np.concatenate(all_instants)) if all_instants else np.empty(0)
     offsets = [s.max_offset for s in switch_cmp if s.method == "instants"]
     guard = step + (max(offsets) if offsets else 0.0)
@@ -562,9 +566,11 @@ def _compare_switch(
     name: str, driven: str, control: str, pi: _Instants, ni: _Instants,
     result: SimulationResult, span: tuple[float, float], window: tuple[float, float],
     period: float | None, period_source: str, tmax_ng: float, h: float, tol: Tolerances,
-    kd: float,
+    kd: float, at_terminal: bool = False,
 ) -> SwitchingComparison:
-    """Instants (or, free-running, the frequency) of one switch; see the module docstring."""
+    """Instants (or, free-running, the frequency) of one switch; see the module docstring.
+    ``at_terminal``: both sides' instants are crossings of the control at the device's
+    terminals (a pwl MOSFET with its gate RC), which pelcs' sliding does not remove."""
     fp = _frequency(pi.on, *window)
     fn = _frequency(ni.on, *window)
 
@@ -574,7 +580,7 @@ def _compare_switch(
 
     n_p, n_n = count(pi, *span), count(ni, *span)
     sliding = [s for s in result.sliding if s[0] == name]
-    if sliding:
+    if sliding and not at_terminal:
         start = min(s[1] for s in sliding)
         return SwitchingComparison(
             name, driven, control, "none", n_p, n_n, math.nan, math.nan, fp, fn, span,
