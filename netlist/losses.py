@@ -15,6 +15,12 @@ Over the window ``pelcs check`` uses (the last whole periods of the switching so
 
 What is neither loss nor output (the change of the stored energy over the window, other
 resistors) is reported as the balance.
+
+A switch that slides (Filippov relay: a MOSFET with its gate RC following its gate through
+its linear region, ``--devices pwl``) inside the window has no recorded current of its own
+there: a sliding step combines the end states of both of its modes, and the currents
+recorded are that combination, not the device's. The input power and the device losses are
+then not computed (NaN), and ``caveat`` says why.
 """
 
 from __future__ import annotations
@@ -50,6 +56,8 @@ class LossReport:
     load : str
     efficiency : float
         ``p_out / p_in`` (nan without input power).
+    caveat : str
+        Why some powers are not computed (NaN), or "".
     """
 
     window: tuple
@@ -60,6 +68,7 @@ class LossReport:
     p_out: float = float("nan")
     load: str = ""
     efficiency: float = float("nan")
+    caveat: str = ""
 
     @property
     def balance(self) -> float:
@@ -71,16 +80,23 @@ class LossReport:
         return {"window": list(self.window), "periods": self.periods,
                 "devices_W": dict(self.devices), "resistors_W": dict(self.resistors),
                 "input_W": self.p_in, "output_W": self.p_out, "load": self.load,
-                "efficiency": self.efficiency, "balance_W": self.balance}
+                "efficiency": self.efficiency, "balance_W": self.balance,
+                "caveat": self.caveat}
 
     def lines(self) -> list[str]:
+        def w(v: float) -> str:
+            return f"{v:.4g} W" if v == v else "n/a"
+
         out = [f"losses over {self.window[0]:.6g}..{self.window[1]:.6g} s "
-               f"({self.periods} periods): input {self.p_in:.4g} W, output {self.p_out:.4g} W "
+               f"({self.periods} periods): input {w(self.p_in)}, output {w(self.p_out)} "
                f"({self.load})"]
-        parts = [f"{k} {v:.4g} W" for k, v in {**self.devices, **self.resistors}.items()]
+        parts = [f"{k} {w(v)}" for k, v in {**self.devices, **self.resistors}.items()]
         if parts:
             out.append("  conduction: " + ", ".join(parts))
-        out.append(f"efficiency: {100 * self.efficiency:.2f} %")
+        out.append(f"efficiency: {100 * self.efficiency:.2f} %" if self.efficiency
+                   == self.efficiency else "efficiency: n/a")
+        if self.caveat:
+            out.append(f"  ({self.caveat})")
         return out
 
 
@@ -151,4 +167,17 @@ def losses(result, circuit: Circuit, fits: Sequence = (), load: str | None = Non
                      * np.asarray(result[f"i({v.name})"], dtype=float))
     rep.p_in = p_in
     rep.efficiency = rep.p_out / p_in if p_in > 0 else float("nan")
+    slid: dict[str, float] = {}
+    for name, t0, t1 in getattr(result, "sliding", ()):
+        overlap = min(t1, b) - max(t0, a)
+        if overlap > 0:
+            slid[name] = slid.get(name, 0.0) + overlap
+    if slid:
+        nan = float("nan")
+        rep.devices = {k: nan for k in rep.devices}
+        rep.p_in, rep.efficiency = nan, nan
+        rep.caveat = ("input power and device losses not computed: " + ", ".join(
+            f"{k} slides over {100 * v / (b - a):.2g} % of the window" for k, v in slid.items())
+            + " (a MOSFET following its gate through its linear region), where the recorded "
+            "currents combine its two modes' steps")
     return rep
