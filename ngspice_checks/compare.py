@@ -34,17 +34,31 @@ switch a few nanoseconds apart disagree there by the whole jump: grid points wit
 ``guard`` = one grid step + the largest switching offset measured (the excluded fraction is
 reported; about 4 % for 100 steps per period).
 
+Devices: like with like
+-----------------------
+ngspice runs the netlist's device models. pelcs runs ideal devices, or (``devices="pwl"``,
+and by default when the netlist has idealised transistors or macro-models, or diode and
+switch models whose drops would widen the tolerances past their floors, k·δ > 1 %)
+piecewise-linear fits of those models (:mod:`netlist.pwl`: diodes fitted over the current
+they carry in an ideal run, switches with their on-resistance, MOSFETs with their gate RC).
+docs/check.md says how the choice is made.
+
 Metrics and their tolerances
 ----------------------------
 ngspice's diodes and switches are not ideal: a diode with ``N = 0.05`` drops about 36 mV at
-1 A, a switch drops RON·I, and these drops are what separates a correct pelcs run from
-ngspice's. The tolerances scale with them through the *relative non-ideal drop*
+1 A, a switch drops RON·I, and what of these drops pelcs does not represent is what separates
+a correct pelcs run from ngspice's. The tolerances scale with it through the *relative
+non-ideal drop*
 
-    δ = (Σ_diodes V_D(I_D,max) + Σ_switches RON·I_S,max) / V_ref,
+    δ = (Σ_diodes V_D(I_D) + Σ_switches RON·I_S) / V_ref,
 
 with V_D(I) = N·Vt·ln(1 + I/IS) + RS·I (Vt = 25.85 mV, ngspice's defaults IS = 1e-14,
-N = 1, RS = 0, RON = 1 ohm when the model omits them), I_max the largest current of each
-element in the pelcs run, V_ref the largest source voltage. The sum over every diode and
+N = 1, RS = 0, RON = 1 ohm when the model omits them), I the current each element carries
+in the pelcs run (:func:`netlist.pwl.carried_current`: the level it stays below for 99 % of
+its conduction time, so that an inrush only the time step limits does not count), V_ref the
+largest source voltage. With piecewise-linear devices the drops are replaced by what the fits
+leave: per diode the largest distance between its line and its model over the currents it
+carries, per MOSFET the triode curvature, per SW switch nothing. The sum over every diode and
 switch bounds the drop along any one current path. Each probe gets a *scale*
 s = max(RMS, ½·peak-to-peak) of its pelcs waveform over the run (its RMS for a signal with a
 DC level, its amplitude for an AC one). With k = :attr:`Tolerances.k_nonideal` (2):
@@ -76,6 +90,11 @@ model, interpolated between its time points. For a switch with hysteresis (VH > 
 sides are measured alike at the crossings of the *half* band VT ± VH/2: ngspice stores the
 control after its switch has acted, up to one step's change short of the band edge, so the
 edges themselves are not reliably crossed in its output.
+
+A comparison whose NRMS or mean tolerance exceeds :attr:`Tolerances.conclusive` (10 %) is
+*inconclusive* (``Comparison.verdict``; ``pelcs check`` exits 4), never agreement: such a
+tolerance lets a tenfold load error through. A switch that switches in one simulator and
+never in the other fails.
 
 Why these numbers: the 1 % / 3 % floors are ngspice's own accuracy on these circuits
 (``reltol`` 1e-3 locally, ``relaxed`` rung 1e-2, errors that accumulate over thousands of
