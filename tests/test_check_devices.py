@@ -5,6 +5,7 @@ never "within tolerance"; tolerances over 10 % are inconclusive)."""
 
 from __future__ import annotations
 
+import json
 import math
 import warnings
 from pathlib import Path
@@ -262,6 +263,13 @@ def test_check_with_ideal_devices_on_real_models_is_inconclusive(ngspice, capsys
                      capsys)
     assert rc == 4, out
     assert out.splitlines()[-1].startswith("INCONCLUSIVE: tolerances of up to")
+    row = next(ln for ln in out.splitlines() if ln.startswith("v(output_plus"))
+    assert row.endswith("inconclusive")  # the probe's own verdict
+    rc, out = _check([deck, "--devices", "ideal", "--probe", "v(output_plus,output_minus)",
+                      "--json"], capsys)
+    data = json.loads(out)
+    assert rc == 4 and data["verdict"] == "inconclusive" and data["ok"] is False
+    assert data["devices"] == "ideal" and data["probes"][0]["conclusive"] is False
 
 
 def test_check_does_not_agree_where_charge_storage_matters(ngspice, capsys):
