@@ -309,3 +309,24 @@ def test_vendor_buck_with_a_floating_gate_drive_pwl_is_closer_to_ngspice(ngspice
     means = {k: _mean_last(*runs[k][:2], 175e-6, 200e-6) for k in runs}
     err = {k: abs(means[k] - means["ngspice"]) for k in ("ideal", "pwl")}
     assert err["pwl"] < 0.4 * err["ideal"] and err["pwl"] < 0.03 * means["ngspice"], means
+
+
+def test_the_fit_range_is_not_an_inrush_only_the_step_limits():
+    """A square wave into a capacitor through an ideal diode: each rising edge charges the
+    capacitor in one step (C dV / h, 1000 A at h = 1 µs); the diode carries about
+    10 V / 100 Ω = 0.1 A otherwise. The fit is over what it carries."""
+    from netlist.parser import parse_string
+    from netlist.realistic import simulate_devices
+
+    c = parse_string("inrush\nVs a 0 PULSE(0 10 0 0 0 0.5m 1m)\nD1 a k D4148\n"
+                     "C1 k 0 100u\nR1 k 0 100\n.model D4148 D(IS=4.352n N=1.906 RS=0.6458)\n"
+                     ".tran 1u 5m\n.end\n")
+    ideal = simulate_devices(c, probes=["i(D1)"])
+    assert np.max(np.abs(ideal["i(D1)"])) > 100.0
+    res = simulate_devices(c, devices="pwl", probes=["v(k)"])
+    fit = res.device_fits[0]
+    top = float(fit.how.split("..")[1].split()[0])
+    assert 0.05 < top < 1.0, fit.how
+    # the line at the current it carries: within 0.65 N Vt of the model
+    v = 1.906 * VT_THERMAL * np.log1p(0.1 / 4.352e-9) + 0.6458 * 0.1
+    assert abs(fit.vf + fit.ron * 0.1 - v) < 0.65 * 1.906 * VT_THERMAL
