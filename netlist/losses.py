@@ -23,6 +23,12 @@ net inductor voltage, no net capacitor charge over a period). A window that has 
 is reported as such (:attr:`LossReport.settled`, the efficiency line says "not settled"):
 while an output capacitor still charges, part of the input goes into storage and the
 efficiency reads low.
+
+A switch that slides (Filippov relay: a MOSFET with its gate RC following its gate through
+its linear region, ``--devices pwl``) inside the window has no recorded current of its own
+there: a sliding step combines the end states of both of its modes, and the currents
+recorded are that combination, not the device's. The input power and the device losses are
+then not computed (NaN), and ``caveat`` says why.
 """
 
 from __future__ import annotations
@@ -70,6 +76,8 @@ class LossReport:
         over the window's periods (:func:`netlist.measure.settling`); empty when settled.
     checked : bool
         Whether the check could be made (False: less than two periods in the run).
+    caveat : str
+        Why some powers are not computed (NaN), or "".
     """
 
     window: tuple
@@ -82,6 +90,7 @@ class LossReport:
     efficiency: float = float("nan")
     unsettled: tuple = ()
     checked: bool = True
+    caveat: str = ""
 
     @property
     def settled(self) -> bool:
@@ -114,22 +123,30 @@ class LossReport:
                 "devices_W": dict(self.devices), "resistors_W": dict(self.resistors),
                 "input_W": self.p_in, "output_W": self.p_out, "load": self.load,
                 "efficiency": self.efficiency, "balance_W": self.balance,
-                "settled": self.settled, "settling": self.settling_text()}
+                "settled": self.settled, "settling": self.settling_text(),
+                "caveat": self.caveat}
 
     def lines(self) -> list[str]:
+        def w(v: float) -> str:
+            return f"{v:.4g} W" if v == v else "n/a"
+
         out = [f"losses over {self.window[0]:.6g}..{self.window[1]:.6g} s "
-               f"({self.periods} periods): input {self.p_in:.4g} W, output {self.p_out:.4g} W "
+               f"({self.periods} periods): input {w(self.p_in)}, output {w(self.p_out)} "
                f"({self.load})"]
-        parts = [f"{k} {v:.4g} W" for k, v in {**self.devices, **self.resistors}.items()]
+        parts = [f"{k} {w(v)}" for k, v in {**self.devices, **self.resistors}.items()]
         if parts:
             out.append("  conduction: " + ", ".join(parts))
+        efficiency = (f"{100 * self.efficiency:.2f} %" if self.efficiency == self.efficiency
+                      else "n/a")
         why = self.settling_text()
         if why:
             # (not a bare figure: the window is not a steady state, or was not checked)
-            out.append(f"efficiency: {100 * self.efficiency:.2f} % "
+            out.append(f"efficiency: {efficiency} "
                        f"({'not settled: ' if self.checked else ''}{why})")
         else:
-            out.append(f"efficiency: {100 * self.efficiency:.2f} %")
+            out.append(f"efficiency: {efficiency}")
+        if self.caveat:
+            out.append(f"  ({self.caveat})")
         return out
 
 
@@ -218,4 +235,17 @@ def losses(result, circuit: Circuit, fits: Sequence = (), load: str | None = Non
                                for p in storage_probes(circuit)], (a, b), per)
     rep.checked = bool(checks) or not storage_probes(circuit)
     rep.unsettled = tuple(c for c in checks if not c.settled)
+    slid: dict[str, float] = {}
+    for name, t0, t1 in getattr(result, "sliding", ()):
+        overlap = min(t1, b) - max(t0, a)
+        if overlap > 0:
+            slid[name] = slid.get(name, 0.0) + overlap
+    if slid:
+        nan = float("nan")
+        rep.devices = {k: nan for k in rep.devices}
+        rep.p_in, rep.efficiency = nan, nan
+        rep.caveat = ("input power and device losses not computed: " + ", ".join(
+            f"{k} slides over {100 * v / (b - a):.2g} % of the window" for k, v in slid.items())
+            + " (a MOSFET following its gate through its linear region), where the recorded "
+            "currents combine its two modes' steps")
     return rep

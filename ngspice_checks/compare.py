@@ -34,17 +34,31 @@ switch a few nanoseconds apart disagree there by the whole jump: grid points wit
 ``guard`` = one grid step + the largest switching offset measured (the excluded fraction is
 reported; about 4 % for 100 steps per period).
 
+Devices: like with like
+-----------------------
+ngspice runs the netlist's device models. pelcs runs ideal devices, or (``devices="pwl"``,
+and by default when the netlist has idealised transistors or macro-models, or diode and
+switch models whose drops would widen the tolerances past their floors, k·δ > 1 %)
+piecewise-linear fits of those models (:mod:`netlist.pwl`: diodes fitted over the current
+they carry in an ideal run, switches with their on-resistance, MOSFETs with their gate RC).
+docs/check.md says how the choice is made.
+
 Metrics and their tolerances
 ----------------------------
 ngspice's diodes and switches are not ideal: a diode with ``N = 0.05`` drops about 36 mV at
-1 A, a switch drops RON·I, and these drops are what separates a correct pelcs run from
-ngspice's. The tolerances scale with them through the *relative non-ideal drop*
+1 A, a switch drops RON·I, and what of these drops pelcs does not represent is what separates
+a correct pelcs run from ngspice's. The tolerances scale with it through the *relative
+non-ideal drop*
 
-    δ = (Σ_diodes V_D(I_D,max) + Σ_switches RON·I_S,max) / V_ref,
+    δ = (Σ_diodes V_D(I_D) + Σ_switches RON·I_S) / V_ref,
 
 with V_D(I) = N·Vt·ln(1 + I/IS) + RS·I (Vt = 25.85 mV, ngspice's defaults IS = 1e-14,
-N = 1, RS = 0, RON = 1 ohm when the model omits them), I_max the largest current of each
-element in the pelcs run, V_ref the largest source voltage. The sum over every diode and
+N = 1, RS = 0, RON = 1 ohm when the model omits them), I the current each element carries
+in the pelcs run (:func:`netlist.pwl.carried_current`: the level it stays below for 99 % of
+its conduction time, so that an inrush only the time step limits does not count), V_ref the
+largest source voltage. With piecewise-linear devices the drops are replaced by what the fits
+leave: per diode the largest distance between its line and its model over the currents it
+carries, per MOSFET the triode curvature, per SW switch nothing. The sum over every diode and
 switch bounds the drop along any one current path. Each probe gets a *scale*
 s = max(RMS, ½·peak-to-peak) of its pelcs waveform over the run (its RMS for a signal with a
 DC level, its amplitude for an AC one). With k = :attr:`Tolerances.k_nonideal` (2):
@@ -76,6 +90,11 @@ model, interpolated between its time points. For a switch with hysteresis (VH > 
 sides are measured alike at the crossings of the *half* band VT ± VH/2: ngspice stores the
 control after its switch has acted, up to one step's change short of the band edge, so the
 edges themselves are not reliably crossed in its output.
+
+A comparison whose NRMS or mean tolerance exceeds :attr:`Tolerances.conclusive` (10 %) is
+*inconclusive* (``Comparison.verdict``; ``pelcs check`` exits 4), never agreement: such a
+tolerance lets a tenfold load error through. A switch that switches in one simulator and
+never in the other fails.
 
 Why these numbers: the 1 % / 3 % floors are ngspice's own accuracy on these circuits
 (``reltol`` 1e-3 locally, ``relaxed`` rung 1e-2, errors that accumulate over thousands of
@@ -402,13 +421,19 @@ def compare(
     if use_pwl:
         pwl_c, fits = pwl_circuit(pel, carried, drives)
         t0 = time.perf_counter()
-        result = simulate_circuit(pwl_c, theta=theta, probes=pel_probes)
-        pelcs_wall = time.perf_counter() - t0
-        if result.error is not None:
+        fitted = simulate_circuit(pwl_c, theta=theta, probes=pel_probes)
+        if fitted.error is None:
+            result, pelcs_wall = fitted, time.perf_counter() - t0
+            notes.append(f"pelcs ran with --devices pwl ({why}): "
+                         + "; ".join(f.line() for f in fits))
+        elif devices == "pwl":
             raise CheckError(f"pelcs (--devices pwl) failed at t = "
-                             f"{result.error.time:.6g} s: {result.error.message}")
-        notes.append(f"pelcs ran with --devices pwl ({why}): "
-                     + "; ".join(f.line() for f in fits))
+                             f"{fitted.error.time:.6g} s: {fitted.error.message}")
+        else:  # auto: compare the ideal run, with the tolerances of ideal devices
+            use_pwl, fits = False, []
+            notes.append(f"pelcs with --devices pwl ({why}) failed at t = "
+                         f"{fitted.error.time:.6g} s ({fitted.error.message}): ideal devices "
+                         "compared")
     elif devices == "auto" and why:
         notes.append(f"pelcs ran with ideal devices ({why})")
     notes.extend(f"pelcs: {n}" for n in result.notes)
@@ -465,6 +490,7 @@ def compare(
     switch_cmp: list[SwitchingComparison] = []
     all_instants: list[np.ndarray] = []
     for sw, ctrl in zip(switch_els, controls, strict=True):
+        at_terminal = False
         mp = _model_params(circuit, sw.model, _SWITCH_DEFAULTS)
         vh = mp["vh"]
         sm = ng.settings_used.switch_model
@@ -480,14 +506,17 @@ def compare(
         else:
             ni = _ngspice_instants(t_n, ng.signals[ctrl], mp["vt"], 0.0, sw.initial)
             pi = p_inst[sw.name]
-            if use_pwl and getattr(sw, "gate_rc", None) is not None:
-                # the pwl switch turns on its internal gate capacitor, ngspice's instants
-                # are read at the gate terminal: both sides at the terminal
+            at_terminal = use_pwl and getattr(sw, "gate_rc", None) is not None
+            if at_terminal:
+                # the pwl switch turns on its internal gate capacitor (and may slide there
+                # while the MOSFET follows its gate, as ngspice's does in its linear region);
+                # ngspice's instants are read at the gate terminal: both sides there
                 pi = _ngspice_instants(t_p, result[ctrl], mp["vt"], 0.0, sw.initial)
         all_instants += [pi.on, pi.off, ni.on, ni.off]
         driven = result.switching.get(sw.name, "?")
         switch_cmp.append(_compare_switch(sw.name, driven, ctrl, pi, ni, result, span, window,
-                                          per, per_source, tmax_ng, h, tol, kd))
+                                          per, per_source, tmax_ng, h, tol, kd,
+                                          at_terminal=vh <= 0 and at_terminal))
     instants = np.sort(np.concatenate(all_instants)) if all_instants else np.empty(0)
     offsets = [s.max_offset for s in switch_cmp if s.method == "instants"]
     guard = step + (max(offsets) if offsets else 0.0)
@@ -562,9 +591,11 @@ def _compare_switch(
     name: str, driven: str, control: str, pi: _Instants, ni: _Instants,
     result: SimulationResult, span: tuple[float, float], window: tuple[float, float],
     period: float | None, period_source: str, tmax_ng: float, h: float, tol: Tolerances,
-    kd: float,
+    kd: float, at_terminal: bool = False,
 ) -> SwitchingComparison:
-    """Instants (or, free-running, the frequency) of one switch; see the module docstring."""
+    """Instants (or, free-running, the frequency) of one switch; see the module docstring.
+    ``at_terminal``: both sides' instants are crossings of the control at the device's
+    terminals (a pwl MOSFET with its gate RC), which pelcs' sliding does not remove."""
     fp = _frequency(pi.on, *window)
     fn = _frequency(ni.on, *window)
 
@@ -574,7 +605,7 @@ def _compare_switch(
 
     n_p, n_n = count(pi, *span), count(ni, *span)
     sliding = [s for s in result.sliding if s[0] == name]
-    if sliding:
+    if sliding and not at_terminal:
         start = min(s[1] for s in sliding)
         return SwitchingComparison(
             name, driven, control, "none", n_p, n_n, math.nan, math.nan, fp, fn, span,
