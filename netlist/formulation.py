@@ -477,6 +477,11 @@ class _Formulator:
             rows = [self.state_index[self.inductors[a].key] for a in live]
             dx[rows] = self.Linv[np.ix_(live, live)] @ v_l
         w = sol.evaluate_terms([mna.w_terms(d) for d in self.diodes])
+        if not (np.all(np.isfinite(dx)) and np.all(np.isfinite(w))):
+            raise _error(f"switch mode {desc or '(no switches)'}: the LCS matrices overflow "
+                         "(values beyond 1e308)",
+                         "an element value of extreme magnitude (e.g. L = 1e-308 H): check "
+                         "the values and their units", file=self.file)
         dx, w = clean(dx), clean(w)
         # A diode shorted by closed switches (e.g. a switch's antiparallel diode while it
         # conducts) has w = 0 identically; its row is round-off of the elimination, whose

@@ -146,3 +146,151 @@ def test_random_bytes_raise_only_netlist_error(tmp_path_factory, data):
 def test_seeds_are_valid_netlists():
     # mutations must start from netlists that parse, so that the round trip above is exercised
     assert [len(parse_string(s).elements) for s in SEEDS] == [14, 27]
+
+
+# -- the commands on mutated netlists ---------------------------------------------------------
+#
+# A seeded mutator over the bundled and test netlists (numbers, lines, nodes, unicode and
+# bytes, includes, subcircuits); ``info``, ``lcs`` and ``simulate`` run in process on each
+# mutant and must exit 0, 2 or 3 with no exception escaping, within a bounded time. The fixed
+# sample below runs in CI; a long run: PELCS_FUZZ_CASES=5000 (and PELCS_FUZZ_SEED=N for other
+# mutants) pytest tests/test_netlist_fuzz.py -k commands.
+
+import os  # noqa: E402
+import random  # noqa: E402
+import re  # noqa: E402
+import signal  # noqa: E402
+import time  # noqa: E402
+
+import pytest  # noqa: E402
+
+_ROOT = Path(__file__).resolve().parents[1]
+_CORPUS = sorted([*(_ROOT / "converters" / "netlists").glob("*.cir"),
+                  *(_ROOT / "tests" / "netlists").rglob("*.cir")])
+_CASES = int(os.environ.get("PELCS_FUZZ_CASES", "24"))
+_SEED = int(os.environ.get("PELCS_FUZZ_SEED", "0"))
+# Seconds a command may take on a mutant (runs are also bounded by PELCS_MAX_STEPS below).
+_BUDGET = float(os.environ.get("PELCS_FUZZ_BUDGET", "20"))
+
+_NUMBER = re.compile(r"(?<![A-Za-z_])[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?[a-zA-Z]*")
+_ODD_NUMBERS = ["0", "-1", "1e308", "1e-308", "nan", "inf", "-0", "1e30", "1e-30", "1meg",
+                "1e", ".", "99999999999999999999", "1e-15", "1T", "1f", "{1/0}", "{-1}"]
+_ODD_TEXT = ["µ", "\u202e", "\ufeff", "\x00", "é", "😀", "\t", "\r", "+", "*", "$", ";", "(",
+             ")", "{", "}", "=", ",", "'", '"']
+_ODD_BYTES = [b"\xff", b"\xc3", b"\x80\x80", b"\xed\xa0\x80"]
+
+
+def _includes(tmp: Path) -> list[str]:
+    return [".include /dev/zero", f".include {tmp}", f".include {tmp / 'missing.inc'}",
+            f".include {tmp / 'self.cir'}", f".include {_CORPUS[0]}", ".lib /dev/null x",
+            f".include {tmp / 'big.inc'}"]
+
+
+def _blow_up(levels: int) -> list[str]:
+    lines = [".subckt fz0 a b", "R1 a b 1", ".ends"]
+    for i in range(1, levels + 1):
+        lines += [f".subckt fz{i} a b", f"X1 a m fz{i - 1}", f"X2 m b fz{i - 1}", ".ends"]
+    return [*lines, f"Xfz in 0 fz{levels}"]
+
+
+def _mutate(text: str, rng: random.Random, tmp: Path) -> bytes:
+    """One mutant of a netlist: 1 to 4 random edits; bytes, since some edits are not text."""
+    lines = text.split("\n")
+    nodes = sorted({tok for line in lines[1:] if line[:1].isalpha()
+                    for tok in line.split()[1:3]}) or ["0"]
+    raw: list[bytes] = []
+    for _ in range(rng.randint(1, 4)):
+        i = rng.randrange(len(lines))
+        op = rng.choice(["number", "number", "del_line", "dup_line", "swap_lines", "node",
+                         "char", "bytes", "include", "subckt", "recursive", "repeat"])
+        if op == "number":
+            found = list(_NUMBER.finditer(lines[i]))
+            if found:
+                m = rng.choice(found)
+                lines[i] = lines[i][:m.start()] + rng.choice(_ODD_NUMBERS) + lines[i][m.end():]
+        elif op == "del_line" and len(lines) > 1:
+            del lines[i]
+        elif op == "dup_line":
+            lines.insert(rng.randrange(len(lines)), lines[i])
+        elif op == "swap_lines":
+            j = rng.randrange(len(lines))
+            lines[i], lines[j] = lines[j], lines[i]
+        elif op == "node":
+            toks = lines[i].split(" ")
+            if len(toks) > 2:
+                toks[rng.randint(1, 2)] = rng.choice([*nodes, "0", "gnd", "new_node", "ü"])
+                lines[i] = " ".join(toks)
+        elif op == "char":
+            pos = rng.randint(0, len(lines[i]))
+            lines[i] = lines[i][:pos] + rng.choice(_ODD_TEXT) + lines[i][pos:]
+        elif op == "bytes":
+            raw.append(rng.choice(_ODD_BYTES))
+        elif op == "include":
+            lines.insert(rng.randint(1, len(lines)), rng.choice(_includes(tmp)))
+        elif op == "subckt":
+            lines[1:1] = _blow_up(rng.choice([3, 12, 25]))
+        elif op == "recursive":
+            lines[1:1] = [".subckt rec a b", "X1 a b rec", ".ends", "Xr in 0 rec"]
+        else:  # a line repeated many times
+            lines[i + 1:i + 1] = [lines[i]] * rng.choice([10, 1000])
+    data = "\n".join(lines).encode("utf-8", errors="surrogatepass")
+    for chunk in raw:
+        pos = rng.randint(0, len(data))
+        data = data[:pos] + chunk + data[pos:]
+    return data
+
+
+class _Overtime(BaseException):
+    """A command ran past its budget (BaseException: no ``except Exception`` hides it)."""
+
+
+def _alarm(signum, frame):
+    raise _Overtime
+
+
+def _command(argv: list[str]) -> tuple[int, float]:
+    """Exit status and wall time of ``pelcs ARGV`` in process, within the budget."""
+    from pelcs.cli import main
+
+    previous = signal.signal(signal.SIGALRM, _alarm)
+    signal.setitimer(signal.ITIMER_REAL, _BUDGET)
+    t0 = time.perf_counter()
+    try:
+        code = main(argv)
+    except SystemExit as exc:  # argparse: bad options
+        code = exc.code if isinstance(exc.code, int) else 2
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+    return code, time.perf_counter() - t0
+
+
+def _mutants():
+    rng = random.Random(_SEED)
+    for k in range(_CASES):
+        seed = rng.choice(_CORPUS)
+        yield pytest.param(seed, rng.getrandbits(32), id=f"{k}-{seed.stem}")
+
+
+@pytest.mark.parametrize("seed_file, case", list(_mutants()))
+def test_commands_on_mutated_netlists(tmp_path, monkeypatch, capsys, seed_file, case):
+    monkeypatch.setenv("PELCS_MAX_STEPS", "2e5")  # every run a fraction of a second
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "big.inc").write_bytes(b"* " + b"x" * 1000 + b"\n")
+    monkeypatch.setenv("PELCS_MAX_FILE_BYTES", "100k")
+    data = _mutate(seed_file.read_text(encoding="utf-8"), random.Random(case), tmp_path)
+    path = tmp_path / "self.cir"
+    path.write_bytes(data)
+    for argv in (["info", str(path)], ["lcs", str(path)],
+                 ["simulate", str(path), "--no-progress", "-o", str(tmp_path / "out.npz")]):
+        try:
+            code, wall = _command(argv)
+        except _Overtime:
+            pytest.fail(f"pelcs {argv[0]} ran more than {_BUDGET} s on mutant {case} of "
+                        f"{seed_file.name}:\n{data.decode('utf-8', 'replace')[:3000]}")
+        except Exception as exc:  # noqa: BLE001 - the point of the test
+            pytest.fail(f"pelcs {argv[0]}: {type(exc).__name__}: {exc} on mutant {case} of "
+                        f"{seed_file.name}:\n{data.decode('utf-8', 'replace')[:3000]}")
+        err = capsys.readouterr().err
+        assert code in (0, 2, 3), (argv[0], code, err)
+        assert "Traceback" not in err

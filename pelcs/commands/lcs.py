@@ -131,7 +131,12 @@ def _passivity(lcs: LCS, energy: np.ndarray):
     """
     from lcs.passivity import check_passivity
 
-    rep = check_passivity(lcs, energy=energy)
+    try:
+        rep = check_passivity(lcs, energy=energy)
+    except (np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
+        return {"passive": None, "method": "failed", "margin": None,
+                "reason": f"the check failed numerically ({exc}; matrix entries up to "
+                          f"{_largest(lcs):.3g}: extreme element values?)"}, None
     margin = float(rep.margin)
     summary = {"passive": bool(rep.passive), "method": rep.method, "reason": rep.reason,
                "margin": margin if math.isfinite(margin) else None}
@@ -142,7 +147,12 @@ def _wellposedness(lcs: LCS, passivity_report) -> dict | None:
     """Sufficient well-posedness conditions (:mod:`lcs.wellposed`) of one mode."""
     from lcs.wellposed import check_wellposedness
 
-    rep = check_wellposedness(lcs, passivity_report)
+    try:
+        rep = check_wellposedness(lcs, passivity_report)
+    except (np.linalg.LinAlgError, FloatingPointError, ValueError) as exc:
+        return {"wellposed": False, "lambda_unique": False, "deficient_pairs": [],
+                "reason": f"the check failed numerically ({exc}; matrix entries "
+                          f"up to {_largest(lcs):.3g})"}
     return {"wellposed": bool(rep.wellposed), "lambda_unique": bool(rep.lambda_unique),
             "reason": rep.reason, "deficient_pairs": list(rep.deficient_pairs)}
 
@@ -158,6 +168,10 @@ def _gdcm(lcs: LCS) -> list[dict] | None:
     """
     from lcs.gdcm import gdcm_conditions
 
+    try:
+        conditions = gdcm_conditions(lcs)
+    except (np.linalg.LinAlgError, FloatingPointError, ValueError):
+        return None  # (numerically out of reach: the passivity line says why)
     return [{
         "diode": cond.pairs[0],
         "y": cond.y[0].as_dict(),
@@ -170,7 +184,12 @@ def _gdcm(lcs: LCS) -> list[dict] | None:
         "region": [f"{f.label} = {f} = 0" for f in cond.y],
         "gamma_text": [f"{f.label} = {f} > 0" for f in cond.gamma],
         "others": [f"{f.label} = {f} >= 0" for f in cond.others],
-    } for cond in gdcm_conditions(lcs)]
+    } for cond in conditions]
+
+
+def _largest(lcs: LCS) -> float:
+    return max((float(np.max(np.abs(M))) for M in (lcs.A, lcs.B, lcs.C, lcs.D, lcs.E, lcs.F)
+                if M.size), default=0.0)
 
 
 def build_report(system: SwitchedLCS, keys: list[tuple[bool, ...]],
