@@ -87,3 +87,38 @@ def test_exact_orbit_through_a_sliding_motion(capsys):
     mu = sorted(abs(o.multipliers))
     assert abs(mu[1] - math.exp(-2 * 100e-6 / (R_ * C_))) < 1e-6 and mu[0] < 1e-6
     assert any("sliding motion" in n for n in m.notes)
+
+
+def test_sliding_boost_crossing_at_start_up(tmp_path):
+    """The relay boost starting on its surface (i(L1) = Iref) with the switch on and the
+    output below Vin: both fields carry the state across the surface (i rises in either
+    mode), so the switch turns off at t = 0 and no sliding starts; it starts where the off
+    mode's LC ring brings i(L1) back to Iref with v(out) > Vin. The instant is computed here
+    from the off mode's matrix exponential (L i' = Vin - v, C v' = i - v/R)."""
+    from scipy.linalg import expm
+    from scipy.optimize import brentq
+
+    import pelcs
+    from netlist.transient import simulate_circuit
+
+    text = (ROOT / "tests" / "netlists" / "closed_loop" / "boost_smc.cir").read_text()
+    text = text.replace("L1 ls sw 1m\n", "L1 ls sw 1m IC=2\n")
+    text = text.replace("C1 out 0 100u IC=0", "C1 out 0 100u IC=5")
+    text = text.replace("S1 sw 0 0 s SWSMC", "S1 sw 0 0 s SWSMC ON")
+    path = tmp_path / "smc_start.cir"
+    path.write_text(text)
+    res = simulate_circuit(pelcs.load(path), method="exact", tstop=1e-3, step=10e-6)
+    assert res.error is None, res.error
+    kinds = [(e.kind, e.mode.get("S1")) for e in res.event_log]
+    assert kinds == [("switch", "off"), ("slide", "sliding")], res.event_log
+    assert res.event_log[0].t == 0.0
+    L_, C_, R_, vin = 1e-3, 100e-6, 50.0, 12.0
+    G = np.array([[0, -1 / L_, vin / L_], [1 / C_, -1 / (R_ * C_), 0], [0, 0, 0]])
+
+    def i_minus_iref(t):
+        return (expm(G * t) @ np.array([2.0, 5.0, 1.0]))[0] - 2.0
+
+    t_peak = 0.3e-3  # i(L1) rises while v < Vin, then falls back
+    assert i_minus_iref(t_peak) > 0 > i_minus_iref(0.7e-3)
+    t_slide = brentq(i_minus_iref, t_peak, 0.7e-3, xtol=1e-15)
+    assert abs(res.event_log[1].t - t_slide) < 1e-12  # measured 562.2 us
