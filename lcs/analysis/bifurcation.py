@@ -315,8 +315,7 @@ def bifurcation_diagram(
     notes = []
     failed = sum(int((~b.ok).sum()) for b in branches)
     if failed:
-        notes.append(f"{failed} parameter value(s) failed (diverged or the LCP failed); "
-                     "their samples are NaN")
+        notes.append(f"{failed} parameter value(s) failed; their samples are NaN")
     return BifurcationDiagram(
         param_name=param_name, probes=tuple(names), state_names=tuple(m0.state_names),
         transient=int(transient), record=int(record), follow=bool(follow), branches=branches,
@@ -348,7 +347,7 @@ class Attractor:
         differences between points ``d`` apart (each proper divisor ``d`` of the period)
         do not shrink geometrically towards zero across the record, and the points k
         apart differ by less than 1 % of those differences (the record must hold at least
-        ``2 k + 1`` iterates to tell). True for periods 0 and 1.
+        ``k + d + 1`` iterates to tell). True for periods 0 and 1.
     decay : float
         The ratio of the cycle amplitude at the end of the record to the one at its start
         (1.0 when not measured): about ``|mu|**(M - d - k)`` for a transient decaying with
@@ -455,19 +454,20 @@ def _settling(s: np.ndarray, d: int, k: int, scale: float) -> tuple[str, float]:
     out: convergence onto a period-k orbit), ``"lower"`` (the amplitude shrinks
     geometrically with the k-apart differences: a transient onto period d), ``"moving"``
     (the k-apart points differ by more than 1 % of the amplitude: no cycle yet) or
-    ``"short"`` (fewer than k + 1 differences); ``ratio`` is the amplitude's last/first.
+    ``"short"`` (fewer than k + 1 differences at lag d); ``ratio`` is the amplitude's
+    last/first.
     """
     e = np.max(np.abs(s[d:] - s[:-d]), axis=1)  # lag-d differences, (M - d,)
     r = np.max(np.abs(s[k:] - s[:-k]), axis=1)  # lag-k differences, (M - k,)
     noise = _NOISE * scale * 10
     if float(np.max(r)) <= noise:
         return "settled", 1.0  # repeats to round-off: a periodic orbit
-    n = r.size
+    n = e.size
     if n < k + 1:
         return "short", float("nan")
     # Windows of k consecutive differences (every phase of the cycle once) at the start
     # and at the end of the record.
-    amp_first, amp_last = float(np.max(e[:k])), float(np.max(e[n - k:n]))
+    amp_first, amp_last = float(np.max(e[:k])), float(np.max(e[n - k:]))
     ratio = amp_last / amp_first if amp_first > 0 else 0.0
     if float(np.max(r)) > _SEPARATION * float(np.max(e)):
         return "moving", ratio
@@ -476,7 +476,7 @@ def _settling(s: np.ndarray, d: int, k: int, scale: float) -> tuple[str, float]:
     # The amplitude shrinks. Onto period d, the k-apart differences are a fixed fraction of
     # it (x_j = x* + c mu^j: |1 - mu^k| / |1 - mu^d|) and shrink at its rate; converging
     # onto a period-k orbit, they die out while the amplitude stays.
-    drift_first, drift_last = float(np.max(r[:k])), float(np.max(r[n - k:]))
+    drift_first, drift_last = float(np.max(r[:k])), float(np.max(r[-k:]))
     if drift_last <= noise or drift_first <= 0.0:
         return "settled", ratio
     rate_amp = np.log(max(ratio, 1e-300))

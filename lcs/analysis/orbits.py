@@ -20,6 +20,7 @@ differences are exact up to round-off.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -234,7 +235,7 @@ class _Newton:
         the orbit, and a step that fixes that direction may raise the residual of the fast
         ones.
         """
-        from scipy.linalg import lu_factor, lu_solve
+        from scipy.linalg import LinAlgWarning, lu_factor, lu_solve
 
         x = np.asarray(x, dtype=float).copy()
         sc = state_scale(x, self.nat)
@@ -247,7 +248,9 @@ class _Newton:
                 return x, r, True, False
             self.iterations += 1
             A = self.m.jacobian(x, self.k, sc, self.rel_step) - eye
-            lu = lu_factor(A, check_finite=False)
+            with warnings.catch_warnings():  # a singular matrix is handled below
+                warnings.simplefilter("ignore", LinAlgWarning)
+                lu = lu_factor(A, check_finite=False)
             if not np.all(np.isfinite(lu[0])) or np.min(np.abs(np.diag(lu[0]))) <= \
                     1e-14 * max(float(np.max(np.abs(A))), 1e-300):
                 self.notes.append("singular Newton matrix (a multiplier at +1: fold?)")

@@ -26,7 +26,7 @@ from ..results import SimulationError
 from ..simulation.integrator import Integrator, Run, Snapshot, Window
 from ..simulation.problem import key_of
 from ..simulation.recorder import EV_SLIDE_END, EV_SLIDE_START, EV_SWITCH
-from .events import Event, ExactError, Follower, Segment
+from .events import Event, ExactError, Follower, Segment, one_blas_thread
 from .flow import flow_matrix
 from .sliding import SlidingSegment
 
@@ -102,6 +102,10 @@ class ExactIntegrator(Integrator):
         self.slide, self.duty = -1, 0.0
 
     def advance(self, window: Window) -> SimulationError | None:
+        with one_blas_thread():  # tiny matrices (see Follower.follow)
+            return self._advance(window)
+
+    def _advance(self, window: Window) -> SimulationError | None:
         run = self.run
         system = run.problem.system
         span = window.t1 - self.t

@@ -17,7 +17,7 @@ import numpy as np
 from ..analysis.base import Map, MapError, Samples
 from ..analysis.patterns import PatternSegment, SwitchingPattern
 from ..model import ModeKey, SwitchedLCS
-from .events import ExactError, Follower
+from .events import ExactError, Follower, one_blas_thread
 from .saltation import affine_period
 
 __all__ = ["ExactStroboscopicMap"]
@@ -97,7 +97,8 @@ class ExactStroboscopicMap(Map):
         if self._last is not None and np.array_equal(self._last[0], x):
             return self._last[1]
         try:
-            out = self._follower.follow(x, self.start_key(x))
+            with one_blas_thread():  # tiny matrices (see Follower.follow)
+                out = self._follower.follow(x, self.start_key(x))
         except ExactError as exc:
             raise MapError(str(exc)) from None
         self._last = (x.copy(), out)
@@ -156,14 +157,28 @@ class ExactStroboscopicMap(Map):
 
     def jacobian(self, x, k: int, scale: np.ndarray | None = None,
                  rel_step: float = 1e-5) -> np.ndarray:
-        """Exact Jacobian of ``P^k`` at ``x`` (transition and saltation matrices)."""
+        """Exact Jacobian of ``P^k`` at ``x`` (transition and saltation matrices).
+
+        Through a sliding motion (a Filippov stretch, integrated numerically) the saltation
+        composition does not apply: the Jacobian is then the central difference of the exact
+        map (steps ``rel_step * scale``), and the map's notes say so.
+        """
         y = np.asarray(x, dtype=float)
         J = np.eye(y.size)
         p = len(self.system.inputs)
         for _ in range(int(k)):
             segs, events, y_next = self.follow(y)
+            if any(not hasattr(seg, "flow") for seg in segs):
+                note = ("the Jacobian through a sliding motion is a central difference of "
+                        "the exact map (no saltation composition for Filippov stretches)")
+                if note not in self.notes:
+                    self.notes.append(note)
+                sc = (np.asarray(scale, dtype=float) if scale is not None else
+                      np.maximum(np.abs(np.asarray(x, dtype=float)), 1e-9))
+                return super().jacobian(x, k, sc, rel_step)
             try:
-                J = affine_period(segs, events, 0.0, np.zeros(p)).P.real @ J
+                with one_blas_thread():
+                    J = affine_period(segs, events, 0.0, np.zeros(p)).P.real @ J
             except ZeroDivisionError as exc:  # a grazing event: no saltation
                 raise MapError(str(exc)) from None
             y = y_next
