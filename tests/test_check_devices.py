@@ -294,7 +294,8 @@ def test_losses_are_not_computed_where_the_mosfet_slides():
     assert any(s[0] == "XQ" for s in res.sliding)
     assert math.isnan(rep.p_in) and math.isnan(rep.efficiency) and math.isnan(rep.devices["XQ"])
     assert rep.p_out > 0 and "XQ slides over" in rep.caveat
-    assert "efficiency: n/a" in rep.lines()
+    # (200 µs is not a steady state either: the line says so after the n/a)
+    assert any(line.startswith("efficiency: n/a") for line in rep.lines())
 
 
 def test_vendor_buck_with_a_floating_gate_drive_pwl_is_closer_to_ngspice(ngspice):
