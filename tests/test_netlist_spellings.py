@@ -97,7 +97,8 @@ def test_resistor_model_name(tmp_path, ngspice):
     assert c.element("R1").value == 600e3
     assert any("R1: model 'MDR' ignored" in n for n in c.notes)
     got = ngspice_print(R_MODEL_DECK, ["i(V1)[1]"], tmp_path)
-    assert -got["i(V1)[1]"] == pytest.approx(1 / c.element("R1").value, rel=1e-5)  # printed to 6 digits
+    # ngspice prints 6 digits
+    assert -got["i(V1)[1]"] == pytest.approx(1 / c.element("R1").value, rel=1e-5)
     with pytest.raises(NetlistError, match="unexpected '2k'"):
         parse_string("t\nV1 a 0 1\nR1 a 0 1k 2k\n")
 
