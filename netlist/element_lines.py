@@ -150,8 +150,12 @@ class ElementLines:
                 key_tok, val_tok = part.children
                 key = key_tok.lower()
                 if key not in _PARASITICS.get(letter, ()):
+                    hint = "LTspice's Rser= and Cpar= are accepted"
+                    if key in ("r", "td") and wave is not None and wave[0] == "pwl":
+                        hint = ("ngspice's PWL repeat (r=) and delay (td=) are not read: write "
+                                "the repeated or shifted points out in the PWL list")
                     self.error(f"unsupported parameter '{key_tok}' on source '{name}'", st,
-                               key_tok.start_pos, "LTspice's Rser= and Cpar= are accepted")
+                               key_tok.start_pos, hint)
                     return
                 pv = self.value(val_tok, st)
                 if pv is None:

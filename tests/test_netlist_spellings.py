@@ -83,6 +83,13 @@ def test_unsupported_source_functions_named(fn):
     assert f"{word} sources are not supported" in str(info.value)
 
 
+def test_pwl_repeat_named():
+    with pytest.raises(NetlistError) as info:
+        parse_string("t\nV1 a 0 PWL(0 0 1m 1) r=0 td=1m\nR1 a 0 1\n.tran 1u 5m\n")
+    assert "unsupported parameter 'r'" in str(info.value)
+    assert "PWL repeat (r=) and delay (td=)" in str(info.value)
+
+
 R_MODEL_DECK = """resistor with a model name
 V1 a 0 1
 R1 a 0 600k MDR
