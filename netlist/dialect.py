@@ -86,6 +86,15 @@ _PASSIVE_IGNORED = {"tc1", "tc2", "tce", "temp", "dtemp", "noisy", "ac"}
 
 # waveform -> (minimum, maximum number of arguments)
 WAVE_ARGS = {"pulse": (2, 8), "sin": (2, 6), "exp": (2, 6), "pwl": (2, None)}
+# other spellings ngspice reads -> the waveform
+WAVE_ALIASES = {"sine": "sin"}
+# source functions ngspice has and pelcs does not -> what to use instead
+UNSUPPORTED_WAVES = {
+    "sffm": "write the frequency-modulated waveform as a PWL table",
+    "am": "write the amplitude-modulated waveform as a PWL table",
+    "trnoise": "pelcs simulates deterministic sources: leave the noise out",
+    "trrandom": "pelcs simulates deterministic sources: leave the random source out",
+}
 
 _WORD = re.compile(r"[^\s(){}=,'\"]+")
 _NONLINEAR = re.compile(r"(?i)\b(poly|value|table|laplace|freq|vol|cur)\s*[=(]")
@@ -95,7 +104,10 @@ _TOKEN_NAMES = {
     "WORD": "a name or a value", "EXPR": "an {expression}", "LPAR": "'('", "RPAR": "')'",
     "EQUAL": "'='", "COMMA": "','", "STRING": "a quoted path", "PARAMS": "'params:'",
     "$END": "end of line", "DC": "DC", "AC": "AC", "UIC": "UIC", "ON": "ON", "OFF": "OFF",
-    "PULSE": "PULSE", "SIN": "SIN", "PWL": "PWL", "EXP": "EXP",
+    "PULSE": "PULSE", "SIN": "SIN", "PWL": "PWL", "EXP": "EXP", "SINE": "SINE",
+    "SFFM": "SFFM", "AM": "AM", "TRNOISE": "TRNOISE", "TRRANDOM": "TRRANDOM",
+    "STARTUP": "STARTUP", "STEADY": "STEADY", "NODISCARD": "NODISCARD", "NCHAN": "NCHAN",
+    "PCHAN": "PCHAN",
 }
 
 

@@ -12,6 +12,8 @@ from .dialect import (
     _NONLINEAR,
     _PASSIVE_IGNORED,
     ELEMENTS,
+    UNSUPPORTED_WAVES,
+    WAVE_ALIASES,
     WAVE_ARGS,
     hierarchical_name,
     node_name,
@@ -89,6 +91,14 @@ class ElementLines:
         ic = None
         parasitics: dict = {}
         for t in ch[4:]:
+            if isinstance(t, Token):
+                if parse_number(t) is not None:
+                    self.error(f"unexpected '{t}' in {what} '{name}'", st, t.start_pos,
+                               f"syntax: {ELEMENTS[letter][2]}")
+                    return
+                # a model name after the value (R1 1 2 600k MDR): ngspice uses the value
+                self.deck.notes.append(f"{name}: model '{t}' ignored, the value is used")
+                continue
             key_tok, val_tok = t.children
             key = key_tok.lower()
             if key == "ic" and letter in "LC":
@@ -132,12 +142,20 @@ class ElementLines:
         ok = True
         parasitics: dict = {}
         for part in ch[3:]:
+            if isinstance(part, Token):  # the value before any keyword: the DC value
+                dc = self.value(part, st)
+                ok = ok and dc is not None
+                continue
             if part.data == "assign":
                 key_tok, val_tok = part.children
                 key = key_tok.lower()
                 if key not in _PARASITICS.get(letter, ()):
+                    hint = "LTspice's Rser= and Cpar= are accepted"
+                    if key in ("r", "td") and wave is not None and wave[0] == "pwl":
+                        hint = ("ngspice's PWL repeat (r=) and delay (td=) are not read: write "
+                                "the repeated or shifted points out in the PWL list")
                     self.error(f"unsupported parameter '{key_tok}' on source '{name}'", st,
-                               key_tok.start_pos, "LTspice's Rser= and Cpar= are accepted")
+                               key_tok.start_pos, hint)
                     return
                 pv = self.value(val_tok, st)
                 if pv is None:
@@ -152,7 +170,11 @@ class ElementLines:
                     ok = ok and self.value(t, st) is not None
             else:
                 kw = part.children[0].children[0]
-                kind = kw.lower()
+                kind = WAVE_ALIASES.get(kw.lower(), kw.lower())
+                if kind in UNSUPPORTED_WAVES:
+                    self.error(f"{kw.upper()} sources are not supported", st, kw.start_pos,
+                               UNSUPPORTED_WAVES[kind])
+                    return
                 toks = part.children[1].children if len(part.children) > 1 else []
                 args = [self.value(t, st) for t in toks]
                 if any(a is None for a in args):

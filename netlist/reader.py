@@ -180,6 +180,13 @@ def split_statements(lines: list[tuple[int, str]], file: str, diags: list[Diagno
             cur.text = f"{cur.text} {rest}"
             cur.segments.append((start, lineno, col0 + 1, raw))
             continue
+        if stripped == ")" and cur is not None and cur.text.count("(") > cur.text.count(")"):
+            # a multi-line .model closed by a bare ')' line: ngspice reads it as the end of
+            # the statement it closes
+            start = len(cur.text) + 1
+            cur.text = f"{cur.text} )"
+            cur.segments.append((start, lineno, col0, raw))
+            continue
         first = stripped.split(None, 1)[0].lower()
         if first == ".control":
             control = [raw.rstrip()]
@@ -208,6 +215,11 @@ class _Reader(ElementLines):
         self.stack: list[Path] = []  # resolved paths being read, for include cycles
         self.sub: SubcktDef | None = None
         self.lark = lark_parser()
+        # problems inside a subcircuit definition (lower-case name) and unsupported models
+        # (lower-case name): errors only if the circuit uses them, since ngspice skips
+        # definitions nothing instantiates
+        self.deferred: dict[str, list[Diagnostic]] = {}
+        self.deferred_models: dict[str, Diagnostic] = {}
 
     # -- diagnostics
 
@@ -257,6 +269,59 @@ class _Reader(ElementLines):
         if self.sub is not None:
             self.error(f"subcircuit '{self.sub.name}' has no .ends", self.sub.st, 0,
                        "close the definition with .ends")
+            self.sub = None
+        self.settle_unused()
+        self.settle_trans(file)
+
+    def settle_unused(self) -> None:
+        """Report the deferred problems of what the circuit uses; note what it does not."""
+        used: set[str] = set()
+        refs: set[str] = set()
+        bodies = [self.deck.top]
+        while bodies:
+            for el in bodies.pop().elements:
+                key = (el.ref or "").lower()
+                if el.kind == "X" and key in self.deck.subckts:
+                    if key not in used:
+                        used.add(key)
+                        bodies.append(self.deck.subckts[key].body)
+                elif key:
+                    refs.add(key)
+        for key, diags in self.deferred.items():
+            if key in used:
+                self.diags.extend(diags)
+                continue
+            sub = self.deck.subckts.get(key)
+            where = f"{sub.st.file}:{sub.st.loc(0).line}" if sub is not None else ""
+            self.deck.notes.append(
+                f"subcircuit '{sub.name if sub else key}' ({where}) is not used: skipped, as "
+                f"ngspice skips it (it holds what pelcs does not read: {diags[0].message})")
+        for key, diag in self.deferred_models.items():
+            if key in refs:
+                self.diags.append(diag)
+            else:
+                loc = diag.location
+                at = f"{loc.file}:{loc.line}" if loc is not None else ""
+                self.deck.notes.append(f"model '{key}' ({at}) is not used: skipped, as "
+                                       f"ngspice skips it ({diag.message})")
+
+    def settle_trans(self, file: str) -> None:
+        """A wrapper file with its own .tran around an included netlist that has one too:
+        the top-level file's .tran is run (as the user wrote it last), the others noted."""
+        trans = self.deck.trans
+        if not trans:
+            self.control_tran(file)
+            return
+        top = [t for t in trans if t.st.file == file]
+        if len(trans) < 2 or len(top) != 1:
+            return
+        kept = top[0]
+        for t in trans:
+            if t is not kept:
+                self.deck.notes.append(
+                    f"{t.st.file}:{t.st.loc(0).line}: .tran ignored: the top-level file's "
+                    f".tran (line {kept.st.loc(0).line}) is run")
+        self.deck.trans = [kept]
 
     def include(self, path_text: str, st: Statement, offset: int, section: str | None) -> None:
         including = st.file
@@ -366,7 +431,46 @@ class _Reader(ElementLines):
         else:  # pragma: no cover - lark raises only the three above
             self.error(f"cannot parse {label}", st, 0, hint)
 
+    def control_tran(self, file: str) -> None:
+        """No .tran line: the first ``tran`` command of the top-level file's ``.control``
+        block, which is what ngspice runs."""
+        for block in self.deck.ignored:
+            loc = block.location
+            if loc is None or loc.file != file or not block.text.lower().startswith(".control"):
+                continue
+            for i, raw in enumerate(block.text.split("\n")):
+                m = re.match(r"(?i)\s*(tran)\s", raw)
+                if m is None:
+                    continue
+                code = _strip_comment(raw).rstrip()
+                # read as `.tran ...`: offset 1 of the statement is the `t` of the line
+                st = Statement("." + code[m.start(1):], file,
+                               [(0, loc.line + i, m.start(1) - 1, raw)])
+                n = len(self.deck.trans)
+                try:
+                    self.cmd_tran(st)
+                except _Abandon:
+                    return
+                if len(self.deck.trans) > n:
+                    self.deck.notes.append(f"line {loc.line + i}: the .control block's `tran` "
+                                           "command read as the .tran line (ngspice runs it)")
+                return
+
     def statement(self, st: Statement) -> None:
+        sub = self.sub
+        head = st.text.split(None, 1)[0].lower() if st.text.strip() else ""
+        if sub is None or head in (".subckt", ".ends"):
+            self.read_statement(st)
+            return
+        n = len(self.diags)
+        try:
+            self.read_statement(st)
+        finally:
+            if len(self.diags) > n:
+                self.deferred.setdefault(sub.name.lower(), []).extend(self.diags[n:])
+                del self.diags[n:]
+
+    def read_statement(self, st: Statement) -> None:
         m = _WORD.match(st.text)
         if m is None:
             self.error(f"unexpected {st.text[0]!r} at the start of a statement", st, 0,
@@ -524,10 +628,25 @@ class _Reader(ElementLines):
             elif what == "current switch":
                 hint = "use an S switch with a SW model, controlled by a voltage"
             label = f" ({what})" if what else ""
-            self.error(f"model type '{type_tok}'{label} is not supported", st,
-                       type_tok.start_pos, hint)
+            if mtype == "R":
+                # a resistor model (TC1, TC2, RSH ...): the resistors that name it keep their
+                # value (netlist.element_lines)
+                self.deck.notes.append(f"line {st.loc(0).line}: resistor model '{name_tok}' "
+                                       "read for its name only")
+                return
+            self.deferred_models[name_tok.lower()] = Diagnostic(
+                f"model type '{type_tok}'{label} is not supported", st.loc(type_tok.start_pos),
+                hint)
             return
         items = tree.children[3].children if len(tree.children) > 3 else []
+        flags = [t for t in items if t.data == "flag"]
+        items = [t for t in items if t.data != "flag"]
+        for t in flags:
+            tok = t.children[0]
+            if mtype != "VDMOS":
+                self.error(f"'{tok}' is a VDMOS flag, not a parameter of a {mtype} model", st,
+                           tok.start_pos, "remove it")
+                return
         if mtype in ("D", "SW"):
             params = self.assigns(items, st)
         else:
@@ -540,6 +659,10 @@ class _Reader(ElementLines):
                     v = self.value(val_t, st)
                     if v is not None:
                         params.append(RawParam(name_t.lower(), v, st, name_t.start_pos))
+            for t in flags:
+                tok = t.children[0]
+                params.append(RawParam(tok.lower(), Value(1.0, None, st, tok.start_pos), st,
+                                       tok.start_pos))
         self.deck.models.append(RawModel(str(name_tok), _MODEL_TYPES[mtype], params, st))
 
     def cmd_ic(self, st: Statement) -> None:
@@ -555,18 +678,24 @@ class _Reader(ElementLines):
                 self.body.ics.append(RawIc(node_name(node_tok), v, st, node_tok.start_pos))
 
     def cmd_tran(self, st: Statement) -> None:
-        tree = self.parse(st, "tran_cmd", ".tran", ".tran TSTEP TSTOP [TSTART [TMAX]] [UIC]")
+        tree = self.parse(st, "tran_cmd", ".tran",
+                          ".tran TSTEP TSTOP [TSTART [TMAX]] [UIC] (LTspice's .tran TSTOP: "
+                          "write .tran 0 TSTOP)")
         if self.sub is not None:
             self.error(".tran inside a subcircuit", st, 0, "move it to the top level")
             return
-        ch = tree.children[1:]
-        uic = bool(ch) and ch[-1].type == "UIC"
-        if uic:
-            ch = ch[:-1]
+        ch = [t for t in tree.children[1:] if isinstance(t, Token)]
+        flags = {t.children[0].type: t.children[0] for t in tree.children[1:]
+                 if isinstance(t, Tree)}
+        line = st.loc(0).line
+        for kind, what in _TRAN_MODIFIERS.items():
+            if kind in flags:
+                self.deck.notes.append(f"line {line}: .tran {flags[kind]} (LTspice) ignored: "
+                                       f"{what}")
         values = [self.value(t, st) for t in ch]
         if any(v is None for v in values):
             return
-        self.deck.trans.append(RawTran(values, uic, st))
+        self.deck.trans.append(RawTran(values, "UIC" in flags, st))
 
     def cmd_step(self, st: Statement) -> None:
         read_step(self, st)
@@ -621,6 +750,15 @@ def _expected(expected: set[str]) -> str:
     if len(names) == 1:
         return names[0]
     return ", ".join(names[:-1]) + " or " + names[-1]
+
+
+# LTspice's .tran modifiers pelcs accepts, and why they change nothing or what they change
+_TRAN_MODIFIERS = {
+    "STARTUP": "pelcs starts from the initial conditions (0 where none is given) with every "
+               "source at its value from t = 0, without LTspice's 20 us ramp",
+    "STEADY": "pelcs runs to TSTOP",
+    "NODISCARD": "pelcs returns the points from TSTART on, as ngspice",
+}
 
 
 class _Abandon(Exception):

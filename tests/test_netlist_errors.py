@@ -63,7 +63,7 @@ CATALOGUE = [
      "a diode needs a D model", 4, 8, "D(...)"),
     ("switch-model-type", "t\n" + OK + "S1 a 0 a 0 DM\n.model DM D\n",
      "a switch needs a SW model", 4, 12, "SW(...)"),
-    ("unsupported-model", "t\n" + OK + ".model J2N NJF(BETA=1m)\n",
+    ("unsupported-model", "t\n" + OK + ".model J2N NJF(BETA=1m)\nD1 a 0 J2N\n",
      "model type 'NJF' (JFET) is not supported", 4, 12, "S element"),
     ("duplicate-model", "t\n" + OK + ".model DM D\n.model dm D(IS=1n)\n",
      "model 'dm' is defined twice (first at line 4)", 5, 1, "rename"),

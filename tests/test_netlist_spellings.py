@@ -1,0 +1,230 @@
+"""ngspice spellings met in third-party netlists (tests/corpus), each read as ngspice reads it.
+
+Where ngspice gives a number the test compares pelcs's reading with it (ngspice in pipe mode
+on a small deck); the LTspice-only forms have notes that say what pelcs does instead.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from lcs.signals import Sin
+from netlist.errors import NetlistError
+from netlist.parser import parse_file, parse_string
+
+pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
+
+
+def ngspice_print(deck: str, expressions: list[str], tmp: Path, files: dict | None = None
+                  ) -> dict[str, float]:
+    """Run ``deck`` in ngspice (``run``), print each expression; their values."""
+    if shutil.which("ngspice") is None:
+        pytest.skip("no ngspice executable")
+    for name, text in (files or {}).items():
+        (tmp / name).write_text(text)
+    (tmp / "deck.cir").write_text(deck)
+    commands = "source deck.cir\nrun\n" + "".join(f"print {e}\n" for e in expressions) + "quit\n"
+    r = subprocess.run(["ngspice", "-p"], input=commands, cwd=tmp, capture_output=True,
+                       text=True, timeout=60, env={**os.environ, "HOME": str(tmp)})
+    out = {}
+    for line in r.stdout.splitlines():
+        if " = " in line:
+            key, _, value = line.partition(" = ")
+            try:
+                out[key.strip().lower()] = float(value.split()[0])
+            except ValueError:
+                pass
+    missing = [e for e in expressions if e.lower() not in out]
+    assert not missing, r.stdout[-2000:] + r.stderr[-2000:]
+    return {e: out[e.lower()] for e in expressions}
+
+
+SINE_DECK = """sine source as eSim writes it, and KiCad's DC/SIN/AC order
+v1 a 0 sine(0 5 50 0 0)
+V2 b 0 DC 0 SIN( 0 3 100 0 0 0 ) AC 1
+r1 a 0 1k
+R2 b 0 1k
+.tran 0.1m 20m
+.end
+"""
+
+
+def test_sine_and_kicad_order(tmp_path, ngspice):
+    c = parse_string(SINE_DECK)
+    a, b = c.element("v1").waveform, c.element("V2").waveform
+    assert isinstance(a, Sin) and (a.vo, a.va, a.freq) == (0, 5, 50)
+    assert isinstance(b, Sin) and (b.vo, b.va, b.freq) == (0, 3, 100)
+    got = ngspice_print(SINE_DECK, ["v(a)[26]", "time[26]", "v(b)[26]"], tmp_path)
+    t = got["time[26]"]
+    assert got["v(a)[26]"] == pytest.approx(5 * math.sin(2 * math.pi * 50 * t), abs=1e-6)
+    assert got["v(b)[26]"] == pytest.approx(3 * math.sin(2 * math.pi * 100 * t), abs=1e-6)
+
+
+@pytest.mark.parametrize("order", ["AC 1 DC 2 SIN(2 1 50)", "SIN(2 1 50) AC 1 DC 2",
+                                   "DC 2 AC 1 0 SIN 2 1 50", "2 SIN(2 1 50) AC 1"])
+def test_source_parts_in_any_order(order):
+    c = parse_string(f"t\nV1 a 0 {order}\nR1 a 0 1\n.tran 1m 10m\n")
+    el = c.element("V1")
+    assert el.dc == 2 and isinstance(el.waveform, Sin) and el.waveform.va == 1
+
+
+@pytest.mark.parametrize("fn", ["SFFM(0 1 1k 5 100)", "AM(1 0 100 1k 0)", "TRNOISE(1m 1n 0 0)",
+                                "TRRANDOM(1 1n 0 1)"])
+def test_unsupported_source_functions_named(fn):
+    with pytest.raises(NetlistError) as info:
+        parse_string(f"t\nV1 a 0 {fn}\nR1 a 0 1\n.tran 1m 10m\n")
+    word = fn.split("(")[0]
+    assert f"{word} sources are not supported" in str(info.value)
+
+
+def test_pwl_repeat_named():
+    with pytest.raises(NetlistError) as info:
+        parse_string("t\nV1 a 0 PWL(0 0 1m 1) r=0 td=1m\nR1 a 0 1\n.tran 1u 5m\n")
+    assert "unsupported parameter 'r'" in str(info.value)
+    assert "PWL repeat (r=) and delay (td=)" in str(info.value)
+
+
+R_MODEL_DECK = """resistor with a model name
+V1 a 0 1
+R1 a 0 600k MDR
+.model MDR R TC1=0 TC2=0
+.tran 1u 10u
+.end
+"""
+
+
+def test_resistor_model_name(tmp_path, ngspice):
+    c = parse_string(R_MODEL_DECK)
+    assert c.element("R1").value == 600e3
+    assert any("R1: model 'MDR' ignored" in n for n in c.notes)
+    got = ngspice_print(R_MODEL_DECK, ["i(V1)[1]"], tmp_path)
+    # ngspice prints 6 digits
+    assert -got["i(V1)[1]"] == pytest.approx(1 / c.element("R1").value, rel=1e-5)
+    with pytest.raises(NetlistError, match="unexpected '2k'"):
+        parse_string("t\nV1 a 0 1\nR1 a 0 1k 2k\n")
+
+
+SW_DECK = """switch model with spaces instead of '=', and a multi-line model closed by ')'
+V1 a 0 1
+Vc c 0 1
+S1 a b c 0 swm
+R1 b 0 1
+.model swm SW( RON 0.25 ROFF 1e6 VT 0.5 )
+D1 a d dm
+R2 d 0 1k
+.model dm D (
++ IS=1e-14
++ N=1
+)
+.tran 1u 10u
+.end
+"""
+
+
+def test_model_name_value_pairs_and_bare_paren(tmp_path, ngspice):
+    c = parse_string(SW_DECK)
+    assert c.models["swm"].params == {"ron": 0.25, "roff": 1e6, "vt": 0.5, "vh": 0.0}
+    assert c.models["dm"].params["is"] == 1e-14 and c.models["dm"].params["n"] == 1
+    got = ngspice_print(SW_DECK, ["v(b)[1]", "v(d)[1]"], tmp_path)
+    # ngspice reads RON 0.25: 1 V over 0.25 + 1 Ohm
+    assert got["v(b)[1]"] == pytest.approx(1 / 1.25, rel=1e-6)
+    # and the diode's IS and N: 1 V = vd + 1k * IS (exp(vd / Vt) - 1)
+    vd = 1 - got["v(d)[1]"]
+    vt = 1.380649e-23 * 300.15 / 1.602176634e-19
+    assert got["v(d)[1]"] / 1e3 == pytest.approx(1e-14 * math.expm1(vd / vt), rel=1e-3)
+
+
+def test_vdmos_channel_flags():
+    body = "t\nV1 d 0 10\nR1 d x 1\nVg g 0 {}\nM1 x g 0 MM\n.tran 1u 10u\n"
+    n = parse_string(body.format(5) + ".model MM VDMOS nchan Vto=3 Kp=1\n")
+    p = parse_string(body.format(-5) + ".model MM VDMOS(pchan Vto=-3 Kp=1)\n")
+    assert n.models["mm"].params.get("pchan") is None
+    assert p.models["mm"].params["pchan"] == 1.0
+    with pytest.raises(NetlistError, match="VDMOS flag"):
+        parse_string("t\nV1 a 0 1\nD1 a 0 DM\n.model DM D(pchan IS=1n)\n")
+
+
+def test_ltspice_tran_modifiers():
+    body = "t\nV1 a 0 1\nR1 a b 1\nC1 b 0 1u\n"
+    c = parse_string(body + ".tran 0 1m startup\n")
+    assert c.tran.tstop == 1e-3
+    assert any("startup (LTspice) ignored" in n for n in c.notes)
+    c = parse_string(body + ".tran 1u 1m 0 1u steady nodiscard uic\n")
+    assert c.tran.uic and c.tran.tmax == 1e-6
+    assert any("steady (LTspice) ignored" in n for n in c.notes)
+    with pytest.raises(NetlistError, match="incomplete .tran"):
+        parse_string(body + ".tran 1m\n")
+
+
+INNER = """.title inner schematic netlist
+V1 a 0 1
+R1 a b 1k
+C1 b 0 1u
+.tran 1u 1m
+"""
+WRAPPER = """* wrapper
+.tran 10u 5m
+.include inner.net
+.end
+"""
+
+
+def test_wrapper_tran_wins(tmp_path, ngspice):
+    (tmp_path / "inner.net").write_text(INNER)
+    (tmp_path / "top.cir").write_text(WRAPPER)
+    c = parse_file(tmp_path / "top.cir")
+    assert c.tran.tstop == 5e-3 and c.tran.tstep == 10e-6
+    assert any("inner.net:5: .tran ignored" in n for n in c.notes)
+    # ngspice runs both; the plot it leaves current (the one plotted and written) is the
+    # wrapper's
+    got = ngspice_print(WRAPPER, ["time[length(time)-1]"], tmp_path, {"inner.net": INNER})
+    assert got["time[length(time)-1]"] == pytest.approx(5e-3)
+    # two .tran lines in the top-level file are still an error
+    with pytest.raises(NetlistError, match="second .tran"):
+        parse_string(INNER + ".tran 1u 2m\n")
+
+
+UNUSED = """unused subcircuit and model that pelcs cannot read
+V1 a 0 1
+R1 a 0 1k
+.subckt opamp in out
+E1 out 0 poly(1) in 0 0 1e5
+B1 x 0 V = V(in) * 2
+.ends
+.model JX NJF(BETA=1m)
+.tran 1u 10u
+.end
+"""
+
+
+def test_unused_definitions_skipped(tmp_path, ngspice):
+    c = parse_string(UNUSED)
+    assert [e.name for e in c.elements] == ["V1", "R1"]
+    assert any("subcircuit 'opamp'" in n and "not used" in n for n in c.notes)
+    assert any("model 'jx'" in n and "not used" in n for n in c.notes)
+    got = ngspice_print(UNUSED, ["i(V1)[1]"], tmp_path)  # ngspice runs it as well
+    assert got["i(V1)[1]"] == pytest.approx(-1e-3)
+    used = UNUSED.replace("R1 a 0 1k", "R1 a 0 1k\nX1 a o opamp\nRo o 0 1k")
+    with pytest.raises(NetlistError) as info:
+        parse_string(used)
+    assert "poly" in str(info.value) and "'B'" in str(info.value)
+
+
+def test_control_block_tran(tmp_path, ngspice):
+    deck = ("control tran\nV1 a 0 PULSE(0 1 0 1u 1u 5u 10u)\nR1 a b 1k\nC1 b 0 1n\n"
+            ".control\ntran 0.1u 50u\nplot v(b)\n.endc\n.end\n")
+    c = parse_string(deck)
+    assert (c.tran.tstep, c.tran.tstop) == (0.1e-6, 50e-6)
+    assert any("`tran` command read as the .tran line" in n for n in c.notes)
+    # a .tran line wins over the block's command
+    c = parse_string(deck.replace(".control", ".tran 1u 20u\n.control"))
+    assert c.tran.tstop == 20e-6
+    # ngspice runs the block's tran when it reads the file
+    got = ngspice_print(deck, ["time[length(time)-1]"], tmp_path)
+    assert got["time[length(time)-1]"] == pytest.approx(50e-6)
