@@ -121,9 +121,11 @@ PELCS_REFUSES: dict[str, tuple[str, str, str]] = {
     "pess/simulations/rectifiers/non-idealities/rectifier2.cir":
         ("file not found: '/Users/", _ABS, "include missing"),
     "pess/simulations/rectifiers/3Phase/rectifier_3P.cir":
-        ("cutset of inductors/current sources: L2",
-         "L2 has one end on a net nothing else connects to (Net_L2_Net): its current has no "
-         "path", "runs (the floating node held by gmin)"),
+        ("elements involved: L3, L4, L1",
+         "the three line inductors meet at the sources' floating star point n: Kirchhoff's "
+         "current law ties their currents, an inductor cutset pelcs does not reduce (the "
+         "dangling L2 is held at zero current, as in ngspice)",
+         "runs (the floating node held by gmin)"),
     "ece3410/diodos/kk/bridge_rectifier.sp":
         ("unknown model 'diode' for diode D1",
          "the included lab_parts.md defines D1N914, not the 'diode' the netlist names",
