@@ -164,3 +164,16 @@ def test_singular_network_too_large_for_its_dense_decomposition(tmp_path):
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert "singular or ill-conditioned" in r.stderr and "PELCS_MAX_DENSE_UNKNOWNS" in r.stderr
     assert r.stderr.startswith(f"{path}: error:")
+
+
+def test_simulate_on_a_full_disk_prints_its_summary_then_the_error(tmp_path):
+    plot = tmp_path / "boost.png"
+    full = tmp_path / "full.csv"
+    full.symlink_to("/dev/full")  # (every write to it fails with ENOSPC)
+    r = _cli("simulate", str(BOOST), "--tstop", "0.2m", "-o", str(full), "--plot", str(plot),
+             "--no-progress", timeout=120)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert "simulated 0 to 200 µs" in r.stdout  # the summary first
+    assert f"wrote {plot}" in r.stdout and plot.stat().st_size > 0  # the other file written
+    assert f"cannot write {full}: No space left on device" in r.stderr
+    assert "disk is full" in r.stderr
