@@ -1,11 +1,13 @@
 """Interrupts that stop a run and keep what it computed.
 
-Inside :func:`deferred_interrupts` the first SIGINT (Ctrl-C) or SIGTERM only records a
-request: a run checks :func:`requested` between chunks of steps (a compiled kernel cannot be
+Inside :func:`deferred_interrupts`, once a run has results to keep (it calls
+:func:`keeping` when its stepping starts), the first SIGINT (Ctrl-C) or SIGTERM only records a
+request: the run checks :func:`requested` between chunks of steps (a compiled kernel cannot be
 stopped inside a call) and stops there with the results computed so far, as a failed run does
-(:class:`~lcs.results.SimulationError` of kind ``"interrupted"``). A second signal raises
-KeyboardInterrupt at once. Outside the context, and in threads other than the main one,
-signals behave as Python's defaults (KeyboardInterrupt at the first Ctrl-C).
+(:class:`~lcs.results.SimulationError` of kind ``"interrupted"``). A second signal, or a first
+one before there is anything to keep (parsing, planning), raises KeyboardInterrupt at once.
+Outside the context, and in threads other than the main one, signals behave as Python's
+defaults (KeyboardInterrupt at the first Ctrl-C).
 """
 
 from __future__ import annotations
@@ -16,12 +18,20 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-__all__ = ["deferred_interrupts", "requested", "signal_name"]
+__all__ = ["deferred_interrupts", "keeping", "requested", "signal_name"]
 
 _SIGNALS = (signal.SIGINT, signal.SIGTERM)
 # The pending request (a signal number), or None; set by the handler, read by runs.
 _pending: list[int] = []
 _active: list[bool] = []
+_keeping: list[bool] = []
+
+
+def keeping() -> None:
+    """A run has results worth keeping from now on: inside :func:`deferred_interrupts`, the
+    first signal becomes a stop request instead of a KeyboardInterrupt."""
+    if _active and not _keeping:
+        _keeping.append(True)
 
 
 def requested() -> int | None:
@@ -52,7 +62,7 @@ def deferred_interrupts(message: str = "") -> Iterator[None]:
         return
 
     def handler(signum, frame):
-        if _pending:
+        if _pending or not _keeping:
             raise KeyboardInterrupt
         _pending.append(signum)
         if message:
@@ -68,3 +78,4 @@ def deferred_interrupts(message: str = "") -> Iterator[None]:
             signal.signal(s, h)
         _pending.clear()
         _active.clear()
+        _keeping.clear()

@@ -449,8 +449,9 @@ class _Formulator:
         # that its message, not the λ-type search's, names the degeneracy.
         try:
             mna, sol = self._choose_diode_types(on, desc)
-        except NetlistError:
+        except NetlistError as exc:
             self._check_topology(on, desc)
+            exc.file = exc.file or self.file  # (the solver's own errors name no file)
             raise
         if sol.null.shape[1] or self._controlled:
             self._check_topology(on, desc)

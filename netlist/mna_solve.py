@@ -11,6 +11,8 @@ import numpy as np
 
 from lcs import sparse_lu
 
+from .errors import Diagnostic, NetlistError
+from .limits import DENSE_UNKNOWNS
 from .mna import coalesce
 
 __all__ = ["CLEAN_RTOL", "DETERMINED_RTOL", "RANK_RTOL", "Entries", "Solution", "clean",
@@ -88,6 +90,14 @@ class Solution:
         nz, nxi = Ks.shape
         if nz >= LU_MIN_SIZE and ncols == nz and self._lu(I, J, r[I] * v * c[J], Ks, c):
             return
+        limit = DENSE_UNKNOWNS.value()
+        if max(nz, ncols) > limit:
+            raise NetlistError(Diagnostic(
+                f"the circuit's network ({max(nz, ncols)} unknowns) is singular or "
+                "ill-conditioned in a switch mode, and its dense decomposition, which would "
+                f"tell how, is beyond the limit of {limit:.6g} unknowns",
+                None, "look for a node connected only through diodes or switches, or a "
+                "floating part; " + DENSE_UNKNOWNS.hint("5000")))
         if M is None:
             M = np.zeros((nz, ncols))
             M[I, J] = v

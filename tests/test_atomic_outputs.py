@@ -151,3 +151,29 @@ def test_steps_and_memory_limits(tmp_path):
     assert "PELCS_MAX_MEMORY" in r.stderr and "--every" in r.stderr
     r = _cli("simulate", str(BOOST), env={"PELCS_MAX_STEPS": "lots"}, timeout=30)
     assert r.returncode == 2 and "PELCS_MAX_STEPS='lots' is not a positive number" in r.stderr
+
+
+def test_singular_network_too_large_for_its_dense_decomposition(tmp_path):
+    # 4096 resistors beside a bridge with no source (node a only between diodes): the network
+    # is singular, and its SVD (cubic)
+    # took 100 s a mode; refused above PELCS_MAX_DENSE_UNKNOWNS (found by the fuzzer)
+    path = tmp_path / "floating.cir"
+    bridge = "D1 a p DX\nD3 n a DX\nD2 0 p DX\nD4 n 0 DX\nC1 p n 1u\n.model DX D\n.end\n"
+    path.write_text(_blow_up(12).replace(".end\n", bridge))
+    r = _cli("lcs", str(path), timeout=60)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert "singular or ill-conditioned" in r.stderr and "PELCS_MAX_DENSE_UNKNOWNS" in r.stderr
+    assert r.stderr.startswith(f"{path}: error:")
+
+
+def test_simulate_on_a_full_disk_prints_its_summary_then_the_error(tmp_path):
+    plot = tmp_path / "boost.png"
+    full = tmp_path / "full.csv"
+    full.symlink_to("/dev/full")  # (every write to it fails with ENOSPC)
+    r = _cli("simulate", str(BOOST), "--tstop", "0.2m", "-o", str(full), "--plot", str(plot),
+             "--no-progress", timeout=120)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert "simulated 0 to 200 µs" in r.stdout  # the summary first
+    assert f"wrote {plot}" in r.stdout and plot.stat().st_size > 0  # the other file written
+    assert f"cannot write {full}: No space left on device" in r.stderr
+    assert "disk is full" in r.stderr

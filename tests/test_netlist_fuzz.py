@@ -167,7 +167,7 @@ import pytest  # noqa: E402
 _ROOT = Path(__file__).resolve().parents[1]
 _CORPUS = sorted([*(_ROOT / "converters" / "netlists").glob("*.cir"),
                   *(_ROOT / "tests" / "netlists").rglob("*.cir")])
-_CASES = int(os.environ.get("PELCS_FUZZ_CASES", "24"))
+_CASES = int(os.environ.get("PELCS_FUZZ_CASES", "60"))
 _SEED = int(os.environ.get("PELCS_FUZZ_SEED", "0"))
 # Seconds a command may take on a mutant (runs are also bounded by PELCS_MAX_STEPS below).
 _BUDGET = float(os.environ.get("PELCS_FUZZ_BUDGET", "20"))
@@ -294,3 +294,16 @@ def test_commands_on_mutated_netlists(tmp_path, monkeypatch, capsys, seed_file, 
         err = capsys.readouterr().err
         assert code in (0, 2, 3), (argv[0], code, err)
         assert "Traceback" not in err
+
+
+def test_extreme_value_found_by_fuzzing(tmp_path, capsys, monkeypatch):
+    # L = 1e-308 gives matrix entries of 1e308: lcs died in an SVD (LinAlgError), simulate
+    # in the discretisation (ValueError); now 'passivity unknown' and an input error
+    monkeypatch.chdir(tmp_path)
+    text = (_ROOT / "tests" / "netlists" / "ac" / "buck_dcm.cir").read_text()
+    path = tmp_path / "extreme.cir"
+    path.write_text(text.replace("L1 sw out 10u", "L1 sw out 1e-308"))
+    assert _command(["lcs", str(path)])[0] == 0
+    assert "passivity unknown: the check failed numerically" in capsys.readouterr().out
+    assert _command(["simulate", str(path), "--no-progress"])[0] == 2
+    assert "cannot simulate: I - h θ A is singular" in capsys.readouterr().err

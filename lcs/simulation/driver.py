@@ -112,6 +112,7 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
                         integrator.name)
     error: SimulationError | None = None
     bps = sched.breakpoints
+    interrupt.keeping()  # (from here an interrupt stops the run and keeps its results)
     try:
         for w in range(len(windows) - 1):
             ws, we = float(windows[w]), float(windows[w + 1])

@@ -276,6 +276,13 @@ def _run(args, circuit, setup, probes, tstop, step, theta, every, output_step, o
         raise NetlistError(Diagnostic(message=f"not supported: {exc}",
                                       hint="see docs/simulation.md"),
                            file=args.file) from exc
+    except ValueError as exc:
+        # The set-up of a mode failed before any step (e.g. I - hθA singular: an element
+        # value of 1e-308 found by fuzzing): the values, not the run, are at fault.
+        raise NetlistError(Diagnostic(message=f"cannot simulate: {exc}",
+                                      hint="an element value of extreme magnitude? check the "
+                                      "values and their units (pelcs lcs FILE shows the "
+                                      "matrices)"), file=args.file) from exc
     wall = time.perf_counter() - t0
 
     steps_stored = len(result.t)
