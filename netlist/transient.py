@@ -5,7 +5,9 @@ resolved waveform per independent source (in the order of ``SwitchedLCS.inputs``
 initial state, the time span and the step. :func:`simulate_circuit` runs it.
 
 Defaults follow the netlist's ``.tran TSTEP TSTOP [TSTART [TMAX]] [UIC]``: the run goes from 0
-to TSTOP with the step TMAX if given, else TSTEP; points before TSTART are not returned. A
+to TSTOP with the step ngspice bounds its own by (:func:`tran_step`: TMAX if given, else
+``min(TSTEP, (TSTOP - TSTART)/50)``; shorter where a SIN or EXP source needs it); TSTEP is the
+print interval (:func:`print_step`); points before TSTART are not returned. A
 netlist without ``.tran`` needs the stop time from the caller; the step then defaults to
 1/100 of the shortest source period (PULSE PER, SIN 1/FREQ), at most 1/5000 of the run.
 
@@ -25,6 +27,7 @@ elements before the run, so that a typo is an input error with a hint and not a 
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -34,9 +37,17 @@ import numpy as np
 from lcs.model import LCS, SwitchedLCS
 from lcs.moreau import MoreauOptions, simulate
 from lcs.results import SimulationResult
-from lcs.signals import Dc, Pulse, Signal, Sin, resolve
+from lcs.signals import Dc, Exp, Pulse, Signal, Sin, resolve
 
-from .circuit import GROUND, Capacitor, Circuit, CurrentSource, Inductor, VoltageSource
+from .circuit import (
+    GROUND,
+    Capacitor,
+    Circuit,
+    CurrentSource,
+    Inductor,
+    Tran,
+    VoltageSource,
+)
 from .errors import Diagnostic, NetlistError
 from .formulation import formulate, storage_matrix
 from .passive import structurally_passive
@@ -47,9 +58,11 @@ __all__ = [
     "check_probes",
     "default_step",
     "initial_state",
+    "print_step",
     "run_setup",
     "simulate_circuit",
     "state_growth",
+    "tran_step",
     "transient_setup",
     "warm_up",
 ]
@@ -59,6 +72,12 @@ __all__ = [
 # of the averages with θ = 1/2; see tests/test_simulate_reference.py).
 STEPS_PER_PERIOD = 100
 MIN_STEPS_PER_RUN = 5000
+# ngspice's step bound without TMAX: (TSTOP - TSTART) / this (ngspice 39, traninit.c)
+NGSPICE_STEPS_PER_RUN = 50
+# Steps per written EXP time constant that resolve the exponential.
+STEPS_PER_TAU = 20
+# A print interval longer than this fraction of a source period does not show the source.
+SHOWN_PER_PERIOD = 10
 
 _PROBE_RE = re.compile(r"^\s*([vi])\s*\(\s*([^,()\s]+)\s*(?:,\s*([^,()\s]+)\s*)?\)\s*$", re.I)
 _TWO_TERMINAL = frozenset("RLCVIDSEFGH")
@@ -83,6 +102,10 @@ class TransientSetup:
         Stored-energy matrix (½ x'Kx, J), for jumps and energy balances.
     notes : list of str
         What the user should know about how the run was set up.
+    print_step : float or None
+        The spacing of the points written by default, s (None: every step), and
+    print_note : str or None
+        why it is not the ``.tran`` TSTEP (:func:`print_step`).
     """
 
     system: SwitchedLCS
@@ -94,6 +117,8 @@ class TransientSetup:
     energy: np.ndarray | None = None
     notes: list[str] = field(default_factory=list)
     nonpassive: list = field(default_factory=list)
+    print_step: float | None = None
+    print_note: str | None = None
 
 
 def _input_error(circuit: Circuit, message: str, hint: str) -> NetlistError:
@@ -131,6 +156,93 @@ def default_step(waves: Sequence[Signal], tstop: float) -> float:
         elif isinstance(w, Sin) and w.freq:
             h = min(h, 1.0 / (w.freq * STEPS_PER_PERIOD))
     return h
+
+
+def smooth_step(waves: Sequence[Signal]) -> float:
+    """The longest step that resolves the smooth sources, s (inf when there is none).
+
+    A PULSE or PWL source needs no bound: its corners are step boundaries and it is linear in
+    between. A SIN needs :data:`STEPS_PER_PERIOD` steps a period (θ = 1/2 then follows it to
+    0.03 % in phase), an EXP :data:`STEPS_PER_TAU` steps a time constant; only values written
+    in the netlist count (those ngspice fills from ``.tran`` follow the step anyway).
+    """
+    h = math.inf
+    for w in waves:
+        if isinstance(w, Sin) and w.freq:
+            h = min(h, 1.0 / (w.freq * STEPS_PER_PERIOD))
+        elif isinstance(w, Exp):
+            for tau in (w.tau1, w.tau2):
+                if tau:
+                    h = min(h, tau / STEPS_PER_TAU)
+    return h
+
+
+def source_periods(waves: Sequence[Signal]) -> list[float]:
+    """The periods written in the netlist (PULSE PER, SIN 1/FREQ), s."""
+    out = []
+    for w in waves:
+        if isinstance(w, Pulse) and w.per:
+            out.append(float(w.per))
+        elif isinstance(w, Sin) and w.freq:
+            out.append(1.0 / w.freq)
+    return out
+
+
+def tran_step(tran: Tran, waves: Sequence[Signal], tstop: float) -> tuple[float, str | None]:
+    """The step of a run from a ``.tran`` line, s, and a note when it is not TSTEP.
+
+    ``.tran TSTEP`` is ngspice's print interval, not its step: ngspice takes its own steps,
+    at most TMAX, or without TMAX at most ``min(TSTEP, (TSTOP - TSTART) / 50)`` (ngspice 39,
+    ``traninit.c``), lands on the sources' breakpoints and shortens them further where its
+    error estimate says so. pelcs takes a fixed step: that bound, and no longer than what
+    resolves the smooth sources (:func:`smooth_step`). A TSTEP that is already finer is kept.
+
+    Parameters
+    ----------
+    tran : Tran
+    waves : sequence of Signal
+        The sources as parsed.
+    tstop : float
+        Stop time of the run, s.
+    """
+    span = tstop - tran.tstart if 0 <= tran.tstart < tstop else tstop
+    if tran.tmax:
+        h, why = float(tran.tmax), None
+    else:
+        h, why = float(tran.tstep), None
+        if span / NGSPICE_STEPS_PER_RUN < h:
+            h = span / NGSPICE_STEPS_PER_RUN
+            why = (f"step h = {h:.4g} s: ngspice's own bound (TSTOP - TSTART)/"
+                   f"{NGSPICE_STEPS_PER_RUN}, since .tran TSTEP = {tran.tstep:.4g} s is "
+                   "longer (TSTEP is ngspice's print interval, not its step)")
+    bound = smooth_step(waves)
+    if bound < h:
+        why = (f"step h = {bound:.4g} s: 1/{STEPS_PER_PERIOD} of the shortest SIN period "
+               f"(1/{STEPS_PER_TAU} of an EXP time constant), since the .tran "
+               f"{'TMAX' if tran.tmax else 'TSTEP'} = {h:.4g} s would not resolve the "
+               "source (TSTEP is ngspice's print interval, not its step)")
+        h = bound
+    return h, why
+
+
+def print_step(tran: Tran | None, waves: Sequence[Signal], h: float
+               ) -> tuple[float | None, str | None]:
+    """The spacing of the points written by default (s), and a note when it is not TSTEP.
+
+    As ngspice prints at its ``.tran TSTEP`` interval, pelcs writes that grid, unless it is
+    finer than the step ``h`` (then every step: interpolating below the step adds points and
+    no information) or too coarse to show the sources: more than 1/:data:`SHOWN_PER_PERIOD`
+    of the shortest source period (a 50 Hz sine printed every 10 ms is printed at its zero
+    crossings), in which case every step is written and the note says so. None: every step.
+    """
+    if tran is None or not tran.tstep > 0 or tran.tstep < h * (1 - 1e-9):
+        return None, None
+    periods = source_periods(waves)
+    if periods and tran.tstep > min(periods) / SHOWN_PER_PERIOD:
+        return None, (f".tran TSTEP = {tran.tstep:.4g} s is too coarse to show a source of "
+                      f"period {min(periods):.4g} s: every step ({h:.4g} s) is written "
+                      "instead")
+    return float(tran.tstep), None
 
 
 def transient_setup(
@@ -191,7 +303,9 @@ def transient_setup(
     waves = _waveforms(circuit, system.inputs)
     if step is None:
         if tran is not None:
-            step = tran.tmax if tran.tmax else tran.tstep
+            step, why = tran_step(tran, waves, tstop)
+            if why:
+                notes.append(why)
         else:
             step = default_step(waves, tstop)
             notes.append(f"no .tran step: h = {step:.4g} s (1/{STEPS_PER_PERIOD} of the "
@@ -229,8 +343,9 @@ def transient_setup(
     t_save = tran.tstart if tran is not None and tran.tstart < tstop else 0.0
     energy = storage_matrix(circuit)
     nonpassive = _screen_passivity(circuit, system, energy, notes, strict)
+    shown, shown_note = print_step(tran, waves, float(step))
     return TransientSetup(system, signals, x0, float(tstop), float(step), float(t_save),
-                          energy, notes, nonpassive)
+                          energy, notes, nonpassive, shown, shown_note)
 
 
 def _step_note(circuit: Circuit, given: dict[str, float]) -> str:
