@@ -157,22 +157,52 @@ class Sin:
 
 @dataclass(frozen=True)
 class Pwl:
-    """``PWL(T1 V1 T2 V2 ...)``: linear between points, constant outside them."""
+    """``PWL(T1 V1 T2 V2 ...) [r=R] [td=TD]``: linear between points, V1 before the first
+    point, the last value after the last one; as in ngspice, ``r=R`` (the time of one of the
+    points, before the last) repeats the part from R to the last point for ever, and ``td``
+    delays the whole waveform (s). Two points at one time make a jump, and so does a repeated
+    part whose last value is not its first.
+    """
 
     times: tuple[float, ...]
     values: tuple[float, ...]
+    repeat: float | None = None
+    delay: float = 0.0
 
     piecewise_linear = True
 
     @property
     def jumps(self) -> bool:
-        """Whether the waveform jumps (two points at the same time)."""
-        return bool(np.any(np.diff(np.asarray(self.times, dtype=float)) == 0))
+        """Whether the waveform jumps (two points at one time, or at the repetitions)."""
+        if np.any(np.diff(np.asarray(self.times, dtype=float)) == 0):
+            return True
+        return self.repeat is not None and self._value_at(self.repeat) != self.values[-1]
+
+    def _value_at(self, t: float) -> float:
+        return float(self.values[list(self.times).index(t)])
+
+    def _fold(self, t: np.ndarray, side: int) -> np.ndarray:
+        """Time in the written waveform: delay removed, repetitions folded onto [R, last]."""
+        t = t - self.delay
+        if self.repeat is None:
+            return t
+        end, r = float(self.times[-1]), float(self.repeat)
+        per = end - r
+        # repetition k >= 1 covers (end + (k-1) per, end + k per]; a left limit at its end
+        # stays in it, a right limit at its start goes to the next one
+        q = (t - end) / per
+        # a repetition boundary within round-off is on it ((5e-6 - 3e-6) / 2e-6 < 1)
+        q = np.where(np.abs(q - np.round(q)) <= 1e-9, np.round(q), q)
+        k = np.ceil(q) if side < 0 else np.floor(q) + 1
+        return np.where(q > 0 if side < 0 else q >= 0, t - k * per, t)
 
     def __call__(self, t, side: int = 0):
         """Values at the times ``t`` (s); ``side`` +1 / -1: right / left limits (they differ
-        only where two points share a time)."""
+        only at jumps)."""
         t = np.asarray(t, dtype=float)
+        if self.repeat is not None and side == 0:
+            side = 1  # ngspice: at a repetition's start, the first value of the part
+        t = self._fold(t, side)
         if side == 0:
             return np.interp(t, self.times, self.values)
         times = np.asarray(self.times, dtype=float)
@@ -188,7 +218,16 @@ class Pwl:
         return np.where(idx >= len(times), values[-1], out)
 
     def breakpoints(self, t0: float, t1: float) -> np.ndarray:
-        pts = np.asarray(self.times, dtype=float)
+        pts = np.asarray(self.times, dtype=float) + self.delay
+        if self.repeat is not None:
+            times = np.asarray(self.times, dtype=float)
+            part = times[times >= self.repeat] - self.repeat  # from 0 to per
+            end, per = times[-1] + self.delay, times[-1] - self.repeat
+            k0 = max(0, math.floor((t0 - end) / per))
+            k1 = max(k0, math.ceil((t1 - end) / per))
+            ks = np.arange(k0, k1 + 1)
+            pts = np.concatenate([pts, (end + ks[:, None] * per + part[None, :]).ravel()])
+            pts = unique_sorted(pts)
         return pts[(pts >= t0) & (pts <= t1)]
 
 

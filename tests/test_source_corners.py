@@ -10,6 +10,7 @@ import pytest
 
 from lcs.signals import Pulse, resolve
 from lcs.simulation.inputs import InputTable, has_jumps
+from netlist.errors import NetlistError
 from netlist.parser import parse_string
 from netlist.transient import transient_setup
 
@@ -28,6 +29,9 @@ SOURCES = {
     "exp": ("EXP(0 4 2u 3u 10u 5u)", "rise and fall"),
     "pwl": ("PWL(0 0 5u 3 10u 3 12u -1)", "corners, constant after the last point"),
     "pwl_jump": ("PWL(0 0 5u 1 5u 3 12u -1)", "a jump"),
+    "pwl_repeat": ("PWL(0 0 1u 1 2.5u 0) r=0", "a triangle repeated for ever"),
+    "pwl_repeat_from": ("PWL(0 0 1u 1 3u 0.5) r=1u td=2u",
+                        "delayed, the part from 1 us repeated: a sawtooth from 1 to 0.5"),
 }
 
 
@@ -83,9 +87,26 @@ def test_sources_match_ngspice_at_its_time_points(ngspice, tmp_path):
         assert ok.all(), (name, t[~ok][:5], ours[~ok, k][:5], theirs[~ok][:5])
 
 
-@pytest.mark.parametrize("name", ["pw_zero", "cut_fall", "duty_one", "count_cut"])
+@pytest.mark.parametrize("name", ["pw_zero", "cut_fall", "duty_one", "count_cut",
+                                  "pwl_repeat_from"])
 def test_jumping_pulses_are_evaluated_by_limits(name):
     setup = transient_setup(parse_string(_deck() + ".end\n"))
     i = list(SOURCES).index(name)
     sig = setup.signals[setup.system.inputs.index(f"V{i}")]
     assert sig.jumps
+
+
+def test_pwl_repeat_by_hand_and_its_errors():
+    setup = transient_setup(parse_string(_deck() + ".end\n"))
+    i = list(SOURCES).index("pwl_repeat_from")
+    w = setup.signals[setup.system.inputs.index(f"V{i}")]
+    # 1 at 3 us, down to 0.5 at 5 us, where the part from 1 us starts again: 1 at 5 us
+    t = np.array([0.0, 2e-6, 3e-6, 5e-6, 6e-6, 7e-6, 8e-6])
+    np.testing.assert_allclose(w(t), [0, 0, 1, 1, 0.75, 1.0, 0.75], atol=1e-12)
+    np.testing.assert_allclose(w(np.array([7e-6]), -1), [0.5], atol=1e-12)
+    np.testing.assert_allclose(w.breakpoints(0, 10e-6), [2e-6, 3e-6, 5e-6, 7e-6, 9e-6])
+    with pytest.raises(NetlistError, match="not one of its times") as exc:
+        parse_string("p\nV1 a 0 PWL(0 0 1u 1 2u 0) r=0.5u\nR1 a 0 1\n.tran 1n 5u\n.end\n")
+    assert "r=" in exc.value.format()
+    with pytest.raises(NetlistError, match="unsupported parameter 'q'"):
+        parse_string("p\nV1 a 0 PWL(0 0 1u 1 2u 0) q=0\nR1 a 0 1\n.tran 1n 5u\n.end\n")
