@@ -117,14 +117,15 @@ def _ngspice(tmp_path, deck: str, vectors: str) -> np.ndarray:
     return np.loadtxt(out)
 
 
-def _off_by_ngspice(t, data, col, level=0.5):
+def _off_by_ngspice(t, data, col, level=0.5, near=20e-6):
     """The switch states ngspice shows (True = off) at its time points, and a mask of the
-    points at least two of its steps away from its transitions."""
+    points more than ``near`` (s: two of pelcs's steps, over which its output is
+    interpolated) away from its transitions."""
     off = data[:, col] > level
     change = np.flatnonzero(np.diff(off.astype(int))) + 1
     far = np.ones(t.size, bool)
     for i in change:
-        far[max(i - 2, 0):i + 2] = False
+        far &= np.abs(t - t[i]) > near
     return off, far
 
 
@@ -138,7 +139,7 @@ def test_resistor_decks_match_ngspice(ngspice, tmp_path, deck):
     off, far = _off_by_ngspice(t, data, 1)
     res = simulate_circuit(parse_string(text + ".end\n"), probes=["v(b)"])
     ours = np.interp(t, res.t, res["v(b)"]) > 0.5
-    assert far.sum() > 0.9 * t.size
+    assert far.sum() > 0.8 * t.size
     assert np.array_equal(ours[far], off[far])
     # ngspice switches at every transition pelcs does, within one of its steps
     assert np.count_nonzero(np.diff(ours.astype(int))) == np.count_nonzero(
@@ -155,26 +156,24 @@ R1 out 0 20
 Vg g 0 PULSE(0 1 0 10n 10n 5u 10u)
 .model SWM SW(RON=0.001)
 .model DM D(IS=1e-12 N=0.05)
-.tran 0.1u 2m 0 0.1u UIC
+.tran 0.1u 10m 0 0.1u UIC
 """
 
 
 def test_boost_gate_at_threshold_switches_every_period(ngspice, tmp_path):
     # Before: the switch turned on at the first rise and stayed on (the gate's low level is
-    # VT: "inside the band", kept); i(L1) climbed to 240 A over 2 ms. ngspice turns it off
-    # at the end of each fall: a boost at duty 0.5.
+    # VT: "inside the band", kept): 0 switching events, i(L1) climbed without bound. ngspice
+    # turns it off at the end of each fall: a boost at duty 0.5, 24 V in steady state.
     data = _ngspice(tmp_path, BOOST, "i(L1) v(out)")
     t, il, vout = data[:, 0], data[:, 1], data[:, 3]
     res = simulate_circuit(parse_string(BOOST + ".end\n"), probes=["i(L1)", "v(out)"])
     assert res.error is None
-    late = res.t > 1.5e-3
-    ng_late = t > 1.5e-3
-    assert res["i(L1)"].max() == pytest.approx(il.max(), rel=0.02)
-    assert res["i(L1)"].max() < 10
-    # the mean output over the last 0.5 ms (a time average: ngspice's points are not uniform)
+    assert res["i(L1)"].max() == pytest.approx(il.max(), rel=0.01)  # 24.9 A, the start-up
+    # the mean output over the last 2 ms (a time average: ngspice's points are not uniform)
+    late, ng_late = res.t > 8e-3, t > 8e-3
     ours = np.trapezoid(res["v(out)"][late], res.t[late]) / np.ptp(res.t[late])
     theirs = np.trapezoid(vout[ng_late], t[ng_late]) / np.ptp(t[ng_late])
-    assert ours == pytest.approx(theirs, rel=0.01)
+    assert ours == pytest.approx(theirs, rel=0.002)  # 24.073 V and 24.079 V
 
 
 MOS = """nmos at its threshold
