@@ -78,8 +78,12 @@ class Pulse:
         after = np.zeros(tau.shape, dtype=bool)
         if per > 0:
             # the period an instant belongs to: [k PER, (k+1) PER), or (k PER, (k+1) PER] for
-            # a left limit
-            k = np.ceil(tau / per) - 1 if side < 0 else np.floor(tau / per)
+            # a left limit; a period start within round-off is one (9.8e-4 / 2e-5 exceeds 49
+            # by an ulp, which would take the end of period 48 for the start of period 49)
+            q = tau / per
+            q = np.where(np.abs(q - np.round(q)) <= 64 * np.finfo(float).eps
+                         * np.maximum(1.0, np.abs(q)), np.round(q), q)
+            k = np.ceil(q) - 1 if side < 0 else np.floor(q)
             k = np.maximum(k, 0.0)
             if self.np_:
                 # ngspice: V1 once TD + NP PER is past
