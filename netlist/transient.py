@@ -158,23 +158,29 @@ def default_step(waves: Sequence[Signal], tstop: float) -> float:
     return h
 
 
-def smooth_step(waves: Sequence[Signal]) -> float:
-    """The longest step that resolves the smooth sources, s (inf when there is none).
+def smooth_step(waves: Sequence[Signal], names: Sequence[str] | None = None
+                ) -> tuple[float, str]:
+    """The longest step that resolves the smooth sources, s (inf when there is none), and
+    what sets it.
 
     A PULSE or PWL source needs no bound: its corners are step boundaries and it is linear in
     between. A SIN needs :data:`STEPS_PER_PERIOD` steps a period (θ = 1/2 then follows it to
     0.03 % in phase), an EXP :data:`STEPS_PER_TAU` steps a time constant; only values written
     in the netlist count (those ngspice fills from ``.tran`` follow the step anyway).
     """
-    h = math.inf
-    for w in waves:
+    h, what = math.inf, ""
+    for j, w in enumerate(waves):
+        name = f" {names[j]}" if names is not None else ""
         if isinstance(w, Sin) and w.freq:
-            h = min(h, 1.0 / (w.freq * STEPS_PER_PERIOD))
+            if 1.0 / (w.freq * STEPS_PER_PERIOD) < h:
+                h = 1.0 / (w.freq * STEPS_PER_PERIOD)
+                what = f"1/{STEPS_PER_PERIOD} of the period of the SIN source{name}"
         elif isinstance(w, Exp):
             for tau in (w.tau1, w.tau2):
-                if tau:
-                    h = min(h, tau / STEPS_PER_TAU)
-    return h
+                if tau and tau / STEPS_PER_TAU < h:
+                    h = tau / STEPS_PER_TAU
+                    what = f"1/{STEPS_PER_TAU} of a time constant of the EXP source{name}"
+    return h, what
 
 
 def source_periods(waves: Sequence[Signal]) -> list[float]:
@@ -188,7 +194,8 @@ def source_periods(waves: Sequence[Signal]) -> list[float]:
     return out
 
 
-def tran_step(tran: Tran, waves: Sequence[Signal], tstop: float) -> tuple[float, str | None]:
+def tran_step(tran: Tran, waves: Sequence[Signal], tstop: float,
+              names: Sequence[str] | None = None) -> tuple[float, str | None]:
     """The step of a run from a ``.tran`` line, s, and a note when it is not TSTEP.
 
     ``.tran TSTEP`` is ngspice's print interval, not its step: ngspice takes its own steps,
@@ -204,25 +211,31 @@ def tran_step(tran: Tran, waves: Sequence[Signal], tstop: float) -> tuple[float,
         The sources as parsed.
     tstop : float
         Stop time of the run, s.
+    names : sequence of str, optional
+        The sources' names, for the note.
     """
     span = tstop - tran.tstart if 0 <= tran.tstart < tstop else tstop
     if tran.tmax:
-        h, why = float(tran.tmax), None
+        h, bound = float(tran.tmax), f".tran TMAX = {_eng_s(tran.tmax)}"
     else:
-        h, why = float(tran.tstep), None
-        if span / NGSPICE_STEPS_PER_RUN < h:
-            h = span / NGSPICE_STEPS_PER_RUN
-            why = (f"step h = {h:.4g} s: ngspice's own bound (TSTOP - TSTART)/"
-                   f"{NGSPICE_STEPS_PER_RUN}, since .tran TSTEP = {tran.tstep:.4g} s is "
-                   "longer (TSTEP is ngspice's print interval, not its step)")
-    bound = smooth_step(waves)
-    if bound < h:
-        why = (f"step h = {bound:.4g} s: 1/{STEPS_PER_PERIOD} of the shortest SIN period "
-               f"(1/{STEPS_PER_TAU} of an EXP time constant), since the .tran "
-               f"{'TMAX' if tran.tmax else 'TSTEP'} = {h:.4g} s would not resolve the "
-               "source (TSTEP is ngspice's print interval, not its step)")
-        h = bound
-    return h, why
+        h = min(float(tran.tstep), span / NGSPICE_STEPS_PER_RUN)
+        bound = (f"ngspice's bound min(TSTEP, (TSTOP - TSTART)/{NGSPICE_STEPS_PER_RUN}) = "
+                 f"{_eng_s(h)}")
+    smooth, what = smooth_step(waves, names)
+    if smooth < h:
+        return smooth, (f"step h = {_eng_s(smooth)}: {what} (shorter than {bound}; .tran "
+                        f"TSTEP = {_eng_s(tran.tstep)} is ngspice's print interval, not its "
+                        "step)")
+    if not tran.tmax and h < tran.tstep:
+        return h, (f"step h = {_eng_s(h)}: {bound} (.tran TSTEP = {_eng_s(tran.tstep)} is "
+                   "ngspice's print interval, not its step)")
+    return h, None
+
+
+def _eng_s(x: float) -> str:
+    from .units import format_eng
+
+    return format_eng(x, "s")
 
 
 def print_step(tran: Tran | None, waves: Sequence[Signal], h: float
@@ -239,8 +252,8 @@ def print_step(tran: Tran | None, waves: Sequence[Signal], h: float
         return None, None
     periods = source_periods(waves)
     if periods and tran.tstep > min(periods) / SHOWN_PER_PERIOD:
-        return None, (f".tran TSTEP = {tran.tstep:.4g} s is too coarse to show a source of "
-                      f"period {min(periods):.4g} s: every step ({h:.4g} s) is written "
+        return None, (f".tran TSTEP = {_eng_s(tran.tstep)} is too coarse to show a source of "
+                      f"period {_eng_s(min(periods))}: every step ({_eng_s(h)}) is written "
                       "instead")
     return float(tran.tstep), None
 
@@ -303,7 +316,7 @@ def transient_setup(
     waves = _waveforms(circuit, system.inputs)
     if step is None:
         if tran is not None:
-            step, why = tran_step(tran, waves, tstop)
+            step, why = tran_step(tran, waves, tstop, system.inputs)
             if why:
                 notes.append(why)
         else:
