@@ -110,9 +110,11 @@ class OutputMap:
 class SwitchControl:
     """An ideal switch and the comparator that drives it.
 
-    The switch is on while ``control > vt + vh`` and off while ``control < vt - vh``; in the
-    band it keeps its state (ngspice's SW model). ``control`` names a probe, e.g.
-    ``"v(gate,0)"``, whose output map depends on the mode.
+    The switch is on while ``control > vt + |vh|`` and off while ``control < vt - |vh|``; in
+    the band it keeps its state when ``vh > 0``, and with ``vh <= 0`` it is on when the control
+    entered the band from below, off when from above (ngspice's SW model; see
+    :func:`lcs.simulation.source_switching.band_rule` for the exact rule and ``options``).
+    ``control`` names a probe, e.g. ``"v(gate,0)"``, whose output map depends on the mode.
     """
 
     name: str
@@ -120,6 +122,16 @@ class SwitchControl:
     vt: float = 0.0
     vh: float = 0.0
     options: dict = field(default_factory=dict)
+
+
+#: a switch option (``SwitchControl.options``): the switch stands for an idealised transistor,
+#: on only while its control exceeds the threshold (an MOS device at its threshold voltage
+#: conducts nothing); see :func:`lcs.simulation.source_switching.band_rule`
+IDEALISED_OPTION = "idealised"
+#: a switch option: the run stands for ngspice's transient from its DC operating point (no
+#: UIC), which decides the state of a VH <= 0 switch whose control starts inside its band
+#: (:func:`lcs.simulation.source_switching.initial_sub`)
+OPERATING_POINT_OPTION = "operating_point"
 
 
 # A mode is the tuple of switch states, True = on (short), in the order of

@@ -35,8 +35,14 @@ class Dc:
 class Pulse:
     """``PULSE(V1 V2 TD TR TF PW PER [NP])``.
 
-    As in ngspice, TR and TF default to TSTEP (an explicit 0 is also replaced by TSTEP), PW
-    and PER default to TSTOP, NP (number of pulses) to unlimited.
+    As in ngspice, TR and TF default to TSTEP, PW and PER to TSTOP (an explicit 0 is replaced
+    the same way: a "triangle" written with PW = 0 has a flat top TSTOP long in ngspice, and
+    here), NP (number of pulses) to unlimited (0 too).
+
+    Each period, from ``TD + k PER``, the waveform is V1 at its start, rises to V2 over TR,
+    stays there PW, falls over TF and is V1 again; ngspice cuts the period at PER whatever its
+    edges, so a pulse with ``TR + PW + TF > PER`` (a duty cycle of 1) jumps back to V1 at every
+    period start (from V2, or from where its fall had got to). After NP periods it is V1.
     """
 
     v1: float
@@ -54,18 +60,43 @@ class Pulse:
         if None in (self.tr, self.tf, self.pw, self.per):
             raise ValueError("PULSE defaults not resolved: call lcs.signals.resolve first")
 
-    def __call__(self, t):
+    @property
+    def jumps(self) -> bool:
+        """Whether the waveform may jump: at period starts when ``TR + PW + TF > PER``, and at
+        the end of a fractional number of pulses."""
+        self._require_resolved()
+        cut = self.tr + self.pw + self.tf > self.per
+        return self.per > 0 and (cut or bool(self.np_ and self.np_ != math.floor(self.np_)))
+
+    def __call__(self, t, side: int = 0):
+        """Values at the times ``t`` (s); ``side`` +1 / -1: right / left limits (they differ
+        only at the jumps of a pulse whose edges outlast its period)."""
         self._require_resolved()
         t = np.asarray(t, dtype=float)
         tau = t - self.td
         per = self.per
+        after = np.zeros(tau.shape, dtype=bool)
         if per > 0:
-            k = np.floor(tau / per)
-            if self.np_ is not None:
-                k = np.minimum(k, self.np_ - 1)
+            # the period an instant belongs to: [k PER, (k+1) PER), or (k PER, (k+1) PER] for
+            # a left limit; a period start within round-off is one (9.8e-4 / 2e-5 exceeds 49
+            # by an ulp, which would take the end of period 48 for the start of period 49)
+            q = tau / per
+            q = np.where(np.abs(q - np.round(q)) <= 64 * np.finfo(float).eps
+                         * np.maximum(1.0, np.abs(q)), np.round(q), q)
+            k = np.ceil(q) - 1 if side < 0 else np.floor(q)
             k = np.maximum(k, 0.0)
+            if self.np_:
+                # ngspice: V1 once TD + NP PER is past
+                tmax = self.np_ * per
+                after = tau >= tmax if side > 0 else tau > tmax
             tau = tau - k * per
         tr, tf, pw = self.tr, self.tf, self.pw
+        # An instant within round-off of an edge is on it: the levels at the corners are then
+        # exactly V1 and V2 (2.1e-3 - 1e-3 exceeds 1e-4 + 1e-3 by an ulp, which would put the
+        # end of a flat top on its fall, 2e-15 V below V2, where a switch threshold may sit).
+        tol = 16 * np.finfo(float).eps * (np.abs(t) + abs(self.td) + max(per, 0.0))
+        for edge in (0.0, tr, tr + pw, tr + pw + tf, per):
+            tau = np.where(np.abs(tau - edge) <= tol, edge, tau)
         v1, v2 = self.v1, self.v2
         out = np.full_like(tau, v1)
         rising = (tau > 0) & (tau < tr)
@@ -74,20 +105,29 @@ class Pulse:
         out = np.where(rising, v1 + (v2 - v1) * tau / tr, out)
         out = np.where(high, v2, out)
         out = np.where(falling, v2 + (v1 - v2) * (tau - tr - pw) / tf, out)
-        return out
+        return np.where(after, v1, out)
 
     def breakpoints(self, t0: float, t1: float) -> np.ndarray:
+        """The instants in ``[t0, t1]`` where the waveform has a corner or a jump, s: every
+        period's start and the edges that come before its end."""
         self._require_resolved()
         edges = np.array([0.0, self.tr, self.tr + self.pw, self.tr + self.pw + self.tf])
         if self.per <= 0:
             pts = self.td + edges
         else:
+            edges = edges[edges < self.per]
             k0 = max(0, math.floor((t0 - self.td) / self.per) - 1)
             k1 = math.ceil((t1 - self.td) / self.per) + 1
-            if self.np_ is not None:
-                k1 = min(k1, int(self.np_) - 1)
+            if self.np_:
+                k1 = min(k1, int(math.ceil(self.np_)) - 1)
             ks = np.arange(k0, max(k1, k0) + 1)
             pts = (self.td + ks[:, None] * self.per + edges[None, :]).ravel()
+            # the end of the last period (where a cut pulse jumps back to V1)
+            end = [self.td + (ks[-1] + 1) * self.per]
+            if self.np_:
+                pts = pts[pts <= self.td + self.np_ * self.per]
+                end.append(self.td + self.np_ * self.per)
+            pts = np.append(pts, end)
         pts = unique_sorted(pts)
         return pts[(pts >= t0) & (pts <= t1)]
 
@@ -121,18 +161,77 @@ class Sin:
 
 @dataclass(frozen=True)
 class Pwl:
-    """``PWL(T1 V1 T2 V2 ...)``: linear between points, constant outside them."""
+    """``PWL(T1 V1 T2 V2 ...) [r=R] [td=TD]``: linear between points, V1 before the first
+    point, the last value after the last one; as in ngspice, ``r=R`` (the time of one of the
+    points, before the last) repeats the part from R to the last point for ever, and ``td``
+    delays the whole waveform (s). Two points at one time make a jump, and so does a repeated
+    part whose last value is not its first.
+    """
 
     times: tuple[float, ...]
     values: tuple[float, ...]
+    repeat: float | None = None
+    delay: float = 0.0
 
     piecewise_linear = True
 
-    def __call__(self, t):
-        return np.interp(np.asarray(t, dtype=float), self.times, self.values)
+    @property
+    def jumps(self) -> bool:
+        """Whether the waveform jumps (two points at one time, or at the repetitions)."""
+        if np.any(np.diff(np.asarray(self.times, dtype=float)) == 0):
+            return True
+        return self.repeat is not None and self._value_at(self.repeat) != self.values[-1]
+
+    def _value_at(self, t: float) -> float:
+        return float(self.values[list(self.times).index(t)])
+
+    def _fold(self, t: np.ndarray, side: int) -> np.ndarray:
+        """Time in the written waveform: delay removed, repetitions folded onto [R, last]."""
+        t = t - self.delay
+        if self.repeat is None:
+            return t
+        end, r = float(self.times[-1]), float(self.repeat)
+        per = end - r
+        # repetition k >= 1 covers (end + (k-1) per, end + k per]; a left limit at its end
+        # stays in it, a right limit at its start goes to the next one
+        q = (t - end) / per
+        # a repetition boundary within round-off is on it ((5e-6 - 3e-6) / 2e-6 < 1)
+        q = np.where(np.abs(q - np.round(q)) <= 1e-9, np.round(q), q)
+        k = np.ceil(q) if side < 0 else np.floor(q) + 1
+        return np.where(q > 0 if side < 0 else q >= 0, t - k * per, t)
+
+    def __call__(self, t, side: int = 0):
+        """Values at the times ``t`` (s); ``side`` +1 / -1: right / left limits (they differ
+        only at jumps)."""
+        t = np.asarray(t, dtype=float)
+        if self.repeat is not None and side == 0:
+            side = 1  # ngspice: at a repetition's start, the first value of the part
+        t = self._fold(t, side)
+        if side == 0:
+            return np.interp(t, self.times, self.values)
+        times = np.asarray(self.times, dtype=float)
+        values = np.asarray(self.values, dtype=float)
+        idx = np.searchsorted(times, t, side="right" if side > 0 else "left")
+        lo = np.clip(idx - 1, 0, len(times) - 1)
+        hi = np.clip(idx, 0, len(times) - 1)
+        t_lo, t_hi = times[lo], times[hi]
+        span = np.where(t_hi > t_lo, t_hi - t_lo, 1.0)
+        frac = np.clip((t - t_lo) / span, 0.0, 1.0)
+        out = values[lo] + (values[hi] - values[lo]) * np.where(t_hi > t_lo, frac, 0.0)
+        out = np.where(idx == 0, values[0], out)
+        return np.where(idx >= len(times), values[-1], out)
 
     def breakpoints(self, t0: float, t1: float) -> np.ndarray:
-        pts = np.asarray(self.times, dtype=float)
+        pts = np.asarray(self.times, dtype=float) + self.delay
+        if self.repeat is not None:
+            times = np.asarray(self.times, dtype=float)
+            part = times[times >= self.repeat] - self.repeat  # from 0 to per
+            end, per = times[-1] + self.delay, times[-1] - self.repeat
+            k0 = max(0, math.floor((t0 - end) / per))
+            k1 = max(k0, math.ceil((t1 - end) / per))
+            ks = np.arange(k0, k1 + 1)
+            pts = np.concatenate([pts, (end + ks[:, None] * per + part[None, :]).ravel()])
+            pts = unique_sorted(pts)
         return pts[(pts >= t0) & (pts <= t1)]
 
 
@@ -181,7 +280,7 @@ def resolve(sig: Signal, tstep: float, tstop: float) -> Signal:
             sig,
             tr=sig.tr if sig.tr else tstep,
             tf=sig.tf if sig.tf else tstep,
-            pw=sig.pw if sig.pw is not None else tstop,
+            pw=sig.pw if sig.pw else tstop,
             per=sig.per if sig.per else tstop,
         )
     if isinstance(sig, Sin):

@@ -149,13 +149,17 @@ class ElementLines:
             if part.data == "assign":
                 key_tok, val_tok = part.children
                 key = key_tok.lower()
+                if key in ("r", "td") and wave is not None and wave[0] == "pwl":
+                    # ngspice's PWL(...) r=T td=T: repeat from the point at T; delay
+                    pv = self.value(val_tok, st)
+                    if pv is None:
+                        return
+                    wave[3][key] = (pv, key_tok.start_pos)
+                    continue
                 if key not in _PARASITICS.get(letter, ()):
-                    hint = "LTspice's Rser= and Cpar= are accepted"
-                    if key in ("r", "td") and wave is not None and wave[0] == "pwl":
-                        hint = ("ngspice's PWL repeat (r=) and delay (td=) are not read: write "
-                                "the repeated or shifted points out in the PWL list")
                     self.error(f"unsupported parameter '{key_tok}' on source '{name}'", st,
-                               key_tok.start_pos, hint)
+                               key_tok.start_pos, "LTspice's Rser= and Cpar= are accepted, "
+                               "and r= and td= after a PWL(...)")
                     return
                 pv = self.value(val_tok, st)
                 if pv is None:
@@ -194,7 +198,7 @@ class ElementLines:
                     self.error(f"PWL needs time-value pairs, got {len(args)} values", st,
                                kw.start_pos, "syntax: PWL(T1 V1 T2 V2 ...)")
                     return
-                wave = (kind, args, kw.start_pos)
+                wave = (kind, args, kw.start_pos, {})
         if not ok:
             return
         a, b = node_name(ch[1]), node_name(ch[2])

@@ -683,10 +683,10 @@ class _Builder:
             return Coupling(name, (), loc, (prefix + l1, prefix + l2), k)
         raise AssertionError(f"element kind {kind}")  # the reader accepts no other kind
 
-    def waveform(self, wave: tuple[str, list[Value], int], env: Mapping[str, float],
+    def waveform(self, wave: tuple[str, list[Value], int, dict], env: Mapping[str, float],
                  failed: set[str], st: Statement) -> Signal | None:
         """The transient waveform; ``None`` after reporting a problem."""
-        kind, args, offset = wave
+        kind, args, offset, extras = wave
         vals = [self.evaluate(a, env, failed) for a in args]
         if any(v is None for v in vals):
             return None
@@ -703,7 +703,23 @@ class _Builder:
                 self.error(f"PWL starts at a negative time {times[0]:g} s", args[0].loc,
                            "times are >= 0")
                 return None
-            return Pwl(times, values)
+            more = {}
+            for key, (val, pos) in extras.items():
+                v = self.evaluate(val, env, failed)
+                if v is None:
+                    return None
+                more[key] = (v, pos)
+            repeat = None
+            if "r" in more and more["r"][0] >= -0.5:  # ngspice: r = -1 repeats nothing
+                repeat, pos = more["r"]
+                if repeat not in times or repeat >= times[-1]:
+                    self.error(f"PWL r={repeat:g} s is not one of its times before the last "
+                               f"({times[-1]:g} s)", st.loc(pos),
+                               "r= names the time of the point the repetition starts from "
+                               "(r=0: the whole waveform)")
+                    return None
+            delay = more["td"][0] if "td" in more else 0.0
+            return Pwl(times, values, repeat, delay)
         if kind == "pulse":
             sig = Pulse(*vals)
             fields = ["V1", "V2", "TD", "TR", "TF", "PW", "PER", "NP"]

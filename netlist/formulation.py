@@ -57,9 +57,11 @@ from functools import cached_property
 import numpy as np
 
 from lcs.model import (
+    IDEALISED_OPTION,
     LAMBDA_CURRENT,
     LAMBDA_VOLTAGE,
     LCS,
+    OPERATING_POINT_OPTION,
     ComplementarityPair,
     ModeKey,
     ModeModel,
@@ -280,11 +282,16 @@ class _Formulator:
                 else:
                     params = {k.lower(): v for k, v in model.params.items()}
             ncp, ncm = sw.control
+            options: dict = dict(params)
+            if sw.initial is not None:
+                options["initial"] = sw.initial
+            if sw.device is not None:
+                options[IDEALISED_OPTION] = True
+            if circuit.tran is not None and not circuit.tran.uic:
+                options[OPERATING_POINT_OPTION] = True
             self.switch_controls.append(SwitchControl(
                 name=sw.name, control=f"v({ncp},{ncm})", vt=float(params.get("vt", 0.0)),
-                vh=float(params.get("vh", 0.0)),
-                options={**params, "initial": sw.initial} if sw.initial is not None
-                else dict(params)))
+                vh=float(params.get("vh", 0.0)), options=options))
 
         if self.switches and self.inductors:
             self.pinnable = pinnable_inductors(self)

@@ -92,8 +92,9 @@ class RawElement:
     """An element line after syntax analysis, before evaluation and flattening.
 
     ``ref`` is the model (D, S), the controlling source (F, H) or the subcircuit (X); ``refs``
-    are the two inductors of a K; ``wave`` is ``(kind, args, offset)`` of a V/I transient
-    function; ``params`` are the parameter overrides of an X.
+    are the two inductors of a K; ``wave`` is ``(kind, args, offset, extras)`` of a V/I
+    transient function (``extras``: a PWL's ``r`` and ``td``, name -> (value, offset));
+    ``params`` are the parameter overrides of an X.
     """
 
     kind: str
@@ -105,7 +106,7 @@ class RawElement:
     ref_offset: int = 0
     value: Value | None = None
     ic: Value | None = None
-    wave: tuple[str, list[Value], int] | None = None
+    wave: tuple[str, list[Value], int, dict] | None = None
     refs: tuple[tuple[str, int], ...] = ()
     params: list[RawParam] = field(default_factory=list)
     state: bool | None = None

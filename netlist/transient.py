@@ -5,7 +5,9 @@ resolved waveform per independent source (in the order of ``SwitchedLCS.inputs``
 initial state, the time span and the step. :func:`simulate_circuit` runs it.
 
 Defaults follow the netlist's ``.tran TSTEP TSTOP [TSTART [TMAX]] [UIC]``: the run goes from 0
-to TSTOP with the step TMAX if given, else TSTEP; points before TSTART are not returned. A
+to TSTOP with the step ngspice bounds its own by (:func:`tran_step`: TMAX if given, else
+``min(TSTEP, (TSTOP - TSTART)/50)``; shorter where a SIN or EXP source needs it); TSTEP is the
+print interval (:func:`print_step`); points before TSTART are not returned. A
 netlist without ``.tran`` needs the stop time from the caller; the step then defaults to
 1/100 of the shortest source period (PULSE PER, SIN 1/FREQ), at most 1/5000 of the run.
 
@@ -35,9 +37,17 @@ import numpy as np
 from lcs.model import LCS, SwitchedLCS
 from lcs.moreau import MoreauOptions, simulate
 from lcs.results import SimulationResult
-from lcs.signals import Dc, Pulse, Signal, Sin, resolve
+from lcs.signals import Dc, Exp, Pulse, Signal, Sin, resolve
 
-from .circuit import GROUND, Capacitor, Circuit, CurrentSource, Inductor, VoltageSource
+from .circuit import (
+    GROUND,
+    Capacitor,
+    Circuit,
+    CurrentSource,
+    Inductor,
+    Tran,
+    VoltageSource,
+)
 from .errors import Diagnostic, NetlistError
 from .formulation import formulate, storage_matrix
 from .limits import MEMORY, STEPS
@@ -49,9 +59,11 @@ __all__ = [
     "check_probes",
     "default_step",
     "initial_state",
+    "print_step",
     "run_setup",
     "simulate_circuit",
     "state_growth",
+    "tran_step",
     "transient_setup",
     "warm_up",
 ]
@@ -61,6 +73,12 @@ __all__ = [
 # of the averages with θ = 1/2; see tests/test_simulate_reference.py).
 STEPS_PER_PERIOD = 100
 MIN_STEPS_PER_RUN = 5000
+# ngspice's step bound without TMAX: (TSTOP - TSTART) / this (ngspice 39, traninit.c)
+NGSPICE_STEPS_PER_RUN = 50
+# Steps per written EXP time constant that resolve the exponential.
+STEPS_PER_TAU = 20
+# A print interval longer than this fraction of a source period does not show the source.
+SHOWN_PER_PERIOD = 10
 
 _PROBE_RE = re.compile(r"^\s*([vi])\s*\(\s*([^,()\s]+)\s*(?:,\s*([^,()\s]+)\s*)?\)\s*$", re.I)
 _TWO_TERMINAL = frozenset("RLCVIDSEFGH")
@@ -92,6 +110,10 @@ class TransientSetup:
         no inductor or capacitor: its node voltages).
     file : str
         The netlist file, for messages.
+    print_step : float or None
+        The spacing of the points written by default, s (None: every step).
+    print_note : str or None
+        Why that spacing is not the ``.tran`` TSTEP (:func:`print_step`).
     """
 
     system: SwitchedLCS
@@ -105,6 +127,8 @@ class TransientSetup:
     nonpassive: list = field(default_factory=list)
     default_probes: list[str] | None = None
     file: str = ""
+    print_step: float | None = None
+    print_note: str | None = None
 
 
 def _input_error(circuit: Circuit, message: str, hint: str) -> NetlistError:
@@ -142,6 +166,106 @@ def default_step(waves: Sequence[Signal], tstop: float) -> float:
         elif isinstance(w, Sin) and w.freq:
             h = min(h, 1.0 / (w.freq * STEPS_PER_PERIOD))
     return h
+
+
+def smooth_step(waves: Sequence[Signal], names: Sequence[str] | None = None
+                ) -> tuple[float, str]:
+    """The longest step that resolves the smooth sources, s (inf when there is none), and
+    what sets it.
+
+    A PULSE or PWL source needs no bound: its corners are step boundaries and it is linear in
+    between. A SIN needs :data:`STEPS_PER_PERIOD` steps a period (θ = 1/2 then follows it to
+    0.03 % in phase), an EXP :data:`STEPS_PER_TAU` steps a time constant; only values written
+    in the netlist count (those ngspice fills from ``.tran`` follow the step anyway).
+    """
+    h, what = math.inf, ""
+    for j, w in enumerate(waves):
+        name = f" {names[j]}" if names is not None else ""
+        if isinstance(w, Sin) and w.freq:
+            if 1.0 / (w.freq * STEPS_PER_PERIOD) < h:
+                h = 1.0 / (w.freq * STEPS_PER_PERIOD)
+                what = f"1/{STEPS_PER_PERIOD} of the period of the SIN source{name}"
+        elif isinstance(w, Exp):
+            for tau in (w.tau1, w.tau2):
+                if tau and tau / STEPS_PER_TAU < h:
+                    h = tau / STEPS_PER_TAU
+                    what = f"1/{STEPS_PER_TAU} of a time constant of the EXP source{name}"
+    return h, what
+
+
+def source_periods(waves: Sequence[Signal]) -> list[float]:
+    """The periods written in the netlist (PULSE PER, SIN 1/FREQ), s."""
+    out = []
+    for w in waves:
+        if isinstance(w, Pulse) and w.per:
+            out.append(float(w.per))
+        elif isinstance(w, Sin) and w.freq:
+            out.append(1.0 / w.freq)
+    return out
+
+
+def tran_step(tran: Tran, waves: Sequence[Signal], tstop: float,
+              names: Sequence[str] | None = None) -> tuple[float, str | None]:
+    """The step of a run from a ``.tran`` line, s, and a note when it is not TSTEP.
+
+    ``.tran TSTEP`` is ngspice's print interval, not its step: ngspice takes its own steps,
+    at most TMAX, or without TMAX at most ``min(TSTEP, (TSTOP - TSTART) / 50)`` (ngspice 39,
+    ``traninit.c``), lands on the sources' breakpoints and shortens them further where its
+    error estimate says so. pelcs takes a fixed step: that bound, and no longer than what
+    resolves the smooth sources (:func:`smooth_step`). A TSTEP that is already finer is kept.
+
+    Parameters
+    ----------
+    tran : Tran
+    waves : sequence of Signal
+        The sources as parsed.
+    tstop : float
+        Stop time of the run, s.
+    names : sequence of str, optional
+        The sources' names, for the note.
+    """
+    span = tstop - tran.tstart if 0 <= tran.tstart < tstop else tstop
+    if tran.tmax:
+        h, bound = float(tran.tmax), f".tran TMAX = {_eng_s(tran.tmax)}"
+    else:
+        h = min(float(tran.tstep), span / NGSPICE_STEPS_PER_RUN)
+        bound = (f"ngspice's bound min(TSTEP, (TSTOP - TSTART)/{NGSPICE_STEPS_PER_RUN}) = "
+                 f"{_eng_s(h)}")
+    smooth, what = smooth_step(waves, names)
+    if smooth < h:
+        return smooth, (f"step h = {_eng_s(smooth)}: {what} (shorter than {bound}; .tran "
+                        f"TSTEP = {_eng_s(tran.tstep)} is ngspice's print interval, not its "
+                        "step)")
+    if not tran.tmax and h < tran.tstep:
+        return h, (f"step h = {_eng_s(h)}: {bound} (.tran TSTEP = {_eng_s(tran.tstep)} is "
+                   "ngspice's print interval, not its step)")
+    return h, None
+
+
+def _eng_s(x: float) -> str:
+    from .units import format_eng
+
+    return format_eng(x, "s")
+
+
+def print_step(tran: Tran | None, waves: Sequence[Signal], h: float
+               ) -> tuple[float | None, str | None]:
+    """The spacing of the points written by default (s), and a note when it is not TSTEP.
+
+    As ngspice prints at its ``.tran TSTEP`` interval, pelcs writes that grid, unless it is
+    finer than the step ``h`` (then every step: interpolating below the step adds points and
+    no information) or too coarse to show the sources: more than 1/:data:`SHOWN_PER_PERIOD`
+    of the shortest source period (a 50 Hz sine printed every 10 ms is printed at its zero
+    crossings), in which case every step is written and the note says so. None: every step.
+    """
+    if tran is None or not tran.tstep > 0 or tran.tstep < h * (1 - 1e-9):
+        return None, None
+    periods = source_periods(waves)
+    if periods and tran.tstep > min(periods) / SHOWN_PER_PERIOD:
+        return None, (f".tran TSTEP = {_eng_s(tran.tstep)} is too coarse to show a source of "
+                      f"period {_eng_s(min(periods))}: every step ({_eng_s(h)}) is written "
+                      "instead")
+    return float(tran.tstep), None
 
 
 def transient_setup(
@@ -202,7 +326,9 @@ def transient_setup(
     waves = _waveforms(circuit, system.inputs)
     if step is None:
         if tran is not None:
-            step = tran.tmax if tran.tmax else tran.tstep
+            step, why = tran_step(tran, waves, tstop, system.inputs)
+            if why:
+                notes.append(why)
         else:
             step = default_step(waves, tstop)
             notes.append(f"no .tran step: h = {step:.4g} s (1/{STEPS_PER_PERIOD} of the "
@@ -247,8 +373,10 @@ def transient_setup(
         default_probes = [f"v({node})" for node in circuit.nodes[1:]]
         notes.append("no inductor or capacitor: the default probes are the node voltages "
                      f"({', '.join(default_probes)}); --probe chooses others")
+    shown, shown_note = print_step(tran, waves, float(step))
     return TransientSetup(system, signals, x0, float(tstop), float(step), float(t_save),
-                          energy, notes, nonpassive, default_probes, circuit.file or "")
+                          energy, notes, nonpassive, default_probes, circuit.file or "",
+                          shown, shown_note)
 
 
 def _step_note(circuit: Circuit, given: dict[str, float]) -> str:

@@ -71,7 +71,9 @@ def _waveform(sig: Signal, circuit: Circuit) -> str:
     if isinstance(sig, Pwl):
         pairs = " ".join(f"{_num(t)} {_num(v)}" for t, v in zip(sig.times, sig.values,
                                                                 strict=True))
-        return f"PWL({pairs})"
+        extra = ("" if sig.repeat is None else f" r={_num(sig.repeat)}") + (
+            f" td={_num(sig.delay)}" if sig.delay else "")
+        return f"PWL({pairs}){extra}"
     keyword, names = _WAVE_FIELDS[type(sig)]
     vals = [getattr(sig, n) for n in names]
     # Trailing defaults are left out: a None, or a 0 that only stands for SIN's default

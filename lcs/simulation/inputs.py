@@ -15,7 +15,6 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from ..arrays import unique_sorted
-from ..signals import Pwl
 
 InputFunction = Callable[[np.ndarray], np.ndarray]
 
@@ -25,19 +24,10 @@ MERGE_FRACTION = 1e-9
 SNAP_FRACTION = 0.01
 
 
-def _pwl_limit(sig: Pwl, t: np.ndarray, side: int) -> np.ndarray:
-    """One-sided limit of a PWL waveform (which may jump where two points share a time)."""
-    times = np.asarray(sig.times, dtype=float)
-    values = np.asarray(sig.values, dtype=float)
-    idx = np.searchsorted(times, t, side="right" if side > 0 else "left")
-    lo = np.clip(idx - 1, 0, len(times) - 1)
-    hi = np.clip(idx, 0, len(times) - 1)
-    t_lo, t_hi = times[lo], times[hi]
-    span = np.where(t_hi > t_lo, t_hi - t_lo, 1.0)
-    frac = np.clip((t - t_lo) / span, 0.0, 1.0)
-    out = values[lo] + (values[hi] - values[lo]) * np.where(t_hi > t_lo, frac, 0.0)
-    out = np.where(idx == 0, values[0], out)
-    return np.where(idx >= len(times), values[-1], out)
+def _jumps(f) -> bool:
+    """Whether a waveform can jump (a PWL with two points at one time, a PULSE whose edges
+    outlast its period): it is then evaluated with one-sided limits at the step ends."""
+    return bool(getattr(f, "jumps", False))
 
 
 def evaluate_inputs(inputs: Sequence[InputFunction], t: np.ndarray, side: int = 0) -> np.ndarray:
@@ -51,8 +41,9 @@ def evaluate_inputs(inputs: Sequence[InputFunction], t: np.ndarray, side: int = 
     t : ndarray, shape (N,)
         Times, s.
     side : int
-        0: plain evaluation; +1 / -1: right / left limits (differs only at jumps of PWL
-        waveforms; the other waveforms are continuous once resolved).
+        0: plain evaluation; +1 / -1: right / left limits (differs only at the jumps of PWL
+        waveforms and of PULSE waveforms whose edges outlast their period; the other
+        waveforms are continuous once resolved).
 
     Returns
     -------
@@ -62,8 +53,8 @@ def evaluate_inputs(inputs: Sequence[InputFunction], t: np.ndarray, side: int = 
 
     def column(j: int, tb: np.ndarray) -> np.ndarray:
         f = inputs[j]
-        if side != 0 and isinstance(f, Pwl):
-            return _pwl_limit(f, tb, side)
+        if side != 0 and _jumps(f):
+            return f(tb, side)
         return np.broadcast_to(np.asarray(f(tb), dtype=float), tb.shape)
 
     return _by_row_blocks(t, len(inputs), column)
@@ -95,8 +86,9 @@ def _by_row_blocks(t: np.ndarray, p: int, column: Callable[[int, np.ndarray], np
 
 class InputTable:
     """Fast evaluation of the inputs over one run: a piecewise-linear source without jumps (DC,
-    PULSE, PWL) is tabulated at its breakpoints in ``[t0, t1]`` once and evaluated by linear
-    interpolation (exact: it is linear between breakpoints); other sources are called.
+    PULSE, PWL) is tabulated at its breakpoints (its corners, and a PULSE's period starts) in
+    ``[t0, t1]`` once and evaluated by linear interpolation (exact: it is linear between
+    breakpoints); other sources are called.
 
     Parameters
     ----------
@@ -111,9 +103,7 @@ class InputTable:
         for f in self.inputs:
             table = None
             bp = getattr(f, "breakpoints", None)
-            if (getattr(f, "piecewise_linear", False) and bp is not None
-                    and not (isinstance(f, Pwl)
-                             and np.any(np.diff(np.asarray(f.times, float)) == 0))):
+            if getattr(f, "piecewise_linear", False) and bp is not None and not _jumps(f):
                 pts = np.asarray(bp(t0, t1), dtype=float).ravel()
                 pts = unique_sorted(np.concatenate(([t0, t1], pts[(pts > t0) & (pts < t1)])))
                 if len(pts) <= 4_000_000:
@@ -136,19 +126,17 @@ class InputTable:
                     return table[1][0]
                 return np.interp(tb, table[0], table[1])
             f = self.inputs[j]
-            if side != 0 and isinstance(f, Pwl):
-                return _pwl_limit(f, tb, side)
+            if side != 0 and _jumps(f):
+                return f(tb, side)
             return np.broadcast_to(np.asarray(f(tb), dtype=float), tb.shape)
 
         return _by_row_blocks(t, len(self.inputs), column)
 
 
 def has_jumps(inputs: Sequence[InputFunction]) -> bool:
-    """Whether some input can jump (a PWL with two points at the same time)."""
-    for f in inputs:
-        if isinstance(f, Pwl) and np.any(np.diff(np.asarray(f.times, dtype=float)) == 0):
-            return True
-    return False
+    """Whether some input can jump (a PWL with two points at the same time, a PULSE whose
+    edges outlast its period)."""
+    return any(_jumps(f) for f in inputs)
 
 
 def collect_breakpoints(inputs: Sequence[InputFunction], t0: float, t1: float,

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..bits import from_words, to_words, words
 from ..jit import jitted
-from ..model import SwitchedLCS
+from ..model import IDEALISED_OPTION, OPERATING_POINT_OPTION, SwitchedLCS
 from .inputs import MERGE_FRACTION, InputFunction, evaluate_inputs
 
 
@@ -57,21 +57,88 @@ class _ControlMaps:
 
 
 def _initially_on(options) -> bool:
-    """State of a switch whose control starts inside the hysteresis band: the netlist's
-    ``ON``/``OFF`` (``options["initial"]``, or ``options["on"]``), off by default as in
-    ngspice."""
+    """The netlist's ``ON``/``OFF`` of a switch (``options["initial"]``, or ``options["on"]``),
+    off by default as in ngspice."""
     if not isinstance(options, dict):
         return False
     val = options.get("initial", options.get("on"))
     return bool(val) if val is not None else False
 
 
-def _switch_state(c: float, on: bool, vt: float, vh: float) -> bool:
-    if c > vt + vh:
-        return True
-    if c < vt - vh:
-        return False
-    return on
+# Where a control is, relative to a switch's band [lo, hi] (see switches.band_rule).
+_BELOW, _IN, _ABOVE = 0, 1, 2
+
+
+def _region(c: float, lo: float, hi: float) -> int:
+    return _BELOW if c < lo else (_ABOVE if c > hi else _IN)
+
+
+def _enter(sub: int, region: int, rule: int) -> int:
+    """The sub-state (switches.SUB_*) of a switch whose control enters ``region``."""
+    if region == _ABOVE:
+        return SUB_ON
+    if region == _BELOW:
+        return SUB_OFF
+    if sub >= SUB_BAND_OFF:
+        return sub
+    if rule == RULE_KEEP:
+        return sub + 2
+    if rule == RULE_TOGGLE:
+        return 3 - sub
+    return SUB_BAND_OFF
+
+
+def _sub_on(sub: int) -> bool:
+    return sub == SUB_ON or sub == SUB_BAND_ON
+
+
+# How a switch behaves inside its band (see band_rule), and its sub-states: off below the band,
+# on above it, off or on inside it. The compiled _linear_switch_events writes these values.
+RULE_KEEP, RULE_TOGGLE, RULE_OFF = 0, 1, 2
+SUB_OFF, SUB_ON, SUB_BAND_OFF, SUB_BAND_ON = 0, 1, 2, 3
+
+
+def band_rule(sw) -> tuple[float, float, int]:
+    """The band ``[lo, hi]`` (V) of a switch's control and what the switch does inside it, as
+    ngspice's SW model (``swload.c``) decides at every time point:
+
+    * above ``hi`` it is on, below ``lo`` off;
+    * ``VH > 0``: ``lo, hi = VT - VH, VT + VH``, and inside the band it keeps its state
+      (:data:`RULE_KEEP`);
+    * ``VH <= 0`` (ngspice's default ``VH = 0`` included): ``lo, hi = VT - |VH|, VT + |VH|``,
+      and a control entering the band from below turns the switch on, from above off; it then
+      keeps that state while the control stays in the band (:data:`RULE_TOGGLE`). So with
+      ``VH = 0`` a gate falling to exactly ``VT`` (``PULSE(0 1 ...)`` and ``VT = 0``) turns the
+      switch off, and a gate rising to exactly ``VT`` turns it on;
+    * an idealised transistor (option :data:`IDEALISED_OPTION`): on only while the control
+      exceeds ``VT`` (:data:`RULE_OFF`, ``lo = hi = VT``), as the device it stands for.
+    """
+    vt, vh = float(sw.vt), float(sw.vh)
+    opts = sw.options if isinstance(sw.options, dict) else {}
+    if opts.get(IDEALISED_OPTION):
+        return vt, vt, RULE_OFF
+    if vh > 0:
+        return vt - vh, vt + vh, RULE_KEEP
+    return vt - abs(vh), vt + abs(vh), RULE_TOGGLE
+
+
+def initial_sub(c: float, sw) -> int:
+    """The sub-state of a switch whose control is ``c`` (V) at the start of a run: on above the
+    band, off below it; inside it, the netlist's ``ON``/``OFF`` (default off), except that an
+    idealised transistor is off, and a ``VH <= 0`` switch of a run from ngspice's operating
+    point (option :data:`OPERATING_POINT_OPTION`) is on: ngspice's operating point takes the
+    switch's state before the analysis as off and its control as entering the band from
+    below."""
+    lo, hi, rule = band_rule(sw)
+    region = _region(c, lo, hi)
+    if region != _IN:
+        return SUB_ON if region == _ABOVE else SUB_OFF
+    opts = sw.options if isinstance(sw.options, dict) else {}
+    if rule == RULE_OFF:
+        return SUB_BAND_OFF
+    if rule == RULE_TOGGLE and opts.get(OPERATING_POINT_OPTION):
+        return SUB_BAND_ON
+    return SUB_BAND_ON if _initially_on(opts) else SUB_BAND_OFF
 
 
 def _first_crossing(fun, sa: float, sb: float, ca: float, cb: float, thr: float, up: bool,
@@ -124,45 +191,72 @@ def _first_crossing(fun, sa: float, sb: float, ca: float, cb: float, thr: float,
 
 
 @jitted
-def _linear_switch_events(sa, sb, ca, cb, on0, up, down, out_t, out_on):
+def _linear_switch_events(sa, sb, ca, cb, sub0, lo, hi, rule, out_t, out_on):
     """Switching instants of one switch whose control is linear on every segment
-    ``[sa[s], sb[s]]`` (from ``ca[s]`` to ``cb[s]``): on above ``up``, off below ``down``.
-    Writes instants and new states into ``out_t``/``out_on``; returns how many."""
-    on = on0
+    ``[sa[s], sb[s]]`` (from the right limit ``ca[s]`` to the left limit ``cb[s]``), by
+    ngspice's rule (``switches.band_rule``): above the band ``[lo, hi]`` on, below it off,
+    inside it as ``rule`` says from the sub-state ``sub0`` at ``sa[0]``. Writes instants and
+    new states into ``out_t``/``out_on``; returns how many."""
+    sub = sub0
     ne = 0
+    ts = np.empty(3)
+    rs = np.empty(3, np.int64)
     for s in range(sa.shape[0]):
         t0 = sa[s]
+        t1 = sb[s]
         c0 = ca[s]
-        b = cb[s]
-        just = False
-        for _ in range(4):
-            thr = down if on else up
-            beyond0 = (c0 < thr) if on else (c0 > thr)
-            beyond1 = (b < thr) if on else (b > thr)
-            if beyond0 and not just:
-                tf = t0
-            elif beyond1 and b != c0:
-                # c is linear on [t0, sb]: exact crossing of the threshold.
-                tf = t0 + (thr - c0) / (b - c0) * (sb[s] - t0)
-                if just and tf <= t0:
-                    break
-                tf = min(max(tf, t0), sb[s])
+        c1 = cb[s]
+        r0 = 0 if c0 < lo else (2 if c0 > hi else 1)
+        r1 = 0 if c1 < lo else (2 if c1 > hi else 1)
+        # The regions the control enters on the segment, in order: the one at its start (the
+        # control may jump at a breakpoint), then the band edges it crosses (c is linear).
+        ts[0] = t0
+        rs[0] = r0
+        k = 1
+        if r1 > r0:
+            if r0 == 0:
+                ts[k] = min(max(t0 + (lo - c0) / (c1 - c0) * (t1 - t0), t0), t1)
+                rs[k] = 1
+                k += 1
+            if r1 == 2:
+                ts[k] = min(max(t0 + (hi - c0) / (c1 - c0) * (t1 - t0), t0), t1)
+                rs[k] = 2
+                k += 1
+        elif r1 < r0:
+            if r0 == 2:
+                ts[k] = min(max(t0 + (hi - c0) / (c1 - c0) * (t1 - t0), t0), t1)
+                rs[k] = 1
+                k += 1
+            if r1 == 0:
+                ts[k] = min(max(t0 + (lo - c0) / (c1 - c0) * (t1 - t0), t0), t1)
+                rs[k] = 0
+                k += 1
+        for j in range(k):
+            r = rs[j]
+            if r == 2:
+                new = 1
+            elif r == 0:
+                new = 0
+            elif sub >= 2:
+                new = sub
+            elif rule == 0:
+                new = sub + 2
+            elif rule == 1:
+                new = 3 - sub
             else:
-                break
-            on = not on
-            out_t[ne] = tf
-            out_on[ne] = on
-            ne += 1
-            c0 = thr
-            t0 = tf
-            just = True
-            if tf >= sb[s]:
-                break
+                new = 2
+            was = sub == 1 or sub == 3
+            now = new == 1 or new == 3
+            if now != was:
+                out_t[ne] = ts[j]
+                out_on[ne] = now
+                ne += 1
+            sub = new
     return ne
 
 
-def _linear_events(maps, mode0, active, vt, vh, bounds, u_start, u_end, linear_inputs, inputs,
-                   tol, t0):
+def _linear_events(maps, mode0, sub0, active, bands, bounds, u_start, u_end, linear_inputs,
+                   inputs, tol, t0):
     """Compiled path of :func:`source_switch_events` for piecewise-linear gates whose control
     rows do not depend on the mode (the usual case): per switch, a linear control crosses each
     threshold at most once per segment. Returns ``(mode0, events)`` or None when the
@@ -177,16 +271,17 @@ def _linear_events(maps, mode0, active, vt, vh, bounds, u_start, u_end, linear_i
     cb_all = u_end @ rows.T
     sa = np.ascontiguousarray(bounds[:-1])
     sb = np.ascontiguousarray(bounds[1:])
-    cap = 4 * len(sa) + 4
+    cap = 3 * len(sa) + 4
     times, sw_idx, states = [], [], []
     for i in idx:
         if not rows[i].any():
             continue
         out_t = np.empty(cap)
         out_on = np.empty(cap, np.bool_)
+        lo, hi, rule = bands[i]
         ne = _linear_switch_events(sa, sb, np.ascontiguousarray(ca_all[:, i]),
-                                   np.ascontiguousarray(cb_all[:, i]), bool(mode0[i]),
-                                   float(vt[i] + vh[i]), float(vt[i] - vh[i]), out_t, out_on)
+                                   np.ascontiguousarray(cb_all[:, i]), int(sub0[i]), float(lo),
+                                   float(hi), int(rule), out_t, out_on)
         times.append(out_t[:ne])
         sw_idx.append(np.full(ne, i))
         states.append(out_on[:ne])
@@ -319,17 +414,18 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
     def controls(mode, t, side):
         return evaluate_inputs(inputs, np.atleast_1d(t), side) @ maps.rows(mode).T
 
-    vt = np.array([s.vt for s in sw], dtype=float)
-    vh = np.array([abs(s.vh) for s in sw], dtype=float)
+    bands = [band_rule(s) for s in sw]
     initial = [_initially_on(s.options) for s in sw]
     if base is not None:
         initial = [initial[i] if i in active else bool(base[i]) for i in range(len(sw))]
     mode = tuple(initial)
+    subs = [SUB_BAND_ON if on else SUB_BAND_OFF for on in mode]
     # Mode-dependent control maps: iterate to a fixed point (at most a few passes).
     for _ in range(len(sw) + 1):
         c0 = controls(mode, t0, +1)[0]
-        new = tuple(_switch_state(c0[i], mode[i], vt[i], vh[i]) if i in active else mode[i]
-                    for i in range(len(sw)))
+        subs = [initial_sub(float(c0[i]), sw[i]) if i in active else subs[i]
+                for i in range(len(sw))]
+        new = tuple(_sub_on(subs[i]) if i in active else mode[i] for i in range(len(sw)))
         if new == mode:
             break
         mode = new
@@ -341,8 +437,8 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
     # limits at the ends. Controls are then small matrix products per segment.
     u_start = evaluate_inputs(inputs, bounds[:-1], +1)
     u_end = evaluate_inputs(inputs, bounds[1:], -1)
-    fast = _linear_events(maps, mode0, active, vt, vh, bounds, u_start, u_end, linear_inputs,
-                          inputs, tol, t0)
+    fast = _linear_events(maps, mode0, subs, active, bands, bounds, u_start, u_end,
+                          linear_inputs, inputs, tol, t0)
     if fast is not None:
         m0, (ft, fk) = fast
         if as_arrays:
@@ -363,10 +459,13 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
             ]
         return lin_cache[mode]
 
+    # The generic path: per switch, the next instant its control leaves the region (below,
+    # in or above its band) its sub-state says; the earliest moves (sub-state and, when it
+    # changes, the switch's state).
     for s_idx in range(len(bounds) - 1):
         sa0 = sa = float(bounds[s_idx])
         sb = float(bounds[s_idx + 1])
-        just_flipped: list[int] = []
+        just_moved: list[int] = []
         while sa < sb:
             rows = maps.rows(mode)
             lin = linear_rows(mode)
@@ -382,27 +481,47 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
             else:
                 ca = ca0
             best = None
-            flips = []
+            moves: list[tuple[int, int]] = []
             for i in range(len(sw)):
                 if i not in active or not rows[i].any():
                     continue
-                up = not mode[i]
-                thr = vt[i] + vh[i] if up else vt[i] - vh[i]
+                lo, hi, rule = bands[i]
 
                 def fun(tt, i=i, mode=mode):
                     return controls(mode, tt, 0)[:, i]
 
-                tc = _first_crossing(fun, sa, sb, ca[i], cb[i], thr, up, lin[i], h,
-                                     skip_start=i in just_flipped)
+                args = (fun, sa, sb, ca[i], cb[i])
+                skip = i in just_moved
+
+                def first(thr, up, args=args, li=lin[i], skip=skip):
+                    return _first_crossing(*args, thr, up, li, h, skip_start=skip)
+
+                sub = subs[i]
+                if sub == SUB_OFF:
+                    # below the band: the first instant at or above lo (c >= lo is
+                    # c > the float before lo)
+                    tc, region = first(np.nextafter(lo, -np.inf), True), _IN
+                    if tc is not None and lo == hi and not (lin[i] and cb[i] <= hi):
+                        region = _ABOVE
+                elif sub == SUB_ON:
+                    tc, region = first(np.nextafter(hi, np.inf), False), _IN
+                    if tc is not None and lo == hi and not (lin[i] and cb[i] >= lo):
+                        region = _BELOW
+                else:
+                    t_up, t_dn = first(hi, True), first(lo, False)
+                    tc, region = ((t_up, _ABOVE) if t_dn is None or (
+                        t_up is not None and t_up <= t_dn) else (t_dn, _BELOW))
                 if tc is None:
                     continue
                 if best is None or tc < best - tol:
-                    best, flips = tc, [i]
+                    best, moves = tc, [(i, region)]
                 elif abs(tc - best) <= tol:
-                    flips.append(i)
+                    moves.append((i, region))
             if best is None:
                 break
-            mode = tuple((not on) if i in flips else on for i, on in enumerate(mode))
+            for i, region in moves:
+                subs[i] = _enter(subs[i], region, bands[i][2])
+            mode = tuple(_sub_on(subs[i]) if i in active else on for i, on in enumerate(mode))
             if events and abs(events[-1][0] - best) <= tol:
                 events[-1] = (events[-1][0], mode)
             elif best <= t0 + tol:
@@ -412,7 +531,7 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
             if best >= sb:
                 break
             sa = best
-            just_flipped = flips
+            just_moved = [i for i, _ in moves]
             if len(events) > 10_000_000:
                 raise RuntimeError("more than 1e7 switching events: chattering gate?")
     # Drop events that do not change the mode (e.g. a flip and flip-back at the same instant).

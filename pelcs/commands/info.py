@@ -82,7 +82,9 @@ def _waveform(sig: Signal | None, unit: str) -> str:
     if isinstance(sig, Pwl):
         pts = ", ".join(f"({_eng(t, 's')}, {_eng(v, unit)})"
                         for t, v in zip(sig.times, sig.values, strict=True))
-        return f"PWL {pts}"
+        extra = ("" if sig.repeat is None else f", repeated from {_eng(sig.repeat, 's')}") + (
+            f", delayed {_eng(sig.delay, 's')}" if sig.delay else "")
+        return f"PWL {pts}{extra}"
     fields = []
     for name, u in _WAVE_UNITS[type(sig)]:
         v = getattr(sig, name)

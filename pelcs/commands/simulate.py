@@ -287,6 +287,8 @@ def _run(args, circuit, setup, probes, tstop, step, theta, every, output_step, o
 
     steps_stored = len(result.t)
     spacing = _output_spacing(output_step, args.all_steps or bool(args.every), circuit, setup)
+    if output_step is None and not (args.all_steps or args.every) and setup.print_note:
+        result.notes.append(setup.print_note)
     if spacing is not None:
         result = resample(result, spacing[0])
     err = result.error
@@ -337,16 +339,16 @@ def _output_spacing(output_step: float | None, all_steps: bool, circuit, setup
 
     As ngspice writes its ``.tran TSTEP`` grid, so does pelcs by default; a TSTEP finer than
     the integration step (or a run without ``.tran``) writes every step instead, since
-    interpolating below the step adds points and no information.
+    interpolating below the step adds points and no information, and so does a TSTEP too
+    coarse to show the sources (``netlist.transient.print_step``; the result's notes say so).
     """
     if output_step is not None:
         return output_step, "--output-step"
     if all_steps:
         return None
-    tran = circuit.tran
-    if tran is None or not tran.tstep > 0 or tran.tstep < setup.h * (1 - 1e-9):
+    if setup.print_step is None:
         return None
-    return float(tran.tstep), ".tran TSTEP"
+    return setup.print_step, ".tran TSTEP"
 
 
 def _write(result, out: Path | None, plot: Path | None, title: str, file: str,
