@@ -153,6 +153,11 @@ class SwitchedLCS:
         Diode names, one complementarity pair each (what λ stands for may differ per mode).
     builder : callable
         ``builder(mode_key) -> ModeModel``.
+    storage : ndarray (n, n), optional
+        A candidate storage function ``½ x' storage x`` of every mode (a circuit's stored
+        energy: H on inductor currents, F on capacitor voltages). Where it is verified to be
+        one, a time step's next state is known to be unique whatever λ it takes
+        (:mod:`lcs.step_uniqueness`) and the integrator does not look for other solutions.
     """
 
     def __init__(
@@ -162,8 +167,10 @@ class SwitchedLCS:
         inputs: Sequence[str],
         diodes: Sequence[str],
         builder: Callable[[ModeKey], ModeModel],
+        storage: np.ndarray | None = None,
     ):
         self.switches = tuple(switches)
+        self.storage = None if storage is None else np.asarray(storage, dtype=float)
         self.states = tuple(states)
         self.inputs = tuple(inputs)
         self.diodes = tuple(diodes)

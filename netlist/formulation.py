@@ -132,6 +132,7 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         inputs=formulator.input_names,
         diodes=[d.name for d in formulator.diodes],
         builder=formulator.build_mode,
+        storage=_storage(formulator),
     )
 
 
@@ -149,7 +150,11 @@ def storage_matrix(circuit: Circuit) -> np.ndarray:
     ndarray, shape (n, n)
         Symmetric; H on inductor rows/columns, F on capacitor ones.
     """
-    f = _Formulator(circuit)
+    return _storage(_Formulator(circuit))
+
+
+def _storage(f: _Formulator) -> np.ndarray:
+    """:func:`storage_matrix` of a circuit's formulator."""
     K = np.zeros((f.n, f.n))
     rows = [f.state_index[el.key] for el in f.inductors]
     K[np.ix_(rows, rows)] = f.Lmat
