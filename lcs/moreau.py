@@ -161,7 +161,10 @@ class MoreauOptions:
         When the step's LCP matrix is not a P-matrix and ``m`` is at most this, every Lemke
         solution is checked by enumerating all complementary bases: another solution that
         moves the state stops the run (``"non_unique"``). Non-unique λ with a unique state (a
-        freewheeling overlap) is accepted.
+        freewheeling overlap) is accepted. Modes whose steps are proven to have one next state
+        whatever λ they take (a passive mode: the system's ``storage`` verified, and θ = 1 or
+        steps short enough, :mod:`lcs.step_uniqueness`) are not enumerated: any solution
+        will do.
     uniqueness_tol : float
         Relative state difference regarded as a different solution.
     chunk_steps : int

@@ -48,9 +48,9 @@ def theta_cause(theta: float, h: float, longest: float) -> str:
     ``longest`` (s) whose next state is unique (:func:`lcs.step_uniqueness.longest_unique_step`)."""
     return (
         f"The circuit is passive in this mode (its stored energy is a storage function), so "
-        f"its trajectory is unique; the θ = {theta:g} step of {h:.4g} s is not: a decay in it "
-        f"is too fast for θ < 1 at that step (steps up to {longest:.3g} s are well posed). "
-        "Use θ = 1 (--theta 1) or a shorter step."
+        f"its trajectory is unique; its θ = {theta:g} step of {h:.4g} s is not: a decay in it "
+        f"is too fast for θ < 1 at that step (steps below {longest:.3g} s have one next "
+        "state, which is not yet to say an accurate one). Use θ = 1 (--theta 1)."
     )
 
 
