@@ -182,6 +182,11 @@ class SwitchedLCS:
     pinnable : sequence of int, optional
         States that some modes hold at zero (:attr:`ModeModel.pinned`); a run applies the
         jumps to zero only when there are some.
+    storage : ndarray (n, n), optional
+        A candidate storage function ``½ x' storage x`` of every mode (a circuit's stored
+        energy: H on inductor currents, F on capacitor voltages). Where it is verified to be
+        one, a time step's next state is known to be unique whatever λ it takes
+        (:mod:`lcs.step_uniqueness`) and the integrator does not look for other solutions.
     """
 
     def __init__(
@@ -192,8 +197,10 @@ class SwitchedLCS:
         diodes: Sequence[str],
         builder: Callable[[ModeKey], ModeModel],
         pinnable: Sequence[int] = (),
+        storage: np.ndarray | None = None,
     ):
         self.switches = tuple(switches)
+        self.storage = None if storage is None else np.asarray(storage, dtype=float)
         self.states = tuple(states)
         self.inputs = tuple(inputs)
         self.diodes = tuple(diodes)

@@ -162,7 +162,10 @@ class MoreauOptions:
         When the step's LCP matrix is not a P-matrix and ``m`` is at most this, every Lemke
         solution is checked by enumerating all complementary bases: another solution that
         moves the state stops the run (``"non_unique"``). Non-unique λ with a unique state (a
-        freewheeling overlap) is accepted.
+        freewheeling overlap) is accepted. Modes whose steps are proven to have one next state
+        whatever λ they take (a passive mode: the system's ``storage`` verified, and θ = 1 or
+        steps short enough, :mod:`lcs.step_uniqueness`) are not enumerated: any solution
+        will do.
     uniqueness_tol : float
         Relative state difference regarded as a different solution.
     chunk_steps : int
@@ -511,6 +514,20 @@ class MoreauIntegrator(Integrator):
             dense_steps=extra.get("dense_steps", 0),
         )
 
+    def _theta_cause(self, lcs: LCS, s: float) -> str | None:
+        """Why the LCP of a step of length ``s`` (s) failed when the mode is passive (the
+        system's storage verified) and only θ < 1 at that step makes it ill-posed; else
+        None."""
+        storage = getattr(self.run.problem.system, "storage", None)
+        if storage is None or self.theta >= 1.0:
+            return None
+        from .step_uniqueness import longest_unique_step
+
+        longest = longest_unique_step(lcs, storage, self.theta)
+        if not 0.0 < longest < s:
+            return None
+        return failures.theta_cause(self.theta, s, longest)
+
     def _error(self, status: int, dense: bool = False) -> SimulationError:
         """The :class:`SimulationError` of a kernel failure (``dense``: of the dense kernel,
         in a grid step a sparse run handed to it: its mode ids are the dense stack's)."""
@@ -530,9 +547,11 @@ class MoreauIntegrator(Integrator):
             enum = opts.lcp.method == "auto" and lcs.m <= opts.lcp.enum_max_m
             how = ("Lemke ray termination, confirmed by enumeration" if enum
                    else "Lemke: ray termination or pivot budget exhausted")
-            return failures.no_solution(t0, t1, desc, lcs, from_words(self.state.fail), how)
+            return failures.no_solution(t0, t1, desc, lcs, from_words(self.state.fail), how,
+                                        self._theta_cause(lcs, t1 - t0))
         if status == STEP_NONUNIQUE:
-            return failures.non_unique(t0, t1, desc, lcs, from_words(self.state.fail))
+            return failures.non_unique(t0, t1, desc, lcs, from_words(self.state.fail),
+                                       self._theta_cause(lcs, t1 - t0))
         if status == STEP_NONFINITE:
             return failures.non_finite(t0, t1, desc)
         i = int(ivars[IV_FAILSW])

@@ -136,6 +136,7 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         diodes=[d.name for d in formulator.diodes],
         builder=formulator.build_mode,
         pinnable=sorted(formulator.state_index[k] for k in formulator.pinnable),
+        storage=_storage(formulator),
     )
 
 
@@ -166,7 +167,11 @@ def storage_matrix(circuit: Circuit) -> np.ndarray:
         Symmetric; H on inductor rows/columns, F on capacitor ones. A capacitor that
         :func:`formulate` leaves out (across sources only) has no row.
     """
-    f = _Formulator(_reduced(circuit))
+    return _storage(_Formulator(_reduced(circuit)))
+
+
+def _storage(f: _Formulator) -> np.ndarray:
+    """:func:`storage_matrix` of a circuit's formulator."""
     K = np.zeros((f.n, f.n))
     rows = [f.state_index[el.key] for el in f.inductors]
     K[np.ix_(rows, rows)] = f.Lmat

@@ -13,33 +13,45 @@ def _where(t0: float, t1: float, desc: dict[str, str]) -> str:
 
 
 def no_solution(t0: float, t1: float, desc: dict[str, str], lcs: LCS, mask: int,
-                how: str) -> SimulationError:
+                how: str, cause: str | None = None) -> SimulationError:
     """The LCP of a step has no solution (``mask``: the pairs with ``w < 0`` at ``λ = 0``;
-    ``how``: what established it)."""
+    ``how``: what established it; ``cause``: why, when known, e.g. :func:`theta_cause`)."""
     pairs = pair_names(lcs, mask)
     msg = (
         f"{_where(t0, t1, desc)}: the complementarity problem of the time step has no solution "
         f"({how}). Diodes involved: {', '.join(pairs) or '(none with negative w at λ = 0)'} "
         "(with every diode off they would be forward-biased, or carry a reverse current, "
-        "and no combination of conducting diodes satisfies the circuit). The circuit is "
-        "probably ill-posed in this mode: not passive (a negative resistance, an active "
-        "controlled source), or a loop of diodes and voltage sources, or a cut-set of "
-        "diodes and current sources."
+        "and no combination of conducting diodes satisfies the circuit). "
+        + (cause or "The circuit is probably ill-posed in this mode: not passive (a negative "
+           "resistance, an active controlled source), or a loop of diodes and voltage "
+           "sources, or a cut-set of diodes and current sources.")
     )
     return SimulationError(msg, kind="no_solution", time=t1, t_prev=t0, mode=desc, pairs=pairs)
 
 
 def non_unique(t0: float, t1: float, desc: dict[str, str], lcs: LCS,
-               mask: int) -> SimulationError:
+               mask: int, cause: str | None = None) -> SimulationError:
     """Several LCP solutions give different next states (``mask``: the pairs whose λ
-    differ)."""
+    differ; ``cause``: why, when known, e.g. :func:`theta_cause`)."""
     pairs = pair_names(lcs, mask)
     msg = (
         f"{_where(t0, t1, desc)}: the complementarity problem of the time step has several "
-        f"solutions giving different next states; diodes involved: {', '.join(pairs)}. The "
-        "circuit is not well posed in this mode (check passivity / the diode orientation)."
+        f"solutions giving different next states; diodes involved: {', '.join(pairs)}. "
+        + (cause or "The circuit is not well posed in this mode (check passivity / the diode "
+           "orientation).")
     )
     return SimulationError(msg, kind="non_unique", time=t1, t_prev=t0, mode=desc, pairs=pairs)
+
+
+def theta_cause(theta: float, h: float, longest: float) -> str:
+    """Why a step of a passive mode is ill-posed: θ < 1 with a step ``h`` (s) longer than the
+    ``longest`` (s) whose next state is unique (:func:`lcs.step_uniqueness.longest_unique_step`)."""
+    return (
+        f"The circuit is passive in this mode (its stored energy is a storage function), so "
+        f"its trajectory is unique; its θ = {theta:g} step of {h:.4g} s is not: a decay in it "
+        f"is too fast for θ < 1 at that step (steps below {longest:.3g} s have one next "
+        "state, which is not yet to say an accurate one). Use θ = 1 (--theta 1)."
+    )
 
 
 def non_finite(t0: float, t1: float, desc: dict[str, str]) -> SimulationError:

@@ -18,12 +18,14 @@ from ..bits import to_words, words
 from ..lcp import is_p_matrix
 from ..lcp.compiled import ActiveSets
 from ..model import LCS, ModeKey, OutputMap
+from ..simulation.inputs import SNAP_FRACTION
 from ..simulation.problem import Problem, mode_tuple
 from ..simulation.switches import SwitchPlan
 from .discretise import discretise
 from .layout import (
     IV_LEN,
     MF_FAST,
+    MF_IMAGE,
     MF_LEN,
     MF_OUTSTATE,
     MF_UNIQ,
@@ -180,6 +182,7 @@ class ModeStackBuilder:
         )
         self.mflags[j, MF_FAST] = int(fast)
         self.mflags[j, MF_UNIQ] = int(m) if check else -1
+        self.mflags[j, MF_IMAGE] = int(check and self._image_unique(mode))
         self.mflags[j, MF_OUTSTATE] = int(out_is_state)
         self.minp[j, 0] = used.size
         self.minp[j, 1:1 + used.size] = used
@@ -190,6 +193,21 @@ class ModeStackBuilder:
         self.index[key] = j
         self.lcs.append(prob.lcs(mode))
         return j
+
+    def _image_unique(self, mode: ModeKey) -> bool:
+        """Whether every step of ``mode`` has a unique next state whatever its λ
+        (:func:`lcs.step_uniqueness.unique_next_state` with the system's storage): its
+        solutions then need no enumeration for another next state. Steps are at most
+        ``(1 + SNAP_FRACTION) h`` long (a remainder below ``SNAP_FRACTION h`` joins the last
+        regular step: :mod:`lcs.stepping.gridplan`); the bound is taken with that margin
+        twice."""
+        storage = getattr(self.prob.system, "storage", None)
+        if storage is None:
+            return False
+        from ..step_uniqueness import unique_next_state
+
+        s_max = (1.0 + 2.0 * SNAP_FRACTION) * self.h
+        return unique_next_state(self.prob.lcs(mode), storage, s_max, self.theta)
 
 
 def column_spans(a) -> np.ndarray:

@@ -9,7 +9,8 @@ loop takes a step, so that the hot loops pay no call overhead:
   active set; :func:`odd_cached_step` the same with the discretisation of that length
   stored (shortened steps at recurring offsets from the grid);
 * :func:`mode_step` -- the general step: the two above, then Lemke and enumeration
-  (:func:`lcs.lcp.compiled.solve_pivoting`), and the uniqueness check of a pivoting solution.
+  (:func:`lcs.lcp.compiled.solve_pivoting`), and the uniqueness check of a pivoting solution
+  (none in a mode whose next state is proven unique whatever λ the step takes).
 """
 
 from __future__ import annotations
@@ -41,6 +42,7 @@ from .layout import (
     IV_UNIQ,
     IV_WARM,
     MF_FAST,
+    MF_IMAGE,
     MF_UNIQ,
     STEP_LCP_FAILED,
     STEP_NONFINITE,
@@ -295,8 +297,9 @@ def mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, ai
     ``U0[kk]``, ``U1[kk]``; others are discretised for ``s`` with inputs ``u0`` to ``u1``.
     ``act[ai]`` is the active set (bitset) to try first and ``slots[ai]`` its cache slot (-1:
     unknown); both are updated. With ``commit``, a pivoting solution is checked for a unique
-    next state. On failure, ``fail`` receives the pairs involved. Returns a ``STEP_*``
-    status.
+    next state, unless the mode's flag ``MF_IMAGE`` says that every solution gives the same
+    one (:mod:`lcs.step_uniqueness`: then any λ will do). On failure, ``fail`` receives the
+    pairs involved. Returns a ``STEP_*`` status.
     """
     mats = stack.mats
     fast = stack.flags[j, MF_FAST] != 0
@@ -321,6 +324,7 @@ def mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, ai
         return STEP_OK
     rtol = fvars[FV_RTOL]
     mask = act[ai]
+    check = commit and m <= stack.flags[j, MF_UNIQ] and stack.flags[j, MF_IMAGE] == 0
     if regular and fast:
         slot = slots[ai]
         if slot < 0:
@@ -342,7 +346,7 @@ def mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, ai
                 if not impulse_cached_t(xf, mats.K, mats.KT, j, stack.sets, slot, na, W.za,
                                         lamn, xn):
                     return STEP_NONFINITE
-                if commit and m <= stack.flags[j, MF_UNIQ]:
+                if check:
                     ivars[IV_UNIQ] += 1
                     if distinct_images(Mk, q, Kk, xf, lamn, fvars[FV_UNIQ_TOL], 1e-9,
                                        W.lcp.w, W.lcp.aug, W.lcp.mask, fail):
@@ -361,7 +365,7 @@ def mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, ai
                                  W.lcp.basis):
                 if not impulse_dense(xf, Kk, lamn, xn):
                     return STEP_NONFINITE
-                if commit and m <= stack.flags[j, MF_UNIQ]:
+                if check:
                     ivars[IV_UNIQ] += 1
                     if distinct_images(Mk, q, Kk, xf, lamn, fvars[FV_UNIQ_TOL], 1e-9,
                                        W.lcp.w, W.lcp.aug, fail, fail):
@@ -380,7 +384,7 @@ def mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, ai
         negative_q_mask(q, fail)
         return STEP_LCP_FAILED
     copy_bits(new, mask)
-    if commit and m <= stack.flags[j, MF_UNIQ]:
+    if check:
         ivars[IV_UNIQ] += 1
         if distinct_images(Mk, q, Kk, xf, lamn, fvars[FV_UNIQ_TOL], 1e-9, W.lcp.w, W.lcp.aug,
                            new, fail):
