@@ -51,7 +51,6 @@ import itertools
 import math
 import re
 from collections.abc import Iterator, Sequence
-from dataclasses import replace
 from functools import cached_property
 
 import numpy as np
@@ -79,7 +78,7 @@ from .mna import VOLTAGE_KINDS as _VOLTAGE_KINDS
 from .mna import Mna as _Mna
 from .mna import Stamps, coalesce
 from .mna_solve import Entries, Solution, clean
-from .reductions import open_inductors, parallel_diodes, source_capacitors
+from .reductions import open_inductors, reduced
 from .topology import Partition, SwitchedBridges, UnionFind
 
 __all__ = ["formulate", "storage_matrix", "EXHAUSTIVE_DIODE_LIMIT"]
@@ -128,7 +127,7 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         For invalid element values or references, or a singular inductance matrix; later,
         when a mode is built, for a degenerate topology in that mode.
     """
-    formulator = _Formulator(_reduced(circuit))
+    formulator = _Formulator(reduced(circuit))
     return SwitchedLCS(
         switches=formulator.switch_controls,
         states=formulator.state_names,
@@ -138,18 +137,6 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         pinnable=sorted(formulator.state_index[k] for k in formulator.pinnable),
         storage=_storage(formulator),
     )
-
-
-def _reduced(circuit: Circuit) -> Circuit:
-    """The circuit without what the formulation leaves out (:mod:`netlist.reductions`): a
-    capacitor across sources only (its voltage is the sources', no state, and nothing else
-    depends on its current), and an ideal diode in parallel with another of the same
-    orientation (one complementarity pair carries both: two would leave the split of the
-    current undetermined, a non-unique λ)."""
-    held = set(source_capacitors(circuit)) | set(parallel_diodes(circuit))
-    if not held:
-        return circuit
-    return replace(circuit, elements=[el for el in circuit.elements if el.key not in held])
 
 
 def storage_matrix(circuit: Circuit) -> np.ndarray:
@@ -167,7 +154,7 @@ def storage_matrix(circuit: Circuit) -> np.ndarray:
         Symmetric; H on inductor rows/columns, F on capacitor ones. A capacitor that
         :func:`formulate` leaves out (across sources only) has no row.
     """
-    return _storage(_Formulator(_reduced(circuit)))
+    return _storage(_Formulator(reduced(circuit)))
 
 
 def _storage(f: _Formulator) -> np.ndarray:

@@ -18,10 +18,12 @@ refused with the name of the diode that carries it.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from .circuit import Capacitor, Circuit, Inductor, VoltageSource
 from .topology import UnionFind, bridges
 
-__all__ = ["open_inductors", "parallel_diodes", "source_capacitors"]
+__all__ = ["open_inductors", "parallel_diodes", "reduced", "source_capacitors"]
 
 
 def source_capacitors(circuit: Circuit) -> list[str]:
@@ -67,3 +69,14 @@ def open_inductors(circuit: Circuit) -> list[str]:
     cut = bridges([tuple(el.nodes[:2]) for el in branches])
     return [el.key for i, el in enumerate(branches)
             if i in cut and isinstance(el, Inductor) and el.key not in coupled]
+
+
+def reduced(circuit: Circuit) -> Circuit:
+    """The circuit without what :func:`netlist.formulation.formulate` leaves out: the
+    capacitors of :func:`source_capacitors` and the diodes of :func:`parallel_diodes` (one
+    complementarity pair carries each group: two would leave the split of the current
+    undetermined, a non-unique λ)."""
+    held = set(source_capacitors(circuit)) | set(parallel_diodes(circuit))
+    if not held:
+        return circuit
+    return replace(circuit, elements=[el for el in circuit.elements if el.key not in held])
