@@ -283,18 +283,24 @@ class _Builder:
         """Whether the expanded circuit stays within :data:`netlist.limits.ELEMENTS`,
         counted before expanding (per subcircuit once: nested instances multiply, and a few
         lines can ask for 2^25 elements); an error at the top-level instance that goes over
-        it otherwise. Unknown and recursive subcircuits count nothing here (their own errors
-        come from the expansion)."""
+        it otherwise. An instance of an unknown subcircuit counts one (its error); a
+        recursive one is reported here, once (the expansion would report it on every path to
+        it)."""
         subckts = self.deck.subckts
         sizes: dict[str, int] = {}
+        cycles: list[tuple[RawElement, tuple[str, ...]]] = []
 
         def size(body: Body, inside: tuple[str, ...]) -> int:
             n = 0
             for el in body.elements:
                 key = el.ref.lower() if el.kind == "X" else None
-                if key is None:
-                    n += 1
-                elif key in subckts and key not in inside and len(inside) < _MAX_DEPTH:
+                if key is None or key not in subckts:
+                    n += 1  # (an unknown subcircuit: one error per instance path)
+                elif key in inside:
+                    # (found here once: the expansion would meet it on every path to it,
+                    # 2^22 times in a fuzzed tree)
+                    cycles.append((el, (*inside, key)))
+                elif len(inside) < _MAX_DEPTH:
                     if key not in sizes:
                         # (the nesting depth is bounded by the subcircuits' count)
                         sizes[key] = size(subckts[key].body, (*inside, key))
@@ -310,6 +316,13 @@ class _Builder:
         total = 0
         for el in self.deck.top.elements:
             total += size(Body(elements=[el]), ())
+            if cycles:
+                inner, chain = cycles[0]
+                self.error(f"subcircuit '{subckts[chain[-1]].name}' instantiates itself "
+                           f"({' -> '.join(chain)})", inner.st.loc(inner.ref_offset),
+                           "a subcircuit must not contain itself")
+                self.too_large = True  # (not expanded)
+                return False
             if total > limit:
                 self.error(f"the circuit expands to more than {limit:.6g} elements (at "
                            f"instance {el.name}: {size(self.deck.top, ()):.6g} in all)",

@@ -177,3 +177,18 @@ def test_simulate_on_a_full_disk_prints_its_summary_then_the_error(tmp_path):
     assert f"wrote {plot}" in r.stdout and plot.stat().st_size > 0  # the other file written
     assert f"cannot write {full}: No space left on device" in r.stderr
     assert "disk is full" in r.stderr
+
+
+def test_recursion_and_unknown_subcircuits_deep_in_a_tree(tmp_path):
+    # found by the fuzzer: the expansion met a recursive (or an unknown) subcircuit at each
+    # of the 2^22 leaves of a tree, reporting it every time (minutes); now counted first
+    path = tmp_path / "tree.cir"
+    text = _blow_up(22)
+    path.write_text(text.replace("R1 a b 1", "X9 a b s3"))  # s0 -> ... -> s3 -> s0
+    r = _cli("info", str(path), timeout=30)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert r.stderr.count("instantiates itself") == 1
+    assert "s0 -> s3 -> s2 -> s1 -> s0" in r.stderr or "instantiates itself (s" in r.stderr
+    path.write_text(text.replace("R1 a b 1", "X9 a b nowhere"))
+    r = _cli("info", str(path), timeout=30)
+    assert r.returncode == 2 and "expands to more than 100000 elements" in r.stderr
