@@ -37,7 +37,7 @@ import numpy as np
 from lcs.model import LCS, SwitchedLCS
 from lcs.moreau import MoreauOptions, simulate
 from lcs.results import SimulationResult
-from lcs.signals import Dc, Exp, Pulse, Signal, Sin, resolve
+from lcs.signals import Dc, Signal, resolve
 
 from .circuit import (
     GROUND,
@@ -45,7 +45,6 @@ from .circuit import (
     Circuit,
     CurrentSource,
     Inductor,
-    Tran,
     VoltageSource,
 )
 from .errors import Diagnostic, NetlistError
@@ -53,6 +52,13 @@ from .formulation import formulate, storage_matrix
 from .limits import MEMORY, STEPS
 from .passive import structurally_passive
 from .reductions import open_inductors, parallel_diodes, source_capacitors
+from .timestep import (
+    MIN_STEPS_PER_RUN,
+    STEPS_PER_PERIOD,
+    default_step,
+    print_step,
+    tran_step,
+)
 
 __all__ = [
     "TransientSetup",
@@ -67,18 +73,6 @@ __all__ = [
     "transient_setup",
     "warm_up",
 ]
-
-# Default step without .tran: this many steps per shortest source period, and at least this
-# many steps per run (a switching converter needs ~100 steps per period for 0.1 % accuracy
-# of the averages with θ = 1/2; see tests/test_simulate_reference.py).
-STEPS_PER_PERIOD = 100
-MIN_STEPS_PER_RUN = 5000
-# ngspice's step bound without TMAX: (TSTOP - TSTART) / this (ngspice 39, traninit.c)
-NGSPICE_STEPS_PER_RUN = 50
-# Steps per written EXP time constant that resolve the exponential.
-STEPS_PER_TAU = 20
-# A print interval longer than this fraction of a source period does not show the source.
-SHOWN_PER_PERIOD = 10
 
 _PROBE_RE = re.compile(r"^\s*([vi])\s*\(\s*([^,()\s]+)\s*(?:,\s*([^,()\s]+)\s*)?\)\s*$", re.I)
 _TWO_TERMINAL = frozenset("RLCVIDSEFGH")
@@ -142,130 +136,6 @@ def _waveforms(circuit: Circuit, inputs: Sequence[str]) -> list[Signal]:
         assert isinstance(el, (VoltageSource, CurrentSource))
         waves.append(el.waveform if el.waveform is not None else Dc(el.dc))
     return waves
-
-
-def default_step(waves: Sequence[Signal], tstop: float) -> float:
-    """Step for a run without ``.tran`` step: 1/100 of the shortest source period.
-
-    Parameters
-    ----------
-    waves : sequence of Signal
-        The source waveforms as parsed (unresolved: only explicit periods count).
-    tstop : float
-        Stop time, s.
-
-    Returns
-    -------
-    float
-        ``min(tstop / 5000, period / 100)`` over the PULSE periods and SIN periods given, s.
-    """
-    h = tstop / MIN_STEPS_PER_RUN
-    for w in waves:
-        if isinstance(w, Pulse) and w.per:
-            h = min(h, w.per / STEPS_PER_PERIOD)
-        elif isinstance(w, Sin) and w.freq:
-            h = min(h, 1.0 / (w.freq * STEPS_PER_PERIOD))
-    return h
-
-
-def smooth_step(waves: Sequence[Signal], names: Sequence[str] | None = None
-                ) -> tuple[float, str]:
-    """The longest step that resolves the smooth sources, s (inf when there is none), and
-    what sets it.
-
-    A PULSE or PWL source needs no bound: its corners are step boundaries and it is linear in
-    between. A SIN needs :data:`STEPS_PER_PERIOD` steps a period (θ = 1/2 then follows it to
-    0.03 % in phase), an EXP :data:`STEPS_PER_TAU` steps a time constant; only values written
-    in the netlist count (those ngspice fills from ``.tran`` follow the step anyway).
-    """
-    h, what = math.inf, ""
-    for j, w in enumerate(waves):
-        name = f" {names[j]}" if names is not None else ""
-        if isinstance(w, Sin) and w.freq:
-            if 1.0 / (w.freq * STEPS_PER_PERIOD) < h:
-                h = 1.0 / (w.freq * STEPS_PER_PERIOD)
-                what = f"1/{STEPS_PER_PERIOD} of the period of the SIN source{name}"
-        elif isinstance(w, Exp):
-            for tau in (w.tau1, w.tau2):
-                if tau and tau / STEPS_PER_TAU < h:
-                    h = tau / STEPS_PER_TAU
-                    what = f"1/{STEPS_PER_TAU} of a time constant of the EXP source{name}"
-    return h, what
-
-
-def source_periods(waves: Sequence[Signal]) -> list[float]:
-    """The periods written in the netlist (PULSE PER, SIN 1/FREQ), s."""
-    out = []
-    for w in waves:
-        if isinstance(w, Pulse) and w.per:
-            out.append(float(w.per))
-        elif isinstance(w, Sin) and w.freq:
-            out.append(1.0 / w.freq)
-    return out
-
-
-def tran_step(tran: Tran, waves: Sequence[Signal], tstop: float,
-              names: Sequence[str] | None = None) -> tuple[float, str | None]:
-    """The step of a run from a ``.tran`` line, s, and a note when it is not TSTEP.
-
-    ``.tran TSTEP`` is ngspice's print interval, not its step: ngspice takes its own steps,
-    at most TMAX, or without TMAX at most ``min(TSTEP, (TSTOP - TSTART) / 50)`` (ngspice 39,
-    ``traninit.c``), lands on the sources' breakpoints and shortens them further where its
-    error estimate says so. pelcs takes a fixed step: that bound, and no longer than what
-    resolves the smooth sources (:func:`smooth_step`). A TSTEP that is already finer is kept.
-
-    Parameters
-    ----------
-    tran : Tran
-    waves : sequence of Signal
-        The sources as parsed.
-    tstop : float
-        Stop time of the run, s.
-    names : sequence of str, optional
-        The sources' names, for the note.
-    """
-    span = tstop - tran.tstart if 0 <= tran.tstart < tstop else tstop
-    if tran.tmax:
-        h, bound = float(tran.tmax), f".tran TMAX = {_eng_s(tran.tmax)}"
-    else:
-        h = min(float(tran.tstep), span / NGSPICE_STEPS_PER_RUN)
-        bound = (f"ngspice's bound min(TSTEP, (TSTOP - TSTART)/{NGSPICE_STEPS_PER_RUN}) = "
-                 f"{_eng_s(h)}")
-    smooth, what = smooth_step(waves, names)
-    if smooth < h:
-        return smooth, (f"step h = {_eng_s(smooth)}: {what} (shorter than {bound}; .tran "
-                        f"TSTEP = {_eng_s(tran.tstep)} is ngspice's print interval, not its "
-                        "step)")
-    if not tran.tmax and h < tran.tstep:
-        return h, (f"step h = {_eng_s(h)}: {bound} (.tran TSTEP = {_eng_s(tran.tstep)} is "
-                   "ngspice's print interval, not its step)")
-    return h, None
-
-
-def _eng_s(x: float) -> str:
-    from .units import format_eng
-
-    return format_eng(x, "s")
-
-
-def print_step(tran: Tran | None, waves: Sequence[Signal], h: float
-               ) -> tuple[float | None, str | None]:
-    """The spacing of the points written by default (s), and a note when it is not TSTEP.
-
-    As ngspice prints at its ``.tran TSTEP`` interval, pelcs writes that grid, unless it is
-    finer than the step ``h`` (then every step: interpolating below the step adds points and
-    no information) or too coarse to show the sources: more than 1/:data:`SHOWN_PER_PERIOD`
-    of the shortest source period (a 50 Hz sine printed every 10 ms is printed at its zero
-    crossings), in which case every step is written and the note says so. None: every step.
-    """
-    if tran is None or not tran.tstep > 0 or tran.tstep < h * (1 - 1e-9):
-        return None, None
-    periods = source_periods(waves)
-    if periods and tran.tstep > min(periods) / SHOWN_PER_PERIOD:
-        return None, (f".tran TSTEP = {_eng_s(tran.tstep)} is too coarse to show a source of "
-                      f"period {_eng_s(min(periods))}: every step ({_eng_s(h)}) is written "
-                      "instead")
-    return float(tran.tstep), None
 
 
 def transient_setup(

@@ -110,7 +110,7 @@ def simulate(
     circuit_or_path : Circuit, or a path or netlist text for :func:`load`
     tstop, step : float or str, optional
         Stop time and step, s (or SPICE text such as ``"5m"``); default from ``.tran``
-        (step: the bound ngspice puts on its own, ``netlist.transient.tran_step``).
+        (step: the bound ngspice puts on its own, ``netlist.timestep.tran_step``).
     theta : float, optional
         θ in [1/2, 1]: 1/2 trapezoidal (second order between events), 1 backward Euler.
         Default 1/2, or 1 where :mod:`lcs.theta_screen` finds θ < 1 unreliable (noted;

@@ -83,11 +83,14 @@ def test_unsupported_source_functions_named(fn):
     assert f"{word} sources are not supported" in str(info.value)
 
 
-def test_pwl_repeat_named():
+def test_pwl_repeat_and_delay_are_read_and_a_repeat_off_the_points_is_refused():
+    # ngspice's PWL(...) r=T td=T (repeat from the point at T, delay): read as ngspice does
+    # (their waveforms are checked against ngspice in tests/test_source_corners.py); r must be
+    # one of the points' times, as ngspice requires.
+    parse_string("t\nV1 a 0 PWL(0 0 1m 1) r=0 td=1m\nR1 a 0 1\n.tran 1u 5m\n")
     with pytest.raises(NetlistError) as info:
-        parse_string("t\nV1 a 0 PWL(0 0 1m 1) r=0 td=1m\nR1 a 0 1\n.tran 1u 5m\n")
-    assert "unsupported parameter 'r'" in str(info.value)
-    assert "PWL repeat (r=) and delay (td=)" in str(info.value)
+        parse_string("t\nV1 a 0 PWL(0 0 1m 1) r=0.5m\nR1 a 0 1\n.tran 1u 5m\n")
+    assert ":2:" in str(info.value) and "r=" in str(info.value)
 
 
 R_MODEL_DECK = """resistor with a model name

@@ -340,7 +340,7 @@ def _output_spacing(output_step: float | None, all_steps: bool, circuit, setup
     As ngspice writes its ``.tran TSTEP`` grid, so does pelcs by default; a TSTEP finer than
     the integration step (or a run without ``.tran``) writes every step instead, since
     interpolating below the step adds points and no information, and so does a TSTEP too
-    coarse to show the sources (``netlist.transient.print_step``; the result's notes say so).
+    coarse to show the sources (``netlist.timestep.print_step``; the result's notes say so).
     """
     if output_step is not None:
         return output_step, "--output-step"
