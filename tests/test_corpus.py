@@ -26,7 +26,6 @@ import os
 import re
 import shutil
 import subprocess
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -72,11 +71,6 @@ DISAGREES: dict[str, str] = {
         "5 MHz switching into no load, the D1N914's charge storage (TT 2.9 ns, CJO 0.76 pF) "
         "matters: ngspice's output mean is 10.98 V, pelcs's pwl diode (no charge) 12.05 V "
         "(9.7 %)",
-    "learning_ngspice/circuits/17_eletricidade_vlsi/lc_switch.cir":
-        "the gate PULSE(5 0 1m 1n 1n 1 2m) has PW (1 s) longer than PER (2 ms): it stays at "
-        "0 V after 1 ms and the tank rings freely in ngspice (RMS 2.02 V), while pelcs "
-        "switches S1 145 times (RMS 0.72 V): pelcs's switching schedule of a source-driven "
-        "switch repeats the pulse every PER",
     "learning_ngspice/circuits/06_rf_comunicacoes/mixer_diodo.cir":
         "100 mV and 500 mV signals through 50 Ohm keep the diode below its pwl forward voltage "
         "(0.45 V): pelcs gives 0 V where ngspice's exponential diode conducts a little (mean "
@@ -233,29 +227,12 @@ def test_ngspice_cannot_run(file, tmp_path, ngspice):
     assert data is None, f"{file} now runs in ngspice"
 
 
-def _coarse_step(file: str) -> bool:
-    """Whether pelcs steps a SIN source with fewer than 4 steps a period (TSTEP taken as the
-    step, without ngspice's bound on it)."""
-    from lcs.signals import Sin
-    from netlist.parser import parse_file
-    from netlist.transient import transient_setup
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # idealised devices: the run itself reports them
-        setup = transient_setup(parse_file(CORPUS / file))
-    periods = [1 / s.freq for s in setup.signals if isinstance(s, Sin) and s.freq]
-    return bool(periods) and setup.h > min(periods) / 4
-
-
 @pytest.mark.parametrize("file", sorted(COMPARED))
 def test_agrees_with_ngspice(file, tmp_path, ngspice):
     if shutil.which("ngspice") is None:
         pytest.skip("no ngspice executable")
     if file in SLOW and os.environ.get("PELCS_CORPUS_SLOW") != "1":
         pytest.skip("ngspice takes 10-20 s on this file: PELCS_CORPUS_SLOW=1 compares it")
-    if _coarse_step(file):
-        pytest.xfail("pelcs takes TSTEP (half the sine period here) as its step; ngspice "
-                     "bounds its step by the sources")
     probe, kind = COMPARED[file]
     code, output, pel = run_pelcs(file, probe, tmp_path)
     assert code == 0, output
