@@ -79,6 +79,7 @@ from .mna import Mna as _Mna
 from .mna import Stamps, coalesce
 from .mna_solve import Entries, Solution, clean
 from .reductions import open_inductors, reduced
+from .suggest import did_you_mean
 from .topology import Partition, SwitchedBridges, UnionFind
 
 __all__ = ["formulate", "storage_matrix", "EXHAUSTIVE_DIODE_LIMIT"]
@@ -765,11 +766,14 @@ class _Formulator:
                 return "i", self.by_key[a]
         nodes = sorted(self.nodes)
         elements = [el.name for el in self.two_terminal]
-        raise _error(
-            f"unknown probe {probe!r}",
-            "probes are v(NODE), v(NODE,NODE), i(ELEMENT) or a state name; nodes: "
-            + _short_list([GROUND, *nodes]) + "; elements: " + _short_list(elements),
-            file=self.file)
+        hint = ("probes are v(NODE), v(NODE,NODE), i(ELEMENT) or a state name; nodes: "
+                + _short_list([GROUND, *nodes]) + "; elements: " + _short_list(elements))
+        guess = did_you_mean(probe, [f"v({n})" for n in nodes]
+                             + [f"i({e})" for e in elements]
+                             + [f"v({el.name})" for el in self.two_terminal
+                                if el.kind == "C"])
+        raise _error(f"unknown probe {probe!r}", f"{guess} ({hint})" if guess else hint,
+                     file=self.file)
 
     def _is_node(self, name: str) -> bool:
         return name == GROUND or name in self.node_index

@@ -52,6 +52,7 @@ from .formulation import formulate, storage_matrix
 from .limits import MEMORY, STEPS
 from .passive import structurally_passive
 from .reductions import open_inductors, parallel_diodes, source_capacitors
+from .suggest import did_you_mean
 from .timestep import (
     MIN_STEPS_PER_RUN,
     STEPS_PER_PERIOD,
@@ -403,14 +404,23 @@ def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
     if bad:
         node_list = ", ".join(n for n in circuit.nodes)
         elements = ", ".join(el.name for el in two_terminal.values())
+        known = ([f"v({n})" for n in circuit.nodes]
+                 + [f"i({el.name})" for k, el in two_terminal.items() if k not in merged]
+                 + [f"v({two_terminal[k].name})" for k in capacitors]
+                 + [f"d({el.name})" for el in circuit.elements if el.kind == "S"])
         raise NetlistError([
             Diagnostic(
                 message=f"unknown probe {p!r}",
-                hint="probes are v(NODE), v(NODE,NODE) or i(ELEMENT); nodes: "
-                     f"{_short(node_list)}; elements: {_short(elements)}",
+                hint=_with_guess(did_you_mean(p, known),
+                                 "probes are v(NODE), v(NODE,NODE) or i(ELEMENT); nodes: "
+                                 f"{_short(node_list)}; elements: {_short(elements)}"),
             ) for p in bad
         ], file=circuit.file)
     return out
+
+
+def _with_guess(guess: str, hint: str) -> str:
+    return f"{guess} ({hint})" if guess else hint
 
 
 def _short(text: str, limit: int = 300) -> str:

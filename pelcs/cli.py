@@ -15,6 +15,7 @@ import os
 import sys
 
 from pelcs import __version__  # (imports nothing: numpy is not loaded yet)
+from pelcs.argparsing import Parser
 
 # One BLAS thread: the matrices of a formulation are small, and OpenBLAS's second thread only
 # spins beside the single-threaded kernels (15-30 % of a core measured on the scaling
@@ -42,7 +43,7 @@ def build_parser(argv: list[str] | None = None, commands: list[str] | None = Non
     """The argument parser with the subcommands ``commands`` (default: those :func:`_wanted`
     finds in ``argv``)."""
     commands = _wanted(argv) if commands is None else commands
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="pelcs",
         description="Power-electronics netlists with ideal diodes and switches as linear "
         "complementarity systems.",

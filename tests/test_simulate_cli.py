@@ -99,8 +99,9 @@ def test_input_errors_exit_2_with_a_hint(capsys, argv, message):
 def test_bad_probe_hint_lists_nodes_and_elements(capsys):
     code, _, err = run(capsys, "simulate", BUCK, "--probe", "v(outt)")
     assert code == 2
-    assert "hint: probes are v(NODE), v(NODE,NODE)" in err and "i(ELEMENT)" in err
-    assert "nodes: 0, in, sw, gate, out;" in err and "elements: Vin, S1, D1, L1" in err
+    assert "hint: did you mean v(out)? (probes are v(NODE), v(NODE,NODE)" in err
+    assert "i(ELEMENT)" in err and "nodes: 0, in, sw, gate, out;" in err
+    assert "elements: Vin, S1, D1, L1" in err
 
 
 def test_no_tran_and_no_tstop_exits_2(tmp_path, capsys):
