@@ -27,8 +27,10 @@ from lcs.smallsignal.sweep import sweep_response
 
 from .circuit import Circuit, CurrentSource, VoltageSource
 from .errors import Diagnostic, NetlistError
+from .measure import defined_period
 from .sweep import circuit_map, resolve_period
 from .transient import check_probes
+from .units import format_eng
 
 METHODS = ("exact", "sweep")
 
@@ -70,7 +72,7 @@ def _orbit_dict(states, x0, multipliers, events=(), t0: float = 0.0, period: flo
     }
 
 
-def ac_analysis(circuit: Circuit, *, period: float | str, inject: str | None = None,
+def ac_analysis(circuit: Circuit, *, period: float | str | None, inject: str | None = None,
                 probes: Sequence[str] = (), freqs: Sequence[float] | None = None,
                 method: str = "exact", amplitude: float | None = None,
                 step: float | None = None, theta: float = 0.5, x0=None, transient: int = 0,
@@ -82,8 +84,9 @@ def ac_analysis(circuit: Circuit, *, period: float | str, inject: str | None = N
     Parameters
     ----------
     circuit : Circuit
-    period : float or str
-        The switching period T (s, or a ``.param`` name).
+    period : float or str or None
+        The switching period T (s, or a ``.param`` name); None: the period the netlist
+        defines (:func:`netlist.measure.defined_period`, named in the notes).
     inject : str
         An independent source (V or I) whose value gets the perturbation.
     probes : sequence of str
@@ -123,7 +126,11 @@ def ac_analysis(circuit: Circuit, *, period: float | str, inject: str | None = N
     """
     if method not in METHODS:
         raise _error(circuit, f"unknown method {method!r}", f"use one of {', '.join(METHODS)}")
-    T = resolve_period(circuit, period)
+    if period is None:
+        T, origin = defined_period(circuit)
+        period_notes = [f"T = {format_eng(T, 's')}: the {origin} (no --period given)"]
+    else:
+        T, period_notes = resolve_period(circuit, period), []
     if loop is not None:
         src = _source(circuit, loop)
         if not isinstance(src, VoltageSource):
@@ -148,10 +155,10 @@ def ac_analysis(circuit: Circuit, *, period: float | str, inject: str | None = N
     idx = [s.lower() for s in system.inputs].index(inject.lower())
     start = m.x0 if x0 is None else np.asarray(x0, dtype=float)
     orbit = find_orbit(m, start, transient=transient, pattern=False)
+    notes = list(period_notes)
     if not orbit.converged:
-        notes = [f"Newton on the Moreau map did not converge (residual {orbit.residual:.3g})"]
-    else:
-        notes = []
+        notes.append(f"Newton on the Moreau map did not converge (residual "
+                     f"{orbit.residual:.3g})")
     if method == "exact":
         res = m.trajectory(orbit.points[0], 1)
         key0 = tuple(res.modes_visited[0]) if res.modes_visited else ()

@@ -40,6 +40,7 @@ __all__ = [
     "parse_measurements",
     "probe_unit",
     "settling",
+    "defined_period",
     "steady_state_period",
     "steady_state_window",
 ]
@@ -169,6 +170,87 @@ def _source_period(wave) -> float | None:
     return None
 
 
+def _periodic_sources(circuit: Circuit) -> list[tuple[VoltageSource | CurrentSource, float]]:
+    """The V and I sources with a PULSE or SIN period shorter than the run's TSTOP."""
+    tstop = circuit.tran.tstop if circuit.tran is not None else math.inf
+    sources = []
+    for el in circuit.elements:
+        if isinstance(el, (VoltageSource, CurrentSource)) and el.waveform is not None:
+            per = _source_period(el.waveform)
+            if per is not None and 0 < per < tstop:
+                sources.append((el, per))
+    return sources
+
+
+def _control_source_period(circuit: Circuit, sources) -> tuple[float, str] | None:
+    """The period of the first voltage source directly across a switch's control terminals
+    (it sets that switch's switching period), and where it comes from."""
+    for sw in circuit.of_kind("S"):
+        ctrl = set(sw.control)
+        for el, per in sources:
+            if isinstance(el, VoltageSource) and (
+                set(el.nodes) == ctrl or (GROUND in ctrl and set(el.nodes) & ctrl - {GROUND}
+                                          and GROUND in el.nodes)
+            ):
+                kind = "PULSE" if isinstance(el.waveform, Pulse) else "SIN"
+                return per, f"{kind} period of {el.name} (control of {sw.name})"
+    return None
+
+
+def _latch_clocks(circuit: Circuit) -> list[tuple[float, str]]:
+    """The clock periods of the latched switches (``LATCH=1 PERIOD=T`` on the ``.model``)."""
+    out = []
+    for sw in circuit.of_kind("S"):
+        model = circuit.models.get(sw.model.lower()) if sw.model else None
+        params = {k.lower(): v for k, v in model.params.items()} if model else {}
+        per = params.get("period")
+        if params.get("latch") and per and float(per) > 0:
+            out.append((float(per), f"clock of the latched switch {sw.name} (PERIOD=)"))
+    return out
+
+
+def defined_period(circuit: Circuit) -> tuple[float, str]:
+    """The switching period the netlist defines, for the analyses that sample once a period.
+
+    The PULSE or SIN period of the source across a switch's control (as
+    :func:`steady_state_period`), else the one period that the latched switches' clocks and
+    the periodic sources (a PWM ramp) all share.
+
+    Returns
+    -------
+    (float, str)
+        Period, s, and where it comes from (``"PULSE period of Vg (control of S1)"``).
+
+    Raises
+    ------
+    NetlistError
+        When the netlist defines no period, or several different ones.
+    """
+    sources = _periodic_sources(circuit)
+    found = _control_source_period(circuit, sources)
+    if found is not None:
+        return found
+    candidates = _latch_clocks(circuit) + [
+        (per, f"{'PULSE' if isinstance(el.waveform, Pulse) else 'SIN'} period of {el.name}")
+        for el, per in sources]
+    hint = "pass --period T (seconds, e.g. 10u, or a .param name)"
+    if not candidates:
+        raise NetlistError(Diagnostic(
+            message="the netlist defines no switching period: no PULSE or SIN source drives "
+                    "a switch, no latched switch has a clock, no source is periodic",
+            hint=hint), file=circuit.file)
+    periods = sorted({per for per, _ in candidates})
+    if periods[-1] - periods[0] > 1e-9 * periods[-1]:
+        listed = "; ".join(f"{per:g} s ({origin})" for per, origin in candidates)
+        raise NetlistError(Diagnostic(
+            message=f"the switching period is ambiguous: the netlist defines {listed}",
+            hint=hint), file=circuit.file)
+    per, origin = candidates[0]
+    if len(candidates) > 1:
+        origin += f", as {', '.join(o for _, o in candidates[1:])}"
+    return per, origin
+
+
 def steady_state_period(circuit: Circuit, result: SimulationResult | None = None,
                         period: float | None = None) -> tuple[float | None, str]:
     """The period of the steady state (s) and where it comes from.
@@ -189,23 +271,10 @@ def steady_state_period(circuit: Circuit, result: SimulationResult | None = None
     """
     if period is not None:
         return float(period), "given (--period)"
-    tstop = circuit.tran.tstop if circuit.tran is not None else math.inf
-    sources = []
-    for el in circuit.elements:
-        if isinstance(el, (VoltageSource, CurrentSource)) and el.waveform is not None:
-            per = _source_period(el.waveform)
-            if per is not None and 0 < per < tstop:
-                sources.append((el, per))
-    # A source directly across a switch's control terminals sets its switching period.
-    for sw in circuit.of_kind("S"):
-        ctrl = set(sw.control)
-        for el, per in sources:
-            if isinstance(el, VoltageSource) and (
-                set(el.nodes) == ctrl or (GROUND in ctrl and set(el.nodes) & ctrl - {GROUND}
-                                          and GROUND in el.nodes)
-            ):
-                kind = "PULSE" if isinstance(el.waveform, Pulse) else "SIN"
-                return per, f"{kind} period of {el.name} (control of {sw.name})"
+    sources = _periodic_sources(circuit)
+    found = _control_source_period(circuit, sources)
+    if found is not None:
+        return found
     if sources:
         el, per = max(sources, key=lambda s: s[1])
         kind = "PULSE period" if isinstance(el.waveform, Pulse) else "SIN period"

@@ -29,9 +29,10 @@ from lcs.wellposed import state_jump
 
 from .circuit import Circuit
 from .errors import Diagnostic, NetlistError
+from .measure import defined_period
 from .parser import parse_file, parse_overrides, parse_string
 from .transient import choose_theta, transient_setup
-from .units import parse_number
+from .units import format_eng, parse_number
 
 __all__ = [
     "CircuitMapFactory",
@@ -267,7 +268,7 @@ class _StateJump:
 
 def circuit_map(
     circuit: Circuit,
-    period: float | str,
+    period: float | str | None,
     *,
     step: float | None = None,
     theta: float | None = None,
@@ -284,8 +285,9 @@ def circuit_map(
     Parameters
     ----------
     circuit : Circuit
-    period : float or str
-        T, s, or a ``.param`` name.
+    period : float or str or None
+        T, s, or a ``.param`` name; None: the period the netlist defines
+        (:func:`netlist.measure.defined_period`, named in the map's ``notes``).
     step : float, optional
         Time step h, s; default the ``.tran`` step (TMAX or TSTEP), reduced if needed so that
         T/h is an integer (every period then has the same grid).
@@ -305,9 +307,15 @@ def circuit_map(
     -------
     StroboscopicMap or EventMap
         With ``x0`` attribute set to the circuit's initial state (``IC=``/``.ic``) and the
-        diode probes ``i(D)`` for switching patterns.
+        diode probes ``i(D)`` for switching patterns; ``period_note`` says which period the
+        netlist defined when ``period`` is None (else None).
     """
-    T = resolve_period(circuit, period)
+    period_notes = []
+    if period is None:
+        T, origin = defined_period(circuit)
+        period_notes.append(f"T = {format_eng(T, 's')}: the {origin} (no --period given)")
+    else:
+        T = resolve_period(circuit, period)
     if step is None:
         tran = circuit.tran
         if tran is None:
@@ -333,7 +341,8 @@ def circuit_map(
                                   param_name=param_name,
                                   diode_probes=[f"i({d})" for d in system.diodes])
         em.x0 = setup.x0.copy()
-        em.notes[:0] = list(setup.notes)
+        em.period_note = period_notes[0] if period_notes else None
+        em.notes[:0] = period_notes + list(setup.notes)
         return em
     if method != "moreau":
         raise _usage(f"unknown method {method!r}", "moreau or exact")
@@ -346,7 +355,8 @@ def circuit_map(
     else:
         m = StroboscopicMap(system, setup.signals, T, h, **kwargs)
     m.x0 = setup.x0.copy()
-    m.notes[:0] = list(setup.notes) + ([theta_note] if theta_note else [])
+    m.period_note = period_notes[0] if period_notes else None
+    m.notes[:0] = period_notes + list(setup.notes) + ([theta_note] if theta_note else [])
     return m
 
 
@@ -358,8 +368,9 @@ class CircuitMapFactory:
     ----------
     path : str
         Netlist file.
-    period : float or str
-        Sampling period, s, or a ``.param`` name (evaluated per parameter value).
+    period : float or str or None
+        Sampling period, s, or a ``.param`` name (evaluated per parameter value); None: the
+        period the netlist defines (found per parameter value).
     param : str or None
         The parameter that ``value`` sets (None: ``value`` is ignored).
     overrides : tuple of (str, float)
@@ -377,7 +388,7 @@ class CircuitMapFactory:
     """
 
     path: str
-    period: float | str
+    period: float | str | None
     param: str | None = None
     overrides: tuple[tuple[str, float], ...] = ()
     step: float | None = None

@@ -183,7 +183,7 @@ def simulate(
 def ac(
     circuit: Source,
     *,
-    period: float | str,
+    period: float | str | None = None,
     inject: str | None = None,
     probes: Sequence[str] = (),
     freqs: Sequence[float] | None = None,
@@ -207,8 +207,9 @@ def ac(
     Parameters
     ----------
     circuit : Circuit, path or netlist text
-    period : float or str
-        Switching period, s (SPICE text or a ``.param`` name).
+    period : float or str, optional
+        Switching period, s (SPICE text or a ``.param`` name); default the period the
+        netlist defines (:func:`netlist.measure.defined_period`, named in ``.notes``).
     inject : str
         Independent source to perturb (control-to-output: a DC control source;
         line-to-output: the input source; output impedance: a zero-valued current source).

@@ -2,7 +2,7 @@
 
 ::
 
-    pelcs ac FILE --period T (--inject SOURCE | --loop NAME) --probe EXPR...
+    pelcs ac FILE [--period T] (--inject SOURCE | --loop NAME) --probe EXPR...
              [--freq FMIN:FMAX:N] [--param NAME=VALUE]... [--method exact|sweep]
              [--amplitude A] [--settle T] [--cycles K] [--step H] [--theta TH] [--json]
              [-o OUT.csv] [--plot OUT.png] [--averaged TOPOLOGY:NAME=VALUE,...]
@@ -54,8 +54,10 @@ def register(subparsers) -> None:
         epilog="example: pelcs ac buck_vc.cir --period ts --inject Vc --probe 'v(out)' "
         "--freq 100:50k:40 --plot bode.png")
     p.add_argument("file", help="netlist file")
-    p.add_argument("--period", required=True, metavar="T",
-                   help="switching period: seconds with SPICE suffix (10u) or a .param name")
+    p.add_argument("--period", metavar="T",
+                   help="switching period: seconds with SPICE suffix (10u) or a .param name "
+                   "(default: the period the netlist defines, at a switch's control, in a "
+                   "latched switch's clock or a PWM ramp; the notes name it)")
     p.add_argument("--inject", metavar="SOURCE", help="independent source to perturb")
     p.add_argument("--loop", metavar="NAME",
                    help="zero-volt source in the feedback path (positive node facing the "
@@ -158,11 +160,12 @@ def run(args: argparse.Namespace) -> int:
     if not probes and not args.loop:
         raise usage_error("ac", "no probe", "pass --probe, e.g. --probe 'v(out)'")
     circuit = parse_file(args.file, params=parse_overrides(args.param) or None)
-    period: float | str = args.period
-    try:
-        period = parse_value(args.period, "--period")
-    except Exception:  # noqa: BLE001 (a .param name, resolved by the analysis)
-        pass
+    period: float | str | None = args.period  # None: the netlist's (ac_analysis finds it)
+    if period is not None:
+        try:
+            period = parse_value(args.period, "--period")
+        except Exception:  # noqa: BLE001 (a .param name, resolved by the analysis)
+            pass
     cycles = int(parse_value(args.cycles, "--cycles"))
     if cycles < 1:
         raise usage_error("ac", f"--cycles {args.cycles}: at least 1")

@@ -2,7 +2,7 @@
 
 ::
 
-    pelcs basins FILE --period T --grid "v(C1)=A:B:N,i(L1)=C:D:M" [--param NAME=VALUE]...
+    pelcs basins FILE [--period T] --grid "v(C1)=A:B:N,i(L1)=C:D:M" [--param NAME=VALUE]...
                  [--x0 STATE=V,...] [--step H] [--theta TH] [--t0 T0] [--workers W]
                  [--scheduler ADDRESS] [--no-merge] [-o OUT.npz] [--plot OUT.png]
 
@@ -35,6 +35,7 @@ from .orbit import (
     add_map_options,
     initial_state,
     make_factory,
+    period_notes,
     positive_int,
     usage_error,
 )
@@ -87,6 +88,7 @@ def run(args: argparse.Namespace) -> int:
         bm = cell_basins(factory, axes, param=None, base_state=base,
                          merge_adjacent=not args.no_merge, workers=workers,
                          progress=not args.no_progress, scheduler=args.scheduler)
+    bm.notes[:0] = period_notes(m)
     title = factory.circuit().title
     written = write_outputs("basins", (
         (out, bm.to_npz),

@@ -2,7 +2,7 @@
 
 ::
 
-    pelcs bifurcation FILE --param NAME=START:STOP:COUNT --period T --transient N --record M
+    pelcs bifurcation FILE --param NAME=START:STOP:COUNT [--period T] --transient N --record M
                       [--probe EXPR]... [--follow [--direction up|down|both]] [--chunks C]
                       [--param OTHER=VALUE]... [--x0 ...] [--step H] [--theta TH] [--t0 T0]
                       [--workers W] [--scheduler ADDRESS] [-o OUT.csv|OUT.npz]
@@ -45,6 +45,7 @@ from .orbit import (
     add_map_options,
     initial_state,
     make_factory,
+    period_notes,
     positive_int,
     usage_error,
 )
@@ -152,6 +153,7 @@ def run(args: argparse.Namespace) -> int:
             follow=args.follow, directions=directions, workers=workers, chunks=chunks,
             progress=not args.no_progress, param_name=rng.name, scheduler=args.scheduler,
         )
+    diagram.notes[:0] = period_notes(m)
     written = write_outputs("bifurcation", (
         (out, diagram.save),
         (plot, lambda path: diagram.plot(path, title=circuit.title or Path(args.file).name)),

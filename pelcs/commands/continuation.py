@@ -1,8 +1,8 @@
-"""``pelcs continue FILE --period T --param NAME=START:STOP``: follow a periodic orbit.
+"""``pelcs continue FILE [--period T] --param NAME=START:STOP``: follow a periodic orbit.
 
 ::
 
-    pelcs continue FILE --period T --param NAME=START:STOP [--param OTHER=VALUE]...
+    pelcs continue FILE [--period T] --param NAME=START:STOP [--param OTHER=VALUE]...
                         [--steps N] [--order K] [--tol DP] [--transient N] [--x0 ...]
                         [--step H] [--theta TH] [--t0 T0] [--json]
                         [--start STATE=V|STATE=A:B:N,...]... [--workers W]
@@ -48,6 +48,7 @@ from .orbit import (
     initial_state,
     make_factory,
     map_header,
+    period_notes,
     positive_int,
     usage_error,
 )
@@ -126,6 +127,7 @@ def run(args: argparse.Namespace) -> int:
     report = {"file": args.file, "title": factory.circuit(rng.start).title,
               **map_header(m, factory), "order": order, "start": rng.start, "stop": rng.stop,
               "steps": steps, **res.to_dict()}
+    report["notes"] = period_notes(m) + list(report.get("notes", []))
     if args.json:
         print(dumps(report, indent=1))
     else:

@@ -1,8 +1,8 @@
-"""``pelcs orbit FILE --period T``: a periodic orbit of the stroboscopic map and its stability.
+"""``pelcs orbit FILE [--period T]``: a periodic orbit of the stroboscopic map and its stability.
 
 ::
 
-    pelcs orbit FILE --period T [--order K] [--param NAME=VALUE]... [--x0 STATE=V,...]
+    pelcs orbit FILE [--period T] [--order K] [--param NAME=VALUE]... [--x0 STATE=V,...]
                      [--transient N] [--step H] [--theta TH] [--t0 T0] [--event EV] [--json]
 
 The circuit is sampled every T (a number with SPICE suffix, or a ``.param`` name such as
@@ -16,6 +16,12 @@ JSON: NaN and infinities are null (e.g. the scaled ``residual`` of an unconverge
 strongly unstable circuit, beyond the largest float).
 ``--event S1:on`` (or ``D1:off``, ``'v(out)>12'``) uses the map sampled at that event instead;
 its state ends with ``phase`` (the event time modulo T, s) and it has one extra multiplier 0.
+
+Without ``--period``, T is the period the netlist defines: the PULSE or SIN period of the
+source at a switch's control, else the one period shared by the latched switches' clocks
+(``LATCH=1 PERIOD=T``) and the periodic sources such as a PWM ramp (a note names it); no such
+period, or several different ones, is an input error asking for ``--period``. The same holds
+for ``continue``, ``bifurcation``, ``basins`` and ``ac``.
 
 This module also holds the options that ``bifurcation``, ``continue`` and ``basins`` share.
 
@@ -48,8 +54,11 @@ EXIT_FAILED = 3
 def add_map_options(p: argparse.ArgumentParser, *, param_help: str) -> None:
     """``file``, ``--period``, ``--param``, ``--step``, ``--theta``, ``--t0``, ``--x0``."""
     p.add_argument("file", help="netlist file")
-    p.add_argument("--period", required=True, metavar="T",
-                   help="sampling period: seconds with SPICE suffix (400u) or a .param name")
+    p.add_argument("--period", metavar="T",
+                   help="sampling period: seconds with SPICE suffix (400u) or a .param name "
+                   "(default: the PULSE or SIN period of the source at a switch's control, "
+                   "else the one period of the latched switches' clocks and the periodic "
+                   "sources, such as a PWM ramp; the report names it)")
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                    help=param_help)
     p.add_argument("--step", metavar="H",
@@ -91,11 +100,12 @@ def make_factory(args: argparse.Namespace, command: str, *, swept: str | None = 
     if step is not None and step <= 0:
         raise usage_error(command, f"--step {args.step}: must be positive")
     t0 = parse_value(args.t0, "--t0")
-    period: float | str = args.period
-    try:
-        period = parse_value(args.period, "--period")
-    except NetlistError:
-        pass  # a .param name, resolved per parameter value
+    period: float | str | None = args.period  # None: the netlist's, found per circuit
+    if period is not None:
+        try:
+            period = parse_value(args.period, "--period")
+        except NetlistError:
+            pass  # a .param name, resolved per parameter value
     event = getattr(args, "event", None)
     if event:
         from lcs.analysis.maps import EventSpec
@@ -120,6 +130,12 @@ def initial_state(args: argparse.Namespace, m) -> np.ndarray:
     if args.x0:
         return parse_state(args.x0, m.state_names[: x0.size], x0)
     return x0
+
+
+def period_notes(m) -> list[str]:
+    """The note naming the period taken from the netlist (none when --period was given)."""
+    note = getattr(m, "period_note", None)
+    return [note] if note else []
 
 
 def positive_int(command: str, option: str, text, minimum: int = 1) -> int:
