@@ -106,3 +106,42 @@ def test_the_cli_prints_the_probe_guess(tmp_path, capsys):
     code = main(["simulate", str(path), "--probe", "v(ot)", "--tstop", "10u"])
     err = capsys.readouterr().err
     assert code == 2 and "unknown probe 'v(ot)'" in err and "did you mean v(out)?" in err
+
+
+SHARED = ("--param", "--probe", "--step", "--theta", "--method", "--period", "--json",
+          "--scheduler", "-o")
+
+
+def test_the_shared_options_are_declared_once():
+    """Only pelcs/commands/options.py calls add_argument with a shared option's name."""
+    import ast
+    from pathlib import Path
+
+    import pelcs.commands
+
+    root = Path(pelcs.commands.__file__).parent
+    offenders = []
+    for path in [*root.glob("*.py"), root.parent / "cli.py"]:
+        if path.name == "options.py":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+                    and node.func.attr == "add_argument"):
+                names = {a.value for a in node.args if isinstance(a, ast.Constant)}
+                if names & set(SHARED):
+                    offenders.append(f"{path.name}:{node.lineno}")
+    assert offenders == []
+
+
+def test_a_shared_option_means_the_same_in_every_command():
+    """Same kind of value, repetition and metavar wherever a shared option appears."""
+    parser = build_parser([], commands=COMMANDS)
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    seen: dict[str, tuple] = {}
+    for name, p in sub.choices.items():
+        for action in p._actions:
+            for opt in set(action.option_strings) & set(SHARED):
+                kind = (type(action).__name__, action.dest, action.required,
+                        action.metavar if opt not in ("--param", "-o") else None)
+                assert seen.setdefault(opt, kind) == kind, (name, opt)
+    assert set(seen) == set(SHARED)

@@ -42,6 +42,7 @@ from lcs.atomic import atomic_path
 from pelcs.jsonout import dumps
 from pelcs.outputs import write_outputs
 
+from . import options
 from .orbit import EXIT_FAILED, usage_error
 
 
@@ -54,7 +55,7 @@ def register(subparsers) -> None:
         epilog="example: pelcs ac buck_vc.cir --period ts --inject Vc --probe 'v(out)' "
         "--freq 100:50k:40 --plot bode.png")
     p.add_argument("file", help="netlist file")
-    p.add_argument("--period", metavar="T",
+    options.add_period(p,
                    help="switching period: seconds with SPICE suffix (10u) or a .param name "
                    "(default: the period the netlist defines, at a switch's control, in a "
                    "latched switch's clock or a PWM ramp; the notes name it)")
@@ -62,12 +63,10 @@ def register(subparsers) -> None:
     p.add_argument("--loop", metavar="NAME",
                    help="zero-volt source in the feedback path (positive node facing the "
                    "controller): loop gain and margins")
-    p.add_argument("--probe", action="append", default=[], metavar="EXPR",
-                   help="probe, e.g. 'v(out)' (repeatable or comma-separated)")
+    options.add_probe(p, help="probe, e.g. 'v(out)' (repeatable or comma-separated)")
     p.add_argument("--freq", metavar="FMIN:FMAX:N", help="log-spaced frequencies (Hz)")
-    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
-                   help="override a global .param (repeatable)")
-    p.add_argument("--method", choices=("exact", "sweep"), default="exact",
+    options.add_param(p, help="override a global .param (repeatable)")
+    options.add_method(p, ("exact", "sweep"), "exact",
                    help="exact: linearised exact orbit (default); sweep: time-domain "
                    "sinusoidal perturbation")
     p.add_argument("--amplitude", metavar="A",
@@ -79,12 +78,12 @@ def register(subparsers) -> None:
                    "periods)")
     p.add_argument("--cycles", metavar="K", default="3",
                    help="excitation periods measured per frequency (default 3)")
-    p.add_argument("--step", metavar="H", help="time step (default: the .tran step)")
-    p.add_argument("--theta", metavar="TH", default="0.5", help="Moreau θ (default 0.5)")
-    p.add_argument("--json", action="store_true",
+    options.add_step(p)
+    options.add_theta(p, default="0.5", help="Moreau θ (default 0.5)")
+    options.add_json(p,
                    help="print the result as JSON (NaN and infinities as null, e.g. the "
                    "-inf dB of a zero response)")
-    p.add_argument("-o", "--output", metavar="OUT.csv", help="write the response as CSV")
+    options.add_output(p, "OUT.csv", help="write the response as CSV")
     p.add_argument("--plot", metavar="OUT.png", help="Bode plot")
     p.add_argument("--averaged", metavar="TOPOLOGY:NAME=VALUE,...",
                    help="overlay the CCM averaged model on the plot, e.g. "

@@ -30,7 +30,8 @@ import numpy as np
 
 from pelcs.outputs import write_outputs
 
-from .bifurcation import add_scheduler_option, check_output, scheduler_errors
+from . import options
+from .bifurcation import check_output, scheduler_errors
 from .orbit import (
     add_map_options,
     initial_state,
@@ -55,10 +56,10 @@ def register(subparsers) -> None:
     p.add_argument("--grid", required=True, metavar="S1=A:B:N,S2=C:D:M",
                    help="two states with their ranges and cell counts")
     p.add_argument("--workers", metavar="W", help="worker processes (default: all cores)")
-    add_scheduler_option(p)
+    options.add_scheduler(p)
     p.add_argument("--no-merge", action="store_true",
                    help="keep touching periodic groups as separate attractors")
-    p.add_argument("-o", "--output", metavar="OUT.npz", help="write the cell data")
+    options.add_output(p, "OUT.npz", help="write the cell data")
     p.add_argument("--plot", metavar="OUT.png", help="plot basins and transient time")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)

@@ -41,6 +41,7 @@ import numpy as np
 
 from pelcs.outputs import write_outputs
 
+from . import options
 from .orbit import (
     add_map_options,
     initial_state,
@@ -66,7 +67,7 @@ def register(subparsers) -> None:
                     "NAME=VALUE: a fixed override (repeatable)")
     p.add_argument("--transient", required=True, metavar="N", help="periods discarded")
     p.add_argument("--record", required=True, metavar="M", help="periods recorded")
-    p.add_argument("--probe", action="append", default=[], metavar="EXPR",
+    options.add_probe(p,
                    help="v(NODE), v(A,B), i(ELEMENT) or a state (repeatable); "
                    "default: every state")
     p.add_argument("--follow", action="store_true",
@@ -76,23 +77,14 @@ def register(subparsers) -> None:
     p.add_argument("--chunks", metavar="C",
                    help="with --follow: independent pieces per direction (default 1)")
     p.add_argument("--workers", metavar="W", help="worker processes (default: all cores)")
-    add_scheduler_option(p)
-    p.add_argument("-o", "--output", metavar="OUT", help="write OUT.csv or OUT.npz")
+    options.add_scheduler(p)
+    options.add_output(p, "OUT", help="write OUT.csv or OUT.npz")
     p.add_argument("--plot", metavar="OUT.png", help="scatter plot of the diagram")
     p.add_argument("--confirm", action="store_true",
                    help="confirm each run of the summary with the orbit solver (Newton from "
                    "the recorded state at the run's middle value): the orbit's multipliers")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
-
-
-def add_scheduler_option(p: argparse.ArgumentParser) -> None:
-    """``--scheduler ADDRESS``: run the tasks on a Dask cluster."""
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="run the tasks on the workers of a Dask scheduler (tcp://HOST:8786 "
-                   "or HOST:8786; TLS and other schemes: through the Python API with a "
-                   "distributed.Client), or 'local' for a Dask cluster on this machine; "
-                   "default: local processes")
 
 
 @contextlib.contextmanager

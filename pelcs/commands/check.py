@@ -36,6 +36,7 @@ from pathlib import Path
 
 from netlist.errors import Diagnostic, NetlistError
 
+from . import options
 from . import simulate as _simulate
 from .simulate import split_probes
 
@@ -59,17 +60,16 @@ def register(subparsers) -> None:
         "--probe 'v(out)' --probe 'i(L1)' --report out/check",
     )
     p.add_argument("file", help="netlist file")
-    p.add_argument("--probe", action="append", default=[], metavar="EXPR",
+    options.add_probe(p,
                    help="v(NODE), v(NODE,NODE), i(ELEMENT) or a state v(C1) (repeatable, or "
                    "comma-separated); default: every state i(L...), v(C...)")
-    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
-                   help="override a global .param in both simulators (repeatable)")
+    options.add_param(p, help="override a global .param in both simulators (repeatable)")
     p.add_argument("--tstop", metavar="T", help="stop time of both runs (default: .tran TSTOP)")
-    p.add_argument("--period", metavar="T",
+    options.add_period(p,
                    help="steady-state period (default: from the sources or the switching)")
     p.add_argument("--report", metavar="DIR",
                    help="write NAME.md, NAME.json, NAME.png and the ngspice deck into DIR")
-    p.add_argument("--json", action="store_true",
+    options.add_json(p,
                    help="print the JSON report on stdout instead of the table")
     p.add_argument("--pelcs-param", action="append", default=[], metavar="NAME=VALUE",
                    help="override a .param in pelcs only: a deliberate difference, to see "

@@ -41,7 +41,8 @@ from pathlib import Path
 
 from pelcs.jsonout import dumps
 
-from .bifurcation import add_scheduler_option, scheduler_errors
+from . import options
+from .bifurcation import scheduler_errors
 from .orbit import (
     EXIT_FAILED,
     add_map_options,
@@ -79,10 +80,9 @@ def register(subparsers) -> None:
                    "every combination), in parallel")
     p.add_argument("--workers", metavar="W",
                    help="with --start: worker processes (default: all cores)")
-    add_scheduler_option(p)
+    options.add_scheduler(p)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument("--json", action="store_true",
-                   help="print one JSON object (NaN and infinities as null)")
+    options.add_json(p)
     p.set_defaults(func=run)
 
 

@@ -15,6 +15,8 @@ from lcs.signals import Dc, Exp, Pulse, Pwl, Signal, Sin
 from netlist.circuit import GROUND, Circuit, Element
 from netlist.units import format_eng, format_number
 
+from . import options
+
 # kind -> (heading, unit of the value)
 _GROUPS = [
     ("R", "resistors", "Ω"),
@@ -50,8 +52,7 @@ def register(subparsers) -> None:
         "diodes, initial conditions, analysis, options and ignored commands.",
     )
     p.add_argument("file", help="netlist file")
-    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
-                   help="override a global .param (repeatable; SPICE suffixes allowed)")
+    options.add_param(p)
     p.set_defaults(func=run)
 
 

@@ -28,6 +28,8 @@ from lcs.model import LCS, SwitchedLCS
 from netlist.errors import Diagnostic, NetlistError
 from pelcs.jsonout import dumps
 
+from . import options
+
 #: Above this many diodes a mode's GDCM conditions are left out unless ``--gdcm`` asks for
 #: them: one condition per diode, each listing the sign conditions of every other diode (a
 #: 200-stage multiplier's 400 diodes took minutes and gave hundreds of MB of text).
@@ -47,13 +49,11 @@ def register(subparsers) -> None:
         "one per configuration of the switches, and print its matrices.",
     )
     p.add_argument("file", help="netlist file")
-    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
-                   help="override a global .param (repeatable; SPICE suffixes allowed)")
+    options.add_param(p)
     p.add_argument("--mode", metavar="S1=on,S2=off",
                    help="only these switch states (switches not named: every state); "
                    "default: all modes")
-    p.add_argument("--json", action="store_true",
-                   help="print one JSON object (NaN and infinities as null)")
+    options.add_json(p)
     p.add_argument("--gdcm", action="store_true",
                    help=f"list the GDCM conditions of every diode even above {GDCM_MAX_PAIRS} "
                    "diodes (their text grows as diodes² x states: hundreds of MB for a "

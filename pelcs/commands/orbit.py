@@ -45,6 +45,8 @@ import numpy as np
 from netlist.errors import Diagnostic, NetlistError
 from pelcs.jsonout import dumps
 
+from . import options
+
 EXIT_FAILED = 3
 
 
@@ -54,23 +56,19 @@ EXIT_FAILED = 3
 def add_map_options(p: argparse.ArgumentParser, *, param_help: str) -> None:
     """``file``, ``--period``, ``--param``, ``--step``, ``--theta``, ``--t0``, ``--x0``."""
     p.add_argument("file", help="netlist file")
-    p.add_argument("--period", metavar="T",
+    options.add_period(p,
                    help="sampling period: seconds with SPICE suffix (400u) or a .param name "
                    "(default: the PULSE or SIN period of the source at a switch's control, "
                    "else the one period of the latched switches' clocks and the periodic "
                    "sources, such as a PWM ramp; the report names it)")
-    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
-                   help=param_help)
-    p.add_argument("--step", metavar="H",
-                   help="time step (default: the .tran step, rounded down to T/integer)")
-    p.add_argument("--theta", metavar="TH",
-                   help="Moreau θ in [0.5, 1] (default 0.5, or 1 where θ < 1 is found "
-                   "unreliable, with a note)")
+    options.add_param(p, help=param_help)
+    options.add_step(p, help="time step (default: the .tran step, rounded down to T/integer)")
+    options.add_theta(p)
     p.add_argument("--t0", metavar="T0", default="0",
                    help="sampling phase: the map samples at t0 + k T (default 0)")
     p.add_argument("--x0", metavar="STATE=V,...",
                    help="initial state, e.g. 'v(C1)=12,i(L1)=1' (others: the netlist's IC)")
-    p.add_argument("--method", choices=("moreau", "exact"), default="moreau",
+    options.add_method(p, ("moreau", "exact"), "moreau",
                    help="moreau: θ time-stepping map, finite-difference Jacobians (default); "
                    "exact: exact flows and events, exact Jacobians (saltation), for "
                    "DC, PULSE, PWL and SIN sources and netlist comparators")
@@ -181,8 +179,7 @@ def register(subparsers) -> None:
                    help="periods simulated before Newton (default 100)")
     p.add_argument("--tol", default="1e-10", metavar="TOL",
                    help="Newton tolerance on the scaled residual (default 1e-10)")
-    p.add_argument("--json", action="store_true",
-                   help="print one JSON object (NaN and infinities as null)")
+    options.add_json(p)
     p.set_defaults(func=run)
 
 

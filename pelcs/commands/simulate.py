@@ -43,6 +43,8 @@ from netlist.errors import Diagnostic, NetlistError
 from pelcs.outputs import Written, write_outputs
 from pelcs.writers import FORMATS
 
+from . import options
+
 EXIT_FAILED = 3
 #: Exit status of an interrupted run (128 + SIGINT, as a shell reports it).
 EXIT_INTERRUPTED = 130
@@ -61,14 +63,13 @@ def register(subparsers) -> None:
     )
     p.add_argument("file", help="netlist file")
     p.add_argument("--tstop", metavar="T", help="stop time (default: .tran TSTOP)")
-    p.add_argument("--step", metavar="H",
+    options.add_step(p,
                    help="time step (default: .tran TMAX if given, else TSTEP)")
-    p.add_argument("--theta", metavar="TH",
+    options.add_theta(p,
                    help="θ in [0.5, 1]: 0.5 trapezoidal (default; 1 where θ < 1 is found "
                    "unreliable, with a note), 1 backward Euler")
-    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
-                   help="override a global .param (repeatable; SPICE suffixes allowed)")
-    p.add_argument("--probe", action="append", default=[], metavar="EXPR",
+    options.add_param(p)
+    options.add_probe(p,
                    help="v(NODE), v(NODE,NODE) or i(ELEMENT) (repeatable, or a "
                    "comma-separated list); default: every state")
     p.add_argument("--output-step", metavar="T",
@@ -79,7 +80,7 @@ def register(subparsers) -> None:
                    "of the .tran TSTEP grid")
     p.add_argument("--every", metavar="N",
                    help="write every N-th integration step (implies --all-steps)")
-    p.add_argument("-o", "--output", metavar="OUT",
+    options.add_output(p, "OUT",
                    help="write the probes to OUT.csv, OUT.npz or OUT.parquet")
     p.add_argument("--plot", metavar="OUT.png", help="plot the probes, one panel each")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -98,7 +99,7 @@ def register(subparsers) -> None:
     p.add_argument("--load", metavar="NAME",
                    help="with --losses: the load resistor (default: the one taking the most "
                    "power)")
-    p.add_argument("--method", choices=("moreau", "exact"), default="moreau",
+    options.add_method(p, ("moreau", "exact"), "moreau",
                    help="moreau: θ time-stepping (default); exact: event-driven, exact "
                    "between events (DC, PULSE, PWL, SIN sources; netlist comparators), the step "
                    "is then the output spacing")

@@ -60,7 +60,8 @@ from netlist.errors import NetlistError
 from pelcs.jsonout import dumps, json_ready
 from pelcs.outputs import write_outputs
 
-from .bifurcation import add_scheduler_option, check_output, scheduler_errors
+from . import options
+from .bifurcation import check_output, scheduler_errors
 from .orbit import EXIT_FAILED, positive_int, usage_error
 
 # Rows of a sweep printed on the terminal (the CSV has them all).
@@ -87,7 +88,7 @@ def register(subparsers) -> None:
     p.add_argument("--measure", action="append", default=[], metavar="FUNC(PROBE)",
                    help="mean, avg, rms, ripple, pp, min, max or final of a probe, e.g. "
                    "'mean(v(out))' (repeatable; required)")
-    p.add_argument("--param", action="append", default=[], metavar="NAME=START:STOP:N",
+    options.add_param(p, metavar="NAME=START:STOP:N",
                    help="a swept .param (N values from START to STOP, or NAME=V1,V2,...) or "
                    "a fixed override NAME=VALUE (repeatable)")
     p.add_argument("--tolerance", action="append", default=[], metavar="PATTERN=N%",
@@ -100,19 +101,19 @@ def register(subparsers) -> None:
     p.add_argument("--tstop", metavar="T",
                    help="stop time (default: .tran TSTOP); make it long enough for the "
                    "measurements to settle (runs that have not are flagged)")
-    p.add_argument("--step", metavar="H", help="time step (default: the .tran step)")
-    p.add_argument("--theta", metavar="TH",
+    options.add_step(p)
+    options.add_theta(p,
                    help="Moreau θ in [0.5, 1] (default 0.5, or 1 where θ < 1 is found "
                    "unreliable)")
-    p.add_argument("--period", metavar="T",
+    options.add_period(p,
                    help="steady-state period (seconds or a .param name); default the period "
                    "of the source at a switch's control")
     p.add_argument("--workers", metavar="W", help="worker processes (default: all cores)")
-    add_scheduler_option(p)
-    p.add_argument("-o", "--output", metavar="OUT.csv", help="write the table")
+    options.add_scheduler(p)
+    options.add_output(p, "OUT.csv", help="write the table")
     p.add_argument("--plot", metavar="OUT.png",
                    help="measurements against the first swept parameter, or histograms")
-    p.add_argument("--json", action="store_true",
+    options.add_json(p,
                    help="print the results as JSON (NaN and infinities as null)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)

@@ -1,0 +1,71 @@
+"""The options that several commands share, each declared here once.
+
+Every command that takes ``--param``, ``--probe``, ``--step``, ``--theta``, ``--method``,
+``--period``, ``--json``, ``--scheduler`` or ``-o`` adds it with the function of that name:
+the name, the kind of value, the repetition and the default kind are the same in every
+command; only the help text (what the option means for that command) and, for ``--method``,
+the choices and, for ``--theta``, the default may differ.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+PARAM_HELP = "override a global .param (repeatable; SPICE suffixes allowed)"
+JSON_HELP = "print one JSON object (NaN and infinities as null)"
+THETA_HELP = ("Moreau θ in [0.5, 1] (default 0.5, or 1 where θ < 1 is found unreliable, with "
+              "a note)")
+
+
+def add_param(p: argparse.ArgumentParser, help: str = PARAM_HELP,
+              metavar: str = "NAME=VALUE") -> None:
+    """``--param NAME=VALUE`` (repeatable): a ``.param`` override, or a swept range."""
+    p.add_argument("--param", action="append", default=[], metavar=metavar, help=help)
+
+
+def add_probe(p: argparse.ArgumentParser, help: str) -> None:
+    """``--probe EXPR`` (repeatable, or comma-separated): ``v(out)``, ``i(L1)``..."""
+    p.add_argument("--probe", action="append", default=[], metavar="EXPR", help=help)
+
+
+def add_step(p: argparse.ArgumentParser,
+             help: str = "time step (default: the .tran step)") -> None:
+    """``--step H``: the time step, s (SPICE text)."""
+    p.add_argument("--step", metavar="H", help=help)
+
+
+def add_theta(p: argparse.ArgumentParser, help: str = THETA_HELP,
+              default: str | None = None) -> None:
+    """``--theta TH``: the θ of the Moreau time-stepping."""
+    p.add_argument("--theta", metavar="TH", default=default, help=help)
+
+
+def add_method(p: argparse.ArgumentParser, choices: tuple[str, ...], default: str,
+               help: str) -> None:
+    """``--method``: how the command computes (its choices are the command's)."""
+    p.add_argument("--method", choices=choices, default=default, help=help)
+
+
+def add_period(p: argparse.ArgumentParser, help: str) -> None:
+    """``--period T``: seconds (SPICE text) or a ``.param`` name; optional everywhere (the
+    commands find the netlist's own period without it)."""
+    p.add_argument("--period", metavar="T", help=help)
+
+
+def add_json(p: argparse.ArgumentParser, help: str = JSON_HELP) -> None:
+    """``--json``: print the result as strict JSON on stdout."""
+    p.add_argument("--json", action="store_true", help=help)
+
+
+def add_scheduler(p: argparse.ArgumentParser) -> None:
+    """``--scheduler ADDRESS``: run the tasks on a Dask cluster."""
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the tasks on the workers of a Dask scheduler (tcp://HOST:8786 "
+                   "or HOST:8786; TLS and other schemes: through the Python API with a "
+                   "distributed.Client), or 'local' for a Dask cluster on this machine; "
+                   "default: local processes")
+
+
+def add_output(p: argparse.ArgumentParser, metavar: str, help: str) -> None:
+    """``-o/--output FILE``: the file the command writes (its formats are the command's)."""
+    p.add_argument("-o", "--output", metavar=metavar, help=help)
