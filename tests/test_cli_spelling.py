@@ -145,3 +145,13 @@ def test_a_shared_option_means_the_same_in_every_command():
                         action.metavar if opt not in ("--param", "-o") else None)
                 assert seen.setdefault(opt, kind) == kind, (name, opt)
     assert set(seen) == set(SHARED)
+
+
+def test_a_misspelt_required_option_is_named_not_reported_missing(capsys):
+    err = _error(capsys, ["bifurcation", "x.cir", "--param", "a=1:2:3", "--trasient", "3",
+                          "--record", "2"])
+    assert "unrecognized option '--trasient'; did you mean '--transient'?" in err
+    assert "required" not in err
+    # Missing for real (no misspelling): argparse's own message.
+    err = _error(capsys, ["bifurcation", "x.cir", "--param", "a=1:2:3", "--record", "2"])
+    assert "the following arguments are required: --transient" in err
