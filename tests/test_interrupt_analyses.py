@@ -53,3 +53,25 @@ def test_interrupted_sweep_writes_the_finished_runs(tmp_path):
     note = f"the sweep was interrupted (SIGINT) after {len(rows)} of 24 runs"
     assert f"note: {note}" in out
     assert note in err and "written to" in err
+
+
+def test_interrupted_bifurcation_writes_the_finished_values(tmp_path):
+    # 24 values of 25000 periods of 100 steps (about 1 s each) in 8 tasks of 3 on 2 processes
+    out_csv = tmp_path / "d.csv"
+    proc, out, err, answer = _run_and_interrupt(
+        ["bifurcation", str(BUCK), "--period", "ts", "--param", "duty=0.2:0.8:24",
+         "--transient", "25000", "--record", "2", "--probe", "v(out)", "--workers", "2",
+         "-o", str(out_csv)], delay=8.0)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err
+    assert answer < 5, answer
+    with open(out_csv, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    duties = sorted({float(r["duty"]) for r in rows})
+    assert 0 < len(duties) < 24 and len(duties) % 3 == 0 and len(rows) == 2 * len(duties)
+    for row in rows:  # settled period-1 samples: v(out) near duty * 24 V
+        assert abs(float(row["v(out)"]) - 24 * float(row["duty"])) < 0.3
+    note = f"the diagram was interrupted (SIGINT) after {len(duties)} of 24 parameter values"
+    assert f"note: {note}" in out
+    assert f"duty: {len(duties)} values" in out
+    assert note in err and "written to" in err

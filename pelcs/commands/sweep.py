@@ -57,20 +57,17 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import sys
 from pathlib import Path
 
 import numpy as np
 
-from lcs import interrupt
 from lcs.interrupt import deferred_interrupts
 from netlist.errors import NetlistError
 from pelcs.jsonout import dumps, json_ready
-from pelcs.outputs import write_outputs
+from pelcs.outputs import interrupted_status, write_outputs
 
 from .bifurcation import add_scheduler_option, check_output, scheduler_errors
 from .orbit import EXIT_FAILED, positive_int, usage_error
-from .simulate import EXIT_INTERRUPTED
 
 # Rows of a sweep printed on the terminal (the CSV has them all).
 MAX_ROWS = 60
@@ -224,17 +221,10 @@ def _sweep(args, out, plot, title, params, runs, seed, workers, theta, tstop, st
     else:
         print(summary(table, args.file, title, written))
     not_written = written.exit_status()
-    signum = interrupt.requested()
-    if signum is not None:
-        # (the note of run_sweep says how many runs finished; a signal after the runs, while
-        # the files were written, lets them be completed)
-        what = next((n for n in table.notes if n.startswith("the sweep was interrupted")),
-                    f"interrupted ({interrupt.signal_name(signum)}) after the runs")
-        where = (f"written to {', '.join(written)}" if written else
-                 "no output file written" if not_written else
-                 "no output file was requested (-o, --plot)")
-        print(f"{args.file}: {what}\n  {where}", file=sys.stderr)
-        return EXIT_INTERRUPTED
+    stopped = interrupted_status(args.file, table.notes, "the sweep was interrupted", written,
+                                 not_written)
+    if stopped is not None:
+        return stopped
     return not_written or (0 if table.ok.any() else EXIT_FAILED)
 
 
