@@ -75,3 +75,48 @@ def test_interrupted_bifurcation_writes_the_finished_values(tmp_path):
     assert f"note: {note}" in out
     assert f"duty: {len(duties)} values" in out
     assert note in err and "written to" in err
+
+
+def test_cells_whose_chain_reaches_a_cell_not_computed_are_unknown():
+    import numpy as np
+
+    from lcs.analysis.basins import _unknown_cells, simple_cell_mapping
+
+    # 0 -> 1 -> 2 -> sink; 3 -> 4 -> 3 (a cycle); 5 -> 3; 6 -> 7 (7 not computed: its image
+    # is the sink placeholder); 8 -> 6; 9 -> sink
+    image = np.array([1, 2, -1, 4, 3, 3, 7, -1, 6, -1])
+    computed = np.ones(10, dtype=bool)
+    computed[7] = False
+    unknown = _unknown_cells(simple_cell_mapping(image), image, computed)
+    assert np.flatnonzero(unknown).tolist() == [6, 7, 8]
+
+
+def test_interrupted_basins_write_the_computed_cells(tmp_path):
+    import numpy as np
+
+    # 1600 cells of one period of 40000 steps in 16 blocks of 100 (about 1.5 s each) on
+    # 2 processes
+    npz = tmp_path / "b.npz"
+    proc, out, err, answer = _run_and_interrupt(
+        ["basins", str(BUCK), "--period", "ts", "--grid", "v(C1)=0:24:40,i(L1)=0:24:40",
+         "--step", "0.5n", "--workers", "2", "-o", str(npz), "--plot",
+         str(tmp_path / "b.png")], delay=7.0)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err
+    assert answer < 20, answer  # (the plot: matplotlib's import)
+    z = np.load(npz)
+    computed, group, image = z["computed"].ravel(), z["group"].ravel(), z["image"].ravel()
+    k = int(computed.sum())
+    assert 0 < k < 1600 and k % 100 == 0  # whole blocks
+    assert (group[~computed] == -1).all()
+    # every decided cell's chain runs through computed cells only, to an attractor or out
+    for cell in np.flatnonzero(group >= 0):
+        c, seen = cell, set()
+        while c != -1 and c not in seen:
+            assert computed[c]
+            seen.add(c)
+            c = image[c]
+    assert (tmp_path / "b.png").stat().st_size > 0
+    note = f"the basins were interrupted (SIGINT) after {k} of 1600 cells"
+    assert f"note: {note}" in out
+    assert note in err and "written to" in err
