@@ -120,3 +120,27 @@ def test_interrupted_basins_write_the_computed_cells(tmp_path):
     note = f"the basins were interrupted (SIGINT) after {k} of 1600 cells"
     assert f"note: {note}" in out
     assert note in err and "written to" in err
+
+
+def test_interrupted_monte_carlo_keeps_the_statistics_of_the_finished_runs(tmp_path):
+    # a Monte Carlo table is grid point by grid point, --runs rows each: the runs not made
+    # are rows "not run" (NaN), left out of the statistics
+    out_csv = tmp_path / "mc.csv"
+    proc, out, err, _ = _run_and_interrupt(
+        ["sweep", str(BUCK), "--tolerance", "R1=5%", "--runs", "20", "--seed", "1",
+         "--measure", "mean(v(out))", "--tstop", "300m", "--workers", "2",
+         "-o", str(out_csv)], delay=6.0)
+    assert proc.returncode == 130, err
+    with open(out_csv, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [int(r["run"]) for r in rows] == list(range(20))
+    done = [r for r in rows if r["ok"] == "1"]
+    assert 0 < len(done) <= 20
+    assert all(r["message"] == "not run: the sweep was interrupted" for r in rows
+               if r["ok"] != "1")
+    for r in done:  # the duty cycle sets v(out) = 12 V whatever R1 (CCM)
+        assert abs(float(r["mean(v(out))"]) - 12) < 0.05
+    # (21 runs: 20 drawn and the nominal one, made last)
+    assert f"after {len(done)} of 21 runs" in err
+    stats = next(line for line in out.splitlines() if line.startswith("mean(v(out))"))
+    assert stats.split()[1] == "nan"  # the nominal run was not made
