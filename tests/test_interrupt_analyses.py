@@ -144,3 +144,27 @@ def test_interrupted_monte_carlo_keeps_the_statistics_of_the_finished_runs(tmp_p
     assert f"after {len(done)} of 21 runs" in err
     stats = next(line for line in out.splitlines() if line.startswith("mean(v(out))"))
     assert stats.split()[1] == "nan"  # the nominal run was not made
+
+
+def test_interrupted_check_says_nothing_was_compared(ngspice, tmp_path):
+    import pytest
+
+    for signum, delay in ((signal.SIGINT, 3.0), (signal.SIGTERM, 5.0)):
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "pelcs.cli", "check", str(ROOT / "converters" / "netlists"
+                                                             / "boost.cir"),
+             "--tstop", "200m", "--report", str(tmp_path / "report")],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            env={**os.environ, "PYTHONPATH": str(ROOT)})
+        time.sleep(delay)
+        if proc.poll() is not None:
+            pytest.fail(f"the check ended before the signal: {proc.communicate()}")
+        t_signal = time.perf_counter()
+        proc.send_signal(signum)
+        out, err = proc.communicate(timeout=30)
+        assert proc.returncode == 130, err
+        assert time.perf_counter() - t_signal < 2  # the ngspice worker killed, not awaited
+        assert "Traceback" not in err
+        assert "interrupted during the ngspice and pelcs runs: nothing was compared and no " \
+            "report was written" in err
+        assert not (tmp_path / "report").exists()
