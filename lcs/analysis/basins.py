@@ -297,8 +297,8 @@ class BasinMap:
         ax1, ax2 = fig.subplots(1, 2)
         ng = len(self.attractors)
         base = ["#bbbbbb"] + [c for _, c in zip(range(ng), _palette(ng), strict=False)]
-        cmap = ListedColormap(base)
-        cmap.set_bad("white")  # (cells not computed: an interrupted map)
+        # (bad: the cells not computed of an interrupted map)
+        cmap = ListedColormap(base).with_extremes(bad="white")
         group, steps = self.group, self.steps
         if self.computed is not None:
             group, steps = np.ma.masked_less(group, 0), np.ma.masked_less(steps, 0)

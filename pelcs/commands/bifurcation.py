@@ -161,10 +161,13 @@ def run(args: argparse.Namespace) -> int:
                 scheduler=args.scheduler,
             )
         stopped = interrupt.requested() is not None
+        if plot is not None and not any(b.values.size for b in diagram.branches):
+            diagram.notes.append("no plot written: no value finished")
         written = write_outputs("bifurcation", (
             (out, diagram.save),
-            (plot, lambda path: diagram.plot(path,
-                                             title=circuit.title or Path(args.file).name)),
+            # (nothing to plot when an interrupt came before any value finished)
+            (plot if any(b.values.size for b in diagram.branches) else None,
+             lambda path: diagram.plot(path, title=circuit.title or Path(args.file).name)),
         ))
         confirmations = confirm_runs(diagram, factory) if args.confirm and not stopped \
             else None

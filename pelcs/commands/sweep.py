@@ -212,9 +212,13 @@ def _sweep(args, out, plot, title, params, runs, seed, workers, theta, tstop, st
             seed=seed, distribution=args.distribution, tstop=tstop, step=step, theta=theta,
             period=period, workers=workers, scheduler=args.scheduler,
             progress=not args.no_progress)
+    if plot is not None and not len(table):
+        table.notes.append("no plot written: no run finished")
     written = write_outputs("sweep", (
         (out, table.to_csv),
-        (plot, lambda path: table.plot(path, title=_plot_title(table, title, args.file))),
+        # (nothing to plot when an interrupt came before any run finished)
+        (plot if len(table) else None,
+         lambda path: table.plot(path, title=_plot_title(table, title, args.file))),
     ))
     if args.json:
         print(dumps(_results(table, args.file, title, written), indent=1))
@@ -277,6 +281,9 @@ def summary(table, file: str, title: str, written: list[str]) -> str:
     if table.swept:
         for name in table.swept:
             vals = np.unique(table.column(name))
+            if not vals.size:  # (an interrupted sweep before any run finished)
+                what.append(f"{name}: no value finished")
+                continue
             what.append(f"{name} {vals.min():.6g}..{vals.max():.6g} ({vals.size} values)"
                         if vals.size > 1 else f"{name} = {vals[0]:.6g}")
     if table.runs:
