@@ -168,3 +168,31 @@ def test_interrupted_check_says_nothing_was_compared(ngspice, tmp_path):
         assert "interrupted during the ngspice and pelcs runs: nothing was compared and no " \
             "report was written" in err
         assert not (tmp_path / "report").exists()
+
+
+def _task_that_interrupts(task, report):
+    # task 2 sends SIGINT to the process that runs the engine (its parent from a pool
+    # worker, which ignores the signal itself); later tasks would take long
+    k, parent = task
+    if k == 2:
+        time.sleep(0.3)  # (the results of tasks 0 and 1 reach the parent first)
+        os.kill(parent, signal.SIGINT)
+    time.sleep(0.05 if k <= 2 else 5.0)
+    return k * k
+
+
+def test_task_engine_keeps_the_finished_tasks():
+    from lcs import interrupt
+    from lcs.analysis.parallel import task_engine
+
+    tasks = [(k, os.getpid()) for k in range(6)]
+    for workers in (1, 2):
+        with interrupt.deferred_interrupts(), task_engine(workers=workers) as engine:
+            t = time.perf_counter()
+            got = engine.run(_task_that_interrupts, tasks, partial=True)
+            assert interrupt.requested() == signal.SIGINT
+        assert time.perf_counter() - t < 3  # the long tasks were dropped, not awaited
+        assert got[:2] == [0, 1] and got[3:] == [None] * 3
+        # (in this process, the task under way when the signal came is dropped: it may have
+        # been cut short; in a pool worker it runs on and may have finished)
+        assert got[2] == (None if workers == 1 else got[2]) and got[2] in (None, 4)
