@@ -42,6 +42,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from lcs import interrupt
 from lcs.analysis.parallel import task_engine
 from lcs.analysis.tables import SweepTable
 
@@ -591,20 +592,48 @@ def run_sweep(
         n_tasks = max(1, min(len(all_points), 4 * engine.workers))
         chunks = [c for c in np.array_split(np.arange(len(all_points)), n_tasks) if c.size]
         tasks = [(job, [all_points[i] for i in c]) for c in chunks]
-        results = [r for chunk in engine.run(_sweep_task, tasks, progress=progress,
-                                             total=len(all_points), desc="sweep",
-                                             unit="run")
-                   for r in chunk]
+        chunk_results = engine.run(_sweep_task, tasks, progress=progress,
+                                   total=len(all_points), desc="sweep", unit="run",
+                                   partial=True)
         engine_name = engine.description
+    # An interrupt (lcs.interrupt) leaves the chunks under way unfinished: their runs are
+    # left out of a sweep's table, and are rows "not run" of a Monte Carlo table (whose
+    # rows are grid point by grid point, runs rows each).
+    finished = np.zeros(len(all_points), dtype=bool)
+    results: list = [None] * len(all_points)
+    for c, chunk in zip(chunks, chunk_results, strict=True):
+        if chunk is not None:
+            finished[c] = True
+            for i, r in zip(c, chunk, strict=True):
+                results[i] = r
+    interrupted = not finished.all()
+    if interrupted:
+        not_run = (np.full(len(mlist), np.nan), [np.nan] * len(matched), False,
+                   "not run: the sweep was interrupted", ())
+        results = [r if r is not None else not_run for r in results]
+    done = [i for i in range(len(all_points)) if finished[i]]
     nominal = np.stack([r[0] for r in results[len(points):]]) if extra else None
-    notes = step_notes + _notes(results, labels, len(extra))
+    notes = step_notes + _notes([results[i] for i in done], [labels[i] for i in done],
+                                int(finished[len(points):].sum()))
+    if interrupted:
+        signum = interrupt.requested()
+        how = f" ({interrupt.signal_name(signum)})" if signum is not None else ""
+        notes.insert(0, f"the sweep was interrupted{how} after {len(done)} of "
+                     f"{len(all_points)} runs: "
+                     + ("the runs not made are rows 'not run' (NaN); the statistics are of "
+                        "the finished runs" if runs else "the table holds the finished runs"))
     results = results[:len(points)]
+    if interrupted and not runs:
+        keep = finished[:len(points)]
+        results = [r for r, k in zip(results, keep, strict=True) if k]
+        rows_in = [r for r, k in zip(rows_in, keep, strict=True) if k]
+        points = [p for p, k in zip(points, keep, strict=True) if k]
 
     inputs = names + (["run"] if runs else []) + [n for n, _ in matched]
     input_values = np.array([row + list(r[1]) for row, r in zip(rows_in, results,
                                                                 strict=True)],
                             dtype=float).reshape(len(points), len(inputs))
-    values = np.stack([r[0] for r in results])
+    values = np.stack([r[0] for r in results]) if results else np.empty((0, len(mlist)))
     ok = np.array([r[2] for r in results], dtype=bool)
     settled = np.array([r[2] and not r[4][4] for r in results], dtype=bool)
     messages = [r[3] if not r[2] else

@@ -493,6 +493,12 @@ def _simulate_in_worker(
         return {"failure": f"timeout: {exc}", "log": []}
     except _WorkerDied as exc:
         return {"failure": f"crash: {exc}", "log": []}
+    except KeyboardInterrupt:
+        # Ctrl-C (or SIGTERM made one): the run is abandoned, its worker killed rather than
+        # waited for (a signal sent to this process alone does not reach it: close() would
+        # wait 2 s for it)
+        worker.kill()
+        raise
     finally:
         worker.close()
     if "error" in reply:

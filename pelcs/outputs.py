@@ -16,11 +16,37 @@ from pathlib import Path
 
 from netlist.errors import Diagnostic, NetlistError
 
-__all__ = ["EXIT_NOT_WRITTEN", "Written", "write_outputs"]
+__all__ = ["EXIT_INTERRUPTED", "EXIT_NOT_WRITTEN", "Written", "interrupted_status",
+           "write_outputs"]
 
 #: Exit status of a command whose output files could not all be written (the CLI's status of
 #: errors the user fixes: a path, a permission, disk space).
 EXIT_NOT_WRITTEN = 2
+
+#: Exit status of an interrupted command (128 + SIGINT, as a shell reports it).
+EXIT_INTERRUPTED = 130
+
+
+def interrupted_status(file: str, notes: Iterable[str], prefix: str, written: Written,
+                       not_written: int) -> int | None:
+    """After the files of a command made of many runs are written: if a SIGINT or SIGTERM
+    came (:func:`lcs.interrupt.requested`), say so on stderr (the note starting with
+    ``prefix``, which tells how many runs finished, and where they were written) and return
+    :data:`EXIT_INTERRUPTED`; else None."""
+    from lcs import interrupt
+
+    signum = interrupt.requested()
+    if signum is None:
+        return None
+    # (no such note: the signal came after the runs, while the files were written, and
+    # they were completed)
+    what = next((n for n in notes if n.startswith(prefix)),
+                f"interrupted ({interrupt.signal_name(signum)}) after the runs")
+    where = (f"written to {', '.join(written)}" if written else
+             "no output file written" if not_written else
+             "no output file was requested (-o, --plot)")
+    print(f"{file}: {what}\n  {where}", file=sys.stderr)
+    return EXIT_INTERRUPTED
 
 
 class Written(list):

@@ -379,8 +379,11 @@ def test_interrupt_on_a_cluster_is_quiet(cluster, command):
         while running() and time.monotonic() < deadline:
             time.sleep(0.05)
         assert not running()
-    # Was: one "Task exception was never retrieved ... AllExit" traceback per task.
-    assert p.returncode == 130 and err.strip() == "pelcs: interrupted", err
+    # Was: one "Task exception was never retrieved ... AllExit" traceback per task. The
+    # finished tasks are kept (tests/test_interrupt_analyses.py): the note says how many.
+    assert p.returncode == 130, err
+    assert "Traceback" not in err and "exception" not in err.lower(), err
+    assert "interrupted (SIGINT) after " in err, err
     assert elapsed < 5, elapsed
 
 

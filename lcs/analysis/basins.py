@@ -27,15 +27,18 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import interrupt
 from ..atomic import atomic_path
 from ..axes import axis_label
 from .maps import Map, MapError
 from .parallel import portable, task_engine
 
-__all__ = ["Attractor", "BasinMap", "CellGrid", "GridAxis", "ScmResult", "cell_basins",
-           "merge_touching_groups", "simple_cell_mapping"]
+__all__ = ["NOT_COMPUTED", "Attractor", "BasinMap", "CellGrid", "GridAxis", "ScmResult",
+           "cell_basins", "merge_touching_groups", "simple_cell_mapping"]
 
 SINK = -1  # image index of the sink cell in the image arrays
+#: Group and step number of a cell an interrupted map did not decide (BasinMap.computed).
+NOT_COMPUTED = -1
 
 
 @dataclass(frozen=True)
@@ -234,6 +237,10 @@ class BasinMap:
     notes : list of str
     engine : str
         Where the cell images were computed.
+    computed : ndarray of bool, shape (N0, N1), or None
+        An interrupted map: the cells whose image was computed (the others, and the cells
+        whose image chain reaches them, have group and steps :data:`NOT_COMPUTED`); None
+        when every cell was.
     """
 
     grid: CellGrid
@@ -249,6 +256,7 @@ class BasinMap:
     wall_time: float = 0.0
     notes: list[str] = field(default_factory=list)
     engine: str = ""
+    computed: np.ndarray | None = None
 
     def to_npz(self, path: str | Path) -> None:
         """Arrays ``group``, ``steps``, ``image``, ``failed`` (N0, N1), the axes
@@ -272,6 +280,7 @@ class BasinMap:
                 attractor_offsets=offsets,
                 param=np.array(np.nan if self.param is None else self.param),
                 param_name=np.array(self.param_name or ""),
+                **({} if self.computed is None else {"computed": self.computed}),
             )
 
     def plot(self, path: str | Path, title: str | None = None) -> None:
@@ -288,8 +297,12 @@ class BasinMap:
         ax1, ax2 = fig.subplots(1, 2)
         ng = len(self.attractors)
         base = ["#bbbbbb"] + [c for _, c in zip(range(ng), _palette(ng), strict=False)]
-        cmap = ListedColormap(base)
-        ax1.imshow(self.group, origin="lower", extent=extent, aspect="auto", cmap=cmap,
+        # (bad: the cells not computed of an interrupted map)
+        cmap = ListedColormap(base).with_extremes(bad="white")
+        group, steps = self.group, self.steps
+        if self.computed is not None:
+            group, steps = np.ma.masked_less(group, 0), np.ma.masked_less(steps, 0)
+        ax1.imshow(group, origin="lower", extent=extent, aspect="auto", cmap=cmap,
                    vmin=-0.5, vmax=ng + 0.5, interpolation="nearest")
         for at in self.attractors:
             ax1.plot(at.points[:, 1], at.points[:, 0], "k.", ms=3)
@@ -297,7 +310,7 @@ class BasinMap:
         ax1.set_xlabel(xlabel)
         ax1.set_ylabel(ylabel)
         ax1.set_title("basins (grey: leaves the grid)" if title is None else title)
-        im = ax2.imshow(self.steps, origin="lower", extent=extent, aspect="auto",
+        im = ax2.imshow(steps, origin="lower", extent=extent, aspect="auto",
                         cmap="viridis", interpolation="nearest")
         fig.colorbar(im, ax=ax2, label="periods to reach the attractor")
         ax2.set_xlabel(xlabel)
@@ -451,14 +464,27 @@ def cell_basins(
         blocks = np.array_split(np.arange(centres.shape[0]), n_blocks)
         tasks = [(source, src_param, centres[b], base, idx) for b in blocks]
         results = engine.run(_image_task, tasks, progress=progress, total=centres.shape[0],
-                             desc="cells", unit="cell")
+                             desc="cells", unit="cell", partial=True)
         engine_name = engine.description
+    # An interrupt (lcs.interrupt) leaves the blocks under way unfinished (None): their
+    # cells are not computed.
+    computed = np.ones(centres.shape[0], dtype=bool)
+    for b, r in zip(blocks, results, strict=True):
+        if r is None:
+            computed[b] = False
+    results = [r if r is not None else (np.full((b.size, 2), np.nan),
+                                        np.zeros(b.size, dtype=bool))
+               for b, r in zip(blocks, results, strict=True)]
     images = np.concatenate([r[0] for r in results])
     failed = np.concatenate([r[1] for r in results])
     image = grid.locate(images)
-    scm = simple_cell_mapping(image)
+    scm = simple_cell_mapping(image)  # (a cell not computed maps to the sink here)
     if merge_adjacent:
         scm = merge_touching_groups(scm, grid)
+    unknown = None if computed.all() else _unknown_cells(scm, image, computed)
+    if unknown is not None:
+        scm.group[unknown] = NOT_COMPUTED
+        scm.steps[unknown] = NOT_COMPUTED
     attractors = []
     for g, cyc in enumerate(scm.groups, start=1):
         attractors.append(Attractor(group=g, cells=cyc, points=centres[cyc],
@@ -468,9 +494,31 @@ def cell_basins(
     if failed.any():
         notes.append(f"{int(failed.sum())} cell(s) could not be mapped (simulation failed); "
                      "they go to the sink")
+    if unknown is not None:
+        signum = interrupt.requested()
+        how = f" ({interrupt.signal_name(signum)})" if signum is not None else ""
+        notes.insert(0, f"the basins were interrupted{how} after {int(computed.sum())} of "
+                     f"{computed.size} cells: {int(unknown.sum())} cell(s) not computed or "
+                     f"whose image chain reaches one are group and steps {NOT_COMPUTED} "
+                     "(white in the plot); the attractors and basins found are of the "
+                     "computed cells")
     return BasinMap(
         grid=grid, base_state=base, state_indices=idx, image=image.reshape(shape),
         group=scm.group.reshape(shape), steps=scm.steps.reshape(shape), attractors=attractors,
         failed=failed.reshape(shape), param=m.param, param_name=m.param_name,
         wall_time=time.perf_counter() - t_wall, notes=notes, engine=engine_name,
+        computed=None if unknown is None else computed.reshape(shape),
     )
+
+
+def _unknown_cells(scm: ScmResult, image: np.ndarray, computed: np.ndarray) -> np.ndarray:
+    """The cells whose group is unknown: not computed, or whose image chain reaches a cell
+    not computed. Such chains end in the sink (a cell not computed is mapped there), so
+    they are followed back from it in the order of their step numbers."""
+    unknown = ~computed
+    sink = np.flatnonzero((scm.group == 0) & computed)
+    for cell in sink[np.argsort(scm.steps[sink], kind="stable")]:
+        nxt = image[cell]
+        if nxt != SINK and unknown[nxt]:
+            unknown[cell] = True
+    return unknown

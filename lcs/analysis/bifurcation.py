@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import interrupt
 from ..atomic import atomic_path
 from ..axes import axis_label
 from .maps import Map, MapError
@@ -293,26 +294,39 @@ def bifurcation_diagram(
                 if piece.size:
                     tasks.append((factory, piece, x0, int(transient), int(record), probes,
                                   bool(follow)))
-                    layout.append(d)
+                    layout.append((d, piece))
         results = engine.run(_sweep_task, tasks, progress=progress,
                              total=values.size * len(directions), desc="bifurcation",
-                             unit="value")
+                             unit="value", partial=True)
         engine_name = engine.description
     # Probe names and state names from one map (cheap: built once per process).
     m0 = factory(float(values[0]))
     names = probes or m0.state_names
+    nq = len(probes) if probes else len(m0.state_names)
     branches = []
     for d in directions:
-        rows = [r for lay, res in zip(layout, results, strict=True) if lay == d for r in res]
-        seq = values[::-1] if d == "down" else values
+        # (an interrupt, lcs.interrupt, leaves the tasks under way unfinished (None): a
+        # branch holds the values of the finished tasks only)
+        done = [(piece, res) for (lay, piece), res in zip(layout, results, strict=True)
+                if lay == d and res is not None]
+        rows = [r for _, res in done for r in res]
+        seq = np.concatenate([piece for piece, _ in done]) if done else values[:0]
         branches.append(SweepBranch(
             direction=d, values=seq.copy(),
-            samples=np.stack([r[0] for r in rows]),
-            x_final=np.stack([r[1] for r in rows]),
+            samples=np.stack([r[0] for r in rows]) if rows else
+            np.empty((0, int(record), nq)),
+            x_final=np.stack([r[1] for r in rows]) if rows else np.empty((0, x0.size)),
             ok=np.array([r[2] for r in rows], dtype=bool),
             messages=[r[3] for r in rows],
         ))
     notes = []
+    planned = values.size * len(directions)
+    finished = sum(b.values.size for b in branches)
+    if finished < planned:
+        signum = interrupt.requested()
+        how = f" ({interrupt.signal_name(signum)})" if signum is not None else ""
+        notes.append(f"the diagram was interrupted{how} after {finished} of {planned} "
+                     "parameter values: it holds the finished values only")
     failed = sum(int((~b.ok).sum()) for b in branches)
     if failed:
         notes.append(f"{failed} parameter value(s) failed; their samples are NaN")

@@ -43,6 +43,7 @@ import logging
 import multiprocessing as mp
 import os
 import queue as queue_mod
+import signal
 import socket
 import sys
 import threading
@@ -51,8 +52,10 @@ import uuid
 from collections.abc import Callable, Sequence
 from typing import Any
 
-__all__ = ["LOCAL_DEFAULT", "SchedulerError", "TaskEngine", "default_workers", "portable",
-           "progress_bar", "run_tasks", "task_engine"]
+from .. import interrupt
+
+__all__ = ["LOCAL_DEFAULT", "NOT_RUN", "SchedulerError", "TaskEngine", "default_workers",
+           "portable", "progress_bar", "run_tasks", "task_engine"]
 
 # The local engine used when no scheduler is given: "processes" or "local" (see the module
 # docstring and docs/performance.md for the measurement behind the choice).
@@ -173,6 +176,12 @@ def portable(obj: Any) -> Any:
 def _init(q) -> None:
     global _QUEUE
     _QUEUE = q
+    # Ctrl-C reaches every process of the terminal's group: the parent alone answers it (it
+    # stops the pool and keeps the finished tasks), a worker keeps computing until then.
+    # SIGTERM is the pool's own way to stop its workers: its default action (a forked worker
+    # would otherwise inherit the parent's handler, lcs.interrupt).
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     # One BLAS thread per worker: the pool already uses every core, and OpenBLAS's own
     # threads, inherited through fork, spin against each other on the small matrices of the
     # exact method (a 7-value bifurcation diagram took 240 s instead of 3 s on 2 cores).
@@ -193,29 +202,51 @@ def _call(item):
     return fn(task, _report_to_queue)
 
 
-def _run_here(fn, tasks, progress: _Progress) -> list:
-    results = [fn(t, progress.add) for t in tasks]
+# The result of a task an interrupt left unfinished (``TaskEngine.run(partial=True)``).
+NOT_RUN = None
+
+
+def _run_here(fn, tasks, progress: _Progress, partial: bool = False) -> list:
+    if not partial:
+        results = [fn(t, progress.add) for t in tasks]
+        progress.finish()
+        return results
+    results = [NOT_RUN] * len(tasks)
+    for i, t in enumerate(tasks):
+        if interrupt.requested() is not None:
+            return results
+        value = fn(t, progress.add)
+        if interrupt.requested() is not None:
+            # (a task of this process may have been cut short by the same request: a
+            # simulation stops between kernel calls; it is not counted as finished)
+            return results
+        results[i] = value
     progress.finish()
     return results
 
 
 def _run_pool(fn, tasks, n: int, start_method: str | None, progress: bool, total: int,
-              desc: str, unit: str) -> list:
+              desc: str, unit: str, partial: bool = False) -> list:
     if start_method is None:
         start_method = "fork" if "fork" in mp.get_all_start_methods() else "spawn"
     ctx = mp.get_context(start_method)
     q = ctx.Queue()
+    # (leaving the block terminates the workers: an interrupt drops the unfinished tasks)
     with ctx.Pool(n, initializer=_init, initargs=(q,)) as pool:
         # The bar is created after the workers exist: its monitor thread must not be forked.
         bar = _Progress(progress_bar(progress, total, desc, unit), total)
         try:
-            async_result = pool.map_async(_call, [(fn, t) for t in tasks], chunksize=1)
-            while not async_result.ready():
+            # One async result per task, in task order (the queue of the pool is FIFO, as
+            # map's with chunksize 1): the finished ones are known when an interrupt comes.
+            pending = [pool.apply_async(_call, ((fn, t),)) for t in tasks]
+            while not all(r.ready() for r in pending):
+                if partial and interrupt.requested() is not None:
+                    return [r.get() if r.ready() else NOT_RUN for r in pending]
                 try:
                     bar.add(q.get(timeout=0.1))
                 except queue_mod.Empty:
                     continue
-            results = async_result.get()
+            results = [r.get() for r in pending]
             bar.finish()
         finally:
             bar.close()
@@ -252,8 +283,10 @@ def _drain(events: queue_mod.SimpleQueue, bar: _Progress) -> None:
             return
 
 
-def _wait_futures(futures: list, tick: Callable[[], None], interval: float = 0.02) -> None:
-    """Return when every future is finished, or one is not (an error, a cancel).
+def _wait_futures(futures: list, tick: Callable[[], None], interval: float = 0.02,
+                  stop: Callable[[], bool] | None = None) -> None:
+    """Return when every future is finished, or one is not (an error, a cancel), or
+    ``stop()`` is true.
 
     Polled from this thread instead of blocking in ``client.gather``: a Ctrl-C in the
     middle of a gather leaves its coroutine on the client's event loop, and closing the
@@ -271,6 +304,8 @@ def _wait_futures(futures: list, tick: Callable[[], None], interval: float = 0.0
                 return  # an error or a cancel: gather raises it at once
         pending = still
         tick()
+        if stop is not None and stop():
+            return
         if pending:
             time.sleep(interval)
 
@@ -317,22 +352,32 @@ class TaskEngine:
 
     def run(self, fn: Callable[[Any, Callable[[int], None]], Any], tasks: Sequence[Any], *,
             progress: bool = False, total: int | None = None, desc: str = "",
-            unit: str = "it") -> list:
-        """``[fn(task, report) for task in tasks]`` on this engine (see :func:`run_tasks`)."""
+            unit: str = "it", partial: bool = False) -> list:
+        """``[fn(task, report) for task in tasks]`` on this engine (see :func:`run_tasks`).
+
+        With ``partial`` and inside :func:`lcs.interrupt.deferred_interrupts`, the first
+        SIGINT or SIGTERM stops the run: the tasks under way are dropped (the pool's workers
+        are terminated, a Dask cluster's tasks cancelled), and the result holds
+        :data:`NOT_RUN` (None) for every task that had not finished;
+        :func:`lcs.interrupt.requested` then tells the caller the run was interrupted.
+        """
         tasks = list(tasks)
         total = len(tasks) if total is None else int(total)
+        if partial:
+            interrupt.keeping()  # (the finished tasks are worth keeping from now on)
         if self.kind == "dask":
-            return self._run_dask(fn, tasks, progress, total, desc, unit)
+            return self._run_dask(fn, tasks, progress, total, desc, unit, partial)
         n = min(self.workers, len(tasks)) if tasks else 1
         if self.kind == "serial" or n <= 1:
             bar = _Progress(progress_bar(progress, total, desc, unit), total)
             try:
-                return _run_here(fn, tasks, bar)
+                return _run_here(fn, tasks, bar, partial)
             finally:
                 bar.close()
-        return _run_pool(fn, tasks, n, self._start_method, progress, total, desc, unit)
+        return _run_pool(fn, tasks, n, self._start_method, progress, total, desc, unit,
+                         partial)
 
-    def _run_dask(self, fn, tasks, progress, total, desc, unit) -> list:
+    def _run_dask(self, fn, tasks, progress, total, desc, unit, partial=False) -> list:
         if not tasks:
             return []
         client = self._client
@@ -351,7 +396,13 @@ class TaskEngine:
             name = "".join(c if c.isalnum() else "_" for c in (desc or "tasks"))
             futures = [client.submit(_dask_call, fn, t, topic, key=f"pelcs_{name}-{token}-{i}")
                        for i, t in enumerate(tasks)]
-            _wait_futures(futures, lambda: _drain(events, bar))
+            stop = (lambda: interrupt.requested() is not None) if partial else None
+            _wait_futures(futures, lambda: _drain(events, bar), stop=stop)
+            if stop is not None and stop():
+                done = [f.status == "finished" for f in futures]
+                got = iter(client.gather([f for f, d in zip(futures, done, strict=True) if d]))
+                client.cancel([f for f, d in zip(futures, done, strict=True) if not d])
+                return [next(got) if d else NOT_RUN for d in done]
             results = client.gather(futures)
             _drain(events, bar)
             bar.finish()

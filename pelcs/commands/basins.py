@@ -18,7 +18,12 @@ unless ``--no-merge``.
 Outputs: a summary (attractors, their cells and basin sizes), ``-o OUT.npz`` (``group``,
 ``steps``, ``image`` arrays and the axes) and ``--plot`` (basins and transient time).
 
-Exit status: 0 success; 2 input errors.
+Ctrl-C (SIGINT) or SIGTERM stops the map: the cells under way are dropped; the cells not
+computed, and those whose image chain reaches one, get group and steps -1 (white in the plot;
+``computed`` in the NPZ), and the rest is written with a note "interrupted after K of N
+cells"; a second Ctrl-C aborts at once, writing nothing.
+
+Exit status: 0 success; 2 input errors; 130 interrupted.
 """
 
 from __future__ import annotations
@@ -28,10 +33,11 @@ from pathlib import Path
 
 import numpy as np
 
-from pelcs.outputs import write_outputs
+from lcs.interrupt import deferred_interrupts
+from pelcs.outputs import interrupted_status, write_outputs
 
 from . import options
-from .bifurcation import check_output, scheduler_errors
+from .bifurcation import _INTERRUPT_MESSAGE, check_output, scheduler_errors
 from .orbit import (
     add_map_options,
     initial_state,
@@ -85,18 +91,23 @@ def run(args: argparse.Namespace) -> int:
     if axes[0][0].lower() == axes[1][0].lower():
         raise usage_error("basins", "--grid: the two axes must be different states")
     base = initial_state(args, m)
-    with scheduler_errors("basins"):
-        bm = cell_basins(factory, axes, param=None, base_state=base,
-                         merge_adjacent=not args.no_merge, workers=workers,
-                         progress=not args.no_progress, scheduler=args.scheduler)
-    bm.notes[:0] = period_notes(m)
-    title = factory.circuit().title
-    written = write_outputs("basins", (
-        (out, bm.to_npz),
-        (plot, lambda path: bm.plot(path, title=f"basins: {title or Path(args.file).name}")),
-    ))
-    print(summary(bm, args.file, title, m, written))
-    return written.exit_status()
+    with deferred_interrupts(_INTERRUPT_MESSAGE.format("basins", "cells")):
+        with scheduler_errors("basins"):
+            bm = cell_basins(factory, axes, param=None, base_state=base,
+                             merge_adjacent=not args.no_merge, workers=workers,
+                             progress=not args.no_progress, scheduler=args.scheduler)
+        bm.notes[:0] = period_notes(m)
+        title = factory.circuit().title
+        written = write_outputs("basins", (
+            (out, bm.to_npz),
+            (plot, lambda path: bm.plot(path,
+                                        title=f"basins: {title or Path(args.file).name}")),
+        ))
+        print(summary(bm, args.file, title, m, written))
+        not_written = written.exit_status()
+        status = interrupted_status(args.file, bm.notes, "the basins were interrupted",
+                                    written, not_written)
+        return not_written if status is None else status
 
 
 def summary(bm, file: str, title: str, m, written: list[str]) -> str:

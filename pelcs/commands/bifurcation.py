@@ -27,8 +27,12 @@ Outputs: ``-o OUT.csv`` (rows ``direction, NAME, k, probes...``) or ``-o OUT.npz
 per direction, see :meth:`lcs.analysis.bifurcation.BifurcationDiagram.to_npz`); ``--plot``
 a scatter plot (PNG/SVG/PDF).
 
+Ctrl-C (SIGINT) or SIGTERM stops the diagram: the values under way are dropped, the finished
+ones are written and summarised with a note "interrupted after K of N parameter values"; a
+second Ctrl-C aborts at once, writing nothing.
+
 Exit status: 0 success (also when some values diverged: they are NaN and counted in the
-summary); 2 input errors.
+summary); 2 input errors; 130 interrupted.
 """
 
 from __future__ import annotations
@@ -39,7 +43,9 @@ from pathlib import Path
 
 import numpy as np
 
-from pelcs.outputs import write_outputs
+from lcs import interrupt
+from lcs.interrupt import deferred_interrupts
+from pelcs.outputs import interrupted_status, write_outputs
 
 from . import options
 from .orbit import (
@@ -139,20 +145,39 @@ def run(args: argparse.Namespace) -> int:
         m.system.outputs(m.system.key(None), probes)
     x0 = initial_state(args, m)
     directions = ("up", "down") if args.direction == "both" else (args.direction,)
-    with scheduler_errors("bifurcation"):
-        diagram = bifurcation_diagram(
-            factory, values, x0=x0, transient=transient, record=record, probes=probes,
-            follow=args.follow, directions=directions, workers=workers, chunks=chunks,
-            progress=not args.no_progress, param_name=rng.name, scheduler=args.scheduler,
-        )
-    diagram.notes[:0] = period_notes(m)
-    written = write_outputs("bifurcation", (
-        (out, diagram.save),
-        (plot, lambda path: diagram.plot(path, title=circuit.title or Path(args.file).name)),
-    ))
-    confirmations = confirm_runs(diagram, factory) if args.confirm else None
-    print(summary(diagram, args.file, circuit.title, m, written, confirmations))
-    return written.exit_status()
+    with deferred_interrupts(_INTERRUPT_MESSAGE.format("bifurcation", "values")):
+        with scheduler_errors("bifurcation"):
+            diagram = bifurcation_diagram(
+                factory, values, x0=x0, transient=transient, record=record, probes=probes,
+                follow=args.follow, directions=directions, workers=workers, chunks=chunks,
+                progress=not args.no_progress, param_name=rng.name,
+                scheduler=args.scheduler,
+            )
+        diagram.notes[:0] = period_notes(m)
+        stopped = interrupt.requested() is not None
+        if plot is not None and not any(b.values.size for b in diagram.branches):
+            diagram.notes.append("no plot written: no value finished")
+        written = write_outputs("bifurcation", (
+            (out, diagram.save),
+            # (nothing to plot when an interrupt came before any value finished)
+            (plot if any(b.values.size for b in diagram.branches) else None,
+             lambda path: diagram.plot(path, title=circuit.title or Path(args.file).name)),
+        ))
+        confirmations = confirm_runs(diagram, factory) if args.confirm and not stopped \
+            else None
+        if args.confirm and stopped:
+            diagram.notes.append("--confirm skipped: the run was interrupted")
+        print(summary(diagram, args.file, circuit.title, m, written, confirmations))
+        not_written = written.exit_status()
+        status = interrupted_status(args.file, diagram.notes, "the diagram was interrupted",
+                                    written, not_written)
+        return not_written if status is None else status
+
+
+#: What the first Ctrl-C (or SIGTERM) of a command made of many runs prints.
+_INTERRUPT_MESSAGE = ("pelcs {}: interrupted: the runs under way are dropped and the "
+                      "finished {} are written (Ctrl-C again aborts at once, writing "
+                      "nothing)")
 
 
 def period_runs(values: np.ndarray, samples: np.ndarray, ok: np.ndarray,

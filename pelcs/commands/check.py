@@ -24,14 +24,18 @@ Exit status: 0 every probe and switch within tolerances that decide (each at mos
 something out of tolerance; 2 input errors (netlist, options, probes); 3 the comparison could
 not be made: ngspice is not available (PySpice or libngspice missing), ngspice failed on every
 rung of its ladder, or the pelcs run failed; 4 inconclusive: within tolerances wider than
-10 % (model drops pelcs does not represent), which shows no agreement. The report files are
-written before the exit status is decided.
+10 % (model drops pelcs does not represent), which shows no agreement; 130 interrupted
+(Ctrl-C during the runs: a comparison needs both runs whole, so nothing is compared and no
+report is written). The report files are written before the exit status is decided.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import signal
 import sys
+import threading
 from pathlib import Path
 
 from netlist.errors import Diagnostic, NetlistError
@@ -43,6 +47,8 @@ from .simulate import split_probes
 EXIT_OUT_OF_TOLERANCE = 1
 EXIT_CANNOT_COMPARE = 3
 EXIT_INCONCLUSIVE = 4
+#: Ctrl-C (SIGINT) during the runs (128 + SIGINT, as a shell reports it).
+EXIT_INTERRUPTED = 130
 
 
 def register(subparsers) -> None:
@@ -94,6 +100,24 @@ def _number(option: str, text: str | None, units: tuple[str, ...] = ("",)) -> fl
         raise NetlistError(exc.diagnostics, file="pelcs check") from None
 
 
+@contextlib.contextmanager
+def _term_as_interrupt():
+    """SIGTERM raises KeyboardInterrupt, as Ctrl-C does: the ngspice worker is then killed,
+    not left running (the default action of SIGTERM ends this process at once)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def run(args: argparse.Namespace) -> int:
     from netlist.parser import parse_overrides
     from ngspice_checks.compare import CheckError, compare
@@ -114,8 +138,9 @@ def run(args: argparse.Namespace) -> int:
     probes = split_probes(args.probe) or None
 
     try:
-        cmp = compare(args.file, probes, params=params, pelcs_params=pelcs_params,
-                      tstop=tstop, period=period, timeout=timeout, devices=args.devices)
+        with _term_as_interrupt():
+            cmp = compare(args.file, probes, params=params, pelcs_params=pelcs_params,
+                          tstop=tstop, period=period, timeout=timeout, devices=args.devices)
     except NgspiceUnavailable as exc:
         print(f"{args.file}: error: ngspice is not available, nothing was compared: {exc}",
               file=sys.stderr)
@@ -126,6 +151,11 @@ def run(args: argparse.Namespace) -> int:
     except CheckError as exc:
         print(f"{args.file}: error: {exc}", file=sys.stderr)
         return EXIT_CANNOT_COMPARE
+    except KeyboardInterrupt:
+        # (a comparison needs both runs whole: there is nothing partial to keep)
+        print(f"{args.file}: interrupted during the ngspice and pelcs runs: nothing was "
+              "compared and no report was written", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except NotImplementedError as exc:
         raise NetlistError(Diagnostic(message=f"not supported: {exc}",
                                       hint="see docs/simulation.md"),

@@ -43,8 +43,13 @@ Limits: 100000 values per swept parameter (as ``.step``), 1000000 runs per sweep
 of at most 12 grid points. The options, the times and the output files are checked before any
 run.
 
+Ctrl-C (SIGINT) or SIGTERM stops the sweep: the runs under way are dropped, the finished ones
+are written (the table, or the Monte Carlo statistics of the finished runs, with ``not run``
+rows for the others) with a note "interrupted after K of N runs"; a second Ctrl-C aborts at
+once, writing nothing.
+
 Exit status: 0 success (also when some runs failed: NaN, counted in the notes); 2 input
-errors; 3 every run failed.
+errors; 3 every run failed; 130 interrupted.
 """
 
 from __future__ import annotations
@@ -56,9 +61,10 @@ from pathlib import Path
 
 import numpy as np
 
+from lcs.interrupt import deferred_interrupts
 from netlist.errors import NetlistError
 from pelcs.jsonout import dumps, json_ready
-from pelcs.outputs import write_outputs
+from pelcs.outputs import interrupted_status, write_outputs
 
 from . import options
 from .bifurcation import check_output, scheduler_errors
@@ -133,7 +139,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     from lcs.analysis.tables import MAX_HISTOGRAM_POINTS
-    from netlist.param_sweep import parse_sweep_param, run_sweep
+    from netlist.param_sweep import parse_sweep_param
     from netlist.parser import parse_file
     from netlist.sweep import parse_value
 
@@ -185,22 +191,46 @@ def _run(args: argparse.Namespace) -> int:
     for option, path in (("-o", out), ("--plot", plot)):
         if path is not None:
             _check_writable(option, path)
+    with deferred_interrupts(_INTERRUPT_MESSAGE):
+        return _sweep(args, out, plot, circuit.title, params, runs, seed, workers, theta,
+                      tstop, step, period)
+
+
+#: What the first Ctrl-C (or SIGTERM) of a sweep prints.
+_INTERRUPT_MESSAGE = ("pelcs sweep: interrupted: the runs under way are dropped and the "
+                      "finished ones are written (Ctrl-C again aborts at once, writing "
+                      "nothing)")
+
+
+def _sweep(args, out, plot, title, params, runs, seed, workers, theta, tstop, step,
+           period) -> int:
+    """The runs, the files and the summary; the exit status."""
+    from netlist.param_sweep import run_sweep
+
     with scheduler_errors("sweep"):
         table = run_sweep(
             args.file, args.measure, params=params, tolerances=args.tolerance, runs=runs,
             seed=seed, distribution=args.distribution, tstop=tstop, step=step, theta=theta,
             period=period, workers=workers, scheduler=args.scheduler,
             progress=not args.no_progress)
-    title = circuit.title
+    if plot is not None and not len(table):
+        table.notes.append("no plot written: no run finished")
     written = write_outputs("sweep", (
         (out, table.to_csv),
-        (plot, lambda path: table.plot(path, title=_plot_title(table, title, args.file))),
+        # (nothing to plot when an interrupt came before any run finished)
+        (plot if len(table) else None,
+         lambda path: table.plot(path, title=_plot_title(table, title, args.file))),
     ))
     if args.json:
         print(dumps(_results(table, args.file, title, written), indent=1))
     else:
         print(summary(table, args.file, title, written))
-    return written.exit_status() or (0 if table.ok.any() else EXIT_FAILED)
+    not_written = written.exit_status()
+    stopped = interrupted_status(args.file, table.notes, "the sweep was interrupted", written,
+                                 not_written)
+    if stopped is not None:
+        return stopped
+    return not_written or (0 if table.ok.any() else EXIT_FAILED)
 
 
 def _check_writable(option: str, path: Path) -> None:
@@ -252,6 +282,9 @@ def summary(table, file: str, title: str, written: list[str]) -> str:
     if table.swept:
         for name in table.swept:
             vals = np.unique(table.column(name))
+            if not vals.size:  # (an interrupted sweep before any run finished)
+                what.append(f"{name}: no value finished")
+                continue
             what.append(f"{name} {vals.min():.6g}..{vals.max():.6g} ({vals.size} values)"
                         if vals.size > 1 else f"{name} = {vals[0]:.6g}")
     if table.runs:
