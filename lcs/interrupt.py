@@ -69,7 +69,11 @@ def deferred_interrupts(message: str = "") -> Iterator[None]:
             # os.write: a handler may run in the middle of a print to stderr
             os.write(2, (message.rstrip("\n") + "\n").encode())
 
-    previous = {s: signal.signal(s, handler) for s in _SIGNALS}
+    # A signal the process was started ignoring stays ignored (as Python itself leaves an
+    # ignored SIGINT alone): a job started in the background by a non-interactive shell must
+    # not start answering the terminal's Ctrl-C.
+    previous = {s: signal.signal(s, handler) for s in _SIGNALS
+                if signal.getsignal(s) is not signal.SIG_IGN}
     _active.append(True)
     try:
         yield

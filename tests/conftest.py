@@ -11,3 +11,12 @@ def ngspice() -> str:
     from ngspice_checks import require_ngspice
 
     return require_ngspice()
+
+
+def as_from_a_terminal() -> None:
+    """``preexec_fn`` of a child that a test interrupts: SIGINT as a terminal leaves it. The
+    tests may run with SIGINT ignored (started in the background by a non-interactive shell,
+    as CI may), and a child inherits that; pelcs leaves an ignored SIGINT ignored."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)

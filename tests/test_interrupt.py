@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 import pytest
+from conftest import as_from_a_terminal
 
 from lcs import interrupt
 
@@ -24,21 +25,41 @@ TSTOP = 0.5
 
 
 def test_deferred_interrupts_request_then_abort():
-    got = []
-    with interrupt.deferred_interrupts():
-        with pytest.raises(KeyboardInterrupt):  # nothing to keep yet: abort at once
+    # (CI may start the tests with SIGINT ignored, as a shell starts a background job, and an
+    # ignored SIGINT stays ignored: see the next test; here Python's own handler is set)
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        got = []
+        with interrupt.deferred_interrupts():
+            with pytest.raises(KeyboardInterrupt):  # nothing to keep yet: abort at once
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(1)
+            interrupt.keeping()
+            assert interrupt.requested() is None
+            os.kill(os.getpid(), signal.SIGTERM)
+            got.append(interrupt.requested())  # recorded, nothing raised
+            with pytest.raises(KeyboardInterrupt):
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(1)  # (the handler runs at the next bytecode)
+        assert got == [signal.SIGTERM]
+        assert interrupt.requested() is None  # cleared on leaving
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, before)
+
+
+def test_a_signal_ignored_on_entry_stays_ignored():
+    before = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        with interrupt.deferred_interrupts():
+            assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
             os.kill(os.getpid(), signal.SIGINT)
-            time.sleep(1)
-        interrupt.keeping()
-        assert interrupt.requested() is None
-        os.kill(os.getpid(), signal.SIGTERM)
-        got.append(interrupt.requested())  # recorded, nothing raised
-        with pytest.raises(KeyboardInterrupt):
-            os.kill(os.getpid(), signal.SIGINT)
-            time.sleep(1)  # (the handler runs at the next bytecode)
-    assert got == [signal.SIGTERM]
-    assert interrupt.requested() is None  # cleared on leaving
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+            time.sleep(0.2)
+            assert interrupt.requested() is None
+            assert signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL  # still deferred
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, before)
 
 
 def _start(tmp_path: Path, *extra: str) -> subprocess.Popen:
@@ -46,7 +67,7 @@ def _start(tmp_path: Path, *extra: str) -> subprocess.Popen:
         [sys.executable, "-m", "pelcs.cli", "simulate", str(BOOST), "--tstop", str(TSTOP),
          "--step", "2n", "--every", "10000", "-o", str(tmp_path / "boost.csv"), *extra],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        env={**os.environ, "PYTHONPATH": str(ROOT)})
+        env={**os.environ, "PYTHONPATH": str(ROOT)}, preexec_fn=as_from_a_terminal)
 
 
 def _interrupt(proc: subprocess.Popen, signum: int, delay: float = 6.0):
