@@ -105,3 +105,10 @@ def _write_error(command: str, path: Path, exc: OSError) -> NetlistError:
     hint += "; an earlier file of that name is left as it was"
     return NetlistError(Diagnostic(message=f"cannot write {path}: {exc.strerror or exc}",
                                    hint=hint), file=f"pelcs {command}")
+
+
+def interrupt_message(command: str, points: str) -> str:
+    """What the first Ctrl-C (or SIGTERM) of a command made of many runs prints: ``points``
+    names what is kept ("runs", "parameter values", "cells")."""
+    return (f"pelcs {command}: interrupted: the runs under way are dropped and the finished "
+            f"{points} are written (Ctrl-C again aborts at once, writing nothing)")

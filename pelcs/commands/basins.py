@@ -34,10 +34,10 @@ from pathlib import Path
 import numpy as np
 
 from lcs.interrupt import deferred_interrupts
-from pelcs.outputs import interrupted_status, write_outputs
+from pelcs.outputs import interrupt_message, interrupted_status, write_outputs
 
 from . import options
-from .bifurcation import _INTERRUPT_MESSAGE, check_output, scheduler_errors
+from .bifurcation import check_output, scheduler_errors
 from .orbit import (
     add_map_options,
     initial_state,
@@ -91,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
     if axes[0][0].lower() == axes[1][0].lower():
         raise usage_error("basins", "--grid: the two axes must be different states")
     base = initial_state(args, m)
-    with deferred_interrupts(_INTERRUPT_MESSAGE.format("basins", "cells")):
+    with deferred_interrupts(interrupt_message("basins", "cells")):
         with scheduler_errors("basins"):
             bm = cell_basins(factory, axes, param=None, base_state=base,
                              merge_adjacent=not args.no_merge, workers=workers,

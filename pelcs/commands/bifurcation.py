@@ -45,7 +45,7 @@ import numpy as np
 
 from lcs import interrupt
 from lcs.interrupt import deferred_interrupts
-from pelcs.outputs import interrupted_status, write_outputs
+from pelcs.outputs import interrupt_message, interrupted_status, write_outputs
 
 from . import options
 from .orbit import (
@@ -145,7 +145,7 @@ def run(args: argparse.Namespace) -> int:
         m.system.outputs(m.system.key(None), probes)
     x0 = initial_state(args, m)
     directions = ("up", "down") if args.direction == "both" else (args.direction,)
-    with deferred_interrupts(_INTERRUPT_MESSAGE.format("bifurcation", "values")):
+    with deferred_interrupts(interrupt_message("bifurcation", "values")):
         with scheduler_errors("bifurcation"):
             diagram = bifurcation_diagram(
                 factory, values, x0=x0, transient=transient, record=record, probes=probes,
@@ -172,12 +172,6 @@ def run(args: argparse.Namespace) -> int:
         status = interrupted_status(args.file, diagram.notes, "the diagram was interrupted",
                                     written, not_written)
         return not_written if status is None else status
-
-
-#: What the first Ctrl-C (or SIGTERM) of a command made of many runs prints.
-_INTERRUPT_MESSAGE = ("pelcs {}: interrupted: the runs under way are dropped and the "
-                      "finished {} are written (Ctrl-C again aborts at once, writing "
-                      "nothing)")
 
 
 def period_runs(values: np.ndarray, samples: np.ndarray, ok: np.ndarray,

@@ -64,7 +64,7 @@ import numpy as np
 from lcs.interrupt import deferred_interrupts
 from netlist.errors import NetlistError
 from pelcs.jsonout import dumps, json_ready
-from pelcs.outputs import interrupted_status, write_outputs
+from pelcs.outputs import interrupt_message, interrupted_status, write_outputs
 
 from . import options
 from .bifurcation import check_output, scheduler_errors
@@ -191,15 +191,10 @@ def _run(args: argparse.Namespace) -> int:
     for option, path in (("-o", out), ("--plot", plot)):
         if path is not None:
             _check_writable(option, path)
-    with deferred_interrupts(_INTERRUPT_MESSAGE):
+    with deferred_interrupts(interrupt_message("sweep", "runs")):
         return _sweep(args, out, plot, circuit.title, params, runs, seed, workers, theta,
                       tstop, step, period)
 
-
-#: What the first Ctrl-C (or SIGTERM) of a sweep prints.
-_INTERRUPT_MESSAGE = ("pelcs sweep: interrupted: the runs under way are dropped and the "
-                      "finished ones are written (Ctrl-C again aborts at once, writing "
-                      "nothing)")
 
 
 def _sweep(args, out, plot, title, params, runs, seed, workers, theta, tstop, step,
