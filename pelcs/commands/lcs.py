@@ -63,15 +63,14 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from netlist.formulation import formulate, storage_matrix
+    from netlist.formulation import formulate
     from netlist.parser import parse_file, parse_overrides
 
     params = parse_overrides(args.param)
     circuit = parse_file(args.file, params=params or None)
     system = formulate(circuit)
     keys = select_modes(system, args.mode)
-    energy = storage_matrix(circuit)
-    report = build_report(system, keys, energy, gdcm=args.gdcm,
+    report = build_report(system, keys, system.storage, gdcm=args.gdcm,
                           progress=not args.no_progress)
     report["file"] = args.file
     report["title"] = circuit.title
