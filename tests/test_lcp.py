@@ -19,8 +19,9 @@ from lcs.lcp import (
 )
 
 
-def brute_force(M, q, tol=1e-9):
-    """All solutions found by trying the 2^m complementary bases (independent of lcs.lcp)."""
+def brute_force(M, q, tol=1e-9, cond_limit=1e12):
+    """All solutions found by trying the 2^m complementary bases (independent of lcs.lcp);
+    a basis whose block is conditioned worse than ``cond_limit`` is taken as singular."""
     m = len(q)
     sols = []
     for k in range(m + 1):
@@ -29,7 +30,7 @@ def brute_force(M, q, tol=1e-9):
             if act:
                 a = list(act)
                 Maa = M[np.ix_(a, a)]
-                if np.linalg.cond(Maa) > 1e12:  # singular basis: no vertex solution
+                if np.linalg.cond(Maa) > cond_limit:  # singular basis: no vertex solution
                     continue
                 z[a] = np.linalg.solve(Maa, -q[a])
             w = M @ z + q

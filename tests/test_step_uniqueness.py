@@ -6,10 +6,9 @@ genuinely different next states still stops the run."""
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 import pytest
+from test_lcp import brute_force
 
 from converters.scaling import rectifier_12pulse
 from lcs.model import LCS, ComplementarityPair
@@ -43,23 +42,10 @@ R1 q n 10
 """
 
 
-def _solutions(M, q, tol=1e-9):
-    """Every complementary basis solution of ``w = M λ + q`` (numpy, by brute force)."""
-    m = len(q)
-    found = []
-    for k in range(m + 1):
-        for a in itertools.combinations(range(m), k):
-            lam = np.zeros(m)
-            if a:
-                Maa = M[np.ix_(a, a)]
-                if np.linalg.cond(Maa) > 1e10:
-                    continue
-                lam[list(a)] = np.linalg.solve(Maa, -q[list(a)])
-            w = M @ lam + q
-            scale = np.abs(q).max() + np.abs(M).max() * np.abs(lam).max()
-            if lam.min() >= -tol * scale and w.min() >= -tol * scale:
-                found.append(lam)
-    return found
+def _solutions(M, q):
+    """Every complementary basis solution λ of ``w = M λ + q`` (numpy, by brute force; the
+    step's blocks are worse conditioned than test_lcp's problems: 1e10 is singular here)."""
+    return [lam for lam, _ in brute_force(M, q, cond_limit=1e10)]
 
 
 def _image_spread(disc, q):
