@@ -21,7 +21,6 @@ inductors) get the same prefix. ``.model`` lines inside a body are global.
 
 from __future__ import annotations
 
-import difflib
 import math
 import re
 from collections import ChainMap
@@ -54,6 +53,7 @@ from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
 from .expressions import CONSTANTS, ExpressionError
 from .limits import ELEMENTS
 from .rawdeck import Body, Deck, RawElement, RawParam, Statement, Value
+from .suggest import close_matches
 from .units import parse_number
 
 # default parameters of ngspice's SW model that pelcs uses
@@ -154,7 +154,7 @@ class _Builder:
             hint = exc.hint
             if exc.message.startswith("unknown parameter"):
                 name = exc.message.split("'")[1]
-                close = difflib.get_close_matches(name, list(env) + list(CONSTANTS), n=3)
+                close = close_matches(name, list(env) + list(CONSTANTS))
                 if close:
                     hint = f"did you mean {' or '.join(close)}? ({hint})"
             self.error(exc.message, value.st.loc(value.offset + exc.offset), hint,
