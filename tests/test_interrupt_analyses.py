@@ -27,7 +27,8 @@ def _run_and_interrupt(args: list[str], delay: float) -> tuple[subprocess.Popen,
 
     The signal must come after some points have finished and before all have: on a machine
     much faster or slower than expected the command is run again with the delay halved (it
-    finished before the signal) or lengthened (nothing had finished), up to four times."""
+    finished, or finished its points and was writing them, before the signal) or lengthened
+    (nothing had finished), up to four times."""
     for _ in range(4):
         proc = subprocess.Popen([sys.executable, "-m", "pelcs.cli", *args],
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -43,7 +44,10 @@ def _run_and_interrupt(args: list[str], delay: float) -> tuple[subprocess.Popen,
         out, err = proc.communicate(timeout=60)
         answer = time.perf_counter() - t_signal
         done = re.search(r"interrupted \(SIGINT\) after (\d+) of", err)
-        if done is not None and int(done.group(1)) == 0:  # nothing had finished: too slow
+        if done is None:  # every point had finished: the signal came while writing them
+            delay /= 2
+            continue
+        if int(done.group(1)) == 0:  # nothing had finished: too slow
             delay *= 1.6
             continue
         return proc, out, err, answer
