@@ -307,7 +307,9 @@ def test_wrong_addresses_fail_fast_and_quietly(cluster, http_port):
         assert "Traceback" not in err and "Exception ignored" not in err, (address, err)
         lines = err.strip().splitlines()
         assert len(lines) == 2 and lines[1].startswith("  hint: "), err  # error, hint
-        limit = 3.0 if "Dask scheduler (" in err else 1.0  # 1 s handshake timeout here
+        # (a 1 s handshake timeout here; the limits leave room for a loaded machine and stay
+        # far below the 30 s that Dask's default connect timeout would hang)
+        limit = 10.0 if "Dask scheduler (" in err else 5.0
         assert seconds < limit, (address, seconds)
     assert elapsed < 30
 
