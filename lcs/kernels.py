@@ -5,9 +5,8 @@ A :class:`lcs.jit.Kernel` called from Python asks :func:`aot_function` first. Th
 module (:mod:`lcs.aot`, built by ``scripts/setup``, by ``pelcs compile``, or in the
 background after a run served by numba: :mod:`lcs.kernel_setup`) holds the kernels that Python
 calls directly (the grid loop, the discretisation, the grid plan, the source switching
-instants),
-compiled from the same numba code; loading it takes milliseconds and imports nothing but
-numpy, so a short run never imports numba (measured in ``benchmarks/bench_command.py``).
+instants), compiled from the same numba code; loading it takes milliseconds and imports nothing
+but numpy, so a short run never imports numba (measured in ``benchmarks/bench_command.py``).
 Without it, or when its stamp does not match the sources (an edited kernel), the numba
 dispatchers are used, compiled or loaded from numba's cache. ``PELCS_AOT=0`` forces numba (the
 tests of the AOT module compare the two).
