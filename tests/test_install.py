@@ -120,6 +120,8 @@ def test_kernels_cached_is_false_with_an_empty_cache_and_true_with_the_checkouts
     full = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           cwd=ROOT, env=env, timeout=120)
     assert full.stdout.strip() == "True", full.stderr
+    # The quick answer without numba (numba's cache beside the sources) finds this cache.
+    assert not kernel_setup._none_beside_the_sources()
 
 
 def _simulate_first_use(monkeypatch, capsys, cached: bool, compiled: int, aot: bool):
