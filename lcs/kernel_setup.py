@@ -26,7 +26,7 @@ from pathlib import Path
 
 from . import kernels
 
-__all__ = ["COMPILING_MESSAGE", "build_failure", "build_now", "build_running",
+__all__ = ["COMPILING_MESSAGE", "build_failure", "build_now", "build_running", "build_wanted",
            "compiled_in_process", "kernels_cached", "start_background_build"]
 
 #: What a command prints on stderr before the kernels compile.
@@ -131,11 +131,18 @@ def build_failure() -> str | None:
         return None
 
 
+def build_wanted() -> bool:
+    """Whether the module is to be built in the background (not ``PELCS_AOT=0``, which
+    forces numba, nor ``PELCS_AOT_BUILD=0``)."""
+    return (os.environ.get("PELCS_AOT", "1") != "0"
+            and os.environ.get("PELCS_AOT_BUILD", "1") != "0")
+
+
 def start_background_build() -> Path | None:
     """Start building the ahead-of-time module in a detached process at the lowest priority,
     unless it exists, is not wanted (``PELCS_AOT=0``, ``PELCS_AOT_BUILD=0``), is being built,
     or failed before; returns the build's log file when a build was started."""
-    if os.environ.get("PELCS_AOT", "1") == "0" or os.environ.get("PELCS_AOT_BUILD", "1") == "0":
+    if not build_wanted():
         return None
     if kernels.aot_path().is_file() or build_running() or build_failure() is not None:
         return None

@@ -142,6 +142,8 @@ def _simulate_first_use(monkeypatch, capsys, cached: bool, compiled: int, aot: b
                         lambda: events.append("build") or Path("/cache/build.log"))
     monkeypatch.setattr(transient, "warm_up", fake_warm_up)
     monkeypatch.setattr(kernels, "using_aot", lambda: aot)
+    monkeypatch.delenv("PELCS_AOT", raising=False)
+    monkeypatch.delenv("PELCS_AOT_BUILD", raising=False)
     rc = main(["simulate", str(ROOT / "converters" / "netlists" / "buck.cir"), "--tstop",
                "20u"])
     assert rc == 0
@@ -170,6 +172,20 @@ def test_a_cached_run_says_nothing_and_loads(monkeypatch, capsys):
     err, out, builds = _simulate_first_use(monkeypatch, capsys, cached=True, compiled=0,
                                            aot=True)
     assert err == ["<warm_up>"] and builds == [] and "compiling" not in out
+
+
+def test_a_failed_build_is_said_on_each_run_served_by_numba(monkeypatch, capsys):
+    monkeypatch.setattr(kernel_setup, "build_failure", lambda: "cc: not found")
+    monkeypatch.setattr(kernel_setup, "start_background_build", lambda: None)
+    monkeypatch.setattr(kernels, "using_aot", lambda: False)
+    from pelcs.commands.simulate import _build_ahead_of_time
+
+    _build_ahead_of_time()
+    assert "could not be linked into a module (`pelcs compile` says why)" in \
+        capsys.readouterr().err
+    monkeypatch.setenv("PELCS_AOT_BUILD", "0")
+    _build_ahead_of_time()
+    assert capsys.readouterr().err == ""
 
 
 def test_compiled_in_process_counts_numba_cache_misses(tmp_path):

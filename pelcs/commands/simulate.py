@@ -248,13 +248,17 @@ def _build_ahead_of_time() -> None:
     from lcs import kernel_setup
     from lcs.kernels import using_aot
 
-    if using_aot():
+    if using_aot() or not kernel_setup.build_wanted():
         return
     log = kernel_setup.start_background_build()
     if log is not None:
         print("pelcs: linking the compiled kernels into a module in the background (low "
               "priority, about a minute; later commands then start in a fraction of a "
               f"second; log: {log})", file=sys.stderr, flush=True)
+    elif kernel_setup.build_failure() is not None:
+        print("pelcs: the compiled kernels could not be linked into a module (`pelcs "
+              "compile` says why): each command loads them from numba's cache, about 1.5 s "
+              "more (PELCS_AOT_BUILD=0 silences this)", file=sys.stderr, flush=True)
 
 
 #: What the first Ctrl-C (or SIGTERM) of a run prints.
