@@ -290,6 +290,20 @@ def test_the_module_goes_to_the_user_cache_when_the_package_cannot_be_written(
     assert kernels.aot_path().parent.parent == tmp_path / "mine"
 
 
+def test_the_grammar_tables_go_to_the_user_cache_when_the_package_cannot_be_written(
+        tmp_path, monkeypatch):
+    from netlist import expressions
+
+    pkg = tmp_path / "site" / "netlist"
+    pkg.mkdir(parents=True)
+    (pkg / "__pycache__").write_text("")  # (nothing can be written there, even by root)
+    monkeypatch.setattr(expressions, "GRAMMAR_FILE", pkg / "grammar.lark")
+    monkeypatch.delenv("PELCS_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert expressions._grammar_cache() == str(tmp_path / "xdg" / "pelcs" /
+                                               "grammar.lark-tables")
+
+
 def test_numba_caches_an_unwritable_packages_kernels_user_wide(tmp_path, monkeypatch):
     import numba.core.caching as caching
     import numba.core.config as config
