@@ -136,7 +136,8 @@ def _simulate_first_use(monkeypatch, capsys, cached: bool, compiled: int, aot: b
         print("<warm_up>", file=sys.stderr)
         return 0.0 if aot else 123.0
 
-    monkeypatch.setattr(kernel_setup, "kernels_cached", lambda: cached)
+    answers = [cached, True]  # (before the run, then after it: compiled)
+    monkeypatch.setattr(kernel_setup, "kernels_cached", lambda: answers.pop(0))
     monkeypatch.setattr(kernel_setup, "compiled_in_process", lambda: compiled)
     monkeypatch.setattr(kernel_setup, "start_background_build",
                         lambda: events.append("build") or Path("/cache/build.log"))
@@ -177,6 +178,7 @@ def test_a_cached_run_says_nothing_and_loads(monkeypatch, capsys):
 def test_a_failed_build_is_said_on_each_run_served_by_numba(monkeypatch, capsys):
     monkeypatch.setattr(kernel_setup, "build_failure", lambda: "cc: not found")
     monkeypatch.setattr(kernel_setup, "start_background_build", lambda: None)
+    monkeypatch.setattr(kernel_setup, "kernels_cached", lambda: True)
     monkeypatch.setattr(kernels, "using_aot", lambda: False)
     from pelcs.commands.simulate import _build_ahead_of_time
 
@@ -186,6 +188,19 @@ def test_a_failed_build_is_said_on_each_run_served_by_numba(monkeypatch, capsys)
     monkeypatch.setenv("PELCS_AOT_BUILD", "0")
     _build_ahead_of_time()
     assert capsys.readouterr().err == ""
+
+
+def test_no_build_after_a_run_interrupted_while_compiling(monkeypatch, capsys):
+    started = []
+    monkeypatch.setattr(kernel_setup, "kernels_cached", lambda: False)
+    monkeypatch.setattr(kernel_setup, "start_background_build", lambda: started.append(1))
+    monkeypatch.setattr(kernels, "using_aot", lambda: False)
+    monkeypatch.delenv("PELCS_AOT", raising=False)
+    monkeypatch.delenv("PELCS_AOT_BUILD", raising=False)
+    from pelcs.commands.simulate import _build_ahead_of_time
+
+    _build_ahead_of_time()
+    assert started == [] and capsys.readouterr().err == ""
 
 
 def test_compiled_in_process_counts_numba_cache_misses(tmp_path):

@@ -250,6 +250,8 @@ def _build_ahead_of_time() -> None:
 
     if using_aot() or not kernel_setup.build_wanted():
         return
+    if not kernel_setup.kernels_cached():
+        return  # (interrupted while compiling: the next run compiles the rest first)
     log = kernel_setup.start_background_build()
     if log is not None:
         print("pelcs: linking the compiled kernels into a module in the background (low "
