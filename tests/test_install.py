@@ -362,3 +362,30 @@ def test_the_cli_runs_the_bundled_copy_and_says_so(tmp_path, monkeypatch, capsys
     assert "pelcs: converters/netlists/buck.cir is not in this directory: running pelcs's " \
            "bundled copy" in err
     assert "Buck converter" in out
+
+
+def test_compile_reports_a_failed_link_with_a_hint(tmp_path, monkeypatch, capsys):
+    import lcs.stepping.warmup as warmup
+
+    monkeypatch.setenv("PELCS_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(kernel_setup, "kernels_cached", lambda: True)
+    monkeypatch.setattr(warmup, "warm_up", lambda: 0.0)
+
+    def fail():
+        raise OSError("cc: not found")
+
+    monkeypatch.setattr(kernel_setup, "build_now", fail)
+    assert main(["compile"]) == 1
+    out, err = capsys.readouterr()
+    assert "loaded the kernels in" in out
+    assert "error: linking the kernels into a module failed: OSError: cc: not found" in err
+    assert "hint: it needs a C compiler" in err and "Traceback" not in err
+
+
+def test_compile_with_the_module_built_says_where(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("PELCS_CACHE_DIR", str(tmp_path))
+    path = kernels.aot_path()
+    path.parent.mkdir(parents=True)
+    path.write_bytes(b"")
+    assert main(["compile"]) == 0
+    assert capsys.readouterr().out == f"the kernels are compiled and linked: {path}\n"
