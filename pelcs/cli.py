@@ -35,6 +35,8 @@ def _wanted(argv: list[str] | None) -> list[str]:
     first = next((a for a in args if not a.startswith("-")), None)
     if first in COMMANDS and not any(a in ("-h", "--help") for a in args[:args.index(first)]):
         return [first]
+    if first is None and "--version" in args and not {"-h", "--help"} & set(args):
+        return []  # (argparse acts on --version before it needs any command)
     return COMMANDS
 
 

@@ -98,6 +98,19 @@ def test_version(capsys):
     assert re.fullmatch(r"\d+\.\d+\.\d+\S*", pelcs.__version__)
 
 
+def test_version_alone_imports_no_command():
+    from pelcs.cli import _wanted
+
+    assert _wanted(["--version"]) == []
+    assert _wanted(["--version", "--help"]) != []
+    code = ("import sys, pelcs.cli\n"
+            "try:\n    pelcs.cli.main(['--version'])\nexcept SystemExit:\n    pass\n"
+            "print(sorted(m for m in sys.modules if m.startswith('pelcs.commands.')))")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       cwd=ROOT, timeout=60)
+    assert p.stdout.splitlines()[-1] == "[]", p.stderr
+
+
 def test_the_version_is_read_only_for_version():
     code = ("import sys, pelcs.cli\n"
             "pelcs.cli.build_parser(['simulate', 'x.cir'])\n"
