@@ -22,16 +22,18 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 from . import kernels
 
-__all__ = ["COMPILING_MESSAGE", "build_failure", "build_now", "build_running", "build_wanted",
-           "compiled_in_process", "kernels_cached", "start_background_build"]
+__all__ = ["COMPILING_MESSAGE", "after_run", "announce_compiles", "build_failure", "build_now",
+           "build_running", "build_wanted", "compiled_in_process", "kernels_cached",
+           "start_background_build"]
 
 #: What a command prints on stderr before the kernels compile.
-COMPILING_MESSAGE = ("pelcs: compiling the simulation kernels once (a few minutes on first "
-                     "use; later runs load them)")
+COMPILING_MESSAGE = ("pelcs: compiling the simulation kernels once (up to a few minutes on "
+                     "first use; later runs load them)")
 
 _LOCK = "build.lock"
 _LOG = "build.log"
@@ -96,6 +98,55 @@ def compiled_in_process() -> int:
         if stats is not None:
             total += sum(stats.cache_misses.values())
     return total
+
+
+def announce_compiles(write: Callable[[str], object]) -> bool:
+    """Call ``write(COMPILING_MESSAGE)`` when this process first starts compiling a kernel
+    (numba's ``numba:compile`` event, which a kernel loaded from the cache does not raise);
+    not in the workers a process pool forks. Installs nothing, and imports no numba, when the
+    ahead-of-time module serves the kernels; returns whether it installed the listener."""
+    if kernels.using_aot():
+        return False
+    from numba.core import event
+
+    pid = os.getpid()
+
+    class _FirstCompile(event.Listener):
+        said = False
+
+        def on_start(self, ev):
+            if not self.said and os.getpid() == pid:
+                self.said = True
+                write(COMPILING_MESSAGE)
+
+        def on_end(self, ev):
+            pass
+
+    event.register("numba:compile", _FirstCompile())
+    return True
+
+
+def after_run() -> str | None:
+    """After a command that ran kernels: start the module's background build when numba
+    served them (:func:`start_background_build`); the line to print about it, or None (the
+    module serves the kernels, no build is wanted, the kernels are not all compiled yet: an
+    interrupted first run, whose successor compiles the rest first)."""
+    from . import jit
+
+    if not jit.materialized() or kernels.using_aot() or not build_wanted():
+        return None
+    if not kernels_cached():
+        return None
+    log = start_background_build()
+    if log is not None:
+        return ("pelcs: linking the compiled kernels into a module in the background (low "
+                "priority, about a minute; later commands then start in a fraction of a "
+                f"second; log: {log})")
+    if build_failure() is not None:
+        return ("pelcs: the compiled kernels could not be linked into a module (`pelcs "
+                "compile` says why): each command loads them from numba's cache, about 1.5 s "
+                "more (PELCS_AOT_BUILD=0 silences this)")
+    return None
 
 
 def _paths() -> tuple[Path, Path, Path]:

@@ -151,6 +151,8 @@ def main(argv: list[str] | None = None) -> int:
         for category in (NonPassiveWarning, IdealisedDeviceWarning):
             warnings.simplefilter("error" if getattr(args, "strict", False) else "once",
                                   category)
+        if args.command not in _OWN_COMPILE_NOTE:
+            _announce_compiles()
         try:
             return int(args.func(args) or 0)
         except IdealisedDeviceWarning as exc:
@@ -171,6 +173,35 @@ def main(argv: list[str] | None = None) -> int:
             return 130
         except BrokenPipeError:
             return 0
+        finally:
+            if args.command != "compile":
+                _after_run()
+
+
+# Commands that say themselves that they compile the kernels (simulate before it loads them),
+# or that run none.
+_OWN_COMPILE_NOTE = ("simulate", "compile", "info")
+
+
+def _announce_compiles() -> None:
+    """Have the first compile of a kernel in this process said on stderr (after a ``pip
+    install``, the first command compiles the kernels: minutes)."""
+    from lcs.kernel_setup import announce_compiles
+
+    announce_compiles(lambda text: print(text, file=sys.stderr, flush=True))
+
+
+def _after_run() -> None:
+    """After a command that ran the kernels from numba's cache: the ahead-of-time module's
+    background build, said in one line (:func:`lcs.kernel_setup.after_run`)."""
+    jit = sys.modules.get("lcs.jit")
+    if jit is None or not jit.materialized():
+        return  # (no numba in this process: nothing to link, and nothing imported here)
+    from lcs.kernel_setup import after_run
+
+    line = after_run()
+    if line is not None:
+        print(line, file=sys.stderr, flush=True)
 
 
 if __name__ == "__main__":

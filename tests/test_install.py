@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from lcs import kernel_setup, kernels
+from lcs import jit, kernel_setup, kernels
 from pelcs.cli import bundled_netlist, installed_version, main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -156,6 +156,8 @@ def _simulate_first_use(monkeypatch, capsys, cached: bool, compiled: int, aot: b
                         lambda: events.append("build") or Path("/cache/build.log"))
     monkeypatch.setattr(transient, "warm_up", fake_warm_up)
     monkeypatch.setattr(kernels, "using_aot", lambda: aot)
+    monkeypatch.setattr(jit, "materialized", lambda: not aot)  # (numba served the run)
+    monkeypatch.setattr(kernel_setup, "announce_compiles", lambda write: False)
     monkeypatch.delenv("PELCS_AOT", raising=False)
     monkeypatch.delenv("PELCS_AOT_BUILD", raising=False)
     rc = main(["simulate", str(ROOT / "converters" / "netlists" / "buck.cir"), "--tstop",
@@ -188,32 +190,60 @@ def test_a_cached_run_says_nothing_and_loads(monkeypatch, capsys):
     assert err == ["<warm_up>"] and builds == [] and "compiling" not in out
 
 
-def test_a_failed_build_is_said_on_each_run_served_by_numba(monkeypatch, capsys):
+def test_a_failed_build_is_said_on_each_run_served_by_numba(monkeypatch):
     monkeypatch.setattr(kernel_setup, "build_failure", lambda: "cc: not found")
     monkeypatch.setattr(kernel_setup, "start_background_build", lambda: None)
     monkeypatch.setattr(kernel_setup, "kernels_cached", lambda: True)
     monkeypatch.setattr(kernels, "using_aot", lambda: False)
-    from pelcs.commands.simulate import _build_ahead_of_time
-
-    _build_ahead_of_time()
-    assert "could not be linked into a module (`pelcs compile` says why)" in \
-        capsys.readouterr().err
-    monkeypatch.setenv("PELCS_AOT_BUILD", "0")
-    _build_ahead_of_time()
-    assert capsys.readouterr().err == ""
-
-
-def test_no_build_after_a_run_interrupted_while_compiling(monkeypatch, capsys):
-    started = []
-    monkeypatch.setattr(kernel_setup, "kernels_cached", lambda: False)
-    monkeypatch.setattr(kernel_setup, "start_background_build", lambda: started.append(1))
-    monkeypatch.setattr(kernels, "using_aot", lambda: False)
+    monkeypatch.setattr(jit, "materialized", lambda: True)
     monkeypatch.delenv("PELCS_AOT", raising=False)
     monkeypatch.delenv("PELCS_AOT_BUILD", raising=False)
-    from pelcs.commands.simulate import _build_ahead_of_time
+    assert "could not be linked into a module (`pelcs compile` says why)" in \
+        kernel_setup.after_run()
+    monkeypatch.setenv("PELCS_AOT_BUILD", "0")
+    assert kernel_setup.after_run() is None
 
-    _build_ahead_of_time()
-    assert started == [] and capsys.readouterr().err == ""
+
+def test_no_build_after_a_run_interrupted_while_compiling_or_without_numba(monkeypatch):
+    started = []
+    cached = [False]
+    monkeypatch.setattr(kernel_setup, "kernels_cached", lambda: cached[0])
+    monkeypatch.setattr(kernel_setup, "start_background_build", lambda: started.append(1))
+    monkeypatch.setattr(kernels, "using_aot", lambda: False)
+    monkeypatch.setattr(jit, "materialized", lambda: True)
+    monkeypatch.delenv("PELCS_AOT", raising=False)
+    monkeypatch.delenv("PELCS_AOT_BUILD", raising=False)
+    assert kernel_setup.after_run() is None
+    cached[0] = True
+    monkeypatch.setattr(jit, "materialized", lambda: False)  # (a run that used no kernel)
+    assert kernel_setup.after_run() is None
+    assert started == []
+
+
+def test_the_first_compile_of_a_process_is_announced_once(tmp_path):
+    (tmp_path / "twice.py").write_text(
+        "from lcs.jit import jitted\n\n\n@jitted\ndef f(x):\n    return x + 1\n")
+    code = ("import sys, lcs.kernel_setup as s\n"
+            "print(s.announce_compiles(lambda text: print('SAID', text)))\n"
+            f"sys.path.insert(0, {str(tmp_path)!r})\n"
+            "from twice import f\n"
+            "print(f(1), f(2.0))")
+    env = {**os.environ, "PELCS_AOT": "0", "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                           cwd=ROOT, env=env, timeout=120) for _ in range(2)]
+    said = f"SAID {kernel_setup.COMPILING_MESSAGE}"
+    assert runs[0].stdout.splitlines() == ["True", said, "2 3.0"], runs[0].stderr
+    assert runs[1].stdout.splitlines() == ["True", "2 3.0"], runs[1].stderr  # (loaded)
+
+
+def test_every_command_but_info_watches_for_compiles(monkeypatch, capsys):
+    watched = []
+    monkeypatch.setattr(kernel_setup, "announce_compiles", lambda write: watched.append(1))
+    buck = str(ROOT / "converters" / "netlists" / "buck.cir")
+    assert main(["info", buck]) == 0
+    assert watched == []
+    assert main(["lcs", buck]) == 0
+    assert watched == [1]
 
 
 def test_compiled_in_process_counts_numba_cache_misses(tmp_path):

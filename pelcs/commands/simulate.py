@@ -228,39 +228,17 @@ def run(args: argparse.Namespace) -> int:
 
     if not kernel_setup.kernels_cached():
         print(kernel_setup.COMPILING_MESSAGE, file=sys.stderr, flush=True)
+    else:  # (a kernel missing from a cache numba otherwise serves says so when it compiles)
+        kernel_setup.announce_compiles(lambda text: print(text, file=sys.stderr, flush=True))
     load = warm_up()
     compiled = kernel_setup.compiled_in_process() > 0
-    try:
-        if args.method != "moreau":
-            # (the exact method follows a window in one Python call: Ctrl-C aborts it)
-            return _run(args, circuit, setup, probes, tstop, step, theta, every, output_step,
-                        out, plot, load, compiled)
-        with deferred_interrupts(_INTERRUPT_MESSAGE):
-            return _run(args, circuit, setup, probes, tstop, step, theta, every,
-                        output_step, out, plot, load, compiled)
-    finally:
-        _build_ahead_of_time()
-
-
-def _build_ahead_of_time() -> None:
-    """After a run served by numba (no ahead-of-time module for these kernels): start the
-    module's build in the background, and say so (:mod:`lcs.kernel_setup`)."""
-    from lcs import kernel_setup
-    from lcs.kernels import using_aot
-
-    if using_aot() or not kernel_setup.build_wanted():
-        return
-    if not kernel_setup.kernels_cached():
-        return  # (interrupted while compiling: the next run compiles the rest first)
-    log = kernel_setup.start_background_build()
-    if log is not None:
-        print("pelcs: linking the compiled kernels into a module in the background (low "
-              "priority, about a minute; later commands then start in a fraction of a "
-              f"second; log: {log})", file=sys.stderr, flush=True)
-    elif kernel_setup.build_failure() is not None:
-        print("pelcs: the compiled kernels could not be linked into a module (`pelcs "
-              "compile` says why): each command loads them from numba's cache, about 1.5 s "
-              "more (PELCS_AOT_BUILD=0 silences this)", file=sys.stderr, flush=True)
+    if args.method != "moreau":
+        # (the exact method follows a window in one Python call: Ctrl-C aborts it)
+        return _run(args, circuit, setup, probes, tstop, step, theta, every, output_step,
+                    out, plot, load, compiled)
+    with deferred_interrupts(_INTERRUPT_MESSAGE):
+        return _run(args, circuit, setup, probes, tstop, step, theta, every, output_step,
+                    out, plot, load, compiled)
 
 
 #: What the first Ctrl-C (or SIGTERM) of a run prints.
