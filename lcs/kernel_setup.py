@@ -107,23 +107,25 @@ def announce_compiles(write: Callable[[str], object]) -> bool:
     ahead-of-time module serves the kernels; returns whether it installed the listener."""
     if kernels.using_aot():
         return False
-    from numba.core import event
+    _WATCH["write"] = write
+    if _WATCH["pid"] is None:  # (one listener per process, however many commands it runs)
+        from numba.core import event
 
-    pid = os.getpid()
+        class _FirstCompile(event.Listener):
+            def on_start(self, ev):
+                if not _WATCH["said"] and os.getpid() == _WATCH["pid"]:
+                    _WATCH["said"] = True
+                    _WATCH["write"](COMPILING_MESSAGE)
 
-    class _FirstCompile(event.Listener):
-        said = False
+            def on_end(self, ev):
+                pass
 
-        def on_start(self, ev):
-            if not self.said and os.getpid() == pid:
-                self.said = True
-                write(COMPILING_MESSAGE)
-
-        def on_end(self, ev):
-            pass
-
-    event.register("numba:compile", _FirstCompile())
+        _WATCH["pid"] = os.getpid()
+        event.register("numba:compile", _FirstCompile())
     return True
+
+
+_WATCH: dict = {"pid": None, "said": False, "write": None}
 
 
 def after_run() -> str | None:
@@ -140,7 +142,7 @@ def after_run() -> str | None:
     log = start_background_build()
     if log is not None:
         return ("pelcs: linking the compiled kernels into a module in the background (low "
-                "priority, about a minute; later commands then start in a fraction of a "
+                "priority, a minute or two; later commands then start in a fraction of a "
                 f"second; log: {log})")
     if build_failure() is not None:
         return ("pelcs: the compiled kernels could not be linked into a module (`pelcs "
