@@ -4,17 +4,19 @@ ahead-of-time module in the background.
 ``scripts/setup`` compiles the kernels and builds the ahead-of-time module (:mod:`lcs.aot`) of a
 checkout once. A ``pip install`` does neither: the first simulation compiles the kernels
 (minutes of one core, cached by numba on disk), and every later command would load them from
-numba's cache (about 1.5 s more per command than the ahead-of-time module). So a command that
-simulates asks :func:`kernels_cached` first, tells the user when it is about to compile, and
-afterwards calls :func:`start_background_build`: a detached, low-priority ``python -m
-lcs.kernel_setup`` that builds the module into the cache (:func:`lcs.kernels.aot_path`: the
-installed package's ``__pycache__``, or the per-user cache when that cannot be written). A lock
-file keeps it to one build at a time; a build that failed (no C compiler) leaves a note beside
-the module's path and is not retried in the background (``pelcs compile`` retries it and shows
-why it fails). ``PELCS_AOT_BUILD=0`` turns the background build off.
+numba's cache (about 1.5 s more per command than the ahead-of-time module). So ``pelcs
+simulate`` asks :func:`kernels_cached` before it loads them and says when it is about to
+compile (the other commands say so at numba's first compile event, :func:`announce_compiles`);
+after a command numba served, :func:`after_run` calls :func:`start_background_build`: a
+detached, lowest-priority ``python -m lcs.kernel_setup`` that builds the module into the cache
+(:func:`lcs.kernels.aot_path`: the installed package's ``__pycache__``, or the per-user cache
+when that cannot be written). A lock file keeps it to one build at a time; a build that failed
+(no C compiler) leaves a note beside the module's path and is not retried in the background
+(``pelcs compile`` retries it and shows why it fails). ``PELCS_AOT_BUILD=0`` turns the
+background build off.
 
-:func:`kernels_cached` imports numba (only when there is no ahead-of-time module, when the run
-imports it anyway); the rest imports nothing heavy.
+:func:`kernels_cached` and :func:`announce_compiles` import numba only when there is no
+ahead-of-time module (when the run imports it anyway); the rest imports nothing heavy.
 """
 
 from __future__ import annotations
