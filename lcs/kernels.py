@@ -2,10 +2,11 @@
 from the current kernel sources, numba otherwise.
 
 A :class:`lcs.jit.Kernel` called from Python asks :func:`aot_function` first. The extension
-module (:mod:`lcs.aot`, built by ``scripts/setup``) holds the kernels that Python calls
-directly (the grid loop, the discretisation, the grid plan, the source switching instants),
-compiled from the same numba code; loading it takes milliseconds and imports nothing but
-numpy, so a short run never imports numba (measured in ``benchmarks/bench_command.py``).
+module (:mod:`lcs.aot`, built by ``scripts/setup``, by ``pelcs compile``, or in the
+background after a run served by numba: :mod:`lcs.kernel_setup`) holds the kernels that Python
+calls directly (the grid loop, the discretisation, the grid plan, the source switching
+instants), compiled from the same numba code; loading it takes milliseconds and imports nothing
+but numpy, so a short run never imports numba (measured in ``benchmarks/bench_command.py``).
 Without it, or when its stamp does not match the sources (an edited kernel), the numba
 dispatchers are used, compiled or loaded from numba's cache. ``PELCS_AOT=0`` forces numba (the
 tests of the AOT module compare the two).
@@ -27,7 +28,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 __all__ = ["AOT_MODULE", "AOT_SOURCES", "KERNEL_SOURCES", "aot_function", "aot_module",
-           "aot_path", "aot_stamp", "aot_types_path", "cpu_tag", "kernel_stamp", "using_aot"]
+           "aot_path", "aot_stamp", "aot_types_path", "cpu_tag", "kernel_stamp", "user_cache_dir",
+           "using_aot"]
 
 _LCS = Path(__file__).resolve().parent
 # The packages whose compiled functions call or inline each other's, the other files with
@@ -91,11 +93,35 @@ def aot_filename() -> str:
     return AOT_MODULE + (sysconfig.get_config_var("EXT_SUFFIX") or ".so")
 
 
-def _cache_root() -> Path:
+def user_cache_dir() -> Path:
+    """The per-user cache of pelcs: ``$XDG_CACHE_HOME/pelcs``, else ``~/.cache/pelcs``
+    (``PELCS_CACHE_DIR`` replaces every cache location when set)."""
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    base = Path(xdg) if xdg and os.path.isabs(xdg) else Path.home() / ".cache"
+    return base / "pelcs"
+
+
+def _cache_roots() -> tuple[Path, ...]:
+    """Where modules are looked for, in order: ``PELCS_CACHE_DIR`` alone when set, else the
+    installed package's ``__pycache__`` (a checkout, a virtual environment) and the per-user
+    cache (a package directory the user may not write: a system-wide installation)."""
     env = os.environ.get("PELCS_CACHE_DIR")
     if env:
-        return Path(env)
-    return _LCS / "__pycache__"
+        return (Path(env),)
+    return (_LCS / "__pycache__", user_cache_dir())
+
+
+def _writable(directory: Path) -> bool:
+    """Whether a file can be created in ``directory`` (made if missing), tried as numba's
+    cache does: permission bits say nothing for root or on a read-only file system."""
+    import tempfile
+
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=directory).close()
+    except OSError:
+        return False
+    return True
 
 
 @functools.lru_cache(maxsize=1)
@@ -141,10 +167,17 @@ def cpu_tag() -> str:
 
 
 def aot_path() -> Path:
-    """Where the extension module built from the current sources lives (it may not exist)."""
+    """Where the extension module built from the current sources is, or else where it is to
+    be built (the first cache root that can be written, :func:`_cache_roots`)."""
     tag = (f"aot-{aot_stamp().hex()[:16]}-{platform.machine()}-cpu{cpu_tag()}"
            f"-numba{_numba_version()}")
-    return _cache_root() / tag / aot_filename()
+    roots = _cache_roots()
+    for root in roots:
+        path = root / tag / aot_filename()
+        if path.is_file():
+            return path
+    root = next((r for r in roots if _writable(r)), roots[-1])
+    return root / tag / aot_filename()
 
 
 def aot_types_path() -> Path:

@@ -34,18 +34,27 @@ START_RULES = [
 
 
 def _grammar_cache() -> str | bool:
-    """Where lark caches the parser tables: ``$PELCS_CACHE_DIR`` or ``netlist/__pycache__``;
-    False when neither is writable (the tables are then built on every start)."""
+    """Where lark caches the parser tables: ``$PELCS_CACHE_DIR``, else ``netlist/__pycache__``
+    or, when the installed package cannot be written, the per-user cache
+    (:func:`lcs.kernels.user_cache_dir`); False when none is writable (the tables are then
+    built on every start)."""
     import os
 
-    root = Path(os.environ.get("PELCS_CACHE_DIR") or GRAMMAR_FILE.with_name("__pycache__"))
-    try:
-        root.mkdir(parents=True, exist_ok=True)
-    except OSError:
-        return False
-    if not os.access(root, os.W_OK):
-        return False
-    return str(root / "grammar.lark-tables")
+    env = os.environ.get("PELCS_CACHE_DIR")
+    if env:
+        roots = [Path(env)]
+    else:
+        from lcs.kernels import user_cache_dir
+
+        roots = [GRAMMAR_FILE.with_name("__pycache__"), user_cache_dir()]
+    for root in roots:
+        try:
+            root.mkdir(parents=True, exist_ok=True)
+        except OSError:
+            continue
+        if os.access(root, os.W_OK):
+            return str(root / "grammar.lark-tables")
+    return False
 
 
 @lru_cache(maxsize=1)

@@ -24,7 +24,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 COMMANDS = ["info", "lcs", "simulate", "check", "bifurcation", "orbit", "continue", "basins",
-            "sweep", "ac"]
+            "sweep", "ac", "compile"]
 
 
 def _wanted(argv: list[str] | None) -> list[str]:
@@ -35,7 +35,46 @@ def _wanted(argv: list[str] | None) -> list[str]:
     first = next((a for a in args if not a.startswith("-")), None)
     if first in COMMANDS and not any(a in ("-h", "--help") for a in args[:args.index(first)]):
         return [first]
+    if first is None and "--version" in args and not {"-h", "--help"} & set(args):
+        return []  # (argparse acts on --version before it needs any command)
     return COMMANDS
+
+
+def installed_version() -> str:
+    """The version of the installed ``pelcs`` distribution (its metadata) when that is the
+    pelcs running, else :data:`pelcs.__version__` (a checkout on the path, an editable
+    installation: the same number, from the source). Imports ``importlib.metadata`` (about
+    10 ms): only ``--version`` asks."""
+    import importlib.metadata
+    from pathlib import Path
+
+    import pelcs
+
+    try:
+        dist = importlib.metadata.distribution("pelcs")
+    except importlib.metadata.PackageNotFoundError:
+        return __version__
+    here = Path(pelcs.__file__).resolve()
+    try:
+        if Path(dist.locate_file("pelcs/__init__.py")).resolve() == here:
+            return dist.version
+    except (OSError, ValueError):
+        pass
+    return __version__
+
+
+class _VersionAction(argparse.Action):
+    """``--version``: the version read only when asked (argparse's own action formats a
+    string built before parsing, for every command)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS,
+                 help=None):
+        super().__init__(option_strings=option_strings, dest=dest, default=default, nargs=0,
+                         help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"pelcs {installed_version()}")
+        parser.exit()
 
 
 def build_parser(argv: list[str] | None = None, commands: list[str] | None = None
@@ -48,7 +87,8 @@ def build_parser(argv: list[str] | None = None, commands: list[str] | None = Non
         description="Power-electronics netlists with ideal diodes and switches as linear "
         "complementarity systems.",
     )
-    parser.add_argument("--version", action="version", version=f"pelcs {__version__}")
+    parser.add_argument("--version", action=_VersionAction,
+                        help="print pelcs's version (of the installed distribution) and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in commands:
         # "continue" is a Python keyword, so its module is named continuation.
@@ -56,13 +96,32 @@ def build_parser(argv: list[str] | None = None, commands: list[str] | None = Non
             f"pelcs.commands.{name.replace('continue', 'continuation')}")
         module.register(sub)
     for name in commands:
-        if name in ("info", "lcs"):
+        if name in ("info", "lcs", "compile"):
             continue  # they simulate nothing (lcs gives the full passivity verdict)
         sub.choices[name].add_argument(
             "--strict", action="store_true",
             help="refuse a circuit that is not passive (default: warn and run the ideal "
             "model, which may grow without bound)")
     return parser
+
+
+def bundled_netlist(path: str) -> str | None:
+    """The installed copy of a bundled netlist named as in the checkout
+    (``converters/netlists/buck.cir``) when ``path`` is such a name and no such file is
+    in the current directory (pelcs installed by pip, run elsewhere), else None."""
+    import importlib.util
+    from pathlib import Path, PurePosixPath
+
+    parts = PurePosixPath(path.replace("\\", "/")).parts
+    if (len(parts) < 3 or parts[:2] != ("converters", "netlists") or ".." in parts
+            or Path(path).exists()):
+        return None
+    spec = importlib.util.find_spec("converters")
+    for root in (spec.submodule_search_locations or []) if spec else []:
+        candidate = Path(root, *parts[1:])
+        if candidate.is_file():
+            return str(candidate)
+    return None
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -78,6 +137,11 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    file = getattr(args, "file", None)
+    if isinstance(file, str) and (copy := bundled_netlist(file)) is not None:
+        print(f"pelcs: {file} is not in this directory: running pelcs's bundled copy {copy}",
+              file=sys.stderr)
+        args.file = copy
     import warnings
 
     from lcs.notices import IdealisedDeviceWarning, NonPassiveWarning
@@ -87,6 +151,8 @@ def main(argv: list[str] | None = None) -> int:
         for category in (NonPassiveWarning, IdealisedDeviceWarning):
             warnings.simplefilter("error" if getattr(args, "strict", False) else "once",
                                   category)
+        if args.command not in _OWN_COMPILE_NOTE:
+            _announce_compiles()
         try:
             return int(args.func(args) or 0)
         except IdealisedDeviceWarning as exc:
@@ -107,6 +173,35 @@ def main(argv: list[str] | None = None) -> int:
             return 130
         except BrokenPipeError:
             return 0
+        finally:
+            if args.command != "compile":
+                _after_run()
+
+
+# Commands that say themselves that they compile the kernels (simulate before it loads them),
+# or that run none.
+_OWN_COMPILE_NOTE = ("simulate", "compile", "info")
+
+
+def _announce_compiles() -> None:
+    """Have the first compile of a kernel in this process said on stderr (after a ``pip
+    install``, the first command compiles the kernels: minutes)."""
+    from lcs.kernel_setup import announce_compiles
+
+    announce_compiles(lambda text: print(text, file=sys.stderr, flush=True))
+
+
+def _after_run() -> None:
+    """After a command that ran the kernels from numba's cache: the ahead-of-time module's
+    background build, said in one line (:func:`lcs.kernel_setup.after_run`)."""
+    jit = sys.modules.get("lcs.jit")
+    if jit is None or not jit.materialized():
+        return  # (no numba in this process: nothing to link, and nothing imported here)
+    from lcs.kernel_setup import after_run
+
+    line = after_run()
+    if line is not None:
+        print(line, file=sys.stderr, flush=True)
 
 
 if __name__ == "__main__":

@@ -222,15 +222,23 @@ def run(args: argparse.Namespace) -> int:
     # (before loading anything: a run too large for the machine is refused at once)
     check_run_size(setup, len(probes) if probes is not None else len(setup.system.states),
                    every)
-    # Load the compiled kernels first, so that the summary's time per step is the run's.
+    # Load the compiled kernels first, so that the summary's time per step is the run's;
+    # compiling them (the first run after an installation) is said before it starts.
+    from lcs import kernel_setup
+
+    if not kernel_setup.kernels_cached():
+        print(kernel_setup.COMPILING_MESSAGE, file=sys.stderr, flush=True)
+    else:  # (a kernel missing from a cache numba otherwise serves says so when it compiles)
+        kernel_setup.announce_compiles(lambda text: print(text, file=sys.stderr, flush=True))
     load = warm_up()
+    compiled = kernel_setup.compiled_in_process() > 0
     if args.method != "moreau":
         # (the exact method follows a window in one Python call: Ctrl-C aborts it)
         return _run(args, circuit, setup, probes, tstop, step, theta, every, output_step,
-                    out, plot, load)
+                    out, plot, load, compiled)
     with deferred_interrupts(_INTERRUPT_MESSAGE):
         return _run(args, circuit, setup, probes, tstop, step, theta, every, output_step,
-                    out, plot, load)
+                    out, plot, load, compiled)
 
 
 #: What the first Ctrl-C (or SIGTERM) of a run prints.
@@ -240,7 +248,7 @@ _INTERRUPT_MESSAGE = ("pelcs simulate: interrupted: the run stops after its curr
 
 
 def _run(args, circuit, setup, probes, tstop, step, theta, every, output_step, out, plot,
-         load) -> int:
+         load, compiled=False) -> int:
     """The run, its files and its summary; the exit status."""
     from netlist.transient import run_setup
 
@@ -307,7 +315,7 @@ def _run(args, circuit, setup, probes, tstop, step, theta, every, output_step, o
     used = result.theta if result.theta is not None else (theta or 0.5)
     print(summary(result, args.file, circuit.title, tstop=setup.t_stop, step=setup.h,
                   theta=used, wall=wall, written=written, switches=switches, load=load,
-                  method=args.method, points=points))
+                  method=args.method, points=points, compiled=compiled))
     if result.losses is not None:
         print("\n".join(result.losses.lines()))
     if args.events:
@@ -391,7 +399,8 @@ def _mode_text(switches, mode) -> str:
 
 def summary(result, file: str, title: str, *, tstop: float, step: float, theta: float,
             wall: float, written: list[str], switches: list[str] = (),
-            load: float | None = None, method: str = "moreau", points: str = "") -> str:
+            load: float | None = None, method: str = "moreau", points: str = "",
+            compiled: bool = False) -> str:
     """The text printed after a run: steps and timing, modes, final values, notes, files.
 
     Parameters
@@ -409,11 +418,13 @@ def summary(result, file: str, title: str, *, tstop: float, step: float, theta: 
     switches : list of str
         Switch names in mode-key order.
     load : float, optional
-        Time spent loading the compiled kernels before the run, s.
+        Time spent loading (or compiling) the kernels before the run, s.
     method : str
         ``"moreau"`` or ``"exact"``.
     points : str
         Which points were written (``"every 200 ns (.tran TSTEP)"``).
+    compiled : bool
+        Whether the kernels were compiled (not only loaded) in that time.
     """
     from pelcs.plotting import probe_unit
 
@@ -436,7 +447,9 @@ def summary(result, file: str, title: str, *, tstop: float, step: float, theta: 
             f"simulated 0 to {tstop_text}, h = {_eng(step, 's')}, θ = {theta:g}: "
             f"{st.steps} steps{shortened} in {wall:.3g} s "
             f"({1e6 * wall / max(st.steps, 1):.3g} µs/step)"
-            + (f", after {load:.2g} s loading the compiled kernels" if load else ""))
+            + (f", after {load:.3g} s compiling the kernels (once: later runs load them)"
+               if compiled and load else
+               f", after {load:.2g} s loading the compiled kernels" if load else ""))
     if switches:
         visited = list(result.modes_visited)
         modes = [_mode_text(switches, mode) for mode in visited[:_MAX_MODES_SHOWN]]
