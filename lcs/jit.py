@@ -68,8 +68,10 @@ class Kernel:
             from .jit_passes import KernelCompiler
 
             opts["pipeline_class"] = KernelCompiler
-        self._dispatcher = njit(**opts)(self.py_func)
-        return self._dispatcher
+        dispatcher = njit(**opts)(self.py_func)
+        dispatcher.get_call_template = functools.partial(_call_template, dispatcher)
+        self._dispatcher = dispatcher
+        return dispatcher
 
     @property
     def dispatcher(self):
@@ -97,6 +99,23 @@ class Kernel:
 
     def __repr__(self) -> str:
         return f"<pelcs kernel {self.py_func.__module__}.{self.py_func.__qualname__}>"
+
+
+def _call_template(dispatcher, args, kws):
+    """numba's ``Dispatcher.get_call_template`` for a call from compiled code, with the
+    argument types made non-literal.
+
+    numba compiles a callee for the types at the call site, and a constant argument there is
+    a literal type (``Literal[int](0)``, ``Literal[bool](True)``): every distinct constant made
+    a specialisation of its own, compiled again (``mode_step`` six times, ``factor_update``
+    four). A kernel never needs a literal argument; its branches on a flag cost a predictable
+    branch at run time, and one specialisation is compiled once.
+    """
+    from numba.core import types
+
+    args = tuple(types.unliteral(a) for a in args)
+    kws = {k: types.unliteral(v) for k, v in kws.items()}
+    return type(dispatcher).get_call_template(dispatcher, args, kws)
 
 
 def _kernel_by_name(module: str, qualname: str):

@@ -19,12 +19,13 @@ change to any of them recompiles every kernel once.
 
 from __future__ import annotations
 
+import copy
 import os
 import shutil
 import tempfile
 from pathlib import Path
 
-from numba.core import caching, ir, types
+from numba.core import caching, inline_closurecall, ir, types
 from numba.core.analysis import compute_cfg_from_blocks
 from numba.core.compiler import CompilerBase, DefaultPassBuilder
 from numba.core.compiler_machinery import FunctionPass, register_pass
@@ -36,6 +37,41 @@ from .kernels import KERNEL_SOURCES, kernel_stamp
 
 __all__ = ["ForwardCopies", "HoistTupleFields", "KernelCacheLocator", "KernelCompiler",
            "forward_copies"]
+
+
+class _BlockCopier:
+    """What :mod:`numba.core.inline_closurecall` sees as its ``copy`` module: ``deepcopy`` of
+    the blocks of one function's IR with one memo for all of them.
+
+    numba's inliner copies a callee's IR block by block (``copy_ir``, the module's only use of
+    ``copy``), each with a memo of its own, and every block refers to the function's scope,
+    which holds every variable of the function: the scope was copied once per block, a
+    callee's copy cost blocks x variables, and with the kernels' nested inlining those copies
+    were a third of the whole compile. One memo per function (its blocks share one scope)
+    copies the scope once; the copy is the same IR, with the sharing the original has.
+
+    The memo is dropped when a block of another scope comes (the next IR) or a block already
+    in it (the same IR copied again): two copies never share anything.
+    """
+
+    def __init__(self):
+        self._memo: dict = {}
+        self._scope = None
+
+    def deepcopy(self, x, memo=None):
+        if memo is not None or not isinstance(x, ir.Block):
+            return copy.deepcopy(x, memo)
+        if x.scope is not self._scope or id(x) in self._memo:
+            self._memo = {}
+            self._scope = x.scope
+        return copy.deepcopy(x, self._memo)
+
+    def __getattr__(self, name):
+        return getattr(copy, name)
+
+
+if not isinstance(inline_closurecall.copy, _BlockCopier):
+    inline_closurecall.copy = _BlockCopier()
 
 class KernelCacheLocator(caching._CacheLocator):
     """Numba's own cache location for a kernel source file, in a subdirectory named after
@@ -115,14 +151,42 @@ def _reach(edges, starts, blocked):
     return seen
 
 
+class _Graph:
+    """The control-flow graph's successors and predecessors, and the reachability sets the
+    exactness test asks for, each computed once (the test asks the same sets for many copies:
+    computed per copy they made most of a large kernel's compile time)."""
+
+    def __init__(self, blocks):
+        cfg = compute_cfg_from_blocks(blocks)
+        self.succ = {b: [n for n, _ in cfg.successors(b)] for b in cfg.nodes()}
+        self.pred = {b: [n for n, _ in cfg.predecessors(b)] for b in cfg.nodes()}
+        self._fwd: dict[int, set] = {}
+        self._back: dict[tuple[int, int], set] = {}
+
+    def forward(self, L):
+        """Blocks entered after leaving ``L`` before entering it again."""
+        got = self._fwd.get(L)
+        if got is None:
+            got = self._fwd[L] = _reach(self.succ, self.succ.get(L, ()), L)
+        return got
+
+    def backward(self, b, L):
+        """Blocks from which ``b`` is entered without passing through ``L``."""
+        got = self._back.get((b, L))
+        if got is None:
+            got = self._back[(b, L)] = _reach(self.pred, self.pred.get(b, ()), L)
+        return got
+
+
 def forward_copies(func_ir) -> bool:
     """Apply :class:`ForwardCopies` to ``func_ir`` in place; True when something changed."""
     blocks = func_ir.blocks
     arg_names = set(func_ir.arg_names)
     changed = False
+    # (statements are only dropped, never blocks or edges: one graph for every round)
+    graph = _Graph(blocks)
     for _ in range(50):  # chains of copies: a few rounds
         defs, uses = _defs_and_uses(blocks)
-        cfg = compute_cfg_from_blocks(blocks)
         repl: dict[str, ir.Var] = {}
         drop: set[tuple[int, int]] = set()
         for label, blk in blocks.items():
@@ -133,7 +197,7 @@ def forward_copies(func_ir) -> bool:
                 if (t == s or t in arg_names or len(defs.get(t, ())) != 1 or t in repl
                         or s in repl):
                     continue
-                if ForwardCopies._exact(cfg, defs, uses, label, i, t, s):
+                if ForwardCopies._exact(graph, defs, uses, label, i, t, s):
                     repl[t] = st.value
                     drop.add((label, i))
         if not repl:
@@ -169,18 +233,18 @@ class ForwardCopies(FunctionPass):
         return forward_copies(state.func_ir)
 
     @staticmethod
-    def _exact(cfg, defs, uses, L, i, t, s):
+    def _exact(graph, defs, uses, L, i, t, s):
         """Whether no assignment of ``s`` can run between the copy (block ``L``, statement
         ``i``) and a use of ``t`` without the copy running again."""
-        succ = {b: [n for n, _ in cfg.successors(b)] for b in cfg.nodes()}
-        pred = {b: [n for n, _ in cfg.predecessors(b)] for b in cfg.nodes()}
         s_defs = defs.get(s, [])
         s_in = {}
         for b, j in s_defs:
             s_in.setdefault(b, []).append(j)
         after_copy = any(j > i for j in s_in.get(L, ()))
         # Blocks entered after the copy before it runs again (entering L runs it again).
-        fwd = _reach(succ, succ.get(L, ()), L)
+        fwd = graph.forward(L)
+        # (the definitions of s that can run after the copy: only those can spoil a use)
+        s_fwd = [blk for blk in s_in if blk in fwd]
         for b, j in uses.get(t, []):
             if b == L and j > i:
                 if any(i < k < j for k in s_in.get(L, ())):
@@ -190,15 +254,15 @@ class ForwardCopies(FunctionPass):
                 # Reached around a loop: L's tail, the blocks back to L, L's head.
                 if after_copy or any(k < j for k in s_in.get(L, ())):
                     return False
-                back = _reach(pred, pred.get(L, ()), L)
             else:
                 if b not in fwd:
                     continue  # only reached through the copy again
                 if after_copy or any(k < j for k in s_in.get(b, ())):
                     return False
-                back = _reach(pred, pred.get(b, ()), L)
-            if any(blk in fwd and blk in back for blk in s_in):
-                return False
+            if s_fwd:
+                back = graph.backward(b, L)
+                if any(blk in back for blk in s_fwd):
+                    return False
         return True
 
 
