@@ -220,6 +220,9 @@ class _Reader(ElementLines):
         # definitions nothing instantiates
         self.deferred: dict[str, list[Diagnostic]] = {}
         self.deferred_models: dict[str, Diagnostic] = {}
+        # the included files as read (display path, bytes): what a cached deck depends on
+        # besides the top-level text (netlist.deck_cache)
+        self.included: list[tuple[str, bytes]] = []
 
     # -- diagnostics
 
@@ -339,10 +342,12 @@ class _Reader(ElementLines):
                        "a file must not include itself, directly or through other files")
             return
         try:
-            text = _decode(_read_bytes(path, display, at), display)
+            data = _read_bytes(path, display, at)
+            text = _decode(data, display)
         except NetlistError as exc:
             self.diags.extend(exc.diagnostics)
             return
+        self.included.append((display, data))
         numbered = [(i + 1, s.rstrip("\r")) for i, s in enumerate(text.split("\n"))]
         if section is not None:
             numbered = self._section(numbered, section, display, st, offset)

@@ -61,7 +61,7 @@ def load(path_or_text: str | os.PathLike, params: Mapping[str, float] | None = N
     """
     from netlist.parser import load_source
 
-    return load_source(path_or_text, params, thresholds)
+    return load_source(path_or_text, params, thresholds, reuse=True)
 
 
 def formulate(circuit: Source, params: Mapping[str, float] | None = None) -> SwitchedLCS:
@@ -174,7 +174,13 @@ def simulate(
         result = simulate_devices(circuit, devices=devices, losses=losses, load=load,
                                   pwl=dict(pwl or {}), **kw)
     else:
-        result = simulate_circuit(circuit, **kw)
+        from lcs.moreau import MoreauOptions
+        from netlist.system_cache import reused_system
+
+        # (the system is kept for the next run; its stored shortened steps are not, so that
+        # this run gives what a newly parsed netlist gives, bit for bit)
+        result = simulate_circuit(circuit, system=reused_system(circuit),
+                                  options=MoreauOptions(keep_odd_steps=False), **kw)
     if check:
         result.raise_if_error()
     return result

@@ -1,0 +1,83 @@
+"""Formulating a circuit once for many runs: switched systems kept by the values they hold.
+
+The switched LCS of a circuit (:func:`netlist.formulation.formulate`) depends on its
+topology and on the values of its R, L, C, controlled sources, couplings and switch models,
+but not on what the independent sources do: they are the inputs ``u``. A design script that
+varies a duty cycle, a source amplitude or a load step therefore needs one system for all
+its runs, and with it the mode matrices, the passivity and θ screens and the discretised
+mode stacks that are kept with a system (:mod:`lcs.screening`, :mod:`lcs.theta_screen`,
+:mod:`lcs.stepping.modes`).
+
+:func:`reused_system` keys the systems of the last :data:`MAX_SYSTEMS` circuits by
+:func:`formulation_key`: every field of every element (the exact ``repr`` of each number,
+and its source location, which the formulation's messages quote) except the value and
+waveform of independent sources, the models, whether the run starts from an operating point
+(``.tran`` without UIC) and the file name. Two circuits with the same key get the same
+system, which is the system each would have been given by :func:`formulate`: the key holds
+everything :func:`formulate` reads.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from dataclasses import fields
+
+from lcs.model import SwitchedLCS
+
+from .circuit import Circuit
+from .formulation import formulate
+
+__all__ = ["MAX_SYSTEMS", "clear", "formulation_key", "reused_system"]
+
+#: systems kept (least recently used dropped first)
+MAX_SYSTEMS = 16
+
+_SYSTEMS: OrderedDict[str, SwitchedLCS] = OrderedDict()
+# Independent sources' fields the formulation does not read (they are its inputs).
+_INPUT_FIELDS = frozenset({"dc", "waveform"})
+_FIELDS: dict[type, tuple[str, ...]] = {}
+
+
+def formulation_key(circuit: Circuit) -> str:
+    """What :func:`~netlist.formulation.formulate` reads of a circuit, as text.
+
+    Every element field but the key (its lower-case name) and, for V and I sources, ``dc``
+    and ``waveform``; the models; ``.tran`` without UIC (the switches' initial state then
+    comes from an operating point); the file name. Numbers are written with ``repr``, which
+    tells every two doubles apart.
+    """
+    parts = []
+    for el in circuit.elements:
+        names = _FIELDS.get(type(el))
+        if names is None:
+            skip = {"key"} | (_INPUT_FIELDS if el.kind in "VI" else set())
+            names = _FIELDS[type(el)] = tuple(f.name for f in fields(el) if f.name not in skip)
+        parts.append((el.kind, tuple(getattr(el, n) for n in names)))
+    models = sorted((k, m.type, sorted(m.params.items())) for k, m in circuit.models.items())
+    from_op = circuit.tran is not None and not circuit.tran.uic
+    return repr((circuit.file, from_op, models, parts))
+
+
+def reused_system(circuit: Circuit) -> SwitchedLCS:
+    """The switched LCS of ``circuit``: kept from a circuit with the same
+    :func:`formulation_key`, or formulated now (and kept).
+
+    Raises
+    ------
+    NetlistError
+        As :func:`~netlist.formulation.formulate` (a failed formulation is not kept).
+    """
+    key = formulation_key(circuit)
+    system = _SYSTEMS.get(key)
+    if system is None:
+        system = formulate(circuit)
+        _SYSTEMS[key] = system
+        while len(_SYSTEMS) > MAX_SYSTEMS:
+            _SYSTEMS.popitem(last=False)
+    _SYSTEMS.move_to_end(key)
+    return system
+
+
+def clear() -> None:
+    """Forget every kept system (and with them what is cached per system)."""
+    _SYSTEMS.clear()
