@@ -5,7 +5,7 @@ values; evaluating does (:func:`netlist.flatten.build_circuit`). A design script
 simulates the same netlist with other parameter values therefore needs the
 :class:`~netlist.rawdeck.Deck` once: :func:`cached_deck` keeps the decks of the last
 :data:`MAX_DECKS` netlists, keyed by the exact text of the top-level netlist (with its file
-name, the working directory that relative includes start from, and the resolved path), and
+name and the working directory that relative includes start from), and
 hands one back only when every file it included still holds the bytes it was read from.
 A file edited on disk is therefore read again, whatever its modification time says.
 
@@ -41,7 +41,7 @@ class _Entry:
 _DECKS: OrderedDict[tuple, _Entry] = OrderedDict()
 
 
-def cached_deck(text: str, file: str, base: Path | None,
+def cached_deck(text: str, file: str, path: Path | None,
                 params: Mapping[str, float] | None) -> Deck:
     """The deck of netlist ``text``, read now or kept from an earlier call.
 
@@ -52,8 +52,8 @@ def cached_deck(text: str, file: str, base: Path | None,
     file : str
         Its name as the user gave it (messages, and the directory relative includes start
         from), ``"<string>"`` for text.
-    base : Path, optional
-        The file's resolved path (include cycles), None for text.
+    path : Path, optional
+        The file (resolved when it is read, for include cycles), None for text.
     params : mapping, optional
         The overrides of this run: they only complete the report of a netlist with syntax
         problems (:meth:`netlist.reader._Reader.raise_problems`).
@@ -68,13 +68,14 @@ def cached_deck(text: str, file: str, base: Path | None,
     NetlistError
         Every problem of the netlist, as :func:`netlist.parser.parse_file` raises it.
     """
-    key = (file, os.getcwd(), base, text)
+    # (the working directory: relative includes, and a relative ``file``, start there)
+    key = (file, os.getcwd(), path is None, text)
     entry = _DECKS.get(key)
     if entry is not None and all(_unchanged(p, data) for p, data in entry.included):
         _DECKS.move_to_end(key)
         return entry.deck
     reader = _Reader(file)
-    reader.read_top(text, file, base)
+    reader.read_top(text, file, None if path is None else _resolved(path))
     reader.raise_problems(dict(params or {}), independent_problems)
     _DECKS[key] = _Entry(reader.deck, tuple(reader.included))
     _DECKS.move_to_end(key)
@@ -86,6 +87,13 @@ def cached_deck(text: str, file: str, base: Path | None,
 def clear() -> None:
     """Forget every kept deck."""
     _DECKS.clear()
+
+
+def _resolved(path: Path) -> Path:
+    try:
+        return path.resolve()
+    except (OSError, RuntimeError):
+        return path
 
 
 def _unchanged(display: str, data: bytes) -> bool:

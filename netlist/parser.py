@@ -117,22 +117,24 @@ def parse_file(path: str | os.PathLike, params: dict[str, float] | None = None,
     display = os.fspath(path)
     p = Path(display)
     text = _decode(_read_bytes(p, display, None), display)
-    try:
-        resolved = p.resolve()
-    except (OSError, RuntimeError):
-        resolved = p
-    return _idealised(build_circuit(_deck(text, display, resolved, params, reuse), params,
+    return _idealised(build_circuit(_deck(text, display, p, params, reuse), params,
                                     thresholds))
 
 
-def _deck(text: str, file: str, base: Path | None, params: dict[str, float],
+def _deck(text: str, file: str, path: Path | None, params: dict[str, float],
           reuse: bool) -> Deck:
     """The deck of ``text`` (read, or with ``reuse`` the one kept from an earlier read of
     the same text and includes: :mod:`netlist.deck_cache`); raises its problems."""
     if reuse:
         from .deck_cache import cached_deck
 
-        return cached_deck(text, file, base, params)
+        return cached_deck(text, file, path, params)
+    base = None
+    if path is not None:
+        try:
+            base = path.resolve()
+        except (OSError, RuntimeError):
+            base = path
     reader = _Reader(file)
     reader.read_top(text, file, base)
     reader.raise_problems(params, independent_problems)

@@ -88,16 +88,21 @@ def _read_bytes(path: Path, display: str, at: Location | None) -> bytes:
         raise NetlistError(Diagnostic(str(exc), at, "unset it or give a number of bytes"),
                            display) from None
     try:
-        if path.is_dir():
+        mode = os.stat(path).st_mode
+        if stat.S_ISDIR(mode):
             raise NetlistError(Diagnostic(f"'{display}' is a directory, not a netlist file", at,
                                           "give the path of a netlist file"), display)
-        mode = os.stat(path).st_mode
         if not (stat.S_ISREG(mode) or (at is None and stat.S_ISFIFO(mode))):
             raise NetlistError(Diagnostic(
                 f"'{display}' is not a regular file (a device, a pipe or a socket)", at,
                 "give the path of a netlist file"), display)
         with open(path, "rb") as fh:
-            data = fh.read(int(limit) + 1)
+            # Sized from the file (read(limit + 1) allocates the whole limit, 30 us a
+            # netlist); past the size (a pipe, a file growing) up to the limit.
+            want = min(int(limit), os.fstat(fh.fileno()).st_size) + 1
+            data = fh.read(want)
+            if len(data) == want and want <= limit:
+                data += fh.read(int(limit) + 1 - want)
     except FileNotFoundError:
         raise NetlistError(Diagnostic(f"file not found: '{display}'", at,
                                       "check the path (relative paths in .include and .lib "

@@ -25,6 +25,7 @@ from dataclasses import fields
 from lcs.model import SwitchedLCS
 
 from .circuit import Circuit
+from .errors import Location
 from .formulation import formulate
 
 __all__ = ["MAX_SYSTEMS", "clear", "formulation_key", "reused_system"]
@@ -52,10 +53,17 @@ def formulation_key(circuit: Circuit) -> str:
         if names is None:
             skip = {"key"} | (_INPUT_FIELDS if el.kind in "VI" else set())
             names = _FIELDS[type(el)] = tuple(f.name for f in fields(el) if f.name not in skip)
-        parts.append((el.kind, tuple(getattr(el, n) for n in names)))
+        parts.append((el.kind, [_plain(getattr(el, n)) for n in names]))
     models = sorted((k, m.type, sorted(m.params.items())) for k, m in circuit.models.items())
     from_op = circuit.tran is not None and not circuit.tran.uic
     return repr((circuit.file, from_op, models, parts))
+
+
+def _plain(value):
+    # (a location as a tuple: the dataclass's generated repr is ten times slower)
+    if isinstance(value, Location):
+        return (value.file, value.line, value.column, value.text)
+    return value
 
 
 def reused_system(circuit: Circuit) -> SwitchedLCS:

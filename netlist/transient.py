@@ -627,8 +627,12 @@ def check_run_size(setup: TransientSetup, probes: int, every: int = 1) -> None:
 
     steps = setup.t_stop / setup.h
     span = (f"0 to {format_eng(setup.t_stop, 's')} with h = {format_eng(setup.h, 's')}")
+    points = steps / max(1, int(every)) + 1
+    # the recorder's buffer, then the result copied out of it (or resampled)
+    need = 2.0 * points * (probes + 1) * 8.0
     try:
-        max_steps, max_bytes = STEPS.value(), MEMORY.value()
+        max_steps = STEPS.value()
+        max_bytes = None if MEMORY.allows(need) else MEMORY.value()
     except ValueError as exc:
         raise NetlistError(Diagnostic(message=str(exc), hint="unset it or give a number"),
                            file=setup.file) from None
@@ -639,10 +643,7 @@ def check_run_size(setup: TransientSetup, probes: int, every: int = 1) -> None:
             hint="a larger step (--step, .tran TMAX) or a shorter run (--tstop); "
                  + STEPS.hint(f"{10 ** math.ceil(math.log10(steps)):.0e}")),
             file=setup.file)
-    points = steps / max(1, int(every)) + 1
-    # the recorder's buffer, then the result copied out of it (or resampled)
-    need = 2.0 * points * (probes + 1) * 8.0
-    if not need <= max_bytes:
+    if max_bytes is not None and not need <= max_bytes:
         raise NetlistError(Diagnostic(
             message=f"the run would store {points:.3g} points of {probes} probe"
                     f"{'s' if probes != 1 else ''} ({span}): "
