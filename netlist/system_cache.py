@@ -19,8 +19,9 @@ everything :func:`formulate` reads.
 
 from __future__ import annotations
 
+import copy
 from collections import OrderedDict
-from dataclasses import fields
+from dataclasses import fields, replace
 
 from lcs.model import SwitchedLCS
 
@@ -78,12 +79,21 @@ def reused_system(circuit: Circuit) -> SwitchedLCS:
     key = formulation_key(circuit)
     system = _SYSTEMS.get(key)
     if system is None:
-        system = formulate(circuit)
+        # (from a copy: the system builds its modes when first asked, and must not see a
+        # later change to the caller's circuit, which another key then stands for)
+        system = formulate(_private_copy(circuit))
         _SYSTEMS[key] = system
         while len(_SYSTEMS) > MAX_SYSTEMS:
             _SYSTEMS.popitem(last=False)
     _SYSTEMS.move_to_end(key)
     return system
+
+
+def _private_copy(circuit: Circuit) -> Circuit:
+    """The circuit with its own elements and models (their fields are immutable values)."""
+    return replace(circuit, elements=[copy.copy(el) for el in circuit.elements],
+                   models={k: replace(m, params=dict(m.params))
+                           for k, m in circuit.models.items()})
 
 
 def clear() -> None:

@@ -1,0 +1,180 @@
+"""Repeated simulations through the Python API: the netlist is read once
+(:mod:`netlist.deck_cache`), the system formulated once per set of values
+(:mod:`netlist.system_cache`), and every run still gives, bit for bit, what a fresh parse and
+simulation of the same values gives; an edited file (or include) is read again."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pelcs
+from lcs.signals import Pulse
+from netlist import deck_cache, system_cache
+from netlist.errors import NetlistError
+from netlist.parser import parse_file, parse_string
+from netlist.transient import simulate_circuit
+
+BUCK = Path(__file__).resolve().parents[1] / "converters" / "netlists" / "buck.cir"
+TSTOP = 5 / 50e3  # five switching periods of the buck
+PROBES = ["v(out)", "i(L1)"]
+
+# The buck with its load and inductance as parameters too.
+BUCK_PARAMS = """buck with parameters
+.param vin=24 duty=0.5 fs=50k rload=5 lval=200u
+.param ts={1/fs}
+Vin in 0 DC {vin}
+S1 in sw gate 0 SWIDEAL
+D1 0 sw DIDEAL
+L1 sw out {lval}
+C1 out 0 100u IC=0
+R1 out 0 {rload}
+Vg gate 0 PULSE(0 1 0 10n 10n {duty*ts-10n} {ts})
+.model SWIDEAL SW(VT=0.5 VH=0 RON=1m ROFF=1e9)
+.model DIDEAL D(IS=1e-12 N=0.05 RS=1m)
+.tran 0.2u 5m 0 0.2u UIC
+.end
+"""
+
+
+def _same(a, b) -> bool:
+    """Bit for bit: times, probes, events, notes, θ."""
+    return (a.t.tobytes() == b.t.tobytes() and a.y.tobytes() == b.y.tobytes()
+            and a.names == b.names and a.events == b.events and a.notes == b.notes
+            and a.theta == b.theta)
+
+
+def _fresh_file(path, params):
+    return simulate_circuit(parse_file(path, params), tstop=TSTOP, probes=PROBES)
+
+
+def test_repeated_duty_runs_equal_fresh_runs_bit_for_bit():
+    # Back and forth: a value met before must not inherit anything from the runs between
+    # (the stored shortened steps of other duties differ from its own at round-off).
+    for duty in (0.5, 0.3, 0.5, 0.62, 0.3):
+        res = pelcs.simulate(BUCK, tstop=TSTOP, probes=PROBES, params={"duty": duty})
+        assert _same(res, _fresh_file(BUCK, {"duty": duty})), duty
+
+
+def test_repeated_load_and_inductance_runs_equal_fresh_runs():
+    # R and L change the system: each set of values gets its own, kept for its next run.
+    sets = [{"rload": 5}, {"rload": 2.5, "lval": "150u"}, {"rload": 5},
+            {"duty": 0.4, "lval": "150u", "rload": 2.5}]
+    for params in sets:
+        res = pelcs.simulate(BUCK_PARAMS, tstop=TSTOP, probes=PROBES, params=params)
+        ref = simulate_circuit(parse_string(BUCK_PARAMS, params={
+            k: (float(v) if not isinstance(v, str) else 150e-6) for k, v in params.items()}),
+            tstop=TSTOP, probes=PROBES)
+        assert _same(res, ref), params
+
+
+def test_a_repeated_value_set_reuses_the_deck_and_the_system():
+    a = pelcs.load(BUCK_PARAMS, params={"duty": 0.3})
+    b = pelcs.load(BUCK_PARAMS, params={"duty": 0.6})
+    c = pelcs.load(BUCK_PARAMS, params={"rload": 3})
+    assert system_cache.formulation_key(a) == system_cache.formulation_key(b)  # inputs only
+    assert system_cache.formulation_key(a) != system_cache.formulation_key(c)
+    assert system_cache.reused_system(a) is system_cache.reused_system(b)
+    assert system_cache.reused_system(c) is not system_cache.reused_system(a)
+    # One deck for every value set of the same text.
+    d1 = deck_cache.cached_deck(BUCK_PARAMS, "<string>", None, None)
+    d2 = deck_cache.cached_deck(BUCK_PARAMS, "<string>", None, {"duty": 0.1})
+    assert d1 is d2
+
+
+def test_a_changed_circuit_object_gets_its_own_system():
+    c = pelcs.load(BUCK_PARAMS)
+    first = system_cache.reused_system(c)
+    c.element("R1").value = 2.0  # the caller edits the circuit it holds
+    second = system_cache.reused_system(c)
+    assert second is not first
+    # The first system was formulated from a copy: it still has R1 = 5 ohm.
+    again = system_cache.reused_system(pelcs.load(BUCK_PARAMS))
+    assert again is first
+    on = {"S1": True}
+    a_on = first.mode(on).A
+    assert not np.array_equal(a_on, second.mode(on).A)
+
+
+def test_an_edited_file_is_read_again(tmp_path):
+    net = tmp_path / "buck.cir"
+    net.write_text(BUCK.read_text())
+    before = pelcs.simulate(net, tstop=TSTOP, probes=PROBES)
+    stat = net.stat()
+    # Same size, same modification time: only the bytes tell.
+    net.write_text(BUCK.read_text().replace("R1 out 0 5", "R1 out 0 4"))
+    os.utime(net, ns=(stat.st_atime_ns, stat.st_mtime_ns))
+    assert net.stat().st_size == stat.st_size and net.stat().st_mtime_ns == stat.st_mtime_ns
+    after = pelcs.simulate(net, tstop=TSTOP, probes=PROBES)
+    assert _same(after, _fresh_file(net, {}))
+    assert not np.array_equal(before.y, after.y)
+
+
+def test_an_edited_include_is_read_again(tmp_path):
+    inc = tmp_path / "load.inc"
+    inc.write_text("R1 out 0 5\n")
+    top = tmp_path / "top.cir"
+    top.write_text(BUCK.read_text().replace("R1 out 0 5", ".include load.inc"))
+    first = pelcs.load(top)
+    assert first.element("R1").value == 5.0
+    inc.write_text("R1 out 0 7\n")
+    assert pelcs.load(top).element("R1").value == 7.0
+    inc.unlink()  # gone: the error, not the kept deck
+    with pytest.raises(NetlistError, match="file not found"):
+        pelcs.load(top)
+
+
+def test_a_netlist_with_errors_is_not_kept_and_errors_stay_the_same(tmp_path):
+    bad = BUCK_PARAMS.replace("R1 out 0 {rload}", "R1 out 0 {rlaod}")
+    for _ in range(2):
+        with pytest.raises(NetlistError) as fresh:
+            parse_string(bad)
+        with pytest.raises(NetlistError) as kept:
+            pelcs.load(bad)
+        assert str(kept.value) == str(fresh.value)
+    with pytest.raises(NetlistError, match="duty"):
+        pelcs.load(BUCK_PARAMS, params={"dutty": 0.3})  # an unknown override, every time
+    with pytest.raises(NetlistError, match="duty"):
+        pelcs.load(BUCK_PARAMS, params={"dutty": 0.3})
+
+
+def test_pulse_at_one_instant_is_the_array_evaluation_bit_for_bit():
+    rng = np.random.default_rng(1)
+    pulses = [Pulse(0, 1, 0, 1e-8, 1e-8, 0.4 * 2e-5 - 1e-8, 2e-5),
+              Pulse(2.5, -1, 3e-6, 1e-6, 2e-6, 5e-6, 1e-5, 3.5),     # NP, inverted
+              Pulse(0, 5, 0, 1e-3, 1e-3, 0, 1.5e-3),                  # PW = 0, cut
+              Pulse(1, 2, 1e-4, 1e-4, 1e-3, 1e-3, 2.1e-3),            # cut period
+              Pulse(0, 1, 0, 1e-6, 1e-6, -1e-7, 1e-5),                # negative PW
+              Pulse(0, 1, 1e-6, 1e-6, 1e-6, 0, 0)]                    # one pulse
+    for p in pulses:
+        per = max(p.per, 1e-6)
+        corners = (p.td + np.arange(12)[:, None] * per
+                   + np.array([0, p.tr, p.tr + p.pw, p.tr + p.pw + p.tf, p.per])).ravel()
+        t = np.concatenate([rng.uniform(-1e-5, 30 * per, 400), corners,
+                            np.nextafter(corners, np.inf), np.nextafter(corners, -np.inf)])
+        for side in (-1, 0, 1):
+            whole = p(t, side)
+            one = np.array([p(np.array([x]), side)[0] for x in t])
+            assert whole.view(np.int64).tolist() == one.view(np.int64).tolist(), (p, side)
+    assert p(np.array(0.5e-6)).shape == ()
+
+
+def test_kept_shortened_steps_change_a_run_only_at_round_off():
+    # Why the API starts every run without the stored shortened steps: with them (the
+    # default for repeated runs of one system, e.g. shooting) a duty's run after another
+    # duty's differs from its fresh run, at round-off.
+    from lcs.moreau import MoreauOptions
+
+    c3, c5 = parse_file(BUCK, {"duty": 0.3}), parse_file(BUCK, {"duty": 0.5})
+    system = system_cache.formulate(c5)
+    simulate_circuit(c5, tstop=TSTOP, probes=PROBES, system=system)
+    kept = simulate_circuit(c3, tstop=TSTOP, probes=PROBES, system=system)
+    cleared = simulate_circuit(c3, tstop=TSTOP, probes=PROBES, system=system,
+                               options=MoreauOptions(keep_odd_steps=False))
+    fresh = _fresh_file(BUCK, {"duty": 0.3})
+    assert _same(cleared, fresh)
+    assert not _same(kept, fresh)  # (without the option the API's runs would not be exact)
+    assert np.allclose(kept.y, fresh.y, rtol=0, atol=1e-9)
