@@ -47,8 +47,10 @@ from .dialect import hierarchical_name, node_name
 from .errors import Diagnostic, NetlistError
 from .expressions import ExpressionError, parse_expression
 from .flatten import build_circuit, independent_problems
+from .netlist_bytes import decode as _decode
+from .netlist_bytes import read_bytes as _read_bytes
 from .rawdeck import Deck, Statement
-from .reader import _decode, _read_bytes, _Reader, read_deck
+from .reader import _Reader, read_deck
 from .units import parse_number
 
 __all__ = ["parse_file", "parse_string", "parse_overrides", "load_source", "read_deck", "Deck",
