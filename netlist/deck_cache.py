@@ -4,10 +4,11 @@ Reading (splitting, the LALR parse of every statement) does not depend on the ``
 values; evaluating does (:func:`netlist.flatten.build_circuit`). A design script that
 simulates the same netlist with other parameter values therefore needs the
 :class:`~netlist.rawdeck.Deck` once: :func:`cached_deck` keeps the decks of the last
-:data:`MAX_DECKS` netlists, keyed by the exact text of the top-level netlist (with its file
-name and the working directory that relative includes start from), and
-hands one back only when every file it included still holds the bytes it was read from.
-A file edited on disk is therefore read again, whatever its modification time says.
+:data:`MAX_DECKS` netlists (fewer long ones: :data:`MAX_CHARS`), keyed by the exact text of
+the top-level netlist (with its file name and the working directory that relative includes
+start from), and hands one back only when every file it included still holds the bytes it
+was read from. A file edited on disk is therefore read again, whatever its modification time
+says (the caller reads the top-level file's text every time).
 
 A deck with problems is not kept (the error is raised as without the cache), and a deck is
 never changed by evaluation, so one deck serves any number of circuits.
@@ -26,10 +27,12 @@ from .flatten import independent_problems
 from .rawdeck import Deck
 from .reader import _Reader
 
-__all__ = ["MAX_DECKS", "cached_deck", "clear"]
+__all__ = ["MAX_CHARS", "MAX_DECKS", "cached_deck", "clear"]
 
-#: decks kept (least recently used dropped first)
+#: decks kept (least recently used dropped first) ...
 MAX_DECKS = 32
+#: ... and the characters of their texts, together (the newest always kept)
+MAX_CHARS = 16_000_000
 
 
 @dataclass(frozen=True)
@@ -79,7 +82,8 @@ def cached_deck(text: str, file: str, path: Path | None,
     reader.raise_problems(dict(params or {}), independent_problems)
     _DECKS[key] = _Entry(reader.deck, tuple(reader.included))
     _DECKS.move_to_end(key)
-    while len(_DECKS) > MAX_DECKS:
+    while len(_DECKS) > 1 and (len(_DECKS) > MAX_DECKS or sum(
+            len(k[3]) for k in _DECKS) > MAX_CHARS):
         _DECKS.popitem(last=False)
     return reader.deck
 

@@ -8,7 +8,8 @@ its runs, and with it the mode matrices, the passivity and θ screens and the di
 mode stacks that are kept with a system (:mod:`lcs.screening`, :mod:`lcs.theta_screen`,
 :mod:`lcs.stepping.modes`).
 
-:func:`reused_system` keys the systems of the last :data:`MAX_SYSTEMS` circuits by
+:func:`reused_system` keys the systems of the last :data:`MAX_SYSTEMS` circuits (fewer of
+large circuits: :data:`MAX_ELEMENTS`) by
 :func:`formulation_key`: every field of every element (the exact ``repr`` of each number,
 and its source location, which the formulation's messages quote) except the value and
 waveform of independent sources, the models, whether the run starts from an operating point
@@ -29,12 +30,16 @@ from .circuit import Circuit
 from .errors import Location
 from .formulation import formulate
 
-__all__ = ["MAX_SYSTEMS", "clear", "formulation_key", "reused_system"]
+__all__ = ["MAX_ELEMENTS", "MAX_SYSTEMS", "clear", "formulation_key", "reused_system"]
 
-#: systems kept (least recently used dropped first)
+#: systems kept (least recently used dropped first) ...
 MAX_SYSTEMS = 16
+#: ... and the elements of their circuits, together: what a system keeps (its modes, their
+#: discretised stacks) grows with its circuit, so a large circuit's systems are kept by twos
+#: (the newest always)
+MAX_ELEMENTS = 1024
 
-_SYSTEMS: OrderedDict[str, SwitchedLCS] = OrderedDict()
+_SYSTEMS: OrderedDict[str, tuple[SwitchedLCS, int]] = OrderedDict()
 # Independent sources' fields the formulation does not read (they are its inputs).
 _INPUT_FIELDS = frozenset({"dc", "waveform"})
 _FIELDS: dict[type, tuple[str, ...]] = {}
@@ -77,15 +82,17 @@ def reused_system(circuit: Circuit) -> SwitchedLCS:
         As :func:`~netlist.formulation.formulate` (a failed formulation is not kept).
     """
     key = formulation_key(circuit)
-    system = _SYSTEMS.get(key)
-    if system is None:
-        # (from a copy: the system builds its modes when first asked, and must not see a
-        # later change to the caller's circuit, which another key then stands for)
-        system = formulate(_private_copy(circuit))
-        _SYSTEMS[key] = system
-        while len(_SYSTEMS) > MAX_SYSTEMS:
-            _SYSTEMS.popitem(last=False)
-    _SYSTEMS.move_to_end(key)
+    kept = _SYSTEMS.get(key)
+    if kept is not None:
+        _SYSTEMS.move_to_end(key)
+        return kept[0]
+    # (from a copy: the system builds its modes when first asked, and must not see a later
+    # change to the caller's circuit, which another key then stands for)
+    system = formulate(_private_copy(circuit))
+    _SYSTEMS[key] = (system, len(circuit.elements))
+    while len(_SYSTEMS) > 1 and (len(_SYSTEMS) > MAX_SYSTEMS or sum(
+            n for _, n in _SYSTEMS.values()) > MAX_ELEMENTS):
+        _SYSTEMS.popitem(last=False)
     return system
 
 

@@ -178,3 +178,25 @@ def test_kept_shortened_steps_change_a_run_only_at_round_off():
     assert _same(cleared, fresh)
     assert not _same(kept, fresh)  # (without the option the API's runs would not be exact)
     assert np.allclose(kept.y, fresh.y, rtol=0, atol=1e-9)
+
+
+def test_the_caches_are_bounded(monkeypatch):
+    monkeypatch.setattr(system_cache, "MAX_SYSTEMS", 2)
+    systems = [system_cache.reused_system(pelcs.load(BUCK_PARAMS, params={"rload": r}))
+               for r in (1.0, 2.0, 3.0)]
+    assert system_cache.reused_system(pelcs.load(BUCK_PARAMS, params={"rload": 3.0})) \
+        is systems[2]
+    assert system_cache.reused_system(pelcs.load(BUCK_PARAMS, params={"rload": 1.0})) \
+        is not systems[0]  # dropped, formulated again
+    # A large circuit's systems are kept by twos at most (its elements count).
+    monkeypatch.setattr(system_cache, "MAX_SYSTEMS", 16)
+    monkeypatch.setattr(system_cache, "MAX_ELEMENTS", 20)  # the buck has 8 elements
+    first = system_cache.reused_system(pelcs.load(BUCK_PARAMS, params={"rload": 4.0}))
+    for r in (5.0, 6.0):
+        system_cache.reused_system(pelcs.load(BUCK_PARAMS, params={"rload": r}))
+    assert system_cache.reused_system(pelcs.load(BUCK_PARAMS, params={"rload": 4.0})) \
+        is not first
+    monkeypatch.setattr(deck_cache, "MAX_CHARS", len(BUCK_PARAMS) + 10)
+    deck = deck_cache.cached_deck(BUCK_PARAMS, "<string>", None, None)
+    deck_cache.cached_deck(BUCK_PARAMS + "* other\n", "<string>", None, None)
+    assert deck_cache.cached_deck(BUCK_PARAMS, "<string>", None, None) is not deck
