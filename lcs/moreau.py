@@ -50,6 +50,7 @@ not raise then: it returns the result computed so far with ``result.error`` set 
 from __future__ import annotations
 
 import time
+import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -668,13 +669,35 @@ def simulate(
     t_wall = time.perf_counter()
     opts = options or MoreauOptions()
     _check_args(system, signals, x0, t_start, t_stop, h, theta, every)
-    return driver.run(Problem(system, probes), list(signals), np.asarray(x0, dtype=float),
+    return driver.run(_problem(system, probes), list(signals), np.asarray(x0, dtype=float),
                       float(t_start), float(t_stop),
                       MoreauIntegrator(float(h), float(theta), opts), every=int(every),
                       breakpoints=breakpoints, save_at=save_at, progress=progress,
                       on_inconsistent=on_inconsistent,
                       switching=switching or opts.switching, controllers=list(controllers),
                       lcp=opts.lcp, t_wall=t_wall)
+
+
+_PROBLEMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _problem(system: SwitchedLCS, probes) -> Problem:
+    """The :class:`Problem` of ``system`` with these probe names, kept with the system (its
+    per-mode outputs and arrays are built once for repeated runs); an explicit output map
+    gets a new one."""
+    if isinstance(probes, OutputMap):
+        return Problem(system, probes)
+    names = None if probes is None else tuple(probes)
+    try:
+        per_system = _PROBLEMS.setdefault(system, {})
+    except TypeError:  # not weak-referenceable: not kept
+        return Problem(system, names)
+    problem = per_system.get(names)
+    if problem is None:
+        if len(per_system) >= 8:
+            per_system.pop(next(iter(per_system)))
+        problem = per_system[names] = Problem(system, names)
+    return problem
 
 
 def simulate_lcs(

@@ -12,6 +12,11 @@
     system = pelcs.formulate(circuit)            # SwitchedLCS: one LCS per switch mode
     lcs = system.mode({"S1": True})              # A, B, C, D, E, F of the mode S1 on
 
+Calling :func:`simulate` in a loop with other ``params`` is cheap: the netlist as read is
+kept by the bytes of its files (an edited file is read again) and the formulated system by
+the element values it depends on (not the independent sources'); each run still gives, bit
+for bit, what a fresh parse gives (docs/performance.md, "Many runs of one netlist").
+
 Times accept SPICE text (``"5m"``, ``"0.2u"``) as well as numbers in seconds. Input errors
 raise :class:`netlist.errors.NetlistError`; a run that cannot continue raises
 :class:`lcs.results.SimulationError` whose ``.result`` holds everything up to the failure
