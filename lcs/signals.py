@@ -16,6 +16,9 @@ import numpy as np
 from .arrays import unique_sorted
 
 _EPS = float(np.finfo(float).eps)
+# Instants of a PULSE's evaluation kept for the next (a run's few hundred breakpoints; a
+# long array is not kept)
+_MEMO_MAX = 4096
 
 
 @dataclass(frozen=True)
@@ -79,6 +82,33 @@ class Pulse:
             # One instant (an initial value, a step's input): the same arithmetic on a
             # Python float, without some thirty numpy calls on one-element arrays.
             return np.full(t.shape, self._at(float(t.flat[0]), side))
+        if t.ndim != 1 or t.size > _MEMO_MAX:
+            return self._values(t, side)
+        # A run asks for the same instants again (its segments' starts, their ends, its input
+        # table): each value depends on its instant alone, so those of the last call serve.
+        memo = self.__dict__.get("_last_values")
+        if memo is not None and memo[0] == side:
+            known_t, known_v = memo[1], memo[2]
+            idx = np.minimum(np.searchsorted(known_t, t), known_t.size - 1)
+            hit = known_t[idx] == t
+            if hit.all():
+                return known_v[idx]
+            out = np.empty_like(t)
+            out[hit] = known_v[idx[hit]]
+            miss = t[~hit]
+            out[~hit] = (self._at(float(miss[0]), side) if miss.size == 1
+                         and math.isfinite(miss[0]) else self._values(miss, side))
+        else:
+            out = self._values(t, side)
+        order = np.argsort(t, kind="stable")
+        object.__setattr__(self, "_last_values", (side, t[order], out[order]))
+        return out
+
+    def __getstate__(self) -> dict:
+        # (pickled without the kept evaluations and breakpoints: not part of the value)
+        return {k: v for k, v in self.__dict__.items() if not k.startswith("_last_")}
+
+    def _values(self, t: np.ndarray, side: int) -> np.ndarray:
         tau = t - self.td
         per = self.per
         after = np.zeros(tau.shape, dtype=bool)

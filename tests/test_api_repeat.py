@@ -162,6 +162,22 @@ def test_pulse_at_one_instant_is_the_array_evaluation_bit_for_bit():
     assert p(np.array(0.5e-6)).shape == ()
 
 
+def test_pulse_evaluated_again_at_some_of_the_same_instants_gives_the_same_bits():
+    # The last evaluation's instants serve the next call's (a run's segment starts, ends,
+    # input table): overlaps, supersets, shuffled, many new instants, the other side.
+    p = Pulse(0, 1, 0, 1e-8, 1e-8, 0.4 * 2e-5 - 1e-8, 2e-5)
+    grid = np.sort(np.concatenate([np.linspace(0, 4e-4, 81), 2e-5 * np.arange(20) + 1e-8]))
+    rng = np.random.default_rng(2)
+    calls = [(grid[:-1], 1), (grid[1:], -1), (grid[1:], 1), (grid, 0), (grid[::-1], 0),
+             (np.concatenate([grid[:30], rng.uniform(0, 4e-4, 50)]), 0),
+             (rng.permutation(grid), 0)]
+    for t, side in calls:
+        fresh = Pulse(*[getattr(p, f) for f in ("v1", "v2", "td", "tr", "tf", "pw", "per")])
+        want = fresh._values(t, side)
+        got = p(t, side)
+        assert got.view(np.int64).tolist() == want.view(np.int64).tolist(), side
+
+
 def test_kept_shortened_steps_change_a_run_only_at_round_off():
     # Why the API starts every run without the stored shortened steps: with them (the
     # default for repeated runs of one system, e.g. shooting) a duty's run after another
