@@ -10,8 +10,8 @@ mode stacks that are kept with a system (:mod:`lcs.screening`, :mod:`lcs.theta_s
 
 :func:`reused_system` keys the systems of the last :data:`MAX_SYSTEMS` circuits (fewer of
 large circuits: :data:`MAX_ELEMENTS`) by
-:func:`formulation_key`: every field of every element (the exact ``repr`` of each number,
-and its source location, which the formulation's messages quote) except the value and
+:func:`formulation_key`: every field of every element (each number as a double, and its
+source location, which the formulation's messages quote) except the value and
 waveform of independent sources, the models, whether the run starts from an operating point
 (``.tran`` without UIC) and the file name. Two circuits with the same key get the same
 system, which is the system each would have been given by :func:`formulate`: the key holds
@@ -21,7 +21,9 @@ everything :func:`formulate` reads.
 from __future__ import annotations
 
 import copy
+import math
 from collections import OrderedDict
+from collections.abc import Hashable
 from dataclasses import fields, replace
 
 from lcs.model import SwitchedLCS
@@ -39,19 +41,19 @@ MAX_SYSTEMS = 16
 #: (the newest always)
 MAX_ELEMENTS = 1024
 
-_SYSTEMS: OrderedDict[str, tuple[SwitchedLCS, int]] = OrderedDict()
+_SYSTEMS: OrderedDict[Hashable, tuple[SwitchedLCS, int]] = OrderedDict()
 # Independent sources' fields the formulation does not read (they are its inputs).
 _INPUT_FIELDS = frozenset({"dc", "waveform"})
 _FIELDS: dict[type, tuple[str, ...]] = {}
 
 
-def formulation_key(circuit: Circuit) -> str:
-    """What :func:`~netlist.formulation.formulate` reads of a circuit, as text.
+def formulation_key(circuit: Circuit) -> Hashable:
+    """What :func:`~netlist.formulation.formulate` reads of a circuit, as a hashable value.
 
     Every element field but the key (its lower-case name) and, for V and I sources, ``dc``
     and ``waveform``; the models; ``.tran`` without UIC (the switches' initial state then
-    comes from an operating point); the file name. Numbers are written with ``repr``, which
-    tells every two doubles apart.
+    comes from an operating point); the file name. Numbers compare as doubles, -0.0 told
+    apart from 0.0 (a NaN never equals itself: its circuit is formulated again).
     """
     parts = []
     for el in circuit.elements:
@@ -59,16 +61,26 @@ def formulation_key(circuit: Circuit) -> str:
         if names is None:
             skip = {"key"} | (_INPUT_FIELDS if el.kind in "VI" else set())
             names = _FIELDS[type(el)] = tuple(f.name for f in fields(el) if f.name not in skip)
-        parts.append((el.kind, [_plain(getattr(el, n)) for n in names]))
-    models = sorted((k, m.type, sorted(m.params.items())) for k, m in circuit.models.items())
+        parts.append((el.kind, *[_plain(getattr(el, n)) for n in names]))
+    models = tuple(sorted((k, m.type, tuple((name, _plain(v)) for name, v in
+                                            sorted(m.params.items())))
+                          for k, m in circuit.models.items()))
     from_op = circuit.tran is not None and not circuit.tran.uic
-    return repr((circuit.file, from_op, models, parts))
+    key = (circuit.file, from_op, models, tuple(parts))
+    try:
+        hash(key)
+    except TypeError:  # a field holding a list or a dict: its text then
+        return repr(key)
+    return key
 
 
 def _plain(value):
-    # (a location as a tuple: the dataclass's generated repr is ten times slower)
+    # (a location as a tuple: the dataclass's generated repr, once the key, was ten times
+    # slower; -0.0 marked: equal to 0.0 as a float)
     if isinstance(value, Location):
         return (value.file, value.line, value.column, value.text)
+    if type(value) is float and value == 0.0 and math.copysign(1.0, value) < 0.0:
+        return "-0.0"
     return value
 
 

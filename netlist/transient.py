@@ -626,7 +626,6 @@ def check_run_size(setup: TransientSetup, probes: int, every: int = 1) -> None:
     from netlist.units import format_eng
 
     steps = setup.t_stop / setup.h
-    span = (f"0 to {format_eng(setup.t_stop, 's')} with h = {format_eng(setup.h, 's')}")
     points = steps / max(1, int(every)) + 1
     # the recorder's buffer, then the result copied out of it (or resampled)
     need = 2.0 * points * (probes + 1) * 8.0
@@ -636,9 +635,13 @@ def check_run_size(setup: TransientSetup, probes: int, every: int = 1) -> None:
     except ValueError as exc:
         raise NetlistError(Diagnostic(message=str(exc), hint="unset it or give a number"),
                            file=setup.file) from None
+
+    def span() -> str:  # (for the messages only: 10 us a run)
+        return f"0 to {format_eng(setup.t_stop, 's')} with h = {format_eng(setup.h, 's')}"
+
     if not steps <= max_steps:
         raise NetlistError(Diagnostic(
-            message=f"the run takes {steps:.3g} time steps ({span}), more than the limit of "
+            message=f"the run takes {steps:.3g} time steps ({span()}), more than the limit of "
                     f"{max_steps:.3g}",
             hint="a larger step (--step, .tran TMAX) or a shorter run (--tstop); "
                  + STEPS.hint(f"{10 ** math.ceil(math.log10(steps)):.0e}")),
@@ -646,7 +649,7 @@ def check_run_size(setup: TransientSetup, probes: int, every: int = 1) -> None:
     if max_bytes is not None and not need <= max_bytes:
         raise NetlistError(Diagnostic(
             message=f"the run would store {points:.3g} points of {probes} probe"
-                    f"{'s' if probes != 1 else ''} ({span}): "
+                    f"{'s' if probes != 1 else ''} ({span()}): "
                     f"{format_eng(need, 'B')} of memory, more than the limit of "
                     f"{format_eng(max_bytes, 'B')}",
             hint="store fewer points (--every N), fewer probes (--probe), a larger step or "

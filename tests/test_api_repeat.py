@@ -216,3 +216,11 @@ def test_the_caches_are_bounded(monkeypatch):
     deck = deck_cache.cached_deck(BUCK_PARAMS, "<string>", None, None)
     deck_cache.cached_deck(BUCK_PARAMS + "* other\n", "<string>", None, None)
     assert deck_cache.cached_deck(BUCK_PARAMS, "<string>", None, None) is not deck
+
+
+def test_the_formulation_key_tells_signed_zeros_apart():
+    a, b = pelcs.load(BUCK_PARAMS), pelcs.load(BUCK_PARAMS)
+    a.element("C1").ic, b.element("C1").ic = 0.0, -0.0
+    assert system_cache.formulation_key(a) != system_cache.formulation_key(b)
+    b.element("C1").ic = 0.0
+    assert system_cache.formulation_key(a) == system_cache.formulation_key(b)
