@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import os
 import stat
+import threading
 from collections import OrderedDict
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -42,6 +43,7 @@ class _Entry:
 
 
 _DECKS: OrderedDict[tuple, _Entry] = OrderedDict()
+_LOCK = threading.Lock()
 
 
 def cached_deck(text: str, file: str, path: Path | None,
@@ -73,24 +75,29 @@ def cached_deck(text: str, file: str, path: Path | None,
     """
     # (the working directory: relative includes, and a relative ``file``, start there)
     key = (file, os.getcwd(), path is None, text)
-    entry = _DECKS.get(key)
+    with _LOCK:
+        entry = _DECKS.get(key)
     if entry is not None and all(_unchanged(p, data) for p, data in entry.included):
-        _DECKS.move_to_end(key)
+        with _LOCK:
+            if key in _DECKS:
+                _DECKS.move_to_end(key)
         return entry.deck
     reader = _Reader(file)
     reader.read_top(text, file, None if path is None else _resolved(path))
     reader.raise_problems(dict(params or {}), independent_problems)
-    _DECKS[key] = _Entry(reader.deck, tuple(reader.included))
-    _DECKS.move_to_end(key)
-    while len(_DECKS) > 1 and (len(_DECKS) > MAX_DECKS or sum(
-            len(k[3]) for k in _DECKS) > MAX_CHARS):
-        _DECKS.popitem(last=False)
+    with _LOCK:
+        _DECKS[key] = _Entry(reader.deck, tuple(reader.included))
+        _DECKS.move_to_end(key)
+        while len(_DECKS) > 1 and (len(_DECKS) > MAX_DECKS or sum(
+                len(k[3]) for k in _DECKS) > MAX_CHARS):
+            _DECKS.popitem(last=False)
     return reader.deck
 
 
 def clear() -> None:
     """Forget every kept deck."""
-    _DECKS.clear()
+    with _LOCK:
+        _DECKS.clear()
 
 
 def _resolved(path: Path) -> Path:

@@ -15,13 +15,15 @@ source location, which the formulation's messages quote) except the value and
 waveform of independent sources, the models, whether the run starts from an operating point
 (``.tran`` without UIC) and the file name. Two circuits with the same key get the same
 system, which is the system each would have been given by :func:`formulate`: the key holds
-everything :func:`formulate` reads.
+everything :func:`formulate` reads. Each thread has its own systems: a run changes the mode
+stacks kept with its system as it goes.
 """
 
 from __future__ import annotations
 
 import copy
 import math
+import threading
 from collections import OrderedDict
 from collections.abc import Hashable
 from dataclasses import fields, replace
@@ -42,6 +44,7 @@ MAX_SYSTEMS = 16
 MAX_ELEMENTS = 1024
 
 _SYSTEMS: OrderedDict[Hashable, tuple[SwitchedLCS, int]] = OrderedDict()
+_LOCK = threading.Lock()
 # Independent sources' fields the formulation does not read (they are its inputs).
 _INPUT_FIELDS = frozenset({"dc", "waveform"})
 _FIELDS: dict[type, tuple[str, ...]] = {}
@@ -93,18 +96,21 @@ def reused_system(circuit: Circuit) -> SwitchedLCS:
     NetlistError
         As :func:`~netlist.formulation.formulate` (a failed formulation is not kept).
     """
-    key = formulation_key(circuit)
-    kept = _SYSTEMS.get(key)
-    if kept is not None:
-        _SYSTEMS.move_to_end(key)
-        return kept[0]
+    # (per thread: a system keeps its mode stacks, which a run changes as it goes)
+    key = (threading.get_ident(), formulation_key(circuit))
+    with _LOCK:
+        kept = _SYSTEMS.get(key)
+        if kept is not None:
+            _SYSTEMS.move_to_end(key)
+            return kept[0]
     # (from a copy: the system builds its modes when first asked, and must not see a later
     # change to the caller's circuit, which another key then stands for)
     system = formulate(_private_copy(circuit))
-    _SYSTEMS[key] = (system, len(circuit.elements))
-    while len(_SYSTEMS) > 1 and (len(_SYSTEMS) > MAX_SYSTEMS or sum(
-            n for _, n in _SYSTEMS.values()) > MAX_ELEMENTS):
-        _SYSTEMS.popitem(last=False)
+    with _LOCK:
+        _SYSTEMS[key] = (system, len(circuit.elements))
+        while len(_SYSTEMS) > 1 and (len(_SYSTEMS) > MAX_SYSTEMS or sum(
+                n for _, n in _SYSTEMS.values()) > MAX_ELEMENTS):
+            _SYSTEMS.popitem(last=False)
     return system
 
 
@@ -117,4 +123,5 @@ def _private_copy(circuit: Circuit) -> Circuit:
 
 def clear() -> None:
     """Forget every kept system (and with them what is cached per system)."""
-    _SYSTEMS.clear()
+    with _LOCK:
+        _SYSTEMS.clear()

@@ -224,3 +224,21 @@ def test_the_formulation_key_tells_signed_zeros_apart():
     assert system_cache.formulation_key(a) != system_cache.formulation_key(b)
     b.element("C1").ic = 0.0
     assert system_cache.formulation_key(a) == system_cache.formulation_key(b)
+
+
+def test_threads_get_their_own_systems_and_fresh_results():
+    from concurrent.futures import ThreadPoolExecutor
+
+    duties = [0.3, 0.45, 0.6, 0.35, 0.5, 0.65]
+
+    def run(duty):
+        return pelcs.simulate(BUCK, tstop=TSTOP, probes=PROBES, params={"duty": duty})
+
+    with ThreadPoolExecutor(3) as pool:
+        results = list(pool.map(run, duties))
+    for duty, res in zip(duties, results, strict=True):
+        assert _same(res, _fresh_file(BUCK, {"duty": duty})), duty
+    c = pelcs.load(BUCK)
+    with ThreadPoolExecutor(1) as pool:
+        other = pool.submit(system_cache.reused_system, c).result()
+    assert other is not system_cache.reused_system(c)
