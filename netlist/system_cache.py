@@ -24,8 +24,9 @@ from __future__ import annotations
 import copy
 import math
 import threading
+import weakref
 from collections import OrderedDict
-from collections.abc import Hashable
+from collections.abc import Callable, Hashable
 from dataclasses import fields, replace
 
 from lcs.model import SwitchedLCS
@@ -34,7 +35,8 @@ from .circuit import Circuit
 from .errors import Location
 from .formulation import formulate
 
-__all__ = ["MAX_ELEMENTS", "MAX_SYSTEMS", "clear", "formulation_key", "reused_system"]
+__all__ = ["MAX_ELEMENTS", "MAX_SYSTEMS", "clear", "formulation_key", "kept_with",
+           "reused_system"]
 
 #: systems kept (least recently used dropped first) ...
 MAX_SYSTEMS = 16
@@ -45,6 +47,7 @@ MAX_ELEMENTS = 1024
 
 _SYSTEMS: OrderedDict[Hashable, tuple[SwitchedLCS, int]] = OrderedDict()
 _LOCK = threading.Lock()
+_FACTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 # Independent sources' fields the formulation does not read (they are its inputs).
 _INPUT_FIELDS = frozenset({"dc", "waveform"})
 _FIELDS: dict[type, tuple[str, ...]] = {}
@@ -119,6 +122,19 @@ def _private_copy(circuit: Circuit) -> Circuit:
     return replace(circuit, elements=[copy.copy(el) for el in circuit.elements],
                    models={k: replace(m, params=dict(m.params))
                            for k, m in circuit.models.items()})
+
+
+def kept_with(system: SwitchedLCS, name: Hashable, compute: Callable[[], object]):
+    """``compute()``, kept with ``system`` under ``name``: for what depends only on what the
+    system was formulated from (its circuit's topology, the values other than the sources').
+    Hand out copies of what callers may change."""
+    try:
+        facts = _FACTS.setdefault(system, {})
+    except TypeError:  # not weak-referenceable: not kept
+        return compute()
+    if name not in facts:
+        facts[name] = compute()
+    return facts[name]
 
 
 def clear() -> None:
