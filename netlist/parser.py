@@ -92,7 +92,7 @@ def parse_string(text: str, file: str = "<string>",
     params = params or {}
     if "\x00" in text:
         _decode(text.encode("utf-8", errors="surrogatepass"), file)
-    return _idealised(build_circuit(_deck(text, file, None, params, reuse), params, thresholds))
+    return _idealised(_build(_deck(text, file, None, params, reuse), params, thresholds, reuse))
 
 
 def parse_file(path: str | os.PathLike, params: dict[str, float] | None = None,
@@ -119,8 +119,18 @@ def parse_file(path: str | os.PathLike, params: dict[str, float] | None = None,
     display = os.fspath(path)
     p = Path(display)
     text = _decode(_read_bytes(p, display, None), display)
-    return _idealised(build_circuit(_deck(text, display, p, params, reuse), params,
-                                    thresholds))
+    return _idealised(_build(_deck(text, display, p, params, reuse), params, thresholds,
+                             reuse))
+
+
+def _build(deck: Deck, params: dict[str, float], thresholds, reuse: bool) -> Circuit:
+    """The deck evaluated (with ``reuse``, re-binding a kept evaluation of a kept deck:
+    :mod:`netlist.rebind`)."""
+    if reuse:
+        from .rebind import rebound_circuit
+
+        return rebound_circuit(deck, params, thresholds)
+    return build_circuit(deck, params, thresholds)
 
 
 def _deck(text: str, file: str, path: Path | None, params: dict[str, float],
