@@ -231,7 +231,7 @@ def transient_setup(
     # (a fact of the topology: kept with the system, formulated from the same circuit)
     _pin_open_inductors(circuit, system.states, x0, notes,
                         kept_with(system, "open_inductors", lambda: open_inductors(circuit)))
-    across = set(source_capacitors(circuit))
+    across = set(kept_with(system, "source_capacitors", lambda: source_capacitors(circuit)))
     held = [el.name for el in circuit.elements if el.key in across]
     if held:
         notes.append(f"{', '.join(held)}: across voltage sources only, so no state (the "
@@ -277,7 +277,9 @@ def _screen_passivity(circuit: Circuit, system: SwitchedLCS, energy: np.ndarray,
 
     from lcs.screening import NonPassiveWarning, screen_modes
 
-    if structurally_passive(circuit, energy):
+    passive = (kept_with(system, "passive", lambda: structurally_passive(circuit, energy))
+               if energy is system.storage else structurally_passive(circuit, energy))
+    if passive:
         # Passive by construction: the numerical screen could not fire (0.3 s of the set-up
         # of a 200-stage multiplier, an eigenvalue problem of 800 unknowns).
         return []
