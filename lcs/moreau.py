@@ -50,6 +50,7 @@ not raise then: it returns the result computed so far with ``result.error`` set 
 from __future__ import annotations
 
 import time
+import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -192,6 +193,12 @@ class MoreauOptions:
         Discretisations of shortened steps kept per mode (fewer for large circuits: 4 MiB a
         mode, :func:`lcs.stepping.modes.odd_slots`); 0 discretises every shortened step
         afresh.
+    keep_odd_steps : bool
+        Start a run with the shortened steps stored by earlier runs of the same system
+        (default: repeated runs, as a shooting method's, discretise each length once). A
+        stored length serves every length within 1e-9 h of it, so the result then depends
+        on what ran before at round-off; False starts with none, and the run gives bit for
+        bit the result of a newly formulated system (the dense kernel's runs).
     kernel : str
         How the steps are solved: ``"dense"``, each mode's θ-discretised matrices stored
         (:mod:`lcs.stepping`: fastest while they are small or sparse); ``"sparse"``,
@@ -218,6 +225,7 @@ class MoreauOptions:
     root_tol: float = 1e-12
     warm_iter: int = 32
     odd_slots: int = 8
+    keep_odd_steps: bool = True
     kernel: str = "auto"
     kkt_bytes: int = 64 << 20
 
@@ -241,6 +249,7 @@ class MoreauIntegrator(Integrator):
         self.theta = float(theta)
         self.opts = options
         self._done = 0
+        self._kernel_time = 0.0  # s inside the compiled kernels (SimulationStats.kernel_time)
 
     def prepare(self, run: Run) -> None:
         self.run = run
@@ -315,8 +324,15 @@ class MoreauIntegrator(Integrator):
             distinct = len(set(map(bytes, np.ascontiguousarray(sched.known.b))))
             self.stack.reserve(min(distinct + 2, 4096))
         # Evictions of stored shortened steps are weighed against this run's hits (the store
-        # itself is kept for the next run of this system).
-        self.stack.odd.counters[0] = 0
+        # itself is kept for the next run of this system, unless the run must not depend on
+        # earlier ones).
+        odd = self.stack.odd
+        odd.counters[0] = 0
+        if not opts.keep_odd_steps:
+            odd.s.fill(-1.0)
+            odd.next.fill(0)
+            odd.sets.na.fill(-2)
+            odd.counters.fill(0)
         self.stack.add(self.run.initial.key)
         return self.stack
 
@@ -424,7 +440,10 @@ class MoreauIntegrator(Integrator):
         ivars, rec = self.ivars, self.run.recorder
         ivars[IV_OUTPOS] = rec.pos
         ivars[IV_EVPOS] = rec.evpos
-        status = call(Store(rec.T, rec.Y, rec.duty, rec.ev_t, rec.ev_key, rec.ev_info))
+        store = Store(rec.T, rec.Y, rec.duty, rec.ev_t, rec.ev_key, rec.ev_info)
+        t0 = time.perf_counter()
+        status = call(store)
+        self._kernel_time += time.perf_counter() - t0
         rec.pos = int(ivars[IV_OUTPOS])
         rec.evpos = int(ivars[IV_EVPOS])
         return status
@@ -512,6 +531,7 @@ class MoreauIntegrator(Integrator):
             modes_built=modes,
             kernel="sparse" if sparse else "dense",
             dense_steps=extra.get("dense_steps", 0),
+            kernel_time=self._kernel_time,
         )
 
     def _theta_cause(self, lcs: LCS, s: float) -> str | None:
@@ -649,13 +669,35 @@ def simulate(
     t_wall = time.perf_counter()
     opts = options or MoreauOptions()
     _check_args(system, signals, x0, t_start, t_stop, h, theta, every)
-    return driver.run(Problem(system, probes), list(signals), np.asarray(x0, dtype=float),
+    return driver.run(_problem(system, probes), list(signals), np.asarray(x0, dtype=float),
                       float(t_start), float(t_stop),
                       MoreauIntegrator(float(h), float(theta), opts), every=int(every),
                       breakpoints=breakpoints, save_at=save_at, progress=progress,
                       on_inconsistent=on_inconsistent,
                       switching=switching or opts.switching, controllers=list(controllers),
                       lcp=opts.lcp, t_wall=t_wall)
+
+
+_PROBLEMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _problem(system: SwitchedLCS, probes) -> Problem:
+    """The :class:`Problem` of ``system`` with these probe names, kept with the system (its
+    per-mode outputs and arrays are built once for repeated runs); an explicit output map
+    gets a new one."""
+    if isinstance(probes, OutputMap):
+        return Problem(system, probes)
+    names = None if probes is None else tuple(probes)
+    try:
+        per_system = _PROBLEMS.setdefault(system, {})
+    except TypeError:  # not weak-referenceable: not kept
+        return Problem(system, names)
+    problem = per_system.get(names)
+    if problem is None:
+        if len(per_system) >= 8:
+            per_system.pop(next(iter(per_system)))
+        problem = per_system[names] = Problem(system, names)
+    return problem
 
 
 def simulate_lcs(

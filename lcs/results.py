@@ -98,6 +98,9 @@ class SimulationStats:
         accepted active set: Lemke decides), or taken by it after a mode without a network.
     wall_time : float
         Seconds spent in :func:`simulate` / :func:`simulate_lcs`.
+    kernel_time : float
+        Seconds of ``wall_time`` spent inside the compiled stepping kernels (the rest is the
+        run's set-up in Python: planning, mode matrices, the initial state, the results).
     """
 
     steps: int = 0
@@ -118,6 +121,7 @@ class SimulationStats:
     kernel: str = "dense"
     dense_steps: int = 0
     wall_time: float = 0.0
+    kernel_time: float = 0.0
 
     @property
     def us_per_step(self) -> float:

@@ -15,6 +15,11 @@ import numpy as np
 
 from .arrays import unique_sorted
 
+_EPS = float(np.finfo(float).eps)
+# Instants of a PULSE's evaluation kept for the next (a run's few hundred breakpoints; a
+# long array is not kept)
+_MEMO_MAX = 4096
+
 
 @dataclass(frozen=True)
 class Dc:
@@ -73,6 +78,37 @@ class Pulse:
         only at the jumps of a pulse whose edges outlast its period)."""
         self._require_resolved()
         t = np.asarray(t, dtype=float)
+        if t.size == 1 and math.isfinite(t.flat[0]):
+            # One instant (an initial value, a step's input): the same arithmetic on a
+            # Python float, without some thirty numpy calls on one-element arrays.
+            return np.full(t.shape, self._at(float(t.flat[0]), side))
+        if t.ndim != 1 or t.size > _MEMO_MAX:
+            return self._values(t, side)
+        # A run asks for the same instants again (its segments' starts, their ends, its input
+        # table): each value depends on its instant alone, so those of the last call serve.
+        memo = self.__dict__.get("_last_values")
+        if memo is not None and memo[0] == side:
+            known_t, known_v = memo[1], memo[2]
+            idx = np.minimum(np.searchsorted(known_t, t), known_t.size - 1)
+            hit = known_t[idx] == t
+            if hit.all():
+                return known_v[idx]
+            out = np.empty_like(t)
+            out[hit] = known_v[idx[hit]]
+            miss = t[~hit]
+            out[~hit] = (self._at(float(miss[0]), side) if miss.size == 1
+                         and math.isfinite(miss[0]) else self._values(miss, side))
+        else:
+            out = self._values(t, side)
+        order = np.argsort(t, kind="stable")
+        object.__setattr__(self, "_last_values", (side, t[order], out[order]))
+        return out
+
+    def __getstate__(self) -> dict:
+        # (pickled without the kept evaluations and breakpoints: not part of the value)
+        return {k: v for k, v in self.__dict__.items() if not k.startswith("_last_")}
+
+    def _values(self, t: np.ndarray, side: int) -> np.ndarray:
         tau = t - self.td
         per = self.per
         after = np.zeros(tau.shape, dtype=bool)
@@ -81,8 +117,8 @@ class Pulse:
             # a left limit; a period start within round-off is one (9.8e-4 / 2e-5 exceeds 49
             # by an ulp, which would take the end of period 48 for the start of period 49)
             q = tau / per
-            q = np.where(np.abs(q - np.round(q)) <= 64 * np.finfo(float).eps
-                         * np.maximum(1.0, np.abs(q)), np.round(q), q)
+            near = np.round(q)
+            q = np.where(np.abs(q - near) <= 64 * _EPS * np.maximum(1.0, np.abs(q)), near, q)
             k = np.ceil(q) - 1 if side < 0 else np.floor(q)
             k = np.maximum(k, 0.0)
             if self.np_:
@@ -94,7 +130,7 @@ class Pulse:
         # An instant within round-off of an edge is on it: the levels at the corners are then
         # exactly V1 and V2 (2.1e-3 - 1e-3 exceeds 1e-4 + 1e-3 by an ulp, which would put the
         # end of a flat top on its fall, 2e-15 V below V2, where a switch threshold may sit).
-        tol = 16 * np.finfo(float).eps * (np.abs(t) + abs(self.td) + max(per, 0.0))
+        tol = 16 * _EPS * (np.abs(t) + abs(self.td) + max(per, 0.0))
         for edge in (0.0, tr, tr + pw, tr + pw + tf, per):
             tau = np.where(np.abs(tau - edge) <= tol, edge, tau)
         v1, v2 = self.v1, self.v2
@@ -107,9 +143,51 @@ class Pulse:
         out = np.where(falling, v2 + (v1 - v2) * (tau - tr - pw) / tf, out)
         return np.where(after, v1, out)
 
+    def _at(self, t: float, side: int) -> float:
+        """:meth:`__call__` at one finite instant, operation for operation (IEEE doubles:
+        the same bits)."""
+        tau = t - self.td
+        per = self.per
+        after = False
+        if per > 0:
+            q = tau / per
+            near = float(round(q))  # (half to even, as np.round)
+            if abs(q - near) <= 64 * _EPS * max(1.0, abs(q)):
+                q = near
+            k = float(math.ceil(q) - 1 if side < 0 else math.floor(q))
+            k = max(k, 0.0)
+            if self.np_:
+                tmax = self.np_ * per
+                after = tau >= tmax if side > 0 else tau > tmax
+            tau = tau - k * per
+        tr, tf, pw = self.tr, self.tf, self.pw
+        tol = 16 * _EPS * (abs(t) + abs(self.td) + max(per, 0.0))
+        for edge in (0.0, tr, tr + pw, tr + pw + tf, per):
+            if abs(tau - edge) <= tol:
+                tau = edge
+        v1, v2 = self.v1, self.v2
+        if after:
+            return float(v1)
+        if tau >= tr and tau <= tr + pw:
+            return float(v2)
+        if tau > tr + pw and tau < tr + pw + tf:
+            return v2 + (v1 - v2) * (tau - tr - pw) / tf
+        if tau > 0 and tau < tr:
+            return v1 + (v2 - v1) * tau / tr
+        return float(v1)
+
     def breakpoints(self, t0: float, t1: float) -> np.ndarray:
         """The instants in ``[t0, t1]`` where the waveform has a corner or a jump, s: every
         period's start and the edges that come before its end."""
+        # (a run asks twice, for its plan and its input table: the last answer is kept)
+        last = self.__dict__.get("_last_breakpoints")
+        if last is not None and last[0] == t0 and last[1] == t1:
+            return last[2].copy()
+        pts = self._breakpoints(t0, t1)
+        object.__setattr__(self, "_last_breakpoints", (t0, t1, pts))
+        return pts.copy()
+
+    def _breakpoints(self, t0: float, t1: float) -> np.ndarray:
         self._require_resolved()
         edges = np.array([0.0, self.tr, self.tr + self.pw, self.tr + self.pw + self.tf])
         if self.per <= 0:

@@ -24,6 +24,7 @@ conducting), cheap and silent on every bundled converter.
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,6 +37,8 @@ __all__ = ["G_LIMIT", "ThetaRisk", "screen_theta"]
 #: θ = 1 0.006 %; at h = 0.025 µs still 0.5 % against 0.001 %; a 12-pulse rectifier at
 #: |G| = 0.2: 19 % off in the output current), while θ = 1 is consistent.
 G_LIMIT = 0.001
+
+_SCREENED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 #: modes screened: every mode up to this many switches, else all-off and all-on
 SCREEN_MAX_SWITCHES = 4
@@ -136,6 +139,20 @@ def screen_theta(system, h: float, theta: float, keys=None, energy: np.ndarray |
     """
     if theta >= 1.0:
         return []
+    # (kept with the system: repeated runs of one system at one step ask again)
+    memo_key = (float(h), float(theta), None if keys is None else tuple(map(tuple, keys)),
+                None if energy is None else np.asarray(energy, dtype=float).tobytes())
+    try:
+        memo = _SCREENED.setdefault(system, {})
+    except TypeError:  # not weak-referenceable: not kept
+        memo = {}
+    if memo_key in memo:
+        return list(memo[memo_key])
+    memo[memo_key] = out = _screen(system, h, theta, keys, energy)
+    return list(out)
+
+
+def _screen(system, h: float, theta: float, keys, energy) -> list[ThetaRisk]:
     if keys is None:
         k = len(system.switches)
         keys = system.all_keys() if k <= SCREEN_MAX_SWITCHES else [

@@ -54,6 +54,21 @@ class Limit:
             raise ValueError(f"{self.env}={text!r} is not a positive number (e.g. 2G, 5e6)")
         return float(m.group(1)) * _SI[m.group(2)]
 
+    def allows(self, amount: float) -> bool:
+        """Whether ``amount`` is within the limit: :meth:`value`, except that an amount
+        under the floor of :func:`available_memory` needs no look at the memory available
+        (a run's check: 40 us for ``/proc/meminfo``).
+
+        Raises
+        ------
+        ValueError
+            As :meth:`value`.
+        """
+        if (self.default <= 0 and amount <= MIN_AVAILABLE
+                and not os.environ.get(self.env, "").strip()):
+            return True
+        return amount <= self.value()
+
     def hint(self, example: str) -> str:
         """``raise it with PELCS_MAX_STEPS=2e9 (the limit on time steps)``."""
         return f"to allow more, set the environment variable {self.env} (e.g. {self.env}=" \
@@ -77,17 +92,22 @@ STEPS = Limit("PELCS_MAX_STEPS", 1e9, "the time steps of a run")
 MEMORY = Limit("PELCS_MAX_MEMORY", 0.0, "the memory of a run's stored results")
 
 
+#: The least :func:`available_memory` returns, bytes.
+MIN_AVAILABLE = 256e6
+
+
 def available_memory() -> float:
     """Bytes of memory available now (``MemAvailable`` of ``/proc/meminfo``; elsewhere the
-    physical memory), at least 256 MB."""
+    physical memory), at least :data:`MIN_AVAILABLE`."""
     try:
         with open("/proc/meminfo", encoding="ascii") as fh:
             for line in fh:
                 if line.startswith("MemAvailable:"):
-                    return max(float(line.split()[1]) * 1024.0, 256e6)
+                    return max(float(line.split()[1]) * 1024.0, MIN_AVAILABLE)
     except OSError:
         pass
     try:
-        return max(float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")), 256e6)
+        return max(float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")),
+                   MIN_AVAILABLE)
     except (ValueError, OSError, AttributeError):  # pragma: no cover - not POSIX
         return 8e9

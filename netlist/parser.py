@@ -47,8 +47,10 @@ from .dialect import hierarchical_name, node_name
 from .errors import Diagnostic, NetlistError
 from .expressions import ExpressionError, parse_expression
 from .flatten import build_circuit, independent_problems
+from .netlist_bytes import decode as _decode
+from .netlist_bytes import read_bytes as _read_bytes
 from .rawdeck import Deck, Statement
-from .reader import _decode, _read_bytes, _Reader, read_deck
+from .reader import _Reader, read_deck
 from .units import parse_number
 
 __all__ = ["parse_file", "parse_string", "parse_overrides", "load_source", "read_deck", "Deck",
@@ -57,7 +59,8 @@ __all__ = ["parse_file", "parse_string", "parse_overrides", "load_source", "read
 
 def parse_string(text: str, file: str = "<string>",
                  params: dict[str, float] | None = None,
-                 thresholds: Mapping[str, float] | None = None) -> Circuit:
+                 thresholds: Mapping[str, float] | None = None, *,
+                 reuse: bool = False) -> Circuit:
     """Parse netlist text into a flattened, checked circuit.
 
     Parameters
@@ -73,6 +76,9 @@ def parse_string(text: str, file: str = "<string>",
     thresholds : mapping of str to float, optional
         Switch thresholds (V) of transistors idealised as switches, by element or model
         name (:mod:`netlist.devices`); ``circuit.replacements`` reports each.
+    reuse : bool
+        Read the text once for many calls (:mod:`netlist.deck_cache`): the same circuit,
+        without the reading, when only ``params`` change.
 
     Returns
     -------
@@ -86,14 +92,12 @@ def parse_string(text: str, file: str = "<string>",
     params = params or {}
     if "\x00" in text:
         _decode(text.encode("utf-8", errors="surrogatepass"), file)
-    reader = _Reader(file)
-    reader.read_top(text, file, None)
-    reader.raise_problems(params, independent_problems)
-    return _idealised(build_circuit(reader.deck, params, thresholds))
+    return _idealised(_build(_deck(text, file, None, params, reuse), params, thresholds, reuse))
 
 
 def parse_file(path: str | os.PathLike, params: dict[str, float] | None = None,
-               thresholds: Mapping[str, float] | None = None) -> Circuit:
+               thresholds: Mapping[str, float] | None = None, *,
+               reuse: bool = False) -> Circuit:
     """Read and parse a netlist file.
 
     Parameters
@@ -102,6 +106,9 @@ def parse_file(path: str | os.PathLike, params: dict[str, float] | None = None,
         The netlist file.
     params : dict of str to float, optional
         Overrides of global ``.param`` values, as in :func:`parse_string`.
+    reuse : bool
+        Read the file once for many calls, as in :func:`parse_string` (read again when it or
+        a file it includes holds other bytes).
 
     Raises
     ------
@@ -112,14 +119,38 @@ def parse_file(path: str | os.PathLike, params: dict[str, float] | None = None,
     display = os.fspath(path)
     p = Path(display)
     text = _decode(_read_bytes(p, display, None), display)
-    reader = _Reader(display)
-    try:
-        resolved = p.resolve()
-    except (OSError, RuntimeError):
-        resolved = p
-    reader.read_top(text, display, resolved)
+    return _idealised(_build(_deck(text, display, p, params, reuse), params, thresholds,
+                             reuse))
+
+
+def _build(deck: Deck, params: dict[str, float], thresholds, reuse: bool) -> Circuit:
+    """The deck evaluated (with ``reuse``, re-binding a kept evaluation of a kept deck:
+    :mod:`netlist.rebind`)."""
+    if reuse:
+        from .rebind import rebound_circuit
+
+        return rebound_circuit(deck, params, thresholds)
+    return build_circuit(deck, params, thresholds)
+
+
+def _deck(text: str, file: str, path: Path | None, params: dict[str, float],
+          reuse: bool) -> Deck:
+    """The deck of ``text`` (read, or with ``reuse`` the one kept from an earlier read of
+    the same text and includes: :mod:`netlist.deck_cache`); raises its problems."""
+    if reuse:
+        from .deck_cache import cached_deck
+
+        return cached_deck(text, file, path, params)
+    base = None
+    if path is not None:
+        try:
+            base = path.resolve()
+        except (OSError, RuntimeError):
+            base = path
+    reader = _Reader(file)
+    reader.read_top(text, file, base)
     reader.raise_problems(params, independent_problems)
-    return _idealised(build_circuit(reader.deck, params, thresholds))
+    return reader.deck
 
 
 _OVERRIDE = re.compile(r"\s*([A-Za-z_][\w.]*)\s*=\s*(\S.*?)\s*")
@@ -170,7 +201,8 @@ def parse_overrides(items: list[str] | None) -> dict[str, float]:
 
 
 def load_source(path_or_text: str | os.PathLike, params: Mapping[str, float | str] | None = None,
-                thresholds: Mapping[str, float] | None = None) -> Circuit:
+                thresholds: Mapping[str, float] | None = None, *,
+                reuse: bool = False) -> Circuit:
     """A netlist file or netlist text (a string with a line break) as a parsed circuit.
 
     Parameters
@@ -178,6 +210,8 @@ def load_source(path_or_text: str | os.PathLike, params: Mapping[str, float | st
     path_or_text : str, path-like or PySpice Circuit
     params : mapping, optional
         ``.param`` overrides: numbers, or SPICE text (``"100k"``, ``"{2*ts}"``).
+    reuse : bool
+        Keep the read netlist for the next call (:func:`parse_string`).
 
     Raises
     ------
@@ -195,10 +229,10 @@ def load_source(path_or_text: str | os.PathLike, params: Mapping[str, float | st
         if not text.lstrip().lower().startswith(".title"):
             text = f"{path_or_text.title}\n" + text
         return parse_string(text, file=f"<PySpice circuit {path_or_text.title}>",
-                            params=values, thresholds=thresholds)
+                            params=values, thresholds=thresholds, reuse=reuse)
     if isinstance(path_or_text, str) and "\n" in path_or_text:
-        return parse_string(path_or_text, params=values, thresholds=thresholds)
-    return parse_file(path_or_text, params=values, thresholds=thresholds)
+        return parse_string(path_or_text, params=values, thresholds=thresholds, reuse=reuse)
+    return parse_file(path_or_text, params=values, thresholds=thresholds, reuse=reuse)
 
 
 def is_pyspice_circuit(obj) -> bool:

@@ -32,15 +32,25 @@ class Statement:
         number, the 0-based column of that character in the line, and the whole line.
     """
 
-    __slots__ = ("text", "file", "segments")
+    __slots__ = ("text", "file", "segments", "_locs")
 
     def __init__(self, text: str, file: str, segments: list[tuple[int, int, int, str]]):
         self.text = text
         self.file = file
         self.segments = segments
+        self._locs: dict[tuple[int, int], Location] = {}
 
     def loc(self, offset: int = 0) -> Location:
         """Location of the character at ``offset`` in :attr:`text` (past the end allowed)."""
+        # (kept: a deck evaluated for many runs asks for the same locations each time; by
+        # the segments too, which the reader extends with continuation lines)
+        key = (offset, len(self.segments))
+        found = self._locs.get(key)
+        if found is None:
+            found = self._locs[key] = self._loc(offset)
+        return found
+
+    def _loc(self, offset: int) -> Location:
         segs = self.segments
         i = len(segs) - 1
         while i > 0 and segs[i][0] > offset:

@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 import os
 import re
-import stat
 from collections.abc import Callable
 from pathlib import Path
 
@@ -20,7 +19,6 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 from .circuit import IgnoredCommand
 from .dialect import (
     _MODEL_TYPES,
-    _NUL_HINT,
     _TOKEN_NAMES,
     _UNSUPPORTED_MODELS,
     _WORD,
@@ -34,7 +32,8 @@ from .dialect import (
 from .element_lines import ElementLines
 from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
 from .expressions import ExpressionError, lark_parser, parse_expression
-from .limits import FILE_BYTES
+from .netlist_bytes import decode as _decode
+from .netlist_bytes import read_bytes as _read_bytes
 from .rawdeck import (
     Body,
     Deck,
@@ -50,67 +49,6 @@ from .steps import read_step
 from .units import parse_number
 
 # ------------------------------------------------------------------------------ reading
-
-
-def _decode(data: bytes, file: str) -> str:
-    """Bytes -> text; binary or non-UTF-8 content is an input error with its location."""
-    nul = data.find(b"\x00")
-    if nul >= 0:
-        line = data.count(b"\n", 0, nul) + 1
-        col = nul - (data.rfind(b"\n", 0, nul) + 1) + 1
-        raise NetlistError(Diagnostic(
-            "not a text netlist: the file contains NUL bytes (binary data?)",
-            Location(file, line, col), _NUL_HINT), file)
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = data.count(b"\n", 0, exc.start) + 1
-        bol = data.rfind(b"\n", 0, exc.start) + 1
-        eol = data.find(b"\n", exc.start)
-        raw = data[bol: eol if eol >= 0 else len(data)].decode("utf-8", errors="replace")
-        col = len(data[bol:exc.start].decode("utf-8", errors="replace")) + 1
-        raise NetlistError(Diagnostic(
-            f"not UTF-8 text: byte 0x{data[exc.start]:02x} cannot be decoded",
-            Location(file, line, col, raw),
-            "save the netlist as UTF-8 (or plain ASCII)"), file) from None
-    if text.startswith("\ufeff"):
-        text = text[1:]
-    return text
-
-
-def _read_bytes(path: Path, display: str, at: Location | None) -> bytes:
-    """The bytes of a netlist file (``at``: the ``.include`` asking for it, None for the top
-    file), bounded by :data:`netlist.limits.FILE_BYTES`. An include must be a regular file
-    (``/dev/zero`` or a pipe would never end); the top file may also be a pipe."""
-    try:
-        limit = FILE_BYTES.value()
-    except ValueError as exc:
-        raise NetlistError(Diagnostic(str(exc), at, "unset it or give a number of bytes"),
-                           display) from None
-    try:
-        if path.is_dir():
-            raise NetlistError(Diagnostic(f"'{display}' is a directory, not a netlist file", at,
-                                          "give the path of a netlist file"), display)
-        mode = os.stat(path).st_mode
-        if not (stat.S_ISREG(mode) or (at is None and stat.S_ISFIFO(mode))):
-            raise NetlistError(Diagnostic(
-                f"'{display}' is not a regular file (a device, a pipe or a socket)", at,
-                "give the path of a netlist file"), display)
-        with open(path, "rb") as fh:
-            data = fh.read(int(limit) + 1)
-    except FileNotFoundError:
-        raise NetlistError(Diagnostic(f"file not found: '{display}'", at,
-                                      "check the path (relative paths in .include and .lib "
-                                      "are relative to the including file)"),
-                           display) from None
-    except OSError as exc:
-        raise NetlistError(Diagnostic(f"cannot read '{display}': {exc.strerror or exc}", at,
-                                      "check the path and its permissions"), display) from None
-    if len(data) > limit:
-        raise NetlistError(Diagnostic(
-            f"'{display}' is larger than {limit:.4g} bytes, the limit of a netlist file", at,
-            FILE_BYTES.hint("500M")), display)
-    return data
 
 
 def _strip_comment(line: str) -> str:
@@ -220,6 +158,8 @@ class _Reader(ElementLines):
         # definitions nothing instantiates
         self.deferred: dict[str, list[Diagnostic]] = {}
         self.deferred_models: dict[str, Diagnostic] = {}
+        # the included files as read (display path, bytes): what netlist.deck_cache checks
+        self.included: list[tuple[str, bytes]] = []
 
     # -- diagnostics
 
@@ -339,10 +279,12 @@ class _Reader(ElementLines):
                        "a file must not include itself, directly or through other files")
             return
         try:
-            text = _decode(_read_bytes(path, display, at), display)
+            data = _read_bytes(path, display, at)
+            text = _decode(data, display)
         except NetlistError as exc:
             self.diags.extend(exc.diagnostics)
             return
+        self.included.append((display, data))
         numbered = [(i + 1, s.rstrip("\r")) for i, s in enumerate(text.split("\n"))]
         if section is not None:
             numbered = self._section(numbered, section, display, st, offset)

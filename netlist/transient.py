@@ -53,6 +53,7 @@ from .limits import MEMORY, STEPS
 from .passive import structurally_passive
 from .reductions import open_inductors, parallel_diodes, source_capacitors
 from .suggest import did_you_mean
+from .system_cache import kept_with
 from .timestep import (
     MIN_STEPS_PER_RUN,
     STEPS_PER_PERIOD,
@@ -227,8 +228,10 @@ def transient_setup(
         name = next(el.name for el in circuit.elements if el.key == key)
         notes.append(f"{name} is in parallel with {into}: merged into it (one ideal diode, "
                      f"i({into}) is their sum)")
-    _pin_open_inductors(circuit, system.states, x0, notes)
-    across = set(source_capacitors(circuit))
+    # (a fact of the topology: kept with the system, formulated from the same circuit)
+    _pin_open_inductors(circuit, system.states, x0, notes,
+                        kept_with(system, "open_inductors", lambda: open_inductors(circuit)))
+    across = set(kept_with(system, "source_capacitors", lambda: source_capacitors(circuit)))
     held = [el.name for el in circuit.elements if el.key in across]
     if held:
         notes.append(f"{', '.join(held)}: across voltage sources only, so no state (the "
@@ -274,7 +277,9 @@ def _screen_passivity(circuit: Circuit, system: SwitchedLCS, energy: np.ndarray,
 
     from lcs.screening import NonPassiveWarning, screen_modes
 
-    if structurally_passive(circuit, energy):
+    passive = (kept_with(system, "passive", lambda: structurally_passive(circuit, energy))
+               if energy is system.storage else structurally_passive(circuit, energy))
+    if passive:
         # Passive by construction: the numerical screen could not fire (0.3 s of the set-up
         # of a 200-stage multiplier, an eigenvalue problem of 800 unknowns).
         return []
@@ -297,14 +302,14 @@ def _screen_passivity(circuit: Circuit, system: SwitchedLCS, energy: np.ndarray,
 
 
 def _pin_open_inductors(circuit: Circuit, states: Sequence[str], x0: np.ndarray,
-                        notes: list[str]) -> None:
+                        notes: list[str], keys: Sequence[str]) -> None:
     """Note the inductors no other branch parallels (:func:`netlist.reductions.open_inductors`)
     and set their initial current to zero: an ``IC=`` current there has nowhere to flow, and
     its energy ``½ L i²`` is lost at t = 0 (said in the note)."""
     from .units import format_eng
 
     index = {name.lower(): k for k, name in enumerate(states)}
-    for key in open_inductors(circuit):
+    for key in keys:
         el = circuit.element(key)
         k = index[f"i({el.name})".lower()]
         text = (f"{el.name}: no other branch joins its terminals (one end unconnected?), so "
@@ -542,7 +547,10 @@ def simulate_circuit(
     """
     if probes is not None:
         # A typo is an input error before any work, not a failure in the middle of a run.
-        probes = check_probes(circuit, probes)
+        # (the names a circuit knows are those of the system's circuit: kept with it)
+        names = tuple(probes)
+        probes = list(check_probes(circuit, probes) if system is None else kept_with(
+            system, ("probes", names), lambda: check_probes(circuit, names)))
     setup = transient_setup(circuit, tstop=tstop, step=step, system=system, strict=strict)
     return run_setup(setup, theta=theta, probes=probes, every=every, progress=progress,
                      options=options, switching=switching, controllers=controllers,
@@ -626,26 +634,30 @@ def check_run_size(setup: TransientSetup, probes: int, every: int = 1) -> None:
     from netlist.units import format_eng
 
     steps = setup.t_stop / setup.h
-    span = (f"0 to {format_eng(setup.t_stop, 's')} with h = {format_eng(setup.h, 's')}")
+    points = steps / max(1, int(every)) + 1
+    # the recorder's buffer, then the result copied out of it (or resampled)
+    need = 2.0 * points * (probes + 1) * 8.0
     try:
-        max_steps, max_bytes = STEPS.value(), MEMORY.value()
+        max_steps = STEPS.value()
+        max_bytes = None if MEMORY.allows(need) else MEMORY.value()
     except ValueError as exc:
         raise NetlistError(Diagnostic(message=str(exc), hint="unset it or give a number"),
                            file=setup.file) from None
+
+    def span() -> str:  # (for the messages only: 10 us a run)
+        return f"0 to {format_eng(setup.t_stop, 's')} with h = {format_eng(setup.h, 's')}"
+
     if not steps <= max_steps:
         raise NetlistError(Diagnostic(
-            message=f"the run takes {steps:.3g} time steps ({span}), more than the limit of "
+            message=f"the run takes {steps:.3g} time steps ({span()}), more than the limit of "
                     f"{max_steps:.3g}",
             hint="a larger step (--step, .tran TMAX) or a shorter run (--tstop); "
                  + STEPS.hint(f"{10 ** math.ceil(math.log10(steps)):.0e}")),
             file=setup.file)
-    points = steps / max(1, int(every)) + 1
-    # the recorder's buffer, then the result copied out of it (or resampled)
-    need = 2.0 * points * (probes + 1) * 8.0
-    if not need <= max_bytes:
+    if max_bytes is not None and not need <= max_bytes:
         raise NetlistError(Diagnostic(
             message=f"the run would store {points:.3g} points of {probes} probe"
-                    f"{'s' if probes != 1 else ''} ({span}): "
+                    f"{'s' if probes != 1 else ''} ({span()}): "
                     f"{format_eng(need, 'B')} of memory, more than the limit of "
                     f"{format_eng(max_bytes, 'B')}",
             hint="store fewer points (--every N), fewer probes (--probe), a larger step or "
@@ -694,9 +706,9 @@ def state_growth(result: SimulationResult) -> str | None:
     t = np.asarray(result.t, dtype=float)
     if y.ndim != 2 or y.shape[0] < 3 or not y.shape[1]:
         return None
-    first = t <= t[0] + 0.1 * (t[-1] - t[0])
-    first[0] = True
-    ref = float(np.max(np.abs(y[first])))
+    # the rows up to t[0] + a tenth of the run (times increase), the first one at least
+    first = max(1, int(np.searchsorted(t, t[0] + 0.1 * (t[-1] - t[0]), side="right")))
+    ref = float(np.max(np.abs(y[:first])))
     end = float(np.max(np.abs(y[-1])))
     if not np.isfinite(end):
         return "the recorded signals became non-finite during the run"

@@ -12,6 +12,11 @@
     system = pelcs.formulate(circuit)            # SwitchedLCS: one LCS per switch mode
     lcs = system.mode({"S1": True})              # A, B, C, D, E, F of the mode S1 on
 
+Calling :func:`simulate` in a loop with other ``params`` is cheap: the netlist as read is
+kept by the bytes of its files (an edited file is read again) and the formulated system by
+the element values it depends on (not the independent sources'); each run still gives, bit
+for bit, what a fresh parse gives (docs/performance.md, "Many runs of one netlist").
+
 Times accept SPICE text (``"5m"``, ``"0.2u"``) as well as numbers in seconds. Input errors
 raise :class:`netlist.errors.NetlistError`; a run that cannot continue raises
 :class:`lcs.results.SimulationError` whose ``.result`` holds everything up to the failure
@@ -61,7 +66,7 @@ def load(path_or_text: str | os.PathLike, params: Mapping[str, float] | None = N
     """
     from netlist.parser import load_source
 
-    return load_source(path_or_text, params, thresholds)
+    return load_source(path_or_text, params, thresholds, reuse=True)
 
 
 def formulate(circuit: Source, params: Mapping[str, float] | None = None) -> SwitchedLCS:
@@ -174,7 +179,13 @@ def simulate(
         result = simulate_devices(circuit, devices=devices, losses=losses, load=load,
                                   pwl=dict(pwl or {}), **kw)
     else:
-        result = simulate_circuit(circuit, **kw)
+        from lcs.moreau import MoreauOptions
+        from netlist.system_cache import reused_system
+
+        # (the system is kept for the next run; its stored shortened steps are not, so that
+        # this run gives what a newly parsed netlist gives, bit for bit)
+        result = simulate_circuit(circuit, system=reused_system(circuit),
+                                  options=MoreauOptions(keep_odd_steps=False), **kw)
     if check:
         result.raise_if_error()
     return result

@@ -51,11 +51,11 @@ def evaluate_inputs(inputs: Sequence[InputFunction], t: np.ndarray, side: int = 
     """
     t = np.asarray(t, dtype=float)
 
-    def column(j: int, tb: np.ndarray) -> np.ndarray:
+    def column(j: int, tb: np.ndarray):
         f = inputs[j]
         if side != 0 and _jumps(f):
             return f(tb, side)
-        return np.broadcast_to(np.asarray(f(tb), dtype=float), tb.shape)
+        return f(tb)  # (a value or the block's values: _by_row_blocks broadcasts it)
 
     return _by_row_blocks(t, len(inputs), column)
 
@@ -66,7 +66,8 @@ ROW_BLOCK = 4096
 
 def _by_row_blocks(t: np.ndarray, p: int, column: Callable[[int, np.ndarray], np.ndarray]
                    ) -> np.ndarray:
-    """The (N, p) array whose column j is ``column(j, t)``, computed :data:`ROW_BLOCK` rows at
+    """The (N, p) array whose column j is ``column(j, t)`` (broadcast: a constant input may
+    give one value), computed :data:`ROW_BLOCK` rows at
     a time: each input's values go into a row of a (p, block) buffer, and the block is
     transposed into place. Writing a column of the C-ordered result directly strides p
     entries per value (a cache line each): 130 inputs over 46,081 instants took 0.10-0.17 s

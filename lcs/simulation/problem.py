@@ -100,6 +100,7 @@ class Problem:
         self.probes = probes
         self._outputs: dict[ModeKey, OutputRows] = {}
         self._arrays: dict[ModeKey, tuple] = {}
+        self._controls: dict[tuple, tuple] = {}
         self.switch_names = [s.name for s in system.switches]
 
     @property
@@ -174,6 +175,18 @@ class Problem:
         source-driven switches' control rows per mode and ``base`` the initial mode, as
         :func:`lcs.simulation.source_switching.source_switch_events` computed them.
         """
+        # (kept for repeated runs: the rows and the checks are the system's for one plan of
+        # its switches; a surface controller's rows are not kept)
+        memo_key = None if plan.surface else (mode, tuple(plan.kind.tolist()),
+                                              tuple(plan.source), tuple(base))
+        if memo_key is not None and memo_key in self._controls:
+            return self._controls[memo_key]
+        rows = self._control_rows(mode, plan, src_maps, base)
+        if memo_key is not None:
+            self._controls[memo_key] = rows
+        return rows
+
+    def _control_rows(self, mode: ModeKey, plan, src_maps: dict, base: ModeKey):
         system = self.system
         n, m, p = len(system.states), len(system.diodes), len(system.inputs)
         k = len(system.switches)

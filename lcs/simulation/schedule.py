@@ -12,6 +12,7 @@ instants.
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -113,7 +114,7 @@ def plan_run(system: SwitchedLCS, inputs: Sequence[InputFunction], plan: SwitchP
     latch_t, latch_i = np.concatenate(lt), np.concatenate(li)
     extra = np.concatenate([np.asarray(user_bps, dtype=float).ravel(), save_at, latch_t])
     bps = merge_close(collect_breakpoints(inputs, t_start, t_stop, extra), merge)
-    src_maps: dict = {}
+    src_maps = _control_maps(system, plan.source)
     if k:
         mode_src, (src_t, src_k) = source_switch_events(system, inputs, t_start, t_stop, bps,
                                                         h, which=plan.source, base=guess,
@@ -133,6 +134,20 @@ def plan_run(system: SwitchedLCS, inputs: Sequence[InputFunction], plan: SwitchP
     order = np.lexsort((st_op, st_t))
     known = KnownSwitchings(st_t[order], st_op[order], st_a[order], st_b[order])
     return RunPlan(bps, save_at, known, tuple(mode_src), src_maps)
+
+
+_CONTROL_MAPS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _control_maps(system: SwitchedLCS, source) -> dict:
+    """The dict of the source-driven switches' control rows per mode (filled by
+    :func:`source_switch_events` as modes are met), kept with the system for its next runs:
+    the rows are the system's, whatever its sources do."""
+    try:
+        per_system = _CONTROL_MAPS.setdefault(system, {})
+    except TypeError:  # not weak-referenceable: not kept
+        return {}
+    return per_system.setdefault(tuple(source), {})
 
 
 class _Measure:

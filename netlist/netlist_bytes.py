@@ -1,0 +1,81 @@
+"""Netlist files as text: the bounded read of a file's bytes and their decoding, each problem
+an input error with its location (a directory, a device, a missing file, binary or non-UTF-8
+content, a file over :data:`netlist.limits.FILE_BYTES`)."""
+
+from __future__ import annotations
+
+import os
+import stat
+from pathlib import Path
+
+from .dialect import _NUL_HINT
+from .errors import Diagnostic, Location, NetlistError
+from .limits import FILE_BYTES
+
+__all__ = ["decode", "read_bytes"]
+
+
+def decode(data: bytes, file: str) -> str:
+    """Bytes -> text; binary or non-UTF-8 content is an input error with its location."""
+    nul = data.find(b"\x00")
+    if nul >= 0:
+        line = data.count(b"\n", 0, nul) + 1
+        col = nul - (data.rfind(b"\n", 0, nul) + 1) + 1
+        raise NetlistError(Diagnostic(
+            "not a text netlist: the file contains NUL bytes (binary data?)",
+            Location(file, line, col), _NUL_HINT), file)
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        bol = data.rfind(b"\n", 0, exc.start) + 1
+        eol = data.find(b"\n", exc.start)
+        raw = data[bol: eol if eol >= 0 else len(data)].decode("utf-8", errors="replace")
+        col = len(data[bol:exc.start].decode("utf-8", errors="replace")) + 1
+        raise NetlistError(Diagnostic(
+            f"not UTF-8 text: byte 0x{data[exc.start]:02x} cannot be decoded",
+            Location(file, line, col, raw),
+            "save the netlist as UTF-8 (or plain ASCII)"), file) from None
+    if text.startswith("\ufeff"):
+        text = text[1:]
+    return text
+
+
+def read_bytes(path: Path, display: str, at: Location | None) -> bytes:
+    """The bytes of a netlist file (``at``: the ``.include`` asking for it, None for the top
+    file), bounded by :data:`netlist.limits.FILE_BYTES`. An include must be a regular file
+    (``/dev/zero`` or a pipe would never end); the top file may also be a pipe."""
+    try:
+        limit = FILE_BYTES.value()
+    except ValueError as exc:
+        raise NetlistError(Diagnostic(str(exc), at, "unset it or give a number of bytes"),
+                           display) from None
+    try:
+        mode = os.stat(path).st_mode
+        if stat.S_ISDIR(mode):
+            raise NetlistError(Diagnostic(f"'{display}' is a directory, not a netlist file", at,
+                                          "give the path of a netlist file"), display)
+        if not (stat.S_ISREG(mode) or (at is None and stat.S_ISFIFO(mode))):
+            raise NetlistError(Diagnostic(
+                f"'{display}' is not a regular file (a device, a pipe or a socket)", at,
+                "give the path of a netlist file"), display)
+        with open(path, "rb") as fh:
+            # Sized from the file (read(limit + 1) allocates the whole limit, 30 us a
+            # netlist); past the size (a pipe, a file growing) up to the limit.
+            want = min(int(limit), os.fstat(fh.fileno()).st_size) + 1
+            data = fh.read(want)
+            if len(data) == want and want <= limit:
+                data += fh.read(int(limit) + 1 - want)
+    except FileNotFoundError:
+        raise NetlistError(Diagnostic(f"file not found: '{display}'", at,
+                                      "check the path (relative paths in .include and .lib "
+                                      "are relative to the including file)"),
+                           display) from None
+    except OSError as exc:
+        raise NetlistError(Diagnostic(f"cannot read '{display}': {exc.strerror or exc}", at,
+                                      "check the path and its permissions"), display) from None
+    if len(data) > limit:
+        raise NetlistError(Diagnostic(
+            f"'{display}' is larger than {limit:.4g} bytes, the limit of a netlist file", at,
+            FILE_BYTES.hint("500M")), display)
+    return data

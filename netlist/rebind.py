@@ -1,0 +1,145 @@
+"""Re-binding parameter values: the circuit of a kept deck for new ``.param`` overrides,
+evaluating again only what the changed parameters reach.
+
+A design loop changes one or two parameters (a duty cycle, a load) of a netlist read once
+(:mod:`netlist.deck_cache`). :func:`rebound_circuit` keeps, per deck, the circuit of its first
+evaluation and what each element's values depend on (the global parameters named in its
+value, initial condition and waveform). For new overrides it evaluates the global parameters
+(:meth:`netlist.flatten._Builder.scope`), finds those whose value changed, evaluates again the
+elements that use one of them (with the flattener's own :meth:`~netlist.flatten._Builder.
+element`) and copies the others: the circuit :func:`netlist.flatten.build_circuit` would build,
+field for field, without evaluating the rest or checking the unchanged topology again.
+
+It applies to a deck without subcircuit instances or transistors whose models, ``.tran``,
+``.ic`` and ``.step`` lines use none of the changed parameters; any other case, and any
+problem (an unknown override, a value an element refuses), goes through
+:func:`~netlist.flatten.build_circuit`, which reports it.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import threading
+import weakref
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+
+from .circuit import Circuit
+from .flatten import _Builder, build_circuit
+from .rawdeck import Deck, RawElement, Value
+
+__all__ = ["rebound_circuit"]
+
+
+@dataclass(frozen=True)
+class _Base:
+    circuit: Circuit  # the first evaluation (never handed out)
+    uses: tuple[frozenset[str], ...]  # per element, the parameter names its values use
+    fixed_uses: frozenset[str]  # the names models, .tran, .ic and .step use
+
+
+_BASES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_LOCK = threading.Lock()
+
+
+def rebound_circuit(deck: Deck, overrides: Mapping[str, float] | None,
+                    thresholds: Mapping[str, float] | None = None) -> Circuit:
+    """:func:`~netlist.flatten.build_circuit` of ``deck`` with ``overrides``, re-binding
+    the kept evaluation of the deck where it can (module docstring).
+
+    Raises
+    ------
+    NetlistError
+        As :func:`~netlist.flatten.build_circuit`.
+    """
+    overrides = dict(overrides or {})
+    if thresholds or not _eligible(deck):
+        return build_circuit(deck, overrides, thresholds)
+    with _LOCK:
+        base = _BASES.get(deck)
+    if base is None:
+        circuit = build_circuit(deck, overrides)
+        with _LOCK:
+            _BASES[deck] = _Base(copy.deepcopy(circuit), *_uses(deck))
+        return circuit
+    return _rebind(deck, base, overrides) or build_circuit(deck, overrides)
+
+
+def _eligible(deck: Deck) -> bool:
+    # (an instance or a transistor makes elements of other kinds, names and numbers)
+    return all(el.kind not in "XMQ" for el in deck.top.elements)
+
+
+def _names(values) -> frozenset[str]:
+    out: set[str] = set()
+    for v in values:
+        if isinstance(v, Value) and v.expr is not None:
+            out |= v.expr.names
+    return frozenset(out)
+
+
+def _uses(deck: Deck) -> tuple[tuple[frozenset[str], ...], frozenset[str]]:
+    per_element = []
+    for el in deck.top.elements:
+        per_element.append(_names(_element_values(el)))
+    fixed = [p.value for m in deck.models for p in m.params]
+    fixed += [v for t in deck.trans for v in t.values]
+    fixed += [ic.value for ic in deck.top.ics]
+    fixed += [v for s in deck.steps for v in s.values]
+    return tuple(per_element), _names(fixed)
+
+
+def _element_values(el: RawElement) -> list:
+    values = [el.value, el.ic]
+    if el.wave is not None:
+        _, args, _, extras = el.wave
+        values += list(args) + [val for val, _ in extras.values()]
+    return values
+
+
+def _same(a: float | None, b: float | None) -> bool:
+    """The same double (a sign of zero told apart)."""
+    return a is not None and b is not None and a == b and \
+        math.copysign(1.0, a) == math.copysign(1.0, b)
+
+
+def _rebind(deck: Deck, base: _Base, overrides: dict) -> Circuit | None:
+    """The circuit for ``overrides``, or None where only a full evaluation can tell."""
+    defined = {p.name for p in deck.top.params}
+    fixed: dict[str, float] = {}
+    for name, value in overrides.items():
+        key = name.lower()
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            return None
+        if key not in defined or not math.isfinite(number):
+            return None  # (the full evaluation reports it)
+        fixed[key] = number
+    builder = _Builder(deck)
+    env, failed = builder.scope(deck.top.params, fixed, {}, set())
+    old = base.circuit.params
+    if failed or builder.diags or env.keys() != old.keys():
+        return None
+    changed = {n for n, v in env.items() if not _same(v, old[n])}
+    if changed & base.fixed_uses:
+        return None
+    elements = []
+    for el, raw, uses in zip(base.circuit.elements, deck.top.elements, base.uses, strict=True):
+        if uses & changed:
+            el = builder.element(raw, "", _same_node, env, failed)
+            if builder.diags:
+                return None
+        elements.append(copy.copy(el))
+    c = base.circuit
+    return replace(
+        c, elements=elements, params=dict(env),
+        models={k: replace(m, params=dict(m.params)) for k, m in c.models.items()},
+        initial_conditions=dict(c.initial_conditions), tran=copy.copy(c.tran),
+        options=dict(c.options), ignored=list(c.ignored), replacements=list(c.replacements),
+        notes=list(c.notes), subckt_texts=dict(c.subckt_texts), steps=list(c.steps))
+
+
+def _same_node(node: str) -> str:
+    return node
