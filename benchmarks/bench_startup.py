@@ -1,0 +1,110 @@
+"""Start-up cost: the smallest whole command against ``python -c "import numpy"``.
+
+    .venv/bin/python benchmarks/bench_startup.py [--repeat N] [--importtime]
+
+The smallest command is ``pelcs simulate rc.cir -o rc.csv``: a pulsed source, two resistors, a
+diode and a capacitor, ``.tran 10u 1m`` (about 100 steps), no plot, a CSV file. For that
+command nearly all the time is start-up (interpreter, imports, loading the compiled kernels),
+so it is what a user waiting on a short run pays. It is compared with the floor that any
+numpy program pays, ``python -c "import numpy"``, on the same machine and interpreter.
+
+Each figure is the CPU time (user + system, from ``os.wait4``) of a fresh process, the
+median and the best of ``--repeat`` runs, the two kinds of process interleaved so that a
+change of the machine's load hits both alike. ``--importtime`` also prints the slowest
+top-level imports of one command (``python -X importtime``, cumulative microseconds).
+
+The machine's ``PYTHONDONTWRITEBYTECODE`` is removed for every process, as on a user's
+machine: Python then reads the ``.pyc`` files instead of compiling the modules on each start.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+DECK = """rc with diode: the smallest command
+V1 in 0 PULSE(0 5 0 1u 1u 0.5m 1m)
+R1 in a 1k
+D1 a out DMOD
+C1 out 0 1u
+R2 out 0 10k
+.model DMOD D
+.tran 10u 1m
+.end
+"""
+
+# What the installed ``pelcs`` script runs.
+_ENTRY = "import sys; from pelcs.cli import main; sys.exit(main())"
+
+
+def _cpu(cmd: list[str], env: dict) -> float:
+    """CPU time (user + system, s) of one run of ``cmd`` in a fresh process."""
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE)
+    err = proc.stderr.read()
+    _, status, usage = os.wait4(proc.pid, 0)
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    proc.stderr.close()
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed: {err.decode()[-500:]}")
+    return usage.ru_utime + usage.ru_stime
+
+
+def _importtime(cmd: list[str], env: dict, top: int = 15) -> list[tuple[int, str]]:
+    """The ``top`` slowest imports of one run (cumulative microseconds, module)."""
+    p = subprocess.run([cmd[0], "-X", "importtime", *cmd[1:]], env=env,
+                       capture_output=True, text=True, check=True)
+    rows = []
+    for line in p.stderr.splitlines():
+        if not line.startswith("import time:") or "cumulative" in line:
+            continue
+        _, cumulative, name = line[len("import time:"):].split("|")
+        if not name[1:].startswith(" "):  # top level: imported by the command itself
+            rows.append((int(cumulative), name.strip()))
+    return sorted(rows, reverse=True)[:top]
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=20)
+    ap.add_argument("--importtime", action="store_true",
+                    help="also list the slowest top-level imports of the command")
+    args = ap.parse_args(argv)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env["PYTHONPATH"] = os.pathsep.join(
+        [str(ROOT), *filter(None, [env.get("PYTHONPATH")])])
+    with tempfile.TemporaryDirectory() as d:
+        deck = Path(d) / "rc.cir"
+        deck.write_text(DECK)
+        numpy_cmd = [sys.executable, "-c", "import numpy"]
+        pelcs_cmd = [sys.executable, "-c", _ENTRY, "simulate", str(deck), "-o",
+                     str(Path(d) / "rc.csv")]
+        # One run of each first: the .pyc files and the grammar's tables are written.
+        _cpu(numpy_cmd, env)
+        _cpu(pelcs_cmd, env)
+        base, cmd = [], []
+        for _ in range(args.repeat):
+            base.append(_cpu(numpy_cmd, env))
+            cmd.append(_cpu(pelcs_cmd, env))
+        b_med, c_med = statistics.median(base), statistics.median(cmd)
+        print(f"CPU s (user + sys), {args.repeat} runs:   median   best")
+        print(f"python -c 'import numpy'             {b_med:7.3f} {min(base):7.3f}")
+        print(f"pelcs simulate (100 steps, CSV)      {c_med:7.3f} {min(cmd):7.3f}")
+        print(f"ratio                                {c_med / b_med:7.2f} "
+              f"{min(cmd) / min(base):7.2f}")
+        if args.importtime:
+            print("slowest top-level imports of the command (cumulative ms):")
+            for us, name in _importtime(pelcs_cmd, env):
+                print(f"  {us / 1000:7.1f}  {name}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
