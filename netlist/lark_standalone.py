@@ -18,6 +18,7 @@ grammar and start rules give the same trees and errors.
 """
 
 from __future__ import annotations
+import __future__
 
 import marshal
 import os
@@ -35,7 +36,7 @@ START_RULES = [
 ]
 
 #: Bumped when what is cached changes.
-_FORMAT = 1
+_FORMAT = 2
 _CACHE_NAME = "grammar.lark-standalone"
 
 
@@ -74,9 +75,11 @@ def _generate(grammar: str) -> CodeType:
                   maybe_placeholders=False)
     out = io.StringIO()
     gen_standalone(parser, out=out)
-    # (dont_inherit: compiled as lark wrote it, without this module's __future__ imports)
+    # With postponed annotations (PEP 563): lark's type annotations (typing's generics, some
+    # 300 of them) stay strings instead of being built at every start; nothing in lark reads
+    # them at run time.
     return compile(out.getvalue(), "<lark stand-alone parser of netlist/grammar.lark>", "exec",
-                   dont_inherit=True)
+                   flags=__future__.annotations.compiler_flag, dont_inherit=True)
 
 
 def _code() -> CodeType:
