@@ -1,6 +1,6 @@
 """Start-up cost: the smallest whole command against ``python -c "import numpy"``.
 
-    .venv/bin/python benchmarks/bench_startup.py [--repeat N] [--importtime]
+    .venv/bin/python benchmarks/bench_startup.py [--repeat N] [--importtime] [--other DIR]
 
 The smallest command is ``pelcs simulate rc.cir -o rc.csv``: a pulsed source, two resistors, a
 diode and a capacitor, ``.tran 10u 1m`` (about 100 steps), no plot, a CSV file. For that
@@ -12,6 +12,9 @@ Each figure is the CPU time (user + system, from ``os.wait4``) of a fresh proces
 median and the best of ``--repeat`` runs, the two kinds of process interleaved so that a
 change of the machine's load hits both alike. ``--importtime`` also prints the slowest
 top-level imports of one command (``python -X importtime``, cumulative microseconds).
+``--other DIR`` also times the command of another checkout (``PYTHONPATH=DIR``, e.g. an
+earlier commit unpacked with ``git archive``, its ``lcs/__pycache__/aot-*`` copied), in the
+same interleaved loop: on a loaded machine the only fair comparison.
 
 The machine's ``PYTHONDONTWRITEBYTECODE`` is removed for every process, as on a user's
 machine: Python then reads the ``.pyc`` files instead of compiling the modules on each start.
@@ -76,6 +79,8 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=20)
     ap.add_argument("--importtime", action="store_true",
                     help="also list the slowest top-level imports of the command")
+    ap.add_argument("--other", type=Path, metavar="DIR",
+                    help="also time the command of the checkout in DIR")
     args = ap.parse_args(argv)
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     env["PYTHONPATH"] = os.pathsep.join(
@@ -86,19 +91,31 @@ def main(argv=None) -> int:
         numpy_cmd = [sys.executable, "-c", "import numpy"]
         pelcs_cmd = [sys.executable, "-c", _ENTRY, "simulate", str(deck), "-o",
                      str(Path(d) / "rc.csv")]
-        # One run of each first: the .pyc files and the grammar's tables are written.
+        env_other = None
+        if args.other is not None:
+            env_other = {**env, "PYTHONPATH": os.pathsep.join(
+                [str(args.other.resolve()), *filter(None, [os.environ.get("PYTHONPATH")])])}
+        # One run of each first: the .pyc files and the grammar's caches are written.
         _cpu(numpy_cmd, env)
         _cpu(pelcs_cmd, env)
-        base, cmd = [], []
+        if env_other is not None:
+            _cpu(pelcs_cmd, env_other)
+        base, cmd, other = [], [], []
         for _ in range(args.repeat):
             base.append(_cpu(numpy_cmd, env))
             cmd.append(_cpu(pelcs_cmd, env))
-        b_med, c_med = statistics.median(base), statistics.median(cmd)
-        print(f"CPU s (user + sys), {args.repeat} runs:   median   best")
-        print(f"python -c 'import numpy'             {b_med:7.3f} {min(base):7.3f}")
-        print(f"pelcs simulate (100 steps, CSV)      {c_med:7.3f} {min(cmd):7.3f}")
-        print(f"ratio                                {c_med / b_med:7.2f} "
-              f"{min(cmd) / min(base):7.2f}")
+            if env_other is not None:
+                other.append(_cpu(pelcs_cmd, env_other))
+        b_med, b_min = statistics.median(base), min(base)
+        print(f"CPU s (user + sys), {args.repeat} runs:   median   best   ratio to numpy "
+              "(median, best)")
+        print(f"python -c 'import numpy'             {b_med:7.3f} {b_min:7.3f}")
+        rows = [("pelcs simulate (100 steps, CSV)", cmd)]
+        if other:
+            rows.append((f"  the same, {args.other.name}", other))
+        for label, times in rows:
+            med, best = statistics.median(times), min(times)
+            print(f"{label:36s} {med:7.3f} {best:7.3f}   {med / b_med:5.2f} {best / b_min:5.2f}")
         if args.importtime:
             print("slowest top-level imports of the command (cumulative ms):")
             for us, name in _importtime(pelcs_cmd, env):
