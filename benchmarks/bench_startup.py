@@ -47,9 +47,11 @@ R2 out 0 10k
 _ENTRY = "import sys; from pelcs.cli import main; sys.exit(main())"
 
 
-def _cpu(cmd: list[str], env: dict) -> float:
+def _cpu(cmd: list[str], env: dict, cwd: Path) -> float:
     """CPU time (user + system, s) of one run of ``cmd`` in a fresh process."""
-    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL,
+    # (in ``cwd``, not this checkout: ``python -c`` puts the working directory first on
+    # sys.path, ahead of PYTHONPATH)
+    proc = subprocess.Popen(cmd, env=env, cwd=cwd, stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE)
     err = proc.stderr.read()
     _, status, usage = os.wait4(proc.pid, 0)
@@ -60,9 +62,10 @@ def _cpu(cmd: list[str], env: dict) -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def _importtime(cmd: list[str], env: dict, top: int = 15) -> list[tuple[int, str]]:
+def _importtime(cmd: list[str], env: dict, cwd: Path, top: int = 15
+                ) -> list[tuple[int, str]]:
     """The ``top`` slowest imports of one run (cumulative microseconds, module)."""
-    p = subprocess.run([cmd[0], "-X", "importtime", *cmd[1:]], env=env,
+    p = subprocess.run([cmd[0], "-X", "importtime", *cmd[1:]], env=env, cwd=cwd,
                        capture_output=True, text=True, check=True)
     rows = []
     for line in p.stderr.splitlines():
@@ -86,7 +89,8 @@ def main(argv=None) -> int:
     env["PYTHONPATH"] = os.pathsep.join(
         [str(ROOT), *filter(None, [env.get("PYTHONPATH")])])
     with tempfile.TemporaryDirectory() as d:
-        deck = Path(d) / "rc.cir"
+        tmp = Path(d)
+        deck = tmp / "rc.cir"
         deck.write_text(DECK)
         numpy_cmd = [sys.executable, "-c", "import numpy"]
         pelcs_cmd = [sys.executable, "-c", _ENTRY, "simulate", str(deck), "-o",
@@ -96,16 +100,16 @@ def main(argv=None) -> int:
             env_other = {**env, "PYTHONPATH": os.pathsep.join(
                 [str(args.other.resolve()), *filter(None, [os.environ.get("PYTHONPATH")])])}
         # One run of each first: the .pyc files and the grammar's caches are written.
-        _cpu(numpy_cmd, env)
-        _cpu(pelcs_cmd, env)
+        _cpu(numpy_cmd, env, tmp)
+        _cpu(pelcs_cmd, env, tmp)
         if env_other is not None:
-            _cpu(pelcs_cmd, env_other)
+            _cpu(pelcs_cmd, env_other, tmp)
         base, cmd, other = [], [], []
         for _ in range(args.repeat):
-            base.append(_cpu(numpy_cmd, env))
-            cmd.append(_cpu(pelcs_cmd, env))
+            base.append(_cpu(numpy_cmd, env, tmp))
+            cmd.append(_cpu(pelcs_cmd, env, tmp))
             if env_other is not None:
-                other.append(_cpu(pelcs_cmd, env_other))
+                other.append(_cpu(pelcs_cmd, env_other, tmp))
         b_med, b_min = statistics.median(base), min(base)
         print(f"CPU s (user + sys), {args.repeat} runs:   median   best   ratio to numpy "
               "(median, best)")
@@ -118,7 +122,7 @@ def main(argv=None) -> int:
             print(f"{label:36s} {med:7.3f} {best:7.3f}   {med / b_med:5.2f} {best / b_min:5.2f}")
         if args.importtime:
             print("slowest top-level imports of the command (cumulative ms):")
-            for us, name in _importtime(pelcs_cmd, env):
+            for us, name in _importtime(pelcs_cmd, env, tmp):
                 print(f"  {us / 1000:7.1f}  {name}")
     return 0
 
