@@ -9,7 +9,6 @@ was: an earlier good file is never destroyed, and no truncated file looks like a
 from __future__ import annotations
 
 import os
-import secrets
 import stat
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -58,7 +57,7 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
             return
         mode = stat.S_IMODE(st.st_mode)
     while True:
-        tmp = target.with_name(f".{target.name}.{secrets.token_hex(4)}.part{target.suffix}")
+        tmp = target.with_name(f".{target.name}.{os.urandom(4).hex()}.part{target.suffix}")
         try:
             fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, mode)
         except FileExistsError:  # pragma: no cover - 32 random bits

@@ -42,12 +42,16 @@ class Element:
 
 @dataclass
 class Resistor(Element):
+    """A resistor; ``value`` in Ω."""
+
     value: float = 0.0
     kind: ClassVar[str] = "R"
 
 
 @dataclass
 class Inductor(Element):
+    """An inductor; ``value`` in H, ``ic`` its initial current in A (``IC=``, else None)."""
+
     value: float = 0.0
     ic: float | None = None
     kind: ClassVar[str] = "L"
@@ -55,6 +59,8 @@ class Inductor(Element):
 
 @dataclass
 class Capacitor(Element):
+    """A capacitor; ``value`` in F, ``ic`` its initial voltage in V (``IC=``, else None)."""
+
     value: float = 0.0
     ic: float | None = None
     kind: ClassVar[str] = "C"

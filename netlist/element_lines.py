@@ -6,8 +6,6 @@ A mixin of the reader: it uses the reader's ``parse``, ``value``, ``assigns``, `
 
 from __future__ import annotations
 
-from lark import Token
-
 from .dialect import (
     _NONLINEAR,
     _PASSIVE_IGNORED,
@@ -18,6 +16,7 @@ from .dialect import (
     hierarchical_name,
     node_name,
 )
+from .expressions import Token
 from .ltspice import PARASITICS as _PARASITICS
 from .ltspice import explicit_parasitics
 from .rawdeck import (

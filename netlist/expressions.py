@@ -16,50 +16,49 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import lru_cache
-from pathlib import Path
+from typing import TYPE_CHECKING
 
-from lark import Lark, Token, Tree
-from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
-
+from . import lark_standalone
+from .lark_standalone import GRAMMAR_FILE, START_RULES
 from .units import parse_number
 
-GRAMMAR_FILE = Path(__file__).with_name("grammar.lark")
+if TYPE_CHECKING:
+    from lark import Lark
 
-# Start rules of grammar.lark: one per statement shape, and the expression rule.
-START_RULES = [
-    "passive", "source", "diode", "switch", "device", "vcontrolled", "ccontrolled", "coupling",
-    "instance", "param_cmd", "subckt_cmd", "ends_cmd", "model_cmd", "ic_cmd", "tran_cmd",
-    "step_cmd", "options_cmd", "include_cmd", "lib_cmd", "global_cmd", "expression",
-]
+# The parser's token, tree and error classes: the stand-alone parser's, else lark's.
+if lark_standalone.AVAILABLE:
+    Token, Tree = lark_standalone.Token, lark_standalone.Tree
+    UnexpectedCharacters = lark_standalone.UnexpectedCharacters
+    UnexpectedEOF = lark_standalone.UnexpectedEOF
+    UnexpectedInput = lark_standalone.UnexpectedInput
+    UnexpectedToken = lark_standalone.UnexpectedToken
+else:
+    from lark import Token, Tree
+    from lark.exceptions import (
+        UnexpectedCharacters,
+        UnexpectedEOF,
+        UnexpectedInput,
+        UnexpectedToken,
+    )
+
 
 
 def _grammar_cache() -> str | bool:
-    """Where lark caches the parser tables: ``$PELCS_CACHE_DIR``, else ``netlist/__pycache__``
-    or, when the installed package cannot be written, the per-user cache
-    (:func:`lcs.kernels.user_cache_dir`); False when none is writable (the tables are then
-    built on every start)."""
-    import os
-
-    env = os.environ.get("PELCS_CACHE_DIR")
-    if env:
-        roots = [Path(env)]
-    else:
-        from lcs.kernels import user_cache_dir
-
-        roots = [GRAMMAR_FILE.with_name("__pycache__"), user_cache_dir()]
-    for root in roots:
-        try:
-            root.mkdir(parents=True, exist_ok=True)
-        except OSError:
-            continue
-        if os.access(root, os.W_OK):
-            return str(root / "grammar.lark-tables")
-    return False
+    """Where lark caches the parser tables (when it parses, see :func:`lark_parser`):
+    ``grammar.lark-tables`` in :func:`netlist.lark_standalone.cache_dir`; False when that is
+    not writable (the tables are then built on every start)."""
+    root = lark_standalone.cache_dir()
+    return str(root / "grammar.lark-tables") if root is not None else False
 
 
 @lru_cache(maxsize=1)
 def lark_parser() -> Lark:
-    """The LALR parser of ``grammar.lark`` for all start rules (built once, ~50 ms)."""
+    """The LALR parser of ``grammar.lark`` for all start rules, built once: lark's
+    stand-alone parser (:mod:`netlist.lark_standalone`, about 5 ms), else lark's."""
+    if lark_standalone.AVAILABLE:
+        return lark_standalone.Lark_StandAlone()
+    from lark import Lark
+
     return Lark(
         GRAMMAR_FILE.read_text(encoding="utf-8"),
         parser="lalr",

@@ -48,7 +48,6 @@ from .circuit import (
     Vcvs,
     VoltageSource,
 )
-from .devices import Replacement, classify_macro, subckt_text, threshold
 from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
 from .expressions import CONSTANTS, ExpressionError
 from .limits import ELEMENTS
@@ -463,6 +462,9 @@ class _Builder:
 
     def device(self, el: RawElement, prefix: str, mapnode: Callable[[str], str]) -> list:
         """An M or Q element idealised: a switch, the VDMOS body diode (netlist.devices)."""
+        # (imported by the circuits that have devices: 1 ms of the others' start)
+        from .devices import Replacement, threshold
+
         name = prefix + el.name if prefix else el.name
         loc = el.st.loc(0)
         nodes = tuple(map(mapnode, el.nodes))
@@ -509,6 +511,8 @@ class _Builder:
               ) -> None:
         """A device macro-model instance as one ideal switch (and body diode) or one ideal
         diode between its ports (netlist.devices.classify_macro)."""
+        from .devices import Replacement, subckt_text, threshold
+
         loc = el.st.loc(0)
         ports = {p.lower(): n for p, n in port_map.items()}
         inst_nodes = tuple(port_map[p] for p in sub.ports)
@@ -634,6 +638,8 @@ class _Builder:
                                           self.global_env, self.global_failed)
         port_map = {port: mapnode(n) for port, n in zip(sub.ports, el.nodes, strict=True)}
         if key not in self._macros:
+            from .devices import classify_macro
+
             self._macros[key] = classify_macro(sub)
         macro = self._macros[key]
         if macro is not None:

@@ -124,6 +124,8 @@ class RawElement:
 
 @dataclass(slots=True, eq=False)
 class RawIc:
+    """One node of ``.ic V(node)=value`` as written (``offset``: where the node name is)."""
+
     node: str
     value: Value
     st: Statement
@@ -141,6 +143,8 @@ class Body:
 
 @dataclass(eq=False)
 class SubcktDef:
+    """A ``.subckt`` definition: name, ports, default parameters and body."""
+
     name: str
     ports: list[str]
     defaults: list[RawParam]
@@ -150,6 +154,8 @@ class SubcktDef:
 
 @dataclass(eq=False)
 class RawModel:
+    """A ``.model`` card as written: name, device type and parameters."""
+
     name: str
     type: str
     params: list[RawParam]
@@ -158,6 +164,8 @@ class RawModel:
 
 @dataclass(eq=False)
 class RawTran:
+    """A ``.tran`` card as written: its values (TSTEP TSTOP [TSTART [TMAX]]) and UIC."""
+
     values: list[Value]
     uic: bool
     st: Statement

@@ -13,9 +13,7 @@ import re
 from collections.abc import Callable
 from pathlib import Path
 
-from lark import Token, Tree
-from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
-
+from . import expressions
 from .circuit import IgnoredCommand
 from .dialect import (
     _MODEL_TYPES,
@@ -31,7 +29,7 @@ from .dialect import (
 )
 from .element_lines import ElementLines
 from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
-from .expressions import ExpressionError, lark_parser, parse_expression
+from .expressions import ExpressionError, Token, Tree, lark_parser, parse_expression
 from .netlist_bytes import decode as _decode
 from .netlist_bytes import read_bytes as _read_bytes
 from .rawdeck import (
@@ -335,16 +333,17 @@ class _Reader(ElementLines):
     def parse(self, st: Statement, rule: str, what: str, usage: str) -> Tree:
         try:
             return self.lark.parse(st.text, start=rule)
-        except UnexpectedInput as exc:
+        except expressions.UnexpectedInput as exc:
             self._syntax(st, exc, what, usage)
             raise _Abandon from None
 
-    def _syntax(self, st: Statement, exc: UnexpectedInput, what: str, usage: str) -> None:
+    def _syntax(self, st: Statement, exc: expressions.UnexpectedInput, what: str,
+                usage: str) -> None:
         hint = f"syntax: {usage}"
         name = _WORD.match(st.text)
         label = f"{what} '{name.group()}'" if name and what[0] != "." else what
-        if isinstance(exc, UnexpectedEOF) or (
-            isinstance(exc, UnexpectedToken) and exc.token.type == "$END"
+        if isinstance(exc, expressions.UnexpectedEOF) or (
+            isinstance(exc, expressions.UnexpectedToken) and exc.token.type == "$END"
         ):
             expected = getattr(exc, "expected", set()) or set()
             words = list(_WORD.finditer(st.text))
@@ -356,7 +355,7 @@ class _Reader(ElementLines):
                 return
             self.error(f"incomplete {label}: {_expected(expected)} missing", st,
                        len(st.text), hint)
-        elif isinstance(exc, UnexpectedToken):
+        elif isinstance(exc, expressions.UnexpectedToken):
             tok = exc.token
             if exc.expected == {"EQUAL"} and exc.token_history:
                 prev = exc.token_history[-1]
@@ -364,7 +363,7 @@ class _Reader(ElementLines):
                            prev.start_pos, hint)
                 return
             self.error(f"unexpected '{tok}' in {label}", st, tok.start_pos, hint)
-        elif isinstance(exc, UnexpectedCharacters):
+        elif isinstance(exc, expressions.UnexpectedCharacters):
             ch = st.text[exc.pos_in_stream]
             what_ch = "quote" if ch in "'\"" else "character"
             self.error(f"unexpected {what_ch} {ch!r} in {label}", st, exc.pos_in_stream,

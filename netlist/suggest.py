@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import difflib
 import re
 from collections.abc import Iterable
 
@@ -13,6 +12,8 @@ def close_matches(word: str, candidates: Iterable[str], n: int = 3) -> list[str]
     Compared without case and blanks (SPICE names ignore case; ``v( out )`` is ``v(out)``);
     returned as the candidates are spelt.
     """
+    import difflib  # (only for a misspelt name: 1 ms of every start otherwise)
+
     spelt: dict[str, str] = {}
     for c in candidates:
         spelt.setdefault(_key(c), c)

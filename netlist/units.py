@@ -10,9 +10,12 @@ from __future__ import annotations
 
 import math
 import re
-from decimal import Decimal
+from typing import TYPE_CHECKING
 
 from lcs.units_format import format_eng as _format_eng
+
+if TYPE_CHECKING:
+    from decimal import Decimal
 
 # Scale suffixes as powers of ten. Checked in this order so that "meg" and "mil" win over "m".
 _POW10 = {"t": 12, "g": 9, "k": 3, "m": -3, "u": -6, "n": -9, "p": -12, "f": -15, "a": -18}
@@ -99,6 +102,8 @@ def format_number(value: float) -> str:
         raise ValueError(f"cannot write non-finite value {value!r} to a netlist")
     if value == 0:
         return "0"
+    from decimal import Decimal  # (only netlists written need it: 1 ms of every start)
+
     d = Decimal(repr(value))
     e = d.adjusted()  # exponent of the leading digit
     if -2 <= e <= 2:

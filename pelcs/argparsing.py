@@ -10,7 +10,6 @@ option of the command that was run.
 from __future__ import annotations
 
 import argparse
-import difflib
 
 
 class Parser(argparse.ArgumentParser):
@@ -51,6 +50,8 @@ class Parser(argparse.ArgumentParser):
             name = arg.split("=", 1)[0]
             if name in self._option_string_actions:
                 continue
+            import difflib  # (only for a mistyped option)
+
             close = difflib.get_close_matches(name, list(self._option_string_actions), n=1)
             guess = (f"; did you mean '{close[0]}'?" if close else
                      f"; `{self.prog} --help` lists the options")

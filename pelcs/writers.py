@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import csv
 import os
-import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -70,6 +69,8 @@ def write_npz(result: SimulationResult, path: str | os.PathLike, compress: bool 
     error message, empty for a complete run). The archive is the one ``numpy.savez`` writes
     (``numpy.savez_compressed`` with ``compress``), member for member.
     """
+    import zipfile  # (only NPZ output needs it)
+
     out = Path(path)
     y = np.asarray(result.y)
     method = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED

@@ -108,6 +108,34 @@ def test_simulate_command_imports_neither_numba_nor_scipy(aot_built, tmp_path):
     assert (tmp_path / "b.csv").stat().st_size > 1000
 
 
+# The smallest command (benchmarks/bench_startup.py times it against `python -c "import numpy"`).
+RC_DECK = """rc with diode: the smallest command
+V1 in 0 PULSE(0 5 0 1u 1u 0.5m 1m)
+R1 in a 1k
+D1 a out DMOD
+C1 out 0 1u
+R2 out 0 10k
+.model DMOD D
+.tran 10u 1m
+.end
+"""
+
+
+def test_smallest_command_imports_only_what_it_uses(aot_built, tmp_path):
+    # 100 steps to a CSV: nearly all of it is start-up. No numba (the AOT module), no lark
+    # (its stand-alone parser, cached by the first run), none of the optional libraries, and
+    # none of the standard modules only other paths use.
+    deck = tmp_path / "rc.cir"
+    deck.write_text(RC_DECK)
+    modules = ("numba", "scipy", "matplotlib", "pandas", "pyarrow", "cvxpy", "control", "dask",
+               "tqdm", "lark", "importlib.metadata", "numpy.ma", "decimal", "difflib",
+               "secrets", "zipfile", "tempfile")
+    for _ in range(2):
+        out = _simulate_modules(deck, tmp_path / "rc.csv", modules)
+    assert "MODS 0 []" in out, out[-2000:]
+    assert len((tmp_path / "rc.csv").read_text().splitlines()) == 102  # header, 101 points
+
+
 def test_large_circuit_run_imports_no_scipy(aot_built, tmp_path):
     # 195 MNA unknowns a mode: the formulation's LU path (lcs.sparse_lu), no scipy.sparse.
     net = tmp_path / "mmc24.cir"

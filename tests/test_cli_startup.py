@@ -42,7 +42,11 @@ def test_one_command_parser_equals_the_full_one():
     assert all(one[k] == full[k] for k in one if k != "func")
 
 
-def test_grammar_tables_cache_survives_a_corrupt_file(tmp_path):
+@pytest.mark.parametrize("cache, standalone", [("grammar.lark-standalone", "1"),
+                                               ("grammar.lark-tables", "0")])
+def test_grammar_caches_survive_a_corrupt_file(tmp_path, cache, standalone):
+    # The stand-alone parser's code (netlist.lark_standalone) and, where lark itself parses
+    # (PELCS_LARK_STANDALONE=0), lark's tables.
     import os
     import subprocess
     import sys
@@ -52,13 +56,14 @@ def test_grammar_tables_cache_survives_a_corrupt_file(tmp_path):
     code = ("from netlist.parser import parse_string; "
             "c = parse_string('t\\nR1 a 0 1k\\nV1 a 0 DC 1\\n.end\\n'); "
             "print('OK', [e.name for e in c.elements])")
-    env = {**os.environ, "PELCS_CACHE_DIR": str(tmp_path)}
-    for garbage in (None, b"not a pickle", None):
+    env = {**os.environ, "PELCS_CACHE_DIR": str(tmp_path), "PELCS_LARK_STANDALONE": standalone}
+    for garbage in (None, b"not a pickle", None, b"", None):
         if garbage is not None:
-            (tmp_path / "grammar.lark-tables").write_bytes(garbage)
+            (tmp_path / cache).write_bytes(garbage)
         p = subprocess.run([sys.executable, "-c", code], cwd=root, env=env,
                            capture_output=True, text=True, timeout=120)
         assert p.returncode == 0 and "OK ['R1', 'V1']" in p.stdout, p.stderr[-2000:]
         assert p.stderr == ""
         # Written (again) after each run: the next start loads it.
-        assert (tmp_path / "grammar.lark-tables").stat().st_size > 10000
+        assert (tmp_path / cache).stat().st_size > 10000
+    assert [f.name for f in tmp_path.iterdir()] == [cache]  # no temporary file left
