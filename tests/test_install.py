@@ -352,12 +352,12 @@ def test_the_module_goes_to_the_user_cache_when_the_package_cannot_be_written(
 
 def test_the_grammar_tables_go_to_the_user_cache_when_the_package_cannot_be_written(
         tmp_path, monkeypatch):
-    from netlist import expressions
+    from netlist import expressions, lark_standalone
 
     pkg = tmp_path / "site" / "netlist"
     pkg.mkdir(parents=True)
     (pkg / "__pycache__").write_text("")  # (nothing can be written there, even by root)
-    monkeypatch.setattr(expressions, "GRAMMAR_FILE", pkg / "grammar.lark")
+    monkeypatch.setattr(lark_standalone, "GRAMMAR_FILE", pkg / "grammar.lark")
     monkeypatch.delenv("PELCS_CACHE_DIR", raising=False)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     assert expressions._grammar_cache() == str(tmp_path / "xdg" / "pelcs" /
