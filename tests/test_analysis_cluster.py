@@ -327,7 +327,9 @@ def test_not_a_scheduler_with_the_default_timeouts(http_port):
     assert (f"--scheduler: {address} is not a Dask scheduler (no answer to Dask's handshake "
             f"within {parallel.HANDSHAKE_TIMEOUT:g} s)") in r.stderr
     assert "Traceback" not in r.stderr and "Exception ignored" not in r.stderr
-    assert elapsed < 10, elapsed
+    # (the 5 s handshake and a command's start-up; room for a loaded machine, and still far
+    # from the 30 s that Dask's default connect timeout would hang)
+    assert elapsed < 20, elapsed
 
 
 # Ctrl-C in the middle of a run on the cluster: SIGINT's handler installed explicitly, as a
@@ -386,7 +388,7 @@ def test_interrupt_on_a_cluster_is_quiet(cluster, command):
     assert p.returncode == 130, err
     assert "Traceback" not in err and "exception" not in err.lower(), err
     assert "interrupted (SIGINT) after " in err, err
-    assert elapsed < 5, elapsed
+    assert elapsed < 10, elapsed  # (room for a loaded machine)
 
 
 def _copy_buck_sync(to: Path) -> None:
