@@ -1,6 +1,13 @@
 """Shared pytest fixtures."""
 
+import os
+
 import pytest
+
+# No test command starts the ahead-of-time module's background build (a detached process of a
+# minute or more, into a temporary PELCS_CACHE_DIR that a test may give a command); the tests
+# of that build turn it back on for themselves.
+os.environ["PELCS_AOT_BUILD"] = "0"
 
 
 @pytest.fixture(scope="session")
