@@ -33,6 +33,9 @@ from netlist.param_sweep import run_sweep
 from netlist.sweep import CircuitMapFactory
 from pelcs.cli import main
 
+# (the slow part of the suite: outside the fast subset that `-m 'not slow'` selects)
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 VM_BUCK = str(ROOT / "converters" / "netlists" / "vm_buck.cir")
 # A netlist with a relative .include and a relative .lib (and the files they name).

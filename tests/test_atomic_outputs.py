@@ -18,6 +18,9 @@ from lcs.results import SimulationResult, SimulationStats
 from pelcs.outputs import write_outputs
 from pelcs.writers import write_csv, write_npz, write_parquet
 
+# (the slow part of the suite: outside the fast subset that `-m 'not slow'` selects)
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 BOOST = ROOT / "converters" / "netlists" / "boost.cir"
 

@@ -26,6 +26,9 @@ from netlist.sweep import CircuitMapFactory
 from netlist.transient import simulate_circuit
 from pelcs.cli import main
 
+# (the slow part of the suite: outside the fast subset that `-m 'not slow'` selects)
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 EXACT = ROOT / "tests" / "netlists" / "exact"
 VM_BUCK = ROOT / "converters" / "netlists" / "vm_buck.cir"

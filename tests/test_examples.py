@@ -15,6 +15,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+# (the slow part of the suite: outside the fast subset that `-m 'not slow'` selects)
+pytestmark = pytest.mark.slow
+
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 
 

@@ -19,6 +19,9 @@ import pytest
 from lcs import jit, kernel_setup, kernels
 from pelcs.cli import bundled_netlist, installed_version, main
 
+# (the slow part of the suite: outside the fast subset that `-m 'not slow'` selects)
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 
 

@@ -17,6 +17,9 @@ from conftest import as_from_a_terminal
 
 from lcs import interrupt
 
+# (the slow part of the suite: outside the fast subset that `-m 'not slow'` selects)
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 BOOST = ROOT / "converters" / "netlists" / "boost.cir"
 # s of the boost at h = 2 ns: 250 million steps (50 s at the best 0.2 µs a step), stopped

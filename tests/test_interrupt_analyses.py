@@ -14,7 +14,11 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 from conftest import as_from_a_terminal
+
+# (the slow part of the suite: outside the fast subset that `-m 'not slow'` selects)
+pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[1]
 BUCK = ROOT / "converters" / "netlists" / "buck.cir"

@@ -6,12 +6,16 @@ location (when there is one) whose line exists in the input.
 
 from pathlib import Path
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from netlist.errors import NetlistError
 from netlist.parser import parse_file, parse_string
 from netlist.writer import write_circuit
+
+# (the slow part of the suite: outside the fast subset that `-m 'not slow'` selects)
+pytestmark = pytest.mark.slow
 
 SEEDS = [
     (Path(__file__).parent / "netlists" / "cuk_coupled.cir").read_text(),
@@ -161,8 +165,6 @@ import random  # noqa: E402
 import re  # noqa: E402
 import signal  # noqa: E402
 import time  # noqa: E402
-
-import pytest  # noqa: E402
 
 _ROOT = Path(__file__).resolve().parents[1]
 _CORPUS = sorted([*(_ROOT / "converters" / "netlists").glob("*.cir"),

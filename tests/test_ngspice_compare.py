@@ -30,6 +30,9 @@ from ngspice_checks.compare import (
 )
 from pelcs.api import load
 
+# (the slow part of the suite: outside the fast subset that `-m 'not slow'` selects)
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 
 # Netlists that are not compared, and why (paths relative to the repository).
