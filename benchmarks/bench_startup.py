@@ -32,16 +32,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 
-DECK = """rc with diode: the smallest command
-V1 in 0 PULSE(0 5 0 1u 1u 0.5m 1m)
-R1 in a 1k
-D1 a out DMOD
-C1 out 0 1u
-R2 out 0 10k
-.model DMOD D
-.tran 10u 1m
-.end
-"""
+# The smallest command's netlist (tests/test_aot.py checks what that command imports).
+DECK = (ROOT / "tests" / "netlists" / "sim" / "smallest_rc.cir").read_text()
 
 # What the installed ``pelcs`` script runs.
 _ENTRY = "import sys; from pelcs.cli import main; sys.exit(main())"

@@ -109,16 +109,7 @@ def test_simulate_command_imports_neither_numba_nor_scipy(aot_built, tmp_path):
 
 
 # The smallest command (benchmarks/bench_startup.py times it against `python -c "import numpy"`).
-RC_DECK = """rc with diode: the smallest command
-V1 in 0 PULSE(0 5 0 1u 1u 0.5m 1m)
-R1 in a 1k
-D1 a out DMOD
-C1 out 0 1u
-R2 out 0 10k
-.model DMOD D
-.tran 10u 1m
-.end
-"""
+RC_DECK = (Path(__file__).parent / "netlists" / "sim" / "smallest_rc.cir").read_text()
 
 
 def test_smallest_command_imports_only_what_it_uses(aot_built, tmp_path):
