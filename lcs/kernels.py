@@ -266,11 +266,11 @@ def aot_function(module: str, attr: str, args: tuple) -> Callable | None:
         if which == "plain" and args[-1] is None:
             continue
         fn = getattr(mod, export, None)
-        specs = _aot_types().get(export)
-        if fn is None or specs is None:
+        checks = _checks(export)
+        if fn is None or checks is None:
             return None
         flat = _flatten(args, [])
-        if len(flat) != len(specs) or not all(map(_matches, flat, specs)):
+        if len(flat) != len(checks) or not all(map(_matches, flat, checks)):
             return None
         return functools.partial(fn, *flat)
     return None
@@ -286,14 +286,28 @@ def _aot_types() -> dict:
         return {}
 
 
-def _matches(value, spec) -> bool:
-    """Whether ``value`` is of the leaf type ``spec`` (see :func:`lcs.aot.leaf_spec`)."""
+@functools.cache
+def _checks(export: str) -> tuple | None:
+    """The leaf types of ``export``'s arguments (:func:`lcs.aot.leaf_spec`) made ready for
+    :func:`_matches` once (an array's dtype as a numpy dtype: built from its name at every
+    check, it was most of the checks' cost, 113 of them a run)."""
     import numpy as np
 
-    kind = spec[0]
+    specs = _aot_types().get(export)
+    if specs is None:
+        return None
+    return tuple((spec[0], np.dtype(spec[1]), *spec[2:]) if spec[0] == "array"
+                 else tuple(spec) for spec in specs)
+
+
+def _matches(value, check) -> bool:
+    """Whether ``value`` is of the leaf type ``check`` (see :func:`_checks`)."""
+    import numpy as np
+
+    kind = check[0]
     if kind == "array":
-        _, dtype, ndim, layout, mutable = spec
-        if not (isinstance(value, np.ndarray) and value.dtype == np.dtype(dtype)
+        _, dtype, ndim, layout, mutable = check
+        if not (isinstance(value, np.ndarray) and value.dtype == dtype
                 and value.ndim == ndim):
             return False
         if layout == "C" and not value.flags.c_contiguous:
