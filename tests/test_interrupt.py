@@ -104,3 +104,25 @@ def test_interrupted_run_writes_what_it_computed(tmp_path, signum, plot):
     assert f"interrupted ({name}) at t = " in err
     assert "note: the run was interrupted at t = " in out
     assert "written to" in err and "boost.csv" in err
+
+
+def test_interrupted_exact_run_keeps_the_stretches_it_followed(tmp_path):
+    # 1 s of the buck, event by event (minutes): the signal comes while it follows the flow
+    out_csv = tmp_path / "buck.csv"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pelcs.cli", "simulate", str(ROOT / "converters" / "netlists" /
+                                                            "buck.cir"),
+         "--method", "exact", "--tstop", "1", "-o", str(out_csv)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)}, preexec_fn=as_from_a_terminal)
+    out, err, answer = _interrupt(proc, signal.SIGINT, delay=5.0)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err
+    assert answer < 30  # (the stretches followed are written out point by point)
+    with open(out_csv, newline="") as fh:
+        rows = list(csv.reader(fh))
+    times = [float(r[0]) for r in rows[1:]]
+    assert len(times) > 100 and 0 < times[-1] < 1.0
+    assert times == sorted(times)
+    assert "interrupted (SIGINT) at t = " in err
+    assert "note: the run was interrupted at t = " in out

@@ -70,6 +70,11 @@ class ExactError(RuntimeError):
     involved)."""
 
 
+class FollowStopped(ExactError):
+    """Following stopped because the caller asked (its ``stop`` callable said so, e.g. an
+    interrupt): ``segments`` and ``events`` hold what was done."""
+
+
 @dataclass(frozen=True)
 class SwitchRule:
     """A switch's comparator: on while ``control > vt + vh``, off while ``< vt - vh``; a
@@ -178,7 +183,7 @@ class Follower:
     sources, the switch rules and the caches of mode flows."""
 
     def __init__(self, system: SwitchedLCS, signals: Sequence, t0: float, period: float,
-                 jump=None):
+                 jump=None, stop=None):
         bad = [name for name, s in zip(system.inputs, signals, strict=True)
                if not (getattr(s, "piecewise_linear", False) or _is_sin(s))]
         if bad:
@@ -191,6 +196,9 @@ class Follower:
         # event leaves no consistent continuation (a switch closing a diode onto a charged
         # capacitor); None: such an event stops the run
         self.jump = jump
+        # stop() -> bool, asked before each segment: True ends the span with FollowStopped
+        # (the exact integrator's answer to an interrupt; None: never)
+        self.stop = stop
         self.signals = list(signals)
         self.omega_in = max((2 * np.pi * s.freq for s in self.signals if _is_sin(s)),
                             default=0.0)
@@ -423,6 +431,8 @@ class Follower:
         self.sliding: int | None = None
         same_instant = 0
         while True:
+            if self.stop is not None and segs and self.stop():
+                raise FollowStopped(f"stopped at t = {t:.9g} s")
             tb = self.fixed[fi]
             # a long interval is searched in pieces (each a whole number of samples)
             tc = min(tb, t + self.search_span(flow))

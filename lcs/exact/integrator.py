@@ -21,12 +21,14 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import expm
 
+from .. import interrupt
 from ..bits import to_words
 from ..results import SimulationError
+from ..simulation import failures
 from ..simulation.integrator import Integrator, Run, Snapshot, Window
 from ..simulation.problem import key_of
 from ..simulation.recorder import EV_SLIDE_END, EV_SLIDE_START, EV_SWITCH
-from .events import Event, ExactError, Follower, Segment, one_blas_thread
+from .events import Event, ExactError, Follower, FollowStopped, Segment, one_blas_thread
 from .flow import flow_matrix
 from .sliding import SlidingSegment
 
@@ -112,16 +114,20 @@ class ExactIntegrator(Integrator):
         if span <= 0:
             return None
         try:
-            follower = Follower(system, run.inputs, self.t, span, jump=self.jump)
+            follower = Follower(system, run.inputs, self.t, span, jump=self.jump,
+                                stop=lambda: interrupt.requested() is not None)
         except ExactError as exc:
             return self._error(str(exc), self.t)
+        stopped = False
         try:
             follower.follow(self.x, self.mode, self.held)
             error = None
+        except FollowStopped:
+            error, stopped = None, True
         except ExactError as exc:
             error = str(exc)
         segs, events = follower.segments, follower.events
-        self._store(segs, events, window.t1 if error is None else None)
+        self._store(segs, events, window.t1 if error is None and not stopped else None)
         self._flows += len(follower._flows)
         if segs:
             last = segs[-1]
@@ -139,6 +145,10 @@ class ExactIntegrator(Integrator):
                 self.slide, self.duty = -1, 0.0
         if error is not None:
             return self._error(error, self.t)
+        if stopped:  # (an interrupt: the segments done are kept, the run ends there)
+            signum = interrupt.requested()
+            return failures.interrupted(self.t, run.problem.describe(self.mode),
+                                        signum if signum is not None else 2)
         self.t = float(window.t1)
         return None
 

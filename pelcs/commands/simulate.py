@@ -232,10 +232,6 @@ def run(args: argparse.Namespace) -> int:
         kernel_setup.announce_compiles(lambda text: print(text, file=sys.stderr, flush=True))
     load = warm_up()
     compiled = kernel_setup.compiled_in_process() > 0
-    if args.method != "moreau":
-        # (the exact method follows a window in one Python call: Ctrl-C aborts it)
-        return _run(args, circuit, setup, probes, tstop, step, theta, every, output_step,
-                    out, plot, load, compiled)
     with deferred_interrupts(_INTERRUPT_MESSAGE):
         return _run(args, circuit, setup, probes, tstop, step, theta, every, output_step,
                     out, plot, load, compiled)
@@ -243,7 +239,7 @@ def run(args: argparse.Namespace) -> int:
 
 #: What the first Ctrl-C (or SIGTERM) of a run prints.
 _INTERRUPT_MESSAGE = ("pelcs simulate: interrupted: the run stops after its current piece "
-                      "of steps and the results so far are written (Ctrl-C again aborts at "
+                      "of steps (or, exactly, stretch) and the results so far are written (Ctrl-C again aborts at "
                       "once, writing nothing)")
 
 
