@@ -85,3 +85,27 @@ def test_readme_commands_compile_nothing_after_warm_up(tmp_path):
     # The commands ran for real (the first one wrote its files).
     assert (tmp_path / "boost.csv").stat().st_size > 1000
     assert (tmp_path / "boost.png").exists()
+
+
+_SPECIALISATIONS = """
+import json
+from lcs import jit
+from lcs.stepping.warmup import warm_up
+warm_up()
+print(json.dumps({f"{k.py_func.__module__}.{k.__name__}": len(k._dispatcher.signatures)
+                  for k in jit._KERNELS if k._dispatcher is not None}))
+"""
+
+
+def test_every_kernel_has_one_specialisation_but_the_grid_loop():
+    # Constants at call sites must not multiply a kernel's specialisations (lcs.jit: the
+    # arguments from compiled code are typed non-literal); run_grid has two on purpose (with
+    # and without the plain loop).
+    r = subprocess.run([sys.executable, "-c", _SPECIALISATIONS], capture_output=True,
+                       text=True, timeout=600, cwd=ROOT,
+                       env={**os.environ, "PYTHONPATH": str(ROOT), "PELCS_AOT": "0"})
+    assert r.returncode == 0, r.stderr
+    counts = json.loads(r.stdout.strip().splitlines()[-1])
+    assert counts.pop("lcs.stepping.grid.run_grid") == 2
+    assert counts and all(n <= 1 for n in counts.values()), {
+        k: n for k, n in counts.items() if n > 1}
