@@ -239,8 +239,8 @@ def run(args: argparse.Namespace) -> int:
 
 #: What the first Ctrl-C (or SIGTERM) of a run prints.
 _INTERRUPT_MESSAGE = ("pelcs simulate: interrupted: the run stops after its current piece "
-                      "of steps (or, exactly, stretch) and the results so far are written (Ctrl-C again aborts at "
-                      "once, writing nothing)")
+                      "of steps (or, exactly, stretch) and the results so far are written "
+                      "(Ctrl-C again aborts at once, writing nothing)")
 
 
 def _run(args, circuit, setup, probes, tstop, step, theta, every, output_step, out, plot,
