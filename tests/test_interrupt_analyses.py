@@ -58,6 +58,13 @@ def _run_and_interrupt(args: list[str], delay: float) -> tuple[subprocess.Popen,
     raise AssertionError(f"no delay interrupted {args} between its first and last point")
 
 
+def _says_interrupted(out: str, err: str, note: str) -> None:
+    """The command's summary has ``note`` as a note, and stderr says it and where the
+    finished points were written."""
+    assert f"note: {note}" in out
+    assert note in err and "written to" in err
+
+
 def test_interrupted_sweep_writes_the_finished_runs(tmp_path):
     # 24 runs of 1.5 million steps (0.4-1 s each) in 8 tasks of 3 on 2 processes: some
     # tasks have finished after 8 s (1-3 s of start-up), not all
@@ -76,9 +83,7 @@ def test_interrupted_sweep_writes_the_finished_runs(tmp_path):
         # the finished runs are whole: duty * 24 V (ideal buck in CCM), settled
         assert row["ok"] == "1"
         assert abs(float(row["mean(v(out))"]) - 24 * float(row["duty"])) < 0.2
-    note = f"the sweep was interrupted (SIGINT) after {len(rows)} of 24 runs"
-    assert f"note: {note}" in out
-    assert note in err and "written to" in err
+    _says_interrupted(out, err, f"the sweep was interrupted (SIGINT) after {len(rows)} of 24 runs")
 
 
 def test_interrupted_bifurcation_writes_the_finished_values(tmp_path):
@@ -97,10 +102,9 @@ def test_interrupted_bifurcation_writes_the_finished_values(tmp_path):
     assert 0 < len(duties) < 24 and len(duties) % 3 == 0 and len(rows) == 2 * len(duties)
     for row in rows:  # settled period-1 samples: v(out) near duty * 24 V
         assert abs(float(row["v(out)"]) - 24 * float(row["duty"])) < 0.3
-    note = f"the diagram was interrupted (SIGINT) after {len(duties)} of 24 parameter values"
-    assert f"note: {note}" in out
+    _says_interrupted(out, err, f"the diagram was interrupted (SIGINT) after {len(duties)} of "
+                      "24 parameter values")
     assert f"duty: {len(duties)} values" in out
-    assert note in err and "written to" in err
 
 
 def test_cells_whose_chain_reaches_a_cell_not_computed_are_unknown():
@@ -143,9 +147,7 @@ def test_interrupted_basins_write_the_computed_cells(tmp_path):
             seen.add(c)
             c = image[c]
     assert (tmp_path / "b.png").stat().st_size > 0
-    note = f"the basins were interrupted (SIGINT) after {k} of 1600 cells"
-    assert f"note: {note}" in out
-    assert note in err and "written to" in err
+    _says_interrupted(out, err, f"the basins were interrupted (SIGINT) after {k} of 1600 cells")
 
 
 def test_interrupted_monte_carlo_keeps_the_statistics_of_the_finished_runs(tmp_path):
