@@ -28,8 +28,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 __all__ = ["AOT_MODULE", "AOT_SOURCES", "KERNEL_SOURCES", "aot_function", "aot_module",
-           "aot_path", "aot_stamp", "aot_types_path", "cpu_tag", "kernel_stamp", "user_cache_dir",
-           "using_aot"]
+           "aot_path", "aot_stamp", "aot_types_path", "cache_roots", "cpu_tag", "kernel_stamp",
+           "user_cache_dir", "using_aot"]
 
 _LCS = Path(__file__).resolve().parent
 # The packages whose compiled functions call or inline each other's, the other files with
@@ -101,14 +101,17 @@ def user_cache_dir() -> Path:
     return base / "pelcs"
 
 
-def _cache_roots() -> tuple[Path, ...]:
-    """Where modules are looked for, in order: ``PELCS_CACHE_DIR`` alone when set, else the
-    installed package's ``__pycache__`` (a checkout, a virtual environment) and the per-user
-    cache (a package directory the user may not write: a system-wide installation)."""
+def cache_roots(package_cache: Path | None = None) -> tuple[Path, ...]:
+    """Where pelcs' caches (this module's extension module, the grammar's parser) are looked
+    for, in order: ``PELCS_CACHE_DIR`` alone when set, else the installed package's
+    ``package_cache`` (default ``lcs/__pycache__``: a checkout, a virtual environment) and the
+    per-user cache (a package directory the user may not write: a system-wide
+    installation)."""
     env = os.environ.get("PELCS_CACHE_DIR")
     if env:
         return (Path(env),)
-    return (_LCS / "__pycache__", user_cache_dir())
+    return (_LCS / "__pycache__" if package_cache is None else package_cache,
+            user_cache_dir())
 
 
 def _writable(directory: Path) -> bool:
@@ -168,10 +171,10 @@ def cpu_tag() -> str:
 
 def aot_path() -> Path:
     """Where the extension module built from the current sources is, or else where it is to
-    be built (the first cache root that can be written, :func:`_cache_roots`)."""
+    be built (the first cache root that can be written, :func:`cache_roots`)."""
     tag = (f"aot-{aot_stamp().hex()[:16]}-{platform.machine()}-cpu{cpu_tag()}"
            f"-numba{_numba_version()}")
-    roots = _cache_roots()
+    roots = cache_roots()
     for root in roots:
         path = root / tag / aot_filename()
         if path.is_file():

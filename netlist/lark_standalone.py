@@ -41,18 +41,12 @@ _CACHE_NAME = "grammar.lark-standalone"
 
 
 def cache_dir() -> Path | None:
-    """The directory of the grammar's caches: ``$PELCS_CACHE_DIR``, else
-    ``netlist/__pycache__`` or, when the installed package cannot be written, the per-user
-    cache (:func:`lcs.kernels.user_cache_dir`), created if missing; None when none is
-    writable."""
-    env = os.environ.get("PELCS_CACHE_DIR")
-    if env:
-        roots = [Path(env)]
-    else:
-        from lcs.kernels import user_cache_dir
+    """The directory of the grammar's caches: the first of :func:`lcs.kernels.cache_roots`
+    for ``netlist/__pycache__`` that can be written (created if missing); None when none can.
+    """
+    from lcs.kernels import cache_roots
 
-        roots = [GRAMMAR_FILE.with_name("__pycache__"), user_cache_dir()]
-    for root in roots:
+    for root in cache_roots(GRAMMAR_FILE.with_name("__pycache__")):
         try:
             root.mkdir(parents=True, exist_ok=True)
         except OSError:
@@ -109,12 +103,13 @@ def _code() -> CodeType:
             pass  # missing or unreadable (another Python, a torn write): made again
     code = _generate(grammar)
     if path is not None:
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.part")
+        from lcs.atomic import atomic_path
+
         try:
-            tmp.write_bytes(marshal.dumps((key, code)))
-            os.replace(tmp, path)  # whole or not at all, also for a concurrent reader
+            with atomic_path(path) as tmp:  # (whole or not at all, also for a concurrent reader)
+                tmp.write_bytes(marshal.dumps((key, code)))
         except OSError:
-            tmp.unlink(missing_ok=True)
+            pass  # not cached: generated again at the next start
     return code
 
 

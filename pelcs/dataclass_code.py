@@ -63,12 +63,13 @@ def _load(path: Path | None) -> dict[str, CodeType]:
 
 
 def _save(path: Path, cache: dict[str, CodeType]) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.part")
+    from lcs.atomic import atomic_path
+
     try:
-        tmp.write_bytes(marshal.dumps((sys.version, cache)))
-        os.replace(tmp, path)  # whole or not at all, also for a concurrent reader
+        with atomic_path(path) as tmp:  # (whole or not at all, also for a concurrent reader)
+            tmp.write_bytes(marshal.dumps((sys.version, cache)))
     except (OSError, ValueError):
-        tmp.unlink(missing_ok=True)
+        pass  # not cached: compiled again by the next command
 
 
 @contextmanager
