@@ -178,11 +178,7 @@ def run_grid(stack, sws, chunk, sched, state, lim, store, plain_mode):
     plain_mode : None or bool
         None: no plain loop (the branch is pruned when compiling, so that the per-step loop
         of runs with comparators keeps its speed); True: regular steps of runs with no
-        comparator and no sliding go through :func:`plain_steps`. A run given the plain loop
-        has no located or sampled comparator, so nothing crosses and nothing slides: that
-        specialisation is compiled without the crossing test, the instant search, the
-        sliding steps and the sampled comparators (half the compile; the branches could not
-        be taken).
+        comparator and no sliding go through :func:`plain_steps`.
 
     Returns
     -------
@@ -336,7 +332,7 @@ def run_grid(stack, sws, chunk, sched, state, lim, store, plain_mode):
                 status = STEP_NEED_MODE
                 copy_bits(key, state.need)
                 break
-        if plain_mode is None and slide >= 0:
+        if slide >= 0:
             copy_bits(key, akey)
             flip_bit(akey, slide)
             if ja < 0 or not row_equals(mkey, ja, akey):
@@ -375,8 +371,8 @@ def run_grid(stack, sws, chunk, sched, state, lim, store, plain_mode):
             done = False
             st = STEP_OK
             dd = 0.0
-            if plain_mode is None and slide >= 0 and regular and (
-                    m == 0 or (flags[j, MF_FAST] != 0 and flags[ja, MF_FAST] != 0)):
+            if slide >= 0 and regular and (m == 0 or (flags[j, MF_FAST] != 0
+                                                      and flags[ja, MF_FAST] != 0)):
                 # Sliding, regular step: both modes by their cached active sets, then the relay.
                 if m > 0 and slots[0] < 0:
                     slots[0] = lookup(mats.M, j, act[0], stack.sets, ivars)
@@ -410,7 +406,7 @@ def run_grid(stack, sws, chunk, sched, state, lim, store, plain_mode):
                 fvars[FV_FAIL_T1] = tb
                 break
             G = -np.inf
-            if plain_mode is None and has_located:
+            if has_located:
                 G = crossing(mats, j, ja, dd, sws, key, slide, xn, lamn, lamna, ub, c, cs, g, gt)
             if not (G > 0.0):
                 for i in range(n):
@@ -423,7 +419,7 @@ def run_grid(stack, sws, chunk, sched, state, lim, store, plain_mode):
                 ivars[IV_STEPS] += 1
                 if not regular:
                     ivars[IV_ODD] += 1
-                if plain_mode is None and slide >= 0:
+                if slide >= 0:
                     ivars[IV_SLIDESTEPS] += 1
                     fvars[FV_DUTY] = 1.0 - dd if base_on else dd
                     # Leave the surface when the on-fraction saturates and the relay holds
@@ -455,8 +451,6 @@ def run_grid(stack, sws, chunk, sched, state, lim, store, plain_mode):
                             slide = -1
                             ja = -1
                 break
-            if plain_mode is not None:
-                break  # (cannot happen: nothing crosses; the rest is pruned when compiling)
             # A comparator crossed its threshold inside the step: locate the instant.
             copy_row(act0, 0, act, 0)
             copy_row(act0, 1, act, 1)
@@ -568,7 +562,7 @@ def run_grid(stack, sws, chunk, sched, state, lim, store, plain_mode):
             store_row(stack, j, ja, d, slide, key, store.duty, fvars[FV_DUTY], x, lam, lama, U1,
                       kk, store.T, store.Y, pos, tb)
             ivars[IV_OUTPOS] = pos + 1
-        if plain_mode is None and has_sampled:
+        if has_sampled:
             sampled_controls(mats, j, ja, d, slide, sws, x, lam, lama, U1[kk], c)
             first = sample_switches(sws, key, c)
             if first >= 0:
