@@ -110,6 +110,9 @@ class Switch(Element):
     # gate terminal and the channel's gate, Ω; gate-source and gate-drain capacitances, F),
     # for --devices pwl
     gate_rc: tuple[float, float, float] | None = field(default=None, compare=False)
+    # on only while the control exceeds VT, off at VT itself: a switch a comparator B source
+    # drives through a strict comparison (netlist.behavioural)
+    strict: bool = False
     kind: ClassVar[str] = "S"
 
 

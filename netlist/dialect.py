@@ -29,6 +29,8 @@ ELEMENTS: dict[str, tuple[str, str, str]] = {
     "M": ("device", "MOSFET", "Mname drain gate source [bulk] model [L=.. W=..]"),
     "Q": ("device", "BJT", "Qname collector base emitter [substrate] model [area]"),
     "X": ("instance", "subcircuit instance", "Xname node... subckt [params: name=value...]"),
+    # read by the reader itself (an expression grammar of its own: netlist.behavioural)
+    "B": ("behavioural", "behavioural source", "Bname n+ n- V=expression or I=expression"),
 }
 
 _IDEAL = ("pelcs simulates ideal elements: model its function with R, L, C, sources, "
@@ -38,8 +40,6 @@ _IDEAL = ("pelcs simulates ideal elements: model its function with R, L, C, sour
 UNSUPPORTED_ELEMENTS: dict[str, tuple[str, str]] = {
     "J": ("JFET", "pelcs simulates ideal elements: use an S switch driven by the gate voltage"),
     "Z": ("MESFET", "pelcs simulates ideal elements: use an S switch driven by the gate voltage"),
-    "B": ("behavioural source", "use a linear E (voltage) or G (current) controlled source, "
-          "or an independent V/I source with PULSE/SIN/PWL/EXP for a known waveform"),
     "T": ("transmission line", "approximate the line with a ladder of L and C sections"),
     "O": ("lossy transmission line", "approximate the line with a ladder of R, L, C sections"),
     "U": ("uniform RC line", "approximate the line with a ladder of R and C sections"),

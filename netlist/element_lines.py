@@ -6,6 +6,9 @@ A mixin of the reader: it uses the reader's ``parse``, ``value``, ``assigns``, `
 
 from __future__ import annotations
 
+import re
+
+from .behavioural import BehaviouralError, parse_behavioural
 from .dialect import (
     _NONLINEAR,
     _PASSIVE_IGNORED,
@@ -29,12 +32,18 @@ from .units import parse_number
 
 # ------------------------------------------------------------------------------ reading
 
+# Bname n+ n- V=expr | I=expr
+_B_LINE = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+([VI])\s*=\s*(\S.*?)\s*$")
+
 
 class ElementLines:
     """The element-line handlers of :class:`netlist.reader._Reader`."""
 
     def element(self, letter: str, st: Statement) -> None:
         rule, what, usage = ELEMENTS[letter]
+        if letter == "B":
+            self.behavioural(st, usage)
+            return
         if letter in "EFGH":
             m = _NONLINEAR.search(st.text)
             if m:
@@ -84,6 +93,31 @@ class ElementLines:
                           (hierarchical_name(str(ch[2])), ch[2].start_pos))))
         else:
             self.instance(name, ch, st)
+
+    def behavioural(self, st: Statement, usage: str) -> None:
+        """``Bname n+ n- V=expr`` or ``I=expr``: the expression parsed here (its own grammar,
+        :mod:`netlist.behavioural`), evaluated in elaboration."""
+        m = _B_LINE.match(st.text)
+        if m is None:
+            words = st.text.split()
+            at = len(st.text)
+            if len(words) >= 4:
+                at = st.text.find(words[3], len(words[0]))
+            self.error(f"behavioural source '{words[0]}' needs two nodes then V=expression or "
+                       "I=expression", st, at, f"syntax: {usage}")
+            return
+        text, offset = m.group(5), m.start(5)
+        if len(text) >= 2 and text[0] == text[-1] and text[0] in "'\"":
+            text, offset = text[1:-1], offset + 1
+        try:
+            tree = parse_behavioural(text)
+        except BehaviouralError as exc:
+            self.error(exc.message, st, offset + exc.offset, exc.hint or f"syntax: {usage}")
+            return
+        name = hierarchical_name(m.group(1), "B")
+        self.body.elements.append(RawElement(
+            "B", name, st, (node_name(m.group(2)), node_name(m.group(3))),
+            behaviour=(m.group(4).upper(), tree, text, offset)))
 
     def passive(self, letter: str, name: str, ch: list, st: Statement, what: str) -> None:
         v = self.value(ch[3], st)

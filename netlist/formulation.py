@@ -278,7 +278,7 @@ class _Formulator:
             options: dict = dict(params)
             if sw.initial is not None:
                 options["initial"] = sw.initial
-            if sw.device is not None:
+            if sw.device is not None or sw.strict:
                 options[IDEALISED_OPTION] = True
             if circuit.tran is not None and not circuit.tran.uic:
                 options[OPERATING_POINT_OPTION] = True

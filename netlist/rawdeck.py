@@ -102,7 +102,7 @@ class RawElement:
     """An element line after syntax analysis, before evaluation and flattening.
 
     ``ref`` is the model (D, S), the controlling source (F, H) or the subcircuit (X); ``refs``
-    are the two inductors of a K; ``wave`` is ``(kind, args, offset, extras)`` of a V/I
+    are the two inductors of a K; ``behaviour`` is a B source's expression; ``wave`` is ``(kind, args, offset, extras)`` of a V/I
     transient function (``extras``: a PWL's ``r`` and ``td``, name -> (value, offset));
     ``params`` are the parameter overrides of an X.
     """
@@ -120,6 +120,8 @@ class RawElement:
     refs: tuple[tuple[str, int], ...] = ()
     params: list[RawParam] = field(default_factory=list)
     state: bool | None = None
+    # a B source: ("V" or "I", the parsed expression, its text, its offset in the statement)
+    behaviour: tuple | None = None
 
 
 @dataclass(slots=True, eq=False)
