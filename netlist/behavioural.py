@@ -28,10 +28,9 @@ equality, lasts an instant and decides nothing here.
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import ClassVar
 
 from .circuit import (
@@ -50,6 +49,7 @@ from .circuit import (
 from .dialect import hierarchical_name, node_name
 from .errors import Diagnostic, Location
 from .expressions import CONSTANTS, FUNCTIONS
+from .rawdeck import RawElement
 from .units import parse_number
 
 __all__ = ["ACCEPTED", "Affine", "BehaviouralError", "Comparator", "Step", "linear_elements",
@@ -562,6 +562,31 @@ def source_name(prefix: str) -> Callable[[str], str]:
     return lambda s: prefix + hierarchical_name(s)
 
 
+def elaborate(el: RawElement, prefix: str, mapnode: Callable[[str], str],
+              env: Mapping[str, float], failed: set[str], error: Callable[..., None]
+              ) -> list[Element]:
+    """A B source of the raw deck in its instance: its linear equivalent, or a
+    :class:`Comparator` that :func:`resolve_comparators` maps onto the switches it drives;
+    nothing after reporting a problem with ``error(message, location, hint, elements,
+    dependent=...)`` (``dependent``: an unknown parameter, which a statement the reader could
+    not read may define)."""
+    name = prefix + el.name if prefix else el.name
+    out_kind, tree, text, offset = el.behaviour
+    loc = el.st.loc(0)
+    nodes = tuple(map(mapnode, el.nodes))
+    try:
+        form = linearise(tree, text, env, mapnode, source_name(prefix))
+    except BehaviouralError as exc:
+        unknown = exc.message.startswith("unknown parameter")
+        if not (unknown and exc.message.split("'")[1] in failed):  # (else reported already)
+            error(f"{name}: {exc.message}", el.st.loc(offset + exc.offset), exc.hint, (name,),
+                  dependent=unknown)
+        return []
+    if isinstance(form, Step):
+        return [Comparator(name, nodes, loc, out_kind, form, text)]
+    return linear_elements(name, out_kind, nodes, form, loc)
+
+
 # ------------------------------------------------------------------------------ comparators
 
 
@@ -591,13 +616,6 @@ def _describe(step: Step) -> str:
     if text.startswith("- "):
         text = "-" + text[2:]
     return f"{text} {'>' if step.strict else '>='} 0"
-
-
-@dataclass
-class ComparatorProblem:
-    """Collects the diagnostics of :func:`resolve_comparators`."""
-
-    diags: list[Diagnostic] = field(default_factory=list)
 
 
 def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
@@ -710,9 +728,10 @@ def _control(name: str, diff: Affine, loc: Location | None
         items = list(volts.items())
         if not items:
             return (GROUND, GROUND), 0.0 - diff.const, []
-        if len(items) == 1 and items[0][1] > 0:
+        if len(items) == 1:
             (a, c), = items
-            return (a, GROUND), 0.0 - diff.const / c, []
+            pair = (a, GROUND) if c > 0 else (GROUND, a)
+            return pair, 0.0 - diff.const / abs(c), []
         if len(items) == 2 and items[0][1] == -items[1][1]:
             (a, c), (b, _) = items
             if c < 0:
@@ -732,6 +751,3 @@ def _control(name: str, diff: Affine, loc: Location | None
             out.append(Ccvs(el_name, (a, b), loc, ref, gain))
     return (ends[-1], GROUND), 0.0 - diff.const, out
 
-
-def is_finite(x: float) -> bool:
-    return math.isfinite(x)

@@ -28,15 +28,7 @@ from collections.abc import Callable, Mapping
 
 from lcs.signals import Exp, Pulse, Pwl, Signal, Sin
 
-from .behavioural import (
-    BehaviouralError,
-    Comparator,
-    Step,
-    linear_elements,
-    linearise,
-    resolve_comparators,
-    source_name,
-)
+from .behavioural import elaborate, resolve_comparators
 from .checks import check_circuit, value_problem
 from .circuit import (
     GROUND,
@@ -466,34 +458,11 @@ class _Builder:
                 self.instance(el, name_prefix, node_prefix, mapnode, env, failed, stack)
             elif el.kind in "MQ":
                 self.circuit.elements.extend(self.device(el, name_prefix, mapnode))
-            elif el.kind == "B":
-                self.circuit.elements.extend(
-                    self.behavioural(el, name_prefix, mapnode, env, failed))
+            elif el.kind == "B":  # a linear equivalent or a comparator (netlist.behavioural)
+                self.circuit.elements += elaborate(el, name_prefix, mapnode, env, failed,
+                                                   self.error)
             else:
-                self.circuit.elements.append(
-                    self.element(el, name_prefix, mapnode, env, failed))
-
-    def behavioural(self, el: RawElement, prefix: str, mapnode: Callable[[str], str],
-                    env: Mapping[str, float], failed: set[str]) -> list[Element]:
-        """A B source: its linear equivalent, or a :class:`~netlist.behavioural.Comparator`
-        that :func:`~netlist.behavioural.resolve_comparators` maps onto the switches it
-        drives; nothing after reporting a problem."""
-        name = prefix + el.name if prefix else el.name
-        out_kind, tree, text, offset = el.behaviour
-        loc = el.st.loc(0)
-        nodes = tuple(map(mapnode, el.nodes))
-        try:
-            form = linearise(tree, text, env, mapnode, source_name(prefix))
-        except BehaviouralError as exc:
-            if exc.message.startswith("unknown parameter") and exc.message.split("'")[1] \
-                    in failed:
-                return []  # (reported where that parameter is defined)
-            self.error(f"{name}: {exc.message}", el.st.loc(offset + exc.offset), exc.hint,
-                       (name,), dependent=exc.message.startswith("unknown parameter"))
-            return []
-        if isinstance(form, Step):
-            return [Comparator(name, nodes, loc, out_kind, form, text)]
-        return linear_elements(name, out_kind, nodes, form, loc)
+                self.circuit.elements.append(self.element(el, name_prefix, mapnode, env, failed))
 
     def device(self, el: RawElement, prefix: str, mapnode: Callable[[str], str]) -> list:
         """An M or Q element idealised: a switch, the VDMOS body diode (netlist.devices)."""

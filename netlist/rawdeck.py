@@ -102,9 +102,9 @@ class RawElement:
     """An element line after syntax analysis, before evaluation and flattening.
 
     ``ref`` is the model (D, S), the controlling source (F, H) or the subcircuit (X); ``refs``
-    are the two inductors of a K; ``behaviour`` is a B source's expression; ``wave`` is ``(kind, args, offset, extras)`` of a V/I
-    transient function (``extras``: a PWL's ``r`` and ``td``, name -> (value, offset));
-    ``params`` are the parameter overrides of an X.
+    are the two inductors of a K; ``behaviour`` is a B source's expression; ``wave`` is
+    ``(kind, args, offset, extras)`` of a V/I transient function (``extras``: a PWL's ``r``
+    and ``td``, name -> (value, offset)); ``params`` are the parameter overrides of an X.
     """
 
     kind: str

@@ -431,7 +431,7 @@ class _Reader(ElementLines):
             self.error(f"unknown element type '{letter}' ({what})", st, 0, hint)
             return
         self.error(f"unknown element type '{word[0]}' in '{word}'", st, 0,
-                   "pelcs knows the elements R L C V I D S E F G H K X and dot commands")
+                   "pelcs knows the elements R L C V I D S E F G H K X B M Q and dot commands")
 
     # -- values
 

@@ -51,6 +51,10 @@ def spice_name(name: str, kind: str | None = None) -> str:
         letter = kind or name.rsplit(".", 1)[1][:1]
         if letter:
             return f"{letter}.{name}"
+    if kind and name[:1].upper() != kind.upper():
+        # an element pelcs made of another (the E and H sources of a B source): ngspice takes
+        # its type from the first letter
+        return f"{kind}.{name}"
     return name
 
 

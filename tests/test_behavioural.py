@@ -1,0 +1,260 @@
+"""ngspice's B sources: the expression grammar, linear B sources as E/G/H/F elements (against
+analytic answers), comparators mapped onto the switches they drive, and the refusals."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from test_netlist_spellings import ngspice_print
+
+from netlist.behavioural import (
+    Affine,
+    BehaviouralError,
+    Step,
+    linearise,
+    parse_behavioural,
+)
+from netlist.circuit import Ccvs, Vccs, Vcvs, VoltageSource
+from netlist.errors import NetlistError
+from netlist.parser import parse_string
+from netlist.transient import simulate_circuit
+from netlist.writer import write_circuit
+
+
+def form(text: str, env: dict | None = None):
+    return linearise(parse_behavioural(text), text, env or {})
+
+
+def v(node: str) -> tuple[str, str]:
+    return ("v", node)
+
+
+# ------------------------------------------------------------------------------ grammar
+
+
+def test_precedence_and_constants():
+    assert form("1 + 2*3 - 4/2").const == 5
+    assert form("-2**2").const == -4  # ** binds tighter than a unary minus
+    assert form("2^3^2").const == 512  # right-associative
+    assert form("{k}*2 + pi", {"k": 3}).const == pytest.approx(6 + math.pi)
+    assert form("1 < 2 && 3 > 4 || 1").const == 1  # && before ||, comparisons before &&
+    assert form("0 ? 1 : 2 ? 3 : 4").const == 3  # ?: right-associative
+    assert form("!(2 > 1)").const == 0
+    assert form("max(1, 2, 3) + abs(-1) + u(0)").const == pytest.approx(4.5)  # u(0) = 1/2
+
+
+def test_affine_forms():
+    f = form("-(1)*i(vs1)*{n} + 2*v(a,b) - v(c)/4 + 3", {"n": 10})
+    assert dict(f.terms) == {("i", "vs1"): -10.0, v("a"): 2.0, v("b"): -2.0, v("c"): -0.25}
+    assert f.const == 3
+    # node names as written, with characters that are operators elsewhere
+    assert dict(form("V(Net-_V2-Pad1_)").terms) == {v("net-_v2-pad1_"): 1.0}
+    assert form("v(a) - v(a)").terms == ()
+    assert form("v(0)").terms == () and form("v(gnd)").terms == ()
+
+
+def test_comparator_forms():
+    s = form("( V(nPin) > V(nPtri) ) ? 1.0 : 0.0")
+    assert isinstance(s, Step) and s.strict and (s.hi, s.lo) == (1, 0)
+    assert dict(s.diff.terms) == {v("npin"): 1, v("nptri"): -1}
+    s = form("v(a) <= 2 ? 5 : -5")  # a <= 2 is 2 - a >= 0
+    assert not s.strict and dict(s.diff.terms) == {v("a"): -1} and s.diff.const == 2
+    assert (s.hi, s.lo) == (5, -5)
+    s = form("3*u(v(x) - 1) + 1")
+    assert s.strict and (s.hi, s.lo) == (4, 1) and s.diff.const == -1
+    s = form("5*(v(x) > v(y))")
+    assert (s.hi, s.lo) == (5, 0)
+    s = form("!(v(x) > 1) ? 2 : 7")
+    assert (s.hi, s.lo) == (7, 2)
+    assert form("v(x) > 1 ? 3 : 3") == Affine((), 3.0)  # both values equal: a constant
+
+
+@pytest.mark.parametrize("text, offset, words", [
+    ("v(a)*v(b)", 0, "product"),
+    ("max(0, min(5, v(ref,x)*10k))", 7, "min()"),  # the innermost nonlinear operation
+    ("2 + 1/v(a)", 4, "division"),
+    ("v(a) > 1 ? v(b) : 0", 11, "not a constant"),
+    ("v(a) > 1 && v(b) > 2", 0, "two comparisons"),
+    ("v(a) == 1 ? 1 : 0", 0, "equality"),
+    ("time < 1m ? 1 : 0", 0, "time-varying"),
+    ("sqrt(v(a))", 0, "sqrt()"),
+    ("foo(1)", 0, "unknown function"),
+    ("1 +", 3, "unexpected"),
+    ("(1 + 2", 6, "expected ')'"),
+    ("v(a b)", 0, "malformed"),
+    ("2 # 3", 2, "unexpected character"),
+])
+def test_refusals_say_where_and_what(text, offset, words):
+    with pytest.raises(BehaviouralError) as err:
+        form(text)
+    assert err.value.offset == offset and words in err.value.message
+
+
+# ------------------------------------------------------------------------------ linear sources
+
+
+def test_linear_v_source_is_an_e_chain_with_its_constant():
+    c = parse_string("t\nV1 in 0 3\nR1 in 0 1k\nB1 out 0 V = 2*v(in) + 1\nR2 out 0 1k\n.end\n")
+    b = [el for el in c.elements if el.name.startswith("B1")]
+    assert b == [Vcvs("B1", ("out", "b1#n1"), control=("in", "0"), gain=2.0),
+                 VoltageSource("B1#2", ("b1#n1", "0"), dc=1.0)]
+
+
+def test_linear_i_source_is_a_g_f_set():
+    c = parse_string("t\nV1 in 0 3\nR1 in 0 1k\nB1 0 out I = v(in)/1k - 0.5*i(V1)\n"
+                     "R2 out 0 1k\n.end\n")
+    b = [el for el in c.elements if el.name.startswith("B1")]
+    assert [type(el).__name__ for el in b] == ["Vccs", "Cccs"]
+    assert b[0] == Vccs("B1", ("0", "out"), control=("in", "0"), gain=1e-3)
+    assert (b[1].source, b[1].gain) == ("V1", -0.5)
+
+
+GYRATOR = """gyrator from two B sources: Zin = N^2 / RL
+.param N=2
+Vin s 0 10
+Rs s a 1
+Vs1 a a1 0
+B1 a1 0 V = {N}*i(Vs2)
+Vs2 b b1 0
+B2 b1 0 V = -{N}*i(Vs1)
+L1 b c 1m
+RL c 0 4
+.tran 1u 3m
+.end
+"""
+
+
+def test_gyrator_input_impedance_is_n2_over_rl():
+    c = parse_string(GYRATOR)
+    assert c.element("B1") == Ccvs("B1", ("a1", "0"), source="Vs2", gain=2.0)
+    res = simulate_circuit(c, probes=["v(a)", "v(b)", "i(Vs1)"])
+    res.raise_if_error()
+    # i1 = 10 / (1 + 2^2/4) = 5 A, v(a) = N i2 = 5 V, v(b) = -N i1 = -10 V once L1's
+    # current has settled (time constant L1 / (RL + N^2/Rs) = 125 us)
+    assert res["i(Vs1)"][-1] == pytest.approx(5.0, rel=1e-6)
+    assert res["v(a)"][-1] == pytest.approx(5.0, rel=1e-6)
+    assert res["v(b)"][-1] == pytest.approx(-10.0, rel=1e-6)
+
+
+@pytest.mark.parametrize("deck", [GYRATOR, "written"])
+def test_gyrator_in_ngspice(deck, tmp_path, ngspice):
+    """ngspice gives the same answer from the B sources and from pelcs' written E/H form."""
+    text = GYRATOR if deck == GYRATOR else write_circuit(parse_string(GYRATOR))
+    if deck == "written":
+        assert "H.B1 a1 0 Vs2 2" in text
+    last = [f"{p}[length(time)-1]" for p in ("i(Vs1)", "v(a)", "v(b)")]
+    got = ngspice_print(text, last, tmp_path)
+    assert [got[k] for k in last] == pytest.approx([5.0, 5.0, -10.0], rel=1e-6)
+
+
+def test_linear_b_inside_a_subcircuit_names_its_own_sources():
+    c = parse_string("t\n.subckt amp in out k=1\nVs in m 0\nRm m 0 1\n"
+                     "B1 out 0 V = {k}*i(Vs)\n.ends\nV1 x 0 2\nX1 x y amp k=3\nR1 y 0 1\n.end\n")
+    assert c.element("X1.B1") == Ccvs("X1.B1", ("y", "0"), source="X1.Vs", gain=3.0)
+
+
+# ------------------------------------------------------------------------------ comparators
+
+PWM = """PWM from a B comparator, as in the pess converters' edt01.sub
+.subckt pwmtri nPin nPout fs=10000
+Vtri nPtri 0 PULSE(-1 1 0 {0.5/fs} {0.5/fs} 0 {1/fs})
+Bout nPout 0 V = ( V(nPin) > V(nPtri) ) ? 1.0 : 0.0
+.ends
+Vd d 0 {duty}
+X1 d g pwmtri fs=10k
+Vin in 0 10
+S1 in out g 0 sw1
+R1 out 0 10
+.model sw1 SW(RON=1m)
+.param duty=0.5
+.tran 1u 200u uic
+.end
+"""
+
+
+def test_pwm_comparator_becomes_the_switch_control():
+    c = parse_string(PWM)
+    sw = c.element("S1")
+    assert sw.control == ("d", "x1.nptri") and sw.strict
+    assert c.models[sw.model.lower()].params == {"vt": 0.0, "vh": 0.0, "ron": 1e-3}
+    assert not any(el.name.lower().startswith("x1.bout") for el in c.elements)
+    assert any("on while v(d) - v(x1.nptri) > 0" in n for n in c.notes)
+
+
+def test_pwm_instants_are_the_triangle_crossings():
+    # ngspice reads PULSE's PW = 0 as its default, TSTOP: the carrier rises from -1 to 1 in
+    # 50 us, stays at 1 and falls back to -1 at the period's end, so 0.5 > carrier from the
+    # period's start to 37.5 us (and ngspice agrees: the pess buck, tests/test_corpus.py)
+    res = simulate_circuit(parse_string(PWM), probes=["v(out)"])
+    res.raise_if_error()
+    assert res.switching == {"S1": "source"}
+    assert [k for _, k in res.events] == [(False,), (True,), (False,)]
+    assert np.allclose([t for t, _ in res.events], [37.5e-6, 100e-6, 137.5e-6], rtol=0,
+                       atol=1e-15)
+
+
+RELAY = """a comparator on a state: C charges through S1 until v(out) reaches 5 V
+Vin in 0 10
+S1 in mid g 0 m
+R1 mid out 1k
+C1 out 0 1u
+Bc g 0 V = v(out) < 5 ? 1 : 0
+.model m SW()
+.tran 1u 2m uic
+.end
+"""
+
+
+def test_comparator_on_a_state_is_located():
+    res = simulate_circuit(parse_string(RELAY), probes=["v(out)"])
+    res.raise_if_error()
+    assert res.switching["S1"] == "implicit"
+    # v = 10 (1 - exp(-t/RC)) reaches 5 V at RC ln 2; the switch then holds it there (the
+    # comparator slides, as the B source's output chatters in ngspice)
+    t_off, key = res.events[0]
+    assert key == (False,) and t_off == pytest.approx(1e-3 * math.log(2), rel=1e-6)
+    assert res.sliding[0][0] == "S1"
+    assert res["v(out)"][-1] == pytest.approx(5.0, rel=1e-9)
+
+
+# ------------------------------------------------------------------------------ refusals
+
+
+def _error(text: str) -> str:
+    with pytest.raises(NetlistError) as err:
+        parse_string(text, file="n.cir")
+    return str(err.value)
+
+
+def test_nonlinear_b_names_file_line_column_and_the_accepted_forms():
+    msg = _error("t\nV1 ref 0 1\nR1 ref x 1k\nC2 err x 50n\n"
+                 "B1 err 0 V = max(0,min(5,V(ref,x)*10k))\n.end\n")
+    assert "n.cir:5:20: error: B1: 'min(5,V(ref,x)*10k)' is min() of a node voltage" in msg
+    assert "linear in v() and i()" in msg
+
+
+def test_comparator_output_feeding_a_load_is_refused():
+    msg = _error("t\nVa a 0 1\nB1 g 0 V = v(a) > 0 ? 1 : 0\nR1 g 0 1k\n.end\n")
+    assert "n.cir:3:1: error: the output of comparator B source B1" in msg
+    assert "feeds R1" in msg
+
+
+def test_comparator_values_inside_a_hysteresis_band_are_refused():
+    msg = _error("t\nVa a 0 1\nB1 g 0 V = v(a) > 0 ? 1 : 0\nVin in 0 1\nS1 in o g 0 m\n"
+                 "R1 o 0 1\n.model m SW(VT=0.5 VH=1)\n.end\n")
+    assert "sit in the band 0.5 ± 1 V of switch S1's control" in msg
+
+
+def test_b_syntax_errors_point_into_the_expression():
+    assert "n.cir:2:21: error: expected ')'" in _error("t\nB1 a 0 V = (v(a) + 1\nR1 a 0 1\n"
+                                                       ".end\n")
+    assert "n.cir:2:8: error: behavioural source 'B1' needs two nodes" in _error(
+        "t\nB1 a 0 X=1\nR1 a 0 1\n.end\n")
+
+
+def test_b_in_an_unused_subcircuit_is_not_an_error():
+    # (ngspice skips a definition nothing instantiates; its nonlinear B is never evaluated)
+    c = parse_string("t\n.subckt u a b\nB1 a b V = v(a)*v(b)\n.ends\nV1 1 0 1\nR1 1 0 1\n.end\n")
+    assert [el.name for el in c.elements] == ["V1", "R1"]
