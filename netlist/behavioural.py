@@ -248,6 +248,22 @@ def parse_behavioural(text: str) -> Tree:
     return _Parser(text).parse()
 
 
+def circuit_quantity(tree: Tree) -> str | None:
+    """The first circuit quantity an expression reads (``v(a,b)``, ``i(V1)``, ``time``), as
+    written, or None."""
+    stack = [tree]
+    while stack:
+        t = stack.pop(0)
+        if t.tag == "v":
+            return f"v({t.args[0]})" if t.args[1] is None else f"v({t.args[0]},{t.args[1]})"
+        if t.tag == "i":
+            return f"i({t.args[0]})"
+        if t.tag == "var" and t.args[0] in ("time", "temper", "hertz"):
+            return t.args[0]
+        stack.extend(a for a in t.args if isinstance(a, Tree))
+    return None
+
+
 # ------------------------------------------------------------------------------ linear forms
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import re
 
-from .behavioural import BehaviouralError, parse_behavioural
+from .behavioural import BehaviouralError, circuit_quantity, parse_behavioural
 from .dialect import (
     _NONLINEAR,
     _PASSIVE_IGNORED,
@@ -33,6 +33,7 @@ from .units import parse_number
 # ------------------------------------------------------------------------------ reading
 
 # Bname n+ n- V=expr | I=expr
+_VALUE_LINE = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+([RLC])\s*=\s*(\S.*?)\s*$")
 _B_LINE = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+([VI])\s*=\s*(\S.*?)\s*$")
 
 
@@ -43,6 +44,8 @@ class ElementLines:
         rule, what, usage = ELEMENTS[letter]
         if letter == "B":
             self.behavioural(st, usage)
+            return
+        if letter in "RLC" and self.nonlinear_value(letter, st, what):
             return
         if letter in "EFGH":
             m = _NONLINEAR.search(st.text)
@@ -118,6 +121,27 @@ class ElementLines:
         self.body.elements.append(RawElement(
             "B", name, st, (node_name(m.group(2)), node_name(m.group(3))),
             behaviour=(m.group(4).upper(), tree, text, offset)))
+
+    def nonlinear_value(self, letter: str, st: Statement, what: str) -> bool:
+        """``Cname n+ n- c='expression'`` (R, L alike) whose expression reads the circuit's
+        voltages, currents or time: a nonlinear or time-varying element, said so where it is
+        (the grammar would stop at the '=')."""
+        m = _VALUE_LINE.match(st.text)
+        if m is None or m.group(4).upper() != letter:
+            return False
+        text, offset = m.group(5), m.start(5)
+        if len(text) >= 2 and text[0] == text[-1] and text[0] in "'\"{":
+            text, offset = text[1:-1], offset + 1
+        try:
+            found = circuit_quantity(parse_behavioural(text))
+        except BehaviouralError:
+            return False  # (the grammar's message)
+        if found is not None:
+            self.error(f"{what} '{m.group(1)}' has a value that depends on {found}: a "
+                       f"{'time-varying' if found == 'time' else 'nonlinear'} {what}", st,
+                       offset, f"pelcs needs a constant {what} value: give the one it has over "
+                       "the run (for a saturable inductance, the unsaturated one)")
+        return found is not None
 
     def passive(self, letter: str, name: str, ch: list, st: Statement, what: str) -> None:
         v = self.value(ch[3], st)
