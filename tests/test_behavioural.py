@@ -4,6 +4,9 @@ analytic answers), comparators mapped onto the switches they drive, and the refu
 from __future__ import annotations
 
 import math
+import os
+import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -217,6 +220,62 @@ def test_comparator_on_a_state_is_located():
     assert key == (False,) and t_off == pytest.approx(1e-3 * math.log(2), rel=1e-6)
     assert res.sliding[0][0] == "S1"
     assert res["v(out)"][-1] == pytest.approx(5.0, rel=1e-9)
+
+
+VM_BUCK = """voltage-mode buck: the PWM comparator is a B source on the output voltage
+Vin in 0 12
+Vramp ramp 0 PULSE(0 1 0 9.9u 0.1u 0 10u)
+S1 in sw g 0 swm
+D1 0 sw dm
+L1 sw out 100u
+C1 out 0 100u
+R1 out 0 5
+B1 g 0 V = (2*(5 - v(out)) + 0.4 > v(ramp)) ? 1 : 0
+.model swm SW(RON=1m)
+.model dm D
+.tran 0.1u 2m uic
+.end
+"""
+
+
+def test_comparator_on_the_output_against_ngspice(tmp_path, ngspice):
+    """A closed loop: the comparison reads a state, built on inner nodes (E sources), and
+    its crossings are located; ngspice runs the B source itself. Mean v(out) over the
+    second millisecond: 4.971 V in ngspice (its exponential diode), 4.991 V in pelcs."""
+    c = parse_string(VM_BUCK)
+    assert c.element("S1").control == ("s1#c2", "0")
+    res = simulate_circuit(c, probes=["v(out)"])
+    res.raise_if_error()
+    assert res.switching == {"S1": "implicit"}
+    (tmp_path / "vm.cir").write_text(VM_BUCK)
+    subprocess.run(["ngspice", "-p"], input="source vm.cir\nrun\nwrdata ng.txt v(out)\nquit\n",
+                   cwd=tmp_path, capture_output=True, text=True, timeout=120,
+                   env={**os.environ, "HOME": str(tmp_path)})
+    ng = np.loadtxt(tmp_path / "ng.txt")
+    keep, mine = ng[:, 0] >= 1e-3, res.t >= 1e-3
+    want = np.trapezoid(ng[keep, 1], ng[keep, 0]) / (ng[-1, 0] - 1e-3)
+    got = np.trapezoid(res["v(out)"][mine], res.t[mine]) / (res.t[-1] - 1e-3)
+    assert got == pytest.approx(want, rel=0.01)
+
+
+GY = (Path(__file__).parent / "corpus/pess/simulations/converters/Flyback_Conv/edt01.sub")
+
+
+@pytest.mark.parametrize("load", ["10", "1e6"])
+def test_pess_gyrator_two_port_against_ngspice(load, tmp_path, ngspice):
+    """The pess transformer's gyrator subcircuit (four linear B sources: two H, two G) as a
+    two-port between a source and a load: the same operating point as ngspice's."""
+    sub = GY.read_text()
+    gy = sub[sub.index(".SUBCKT gy "):]
+    gy = gy[:gy.index(".ENDS") + 5]
+    deck = (f"gyrator two-port\n{gy}\nVin s 0 10\nRs s p 1\nX1 p 0 q 0 gy N=10\n"
+            f"L1 q r 1m\nRL r 0 {load}\n.tran 1u 2m\n.end\n")
+    res = simulate_circuit(parse_string(deck), probes=["v(p)", "v(q)", "i(Vin)"])
+    res.raise_if_error()
+    last = [f"{p}[length(time)-1]" for p in ("v(p)", "v(q)", "i(Vin)")]
+    got = ngspice_print(deck, last, tmp_path)
+    for probe, key in zip(("v(p)", "v(q)", "i(Vin)"), last, strict=True):
+        assert res[probe][-1] == pytest.approx(got[key], rel=1e-5)
 
 
 # ------------------------------------------------------------------------------ refusals
