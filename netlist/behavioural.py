@@ -28,6 +28,7 @@ equality, lasts an instant and decides nothing here.
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -192,6 +193,9 @@ class _Parser:
             number = parse_number(value)
             if number is None:
                 raise BehaviouralError(f"invalid number '{value}'", pos)
+            if not math.isfinite(number):
+                raise BehaviouralError(f"number '{value}' is too large: it is not a finite "
+                                       "double", pos)
             return Tree("num", (float(number),), pos, pos + len(value))
         if kind == "op" and value in "({":
             inner = self.ternary()
@@ -212,9 +216,10 @@ class _Parser:
                     args.append(self.ternary())
             self.take(")")
             return Tree("call", (low, *args), pos, self.end_of())
-        what = f"'{value}'" if kind != "end" else "the end of the expression"
-        raise BehaviouralError(f"unexpected {what} in expression '{self.text.strip()}'", pos,
-                               "an operand is missing" if kind == "end" else "")
+        if kind == "end":
+            raise BehaviouralError(f"incomplete expression '{self.text.strip()}'", pos,
+                                   "an operand is missing")
+        raise BehaviouralError(f"unexpected '{value}' in expression '{self.text.strip()}'", pos)
 
     def probe(self, kind: str, pos: int) -> Tree:
         """``v(a)``, ``v(a,b)``, ``i(Vx)``: the arguments are names as written (a node name
@@ -245,7 +250,13 @@ def parse_behavioural(text: str) -> Tree:
     BehaviouralError
         With the offset of the problem in ``text``.
     """
-    return _Parser(text).parse()
+    try:
+        return _Parser(text).parse()
+    except RecursionError:
+        raise BehaviouralError(_TOO_DEEP, 0) from None
+
+
+_TOO_DEEP = "expression is nested too deeply"
 
 
 def circuit_quantity(tree: Tree) -> str | None:
@@ -505,7 +516,15 @@ def linearise(tree: Tree, text: str, env: Mapping[str, float],
     BehaviouralError
         A nonlinear expression, an unknown parameter or function, at its offset.
     """
-    out = _Lineariser(text, env, mapnode, source).form(tree)
+    try:
+        out = _Lineariser(text, env, mapnode, source).form(tree)
+    except RecursionError:
+        raise BehaviouralError(_TOO_DEEP, 0) from None
+    numbers = [c for _, c in out.terms] + [out.const] if isinstance(out, Affine) else [
+        *(c for _, c in out.diff.terms), out.diff.const, out.hi, out.lo]
+    if not all(math.isfinite(c) for c in numbers):
+        raise BehaviouralError(f"expression '{text.strip()}' overflows: a coefficient or "
+                               "value is not a finite double", 0)
     if isinstance(out, Step) and out.hi == out.lo:
         return _const(out.hi)
     return out

@@ -84,10 +84,15 @@ def test_comparator_forms():
     ("time < 1m ? 1 : 0", 0, "time-varying"),
     ("sqrt(v(a))", 0, "sqrt()"),
     ("foo(1)", 0, "unknown function"),
-    ("1 +", 3, "unexpected"),
+    ("1 +", 3, "incomplete expression"),
     ("(1 + 2", 6, "expected ')'"),
     ("v(a b)", 0, "malformed"),
     ("2 # 3", 2, "unexpected character"),
+    ("v(a) ?", 6, "incomplete expression"),
+    ("1e400", 0, "too large"),
+    ("1e308*10", 0, "overflows"),
+    ("(" * 3000 + "1" + ")" * 3000, 0, "nested too deeply"),
+    ("-" * 5000 + "v(a)", 0, "nested too deeply"),
 ])
 def test_refusals_say_where_and_what(text, offset, words):
     with pytest.raises(BehaviouralError) as err:
