@@ -309,3 +309,21 @@ def test_extreme_value_found_by_fuzzing(tmp_path, capsys, monkeypatch):
     assert "passivity unknown: the check failed numerically" in capsys.readouterr().out
     assert _command(["simulate", str(path), "--no-progress"])[0] == 2
     assert "cannot simulate: I - h θ A is singular" in capsys.readouterr().err
+
+
+_B_CHARS = st.sampled_from(list("(){}=,'+-*/^<>!?:&|. abvi019kmtu") + ["v(a)", "i(Va)", "v(a,0)",
+                                                                        "time", "u(", "max("])
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(_B_CHARS, max_size=40).map("".join))
+def test_random_b_expressions_raise_only_netlist_error(expr):
+    # (no round trip: pelcs writes a B source as the elements it became)
+    text = f"b fuzz\nVa a 0 1\nRa a 0 1\nB1 g 0 V = {expr}\nVin in 0 1\nS1 in o g 0 m\n" \
+           "Ro o 0 1\n.model m SW()\n.end\n"
+    try:
+        parse_string(text, file="fuzz.cir")
+    except NetlistError as exc:
+        assert exc.diagnostics and exc.format()
+        for d in exc.diagnostics:
+            assert d.message and "\n" not in d.message
