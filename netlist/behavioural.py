@@ -676,6 +676,7 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
     if not comps:
         return diags
     keep = [el for el in circuit.elements if not isinstance(el, Comparator)]
+    op_start = circuit.tran is not None and not circuit.tran.uic
     added: list[Element] = []
     for b in comps:
         p, n = b.nodes
@@ -724,10 +725,25 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
                 continue
             # a value inside a VH <= 0 band is entered from the other value's side: the
             # switch takes the state of that side's opposite (ngspice's swload)
+            banded = [(v, "off" if o == "on" else "on") for v, x, o in (
+                (step.hi, hi, lo), (step.lo, lo, hi)) if x is None]
             if hi is None:
                 hi = "off" if lo == "on" else "on"
             if lo is None:
                 lo = "off" if hi == "on" else "on"
+            if banded:
+                # ... except at the start: ngspice's operating point (no UIC) takes a control
+                # inside the band as entered from below (on), UIC the netlist's ON/OFF
+                value, state = banded[0]
+                start = "on" if op_start else ("on" if sw.initial else "off")
+                if start != state:
+                    truth = "true" if value == step.hi else "false"
+                    how = "its operating point" if op_start else "UIC"
+                    circuit.notes.append(
+                        f"{sw.name}: if the comparison of {b.name} is {truth} at t = 0, "
+                        f"ngspice holds the switch {start} until the comparison changes (the "
+                        f"output {value:g} starts inside the switch's band {vt:g} ± "
+                        f"{abs(vh):g} V, from {how}); pelcs follows the comparison from t = 0")
             diff, strict = step.diff, step.strict
             if hi == lo:
                 diff, strict = Affine((), 1.0 if hi == "on" else -1.0), True
@@ -745,7 +761,8 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
             sw.strict = strict
             on_while = _describe(Step(diff, strict, 1.0, 0.0))
             circuit.notes.append(f"{b.name}: comparator B source ({b.text.strip()}) mapped "
-                                 f"onto switch {sw.name}: on while {on_while}")
+                                 f"onto switch {sw.name}: on while {on_while} (its output "
+                                 f"node {p} is gone; d({sw.name}) is the switch's state)")
         if not uses:
             circuit.notes.append(f"{b.name}: comparator B source ({b.text.strip()}) controls "
                                  "no switch: left out")

@@ -203,6 +203,50 @@ def test_pwm_instants_are_the_triangle_crossings():
                        atol=1e-15)
 
 
+@pytest.mark.parametrize("expr, model, control, vt, strict", [
+    # values on either side of VT: on while the comparison holds (2 - v(a) > 0: v(0,a) > -2)
+    ("v(a) < 2 ? 1 : 0", "", ("0", "a"), -2.0, True),
+    ("u(v(a) - 2)", "", ("a", "0"), 2.0, True),
+    ("v(a) >= 2 ? 1 : 0", "", ("a", "0"), 2.0, False),
+    # the false value turns it on: on while not v(a) > 2, i.e. 2 - v(a) >= 0
+    ("v(a) > 2 ? 0 : 5", "", ("0", "a"), -2.0, False),
+    # both values above VT: always on; both below: always off
+    ("v(a) > 2 ? 3 : 2", "VT=1", ("0", "0"), -1.0, True),
+    ("5*(v(a,b) > 0)", "VT=6", ("0", "0"), 1.0, True),
+    # the model's VT and VH apply to the B's output, not to the comparison
+    ("v(a) > v(b) ? 10 : 0", "VT=5 VH=1", ("a", "b"), 0.0, True),
+    # the control across the output the other way round: -output > VT
+    ("v(a) > v(b) ? -1 : 0", "VT=0.5", ("a", "b"), 0.0, True),
+])
+def test_switch_state_follows_values_and_threshold(expr, model, control, vt, strict):
+    nodes = "0 g" if "-1" in expr else "g 0"
+    c = parse_string(f"t\nVa a 0 1\nVb b 0 0\nB1 g 0 V = {expr}\nVin in 0 1\n"
+                     f"S1 in out {nodes} m\nR1 out 0 1\n.model m SW({model})\n.end\n")
+    sw = c.element("S1")
+    params = c.models[sw.model.lower()].params
+    assert (sw.control, params["vt"], params["vh"], sw.strict) == (control, vt, 0.0, strict)
+
+
+def test_start_inside_the_band_is_noted_where_ngspice_differs():
+    # ngspice (checked by hand: duty -2, no UIC) keeps S1 on throughout: its operating point
+    # takes the B output 0 = VT as entering the band from below; under UIC it is off
+    no_uic = parse_string(PWM.replace(" uic", ""))
+    assert any("if the comparison of X1.Bout is false at t = 0, ngspice holds the switch on"
+               in n for n in no_uic.notes)
+    assert not any("ngspice holds" in n for n in parse_string(PWM).notes)
+
+
+def test_a_longer_difference_is_built_on_inner_nodes():
+    c = parse_string("t\nVa a 0 1\nVb b 0 0\nB1 g 0 V = 2*v(a) + i(Va) > 3 ? 1 : 0\n"
+                     "Vin in 0 1\nS1 in out g 0 m\nR1 out 0 1\n.model m SW()\n.end\n")
+    sw = c.element("S1")
+    assert sw.control == ("s1#c2", "0")
+    assert c.models[sw.model.lower()].params["vt"] == 3.0
+    chain = [el for el in c.elements if el.name.startswith("S1#")]
+    assert chain == [Vcvs("S1#c1", ("s1#c1", "0"), control=("a", "0"), gain=2.0),
+                     Ccvs("S1#c2", ("s1#c2", "s1#c1"), source="Va", gain=1.0)]
+
+
 RELAY = """a comparator on a state: C charges through S1 until v(out) reaches 5 V
 Vin in 0 10
 S1 in mid g 0 m
