@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import re
 
-from .behavioural import BehaviouralError, circuit_quantity, parse_behavioural
+from .behavioural_expr import BehaviouralError, circuit_quantity, parse_behavioural
 from .dialect import (
     _NONLINEAR,
     _PASSIVE_IGNORED,

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from test_netlist_spellings import ngspice_print
 
-from netlist.behavioural import (
+from netlist.behavioural_expr import (
     Affine,
     BehaviouralError,
     Step,
