@@ -222,6 +222,9 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
                 uses.append(_Use(el, 1.0 if ctl == (p, n) else -1.0))
             else:
                 bad.append(el.name)
+        outs = {p, n} - {GROUND}
+        bad += [o.name for o in comps if o is not b and (outs & set(o.nodes) or any(
+            q == ("v", x) for q, _ in o.step.diff.terms for x in outs))]
         if bad:
             diags.append(Diagnostic(
                 f"the output of {label} feeds {', '.join(bad)}", b.location,

@@ -349,6 +349,12 @@ def test_comparator_output_feeding_a_load_is_refused():
     assert "feeds R1" in msg
 
 
+def test_comparator_feeding_another_comparator_is_refused():
+    msg = _error("t\nVa a 0 1\nB1 g 0 V = v(a) > 0 ? 1 : 0\nB2 h 0 V = v(g) > 0.5 ? 1 : 0\n"
+                 "Vin in 0 1\nS1 in o h 0 m\nRo o 0 1\n.model m SW()\n.end\n")
+    assert "the output of comparator B source B1 (v(a) > 0 ? 1 : 0) feeds B2" in msg
+
+
 def test_comparator_values_inside_a_hysteresis_band_are_refused():
     msg = _error("t\nVa a 0 1\nB1 g 0 V = v(a) > 0 ? 1 : 0\nVin in 0 1\nS1 in o g 0 m\n"
                  "R1 o 0 1\n.model m SW(VT=0.5 VH=1)\n.end\n")
