@@ -27,12 +27,15 @@ from lcs.smallsignal.sweep import sweep_response
 
 from .circuit import Circuit, CurrentSource, VoltageSource
 from .errors import Diagnostic, NetlistError
-from .measure import defined_period
+from .measure import _latch_clocks, _periodic_sources, defined_period
 from .sweep import circuit_map, resolve_period
 from .transient import check_probes
 from .units import format_eng
 
 METHODS = ("exact", "sweep")
+
+#: The longest settling the sweep chooses itself, in periods (a longer one: --settle).
+MAX_SETTLE_PERIODS = 100_000
 
 
 def _error(circuit: Circuit, message: str, hint: str) -> NetlistError:
@@ -49,6 +52,16 @@ def _source(circuit: Circuit, name: str):
                  f"independent sources: {', '.join(names) or 'none'} (a DC control source "
                  "gives control-to-output, the input source line-to-output, a zero-valued "
                  "current source at the output the output impedance)")
+
+
+def self_oscillating_switches(circuit: Circuit) -> list[str]:
+    """The switches of a circuit that no clock drives: every switch when no source is
+    periodic and no latched switch has a clock (hysteretic or sliding-mode control, whose
+    switching frequency is set by the circuit's own state), else none."""
+    switches = [sw.name for sw in circuit.of_kind("S")]
+    if not switches or _periodic_sources(circuit) or _latch_clocks(circuit):
+        return []
+    return switches
 
 
 def default_frequencies(period: float, count: int = 30) -> np.ndarray:
@@ -126,6 +139,23 @@ def ac_analysis(circuit: Circuit, *, period: float | str | None, inject: str | N
     """
     if method not in METHODS:
         raise _error(circuit, f"unknown method {method!r}", f"use one of {', '.join(METHODS)}")
+    free = self_oscillating_switches(circuit)
+    if free and (period is None or method == "exact"):
+        # A self-oscillating converter has no fixed switching period: its steady state is a
+        # limit cycle whose period moves with the perturbation, so there is no T-periodic
+        # orbit to linearise (the Moreau map of an arbitrary T only finds one when the
+        # switching happens to lock to its time steps). The time-domain sweep still
+        # measures the response, valid well below the switching frequency.
+        raise _error(
+            circuit,
+            f"{', '.join(free)} switch{'' if len(free) > 1 else 'es'} on the circuit's own "
+            "state (no clock, no periodic source: hysteretic or sliding-mode control), so "
+            "the converter self-oscillates with no fixed switching period; the exact "
+            "small-signal method linearises a steady state that repeats every T, which does "
+            "not exist here",
+            "measure the response in the time domain: --method sweep --period T, with T "
+            "about the switching period (from `pelcs simulate`); it is valid well below the "
+            "switching frequency")
     if period is None:
         T, origin = defined_period(circuit)
         period_notes = [f"T = {format_eng(T, 's')}: the {origin} (no --period given)"]
@@ -136,6 +166,12 @@ def ac_analysis(circuit: Circuit, *, period: float | str | None, inject: str | N
         if not isinstance(src, VoltageSource):
             raise _error(circuit, f"loop source {loop} is not a voltage source",
                          "insert a zero-volt source (V... DC 0) in the feedback path")
+        if src.dc != 0.0 or src.waveform is not None:
+            raise _error(circuit, f"loop source {src.name} is not a zero-volt source: the "
+                         "loop gain is measured by injecting at a 0 V source that breaks "
+                         "the feedback path",
+                         "insert `Vinj a b DC 0` in the feedback path (positive node facing "
+                         "the controller) and pass --loop Vinj")
         inject = inject or src.name
         a, b = src.nodes
         loop_probes = [f"v({a})", f"v({b})"]
@@ -174,8 +210,27 @@ def ac_analysis(circuit: Circuit, *, period: float | str | None, inject: str | N
         # fall below 1e-4 before measuring (it is not orthogonal to the excitation over a
         # short window: 5 dB of error at fs/8 on the buck with 16 periods of settling).
         rho = float(np.max(np.abs(orbit.multipliers))) if orbit.multipliers.size else 0.0
+        if rho >= 1.0:
+            # The sinusoid is applied to a simulation started on the orbit: an unstable orbit is
+            # left within a few periods, and what the sweep measured is the response of wherever
+            # the converter went (a longer cycle, chaos), not of the steady state.
+            raise _error(circuit, f"the periodic steady state is unstable (spectral radius "
+                         f"{rho:.4g}): the converter leaves it, so a time-domain sweep cannot "
+                         "measure a response around it",
+                         "--method exact gives the linearised response of the unstable orbit; "
+                         "lower the parameter below the bifurcation (`pelcs continue`) for a "
+                         "measurable one")
         if settle is None:
-            settle = np.ceil(np.log(1e-4) / np.log(rho)) * T if 0.0 < rho < 1.0 else 0.0
+            periods = np.ceil(np.log(1e-4) / np.log(rho)) if 0.0 < rho < 1.0 else 0.0
+            if periods > MAX_SETTLE_PERIODS or not orbit.converged:
+                # (a multiplier within 1e-5 of 1 is a limit cycle's phase direction or a
+                # Newton that did not converge, not a decay rate to wait for)
+                why = (f"the slowest multiplier {rho:.8g} would take {periods:.3g} periods to "
+                       "decay" if orbit.converged else "Newton did not find the orbit, so "
+                       "its multipliers give no settling time")
+                raise _error(circuit, f"cannot choose the settling time of the sweep: {why}",
+                             "pass --settle T (s), e.g. 5 time constants of the slowest pole")
+            settle = periods * T
         if amplitude is None:
             u0 = float(np.asarray(m.signals[idx](np.array([0.0])))[0])
             amplitude = 0.01 * abs(u0) if u0 != 0.0 else 1e-3

@@ -26,7 +26,9 @@ in degrees, fs/2 marked), with ``--averaged`` the CCM averaged model overlaid
 gain=1`` with ``gain`` the duty per unit of the injected source, ``input=vin`` for
 line-to-output; probes named like its states, ``v(out)`` as the output capacitor voltage).
 
-Exit status: 0 success; 2 input errors; 3 the steady state or a run failed.
+Exit status: 0 success; 2 input errors, and the cases where there is no response to compute
+(said with the reason: a self-oscillating converter with the exact method, a sweep around an
+unstable orbit; docs/smallsignal.md); 3 the steady state or a run failed.
 """
 
 from __future__ import annotations
@@ -155,7 +157,9 @@ def run(args: argparse.Namespace) -> int:
 
     if not args.inject and not args.loop:
         raise usage_error("ac", "nothing to perturb", "pass --inject SOURCE or --loop NAME")
-    probes = [p.strip() for item in args.probe for p in item.split(",") if p.strip()]
+    from .simulate import split_probes
+
+    probes = split_probes(args.probe)  # (v(a,b) is one probe)
     if not probes and not args.loop:
         raise usage_error("ac", "no probe", "pass --probe, e.g. --probe 'v(out)'")
     circuit = parse_file(args.file, params=parse_overrides(args.param) or None)
