@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from lcs.atomic import atomic_path
+from lcs.axes import fit_title
 from pelcs.jsonout import dumps
 from pelcs.outputs import write_outputs
 
@@ -243,6 +244,16 @@ def _averaged_curve(averaged, probe: str, freq):
 
 
 def _plot(path: Path, fr, margins, title: str, averaged=None) -> None:
+    fig = bode_figure(fr, margins, title, averaged)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
+
+
+def bode_figure(fr, margins, title: str, averaged=None):
+    """The Bode plot of a :class:`~lcs.smallsignal.FrequencyResponse` (a matplotlib
+    ``Figure``): magnitude (dB) and phase (degrees) against frequency (Hz), fs/2 marked, with
+    ``margins`` (a loop gain, probe ``"T"``) the margins marked, with ``averaged`` the
+    averaged model overlaid; ``title`` is the netlist's file name."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -266,13 +277,44 @@ def _plot(path: Path, fr, margins, title: str, averaged=None) -> None:
     for ax in (ax1, ax2):
         ax.axvline(0.5 / fr.period, color="grey", ls="--", lw=0.8, label="fs/2")
         ax.grid(True, which="both", alpha=0.3)
-    if margins is not None and margins.crossover:
-        ax1.axvline(margins.crossover, color="red", ls=":", lw=0.8, label="crossover")
+    if margins is not None:
+        _mark_margins(ax1, ax2, fr.freq, fr.phase_deg("T"), margins)
     ax1.set_ylabel("magnitude (dB)")
     ax2.set_ylabel("phase (deg)")
     ax2.set_xlabel("frequency (Hz)")
-    ax1.set_title(f"{Path(title).name}: response to {fr.inject} ({fr.method})")
+    what = (f"loop gain T at {fr.inject}" if margins is not None
+            else f"response to {fr.inject}")
+    fit_title(ax1, f"{Path(title).name}: {what} ({fr.method})")
     ax1.legend(fontsize=8)
+    ax2.legend(fontsize=8)
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110)
+    return fig
+
+
+def _mark_margins(ax1, ax2, freq: np.ndarray, phase: np.ndarray, margins) -> None:
+    """The 0 dB and -180° lines, the gain crossover, and the phase and gain margins drawn as
+    python-control's ``bode_plot(display_margins=True)`` draws them: the phase margin as a
+    segment from the -180° line to the phase at the crossover, the gain margin as a segment
+    from 0 dB down to the gain at the phase crossover. Each mark is in the legend with its
+    value."""
+    ax1.axhline(0.0, color="black", lw=0.8, label="0 dB")
+    # The -180° line on the branch (mod 360°) that the plotted phase reaches or comes nearest.
+    turns = np.round((np.asarray(phase) + 180.0) / 360.0)
+    for k, level in enumerate(sorted({-180.0 + 360.0 * t for t in turns})):
+        ax2.axhline(level, color="black", lw=0.8, label="-180°" if k == 0 else None)
+    if margins.crossover is not None:
+        fc = margins.crossover
+        for ax in (ax1, ax2):
+            ax.axvline(fc, color="tab:red", ls=":", lw=0.9,
+                       label=f"gain crossover {fc:.4g} Hz" if ax is ax1 else None)
+        # the phase at fc on the plotted branch: log-linear interpolation, as the margins
+        ph_c = float(np.interp(np.log10(fc), np.log10(freq), phase))
+        base = ph_c - margins.phase_margin
+        ax2.plot([fc, fc], [base, ph_c], color="tab:red", lw=2.5,
+                 label=f"phase margin {margins.phase_margin:.1f}°")
+    if margins.phase_crossover is not None and margins.gain_margin is not None:
+        fp = margins.phase_crossover
+        ax2.axvline(fp, color="tab:purple", ls=":", lw=0.9,
+                    label=f"phase crossover {fp:.4g} Hz")
+        ax1.plot([fp, fp], [0.0, -margins.gain_margin], color="tab:purple", lw=2.5,
+                 label=f"gain margin {margins.gain_margin:.1f} dB")
