@@ -1,4 +1,6 @@
-"""The options that several commands share, each declared here once.
+"""The options that several commands share, each declared here once, and the one range
+syntax of every command that sweeps a parameter or a state: ``NAME=START:STOP[:N]``, N values
+from START to STOP, N defaulting per command (:data:`RANGE_COUNTS`).
 
 Every command that takes ``--param``, ``--probe``, ``--step``, ``--theta``, ``--method``,
 ``--period``, ``--json``, ``--scheduler`` or ``-o`` adds it with the function of that name:
@@ -10,6 +12,22 @@ the choices and, for ``--theta``, the default may differ.
 from __future__ import annotations
 
 import argparse
+import sys
+
+#: The number of values of a range ``NAME=START:STOP`` given without ``:N``, per command.
+RANGE_COUNTS = {"continue": 41, "bifurcation": 200, "sweep": 11, "basins": 100}
+
+
+def range_help(command: str, name: str = "NAME", what: str = "values") -> str:
+    """The sentence every command's help gives for a range."""
+    return (f"{name}=START:STOP[:N] is N {what} from START to STOP (default N = "
+            f"{RANGE_COUNTS[command]})")
+
+
+def deprecated(command: str, old: str, new: str) -> None:
+    """Say on stderr that ``old`` (still accepted) is deprecated, and its replacement."""
+    print(f"pelcs {command}: note: {old} is deprecated and will be removed: {new}",
+          file=sys.stderr)
 
 PARAM_HELP = "override a global .param (repeatable; SPICE suffixes allowed)"
 JSON_HELP = "print one JSON object (NaN and infinities as null)"
