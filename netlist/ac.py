@@ -64,6 +64,41 @@ def self_oscillating_switches(circuit: Circuit) -> list[str]:
     return switches
 
 
+def parse_frequencies(text: str, count: int = 30, what: str = "--freq") -> np.ndarray:
+    """``FMIN:FMAX[:N]`` -> N log-spaced frequencies, Hz (``count`` without N), or ``F`` -> one.
+
+    The range syntax of every pelcs command (``NAME=START:STOP[:N]``) without the name;
+    SPICE suffixes allowed (``100:50k:40``).
+
+    Raises
+    ------
+    NetlistError
+        Not numbers, not 0 < FMIN < FMAX, or N not an integer >= 2.
+    """
+    from .sweep import parse_value
+
+    parts = str(text).split(":")
+    where = "pelcs ac" if what == "--freq" else "pelcs.ac"
+    hint = f"e.g. {what} 100:50k:40 (40 frequencies from 100 Hz to 50 kHz, log-spaced)"
+
+    def bad(message: str) -> NetlistError:
+        return NetlistError(Diagnostic(message=f"{what} {text}: {message}", hint=hint),
+                            file=where)
+
+    if len(parts) == 1:
+        f = parse_value(parts[0], what)
+        if f <= 0:
+            raise bad("need a positive frequency")
+        return np.array([f])
+    if len(parts) not in (2, 3):
+        raise bad("expected FMIN:FMAX[:N]")
+    fmin, fmax = parse_value(parts[0], f"{what} FMIN"), parse_value(parts[1], f"{what} FMAX")
+    n = parse_value(parts[2], f"{what} N") if len(parts) == 3 else count
+    if not (0 < fmin < fmax) or n != int(n) or n < 2:
+        raise bad("need 0 < FMIN < FMAX and an integer N >= 2")
+    return np.logspace(np.log10(fmin), np.log10(fmax), int(n))
+
+
 def default_frequencies(period: float, count: int = 30) -> np.ndarray:
     """Log-spaced from fs/1000 to fs/2, Hz."""
     fs = 1.0 / period
@@ -257,4 +292,5 @@ def ac_analysis(circuit: Circuit, *, period: float | str | None, inject: str | N
     return fr
 
 
-__all__ = ["METHODS", "ac_analysis", "default_frequencies", "PwlOrbitError"]
+__all__ = ["METHODS", "ac_analysis", "default_frequencies", "parse_frequencies",
+           "PwlOrbitError"]

@@ -54,7 +54,7 @@ def test_orbit_options_and_errors(netlists, capsys):  # noqa: F811
 
 def test_continue_json_and_text(netlists, capsys):  # noqa: F811
     code, out, err = run(capsys, "continue", netlists["boost_dcm"], "--period", "ts",
-                         "--param", "duty=0.74:0.8:4", "--tol", "1e-3",
+                         "--param", "duty=0.74:0.8:4", "--locate-tol", "1e-3",
                          "--x0", "v(C1)=45", "--transient", "0", "--json")
     assert code == 0, err
     r = json.loads(out)
@@ -62,7 +62,7 @@ def test_continue_json_and_text(netlists, capsys):  # noqa: F811
     assert 0.76 < r["bifurcations"][0]["param"] < 0.78
     assert r["states"] == ["i(L1)", "v(C1)"] and len(r["branch"]) == 4
     code, out, err = run(capsys, "continue", netlists["boost_dcm"], "--period", "ts",
-                         "--param", "duty=0.74:0.8:4", "--tol", "1e-3",
+                         "--param", "duty=0.74:0.8:4", "--locate-tol", "1e-3",
                          "--x0", "v(C1)=45", "--transient", "0", "--no-locate")
     assert code == 0, err
     assert "bifurcations:" in out and "border" in out and "bracket" in out

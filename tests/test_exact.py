@@ -320,7 +320,7 @@ def test_exact_continuation_locates_the_dcm_border_collision(capsys):
     stretches the located load is where the current at the turn-on instant is zero."""
     path = str(EXACT / "buck_border.cir")
     code = main(["continue", path, "--period", "ts", "--param", "rload=3.9:4.1:4",
-                 "--method", "exact", "--tol", "1e-9", "--json"])
+                 "--method", "exact", "--locate-tol", "1e-9", "--json"])
     out = capsys.readouterr().out
     assert code == 0
     import json

@@ -88,7 +88,7 @@ def test_margins_agree_with_python_control_on_a_converter_loop():
     from pelcs.api import ac
 
     fr = ac(AC / "buck_pi_loop.cir", period="ts", loop="Vinj",
-            freqs=np.logspace(1, np.log10(2e4), 80))
+            freq=np.logspace(1, np.log10(2e4), 80))
     _, pm, _, fgc = _python_control_margins(fr)
     assert fr.margins.crossover == pytest.approx(fgc, rel=5e-3)
     assert fr.margins.phase_margin == pytest.approx(pm, abs=0.3)

@@ -3,7 +3,7 @@
 ::
 
     pelcs ac FILE [--period T] (--inject SOURCE | --loop NAME) --probe EXPR...
-             [--freq FMIN:FMAX:N] [--param NAME=VALUE]... [--method exact|sweep]
+             [--freq FMIN:FMAX[:N]] [--param NAME=VALUE]... [--method exact|sweep]
              [--amplitude A] [--settle T] [--cycles K] [--step H] [--theta TH] [--json]
              [-o OUT.csv] [--plot OUT.png] [--averaged TOPOLOGY:NAME=VALUE,...]
 
@@ -67,7 +67,9 @@ def register(subparsers) -> None:
                    help="zero-volt source in the feedback path (positive node facing the "
                    "controller): loop gain and margins")
     options.add_probe(p, help="probe, e.g. 'v(out)' (repeatable or comma-separated)")
-    p.add_argument("--freq", metavar="FMIN:FMAX:N", help="log-spaced frequencies (Hz)")
+    p.add_argument("--freq", metavar="FMIN:FMAX[:N]",
+                   help="N log-spaced frequencies, Hz (default N = 30), or one frequency F "
+                   "(default: 30 from fs/1000 to fs/2); the API's freq=")
     options.add_param(p, help="override a global .param (repeatable)")
     options.add_method(p, ("exact", "sweep"), "exact",
                    help="exact: linearised exact orbit (default); sweep: time-domain "
@@ -95,24 +97,11 @@ def register(subparsers) -> None:
 
 
 def _freqs(text: str | None):
-    """``FMIN:FMAX:N`` -> N log-spaced frequencies (Hz), or a single ``F``."""
-    from netlist.sweep import parse_value
+    """``FMIN:FMAX[:N]`` -> N log-spaced frequencies (Hz), or a single ``F``; None: the
+    default."""
+    from netlist.ac import parse_frequencies
 
-    if not text:
-        return None
-    parts = text.split(":")
-    if len(parts) == 1:
-        f = parse_value(parts[0], "--freq")
-        if f <= 0:
-            raise usage_error("ac", f"--freq {text}: need a positive frequency")
-        return np.array([f])
-    if len(parts) != 3:
-        raise usage_error("ac", f"--freq {text}: expected FMIN:FMAX:N", "e.g. --freq 100:50k:40")
-    fmin, fmax = parse_value(parts[0], "--freq FMIN"), parse_value(parts[1], "--freq FMAX")
-    count = parse_value(parts[2], "--freq N")
-    if not (0 < fmin < fmax) or count != int(count) or count < 2:
-        raise usage_error("ac", f"--freq {text}: need 0 < FMIN < FMAX and an integer N >= 2")
-    return np.logspace(np.log10(fmin), np.log10(fmax), int(count))
+    return parse_frequencies(text) if text else None
 
 
 _AVERAGED_KEYS = {"vin": "vin", "d": "duty", "r": "rload", "l": "lind", "c": "cout",

@@ -3,7 +3,7 @@
 ::
 
     pelcs continue FILE [--period T] --param NAME=START:STOP[:N] [--param OTHER=VALUE]...
-                        [--order K] [--tol DP] [--transient N] [--x0 ...]
+                        [--order K] [--tol TOL] [--locate-tol DP] [--transient N] [--x0 ...]
                         [--step H] [--theta TH] [--t0 T0] [--json]
                         [--start STATE=V|STATE=A:B:N,...]... [--workers W]
                         [--scheduler ADDRESS]
@@ -12,7 +12,8 @@ Natural continuation of the period-K orbit of the stroboscopic map over N values
 to STOP, N - 1 steps (default N = 41; the older ``--steps N - 1`` is still taken, with a
 deprecation note on stderr), Newton shooting at each value from the secant prediction;
 between steps, a change in the multipliers outside the unit circle or in the switching
-pattern is located by bisection to ``--tol`` (default |STOP - START| * 1e-4). Bifurcations:
+pattern is located by bisection to ``--locate-tol`` (default |STOP - START| * 1e-4); ``--tol``
+is the Newton tolerance on the scaled residual, as in ``pelcs orbit`` (default 1e-10). Bifurcations:
 ``flip`` (a multiplier through -1, period doubling), ``fold`` (+1), ``neimark-sacker`` (a
 complex pair through the unit circle), ``border`` (the switching pattern changes: skipped
 cycle, a diode entering discontinuous conduction, a border collision). ``--json`` prints one
@@ -73,8 +74,10 @@ def register(subparsers) -> None:
                    help="deprecated: continuation steps; give N + 1 values in the range "
                    "instead (NAME=START:STOP:N+1)")
     p.add_argument("--order", default="1", metavar="K", help="period of the orbit in periods T")
-    p.add_argument("--tol", metavar="DP",
-                   help="bisection tolerance in the parameter (default |STOP-START|*1e-4)")
+    options.add_tol(p)
+    p.add_argument("--locate-tol", metavar="DP",
+                   help="bisection tolerance in the parameter of a located bifurcation "
+                   "(default |STOP-START|*1e-4)")
     p.add_argument("--transient", default="100", metavar="N",
                    help="periods simulated before the first Newton solve (default 100)")
     p.add_argument("--no-locate", action="store_true",
@@ -104,23 +107,31 @@ def run(args: argparse.Namespace) -> int:
     factory = make_factory(args, "continue", swept=rng.name, fixed=fixed)
     order = positive_int("continue", "--order", args.order)
     transient = positive_int("continue", "--transient", args.transient, 0)
-    tol = parse_value(args.tol, "--tol") if args.tol else None
+    tol = parse_value(args.locate_tol, "--locate-tol") if args.locate_tol else None
+    newton_tol = parse_value(args.tol, "--tol")
+    if args.tol != options.NEWTON_TOL and args.locate_tol is None:
+        # (before, continue's --tol was the bisection tolerance: a script giving it gets
+        # the new meaning said once)
+        print("pelcs continue: note: --tol is the Newton tolerance on the scaled residual, "
+              "as in `pelcs orbit`; the bisection tolerance in the parameter (the earlier "
+              "meaning of --tol here) is --locate-tol", file=sys.stderr)
     m = factory(rng.start)  # validates the netlist and the parameter name here
     x0 = initial_state(args, m)
     if args.start:
         return run_many(args, factory, m, rng, x0, steps=steps, order=order,
-                        transient=transient, tol=tol)
+                        transient=transient, tol=tol, newton_tol=newton_tol)
     try:
         if args.scheduler:  # one continuation, on a worker of the cluster
             with scheduler_errors("continue"):
                 res, = continue_orbits(factory, rng.start, rng.stop, [x0], steps=steps,
                                        order=order, transient=transient, tol=tol,
+                                       newton_tol=newton_tol,
                                        locate=not args.no_locate, scheduler=args.scheduler,
                                        progress=not args.no_progress, param_name=rng.name,
                                        raise_errors=True)
         else:
             res = continue_orbit(factory, rng.start, rng.stop, steps=steps, order=order,
-                                 x0=x0, transient=transient, tol=tol,
+                                 x0=x0, transient=transient, tol=tol, newton_tol=newton_tol,
                                  locate=not args.no_locate, progress=not args.no_progress,
                                  param_name=rng.name)
     except MapError as exc:
@@ -173,7 +184,8 @@ def run_many(args: argparse.Namespace, factory, m, rng, x0, **kw) -> int:
         results = continue_orbits(
             factory, rng.start, rng.stop, starts, workers=workers, scheduler=args.scheduler,
             progress=not args.no_progress, steps=kw["steps"], order=kw["order"],
-            transient=kw["transient"], tol=kw["tol"], locate=not args.no_locate,
+            transient=kw["transient"], tol=kw["tol"], newton_tol=kw["newton_tol"],
+            locate=not args.no_locate,
             param_name=rng.name)
     conts = []
     for i, (x, res) in enumerate(zip(starts, results, strict=True)):

@@ -3,8 +3,8 @@ syntax of every command that sweeps a parameter or a state: ``NAME=START:STOP[:N
 from START to STOP, N defaulting per command (:data:`RANGE_COUNTS`).
 
 Every command that takes ``--param``, ``--probe``, ``--step``, ``--theta``, ``--method``,
-``--period``, ``--json``, ``--scheduler`` or ``-o`` adds it with the function of that name:
-the name, the kind of value, the repetition and the default kind are the same in every
+``--period``, ``--json``, ``--scheduler``, ``--tol`` or ``-o`` adds it with the function of
+that name: the name, the kind of value, the repetition and the default kind are the same in every
 command; only the help text (what the option means for that command) and, for ``--method``,
 the choices and, for ``--theta``, the default may differ.
 """
@@ -82,6 +82,18 @@ def add_scheduler(p: argparse.ArgumentParser) -> None:
                    "or HOST:8786; TLS and other schemes: through the Python API with a "
                    "distributed.Client), or 'local' for a Dask cluster on this machine; "
                    "default: local processes")
+
+
+#: The default ``--tol``: Newton's tolerance on the scaled residual of a periodic orbit.
+NEWTON_TOL = "1e-10"
+
+
+def add_tol(p: argparse.ArgumentParser) -> None:
+    """``--tol TOL``: the Newton tolerance on the scaled residual of a periodic orbit, the
+    same in ``orbit`` and ``continue`` (:func:`lcs.analysis.orbits.find_orbit`'s ``tol``)."""
+    p.add_argument("--tol", default=NEWTON_TOL, metavar="TOL",
+                   help=f"Newton tolerance on the scaled residual of the orbit (default "
+                   f"{NEWTON_TOL})")
 
 
 def add_output(p: argparse.ArgumentParser, metavar: str, help: str) -> None:
