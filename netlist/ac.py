@@ -54,6 +54,24 @@ def _source(circuit: Circuit, name: str):
                  "current source at the output the output impedance)")
 
 
+def _check_multiple(circuit: Circuit, period: float) -> None:
+    """Refuse a period the netlist's own switching period does not divide: the sources do
+    not repeat every ``period``, so no steady state does, and a state that returns to itself
+    after one ``period`` from t0 is not a periodic orbit."""
+    try:
+        own, origin = defined_period(circuit)
+    except NetlistError:
+        return  # (none, or several: nothing to check against)
+    ratio = period / own
+    if abs(ratio - round(ratio)) > 1e-6 * max(1.0, ratio) or round(ratio) < 1:
+        raise _error(circuit, f"--period {format_eng(period, 's')} is not a multiple of the "
+                     f"period the netlist defines, {format_eng(own, 's')} (the {origin}): the "
+                     "sources, so the steady state, do not repeat every "
+                     f"{format_eng(period, 's')}",
+                     f"leave --period out (T = {format_eng(own, 's')}), or give a multiple "
+                     "of it for a subharmonic orbit")
+
+
 def self_oscillating_switches(circuit: Circuit) -> list[str]:
     """The switches of a circuit that no clock drives: every switch when no source is
     periodic and no latched switch has a clock (hysteretic or sliding-mode control, whose
@@ -196,6 +214,7 @@ def ac_analysis(circuit: Circuit, *, period: float | str | None, inject: str | N
         period_notes = [f"T = {format_eng(T, 's')}: the {origin} (no --period given)"]
     else:
         T, period_notes = resolve_period(circuit, period), []
+        _check_multiple(circuit, T)
     if loop is not None:
         src = _source(circuit, loop)
         if not isinstance(src, VoltageSource):
@@ -233,7 +252,14 @@ def ac_analysis(circuit: Circuit, *, period: float | str | None, inject: str | N
     if method == "exact":
         res = m.trajectory(orbit.points[0], 1)
         key0 = tuple(res.modes_visited[0]) if res.modes_visited else ()
-        eo = exact_orbit(system, m.signals, orbit.points[0], key0, m.t0, T)
+        try:
+            eo = exact_orbit(system, m.signals, orbit.points[0], key0, m.t0, T)
+        except PwlOrbitError as exc:
+            if orbit.converged:
+                raise
+            raise PwlOrbitError(f"{exc}; it started from the Moreau map's Newton, which did "
+                                f"not converge either (residual {orbit.residual:.3g}): the "
+                                "converter may have no period-1 steady state here") from exc
         Y = probe_forms(eo, lambda key: system.outputs(key, probes))
         fr = harmonic_response(eo, Y, probes, idx, freqs)
         fr.orbit = _orbit_dict(system.states, eo.x0, eo.multipliers, eo.events, m.t0, T,

@@ -112,3 +112,20 @@ def test_loop_source_must_be_zero_volt(capsys):
     err = capsys.readouterr().err
     assert rc == 2
     assert "not a zero-volt source" in err and "--loop Vinj" in err
+
+
+def test_period_must_be_a_multiple_of_the_netlists(capsys):
+    """A state that returns to itself after 13 µs from t0 is no steady state of a buck
+    switched every 20 µs (before, it was linearised and reported as one, fs = 76.9 kHz);
+    a multiple of the period is the same orbit, and the same response."""
+    base = ["ac", str(NETLISTS / "buck.cir"), "--inject", "Vin", "--probe", "v(out)",
+            "--freq", "100:1k:2"]
+    assert main([*base, "--period", "13u"]) == 2
+    err = capsys.readouterr().err
+    assert "--period 13 µs is not a multiple of the period the netlist defines, 20 µs" in err
+    responses = []
+    for extra in ([], ["--period", "40u"]):
+        assert main([*base, *extra, "--json"]) == 0
+        responses.append(json.loads(capsys.readouterr().out)["probes"]["v(out)"])
+    assert np.allclose(responses[0]["re"], responses[1]["re"], rtol=1e-6, atol=1e-9)
+    assert np.allclose(responses[0]["im"], responses[1]["im"], rtol=1e-6, atol=1e-9)

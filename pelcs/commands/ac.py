@@ -178,7 +178,11 @@ def run(args: argparse.Namespace) -> int:
         from lcs.results import SimulationError
 
         if isinstance(exc, (MapError, SimulationError, PwlOrbitError)):
-            print(f"pelcs ac: {exc}", file=sys.stderr)
+            print(f"{args.file}: error: no periodic steady state to linearise: {exc}\n"
+                  f"  hint: `pelcs orbit {args.file}` (with --order 2, ...) shows the steady "
+                  "state: a period-doubled or chaotic converter has no period-1 orbit; pass "
+                  "--period T if the netlist's period is not the switching period",
+                  file=sys.stderr)
             return EXIT_FAILED
         raise
     margins = fr.margins
