@@ -10,7 +10,12 @@
    ``s = i(L1) - 2 A`` (on while s < 0), equal to the surface built with controlled sources in
    ``tests/netlists/closed_loop/boost_smc.cir``.
 
-Run ``python examples/closed_loop_controllers.py [--plot FILE.png]``.
+Run ``python examples/closed_loop_controllers.py [--out DIR] [--fast]``: writes
+``closed_loop_controllers.png`` (the three output voltages) into DIR (default
+``out/closed_loop_controllers``). The whole study takes about 2 s, so ``--fast`` (taken
+as by every example) changes nothing: shorter runs would stop the synchronous buck before it
+settles (17.3 V instead of 9.7 V at a quarter of its 1 ms). ``--plot FILE.png`` writes the
+figure to FILE instead.
 """
 
 from __future__ import annotations
@@ -32,24 +37,28 @@ from netlist.transient import transient_setup  # noqa: E402
 CL = ROOT / "tests" / "netlists" / "closed_loop"
 
 
-def pi_buck():
+NAME = "closed_loop_controllers"
+
+
+def pi_buck(t_stop: float = 20e-3):
     s = transient_setup(parse_file(ROOT / "converters" / "netlists" / "buck.cir"))
     pi = PIPWM("S1", "v(out)", reference=10.0, kp=0.02, ki=20.0, frequency=50e3, d0=0.4)
-    res = simulate(s.system, s.signals, s.x0, 20e-3, 0.2e-6, probes=["v(out)", "i(L1)"],
+    res = simulate(s.system, s.signals, s.x0, t_stop, 0.2e-6, probes=["v(out)", "i(L1)"],
                    controllers=[pi], every=5).raise_if_error()
     t, y, d = np.array(pi.history).T
-    print(f"PI buck: v(out) = {res['v(out)'][-1]:.4f} V at 20 ms (reference 10 V), duty "
+    print(f"PI buck: v(out) = {res['v(out)'][-1]:.4f} V at {t_stop * 1e3:g} ms (reference "
+          "10 V), duty "
           f"{d[-1]:.4f} (v/Vin = {10 / 24:.4f}), {len(t)} samples, "
           f"{res.stats.wall_time * 1e3:.0f} ms")
     return res
 
 
-def sync_buck():
+def sync_buck(t_stop: float = 1e-3):
     s = transient_setup(parse_file(CL / "sync_buck.cir"))
     pwm = OpenLoopPWM("S1", 100e3, 0.42, complement="S2", dead_time=200e-9)
-    res = simulate(s.system, s.signals, s.x0, 1e-3, 20e-9, probes=["v(out)", "i(L1)", "i(D2)"],
-                   controllers=[pwm]).raise_if_error()
-    late = res.t > 0.9e-3
+    res = simulate(s.system, s.signals, s.x0, t_stop, 20e-9,
+                   probes=["v(out)", "i(L1)", "i(D2)"], controllers=[pwm]).raise_if_error()
+    late = res.t > 0.9 * t_stop
     diode = np.trapezoid(res["i(D2)"][late], res.t[late]) / np.trapezoid(
         np.abs(res["i(L1)"][late]), res.t[late])
     print(f"sync buck: v(out) = {res['v(out)'][late].mean():.3f} V (duty x Vin = "
@@ -58,11 +67,12 @@ def sync_buck():
     return res
 
 
-def smc_boost():
+def smc_boost(t_stop: float = 20e-3):
     s = transient_setup(parse_file(CL / "boost_smc.cir"))
-    ctl = simulate(s.system, s.signals, s.x0, 20e-3, 1e-6, probes=["i(L1)", "v(out)", "d(S1)"],
+    probes = ["i(L1)", "v(out)", "d(S1)"]
+    ctl = simulate(s.system, s.signals, s.x0, t_stop, 1e-6, probes=probes,
                    controllers=[SlidingSurface("S1", {"i(L1)": 1.0}, offset=-2.0)])
-    net = simulate(s.system, s.signals, s.x0, 20e-3, 1e-6, probes=["i(L1)", "v(out)", "d(S1)"])
+    net = simulate(s.system, s.signals, s.x0, t_stop, 1e-6, probes=probes)
     d = ctl["d(S1)"][-1]
     v = ctl["v(out)"][-1]
     print(f"SMC boost: sliding {ctl.sliding}, v(out) = {v:.3f} V (sqrt(R E Iref) = "
@@ -73,24 +83,31 @@ def smc_boost():
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--plot", type=Path, help="write a figure")
+    ap.add_argument("--out", type=Path, default=Path("out") / NAME,
+                    help="output directory (default %(default)s)")
+    ap.add_argument("--fast", action="store_true",
+                    help="the same runs (the study takes about 2 s)")
+    ap.add_argument("--plot", type=Path, help="write the figure to this file instead")
     args = ap.parse_args(argv)
     runs = [pi_buck(), sync_buck(), smc_boost()]
-    if args.plot:
-        import matplotlib
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, axes = plt.subplots(3, 1, figsize=(8, 8), constrained_layout=True)
-        for ax, res, title in zip(axes, runs, ("PI buck", "sync buck", "SMC boost"),
-                                  strict=True):
-            ax.plot(res.t * 1e3, res["v(out)"], lw=0.8)
-            ax.set_title(title)
-            ax.set_xlabel("t (ms)")
-            ax.set_ylabel("v(out) (V)")
-        fig.savefig(args.plot, dpi=120)
-        print(f"wrote {args.plot}")
+    fig = Figure(figsize=(8, 8), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(3, 1)
+    titles = ("PI buck (reference 10 V)", "synchronous buck, dead time 200 ns",
+              "sliding-mode boost (i(L1) = 2 A)")
+    for ax, res, title in zip(axes, runs, titles, strict=True):
+        ax.plot(res.t * 1e3, res["v(out)"], lw=0.8, label="v(out)")
+        ax.set_title(title)
+        ax.set_xlabel("time (ms)")
+        ax.set_ylabel("v(out) (V)")
+        ax.legend(fontsize=8, loc="lower right")
+    path = args.plot or args.out / f"{NAME}.png"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    print(f"wrote {path}")
     return 0
 
 

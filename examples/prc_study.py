@@ -280,8 +280,14 @@ def main(argv: list[str] | None = None) -> dict:
         if fs in ng_freqs:
             pt.ngspice = ngspice_vout(fs, args.fast)
         points.append(pt)
+        if fs not in ng_freqs:
+            ng_text = "ngspice not run at this frequency"
+        elif math.isnan(pt.ngspice):
+            ng_text = "ngspice not available here"
+        else:
+            ng_text = f"ngspice {pt.ngspice:8.4f} V"
         print(f"fs = {fs / 1e3:6.2f} kHz: v(out) = {pt.vout:8.4f} V (drift {pt.drift:+.1e}), "
-              f"FHA {pt.fha:8.4f} V, ngspice {pt.ngspice:8.4f} V, P_in/P_out - 1 = "
+              f"FHA {pt.fha:8.4f} V, {ng_text}, P_in/P_out - 1 = "
               f"{pt.p_in / pt.p_out - 1:+.1e}  ({pt.seconds:.2f} s)")
     plot_sweep(points, out / "prc_sweep.png")
     with open(out / "prc_sweep.csv", "w", newline="") as fh:
@@ -291,7 +297,7 @@ def main(argv: list[str] | None = None) -> dict:
         for pt in points:
             wr.writerow([f"{pt.fs:.6g}", f"{pt.vout:.9g}", f"{pt.drift:.3g}",
                          f"{pt.p_in:.9g}", f"{pt.p_out:.9g}", f"{pt.fha:.9g}",
-                         f"{pt.ngspice:.9g}"])
+                         "" if math.isnan(pt.ngspice) else f"{pt.ngspice:.9g}"])
     return {"waveforms": res, "sweep": points}
 
 

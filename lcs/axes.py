@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-__all__ = ["axis_label", "envelope", "probe_unit", "time_unit"]
+__all__ = ["axis_label", "envelope", "fit_title", "probe_unit", "time_unit"]
 
 # Above this many points per panel the curve is drawn as its min/max envelope over buckets
 # of samples: a switching ripple of 10^5 points looks the same and draws 10x faster.
@@ -28,6 +28,35 @@ def axis_label(name: str) -> str:
     """A probe's axis label with its unit, ``v(C1) [V]`` (the name alone without one)."""
     unit = probe_unit(name)
     return f"{name} [{unit}]" if unit else name
+
+
+def fit_title(ax, text: str, fontsize: float = 11.0, share: float = 0.9, **kwargs) -> None:
+    """Set ``text`` as the title of the matplotlib axes ``ax``, no wider than ``share`` of the
+    axes: wrapped onto a second line at a word boundary, then in a smaller font (down to 7 pt)
+    if it is still wider. A netlist's title line can be a long sentence; matplotlib would
+    draw it across the neighbouring panel or past the figure's edge.
+
+    ``share`` leaves room for a constrained layout, which narrows the axes when it draws.
+    ``kwargs`` go to :meth:`~matplotlib.axes.Axes.set_title`.
+    """
+    import textwrap
+
+    renderer = ax.figure.canvas.get_renderer()
+    limit = share * ax.get_window_extent(renderer).width
+    title = ax.set_title(text, fontsize=fontsize, **kwargs)
+
+    def width() -> float:
+        return title.get_window_extent(renderer).width
+
+    if width() <= limit:
+        return
+    # (two lines, or three when the words do not split evenly; never cut)
+    chars = max(int(len(text) * limit / width()), math.ceil(len(text) / 2) + 1)
+    title.set_text("\n".join(textwrap.wrap(text, chars)))
+    size = fontsize
+    while width() > limit and size > 7.0:
+        size -= 0.5
+        title.set_fontsize(size)
 
 
 def time_unit(t_end: float) -> tuple[float, str]:

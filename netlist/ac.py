@@ -27,12 +27,15 @@ from lcs.smallsignal.sweep import sweep_response
 
 from .circuit import Circuit, CurrentSource, VoltageSource
 from .errors import Diagnostic, NetlistError
-from .measure import defined_period
+from .measure import _latch_clocks, _periodic_sources, defined_period
 from .sweep import circuit_map, resolve_period
 from .transient import check_probes
 from .units import format_eng
 
 METHODS = ("exact", "sweep")
+
+#: The longest settling the sweep chooses itself, in periods (a longer one: --settle).
+MAX_SETTLE_PERIODS = 100_000
 
 
 def _error(circuit: Circuit, message: str, hint: str) -> NetlistError:
@@ -49,6 +52,69 @@ def _source(circuit: Circuit, name: str):
                  f"independent sources: {', '.join(names) or 'none'} (a DC control source "
                  "gives control-to-output, the input source line-to-output, a zero-valued "
                  "current source at the output the output impedance)")
+
+
+def _check_multiple(circuit: Circuit, period: float) -> None:
+    """Refuse a period the netlist's own switching period does not divide: the sources do
+    not repeat every ``period``, so no steady state does, and a state that returns to itself
+    after one ``period`` from t0 is not a periodic orbit."""
+    try:
+        own, origin = defined_period(circuit)
+    except NetlistError:
+        return  # (none, or several: nothing to check against)
+    ratio = period / own
+    if abs(ratio - round(ratio)) > 1e-6 * max(1.0, ratio) or round(ratio) < 1:
+        raise _error(circuit, f"--period {format_eng(period, 's')} is not a multiple of the "
+                     f"period the netlist defines, {format_eng(own, 's')} (the {origin}): the "
+                     "sources, so the steady state, do not repeat every "
+                     f"{format_eng(period, 's')}",
+                     f"leave --period out (T = {format_eng(own, 's')}), or give a multiple "
+                     "of it for a subharmonic orbit")
+
+
+def self_oscillating_switches(circuit: Circuit) -> list[str]:
+    """The switches of a circuit that no clock drives: every switch when no source is
+    periodic and no latched switch has a clock (hysteretic or sliding-mode control, whose
+    switching frequency is set by the circuit's own state), else none."""
+    switches = [sw.name for sw in circuit.of_kind("S")]
+    if not switches or _periodic_sources(circuit) or _latch_clocks(circuit):
+        return []
+    return switches
+
+
+def parse_frequencies(text: str, count: int = 30, what: str = "--freq") -> np.ndarray:
+    """``FMIN:FMAX[:N]`` -> N log-spaced frequencies, Hz (``count`` without N), or ``F`` -> one.
+
+    The range syntax of every pelcs command (``NAME=START:STOP[:N]``) without the name;
+    SPICE suffixes allowed (``100:50k:40``).
+
+    Raises
+    ------
+    NetlistError
+        Not numbers, not 0 < FMIN < FMAX, or N not an integer >= 2.
+    """
+    from .sweep import parse_value
+
+    parts = str(text).split(":")
+    where = "pelcs ac" if what == "--freq" else "pelcs.ac"
+    hint = f"e.g. {what} 100:50k:40 (40 frequencies from 100 Hz to 50 kHz, log-spaced)"
+
+    def bad(message: str) -> NetlistError:
+        return NetlistError(Diagnostic(message=f"{what} {text}: {message}", hint=hint),
+                            file=where)
+
+    if len(parts) == 1:
+        f = parse_value(parts[0], what)
+        if f <= 0:
+            raise bad("need a positive frequency")
+        return np.array([f])
+    if len(parts) not in (2, 3):
+        raise bad("expected FMIN:FMAX[:N]")
+    fmin, fmax = parse_value(parts[0], f"{what} FMIN"), parse_value(parts[1], f"{what} FMAX")
+    n = parse_value(parts[2], f"{what} N") if len(parts) == 3 else count
+    if not (0 < fmin < fmax) or n != int(n) or n < 2:
+        raise bad("need 0 < FMIN < FMAX and an integer N >= 2")
+    return np.logspace(np.log10(fmin), np.log10(fmax), int(n))
 
 
 def default_frequencies(period: float, count: int = 30) -> np.ndarray:
@@ -126,16 +192,40 @@ def ac_analysis(circuit: Circuit, *, period: float | str | None, inject: str | N
     """
     if method not in METHODS:
         raise _error(circuit, f"unknown method {method!r}", f"use one of {', '.join(METHODS)}")
+    free = self_oscillating_switches(circuit)
+    if free and (period is None or method == "exact"):
+        # A self-oscillating converter has no fixed switching period: its steady state is a
+        # limit cycle whose period moves with the perturbation, so there is no T-periodic
+        # orbit to linearise (the Moreau map of an arbitrary T only finds one when the
+        # switching happens to lock to its time steps). The time-domain sweep still
+        # measures the response, valid well below the switching frequency.
+        raise _error(
+            circuit,
+            f"{', '.join(free)} switch{'' if len(free) > 1 else 'es'} on the circuit's own "
+            "state (no clock, no periodic source: hysteretic or sliding-mode control), so "
+            "the converter self-oscillates with no fixed switching period; the exact "
+            "small-signal method linearises a steady state that repeats every T, which does "
+            "not exist here",
+            "measure the response in the time domain: --method sweep --period T, with T "
+            "about the switching period (from `pelcs simulate`); it is valid well below the "
+            "switching frequency")
     if period is None:
         T, origin = defined_period(circuit)
         period_notes = [f"T = {format_eng(T, 's')}: the {origin} (no --period given)"]
     else:
         T, period_notes = resolve_period(circuit, period), []
+        _check_multiple(circuit, T)
     if loop is not None:
         src = _source(circuit, loop)
         if not isinstance(src, VoltageSource):
             raise _error(circuit, f"loop source {loop} is not a voltage source",
                          "insert a zero-volt source (V... DC 0) in the feedback path")
+        if src.dc != 0.0 or src.waveform is not None:
+            raise _error(circuit, f"loop source {src.name} is not a zero-volt source: the "
+                         "loop gain is measured by injecting at a 0 V source that breaks "
+                         "the feedback path",
+                         "insert `Vinj a b DC 0` in the feedback path (positive node facing "
+                         "the controller) and pass --loop Vinj")
         inject = inject or src.name
         a, b = src.nodes
         loop_probes = [f"v({a})", f"v({b})"]
@@ -162,7 +252,14 @@ def ac_analysis(circuit: Circuit, *, period: float | str | None, inject: str | N
     if method == "exact":
         res = m.trajectory(orbit.points[0], 1)
         key0 = tuple(res.modes_visited[0]) if res.modes_visited else ()
-        eo = exact_orbit(system, m.signals, orbit.points[0], key0, m.t0, T)
+        try:
+            eo = exact_orbit(system, m.signals, orbit.points[0], key0, m.t0, T)
+        except PwlOrbitError as exc:
+            if orbit.converged:
+                raise
+            raise PwlOrbitError(f"{exc}; it started from the Moreau map's Newton, which did "
+                                f"not converge either (residual {orbit.residual:.3g}): the "
+                                "converter may have no period-1 steady state here") from exc
         Y = probe_forms(eo, lambda key: system.outputs(key, probes))
         fr = harmonic_response(eo, Y, probes, idx, freqs)
         fr.orbit = _orbit_dict(system.states, eo.x0, eo.multipliers, eo.events, m.t0, T,
@@ -174,8 +271,27 @@ def ac_analysis(circuit: Circuit, *, period: float | str | None, inject: str | N
         # fall below 1e-4 before measuring (it is not orthogonal to the excitation over a
         # short window: 5 dB of error at fs/8 on the buck with 16 periods of settling).
         rho = float(np.max(np.abs(orbit.multipliers))) if orbit.multipliers.size else 0.0
+        if rho >= 1.0:
+            # The sinusoid is applied to a simulation started on the orbit: an unstable orbit is
+            # left within a few periods, and what the sweep measured is the response of wherever
+            # the converter went (a longer cycle, chaos), not of the steady state.
+            raise _error(circuit, f"the periodic steady state is unstable (spectral radius "
+                         f"{rho:.4g}): the converter leaves it, so a time-domain sweep cannot "
+                         "measure a response around it",
+                         "--method exact gives the linearised response of the unstable orbit; "
+                         "lower the parameter below the bifurcation (`pelcs continue`) for a "
+                         "measurable one")
         if settle is None:
-            settle = np.ceil(np.log(1e-4) / np.log(rho)) * T if 0.0 < rho < 1.0 else 0.0
+            periods = np.ceil(np.log(1e-4) / np.log(rho)) if 0.0 < rho < 1.0 else 0.0
+            if periods > MAX_SETTLE_PERIODS or not orbit.converged:
+                # (a multiplier within 1e-5 of 1 is a limit cycle's phase direction or a
+                # Newton that did not converge, not a decay rate to wait for)
+                why = (f"the slowest multiplier {rho:.8g} would take {periods:.3g} periods to "
+                       "decay" if orbit.converged else "Newton did not find the orbit, so "
+                       "its multipliers give no settling time")
+                raise _error(circuit, f"cannot choose the settling time of the sweep: {why}",
+                             "pass --settle T (s), e.g. 5 time constants of the slowest pole")
+            settle = periods * T
         if amplitude is None:
             u0 = float(np.asarray(m.signals[idx](np.array([0.0])))[0])
             amplitude = 0.01 * abs(u0) if u0 != 0.0 else 1e-3
@@ -202,4 +318,5 @@ def ac_analysis(circuit: Circuit, *, period: float | str | None, inject: str | N
     return fr
 
 
-__all__ = ["METHODS", "ac_analysis", "default_frequencies", "PwlOrbitError"]
+__all__ = ["METHODS", "ac_analysis", "default_frequencies", "parse_frequencies",
+           "PwlOrbitError"]

@@ -103,8 +103,10 @@ def _number(text: str, what: str) -> float:
     return parse_value(text, what)
 
 
-def parse_sweep_param(text: str) -> tuple[str, float | np.ndarray]:
-    """``NAME=START:STOP:COUNT`` (COUNT values), ``NAME=V1,V2,...`` or ``NAME=VALUE``.
+def parse_sweep_param(text: str, default_count: int | None = None
+                      ) -> tuple[str, float | np.ndarray]:
+    """``NAME=START:STOP[:COUNT]`` (COUNT values, ``default_count`` when not given; required
+    when None), ``NAME=V1,V2,...`` or ``NAME=VALUE``.
 
     Returns
     -------
@@ -115,15 +117,19 @@ def parse_sweep_param(text: str) -> tuple[str, float | np.ndarray]:
     name, val = name.strip(), val.strip()
     if not sep or not name or not val:
         raise _usage(f"bad parameter {text!r}",
-                     "expected NAME=START:STOP:COUNT, NAME=V1,V2,... or NAME=VALUE, e.g. "
+                     "expected NAME=START:STOP[:COUNT], NAME=V1,V2,... or NAME=VALUE, e.g. "
                      "duty=0.2:0.8:7")
+    from .sweep import range_misspelling
+
+    if (error := range_misspelling(text)) is not None:
+        raise error
     if ":" in val:
         parts = val.split(":")
-        if len(parts) != 3:
-            raise _usage(f"parameter range {text!r}: expected NAME=START:STOP:COUNT",
+        if len(parts) not in (2, 3) or (len(parts) == 2 and default_count is None):
+            raise _usage(f"parameter range {text!r}: expected NAME=START:STOP[:COUNT]",
                          "e.g. duty=0.2:0.8:7 (7 values from 0.2 to 0.8)")
         start, stop = _number(parts[0], f"range {text!r}"), _number(parts[1], f"range {text!r}")
-        count = _number(parts[2], f"range {text!r}")
+        count = _number(parts[2], f"range {text!r}") if len(parts) == 3 else default_count
         if count != int(count) or count < 1:
             raise _usage(f"range {text!r}: COUNT must be an integer >= 1")
         if count > MAX_VALUES:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -196,20 +197,42 @@ def parse_range(text: str, *, need_count: bool = False) -> ParamRange:
     return ParamRange(name.strip(), start, stop, count)
 
 
+_OTHER_RANGE = re.compile(r"^\s*([^.\s][^\s]*?)\s*(?:\.\.\.?|…)\s*([^\s:]+?)"
+                          r"(?:\s*[:/,]\s*(\d+))?\s*$")
+
+
+def range_misspelling(text: str) -> NetlistError | None:
+    """The error for a range written ``NAME=A..B`` (or ``A...B``, ``A…B``, with an optional
+    ``:N``), with "did you mean NAME=A:B[:N]"; None for any other text."""
+    name, sep, val = text.partition("=")
+    m = _OTHER_RANGE.match(val) if sep else None
+    if m is None:
+        return None
+    good = f"{name.strip()}={m.group(1)}:{m.group(2)}" + (f":{m.group(3)}" if m.group(3) else "")
+    return _usage(f"bad parameter range {text!r}: did you mean {good}?",
+                  "a range is NAME=START:STOP[:N] (N values from START to STOP)")
+
+
 def split_params(items: Sequence[str]) -> tuple[list[ParamRange], dict[str, float]]:
     """Split ``--param`` items into ranges (values containing ':') and fixed overrides."""
     ranges, fixed = [], []
     for item in items or []:
+        if (error := range_misspelling(item)) is not None:
+            raise error
         (ranges if ":" in item.partition("=")[2] else fixed).append(item)
     return [parse_range(r) for r in ranges], parse_overrides(fixed)
 
 
-def parse_grid(text: str) -> list[tuple[str, float, float, int]]:
-    """Parse ``"v(C1)=A:B:N,i(L1)=C:D:M"`` -> ``[(name, lo, hi, count), ...]`` (two axes)."""
+def parse_grid(text: str, default_count: int | None = None
+               ) -> list[tuple[str, float, float, int]]:
+    """Parse ``"v(C1)=A:B:N,i(L1)=C:D:M"`` -> ``[(name, lo, hi, count), ...]`` (two axes);
+    an axis without ``:N`` gets ``default_count`` cells (required when None)."""
     axes = []
     for part in _split_top(text):
-        r = parse_range(part.strip(), need_count=True)
-        axes.append((r.name, r.start, r.stop, int(r.count)))
+        if (error := range_misspelling(part)) is not None:
+            raise error
+        r = parse_range(part.strip(), need_count=default_count is None)
+        axes.append((r.name, r.start, r.stop, int(r.count or default_count)))
     if len(axes) != 2:
         raise _usage(f"--grid {text!r}: expected two axes",
                      'e.g. --grid "v(C1)=0:20:200,i(L1)=0:4:200"')

@@ -197,10 +197,11 @@ def ac(
     period: float | str | None = None,
     inject: str | None = None,
     probes: Sequence[str] = (),
-    freqs: Sequence[float] | None = None,
+    freq: Sequence[float] | str | None = None,
     loop: str | None = None,
     method: str = "exact",
     params: Mapping[str, float] | None = None,
+    freqs: Sequence[float] | str | None = None,
     **options,
 ):
     """Small-signal frequency response of a switching converter around its periodic steady
@@ -209,7 +210,7 @@ def ac(
     ::
 
         fr = pelcs.ac("buck_vc.cir", period="ts", inject="Vc", probes=["v(out)"],
-                      freqs=np.logspace(2, 4.7, 50))
+                      freq=np.logspace(2, 4.7, 50))   # or freq="100:50k:50", as --freq
         fr.freq, fr["v(out)"]            # Hz, complex V/V
         fr.mag_db("v(out)"), fr.phase_deg("v(out)")
         fr.to_frd()                      # python-control FrequencyResponseData
@@ -225,8 +226,10 @@ def ac(
         Independent source to perturb (control-to-output: a DC control source;
         line-to-output: the input source; output impedance: a zero-valued current source).
     probes : sequence of str
-    freqs : sequence of float, optional
-        Hz (default 30 points from fs/1000 to fs/2).
+    freq : sequence of float or str, optional
+        Hz, or the ``--freq`` text ``"FMIN:FMAX[:N]"`` (N log-spaced, default 30) or ``"F"``;
+        default 30 points from fs/1000 to fs/2. The name of the command's ``--freq`` and of
+        the result's ``.freq``; ``freqs=``, the earlier name, is still taken.
     loop : str, optional
         Zero-volt source in the feedback path: loop gain ``"T"`` and ``.margins``.
     method : str
@@ -244,13 +247,21 @@ def ac(
     from netlist.ac import ac_analysis
     from netlist.sweep import parse_value
 
+    if freqs is not None:
+        if freq is not None:
+            raise TypeError("pelcs.ac: give freq= (freqs= is its earlier name), not both")
+        freq = freqs
+    if isinstance(freq, str):
+        from netlist.ac import parse_frequencies
+
+        freq = parse_frequencies(freq, what="freq=")
     c = _circuit(circuit, params)
     if isinstance(period, str):
         try:
             period = parse_value(period, "period")
         except NetlistError:
             pass  # a .param name
-    return ac_analysis(c, period=period, inject=inject, probes=probes, freqs=freqs,
+    return ac_analysis(c, period=period, inject=inject, probes=probes, freqs=freq,
                        loop=loop, method=method, **options)
 
 

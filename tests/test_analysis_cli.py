@@ -54,7 +54,7 @@ def test_orbit_options_and_errors(netlists, capsys):  # noqa: F811
 
 def test_continue_json_and_text(netlists, capsys):  # noqa: F811
     code, out, err = run(capsys, "continue", netlists["boost_dcm"], "--period", "ts",
-                         "--param", "duty=0.74:0.8", "--steps", "3", "--tol", "1e-3",
+                         "--param", "duty=0.74:0.8:4", "--locate-tol", "1e-3",
                          "--x0", "v(C1)=45", "--transient", "0", "--json")
     assert code == 0, err
     r = json.loads(out)
@@ -62,7 +62,7 @@ def test_continue_json_and_text(netlists, capsys):  # noqa: F811
     assert 0.76 < r["bifurcations"][0]["param"] < 0.78
     assert r["states"] == ["i(L1)", "v(C1)"] and len(r["branch"]) == 4
     code, out, err = run(capsys, "continue", netlists["boost_dcm"], "--period", "ts",
-                         "--param", "duty=0.74:0.8", "--steps", "3", "--tol", "1e-3",
+                         "--param", "duty=0.74:0.8:4", "--locate-tol", "1e-3",
                          "--x0", "v(C1)=45", "--transient", "0", "--no-locate")
     assert code == 0, err
     assert "bifurcations:" in out and "border" in out and "bracket" in out
@@ -90,7 +90,7 @@ def test_bifurcation_outputs(netlists, capsys, tmp_path):  # noqa: F811
     assert list(z["directions"]) == ["up", "down"] and z["up_samples"].shape == (4, 2, 2)
     np.testing.assert_allclose(z["up_samples"][:, -1], z["down_samples"][::-1, -1],
                                rtol=1e-6)
-    for argv in (("--param", "duty=0.3:0.6"), ("--param", "duty=0.3:0.6:4", "--probe",
+    for argv in (("--param", "duty=0.3..0.6"), ("--param", "duty=0.3:0.6:4", "--probe",
                                                "v(nowhere)"),
                  ("--param", "duty=0.3:0.6:4", "-o", str(tmp_path / "x.txt"))):
         code, out, err = run(capsys, "bifurcation", netlists["buck"], "--period", "ts",
@@ -139,14 +139,14 @@ def test_orbit_of_an_event_map(netlists, capsys):  # noqa: F811
 def test_continue_from_many_starts(netlists, capsys):  # noqa: F811
     # The CCM boost has one period-1 orbit: every start finds it (the first, then "the same").
     code, out, err = run(capsys, "continue", netlists["boost"], "--period", "ts", "--param",
-                         "duty=0.3:0.35", "--steps", "2", "--start", "v(C1)=10:30:3",
+                         "duty=0.3:0.35:3", "--start", "v(C1)=10:30:3",
                          "--start", "i(L1)=2,v(C1)=40", "--workers", "2", "--no-progress")
     assert code == 0, err
     assert "4 continuation(s) from different starting states" in out
     assert "start 1 (i(L1) = 0, v(C1) = 10):" in out
     assert "start 4 (i(L1) = 2, v(C1) = 40): the same orbit as start 1" in out
     code, out, err = run(capsys, "continue", netlists["boost"], "--period", "ts", "--param",
-                         "duty=0.3:0.35", "--steps", "2", "--start", "v(C1)=20", "--json",
+                         "duty=0.3:0.35:3", "--start", "v(C1)=20", "--json",
                          "--workers", "1")
     r = json.loads(out)
     assert code == 0 and len(r["continuations"]) == 1

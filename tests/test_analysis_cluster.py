@@ -220,8 +220,8 @@ def test_cli_scheduler_option(netlists, cluster, capsys, tmp_path):  # noqa: F81
                  "--scheduler", cluster, "--json"])
     r = json.loads(capsys.readouterr().out)
     assert code == 0 and r["rows"][0]["mean(v(out))"] == pytest.approx(9.6, abs=1e-4)
-    code = main(["continue", VM_BUCK, "--period", "tp", "--param", "vin=20:22", "--steps",
-                 "2", "--start", "v(C1)=11:13:2", "--scheduler", cluster, "--json",
+    code = main(["continue", VM_BUCK, "--period", "tp", "--param", "vin=20:22:3",
+                 "--start", "v(C1)=11:13:2", "--scheduler", cluster, "--json",
                  "--no-progress"])
     r = json.loads(capsys.readouterr().out)
     assert code == 0 and [c["same_as"] for c in r["continuations"]] == [None, 0]
@@ -422,7 +422,7 @@ def test_relative_netlist_with_relative_includes_on_workers_elsewhere(cluster, t
     for argv in (["bifurcation", rel, "--param", "vin=20:28:3", "--transient", "5",
                   "--record", "2", "--probe", "v(out)"],
                  ["basins", rel, "--grid", "v(Cout)=0:10:3,i(L1)=0:5:3"],
-                 ["continue", rel, "--param", "vin=20:22", "--steps", "2"]):
+                 ["continue", rel, "--param", "vin=20:22:3"]):
         code = main(argv + common)
         out, err = capsys.readouterr()
         assert code == 0 and "not found" not in out + err, (argv[0], out, err)

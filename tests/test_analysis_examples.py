@@ -5,7 +5,9 @@ period-2 branch near 31 V)."""
 from __future__ import annotations
 
 import importlib.util
+import re
 import sys
+import time
 from pathlib import Path
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
@@ -19,8 +21,12 @@ def load(name: str):
     return module
 
 
-def test_bifurcation_vm_buck_fast(tmp_path):
+def test_bifurcation_vm_buck_fast(tmp_path, capsys):
+    t0 = time.perf_counter()
     res = load("bifurcation_vm_buck").main(["--fast", "--out", str(tmp_path)])
+    assert time.perf_counter() - t0 < 60.0  # (as every example's --fast, test_examples.py)
+    printed = capsys.readouterr().out
+    assert not re.search(r"\bnan\b", printed, re.IGNORECASE), printed
     for name in ("vm_buck_diagram.png", "vm_buck_diagram.npz", "vm_buck_continuation.json",
                  "vm_buck_basins.png", "vm_buck_basins.npz"):
         assert (tmp_path / name).stat().st_size > 0, name

@@ -109,7 +109,7 @@ def test_the_cli_prints_the_probe_guess(tmp_path, capsys):
 
 
 SHARED = ("--param", "--probe", "--step", "--theta", "--method", "--period", "--json",
-          "--scheduler", "-o")
+          "--scheduler", "--tol", "-o")
 
 
 def test_the_shared_options_are_declared_once():

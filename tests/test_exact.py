@@ -319,8 +319,8 @@ def test_exact_continuation_locates_the_dcm_border_collision(capsys):
     and a stretch with every switch and diode off appears: a border collision. With exact
     stretches the located load is where the current at the turn-on instant is zero."""
     path = str(EXACT / "buck_border.cir")
-    code = main(["continue", path, "--period", "ts", "--param", "rload=3.9:4.1", "--steps",
-                 "3", "--method", "exact", "--tol", "1e-9", "--json"])
+    code = main(["continue", path, "--period", "ts", "--param", "rload=3.9:4.1:4",
+                 "--method", "exact", "--locate-tol", "1e-9", "--json"])
     out = capsys.readouterr().out
     assert code == 0
     import json

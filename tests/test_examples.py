@@ -1,22 +1,24 @@
 """Every example study runs in its ``--fast`` form and shows what it claims.
 
-Each example is a script in ``examples/`` with ``main(argv)``; it is imported from its file
-and run into a temporary directory. Besides the files it writes, the behaviour it states in
-its docstring is asserted (GDCM interval counts, agreement with analytic references).
+Each example is a script in ``examples/`` with ``main(argv)`` taking ``--fast`` and
+``--out DIR``; it is imported from its file and run into a temporary directory, in under a
+minute, printing no bare ``nan`` (a value that does not exist is said in words). Besides the
+files it writes, the behaviour it states in its docstring is asserted (GDCM interval counts,
+agreement with analytic references). Each runs in 3-17 s with ``--fast`` (measured alone on
+one core), so none is marked slow.
 """
 
 from __future__ import annotations
 
 import importlib.util
 import math
+import re
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
-
-# (the slow part of the suite: outside the fast subset that `-m 'not slow'` selects)
-pytestmark = pytest.mark.slow
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 
@@ -30,15 +32,40 @@ def load(name: str):
     return module
 
 
+#: The longest an example may take with --fast, s.
+FAST_LIMIT = 60.0
+
+
+def run_fast(name: str, out: Path, capsys):
+    """Run ``examples/<name>.py --fast --out OUT``: its module and what ``main`` returned.
+    Checks the time limit and that the printed text has no bare ``nan``."""
+    mod = load(name)
+    t0 = time.perf_counter()
+    res = mod.main(["--out", str(out), "--fast"])
+    seconds = time.perf_counter() - t0
+    printed = capsys.readouterr().out
+    assert seconds < FAST_LIMIT, f"{name} --fast took {seconds:.0f} s"
+    assert not re.search(r"\bnan\b", printed, re.IGNORECASE), printed
+    return mod, res, printed
+
+
+@pytest.mark.parametrize("path", sorted(EXAMPLES.glob("*.py")), ids=lambda p: p.stem)
+def test_every_example_takes_fast_and_out(path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        load(path.stem).main(["--help"])
+    assert exc.value.code == 0
+    text = capsys.readouterr().out
+    assert "--fast" in text and "--out" in text
+
+
 def _files(out: Path, *names: str) -> None:
     for n in names:
         f = out / n
         assert f.is_file() and f.stat().st_size > 0, f"missing {f}"
 
 
-def test_gdcm_studies(tmp_path):
-    mod = load("gdcm_studies")
-    res = mod.main(["--out", str(tmp_path), "--fast"])
+def test_gdcm_studies(tmp_path, capsys):
+    mod, res, _ = run_fast("gdcm_studies", tmp_path, capsys)
     for key in ("boost_switch_open", "cuk_switch_closed", "cuk_switch_open"):
         _files(tmp_path, f"gdcm_{key}.png", f"gdcm_{key}.csv")
     _files(tmp_path, "gdcm_intervals.csv")
@@ -75,9 +102,8 @@ def test_gdcm_studies(tmp_path):
         assert r.checks["max |w - y|"] < 1e-9 * max(1.0, np.abs(r.w).max())
 
 
-def test_open_loop_startup(tmp_path):
-    mod = load("open_loop_startup")
-    res = mod.main(["--out", str(tmp_path), "--fast"])
+def test_open_loop_startup(tmp_path, capsys):
+    mod, res, _ = run_fast("open_loop_startup", tmp_path, capsys)
     _files(tmp_path, "open_loop_summary.csv")
     for topology, r in res.items():
         key = topology.replace("-", "_")
@@ -101,9 +127,8 @@ def test_open_loop_startup(tmp_path):
             assert dev < 5e-3, (topology, s)
 
 
-def test_prc_study(tmp_path):
-    mod = load("prc_study")
-    res = mod.main(["--out", str(tmp_path), "--fast"])
+def test_prc_study(tmp_path, capsys):
+    mod, res, _ = run_fast("prc_study", tmp_path, capsys)
     _files(tmp_path, "prc_waveforms.png", "prc_waveforms.csv", "prc_sweep.png",
            "prc_sweep.csv")
     points = res["sweep"]
@@ -135,9 +160,8 @@ def test_prc_study(tmp_path):
         assert points[1].vout == pytest.approx(ng, rel=6e-3)
 
 
-def test_boost_smc(tmp_path):
-    mod = load("boost_smc")
-    runs = mod.main(["--out", str(tmp_path), "--fast"])
+def test_boost_smc(tmp_path, capsys):
+    mod, runs, _ = run_fast("boost_smc", tmp_path, capsys)
     _files(tmp_path, "boost_smc.png", "boost_smc.csv")
     imp, exp = runs["implicit"], runs["explicit"]
     h = imp.h
@@ -157,9 +181,8 @@ def test_boost_smc(tmp_path):
     assert exp.checks["max |v - v_ref| / v_ref"] < 1e-2
 
 
-def test_vm_buck_responses(tmp_path):
-    mod = load("vm_buck_responses")
-    res = mod.main(["--out", str(tmp_path), "--fast"])
+def test_vm_buck_responses(tmp_path, capsys):
+    mod, res, _ = run_fast("vm_buck_responses", tmp_path, capsys)
     _files(tmp_path, "vm_buck_responses.png", "vm_buck_E15.csv", "vm_buck_E25.csv",
            "vm_buck_orbits.csv")
     r15, r25 = res[15.0], res[25.0]
@@ -184,9 +207,8 @@ def test_vm_buck_responses(tmp_path):
     assert min(r.checks["min i(L1) last 10 periods [A]"] for r in res.values()) > 0.1
 
 
-def test_bode_plots(tmp_path):
-    mod = load("bode_plots")
-    res = mod.main(["--out", str(tmp_path), "--fast"])
+def test_bode_plots(tmp_path, capsys):
+    mod, res, _ = run_fast("bode_plots", tmp_path, capsys)
     _files(tmp_path, "bode_vm_buck.png", "bode_cm_buck.png", "bode_plots.csv")
     vm = res["vm_buck"]
     # The buck's response at the excitation frequency is the averaged model's; the sweep
@@ -200,10 +222,9 @@ def test_bode_plots(tmp_path):
     assert all(r["db_at_half_fs_vs_ridley"] < 0.2 for r in res["cm_buck"].values())
 
 
-def test_real_devices(tmp_path, ngspice):
+def test_real_devices(tmp_path, ngspice, capsys):
     pytest.importorskip("PySpice")
-    mod = load("real_devices")
-    res = mod.main(["--out", str(tmp_path), "--fast"])
+    mod, res, _ = run_fast("real_devices", tmp_path, capsys)
     _files(tmp_path, "real_devices_buck.png")
     ideal, pwl, ng = res["ideal"], res["pwl"], res["ngspice"]
     # ideal devices lose nothing but the inductor's 37 mOhm
@@ -213,3 +234,16 @@ def test_real_devices(tmp_path, ngspice):
     # region at turn-off, where pelcs records no device currents: no efficiency
     assert abs(pwl["vout"] - ng["vout"]) < 0.3 * abs(ideal["vout"] - ng["vout"])
     assert math.isnan(pwl["efficiency"])
+
+
+def test_closed_loop_controllers(tmp_path, capsys):
+    _, _, printed = run_fast("closed_loop_controllers", tmp_path, capsys)
+    _files(tmp_path, "closed_loop_controllers.png")
+    nums = {key: [float(x) for x in re.findall(r"[-+]?\d+\.\d+", line)]
+            for key, line in (ln.split(":", 1) for ln in printed.splitlines() if ":" in ln)}
+    # the PI loop's integral finds the lossless duty v/Vin and the reference
+    v, duty, ideal = nums["PI buck"][:3]
+    assert v == pytest.approx(10.0, abs=0.01) and duty == pytest.approx(ideal, abs=1e-3)
+    # ideal sliding i(L1) = 2 A: the lossless boost's sqrt(R E Iref), duty 1 - E/v
+    v, ref, duty, ideal = nums["SMC boost"][1:5]
+    assert v == pytest.approx(ref, rel=0.01) and duty == pytest.approx(ideal, abs=1e-3)

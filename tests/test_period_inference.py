@@ -81,7 +81,7 @@ def test_orbit_without_period_is_the_orbit_with_it(netlists, capsys):  # noqa: F
 
 
 @pytest.mark.parametrize("argv", [
-    ["continue", "{boost_dcm}", "--param", "duty=0.74:0.8", "--steps", "2", "--tol", "1e-3",
+    ["continue", "{boost_dcm}", "--param", "duty=0.74:0.8:3", "--locate-tol", "1e-3",
      "--x0", "v(C1)=45", "--transient", "0", "--no-progress"],
     ["bifurcation", "{boost}", "--param", "duty=0.4:0.5:2", "--transient", "2", "--record",
      "2", "--no-progress", "--workers", "1"],

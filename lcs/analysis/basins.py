@@ -29,7 +29,7 @@ import numpy as np
 
 from .. import interrupt
 from ..atomic import atomic_path
-from ..axes import axis_label
+from ..axes import axis_label, fit_title
 from .maps import Map, MapError
 from .parallel import portable, task_engine
 
@@ -289,6 +289,7 @@ class BasinMap:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.colors import ListedColormap
         from matplotlib.figure import Figure
+        from matplotlib.patches import Patch
 
         a0, a1 = self.grid.axes
         extent = (a1.lo, a1.hi, a0.lo, a0.hi)
@@ -304,18 +305,28 @@ class BasinMap:
             group, steps = np.ma.masked_less(group, 0), np.ma.masked_less(steps, 0)
         ax1.imshow(group, origin="lower", extent=extent, aspect="auto", cmap=cmap,
                    vmin=-0.5, vmax=ng + 0.5, interpolation="nearest")
-        for at in self.attractors:
-            ax1.plot(at.points[:, 1], at.points[:, 0], "k.", ms=3)
+        for k, at in enumerate(self.attractors):
+            ax1.plot(at.points[:, 1], at.points[:, 0], "k.", ms=3,
+                     label="attractor cells" if k == 0 else None)
+        # One legend entry per colour of the basins image (an image has no legend of its own).
+        handles = [Patch(facecolor=base[0], label="leaves the grid")] + [
+            Patch(facecolor=base[at.group],
+                  label=f"basin of attractor {at.group} ({at.period} cell cycle)")
+            for at in self.attractors]
+        if self.computed is not None:
+            handles.append(Patch(facecolor="white", edgecolor="0.5", label="not computed"))
+        dots, _ = ax1.get_legend_handles_labels()
+        ax1.legend(handles=handles + dots, fontsize=7, loc="best", framealpha=0.8)
         xlabel, ylabel = axis_label(a1.name), axis_label(a0.name)
         ax1.set_xlabel(xlabel)
         ax1.set_ylabel(ylabel)
-        ax1.set_title("basins (grey: leaves the grid)" if title is None else title)
+        fit_title(ax1, "basins" if title is None else title)
         im = ax2.imshow(steps, origin="lower", extent=extent, aspect="auto",
                         cmap="viridis", interpolation="nearest")
         fig.colorbar(im, ax=ax2, label="periods to reach the attractor")
         ax2.set_xlabel(xlabel)
         ax2.set_ylabel(ylabel)
-        ax2.set_title("transient time")
+        fit_title(ax2, "transient time")
         with atomic_path(path) as tmp:
             fig.savefig(tmp, dpi=130)
 

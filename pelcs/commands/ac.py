@@ -3,7 +3,7 @@
 ::
 
     pelcs ac FILE [--period T] (--inject SOURCE | --loop NAME) --probe EXPR...
-             [--freq FMIN:FMAX:N] [--param NAME=VALUE]... [--method exact|sweep]
+             [--freq FMIN:FMAX[:N]] [--param NAME=VALUE]... [--method exact|sweep]
              [--amplitude A] [--settle T] [--cycles K] [--step H] [--theta TH] [--json]
              [-o OUT.csv] [--plot OUT.png] [--averaged TOPOLOGY:NAME=VALUE,...]
 
@@ -26,7 +26,9 @@ in degrees, fs/2 marked), with ``--averaged`` the CCM averaged model overlaid
 gain=1`` with ``gain`` the duty per unit of the injected source, ``input=vin`` for
 line-to-output; probes named like its states, ``v(out)`` as the output capacitor voltage).
 
-Exit status: 0 success; 2 input errors; 3 the steady state or a run failed.
+Exit status: 0 success; 2 input errors, and the cases where there is no response to compute
+(said with the reason: a self-oscillating converter with the exact method, a sweep around an
+unstable orbit; docs/smallsignal.md); 3 the steady state or a run failed.
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from lcs.atomic import atomic_path
+from lcs.axes import fit_title
 from pelcs.jsonout import dumps
 from pelcs.outputs import write_outputs
 
@@ -64,7 +67,9 @@ def register(subparsers) -> None:
                    help="zero-volt source in the feedback path (positive node facing the "
                    "controller): loop gain and margins")
     options.add_probe(p, help="probe, e.g. 'v(out)' (repeatable or comma-separated)")
-    p.add_argument("--freq", metavar="FMIN:FMAX:N", help="log-spaced frequencies (Hz)")
+    p.add_argument("--freq", metavar="FMIN:FMAX[:N]",
+                   help="N log-spaced frequencies, Hz (default N = 30), or one frequency F "
+                   "(default: 30 from fs/1000 to fs/2); the API's freq=")
     options.add_param(p, help="override a global .param (repeatable)")
     options.add_method(p, ("exact", "sweep"), "exact",
                    help="exact: linearised exact orbit (default); sweep: time-domain "
@@ -92,24 +97,11 @@ def register(subparsers) -> None:
 
 
 def _freqs(text: str | None):
-    """``FMIN:FMAX:N`` -> N log-spaced frequencies (Hz), or a single ``F``."""
-    from netlist.sweep import parse_value
+    """``FMIN:FMAX[:N]`` -> N log-spaced frequencies (Hz), or a single ``F``; None: the
+    default."""
+    from netlist.ac import parse_frequencies
 
-    if not text:
-        return None
-    parts = text.split(":")
-    if len(parts) == 1:
-        f = parse_value(parts[0], "--freq")
-        if f <= 0:
-            raise usage_error("ac", f"--freq {text}: need a positive frequency")
-        return np.array([f])
-    if len(parts) != 3:
-        raise usage_error("ac", f"--freq {text}: expected FMIN:FMAX:N", "e.g. --freq 100:50k:40")
-    fmin, fmax = parse_value(parts[0], "--freq FMIN"), parse_value(parts[1], "--freq FMAX")
-    count = parse_value(parts[2], "--freq N")
-    if not (0 < fmin < fmax) or count != int(count) or count < 2:
-        raise usage_error("ac", f"--freq {text}: need 0 < FMIN < FMAX and an integer N >= 2")
-    return np.logspace(np.log10(fmin), np.log10(fmax), int(count))
+    return parse_frequencies(text) if text else None
 
 
 _AVERAGED_KEYS = {"vin": "vin", "d": "duty", "r": "rload", "l": "lind", "c": "cout",
@@ -155,7 +147,9 @@ def run(args: argparse.Namespace) -> int:
 
     if not args.inject and not args.loop:
         raise usage_error("ac", "nothing to perturb", "pass --inject SOURCE or --loop NAME")
-    probes = [p.strip() for item in args.probe for p in item.split(",") if p.strip()]
+    from .simulate import split_probes
+
+    probes = split_probes(args.probe)  # (v(a,b) is one probe)
     if not probes and not args.loop:
         raise usage_error("ac", "no probe", "pass --probe, e.g. --probe 'v(out)'")
     circuit = parse_file(args.file, params=parse_overrides(args.param) or None)
@@ -184,7 +178,11 @@ def run(args: argparse.Namespace) -> int:
         from lcs.results import SimulationError
 
         if isinstance(exc, (MapError, SimulationError, PwlOrbitError)):
-            print(f"pelcs ac: {exc}", file=sys.stderr)
+            print(f"{args.file}: error: no periodic steady state to linearise: {exc}\n"
+                  f"  hint: `pelcs orbit {args.file}` (with --order 2, ...) shows the steady "
+                  "state: a period-doubled or chaotic converter has no period-1 orbit; pass "
+                  "--period T if the netlist's period is not the switching period",
+                  file=sys.stderr)
             return EXIT_FAILED
         raise
     margins = fr.margins
@@ -239,6 +237,16 @@ def _averaged_curve(averaged, probe: str, freq):
 
 
 def _plot(path: Path, fr, margins, title: str, averaged=None) -> None:
+    fig = bode_figure(fr, margins, title, averaged)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
+
+
+def bode_figure(fr, margins, title: str, averaged=None):
+    """The Bode plot of a :class:`~lcs.smallsignal.FrequencyResponse` (a matplotlib
+    ``Figure``): magnitude (dB) and phase (degrees) against frequency (Hz), fs/2 marked, with
+    ``margins`` (a loop gain, probe ``"T"``) the margins marked, with ``averaged`` the
+    averaged model overlaid; ``title`` is the netlist's file name."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -262,13 +270,44 @@ def _plot(path: Path, fr, margins, title: str, averaged=None) -> None:
     for ax in (ax1, ax2):
         ax.axvline(0.5 / fr.period, color="grey", ls="--", lw=0.8, label="fs/2")
         ax.grid(True, which="both", alpha=0.3)
-    if margins is not None and margins.crossover:
-        ax1.axvline(margins.crossover, color="red", ls=":", lw=0.8, label="crossover")
+    if margins is not None:
+        _mark_margins(ax1, ax2, fr.freq, fr.phase_deg("T"), margins)
     ax1.set_ylabel("magnitude (dB)")
     ax2.set_ylabel("phase (deg)")
     ax2.set_xlabel("frequency (Hz)")
-    ax1.set_title(f"{Path(title).name}: response to {fr.inject} ({fr.method})")
+    what = (f"loop gain T at {fr.inject}" if margins is not None
+            else f"response to {fr.inject}")
+    fit_title(ax1, f"{Path(title).name}: {what} ({fr.method})")
     ax1.legend(fontsize=8)
+    ax2.legend(fontsize=8)
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110)
+    return fig
+
+
+def _mark_margins(ax1, ax2, freq: np.ndarray, phase: np.ndarray, margins) -> None:
+    """The 0 dB and -180° lines, the gain crossover, and the phase and gain margins drawn as
+    python-control's ``bode_plot(display_margins=True)`` draws them: the phase margin as a
+    segment from the -180° line to the phase at the crossover, the gain margin as a segment
+    from 0 dB down to the gain at the phase crossover. Each mark is in the legend with its
+    value."""
+    ax1.axhline(0.0, color="black", lw=0.8, label="0 dB")
+    # The -180° line on the branch (mod 360°) that the plotted phase reaches or comes nearest.
+    turns = np.round((np.asarray(phase) + 180.0) / 360.0)
+    for k, level in enumerate(sorted({-180.0 + 360.0 * t for t in turns})):
+        ax2.axhline(level, color="black", lw=0.8, label="-180°" if k == 0 else None)
+    if margins.crossover is not None:
+        fc = margins.crossover
+        for ax in (ax1, ax2):
+            ax.axvline(fc, color="tab:red", ls=":", lw=0.9,
+                       label=f"gain crossover {fc:.4g} Hz" if ax is ax1 else None)
+        # the phase at fc on the plotted branch: log-linear interpolation, as the margins
+        ph_c = float(np.interp(np.log10(fc), np.log10(freq), phase))
+        base = ph_c - margins.phase_margin
+        ax2.plot([fc, fc], [base, ph_c], color="tab:red", lw=2.5,
+                 label=f"phase margin {margins.phase_margin:.1f}°")
+    if margins.phase_crossover is not None and margins.gain_margin is not None:
+        fp = margins.phase_crossover
+        ax2.axvline(fp, color="tab:purple", ls=":", lw=0.9,
+                    label=f"phase crossover {fp:.4g} Hz")
+        ax1.plot([fp, fp], [0.0, -margins.gain_margin], color="tab:purple", lw=2.5,
+                 label=f"gain margin {margins.gain_margin:.1f} dB")

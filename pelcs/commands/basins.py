@@ -59,8 +59,9 @@ def register(subparsers) -> None:
         "--grid \"v(C1)=10:14:200,i(L1)=0:1.2:200\" --plot basins.png",
     )
     add_map_options(p, param_help="override a global .param (repeatable)")
-    p.add_argument("--grid", required=True, metavar="S1=A:B:N,S2=C:D:M",
-                   help="two states with their ranges and cell counts")
+    p.add_argument("--grid", required=True, metavar="S1=A:B[:N],S2=C:D[:M]",
+                   help="two states with their ranges and cell counts: "
+                   f"{options.range_help('basins', 'STATE', 'cells')}")
     p.add_argument("--workers", metavar="W", help="worker processes (default: all cores)")
     options.add_scheduler(p)
     p.add_argument("--no-merge", action="store_true",
@@ -78,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
 
     fixed = parse_overrides(args.param)
     factory = make_factory(args, "basins", fixed=fixed)
-    axes = parse_grid(args.grid)
+    axes = parse_grid(args.grid, default_count=options.RANGE_COUNTS["basins"])
     workers = positive_int("basins", "--workers", args.workers) if args.workers else None
     out = check_output("basins", "-o", args.output, (".npz",))
     plot = check_output("basins", "--plot", args.plot, (".png", ".svg", ".pdf"))

@@ -2,7 +2,7 @@
 
 ::
 
-    pelcs bifurcation FILE --param NAME=START:STOP:COUNT [--period T] --transient N --record M
+    pelcs bifurcation FILE --param NAME=START:STOP[:N] [--period T] --transient N --record M
                       [--probe EXPR]... [--follow [--direction up|down|both]] [--chunks C]
                       [--param OTHER=VALUE]... [--x0 ...] [--step H] [--theta TH] [--t0 T0]
                       [--workers W] [--scheduler ADDRESS] [-o OUT.csv|OUT.npz]
@@ -69,8 +69,9 @@ def register(subparsers) -> None:
         epilog="example: pelcs bifurcation vm_buck.cir --param vin=20:35:300 --period tp "
         "--transient 300 --record 100 --probe 'v(out)' --plot diagram.png",
     )
-    add_map_options(p, param_help="NAME=START:STOP:COUNT: the swept parameter (once); "
-                    "NAME=VALUE: a fixed override (repeatable)")
+    add_map_options(p, param_help="the swept parameter (once): "
+                    f"{options.range_help('bifurcation')}; NAME=VALUE: a fixed override "
+                    "(repeatable)")
     p.add_argument("--transient", required=True, metavar="N", help="periods discarded")
     p.add_argument("--record", required=True, metavar="M", help="periods recorded")
     options.add_probe(p,
@@ -126,8 +127,8 @@ def run(args: argparse.Namespace) -> int:
     from .simulate import split_probes
 
     ranges, fixed = split_params(args.param)
-    if len(ranges) != 1 or ranges[0].count is None:
-        raise usage_error("bifurcation", "give exactly one --param NAME=START:STOP:COUNT",
+    if len(ranges) != 1:
+        raise usage_error("bifurcation", "give exactly one --param NAME=START:STOP[:N]",
                           "e.g. --param vin=20:35:300 (fixed values: --param a=8.4)")
     rng = ranges[0]
     transient = positive_int("bifurcation", "--transient", args.transient, 0)
@@ -137,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
     out = check_output("bifurcation", "-o", args.output, (".csv", ".npz"))
     plot = check_output("bifurcation", "--plot", args.plot, (".png", ".svg", ".pdf"))
     factory = make_factory(args, "bifurcation", swept=rng.name, fixed=fixed)
-    values = rng.values()
+    values = rng.values(options.RANGE_COUNTS["bifurcation"])
     m = factory(float(values[0]))  # validates netlist, parameter name and period here
     circuit = factory.circuit(float(values[0]))
     probes = check_probes(circuit, split_probes(args.probe)) if args.probe else None

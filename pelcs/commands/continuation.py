@@ -1,25 +1,27 @@
-"""``pelcs continue FILE [--period T] --param NAME=START:STOP``: follow a periodic orbit.
+"""``pelcs continue FILE [--period T] --param NAME=START:STOP[:N]``: follow a periodic orbit.
 
 ::
 
-    pelcs continue FILE [--period T] --param NAME=START:STOP [--param OTHER=VALUE]...
-                        [--steps N] [--order K] [--tol DP] [--transient N] [--x0 ...]
+    pelcs continue FILE [--period T] --param NAME=START:STOP[:N] [--param OTHER=VALUE]...
+                        [--order K] [--tol TOL] [--locate-tol DP] [--transient N] [--x0 ...]
                         [--step H] [--theta TH] [--t0 T0] [--json]
                         [--start STATE=V|STATE=A:B:N,...]... [--workers W]
                         [--scheduler ADDRESS]
 
-Natural continuation of the period-K orbit of the stroboscopic map from START to STOP in N
-steps (Newton shooting at each value from the secant prediction); between steps, a change in
-the multipliers outside the unit circle or in the switching pattern is located by bisection
-to ``--tol`` (default |STOP - START| * 1e-4). Bifurcations: ``flip`` (a multiplier through
--1, period doubling), ``fold`` (+1), ``neimark-sacker`` (a complex pair through the unit
-circle), ``border`` (the switching pattern changes: skipped cycle, a diode entering
-discontinuous conduction, a border collision). ``--json`` prints one object with
-``bifurcations`` (a list of ``{"type", "param", "bracket", "detail", ...}``) and ``branch``
-(the orbits), strict JSON: NaN and infinities are null.
+Natural continuation of the period-K orbit of the stroboscopic map over N values from START
+to STOP, N - 1 steps (default N = 41; the older ``--steps N - 1`` is still taken, with a
+deprecation note on stderr), Newton shooting at each value from the secant prediction;
+between steps, a change in the multipliers outside the unit circle or in the switching
+pattern is located by bisection to ``--locate-tol`` (default |STOP - START| * 1e-4); ``--tol``
+is the Newton tolerance on the scaled residual, as in ``pelcs orbit`` (default 1e-10). Bifurcations:
+``flip`` (a multiplier through -1, period doubling), ``fold`` (+1), ``neimark-sacker`` (a
+complex pair through the unit circle), ``border`` (the switching pattern changes: skipped
+cycle, a diode entering discontinuous conduction, a border collision). ``--json`` prints one
+object with ``bifurcations`` (a list of ``{"type", "param", "bracket", "detail", ...}``) and
+``branch`` (the orbits), strict JSON: NaN and infinities are null.
 
 ``--start`` (repeatable) continues from many starting states at once, to find and follow
-coexisting orbits: each ``--start`` item is ``STATE=VALUE`` or ``STATE=START:STOP:COUNT`` (every
+coexisting orbits: each ``--start`` item is ``STATE=VALUE`` or ``STATE=START:STOP:N`` (every
 combination of the values is a start; the other states come from the netlist or ``--x0``).
 The continuations run in parallel on local processes (``--workers``) or on the workers of a
 Dask scheduler (``--scheduler ADDRESS``; ``local`` for a Dask cluster on this machine); each
@@ -63,14 +65,19 @@ def register(subparsers) -> None:
         description="Follow a period-K orbit of the stroboscopic map as a .param varies; "
         "detect and locate period doubling (flip), fold, Neimark-Sacker and border "
         "collisions (switching-pattern changes).",
-        epilog="example: pelcs continue vm_buck.cir --period tp --param vin=20:30 --steps 40",
+        epilog="example: pelcs continue vm_buck.cir --period tp --param vin=20:30:41",
     )
-    add_map_options(p, param_help="NAME=START:STOP: the continuation parameter (once); "
+    add_map_options(p, param_help="the continuation parameter (once): "
+                    f"{options.range_help('continue')}, N - 1 continuation steps; "
                     "NAME=VALUE: a fixed override (repeatable)")
-    p.add_argument("--steps", default="40", metavar="N", help="continuation steps (default 40)")
+    p.add_argument("--steps", metavar="N",
+                   help="deprecated: continuation steps; give N + 1 values in the range "
+                   "instead (NAME=START:STOP:N+1)")
     p.add_argument("--order", default="1", metavar="K", help="period of the orbit in periods T")
-    p.add_argument("--tol", metavar="DP",
-                   help="bisection tolerance in the parameter (default |STOP-START|*1e-4)")
+    options.add_tol(p)
+    p.add_argument("--locate-tol", metavar="DP",
+                   help="bisection tolerance in the parameter of a located bifurcation "
+                   "(default |STOP-START|*1e-4)")
     p.add_argument("--transient", default="100", metavar="N",
                    help="periods simulated before the first Newton solve (default 100)")
     p.add_argument("--no-locate", action="store_true",
@@ -93,32 +100,38 @@ def run(args: argparse.Namespace) -> int:
 
     ranges, fixed = split_params(args.param)
     if len(ranges) != 1:
-        raise usage_error("continue", "give exactly one --param NAME=START:STOP",
-                          "e.g. --param vin=20:30 (fixed values: --param a=8.4)")
+        raise usage_error("continue", "give exactly one --param NAME=START:STOP[:N]",
+                          "e.g. --param vin=20:30:41 (fixed values: --param a=8.4)")
     rng = ranges[0]
-    if rng.count is not None:
-        raise usage_error("continue", f"--param {rng.name}: use NAME=START:STOP and --steps N")
+    steps = continuation_steps(args.steps, rng)
     factory = make_factory(args, "continue", swept=rng.name, fixed=fixed)
-    steps = positive_int("continue", "--steps", args.steps)
     order = positive_int("continue", "--order", args.order)
     transient = positive_int("continue", "--transient", args.transient, 0)
-    tol = parse_value(args.tol, "--tol") if args.tol else None
+    tol = parse_value(args.locate_tol, "--locate-tol") if args.locate_tol else None
+    newton_tol = parse_value(args.tol, "--tol")
+    if args.tol != options.NEWTON_TOL and args.locate_tol is None:
+        # (before, continue's --tol was the bisection tolerance: a script giving it gets
+        # the new meaning said once)
+        print("pelcs continue: note: --tol is the Newton tolerance on the scaled residual, "
+              "as in `pelcs orbit`; the bisection tolerance in the parameter (the earlier "
+              "meaning of --tol here) is --locate-tol", file=sys.stderr)
     m = factory(rng.start)  # validates the netlist and the parameter name here
     x0 = initial_state(args, m)
     if args.start:
         return run_many(args, factory, m, rng, x0, steps=steps, order=order,
-                        transient=transient, tol=tol)
+                        transient=transient, tol=tol, newton_tol=newton_tol)
     try:
         if args.scheduler:  # one continuation, on a worker of the cluster
             with scheduler_errors("continue"):
                 res, = continue_orbits(factory, rng.start, rng.stop, [x0], steps=steps,
                                        order=order, transient=transient, tol=tol,
+                                       newton_tol=newton_tol,
                                        locate=not args.no_locate, scheduler=args.scheduler,
                                        progress=not args.no_progress, param_name=rng.name,
                                        raise_errors=True)
         else:
             res = continue_orbit(factory, rng.start, rng.stop, steps=steps, order=order,
-                                 x0=x0, transient=transient, tol=tol,
+                                 x0=x0, transient=transient, tol=tol, newton_tol=newton_tol,
                                  locate=not args.no_locate, progress=not args.no_progress,
                                  param_name=rng.name)
     except MapError as exc:
@@ -133,6 +146,23 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(format_continuation(report, Path(args.file).name))
     return 0 if res.complete else EXIT_FAILED
+
+
+def continuation_steps(steps_option: str | None, rng) -> int:
+    """The continuation steps: N - 1 for a range of N values; the deprecated ``--steps``
+    (said on stderr) when the range has no N; else the default count's."""
+    count = rng.count
+    if steps_option is not None:
+        steps = positive_int("continue", "--steps", steps_option)
+        if count is not None and count - 1 != steps:
+            raise usage_error("continue", f"--steps {steps_option} disagrees with --param "
+                              f"{rng.name}=...:{count} ({count} values, {count - 1} steps)",
+                              "drop --steps: the range's N is the number of values")
+        options.deprecated("continue", f"--steps {steps}",
+                           f"give the values in the range: --param "
+                           f"{rng.name}={rng.start:g}:{rng.stop:g}:{steps + 1}")
+        return steps
+    return (count or options.RANGE_COUNTS["continue"]) - 1
 
 
 def run_many(args: argparse.Namespace, factory, m, rng, x0, **kw) -> int:
@@ -154,7 +184,8 @@ def run_many(args: argparse.Namespace, factory, m, rng, x0, **kw) -> int:
         results = continue_orbits(
             factory, rng.start, rng.stop, starts, workers=workers, scheduler=args.scheduler,
             progress=not args.no_progress, steps=kw["steps"], order=kw["order"],
-            transient=kw["transient"], tol=kw["tol"], locate=not args.no_locate,
+            transient=kw["transient"], tol=kw["tol"], newton_tol=kw["newton_tol"],
+            locate=not args.no_locate,
             param_name=rng.name)
     conts = []
     for i, (x, res) in enumerate(zip(starts, results, strict=True)):

@@ -1,8 +1,10 @@
-"""The options that several commands share, each declared here once.
+"""The options that several commands share, each declared here once, and the one range
+syntax of every command that sweeps a parameter or a state: ``NAME=START:STOP[:N]``, N values
+from START to STOP, N defaulting per command (:data:`RANGE_COUNTS`).
 
 Every command that takes ``--param``, ``--probe``, ``--step``, ``--theta``, ``--method``,
-``--period``, ``--json``, ``--scheduler`` or ``-o`` adds it with the function of that name:
-the name, the kind of value, the repetition and the default kind are the same in every
+``--period``, ``--json``, ``--scheduler``, ``--tol`` or ``-o`` adds it with the function of
+that name: the name, the kind of value, the repetition and the default kind are the same in every
 command; only the help text (what the option means for that command) and, for ``--method``,
 the choices and, for ``--theta``, the default may differ.
 """
@@ -10,6 +12,22 @@ the choices and, for ``--theta``, the default may differ.
 from __future__ import annotations
 
 import argparse
+import sys
+
+#: The number of values of a range ``NAME=START:STOP`` given without ``:N``, per command.
+RANGE_COUNTS = {"continue": 41, "bifurcation": 200, "sweep": 11, "basins": 100}
+
+
+def range_help(command: str, name: str = "NAME", what: str = "values") -> str:
+    """The sentence every command's help gives for a range."""
+    return (f"{name}=START:STOP[:N] is N {what} from START to STOP (default N = "
+            f"{RANGE_COUNTS[command]})")
+
+
+def deprecated(command: str, old: str, new: str) -> None:
+    """Say on stderr that ``old`` (still accepted) is deprecated, and its replacement."""
+    print(f"pelcs {command}: note: {old} is deprecated and will be removed: {new}",
+          file=sys.stderr)
 
 PARAM_HELP = "override a global .param (repeatable; SPICE suffixes allowed)"
 JSON_HELP = "print one JSON object (NaN and infinities as null)"
@@ -64,6 +82,18 @@ def add_scheduler(p: argparse.ArgumentParser) -> None:
                    "or HOST:8786; TLS and other schemes: through the Python API with a "
                    "distributed.Client), or 'local' for a Dask cluster on this machine; "
                    "default: local processes")
+
+
+#: The default ``--tol``: Newton's tolerance on the scaled residual of a periodic orbit.
+NEWTON_TOL = "1e-10"
+
+
+def add_tol(p: argparse.ArgumentParser) -> None:
+    """``--tol TOL``: the Newton tolerance on the scaled residual of a periodic orbit, the
+    same in ``orbit`` and ``continue`` (:func:`lcs.analysis.orbits.find_orbit`'s ``tol``)."""
+    p.add_argument("--tol", default=NEWTON_TOL, metavar="TOL",
+                   help=f"Newton tolerance on the scaled residual of the orbit (default "
+                   f"{NEWTON_TOL})")
 
 
 def add_output(p: argparse.ArgumentParser, metavar: str, help: str) -> None:

@@ -177,8 +177,7 @@ def register(subparsers) -> None:
     p.add_argument("--order", default="1", metavar="K", help="period of the orbit in periods T")
     p.add_argument("--transient", default="100", metavar="N",
                    help="periods simulated before Newton (default 100)")
-    p.add_argument("--tol", default="1e-10", metavar="TOL",
-                   help="Newton tolerance on the scaled residual (default 1e-10)")
+    options.add_tol(p)
     options.add_json(p)
     p.set_defaults(func=run)
 

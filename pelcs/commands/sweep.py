@@ -2,7 +2,7 @@
 
 ::
 
-    pelcs sweep FILE --measure 'FUNC(PROBE)'... [--param NAME=START:STOP:N]...
+    pelcs sweep FILE --measure 'FUNC(PROBE)'... [--param NAME=START:STOP[:N]]...
                 [--param NAME=V1,V2,...]... [--param NAME=VALUE]...
                 [--tolerance PATTERN=N%]... [--runs N] [--seed S]
                 [--distribution uniform|gaussian] [--tstop T] [--step H] [--theta TH]
@@ -94,9 +94,9 @@ def register(subparsers) -> None:
     p.add_argument("--measure", action="append", default=[], metavar="FUNC(PROBE)",
                    help="mean, avg, rms, ripple, pp, min, max or final of a probe, e.g. "
                    "'mean(v(out))' (repeatable; required)")
-    options.add_param(p, metavar="NAME=START:STOP:N",
-                   help="a swept .param (N values from START to STOP, or NAME=V1,V2,...) or "
-                   "a fixed override NAME=VALUE (repeatable)")
+    options.add_param(p, metavar="NAME=START:STOP[:N]",
+                   help=f"a swept .param ({options.range_help('sweep')}, or NAME=V1,V2,...) "
+                   "or a fixed override NAME=VALUE (repeatable)")
     p.add_argument("--tolerance", action="append", default=[], metavar="PATTERN=N%",
                    help="Monte Carlo tolerance of the elements whose names match PATTERN "
                    "(glob): N%% relative, or an absolute value (repeatable)")
@@ -150,7 +150,7 @@ def _run(args: argparse.Namespace) -> int:
                           "give --measure FUNC(PROBE), e.g. --measure 'mean(v(out))'")
     params: dict[str, float | np.ndarray] = {}
     for item in args.param:
-        name, value = parse_sweep_param(item)
+        name, value = parse_sweep_param(item, default_count=options.RANGE_COUNTS["sweep"])
         if name.lower() in {k.lower() for k in params}:
             raise usage_error("sweep", f"--param {name} is given twice")
         params[name] = value
