@@ -100,11 +100,11 @@ def build(out_dir: Path | None = None, verbose: bool = False) -> Path:
     host = kernels.cpu_tag() != "generic"
     cc.target_cpu = "host" if host else ""
     specs = {}
-    for export, dispatcher, select in kernels.exported_dispatchers():
-        sigs = [s for s in dispatcher.signatures if select(s)]
+    for export, dispatcher in kernels.exported_dispatchers():
+        sigs = dispatcher.signatures
         if len(sigs) != 1:
-            raise RuntimeError(f"{dispatcher.__name__}: {len(sigs)} signatures match the "
-                               f"export {export} after warm_up (want 1)")
+            raise RuntimeError(f"{dispatcher.__name__}: {len(sigs)} signatures after warm_up "
+                               f"(want 1)")
         sig = sigs[0]
         fn, leaf_types = flat_wrapper(dispatcher, sig)
         specs[export] = [leaf_spec(t) for t in leaf_types]

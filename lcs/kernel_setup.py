@@ -45,7 +45,7 @@ _FAILED = "build.failed"
 def kernels_cached() -> bool:
     """Whether a run finds every kernel Python calls compiled: in the ahead-of-time module, or
     in numba's on-disk cache for this machine, this numba and the current kernel sources
-    (false for any kernel whose cache index lacks one of its exported specialisations).
+    (false for any exported kernel whose cache index lacks its specialisation).
     Reads numba's cache indexes; compiles nothing."""
     if kernels.using_aot():
         return True
@@ -54,11 +54,7 @@ def kernels_cached() -> bool:
     from numba.core.registry import cpu_target
 
     codegen = cpu_target.target_context.codegen()
-    needed: dict[int, tuple[object, int]] = {}
-    for _, dispatcher, _ in kernels.exported_dispatchers():
-        seen, count = needed.get(id(dispatcher), (dispatcher, 0))
-        needed[id(dispatcher)] = (seen, count + 1)
-    for dispatcher, count in needed.values():
+    for _, dispatcher in kernels.exported_dispatchers():
         cache = getattr(dispatcher, "_cache", None)
         if cache is None or not hasattr(cache, "_cache_file"):
             return False
@@ -66,7 +62,7 @@ def kernels_cached() -> bool:
         # function's bytecode hash: all but the signature must be this process's)
         want = cache._index_key(None, codegen)[1:]
         index = cache._cache_file._load_index()
-        if sum(1 for key in index if tuple(key[1:]) == want) < count:
+        if not any(tuple(key[1:]) == want for key in index):
             return False
     return True
 

@@ -47,25 +47,23 @@ PYTHON_ONLY = frozenset({"__init__.py", "driver.py", "enumeration.py", "modes.py
                          "warmup.py", "stack.py", "integrate.py"})
 AOT_MODULE = "pelcs_kernels"
 
-# export name -> (module, attribute, which signature: "plain" = run_grid's plain-loop
-# specialisation, "none" = the one without, "" = the only one).
+# export name -> (module, attribute): each kernel has one specialisation (lcs.stepping.warmup).
 _EXPORTS = {
-    "run_grid_none": ("lcs.stepping.grid", "run_grid", "none"),
-    "run_grid_plain": ("lcs.stepping.grid", "run_grid", "plain"),
-    "discretise_nb": ("lcs.stepping.discretise", "discretise_nb", ""),
-    "plan_grid_nb": ("lcs.stepping.gridplan", "_plan_nb", ""),
-    "fill_grid_nb": ("lcs.stepping.gridplan", "_fill_grid", ""),
-    "linear_switch_events_nb": ("lcs.simulation.source_switching", "_linear_switch_events", ""),
-    "merge_keys_nb": ("lcs.simulation.source_switching", "_merge_keys", ""),
-    "lu_factor_nb": ("lcs.sparse_lu", "_factor", ""),
-    "lu_count_nb": ("lcs.sparse_lu", "_count", ""),
-    "lu_compress_nb": ("lcs.sparse_lu", "_compress", ""),
-    "lu_solve_rows_nb": ("lcs.sparse_lu", "_solve_rows", ""),
-    "lu_inv_norm1_nb": ("lcs.sparse_lu", "_inv_norm1", ""),
-    "run_kkt": ("lcs.kkt.grid", "run_kkt", ""),
-    "kkt_lookup": ("lcs.kkt.step", "lookup", ""),
-    "kkt_factor": ("lcs.kkt.lu", "factor", ""),
-    "kkt_min_degree": ("lcs.kkt.ordering", "_minimum_degree", ""),
+    "run_grid": ("lcs.stepping.grid", "run_grid"),
+    "discretise_nb": ("lcs.stepping.discretise", "discretise_nb"),
+    "plan_grid_nb": ("lcs.stepping.gridplan", "_plan_nb"),
+    "fill_grid_nb": ("lcs.stepping.gridplan", "_fill_grid"),
+    "linear_switch_events_nb": ("lcs.simulation.source_switching", "_linear_switch_events"),
+    "merge_keys_nb": ("lcs.simulation.source_switching", "_merge_keys"),
+    "lu_factor_nb": ("lcs.sparse_lu", "_factor"),
+    "lu_count_nb": ("lcs.sparse_lu", "_count"),
+    "lu_compress_nb": ("lcs.sparse_lu", "_compress"),
+    "lu_solve_rows_nb": ("lcs.sparse_lu", "_solve_rows"),
+    "lu_inv_norm1_nb": ("lcs.sparse_lu", "_inv_norm1"),
+    "run_kkt": ("lcs.kkt.grid", "run_kkt"),
+    "kkt_lookup": ("lcs.kkt.step", "lookup"),
+    "kkt_factor": ("lcs.kkt.lu", "factor"),
+    "kkt_min_degree": ("lcs.kkt.ordering", "_minimum_degree"),
 }
 
 
@@ -226,29 +224,18 @@ def _flatten(args, out: list) -> list:
 
 
 def exported_dispatchers():
-    """(export name, numba dispatcher, signature selector) of every exported kernel (imports
-    numba)."""
+    """(export name, numba dispatcher) of every exported kernel (imports numba)."""
     out = []
-    for export, (module, attr, which) in _EXPORTS.items():
+    for export, (module, attr) in _EXPORTS.items():
         disp = getattr(importlib.import_module(module), attr)
-        disp = getattr(disp, "dispatcher", disp)
-        if which == "none":
-            def select(s):
-                return str(s[-1]) == "none"
-        elif which == "plain":
-            def select(s):
-                return str(s[-1]) != "none"
-        else:
-            def select(s):
-                return True
-        out.append((export, disp, select))
+        out.append((export, getattr(disp, "dispatcher", disp)))
     return out
 
 
 @functools.cache
-def _exports_of(module: str, attr: str) -> tuple[tuple[str, str], ...]:
-    return tuple((export, which) for export, (m, a, which) in _EXPORTS.items()
-                 if m == module and a == attr)
+def _export_of(module: str, attr: str) -> str | None:
+    return next((export for export, (m, a) in _EXPORTS.items() if m == module and a == attr),
+                None)
 
 
 def aot_function(module: str, attr: str, args: tuple) -> Callable | None:
@@ -257,26 +244,20 @@ def aot_function(module: str, attr: str, args: tuple) -> Callable | None:
     it does not export that kernel, or ``args`` do not have exactly the types it was
     compiled for (numba's dispatcher then compiles or loads the right specialisation; the
     extension module would reinterpret the memory of a wrong dtype or a strided array)."""
-    exports = _exports_of(module, attr)
-    if not exports:
+    export = _export_of(module, attr)
+    if export is None:
         return None
     mod = aot_module()
     if mod is None:
         return None
-    for export, which in exports:
-        if which == "none" and args[-1] is not None:
-            continue
-        if which == "plain" and args[-1] is None:
-            continue
-        fn = getattr(mod, export, None)
-        checks = _checks(export)
-        if fn is None or checks is None:
-            return None
-        flat = _flatten(args, [])
-        if len(flat) != len(checks) or not all(map(_matches, flat, checks)):
-            return None
-        return functools.partial(fn, *flat)
-    return None
+    fn = getattr(mod, export, None)
+    check = _checker(export)
+    if fn is None or check is None:
+        return None
+    flat = _flatten(args, [])
+    if not check(flat):
+        return None
+    return functools.partial(fn, *flat)
 
 
 @functools.cache
@@ -290,38 +271,47 @@ def _aot_types() -> dict:
 
 
 @functools.cache
-def _checks(export: str) -> tuple | None:
-    """The leaf types of ``export``'s arguments (:func:`lcs.aot.leaf_spec`) made ready for
-    :func:`_matches` once (an array's dtype as a numpy dtype: built from its name at every
-    check, it was most of the checks' cost, 113 of them a run)."""
+def _checker(export: str) -> Callable[[list], bool] | None:
+    """A function telling whether a list of leaf arguments has exactly the leaf types of
+    ``export`` (:func:`lcs.aot.leaf_spec`), or None when the module does not record them.
+
+    Written out as one expression per export, built once: a run checks about 110 leaves, and a
+    generic per-leaf test (a call, a tuple unpacking and a dtype comparison each) was a tenth
+    of what a short run costs outside the stepping. An array's dtype is compared by identity
+    (numpy's native dtypes are singletons; any other, e.g. byte-swapped, falls back to numba),
+    its class exactly (a subclass falls back too), so the test is never looser than numba's
+    typing of the same value."""
     import numpy as np
 
     specs = _aot_types().get(export)
     if specs is None:
         return None
-    return tuple((spec[0], np.dtype(spec[1]), *spec[2:]) if spec[0] == "array"
-                 else tuple(spec) for spec in specs)
-
-
-def _matches(value, check) -> bool:
-    """Whether ``value`` is of the leaf type ``check`` (see :func:`_checks`)."""
-    import numpy as np
-
-    kind = check[0]
-    if kind == "array":
-        _, dtype, ndim, layout, mutable = check
-        if not (isinstance(value, np.ndarray) and value.dtype == dtype
-                and value.ndim == ndim):
-            return False
-        if layout == "C" and not value.flags.c_contiguous:
-            return False
-        if layout == "F" and not value.flags.f_contiguous:
-            return False
-        return value.flags.writeable or not mutable
-    if isinstance(value, (bool, np.bool_)):
-        return kind == "bool"
-    if kind == "int":
-        return isinstance(value, (int, np.integer))
-    if kind == "float":
-        return isinstance(value, (int, float, np.integer, np.floating))
-    return False
+    env: dict = {"ndarray": np.ndarray, "np_bool": np.bool_, "np_int": np.integer,
+                 "np_float": np.floating}
+    terms = [f"len(a) == {len(specs)}"]
+    for i, spec in enumerate(specs):
+        v = f"a[{i}]"
+        kind = spec[0]
+        if kind == "array":
+            _, dtype, ndim, layout, mutable = spec
+            env[f"d{i}"] = np.dtype(dtype)
+            term = f"type({v}) is ndarray and {v}.dtype is d{i} and {v}.ndim == {int(ndim)}"
+            if layout == "C":
+                term += f" and {v}.flags.c_contiguous"
+            elif layout == "F":
+                term += f" and {v}.flags.f_contiguous"
+            if mutable:
+                term += f" and {v}.flags.writeable"
+        elif kind == "bool":
+            term = f"(type({v}) is bool or type({v}) is np_bool)"
+        elif kind == "int":
+            term = f"(type({v}) is int or isinstance({v}, np_int))"
+        elif kind == "float":
+            term = (f"(type({v}) is float or type({v}) is int"
+                    f" or isinstance({v}, (np_int, np_float)))")
+        else:
+            return None
+        terms.append(f"({term})")
+    src = "def check(a):\n    return (" + "\n            and ".join(terms) + ")\n"
+    exec(compile(src, f"<aot check {export}>", "exec"), env)
+    return env["check"]

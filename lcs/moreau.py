@@ -69,7 +69,7 @@ from .simulation.initial import InconsistentHandler
 from .simulation.inputs import MERGE_FRACTION, InputFunction, merge_close
 from .simulation.integrator import Integrator, Run, Snapshot, Window
 from .simulation.problem import Problem, mode_tuple, state_outputs
-from .simulation.switches import SW_LOCATED, SW_SAMPLED, SWITCHING_METHODS
+from .simulation.switches import SWITCHING_METHODS
 from .stepping import run_grid
 from .stepping.gridplan import grid_chunks, plan_grid
 from .stepping.layout import (
@@ -111,7 +111,6 @@ from .stepping.layout import (
     IV_UNIQ,
     IV_UPDATES,
     IV_WARM,
-    PLAIN_MIN,
     STEP_CHATTER,
     STEP_FULL,
     STEP_LCP_FAILED,
@@ -301,12 +300,6 @@ class MoreauIntegrator(Integrator):
         self.sw_arrays = SwitchArrays(kind, np.ascontiguousarray(plan.flags),
                                       np.ascontiguousarray(plan.vt),
                                       np.ascontiguousarray(plan.vh))
-        # The kernel's plain loop only for runs with no comparator (None: compiled without it)
-        # and only when the schedule leaves long runs of steps between its entries (the
-        # branch slows the steps it does not take).
-        self.plain_mode = (None if (np.any((kind == SW_LOCATED) | (kind == SW_SAMPLED))
-                                    or self.est_steps < 2 * PLAIN_MIN * (len(known) + 1))
-                           else True)
 
     def _dense(self):
         """The dense kernel's mode stack (built when first needed: a sparse run builds it
@@ -410,7 +403,7 @@ class MoreauIntegrator(Integrator):
                     status = self._kernel_call(lambda store, c=chunk, s=sched: self.sparse.run(
                         c, s, self.state, self.limits, store))
                 else:
-                    status = self._dense_call(chunk, sched, self.plain_mode)
+                    status = self._dense_call(chunk, sched)
                 if status == STEP_OK:
                     break
                 if status == STEP_NEED_MODE:
@@ -448,12 +441,11 @@ class MoreauIntegrator(Integrator):
         rec.evpos = int(ivars[IV_EVPOS])
         return status
 
-    def _dense_call(self, chunk: Chunk, sched: Schedule, plain) -> int:
-        """The dense kernel over ``chunk`` (``plain``: its plain-loop specialisation)."""
+    def _dense_call(self, chunk: Chunk, sched: Schedule) -> int:
+        """The dense kernel over ``chunk``."""
         self.ivars[IV_NMODES] = self.stack.count
         return self._kernel_call(lambda store: run_grid(
-            self.stack.arrays(), self.sw_arrays, chunk, sched, self.state, self.limits, store,
-            plain))
+            self.stack.arrays(), self.sw_arrays, chunk, sched, self.state, self.limits, store))
 
     def _dense_step(self, chunk: Chunk) -> SimulationError | None:
         """The dense kernel takes grid step ``ivars[IV_K]`` of ``chunk`` (its schedule already
@@ -472,7 +464,7 @@ class MoreauIntegrator(Integrator):
         ivars[IV_SCHED] = 0
         ivars[IV_INIT] = -1
         while True:
-            status = self._dense_call(sub, none, None)
+            status = self._dense_call(sub, none)
             if status == STEP_OK:
                 break
             if status == STEP_NEED_MODE:

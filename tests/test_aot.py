@@ -231,7 +231,15 @@ def test_arguments_of_another_type_go_to_numba_not_the_module(aot_built):
     strided = (np.array([[0.0, 1], [10, 1], [25, 1]])[:, 0],) + args[1:]
     read_only = args[:5] + (np.empty(2),) + args[6:]
     read_only[5].flags.writeable = False
-    for bad in (wrong_dtype, strided, read_only):
+
+    class Sub(np.ndarray):
+        pass
+
+    swapped = (bounds.astype(">f8"),) + args[1:]  # (the same values, another byte order)
+    subclass = (bounds.view(Sub),) + args[1:]
+    flag_for_float = (bounds, True) + args[2:]
+    one_more = args + (np.empty(1),)
+    for bad in (wrong_dtype, strided, read_only, swapped, subclass, flag_for_float, one_more):
         assert kernels.aot_function(mod, "_plan_nb", bad) is None
     # Through the Kernel: the dispatcher takes them and gives the right numbers.
     from lcs.stepping.gridplan import _plan_nb, plan_grid

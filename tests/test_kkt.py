@@ -378,8 +378,8 @@ def test_a_failure_in_a_handed_step_names_its_mode(monkeypatch):
 
     real = moreau.run_grid
 
-    def failing(stack, sws, chunk, sched, state, lim, store, plain):
-        st = real(stack, sws, chunk, sched, state, lim, store, plain)
+    def failing(stack, sws, chunk, sched, state, lim, store):
+        st = real(stack, sws, chunk, sched, state, lim, store)
         key = from_words(state.key)
         rows = [i for i in range(int(state.ivars[IV_NMODES]))
                 if from_words(stack.key[i]) == key]

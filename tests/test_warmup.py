@@ -97,15 +97,14 @@ print(json.dumps({f"{k.py_func.__module__}.{k.__name__}": len(k._dispatcher.sign
 """
 
 
-def test_every_kernel_has_one_specialisation_but_the_grid_loop():
+def test_every_kernel_has_one_specialisation():
     # Constants at call sites must not multiply a kernel's specialisations (lcs.jit: the
-    # arguments from compiled code are typed non-literal); run_grid has two on purpose (with
-    # and without the plain loop).
+    # arguments from compiled code are typed non-literal), nor flags passed from Python.
     r = subprocess.run([sys.executable, "-c", _SPECIALISATIONS], capture_output=True,
                        text=True, timeout=600, cwd=ROOT,
                        env={**os.environ, "PYTHONPATH": str(ROOT), "PELCS_AOT": "0"})
     assert r.returncode == 0, r.stderr
     counts = json.loads(r.stdout.strip().splitlines()[-1])
-    assert counts.pop("lcs.stepping.grid.run_grid") == 2
+    assert counts["lcs.stepping.grid.run_grid"] == 1
     assert counts and all(n <= 1 for n in counts.values()), {
         k: n for k, n in counts.items() if n > 1}

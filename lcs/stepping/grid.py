@@ -154,7 +154,7 @@ def _rearm(mats, j, sws, i, key, x, lam, u):
 
 
 @kernel
-def run_grid(stack, sws, chunk, sched, state, lim, store, plain_mode):
+def run_grid(stack, sws, chunk, sched, state, lim, store):
     """Advance ``x`` over the grid chunk through every mode change.
 
     Parameters
@@ -175,10 +175,6 @@ def run_grid(stack, sws, chunk, sched, state, lim, store, plain_mode):
     lim : Limits
     store : Store
         Output and event buffers.
-    plain_mode : None or bool
-        None: no plain loop (the branch is pruned when compiling, so that the per-step loop
-        of runs with comparators keeps its speed); True: regular steps of runs with no
-        comparator and no sliding go through :func:`plain_steps`.
 
     Returns
     -------
@@ -258,40 +254,39 @@ def run_grid(stack, sws, chunk, sched, state, lim, store, plain_mode):
                 or ivars[IV_EVPOS] + 2 * max_sw + k + 6 + (nsched - ivars[IV_SCHED]) > cap_ev):
             status = STEP_FULL
             break
-        if plain_mode is not None:
-            if (plain and slide < 0 and kk != plain_skip and j >= 0 and row_equals(mkey, j, key)
-                    and tcur <= ta_grid and ivars[IV_INIT] != kk):
-                # No comparator and no sliding: the regular steps up to the next schedule entry
-                # by the plain loop; it stops where this loop must take over.
-                kstop = N
-                sp = ivars[IV_SCHED]
-                if sp < nsched and sched.k[sp] < kstop:
-                    kstop = sched.k[sp]
-                # (only for runs of PLAIN_MIN steps or more: a call costs the views of the
-                # mode's matrices, more than a few steps gain)
-                if kstop - kk >= PLAIN_MIN and (m == 0 or flags[j, MF_FAST] != 0):
-                    k2, countdown, st = plain_steps(stack, j, key, chunk, kk, kstop, x, lam, act,
-                                                    slots, W, xn, lamn, store, fail, ivars,
-                                                    fvars, lim, countdown, cap_out - max_sw - 3)
-                    plain_skip = k2
-                    if st != STEP_OK:
-                        ivars[IV_FAILMODE] = j
-                        tcur = tgrid[k2]
-                        status = st
-                        fvars[FV_FAIL_T0] = tgrid[k2]
-                        fvars[FV_FAIL_T1] = tgrid[k2 + 1]
-                        kk = k2
-                        break
-                    if k2 > kk:
-                        # (the state the per-step loop leaves after plain steps)
-                        for i in range(m):
-                            lama[i] = lamna[i]
-                        d = 0.0
-                        tcur = tgrid[k2]
-                        ivars[IV_INIT] = k2 - 1
-                        ivars[IV_NSW] = 0
-                        kk = k2
-                        continue
+        if (plain and slide < 0 and kk != plain_skip and j >= 0 and row_equals(mkey, j, key)
+                and tcur <= ta_grid and ivars[IV_INIT] != kk):
+            # No comparator and no sliding: the regular steps up to the next schedule entry
+            # by the plain loop; it stops where this loop must take over.
+            kstop = N
+            sp = ivars[IV_SCHED]
+            if sp < nsched and sched.k[sp] < kstop:
+                kstop = sched.k[sp]
+            # (only for runs of PLAIN_MIN steps or more: a call costs the views of the
+            # mode's matrices, more than a few steps gain)
+            if kstop - kk >= PLAIN_MIN and (m == 0 or flags[j, MF_FAST] != 0):
+                k2, countdown, st = plain_steps(stack, j, key, chunk, kk, kstop, x, lam, act,
+                                                slots, W, xn, lamn, store, fail, ivars,
+                                                fvars, lim, countdown, cap_out - max_sw - 3)
+                plain_skip = k2
+                if st != STEP_OK:
+                    ivars[IV_FAILMODE] = j
+                    tcur = tgrid[k2]
+                    status = st
+                    fvars[FV_FAIL_T0] = tgrid[k2]
+                    fvars[FV_FAIL_T1] = tgrid[k2 + 1]
+                    kk = k2
+                    break
+                if k2 > kk:
+                    # (the state the per-step loop leaves after plain steps)
+                    for i in range(m):
+                        lama[i] = lamna[i]
+                    d = 0.0
+                    tcur = tgrid[k2]
+                    ivars[IV_INIT] = k2 - 1
+                    ivars[IV_NSW] = 0
+                    kk = k2
+                    continue
         if ivars[IV_INIT] != kk:
             ivars[IV_INIT] = kk
             ivars[IV_NSW] = 0

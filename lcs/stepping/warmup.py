@@ -4,10 +4,10 @@ kernels, so that no command compiles later.
 The kernels' argument types do not depend on the circuit (every array is float64 or int64,
 whatever n, m, p), so a few tiny runs reach every signature a run can use:
 
-* a single LCS over a short run -- :func:`~lcs.stepping.run_grid` without its plain loop
-  (``plain_mode=None``), Lemke and enumeration, the source-switching and grid planners;
-* the same LCS over a long run with no comparator -- the plain-loop specialisation
-  (``plain_mode=True``, what a source-driven PWM converter uses);
+* a single LCS over a short run -- :func:`~lcs.stepping.run_grid`, Lemke and enumeration,
+  the source-switching and grid planners;
+* the same LCS over a long run with no comparator -- the plain loop
+  (:func:`~lcs.stepping.grid.plain_steps`, what a source-driven PWM converter takes);
 * a switch driven by a hysteretic comparator -- located switchings, the instant search;
 * the same switch without hysteresis on an attractive surface -- Filippov sliding;
 * the same switch sampled (explicit method);
