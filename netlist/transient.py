@@ -494,7 +494,7 @@ def simulate_circuit(
     save_at: Sequence[float] = (),
     strict: bool = False,
     method: str = "moreau",
-    output_step: float | None = None,
+    output_step: float | str | None = None,
 ) -> SimulationResult:
     """Simulate a parsed circuit with the Moreau θ scheme (or exactly, ``method="exact"``).
 
@@ -532,11 +532,12 @@ def simulate_circuit(
         ``"moreau"`` (time-stepping) or ``"exact"`` (event-driven, exact between events:
         :mod:`lcs.exact`; the step is then the output spacing; DC, PULSE, PWL and SIN
         sources and netlist comparators only).
-    output_step : float, optional
+    output_step : float or "tran", optional
         The points returned: the instants ``k output_step`` (s) from TSTART on, linearly
-        interpolated between the stored points (:func:`lcs.results.resample`, as
-        ``pelcs simulate`` writes by default); a Moreau run computes them as it goes and
-        does not hold every step. Default: the stored points themselves.
+        interpolated between the stored points (:func:`lcs.results.resample`); ``"tran"``:
+        the spacing ``pelcs simulate`` writes by default (``setup.print_step``, every
+        step when None). A Moreau run computes them as it goes and does not hold every
+        step. Default: the stored points themselves.
 
     Returns
     -------
@@ -576,7 +577,7 @@ def run_setup(
     controllers: Sequence = (),
     save_at: Sequence[float] = (),
     method: str = "moreau",
-    output_step: float | None = None,
+    output_step: float | str | None = None,
 ) -> SimulationResult:
     """Run a prepared :class:`TransientSetup` (arguments as in :func:`simulate_circuit`).
 
@@ -588,6 +589,9 @@ def run_setup(
     """
     if probes is None:
         probes = setup.default_probes
+    print_note = None
+    if output_step == "tran":
+        output_step, print_note = setup.print_step, setup.print_note
     check_run_size(setup, len(setup.system.states) if probes is None else len(probes), every,
                    output_step if method == "moreau" else None)
     jump = _JumpRecorder(setup.energy)
@@ -623,6 +627,8 @@ def run_setup(
     if setup.t_save > 0:
         keep = result.t >= setup.t_save
         result.t, result.y = result.t[keep], result.y[keep]
+    if print_note:
+        result.notes.append(print_note)
     if output_step is not None and method != "moreau":
         from lcs.results import resample
 

@@ -11,14 +11,14 @@ rows the next output instants lie between:
   before it and the next, :func:`lcs.results.interpolate`): an instant is interpolated as
   soon as a later row has been stored, on the slice of rows that holds both;
 * the last output instant is the run's last time when that is within ``1e-9 dt`` of a
-  multiple of ``dt`` (:func:`lcs.results.output_times`): the instants that may still become
-  the last one wait for the end of the run;
+  multiple of ``dt`` (:func:`lcs.results.output_times`): an instant within ``1e-9 dt`` of
+  the last row so far waits for the next rows or the end of the run;
 * while every stored row so far is an output instant (the step grid is the output grid), the
   rows are kept as they are, since :func:`lcs.results.resample` then returns them unchanged:
   they are as many as the output instants.
 
-Memory: the output rows, the rows stored since the last output instant (one output interval
-of steps at most, plus a block), and the recorder's block.
+Memory: the output rows, a block of rows while it is interpolated, and between blocks the
+last row or two.
 """
 
 from __future__ import annotations
@@ -104,18 +104,18 @@ class Regrid:
         return bool(np.all(np.abs(grid - times) <= _CLOSE * self.dt))
 
     def _interpolate_ready(self) -> None:
-        """The instants that are certainly not the run's last and lie before its last row so
-        far, interpolated; the rows before the one at or before the next instant dropped."""
+        """The instants more than ``1e-9 dt`` before the last row so far, interpolated; the
+        rows before the one at or before the next instant dropped."""
         t = np.concatenate(self.rows_t) if len(self.rows_t) > 1 else self.rows_t[0]
         y = np.concatenate(self.rows_y) if len(self.rows_y) > 1 else self.rows_y[0]
         tl = float(t[-1])
         dt = self.dt
-        # (the run's last instant is floor(t_last / dt + 1e-9) or t_last itself, at least
-        # this: instants below it are interior ones)
-        k_end = int(np.floor(tl / dt + _CLOSE))
+        # An instant more than 1e-9 dt before this row is one the run's last time (this or
+        # later) cannot replace (lcs.results.output_times), and a row after it is stored.
+        k_end = int(np.floor(tl / dt)) + 1
         ks = np.arange(self.next_k, max(self.next_k, k_end), dtype=float)
         tout = ks * dt
-        tout = tout[tout < tl]
+        tout = tout[tl - tout > _CLOSE * dt]
         if tout.size:
             if self.next_k == self.k0 and abs(tout[0] - self.t_first) <= _CLOSE * dt:
                 tout[0] = self.t_first
