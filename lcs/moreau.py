@@ -388,7 +388,10 @@ class MoreauIntegrator(Integrator):
             else:
                 Um = np.ascontiguousarray(table(0.5 * (tg[:-1] + tg[1:])))
             N = len(odd)
-            sel = (e_t >= tg[0] - tol) & (e_t < tg[-1] - tol)
+            # (the known switchings are sorted by time: a slice, not a mask over the whole
+            # window at every chunk, quadratic in the run's length)
+            sel = slice(int(np.searchsorted(e_t, tg[0] - tol, side="left")),
+                        int(np.searchsorted(e_t, tg[-1] - tol, side="left")))
             idx = np.searchsorted(tg, e_t[sel] - tol, side="left")
             if idx.size and np.any(np.abs(tg[idx] - e_t[sel]) > max(tol, 1e-15 * we)):
                 raise AssertionError("a scheduled switching instant is not a grid point")
