@@ -131,6 +131,11 @@ def test_memory_does_not_grow_with_the_run():
     assert long.stats.peak_rows <= 2 * MoreauOptions().chunk_steps
     every_step = simulate_circuit(c, tstop=80e-3)
     assert every_step.stats.peak_rows > 10 * long.stats.peak_rows
+    # --every N with N ten times larger: the rows of its output, as many.
+    short = simulate_circuit(c, tstop=8e-3, every=400)
+    long = simulate_circuit(c, tstop=80e-3, every=4000)
+    assert abs(len(long.t) - len(short.t)) <= 2
+    assert long.stats.peak_rows == short.stats.peak_rows < 500
 
 
 def test_exact_method_and_all_steps_unchanged(tmp_path):
