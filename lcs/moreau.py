@@ -505,6 +505,7 @@ class MoreauIntegrator(Integrator):
         self.ivars[IV_INIT] = -1
 
     can_set_state = True
+    writes_until_full = True  # (the kernels return STEP_FULL)
 
     def set_state(self, x: np.ndarray) -> None:
         self.state.x[:] = x

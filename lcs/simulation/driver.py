@@ -80,8 +80,10 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
 
     With ``output_step`` (s), the result is :func:`lcs.results.resample` of the stored rows
     at or after ``output_from`` (s), the same numbers, interpolated as the run goes
-    (:mod:`.regrid`) unless a mode of the system pins a state (a jump found after the run
-    may cut its end: every row is kept then, and resampled at the end).
+    (:mod:`.regrid`). Every row is kept and resampled at the end instead where a mode of the
+    system pins a state (a jump found after the run may cut its end) or where the integrator
+    does not write until the buffer is full
+    (:attr:`~.integrator.Integrator.writes_until_full`).
     """
     t_wall = time.perf_counter() if t_wall is None else t_wall
     inputs = list(inputs)
@@ -106,7 +108,7 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
         pins.apply(init.mode, init.x, t_start)
     split = pins is not None and integrator.can_set_state
     sink = None
-    if output_step is not None and pins is None:
+    if output_step is not None and pins is None and integrator.writes_until_full:
         sink = Regrid(output_step, len(out0.names), output_from)
     recorder = Recorder(out0.names, 64, 64, out0.duty, words(k), sink)
     recorder.append(t_start, problem.output(init.mode).row(init.key, -1, 0.0, init.x, init.lam,
