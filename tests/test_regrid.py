@@ -187,3 +187,26 @@ Vc ctl 0 PULSE(1 0 50u 1n 1n 30u 1)
 """
     full, went = _same_as_resampled(parse_string(text), 3.3e-6, step=1e-7)
     assert went.stats.peak_rows >= len(full.t)
+
+
+def test_an_interrupted_run_keeps_its_grid_up_to_where_it_stopped(monkeypatch):
+    # A Ctrl-C answered at the fourth kernel call: the grid up to the last completed step,
+    # the same as the interrupted run's every step resampled.
+    import signal
+
+    import lcs.interrupt
+
+    def interrupted_at_call(n):
+        calls = iter(range(10 ** 9))
+        return lambda: signal.SIGINT if next(calls) >= n else None
+
+    c = parse_file(BUCK)
+    opts = MoreauOptions(chunk_steps=3000)
+    monkeypatch.setattr(lcs.interrupt, "requested", interrupted_at_call(3))
+    full = simulate_circuit(c, tstop=4e-3, options=opts)
+    monkeypatch.setattr(lcs.interrupt, "requested", interrupted_at_call(3))
+    went = simulate_circuit(c, tstop=4e-3, options=opts, output_step=1.3e-5)
+    assert full.error.kind == went.error.kind == "interrupted"
+    assert 0 < went.t[-1] == full.t[-1] < 4e-3
+    ref = resample(full, 1.3e-5)
+    assert np.array_equal(went.t, ref.t) and np.array_equal(went.y, ref.y)
