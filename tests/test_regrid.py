@@ -210,3 +210,16 @@ def test_an_interrupted_run_keeps_its_grid_up_to_where_it_stopped(monkeypatch):
     assert 0 < went.t[-1] == full.t[-1] < 4e-3
     ref = resample(full, 1.3e-5)
     assert np.array_equal(went.t, ref.t) and np.array_equal(went.y, ref.y)
+
+
+def test_the_run_size_check_counts_the_output_grid(monkeypatch):
+    # 1e7 steps of two probes: every step is 480 MB of rows, the 1001-point grid a block's
+    # worth; under a 64 MB limit the first is refused before any work, the second runs.
+    from netlist.errors import NetlistError
+    from netlist.transient import check_run_size, transient_setup
+
+    monkeypatch.setenv("PELCS_MAX_MEMORY", "64M")
+    setup = transient_setup(parse_file(BUCK), tstop=2.0)
+    with pytest.raises(NetlistError, match="memory"):
+        check_run_size(setup, 2)
+    check_run_size(setup, 2, output_step=2e-3)
