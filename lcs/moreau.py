@@ -381,7 +381,10 @@ class MoreauIntegrator(Integrator):
             else:
                 Um = np.ascontiguousarray(table(0.5 * (tg[:-1] + tg[1:])))
             N = len(odd)
-            sel = (e_t >= tg[0] - tol) & (e_t < tg[-1] - tol)
+            # (the known switchings are sorted by time: a slice, not a mask over the whole
+            # window at every chunk, quadratic in the run's length)
+            sel = slice(int(np.searchsorted(e_t, tg[0] - tol, side="left")),
+                        int(np.searchsorted(e_t, tg[-1] - tol, side="left")))
             idx = np.searchsorted(tg, e_t[sel] - tol, side="left")
             if idx.size and np.any(np.abs(tg[idx] - e_t[sel]) > max(tol, 1e-15 * we)):
                 raise AssertionError("a scheduled switching instant is not a grid point")
@@ -395,6 +398,8 @@ class MoreauIntegrator(Integrator):
                 hit = ok & (np.abs(tg[1:][np.minimum(pos_s, N - 1)] - save_at) <= tol)
                 force[pos_s[hit]] = True
             chunk = Chunk(tg, odd, U0, U1, Um, force)
+            # (a recorder resampling as the run goes makes room for the chunk's rows)
+            rec.room(N // run.every + 1 + int(np.count_nonzero(force)) + self.max_sw + 3)
             ivars[IV_K] = 0
             ivars[IV_SCHED] = 0
             ivars[IV_INIT] = -1
@@ -492,6 +497,7 @@ class MoreauIntegrator(Integrator):
         self.ivars[IV_INIT] = -1
 
     can_set_state = True
+    writes_until_full = True  # (the kernels return STEP_FULL)
 
     def set_state(self, x: np.ndarray) -> None:
         self.state.x[:] = x
@@ -595,6 +601,8 @@ def simulate(
     switching: str | None = None,
     save_at: Sequence[float] = (),
     controllers: Sequence = (),
+    output_step: float | None = None,
+    output_from: float = -np.inf,
 ) -> SimulationResult:
     """Simulate a switched LCS with the Moreau θ scheme.
 
@@ -643,6 +651,13 @@ def simulate(
         boundaries), e.g. ``k T`` for a stroboscopic map.
     controllers : sequence of controller objects
         Python controllers (:mod:`lcs.controllers`) driving named switches.
+    output_step : float, optional
+        Return the stored points at or after ``output_from`` resampled onto the instants
+        ``k output_step`` (s): :func:`lcs.results.resample`'s numbers, computed as the run
+        goes, so that the run holds its output grid and not every step
+        (:mod:`lcs.simulation.regrid`).
+    output_from : float
+        The first time kept with ``output_step`` (``.tran`` TSTART), s.
 
     Returns
     -------
@@ -667,7 +682,8 @@ def simulate(
                       breakpoints=breakpoints, save_at=save_at, progress=progress,
                       on_inconsistent=on_inconsistent,
                       switching=switching or opts.switching, controllers=list(controllers),
-                      lcp=opts.lcp, t_wall=t_wall)
+                      lcp=opts.lcp, t_wall=t_wall, output_step=output_step,
+                      output_from=output_from)
 
 
 _PROBLEMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()

@@ -101,6 +101,14 @@ class SimulationStats:
     kernel_time : float
         Seconds of ``wall_time`` spent inside the compiled stepping kernels (the rest is the
         run's set-up in Python: planning, mode matrices, the initial state, the results).
+    points_stored : int
+        Points the run stored (the start, every ``every``-th step, switching instants, the
+        last step; at or after the output's start when resampled): the rows of the result,
+        unless it was resampled onto an output grid as the run went.
+    peak_rows : int
+        The most stored points held at once (the output buffer's rows, and while resampling
+        as the run goes the rows kept for the next output instants): a run's memory beyond
+        its result and its events.
     """
 
     steps: int = 0
@@ -122,6 +130,8 @@ class SimulationStats:
     dense_steps: int = 0
     wall_time: float = 0.0
     kernel_time: float = 0.0
+    points_stored: int = 0
+    peak_rows: int = 0
 
     @property
     def us_per_step(self) -> float:
@@ -267,16 +277,36 @@ def resample(result: SimulationResult, dt: float) -> SimulationResult:
     t = np.asarray(result.t, dtype=float)
     if t.size == 0:
         return replace(result)
-    tout = output_times(float(t[0]), float(t[-1]), dt)
     y = np.asarray(result.y, dtype=float)
+    tout, yout = resample_arrays(t, y, dt)
+    return replace(result, t=tout, y=yout)
+
+
+def resample_arrays(t: np.ndarray, y: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`resample` of stored times ``t`` (s, shape (N,), N >= 1, non-decreasing) and
+    probes ``y`` (shape (N, q)): the output instants and their rows (``y`` itself when the
+    output grid is the step grid)."""
+    tout = output_times(float(t[0]), float(t[-1]), dt)
     if tout.size == t.size and np.all(np.abs(tout - t) <= 1e-9 * dt):
-        return replace(result, t=tout)  # (the output grid is the step grid)
+        return tout, y  # (the output grid is the step grid)
+    return tout, interpolate(t, y, tout)
+
+
+def interpolate(t: np.ndarray, y: np.ndarray, tout: np.ndarray) -> np.ndarray:
+    """``y`` (shape (N, q)) at the instants ``tout`` (s, inside ``[t[0], t[-1]]``), linearly
+    interpolated between the stored times ``t`` (s, non-decreasing) with ``np.interp``'s
+    arithmetic, bit for bit.
+
+    Each value depends only on the stored points around its instant (the last one at or
+    before it and the next one): the rows of any slice of ``t``, ``y`` that holds them give
+    the same numbers (:mod:`lcs.simulation.regrid` interpolates a run block by block so).
+    """
     if y.shape[1] <= 8 or not np.all(np.isfinite(y)):
         # (few columns: np.interp's own loop is the faster; non-finite values: its rules)
         yout = np.empty((tout.size, y.shape[1]))
         for j in range(y.shape[1]):
             yout[:, j] = np.interp(tout, t, y[:, j])
-        return replace(result, t=tout, y=yout)
+        return yout
     # np.interp's arithmetic for every column at once: the last stored point at or before
     # each instant (the later of two points at one instant, as np.interp takes), then
     # slope * (x - x0) + y0, and exactly the stored value on a stored instant.
@@ -297,4 +327,4 @@ def resample(result: SimulationResult, dt: float) -> SimulationResult:
         slope = (y[i1[a:b]] - y0) / safe[a:b, None]
         np.copyto(yout[a:b], np.where(on_point[a:b, None], y0,
                                       slope * offset[a:b, None] + y0))
-    return replace(result, t=tout, y=yout)
+    return yout

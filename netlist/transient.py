@@ -494,6 +494,7 @@ def simulate_circuit(
     save_at: Sequence[float] = (),
     strict: bool = False,
     method: str = "moreau",
+    output_step: float | str | None = None,
 ) -> SimulationResult:
     """Simulate a parsed circuit with the Moreau θ scheme (or exactly, ``method="exact"``).
 
@@ -531,6 +532,12 @@ def simulate_circuit(
         ``"moreau"`` (time-stepping) or ``"exact"`` (event-driven, exact between events:
         :mod:`lcs.exact`; the step is then the output spacing; DC, PULSE, PWL and SIN
         sources and netlist comparators only).
+    output_step : float or "tran", optional
+        The points returned: the instants ``k output_step`` (s) from TSTART on, linearly
+        interpolated between the stored points (:func:`lcs.results.resample`); ``"tran"``:
+        the spacing ``pelcs simulate`` writes by default (``setup.print_step``, every
+        step when None). A Moreau run computes them as it goes and does not hold every
+        step. Default: the stored points themselves.
 
     Returns
     -------
@@ -555,7 +562,7 @@ def simulate_circuit(
     setup = transient_setup(circuit, tstop=tstop, step=step, system=system, strict=strict)
     return run_setup(setup, theta=theta, probes=probes, every=every, progress=progress,
                      options=options, switching=switching, controllers=controllers,
-                     save_at=save_at, method=method)
+                     save_at=save_at, method=method, output_step=output_step)
 
 
 def run_setup(
@@ -570,16 +577,23 @@ def run_setup(
     controllers: Sequence = (),
     save_at: Sequence[float] = (),
     method: str = "moreau",
+    output_step: float | str | None = None,
 ) -> SimulationResult:
     """Run a prepared :class:`TransientSetup` (arguments as in :func:`simulate_circuit`).
 
     The set-up's notes come first in ``result.notes``; an initial state jump is reported by
     a note of its own; points before ``setup.t_save`` are dropped. ``result.theta`` is the θ
-    used (:func:`choose_theta`).
+    used (:func:`choose_theta`). With ``output_step``, the points are those of
+    :func:`lcs.results.resample` of the points kept (the note on the state's growth is then
+    about them).
     """
     if probes is None:
         probes = setup.default_probes
-    check_run_size(setup, len(setup.system.states) if probes is None else len(probes), every)
+    print_note = None
+    if output_step == "tran":
+        output_step, print_note = setup.print_step, setup.print_note
+    check_run_size(setup, len(setup.system.states) if probes is None else len(probes), every,
+                   output_step if method == "moreau" else None)
     jump = _JumpRecorder(setup.energy)
     theta_note = None
     if method == "moreau":
@@ -601,7 +615,8 @@ def run_setup(
             setup.system, setup.signals, setup.x0, setup.t_stop, setup.h, theta=theta,
             probes=None if probes is None else list(probes), every=every,
             progress=progress, on_inconsistent=jump, options=options, switching=switching,
-            save_at=save_at, controllers=controllers,
+            save_at=save_at, controllers=controllers, output_step=output_step,
+            output_from=setup.t_save if setup.t_save > 0 else -np.inf,
         )
     result.notes[:0] = setup.notes + ([theta_note] if theta_note else [])
     if method == "moreau":
@@ -612,10 +627,18 @@ def run_setup(
     if setup.t_save > 0:
         keep = result.t >= setup.t_save
         result.t, result.y = result.t[keep], result.y[keep]
+    if print_note:
+        result.notes.append(print_note)
+    if output_step is not None and method != "moreau":
+        from lcs.results import resample
+
+        result.stats.points_stored = len(result.t)
+        result = resample(result, output_step)
     return result
 
 
-def check_run_size(setup: TransientSetup, probes: int, every: int = 1) -> None:
+def check_run_size(setup: TransientSetup, probes: int, every: int = 1,
+                   output_step: float | None = None) -> None:
     """Refuse, before anything is allocated, a run whose steps or stored results exceed the
     limits :data:`netlist.limits.STEPS` and :data:`netlist.limits.MEMORY`.
 
@@ -626,6 +649,9 @@ def check_run_size(setup: TransientSetup, probes: int, every: int = 1) -> None:
         Columns stored per point.
     every : int
         One point stored every ``every`` steps.
+    output_step : float, optional
+        The points are the instants ``k output_step`` (s), computed as the run goes
+        (:mod:`lcs.simulation.regrid`): the run holds those and a block of steps.
 
     Raises
     ------
@@ -636,6 +662,10 @@ def check_run_size(setup: TransientSetup, probes: int, every: int = 1) -> None:
 
     steps = setup.t_stop / setup.h
     points = steps / max(1, int(every)) + 1
+    if output_step is not None and not setup.system.pinnable:
+        # (a system that pins states keeps every step: lcs.simulation.driver)
+        # the output grid (its rows gathered, then joined) and a block of the steps
+        points = min(points, (setup.t_stop - setup.t_save) / output_step + 2 + _BLOCK_ROWS)
     # the recorder's buffer, then the result copied out of it (or resampled)
     need = 2.0 * points * (probes + 1) * 8.0
     try:
@@ -664,6 +694,11 @@ def check_run_size(setup: TransientSetup, probes: int, every: int = 1) -> None:
             hint="store fewer points (--every N), fewer probes (--probe), a larger step or "
                  f"a shorter run; {MEMORY.hint('64G')} (default: the memory available)"),
             file=setup.file)
+
+
+#: rows a run resampled as it goes holds besides its output grid: the recorder's block and
+#: a chunk of steps (:class:`lcs.simulation.recorder.Recorder`, ``MoreauOptions.chunk_steps``)
+_BLOCK_ROWS = 2 * 32768
 
 
 #: θ of a run when none is given and θ < 1 is reliable

@@ -107,6 +107,7 @@ def simulate(
     losses: bool = False,
     load: str | None = None,
     pwl: Mapping[str, tuple[float, float]] | None = None,
+    output_step: float | str | None = None,
 ) -> SimulationResult:
     """Simulate a circuit with the Moreau θ time-stepping scheme.
 
@@ -150,6 +151,15 @@ def simulate(
         ``res.losses`` (:class:`netlist.losses.LossReport`): conduction losses per device,
         input and output power (``load``: the load resistor's name, default the resistor
         taking the most power) and efficiency over the steady-state window.
+    output_step : float or str, optional
+        The points returned: ``None`` (default) every stored step (every ``every``-th, and
+        the switching instants); a spacing (s, or SPICE text such as ``"1u"``) or
+        ``"tran"`` (what ``pelcs simulate`` writes by default: the ``.tran`` TSTEP grid, or
+        every step where that grid is finer than the step or too coarse for the sources)
+        the instants ``k dt`` from TSTART on, linearly interpolated between the stored
+        points (:func:`lcs.results.resample`). The run then holds that grid and not every
+        step: its memory does not grow with its length (``res.stats.points_stored`` counts
+        the steps stored on the way).
 
     Returns
     -------
@@ -173,11 +183,28 @@ def simulate(
     kw = dict(tstop=_seconds(circuit, "tstop", tstop), step=_seconds(circuit, "step", step),
               theta=theta, probes=probes, every=every, progress=progress,
               switching=switching, controllers=controllers, strict=strict)
+    if output_step is not None and not (isinstance(output_step, str)
+                                        and output_step.strip().lower() == "tran"):
+        output_step = _seconds(circuit, "output_step", output_step)
+        if not (isinstance(output_step, (int, float)) and output_step > 0):
+            raise ValueError(f"output_step must be positive, got {output_step!r}")
+    elif output_step is not None:
+        output_step = "tran"
     if devices != "ideal" or losses:
         from netlist.realistic import simulate_devices
 
+        # (the losses are integrated over every step: the grid is taken afterwards)
         result = simulate_devices(circuit, devices=devices, losses=losses, load=load,
                                   pwl=dict(pwl or {}), **kw)
+        if output_step is not None:
+            from lcs.results import resample
+            from netlist.transient import transient_setup
+
+            dt = output_step
+            if dt == "tran":
+                dt = transient_setup(circuit, tstop=kw["tstop"], step=kw["step"]).print_step
+            if dt is not None:
+                result = resample(result, dt)
     else:
         from lcs.moreau import MoreauOptions
         from netlist.system_cache import reused_system
@@ -185,7 +212,8 @@ def simulate(
         # (the system is kept for the next run; its stored shortened steps are not, so that
         # this run gives what a newly parsed netlist gives, bit for bit)
         result = simulate_circuit(circuit, system=reused_system(circuit),
-                                  options=MoreauOptions(keep_odd_steps=False), **kw)
+                                  options=MoreauOptions(keep_odd_steps=False),
+                                  output_step=output_step, **kw)
     if check:
         result.raise_if_error()
     return result

@@ -24,7 +24,7 @@ import numpy as np
 from .. import interrupt
 from ..bits import words
 from ..lcp import LcpOptions
-from ..results import SimulationError, SimulationResult, SimulationStats
+from ..results import SimulationError, SimulationResult, SimulationStats, resample_arrays
 from . import failures
 from .initial import InconsistentHandler, initial_state
 from .inputs import MERGE_FRACTION, InputTable, evaluate_inputs
@@ -32,6 +32,7 @@ from .integrator import Integrator, Run, Window
 from .pinned import PinnedJumps, key_after
 from .problem import Problem, mode_tuple
 from .recorder import Recorder
+from .regrid import Regrid
 from .schedule import Controllers, plan_run
 from .switches import classify_switches, initially_on
 
@@ -69,12 +70,20 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
         save_at: Sequence[float] = (), progress: bool = False,
         on_inconsistent: InconsistentHandler | None = None, switching: str = "auto",
         controllers: Sequence = (), lcp: LcpOptions | None = None,
-        t_wall: float | None = None) -> SimulationResult:
+        t_wall: float | None = None, output_step: float | None = None,
+        output_from: float = -np.inf) -> SimulationResult:
     """Simulate ``problem`` from ``x0`` over ``[t_start, t_stop]`` with ``integrator``.
 
     Arguments as in :func:`lcs.moreau.simulate` (``switching`` is the comparator method,
     ``lcp`` the options of the initial LCP). Returns the result, with ``error`` set when the
     run stopped early.
+
+    With ``output_step`` (s), the result is :func:`lcs.results.resample` of the stored rows
+    at or after ``output_from`` (s), the same numbers, interpolated as the run goes
+    (:mod:`.regrid`). Every row is kept and resampled at the end instead where a mode of the
+    system pins a state (a jump found after the run may cut its end) or where the integrator
+    does not write until the buffer is full
+    (:attr:`~.integrator.Integrator.writes_until_full`).
     """
     t_wall = time.perf_counter() if t_wall is None else t_wall
     inputs = list(inputs)
@@ -98,7 +107,10 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
     if pins is not None:
         pins.apply(init.mode, init.x, t_start)
     split = pins is not None and integrator.can_set_state
-    recorder = Recorder(out0.names, 64, 64, out0.duty, words(k))
+    sink = None
+    if output_step is not None and pins is None and integrator.writes_until_full:
+        sink = Regrid(output_step, len(out0.names), output_from)
+    recorder = Recorder(out0.names, 64, 64, out0.duty, words(k), sink)
     recorder.append(t_start, problem.output(init.mode).row(init.key, -1, 0.0, init.x, init.lam,
                                                            u0))
     table = InputTable(inputs, t_start, t_stop)
@@ -158,8 +170,16 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
                 keep = t_res <= error.time
                 t_res, y_res = t_res[keep], y_res[keep]
                 events = [e for e in events if e[0] <= error.time]
+    stored = sink.kept if sink is not None else len(t_res)
+    if output_step is not None and sink is None:
+        keep = t_res >= output_from
+        t_res, y_res = t_res[keep], y_res[keep]
+        stored = len(t_res)
+        if len(t_res):
+            t_res, y_res = resample_arrays(t_res, y_res, output_step)
     stats = SimulationStats(**integrator.stats(), intervals=len(events) + 1,
-                            wall_time=time.perf_counter() - t_wall)
+                            wall_time=time.perf_counter() - t_wall, points_stored=stored,
+                            peak_rows=recorder.peak_rows)
     result = SimulationResult(
         t=t_res,
         names=tuple(recorder.names),

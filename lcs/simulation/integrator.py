@@ -116,6 +116,11 @@ class Integrator:
     #: Whether :meth:`set_state` is implemented (the run then applies the jumps of pinned
     #: states, :mod:`lcs.simulation.pinned`, between windows).
     can_set_state = False
+    #: Whether it writes rows until the recorder's buffer is full and then asks for room
+    #: (``Recorder.reserve``): a run written on an output grid then resamples as it goes,
+    #: the recorder handing its rows over and granting a block at a time
+    #: (:mod:`lcs.simulation.regrid`); otherwise every row is kept and resampled at the end.
+    writes_until_full = False
 
     def prepare(self, run: Run) -> None:
         """Set up the run (called once, after the initial state is known)."""

@@ -248,7 +248,9 @@ def _run(args, circuit, setup, probes, tstop, step, theta, every, output_step, o
     """The run, its files and its summary; the exit status."""
     from netlist.transient import run_setup
 
+    spacing = _output_spacing(output_step, args.all_steps or bool(args.every), circuit, setup)
     t0 = time.perf_counter()
+    regridded = False
     try:
         if args.devices == "pwl" or args.losses:
             from netlist.realistic import simulate_devices
@@ -273,9 +275,12 @@ def _run(args, circuit, setup, probes, tstop, step, theta, every, output_step, o
                 from lcs.moreau import MoreauOptions
 
                 options = MoreauOptions(kernel=args.kernel)
+            # (the output grid computed as the run goes: it holds that grid, not every step)
             result = run_setup(setup, theta=theta, probes=probes, every=every,
                                progress=not args.no_progress, method=args.method,
-                               options=options)
+                               options=options,
+                               output_step=spacing[0] if spacing is not None else None)
+            regridded = spacing is not None
     except NotImplementedError as exc:
         # A circuit the stepper cannot handle yet: say so like an input error, no traceback.
         raise NetlistError(Diagnostic(message=f"not supported: {exc}",
@@ -290,11 +295,10 @@ def _run(args, circuit, setup, probes, tstop, step, theta, every, output_step, o
                                       "matrices)"), file=args.file) from exc
     wall = time.perf_counter() - t0
 
-    steps_stored = len(result.t)
-    spacing = _output_spacing(output_step, args.all_steps or bool(args.every), circuit, setup)
+    steps_stored = result.stats.points_stored if regridded else len(result.t)
     if output_step is None and not (args.all_steps or args.every) and setup.print_note:
         result.notes.append(setup.print_note)
-    if spacing is not None:
+    if spacing is not None and not regridded:
         result = resample(result, spacing[0])
     err = result.error
     if err is not None and err.kind == "interrupted":
