@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import re
 
+from . import xspice
 from .behavioural_expr import BehaviouralError, circuit_quantity, parse_behavioural
 from .dialect import (
     _NONLINEAR,
@@ -96,6 +97,17 @@ class ElementLines:
                           (hierarchical_name(str(ch[2])), ch[2].start_pos))))
         else:
             self.instance(name, ch, st)
+
+    def xspice_element(self, st: Statement) -> None:
+        """``Aname port... model``: an XSPICE code model instance (:mod:`netlist.xspice`),
+        elaborated with its model in its instance."""
+        try:
+            name, ports, model, offset = xspice.read_instance(st)
+        except xspice.XspiceError as exc:
+            self.error(exc.message, st, exc.offset, exc.hint)
+            return
+        self.body.elements.append(RawElement("A", name, st, (), ref=model, ref_offset=offset,
+                                             ports=ports))
 
     def behavioural(self, st: Statement, usage: str) -> None:
         """``Bname n+ n- V=expr`` or ``I=expr``: the expression parsed here (its own grammar,

@@ -93,9 +93,8 @@ _CPER = ("capacitor 'Cper' has a value that depends on v(")
 _CPER_WHY = ("the transformer's gyrator-capacitor model (its gyrators are linear B sources, read) "
              "has a saturable magnetising capacitor: c = 'v < 5 ? C : 0.99*C*exp(-10*v) + "
              "0.01*C', nonlinear")
-_XSPICE = "unknown element type 'A' (XSPICE code model)"
-_BRIDGE = ("the bridge PWM subcircuit is built of XSPICE code models (triangle, gain, summer, "
-           "limit)")
+_BRIDGE = ("the bridge PWM subcircuit's XSPICE code models (triangle, gain, summer, limit) "
+           "are read (netlist.xspice); the bridge transformer has the saturable capacitor too")
 _ABS = ("includes a file by an absolute path on its author's machine: ngspice reports it "
         "missing and simulates the rest without it")
 
@@ -107,10 +106,10 @@ PELCS_REFUSES: dict[str, tuple[str, str, str]] = {
     "pess/simulations/converters/Forward_Converter/FWD_CONV_Lossy/fwd_lossy.cir":
         (_CPER, _CPER_WHY, "runs"),
     "pess/simulations/converters/FullBridge_conv/FWB.cir":
-        (_XSPICE, _BRIDGE, "does not finish in 180 s"),
-    "pess/simulations/converters/HalfBridge_Conv/HWB.cir": (_XSPICE, _BRIDGE, "runs (37 s)"),
+        (_CPER, _BRIDGE, "does not finish in 180 s"),
+    "pess/simulations/converters/HalfBridge_Conv/HWB.cir": (_CPER, _BRIDGE, "runs (37 s)"),
     "pess/simulations/converters/PushPull_Converters/PushPull.cir":
-        (_XSPICE, _BRIDGE + "; its transformer has the saturable capacitor too",
+        (_CPER, _BRIDGE.replace("bridge transformer", "push-pull transformer"),
          "runs (91 s)"),
     "pess/simulations/converters/FeedForward_Control/buckclose.cir":
         ("file not found: '/Users/", _ABS, "include missing"),
