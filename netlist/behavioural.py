@@ -47,6 +47,7 @@ from .circuit import (
 )
 from .dialect import hierarchical_name
 from .errors import Diagnostic, Location
+from .knee import elaborate_knee
 from .rawdeck import RawElement
 
 __all__ = ["Comparator", "elaborate", "linear_elements", "resolve_comparators"]
@@ -128,6 +129,8 @@ def elaborate(el: RawElement, prefix: str, mapnode: Callable[[str], str],
     nothing after reporting a problem with ``error(message, location, hint, elements,
     dependent=...)`` (``dependent``: an unknown parameter, which a statement the reader could
     not read may define)."""
+    if el.kind == "C":  # a capacitor constant below a knee of its voltage
+        return elaborate_knee(el, prefix, mapnode, env, source_name(prefix), error)
     name = prefix + el.name if prefix else el.name
     out_kind, tree, text, offset = el.behaviour
     loc = el.st.loc(0)

@@ -145,9 +145,18 @@ class ElementLines:
         if len(text) >= 2 and text[0] == text[-1] and text[0] in "'\"{":
             text, offset = text[1:-1], offset + 1
         try:
-            found = circuit_quantity(parse_behavioural(text))
+            tree = parse_behavioural(text)
+            found = circuit_quantity(tree)
         except BehaviouralError:
             return False  # (the grammar's message)
+        if found is not None and letter == "C" and tree.tag == "?" and \
+                circuit_quantity(tree.args[1]) is None:
+            # constant below a knee of its voltage (netlist.knee): checked in elaboration
+            self.body.elements.append(RawElement(
+                "C", hierarchical_name(m.group(1), "C"), st,
+                (node_name(m.group(2)), node_name(m.group(3))),
+                behaviour=("knee", tree, text, offset)))
+            return True
         if found is not None:
             self.error(f"{what} '{m.group(1)}' has a value that depends on {found}: a "
                        f"{'time-varying' if found == 'time' else 'nonlinear'} {what}", st,

@@ -454,7 +454,7 @@ class _Builder:
                 self.instance(el, name_prefix, node_prefix, mapnode, env, failed, stack)
             elif el.kind in "MQ":
                 self.circuit.elements.extend(self.device(el, name_prefix, mapnode))
-            elif el.kind == "B":  # a linear equivalent or a comparator (netlist.behavioural)
+            elif el.behaviour is not None:  # B: netlist.behavioural; C of a knee: netlist.knee
                 self.circuit.elements += elaborate(el, name_prefix, mapnode, env, failed,
                                                    self.error)
             elif el.kind == "A":  # an XSPICE code model (netlist.xspice)

@@ -49,6 +49,7 @@ from .circuit import (
 )
 from .errors import Diagnostic, NetlistError
 from .formulation import formulate, storage_matrix
+from .knee import KneeCapacitor, check_knees, knee_probes
 from .limits import MEMORY, STEPS
 from .passive import structurally_passive
 from .reductions import open_inductors, parallel_diodes, source_capacitors
@@ -125,6 +126,7 @@ class TransientSetup:
     file: str = ""
     print_step: float | None = None
     print_note: str | None = None
+    knees: tuple = ()  # the netlist.knee capacitors, checked after the run
 
 
 def _input_error(circuit: Circuit, message: str, hint: str) -> NetlistError:
@@ -252,7 +254,8 @@ def transient_setup(
     shown, shown_note = print_step(tran, waves, float(step))
     return TransientSetup(system, signals, x0, float(tstop), float(step), float(t_save),
                           energy, notes, nonpassive, default_probes, circuit.file or "",
-                          shown, shown_note)
+                          shown, shown_note,
+                          tuple(el for el in circuit.elements if isinstance(el, KneeCapacitor)))
 
 
 def _step_note(circuit: Circuit, given: dict[str, float]) -> str:
@@ -494,6 +497,7 @@ def simulate_circuit(
     save_at: Sequence[float] = (),
     strict: bool = False,
     method: str = "moreau",
+    knees: bool = True,
 ) -> SimulationResult:
     """Simulate a parsed circuit with the Moreau θ scheme (or exactly, ``method="exact"``).
 
@@ -531,6 +535,9 @@ def simulate_circuit(
         ``"moreau"`` (time-stepping) or ``"exact"`` (event-driven, exact between events:
         :mod:`lcs.exact`; the step is then the output spacing; DC, PULSE, PWL and SIN
         sources and netlist comparators only).
+    knees : bool
+        Check that the capacitors constant below a knee stayed there (:mod:`netlist.knee`);
+        off for a run whose result is not an answer (the ideal run that sizes pwl fits).
 
     Returns
     -------
@@ -555,7 +562,7 @@ def simulate_circuit(
     setup = transient_setup(circuit, tstop=tstop, step=step, system=system, strict=strict)
     return run_setup(setup, theta=theta, probes=probes, every=every, progress=progress,
                      options=options, switching=switching, controllers=controllers,
-                     save_at=save_at, method=method)
+                     save_at=save_at, method=method, knees=knees)
 
 
 def run_setup(
@@ -570,6 +577,7 @@ def run_setup(
     controllers: Sequence = (),
     save_at: Sequence[float] = (),
     method: str = "moreau",
+    knees: bool = True,
 ) -> SimulationResult:
     """Run a prepared :class:`TransientSetup` (arguments as in :func:`simulate_circuit`).
 
@@ -579,6 +587,9 @@ def run_setup(
     """
     if probes is None:
         probes = setup.default_probes
+    extra = knee_probes(setup.knees, probes) if knees else []
+    if extra:
+        probes = [*probes, *extra]
     check_run_size(setup, len(setup.system.states) if probes is None else len(probes), every)
     jump = _JumpRecorder(setup.energy)
     theta_note = None
@@ -606,6 +617,8 @@ def run_setup(
     result.notes[:0] = setup.notes + ([theta_note] if theta_note else [])
     if method == "moreau":
         result.theta = theta
+    if knees:
+        check_knees(setup.knees, result, len(extra))
     growth = state_growth(result)
     if growth is not None:
         result.notes.append(growth)
