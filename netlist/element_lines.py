@@ -142,6 +142,7 @@ class ElementLines:
         if m is None or m.group(4).upper() != letter:
             return False
         text, offset = m.group(5), m.start(5)
+        quoted = len(text) >= 2 and text[0] == text[-1] and text[0] in "'\""
         if len(text) >= 2 and text[0] == text[-1] and text[0] in "'\"{":
             text, offset = text[1:-1], offset + 1
         try:
@@ -149,6 +150,14 @@ class ElementLines:
             found = circuit_quantity(tree)
         except BehaviouralError:
             return False  # (the grammar's message)
+        if found is not None and letter == "C" and tree.tag == "?" and not quoted:
+            # (ngspice 39, measured: 'c = (v(a) < {5}) ? {1u} : {2u}' unquoted is 1 F, not the
+            # conditional)
+            self.error(f"{what} '{m.group(1)}': a conditional value must be in quotes: "
+                       "ngspice does not read it as written without them (it takes "
+                       "c = (v(a) < 5) ? 1u : 2u for 1 F)", st, offset,
+                       f"write {m.group(4)} = '...' for the conditional ngspice reads")
+            return True
         if found is not None and letter == "C" and tree.tag == "?" and \
                 circuit_quantity(tree.args[1]) is None:
             # constant below a knee of its voltage (netlist.knee): checked in elaboration

@@ -71,3 +71,13 @@ def test_a_part_held_by_a_tiny_conductance(g, regular):
         assert np.allclose(sol.Z, np.linalg.solve(M, K), rtol=1e-4)
     else:
         assert sol.inconsistent == [0]
+
+
+def test_an_unquoted_conditional_is_refused():
+    # ngspice 39 reads 'c = (v(a) < {5}) ? {1u} : {2u}' without quotes as 1 F (an RC of 1 Ohm
+    # reaches 1 uV after 1 us, not 0.632 V): not the conditional pelcs would read
+    with pytest.raises(NetlistError) as exc:
+        parse_string(RC.replace("c = 'v(a) < 5 ? 1u : 0.99u*exp(-10*v(a)) + 0.01u'",
+                                "c = (v(a) < {5}) ? {1u} : {2u}"))
+    assert "<string>:4:12: error: capacitor 'C1': a conditional value must be in quotes" \
+        in str(exc.value)
