@@ -47,6 +47,7 @@ from .circuit import (
 )
 from .dialect import hierarchical_name
 from .errors import Diagnostic, Location
+from .knee import elaborate_knee
 from .rawdeck import RawElement
 
 __all__ = ["Comparator", "elaborate", "linear_elements", "resolve_comparators"]
@@ -65,6 +66,7 @@ class Comparator(Element):
     kind_out: str = "V"
     step: Step | None = None
     text: str = ""
+    what: str = "comparator B source"  # what it is, for messages
     kind: ClassVar[str] = "B"
 
 
@@ -127,6 +129,8 @@ def elaborate(el: RawElement, prefix: str, mapnode: Callable[[str], str],
     nothing after reporting a problem with ``error(message, location, hint, elements,
     dependent=...)`` (``dependent``: an unknown parameter, which a statement the reader could
     not read may define)."""
+    if el.kind == "C":  # a capacitor constant below a knee of its voltage
+        return elaborate_knee(el, prefix, mapnode, env, source_name(prefix), error)
     name = prefix + el.name if prefix else el.name
     out_kind, tree, text, offset = el.behaviour
     loc = el.st.loc(0)
@@ -202,7 +206,7 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
     added: list[Element] = []
     for b in comps:
         p, n = b.nodes
-        label = f"comparator B source {b.name} ({b.text.strip()})"
+        label = f"{b.what} {b.name} ({b.text.strip()})"
         if b.kind_out != "V":
             diags.append(Diagnostic(
                 f"{label} is a current source switching between constants", b.location,
@@ -285,11 +289,11 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
             sw.model = key
             sw.strict = strict
             on_while = _describe(Step(diff, strict, 1.0, 0.0))
-            circuit.notes.append(f"{b.name}: comparator B source ({b.text.strip()}) mapped "
+            circuit.notes.append(f"{b.name}: {b.what} ({b.text.strip()}) mapped "
                                  f"onto switch {sw.name}: on while {on_while} (its output "
                                  f"node {p} is gone; d({sw.name}) is the switch's state)")
         if not uses:
-            circuit.notes.append(f"{b.name}: comparator B source ({b.text.strip()}) controls "
+            circuit.notes.append(f"{b.name}: {b.what} ({b.text.strip()}) controls "
                                  "no switch: left out")
     circuit.elements[:] = keep + added
     return diags

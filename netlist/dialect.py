@@ -47,7 +47,6 @@ UNSUPPORTED_ELEMENTS: dict[str, tuple[str, str]] = {
     "Y": ("transmission line", "approximate the line with a ladder of L and C sections"),
     "W": ("current-controlled switch", "use an S switch driven by a voltage: sense the current "
           "with an H source (v = r * i) and control the switch with that voltage"),
-    "A": ("XSPICE code model", _IDEAL),
     "N": ("Verilog-A/OSDI device", _IDEAL),
 }
 

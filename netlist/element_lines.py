@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import re
 
+from . import xspice
 from .behavioural_expr import BehaviouralError, circuit_quantity, parse_behavioural
 from .dialect import (
     _NONLINEAR,
@@ -97,6 +98,17 @@ class ElementLines:
         else:
             self.instance(name, ch, st)
 
+    def xspice_element(self, st: Statement) -> None:
+        """``Aname port... model``: an XSPICE code model instance (:mod:`netlist.xspice`),
+        elaborated with its model in its instance."""
+        try:
+            name, ports, model, offset = xspice.read_instance(st)
+        except xspice.XspiceError as exc:
+            self.error(exc.message, st, exc.offset, exc.hint)
+            return
+        self.body.elements.append(RawElement("A", name, st, (), ref=model, ref_offset=offset,
+                                             ports=ports))
+
     def behavioural(self, st: Statement, usage: str) -> None:
         """``Bname n+ n- V=expr`` or ``I=expr``: the expression parsed here (its own grammar,
         :mod:`netlist.behavioural`), evaluated in elaboration."""
@@ -130,12 +142,30 @@ class ElementLines:
         if m is None or m.group(4).upper() != letter:
             return False
         text, offset = m.group(5), m.start(5)
+        quoted = len(text) >= 2 and text[0] == text[-1] and text[0] in "'\""
         if len(text) >= 2 and text[0] == text[-1] and text[0] in "'\"{":
             text, offset = text[1:-1], offset + 1
         try:
-            found = circuit_quantity(parse_behavioural(text))
+            tree = parse_behavioural(text)
+            found = circuit_quantity(tree)
         except BehaviouralError:
             return False  # (the grammar's message)
+        if found is not None and letter == "C" and tree.tag == "?" and not quoted:
+            # (ngspice 39, measured: 'c = (v(a) < {5}) ? {1u} : {2u}' unquoted is 1 F, not the
+            # conditional)
+            self.error(f"{what} '{m.group(1)}': a conditional value must be in quotes: "
+                       "ngspice does not read it as written without them (it takes "
+                       "c = (v(a) < 5) ? 1u : 2u for 1 F)", st, offset,
+                       f"write {m.group(4)} = '...' for the conditional ngspice reads")
+            return True
+        if found is not None and letter == "C" and tree.tag == "?" and \
+                circuit_quantity(tree.args[1]) is None:
+            # constant below a knee of its voltage (netlist.knee): checked in elaboration
+            self.body.elements.append(RawElement(
+                "C", hierarchical_name(m.group(1), "C"), st,
+                (node_name(m.group(2)), node_name(m.group(3))),
+                behaviour=("knee", tree, text, offset)))
+            return True
         if found is not None:
             self.error(f"{what} '{m.group(1)}' has a value that depends on {found}: a "
                        f"{'time-varying' if found == 'time' else 'nonlinear'} {what}", st,

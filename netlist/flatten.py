@@ -10,14 +10,12 @@ depend on them follow; overriding a parameter the netlist does not define is an 
 Subcircuits
 -----------
 Definitions are global. Inside an instance, names are looked up first among the subcircuit's
-own parameters - the ``.subckt`` header defaults, replaced by the instance's ``params:``
-values (evaluated where the instance stands), and the ``.param`` lines of the body - then
-among the global parameters (lexical scoping, as in ngspice). An instance ``X1`` of a
-subcircuit turns element ``L1`` into ``X1.L1`` and internal node ``n3`` into ``x1.n3``
-(nested: ``X1.X2.L1``, ``x1.x2.n3``); ports are replaced by the instance's nodes, ground and
-``.global`` nodes stay as they are. References inside the body (F/H controlling sources, K
-inductors) get the same prefix. ``.model`` lines inside a body are global.
-"""
+own parameters (the ``.subckt`` header defaults, replaced by the instance's ``params:`` values
+evaluated where the instance stands, and the body's ``.param`` lines), then among the global
+ones (lexical scoping, as in ngspice). An instance ``X1`` turns element ``L1`` into ``X1.L1``
+and internal node ``n3`` into ``x1.n3`` (nested: ``X1.X2.L1``, ``x1.x2.n3``); ports become the
+instance's nodes, ground and ``.global`` nodes stay; references in the body (F/H sources, K
+inductors) get the prefix. ``.model`` lines are global (XSPICE cards evaluated per instance)."""
 
 from __future__ import annotations
 
@@ -28,6 +26,7 @@ from collections.abc import Callable, Mapping
 
 from lcs.signals import Exp, Pulse, Pwl, Signal, Sin
 
+from . import xspice
 from .behavioural import elaborate, resolve_comparators
 from .checks import check_circuit, value_problem
 from .circuit import (
@@ -98,14 +97,11 @@ def build_circuit(deck: Deck, overrides: Mapping[str, float] | None = None,
 
 def independent_problems(deck: Deck, overrides: Mapping[str, float] | None = None
                          ) -> list[Diagnostic]:
-    """Problems of a deck that some statements of could not be read.
-
-    The statements with syntax errors are missing from ``deck``, so only problems that a
-    missing statement cannot cause (or hide) are returned: bad values, expression errors other
-    than unknown names, duplicate definitions, parameter cycles, malformed instances. Unknown
-    parameters, models, subcircuits and controlling sources, and the connectivity checks, wait
-    until the syntax is fixed.
-    """
+    """Problems of a deck some statements of could not be read (they are missing from
+    ``deck``): those a missing statement cannot cause or hide (bad values, expression errors
+    other than unknown names, duplicate definitions, parameter cycles, malformed instances).
+    Unknown parameters, models, subcircuits and controlling sources, and the connectivity
+    checks, wait until the syntax is fixed."""
     builder = _Builder(deck)
     circuit = builder.build(overrides or {})
     diags = [d for i, d in enumerate(builder.diags) if i not in builder.dependent]
@@ -458,9 +454,13 @@ class _Builder:
                 self.instance(el, name_prefix, node_prefix, mapnode, env, failed, stack)
             elif el.kind in "MQ":
                 self.circuit.elements.extend(self.device(el, name_prefix, mapnode))
-            elif el.kind == "B":  # a linear equivalent or a comparator (netlist.behavioural)
+            elif el.behaviour is not None:  # B: netlist.behavioural; C of a knee: netlist.knee
                 self.circuit.elements += elaborate(el, name_prefix, mapnode, env, failed,
                                                    self.error)
+            elif el.kind == "A":  # an XSPICE code model (netlist.xspice)
+                self.circuit.elements += xspice.elaborate_element(
+                    el, name_prefix, mapnode, env, self.deck.code_models,
+                    lambda v: self.evaluate(v, env, failed), self.circuit, self.error)
             else:
                 self.circuit.elements.append(self.element(el, name_prefix, mapnode, env, failed))
 

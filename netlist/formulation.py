@@ -22,8 +22,10 @@ The MNA equations ``M z = K ξ`` (``z`` node voltages and branch currents, ``ξ 
 are solved for the linear map ``z = Z ξ`` by a pseudo-inverse, so a part of the circuit that
 floats in some mode (a node reached only through an open switch) does no harm as long as
 everything the dynamics needs is uniquely determined; that is checked against the null space
-of ``M``. Then ``dv_C/dt = i_C / C``, ``Lmat di_L/dt = v_L`` (``Lmat`` holds the mutual
-inductances ``k sqrt(L1 L2)`` of K elements) and the ``w`` rows are read off.
+of ``M`` (a part held only by a very large resistor, regular at double precision, is solved
+whole: :data:`netlist.mna_solve.ROUNDOFF_RTOL`). Then ``dv_C/dt = i_C / C``,
+``Lmat di_L/dt = v_L`` (``Lmat`` holds the mutual inductances ``k sqrt(L1 L2)`` of K elements)
+and the ``w`` rows are read off.
 
 What λ stands for, per diode and mode, is chosen so that this works: λ = current is
 preferred; with at most :data:`EXHAUSTIVE_DIODE_LIMIT` diodes every assignment is tried in the

@@ -21,6 +21,14 @@ __all__ = ["CLEAN_RTOL", "DETERMINED_RTOL", "RANK_RTOL", "Entries", "Solution", 
 # Relative tolerance on singular values of the equilibrated MNA matrix: below it a direction
 # counts as null (floating part, or a singular companion network).
 RANK_RTOL = 1e-10
+# Below it, relative to the largest, a singular value is round-off (a few ulps of the
+# equilibrated matrix's norm times its size). A matrix whose smallest singular value lies
+# between this and RANK_RTOL is regular at double precision but ill-conditioned: a part held
+# to the rest only by a very large resistor (the 100 MΩ bleed resistors of a transformer
+# model's floating windings). Truncated at RANK_RTOL it floats; when the truncation makes the
+# equations inconsistent (a constraint that the full matrix does not have), it is solved
+# whole instead.
+ROUNDOFF_RTOL = 1e-13
 # Relative tolerance for "this quantity does not depend on the null space" and "the
 # equations are consistent for every ξ".
 DETERMINED_RTOL = 1e-8
@@ -104,18 +112,24 @@ class Solution:
         Ms = r[:, None] * M * c[None, :]
         U, s, Vt = np.linalg.svd(Ms)
         rank = int(np.sum(s > RANK_RTOL * s[0])) if s[0] > 0 else 0
-        self.null = Vt[rank:].T  # (nz, nz - rank), orthonormal, scaled coordinates
         residual = U[:, rank:].T @ Ks
         scale = np.linalg.norm(Ks, axis=0)
         self.inconsistent = [
             j for j in range(nxi)
             if np.linalg.norm(residual[:, j]) > DETERMINED_RTOL * scale[j]
         ]
+        if self.inconsistent and ncols == nz and rank < nz and s[-1] > ROUNDOFF_RTOL * s[0] \
+                and self._lu(I, J, r[I] * v * c[J], Ks, c, rcond=0.0):
+            # regular at double precision (ROUNDOFF_RTOL): solved whole, by the LU, whose
+            # sparse elimination keeps the zeros of the parts the ill-conditioned one does
+            # not reach (a dense solve would spread round-off over every entry)
+            return
+        self.null = Vt[rank:].T  # (nz, nz - rank), orthonormal, scaled coordinates
         zs = Vt[:rank].T @ ((U[:, :rank].T @ Ks) / s[:rank, None])
         self._set_z(c[:, None] * zs)
 
     def _lu(self, I: np.ndarray, J: np.ndarray, vs: np.ndarray, Ks: np.ndarray,
-            c: np.ndarray) -> bool:
+            c: np.ndarray, rcond: float = LU_RCOND) -> bool:
         """The regular case by an LU factorisation of the equilibrated matrix (non-zero
         entries ``vs`` at ``I, J``), when a condition estimate leaves no doubt about the rank
         (the SVD decides otherwise): :mod:`lcs.sparse_lu` (compiled; an MMC arm of 64 cells,
@@ -127,7 +141,7 @@ class Solution:
             lu = sparse_lu.lu_factor(nz, I, J, vs)
             if lu is None:  # exactly singular
                 return False
-            if not sparse_lu.lu_rcond(lu, anorm) > LU_RCOND:
+            if not sparse_lu.lu_rcond(lu, anorm) > rcond:
                 return False
             zs = sparse_lu.lu_solve(lu, Ks, out=sparse_lu.kept_array(
                 _WORK, "z", (nz, Ks.shape[1]), limit=WORK_KEPT))
@@ -141,8 +155,8 @@ class Solution:
                 return False
             inv = LinearOperator((nz, nz), matvec=slu.solve,
                                  rmatvec=lambda v: slu.solve(v, trans="T"), dtype=float)
-            rcond = 1.0 / (anorm * onenormest(inv)) if anorm > 0 else 0.0
-            if not rcond > LU_RCOND:
+            estimate = 1.0 / (anorm * onenormest(inv)) if anorm > 0 else 0.0
+            if not estimate > rcond:
                 return False
             zs = slu.solve(np.asfortranarray(Ks)) if Ks.shape[1] else np.zeros(Ks.shape)
         if not np.all(np.isfinite(zs)):

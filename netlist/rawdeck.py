@@ -122,6 +122,8 @@ class RawElement:
     state: bool | None = None
     # a B source: ("V" or "I", the parsed expression, its text, its offset in the statement)
     behaviour: tuple | None = None
+    # an XSPICE A element: its ports (netlist.xspice.Port); ``ref`` is its model
+    ports: tuple = ()
 
 
 @dataclass(slots=True, eq=False)
@@ -194,6 +196,8 @@ class Deck:
     top: Body = field(default_factory=Body)
     subckts: dict[str, SubcktDef] = field(default_factory=dict)  # lower-case name
     models: list[RawModel] = field(default_factory=list)
+    # XSPICE code-model cards (netlist.xspice.CodeModel) by lower-case name
+    code_models: dict = field(default_factory=dict)
     trans: list[RawTran] = field(default_factory=list)
     steps: list[RawStep] = field(default_factory=list)
     options: dict[str, str] = field(default_factory=dict)

@@ -13,7 +13,7 @@ import re
 from collections.abc import Callable
 from pathlib import Path
 
-from . import expressions
+from . import expressions, xspice
 from .circuit import IgnoredCommand
 from .dialect import (
     _MODEL_TYPES,
@@ -45,6 +45,9 @@ from .rawdeck import (
 )
 from .steps import read_step
 from .units import parse_number
+
+# .model NAME TYPE of an XSPICE code model (netlist.xspice)
+_CODE_MODEL = re.compile(r"(?i)\.model\s+(\S+?)\s+([A-Za-z_]\w*)(?=\s|\(|$)")
 
 # ------------------------------------------------------------------------------ reading
 
@@ -423,6 +426,9 @@ class _Reader(ElementLines):
             self.command(word.lower(), st)
             return
         letter = word[0].upper()
+        if letter == "A":
+            self.xspice_element(st)
+            return
         if letter in ELEMENTS:
             self.element(letter, st)
             return
@@ -431,7 +437,7 @@ class _Reader(ElementLines):
             self.error(f"unknown element type '{letter}' ({what})", st, 0, hint)
             return
         self.error(f"unknown element type '{word[0]}' in '{word}'", st, 0,
-                   "pelcs knows the elements R L C V I D S E F G H K X B M Q and dot commands")
+                   "pelcs knows the elements R L C V I D S E F G H K X B M Q A and dot commands")
 
     # -- values
 
@@ -556,6 +562,14 @@ class _Reader(ElementLines):
         self.sub = None
 
     def cmd_model(self, st: Statement) -> None:
+        m = _CODE_MODEL.match(st.text)
+        if m is not None and m.group(2).lower() in xspice.CODE_MODELS:
+            try:
+                self.deck.code_models[m.group(1).lower()] = xspice.read_model(
+                    st, m.group(1), m.group(2), m.end())
+            except xspice.XspiceError as exc:
+                self.error(exc.message, st, exc.offset, exc.hint)
+            return
         tree = self.parse(st, "model_cmd", ".model",
                           ".model name D(...), SW(...), NMOS/PMOS/VDMOS(...) or NPN/PNP(...)")
         name_tok, type_tok = tree.children[1], tree.children[2]

@@ -56,7 +56,8 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
                if isinstance(el, (Diode, Switch)) and el.key not in merged]
         pre += [f"v({a})" if b == GROUND else f"v({a},{b})" for a, b in
                 (sw.control for sw in sws)]
-        ideal = simulate_circuit(circuit, probes=list(dict.fromkeys(pre)), **kw)
+        # (its knees unchecked: it sizes the fits, the pwl run below is the answer)
+        ideal = simulate_circuit(circuit, probes=list(dict.fromkeys(pre)), knees=False, **kw)
         # the current each device carries, not an inrush only the time step limits
         t = np.asarray(ideal.t, float)
         i_max = {el.name: carried_current(t, ideal[f"i({el.name})"])

@@ -49,6 +49,7 @@ from .circuit import (
 )
 from .errors import Diagnostic, NetlistError
 from .formulation import formulate, storage_matrix
+from .knee import KneeCapacitor, check_knees, knee_probes
 from .limits import MEMORY, STEPS
 from .passive import structurally_passive
 from .reductions import open_inductors, parallel_diodes, source_capacitors
@@ -125,6 +126,7 @@ class TransientSetup:
     file: str = ""
     print_step: float | None = None
     print_note: str | None = None
+    knees: tuple = ()  # the netlist.knee capacitors, checked after the run
 
 
 def _input_error(circuit: Circuit, message: str, hint: str) -> NetlistError:
@@ -252,7 +254,8 @@ def transient_setup(
     shown, shown_note = print_step(tran, waves, float(step))
     return TransientSetup(system, signals, x0, float(tstop), float(step), float(t_save),
                           energy, notes, nonpassive, default_probes, circuit.file or "",
-                          shown, shown_note)
+                          shown, shown_note,
+                          tuple(el for el in circuit.elements if isinstance(el, KneeCapacitor)))
 
 
 def _step_note(circuit: Circuit, given: dict[str, float]) -> str:
@@ -495,6 +498,7 @@ def simulate_circuit(
     strict: bool = False,
     method: str = "moreau",
     output_step: float | str | None = None,
+    knees: bool = True,
 ) -> SimulationResult:
     """Simulate a parsed circuit with the Moreau θ scheme (or exactly, ``method="exact"``).
 
@@ -538,6 +542,9 @@ def simulate_circuit(
         the spacing ``pelcs simulate`` writes by default (``setup.print_step``, every
         step when None). A Moreau run computes them as it goes and does not hold every
         step. Default: the stored points themselves.
+    knees : bool
+        Check that the capacitors constant below a knee stayed there (:mod:`netlist.knee`);
+        off for a run whose result is not an answer (the ideal run that sizes pwl fits).
 
     Returns
     -------
@@ -562,7 +569,7 @@ def simulate_circuit(
     setup = transient_setup(circuit, tstop=tstop, step=step, system=system, strict=strict)
     return run_setup(setup, theta=theta, probes=probes, every=every, progress=progress,
                      options=options, switching=switching, controllers=controllers,
-                     save_at=save_at, method=method, output_step=output_step)
+                     save_at=save_at, method=method, output_step=output_step, knees=knees)
 
 
 def run_setup(
@@ -578,6 +585,7 @@ def run_setup(
     save_at: Sequence[float] = (),
     method: str = "moreau",
     output_step: float | str | None = None,
+    knees: bool = True,
 ) -> SimulationResult:
     """Run a prepared :class:`TransientSetup` (arguments as in :func:`simulate_circuit`).
 
@@ -592,8 +600,14 @@ def run_setup(
     print_note = None
     if output_step == "tran":
         output_step, print_note = setup.print_step, setup.print_note
+    extra = knee_probes(setup.knees, probes) if knees else []
+    if extra:
+        probes = [*probes, *extra]
+    # (a knee is checked on every step, not only on the output grid: such a run keeps every
+    # step and is resampled at the end)
+    streamed = output_step if method == "moreau" and not extra else None
     check_run_size(setup, len(setup.system.states) if probes is None else len(probes), every,
-                   output_step if method == "moreau" else None)
+                   streamed)
     jump = _JumpRecorder(setup.energy)
     theta_note = None
     if method == "moreau":
@@ -615,12 +629,14 @@ def run_setup(
             setup.system, setup.signals, setup.x0, setup.t_stop, setup.h, theta=theta,
             probes=None if probes is None else list(probes), every=every,
             progress=progress, on_inconsistent=jump, options=options, switching=switching,
-            save_at=save_at, controllers=controllers, output_step=output_step,
+            save_at=save_at, controllers=controllers, output_step=streamed,
             output_from=setup.t_save if setup.t_save > 0 else -np.inf,
         )
     result.notes[:0] = setup.notes + ([theta_note] if theta_note else [])
     if method == "moreau":
         result.theta = theta
+    if knees:
+        check_knees(setup.knees, result, len(extra))
     growth = state_growth(result)
     if growth is not None:
         result.notes.append(growth)
@@ -629,7 +645,7 @@ def run_setup(
         result.t, result.y = result.t[keep], result.y[keep]
     if print_note:
         result.notes.append(print_note)
-    if output_step is not None and method != "moreau":
+    if output_step is not None and streamed is None:
         from lcs.results import resample
 
         result.stats.points_stored = len(result.t)

@@ -1,0 +1,133 @@
+"""Capacitors whose value is constant below a knee of their own voltage.
+
+A magnetic core modelled by its magnetising capacitor (the pess transformers' gyrator-capacitor
+model) saturates past a knee::
+
+    Cper n1 n2 c = 'v(n1,n2) < 5 ? {C} : {0.99*C*exp(-10*v(n1,n2)) + 0.01*C}'
+
+Below the knee the capacitor is the constant ``C``: exactly linear. pelcs reads such a value
+(``cond ? C0 : anything``, ``cond`` a comparison of an affine form of the capacitor's own
+voltage with a constant, ``C0`` constant) as the capacitor ``C0`` and checks, after the run,
+that the voltage stayed on the constant side of the knee at every stored point; the run is a
+:class:`~netlist.errors.NetlistError` naming the instant otherwise (pelcs does not simulate the
+nonlinear side). A run that stays says so in a note.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .behavioural_expr import Affine, BehaviouralError, Step, linearise
+from .checks import value_problem
+from .circuit import GROUND, Capacitor, Element
+from .errors import Diagnostic, NetlistError
+from .rawdeck import RawElement
+
+__all__ = ["KneeCapacitor", "check_knees", "elaborate_knee", "knee_probes"]
+
+_FORM = ("pelcs reads a capacitor value 'v(n+,n-) < K ? C0 : ...' (any comparison of an affine "
+         "form of the capacitor's own voltage with constants, C0 constant) as the capacitor C0, "
+         "and checks the run stays on C0's side of the knee")
+
+
+@dataclass
+class KneeCapacitor(Capacitor):
+    """A capacitor of value ``value`` while ``gain*v + offset > 0`` (``>= 0`` if not
+    ``strict``), ``v`` its voltage (V); ``text`` the value expression as written."""
+
+    gain: float = 1.0
+    offset: float = 0.0
+    strict: bool = True
+    text: str = ""
+
+    @property
+    def region(self) -> str:
+        """The constant side, as ``v < 5 V``."""
+        knee = -self.offset / self.gain
+        op = (">" if self.strict else ">=") if self.gain > 0 else ("<" if self.strict else "<=")
+        return f"v({self.name}) {op} {knee:g} V"
+
+
+def elaborate_knee(el: RawElement, prefix: str, mapnode: Callable[[str], str],
+                   env: Mapping[str, float], source: Callable[[str], str],
+                   error: Callable[..., None]) -> list[Element]:
+    """The :class:`KneeCapacitor` of a C line whose value is ``cond ? C0 : ...``; nothing
+    after reporting a form pelcs does not read with ``error(message, location, hint,
+    elements)``."""
+    name = prefix + el.name if prefix else el.name
+    _, tree, text, offset = el.behaviour
+    nodes = tuple(map(mapnode, el.nodes))
+    cond, yes, _no = tree.args
+
+    def fail(message: str, at: int) -> list[Element]:
+        error(f"capacitor '{name}': {message}", el.st.loc(offset + at), _FORM, (name,))
+        return []
+
+    try:
+        c0 = linearise(yes, text, env, mapnode, source)
+        step = linearise(cond, text, env, mapnode, source)
+    except BehaviouralError as exc:
+        return fail(exc.message, exc.offset)
+    if not isinstance(c0, Affine) or not c0.constant:
+        return fail("the value below the knee is not a constant", yes.start)
+    if not isinstance(step, Step) or (step.hi == 0) == (step.lo == 0):
+        return fail("the condition is not one comparison", cond.start)
+    diff, strict = step.diff, step.strict
+    if step.hi == 0:  # C0 while the comparison is false: not (d > 0) is -d >= 0
+        diff, strict = diff.scaled(-1.0), not strict
+    coef = dict(diff.terms)
+    p, n = nodes
+    a = coef.get(("v", p), 0.0) if p != GROUND else -coef.get(("v", n), 0.0)
+    want = {q: c for q, c in (((("v", p), a), (("v", n), -a))) if q[1] != GROUND}
+    if a == 0 or coef != want:
+        return fail("the condition reads something other than the capacitor's own voltage "
+                    f"v({el.nodes[0]},{el.nodes[1]})", cond.start)
+    problem = value_problem("C", c0.const)
+    if problem:
+        return fail(problem[0], yes.start)
+    return [KneeCapacitor(name, nodes, el.st.loc(0), c0.const, None, a, diff.const, strict,
+                          text)]
+
+
+def knee_probes(knees: Sequence[KneeCapacitor], probes: Sequence[str] | None) -> list[str]:
+    """The capacitor voltages a run must store besides ``probes`` to check its knees (none
+    when ``probes`` is None: every state is stored)."""
+    if probes is None:
+        return []
+    have = {p.lower() for p in probes}
+    return [f"v({k.name})" for k in knees if f"v({k.name})".lower() not in have]
+
+
+def check_knees(knees: Sequence[KneeCapacitor], result, extra: int) -> None:
+    """Check every knee capacitor stayed on its constant side over ``result``; drop the
+    ``extra`` last columns (:func:`knee_probes`); a note per capacitor.
+
+    Raises
+    ------
+    NetlistError
+        A capacitor whose voltage crossed its knee: when, and where it got to.
+    """
+    names = [n.lower() for n in result.names]
+    for k in knees:
+        v = np.asarray(result.y[:, names.index(f"v({k.name})".lower())], dtype=float)
+        if not v.size:
+            continue
+        g = k.gain * v + k.offset
+        bad = np.flatnonzero(g <= 0 if k.strict else g < 0)
+        if bad.size:
+            i = int(bad[0])
+            raise NetlistError(Diagnostic(
+                f"capacitor '{k.name}' ({k.text}) is {k.value:g} F only while {k.region}; "
+                f"the run took it to {v[i]:.4g} V at t = {result.t[i]:.6g} s, past the knee, "
+                "where its value depends on its voltage (nonlinear)", k.location,
+                "pelcs simulates such a capacitor below its knee only; shorten the run or "
+                "change the circuit so that it stays below", (k.name,)))
+        result.notes.append(
+            f"{k.name}: capacitor value '{k.text}' read as {k.value:g} F, its value while "
+            f"{k.region}: the run stayed there ({v.min():.4g} V to {v.max():.4g} V)")
+    if extra:
+        result.names = tuple(result.names[:-extra])
+        result.y = result.y[:, :-extra]

@@ -1,0 +1,83 @@
+"""Capacitors constant below a knee of their own voltage (netlist.knee), and the solve of a
+network held only by a very large resistor (netlist.mna_solve)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from netlist.errors import NetlistError
+from netlist.knee import KneeCapacitor
+from netlist.mna_solve import Solution
+from netlist.parser import parse_string
+from netlist.transient import simulate_circuit
+
+RC = """knee rc
+V1 in 0 DC {vin}
+R1 in a 1k
+C1 a 0 c = 'v(a) < 5 ? 1u : 0.99u*exp(-10*v(a)) + 0.01u'
+.param vin=4
+.tran 1u 5m
+.end
+"""
+
+
+def test_below_the_knee_is_the_constant_capacitor():
+    c = parse_string(RC)
+    cap = c.element("C1")
+    assert isinstance(cap, KneeCapacitor) and cap.value == 1e-6 and cap.region == "v(C1) < 5 V"
+    res = simulate_circuit(c, probes=["v(a)"])
+    res.raise_if_error()
+    # the RC charge to 4 V, tau 1 ms (backward Euler or trapezoidal: within 1e-3)
+    t = res.t
+    assert np.allclose(res["v(a)"], 4 * (1 - np.exp(-t / 1e-3)), atol=4e-3)
+    assert res.names == ("v(a)",)  # the capacitor's voltage, checked, is not kept
+    assert any("C1: capacitor value" in n and "the run stayed there (0 V to 3.97" in n
+               for n in res.notes)
+
+
+def test_past_the_knee_is_refused_with_the_instant():
+    with pytest.raises(NetlistError) as exc:
+        simulate_circuit(parse_string(RC.replace("vin=4", "vin=6")), probes=["v(a)"])
+    text = str(exc.value)
+    assert "<string>:4:1: error: capacitor 'C1'" in text
+    t = float(text.split("at t = ")[1].split(" s")[0])
+    # 6 (1 - exp(-t/tau)) = 5 at t = tau ln 6
+    assert t == pytest.approx(1e-3 * math.log(6), abs=2e-6)
+
+
+@pytest.mark.parametrize("value, words", [
+    ("v(in) < 5 ? 1u : 2u", "other than the capacitor's own voltage"),
+    ("v(a) < 5 ? v(a)*1u : 2u", "depends on v(a)"),
+])
+def test_other_forms_are_refused(value, words):
+    with pytest.raises(NetlistError) as exc:
+        parse_string(RC.replace("v(a) < 5 ? 1u : 0.99u*exp(-10*v(a)) + 0.01u", value))
+    assert words in str(exc.value)
+
+
+@pytest.mark.parametrize("g, regular", [(1e-11, True), (1e-15, False), (0.0, False)])
+def test_a_part_held_by_a_tiny_conductance(g, regular):
+    """A node joined to the rest by g (S) only, against 1 S: regular at double precision
+    above 1e-13 of the largest singular value, solved whole; below, or exactly singular,
+    the right-hand side that would need it is inconsistent."""
+    M = np.array([[1.0 + g, -1.0], [-1.0, 1.0]])
+    K = np.array([[1.0], [0.0]])
+    sol = Solution(M, K)
+    if regular:
+        assert not sol.inconsistent and sol.null.shape[1] == 0
+        assert np.allclose(sol.Z, np.linalg.solve(M, K), rtol=1e-4)
+    else:
+        assert sol.inconsistent == [0]
+
+
+def test_an_unquoted_conditional_is_refused():
+    # ngspice 39 reads 'c = (v(a) < {5}) ? {1u} : {2u}' without quotes as 1 F (an RC of 1 Ohm
+    # reaches 1 uV after 1 us, not 0.632 V): not the conditional pelcs would read
+    with pytest.raises(NetlistError) as exc:
+        parse_string(RC.replace("c = 'v(a) < 5 ? 1u : 0.99u*exp(-10*v(a)) + 0.01u'",
+                                "c = (v(a) < {5}) ? {1u} : {2u}"))
+    assert "<string>:4:12: error: capacitor 'C1': a conditional value must be in quotes" \
+        in str(exc.value)
