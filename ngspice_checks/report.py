@@ -126,7 +126,8 @@ def format_table(cmp: Comparison) -> str:
                     + (f", max offset [{_eng(s.tol, 's')}]" if not s.ok else ""))
         elif s.method == "instants":
             what = (f"{s.n_pelcs}/{s.n_ngspice} switchings, max offset "
-                    f"{_eng(s.max_offset, 's')} [{_eng(s.tol, 's')}]")
+                    f"{_eng(s.max_offset, 's')} [{_eng(s.tol, 's')}]"
+                    + (f" ({s.note})" if s.note else ""))
         elif s.method == "frequency":
             what = (f"frequency {_eng(s.freq_pelcs, 'Hz')} / {_eng(s.freq_ngspice, 'Hz')} "
                     f"[{_pct(s.tol)}] ({s.reason})")
