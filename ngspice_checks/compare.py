@@ -366,6 +366,7 @@ def compare(
         ngspice unavailable (NgspiceUnavailable) or failed on every rung (NgspiceFailed).
     """
     from netlist.parser import load_source as load
+    from netlist.sweep import check_period_multiple
     from netlist.transient import check_probes, simulate_circuit, warm_up
     from netlist.writer import write_circuit
 
@@ -382,6 +383,10 @@ def compare(
         base = load(source, params)
         file = base.file
     circuit = _prepare(base, tstop, notes)
+    if period is not None:
+        # the mean and ripple over whole periods: a period the switching does not repeat in
+        # would average over fractions of it
+        check_period_multiple(circuit, float(period))
     if pelcs_params:
         pel = _prepare(load(source, {**(params or {}), **pelcs_params}), tstop, [])
         notes.append("deliberate difference: pelcs runs with "
