@@ -392,6 +392,13 @@ def circuit_map(
     tstop = circuit.tran.tstop if circuit.tran is not None else T
     setup = transient_setup(circuit, tstop=max(tstop, T), step=h)
     system = setup.system
+    if not len(system.states):
+        # no inductor or capacitor: nothing is carried from one period to the next
+        raise NetlistError(Diagnostic(
+            message="the circuit has no state (no inductor or capacitor): no periodic orbit "
+                    "or map to analyse; its waveforms follow the sources instant by instant",
+            hint="pelcs simulate FILE (its steady state is the transient itself)"),
+            file=circuit.file)
     if method == "exact":
         if event:
             raise _usage("--event needs the Moreau method", "drop --method exact")

@@ -5,6 +5,7 @@ and the events are the diodes' and switches' changes. Against closed forms."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from netlist.parser import parse_string
 from netlist.transient import simulate_circuit
@@ -109,3 +110,22 @@ D1 0 out DI
     t, v = res.t[away], res["v(out)"][away]
     vin = 5 * np.sin(w * t)
     assert np.max(np.abs(v - np.where(vin > 2.5, vin, 0.0))) < 1e-8
+
+
+@pytest.mark.parametrize("args", [
+    ["orbit"], ["orbit", "--method", "exact"],
+    ["continue", "--param", "a=4:5:2"],
+    ["bifurcation", "--param", "a=4:5:2", "--transient", "2", "--record", "2"],
+    ["basins", "--grid", "v(in)=0:1:3,v(out)=0:1:3"],
+    ["ac", "--inject", "V1", "--probe", "v(out)", "--freq", "100:1k:2"],
+], ids=lambda a: "-".join(a[:3:2]))
+def test_analyses_of_a_periodic_orbit_refuse_a_stateless_circuit(args, tmp_path, capsys):
+    # no state carried from one period to the next: no orbit, no map; said, not a traceback
+    path = tmp_path / "c.cir"
+    path.write_text(CLIPPER.replace("SIN(0 5 1k)", "SIN(0 {a} 1k)").replace(
+        ".tran", ".param a=5\n.tran"))
+    code = main([args[0], str(path), *args[1:]])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert "error: the circuit has no state (no inductor or capacitor)" in err
+    assert "hint: pelcs simulate FILE" in err and "Traceback" not in err
