@@ -313,6 +313,8 @@ def markdown_report(cmp: Comparison, figure: str | None = None) -> str:
                 vals = (f"{w.n_pelcs} switchings", f"{w.n_ngspice} switchings",
                         _eng(w.max_offset, "s"), _eng(w.tol, "s"))
             verdict = _verdict(w.ok) if w.method != "none" else w.reason
+            if w.note:
+                verdict += f" ({w.note})"
             out.append(f"| {w.switch} | {w.driven} | {w.method} | " + " | ".join(vals)
                        + f" | {verdict} |")
         out.append("")
