@@ -28,7 +28,7 @@ from lcs.smallsignal.sweep import sweep_response
 from .circuit import Circuit, CurrentSource, VoltageSource
 from .errors import Diagnostic, NetlistError
 from .measure import _latch_clocks, _periodic_sources, defined_period
-from .sweep import circuit_map, resolve_period
+from .sweep import check_period_multiple, circuit_map, resolve_period
 from .transient import check_probes
 from .units import format_eng
 
@@ -52,24 +52,6 @@ def _source(circuit: Circuit, name: str):
                  f"independent sources: {', '.join(names) or 'none'} (a DC control source "
                  "gives control-to-output, the input source line-to-output, a zero-valued "
                  "current source at the output the output impedance)")
-
-
-def _check_multiple(circuit: Circuit, period: float) -> None:
-    """Refuse a period the netlist's own switching period does not divide: the sources do
-    not repeat every ``period``, so no steady state does, and a state that returns to itself
-    after one ``period`` from t0 is not a periodic orbit."""
-    try:
-        own, origin = defined_period(circuit)
-    except NetlistError:
-        return  # (none, or several: nothing to check against)
-    ratio = period / own
-    if abs(ratio - round(ratio)) > 1e-6 * max(1.0, ratio) or round(ratio) < 1:
-        raise _error(circuit, f"--period {format_eng(period, 's')} is not a multiple of the "
-                     f"period the netlist defines, {format_eng(own, 's')} (the {origin}): the "
-                     "sources, so the steady state, do not repeat every "
-                     f"{format_eng(period, 's')}",
-                     f"leave --period out (T = {format_eng(own, 's')}), or give a multiple "
-                     "of it for a subharmonic orbit")
 
 
 def self_oscillating_switches(circuit: Circuit) -> list[str]:
@@ -214,7 +196,7 @@ def ac_analysis(circuit: Circuit, *, period: float | str | None, inject: str | N
         period_notes = [f"T = {format_eng(T, 's')}: the {origin} (no --period given)"]
     else:
         T, period_notes = resolve_period(circuit, period), []
-        _check_multiple(circuit, T)
+        check_period_multiple(circuit, T)
     if loop is not None:
         src = _source(circuit, loop)
         if not isinstance(src, VoltageSource):

@@ -58,7 +58,7 @@ from .measure import (
     steady_state_window,
 )
 from .parser import parse_string
-from .sweep import resolve_period
+from .sweep import check_period_multiple, resolve_period
 from .transient import simulate_circuit
 from .units import format_eng, parse_number
 
@@ -391,6 +391,8 @@ def _run_point(job: _Job, params: tuple[tuple[str, float], ...], deviations
         res = simulate_circuit(circuit, tstop=job.tstop, step=job.step, theta=job.theta,
                                probes=probes)
         period = resolve_period(circuit, job.period) if job.period is not None else None
+        if period is not None:
+            check_period_multiple(circuit, period)
     except (NetlistError, ValueError) as exc:
         msg = exc.message if isinstance(exc, NetlistError) else str(exc)
         if isinstance(exc, _DrawError):
@@ -559,7 +561,7 @@ def run_sweep(
     _check_times(circuit, tstop, step)
     mlist = parse_measurements(list(measures), circuit)
     if period is not None:
-        resolve_period(circuit, period)
+        check_period_multiple(circuit, resolve_period(circuit, period))
     matched = match_tolerances(circuit, tols) if tols else []
     if seed is None and runs:
         seed = secrets.randbelow(2**31)

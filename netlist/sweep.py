@@ -38,6 +38,7 @@ from .units import format_eng, parse_number
 __all__ = [
     "CircuitMapFactory",
     "ParamRange",
+    "check_period_multiple",
     "circuit_map",
     "parse_grid",
     "parse_range",
@@ -261,6 +262,43 @@ def resolve_period(circuit: Circuit, text: str | float) -> float:
     return float(value)
 
 
+def check_period_multiple(circuit: Circuit, period: float) -> None:
+    """Refuse a period that the netlist's own switching period does not divide.
+
+    Every analysis that samples once a period (orbits, continuation, bifurcation diagrams,
+    basins, small-signal responses) maps the state from ``t0`` to ``t0 + period`` with the
+    sources as they are from ``t0``: unless the sources repeat every ``period``, the next
+    period starts from another phase, so the map is not the same map twice, and a state that
+    returns to itself after one ``period`` is no periodic orbit (the buck switched every
+    20 µs sampled at 13 µs gave a "period-1 orbit" of 76.9 kHz).
+
+    Parameters
+    ----------
+    circuit : Circuit
+    period : float
+        The sampling period asked for, s.
+
+    Raises
+    ------
+    NetlistError
+        When the netlist defines one switching period
+        (:func:`netlist.measure.defined_period`) and ``period`` is not a whole multiple of it
+        (to a relative 1e-6). A netlist that defines none, or several, is not checked.
+    """
+    try:
+        own, origin = defined_period(circuit)
+    except NetlistError:
+        return  # (none, or several: nothing to check against)
+    ratio = period / own
+    if abs(ratio - round(ratio)) > 1e-6 * max(1.0, ratio) or round(ratio) < 1:
+        raise NetlistError(Diagnostic(
+            message=f"--period {format_eng(period, 's')} is not a multiple of the period the "
+                    f"netlist defines, {format_eng(own, 's')} (the {origin}): the sources, so "
+                    f"the steady state, do not repeat every {format_eng(period, 's')}",
+            hint=f"leave --period out (T = {format_eng(own, 's')}), or give a multiple of it "
+                 "for a subharmonic orbit"), file=circuit.file)
+
+
 class _StateJump:
     """Picklable ``on_inconsistent`` handler: the passive state jump with the circuit energy.
 
@@ -339,6 +377,7 @@ def circuit_map(
         period_notes.append(f"T = {format_eng(T, 's')}: the {origin} (no --period given)")
     else:
         T = resolve_period(circuit, period)
+        check_period_multiple(circuit, T)
     if step is None:
         tran = circuit.tran
         if tran is None:
@@ -353,6 +392,13 @@ def circuit_map(
     tstop = circuit.tran.tstop if circuit.tran is not None else T
     setup = transient_setup(circuit, tstop=max(tstop, T), step=h)
     system = setup.system
+    if not len(system.states):
+        # no inductor or capacitor: nothing is carried from one period to the next
+        raise NetlistError(Diagnostic(
+            message="the circuit has no state (no inductor or capacitor): no periodic orbit "
+                    "or map to analyse; its waveforms follow the sources instant by instant",
+            hint="pelcs simulate FILE (its steady state is the transient itself)"),
+            file=circuit.file)
     if method == "exact":
         if event:
             raise _usage("--event needs the Moreau method", "drop --method exact")

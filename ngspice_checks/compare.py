@@ -89,7 +89,12 @@ control voltage ``v(nc+, nc-)`` through VT, with VH and the ON/OFF flag as in ng
 model, interpolated between its time points. For a switch with hysteresis (VH > 0) both
 sides are measured alike at the crossings of the *half* band VT ± VH/2: ngspice stores the
 control after its switch has acted, up to one step's change short of the band edge, so the
-edges themselves are not reliably crossed in its output.
+edges themselves are not reliably crossed in its output. An instant within the tolerance
+of the start or end of the common run with no partner within the tolerance is left out (and
+counted in ``SwitchingComparison.note``): its partner would lie past that end, where neither
+run shows it (pelcs records no event at its last time point; ngspice interpolates a
+switching at its last point a fraction of a step early), and pairing it with the previous
+instant reads as an offset of a whole period.
 
 A comparison whose NRMS or mean tolerance exceeds :attr:`Tolerances.conclusive` (10 %) is
 *inconclusive* (``Comparison.verdict``; ``pelcs check`` exits 4), never agreement: such a
@@ -162,6 +167,7 @@ from .measures import (
     _pwl_residual,
     _scale,
     _strictly_increasing,
+    _unpaired_at_ends,
     _window,
     detect_period,
 )
@@ -360,6 +366,7 @@ def compare(
         ngspice unavailable (NgspiceUnavailable) or failed on every rung (NgspiceFailed).
     """
     from netlist.parser import load_source as load
+    from netlist.sweep import check_period_multiple
     from netlist.transient import check_probes, simulate_circuit, warm_up
     from netlist.writer import write_circuit
 
@@ -376,6 +383,10 @@ def compare(
         base = load(source, params)
         file = base.file
     circuit = _prepare(base, tstop, notes)
+    if period is not None:
+        # the mean and ripple over whole periods: a period the switching does not repeat in
+        # would average over fractions of it
+        check_period_multiple(circuit, float(period))
     if pelcs_params:
         pel = _prepare(load(source, {**(params or {}), **pelcs_params}), tstop, [])
         notes.append("deliberate difference: pelcs runs with "
@@ -618,6 +629,7 @@ def _compare_switch(
             math.nan, tol.frequency, fp, fn, window,
             "free-running: phase drift makes instants incomparable over many periods")
     limit = tol.switching_steps * tmax_ng + (h if driven in _SAMPLED else 0.0)
+    ends = span  # the common run, whose ends may cut an instant from its partner
     a, b = span
     if driven != "source" and period is not None:
         # a comparator's instant follows the circuit state: an offset of ε·T changes a duty
@@ -626,7 +638,12 @@ def _compare_switch(
         # and in a transient a crossing of the ramp can be nearly tangential (the instant
         # is then ill-conditioned): compared in the steady-state window, as mean and ripple
         a, b = span = window
-    offs = [_hausdorff(x, y, a, b) for x, y in ((pi.on, ni.on), (pi.off, ni.off))]
+    pairs = ((pi.on, ni.on), (pi.off, ni.off))
+    offs = [_hausdorff(x, y, a, b, ends, limit) for x, y in pairs]
+    cut = sum(int(_unpaired_at_ends(v[(v >= a) & (v <= b)], w, ends, limit).sum())
+              for x, y in pairs for v, w in ((x, y), (y, x)))
+    at_ends = (f"{cut} instant{'s' if cut > 1 else ''} within the tolerance of the run's "
+               "start or end left out: the partner would lie past it" if cut else "")
     if (n_p == 0) != (n_n == 0):  # one side switches, the other never does: no agreement
         who = "pelcs" if n_p else "ngspice"
         return SwitchingComparison(
@@ -635,4 +652,4 @@ def _compare_switch(
             "run, none in the other)")
     return SwitchingComparison(
         name, driven, control, "instants", count(pi, a, b), count(ni, a, b), max(offs), limit,
-        fp, fn, span, "" if n_p else "neither switches")
+        fp, fn, span, "" if n_p else "neither switches", note=at_ends)

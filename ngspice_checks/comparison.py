@@ -147,6 +147,9 @@ class SwitchingComparison:
         The time span compared (s).
     reason : str
         Why nothing was compared, or a remark.
+    note : str
+        What the instants' comparison left out, if anything (an instant at an end of the
+        run whose partner would lie past it).
     """
 
     switch: str
@@ -161,6 +164,7 @@ class SwitchingComparison:
     freq_ngspice: float
     span: tuple[float, float]
     reason: str = ""
+    note: str = ""
 
     @property
     def ok(self) -> bool:

@@ -157,15 +157,40 @@ def _ngspice_instants(
     return _Instants(np.array(on), np.array(off))
 
 
-def _hausdorff(a: np.ndarray, b: np.ndarray, lo: float, hi: float) -> float:
+def _unpaired_at_ends(
+    x: np.ndarray, y: np.ndarray, ends: tuple[float, float], margin: float
+) -> np.ndarray:
+    """Which instants of ``x`` lie within ``margin`` of an end of the common run ``ends``
+    with no instant of ``y`` within ``margin``: their partner may lie past that end, where
+    the other simulator recorded nothing (pelcs records no event at its last time point,
+    and ngspice interpolates a switching at the last point a fraction of a step early)."""
+    near_end = (x > ends[1] - margin) | (x < ends[0] + margin)
+    if not near_end.any():
+        return near_end
+    if len(y) == 0:
+        return near_end
+    y = np.sort(y)
+    k = np.clip(np.searchsorted(y, x), 0, len(y) - 1)
+    d = np.minimum(np.abs(x - y[k]), np.abs(x - y[np.maximum(k - 1, 0)]))
+    return near_end & (d > margin)
+
+
+def _hausdorff(a: np.ndarray, b: np.ndarray, lo: float, hi: float,
+               ends: tuple[float, float] | None = None, margin: float = 0.0) -> float:
     """Largest distance from an instant in [lo, hi] of one set to the nearest of the other (s).
 
     The partner may lie outside [lo, hi] (an instant just inside the window can have its
     partner just outside). An instant without any partner counts as ``hi - lo`` (the
-    comparison fails).
+    comparison fails). With ``ends`` (the common time span of both runs) and ``margin``
+    (the tolerance), an instant within ``margin`` of an end whose partner would lie past it
+    (:func:`_unpaired_at_ends`) is left out: neither run can show that partner, and its
+    distance to the previous instant is a whole period that says nothing about timing.
     """
     a, b = np.sort(a), np.sort(b)
     a_in, b_in = a[(a >= lo) & (a <= hi)], b[(b >= lo) & (b <= hi)]
+    if ends is not None:
+        a_in = a_in[~_unpaired_at_ends(a_in, b, ends, margin)]
+        b_in = b_in[~_unpaired_at_ends(b_in, a, ends, margin)]
     if len(a_in) == 0 and len(b_in) == 0:
         return 0.0
     if len(a) == 0 or len(b) == 0:

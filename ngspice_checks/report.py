@@ -99,7 +99,8 @@ def format_table(cmp: Comparison) -> str:
         + (f" and {len(cmp.attempts)} failed rung{'s' * (len(cmp.attempts) > 1)}"
            if cmp.attempts else "") + f"), {_settings_line(cmp)}"
     )
-    per = (f"{cmp.n_periods} periods of {_eng(cmp.period, 's')} ({cmp.period_source})"
+    per = (f"{cmp.n_periods} period{'s' if cmp.n_periods != 1 else ''} of "
+           f"{_eng(cmp.period, 's')} ({cmp.period_source})"
            if cmp.n_periods else cmp.period_source)
     lines.append(f"steady state: {_eng(cmp.window[0], 's')} to {_eng(cmp.window[1], 's')}, "
                  f"{per}; pelcs devices: {cmp.devices}; "
@@ -126,7 +127,8 @@ def format_table(cmp: Comparison) -> str:
                     + (f", max offset [{_eng(s.tol, 's')}]" if not s.ok else ""))
         elif s.method == "instants":
             what = (f"{s.n_pelcs}/{s.n_ngspice} switchings, max offset "
-                    f"{_eng(s.max_offset, 's')} [{_eng(s.tol, 's')}]")
+                    f"{_eng(s.max_offset, 's')} [{_eng(s.tol, 's')}]"
+                    + (f" ({s.note})" if s.note else ""))
         elif s.method == "frequency":
             what = (f"frequency {_eng(s.freq_pelcs, 'Hz')} / {_eng(s.freq_ngspice, 'Hz')} "
                     f"[{_pct(s.tol)}] ({s.reason})")
@@ -267,7 +269,8 @@ def markdown_report(cmp: Comparison, figure: str | None = None) -> str:
         out.append(f"- rung {r} ({name}) failed: {why}")
     if cmp.attempts:
         out.append("")
-    per = (f"{cmp.n_periods} periods of {_eng(cmp.period, 's')} ({cmp.period_source})"
+    per = (f"{cmp.n_periods} period{'s' if cmp.n_periods != 1 else ''} of "
+           f"{_eng(cmp.period, 's')} ({cmp.period_source})"
            if cmp.n_periods else cmp.period_source)
     out += [f"Compared from {_eng(cmp.span[0], 's')} to {_eng(cmp.span[1], 's')}; steady "
             f"state from {_eng(cmp.window[0], 's')}: {per}.", ""]
@@ -310,6 +313,8 @@ def markdown_report(cmp: Comparison, figure: str | None = None) -> str:
                 vals = (f"{w.n_pelcs} switchings", f"{w.n_ngspice} switchings",
                         _eng(w.max_offset, "s"), _eng(w.tol, "s"))
             verdict = _verdict(w.ok) if w.method != "none" else w.reason
+            if w.note:
+                verdict += f" ({w.note})"
             out.append(f"| {w.switch} | {w.driven} | {w.method} | " + " | ".join(vals)
                        + f" | {verdict} |")
         out.append("")

@@ -252,10 +252,18 @@ def test_function_map_and_failures():
     assert not s.ok and np.all(np.isnan(s.values))
 
 
-def test_non_periodic_sources_are_noted():
+def test_non_periodic_sources_are_refused_or_noted():
+    from netlist.errors import NetlistError
+
     c = parse_string(BOOST_TEXT)
-    m = circuit_map(c, 1.5 * T)
-    assert any("not periodic" in n for n in m.notes)
+    # a circuit's map refuses the period (tests/test_period_multiple.py); a map built on
+    # the system directly notes it
+    with pytest.raises(NetlistError, match="is not a multiple of the period"):
+        circuit_map(c, 1.5 * T)
+    m = circuit_map(c, T)
+    assert not any("not periodic" in n for n in m.notes)
+    m15 = StroboscopicMap(m.system, m.signals, 1.5 * T, m.h)
+    assert any("not periodic" in n for n in m15.notes)
 
 
 def test_range_and_grid_parsing():

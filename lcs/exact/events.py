@@ -308,8 +308,12 @@ class Follower:
                 else:
                     continue
                 labels.append(("switch", r.name, j))
-        return (np.array(gx).reshape(-1, self.n), np.array(gu).reshape(-1, self.p),
-                np.array(gd).reshape(-1, self.p), np.array(g0), labels)
+        # explicit row counts: with no states (n = 0) or no sources (p = 0) a -1 would be
+        # ambiguous for an empty array
+        k = len(g0)
+        return (np.array(gx, dtype=float).reshape(k, self.n),
+                np.array(gu, dtype=float).reshape(k, self.p),
+                np.array(gd, dtype=float).reshape(k, self.p), np.array(g0, dtype=float), labels)
 
     def control_value(self, key: ModeKey, flow: ModeFlow, j: int, x, u, du) -> float:
         """Switch j's control voltage at state x, inputs u and their rates du."""
@@ -358,11 +362,16 @@ class Follower:
         is consistent, the state jump of ``self.jump`` (marked on the last event)."""
         try:
             flow = self.select(key, prefer, x, t, tb, why)
-        except ExactError:
+        except ExactError as exc:
             if self.jump is None:
                 raise
             u0 = self.inputs_on(t, tb).u(0.0)
-            out = self.jump(self.system.mode(key), np.asarray(x, dtype=float).copy(), u0)
+            try:
+                out = self.jump(self.system.mode(key), np.asarray(x, dtype=float).copy(), u0)
+            except (RuntimeError, ValueError):
+                # no jump rule either (the jump's LCP has no solution): the mode itself is
+                # ill-posed, which the configuration error already says
+                raise exc from None
             x_plus = np.asarray(out[0] if isinstance(out, tuple) else out, dtype=float)
             if np.allclose(x_plus, x, rtol=1e-12, atol=0.0):
                 raise
