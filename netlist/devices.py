@@ -18,7 +18,9 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+
+from .errors import Location
 
 __all__ = ["BJT_THRESHOLD", "DEVICE_TYPES", "Replacement", "threshold"]
 
@@ -50,6 +52,8 @@ class Replacement:
         The name of the ideal body diode, if one was kept.
     dropped : tuple of str
         What of the device pelcs does not simulate.
+    location : Location or None
+        Where the device's line is (an ``M``/``Q`` line, or the ``X`` line of a macro-model).
     """
 
     element: str
@@ -60,6 +64,7 @@ class Replacement:
     source: str
     body_diode: str | None
     dropped: tuple[str, ...]
+    location: Location | None = field(default=None, compare=False, repr=False)
 
     def line(self) -> str:
         if self.device == "diode macro-model":

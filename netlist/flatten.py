@@ -508,7 +508,7 @@ class _Builder:
         if el.kind == "M" and mt != "VDMOS":
             dropped.append("bulk diodes")
         self.circuit.replacements.append(Replacement(name, model.name, mt, became, thr, source,
-                                                     body, tuple(dropped)))
+                                                     body, tuple(dropped), loc))
         return out
 
     def macro(self, el: RawElement, sub, macro, name: str, port_map: Mapping[str, str]
@@ -534,7 +534,7 @@ class _Builder:
                                                device=(*origin, models, series)))
             self.circuit.replacements.append(Replacement(
                 name, sub.name, "diode macro-model", f"ideal diode {a} -> {k}", 0.0,
-                "no threshold", None, macro.dropped))
+                "no threshold", None, macro.dropped, loc))
             return
         dev = macro.device
         model = self.circuit.models.get(dev.ref.lower())
@@ -585,7 +585,7 @@ class _Builder:
             name, f"{sub.name}: {dev.name} {model.name}",
             "IGBT-like macro-model" if macro.igbt else f"{mt} macro-model",
             f"ideal switch {terms[0]} {a} - {terms[1]} {b}, on while {ctl} > {thr:g} V",
-            thr, source, body, macro.dropped))
+            thr, source, body, macro.dropped, loc))
 
     def _resistance(self, el: RawElement) -> float:
         """A macro's resistor value (global parameters only; nan-free: 0 if unknown)."""

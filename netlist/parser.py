@@ -251,7 +251,11 @@ def _idealised(circuit: Circuit) -> Circuit:
         n = len(circuit.replacements)
         names = ", ".join(r.element for r in circuit.replacements[:6])
         more = f" and {n - 6} more" if n > 6 else ""
-        warnings.warn(IdealisedDeviceWarning(
-            f"{circuit.file}: {n} device{'s' if n > 1 else ''} (transistors, macro-models) "
-            f"idealised ({names}{more}); `pelcs info` lists what each became"), stacklevel=3)
+        what = (f"{n} device{'s' if n > 1 else ''} (transistors, macro-models) idealised "
+                f"({names}{more}); `pelcs info` lists what each became")
+        warning = IdealisedDeviceWarning(f"{circuit.file}: {what}")
+        # (for --strict's error: the first device's line, as every input error is shown)
+        warning.location = circuit.replacements[0].location
+        warning.what = what
+        warnings.warn(warning, stacklevel=3)
     return circuit

@@ -177,8 +177,14 @@ def _main(argv: list[str] | None) -> int:
         try:
             return int(args.func(args) or 0)
         except IdealisedDeviceWarning as exc:
-            print(f"error: {exc}\n  hint: --strict refuses transistors (M, Q); drop it to "
-                  "simulate them as ideal switches", file=sys.stderr)
+            from netlist.errors import Diagnostic
+
+            location = getattr(exc, "location", None)
+            message = getattr(exc, "what", None) if location is not None else None
+            print(Diagnostic(message or str(exc), location,
+                             "--strict refuses transistors (M, Q) and device macro-models; "
+                             "drop it to simulate them as ideal switches and diodes").format(),
+                  file=sys.stderr)
             return 2
         except NonPassiveWarning as exc:
             text = str(exc).split("; the run follows the ideal model")[0]

@@ -77,6 +77,15 @@ def test_strict_refuses_transistors(capsys):
     assert main(["simulate", str(DEV / "buck_vdmos.cir"), "--strict"]) == 2
     err = capsys.readouterr().err
     assert "idealised (M1)" in err and "--strict" in err
+    # where the device is, as every input error: FILE:LINE:COLUMN, the line, a caret
+    assert f"{DEV / 'buck_vdmos.cir'}:6:1: error:" in err
+    assert "    M1 in g sw MPOW\n    ^" in err
+    # a macro-model: the X line that instantiates it
+    assert main(["simulate", str(DEV / "buck_vendor.cir"), "--strict"]) == 2
+    err = capsys.readouterr().err
+    line = next(i for i, t in enumerate((DEV / "buck_vendor.cir").read_text().splitlines(), 1)
+                if t.startswith("X"))
+    assert f"{DEV / 'buck_vendor.cir'}:{line}:1: error:" in err, err
     with pytest.warns(IdealisedDeviceWarning):
         pelcs.load(DEV / "buck_vdmos.cir")
 
