@@ -230,6 +230,7 @@ def comparison_figure(cmp: Comparison, *, dpi: int = 110, zoom_periods: int = 5,
         az.set_title(f"mean {_eng(p.mean_pelcs, u)} / {_eng(p.mean_ngspice, u)}, ripple "
                      f"{_eng(p.ripple_pelcs, u)} / {_eng(p.ripple_ngspice, u)}",
                      loc="right", fontsize=8, color=color, pad=3)
+    axes[0, 0].legend(fontsize=8, loc="best")  # (pelcs solid, ngspice dashed)
     axes[-1, 0].set_xlabel(f"time [{tunit}]")
     axes[-1, 1].set_xlabel(f"time [{zunit}] (last periods)")
     name = Path(cmp.file).name
