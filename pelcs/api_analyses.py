@@ -54,7 +54,7 @@ def _strictness(strict: bool):
 
 def _options(values: dict) -> dict:
     """The keyword arguments of an API function that are options of its command."""
-    return {k: v for k, v in values.items() if k not in ("file", "options")}
+    return {k: v for k, v in values.items() if k not in ("file", "strict")}
 
 
 def check(file: Path, *, probe: Texts = None, param: Params = None, tstop=None, period=None,

@@ -108,13 +108,20 @@ def namespace(command: str, file: str | os.PathLike, options: Mapping,
     ValueError
         A value the command's parser refuses (its message).
     """
-    from pelcs.cli import build_parser
+    import importlib
+
+    from pelcs.argparsing import Parser
 
     if not isinstance(file, (str, os.PathLike)):
         raise TypeError(f"{function}: expected the path of a netlist file, got "
                         f"{type(file).__name__} (the analyses read the netlist from its file)")
-    parser = build_parser(commands=[command])
-    sub = parser._subparsers._group_actions[0].choices[command]  # noqa: SLF001 - argparse's
+    # The command's own parser (as ``pelcs.cli`` builds it, without importing the CLI
+    # module: that sets the process's BLAS thread variables, a command-line choice).
+    parser = Parser(prog="pelcs")
+    subparsers = parser.add_subparsers(dest="command")
+    importlib.import_module(f"pelcs.commands.{command.replace('continue', 'continuation')}"
+                            ).register(subparsers)
+    sub = subparsers.choices[command]
     actions = {a.dest: a for a in sub._actions if a.option_strings}  # noqa: SLF001
     argv = [command, os.fspath(file)]
     for key, value in options.items():
