@@ -57,6 +57,16 @@ def _probe_verdict(cmp: Comparison, p) -> str:
     return "inconclusive" if p.widest > cmp.tolerances.conclusive else "ok"
 
 
+def probe_verdict(cmp: Comparison, probe) -> str:
+    """A probe's verdict as the table prints it: ``ok``, ``FAIL`` or ``inconclusive``."""
+    return _probe_verdict(cmp, probe)
+
+
+def switch_verdict(switch) -> str:
+    """A switch's verdict as the table prints it: ``ok``, ``FAIL`` or ``not compared``."""
+    return _verdict(switch.ok) if switch.method != "none" else "not compared"
+
+
 def verdict_line(cmp: Comparison) -> str:
     """The verdict line ``pelcs check`` prints last: ``within tolerance``, ``OUT OF
     TOLERANCE: ...`` or ``INCONCLUSIVE: ...``."""

@@ -139,23 +139,31 @@ class CheckResult(_Result):
         return f"pelcs check {_name(self.report)}: {self.verdict_line.split(':')[0]}"
 
     def summary(self) -> list[tuple[str, Any]]:
+        from ngspice_checks.report import probe_verdict, switch_verdict
+
         c = self.comparison
         rows = [("verdict", self.verdict_line),
-                ("probes", ", ".join(p.probe for p in c.probes)),
-                ("switches", ", ".join(s.switch for s in c.switches) or "none"),
+                ("probes", ", ".join(f"{p.probe} {probe_verdict(c, p)}" for p in c.probes)),
+                ("switches", ", ".join(f"{s.switch} {switch_verdict(s)}"
+                                       for s in c.switches) or "none"),
                 ("run", f"tstop {c.tstop:.4g} s, step {c.step:.4g} s, θ = {c.theta:g}; "
                         f"ngspice rung {c.rung}")]
         return rows
 
     def to_pandas(self):
-        """One row per probe: the metrics and tolerances of the table (SI units), ``ok``."""
+        """One row per probe: the metrics and tolerances of the table (SI units), ``ok``,
+        ``conclusive`` and the ``verdict`` the table prints (``ok``, ``FAIL``,
+        ``inconclusive``)."""
         import pandas as pd
+
+        from ngspice_checks.report import probe_verdict
 
         cols = ["probe", "nrms", "nrms_tol", "mean_pelcs", "mean_ngspice", "mean_error",
                 "mean_tol", "ripple_pelcs", "ripple_ngspice", "ripple_error", "ripple_tol",
                 "ok", "conclusive"]
-        return pd.DataFrame([{k: p[k] for k in cols} for p in self.report["probes"]],
-                            columns=cols)
+        rows = [{**{k: p[k] for k in cols}, "verdict": probe_verdict(self.comparison, q)}
+                for p, q in zip(self.report["probes"], self.comparison.probes, strict=True)]
+        return pd.DataFrame(rows, columns=[*cols, "verdict"])
 
     def plot(self, ax=None):
         """pelcs (solid) and ngspice (dashed) per probe, whole run and last periods: the

@@ -230,8 +230,12 @@ def test_check_is_the_commands(ngspice, capsys):
         assert mine["nrms"] == pytest.approx(theirs["nrms"], rel=1e-9)
         assert mine["mean_pelcs"] == theirs["mean_pelcs"]
     df = res.to_pandas()
-    assert df.shape == (2, 13) and df["probe"].tolist() == ["i(L1)", "v(C1)"]
-    assert "within tolerance" in repr(res)
+    assert df.shape == (2, 14) and df["probe"].tolist() == ["i(L1)", "v(C1)"]
+    assert df["verdict"].tolist() == ["ok", "ok"]
+    for probe in df["probe"]:  # the table's verdict word of each probe
+        line = next(ln for ln in out.splitlines() if ln.startswith(probe + " "))
+        assert line.rstrip().endswith("ok")
+    assert "within tolerance" in repr(res) and "i(L1) ok" in repr(res)
     shown(res)
 
 
@@ -242,3 +246,8 @@ def test_check_out_of_tolerance_says_so(ngspice, capsys):
     assert res.verdict_line == out.rstrip("\n").splitlines()[-1]
     assert res.verdict_line.startswith("OUT OF TOLERANCE")
     assert "OUT OF TOLERANCE" in repr(res)
+    df = res.to_pandas()
+    assert "FAIL" in df["verdict"].tolist()
+    for probe, verdict in zip(df["probe"], df["verdict"], strict=True):
+        line = next(ln for ln in out.splitlines() if ln.startswith(probe + " "))
+        assert verdict in line, (verdict, line)
