@@ -251,3 +251,16 @@ def test_check_out_of_tolerance_says_so(ngspice, capsys):
     for probe, verdict in zip(df["probe"], df["verdict"], strict=True):
         line = next(ln for ln in out.splitlines() if ln.startswith(probe + " "))
         assert verdict in line, (verdict, line)
+
+
+def test_continuation_from_many_starts_is_the_commands(netlists, capsys):  # noqa: F811
+    code, r = cli_json(capsys, "continue", netlists["boost"], "--period", "ts", "--param",
+                       "duty=0.3:0.35:3", "--start", "v(C1)=10:30:2", "--json",
+                       "--workers", "1")
+    results = pelcs.continuation(netlists["boost"], period="ts", param={"duty": (0.3, 0.35, 3)},
+                                 start="v(C1)=10:30:2", workers=1)
+    assert code == 0 and len(results) == len(r["continuations"]) == 2
+    for res, c in zip(results, r["continuations"], strict=True):
+        assert res.report["x0"] == c["x0"] and res.report["same_as"] == c["same_as"]
+        assert json.loads(json.dumps(res.report["branch"])) == c["branch"]
+    assert results[1].report["same_as"] == 0
