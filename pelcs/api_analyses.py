@@ -308,7 +308,6 @@ def sweep(file: Path, *, measure: Texts, param: Params = None, tolerance=None, r
         setup = command.prepare(args)
         table = command.compute(args, setup)
     title = setup["title"]
-    report = command.to_json(table, str(file), title, [])
-    report["plot_title"] = command._plot_title(table, title, str(file))  # noqa: SLF001
-    return SweepResult(table=table, report=report,
-                       summary_text=command.summary(table, str(file), title, []))
+    return SweepResult(table=table, report=command.to_json(table, str(file), title, []),
+                       summary_text=command.summary(table, str(file), title, []),
+                       plot_title=command.plot_title(table, title, str(file)))

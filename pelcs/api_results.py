@@ -453,11 +453,14 @@ class SweepResult(_Result):
         What ``pelcs sweep --json`` prints (``rows``, ``statistics``...).
     summary_text : str
         What ``pelcs sweep`` prints.
+    plot_title : str
+        The title of the command's plot.
     """
 
     table: Any
     report: dict = field(default_factory=dict)
     summary_text: str = ""
+    plot_title: str = ""
 
     def _title(self) -> str:
         t = self.table
@@ -498,7 +501,7 @@ class SweepResult(_Result):
         """The measurements against the first swept parameter, or the histograms of a Monte
         Carlo run, as ``pelcs sweep --plot`` draws them."""
         t = self.table
-        title = self.report.get("plot_title")
+        title = self.plot_title or None
         fig = _target(ax)
         if t.runs:
             return _root(t.histogram_figure(title=title, fig=fig))

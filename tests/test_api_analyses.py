@@ -170,7 +170,7 @@ def test_sweep_is_the_commands(capsys):
     assert code == 0
     res = pelcs.sweep(BUCK, param={"duty": [0.3, 0.5]}, measure="mean(v(out))", workers=1)
     assert [row["duty"] for row in res.report["rows"]] == [0.3, 0.5]
-    assert res.report["rows"] == r["rows"]
+    assert res.report["rows"] == r["rows"] and set(res.report) == set(r)
     df = res.to_pandas()
     assert list(df.columns) == ["duty", "mean(v(out))", "ok", "settled", "message"]
     assert df.shape == (2, 5)
@@ -264,3 +264,10 @@ def test_continuation_from_many_starts_is_the_commands(netlists, capsys):  # noq
         assert res.report["x0"] == c["x0"] and res.report["same_as"] == c["same_as"]
         assert json.loads(json.dumps(res.report["branch"])) == c["branch"]
     assert results[1].report["same_as"] == 0
+
+
+def test_frequency_response_repr_is_short():
+    bucks = ROOT / "converters" / "netlists" / "ac" / "buck_vc.cir"
+    fr = pelcs.ac(str(bucks), period="ts", inject="Vc", probes=["v(out)"], freq="100:10k:3")
+    text = repr(fr)
+    assert len(text) <= MAX_REPR and "3 frequencies, 100 .. 1e+04 Hz" in text, text

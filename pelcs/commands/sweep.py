@@ -234,7 +234,7 @@ def _sweep(args, setup: dict) -> int:
         (out, table.to_csv),
         # (nothing to plot when an interrupt came before any run finished)
         (plot if len(table) else None,
-         lambda path: table.plot(path, title=_plot_title(table, title, args.file))),
+         lambda path: table.plot(path, title=plot_title(table, title, args.file))),
     ))
     if args.json:
         print(dumps(_results(table, args.file, title, written), indent=1))
@@ -275,7 +275,7 @@ def _check_writable(option: str, path: Path) -> None:
                           "choose a writable file") from None
 
 
-def _plot_title(table, title: str, file: str) -> str:
+def plot_title(table, title: str, file: str) -> str:
     name = title or Path(file).name
     if table.runs:
         return f"{name}: Monte Carlo, {table.runs} runs ({table.distribution}, seed {table.seed})"
