@@ -88,9 +88,9 @@ def continuation_figure(report: dict, fig=None):
     seen = set()
     for b in report["bifurcations"]:
         colour = colours.get(b["type"], "k")
-        for ax in (ax1, ax2):
+        for ax in (ax1, ax2):  # (each panel's legend names every colour it shows)
             ax.axvline(b["param"], color=colour, lw=1.0,
-                       label=b["type"] if ax is ax1 and b["type"] not in seen else None)
+                       label=f"{b['type']} bifurcation" if b["type"] not in seen else None)
         seen.add(b["type"])
     for ax in (ax1, ax2):
         ax.grid(alpha=0.3)
