@@ -200,6 +200,19 @@ class SimulationResult:
     def ok(self) -> bool:
         return self.error is None
 
+    def __repr__(self) -> str:
+        # A few lines, not the arrays (a run holds up to millions of points).
+        t = np.asarray(self.t)
+        span = f"t {t[0]:.6g} .. {t[-1]:.6g} s" if t.size else "no points"
+        names = ", ".join(self.names[:8]) + (f", ... ({len(self.names)})"
+                                              if len(self.names) > 8 else "")
+        lines = [f"<SimulationResult: {t.size} points, {span}; probes {names}>"]
+        if self.error is not None:
+            lines.append(f"  error: {str(self.error)[:200]}")
+        if self.notes:
+            lines.append(f"  {len(self.notes)} note(s): {str(self.notes[0])[:120]}")
+        return "\n".join(lines)
+
     def to_pandas(self):
         """The probes as a ``pandas.DataFrame``: one column per probe (SI units), indexed by
         time (s, index name ``"time"``); the notes and the error message in ``.attrs``."""

@@ -57,6 +57,22 @@ def _probe_verdict(cmp: Comparison, p) -> str:
     return "inconclusive" if p.widest > cmp.tolerances.conclusive else "ok"
 
 
+def probe_verdict(cmp: Comparison, probe) -> str:
+    """A probe's verdict as the table prints it: ``ok``, ``FAIL`` or ``inconclusive``."""
+    return _probe_verdict(cmp, probe)
+
+
+def switch_verdict(switch) -> str:
+    """A switch's verdict as the table prints it: ``ok``, ``FAIL`` or ``not compared``."""
+    return _verdict(switch.ok) if switch.method != "none" else "not compared"
+
+
+def verdict_line(cmp: Comparison) -> str:
+    """The verdict line ``pelcs check`` prints last: ``within tolerance``, ``OUT OF
+    TOLERANCE: ...`` or ``INCONCLUSIVE: ...``."""
+    return _summary(cmp)
+
+
 def _summary(cmp: Comparison) -> str:
     """The last line: the verdict and what it rests on."""
     if cmp.verdict == "fail":
@@ -148,27 +164,34 @@ def format_table(cmp: Comparison) -> str:
 
 def plot_comparison(cmp: Comparison, path: str | os.PathLike, *, dpi: int = 110,
                     zoom_periods: int = 5) -> Path:
+    """Write :func:`comparison_figure` to ``path`` (format from the extension)."""
+    fig = comparison_figure(cmp, dpi=dpi, zoom_periods=zoom_periods)
+    out = Path(path)
+    with atomic_path(out) as tmp:
+        fig.savefig(tmp)
+    return out
+
+
+def comparison_figure(cmp: Comparison, *, dpi: int = 110, zoom_periods: int = 5, fig=None):
     """Overlay plot: one row per probe, whole run and a zoom on the last periods.
 
     Parameters
     ----------
     cmp : Comparison
         With its ``pelcs_result`` and ``ngspice_result``.
-    path : path-like
-        Output file (format from the extension).
     dpi : int
     zoom_periods : int
         Periods shown in the zoom (fewer if the window has fewer); without a period the zoom
         shows the whole steady-state window. The dotted lines are the means over the whole
         window (``n_periods`` periods), which a waveform still settling may not centre on.
 
+    fig : matplotlib Figure or SubFigure, optional
+        To draw into (default a new Figure on an Agg canvas, no pyplot).
+
     Returns
     -------
-    Path
+    The figure drawn into.
     """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
     from lcs.axes import envelope as _envelope
     from lcs.axes import time_unit
 
@@ -184,8 +207,12 @@ def plot_comparison(cmp: Comparison, path: str | os.PathLike, *, dpi: int = 110,
         z0 = cmp.window[0]
     zscale, zunit = time_unit(z1 - z0)
     rows = max(1, len(cmp.probes))
-    fig = Figure(figsize=(12.5, 1.3 + 2.2 * rows), dpi=dpi, layout="constrained")
-    FigureCanvasAgg(fig)
+    if fig is None:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        fig = Figure(figsize=(12.5, 1.3 + 2.2 * rows), dpi=dpi, layout="constrained")
+        FigureCanvasAgg(fig)
     axes = fig.subplots(rows, 2, squeeze=False, width_ratios=[2.3, 1.4])
     for k, p in enumerate(cmp.probes):
         yp, yn = np.asarray(res[p.probe]), np.asarray(ng.signals[p.ngspice_probe])
@@ -215,6 +242,7 @@ def plot_comparison(cmp: Comparison, path: str | os.PathLike, *, dpi: int = 110,
         az.set_title(f"mean {_eng(p.mean_pelcs, u)} / {_eng(p.mean_ngspice, u)}, ripple "
                      f"{_eng(p.ripple_pelcs, u)} / {_eng(p.ripple_ngspice, u)}",
                      loc="right", fontsize=8, color=color, pad=3)
+    axes[0, 0].legend(fontsize=8, loc="best")  # (pelcs solid, ngspice dashed)
     axes[-1, 0].set_xlabel(f"time [{tunit}]")
     axes[-1, 1].set_xlabel(f"time [{zunit}] (last periods)")
     name = Path(cmp.file).name
@@ -222,10 +250,7 @@ def plot_comparison(cmp: Comparison, path: str | os.PathLike, *, dpi: int = 110,
                  f"{_settings_line(cmp)}): "
                  f"{_summary(cmp).split(':')[0]}", fontsize=10,
                  color="black" if cmp.ok else "red")
-    out = Path(path)
-    with atomic_path(out) as tmp:
-        fig.savefig(tmp)
-    return out
+    return fig
 
 
 # ------------------------------------------------------------------------------------------

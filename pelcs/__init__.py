@@ -8,6 +8,8 @@ The Python API (see :mod:`pelcs.api`)::
     system = pelcs.formulate(circuit)
     res = pelcs.simulate(circuit, tstop="2m", probes=["v(out)", "i(L1)"])
     res.t, res["v(out)"]
+    orb = pelcs.orbit("converters/netlists/boost.cir")   # also check, continuation,
+    orb.multipliers, orb.to_pandas(), orb.plot()         # bifurcation, basins, sweep
 
 The import packages are ``netlist`` (grammar, parser, circuit model, formulation), ``lcs`` (the
 mathematics), ``converters``, ``ngspice_checks``; this package holds the version, the API, the
@@ -21,12 +23,27 @@ __version__ = "0.1.0"
 if TYPE_CHECKING:  # for type checkers and IDEs; at run time the names load lazily
     from lcs.notices import NonPassiveWarning
 
-    from .api import SimulationError, SimulationResult, ac, formulate, load, simulate
+    from .api import (
+        SimulationError,
+        SimulationResult,
+        ac,
+        basins,
+        bifurcation,
+        check,
+        continuation,
+        formulate,
+        load,
+        orbit,
+        simulate,
+        sweep,
+    )
 
 __all__ = ["NonPassiveWarning", "SimulationError", "SimulationResult", "__version__", "ac",
-           "formulate", "load", "simulate"]
+           "basins", "bifurcation", "check", "continuation", "formulate", "load", "orbit",
+           "simulate", "sweep"]
 
-_API = {"load", "formulate", "simulate", "ac", "SimulationError", "SimulationResult"}
+_API = {"load", "formulate", "simulate", "ac", "check", "orbit", "continuation",
+        "bifurcation", "basins", "sweep", "SimulationError", "SimulationResult"}
 
 
 def __getattr__(name: str):

@@ -17,6 +17,16 @@ kept by the bytes of its files (an edited file is read again) and the formulated
 the element values it depends on (not the independent sources'); each run still gives, bit
 for bit, what a fresh parse gives (docs/performance.md, "Many runs of one netlist").
 
+The analyses of the command line are functions of the same names and options, returning
+result objects with ``.to_pandas()``, ``.plot()`` and a short summary
+(:mod:`pelcs.api_analyses`)::
+
+    orb = pelcs.orbit("converters/netlists/boost.cir", param={"duty": 0.4})
+    orb.stability, orb.multipliers               # None when Newton did not converge
+    sw = pelcs.sweep("converters/netlists/buck.cir", param={"duty": (0.2, 0.8, 7)},
+                     measure=["mean(v(out))"])
+    sw.to_pandas(), sw.plot()
+
 Times accept SPICE text (``"5m"``, ``"0.2u"``) as well as numbers in seconds. Input errors
 raise :class:`netlist.errors.NetlistError`; a run that cannot continue raises
 :class:`lcs.results.SimulationError` whose ``.result`` holds everything up to the failure
@@ -33,7 +43,10 @@ from lcs.results import SimulationError, SimulationResult
 from netlist.circuit import Circuit
 from netlist.errors import Diagnostic, NetlistError
 
-__all__ = ["SimulationError", "SimulationResult", "ac", "formulate", "load", "simulate"]
+from .api_analyses import basins, bifurcation, check, continuation, orbit, sweep
+
+__all__ = ["SimulationError", "SimulationResult", "ac", "basins", "bifurcation", "check",
+           "continuation", "formulate", "load", "orbit", "simulate", "sweep"]
 
 Source = Circuit | str | os.PathLike
 

@@ -284,17 +284,29 @@ class BasinMap:
             )
 
     def plot(self, path: str | Path, title: str | None = None) -> None:
+        """Write :meth:`figure` to ``path`` (format from the extension)."""
+        fig = self.figure(title)
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=130)
+
+    def figure(self, title: str | None = None, fig=None):
         """Two panels: basins (one colour per attractor, sink grey, attractor cells black)
-        and the step number (periods to reach the attractor)."""
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        and the step number (periods to reach the attractor).
+
+        ``fig``: a matplotlib Figure or SubFigure to draw into (default a new Figure on an
+        Agg canvas, no pyplot). Returns the figure drawn into.
+        """
         from matplotlib.colors import ListedColormap
-        from matplotlib.figure import Figure
         from matplotlib.patches import Patch
 
         a0, a1 = self.grid.axes
         extent = (a1.lo, a1.hi, a0.lo, a0.hi)
-        fig = Figure(figsize=(11, 4.6), layout="constrained")
-        FigureCanvasAgg(fig)
+        if fig is None:
+            from matplotlib.backends.backend_agg import FigureCanvasAgg
+            from matplotlib.figure import Figure
+
+            fig = Figure(figsize=(11, 4.6), layout="constrained")
+            FigureCanvasAgg(fig)
         ax1, ax2 = fig.subplots(1, 2)
         ng = len(self.attractors)
         base = ["#bbbbbb"] + [c for _, c in zip(range(ng), _palette(ng), strict=False)]
@@ -327,8 +339,7 @@ class BasinMap:
         ax2.set_xlabel(xlabel)
         ax2.set_ylabel(ylabel)
         fit_title(ax2, "transient time")
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=130)
+        return fig
 
 
 def merge_touching_groups(scm: ScmResult, grid: CellGrid) -> ScmResult:

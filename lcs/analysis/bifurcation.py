@@ -153,14 +153,26 @@ class BifurcationDiagram:
 
     def plot(self, path: str | Path, probes: Sequence[str] | None = None,
              title: str | None = None) -> None:
-        """Scatter plot of the samples against the parameter, one panel per probe."""
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
+        """Write :meth:`figure` to ``path`` (format from the extension)."""
+        fig = self.figure(probes, title)
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=150)
 
+    def figure(self, probes: Sequence[str] | None = None, title: str | None = None,
+               fig=None):
+        """Scatter plot of the samples against the parameter, one panel per probe.
+
+        ``fig``: a matplotlib Figure or SubFigure to draw into (default a new Figure on an
+        Agg canvas, no pyplot). Returns the figure drawn into.
+        """
         names = list(probes) if probes else list(self.probes)
         cols = [list(self.probes).index(p) for p in names]
-        fig = Figure(figsize=(8, 2.6 * len(names) + 0.8), layout="constrained")
-        FigureCanvasAgg(fig)
+        if fig is None:
+            from matplotlib.backends.backend_agg import FigureCanvasAgg
+            from matplotlib.figure import Figure
+
+            fig = Figure(figsize=(8, 2.6 * len(names) + 0.8), layout="constrained")
+            FigureCanvasAgg(fig)
         colours = {"fixed": "k", "up": "tab:blue", "down": "tab:red"}
         # Marker area: fine for dense diagrams (300 x 100 points), visible for coarse ones.
         npts = sum(b.samples.shape[0] * b.samples.shape[1] for b in self.branches)
@@ -181,8 +193,7 @@ class BifurcationDiagram:
         axes[-1].set_xlabel(self.param_name)
         if title:
             axes[0].set_title(title)
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=150)
+        return fig
 
 
 def _sweep_task(task, report) -> list[tuple[np.ndarray, np.ndarray, bool, str]]:

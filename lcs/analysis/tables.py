@@ -233,11 +233,18 @@ class SweepTable:
             self.plot_sweep(path, title=title)
 
     def plot_sweep(self, path: str | Path, title: str | None = None) -> None:
-        """One panel per measurement against the first swept parameter; one line per value
-        of the other swept parameters."""
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
+        """Write :meth:`sweep_figure` to ``path`` (format from the extension)."""
+        fig = self.sweep_figure(title)
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=130)
 
+    def sweep_figure(self, title: str | None = None, fig=None):
+        """One panel per measurement against the first swept parameter; one line per value
+        of the other swept parameters.
+
+        ``fig``: a matplotlib Figure or SubFigure to draw into (default a new Figure on an
+        Agg canvas, no pyplot). Returns the figure drawn into.
+        """
         if not self.swept:
             raise ValueError("nothing swept: no parameter to plot against")
         x_name = self.swept[0]
@@ -245,8 +252,12 @@ class SweepTable:
         others = list(self.swept[1:])
         keys = [tuple(self.column(o)[i] for o in others) for i in range(len(self))]
         groups = list(dict.fromkeys(keys))
-        fig = Figure(figsize=(8, 2.6 * len(self.measures) + 0.8), layout="constrained")
-        FigureCanvasAgg(fig)
+        if fig is None:
+            from matplotlib.backends.backend_agg import FigureCanvasAgg
+            from matplotlib.figure import Figure
+
+            fig = Figure(figsize=(8, 2.6 * len(self.measures) + 0.8), layout="constrained")
+            FigureCanvasAgg(fig)
         axes = fig.subplots(len(self.measures), 1, sharex=True, squeeze=False)[:, 0]
         for ax, name in zip(axes, self.measures, strict=True):
             y = self.column(name)
@@ -266,8 +277,7 @@ class SweepTable:
                 ax.legend(fontsize="small", loc="best")
         axes[-1].set_xlabel(self._label(x_name))
         axes[0].set_title(_wrap(title or f"sweep of {', '.join(self.swept)}", 8, 12))
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=130)
+        return fig
 
     def histogram(self, path: str | Path, title: str | None = None, bins: int | None = None
                   ) -> None:
@@ -276,7 +286,7 @@ class SweepTable:
         with atomic_path(path) as tmp:
             fig.savefig(tmp, dpi=130)
 
-    def histogram_figure(self, title: str | None = None, bins: int | None = None):
+    def histogram_figure(self, title: str | None = None, bins: int | None = None, fig=None):
         """One histogram per measurement (and grid point) over the successful runs, with the
         mean, ±1 std and the nominal value marked.
 
@@ -306,8 +316,9 @@ class SweepTable:
         cols = n if points > 1 and n > 1 else (1 if len(panels) == 1 else 2)
         rows = (len(panels) + cols - 1) // cols
         width = 5.2 * cols
-        fig = Figure(figsize=(width, 3.1 * rows + 0.8), layout="constrained")
-        FigureCanvasAgg(fig)
+        if fig is None:  # (else the Figure or SubFigure given)
+            fig = Figure(figsize=(width, 3.1 * rows + 0.8), layout="constrained")
+            FigureCanvasAgg(fig)
         axes = fig.subplots(rows, cols, squeeze=False).ravel()
         colours = ["tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown",
                    "tab:pink", "tab:olive", "tab:cyan", "tab:gray", "navy", "teal", "maroon"]

@@ -50,6 +50,17 @@ class FrequencyResponse:
     margins: LoopMargins | None = None
     sampled: object | None = None
 
+    def __repr__(self) -> str:
+        # A few lines, not the arrays, the orbit and the sampled-data model.
+        f = np.asarray(self.freq)
+        span = f"{f.min():.4g} .. {f.max():.4g} Hz" if f.size else "no frequency"
+        lines = [f"<FrequencyResponse: {f.size} frequencies, {span}; inject {self.inject}; "
+                 f"probes {', '.join(self.probes)}; method {self.method}, "
+                 f"T = {self.period:.6g} s>"]
+        if self.margins is not None:
+            lines.append(f"  margins: {self.margins}"[:200])
+        return "\n".join(lines)
+
     @property
     def model(self):
         """The sampled-data model as a discrete-time python-control ``StateSpace`` (``dt`` =

@@ -73,7 +73,25 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from lcs.analysis.basins import cell_basins
+    setup = prepare(args)
+    factory, m, out, plot = setup["factory"], setup["m"], setup["out"], setup["plot"]
+    with deferred_interrupts(interrupt_message("basins", "cells")):
+        bm = compute(args, setup)
+        title = factory.circuit().title
+        written = write_outputs("basins", (
+            (out, bm.to_npz),
+            (plot, lambda path: bm.plot(path,
+                                        title=f"basins: {title or Path(args.file).name}")),
+        ))
+        print(summary(bm, args.file, title, m, written))
+        not_written = written.exit_status()
+        status = interrupted_status(args.file, bm.notes, "the basins were interrupted",
+                                    written, not_written)
+        return not_written if status is None else status
+
+
+def prepare(args: argparse.Namespace) -> dict:
+    """The parsed options, the factory and the map (input errors raised here)."""
     from netlist.parser import parse_overrides
     from netlist.sweep import parse_grid
 
@@ -92,23 +110,22 @@ def run(args: argparse.Namespace) -> int:
     if axes[0][0].lower() == axes[1][0].lower():
         raise usage_error("basins", "--grid: the two axes must be different states")
     base = initial_state(args, m)
-    with deferred_interrupts(interrupt_message("basins", "cells")):
-        with scheduler_errors("basins"):
-            bm = cell_basins(factory, axes, param=None, base_state=base,
-                             merge_adjacent=not args.no_merge, workers=workers,
-                             progress=not args.no_progress, scheduler=args.scheduler)
-        bm.notes[:0] = period_notes(m)
-        title = factory.circuit().title
-        written = write_outputs("basins", (
-            (out, bm.to_npz),
-            (plot, lambda path: bm.plot(path,
-                                        title=f"basins: {title or Path(args.file).name}")),
-        ))
-        print(summary(bm, args.file, title, m, written))
-        not_written = written.exit_status()
-        status = interrupted_status(args.file, bm.notes, "the basins were interrupted",
-                                    written, not_written)
-        return not_written if status is None else status
+    return dict(factory=factory, m=m, axes=axes, workers=workers, base=base, out=out,
+                plot=plot)
+
+
+def compute(args: argparse.Namespace, setup: dict):
+    """The :class:`~lcs.analysis.basins.BasinMap` of :func:`prepare`'s setup, its notes
+    starting with the period's (shared with :func:`pelcs.basins`)."""
+    from lcs.analysis.basins import cell_basins
+
+    with scheduler_errors("basins"):
+        bm = cell_basins(setup["factory"], setup["axes"], param=None,
+                         base_state=setup["base"], merge_adjacent=not args.no_merge,
+                         workers=setup["workers"], progress=not args.no_progress,
+                         scheduler=args.scheduler)
+    bm.notes[:0] = period_notes(setup["m"])
+    return bm
 
 
 def summary(bm, file: str, title: str, m, written: list[str]) -> str:

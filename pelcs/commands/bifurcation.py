@@ -120,7 +120,34 @@ def check_output(command: str, option: str, path: str | None, suffixes: tuple[st
 
 
 def run(args: argparse.Namespace) -> int:
-    from lcs.analysis.bifurcation import bifurcation_diagram
+    setup = prepare(args)
+    factory, m, circuit = setup["factory"], setup["m"], setup["circuit"]
+    out, plot = setup["out"], setup["plot"]
+    with deferred_interrupts(interrupt_message("bifurcation", "values")):
+        diagram = compute(args, setup)
+        stopped = interrupt.requested() is not None
+        if plot is not None and not any(b.values.size for b in diagram.branches):
+            diagram.notes.append("no plot written: no value finished")
+        written = write_outputs("bifurcation", (
+            (out, diagram.save),
+            # (nothing to plot when an interrupt came before any value finished)
+            (plot if any(b.values.size for b in diagram.branches) else None,
+             lambda path: diagram.plot(path, title=circuit.title or Path(args.file).name)),
+        ))
+        confirmations = confirm_runs(diagram, factory) if args.confirm and not stopped \
+            else None
+        if args.confirm and stopped:
+            diagram.notes.append("--confirm skipped: the run was interrupted")
+        print(summary(diagram, args.file, circuit.title, m, written, confirmations))
+        not_written = written.exit_status()
+        status = interrupted_status(args.file, diagram.notes, "the diagram was interrupted",
+                                    written, not_written)
+        return not_written if status is None else status
+
+
+def prepare(args: argparse.Namespace) -> dict:
+    """The parsed options of a diagram, its factory, the map and circuit at the first value
+    (input errors raised here, before any run)."""
     from netlist.sweep import split_params
     from netlist.transient import check_probes
 
@@ -146,33 +173,26 @@ def run(args: argparse.Namespace) -> int:
         m.system.outputs(m.system.key(None), probes)
     x0 = initial_state(args, m)
     directions = ("up", "down") if args.direction == "both" else (args.direction,)
-    with deferred_interrupts(interrupt_message("bifurcation", "values")):
-        with scheduler_errors("bifurcation"):
-            diagram = bifurcation_diagram(
-                factory, values, x0=x0, transient=transient, record=record, probes=probes,
-                follow=args.follow, directions=directions, workers=workers, chunks=chunks,
-                progress=not args.no_progress, param_name=rng.name,
-                scheduler=args.scheduler,
-            )
-        diagram.notes[:0] = period_notes(m)
-        stopped = interrupt.requested() is not None
-        if plot is not None and not any(b.values.size for b in diagram.branches):
-            diagram.notes.append("no plot written: no value finished")
-        written = write_outputs("bifurcation", (
-            (out, diagram.save),
-            # (nothing to plot when an interrupt came before any value finished)
-            (plot if any(b.values.size for b in diagram.branches) else None,
-             lambda path: diagram.plot(path, title=circuit.title or Path(args.file).name)),
-        ))
-        confirmations = confirm_runs(diagram, factory) if args.confirm and not stopped \
-            else None
-        if args.confirm and stopped:
-            diagram.notes.append("--confirm skipped: the run was interrupted")
-        print(summary(diagram, args.file, circuit.title, m, written, confirmations))
-        not_written = written.exit_status()
-        status = interrupted_status(args.file, diagram.notes, "the diagram was interrupted",
-                                    written, not_written)
-        return not_written if status is None else status
+    return dict(rng=rng, values=values, factory=factory, m=m, circuit=circuit, x0=x0,
+                probes=probes, transient=transient, record=record, workers=workers,
+                chunks=chunks, directions=directions, out=out, plot=plot)
+
+
+def compute(args: argparse.Namespace, setup: dict):
+    """The :class:`~lcs.analysis.bifurcation.BifurcationDiagram` of :func:`prepare`'s setup,
+    its notes starting with the period's (shared with :func:`pelcs.bifurcation`)."""
+    from lcs.analysis.bifurcation import bifurcation_diagram
+
+    with scheduler_errors("bifurcation"):
+        diagram = bifurcation_diagram(
+            setup["factory"], setup["values"], x0=setup["x0"], transient=setup["transient"],
+            record=setup["record"], probes=setup["probes"], follow=args.follow,
+            directions=setup["directions"], workers=setup["workers"],
+            chunks=setup["chunks"], progress=not args.no_progress,
+            param_name=setup["rng"].name, scheduler=args.scheduler,
+        )
+    diagram.notes[:0] = period_notes(setup["m"])
+    return diagram
 
 
 def period_runs(values: np.ndarray, samples: np.ndarray, ok: np.ndarray,

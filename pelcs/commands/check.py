@@ -88,6 +88,41 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
+def compare(args: argparse.Namespace):
+    """The :class:`~ngspice_checks.comparison.Comparison` of the parsed options (shared with
+    :func:`pelcs.check`).
+
+    Raises
+    ------
+    NetlistError
+        Input errors, or a netlist construct not supported.
+    NgspiceUnavailable, NgspiceFailed, CheckError
+        The comparison could not be made (exit status 3 of the command).
+    """
+    from netlist.parser import parse_overrides
+    from ngspice_checks.compare import compare as _compare
+
+    tstop = _number("--tstop", args.tstop, ("", "s"))
+    period = _number("--period", args.period, ("", "s"))
+    timeout = _number("--timeout", args.timeout, ("", "s"))
+    for name, value in (("--tstop", tstop), ("--period", period), ("--timeout", timeout)):
+        if value is not None and not value > 0:
+            raise _usage_error(f"{name} must be positive", f"e.g. {name} 5m")
+    if not Path(args.file).is_file():
+        raise _usage_error(f"cannot read {args.file!r}: no such file",
+                           "give the path of a netlist file")
+    params = parse_overrides(args.param) or None
+    pelcs_params = parse_overrides(args.pelcs_param) or None
+    probes = split_probes(args.probe) or None
+    try:
+        return _compare(args.file, probes, params=params, pelcs_params=pelcs_params,
+                        tstop=tstop, period=period, timeout=timeout, devices=args.devices)
+    except NotImplementedError as exc:
+        raise NetlistError(Diagnostic(message=f"not supported: {exc}",
+                                      hint="see docs/simulation.md"),
+                           file=args.file) from exc
+
+
 def _usage_error(message: str, hint: str = "") -> NetlistError:
     return NetlistError(Diagnostic(message=message, hint=hint), file="pelcs check")
 
@@ -119,28 +154,13 @@ def _term_as_interrupt():
 
 
 def run(args: argparse.Namespace) -> int:
-    from netlist.parser import parse_overrides
-    from ngspice_checks.compare import CheckError, compare
+    from ngspice_checks.compare import CheckError
     from ngspice_checks.report import format_table, to_json, write_report
     from ngspice_checks.runner import NgspiceFailed, NgspiceUnavailable
 
-    tstop = _number("--tstop", args.tstop, ("", "s"))
-    period = _number("--period", args.period, ("", "s"))
-    timeout = _number("--timeout", args.timeout, ("", "s"))
-    for name, value in (("--tstop", tstop), ("--period", period), ("--timeout", timeout)):
-        if value is not None and not value > 0:
-            raise _usage_error(f"{name} must be positive", f"e.g. {name} 5m")
-    if not Path(args.file).is_file():
-        raise _usage_error(f"cannot read {args.file!r}: no such file",
-                           "give the path of a netlist file")
-    params = parse_overrides(args.param) or None
-    pelcs_params = parse_overrides(args.pelcs_param) or None
-    probes = split_probes(args.probe) or None
-
     try:
         with _term_as_interrupt():
-            cmp = compare(args.file, probes, params=params, pelcs_params=pelcs_params,
-                          tstop=tstop, period=period, timeout=timeout, devices=args.devices)
+            cmp = compare(args)
     except NgspiceUnavailable as exc:
         print(f"{args.file}: error: ngspice is not available, nothing was compared: {exc}",
               file=sys.stderr)
@@ -156,10 +176,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"{args.file}: interrupted during the ngspice and pelcs runs: nothing was "
               "compared and no report was written", file=sys.stderr)
         return EXIT_INTERRUPTED
-    except NotImplementedError as exc:
-        raise NetlistError(Diagnostic(message=f"not supported: {exc}",
-                                      hint="see docs/simulation.md"),
-                           file=args.file) from exc
 
     written = []
     if args.report:

@@ -94,8 +94,31 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from lcs.analysis.continuation import continue_orbit, continue_orbits
     from lcs.analysis.maps import MapError
+
+    setup = prepare(args)
+    if args.start:
+        report, results = compute_many(args, setup)
+        if args.json:
+            print(dumps(report, indent=1))
+        else:
+            print(format_many(report, Path(args.file).name))
+        return 0 if any(r.complete for r in results) else EXIT_FAILED
+    try:
+        report, res = compute(args, setup)
+    except MapError as exc:
+        print(f"{args.file}: error: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    if args.json:
+        print(dumps(report, indent=1))
+    else:
+        print(format_continuation(report, Path(args.file).name))
+    return 0 if res.complete else EXIT_FAILED
+
+
+def prepare(args: argparse.Namespace) -> dict:
+    """The parsed options of a continuation, its factory and the map at START (input errors
+    raised here, before any run)."""
     from netlist.sweep import parse_value, split_params
 
     ranges, fixed = split_params(args.param)
@@ -117,35 +140,31 @@ def run(args: argparse.Namespace) -> int:
               "meaning of --tol here) is --locate-tol", file=sys.stderr)
     m = factory(rng.start)  # validates the netlist and the parameter name here
     x0 = initial_state(args, m)
-    if args.start:
-        return run_many(args, factory, m, rng, x0, steps=steps, order=order,
-                        transient=transient, tol=tol, newton_tol=newton_tol)
-    try:
-        if args.scheduler:  # one continuation, on a worker of the cluster
-            with scheduler_errors("continue"):
-                res, = continue_orbits(factory, rng.start, rng.stop, [x0], steps=steps,
-                                       order=order, transient=transient, tol=tol,
-                                       newton_tol=newton_tol,
-                                       locate=not args.no_locate, scheduler=args.scheduler,
-                                       progress=not args.no_progress, param_name=rng.name,
-                                       raise_errors=True)
-        else:
-            res = continue_orbit(factory, rng.start, rng.stop, steps=steps, order=order,
-                                 x0=x0, transient=transient, tol=tol, newton_tol=newton_tol,
-                                 locate=not args.no_locate, progress=not args.no_progress,
-                                 param_name=rng.name)
-    except MapError as exc:
-        print(f"{args.file}: error: {exc}", file=sys.stderr)
-        return EXIT_FAILED
-    report = {"file": args.file, "title": factory.circuit(rng.start).title,
-              **map_header(m, factory), "order": order, "start": rng.start, "stop": rng.stop,
-              "steps": steps, **res.to_dict()}
-    report["notes"] = period_notes(m) + list(report.get("notes", []))
-    if args.json:
-        print(dumps(report, indent=1))
+    return dict(factory=factory, m=m, rng=rng, x0=x0, steps=steps, order=order,
+                transient=transient, tol=tol, newton_tol=newton_tol)
+
+
+def compute(args: argparse.Namespace, setup: dict) -> tuple[dict, object]:
+    """One continuation (no ``--start``): ``(report, result)``, the report being what
+    ``--json`` prints (shared with :func:`pelcs.continuation`). Raises MapError when the map
+    fails."""
+    from lcs.analysis.continuation import continue_orbit, continue_orbits
+
+    factory, m, rng, x0 = setup["factory"], setup["m"], setup["rng"], setup["x0"]
+    kw = dict(steps=setup["steps"], order=setup["order"], transient=setup["transient"],
+              tol=setup["tol"], newton_tol=setup["newton_tol"], locate=not args.no_locate,
+              progress=not args.no_progress, param_name=rng.name)
+    if args.scheduler:  # one continuation, on a worker of the cluster
+        with scheduler_errors("continue"):
+            res, = continue_orbits(factory, rng.start, rng.stop, [x0],
+                                   scheduler=args.scheduler, raise_errors=True, **kw)
     else:
-        print(format_continuation(report, Path(args.file).name))
-    return 0 if res.complete else EXIT_FAILED
+        res = continue_orbit(factory, rng.start, rng.stop, x0=x0, **kw)
+    report = {"file": args.file, "title": factory.circuit(rng.start).title,
+              **map_header(m, factory), "order": setup["order"], "start": rng.start,
+              "stop": rng.stop, "steps": setup["steps"], **res.to_dict()}
+    report["notes"] = period_notes(m) + list(report.get("notes", []))
+    return report, res
 
 
 def continuation_steps(steps_option: str | None, rng) -> int:
@@ -165,15 +184,15 @@ def continuation_steps(steps_option: str | None, rng) -> int:
     return (count or options.RANGE_COUNTS["continue"]) - 1
 
 
-def run_many(args: argparse.Namespace, factory, m, rng, x0, **kw) -> int:
-    """``--start``: continuations from every starting state, in parallel."""
+def compute_many(args: argparse.Namespace, setup: dict) -> tuple[dict, list]:
+    """``--start``: continuations from every starting state, in parallel: ``(report,
+    results)``, the report being what ``--json`` prints."""
     import numpy as np
 
     from lcs.analysis.continuation import continue_orbits, same_orbit
     from netlist.sweep import parse_starts
 
-    from .orbit import positive_int
-
+    factory, m, rng, x0 = setup["factory"], setup["m"], setup["rng"], setup["x0"]
     starts = [x0]
     for text in args.start:
         starts += parse_starts(text, m.state_names[: np.size(x0)], x0)
@@ -183,8 +202,8 @@ def run_many(args: argparse.Namespace, factory, m, rng, x0, **kw) -> int:
     with scheduler_errors("continue"):
         results = continue_orbits(
             factory, rng.start, rng.stop, starts, workers=workers, scheduler=args.scheduler,
-            progress=not args.no_progress, steps=kw["steps"], order=kw["order"],
-            transient=kw["transient"], tol=kw["tol"], newton_tol=kw["newton_tol"],
+            progress=not args.no_progress, steps=setup["steps"], order=setup["order"],
+            transient=setup["transient"], tol=setup["tol"], newton_tol=setup["newton_tol"],
             locate=not args.no_locate,
             param_name=rng.name)
     conts = []
@@ -199,26 +218,27 @@ def run_many(args: argparse.Namespace, factory, m, rng, x0, **kw) -> int:
                     break
         conts.append({"x0": [float(v) for v in x], "same_as": same, **res.to_dict()})
     report = {"file": args.file, "title": factory.circuit(rng.start).title,
-              **map_header(m, factory), "order": kw["order"], "start": rng.start,
-              "stop": rng.stop, "steps": kw["steps"], "states": list(m.state_names),
+              **map_header(m, factory), "order": setup["order"], "start": rng.start,
+              "stop": rng.stop, "steps": setup["steps"], "states": list(m.state_names),
               "continuations": conts}
-    if args.json:
-        print(dumps(report, indent=1))
-    else:
-        name = Path(args.file).name
-        blocks = [f"{name}: {report['title']}".rstrip(": "),
-                  f"{len(starts)} continuation(s) from different starting states"]
-        for i, c in enumerate(conts):
-            start = ", ".join(f"{s} = {v:.6g}" for s, v in zip(report["states"], c["x0"],
-                                                                strict=False))
-            head = f"start {i + 1} ({start})"
-            if c["same_as"] is not None:
-                blocks.append(f"{head}: the same orbit as start {c['same_as'] + 1}")
-                continue
-            blocks.append(f"{head}:")
-            blocks.append(format_continuation({**report, **c}, name).split("\n", 1)[1])
-        print("\n".join(blocks))
-    return 0 if any(r.complete for r in results) else EXIT_FAILED
+    return report, results
+
+
+def format_many(report: dict, name: str) -> str:
+    """Text report of the continuations from several starting states."""
+    conts = report["continuations"]
+    blocks = [f"{name}: {report['title']}".rstrip(": "),
+              f"{len(conts)} continuation(s) from different starting states"]
+    for i, c in enumerate(conts):
+        start = ", ".join(f"{s} = {v:.6g}" for s, v in zip(report["states"], c["x0"],
+                                                            strict=False))
+        head = f"start {i + 1} ({start})"
+        if c["same_as"] is not None:
+            blocks.append(f"{head}: the same orbit as start {c['same_as'] + 1}")
+            continue
+        blocks.append(f"{head}:")
+        blocks.append(format_continuation({**report, **c}, name).split("\n", 1)[1])
+    return "\n".join(blocks)
 
 
 def format_continuation(r: dict, name: str) -> str:

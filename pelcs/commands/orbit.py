@@ -184,6 +184,31 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from lcs.analysis.maps import MapError
+
+    try:
+        report, orbit = compute(args)
+    except MapError as exc:
+        print(f"{args.file}: error: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    if args.json:
+        print(dumps(report, indent=1))
+    else:
+        print(format_orbit(report, Path(args.file).name))
+    return 0 if orbit.converged else EXIT_FAILED
+
+
+def compute(args: argparse.Namespace) -> tuple[dict, object]:
+    """The orbit of the parsed options: ``(report, orbit)``, the report being what
+    ``--json`` prints and ``orbit`` the :class:`~lcs.analysis.orbits.Orbit` (shared with
+    :func:`pelcs.orbit`).
+
+    Raises
+    ------
+    NetlistError
+        Input errors.
+    MapError
+        The map failed.
+    """
     from lcs.analysis.orbits import find_orbit
     from netlist.parser import parse_overrides
     from netlist.sweep import parse_value
@@ -200,19 +225,11 @@ def run(args: argparse.Namespace) -> int:
     x0 = initial_state(args, m)
     if len(x0) < m.dim:  # event map: the phase starts at the sampling phase
         x0 = np.concatenate([x0, [0.0]])
-    try:
-        orbit = find_orbit(m, x0, order, transient=transient, tol=tol)
-    except MapError as exc:
-        print(f"{args.file}: error: {exc}", file=sys.stderr)
-        return EXIT_FAILED
+    orbit = find_orbit(m, x0, order, transient=transient, tol=tol)
     circuit_title = factory.circuit().title
     report = {"file": args.file, "title": circuit_title, **map_header(m, factory),
               **orbit.to_dict(), "notes": list(m.notes) + list(orbit.notes)}
-    if args.json:
-        print(dumps(report, indent=1))
-    else:
-        print(format_orbit(report, Path(args.file).name))
-    return 0 if orbit.converged else EXIT_FAILED
+    return report, orbit
 
 
 def format_orbit(r: dict, name: str) -> str:

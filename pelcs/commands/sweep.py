@@ -55,6 +55,7 @@ errors; 3 every run failed; 130 interrupted.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
 from pathlib import Path
@@ -126,18 +127,26 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    try:
+    with labelled_errors():
         return _run(args)
+
+
+@contextlib.contextmanager
+def labelled_errors():
+    """The shared option parsers (netlist.sweep, netlist.measure, simulate's numbers) name
+    another command or the tool only: every error of this command starts "pelcs sweep:
+    error:"."""
+    try:
+        yield
     except NetlistError as exc:
-        # The shared option parsers (netlist.sweep, netlist.measure, simulate's numbers)
-        # name another command or the tool only: every error of this command starts
-        # "pelcs sweep: error:".
         if exc.file in ("pelcs", "pelcs simulate"):
             exc.file = "pelcs sweep"
         raise
 
 
-def _run(args: argparse.Namespace) -> int:
+def prepare(args: argparse.Namespace) -> dict:
+    """The parsed and checked options of a sweep (input errors raised here, before any
+    run)."""
     from lcs.analysis.tables import MAX_HISTOGRAM_POINTS
     from netlist.param_sweep import parse_sweep_param
     from netlist.parser import parse_file
@@ -191,30 +200,41 @@ def _run(args: argparse.Namespace) -> int:
     for option, path in (("-o", out), ("--plot", plot)):
         if path is not None:
             _check_writable(option, path)
+    return dict(out=out, plot=plot, title=circuit.title, params=params, runs=runs, seed=seed,
+                workers=workers, theta=theta, tstop=tstop, step=step, period=period)
+
+
+def _run(args: argparse.Namespace) -> int:
+    setup = prepare(args)
     with deferred_interrupts(interrupt_message("sweep", "runs")):
-        return _sweep(args, out, plot, circuit.title, params, runs, seed, workers, theta,
-                      tstop, step, period)
+        return _sweep(args, setup)
 
 
-
-def _sweep(args, out, plot, title, params, runs, seed, workers, theta, tstop, step,
-           period) -> int:
-    """The runs, the files and the summary; the exit status."""
+def compute(args: argparse.Namespace, setup: dict):
+    """The :class:`~lcs.analysis.tables.SweepTable` of :func:`prepare`'s setup (shared with
+    :func:`pelcs.sweep`)."""
     from netlist.param_sweep import run_sweep
 
     with scheduler_errors("sweep"):
-        table = run_sweep(
-            args.file, args.measure, params=params, tolerances=args.tolerance, runs=runs,
-            seed=seed, distribution=args.distribution, tstop=tstop, step=step, theta=theta,
-            period=period, workers=workers, scheduler=args.scheduler,
+        return run_sweep(
+            args.file, args.measure, params=setup["params"], tolerances=args.tolerance,
+            runs=setup["runs"], seed=setup["seed"], distribution=args.distribution,
+            tstop=setup["tstop"], step=setup["step"], theta=setup["theta"],
+            period=setup["period"], workers=setup["workers"], scheduler=args.scheduler,
             progress=not args.no_progress)
+
+
+def _sweep(args, setup: dict) -> int:
+    """The runs, the files and the summary; the exit status."""
+    out, plot, title = setup["out"], setup["plot"], setup["title"]
+    table = compute(args, setup)
     if plot is not None and not len(table):
         table.notes.append("no plot written: no run finished")
     written = write_outputs("sweep", (
         (out, table.to_csv),
         # (nothing to plot when an interrupt came before any run finished)
         (plot if len(table) else None,
-         lambda path: table.plot(path, title=_plot_title(table, title, args.file))),
+         lambda path: table.plot(path, title=plot_title(table, title, args.file))),
     ))
     if args.json:
         print(dumps(_results(table, args.file, title, written), indent=1))
@@ -255,7 +275,7 @@ def _check_writable(option: str, path: Path) -> None:
                           "choose a writable file") from None
 
 
-def _plot_title(table, title: str, file: str) -> str:
+def plot_title(table, title: str, file: str) -> str:
     name = title or Path(file).name
     if table.runs:
         return f"{name}: Monte Carlo, {table.runs} runs ({table.distribution}, seed {table.seed})"
