@@ -10,6 +10,22 @@ import pytest
 os.environ["PELCS_AOT_BUILD"] = "0"
 
 
+# The modules that compile kernels with numba or build the ahead-of-time module themselves
+# (marked ``numba``: ``-m 'not numba'`` leaves them out on a machine without a compiler).
+_NUMBA_MODULES = {"test_aot", "test_warmup", "test_install"}
+
+
+def pytest_collection_modifyitems(config, items):
+    """Markers from what a test uses: ``ngspice`` for every test that takes the ``ngspice``
+    fixture (``-m 'not ngspice'`` runs the rest where ngspice is missing), ``numba`` for the
+    modules of :data:`_NUMBA_MODULES`."""
+    for item in items:
+        if "ngspice" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.ngspice)
+        if item.module.__name__.rsplit(".", 1)[-1] in _NUMBA_MODULES:
+            item.add_marker(pytest.mark.numba)
+
+
 @pytest.fixture(scope="session")
 def ngspice() -> str:
     """The ngspice version; skips the test loudly when ngspice/libngspice is missing, and
