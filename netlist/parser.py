@@ -42,6 +42,7 @@ import re
 from collections.abc import Mapping
 from pathlib import Path
 
+from .capacitor_loops import reduce_capacitor_loops
 from .circuit import Circuit
 from .dialect import hierarchical_name, node_name
 from .errors import Diagnostic, NetlistError
@@ -92,7 +93,8 @@ def parse_string(text: str, file: str = "<string>",
     params = params or {}
     if "\x00" in text:
         _decode(text.encode("utf-8", errors="surrogatepass"), file)
-    return _idealised(_build(_deck(text, file, None, params, reuse), params, thresholds, reuse))
+    return _idealised(reduce_capacitor_loops(
+        _build(_deck(text, file, None, params, reuse), params, thresholds, reuse)))
 
 
 def parse_file(path: str | os.PathLike, params: dict[str, float] | None = None,
@@ -119,8 +121,8 @@ def parse_file(path: str | os.PathLike, params: dict[str, float] | None = None,
     display = os.fspath(path)
     p = Path(display)
     text = _decode(_read_bytes(p, display, None), display)
-    return _idealised(_build(_deck(text, display, p, params, reuse), params, thresholds,
-                             reuse))
+    return _idealised(reduce_capacitor_loops(
+        _build(_deck(text, display, p, params, reuse), params, thresholds, reuse)))
 
 
 def _build(deck: Deck, params: dict[str, float], thresholds, reuse: bool) -> Circuit:
