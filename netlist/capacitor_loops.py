@@ -38,9 +38,10 @@ from __future__ import annotations
 from dataclasses import replace
 
 from .circuit import GROUND, Capacitor, Circuit, Element, Vcvs, VoltageSource
+from .errors import Diagnostic
 from .topology import UnionFind, find_loop
 
-__all__ = ["reduce_capacitor_loops"]
+__all__ = ["reduce_capacitor_loops", "reduced_probe"]
 
 
 def _initial_voltage(el: Capacitor, ics: dict[str, float]) -> float:
@@ -171,3 +172,16 @@ def reduce_capacitor_loops(circuit: Circuit) -> Circuit:
         elif el.key not in gone:
             elements.append(el)
     return replace(circuit, elements=elements, notes=notes, loop_capacitors=loop_capacitors)
+
+
+def reduced_probe(circuit: Circuit, probe: str, kind: str, key: str) -> Diagnostic:
+    """The error of a probe ``v(C1)`` or ``i(C1)`` (``kind`` "v" or "i") of a capacitor
+    ``key`` that :func:`reduce_capacitor_loops` reduced: what to probe instead."""
+    name, (n1, n2), into = circuit.loop_capacitors[key]
+    hint = f"probe v({n1},{n2}), the voltage of {name}"
+    if kind != "v":
+        hint += (f" (its own current is not kept; i({into}) is their current out of node "
+                 f"{circuit.element(into).nodes[0]}, summed)")
+    return Diagnostic(message=f"probe {probe.strip()!r}: {name} is in a loop with voltage "
+                              f"sources, reduced with the others to one capacitor, {into}",
+                      hint=hint)

@@ -39,6 +39,7 @@ from lcs.moreau import MoreauOptions, simulate
 from lcs.results import SimulationResult
 from lcs.signals import Dc, Signal, resolve
 
+from .capacitor_loops import reduced_probe
 from .circuit import (
     GROUND,
     Capacitor,
@@ -401,15 +402,7 @@ def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
         elif m:
             kind, a, b = m.group(1).lower(), m.group(2).lower(), m.group(3)
             if b is None and a in circuit.loop_capacitors and a not in nodes | capacitors:
-                name, (n1, n2), into = circuit.loop_capacitors[a]
-                raise NetlistError([Diagnostic(
-                    message=f"probe {probe.strip()!r}: {name} is in a loop with voltage "
-                            f"sources, reduced with the others to one capacitor, {into}",
-                    hint=f"probe v({n1},{n2}), the voltage of {name}" + (
-                        "" if kind == "v" else
-                        f" (its own current is not kept; i({into}) is their current out of "
-                        f"node {circuit.element(into).nodes[0]}, summed)"))],
-                    file=circuit.file)
+                raise NetlistError([reduced_probe(circuit, probe, kind, a)], file=circuit.file)
             if kind == "v":
                 ok = (a in nodes and (b is None or b.lower() in nodes)) or (
                     b is None and a in capacitors)
