@@ -78,6 +78,11 @@ def regularise_inductor_cutsets(circuit: Circuit) -> Circuit:
     groups = _groups(circuit)
     if not groups:
         return circuit
+    uf = UnionFind()
+    for el in circuit.elements:
+        if isinstance(el, VoltageSource):
+            uf.union(*el.nodes[:2])
+    roots = uf.roots()
     used = {el.key for el in circuit.elements}
     nodes_used = set(circuit.nodes)
     notes = list(circuit.notes)
@@ -105,9 +110,10 @@ def regularise_inductor_cutsets(circuit: Circuit) -> Circuit:
         if not terms:  # every inductor from a0 to b0: in parallel, v(a0) = v(b0)
             added.append(Vcvs(_unique(f"E{base}_1", used), (a0, b0),
                               location=ind[0][0].location, control=(b0, b0), gain=0.0))
+        group = sorted(n for n, r in roots.items() if r == roots[ind[0][1]])
         text = (f"{', '.join(names)}: the only branches from the voltage sources' floating "
-                f"node{'s' if len({a for _, a, _ in ind}) > 1 else ''} "
-                f"{', '.join(sorted({a for _, a, _ in ind}))}: Kirchhoff's current law makes "
+                f"nodes {', '.join(group[:8])}{', ...' if len(group) > 8 else ''}: "
+                "Kirchhoff's current law makes "
                 "their currents sum to zero and sets those nodes' potential (the "
                 "1/L-weighted mean that keeps the sum's derivative at zero), held there by "
                 "E sources that carry no current")
