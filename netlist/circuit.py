@@ -208,6 +208,9 @@ class Circuit:
     notes: list = field(default_factory=list, compare=False)
     # macro-model subcircuits replaced by ideal elements: name -> definition text (ngspice)
     subckt_texts: dict = field(default_factory=dict, compare=False)
+    # capacitors in a loop with voltage sources, reduced to one state each
+    # (netlist.capacitor_loops): lower-case name -> (name, its nodes, the capacitor for them)
+    loop_capacitors: dict = field(default_factory=dict, compare=False)
     # .step param lines: (parameter, values), one sweep axis each (run by pelcs sweep)
     steps: list[tuple[str, tuple[float, ...]]] = field(default_factory=list)
     file: str = "<string>"

@@ -36,6 +36,10 @@ more diodes a normal-tree assignment is tried and then improved greedily.
 Degenerate modes (a loop of capacitors / voltage sources / closed switches / E, H sources, a
 cutset of inductors / current sources / F, G sources, ``k = 1`` coupling) are rejected with a
 :class:`~netlist.errors.NetlistError` that names the elements and the switch configuration.
+Two such loops and cutsets never reach it, made regular when the netlist is read: capacitors
+from one node to nodes that voltage sources join (:mod:`netlist.capacitor_loops`, one state
+for them) and inductors that are the only branches from a floating group of voltage sources
+(:mod:`netlist.inductor_cutsets`, the group's potential held by E sources).
 One cutset is not degenerate: an uncoupled inductor that no other branch parallels in a mode
 carries no current there. In every mode when nothing else joins its terminals
 (:func:`netlist.reductions.open_inductors`, e.g. one end unconnected); in the modes whose open

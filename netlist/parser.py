@@ -42,11 +42,13 @@ import re
 from collections.abc import Mapping
 from pathlib import Path
 
+from .capacitor_loops import reduce_capacitor_loops
 from .circuit import Circuit
 from .dialect import hierarchical_name, node_name
 from .errors import Diagnostic, NetlistError
 from .expressions import ExpressionError, parse_expression
 from .flatten import build_circuit, independent_problems
+from .inductor_cutsets import regularise_inductor_cutsets
 from .netlist_bytes import decode as _decode
 from .netlist_bytes import read_bytes as _read_bytes
 from .rawdeck import Deck, Statement
@@ -92,7 +94,8 @@ def parse_string(text: str, file: str = "<string>",
     params = params or {}
     if "\x00" in text:
         _decode(text.encode("utf-8", errors="surrogatepass"), file)
-    return _idealised(_build(_deck(text, file, None, params, reuse), params, thresholds, reuse))
+    return _idealised(_loops_and_cutsets(
+        _build(_deck(text, file, None, params, reuse), params, thresholds, reuse)))
 
 
 def parse_file(path: str | os.PathLike, params: dict[str, float] | None = None,
@@ -119,8 +122,8 @@ def parse_file(path: str | os.PathLike, params: dict[str, float] | None = None,
     display = os.fspath(path)
     p = Path(display)
     text = _decode(_read_bytes(p, display, None), display)
-    return _idealised(_build(_deck(text, display, p, params, reuse), params, thresholds,
-                             reuse))
+    return _idealised(_loops_and_cutsets(
+        _build(_deck(text, display, p, params, reuse), params, thresholds, reuse)))
 
 
 def _build(deck: Deck, params: dict[str, float], thresholds, reuse: bool) -> Circuit:
@@ -238,6 +241,13 @@ def load_source(path_or_text: str | os.PathLike, params: Mapping[str, float | st
 def is_pyspice_circuit(obj) -> bool:
     """A PySpice ``Circuit`` (duck-typed: pelcs does not import PySpice for it)."""
     return type(obj).__module__.startswith("PySpice") and hasattr(obj, "title")
+
+
+def _loops_and_cutsets(circuit: Circuit) -> Circuit:
+    """The circuit with its loops of capacitors and voltage sources reduced
+    (:mod:`netlist.capacitor_loops`) and its floating sources' inductor cutsets made regular
+    (:mod:`netlist.inductor_cutsets`): what the formulation would otherwise refuse."""
+    return regularise_inductor_cutsets(reduce_capacitor_loops(circuit))
 
 
 def _idealised(circuit: Circuit) -> Circuit:

@@ -279,6 +279,10 @@ class _Reader(ElementLines):
             self.error(f"include cycle: {chain}", st, offset,
                        "a file must not include itself, directly or through other files")
             return
+        if not os.path.lexists(path):
+            self.diags.append(Diagnostic(f"file not found: '{display}'", at,
+                                         _missing_include_hint(st.file, self.deck.files)))
+            return
         try:
             data = _read_bytes(path, display, at)
             text = _decode(data, display)
@@ -689,6 +693,21 @@ class _Reader(ElementLines):
     def cmd_title(self, st: Statement) -> None:
         parts = st.text.split(None, 1)
         self.deck.title = parts[1].strip() if len(parts) > 1 else ""
+
+
+def _missing_include_hint(including: str, files: list[str]) -> str:
+    """What to do about an include that does not exist, and what ngspice does with it
+    (measured, ngspice 39: in the top file it loads no circuit, "there aren't any circuits
+    loaded"; in an included file it drops that whole file, the elements before the include
+    as well as after it, and simulates what is left without a word beyond "Could not find
+    include file"). pelcs refuses both: what ngspice then simulates is not the netlist."""
+    hint = "check the path (relative paths in .include and .lib are relative to the " \
+        "including file)"
+    if files and including != files[0]:
+        return (hint + f"; ngspice drops all of '{including}' for it (every element of "
+                "that file, before the include and after it) and simulates what is left, "
+                "which is not this circuit")
+    return hint + "; ngspice loads no circuit either"
 
 
 def _unquote(tok: Token) -> str:

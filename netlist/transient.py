@@ -39,6 +39,7 @@ from lcs.moreau import MoreauOptions, simulate
 from lcs.results import SimulationResult
 from lcs.signals import Dc, Signal, resolve
 
+from .capacitor_loops import reduced_probe
 from .circuit import (
     GROUND,
     Capacitor,
@@ -400,6 +401,8 @@ def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
             ok = d.group(1).lower() in switches
         elif m:
             kind, a, b = m.group(1).lower(), m.group(2).lower(), m.group(3)
+            if b is None and a in circuit.loop_capacitors and a not in nodes | capacitors:
+                raise NetlistError([reduced_probe(circuit, probe, kind, a)], file=circuit.file)
             if kind == "v":
                 ok = (a in nodes and (b is None or b.lower() in nodes)) or (
                     b is None and a in capacitors)
