@@ -150,6 +150,7 @@ from netlist.circuit import (
 )
 from netlist.errors import Diagnostic, NetlistError
 from netlist.pwl import carried_current, pwl_circuit
+from netlist.units import format_eng
 
 from .comparison import Comparison, ProbeComparison, SwitchingComparison, Tolerances
 from .measures import (
@@ -429,8 +430,10 @@ def compare(
     ideal_delta = _nonideality(circuit, NgspiceSettings("as-written"), carried, drives)
     use_pwl, why = _choose_devices(devices, circuit, ideal_delta, tol)
     fits: list = []
+    run_c = pel  # the circuit pelcs' compared run simulates
     if use_pwl:
         pwl_c, fits = pwl_circuit(pel, carried, drives)
+        run_c = pwl_c
         t0 = time.perf_counter()
         fitted = simulate_circuit(pwl_c, theta=theta, probes=pel_probes)
         if fitted.error is None:
@@ -441,13 +444,16 @@ def compare(
             raise CheckError(f"pelcs (--devices pwl) failed at t = "
                              f"{fitted.error.time:.6g} s: {fitted.error.message}")
         else:  # auto: compare the ideal run, with the tolerances of ideal devices
-            use_pwl, fits = False, []
+            use_pwl, fits, run_c = False, [], pel
             notes.append(f"pelcs with --devices pwl ({why}) failed at t = "
                          f"{fitted.error.time:.6g} s ({fitted.error.message}): ideal devices "
                          "compared")
     elif devices == "auto" and why:
         notes.append(f"pelcs ran with ideal devices ({why})")
     notes.extend(f"pelcs: {n}" for n in result.notes)
+    # switching that follows the state (comparators): pelcs once more at half the step, to
+    # tell its own sensitivity from a disagreement (module docstring, "Sensitive runs")
+    half = _half_step_run(run_c, result, theta, pel_probes, switch_els, notes)
 
     deck = write_circuit(circuit)
     start = {p[2:-1]: float(result[p][0]) for p in node_probes}
@@ -497,6 +503,8 @@ def compare(
     # switching instants
     names = [sw.name for sw in switch_els]
     p_inst = _pelcs_instants(result, names)
+    h_inst = _pelcs_instants(half, names) if half is not None else None
+    t_h = np.asarray(half.t, dtype=float) if half is not None else None
     tmax_ng = _ngspice_tmax(circuit)
     switch_cmp: list[SwitchingComparison] = []
     all_instants: list[np.ndarray] = []
@@ -514,20 +522,25 @@ def compare(
             # output, the half band is crossed once per switching in both)
             ni = _ngspice_instants(t_n, ng.signals[ctrl], mp["vt"], vh / 2, sw.initial)
             pi = _ngspice_instants(t_p, result[ctrl], mp["vt"], vh / 2, sw.initial)
+            ph = (_ngspice_instants(t_h, half[ctrl], mp["vt"], vh / 2, sw.initial)
+                  if half is not None else None)
         else:
             ni = _ngspice_instants(t_n, ng.signals[ctrl], mp["vt"], 0.0, sw.initial)
             pi = p_inst[sw.name]
+            ph = h_inst[sw.name] if h_inst is not None else None
             at_terminal = use_pwl and getattr(sw, "gate_rc", None) is not None
             if at_terminal:
                 # the pwl switch turns on its internal gate capacitor (and may slide there
                 # while the MOSFET follows its gate, as ngspice's does in its linear region);
                 # ngspice's instants are read at the gate terminal: both sides there
                 pi = _ngspice_instants(t_p, result[ctrl], mp["vt"], 0.0, sw.initial)
+                ph = (_ngspice_instants(t_h, half[ctrl], mp["vt"], 0.0, sw.initial)
+                      if half is not None else None)
         all_instants += [pi.on, pi.off, ni.on, ni.off]
         driven = result.switching.get(sw.name, "?")
         switch_cmp.append(_compare_switch(sw.name, driven, ctrl, pi, ni, result, span, window,
                                           per, per_source, tmax_ng, h, tol, kd,
-                                          at_terminal=vh <= 0 and at_terminal))
+                                          at_terminal=vh <= 0 and at_terminal, half=ph))
     instants = np.sort(np.concatenate(all_instants)) if all_instants else np.empty(0)
     offsets = [s.max_offset for s in switch_cmp if s.method == "instants"]
     guard = step + (max(offsets) if offsets else 0.0)
@@ -548,6 +561,10 @@ def compare(
 
     probe_cmp = []
     tp_u, tn_u = t_p, t_n
+    steady = grid >= window[0]  # the steady-state window; before it, the transient
+    selfs: list[tuple[str, float, float, float]] = []  # probe, transient, window, tolerance
+    halves: list[tuple[float, float]] = []  # pelcs' mean and ripple at h/2
+    steady_nrms: list[float] = []  # pelcs against ngspice over the window only
     for probe, ngp in zip(probes, ng_probes, strict=True):
         yp, yn = np.asarray(result[probe], float), np.asarray(ng.signals[ngp], float)
         tpi, ypi = _strictly_increasing(tp_u, yp)
@@ -555,9 +572,18 @@ def compare(
         gp, gn = np.interp(grid, tpi, ypi), np.interp(grid, tni, yni)
         sel_run = (t_p >= span[0]) & (t_p <= span[1])
         scale = _scale(yp[sel_run])
-        nrms = float(np.sqrt(np.mean((gn[mask] - gp[mask]) ** 2))) / scale
+        nrms = _nrms(gn - gp, mask) / scale
         wp, wn = _in_window(tpi, ypi, *window), _in_window(tni, yni, *window)
         rp, rn = float(np.ptp(wp[1])), float(np.ptp(wn[1]))
+        self_nrms = math.nan
+        if half is not None:
+            thi, yhi = _strictly_increasing(t_h, np.asarray(half[probe], float))
+            d = np.interp(grid, thi, yhi) - gp
+            self_nrms = _nrms(d, mask) / scale
+            selfs.append((probe, _nrms(d, mask & ~steady) / scale,
+                          _nrms(d, mask & steady) / scale, tol.nrms + kd))
+            wh = _in_window(thi, yhi, *window)
+            halves.append((_mean(*wh), float(np.ptp(wh[1]))))
         probe_cmp.append(ProbeComparison(
             probe=probe, ngspice_probe=ngp, scale=scale,
             nrms=nrms, nrms_tol=tol.nrms + kd,
@@ -565,8 +591,12 @@ def compare(
             mean_tol=max(tol.mean, kd) * scale,
             ripple_pelcs=rp, ripple_ngspice=rn,
             ripple_tol=tol.ripple_rel * rp + (tol.ripple_floor + kd) * scale,
-            excluded=float(1.0 - mask.mean()),
+            excluded=float(1.0 - mask.mean()), self_nrms=self_nrms,
+            transient_nrms=_nrms(gn - gp, mask & ~steady) / scale,
         ))
+        steady_nrms.append(_nrms(gn - gp, mask & steady) / scale)
+    transient, sensitivity = _sensitivity(probe_cmp, switch_cmp, selfs, halves, steady_nrms,
+                                          window, tol)
 
     return Comparison(
         file=str(file), title=base.title, params=dict(params or {}),
@@ -579,6 +609,7 @@ def compare(
         ngspice_wall=ng.wall_time, ngspice_total=ng.total_time, ngspice_points=len(t_n),
         notes=notes, pelcs_result=result, ngspice_result=ng,
         devices="pwl" if use_pwl else "ideal", device_fits=list(fits),
+        transient=transient, sensitivity=sensitivity,
     )
 
 
@@ -602,7 +633,7 @@ def _compare_switch(
     name: str, driven: str, control: str, pi: _Instants, ni: _Instants,
     result: SimulationResult, span: tuple[float, float], window: tuple[float, float],
     period: float | None, period_source: str, tmax_ng: float, h: float, tol: Tolerances,
-    kd: float, at_terminal: bool = False,
+    kd: float, at_terminal: bool = False, half: _Instants | None = None,
 ) -> SwitchingComparison:
     """Instants (or, free-running, the frequency) of one switch; see the module docstring.
     ``at_terminal``: both sides' instants are crossings of the control at the device's
@@ -650,6 +681,95 @@ def _compare_switch(
             name, driven, control, "instants", count(pi, a, b), count(ni, a, b), math.inf,
             limit, fp, fn, span, f"only {who} switches ({max(n_p, n_n)} switchings over the "
             "run, none in the other)")
+    self_offset = math.nan
+    if half is not None:
+        # pelcs against itself at h/2, measured as against ngspice (same span, same pairing)
+        self_offset = max(_hausdorff(x, y, a, b, ends, limit)
+                          for x, y in ((pi.on, half.on), (pi.off, half.off)))
     return SwitchingComparison(
         name, driven, control, "instants", count(pi, a, b), count(ni, a, b), max(offs), limit,
-        fp, fn, span, "" if n_p else "neither switches", note=at_ends)
+        fp, fn, span, "" if n_p else "neither switches", note=at_ends,
+        self_offset=self_offset)
+
+
+# ------------------------------------------------------------------------------------------
+# sensitive runs
+
+
+def _nrms(d: np.ndarray, sel: np.ndarray) -> float:
+    """RMS of ``d`` over the selected points (NaN when none is)."""
+    return float(np.sqrt(np.mean(d[sel] ** 2))) if sel.any() else math.nan
+
+
+def _half_step_run(circuit: Circuit, result: SimulationResult, theta: float,
+                   probes: Sequence[str], switches: Sequence[Switch], notes: list[str]
+                   ) -> SimulationResult | None:
+    """pelcs once more at half its step, when some switch follows the state (a comparator:
+    not ``"source"``-driven), else None. Its difference from the compared run measures how
+    much of a disagreement pelcs' own step (and the sensitivity of the orbit to any
+    perturbation) can explain; a failed run is noted and leaves the comparison as before."""
+    from netlist.transient import simulate_circuit
+
+    kinds = {result.switching.get(sw.name, "source") for sw in switches}
+    if kinds <= {"source"}:
+        return None
+    t = np.asarray(result.t, dtype=float)
+    h = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    if not h > 0:
+        return None
+    half = simulate_circuit(circuit, theta=theta, probes=list(probes), step=h / 2)
+    if half.error is not None:
+        notes.append(f"pelcs at half the step (h/2 = {format_eng(h / 2, 's')}) failed at t = "
+                     f"{half.error.time:.6g} s ({half.error.message}): its own sensitivity is "
+                     "not measured, the whole run is compared pointwise")
+        return None
+    return half
+
+
+def _sensitivity(probes: list[ProbeComparison], switches: list[SwitchingComparison],
+                 selfs: list[tuple[str, float, float, float]],
+                 halves: list[tuple[float, float]], steady_nrms: list[float],
+                 window: tuple[float, float], tol: Tolerances) -> tuple[str, str]:
+    """Apply the rules for state-driven switching (module docstring, "Sensitive runs") to
+    the records in place; return (``Comparison.transient``, ``Comparison.sensitivity``)."""
+    if not selfs:  # no second run: source-driven switching, compared over the whole run
+        for p in probes:
+            p.transient_nrms = math.nan
+        return "", ""
+    half_tol = 0.5  # pelcs' own change may take up to half of a tolerance
+    parted = [f"{name} by {100 * w:.3g} % RMS (tolerance {100 * t:.3g} %)"
+              for name, _, w, t in selfs if w > half_tol * t]
+    parted += [f"{s.switch}'s instants by {format_eng(s.self_offset, 's')} (tolerance "
+               f"{format_eng(s.tol, 's')})"
+               for s in switches if s.method == "instants" and s.self_offset > half_tol * s.tol]
+    if parted:
+        for p, (m_h, r_h) in zip(probes, halves, strict=True):
+            p.pointwise = "sensitive orbit"
+            p.transient_nrms = math.nan
+            # a window of a chaotic orbit is a sample of its statistics: the two pelcs runs
+            # are two samples, ngspice's a third; it may lie about twice their spread away
+            p.mean_tol += 2.0 * abs(p.mean_pelcs - m_h)
+            p.ripple_tol += 2.0 * abs(p.ripple_pelcs - r_h)
+        for s in switches:
+            if s.method == "instants" and math.isfinite(s.self_offset):
+                s.inconclusive = "sensitive orbit"
+        return "", ("pelcs' own runs at h and h/2 part in the steady-state window ("
+                    + "; ".join(parted) + "): the orbit is sensitive to perturbations (no "
+                    "stable periodic orbit, e.g. chaos), and two simulations of it cannot "
+                    "agree point by point")
+    unsettled = [(name, tr, t) for name, tr, _, t in selfs if tr > half_tol * t]
+    if not unsettled:
+        for p in probes:
+            p.transient_nrms = math.nan
+        return "", ""
+    for p, (_, tr, w, _t), nw in zip(probes, selfs, steady_nrms, strict=True):
+        p.nrms_over, p.nrms, p.self_nrms = "steady state", nw, w
+        # the transient can still fail: by more than pelcs' own error (up to twice its
+        # change at h/2, first order) and ngspice's, as large on the same start-up
+        p.transient_tol = p.nrms_tol + 4.0 * tr
+    name, tr, t = max(unsettled, key=lambda u: u[1] / u[2])
+    return (f"the transient before {format_eng(window[0], 's')} is not compared point by "
+            f"point: pelcs' own runs at h and h/2 differ there by {100 * tr:.3g} % RMS "
+            f"({name}), over half the {100 * t:.3g} % tolerance (the start-up of "
+            "state-driven switching is ill-conditioned); NRMS over the steady-state window, "
+            "the transient only fails past the tolerance + 4 × that difference", "")

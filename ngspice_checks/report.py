@@ -54,6 +54,8 @@ def _probe_verdict(cmp: Comparison, p) -> str:
     """A probe's verdict: a pass under a tolerance too wide to decide is not agreement."""
     if not p.ok:
         return "FAIL"
+    if p.pointwise:
+        return f"inconclusive ({p.pointwise})"
     return "inconclusive" if p.widest > cmp.tolerances.conclusive else "ok"
 
 
@@ -62,10 +64,20 @@ def _summary(cmp: Comparison) -> str:
     if cmp.verdict == "fail":
         return "OUT OF TOLERANCE: " + "; ".join(cmp.failures)
     if cmp.verdict == "inconclusive":
-        widest = max(p.widest for p in cmp.probes)
-        return (f"INCONCLUSIVE: tolerances of up to {100 * widest:.3g} % (over "
-                f"{100 * cmp.tolerances.conclusive:.3g} %) decide nothing for "
-                + ", ".join(cmp.inconclusive) + "; no agreement shown")
+        why = []
+        wide = [p.probe for p in cmp.probes if p.widest > cmp.tolerances.conclusive]
+        if wide:
+            widest = max(p.widest for p in cmp.probes)
+            why.append(f"tolerances of up to {100 * widest:.3g} % (over "
+                       f"{100 * cmp.tolerances.conclusive:.3g} %) decide nothing for "
+                       + ", ".join(wide))
+        if cmp.sensitivity:
+            why.append(cmp.sensitivity + "; waveforms point by point and switching instants "
+                       "not judged, means and ripples within tolerances widened by twice "
+                       "pelcs' own spread")
+        return "INCONCLUSIVE: " + "; ".join(why) + "; no agreement shown"
+    if cmp.transient:
+        return "within tolerance over the steady state (" + cmp.transient + ")"
     return "within tolerance"
 
 
@@ -120,6 +132,8 @@ def format_table(cmp: Comparison) -> str:
             f"{_pct(p.ripple_error / p.scale):>8} [{_pct(p.ripple_tol / p.scale):>7}]  "
             f"{_probe_verdict(cmp, p)}" + (f" ({', '.join(p.failures)})" if p.failures
                                            else "")
+            + (f"; NRMS over the steady state, transient {_pct(p.transient_nrms)} "
+               f"[{_pct(p.transient_tol)}]" if p.nrms_over != "run" else "")
         )
     for s in cmp.switches:
         if s.method == "instants" and s.reason:  # one side only, or neither, switches
@@ -134,8 +148,10 @@ def format_table(cmp: Comparison) -> str:
                     f"[{_pct(s.tol)}] ({s.reason})")
         else:
             what = f"not compared: {s.reason}"
-        lines.append(f"switch {s.switch} ({s.driven}): {what}  "
-                     + (_verdict(s.ok) if s.method != "none" else ""))
+        verdict = ("" if s.method == "none" else
+                   f"inconclusive ({s.inconclusive}: pelcs at h/2 moves them by "
+                   f"{_eng(s.self_offset, 's')})" if s.inconclusive else _verdict(s.ok))
+        lines.append(f"switch {s.switch} ({s.driven}): {what}  {verdict}")
     for n in cmp.notes:
         lines.append(f"note: {n}")
     lines.append(_summary(cmp))
