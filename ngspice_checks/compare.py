@@ -754,9 +754,9 @@ def _sensitivity(probes: list[ProbeComparison], switches: list[SwitchingComparis
             if s.method == "instants" and math.isfinite(s.self_offset):
                 s.inconclusive = "sensitive orbit"
         return "", ("pelcs' own runs at h and h/2 part in the steady-state window ("
-                    + "; ".join(parted) + "): the orbit is sensitive to perturbations (no "
-                    "stable periodic orbit, e.g. chaos), and two simulations of it cannot "
-                    "agree point by point")
+                    + "; ".join(parted) + "): the run there is sensitive to perturbations "
+                    "(a chaotic orbit, or a transient not settled yet), and two simulations "
+                    "of it cannot agree point by point")
     unsettled = [(name, tr, t) for name, tr, _, t in selfs if tr > half_tol * t]
     if not unsettled:
         for p in probes:
