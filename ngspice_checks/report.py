@@ -59,6 +59,14 @@ def _probe_verdict(cmp: Comparison, p) -> str:
     return "inconclusive" if p.widest > cmp.tolerances.conclusive else "ok"
 
 
+def _transient_cell(p) -> str:
+    """Where the NRMS was taken, when not over the whole run, and the transient's figure."""
+    if p.nrms_over == "run":
+        return ""
+    return (f"; NRMS over the steady state, transient {_pct(p.transient_nrms)} "
+            f"[{_pct(p.transient_tol)}]")
+
+
 def _summary(cmp: Comparison) -> str:
     """The last line: the verdict and what it rests on."""
     if cmp.verdict == "fail":
@@ -77,7 +85,7 @@ def _summary(cmp: Comparison) -> str:
                        "pelcs' own spread")
         return "INCONCLUSIVE: " + "; ".join(why) + "; no agreement shown"
     if cmp.transient:
-        return "within tolerance over the steady state (" + cmp.transient + ")"
+        return "within tolerance over the steady state: " + cmp.transient
     return "within tolerance"
 
 
@@ -131,9 +139,7 @@ def format_table(cmp: Comparison) -> str:
             f"{_eng(p.ripple_pelcs, u):>12} {_eng(p.ripple_ngspice, u):>11} "
             f"{_pct(p.ripple_error / p.scale):>8} [{_pct(p.ripple_tol / p.scale):>7}]  "
             f"{_probe_verdict(cmp, p)}" + (f" ({', '.join(p.failures)})" if p.failures
-                                           else "")
-            + (f"; NRMS over the steady state, transient {_pct(p.transient_nrms)} "
-               f"[{_pct(p.transient_tol)}]" if p.nrms_over != "run" else "")
+                                           else "") + _transient_cell(p)
         )
     for s in cmp.switches:
         if s.method == "instants" and s.reason:  # one side only, or neither, switches
@@ -313,7 +319,7 @@ def markdown_report(cmp: Comparison, figure: str | None = None) -> str:
             f"{_pct(p.mean_error / p.scale)} [{_pct(p.mean_tol / p.scale)}] | "
             f"{_eng(p.ripple_pelcs, u)} | {_eng(p.ripple_ngspice, u)} | "
             f"{_pct(p.ripple_error / p.scale)} [{_pct(p.ripple_tol / p.scale)}] | "
-            f"{_probe_verdict(cmp, p)} |")
+            f"{_probe_verdict(cmp, p)}" + _transient_cell(p) + " |")
     if cmp.probes:
         out += ["", f"NRMS leaves out {_pct(cmp.probes[0].excluded)} of the grid points "
                 "(those next to a switching instant).", ""]
