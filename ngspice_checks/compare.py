@@ -118,6 +118,32 @@ there, and a free-running switch (a hysteretic comparator without any periodic s
 sliding-mode current loop or a relaxation oscillator) accumulates phase drift over many
 periods, so its switching *frequency* over the last periods is compared instead.
 
+Sensitive runs (state-driven switching)
+---------------------------------------
+When a switch follows the state (a comparator, anything not ``"source"``-driven), pelcs runs
+the circuit once more at half its step (:func:`_half_step_run`; cheap next to ngspice). The
+difference of its two runs measures what pelcs' own step, and the sensitivity of the orbit to
+any perturbation (an instant moved by a step is one), can do: a pelcs-vs-ngspice difference
+of that size says nothing about the model. Per probe, the RMS of pelcs(h) - pelcs(h/2) on the
+common grid (same guard) over the transient (before the steady-state window) and over the
+window, relative to the scale, each against *half* the probe's NRMS tolerance:
+
+- all within: pelcs is converged, everything is compared as above (most comparator
+  circuits: 1e-5 % to 1e-3 % on the bundled ones);
+- the **window** parts (any probe, or a switch's instants moved by more than half their
+  tolerance): the run is sensitive there (a chaotic orbit, or a transient not settled yet),
+  and two simulations of it cannot agree point by point. The NRMS and the instants are
+  reported, not judged (``ProbeComparison.pointwise``, ``SwitchingComparison.inconclusive``);
+  the means and ripples are judged with their tolerances widened by twice |pelcs(h) -
+  pelcs(h/2)| of each (a window of a chaotic orbit is a sample of its statistics: pelcs' two
+  runs are two samples, ngspice's a third). Within those the verdict is *inconclusive*
+  (``Comparison.sensitivity`` says why), never agreement; out of them it is a failure;
+- only the **transient** parts: the NRMS is judged over the steady-state window
+  (``nrms_over = "steady state"``, as the comparator instants already are); the transient's
+  NRMS is reported and fails only past the NRMS tolerance + 4 × pelcs' own difference there
+  (pelcs' error up to twice its change at h/2, first order, and ngspice's as large on the same
+  start-up). Passing that wide bound shows nothing; ``Comparison.transient`` says so.
+
 Period
 ------
 The mean and the ripple are taken over the last whole periods (up to 10, at most a quarter of
