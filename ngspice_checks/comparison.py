@@ -89,6 +89,13 @@ class ProbeComparison:
     pointwise : str
         Why the pointwise NRMS is not judged (the orbit is sensitive to perturbations:
         ``Comparison.sensitivity``); empty when it is.
+    unjudged : str
+        Why none of the run's metrics is judged: the two runs end on different orbits while
+        pelcs restarted from ngspice's state follows it (``Comparison.orbit``); empty
+        otherwise.
+    restart_nrms, restart_mean_error : float
+        That restart against ngspice over the window: NRMS (/ scale) and the mean
+        difference (ngspice - restart, absolute); NaN when not run.
     """
 
     probe: str
@@ -108,6 +115,9 @@ class ProbeComparison:
     transient_tol: float = float("nan")
     self_nrms: float = float("nan")
     pointwise: str = ""
+    unjudged: str = ""
+    restart_nrms: float = float("nan")
+    restart_mean_error: float = float("nan")
 
     @property
     def mean_error(self) -> float:
@@ -123,6 +133,8 @@ class ProbeComparison:
     def failures(self) -> list[str]:
         """Names of the metrics out of tolerance (empty: the probe passes)."""
         out = []
+        if self.unjudged:
+            return out  # set aside only when the restart agreed (Comparison.orbit)
         if not self.pointwise and not self.nrms <= self.nrms_tol:
             out.append("nrms")
         if self.nrms_over != "run" and self.transient_nrms > self.transient_tol:
@@ -259,6 +271,10 @@ class Comparison:
         Why no pointwise comparison decides anything: pelcs' own runs at h and h/2 part in
         the steady-state window (a sensitive, e.g. chaotic, orbit). The verdict is then at
         best inconclusive.
+    orbit : str
+        Why the runs' metrics decide nothing: they end on different orbits (or phases of a
+        subharmonic one) while pelcs restarted from ngspice's state at the window's start
+        follows ngspice. The verdict is then inconclusive.
     """
 
     file: str
@@ -293,6 +309,7 @@ class Comparison:
     device_fits: list = field(default_factory=list)
     transient: str = ""
     sensitivity: str = ""
+    orbit: str = ""
 
     @property
     def within(self) -> bool:
@@ -305,7 +322,7 @@ class Comparison:
         ``Tolerances.conclusive``) or whose pointwise comparison decides nothing (a
         sensitive orbit, ``sensitivity``), and the switches whose instants decide nothing."""
         return ([p.probe for p in self.probes
-                 if p.widest > self.tolerances.conclusive or p.pointwise]
+                 if p.widest > self.tolerances.conclusive or p.pointwise or p.unjudged]
                 + [f"{s.switch} (instants)" for s in self.switches if s.inconclusive])
 
     @property
@@ -385,7 +402,8 @@ class Comparison:
             "probes": [
                 {**vars(p).copy(), "mean_error": p.mean_error, "ripple_error": p.ripple_error,
                  "ok": p.ok, "failures": p.failures,
-                 "conclusive": p.widest <= self.tolerances.conclusive and not p.pointwise}
+                 "conclusive": (p.widest <= self.tolerances.conclusive and not p.pointwise
+                                and not p.unjudged)}
                 for p in self.probes
             ],
             "switches": [
@@ -394,6 +412,7 @@ class Comparison:
             ],
             "transient": self.transient,
             "sensitivity": self.sensitivity,
+            "orbit": self.orbit,
             "notes": list(self.notes),
         }
 

@@ -54,8 +54,8 @@ def _probe_verdict(cmp: Comparison, p) -> str:
     """A probe's verdict: a pass under a tolerance too wide to decide is not agreement."""
     if not p.ok:
         return "FAIL"
-    if p.pointwise:
-        return f"inconclusive ({p.pointwise})"
+    if p.pointwise or p.unjudged:
+        return f"inconclusive ({p.pointwise or p.unjudged})"
     return "inconclusive" if p.widest > cmp.tolerances.conclusive else "ok"
 
 
@@ -83,6 +83,8 @@ def _summary(cmp: Comparison) -> str:
             why.append(cmp.sensitivity + "; waveforms point by point and switching instants "
                        "not judged, means and ripples within tolerances widened by twice "
                        "pelcs' own spread")
+        if cmp.orbit:
+            why.append(cmp.orbit + "; the runs' metrics are not judged")
         return "INCONCLUSIVE: " + "; ".join(why) + "; no agreement shown"
     if cmp.transient:
         return "within tolerance over the steady state: " + cmp.transient
@@ -157,6 +159,8 @@ def format_table(cmp: Comparison) -> str:
         verdict = ("" if s.method == "none" else
                    f"inconclusive ({s.inconclusive}: pelcs at h/2 moves them by "
                    f"{_eng(s.self_offset, 's')})" if s.inconclusive else _verdict(s.ok))
+        if s.inconclusive == "another orbit":
+            verdict = "inconclusive (another orbit)"
         lines.append(f"switch {s.switch} ({s.driven}): {what}  {verdict}")
     for n in cmp.notes:
         lines.append(f"note: {n}")
