@@ -479,10 +479,10 @@ def compare(
     notes.extend(f"pelcs: {n}" for n in result.notes)
     # switching that follows the state (comparators): pelcs once more at half the step, to
     # tell its own sensitivity from a disagreement (module docstring, "Sensitive runs")
-    half = _half_step_run(run_c, result, theta, pel_probes, switch_els, notes)
+    others = _perturbed_runs(run_c, result, theta, pel_probes, switch_els, notes)
     # and ngspice measures every state then: pelcs may restart from its state (below)
     state_probes = ([ngspice_probe(circuit, st) for st in default_probes(circuit)]
-                    if half is not None else [])
+                    if others else [])
 
     deck = write_circuit(circuit)
     start = {p[2:-1]: float(result[p][0]) for p in node_probes}
@@ -533,8 +533,9 @@ def compare(
     # switching instants
     names = [sw.name for sw in switch_els]
     p_inst = _pelcs_instants(result, names)
-    h_inst = _pelcs_instants(half, names) if half is not None else None
-    t_h = np.asarray(half.t, dtype=float) if half is not None else None
+    reading: list[tuple] = []
+    o_inst = [_pelcs_instants(o, names) for o in others]
+    o_t = [np.asarray(o.t, dtype=float) for o in others]
     tmax_ng = _ngspice_tmax(circuit)
     switch_cmp: list[SwitchingComparison] = []
     all_instants: list[np.ndarray] = []
@@ -552,25 +553,28 @@ def compare(
             # output, the half band is crossed once per switching in both)
             ni = _ngspice_instants(t_n, ng.signals[ctrl], mp["vt"], vh / 2, sw.initial)
             pi = _ngspice_instants(t_p, result[ctrl], mp["vt"], vh / 2, sw.initial)
-            ph = (_ngspice_instants(t_h, half[ctrl], mp["vt"], vh / 2, sw.initial)
-                  if half is not None else None)
+            ph = [_ngspice_instants(t, o[ctrl], mp["vt"], vh / 2, sw.initial)
+                  for t, o in zip(o_t, others, strict=True)]
         else:
             ni = _ngspice_instants(t_n, ng.signals[ctrl], mp["vt"], 0.0, sw.initial)
             pi = p_inst[sw.name]
-            ph = h_inst[sw.name] if h_inst is not None else None
+            ph = [oi[sw.name] for oi in o_inst]
             at_terminal = use_pwl and getattr(sw, "gate_rc", None) is not None
             if at_terminal:
                 # the pwl switch turns on its internal gate capacitor (and may slide there
                 # while the MOSFET follows its gate, as ngspice's does in its linear region);
                 # ngspice's instants are read at the gate terminal: both sides there
                 pi = _ngspice_instants(t_p, result[ctrl], mp["vt"], 0.0, sw.initial)
-                ph = (_ngspice_instants(t_h, half[ctrl], mp["vt"], 0.0, sw.initial)
-                      if half is not None else None)
+                ph = [_ngspice_instants(t, o[ctrl], mp["vt"], 0.0, sw.initial)
+                      for t, o in zip(o_t, others, strict=True)]
         all_instants += [pi.on, pi.off, ni.on, ni.off]
+        # how to read another pelcs run's instants alike (the restart below)
+        reading.append((sw.name, ctrl, mp["vt"], vh / 2 if vh > 0 else 0.0, sw.initial,
+                        vh <= 0 and not at_terminal, ni))
         driven = result.switching.get(sw.name, "?")
         switch_cmp.append(_compare_switch(sw.name, driven, ctrl, pi, ni, result, span, window,
                                           per, per_source, tmax_ng, h, tol, kd,
-                                          at_terminal=vh <= 0 and at_terminal, half=ph))
+                                          at_terminal=vh <= 0 and at_terminal, others=ph))
     instants = np.sort(np.concatenate(all_instants)) if all_instants else np.empty(0)
     offsets = [s.max_offset for s in switch_cmp if s.method == "instants"]
     guard = step + (max(offsets) if offsets else 0.0)
@@ -593,7 +597,7 @@ def compare(
     tp_u, tn_u = t_p, t_n
     steady = grid >= window[0]  # the steady-state window; before it, the transient
     selfs: list[tuple[str, float, float, float]] = []  # probe, transient, window, tolerance
-    halves: list[tuple[float, float]] = []  # pelcs' mean and ripple at h/2
+    halves: list[tuple[float, float]] = []  # largest change of the window mean, ripple
     steady_nrms: list[float] = []  # pelcs against ngspice over the window only
     for probe, ngp in zip(probes, ng_probes, strict=True):
         yp, yn = np.asarray(result[probe], float), np.asarray(ng.signals[ngp], float)
@@ -606,14 +610,21 @@ def compare(
         wp, wn = _in_window(tpi, ypi, *window), _in_window(tni, yni, *window)
         rp, rn = float(np.ptp(wp[1])), float(np.ptp(wn[1]))
         self_nrms = math.nan
-        if half is not None:
-            thi, yhi = _strictly_increasing(t_h, np.asarray(half[probe], float))
-            d = np.interp(grid, thi, yhi) - gp
-            self_nrms = _nrms(d, mask) / scale
-            selfs.append((probe, _nrms(d, mask & ~steady) / scale,
-                          _nrms(d, mask & steady) / scale, tol.nrms + kd))
-            wh = _in_window(thi, yhi, *window)
-            halves.append((_mean(*wh), float(np.ptp(wh[1]))))
+        if others:
+            # the largest change any perturbed pelcs run makes (module docstring)
+            run_, tr_, win_, dm, dr = 0.0, 0.0, 0.0, 0.0, 0.0
+            for t_o, o in zip(o_t, others, strict=True):
+                toi, yoi = _strictly_increasing(t_o, np.asarray(o[probe], float))
+                d = np.interp(grid, toi, yoi) - gp
+                run_ = max(run_, _nrms(d, mask) / scale)
+                tr_ = max(tr_, np.nan_to_num(_nrms(d, mask & ~steady)) / scale)
+                win_ = max(win_, _nrms(d, mask & steady) / scale)
+                wo = _in_window(toi, yoi, *window)
+                dm = max(dm, abs(_mean(*wo) - _mean(*wp)))
+                dr = max(dr, abs(float(np.ptp(wo[1])) - rp))
+            self_nrms = run_
+            selfs.append((probe, tr_, win_, tol.nrms + kd))
+            halves.append((dm, dr))
         probe_cmp.append(ProbeComparison(
             probe=probe, ngspice_probe=ngp, scale=scale,
             nrms=nrms, nrms_tol=tol.nrms + kd,
@@ -629,9 +640,9 @@ def compare(
                                           window, tol)
     orbit = ""
     failing = any(not p.ok for p in probe_cmp) or any(not w.ok for w in switch_cmp)
-    if half is not None and failing and not sensitivity:
+    if others and failing:
         orbit = _restart_check(run_c, circuit, result, ng, probes, probe_cmp, switch_cmp,
-                               grid, mask & steady, window, notes)
+                               reading, grid, mask & steady, window, notes)
 
     return Comparison(
         file=str(file), title=base.title, params=dict(params or {}),
@@ -668,7 +679,7 @@ def _compare_switch(
     name: str, driven: str, control: str, pi: _Instants, ni: _Instants,
     result: SimulationResult, span: tuple[float, float], window: tuple[float, float],
     period: float | None, period_source: str, tmax_ng: float, h: float, tol: Tolerances,
-    kd: float, at_terminal: bool = False, half: _Instants | None = None,
+    kd: float, at_terminal: bool = False, others: Sequence[_Instants] = (),
 ) -> SwitchingComparison:
     """Instants (or, free-running, the frequency) of one switch; see the module docstring.
     ``at_terminal``: both sides' instants are crossings of the control at the device's
@@ -717,10 +728,10 @@ def _compare_switch(
             limit, fp, fn, span, f"only {who} switches ({max(n_p, n_n)} switchings over the "
             "run, none in the other)")
     self_offset = math.nan
-    if half is not None:
-        # pelcs against itself at h/2, measured as against ngspice (same span, same pairing)
-        self_offset = max(_hausdorff(x, y, a, b, ends, limit)
-                          for x, y in ((pi.on, half.on), (pi.off, half.off)))
+    if others:
+        # pelcs against its perturbed runs, measured as against ngspice (same span, pairing)
+        self_offset = max(_hausdorff(x, y, a, b, ends, limit) for o in others
+                          for x, y in ((pi.on, o.on), (pi.off, o.off)))
     return SwitchingComparison(
         name, driven, control, "instants", count(pi, a, b), count(ni, a, b), max(offs), limit,
         fp, fn, span, "" if n_p else "neither switches", note=at_ends,
@@ -736,62 +747,78 @@ def _nrms(d: np.ndarray, sel: np.ndarray) -> float:
     return float(np.sqrt(np.mean(d[sel] ** 2))) if sel.any() else math.nan
 
 
-def _half_step_run(circuit: Circuit, result: SimulationResult, theta: float,
-                   probes: Sequence[str], switches: Sequence[Switch], notes: list[str]
-                   ) -> SimulationResult | None:
-    """pelcs once more at half its step, when some switch follows the state (a comparator:
-    not ``"source"``-driven), else None. Its difference from the compared run measures how
-    much of a disagreement pelcs' own step (and the sensitivity of the orbit to any
-    perturbation) can explain; a failed run is noted and leaves the comparison as before."""
+def _perturbed_runs(circuit: Circuit, result: SimulationResult, theta: float,
+                    probes: Sequence[str], switches: Sequence[Switch], notes: list[str]
+                    ) -> list[SimulationResult]:
+    """pelcs once more, perturbed, when some switch follows the state (a comparator: not
+    ``"source"``-driven); else no run. At half its step; and, when every state-driven switch
+    is an ideal comparator (``"implicit"``) that never slides, with its comparators sampled
+    at the end of each step (``switching="explicit"``: the instants land on the grid, as
+    ngspice's land on its time steps). Their differences from the compared run measure
+    what pelcs' own step, and an error of ngspice's kind, can do to the run. A failed run
+    is noted and left out."""
     from netlist.transient import simulate_circuit
 
     kinds = {result.switching.get(sw.name, "source") for sw in switches}
     if kinds <= {"source"}:
-        return None
+        return []
     t = np.asarray(result.t, dtype=float)
     h = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     if not h > 0:
-        return None
-    half = simulate_circuit(circuit, theta=theta, probes=list(probes), step=h / 2)
-    if half.error is not None:
-        notes.append(f"pelcs at half the step (h/2 = {format_eng(h / 2, 's')}) failed at t = "
-                     f"{half.error.time:.6g} s ({half.error.message}): its own sensitivity is "
-                     "not measured, the whole run is compared pointwise")
-        return None
-    return half
+        return []
+    runs = [("half the step", {"step": h / 2})]
+    if kinds - {"source"} == {"implicit"} and not result.sliding:
+        runs.append(("sampled comparators", {"switching": "explicit"}))
+    out = []
+    for label, kw in runs:
+        run = simulate_circuit(circuit, theta=theta, probes=list(probes), **kw)
+        if run.error is not None:
+            notes.append(f"pelcs with {label} failed at t = {run.error.time:.6g} s "
+                         f"({run.error.message}): left out of its sensitivity")
+            continue
+        out.append(run)
+    return out
 
 
 def _sensitivity(probes: list[ProbeComparison], switches: list[SwitchingComparison],
                  selfs: list[tuple[str, float, float, float]],
-                 halves: list[tuple[float, float]], steady_nrms: list[float],
+                 spreads: list[tuple[float, float]], steady_nrms: list[float],
                  window: tuple[float, float], tol: Tolerances) -> tuple[str, str]:
     """Apply the rules for state-driven switching (module docstring, "Sensitive runs") to
-    the records in place; return (``Comparison.transient``, ``Comparison.sensitivity``)."""
-    if not selfs:  # no second run: source-driven switching, compared over the whole run
+    the records in place; return (``Comparison.transient``, ``Comparison.sensitivity``).
+
+    ``selfs``: per probe (name, transient, window, NRMS tolerance), the largest RMS change
+    of a perturbed pelcs run / scale; ``spreads``: per probe the largest change of its
+    window mean and ripple (absolute)."""
+    if not selfs:  # no perturbed run: source-driven switching, compared over the whole run
         for p in probes:
             p.transient_nrms = math.nan
         return "", ""
     half_tol = 0.5  # pelcs' own change may take up to half of a tolerance
     parted = [f"{name} by {100 * w:.3g} % RMS (tolerance {100 * t:.3g} %)"
               for name, _, w, t in selfs if w > half_tol * t]
+    # (the instants' tolerance already allows ngspice's steps, which the sampled comparators
+    # reproduce: their change is held to the whole tolerance)
     parted += [f"{s.switch}'s instants by {format_eng(s.self_offset, 's')} (tolerance "
                f"{format_eng(s.tol, 's')})"
-               for s in switches if s.method == "instants" and s.self_offset > half_tol * s.tol]
+               for s in switches if s.method == "instants" and s.self_offset > s.tol]
     if parted:
-        for p, (m_h, r_h) in zip(probes, halves, strict=True):
-            p.pointwise = "sensitive orbit"
+        for p, (dm, dr) in zip(probes, spreads, strict=True):
             p.transient_nrms = math.nan
-            # a window of a chaotic orbit is a sample of its statistics: the two pelcs runs
-            # are two samples, ngspice's a third; it may lie about twice their spread away
-            p.mean_tol += 2.0 * abs(p.mean_pelcs - m_h)
-            p.ripple_tol += 2.0 * abs(p.ripple_pelcs - r_h)
+            if not p.nrms <= p.nrms_tol:  # a pass is agreement all the same
+                p.pointwise = "sensitive orbit"
+            # a window of a chaotic orbit is a sample of its statistics: pelcs' runs are
+            # samples, ngspice's another; it may lie about twice their spread away
+            p.mean_tol += 2.0 * dm
+            p.ripple_tol += 2.0 * dr
         for s in switches:
-            if s.method == "instants" and math.isfinite(s.self_offset):
+            if s.method == "instants" and math.isfinite(s.self_offset) and not s.ok:
                 s.inconclusive = "sensitive orbit"
-        return "", ("pelcs' own runs at h and h/2 part in the steady-state window ("
+        return "", ("pelcs' own perturbed runs (half the step; comparators sampled on the "
+                    "grid, as ngspice's land on its steps) part in the steady-state window ("
                     + "; ".join(parted) + "): the run there is sensitive to perturbations "
-                    "(a chaotic orbit, or a transient not settled yet), and two simulations "
-                    "of it cannot agree point by point")
+                    "(a chaotic orbit, the phase of a subharmonic one, or a transient not "
+                    "settled yet)")
     unsettled = [(name, tr, t) for name, tr, _, t in selfs if tr > half_tol * t]
     if not unsettled:
         for p in probes:
@@ -800,11 +827,12 @@ def _sensitivity(probes: list[ProbeComparison], switches: list[SwitchingComparis
     for p, (_, tr, w, _t), nw in zip(probes, selfs, steady_nrms, strict=True):
         p.nrms_over, p.nrms, p.self_nrms = "steady state", nw, w
         # the transient can still fail: by more than pelcs' own error (up to twice its
-        # change at h/2, first order) and ngspice's, as large on the same start-up
+        # change, first order) and ngspice's (the sampled comparators' change is one of
+        # its kind), as large on the same start-up
         p.transient_tol = p.nrms_tol + 4.0 * tr
     name, tr, t = max(unsettled, key=lambda u: u[1] / u[2])
     return (f"the transient before {format_eng(window[0], 's')} is not compared point by "
-            f"point: pelcs' own runs at h and h/2 differ there by {100 * tr:.3g} % RMS "
+            f"point: pelcs' own perturbed runs differ there by up to {100 * tr:.3g} % RMS "
             f"({name}), over half the {100 * t:.3g} % tolerance (the start-up of "
             "state-driven switching is ill-conditioned); NRMS over the steady-state window, "
             "the transient only fails past the tolerance + 4 × that difference", "")
@@ -812,13 +840,16 @@ def _sensitivity(probes: list[ProbeComparison], switches: list[SwitchingComparis
 
 def _restart_check(circuit: Circuit, ng_circuit: Circuit, result: SimulationResult, ng,
                    probes: Sequence[str], records: list[ProbeComparison],
-                   switches: list[SwitchingComparison], grid: np.ndarray, sel: np.ndarray,
-                   window: tuple[float, float], notes: list[str]) -> str:
+                   switches: list[SwitchingComparison], reading: list[tuple],
+                   grid: np.ndarray, sel: np.ndarray, window: tuple[float, float],
+                   notes: list[str]) -> str:
     """pelcs restarted from ngspice's state at the window's start, against ngspice over the
-    window (module docstring, "Sensitive runs"). When it follows ngspice within the NRMS and
-    mean tolerances, both simulators have the same dynamics and the runs' difference is the
-    orbit their start-ups chose: the failing metrics are set aside (``unjudged``) and the
-    reason returned; else nothing changes and ``""`` is returned."""
+    window (module docstring, "Sensitive runs"). When it follows ngspice within the NRMS,
+    mean and instants' tolerances, both simulators have the same dynamics and the runs'
+    difference is the orbit their start-ups chose: the failing window metrics are set aside
+    (``unjudged``, ``inconclusive``) and the reason returned; else nothing changes and
+    ``""`` is returned. ``reading``: per switch (name, control probe, VT, half band, initial
+    state, instants from pelcs' events?, ngspice's instants)."""
     from lcs.moreau import simulate
     from netlist.transient import transient_setup
 
@@ -830,10 +861,31 @@ def _restart_check(circuit: Circuit, ng_circuit: Circuit, result: SimulationResu
                        for st in setup.system.states])
     except (KeyError, NetlistError):  # a state ngspice does not show (a pwl gate's RC)
         return ""
+    controls = [r[1] for r in reading]
     restart = simulate(setup.system, setup.signals, x0, setup.t_stop, setup.h,
-                       theta=float(result.theta), t_start=window[0], probes=list(probes))
+                       theta=float(result.theta), t_start=window[0],
+                       probes=list(dict.fromkeys([*probes, *controls])))
     if restart.error is not None:
         return ""
+    # its instants, read as the compared run's were, against ngspice's in the window
+    events = _pelcs_instants(restart, [r[0] for r in reading])
+    t_r = np.asarray(restart.t, dtype=float)
+    ends = (window[0], float(min(t_r[-1], t_n[-1])))
+    by_name = {w.switch: w for w in switches}
+    for name, ctrl, vt, band, initial, from_events, ni in reading:
+        w = by_name[name]
+        if w.method != "instants":
+            continue
+        ri = events[name] if from_events else _ngspice_instants(t_r, restart[ctrl], vt, band,
+                                                                initial)
+        off = max(_hausdorff(x, y, *ends, ends, w.tol) for x, y in ((ri.on, ni.on),
+                                                                      (ri.off, ni.off)))
+        if not off <= w.tol:
+            notes.append(f"pelcs restarted from ngspice's state at "
+                         f"{format_eng(window[0], 's')} does not follow it either ({name}'s "
+                         f"instants {format_eng(off, 's')} apart, tolerance "
+                         f"{format_eng(w.tol, 's')})")
+            return ""
     tr = np.asarray(restart.t, dtype=float)
     rows = []
     for p in records:
@@ -851,11 +903,16 @@ def _restart_check(circuit: Circuit, ng_circuit: Circuit, result: SimulationResu
         return ""
     for p, n, m in rows:
         p.restart_nrms, p.restart_mean_error = n, m
-        if not p.ok:
+        window_fails = set(p.failures) - {"transient nrms"} - (
+            {"nrms"} if p.nrms_over == "run" else set())
+        if window_fails:
             p.unjudged = "another orbit"
     for w in switches:
         if not w.ok:
             w.inconclusive = "another orbit"
+    if not any(p.unjudged for p in records) and not any(
+            w.inconclusive == "another orbit" for w in switches):
+        return ""  # what fails is not in the window (a transient): nothing set aside
     worst = max(rows, key=lambda r: r[1] / r[0].nrms_tol)
     return (f"pelcs and ngspice end on different orbits (or phases of one), but pelcs "
             f"restarted from ngspice's state at {format_eng(window[0], 's')} follows ngspice "

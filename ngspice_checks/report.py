@@ -80,14 +80,17 @@ def _summary(cmp: Comparison) -> str:
                        f"{100 * cmp.tolerances.conclusive:.3g} %) decide nothing for "
                        + ", ".join(wide))
         if cmp.sensitivity:
-            why.append(cmp.sensitivity + "; waveforms point by point and switching instants "
-                       "not judged, means and ripples within tolerances widened by twice "
-                       "pelcs' own spread")
+            why.append(cmp.sensitivity + ", so two simulations of it need not agree point "
+                       "by point; the waveforms and instants that differ are not judged, the "
+                       "means and ripples are within tolerances widened by twice pelcs' own "
+                       "spread")
         if cmp.orbit:
             why.append(cmp.orbit + "; the runs' metrics are not judged")
         return "INCONCLUSIVE: " + "; ".join(why) + "; no agreement shown"
     if cmp.transient:
         return "within tolerance over the steady state: " + cmp.transient
+    if cmp.sensitivity:
+        return "within tolerance point by point, although " + cmp.sensitivity
     return "within tolerance"
 
 
@@ -157,7 +160,7 @@ def format_table(cmp: Comparison) -> str:
         else:
             what = f"not compared: {s.reason}"
         verdict = ("" if s.method == "none" else
-                   f"inconclusive ({s.inconclusive}: pelcs at h/2 moves them by "
+                   f"inconclusive ({s.inconclusive}: pelcs perturbed moves them by "
                    f"{_eng(s.self_offset, 's')})" if s.inconclusive else _verdict(s.ok))
         if s.inconclusive == "another orbit":
             verdict = "inconclusive (another orbit)"
