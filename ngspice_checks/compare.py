@@ -120,29 +120,41 @@ periods, so its switching *frequency* over the last periods is compared instead.
 
 Sensitive runs (state-driven switching)
 ---------------------------------------
-When a switch follows the state (a comparator, anything not ``"source"``-driven), pelcs runs
-the circuit once more at half its step (:func:`_half_step_run`; cheap next to ngspice). The
-difference of its two runs measures what pelcs' own step, and the sensitivity of the orbit to
-any perturbation (an instant moved by a step is one), can do: a pelcs-vs-ngspice difference
-of that size says nothing about the model. Per probe, the RMS of pelcs(h) - pelcs(h/2) on the
-common grid (same guard) over the transient (before the steady-state window) and over the
-window, relative to the scale, each against *half* the probe's NRMS tolerance:
+When a switch follows the state (a comparator, anything not ``"source"``-driven), an instant
+moved by one step moves the rest of the run, and in an ill-conditioned start-up or on a
+chaotic orbit two correct simulations part. pelcs then runs twice more
+(:func:`_perturbed_runs`; cheap next to ngspice): at half its step, and, when its comparators
+are ideal (``"implicit"``) and never slide, with them sampled at the end of each step
+(``switching="explicit"``: the instants land on the grid, as ngspice's land on its time steps:
+an error of ngspice's kind). Per probe, the largest RMS change those runs make on the common
+grid (same guard), relative to the scale, over the transient (before the steady-state window)
+and over the window, is held against *half* the probe's NRMS tolerance; per switch the
+largest move of its instants in the window against their tolerance (which already allows
+ngspice's steps):
 
-- all within: pelcs is converged, everything is compared as above (most comparator
-  circuits: 1e-5 % to 1e-3 % on the bundled ones);
-- the **window** parts (any probe, or a switch's instants moved by more than half their
-  tolerance): the run is sensitive there (a chaotic orbit, or a transient not settled yet),
-  and two simulations of it cannot agree point by point. The NRMS and the instants are
-  reported, not judged (``ProbeComparison.pointwise``, ``SwitchingComparison.inconclusive``);
-  the means and ripples are judged with their tolerances widened by twice |pelcs(h) -
-  pelcs(h/2)| of each (a window of a chaotic orbit is a sample of its statistics: pelcs' two
-  runs are two samples, ngspice's a third). Within those the verdict is *inconclusive*
-  (``Comparison.sensitivity`` says why), never agreement; out of them it is a failure;
+- all within: pelcs is converged, everything is compared as above (every state-driven
+  netlist of the agreement sweep);
+- the **window** parts (a probe, or the instants): the run there is sensitive (a chaotic
+  orbit, the phase of a subharmonic one, a transient not settled yet). A pointwise metric
+  that agrees still counts; one that differs is reported, not judged
+  (``ProbeComparison.pointwise``, ``SwitchingComparison.inconclusive``), and the verdict is
+  then *inconclusive* (``Comparison.sensitivity`` says why). The means and ripples are
+  judged with their tolerances widened by twice the largest change of each (a window of a
+  chaotic orbit is a sample of its statistics: pelcs' runs are samples, ngspice's another);
 - only the **transient** parts: the NRMS is judged over the steady-state window
   (``nrms_over = "steady state"``, as the comparator instants already are); the transient's
-  NRMS is reported and fails only past the NRMS tolerance + 4 × pelcs' own difference there
-  (pelcs' error up to twice its change at h/2, first order, and ngspice's as large on the same
-  start-up). Passing that wide bound shows nothing; ``Comparison.transient`` says so.
+  NRMS is reported and fails only past the NRMS tolerance + 4 × pelcs' change there (pelcs'
+  error up to twice its change, first order, and ngspice's as large). Passing that wide
+  bound shows nothing; ``Comparison.transient`` says so.
+
+When something in the window still fails, pelcs restarts from ngspice's state at the window's
+start (every inductor current and capacitor voltage, :func:`_restart_check`) and runs over
+the window. If that run follows ngspice within the NRMS, mean and instants' tolerances, both
+simulators have the same dynamics and the runs' start-ups chose different coexisting orbits
+(or phases): the failing window metrics are set aside (``ProbeComparison.unjudged``), the
+verdict is *inconclusive* and ``Comparison.orbit`` says why. A transient NRMS, and a
+whole-run NRMS of a converged run, stay judged. A wrong element value or a shifted timing
+makes the restart part from ngspice too, and the comparison fails.
 
 Period
 ------
