@@ -9,10 +9,10 @@ agree to 1e-4 A. The waveforms are then compared point by point over the steady-
 only, and the transient fails only past the tolerance + 4 × pelcs' own difference. At vin =
 33 V the orbit is chaotic: pelcs' own runs part in the window itself, and no pointwise
 comparison decides anything (inconclusive, exit 4); the means are still compared, within
-tolerances widened by twice pelcs' own spread. At vin = 24 V (a stable period-1 orbit,
-|μ| = 0.82, coexisting with a period-2 one) pelcs and ngspice settle on different orbits;
-pelcs restarted from ngspice's state at the window's start follows ngspice (0.3 %): the same
-dynamics, inconclusive. Injected errors (a shifted reference, a wrong load, a wrong initial
+tolerances widened by twice pelcs' own spread. At vin = 24 V (period 1 stable, |μ| = 0.82) ngspice
+ends on a large period-2 oscillation; pelcs restarted from ngspice's state at the window's
+start sustains it too and follows ngspice (0.3 %): the same dynamics, the start-ups chose
+different orbits, inconclusive. Injected errors (a shifted reference, a wrong load, a wrong initial
 condition, a delayed ramp in ``test_check_instants.py``) still fail, in every regime.
 """
 
@@ -75,8 +75,8 @@ def test_chaos_is_inconclusive_with_the_reason(ngspice, capsys):
 
 
 def test_coexisting_orbits_are_inconclusive_when_the_restart_follows_ngspice(ngspice):
-    # vin = 24 V: pelcs settles on the stable period-1 orbit, ngspice on a period-2 one
-    # (ripple 386 mA against 120 mA); both are orbits of the same dynamics
+    # vin = 24 V: pelcs settles on the stable period-1 orbit, ngspice on a period-2
+    # oscillation (ripple 386 mA against 120 mA) that pelcs sustains from ngspice's state
     cmp = compare(VM_BUCK, params={"vin": 24}, timeout=120)
     assert cmp.verdict == "inconclusive" and cmp.orbit and not cmp.sensitivity
     assert "restarted from ngspice's state at 36 ms follows ngspice" in cmp.orbit
