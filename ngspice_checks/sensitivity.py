@@ -187,9 +187,15 @@ def _restart_check(circuit: Circuit, ng_name: Callable[[str], str], result: Simu
     except (KeyError, NetlistError):  # a state ngspice does not show (a pwl gate's RC)
         return ""
     controls = [r[1] for r in reading]
-    restart = simulate(setup.system, setup.signals, x0, setup.t_stop, setup.h,
-                       theta=float(result.theta), t_start=window[0],
-                       probes=list(dict.fromkeys([*probes, *controls])))
+    theta = float(result.theta) if getattr(result, "theta", None) is not None else 0.5
+    try:
+        restart = simulate(setup.system, setup.signals, x0, setup.t_stop, setup.h,
+                           theta=theta, t_start=window[0],
+                           probes=list(dict.fromkeys([*probes, *controls])))
+    except (ValueError, RuntimeError, KeyError) as exc:  # the failures stay judged
+        notes.append(f"pelcs could not restart from ngspice's state at "
+                     f"{format_eng(window[0], 's')}: {exc}")
+        return ""
     if restart.error is not None:
         return ""
     # its instants, read as the compared run's were, against ngspice's in the window
