@@ -85,7 +85,7 @@ def _summary(cmp: Comparison) -> str:
                        "means and ripples are within tolerances widened by twice pelcs' own "
                        "spread")
         if cmp.orbit:
-            why.append(cmp.orbit + "; the runs' metrics are not judged")
+            why.append(cmp.orbit + "; the window's metrics that differ are not judged")
         return "INCONCLUSIVE: " + "; ".join(why) + "; no agreement shown"
     if cmp.transient:
         return "within tolerance over the steady state: " + cmp.transient
