@@ -118,6 +118,14 @@ there, and a free-running switch (a hysteretic comparator without any periodic s
 sliding-mode current loop or a relaxation oscillator) accumulates phase drift over many
 periods, so its switching *frequency* over the last periods is compared instead.
 
+Sensitive runs (state-driven switching)
+---------------------------------------
+Where a switch follows the state (a comparator), pelcs also runs perturbed (half its step,
+comparators sampled on its grid) and, when the window still fails, restarted from ngspice's
+state at the window's start: :mod:`ngspice_checks.sensitivity` gives the rules (the window
+only, a transient judged by pelcs' own change, inconclusive on a sensitive orbit or on
+coexisting orbits).
+
 Period
 ------
 The mean and the ripple are taken over the last whole periods (up to 10, at most a quarter of
@@ -172,6 +180,7 @@ from .measures import (
     detect_period,
 )
 from .runner import NgspiceSettings, ProbeError, ngspice_version, run_ngspice
+from .sensitivity import _nrms, _perturbed_runs, _restart_check, _sensitivity
 
 __all__ = [
     "CheckError",
@@ -429,8 +438,10 @@ def compare(
     ideal_delta = _nonideality(circuit, NgspiceSettings("as-written"), carried, drives)
     use_pwl, why = _choose_devices(devices, circuit, ideal_delta, tol)
     fits: list = []
+    run_c = pel  # the circuit pelcs' compared run simulates
     if use_pwl:
         pwl_c, fits = pwl_circuit(pel, carried, drives)
+        run_c = pwl_c
         t0 = time.perf_counter()
         fitted = simulate_circuit(pwl_c, theta=theta, probes=pel_probes)
         if fitted.error is None:
@@ -441,18 +452,25 @@ def compare(
             raise CheckError(f"pelcs (--devices pwl) failed at t = "
                              f"{fitted.error.time:.6g} s: {fitted.error.message}")
         else:  # auto: compare the ideal run, with the tolerances of ideal devices
-            use_pwl, fits = False, []
+            use_pwl, fits, run_c = False, [], pel
             notes.append(f"pelcs with --devices pwl ({why}) failed at t = "
                          f"{fitted.error.time:.6g} s ({fitted.error.message}): ideal devices "
                          "compared")
     elif devices == "auto" and why:
         notes.append(f"pelcs ran with ideal devices ({why})")
     notes.extend(f"pelcs: {n}" for n in result.notes)
+    # switching that follows the state (comparators): pelcs once more at half the step, to
+    # tell its own sensitivity from a disagreement (module docstring, "Sensitive runs")
+    others = _perturbed_runs(run_c, result, theta, pel_probes, switch_els, notes)
+    # and ngspice measures every state then: pelcs may restart from its state (below)
+    state_probes = ([ngspice_probe(circuit, st) for st in default_probes(circuit)]
+                    if others else [])
 
     deck = write_circuit(circuit)
     start = {p[2:-1]: float(result[p][0]) for p in node_probes}
     try:
-        ng = run_ngspice(deck, list(dict.fromkeys(ng_probes + controls)), settings=settings,
+        ng = run_ngspice(deck, list(dict.fromkeys(ng_probes + controls + state_probes)),
+                         settings=settings,
                          timeout=timeout, initial_voltages=start,
                          workdir=Path(file).parent if file and file != "<string>" else None)
     except ProbeError as exc:
@@ -497,6 +515,9 @@ def compare(
     # switching instants
     names = [sw.name for sw in switch_els]
     p_inst = _pelcs_instants(result, names)
+    reading: list[tuple] = []
+    o_inst = [_pelcs_instants(o, names) for o in others]
+    o_t = [np.asarray(o.t, dtype=float) for o in others]
     tmax_ng = _ngspice_tmax(circuit)
     switch_cmp: list[SwitchingComparison] = []
     all_instants: list[np.ndarray] = []
@@ -514,20 +535,28 @@ def compare(
             # output, the half band is crossed once per switching in both)
             ni = _ngspice_instants(t_n, ng.signals[ctrl], mp["vt"], vh / 2, sw.initial)
             pi = _ngspice_instants(t_p, result[ctrl], mp["vt"], vh / 2, sw.initial)
+            ph = [_ngspice_instants(t, o[ctrl], mp["vt"], vh / 2, sw.initial)
+                  for t, o in zip(o_t, others, strict=True)]
         else:
             ni = _ngspice_instants(t_n, ng.signals[ctrl], mp["vt"], 0.0, sw.initial)
             pi = p_inst[sw.name]
+            ph = [oi[sw.name] for oi in o_inst]
             at_terminal = use_pwl and getattr(sw, "gate_rc", None) is not None
             if at_terminal:
                 # the pwl switch turns on its internal gate capacitor (and may slide there
                 # while the MOSFET follows its gate, as ngspice's does in its linear region);
                 # ngspice's instants are read at the gate terminal: both sides there
                 pi = _ngspice_instants(t_p, result[ctrl], mp["vt"], 0.0, sw.initial)
+                ph = [_ngspice_instants(t, o[ctrl], mp["vt"], 0.0, sw.initial)
+                      for t, o in zip(o_t, others, strict=True)]
         all_instants += [pi.on, pi.off, ni.on, ni.off]
+        # how to read another pelcs run's instants alike (the restart below)
+        reading.append((sw.name, ctrl, mp["vt"], vh / 2 if vh > 0 else 0.0, sw.initial,
+                        vh <= 0 and not at_terminal, ni))
         driven = result.switching.get(sw.name, "?")
         switch_cmp.append(_compare_switch(sw.name, driven, ctrl, pi, ni, result, span, window,
                                           per, per_source, tmax_ng, h, tol, kd,
-                                          at_terminal=vh <= 0 and at_terminal))
+                                          at_terminal=vh <= 0 and at_terminal, others=ph))
     instants = np.sort(np.concatenate(all_instants)) if all_instants else np.empty(0)
     offsets = [s.max_offset for s in switch_cmp if s.method == "instants"]
     guard = step + (max(offsets) if offsets else 0.0)
@@ -548,6 +577,10 @@ def compare(
 
     probe_cmp = []
     tp_u, tn_u = t_p, t_n
+    steady = grid >= window[0]  # the steady-state window; before it, the transient
+    selfs: list[tuple[str, float, float, float]] = []  # probe, transient, window, tolerance
+    halves: list[tuple[float, float]] = []  # largest change of the window mean, ripple
+    steady_nrms: list[float] = []  # pelcs against ngspice over the window only
     for probe, ngp in zip(probes, ng_probes, strict=True):
         yp, yn = np.asarray(result[probe], float), np.asarray(ng.signals[ngp], float)
         tpi, ypi = _strictly_increasing(tp_u, yp)
@@ -555,9 +588,25 @@ def compare(
         gp, gn = np.interp(grid, tpi, ypi), np.interp(grid, tni, yni)
         sel_run = (t_p >= span[0]) & (t_p <= span[1])
         scale = _scale(yp[sel_run])
-        nrms = float(np.sqrt(np.mean((gn[mask] - gp[mask]) ** 2))) / scale
+        nrms = _nrms(gn - gp, mask) / scale
         wp, wn = _in_window(tpi, ypi, *window), _in_window(tni, yni, *window)
         rp, rn = float(np.ptp(wp[1])), float(np.ptp(wn[1]))
+        self_nrms = math.nan
+        if others:
+            # the largest change any perturbed pelcs run makes (module docstring)
+            run_, tr_, win_, dm, dr = 0.0, 0.0, 0.0, 0.0, 0.0
+            for t_o, o in zip(o_t, others, strict=True):
+                toi, yoi = _strictly_increasing(t_o, np.asarray(o[probe], float))
+                d = np.interp(grid, toi, yoi) - gp
+                run_ = max(run_, _nrms(d, mask) / scale)
+                tr_ = max(tr_, np.nan_to_num(_nrms(d, mask & ~steady)) / scale)
+                win_ = max(win_, _nrms(d, mask & steady) / scale)
+                wo = _in_window(toi, yoi, *window)
+                dm = max(dm, abs(_mean(*wo) - _mean(*wp)))
+                dr = max(dr, abs(float(np.ptp(wo[1])) - rp))
+            self_nrms = run_
+            selfs.append((probe, tr_, win_, tol.nrms + kd))
+            halves.append((dm, dr))
         probe_cmp.append(ProbeComparison(
             probe=probe, ngspice_probe=ngp, scale=scale,
             nrms=nrms, nrms_tol=tol.nrms + kd,
@@ -565,8 +614,18 @@ def compare(
             mean_tol=max(tol.mean, kd) * scale,
             ripple_pelcs=rp, ripple_ngspice=rn,
             ripple_tol=tol.ripple_rel * rp + (tol.ripple_floor + kd) * scale,
-            excluded=float(1.0 - mask.mean()),
+            excluded=float(1.0 - mask.mean()), self_nrms=self_nrms,
+            transient_nrms=_nrms(gn - gp, mask & ~steady) / scale,
         ))
+        steady_nrms.append(_nrms(gn - gp, mask & steady) / scale)
+    transient, sensitivity = _sensitivity(probe_cmp, switch_cmp, selfs, halves, steady_nrms,
+                                          window, tol)
+    orbit = ""
+    failing = any(not p.ok for p in probe_cmp) or any(not w.ok for w in switch_cmp)
+    if others and failing:
+        orbit = _restart_check(run_c, lambda st: ngspice_probe(circuit, st), result, ng,
+                               probes, probe_cmp, switch_cmp,
+                               reading, grid, mask & steady, window, notes)
 
     return Comparison(
         file=str(file), title=base.title, params=dict(params or {}),
@@ -579,6 +638,7 @@ def compare(
         ngspice_wall=ng.wall_time, ngspice_total=ng.total_time, ngspice_points=len(t_n),
         notes=notes, pelcs_result=result, ngspice_result=ng,
         devices="pwl" if use_pwl else "ideal", device_fits=list(fits),
+        transient=transient, sensitivity=sensitivity, orbit=orbit,
     )
 
 
@@ -602,7 +662,7 @@ def _compare_switch(
     name: str, driven: str, control: str, pi: _Instants, ni: _Instants,
     result: SimulationResult, span: tuple[float, float], window: tuple[float, float],
     period: float | None, period_source: str, tmax_ng: float, h: float, tol: Tolerances,
-    kd: float, at_terminal: bool = False,
+    kd: float, at_terminal: bool = False, others: Sequence[_Instants] = (),
 ) -> SwitchingComparison:
     """Instants (or, free-running, the frequency) of one switch; see the module docstring.
     ``at_terminal``: both sides' instants are crossings of the control at the device's
@@ -650,6 +710,12 @@ def _compare_switch(
             name, driven, control, "instants", count(pi, a, b), count(ni, a, b), math.inf,
             limit, fp, fn, span, f"only {who} switches ({max(n_p, n_n)} switchings over the "
             "run, none in the other)")
+    self_offset = math.nan
+    if others:
+        # pelcs against its perturbed runs, measured as against ngspice (same span, pairing)
+        self_offset = max(_hausdorff(x, y, a, b, ends, limit) for o in others
+                          for x, y in ((pi.on, o.on), (pi.off, o.off)))
     return SwitchingComparison(
         name, driven, control, "instants", count(pi, a, b), count(ni, a, b), max(offs), limit,
-        fp, fn, span, "" if n_p else "neither switches", note=at_ends)
+        fp, fn, span, "" if n_p else "neither switches", note=at_ends,
+        self_offset=self_offset)

@@ -73,6 +73,29 @@ class ProbeComparison:
         Peak-to-peak over the window and the allowed |difference| (absolute).
     excluded : float
         Fraction of grid points left out of the NRMS (near switching instants).
+    nrms_over : str
+        Where the NRMS was taken: ``"run"`` (the common run) or ``"steady state"`` (the
+        window only: pelcs' own transient is not converged, ``Comparison.transient``).
+    transient_nrms : float
+        With ``nrms_over == "steady state"``: the NRMS over the transient before the window,
+        (NaN otherwise); it fails only past ``transient_tol``.
+    transient_tol : float
+        The transient's NRMS tolerance widened by pelcs' own sensitivity there (the NRMS
+        tolerance + 4 × pelcs' h-vs-h/2 difference): wide, it shows no agreement, it can
+        only fail (NaN when the whole run is compared).
+    self_nrms : float
+        RMS difference of pelcs' runs at h and h/2 over the span the NRMS was taken on /
+        scale (NaN when no second run was made: source-driven switching).
+    pointwise : str
+        Why the pointwise NRMS is not judged (the orbit is sensitive to perturbations:
+        ``Comparison.sensitivity``); empty when it is.
+    unjudged : str
+        Why none of the run's metrics is judged: the two runs end on different orbits while
+        pelcs restarted from ngspice's state follows it (``Comparison.orbit``); empty
+        otherwise.
+    restart_nrms, restart_mean_error : float
+        That restart against ngspice over the window: NRMS (/ scale) and the mean
+        difference (ngspice - restart, absolute); NaN when not run.
     """
 
     probe: str
@@ -87,6 +110,14 @@ class ProbeComparison:
     ripple_ngspice: float
     ripple_tol: float
     excluded: float
+    nrms_over: str = "run"
+    transient_nrms: float = float("nan")
+    transient_tol: float = float("nan")
+    self_nrms: float = float("nan")
+    pointwise: str = ""
+    unjudged: str = ""
+    restart_nrms: float = float("nan")
+    restart_mean_error: float = float("nan")
 
     @property
     def mean_error(self) -> float:
@@ -102,8 +133,15 @@ class ProbeComparison:
     def failures(self) -> list[str]:
         """Names of the metrics out of tolerance (empty: the probe passes)."""
         out = []
-        if not self.nrms <= self.nrms_tol:
+        # the window's metrics are set aside only when a restart from ngspice's state
+        # agreed (Comparison.orbit); a transient or whole-run NRMS stays judged
+        window_only = self.unjudged and self.nrms_over != "run"
+        if not self.pointwise and not window_only and not self.nrms <= self.nrms_tol:
             out.append("nrms")
+        if self.nrms_over != "run" and self.transient_nrms > self.transient_tol:
+            out.append("transient nrms")
+        if self.unjudged:
+            return out
         if not abs(self.mean_error) <= self.mean_tol:
             out.append("mean")
         if not abs(self.ripple_error) <= self.ripple_tol:
@@ -150,6 +188,11 @@ class SwitchingComparison:
     note : str
         What the instants' comparison left out, if anything (an instant at an end of the
         run whose partner would lie past it).
+    self_offset : float
+        The same offset between pelcs' runs at h and h/2 (s; NaN when not measured).
+    inconclusive : str
+        Why the instants decide nothing (pelcs' own instants move by more than half the
+        tolerance when the step is halved: a sensitive orbit); empty when they decide.
     """
 
     switch: str
@@ -165,9 +208,13 @@ class SwitchingComparison:
     span: tuple[float, float]
     reason: str = ""
     note: str = ""
+    self_offset: float = float("nan")
+    inconclusive: str = ""
 
     @property
     def ok(self) -> bool:
+        if self.inconclusive:
+            return True  # not judged: Comparison.verdict says inconclusive
         if self.method == "instants":
             return self.max_offset <= self.tol
         if self.method == "frequency":
@@ -219,6 +266,18 @@ class Comparison:
         pelcs' devices: ``"ideal"`` or ``"pwl"`` (fitted to ngspice's models).
     device_fits : list of netlist.pwl.PwlFit
         The fits, with ``"pwl"``.
+    transient : str
+        Switching that follows the state and a transient pelcs' own step halving moves by
+        more than half the NRMS tolerance: why the waveforms were compared pointwise over
+        the steady-state window only (empty otherwise).
+    sensitivity : str
+        Why no pointwise comparison decides anything: pelcs' own runs at h and h/2 part in
+        the steady-state window (a sensitive, e.g. chaotic, orbit). The verdict is then at
+        best inconclusive.
+    orbit : str
+        Why the runs' metrics decide nothing: they end on different orbits (or phases of a
+        subharmonic one) while pelcs restarted from ngspice's state at the window's start
+        follows ngspice. The verdict is then inconclusive.
     """
 
     file: str
@@ -251,6 +310,9 @@ class Comparison:
     ngspice_result: NgspiceResult | None = field(default=None, repr=False)
     devices: str = "ideal"
     device_fits: list = field(default_factory=list)
+    transient: str = ""
+    sensitivity: str = ""
+    orbit: str = ""
 
     @property
     def within(self) -> bool:
@@ -260,8 +322,11 @@ class Comparison:
     @property
     def inconclusive(self) -> list[str]:
         """The probes whose tolerance is too wide to decide anything (over
-        ``Tolerances.conclusive``)."""
-        return [p.probe for p in self.probes if p.widest > self.tolerances.conclusive]
+        ``Tolerances.conclusive``) or whose pointwise comparison decides nothing (a
+        sensitive orbit, ``sensitivity``), and the switches whose instants decide nothing."""
+        return ([p.probe for p in self.probes
+                 if p.widest > self.tolerances.conclusive or p.pointwise or p.unjudged]
+                + [f"{s.switch} (instants)" for s in self.switches if s.inconclusive])
 
     @property
     def verdict(self) -> str:
@@ -340,13 +405,17 @@ class Comparison:
             "probes": [
                 {**vars(p).copy(), "mean_error": p.mean_error, "ripple_error": p.ripple_error,
                  "ok": p.ok, "failures": p.failures,
-                 "conclusive": p.widest <= self.tolerances.conclusive}
+                 "conclusive": (p.widest <= self.tolerances.conclusive and not p.pointwise
+                                and not p.unjudged)}
                 for p in self.probes
             ],
             "switches": [
                 {**{k: v for k, v in vars(w).items()}, "span": list(w.span), "ok": w.ok}
                 for w in self.switches
             ],
+            "transient": self.transient,
+            "sensitivity": self.sensitivity,
+            "orbit": self.orbit,
             "notes": list(self.notes),
         }
 

@@ -54,6 +54,8 @@ def _probe_verdict(cmp: Comparison, p) -> str:
     """A probe's verdict: a pass under a tolerance too wide to decide is not agreement."""
     if not p.ok:
         return "FAIL"
+    if p.pointwise or p.unjudged:
+        return f"inconclusive ({p.pointwise or p.unjudged})"
     return "inconclusive" if p.widest > cmp.tolerances.conclusive else "ok"
 
 
@@ -73,15 +75,38 @@ def verdict_line(cmp: Comparison) -> str:
     return _summary(cmp)
 
 
+def _transient_cell(p) -> str:
+    """Where the NRMS was taken, when not over the whole run, and the transient's figure."""
+    if p.nrms_over == "run":
+        return ""
+    return (f"; NRMS over the steady state, transient {_pct(p.transient_nrms)} "
+            f"[{_pct(p.transient_tol)}]")
+
+
 def _summary(cmp: Comparison) -> str:
     """The last line: the verdict and what it rests on."""
     if cmp.verdict == "fail":
         return "OUT OF TOLERANCE: " + "; ".join(cmp.failures)
     if cmp.verdict == "inconclusive":
-        widest = max(p.widest for p in cmp.probes)
-        return (f"INCONCLUSIVE: tolerances of up to {100 * widest:.3g} % (over "
-                f"{100 * cmp.tolerances.conclusive:.3g} %) decide nothing for "
-                + ", ".join(cmp.inconclusive) + "; no agreement shown")
+        why = []
+        wide = [p.probe for p in cmp.probes if p.widest > cmp.tolerances.conclusive]
+        if wide:
+            widest = max(p.widest for p in cmp.probes)
+            why.append(f"tolerances of up to {100 * widest:.3g} % (over "
+                       f"{100 * cmp.tolerances.conclusive:.3g} %) decide nothing for "
+                       + ", ".join(wide))
+        if cmp.sensitivity:
+            why.append(cmp.sensitivity + ", so two simulations of it need not agree point "
+                       "by point; the waveforms and instants that differ are not judged, the "
+                       "means and ripples are within tolerances widened by twice pelcs' own "
+                       "spread")
+        if cmp.orbit:
+            why.append(cmp.orbit + "; the window's metrics that differ are not judged")
+        return "INCONCLUSIVE: " + "; ".join(why) + "; no agreement shown"
+    if cmp.transient:
+        return "within tolerance over the steady state: " + cmp.transient
+    if cmp.sensitivity:
+        return "within tolerance point by point, although " + cmp.sensitivity
     return "within tolerance"
 
 
@@ -135,7 +160,7 @@ def format_table(cmp: Comparison) -> str:
             f"{_eng(p.ripple_pelcs, u):>12} {_eng(p.ripple_ngspice, u):>11} "
             f"{_pct(p.ripple_error / p.scale):>8} [{_pct(p.ripple_tol / p.scale):>7}]  "
             f"{_probe_verdict(cmp, p)}" + (f" ({', '.join(p.failures)})" if p.failures
-                                           else "")
+                                           else "") + _transient_cell(p)
         )
     for s in cmp.switches:
         if s.method == "instants" and s.reason:  # one side only, or neither, switches
@@ -150,8 +175,12 @@ def format_table(cmp: Comparison) -> str:
                     f"[{_pct(s.tol)}] ({s.reason})")
         else:
             what = f"not compared: {s.reason}"
-        lines.append(f"switch {s.switch} ({s.driven}): {what}  "
-                     + (_verdict(s.ok) if s.method != "none" else ""))
+        verdict = ("" if s.method == "none" else
+                   f"inconclusive ({s.inconclusive}: pelcs perturbed moves them by "
+                   f"{_eng(s.self_offset, 's')})" if s.inconclusive else _verdict(s.ok))
+        if s.inconclusive == "another orbit":
+            verdict = "inconclusive (another orbit)"
+        lines.append(f"switch {s.switch} ({s.driven}): {what}  {verdict}")
     for n in cmp.notes:
         lines.append(f"note: {n}")
     lines.append(_summary(cmp))
@@ -322,7 +351,7 @@ def markdown_report(cmp: Comparison, figure: str | None = None) -> str:
             f"{_pct(p.mean_error / p.scale)} [{_pct(p.mean_tol / p.scale)}] | "
             f"{_eng(p.ripple_pelcs, u)} | {_eng(p.ripple_ngspice, u)} | "
             f"{_pct(p.ripple_error / p.scale)} [{_pct(p.ripple_tol / p.scale)}] | "
-            f"{_probe_verdict(cmp, p)} |")
+            f"{_probe_verdict(cmp, p)}" + _transient_cell(p) + " |")
     if cmp.probes:
         out += ["", f"NRMS leaves out {_pct(cmp.probes[0].excluded)} of the grid points "
                 "(those next to a switching instant).", ""]
