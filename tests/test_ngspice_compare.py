@@ -108,6 +108,13 @@ RUNS: dict[str, dict] = {
     # (0.42 % of 12 V): it settles 1.4 % higher, by design of the loop, while v(out) and
     # i(L1) agree within 0.5 %. The integrator's level is not a pelcs quantity to check.
     "tests/netlists/ac/buck_pi_loop.cir": {"probes": ["i(L1)", "v(C1)"]},
+    # The reset clamp's capacitor settles where the leakage energy the clamp diode Dc passes
+    # balances Rc: its level follows the diode's drop over a current decaying to zero, where
+    # the pwl fit (over 0.24-4.9 A) and the exponential diode part: 40.87 V against 41.84 V
+    # (2 %), while every current and the output agree within 0.1 %. The clamp level is a
+    # property of the diode model, not of the formulation.
+    "tests/netlists/forward_coupled.cir": {"probes": ["i(Lp)", "i(Ls)", "i(Lr)", "i(L1)",
+                                                      "v(C1)"]},
 }
 
 
