@@ -48,6 +48,20 @@ def test_past_the_knee_is_refused_with_the_instant():
     assert t == pytest.approx(1e-3 * math.log(6), abs=2e-6)
 
 
+def test_the_knee_is_checked_at_every_step_of_a_run_written_on_a_grid():
+    # A run written on a coarse grid (output_step) is otherwise interpolated as it goes; with
+    # a knee it keeps every step, so that the crossing between two grid points is found at
+    # its step, not at the next grid point.
+    with pytest.raises(NetlistError) as exc:
+        simulate_circuit(parse_string(RC.replace("vin=4", "vin=6")), probes=["v(a)"],
+                         output_step=1e-3)
+    t = float(str(exc.value).split("at t = ")[1].split(" s")[0])
+    assert t == pytest.approx(1e-3 * math.log(6), abs=2e-6)
+    res = simulate_circuit(parse_string(RC), probes=["v(a)"], output_step=1e-3)
+    assert np.allclose(res.t, np.arange(6) * 1e-3)
+    assert np.allclose(res["v(a)"], 4 * (1 - np.exp(-res.t / 1e-3)), atol=4e-3)
+
+
 @pytest.mark.parametrize("value, words", [
     ("v(in) < 5 ? 1u : 2u", "other than the capacitor's own voltage"),
     ("v(a) < 5 ? v(a)*1u : 2u", "depends on v(a)"),
