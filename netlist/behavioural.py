@@ -21,6 +21,12 @@ equivalent, and refuses the others with the expression's place and the accepted 
   locates them as comparator crossings follows from that control, as for any S switch
   (``docs/switching.md``).
 
+- **clamp in the control path**: ``max(lo, min(hi, e))`` (or ``min``/``max`` alone) of an
+  affine ``e``, a ``V=`` source to ground whose output is read only by comparator B sources
+  comparing it with known waveforms (DC, PULSE, PWL sources) that stay within the clamp's
+  range: there ``clamp(e) > r`` is ``e > r`` at every instant, so :func:`fold_clamps` puts
+  ``e`` into those comparisons and removes the clamp (exact; anything else is refused).
+
 The expressions themselves (grammar, linear and comparator forms) are
 :mod:`netlist.behavioural_expr`.
 """
@@ -31,7 +37,9 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import ClassVar
 
-from .behavioural_expr import ACCEPTED, Affine, BehaviouralError, Step, linearise
+from lcs.signals import Dc, Pulse, Pwl
+
+from .behavioural_expr import ACCEPTED, Affine, BehaviouralError, Clamp, Step, linearise
 from .circuit import (
     GROUND,
     Cccs,
@@ -50,7 +58,8 @@ from .errors import Diagnostic, Location
 from .knee import elaborate_knee
 from .rawdeck import RawElement
 
-__all__ = ["Comparator", "elaborate", "linear_elements", "resolve_comparators"]
+__all__ = ["ClampSource", "Comparator", "elaborate", "fold_clamps", "linear_elements",
+           "resolve_comparators"]
 
 
 # ------------------------------------------------------------------------------ elements
@@ -67,6 +76,17 @@ class Comparator(Element):
     step: Step | None = None
     text: str = ""
     what: str = "comparator B source"  # what it is, for messages
+    kind: ClassVar[str] = "B"
+
+
+@dataclass
+class ClampSource(Element):
+    """A ``V=`` B source whose value is a :class:`~netlist.behavioural_expr.Clamp` of an
+    affine form (before :func:`fold_clamps` folds it into the comparators that read it;
+    never formulated). ``text``: the expression as written."""
+
+    clamp: Clamp | None = None
+    text: str = ""
     kind: ClassVar[str] = "B"
 
 
@@ -136,7 +156,7 @@ def elaborate(el: RawElement, prefix: str, mapnode: Callable[[str], str],
     loc = el.st.loc(0)
     nodes = tuple(map(mapnode, el.nodes))
     try:
-        form = linearise(tree, text, env, mapnode, source_name(prefix))
+        form = linearise(tree, text, env, mapnode, source_name(prefix), clamps=True)
     except BehaviouralError as exc:
         unknown = exc.message.startswith("unknown parameter")
         if not (unknown and exc.message.split("'")[1] in failed):  # (else reported already)
@@ -145,7 +165,125 @@ def elaborate(el: RawElement, prefix: str, mapnode: Callable[[str], str],
         return []
     if isinstance(form, Step):
         return [Comparator(name, nodes, loc, out_kind, form, text)]
+    if isinstance(form, Clamp):
+        if out_kind != "V" or nodes[1] != GROUND:
+            error(f"{name}: '{text.strip()}' clamps a linear expression (min/max) "
+                  f"{'as a current' if out_kind != 'V' else 'between two nodes'}",
+                  el.st.loc(offset), _CLAMP_HINT, (name,))
+            return []
+        return [ClampSource(name, nodes, el.st.loc(offset), form, text)]
     return linear_elements(name, out_kind, nodes, form, loc)
+
+
+# ------------------------------------------------------------------------------ clamps
+
+_CLAMP_HINT = ("pelcs reads a clamp max(lo, min(hi, e)) of a linear e only in a control path: "
+               "a V= source to ground whose output only comparator B sources read, each "
+               "comparing it with DC, PULSE or PWL sources that stay within [lo, hi]; "
+               + ACCEPTED)
+
+
+def _source_range(circuit: Circuit, node: str) -> tuple[float, float] | None:
+    """The range of ``v(node)`` when an independent voltage source to ground sets it (DC,
+    PULSE or PWL: their values stay between their extreme points), else None."""
+    for el in circuit.elements:
+        if isinstance(el, VoltageSource) and node in el.nodes and GROUND in el.nodes:
+            sig = el.waveform
+            if sig is None or isinstance(sig, Dc):
+                values = [el.dc if sig is None else sig.value]
+            elif isinstance(sig, Pulse):
+                values = [sig.v1, sig.v2]
+            elif isinstance(sig, Pwl):
+                values = list(sig.values)
+            else:
+                return None
+            sign = 1.0 if el.nodes[0] == node else -1.0
+            return min(sign * v for v in values), max(sign * v for v in values)
+    return None
+
+
+def _fold_one(circuit: Circuit, b: ClampSource, comp: Comparator) -> str | None:
+    """Put ``b``'s affine form into ``comp``'s comparison, where that is exact; else why
+    not."""
+    assert b.clamp is not None and comp.step is not None
+    p = b.nodes[0]
+    step, clamp = comp.step, b.clamp
+    a = dict(step.diff.terms)[("v", p)]
+    rest = Affine(tuple((q, c) for q, c in step.diff.terms if q != ("v", p)), step.diff.const)
+    # the comparison is a*clamp + rest > 0 (or >= 0): clamp against r = -rest/a, a known
+    # waveform when rest reads only independent sources
+    lo_r = hi_r = -rest.const / a
+    for q, c in rest.terms:
+        rng = _source_range(circuit, q[1]) if q[0] == "v" else None
+        if rng is None:
+            what = f"{q[0]}({q[1]})"
+            return f"its other side reads {what}, which is not a DC, PULSE or PWL source"
+        ends = (-c * rng[0] / a, -c * rng[1] / a)
+        lo_r, hi_r = lo_r + min(ends), hi_r + max(ends)
+    # clamp(e) > r is e > r while lo < r < hi; at r = lo (or hi) the clamp's flat piece
+    # equals r and the comparison holds the flat piece's truth: the same as e's only on one
+    # side of each bound
+    up = a > 0
+    lo_ok = clamp.lo < lo_r or (clamp.lo == lo_r and step.strict == up)
+    hi_ok = hi_r < clamp.hi or (hi_r == clamp.hi and step.strict != up)
+    if not (lo_ok and hi_ok):
+        return (f"the level it is compared with spans {lo_r:g} to {hi_r:g} V, beyond the "
+                f"clamp's range {clamp.lo:g} to {clamp.hi:g} V, where the clamp decides the "
+                "comparison")
+    comp.step = Step(rest.plus(clamp.form.scaled(a)), step.strict, step.hi, step.lo)
+    return None
+
+
+def fold_clamps(circuit: Circuit) -> list[Diagnostic]:
+    """Fold every :class:`ClampSource` into the comparator B sources that read its output,
+    and remove it.
+
+    ``max(lo, min(hi, e))`` compared with a level ``r`` is ``e`` compared with ``r`` while
+    ``lo < r < hi`` (and at one of the two bounds, by the comparison's direction and
+    strictness); so when the other side of every comparison reading the clamp is a known
+    waveform (independent DC, PULSE or PWL sources) within that range, the comparison of
+    ``e`` is exact at every instant, whether or not the clamp is active.
+
+    Returns
+    -------
+    list of Diagnostic
+        A clamp whose output feeds anything but comparators, or a comparison it decides.
+    """
+    diags: list[Diagnostic] = []
+    clamps = [el for el in circuit.elements if isinstance(el, ClampSource)]
+    if not clamps:
+        return diags
+    circuit.elements[:] = [el for el in circuit.elements if not isinstance(el, ClampSource)]
+    for b in clamps:
+        p = b.nodes[0]
+        label = f"B source {b.name} ({b.text.strip()})"
+        readers: list[Comparator] = []
+        bad: list[str] = []
+        for el in circuit.elements + [c for c in clamps if c is not b]:
+            if isinstance(el, Comparator) and p not in el.nodes and any(
+                    q == ("v", p) for q, _ in el.step.diff.terms):
+                readers.append(el)
+            elif p in el.nodes or p in tuple(getattr(el, "control", ())) or (
+                    isinstance(el, ClampSource) and ("v", p) in dict(el.clamp.form.terms)):
+                bad.append(el.name)
+        if bad or not readers:
+            feeds = f"feeds {', '.join(bad)}" if bad else "feeds no comparator"
+            diags.append(Diagnostic(f"{label} clamps a linear expression and its output "
+                                    f"{p} {feeds}", b.location, _CLAMP_HINT, (b.name, *bad)))
+            continue
+        for comp in readers:
+            why = _fold_one(circuit, b, comp)
+            if why is not None:
+                diags.append(Diagnostic(
+                    f"{label} clamps a linear expression that comparator {comp.name} "
+                    f"reads, and {why}", b.location, _CLAMP_HINT, (b.name, comp.name)))
+                continue
+            circuit.notes.append(
+                f"{b.name}: clamp ({b.text.strip()}) folded into comparator {comp.name}: "
+                f"the level it is compared with stays within the clamp's range "
+                f"{b.clamp.lo:g} to {b.clamp.hi:g} V, where comparing the clamp is comparing "
+                f"its linear expression (exact; its output node {p} is gone)")
+    return diags
 
 
 # ------------------------------------------------------------------------------ comparators
@@ -180,7 +318,8 @@ def _describe(step: Step) -> str:
 
 
 def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
-    """Map every :class:`Comparator` onto the S switches its output controls, and remove it.
+    """Map every :class:`Comparator` onto the S switches its output controls, and remove it
+    (after :func:`fold_clamps`).
 
     A switch whose control is ``±`` the B's output is on while its control is above its
     band ``VT ± |VH|`` and off below it (ngspice's SW). The B's two values decide, per
@@ -197,7 +336,7 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
         A B output that feeds anything but switch controls, a switch whose control is not
         across the output, a value inside a switch's band, an ``I=`` comparator.
     """
-    diags: list[Diagnostic] = []
+    diags = fold_clamps(circuit)
     comps = [el for el in circuit.elements if isinstance(el, Comparator)]
     if not comps:
         return diags

@@ -23,8 +23,8 @@ from .dialect import node_name
 from .expressions import CONSTANTS, FUNCTIONS
 from .units import parse_number
 
-__all__ = ["ACCEPTED", "Affine", "BehaviouralError", "Step", "Tree", "circuit_quantity",
-           "linearise", "parse_behavioural"]
+__all__ = ["ACCEPTED", "Affine", "BehaviouralError", "Clamp", "Step", "Tree",
+           "circuit_quantity", "linearise", "parse_behavioural"]
 
 #: the forms pelcs reads, for the hints of every refusal
 ACCEPTED = ("pelcs reads B sources whose expression is linear in v() and i() (constants and "
@@ -287,13 +287,43 @@ class Step:
         return Step(self.diff, self.strict, fn(self.hi), fn(self.lo))
 
 
+@dataclass(frozen=True)
+class Clamp:
+    """``max(lo, min(hi, form))``: an affine form clamped between constants (``lo`` may be
+    ``-inf``, ``hi`` ``+inf``; ``lo < hi``), as ``min``/``max`` of an affine form and
+    constants give. pelcs reads it only where it is compared against a known waveform
+    (:func:`netlist.behavioural.resolve_comparators` folds it into the comparison)."""
+
+    form: Affine
+    lo: float
+    hi: float
+
+    def scaled(self, k: float) -> Affine | Clamp:
+        if k == 0:
+            return Affine((), 0.0)
+        lo, hi = self.lo * k, self.hi * k
+        return Clamp(self.form.scaled(k), min(lo, hi), max(lo, hi))
+
+    def shifted(self, c: float) -> Clamp:
+        return Clamp(self.form.plus(Affine((), c)), self.lo + c, self.hi + c)
+
+    def bounded(self, name: str, k: float) -> Affine | Clamp:
+        """``min(k, self)`` or ``max(k, self)``: min distributes over max (and max over min),
+        so the bounds move and the form stays."""
+        fn = min if name == "min" else max
+        lo, hi = fn(self.lo, k), fn(self.hi, k)
+        return Affine((), lo) if lo == hi else Clamp(self.form, lo, hi)
+
+
 def _const(x: float) -> Affine:
     return Affine((), float(x))
 
 
 class _Lineariser:
     def __init__(self, text: str, env: Mapping[str, float], mapnode: Callable[[str], str],
-                 source: Callable[[str], str]):
+                 source: Callable[[str], str], clamps: bool = False):
+        self.clamps = clamps
+        self.memo: dict[int, Affine | Step | Clamp] = {}
         self.text = text
         self.env = env
         self.mapnode = mapnode
@@ -306,8 +336,52 @@ class _Lineariser:
     def constant_of(self, t: Tree, x: Affine | Step) -> float | None:
         return x.const if isinstance(x, Affine) and x.constant else None
 
-    def form(self, t: Tree) -> Affine | Step:
+    def form(self, t: Tree) -> Affine | Step | Clamp:
+        # memoised: the clamp checks below read a node's operands before its own rules do
+        key = id(t)
+        if key not in self.memo:
+            self.memo[key] = self._form(t)
+        return self.memo[key]
+
+    def _clamp_op(self, t: Tree, tag: str, a, b) -> Affine | Clamp:
+        """A clamp in ``neg``, ``+ - * /`` with a constant: the clamp moved or scaled."""
+        if tag == "neg":
+            return a.scaled(-1.0)
+        ka = a.const if isinstance(a, Affine) and a.constant else None
+        kb = b.const if isinstance(b, Affine) and b.constant else None
+        if tag in ("+", "-"):
+            if tag == "-":
+                b = b.scaled(-1.0) if kb is None else _const(-kb)
+                kb = None if kb is None else -kb
+            if isinstance(a, Clamp) and kb is not None:
+                return a.shifted(kb)
+            if isinstance(b, Clamp) and ka is not None:
+                return b.shifted(ka)
+            raise self.nonlinear(t, "a sum of a clamp (min/max) and a non-constant term")
+        if tag == "/":
+            if kb is None:
+                raise self.nonlinear(t, "a division by a clamp or node voltage: nonlinear")
+            if kb == 0:
+                raise BehaviouralError("division by zero", t.args[1].start)
+            return a.scaled(1.0 / kb)
+        if isinstance(a, Clamp) and kb is not None:
+            return a.scaled(kb)
+        if isinstance(b, Clamp) and ka is not None:
+            return b.scaled(ka)
+        raise self.nonlinear(t, "a product of a clamp (min/max) and a circuit quantity: "
+                                "nonlinear")
+
+    def _form(self, t: Tree) -> Affine | Step | Clamp:
         tag, args = t.tag, t.args
+        if tag in ("neg", "+", "-", "*", "/"):
+            subs = [self.form(a) for a in args]
+            if any(isinstance(x, Clamp) for x in subs):
+                return self._clamp_op(t, tag, *subs, *([None] if tag == "neg" else []))
+        for sub in args:
+            if tag != "call" and isinstance(sub, Tree) and isinstance(self.form(sub), Clamp):
+                raise self.nonlinear(sub, "a clamp (min/max) of a circuit quantity inside "
+                                          "a comparison or condition: pelcs reads a clamp "
+                                          "only as a whole B source")
         if tag == "num":
             return _const(args[0])
         if tag == "var":
@@ -431,10 +505,23 @@ class _Lineariser:
             return _const(float((x.const != 0) != negate))
         return x.mapped(lambda v: float((v != 0) != negate))
 
-    def call(self, t: Tree) -> Affine | Step:
+    def call(self, t: Tree) -> Affine | Step | Clamp:
         name, subs = t.args[0], t.args[1:]
         forms = [self.form(s) for s in subs]
         consts = [self.constant_of(s, f) for s, f in zip(subs, forms, strict=True)]
+        if self.clamps and name in ("min", "max") and len(subs) >= 2:
+            moving = [f for f, k in zip(forms, consts, strict=True) if k is None]
+            if len(moving) == 1 and isinstance(moving[0], Affine | Clamp):
+                x = moving[0]
+                bound = (min if name == "min" else max)(k for k in consts if k is not None)
+                if isinstance(x, Affine):
+                    x = Clamp(x, -math.inf, math.inf)
+                return x.bounded(name, bound)
+        for s, f in zip(subs, forms, strict=True):
+            if isinstance(f, Clamp):
+                raise self.nonlinear(s, f"a clamp (min/max) of a circuit quantity inside "
+                                        f"{name}(): pelcs reads min()/max() of one linear "
+                                        "expression and constants")
         if name == "u" and len(subs) == 1:
             x = forms[0]
             if consts[0] is not None:
@@ -463,8 +550,9 @@ class _Lineariser:
 
 def linearise(tree: Tree, text: str, env: Mapping[str, float],
               mapnode: Callable[[str], str] = lambda n: n,
-              source: Callable[[str], str] = lambda s: s) -> Affine | Step:
-    """The linear or comparator form of a parsed B expression.
+              source: Callable[[str], str] = lambda s: s, clamps: bool = False
+              ) -> Affine | Step | Clamp:
+    """The linear, comparator or clamp form of a parsed B expression.
 
     Parameters
     ----------
@@ -474,12 +562,15 @@ def linearise(tree: Tree, text: str, env: Mapping[str, float],
         Parameter values (lower-case names).
     mapnode, source : callable
         Node names and source names as written -> the flattened circuit's names.
+    clamps : bool
+        Read ``min``/``max`` of one affine form and constants as a :class:`Clamp` (else they
+        are refused as nonlinear).
 
     Returns
     -------
-    Affine or Step
-        An :class:`Affine` form (a linear source), or a :class:`Step` (a comparator whose
-        values are constants).
+    Affine, Step or Clamp
+        An :class:`Affine` form (a linear source), a :class:`Step` (a comparator whose
+        values are constants), or (with ``clamps``) a :class:`Clamp`.
 
     Raises
     ------
@@ -487,11 +578,15 @@ def linearise(tree: Tree, text: str, env: Mapping[str, float],
         A nonlinear expression, an unknown parameter or function, at its offset.
     """
     try:
-        out = _Lineariser(text, env, mapnode, source).form(tree)
+        out = _Lineariser(text, env, mapnode, source, clamps).form(tree)
     except RecursionError:
         raise BehaviouralError(_TOO_DEEP, 0) from None
-    numbers = [c for _, c in out.terms] + [out.const] if isinstance(out, Affine) else [
-        *(c for _, c in out.diff.terms), out.diff.const, out.hi, out.lo]
+    if isinstance(out, Clamp):
+        numbers = [c for _, c in out.form.terms] + [out.form.const]
+    elif isinstance(out, Affine):
+        numbers = [c for _, c in out.terms] + [out.const]
+    else:
+        numbers = [*(c for _, c in out.diff.terms), out.diff.const, out.hi, out.lo]
     if not all(math.isfinite(c) for c in numbers):
         raise BehaviouralError(f"expression '{text.strip()}' overflows: a coefficient or "
                                "value is not a finite double", 0)

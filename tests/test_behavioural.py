@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import subprocess
 from pathlib import Path
 
@@ -15,6 +16,7 @@ from test_netlist_spellings import ngspice_print
 from netlist.behavioural_expr import (
     Affine,
     BehaviouralError,
+    Clamp,
     Step,
     linearise,
     parse_behavioural,
@@ -339,8 +341,13 @@ def _error(text: str) -> str:
 def test_nonlinear_b_names_file_line_column_and_the_accepted_forms():
     msg = _error("t\nV1 ref 0 1\nR1 ref x 1k\nC2 err x 50n\n"
                  "B1 err 0 V = max(0,min(5,V(ref,x)*10k))\n.end\n")
-    assert "n.cir:5:20: error: B1: 'min(5,V(ref,x)*10k)' is min() of a node voltage" in msg
+    # a clamp (ngspice's examples/vdmos/dcdc.sp) is read only in a control path
+    assert ("n.cir:5:14: error: B source B1 (max(0,min(5,V(ref,x)*10k))) clamps a linear "
+            "expression and its output err feeds C2") in msg
     assert "linear in v() and i()" in msg
+    msg = _error("t\nV1 ref 0 1\nR1 ref x 1k\nC2 err x 50n\n"
+                 "B1 err 0 V = max(0,min(5,V(ref,x)*V(x)))\n.end\n")
+    assert "n.cir:5:26: error: B1: 'V(ref,x)*V(x)' is a product of node voltages" in msg
 
 
 def test_comparator_output_feeding_a_load_is_refused():
@@ -372,3 +379,101 @@ def test_b_in_an_unused_subcircuit_is_not_an_error():
     # (ngspice skips a definition nothing instantiates; its nonlinear B is never evaluated)
     c = parse_string("t\n.subckt u a b\nB1 a b V = v(a)*v(b)\n.ends\nV1 1 0 1\nR1 1 0 1\n.end\n")
     assert [el.name for el in c.elements] == ["V1", "R1"]
+
+
+# ------------------------------------------------------------------------------ clamps
+
+
+def clamp_form(text: str):
+    return linearise(parse_behavioural(text), text, {}, clamps=True)
+
+
+@pytest.mark.parametrize("text, terms, const, lo, hi", [
+    ("max(0, min(1.5, 2*(5 - v(out)) + 0.4))", ((v("out"), -2.0),), 10.4, 0.0, 1.5),
+    ("min(5, v(ref,x)*10k)", ((v("ref"), 1e4), (v("x"), -1e4)), 0.0, -math.inf, 5.0),
+    ("min(2, max(-1, v(a)))", ((v("a"), 1.0),), 0.0, -1.0, 2.0),
+    ("2*max(0, min(1, v(a))) + 1", ((v("a"), 2.0),), 1.0, 1.0, 3.0),
+    ("-min(1, v(a))", ((v("a"), -1.0),), 0.0, -1.0, math.inf),
+    ("min(v(a), 2, 3)", ((v("a"), 1.0),), 0.0, -math.inf, 2.0),
+])
+def test_clamp_forms(text, terms, const, lo, hi):
+    c = clamp_form(text)
+    assert isinstance(c, Clamp)
+    assert c.form == Affine(terms, const) or (c.form.terms == terms and c.form.const == 0)
+    assert (c.lo, c.hi) == (lo, hi)
+    if len(terms) == 1:
+        # and the clamp is the expression: max(lo, min(hi, e)) at a few values of the node
+        for x in (-3.0, 0.2, 0.7, 4.0):
+            e = terms[0][1] * x + const
+            want = eval(text.replace("v(a)", "x").replace("v(out)", "x"),
+                        {"max": max, "min": min, "x": x})
+            assert max(lo, min(hi, e)) == pytest.approx(want)
+
+
+def test_clamp_folds_to_a_constant_and_refuses_the_rest():
+    assert clamp_form("max(1, min(0, v(a)))") == Affine((), 1.0)
+    for text in ("min(v(a), v(b))", "min(5, v(a)) > v(b)", "u(min(1, v(a)))",
+                 "min(1, v(a)) * v(b)"):
+        with pytest.raises(BehaviouralError):
+            clamp_form(text)
+    with pytest.raises(BehaviouralError, match="min\\(\\) of a node voltage"):
+        form("min(5, v(a))")  # a clamp only where the B source is read whole
+
+
+CLAMP_BUCK = Path(__file__).parent / "netlists/clamped_error_amp_buck.cir"
+
+
+def test_clamp_folds_into_the_comparator():
+    c = parse_string(CLAMP_BUCK.read_text())
+    assert not any(el.kind == "B" for el in c.elements)
+    assert any("Bea: clamp" in n and "folded into comparator Bpwm" in n for n in c.notes)
+    # on while the unclamped error 2*(5 - v(out)) + 0.4 is above the ramp
+    assert any("on while -v(ramp) - 2*v(out) + 10.4 > 0" in n for n in c.notes)
+
+
+def test_clamped_error_amplifier_against_ngspice(tmp_path, ngspice):
+    """The closed-loop buck whose error amplifier saturates at 1.5 V during start-up (ngspice's
+    v(ea) is 1.5 V until 92 us): v(out) during the saturation, and its mean over the second
+    millisecond (ngspice 4.971 V, its exponential diode; pelcs 4.991 V)."""
+    text = CLAMP_BUCK.read_text()
+    res = simulate_circuit(parse_string(text), probes=["v(out)"])
+    res.raise_if_error()
+    assert res.switching == {"S1": "implicit"}
+    (tmp_path / "c.cir").write_text(text)
+    subprocess.run(["ngspice", "-p"],
+                   input="source c.cir\nrun\nwrdata ng.txt v(out) v(ea)\nquit\n",
+                   cwd=tmp_path, capture_output=True, text=True, timeout=120,
+                   env={**os.environ, "HOME": str(tmp_path)})
+    ng = np.loadtxt(tmp_path / "ng.txt")
+    t_ng, out_ng, ea_ng = ng[:, 0], ng[:, 1], ng[:, 3]
+    saturated = t_ng[np.argmax(ea_ng < 1.5 - 1e-9)]
+    assert 50e-6 < saturated < 150e-6 and ea_ng[t_ng < 50e-6].min() == pytest.approx(1.5)
+    for t in (30e-6, 60e-6, saturated):
+        assert np.interp(t, res.t, res["v(out)"]) == pytest.approx(
+            np.interp(t, t_ng, out_ng), rel=0.01)
+    keep, mine = t_ng >= 1e-3, res.t >= 1e-3
+    want = np.trapezoid(out_ng[keep], t_ng[keep]) / (t_ng[-1] - 1e-3)
+    got = np.trapezoid(res["v(out)"][mine], res.t[mine]) / (res.t[-1] - 1e-3)
+    assert got == pytest.approx(want, rel=0.01)
+
+
+@pytest.mark.parametrize("change, words", [
+    # a maximum-duty clamp: the ramp passes the clamp's top, where the clamp decides
+    ("min(1.5,", "spans 0 to 1 V, beyond the clamp's range 0 to 0.8 V"),
+    # a strict comparison against a ramp that reaches the clamp's top
+    ("min(1.5,", "spans 0 to 1 V, beyond the clamp's range 0 to 1 V"),
+    ("Bpwm g 0 V = (v(ea) > v(ramp))", "reads v(out), which is not a DC, PULSE or PWL"),
+    ("R1 out 0 5", "its output ea feeds R2"),
+])
+def test_clamp_outside_the_control_path_is_refused(change, words):
+    text = CLAMP_BUCK.read_text()
+    if words.startswith("spans") and "0.8" in words:
+        text = text.replace(change, "min(0.8,")
+    elif words.startswith("spans"):
+        text = text.replace(change, "min(1,")
+    elif change.startswith("Bpwm"):
+        text = text.replace(change, "Bpwm g 0 V = (v(ea) > v(ramp) + 0.1*v(out))")
+    else:
+        text = text.replace(change, change + "\nR2 ea 0 1k")
+    with pytest.raises(NetlistError, match=re.escape(words)):
+        parse_string(text)
