@@ -2,8 +2,9 @@
 
 :func:`parse_behavioural` reads the text after ``V=``/``I=`` into a :class:`Tree`;
 :func:`linearise` evaluates the parameters in it and gives an :class:`Affine` form (a linear
-source) or a :class:`Step` (a comparator whose values are constants), or refuses the
-expression at the operation that makes it neither. What these become in a circuit is
+source), a :class:`Step` (a comparator whose values are constants) or, when asked, a
+:class:`Clamp` (``min``/``max`` of one affine form and constants), or refuses the expression
+at the operation that makes it none of these. What these become in a circuit is
 :mod:`netlist.behavioural`.
 
 Precedence (loosest first, as in ngspice): ``? :``, ``||``, ``&&``, comparisons, ``+ -``,
