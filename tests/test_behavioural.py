@@ -477,3 +477,28 @@ def test_clamp_outside_the_control_path_is_refused(change, words):
         text = text.replace(change, change + "\nR2 ea 0 1k")
     with pytest.raises(NetlistError, match=re.escape(words)):
         parse_string(text)
+
+
+@pytest.mark.parametrize("compare", ["v(ea) > v(ramp)", "v(ea) >= v(ramp)", "v(ea) < v(ramp)",
+                                     "v(ea) <= v(ramp)", "v(ramp) - 2*v(ea) > -1",
+                                     "v(ramp) - 2*v(ea) >= -1"])
+@pytest.mark.parametrize("ramp", [(0, 1), (0.2, 0.8), (0, 0.5), (0.5, 1), (-0.1, 0.5),
+                                  (0.5, 1.1)])
+def test_clamp_is_folded_exactly_where_it_does_not_decide(compare, ramp):
+    """The fold is accepted exactly where comparing the clamp max(0, min(1, e)) is comparing
+    e for every e and every level the ramp takes (brute force over a grid that holds the
+    bounds and the ramp's ends)."""
+    text = (f"t\nVr ramp 0 PULSE({ramp[0]} {ramp[1]} 0 9u 1u 0 10u)\nVx x 0 0.3\n"
+            "Bea ea 0 V = max(0, min(1, v(x)))\n"
+            f"Bc g 0 V = ({compare}) ? 1 : 0\nS1 a 0 g 0 sw\nR1 a 0 1\n.model sw SW\n"
+            ".tran 1u 20u\n.end\n")
+    py = compare.replace("v(ea)", "c").replace("v(ramp)", "r")
+    es = np.unique(np.r_[np.linspace(-2, 3, 51), 0.0, 1.0])
+    rs = np.linspace(*ramp, 61)
+    agree = all(eval(py, {"c": max(0.0, min(1.0, e)), "r": r}) == eval(py, {"c": e, "r": r})
+                for e in es for r in rs)
+    if agree:
+        assert not any(el.kind == "B" for el in parse_string(text).elements)
+    else:
+        with pytest.raises(NetlistError, match="where the clamp decides the comparison"):
+            parse_string(text)
