@@ -420,7 +420,7 @@ def test_clamp_folds_to_a_constant_and_refuses_the_rest():
         form("min(5, v(a))")  # a clamp only where the B source is read whole
 
 
-CLAMP_BUCK = Path(__file__).parent / "netlists/clamped_error_amp_buck.cir"
+CLAMP_BUCK = Path(__file__).parent / "netlists/closed_loop/clamped_error_amp_buck.cir"
 
 
 def test_clamp_folds_into_the_comparator():
