@@ -25,6 +25,9 @@ import pytest
 from ngspice_checks.compare import compare
 from pelcs.cli import main
 
+# ten ngspice comparisons of a closed-loop buck, 5 s: in the full suite, not the fast subset
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 VM_BUCK = ROOT / "converters" / "netlists" / "vm_buck.cir"
 

@@ -33,6 +33,9 @@ import pytest
 
 from pelcs.cli import main
 
+# ngspice runs of third-party converters, 12 s in all: in the full suite, not the fast subset
+pytestmark = pytest.mark.slow
+
 CORPUS = Path(__file__).parent / "corpus"
 TOLERANCE = 0.05
 

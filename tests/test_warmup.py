@@ -17,6 +17,11 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
+# fresh processes that load every kernel, 6 s: in the full suite, not the fast subset
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 
 # The README's commands, shortened where a full run would be slow (same code paths).
