@@ -37,7 +37,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from .circuit import GROUND, Capacitor, Circuit, Element, Vcvs, VoltageSource
+from .circuit import GROUND, Capacitor, Circuit, Element, Vcvs, VoltageSource, unique_name
 from .errors import Diagnostic
 from .topology import UnionFind, find_loop
 
@@ -89,13 +89,6 @@ def _stars(circuit: Circuit) -> list[tuple[str, list[tuple[Capacitor, str]]]]:
     return stars
 
 
-def _unique(name: str, used: set[str]) -> str:
-    while name.lower() in used:
-        name += "_"
-    used.add(name.lower())
-    return name
-
-
 def reduce_capacitor_loops(circuit: Circuit) -> Circuit:
     """The circuit with each capacitor star (module docstring) replaced by one capacitor
     ``Ceq`` (named after its capacitors, ``C1_C2``) to a node the E sources hold; a note
@@ -124,8 +117,8 @@ def reduce_capacitor_loops(circuit: Circuit) -> Circuit:
     for m, caps in stars:
         ceq = sum(float(el.value) for el, _ in caps)
         names = [el.name for el, _ in caps]
-        name = _unique("_".join(names), used)
-        node = _unique(f"{name.lower()}_n", nodes_used)
+        name = unique_name("_".join(names), used)
+        node = unique_name(f"{name.lower()}_n", nodes_used)
         # each capacitor's voltage seen from m (the sign of its own for m its first node)
         q = sum(float(el.value) * (1.0 if el.nodes[0] == m else -1.0)
                 * _initial_voltage(el, circuit.initial_conditions) for el, _ in caps)
@@ -136,9 +129,9 @@ def reduce_capacitor_loops(circuit: Circuit) -> Circuit:
         top = node
         rest = [(el, a) for el, a in caps[1:] if a != a0]
         for i, (el, a) in enumerate(rest):
-            bottom = a0 if i == len(rest) - 1 else _unique(f"{name.lower()}_n{i + 1}",
+            bottom = a0 if i == len(rest) - 1 else unique_name(f"{name.lower()}_n{i + 1}",
                                                            nodes_used)
-            elements.append(Vcvs(_unique(f"E{name}_{i + 1}", used), (top, bottom),
+            elements.append(Vcvs(unique_name(f"E{name}_{i + 1}", used), (top, bottom),
                                  location=el.location, control=(a, a0),
                                  gain=float(el.value) / ceq))
             top = bottom

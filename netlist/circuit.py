@@ -236,3 +236,13 @@ class Circuit:
             for n in getattr(el, "control", ()):
                 seen.setdefault(n, None)
         return list(seen)
+
+
+def unique_name(name: str, used: set[str]) -> str:
+    """``name``, with ``_`` appended until its lower-case form is not in ``used`` (element or
+    node names of a circuit, lower case), which it is added to: the name of an element or
+    node pelcs adds to a circuit."""
+    while name.lower() in used:
+        name += "_"
+    used.add(name.lower())
+    return name

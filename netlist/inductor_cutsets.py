@@ -26,7 +26,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from .circuit import GROUND, Circuit, Element, Inductor, Vcvs, VoltageSource
+from .circuit import GROUND, Circuit, Element, Inductor, Vcvs, VoltageSource, unique_name
 from .topology import UnionFind
 
 __all__ = ["regularise_inductor_cutsets"]
@@ -62,13 +62,6 @@ def _groups(circuit: Circuit) -> list[list[tuple[Inductor, str, str]]]:
             and len({el.key for el, _, _ in ind}) == len(ind)]
 
 
-def _unique(name: str, used: set[str]) -> str:
-    while name.lower() in used:
-        name += "_"
-    used.add(name.lower())
-    return name
-
-
 def regularise_inductor_cutsets(circuit: Circuit) -> Circuit:
     """The circuit with E sources holding each floating group's potential (module
     docstring), initial currents made to sum to zero, a note per group; the circuit itself
@@ -102,13 +95,13 @@ def regularise_inductor_cutsets(circuit: Circuit) -> Circuit:
         top = a0
         base = "_".join(names)
         for i, (gain, control, el) in enumerate(terms):
-            bottom = b0 if i == len(terms) - 1 else _unique(f"{base.lower()}_s{i + 1}",
+            bottom = b0 if i == len(terms) - 1 else unique_name(f"{base.lower()}_s{i + 1}",
                                                            nodes_used)
-            added.append(Vcvs(_unique(f"E{base}_{i + 1}", used), (top, bottom),
+            added.append(Vcvs(unique_name(f"E{base}_{i + 1}", used), (top, bottom),
                               location=el.location, control=control, gain=gain))
             top = bottom
         if not terms:  # every inductor from a0 to b0: in parallel, v(a0) = v(b0)
-            added.append(Vcvs(_unique(f"E{base}_1", used), (a0, b0),
+            added.append(Vcvs(unique_name(f"E{base}_1", used), (a0, b0),
                               location=ind[0][0].location, control=(b0, b0), gain=0.0))
         group = sorted(n for n, r in roots.items() if r == roots[ind[0][1]])
         text = (f"{', '.join(names)}: the only branches from the voltage sources' floating "
