@@ -60,6 +60,8 @@ def _initial_voltage(el: Capacitor, ics: dict[str, float]) -> float:
 def _stars(circuit: Circuit) -> list[tuple[str, list[tuple[Capacitor, str]]]]:
     """The capacitor stars to reduce: (node m, [(capacitor, its other node)]), in netlist
     order of their first capacitor."""
+    if sum(type(el) is Capacitor for el in circuit.elements) < 2:
+        return []  # (a star has two capacitors or more: most circuits end here, every run)
     uf = UnionFind()
     for el in circuit.elements:
         if isinstance(el, VoltageSource):

@@ -34,6 +34,8 @@ __all__ = ["regularise_inductor_cutsets"]
 
 def _groups(circuit: Circuit) -> list[list[tuple[Inductor, str, str]]]:
     """Per floating group of sources, its inductors as (inductor, node in S, node out)."""
+    if sum(type(el) is Inductor for el in circuit.elements) < 2:
+        return []  # (a group has two inductors or more: most circuits end here, every run)
     uf = UnionFind()
     held: set[str] = set()
     for el in circuit.elements:
