@@ -11,25 +11,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_behavioural import VM_BUCK as VM_BUCK_B
 
 from ngspice_checks.compare import compare
 from ngspice_checks.measures import _hausdorff, _unpaired_at_ends
 
-VM_BUCK = """voltage-mode buck: the PWM comparator is a B source on the output voltage
-Vin in 0 12
-Vramp ramp 0 PULSE(0 1 {td} 9.9u 0.1u 0 10u)
-S1 in sw g 0 swm
-D1 0 sw dm
-L1 sw out 100u
-C1 out 0 100u
-R1 out 0 5
-B1 g 0 V = (2*(5 - v(out)) + 0.4 > v(ramp)) ? 1 : 0
-.model swm SW(RON=1m)
-.model dm D
-.param td=0
-.tran 0.1u 2m uic
-.end
-"""
+# The B-comparator buck of test_behavioural with its ramp's delay a parameter (0: the same
+# circuit), so that pelcs alone can be given a shifted timing.
+VM_BUCK = VM_BUCK_B.replace("PULSE(0 1 0 ", "PULSE(0 1 {td} ").replace(
+    ".tran", ".param td=0\n.tran")
 
 
 def test_an_instant_cut_from_its_partner_by_the_end_is_left_out():

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_inductor_cutsets import RL_SWITCH
 
 import lcs.simulation.recorder as recorder_module
 from lcs.moreau import MoreauOptions
@@ -175,17 +176,7 @@ def test_api_output_step():
 def test_a_system_that_pins_states_keeps_every_row_and_resamples_at_the_end():
     # An inductor opened by a switch: a jump found after the run could cut its end, so every
     # row is kept (peak_rows: all of them) and the grid is taken at the end, the same numbers.
-    text = """RL through a switch that opens
-V1 in 0 10
-S1 in a ctl 0 SW1
-L1 a b 1m
-R1 b 0 10
-Vc ctl 0 PULSE(1 0 50u 1n 1n 30u 1)
-.model SW1 SW(VT=0.5)
-.tran 100n 150u
-.end
-"""
-    full, went = _same_as_resampled(parse_string(text), 3.3e-6, step=1e-7)
+    full, went = _same_as_resampled(parse_string(RL_SWITCH), 3.3e-6, step=1e-7)
     assert went.stats.peak_rows >= len(full.t)
 
 
