@@ -293,9 +293,10 @@ class MoreauIntegrator(Integrator):
         self.limits = Limits(max_piv, enum_max_m, run.every, self.max_sw,
                              max(0, int(opts.warm_iter)))
         known = sched.known
-        self.est_steps = int((run.t_stop - run.t_start) / h) + len(sched.breakpoints) + 2
+        self.est_steps = int((run.t_stop - run.t_start) / h) + sched.expected_breakpoints + 2
         run.recorder.reserve(self.est_steps // run.every + len(sched.save_at) + 63,
-                             len(known) + 4 * self.max_sw + 2 * k + 256)
+                             min(sched.expected_known, len(known) + (1 << 16))
+                             + 4 * self.max_sw + 2 * k + 256)
         kind = np.ascontiguousarray(plan.kind)
         self.sw_arrays = SwitchArrays(kind, np.ascontiguousarray(plan.flags),
                                       np.ascontiguousarray(plan.vt),
@@ -330,7 +331,7 @@ class MoreauIntegrator(Integrator):
         return self.stack
 
     def expected_cost(self, run: Run) -> tuple[int, float]:
-        n_known = len(run.schedule.known)
+        n_known = run.schedule.expected_known
         return self.est_steps, self.est_steps * _EST_STEP_S + n_known * _EST_SEGMENT_S
 
     def progress(self) -> int:

@@ -2,9 +2,57 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+
+
+class Events(Sequence):
+    """A run's switchings ``[(t, mode)]``: instants (s) and the modes entered, as arrays (12
+    bytes a switching, not a Python tuple's 80), read as the list of pairs.
+
+    Parameters
+    ----------
+    t : ndarray, shape (N,)
+        Switching instants, s, increasing.
+    index : ndarray of int32, shape (N,)
+        Per switching, the mode entered as an index into ``modes``.
+    modes : tuple of tuple[bool, ...]
+        The modes entered.
+    """
+
+    __slots__ = ("t", "index", "modes")
+
+    def __init__(self, t: np.ndarray, index: np.ndarray, modes: tuple):
+        self.t = t
+        self.index = index
+        self.modes = modes
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return Events(self.t[i], self.index[i], self.modes)
+        return float(self.t[i]), self.modes[int(self.index[i])]
+
+    def __iter__(self):
+        modes = self.modes
+        return zip(self.t.tolist(), (modes[j] for j in self.index.tolist()), strict=True)
+
+    def __eq__(self, other) -> bool:
+        if not isinstance(other, Sequence) or isinstance(other, str):
+            return NotImplemented
+        return len(self) == len(other) and list(self) == list(other)
+
+    __hash__ = None  # (mutable arrays; compared by value)
+
+    def __repr__(self) -> str:
+        return f"Events({len(self)} switchings)" if len(self) > 6 else repr(list(self))
+
+    def __reduce__(self):
+        return Events, (self.t, self.index, self.modes)
 
 
 class SimulationError(RuntimeError):
@@ -156,9 +204,9 @@ class SimulationResult:
         Multipliers of the last completed step.
     modes_visited : list of tuple[bool, ...]
         Switch modes in order of first use.
-    events : list of (float, tuple[bool, ...])
+    events : Events or list of (float, tuple[bool, ...])
         Switching instants (s) and the mode entered (source-driven, controller, comparator
-        and sampled switchings alike).
+        and sampled switchings alike), as pairs (:class:`Events` holds them as arrays).
     stats : SimulationStats
     notes : list[str]
         Things the user should know (e.g. an inconsistent initial state was corrected).

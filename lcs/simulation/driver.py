@@ -3,7 +3,8 @@ integrator (:mod:`lcs.simulation.integrator`).
 
 1. how each switch is driven (:func:`~lcs.simulation.switches.classify_switches`);
 2. breakpoints, source-driven switching instants, latch re-arms
-   (:func:`~lcs.simulation.schedule.plan_run`);
+   (:func:`~lcs.simulation.schedule.plan_run`), a stretch of the run at a time when it is
+   long;
 3. the initial mode, state and multipliers (:func:`~lcs.simulation.initial.initial_state`);
 4. windows between the Python controllers' sampling instants: at each, the controllers' new
    commands become known switchings, and the integrator advances through the window;
@@ -94,8 +95,9 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
     plan = classify_switches(system, controllers, switching, guess, notes)
     h = integrator.h
     tol = 2 * MERGE_FRACTION * h
-    sched = plan_run(system, inputs, plan, t_start, t_stop, h, MERGE_FRACTION * h,
-                     breakpoints, save_at, guess)
+    stretches = plan_run(system, inputs, plan, t_start, t_stop, h, MERGE_FRACTION * h,
+                         breakpoints, save_at, guess)
+    sched = next(stretches)
     out0 = problem.output(sched.mode_src if k else ())
     ctrls = Controllers(system, plan, t_start, t_stop, tol)
     u0 = evaluate_inputs(inputs, np.array([t_start]), +1)[0]
@@ -113,7 +115,7 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
     recorder = Recorder(out0.names, 64, 64, out0.duty, words(k), sink)
     recorder.append(t_start, problem.output(init.mode).row(init.key, -1, 0.0, init.x, init.lam,
                                                            u0))
-    table = InputTable(inputs, t_start, t_stop)
+    table = InputTable(inputs, t_start, sched.t1)
     the_run = Run(problem, plan, sched, inputs, table, t_start, t_stop, int(every), tol,
                   recorder, init, guess, notes)
     integrator.prepare(the_run)
@@ -123,31 +125,43 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
     bar = _progress_bar(bool(progress) and sys.stderr.isatty() and seconds > 1.0, units,
                         integrator.name)
     error: SimulationError | None = None
-    bps = sched.breakpoints
     interrupt.keeping()  # (from here an interrupt stops the run and keeps its results)
     try:
-        for w in range(len(windows) - 1):
-            ws, we = float(windows[w]), float(windows[w + 1])
-            if w > 0 and ctrls:
-                snap = integrator.snapshot()
-                u_ws = table(np.array([ws]), +1)[0]
-                ctrls.commands(ctrls.due(ws), ws, snap.key, snap.x, snap.lam, u_ws, snap.slide,
-                               snap.duty, apply=False)
-            known = sched.known.window(ws, we, tol, ctrls.take_pending(we))
-            if split:
-                error = _advance_pinned(integrator, pins, known, ws, we, bps, tol, k)
-            else:
-                error = integrator.advance(Window(ws, we, known, bps[(bps > ws) & (bps < we)]))
-            if bar is not None:
-                bar.update(integrator.progress())
-            signum = interrupt.requested()
-            if error is None and signum is not None and we < t_stop:
-                # (an integrator that does not check between its own pieces stops here)
-                snap = integrator.snapshot()
-                error = failures.interrupted(snap.t, problem.describe(mode_tuple(snap.key, k)),
-                                             signum)
-            if error is not None:
+        while True:
+            # The windows of this stretch of the run: its ends and the sampling instants in it.
+            s0, s1 = sched.t0, sched.t1
+            edges = np.concatenate(([s0], windows[(windows > s0) & (windows < s1)], [s1]))
+            bps = sched.breakpoints
+            for ws, we in zip(edges[:-1].tolist(), edges[1:].tolist(), strict=True):
+                due = ctrls.due(ws) if ws > t_start and ctrls else ()
+                if due:
+                    snap = integrator.snapshot()
+                    u_ws = the_run.table(np.array([ws]), +1)[0]
+                    ctrls.commands(due, ws, snap.key, snap.x, snap.lam, u_ws, snap.slide,
+                                   snap.duty, apply=False)
+                known = sched.known.window(ws, we, tol, ctrls.take_pending(we))
+                if split:
+                    error = _advance_pinned(integrator, pins, known, ws, we, bps, tol, k)
+                else:
+                    error = integrator.advance(Window(ws, we, known,
+                                                      bps[(bps > ws) & (bps < we)]))
+                if bar is not None:
+                    bar.update(integrator.progress())
+                signum = interrupt.requested()
+                if error is None and signum is not None and we < t_stop:
+                    # (an integrator that does not check between its own pieces stops here)
+                    snap = integrator.snapshot()
+                    error = failures.interrupted(snap.t,
+                                                 problem.describe(mode_tuple(snap.key, k)),
+                                                 signum)
+                if error is not None:
+                    break
+            if error is not None or s1 >= t_stop:
                 break
+            # The next stretch: its plan and input table replace this one's.
+            sched = next(stretches)
+            the_run.schedule = sched
+            the_run.table = InputTable(inputs, sched.t0, sched.t1)
     finally:
         if bar is not None:
             bar.close()
@@ -169,7 +183,7 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
                 # (what follows may carry the current the switch cut: not kept)
                 keep = t_res <= error.time
                 t_res, y_res = t_res[keep], y_res[keep]
-                events = [e for e in events if e[0] <= error.time]
+                events = events[:int(np.searchsorted(events.t, error.time, side="right"))]
     stored = sink.kept if sink is not None else len(t_res)
     if output_step is not None and sink is None:
         keep = t_res >= output_from

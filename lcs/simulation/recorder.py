@@ -3,8 +3,10 @@
 
 A run written on a regular output grid hands its rows to a :class:`~.regrid.Regrid` whenever
 the buffer is full, instead of growing it: the buffer then holds a block of rows, and the
-run's memory is its output grid's, whatever the number of steps. The event records are kept
-whole (24 bytes and a key word or more each).
+run's memory is its output grid's, whatever the number of steps. The event records are
+compacted block by block as the buffer fills: only those that change the switch key (or
+start or end a sliding mode) are kept, and the result's events take 12 bytes each
+(:class:`~lcs.results.Events`).
 
 Event records are ``(t, switch key after it, info)``; ``info`` is the switch index of a
 comparator switching (-1 for a known switching), plus ``EV_SLIDE_START`` or ``EV_SLIDE_END``
@@ -17,9 +19,13 @@ import numpy as np
 
 from ..bits import from_words
 from ..model import ModeKey
+from ..results import Events
 from .codes import EV_SLIDE_END, EV_SLIDE_START, EV_SWITCH  # noqa: F401  (kernel codes)
 from .problem import key_of, mode_tuple
 from .regrid import Regrid
+
+# Event records the buffer holds before they are compacted (24 bytes and a key word each).
+EVENT_BLOCK = 1 << 16
 
 
 def grown(a: np.ndarray, n: int) -> np.ndarray:
@@ -76,6 +82,12 @@ class Recorder:
         self.block = int(block)
         self.handed = 0  # rows handed to the sink
         self.peak_rows = rows
+        # Event records drained from the buffer (those that change the key, and sliding
+        # records), and the key of the last record drained.
+        self._ev_t, self._ev_ix, self._ev_n = np.empty(0), np.empty(0, np.int32), 0
+        self._slide_parts: list[tuple[np.ndarray, np.ndarray]] = []
+        self._key_ids: dict[int, int] = {}
+        self._last_key: np.ndarray | None = None
 
     @property
     def stored(self) -> int:
@@ -122,10 +134,57 @@ class Recorder:
             self.Y = grown(self.Y, len(self.T))
             self.peak_rows = max(self.peak_rows, len(self.T))
         need = self.evpos + events
+        if need > len(self.ev_t) and self.evpos >= EVENT_BLOCK:
+            self._drain_events()
+            need = events
         if need > len(self.ev_t):
             new = 2 * len(self.ev_t) + need
             self.ev_t, self.ev_key, self.ev_info = (grown(a, new) for a in (
                 self.ev_t, self.ev_key, self.ev_info))
+
+    def _drain_events(self) -> None:
+        """The buffer's event records compacted: of each, whether it changes the switch key
+        from the previous record (the first record ever is compared with the initial mode in
+        :meth:`events`), kept as its time and the index of its key among the keys met; the
+        records that start or end a sliding mode whole."""
+        n = self.evpos
+        if n == 0:
+            return
+        t, key, info = self.ev_t[:n], self.ev_key[:n], self.ev_info[:n]
+        prev = np.empty_like(key)
+        prev[1:] = key[:-1]
+        if self._last_key is not None:
+            prev[0] = self._last_key
+        change = np.any(key != prev, axis=1)
+        if self._last_key is None:
+            change[0] = True
+        rows = key[change]
+        if rows.shape[1] == 1:
+            # (a few distinct keys: each looked up once)
+            uniq, inverse = np.unique(rows[:, 0], return_inverse=True)
+            ids = np.array([self._key_id(int(u)) for u in uniq.tolist()], np.int32)
+            index = ids[inverse] if len(uniq) else np.empty(0, np.int32)
+        else:
+            index = np.array([self._key_id(from_words(r)) for r in rows], np.int32)
+        m = len(index)
+        if self._ev_n + m > len(self._ev_t):
+            size = max(self._ev_n + m, len(self._ev_t) + len(self._ev_t) // 2)
+            self._ev_t, self._ev_ix = grown(self._ev_t, size), grown(self._ev_ix, size)
+        self._ev_t[self._ev_n:self._ev_n + m] = t[change]
+        self._ev_ix[self._ev_n:self._ev_n + m] = index
+        self._ev_n += m
+        slide = info >= EV_SLIDE_START
+        if slide.any():
+            self._slide_parts.append((t[slide].copy(), info[slide].copy()))
+        self._last_key = key[n - 1].copy()
+        self.evpos = 0
+
+    def _key_id(self, key: int) -> int:
+        """The index of switch key ``key`` among those met (added when new)."""
+        j = self._key_ids.get(key)
+        if j is None:
+            j = self._key_ids[key] = len(self._key_ids)
+        return j
 
     def append(self, t: float, y: np.ndarray) -> None:
         """One probe row."""
@@ -157,45 +216,40 @@ class Recorder:
         return t_res, y_res
 
     def events(self, switch_names, mode0: ModeKey, t_last: float):
-        """Mode changes ``[(t, mode)]``, sliding intervals ``[(switch, t_start, t_end)]`` and
-        the modes in order of first use, up to ``t_last``."""
+        """Mode changes (:class:`~lcs.results.Events`), sliding intervals
+        ``[(switch, t_start, t_end)]`` and the modes in order of first use, up to ``t_last``
+        (the end of the run: the records are drained, the buffer is not written again)."""
         k = len(switch_names)
-        count = self.evpos
-        t = self.ev_t[:count]
-        rows = self.ev_key[:count]
-        info = self.ev_info[:count]
-        keep = t <= t_last
-        t, rows, info = t[keep], rows[keep], info[keep]
-        if k <= 63:
-            keys = rows[:, 0]  # (one word, no sign bit: the integers themselves)
+        self._drain_events()
+        t, index = self._ev_t[:self._ev_n], self._ev_ix[:self._ev_n]
+        keys = list(self._key_ids)  # (in order of their ids: of first use)
+        if len(t) and keys[int(index[0])] == key_of(mode0):
+            t, index = t[1:], index[1:]  # (the first record enters the initial mode)
+        n = int(np.searchsorted(t, t_last, side="right"))
+        modes = tuple(mode_tuple(kk, k) for kk in keys)
+        if n < len(t):
+            # (cut short: the modes of the switchings kept, in order of first use)
+            t, index = t[:n].copy(), index[:n].copy()
+            ids, first = np.unique(index, return_index=True)
+            used = [modes[j] for j in ids[np.argsort(first, kind="stable")].tolist()]
         else:
-            keys = np.array([from_words(r) for r in rows], dtype=object)
-        k0 = key_of(mode0)
-        prev = np.concatenate(([k0], keys[:-1])) if len(keys) else keys
-        change = keys != prev
-        tuples: dict[int, ModeKey] = {}
-        ct = t[change].tolist()
-        ck = keys[change].tolist()
-        events = []
-        for tt, kk in zip(ct, ck, strict=True):
-            md = tuples.get(kk)
-            if md is None:
-                md = tuples[kk] = mode_tuple(kk, k)
-            events.append((tt, md))
+            used = list(modes)
+        events = Events(t, index, modes)
         visited = [tuple(mode0)]
-        for kk in dict.fromkeys(ck):
-            md = tuples[kk]
+        for md in used:
             if md not in visited:
                 visited.append(md)
         sliding = []
         open_slide: dict[int, float] = {}
-        for e in np.flatnonzero(info >= EV_SLIDE_START).tolist():
-            i, tt = int(info[e]), float(t[e])
-            if i >= EV_SLIDE_END:
-                sw = i - EV_SLIDE_END
-                sliding.append((switch_names[sw], open_slide.pop(sw, tt), tt))
-            else:
-                open_slide[i - EV_SLIDE_START] = tt
+        for st, si in self._slide_parts:
+            for tt, i in zip(st.tolist(), si.tolist(), strict=True):
+                if tt > t_last:
+                    break
+                if i >= EV_SLIDE_END:
+                    sw = i - EV_SLIDE_END
+                    sliding.append((switch_names[sw], open_slide.pop(sw, tt), tt))
+                else:
+                    open_slide[i - EV_SLIDE_START] = tt
         for i, t0 in open_slide.items():
             sliding.append((switch_names[i], t0, None))
         return events, sliding, visited

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..arrays import unique_sorted
-from ..bits import to_words, words
+from ..bits import from_words, to_words, words
 from ..model import ModeKey, SwitchedLCS
 from .codes import OP_REARM, OP_SET  # noqa: F401  (operations of known switchings)
 from .inputs import InputFunction, collect_breakpoints, merge_close
@@ -68,56 +68,120 @@ class KnownSwitchings:
         return KnownSwitchings(e_t, e_op, e_a, e_b)
 
 
+# A run longer than this many grid steps is planned a stretch at a time (its breakpoints,
+# source-driven instants and input table held for one stretch only), so that its memory does
+# not grow with its length; a shorter one in one piece.
+STRETCH_STEPS = 1 << 21
+# Breakpoints near a stretch's end that are tried as its boundary before the stretch is made
+# longer.
+_CUT_TRIES = 64
+# ... and the distance (in steps) a boundary keeps from every known switching: far beyond the
+# distances at which instants are merged (lcs.simulation.inputs.MERGE_FRACTION).
+_CUT_GUARD = 1e-6
+
+
 @dataclass
 class RunPlan:
-    """The breakpoints, the known switchings and the initial switch states of a run.
+    """The breakpoints, the known switchings and the initial switch states of a stretch
+    ``[t0, t1)`` of a run (the whole run unless it is longer than :data:`STRETCH_STEPS`).
 
     Attributes
     ----------
+    t0, t1 : float
+        The stretch, s (``t1`` is the run's stop for the last one).
     breakpoints : ndarray
-        Sorted instants strictly inside the run (merged to round-off), s.
+        Sorted instants strictly inside the stretch (merged to round-off), s.
     save_at : ndarray
-        The ``save_at`` instants inside ``(t_start, t_stop]``, s.
+        The ``save_at`` instants inside ``(t_start, t_stop]`` (the whole run's), s.
     known : KnownSwitchings
+        The known switchings in ``[t0, t1)``.
     mode_src : ModeKey
-        The initial mode with the source-driven switches set from their controls at
-        ``t_start`` (the others as guessed).
+        The mode at ``t0`` with the source-driven switches set from their controls (the others
+        as guessed).
     src_maps : dict
         Per mode, the source-driven switches' control rows (see
-        :func:`~lcs.simulation.source_switching.source_switch_events`).
+        :func:`~lcs.simulation.source_switching.source_switch_events`), shared by the stretches.
+    expected_breakpoints, expected_known : int
+        The whole run's breakpoints and known switchings, estimated from this stretch (exact
+        for a run in one piece): what an integrator reserves room for.
     """
 
+    t0: float
+    t1: float
     breakpoints: np.ndarray
     save_at: np.ndarray
     known: KnownSwitchings
     mode_src: ModeKey
     src_maps: dict
+    expected_breakpoints: int
+    expected_known: int
 
 
 def plan_run(system: SwitchedLCS, inputs: Sequence[InputFunction], plan: SwitchPlan,
              t_start: float, t_stop: float, h: float, merge: float, user_bps, save_at,
-             guess: ModeKey) -> RunPlan:
-    """Breakpoints, source-driven switching instants and latch re-arms of a run.
+             guess: ModeKey):
+    """The run's plan a stretch at a time: yields :class:`RunPlan` of consecutive stretches
+    ``[t_start, b1), [b1, b2), ..., [bj, t_stop)``, each computed when the previous one has
+    been integrated.
 
     ``h`` is the integrator's time step (the source-driven instants' search resolution) and
     ``merge`` the distance under which two instants are one (s).
+
+    The stretches give the whole run's plan, entry for entry: each boundary is one of the
+    run's breakpoints, away from every known switching, where every
+    source-driven switch's state is what its control there says on its own (the state a
+    stretch starts from is the one the previous stretch ended with), and breakpoints are
+    merged across it as in one piece.
     """
-    k = len(system.switches)
     save_at = unique_sorted(np.asarray(save_at, dtype=float).ravel())
     save_at = save_at[(save_at > t_start) & (save_at <= t_stop)]
+    user_bps = unique_sorted(np.asarray(user_bps, dtype=float).ravel())
+    src_maps = _control_maps(system, plan.source)
+    span = STRETCH_STEPS * h
+    a = t_start
+    while True:
+        c = t_stop if t_stop - a <= 1.5 * span else a + span
+        while True:
+            part = _plan_part(system, inputs, plan, a, c, a == t_start, h, merge, user_bps,
+                              save_at, guess, src_maps)
+            cut = t_stop if c >= t_stop else _boundary(system, inputs, plan, part, h, guess,
+                                                        src_maps)
+            if cut is not None:
+                break
+            c = t_stop if t_stop - c <= span else c + span
+        bps, known, mode_src = part
+        if cut < t_stop:
+            bps = bps[bps < cut]
+            keep = known.t < cut
+            known = KnownSwitchings(known.t[keep], known.op[keep], known.a[keep], known.b[keep])
+        scale = (t_stop - t_start) / (cut - a)
+        yield RunPlan(a, cut, bps, save_at, known, mode_src, src_maps,
+                      int(np.ceil(len(bps) * scale)), int(np.ceil(len(known) * scale)))
+        if cut >= t_stop:
+            return
+        a = cut
+
+
+def _plan_part(system, inputs, plan, a, c, first, h, merge, user_bps, save_at, guess,
+               src_maps):
+    """Breakpoints, known switchings and the source-driven mode at ``a`` of ``[a, c)``."""
+    k = len(system.switches)
     # Schedule entries (time, op, a, b) as arrays: latch re-arms, then source events.
     lt, li = [np.empty(0)], [np.empty(0, np.int64)]
     for i, (per, ph) in plan.latch.items():
-        tt = periodic(per, ph, t_start, t_stop)
+        tt = periodic(per, ph, a, c)
         lt.append(tt)
         li.append(np.full(len(tt), i, np.int64))
     latch_t, latch_i = np.concatenate(lt), np.concatenate(li)
-    extra = np.concatenate([np.asarray(user_bps, dtype=float).ravel(), save_at, latch_t])
-    bps = merge_close(collect_breakpoints(inputs, t_start, t_stop, extra), merge)
-    src_maps = _control_maps(system, plan.source)
+    extra = np.concatenate([v[(v > a) & (v < c)] for v in (user_bps, save_at)] + [latch_t])
+    raw = collect_breakpoints(inputs, a, c, extra)
+    # (an instant is merged into the one before it: a later stretch starts from its first
+    # instant, the previous stretch's boundary, which the whole run keeps)
+    bps = merge_close(raw, merge) if first else merge_close(
+        np.concatenate(([a], raw)), merge)[1:]
     if k:
-        mode_src, (src_t, src_k) = source_switch_events(system, inputs, t_start, t_stop, bps,
-                                                        h, which=plan.source, base=guess,
+        mode_src, (src_t, src_k) = source_switch_events(system, inputs, a, c, bps, h,
+                                                        which=plan.source, base=guess,
                                                         maps_out=src_maps, as_arrays=True)
     else:
         mode_src, src_t, src_k = (), np.empty(0), np.empty((0, 1), np.int64)
@@ -133,7 +197,43 @@ def plan_run(system: SwitchedLCS, inputs: Sequence[InputFunction], plan: SwitchP
                            np.zeros((len(latch_t), Wk), np.int64)])
     order = np.lexsort((st_op, st_t))
     known = KnownSwitchings(st_t[order], st_op[order], st_a[order], st_b[order])
-    return RunPlan(bps, save_at, known, tuple(mode_src), src_maps)
+    return bps, known, tuple(mode_src)
+
+
+def _boundary(system, inputs, plan, part, h, guess, src_maps) -> float | None:
+    """A breakpoint in the second half of ``part`` (the plan of ``[a, c)``) where the run can
+    be cut (see :func:`plan_run`), the latest; None when none of the last few can."""
+    bps, known, mode_src = part
+    if not len(bps):
+        return None
+    half = 0.5 * (bps[0] + bps[-1])
+    src_t = known.t[known.op == OP_SET]
+    src_b = known.b[known.op == OP_SET]
+    k = len(system.switches)
+    smask = plan.source_mask
+    guard = _CUT_GUARD * h
+    for b in bps[::-1][:_CUT_TRIES]:
+        if b <= half:
+            break
+        j = int(np.searchsorted(known.t, b - guard, side="left"))
+        if j < len(known.t) and known.t[j] <= b + guard:
+            continue  # (a known switching that could be merged with b)
+        if not k or not smask:
+            return float(b)
+        # The source-driven mode at b: the last source switching's, or the stretch's first.
+        e = int(np.searchsorted(src_t, b, side="left")) - 1
+        if e >= 0:
+            from_bits = from_words(src_b[e])
+            mode_b = tuple(bool((from_bits >> i) & 1) if (smask >> i) & 1 else guess[i]
+                           for i in range(k))
+        else:
+            mode_b = tuple(mode_src)
+        # What the next stretch would start from: the same, or b is not a boundary.
+        start, _ = source_switch_events(system, inputs, float(b), float(b) + h, np.empty(0),
+                                        h, which=plan.source, base=guess, maps_out=src_maps)
+        if tuple(start) == mode_b:
+            return float(b)
+    return None
 
 
 _CONTROL_MAPS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
