@@ -60,9 +60,9 @@ def main() -> int:
     from lcs.analysis.orbits import find_orbit
     from lcs.exact.orbit import exact_orbit
     from lcs.smallsignal.ltp import harmonic_response, probe_forms
-    from netlist.ac import ac_analysis, default_frequencies
     from netlist.parser import parse_file
-    from netlist.sweep import circuit_map
+    from netlist.studies.ac import ac_analysis, default_frequencies
+    from netlist.studies.sweep import circuit_map
 
     rows = []
     print(f"{'case':20s} {'orbit':>9s} {'exact':>9s} {'sweep':>9s} {'ratio':>7s} "

@@ -42,7 +42,7 @@ from lcs.analysis.basins import cell_basins  # noqa: E402
 from lcs.analysis.bifurcation import attractor_period, bifurcation_diagram  # noqa: E402
 from lcs.analysis.continuation import continue_orbit  # noqa: E402
 from lcs.analysis.parallel import default_workers  # noqa: E402
-from netlist.sweep import CircuitMapFactory  # noqa: E402
+from netlist.studies.sweep import CircuitMapFactory  # noqa: E402
 
 NETLIST = str(ROOT / "converters" / "netlists" / "vm_buck.cir")
 

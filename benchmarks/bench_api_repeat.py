@@ -11,7 +11,7 @@ run's planning and its results (goal: at most 1 ms).
 For comparison, the same loop
 
 * through the uncached path, a fresh parse and formulation every run
-  (``netlist.transient.simulate_circuit(netlist.parser.parse_file(...))``, what the API did
+  (``netlist.studies.transient.simulate_circuit(netlist.parser.parse_file(...))``, what the API did
   before it kept the netlist and the system: ``--fresh-runs``);
 * through ngspice's shared library with PySpice (``NgSpiceShared``): the netlist text with
   the new value loaded each run, ``.tran`` run, the time, ``v(out)`` and ``i(L1)`` vectors
@@ -69,7 +69,7 @@ def bench_pelcs(path: str, tstop: float, name: str, vals) -> tuple[list, list, f
 
 def bench_fresh(path: str, tstop: float, name: str, vals) -> tuple[list, list]:
     from netlist.parser import parse_file
-    from netlist.transient import simulate_circuit
+    from netlist.studies.transient import simulate_circuit
 
     total, kernel = [], []
     for v in vals:
@@ -139,7 +139,7 @@ def main() -> None:
     path = str(NETLIST.relative_to(Path.cwd())) if NETLIST.is_relative_to(Path.cwd()) \
         else str(NETLIST)
 
-    from netlist.transient import warm_up
+    from netlist.studies.transient import warm_up
 
     load = warm_up()
     total, kernel, first = bench_pelcs(path, tstop, args.param, vals)

@@ -41,7 +41,7 @@ import time, sys
 t0 = time.perf_counter()
 from pelcs.cli import build_parser
 from netlist.parser import parse_file
-from netlist.transient import run_setup, transient_setup
+from netlist.studies.transient import run_setup, transient_setup
 from lcs.results import resample
 from pelcs.writers import write_result
 t1 = time.perf_counter()

@@ -30,7 +30,7 @@ BOOST_DCM = ROOT / "tests" / "netlists" / "sim" / "boost_dcm.cir"
 
 def _orbit(method: str, E: float, step: float | None = None):
     from lcs.analysis.orbits import find_orbit
-    from netlist.sweep import CircuitMapFactory
+    from netlist.studies.sweep import CircuitMapFactory
 
     f = CircuitMapFactory(path=str(VM_BUCK), period="tp", param="vin", method=method,
                           step=step)
@@ -46,7 +46,7 @@ def _orbit(method: str, E: float, step: float | None = None):
 
 
 def _build_cache_clear() -> None:
-    from netlist.sweep import _build_map
+    from netlist.studies.sweep import _build_map
 
     _build_map.cache_clear()
 
@@ -91,7 +91,7 @@ def continuation() -> None:
 
 def transient() -> None:
     import pelcs
-    from netlist.transient import simulate_circuit
+    from netlist.studies.transient import simulate_circuit
 
     print("3. DCM boost, 2 ms transient (output every 0.2 us)")
     c = pelcs.load(BOOST_DCM)

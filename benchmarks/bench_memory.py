@@ -11,7 +11,7 @@ recorded:
 * ``pelcs simulate buck.cir --tstop T --output-step T/1000 -o OUT.csv``: the output grid
   computed as the run goes (``lcs.simulation.regrid``);
 * the same run keeping every step and resampling at the end (what ``pelcs simulate`` did
-  before; ``netlist.transient.simulate_circuit`` then ``lcs.results.resample``), up to 1e5
+  before; ``netlist.studies.transient.simulate_circuit`` then ``lcs.results.resample``), up to 1e5
   periods (1e6 would hold 1e8 rows);
 * ``ngspice -b -r OUT.raw`` on the same deck with ``.tran T/1000 T 0 0.2u UIC``,
   ``.options interp`` and ``.save v(out) i(l1)`` (ngspice writes its raw file as it goes), up
@@ -43,7 +43,7 @@ _KEEP_ALL = r"""
 import sys
 from lcs.results import resample
 from netlist.parser import parse_file
-from netlist.transient import simulate_circuit
+from netlist.studies.transient import simulate_circuit
 from pelcs.writers import write_result
 res = simulate_circuit(parse_file(sys.argv[1]), tstop=float(sys.argv[2]))
 write_result(resample(res, float(sys.argv[3])), sys.argv[4])

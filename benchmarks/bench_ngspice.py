@@ -46,7 +46,7 @@ sys.path.insert(0, str(ROOT))
 
 from converters.design import conversion_ratio, k_crit  # noqa: E402
 from netlist.parser import parse_file  # noqa: E402
-from netlist.transient import simulate_circuit  # noqa: E402
+from netlist.studies.transient import simulate_circuit  # noqa: E402
 
 DEFAULT_NETLISTS = [ROOT / "tests/netlists/sim/buck_ccm.cir",
                     ROOT / "tests/netlists/sim/boost_dcm.cir"]

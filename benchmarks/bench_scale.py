@@ -69,7 +69,7 @@ def _pelcs_inprocess(text: str, tmp: Path) -> dict:
     alone in a second run."""
     from lcs.results import resample
     from netlist.parser import parse_file
-    from netlist.transient import run_setup, transient_setup
+    from netlist.studies.transient import run_setup, transient_setup
     from pelcs.writers import write_npz
 
     path = tmp / "inprocess.cir"
@@ -108,7 +108,7 @@ def _kernels(setup) -> dict:
     """The stepping (second run, µs per step) with each kernel forced: the dense one's stored
     θ-discretised matrices and the sparse one's factorised network (lcs.kkt)."""
     from lcs.moreau import MoreauOptions
-    from netlist.transient import run_setup
+    from netlist.studies.transient import run_setup
 
     out = {}
     for kernel in ("dense", "sparse"):

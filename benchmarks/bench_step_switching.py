@@ -10,7 +10,7 @@ Cases
 * the sliding-mode boost (``tests/netlists/closed_loop/boost_smc.cir``) with the implicit
   (Filippov) method, h = 1 µs.
 
-Times are the best of ``--repeat`` runs of :func:`netlist.transient.run_setup` (set-up and
+Times are the best of ``--repeat`` runs of :func:`netlist.studies.transient.run_setup` (set-up and
 formulation excluded, everything else included: source events, grid, inputs, kernel, results),
 divided by the steps taken. The machine may be shared: best-of-N is the fair number.
 
@@ -54,7 +54,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     sys.path.insert(0, str(args.repo.resolve()))
     from netlist.parser import parse_file
-    from netlist.transient import run_setup, transient_setup
+    from netlist.studies.transient import run_setup, transient_setup
 
     rows = []
     for name, path, params, tstop, h in cases(args.repo.resolve(), args.quick):

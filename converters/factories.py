@@ -638,7 +638,7 @@ def circuit(name: str, **params) -> Circuit:
     -------
     Circuit
         Ready for :func:`netlist.formulation.formulate` or
-        :func:`netlist.transient.simulate_circuit`.
+        :func:`netlist.studies.transient.simulate_circuit`.
     """
     return parse_string(_factory(name)(**params), file=f"<{name}>")
 

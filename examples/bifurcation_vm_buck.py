@@ -35,7 +35,7 @@ from lcs.analysis.basins import cell_basins  # noqa: E402
 from lcs.analysis.bifurcation import attractor_period, bifurcation_diagram  # noqa: E402
 from lcs.analysis.continuation import continue_orbit  # noqa: E402
 from lcs.analysis.orbits import find_orbit  # noqa: E402
-from netlist.sweep import CircuitMapFactory  # noqa: E402
+from netlist.studies.sweep import CircuitMapFactory  # noqa: E402
 
 NETLIST = ROOT / "converters" / "netlists" / "vm_buck.cir"
 

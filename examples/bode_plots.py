@@ -79,8 +79,8 @@ def main(argv: list[str] | None = None) -> dict:
     import matplotlib.pyplot as plt
 
     from converters.averaged import small_signal_model
-    from netlist.ac import ac_analysis
     from netlist.parser import parse_file
+    from netlist.studies.ac import ac_analysis
 
     rows: list = []
     result: dict = {}

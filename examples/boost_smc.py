@@ -48,7 +48,7 @@ if str(ROOT) not in sys.path:  # run as a script from a checkout
 
 from converters import factories as F  # noqa: E402
 from lcs.moreau import MoreauOptions  # noqa: E402
-from netlist.transient import simulate_circuit  # noqa: E402
+from netlist.studies.transient import simulate_circuit  # noqa: E402
 
 NAME = "boost_smc"
 VIN, IREF, L, C, R, V0 = 12.0, 2.0, 1e-3, 100e-6, 50.0, 15.0

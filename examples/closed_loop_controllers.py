@@ -32,7 +32,7 @@ sys.path.insert(0, str(ROOT))
 from lcs.controllers import PIPWM, OpenLoopPWM, SlidingSurface  # noqa: E402
 from lcs.moreau import simulate  # noqa: E402
 from netlist.parser import parse_file  # noqa: E402
-from netlist.transient import transient_setup  # noqa: E402
+from netlist.studies.transient import transient_setup  # noqa: E402
 
 CL = ROOT / "tests" / "netlists" / "closed_loop"
 

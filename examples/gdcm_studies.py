@@ -84,7 +84,7 @@ if str(ROOT) not in sys.path:  # run as a script from a checkout
 from converters import factories as F  # noqa: E402
 from lcs.gdcm import GdcmCondition, GdcmInterval, detect_gdcm_intervals, gdcm_condition  # noqa: E402
 from netlist.formulation import formulate  # noqa: E402
-from netlist.transient import simulate_circuit  # noqa: E402
+from netlist.studies.transient import simulate_circuit  # noqa: E402
 
 NAME = "gdcm_studies"
 

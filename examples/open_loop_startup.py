@@ -45,7 +45,7 @@ if str(ROOT) not in sys.path:  # run as a script from a checkout
 from converters import factories as F  # noqa: E402
 from converters.averaged import AveragedModel, averaged_model, ripple  # noqa: E402
 from converters.design import conversion_ratio  # noqa: E402
-from netlist.transient import simulate_circuit  # noqa: E402
+from netlist.studies.transient import simulate_circuit  # noqa: E402
 
 NAME = "open_loop_startup"
 FS = 100e3

@@ -58,7 +58,7 @@ if str(ROOT) not in sys.path:  # run as a script from a checkout
 
 from converters import factories as F  # noqa: E402
 from netlist.parser import parse_string  # noqa: E402
-from netlist.transient import simulate_circuit  # noqa: E402
+from netlist.studies.transient import simulate_circuit  # noqa: E402
 
 NAME = "prc_study"
 VIN, LR, CR, LF, CF, R = 50.0, 150e-6, 68e-9, 0.4e-3, 2.2e-6, 33.0

@@ -62,7 +62,7 @@ def main(argv=None) -> dict:
     import pelcs
     from converters.pyspice_examples import pyspice_buck
     from lcs.notices import IdealisedDeviceWarning
-    from netlist.realistic import simulate_devices
+    from netlist.studies.realistic import simulate_devices
     from netlist.writer import write_circuit
     from ngspice_checks.runner import run_ngspice
 

@@ -49,7 +49,7 @@ if str(ROOT) not in sys.path:  # run as a script from a checkout
     sys.path.insert(0, str(ROOT))
 
 from converters import factories as F  # noqa: E402
-from netlist.transient import simulate_circuit  # noqa: E402
+from netlist.studies.transient import simulate_circuit  # noqa: E402
 
 NAME = "vm_buck_responses"
 A_GAIN, VREF, VL, VU, TP, TFALL = 8.4, 11.3, 3.8, 8.2, 400e-6, 10e-9

@@ -221,10 +221,10 @@ class SimulationResult:
         Exact method only: every event (time, element, kind, mode after).
     device_fits : list of netlist.pwl.PwlFit
         With piecewise-linear devices: each diode's and switch's Vf and Ron.
-    losses : netlist.losses.LossReport or None
+    losses : netlist.studies.losses.LossReport or None
         When asked for: conduction losses, input and output power, efficiency.
     theta : float or None
-        θ of a Moreau run of a netlist (:func:`netlist.transient.choose_theta`).
+        θ of a Moreau run of a netlist (:func:`netlist.studies.transient.choose_theta`).
     """
 
     t: np.ndarray

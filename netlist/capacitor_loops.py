@@ -45,7 +45,7 @@ __all__ = ["reduce_capacitor_loops", "reduced_probe"]
 
 
 def _initial_voltage(el: Capacitor, ics: dict[str, float]) -> float:
-    """The capacitor's initial voltage (V) as :func:`netlist.transient.initial_state` takes
+    """The capacitor's initial voltage (V) as :func:`netlist.studies.transient.initial_state` takes
     it: ``IC=``, else its nodes' ``.ic`` values (0 V for a node without one), else 0."""
     if el.ic is not None:
         return float(el.ic)

@@ -286,7 +286,7 @@ def _prepare(circuit: Circuit, tstop: float | None, notes: list[str]) -> Circuit
             raise _input_error("no .tran analysis and no stop time given",
                                "add '.tran TSTEP TSTOP' to the netlist or pass --tstop",
                                circuit.file)
-        from netlist.transient import default_step
+        from netlist.studies.transient import default_step
 
         waves = [el.waveform for el in c.elements if getattr(el, "waveform", None)]
         step = default_step(waves, tstop)
@@ -375,8 +375,8 @@ def compare(
         ngspice unavailable (NgspiceUnavailable) or failed on every rung (NgspiceFailed).
     """
     from netlist.parser import load_source as load
-    from netlist.sweep import check_period_multiple
-    from netlist.transient import check_probes, simulate_circuit, warm_up
+    from netlist.studies.sweep import check_period_multiple
+    from netlist.studies.transient import check_probes, simulate_circuit, warm_up
     from netlist.writer import write_circuit
 
     if devices not in ("auto", "ideal", "pwl"):

@@ -19,8 +19,8 @@ from netlist.circuit import (
     Switch,
     VoltageSource,
 )
-from netlist.measure import steady_state_period, steady_state_window
 from netlist.pwl import diode_residual
+from netlist.studies.measure import steady_state_period, steady_state_window
 
 from .runner import NgspiceSettings
 
@@ -63,7 +63,7 @@ def detect_period(
     circuit: Circuit, result: SimulationResult | None = None, period: float | None = None
 ) -> tuple[float | None, str]:
     """The period of the steady state (s) and a phrase for the report, e.g. ``"PULSE period
-    of Vg (control of S1)"``: :func:`netlist.measure.steady_state_period`, the one rule
+    of Vg (control of S1)"``: :func:`netlist.studies.measure.steady_state_period`, the one rule
     ``pelcs sweep`` and ``--losses`` use too (``result``: the pelcs run, for free-running
     converters; ``period``: given by the user)."""
     per, why = steady_state_period(circuit, result, period)
@@ -71,7 +71,7 @@ def detect_period(
 
 
 def _window(span: tuple[float, float], period: float | None) -> tuple[tuple[float, float], int]:
-    """:func:`netlist.measure.steady_state_window`."""
+    """:func:`netlist.studies.measure.steady_state_window`."""
     return steady_state_window(span, period)
 
 

@@ -80,7 +80,7 @@ def _perturbed_runs(circuit: Circuit, result: SimulationResult, theta: float,
     ngspice's land on its time steps). Their differences from the compared run measure
     what pelcs' own step, and an error of ngspice's kind, can do to the run. A failed run
     is noted and left out."""
-    from netlist.transient import simulate_circuit
+    from netlist.studies.transient import simulate_circuit
 
     kinds = {result.switching.get(sw.name, "source") for sw in switches}
     if kinds <= {"source"}:
@@ -176,7 +176,7 @@ def _restart_check(circuit: Circuit, ng_name: Callable[[str], str], result: Simu
     ``reading``: per switch (name, control probe, VT, half band, initial
     state, instants from pelcs' events?, ngspice's instants)."""
     from lcs.moreau import simulate
-    from netlist.transient import transient_setup
+    from netlist.studies.transient import transient_setup
 
     t_n = np.asarray(ng.time, dtype=float)
     h = float(np.median(np.diff(np.asarray(result.t, dtype=float))))

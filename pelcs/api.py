@@ -129,7 +129,7 @@ def simulate(
     circuit_or_path : Circuit, or a path or netlist text for :func:`load`
     tstop, step : float or str, optional
         Stop time and step, s (or SPICE text such as ``"5m"``); default from ``.tran``
-        (step: the bound ngspice puts on its own, ``netlist.timestep.tran_step``).
+        (step: the bound ngspice puts on its own, ``netlist.studies.timestep.tran_step``).
     theta : float, optional
         θ in [1/2, 1]: 1/2 trapezoidal (second order between events), 1 backward Euler.
         Default 1/2, or 1 where :mod:`lcs.theta_screen` finds θ < 1 unreliable (noted;
@@ -161,7 +161,7 @@ def simulate(
         with their on-resistance (``res.device_fits``; :mod:`netlist.pwl`); ``pwl``
         gives ``{element or model name: (vf, ron)}`` instead of the fit.
     losses : bool
-        ``res.losses`` (:class:`netlist.losses.LossReport`): conduction losses per device,
+        ``res.losses`` (:class:`netlist.studies.losses.LossReport`): conduction losses per device,
         input and output power (``load``: the load resistor's name, default the resistor
         taking the most power) and efficiency over the steady-state window.
     output_step : float or str, optional
@@ -188,7 +188,7 @@ def simulate(
         With ``check=True``, a step without a (unique) solution or a non-finite state; the
         partial result is ``exc.result``.
     """
-    from netlist.transient import simulate_circuit
+    from netlist.studies.transient import simulate_circuit
 
     circuit = _circuit(circuit_or_path, params)
     if isinstance(probes, str):
@@ -204,14 +204,14 @@ def simulate(
     elif output_step is not None:
         output_step = "tran"
     if devices != "ideal" or losses:
-        from netlist.realistic import simulate_devices
+        from netlist.studies.realistic import simulate_devices
 
         # (the losses are integrated over every step: the grid is taken afterwards)
         result = simulate_devices(circuit, devices=devices, losses=losses, load=load,
                                   pwl=dict(pwl or {}), **kw)
         if output_step is not None:
             from lcs.results import resample
-            from netlist.transient import transient_setup
+            from netlist.studies.transient import transient_setup
 
             dt = output_step
             if dt == "tran":
@@ -262,7 +262,7 @@ def ac(
     circuit : Circuit, path or netlist text
     period : float or str, optional
         Switching period, s (SPICE text or a ``.param`` name); default the period the
-        netlist defines (:func:`netlist.measure.defined_period`, named in ``.notes``).
+        netlist defines (:func:`netlist.studies.measure.defined_period`, named in ``.notes``).
     inject : str
         Independent source to perturb (control-to-output: a DC control source;
         line-to-output: the input source; output impedance: a zero-valued current source).
@@ -278,22 +278,22 @@ def ac(
     params : mapping, optional
         ``.param`` overrides (with a path or text).
     **options
-        Passed to :func:`netlist.ac.ac_analysis` (``step``, ``theta``, ``amplitude``,
+        Passed to :func:`netlist.studies.ac.ac_analysis` (``step``, ``theta``, ``amplitude``,
         ``settle``, ``cycles``, ...).
 
     Returns
     -------
     lcs.smallsignal.FrequencyResponse
     """
-    from netlist.ac import ac_analysis
-    from netlist.sweep import parse_value
+    from netlist.studies.ac import ac_analysis
+    from netlist.studies.sweep import parse_value
 
     if freqs is not None:
         if freq is not None:
             raise TypeError("pelcs.ac: give freq= (freqs= is its earlier name), not both")
         freq = freqs
     if isinstance(freq, str):
-        from netlist.ac import parse_frequencies
+        from netlist.studies.ac import parse_frequencies
 
         freq = parse_frequencies(freq, what="freq=")
     c = _circuit(circuit, params)

@@ -9,7 +9,7 @@ from test_analysis_maps import buck_reference, netlists  # noqa: F401 - fixture
 
 from lcs.analysis.basins import CellGrid, GridAxis, cell_basins, simple_cell_mapping
 from lcs.analysis.maps import FunctionMap
-from netlist.sweep import CircuitMapFactory
+from netlist.studies.sweep import CircuitMapFactory
 
 
 def two_wells(v):

@@ -20,7 +20,7 @@ from test_analysis_orbits import delayed_logistic, logistic
 from lcs.analysis.bifurcation import attractor_period, bifurcation_diagram
 from lcs.analysis.continuation import continue_orbit
 from lcs.analysis.maps import FunctionMap, Map, PatternSegment, SwitchingPattern
-from netlist.sweep import CircuitMapFactory
+from netlist.studies.sweep import CircuitMapFactory
 
 # -- map factories (module level: picklable for the worker processes) ----------------------
 

@@ -29,8 +29,8 @@ import lcs.analysis.parallel as parallel
 from lcs.analysis.basins import cell_basins
 from lcs.analysis.bifurcation import bifurcation_diagram
 from lcs.analysis.continuation import continue_orbits, same_orbit
-from netlist.param_sweep import run_sweep
-from netlist.sweep import CircuitMapFactory
+from netlist.studies.param_sweep import run_sweep
+from netlist.studies.sweep import CircuitMapFactory
 from pelcs.cli import main
 
 # (the slow part of the suite: outside the fast subset that `-m 'not slow'` selects)

@@ -14,7 +14,7 @@ from scipy.linalg import expm
 
 from lcs.analysis.maps import EventMap, EventSpec, FunctionMap, MapError, StroboscopicMap
 from netlist.parser import parse_string
-from netlist.sweep import CircuitMapFactory, circuit_map, parse_grid, parse_range
+from netlist.studies.sweep import CircuitMapFactory, circuit_map, parse_grid, parse_range
 
 # The netlists are written here (not the bundled ones, whose values may be retuned).
 BOOST_TEXT = """Boost converter, open-loop PWM (CCM)

@@ -15,7 +15,7 @@ from test_analysis_maps import boost_reference, netlists  # noqa: F401 - fixture
 
 from lcs.analysis.maps import FunctionMap
 from lcs.analysis.orbits import classify_multipliers, find_orbit, jacobian, multiplier_counts
-from netlist.sweep import CircuitMapFactory
+from netlist.studies.sweep import CircuitMapFactory
 
 
 def logistic(x, r):

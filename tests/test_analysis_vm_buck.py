@@ -25,7 +25,7 @@ from scipy.optimize import fsolve
 from lcs.analysis.bifurcation import attractor_period, bifurcation_diagram
 from lcs.analysis.continuation import continue_orbit
 from lcs.analysis.orbits import find_orbit
-from netlist.sweep import CircuitMapFactory
+from netlist.studies.sweep import CircuitMapFactory
 
 VM_BUCK_TEXT = """Voltage-mode controlled buck converter (Deane and Hamill)
 .param vin=15 a=8.4 vref=11.3 vl=3.8 vu=8.2 tp=400u

@@ -16,7 +16,7 @@ from lcs.signals import Pulse
 from netlist import deck_cache, system_cache
 from netlist.errors import NetlistError
 from netlist.parser import parse_file, parse_string
-from netlist.transient import simulate_circuit
+from netlist.studies.transient import simulate_circuit
 
 BUCK = Path(__file__).resolve().parents[1] / "converters" / "netlists" / "buck.cir"
 TSTOP = 5 / 50e3  # five switching periods of the buck

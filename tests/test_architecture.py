@@ -1,8 +1,9 @@
 """The layering of docs/architecture.md, checked on the source: no import cycles between
 modules, ``lcs`` imports nothing of ``netlist``/``pelcs``/``ngspice_checks``, ``netlist``
-nothing of ``pelcs``/``ngspice_checks``, ``ngspice_checks`` nothing of ``pelcs``, nothing
-imports the CLI (only the Python API's analyses use its commands' parsers and computing
-functions), and no code module is over 800 lines.
+nothing of ``pelcs``/``ngspice_checks``, the core of ``netlist`` (language, circuit,
+formulation) nothing of its studies ``netlist.studies``, ``ngspice_checks`` nothing of
+``pelcs``, nothing imports the CLI (only the Python API's analyses use its commands' parsers
+and computing functions), and no code module is over 800 lines.
 
 Imports are read statically (every ``import`` statement, also those inside functions: a lazy
 import is still a dependency).
@@ -121,6 +122,43 @@ def test_layers():
                 bad.append(f"{name} -> {t} (only the CLI and the Python API's analyses "
                            "use the commands)")
     assert not bad, "layering violations:\n" + "\n".join(sorted(bad))
+
+
+#: The sub-package of ``netlist`` that runs integrators and analyses on a circuit; the rest of
+#: ``netlist`` is what those studies start from and never imports them.
+STUDIES = "netlist.studies"
+
+
+def _in(name: str, package: str) -> bool:
+    return name == package or name.startswith(package + ".")
+
+
+def core_imports_studies(graph: dict[str, set[str]]) -> list[str]:
+    """Imports of ``netlist.studies`` by a module of ``netlist`` outside it."""
+    return sorted(f"{name} -> {t}" for name, targets in graph.items()
+                  if _in(name, "netlist") and not _in(name, STUDIES)
+                  for t in targets if _in(t, STUDIES))
+
+
+def test_netlist_core_never_imports_its_studies():
+    bad = core_imports_studies(_graph())
+    assert not bad, ("the core of netlist imports its studies (netlist.studies runs on the "
+                     "core, not the reverse):\n" + "\n".join(bad))
+
+
+def test_core_imports_studies_finds_an_edge():
+    # The rule above must be able to fail: a core module importing a study, directly or
+    # through the sub-package, is reported; a study importing the core or another study is not.
+    graph = {
+        "netlist.formulation": {"netlist.circuit"},
+        "netlist.parser": {"netlist.studies.transient"},
+        "netlist": {"netlist.studies"},
+        "netlist.studies.sweep": {"netlist.parser", "netlist.studies.transient"},
+        "netlist.studiesque": {"netlist.circuit"},
+    }
+    assert core_imports_studies(graph) == [
+        "netlist -> netlist.studies", "netlist.parser -> netlist.studies.transient"]
+    assert STUDIES in _modules()
 
 
 def test_module_sizes():

@@ -24,7 +24,7 @@ from netlist.behavioural_expr import (
 from netlist.circuit import Ccvs, Vccs, Vcvs, VoltageSource
 from netlist.errors import NetlistError
 from netlist.parser import parse_string
-from netlist.transient import simulate_circuit
+from netlist.studies.transient import simulate_circuit
 from netlist.writer import write_circuit
 
 

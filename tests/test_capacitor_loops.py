@@ -13,7 +13,7 @@ import pytest
 from netlist.errors import NetlistError
 from netlist.formulation import formulate
 from netlist.parser import parse_string
-from netlist.transient import simulate_circuit
+from netlist.studies.transient import simulate_circuit
 
 # 1 µF from a 10 V source to m, 3 µF from m to ground, 1 kΩ from m to ground: with UIC the
 # midpoint starts where the charge at m puts it, then decays with τ = R (C1 + C2) = 4 ms.

@@ -154,7 +154,7 @@ def _runs(circuit, probe, tstop, extra=(), **kw):
     import copy
 
     from netlist.circuit import Tran
-    from netlist.realistic import simulate_devices
+    from netlist.studies.realistic import simulate_devices
     from netlist.writer import write_circuit
     from ngspice_checks.runner import run_ngspice
 
@@ -317,7 +317,7 @@ def test_the_fit_range_is_not_an_inrush_only_the_step_limits():
     capacitor in one step (C dV / h, 1000 A at h = 1 µs); the diode carries about
     10 V / 100 Ω = 0.1 A otherwise. The fit is over what it carries."""
     from netlist.parser import parse_string
-    from netlist.realistic import simulate_devices
+    from netlist.studies.realistic import simulate_devices
 
     c = parse_string("inrush\nVs a 0 PULSE(0 10 0 0 0 0.5m 1m)\nD1 a k D4148\n"
                      "C1 k 0 100u\nR1 k 0 100\n.model D4148 D(IS=4.352n N=1.906 RS=0.6458)\n"

@@ -8,8 +8,8 @@ import pytest
 
 from netlist.errors import NetlistError
 from netlist.parser import parse_string
+from netlist.studies.transient import check_probes
 from netlist.suggest import close_matches, did_you_mean
-from netlist.transient import check_probes
 from pelcs.cli import COMMANDS, build_parser, main
 
 BUCK = """buck

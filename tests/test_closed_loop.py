@@ -16,7 +16,7 @@ from scipy.optimize import brentq
 
 from lcs.moreau import simulate
 from netlist.parser import parse_file
-from netlist.transient import transient_setup
+from netlist.studies.transient import transient_setup
 
 HERE = Path(__file__).parent / "netlists" / "closed_loop"
 VM_BUCK = HERE / "vm_buck.cir"

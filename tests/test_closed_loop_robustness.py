@@ -10,7 +10,7 @@ import numpy as np
 
 from lcs.moreau import simulate
 from netlist.parser import parse_file, parse_string
-from netlist.transient import transient_setup
+from netlist.studies.transient import transient_setup
 
 CL = Path(__file__).parent / "netlists" / "closed_loop"
 

@@ -12,7 +12,7 @@ import pytest
 from lcs.controllers import PIPWM, OpenLoopPWM, SlidingSurface, pwm_commands
 from lcs.moreau import simulate
 from netlist.parser import parse_file
-from netlist.transient import transient_setup
+from netlist.studies.transient import transient_setup
 
 ROOT = Path(__file__).parents[1]
 BUCK = ROOT / "converters" / "netlists" / "buck.cir"

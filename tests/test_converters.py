@@ -18,7 +18,7 @@ from converters.averaged import averaged_model, effective_k, ripple
 from converters.design import conversion_ratio, design
 from netlist.formulation import formulate
 from netlist.parser import parse_file, parse_string
-from netlist.transient import initial_state
+from netlist.studies.transient import initial_state
 
 BUNDLED = sorted(F.BUNDLED)
 
@@ -104,7 +104,7 @@ def test_params_are_overridable_and_initial_state_is_written():
 
 
 def test_held_gate_gives_a_single_switch_mode():
-    from netlist.transient import simulate_circuit
+    from netlist.studies.transient import simulate_circuit
 
     for gate, on in (("on", True), ("off", False)):
         c = F.circuit("boost", gate=gate, tstop=0.2e-3)

@@ -49,7 +49,7 @@ import pytest
 from converters import factories as F
 from converters.averaged import averaged_model, effective_k, ripple
 from converters.design import conversion_ratio, k_crit
-from netlist.transient import simulate_circuit
+from netlist.studies.transient import simulate_circuit
 
 FS = 100e3
 T = 1 / FS

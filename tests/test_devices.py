@@ -14,7 +14,7 @@ import pelcs
 from lcs.notices import IdealisedDeviceWarning
 from netlist.errors import NetlistError
 from netlist.parser import parse_file, parse_string
-from netlist.transient import simulate_circuit
+from netlist.studies.transient import simulate_circuit
 from netlist.writer import write_circuit
 from pelcs.cli import main
 
@@ -298,7 +298,7 @@ def test_more_vendor_parts_as_they_come():
     neg = (t > 0.6e-3) & (t < 0.9e-3)  # at -10 V: both block
     assert np.allclose(res["v(k1)"][neg], 0.0) and np.allclose(res["v(k2)"][neg], 0.0)
     assert res["i(Rc)"][-1] == pytest.approx(0.05)  # Q1 on: 5 V across 100 ohm
-    from netlist.realistic import simulate_devices
+    from netlist.studies.realistic import simulate_devices
 
     pwl = simulate_devices(c, devices="pwl", probes=["v(k2)", "i(Rc)"])
     fit = {f.element: f for f in pwl.device_fits}

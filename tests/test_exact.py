@@ -22,8 +22,8 @@ from scipy.optimize import brentq
 
 import pelcs
 from lcs.analysis.orbits import find_orbit
-from netlist.sweep import CircuitMapFactory
-from netlist.transient import simulate_circuit
+from netlist.studies.sweep import CircuitMapFactory
+from netlist.studies.transient import simulate_circuit
 from pelcs.cli import main
 
 # (the slow part of the suite: outside the fast subset that `-m 'not slow'` selects)

@@ -16,7 +16,7 @@ import numpy as np
 
 from lcs.analysis.bifurcation import bifurcation_diagram
 from lcs.analysis.orbits import find_orbit
-from netlist.sweep import CircuitMapFactory
+from netlist.studies.sweep import CircuitMapFactory
 from pelcs.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -99,7 +99,7 @@ def test_sliding_boost_crossing_at_start_up(tmp_path):
     from scipy.optimize import brentq
 
     import pelcs
-    from netlist.transient import simulate_circuit
+    from netlist.studies.transient import simulate_circuit
 
     text = (ROOT / "tests" / "netlists" / "closed_loop" / "boost_smc.cir").read_text()
     text = text.replace("L1 ls sw 1m\n", "L1 ls sw 1m IC=2\n")

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from netlist.parser import parse_string
-from netlist.transient import simulate_circuit
+from netlist.studies.transient import simulate_circuit
 from pelcs.cli import main
 
 # An ideal diode clamps v(out) at 0 V while the divider would drive it positive:

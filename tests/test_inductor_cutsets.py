@@ -12,7 +12,7 @@ import pytest
 from netlist.errors import NetlistError
 from netlist.formulation import formulate
 from netlist.parser import parse_string
-from netlist.transient import simulate_circuit
+from netlist.studies.transient import simulate_circuit
 
 DANGLING = """dangling inductor
 V1 in 0 PULSE(0 10 0 1u 1u 5u 10u)

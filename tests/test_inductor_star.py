@@ -11,7 +11,7 @@ import pytest
 
 from netlist.formulation import formulate
 from netlist.parser import parse_string
-from netlist.transient import simulate_circuit
+from netlist.studies.transient import simulate_circuit
 
 R = (10.0, 20.0, 40.0)
 L = (10e-3, 20e-3, 5e-3)

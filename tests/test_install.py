@@ -143,7 +143,7 @@ def test_kernels_cached_is_false_with_an_empty_cache_and_true_with_the_checkouts
 def _simulate_first_use(monkeypatch, capsys, cached: bool, compiled: int, aot: bool):
     """``pelcs simulate`` of the bundled buck with the cache state faked, nothing compiled:
     (stderr lines, stdout, background builds started)."""
-    import netlist.transient as transient
+    import netlist.studies.transient as transient
     import pelcs.commands.simulate  # noqa: F401  (imported before its names are patched)
 
     events = []

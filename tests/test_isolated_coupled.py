@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from netlist.parser import parse_file
-from netlist.realistic import simulate_devices
+from netlist.studies.realistic import simulate_devices
 
 NETLISTS = Path(__file__).parent / "netlists"
 

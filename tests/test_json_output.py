@@ -111,8 +111,8 @@ def test_every_json_command_uses_the_shared_writer():
 @pytest.mark.filterwarnings("error::RuntimeWarning")
 def test_ac_json_zero_response_is_null(capsys):
     # v(in) is held by the DC source Vin: its response to Vc is exactly 0, -inf dB.
-    from netlist.ac import ac_analysis
     from netlist.parser import parse_file
+    from netlist.studies.ac import ac_analysis
 
     path = str(NETLISTS / "ac" / "buck_vc.cir")
     argv = ["ac", path, "--period", "ts", "--inject", "Vc", "--probe", "v(in),v(out)",
@@ -137,7 +137,7 @@ def test_orbit_json_overflowed_residual_is_null(capsys):
     # warning is raised). Newton gives up (exit 3) and the report still prints, strict JSON
     # with the last iterate's residual (null if it is infinite).
     from lcs.analysis.orbits import find_orbit
-    from netlist.sweep import CircuitMapFactory
+    from netlist.studies.sweep import CircuitMapFactory
 
     path = str(NETLISTS / "sim" / "tunnel_nonpassive.cir")
     code = main(["orbit", path, "--period", "16.2m", "--transient", "0", "--json"])

@@ -20,7 +20,7 @@ from lcs.moreau import MoreauOptions
 from lcs.simulation.problem import Problem
 from netlist.formulation import formulate
 from netlist.parser import parse_file, parse_string
-from netlist.transient import run_setup, transient_setup
+from netlist.studies.transient import run_setup, transient_setup
 
 
 def _csc(A):

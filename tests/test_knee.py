@@ -12,7 +12,7 @@ from netlist.errors import NetlistError
 from netlist.knee import KneeCapacitor
 from netlist.mna_solve import Solution
 from netlist.parser import parse_string
-from netlist.transient import simulate_circuit
+from netlist.studies.transient import simulate_circuit
 
 RC = """knee rc
 V1 in 0 DC {vin}

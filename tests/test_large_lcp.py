@@ -19,7 +19,7 @@ from converters import scaling
 from lcs.bits import from_words, to_words, words
 from lcs.moreau import MoreauOptions
 from netlist.parser import parse_file, parse_string
-from netlist.transient import run_setup, transient_setup
+from netlist.studies.transient import run_setup, transient_setup
 
 VIN, DUTY, FS = 24.0, 0.4, 50e3
 

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from netlist.errors import NetlistError
-from netlist.param_sweep import run_sweep
 from netlist.parser import parse_string
+from netlist.studies.param_sweep import run_sweep
 from pelcs.cli import main
 
 STEP = Path(__file__).parent / "netlists" / "step" / "buck_step.cir"
@@ -127,7 +127,7 @@ def test_simulate_names_the_step_values_it_uses(capsys):
 
 
 def test_grid_values_like_step_values():
-    from netlist.param_sweep import parse_sweep_param
+    from netlist.studies.param_sweep import parse_sweep_param
 
     from_step = parse(".step param a 0.2 0.8 0.2").steps[0][1]
     assert tuple(parse_sweep_param("a=0.2:0.8:4")[1]) == from_step == (0.2, 0.4, 0.6, 0.8)

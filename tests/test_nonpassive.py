@@ -21,7 +21,7 @@ from lcs import screening
 from lcs.notices import NonPassiveWarning
 from lcs.results import SimulationResult
 from netlist.errors import NetlistError
-from netlist.transient import state_growth
+from netlist.studies.transient import state_growth
 from pelcs.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -73,7 +73,7 @@ def test_passive_converter_runs_without_warning():
 
 def test_analysis_commands_warn_too(capsys):
     # the stroboscopic map of every analysis command is set up the same way
-    from netlist.sweep import circuit_map
+    from netlist.studies.sweep import circuit_map
 
     circuit = pelcs.load(TUNNEL)
     with pytest.warns(NonPassiveWarning):

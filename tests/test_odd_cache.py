@@ -16,7 +16,7 @@ from lcs.moreau import MoreauOptions
 from lcs.stepping.layout import ODD_SETS
 from lcs.stepping.modes import ODD_BYTES_PER_MODE, odd_slots
 from netlist.parser import parse_file, parse_string
-from netlist.transient import simulate_circuit
+from netlist.studies.transient import simulate_circuit
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -36,7 +36,7 @@ def test_api_freq_and_cli_freq_agree(capsys):
 
 
 def test_freq_without_count_and_errors():
-    from netlist.ac import parse_frequencies
+    from netlist.studies.ac import parse_frequencies
 
     assert parse_frequencies("100:10k").size == 30
     assert parse_frequencies("1k").tolist() == [1000.0]

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from lcs.analysis.orbits import find_orbit
-from netlist.sweep import CircuitMapFactory
+from netlist.studies.sweep import CircuitMapFactory
 from pelcs.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -9,8 +9,8 @@ import pytest
 from test_analysis_maps import netlists  # noqa: F401 - fixture
 
 from netlist.errors import NetlistError
-from netlist.measure import defined_period
 from netlist.parser import parse_string
+from netlist.studies.measure import defined_period
 from pelcs.cli import main
 
 LATCHED = """latched switch with a ramp

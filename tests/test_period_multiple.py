@@ -1,5 +1,5 @@
 """A ``--period`` that the netlist's switching period does not divide is refused by every
-command that samples once a period (one shared check, netlist.sweep.check_period_multiple):
+command that samples once a period (one shared check, netlist.studies.sweep.check_period_multiple):
 the buck switched every 20 µs, sampled every 13 µs, has no orbit of period 13 µs (pelcs ac
 once reported one of 76.9 kHz). A multiple of the period is the same steady state."""
 
@@ -13,7 +13,7 @@ import pytest
 
 from netlist.errors import NetlistError
 from netlist.parser import parse_file
-from netlist.sweep import check_period_multiple
+from netlist.studies.sweep import check_period_multiple
 from pelcs.cli import main
 
 BUCK = Path(__file__).resolve().parents[1] / "converters" / "netlists" / "buck.cir"

@@ -15,7 +15,7 @@ import pytest
 import pelcs
 from lcs.notices import IdealisedDeviceWarning
 from netlist.pwl import VT_THERMAL, diode_fit
-from netlist.realistic import simulate_devices as simulate_circuit
+from netlist.studies.realistic import simulate_devices as simulate_circuit
 from pelcs.cli import main
 
 DEV = Path(__file__).parent / "netlists" / "devices"

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from netlist.errors import NetlistError
-from netlist.param_sweep import parse_sweep_param
-from netlist.sweep import ParamRange, parse_grid, split_params
+from netlist.studies.param_sweep import parse_sweep_param
+from netlist.studies.sweep import ParamRange, parse_grid, split_params
 from pelcs.cli import main
 from pelcs.commands.continuation import continuation_steps
 from pelcs.commands.options import RANGE_COUNTS
@@ -100,7 +100,7 @@ def test_sweep_range():
 
 def test_sweep_cli_default_count(monkeypatch):
     seen: dict = {}
-    _capture(monkeypatch, "netlist.param_sweep", "run_sweep", seen)
+    _capture(monkeypatch, "netlist.studies.param_sweep", "run_sweep", seen)
     with pytest.raises(_Stop):
         main(["sweep", BUCK, "--param", "duty=0.4:0.6", "--measure", "mean(v(out))"])
     assert np.asarray(seen["kwargs"]["params"]["duty"]).size == RANGE_COUNTS["sweep"]

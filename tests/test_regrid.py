@@ -15,7 +15,7 @@ from lcs.moreau import MoreauOptions
 from lcs.results import resample, resample_arrays
 from lcs.simulation.regrid import Regrid
 from netlist.parser import parse_file, parse_string
-from netlist.transient import simulate_circuit
+from netlist.studies.transient import simulate_circuit
 from pelcs.cli import main
 
 NETLISTS = Path(__file__).parent.parent / "converters" / "netlists"
@@ -207,7 +207,7 @@ def test_the_run_size_check_counts_the_output_grid(monkeypatch):
     # 1e7 steps of two probes: every step is 480 MB of rows, the 1001-point grid a block's
     # worth; under a 64 MB limit the first is refused before any work, the second runs.
     from netlist.errors import NetlistError
-    from netlist.transient import check_run_size, transient_setup
+    from netlist.studies.transient import check_run_size, transient_setup
 
     monkeypatch.setenv("PELCS_MAX_MEMORY", "64M")
     setup = transient_setup(parse_file(BUCK), tstop=2.0)

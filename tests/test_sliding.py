@@ -19,7 +19,7 @@ from scipy.integrate import solve_ivp
 
 from lcs.moreau import MoreauOptions, simulate
 from netlist.parser import parse_file, parse_string
-from netlist.transient import transient_setup
+from netlist.studies.transient import transient_setup
 
 BOOST = Path(__file__).parent / "netlists" / "closed_loop" / "boost_smc.cir"
 E, IREF, R, C, L = 12.0, 2.0, 50.0, 100e-6, 1e-3

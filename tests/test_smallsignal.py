@@ -19,10 +19,10 @@ from lcs.exact.orbit import PwlOrbitError, exact_orbit, follow_period
 from lcs.model import LCS, ComplementarityPair
 from lcs.smallsignal.ltp import sampled_data_model
 from lcs.smallsignal.response import loop_margins
-from netlist.ac import ac_analysis
 from netlist.errors import NetlistError
 from netlist.parser import parse_file, parse_string
-from netlist.sweep import circuit_map
+from netlist.studies.ac import ac_analysis
+from netlist.studies.sweep import circuit_map
 
 AC = Path(__file__).parent / "netlists" / "ac"
 TS, TF = 10e-6, 10e-9

@@ -12,7 +12,7 @@ from lcs.signals import Pulse, resolve
 from lcs.simulation.inputs import InputTable, has_jumps
 from netlist.errors import NetlistError
 from netlist.parser import parse_string
-from netlist.transient import transient_setup
+from netlist.studies.transient import transient_setup
 
 # name -> (waveform, what is special about it)
 SOURCES = {

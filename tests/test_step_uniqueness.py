@@ -16,7 +16,7 @@ from lcs.moreau import MoreauOptions, simulate_lcs
 from lcs.step_uniqueness import unique_next_state
 from lcs.stepping.discretise import discretise
 from netlist.parser import parse_string
-from netlist.transient import run_setup, transient_setup
+from netlist.studies.transient import run_setup, transient_setup
 
 # Each diode of the bridge is a macro-model: an ideal diode, a 0.7 V source and 10 mΩ in
 # series. With the output inductor carrying current while the input is small, all four

@@ -1,4 +1,5 @@
-"""Parameter sweeps and Monte Carlo runs (netlist.param_sweep, netlist.measure, pelcs sweep).
+"""Parameter sweeps and Monte Carlo runs (netlist.studies.param_sweep, netlist.studies.measure,
+pelcs sweep).
 
 References: the ideal buck in CCM, whose steady-state mean output is D·Vin exactly; an RC
 low-pass filter driven by a square wave, whose periodic steady state is known in closed form
@@ -19,15 +20,15 @@ from scipy.integrate import quad
 
 from lcs.analysis.tables import SweepTable
 from netlist.errors import NetlistError
-from netlist.measure import parse_measurements, steady_state_period, steady_state_window
-from netlist.param_sweep import (
+from netlist.parser import parse_file, parse_string
+from netlist.studies.measure import parse_measurements, steady_state_period, steady_state_window
+from netlist.studies.param_sweep import (
     draw_deviations,
     match_tolerances,
     parse_sweep_param,
     parse_tolerance,
     run_sweep,
 )
-from netlist.parser import parse_file, parse_string
 from pelcs.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -117,7 +118,7 @@ def test_rc_measurements_against_the_closed_form(rc):
 
 
 def test_window_and_period_match_pelcs_check():
-    """netlist.measure's window is the one of ngspice_checks.compare (its twin)."""
+    """netlist.studies.measure's window is the one of ngspice_checks.compare (its twin)."""
     from ngspice_checks.compare import _window, detect_period
     from pelcs.api import simulate
 
@@ -390,7 +391,7 @@ def test_cli_input_errors(capsys, rc, argv, words):
 
 
 def test_cli_unwritable_output_is_found_before_the_runs(capsys, rc, tmp_path, monkeypatch):
-    import netlist.param_sweep as ps
+    import netlist.studies.param_sweep as ps
 
     def no_runs(*args, **kwargs):
         raise AssertionError("the sweep ran")
@@ -429,7 +430,7 @@ def test_writable_check_takes_links_and_new_folders_and_changes_nothing(tmp_path
 
 
 def test_a_probe_that_is_not_finite_is_not_settled():
-    from netlist.measure import Settling
+    from netlist.studies.measure import Settling
 
     for drift, limit in ((float("nan"), float("nan")), (float("inf"), 1.0),
                          (float("nan"), 1.0)):

@@ -17,7 +17,7 @@ from lcs.signals import Pulse, Sin, resolve
 from lcs.simulation.inputs import collect_breakpoints
 from lcs.simulation.source_switching import source_switch_events
 from netlist.parser import parse_string
-from netlist.transient import simulate_circuit
+from netlist.studies.transient import simulate_circuit
 
 GATE = Pulse(0, 1, 1e-3, 0.1e-3, 0.1e-3, 1e-3, 2e-3)
 OP = {OPERATING_POINT_OPTION: True}

@@ -16,7 +16,7 @@ from converters.scaling import rectifier_6pulse, rectifier_12pulse
 from lcs.model import LCS, ComplementarityPair, ModeModel, SwitchedLCS
 from lcs.theta_screen import G_LIMIT, screen_theta
 from netlist.parser import parse_file
-from netlist.transient import transient_setup
+from netlist.studies.transient import transient_setup
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -112,7 +112,7 @@ def test_a_snubbered_diode_is_caught_although_p_has_no_eigenvalue():
 
 def test_maps_choose_theta_the_same_way():
     from netlist.parser import parse_string
-    from netlist.sweep import circuit_map
+    from netlist.studies.sweep import circuit_map
 
     m = circuit_map(parse_string(rectifier_12pulse(periods=1)), 0.02)
     assert m.theta == 1.0 and any("not reliable" in n for n in m.notes)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from netlist.parser import parse_string
-from netlist.transient import simulate_circuit, transient_setup
+from netlist.studies.transient import simulate_circuit, transient_setup
 
 # eSim's deck for a 50 Hz source: TSTEP = 10 ms, half the period (the zero crossings)
 ESIM = """half-wave rectifier

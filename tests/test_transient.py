@@ -1,4 +1,4 @@
-"""netlist.transient and the pelcs Python API: initial conditions, state jumps at t = 0,
+"""netlist.studies.transient and the pelcs Python API: initial conditions, state jumps at t = 0,
 .tran defaults, probe checks, partial results of failed runs."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import pelcs
 from lcs.results import SimulationError
 from netlist.errors import NetlistError
 from netlist.parser import parse_string
-from netlist.transient import check_probes, default_step, simulate_circuit, transient_setup
+from netlist.studies.transient import check_probes, default_step, simulate_circuit, transient_setup
 
 SIM = Path(__file__).parent / "netlists" / "sim"
 

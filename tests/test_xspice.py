@@ -13,7 +13,7 @@ import pytest
 from netlist.circuit import Vcvs, VoltageSource
 from netlist.errors import NetlistError
 from netlist.parser import parse_string
-from netlist.realistic import simulate_devices
+from netlist.studies.realistic import simulate_devices
 
 # a buck converter whose PWM is XSPICE: triangle carrier, summer, limit comparator; the
 # switch is an S element (BUCK) or an XSPICE aswitch (BUCK_ASWITCH)

@@ -17,5 +17,5 @@
   pool, or Dask distributed (a local cluster or a scheduler's workers).
 
 Nothing here knows about netlists: a parameter enters through a *map factory*, a picklable
-callable ``factory(value) -> Map`` (:class:`netlist.sweep.CircuitMapFactory` for circuits).
+callable ``factory(value) -> Map`` (:class:`netlist.studies.sweep.CircuitMapFactory` for circuits).
 """

@@ -433,7 +433,7 @@ def cell_basins(
     source : Map or callable
         The map itself (pickled to the workers: fine for a :class:`~.maps.FunctionMap` of a
         module-level function), or a factory ``factory(param) -> Map`` (e.g.
-        :class:`netlist.sweep.CircuitMapFactory`), which each worker calls once.
+        :class:`netlist.studies.sweep.CircuitMapFactory`), which each worker calls once.
     grid : CellGrid or sequence of two ``(state name, lo, hi, count)``
         The grid states are named as the map names its states (case-insensitive).
     param : float, optional

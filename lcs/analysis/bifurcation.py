@@ -242,7 +242,7 @@ def bifurcation_diagram(
     ----------
     factory : callable
         ``factory(value) -> Map``; picklable for ``workers > 1`` (e.g.
-        :class:`netlist.sweep.CircuitMapFactory`, or a module-level function).
+        :class:`netlist.studies.sweep.CircuitMapFactory`, or a module-level function).
     values : sequence of float, shape (K,)
         Parameter values, in increasing sweep order.
     x0 : array_like, shape (n,)

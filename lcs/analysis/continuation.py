@@ -272,7 +272,7 @@ def continue_orbit(
     Parameters
     ----------
     factory : callable
-        ``factory(p) -> Map`` (e.g. :class:`netlist.sweep.CircuitMapFactory`).
+        ``factory(p) -> Map`` (e.g. :class:`netlist.studies.sweep.CircuitMapFactory`).
     start, stop : float
         Parameter range (either order).
     steps : int
@@ -434,7 +434,7 @@ def continue_orbits(
     Parameters
     ----------
     factory : callable
-        ``factory(p) -> Map``; picklable (e.g. :class:`netlist.sweep.CircuitMapFactory`).
+        ``factory(p) -> Map``; picklable (e.g. :class:`netlist.studies.sweep.CircuitMapFactory`).
     start, stop : float
         Parameter range.
     starts : sequence of array_like, each shape (n,)

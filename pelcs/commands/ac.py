@@ -99,7 +99,7 @@ def register(subparsers) -> None:
 def _freqs(text: str | None):
     """``FMIN:FMAX[:N]`` -> N log-spaced frequencies (Hz), or a single ``F``; None: the
     default."""
-    from netlist.ac import parse_frequencies
+    from netlist.studies.ac import parse_frequencies
 
     return parse_frequencies(text) if text else None
 
@@ -111,7 +111,7 @@ _AVERAGED_KEYS = {"vin": "vin", "d": "duty", "r": "rload", "l": "lind", "c": "co
 
 def _averaged(spec: str | None):
     """``TOPOLOGY:NAME=VALUE,...`` -> (python-control model, gain, input name) or None."""
-    from netlist.sweep import parse_value
+    from netlist.studies.sweep import parse_value
 
     if not spec:
         return None
@@ -141,9 +141,9 @@ def _averaged(spec: str | None):
 
 
 def run(args: argparse.Namespace) -> int:
-    from netlist.ac import ac_analysis
     from netlist.parser import parse_file, parse_overrides
-    from netlist.sweep import parse_value
+    from netlist.studies.ac import ac_analysis
+    from netlist.studies.sweep import parse_value
 
     if not args.inject and not args.loop:
         raise usage_error("ac", "nothing to perturb", "pass --inject SOURCE or --loop NAME")

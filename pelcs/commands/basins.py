@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
 def prepare(args: argparse.Namespace) -> dict:
     """The parsed options, the factory and the map (input errors raised here)."""
     from netlist.parser import parse_overrides
-    from netlist.sweep import parse_grid
+    from netlist.studies.sweep import parse_grid
 
     fixed = parse_overrides(args.param)
     factory = make_factory(args, "basins", fixed=fixed)

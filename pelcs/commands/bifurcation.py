@@ -148,8 +148,8 @@ def run(args: argparse.Namespace) -> int:
 def prepare(args: argparse.Namespace) -> dict:
     """The parsed options of a diagram, its factory, the map and circuit at the first value
     (input errors raised here, before any run)."""
-    from netlist.sweep import split_params
-    from netlist.transient import check_probes
+    from netlist.studies.sweep import split_params
+    from netlist.studies.transient import check_probes
 
     from .simulate import split_probes
 

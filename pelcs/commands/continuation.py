@@ -119,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
 def prepare(args: argparse.Namespace) -> dict:
     """The parsed options of a continuation, its factory and the map at START (input errors
     raised here, before any run)."""
-    from netlist.sweep import parse_value, split_params
+    from netlist.studies.sweep import parse_value, split_params
 
     ranges, fixed = split_params(args.param)
     if len(ranges) != 1:
@@ -190,7 +190,7 @@ def compute_many(args: argparse.Namespace, setup: dict) -> tuple[dict, list]:
     import numpy as np
 
     from lcs.analysis.continuation import continue_orbits, same_orbit
-    from netlist.sweep import parse_starts
+    from netlist.studies.sweep import parse_starts
 
     factory, m, rng, x0 = setup["factory"], setup["m"], setup["rng"], setup["x0"]
     starts = [x0]

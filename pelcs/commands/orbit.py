@@ -88,8 +88,8 @@ def usage_error(command: str, message: str, hint: str = "") -> NetlistError:
 
 def make_factory(args: argparse.Namespace, command: str, *, swept: str | None = None,
                  fixed: dict[str, float] | None = None):
-    """The :class:`~netlist.sweep.CircuitMapFactory` of the parsed options."""
-    from netlist.sweep import CircuitMapFactory, parse_value
+    """The :class:`~netlist.studies.sweep.CircuitMapFactory` of the parsed options."""
+    from netlist.studies.sweep import CircuitMapFactory, parse_value
 
     theta = parse_value(args.theta, "--theta") if args.theta is not None else None
     if theta is not None and not 0.5 <= theta <= 1.0:
@@ -122,7 +122,7 @@ def make_factory(args: argparse.Namespace, command: str, *, swept: str | None = 
 
 def initial_state(args: argparse.Namespace, m) -> np.ndarray:
     """``--x0`` over the circuit's initial state (circuit states only, no event phase)."""
-    from netlist.sweep import parse_state
+    from netlist.studies.sweep import parse_state
 
     x0 = np.asarray(m.x0, dtype=float)
     if args.x0:
@@ -137,7 +137,7 @@ def period_notes(m) -> list[str]:
 
 
 def positive_int(command: str, option: str, text, minimum: int = 1) -> int:
-    from netlist.sweep import parse_value
+    from netlist.studies.sweep import parse_value
 
     v = parse_value(str(text), option)
     if v != int(v) or v < minimum:
@@ -211,7 +211,7 @@ def compute(args: argparse.Namespace) -> tuple[dict, object]:
     """
     from lcs.analysis.orbits import find_orbit
     from netlist.parser import parse_overrides
-    from netlist.sweep import parse_value
+    from netlist.studies.sweep import parse_value
 
     fixed = parse_overrides(args.param)
     factory = make_factory(args, "orbit", fixed=fixed)

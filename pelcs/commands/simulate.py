@@ -191,7 +191,7 @@ def _check_path(option: str, path: str, suffixes: tuple[str, ...]) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     from netlist.parser import parse_file, parse_overrides
-    from netlist.transient import check_probes, check_run_size, transient_setup, warm_up
+    from netlist.studies.transient import check_probes, check_run_size, transient_setup, warm_up
 
     tstop = _number("--tstop", args.tstop, ("", "s"))
     step = _number("--step", args.step, ("", "s"))
@@ -246,14 +246,14 @@ _INTERRUPT_MESSAGE = ("pelcs simulate: interrupted: the run stops after its curr
 def _run(args, circuit, setup, probes, tstop, step, theta, every, output_step, out, plot,
          load, compiled=False) -> int:
     """The run, its files and its summary; the exit status."""
-    from netlist.transient import run_setup
+    from netlist.studies.transient import run_setup
 
     spacing = _output_spacing(output_step, args.all_steps or bool(args.every), circuit, setup)
     t0 = time.perf_counter()
     regridded = False
     try:
         if args.devices == "pwl" or args.losses:
-            from netlist.realistic import simulate_devices
+            from netlist.studies.realistic import simulate_devices
 
             given = {}
             for item in args.pwl:
@@ -349,7 +349,7 @@ def _output_spacing(output_step: float | None, all_steps: bool, circuit, setup
     As ngspice writes its ``.tran TSTEP`` grid, so does pelcs by default; a TSTEP finer than
     the integration step (or a run without ``.tran``) writes every step instead, since
     interpolating below the step adds points and no information, and so does a TSTEP too
-    coarse to show the sources (``netlist.timestep.print_step``; the result's notes say so).
+    coarse to show the sources (``netlist.studies.timestep.print_step``; the result's notes say so).
     """
     if output_step is not None:
         return output_step, "--output-step"

@@ -133,9 +133,9 @@ def run(args: argparse.Namespace) -> int:
 
 @contextlib.contextmanager
 def labelled_errors():
-    """The shared option parsers (netlist.sweep, netlist.measure, simulate's numbers) name
-    another command or the tool only: every error of this command starts "pelcs sweep:
-    error:"."""
+    """The shared option parsers (netlist.studies.sweep, netlist.studies.measure, simulate's
+    numbers) name another command or the tool only: every error of this command starts
+    "pelcs sweep: error:"."""
     try:
         yield
     except NetlistError as exc:
@@ -148,9 +148,9 @@ def prepare(args: argparse.Namespace) -> dict:
     """The parsed and checked options of a sweep (input errors raised here, before any
     run)."""
     from lcs.analysis.tables import MAX_HISTOGRAM_POINTS
-    from netlist.param_sweep import parse_sweep_param
     from netlist.parser import parse_file
-    from netlist.sweep import parse_value
+    from netlist.studies.param_sweep import parse_sweep_param
+    from netlist.studies.sweep import parse_value
 
     from .simulate import _number
 
@@ -213,7 +213,7 @@ def _run(args: argparse.Namespace) -> int:
 def compute(args: argparse.Namespace, setup: dict):
     """The :class:`~lcs.analysis.tables.SweepTable` of :func:`prepare`'s setup (shared with
     :func:`pelcs.sweep`)."""
-    from netlist.param_sweep import run_sweep
+    from netlist.studies.param_sweep import run_sweep
 
     with scheduler_errors("sweep"):
         return run_sweep(

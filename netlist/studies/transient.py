@@ -39,8 +39,8 @@ from lcs.moreau import MoreauOptions, simulate
 from lcs.results import SimulationResult
 from lcs.signals import Dc, Signal, resolve
 
-from .capacitor_loops import reduced_probe
-from .circuit import (
+from ..capacitor_loops import reduced_probe
+from ..circuit import (
     GROUND,
     Capacitor,
     Circuit,
@@ -48,14 +48,14 @@ from .circuit import (
     Inductor,
     VoltageSource,
 )
-from .errors import Diagnostic, NetlistError
-from .formulation import formulate, storage_matrix
-from .knee import KneeCapacitor, check_knees, knee_probes
-from .limits import MEMORY, STEPS
-from .passive import structurally_passive
-from .reductions import open_inductors, parallel_diodes, source_capacitors
-from .suggest import did_you_mean
-from .system_cache import kept_with
+from ..errors import Diagnostic, NetlistError
+from ..formulation import formulate, storage_matrix
+from ..knee import KneeCapacitor, check_knees, knee_probes
+from ..limits import MEMORY, STEPS
+from ..passive import structurally_passive
+from ..reductions import open_inductors, parallel_diodes, source_capacitors
+from ..suggest import did_you_mean
+from ..system_cache import kept_with
 from .timestep import (
     MIN_STEPS_PER_RUN,
     STEPS_PER_PERIOD,
@@ -311,7 +311,7 @@ def _pin_open_inductors(circuit: Circuit, states: Sequence[str], x0: np.ndarray,
     """Note the inductors no other branch parallels (:func:`netlist.reductions.open_inductors`)
     and set their initial current to zero: an ``IC=`` current there has nowhere to flow, and
     its energy ``½ L i²`` is lost at t = 0 (said in the note)."""
-    from .units import format_eng
+    from ..units import format_eng
 
     index = {name.lower(): k for k, name in enumerate(states)}
     for key in keys:

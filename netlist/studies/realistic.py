@@ -1,6 +1,6 @@
 """Runs with real-device effects: piecewise-linear diodes and switches (:mod:`.pwl`) and the
 losses and efficiency of the steady state (:mod:`.losses`), on top of
-:func:`netlist.transient.simulate_circuit`."""
+:func:`netlist.studies.transient.simulate_circuit`."""
 
 from __future__ import annotations
 
@@ -10,11 +10,11 @@ import numpy as np
 
 from lcs.results import SimulationResult
 
-from .circuit import GROUND, Circuit, Diode, Switch
+from ..circuit import GROUND, Circuit, Diode, Switch
+from ..pwl import carried_current, pwl_circuit
+from ..reductions import parallel_diodes
 from .losses import loss_probes
 from .losses import losses as loss_report
-from .pwl import carried_current, pwl_circuit
-from .reductions import parallel_diodes
 from .transient import simulate_circuit
 
 __all__ = ["simulate_devices"]
@@ -23,7 +23,7 @@ __all__ = ["simulate_devices"]
 def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool = False,
                      load: str | None = None, probes: Sequence[str] | None = None,
                      pwl: dict | None = None, **kw) -> SimulationResult:
-    """:func:`netlist.transient.simulate_circuit` with piecewise-linear devices and/or
+    """:func:`netlist.studies.transient.simulate_circuit` with piecewise-linear devices and/or
     losses.
 
     Parameters
@@ -35,7 +35,7 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         :func:`netlist.pwl.carried_current`);
         ``result.device_fits`` lists them.
     losses : bool
-        Also compute ``result.losses`` (:mod:`netlist.losses`): conduction losses, input and
+        Also compute ``result.losses`` (:mod:`netlist.studies.losses`): conduction losses, input and
         output power (``load``: the load resistor, default the one taking the most power)
         and efficiency over the steady-state window.
     probes : sequence of str, optional
@@ -43,7 +43,7 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
     pwl : mapping, optional
         ``{element or model name: (vf, ron)}`` (V, Ω) given instead of the fit.
     **kw
-        The other arguments of :func:`~netlist.transient.simulate_circuit`.
+        The other arguments of :func:`~netlist.studies.transient.simulate_circuit`.
     """
     if devices not in ("ideal", "pwl"):
         raise ValueError(f"devices must be 'ideal' or 'pwl', got {devices!r}")
@@ -72,7 +72,7 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
     want = list(probes) if probes is not None else None
     extra = loss_probes(circuit) if losses else []
     if want is None:
-        from .formulation import formulate as _formulate
+        from ..formulation import formulate as _formulate
 
         want = list(_formulate(run_circuit).states)
     res = simulate_circuit(run_circuit, probes=list(dict.fromkeys(want + extra)), **kw)

@@ -2,7 +2,7 @@
 (``--losses``).
 
 Over the window ``pelcs check`` uses (the last whole periods of the switching source, up to
-10; :func:`netlist.measure.steady_state_window`):
+10; :func:`netlist.studies.measure.steady_state_window`):
 
 - conduction loss of every diode and switch, ``mean(Vf |i| + Ron i²)`` with the device's
   piecewise-linear parameters (zero for ideal devices), W;
@@ -17,8 +17,8 @@ What is neither loss nor output (the change of the stored energy over the window
 resistors) is reported as the balance.
 
 The figures are those of a steady state only if the window is one: every inductor current and
-capacitor voltage is checked with :func:`netlist.measure.settling` (the averages over the
-window's periods agree within :data:`~netlist.measure.SETTLE_LEVEL` of the probe's RMS: no
+capacitor voltage is checked with :func:`netlist.studies.measure.settling` (the averages over the
+window's periods agree within :data:`~netlist.studies.measure.SETTLE_LEVEL` of the probe's RMS: no
 net inductor voltage, no net capacitor charge over a period). A window that has not settled
 is reported as such (:attr:`LossReport.settled`, the efficiency line says "not settled"):
 while an output capacitor still charges, part of the input goes into storage and the
@@ -39,7 +39,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .circuit import Capacitor, Circuit, Diode, Inductor, Resistor, Switch, VoltageSource
+from ..circuit import Capacitor, Circuit, Diode, Inductor, Resistor, Switch, VoltageSource
+from ..reductions import parallel_diodes
 from .measure import (
     Measurement,
     probe_unit,
@@ -47,7 +48,6 @@ from .measure import (
     steady_state_period,
     steady_state_window,
 )
-from .reductions import parallel_diodes
 
 __all__ = ["LossReport", "loss_probes", "losses", "storage_probes"]
 
@@ -73,7 +73,7 @@ class LossReport:
         ``p_out / p_in`` (nan without input power).
     unsettled : tuple of Settling
         The storage probes (inductor currents, capacitor voltages) whose averages still drift
-        over the window's periods (:func:`netlist.measure.settling`); empty when settled.
+        over the window's periods (:func:`netlist.studies.measure.settling`); empty when settled.
     checked : bool
         Whether the check could be made (False: less than two periods in the run).
     caveat : str
@@ -99,7 +99,7 @@ class LossReport:
 
     def settling_text(self) -> str:
         """Why the window is not a steady state, in words ('' when it is one)."""
-        from .units import format_eng
+        from ..units import format_eng
 
         if not self.checked:
             return "not checked: the run holds less than two periods"

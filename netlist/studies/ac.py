@@ -25,12 +25,12 @@ from lcs.smallsignal.ltp import harmonic_response, probe_forms, sampled_data
 from lcs.smallsignal.response import FrequencyResponse, loop_margins
 from lcs.smallsignal.sweep import sweep_response
 
-from .circuit import Circuit, CurrentSource, VoltageSource
-from .errors import Diagnostic, NetlistError
+from ..circuit import Circuit, CurrentSource, VoltageSource
+from ..errors import Diagnostic, NetlistError
+from ..units import format_eng
 from .measure import _latch_clocks, _periodic_sources, defined_period
 from .sweep import check_period_multiple, circuit_map, resolve_period
 from .transient import check_probes
-from .units import format_eng
 
 METHODS = ("exact", "sweep")
 
@@ -134,7 +134,7 @@ def ac_analysis(circuit: Circuit, *, period: float | str | None, inject: str | N
     circuit : Circuit
     period : float or str or None
         The switching period T (s, or a ``.param`` name); None: the period the netlist
-        defines (:func:`netlist.measure.defined_period`, named in the notes).
+        defines (:func:`netlist.studies.measure.defined_period`, named in the notes).
     inject : str
         An independent source (V or I) whose value gets the perturbation.
     probes : sequence of str

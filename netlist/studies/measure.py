@@ -1,6 +1,6 @@
 """Measurements of a run over its steady-state window: ``mean(v(out))``, ``ripple(i(L1))``...
 
-A measurement is ``FUNCTION(PROBE)`` with a probe as :func:`netlist.transient.check_probes`
+A measurement is ``FUNCTION(PROBE)`` with a probe as :func:`netlist.studies.transient.check_probes`
 knows them (``v(out)``, ``v(a,b)``, ``i(L1)``, ``d(S1)``) and one of the functions of
 :data:`FUNCTIONS`. Everything but ``final`` is taken over the *steady-state window*, the one
 ``pelcs check`` uses: the last whole periods of the steady state, up to 10 and at most a
@@ -26,8 +26,8 @@ from lcs.axes import probe_unit  # (re-exported: the unit of a measurement is it
 from lcs.results import SimulationResult
 from lcs.signals import Pulse, Sin
 
-from .circuit import GROUND, Circuit, CurrentSource, VoltageSource
-from .errors import Diagnostic, NetlistError
+from ..circuit import GROUND, Circuit, CurrentSource, VoltageSource
+from ..errors import Diagnostic, NetlistError
 from .transient import check_probes
 
 __all__ = [
@@ -109,7 +109,7 @@ def parse_measurements(items: Sequence[str], circuit: Circuit) -> list[Measureme
     ------
     NetlistError
         One diagnostic per malformed item or unknown function; unknown probes as
-        :func:`~netlist.transient.check_probes` reports them (with the nodes and elements).
+        :func:`~netlist.studies.transient.check_probes` reports them (with the nodes and elements).
     """
     out: list[Measurement] = []
     diags: list[Diagnostic] = []
@@ -445,7 +445,7 @@ def settling(result: SimulationResult, measurements: Sequence[Measurement],
     list of Settling
         One per measurement; empty when the run is too short to tell (less than two periods).
     """
-    from .units import format_eng
+    from ..units import format_eng
 
     t = np.asarray(result.t, dtype=float)
     a, b = window

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 
 from lcs.signals import Exp, Pulse, Signal, Sin
 
-from .circuit import Tran
+from ..circuit import Tran
 
 __all__ = ["default_step", "print_step", "smooth_step", "source_periods", "tran_step"]
 
@@ -131,7 +131,7 @@ def tran_step(tran: Tran, waves: Sequence[Signal], tstop: float,
 
 
 def _eng_s(x: float) -> str:
-    from .units import format_eng
+    from ..units import format_eng
 
     return format_eng(x, "s")
 

@@ -2,8 +2,8 @@
 
 :func:`run_sweep` simulates a netlist at every point of a grid of ``.param`` values (SPICE's
 ``.step param``), and/or many times with component values drawn within tolerances (Monte
-Carlo), measures each run over its steady-state window (:mod:`netlist.measure`) and returns a
-:class:`~lcs.analysis.tables.SweepTable`. The runs are tasks of the engine of
+Carlo), measures each run over its steady-state window (:mod:`netlist.studies.measure`) and
+returns a :class:`~lcs.analysis.tables.SweepTable`. The runs are tasks of the engine of
 :mod:`lcs.analysis.parallel`: local processes by default, or the workers of a Dask scheduler.
 
 Tolerances (``R1=5%``, ``C*=10%``, ``L1=2u``): a pattern matches element names (glob,
@@ -24,7 +24,7 @@ whatever executes them and however the runs are split into tasks. With a paramet
 uses the same draws at every grid point (common random numbers), every grid point has its own
 nominal run, and the statistics are per grid point (:meth:`SweepTable.point_statistics`).
 
-Every run is checked for a settled window (:func:`netlist.measure.settling`): a run whose
+Every run is checked for a settled window (:func:`netlist.studies.measure.settling`): a run whose
 measured probes still drift over it gets a message, ``settled`` False in the table, and a note
 that names it and suggests a longer stop time.
 """
@@ -46,8 +46,10 @@ from lcs import interrupt
 from lcs.analysis.parallel import task_engine
 from lcs.analysis.tables import SweepTable
 
-from .circuit import Circuit, CurrentSource, VoltageSource
-from .errors import Diagnostic, NetlistError
+from ..circuit import Circuit, CurrentSource, VoltageSource
+from ..errors import Diagnostic, NetlistError
+from ..parser import parse_string
+from ..units import format_eng, parse_number
 from .measure import (
     Measurement,
     evaluate,
@@ -57,10 +59,8 @@ from .measure import (
     steady_state_period,
     steady_state_window,
 )
-from .parser import parse_string
 from .sweep import check_period_multiple, resolve_period
 from .transient import simulate_circuit
-from .units import format_eng, parse_number
 
 __all__ = [
     "DISTRIBUTIONS",
@@ -376,7 +376,7 @@ def _run_point(job: _Job, params: tuple[tuple[str, float], ...], deviations
     """Measure one run: (values, component values used, ok, message, window info).
 
     The window info of a run that succeeded is ``(window, periods, period, source,
-    unsettled, t_end)``: ``unsettled`` holds the :class:`~netlist.measure.Settling` of the
+    unsettled, t_end)``: ``unsettled`` holds the :class:`~netlist.studies.measure.Settling` of the
     measurements whose probe still drifts over the window.
     """
     nm = len(job.measures)
@@ -468,7 +468,7 @@ def run_sweep(
     source : str or path
         Netlist file (or netlist text, with a line break).
     measures : sequence of str
-        ``FUNCTION(PROBE)`` (:data:`netlist.measure.FUNCTIONS`), e.g. ``"mean(v(out))"``.
+        ``FUNCTION(PROBE)`` (:data:`netlist.studies.measure.FUNCTIONS`), e.g. ``"mean(v(out))"``.
     params : mapping, optional
         ``.param`` values: a number (fixed) or a sequence (swept). The grid is every
         combination, the first swept parameter varying slowest. The netlist's ``.step
@@ -485,7 +485,7 @@ def run_sweep(
         Stop time and step, s (default: the netlist's ``.tran``).
     theta : float, optional
         Default: 0.5, or 1 where θ < 1 is not reliable
-        (:func:`netlist.transient.choose_theta`).
+        (:func:`netlist.studies.transient.choose_theta`).
     period : float or str, optional
         Steady-state period, s, or a ``.param`` name (evaluated per point); default the
         period of the source at a switch's control (as ``pelcs check``).
@@ -501,7 +501,7 @@ def run_sweep(
         One row per (grid point, run); failed runs have NaN measurements and a message. A
         Monte Carlo run also simulates every grid point with the nominal values
         (``table.nominal``). Runs whose window has not settled
-        (:func:`netlist.measure.settling`) have ``settled`` False, a message and a note.
+        (:func:`netlist.studies.measure.settling`) have ``settled`` False, a message and a note.
 
     Raises
     ------

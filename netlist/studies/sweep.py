@@ -28,12 +28,12 @@ from lcs.model import LCS
 from lcs.moreau import MoreauOptions
 from lcs.wellposed import state_jump
 
-from .circuit import Circuit
-from .errors import Diagnostic, NetlistError
+from ..circuit import Circuit
+from ..errors import Diagnostic, NetlistError
+from ..parser import parse_file, parse_overrides, parse_string
+from ..units import format_eng, parse_number
 from .measure import defined_period
-from .parser import parse_file, parse_overrides, parse_string
 from .transient import choose_theta, transient_setup
-from .units import format_eng, parse_number
 
 __all__ = [
     "CircuitMapFactory",
@@ -251,7 +251,7 @@ def resolve_period(circuit: Circuit, text: str | float) -> float:
             value = parse_number(s)
         if value is None:
             try:
-                from .expressions import parse_expression
+                from ..expressions import parse_expression
 
                 value = parse_expression(s).evaluate(dict(circuit.params))
             except Exception:  # noqa: BLE001 - any failure is the same input error
@@ -282,8 +282,8 @@ def check_period_multiple(circuit: Circuit, period: float) -> None:
     ------
     NetlistError
         When the netlist defines one switching period
-        (:func:`netlist.measure.defined_period`) and ``period`` is not a whole multiple of it
-        (to a relative 1e-6). A netlist that defines none, or several, is not checked.
+        (:func:`netlist.studies.measure.defined_period`) and ``period`` is not a whole multiple
+        of it (to a relative 1e-6). A netlist that defines none, or several, is not checked.
     """
     try:
         own, origin = defined_period(circuit)
@@ -348,13 +348,13 @@ def circuit_map(
     circuit : Circuit
     period : float or str or None
         T, s, or a ``.param`` name; None: the period the netlist defines
-        (:func:`netlist.measure.defined_period`, named in the map's ``notes``).
+        (:func:`netlist.studies.measure.defined_period`, named in the map's ``notes``).
     step : float, optional
         Time step h, s; default the ``.tran`` step (TMAX or TSTEP), reduced if needed so that
         T/h is an integer (every period then has the same grid).
     theta : float, optional
-        Default 0.5, or 1 where θ < 1 is not reliable (:func:`netlist.transient.choose_theta`;
-        the map's ``notes`` say why).
+        Default 0.5, or 1 where θ < 1 is not reliable
+        (:func:`netlist.studies.transient.choose_theta`; the map's ``notes`` say why).
     t0 : float
         Sampling phase, s.
     event : str, optional
