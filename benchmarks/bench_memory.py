@@ -18,8 +18,8 @@ recorded:
   to 1e5 periods (1e6 takes ngspice about 10 minutes).
 
 ``pelcs`` also prints its switching events: the memory that still grows with the run is the
-schedule of its source-driven switching instants and the events it returns (a few hundred
-bytes per switching instant, docs/performance.md). Results go to
+events it returns (12 bytes a switching, docs/performance.md); its plan is made a stretch of
+the run at a time. Results go to
 ``benchmarks/results/bench_memory.json`` and the table to stdout.
 """
 
