@@ -6,11 +6,13 @@ Creates a virtual environment in a temporary directory, ``pip install``s this ch
 own setuptools, upgraded first), then, from an empty directory (the bundled netlist is found
 in the installed package), measures:
 
+* the install itself (``setup.py`` compiles the kernels' module into the wheel: minutes of
+  one core), CPU and wall;
 * ``pelcs --version``;
-* the first ``pelcs simulate converters/netlists/buck.cir --tstop 1m``: it compiles the
-  kernels from an empty cache (minutes of one core); CPU is user + system of the command
-  (the background build it starts is detached, not counted), with when its first line on
-  stderr came;
+* the first ``pelcs simulate converters/netlists/buck.cir --tstop 1m``: it loads the module
+  the wheel carries (or, where it could not be built, compiles the kernels from an empty
+  cache, minutes of one core); CPU is user + system of the command (a background build it
+  starts is detached, not counted), with when its first line on stderr came;
 * the wait for the background build of the ahead-of-time module (wall);
 * the second ``pelcs simulate`` (the module loaded) and ``python -c "import numpy"`` for
   scale.
@@ -86,8 +88,16 @@ def main() -> int:
             subprocess.run(pip + ["--upgrade", "pip", "setuptools>=77", "wheel"], check=True,
                            env=_env())
             pip.append("--no-build-isolation")
+        cpu0, t1 = _children_cpu(), time.perf_counter()
         subprocess.run(pip + [str(ROOT)], check=True, env=_env(), cwd=tmp)
-        print(f"venv + pip install: {time.perf_counter() - t0:.0f} s wall")
+        print(f"pip install: {time.perf_counter() - t1:.0f} s wall, "
+              f"{_children_cpu() - cpu0:.0f} s CPU (the build of the wheel, the kernels' "
+              f"module compiled into it, the dependencies); with the venv "
+              f"{time.perf_counter() - t0:.0f} s wall")
+        module = subprocess.run([str(py), "-c", "import lcs.kernels as k; "
+                                 "print(k.aot_path().is_file())"], env=_env(), cwd=work,
+                                capture_output=True, text=True)
+        print(f"the kernels' module installed with the wheel: {module.stdout.strip()}")
         version = timed([str(pelcs), "--version"], work)
         print(f"pelcs --version: {version['out'].strip()!r} (rc {version['rc']}, "
               f"{version['cpu']:.2f} s CPU)")

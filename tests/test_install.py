@@ -41,7 +41,7 @@ def wheel(tmp_path_factory) -> zipfile.ZipFile:
     tmp = tmp_path_factory.mktemp("wheel")
     src = tmp / "src"
     skip = shutil.ignore_patterns("__pycache__", "*.pyc", "*.egg-info", "build")
-    for name in ("pyproject.toml", "README.md", "LICENSE"):
+    for name in ("pyproject.toml", "setup.py", "README.md", "LICENSE"):
         shutil.copy(ROOT / name, src / name if src.exists() else (src.mkdir() or src / name))
     for pkg in ("pelcs", "netlist", "lcs", "converters", "ngspice_checks"):
         shutil.copytree(ROOT / pkg, src / pkg, ignore=skip)
@@ -51,7 +51,9 @@ def wheel(tmp_path_factory) -> zipfile.ZipFile:
 
     if int(setuptools.__version__.split(".")[0]) >= 77:
         cmd.insert(4, "--no-build-isolation")  # (else pip fetches setuptools>=77 to build)
-    p = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    # (without the kernels' module: compiling it takes minutes, bench_install.py measures it)
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=300,
+                       env={**os.environ, "PELCS_WHEEL_KERNELS": "0"})
     if p.returncode != 0 and "--no-build-isolation" not in cmd and (
             "Could not find a version" in p.stderr or "NewConnectionError" in p.stderr):
         pytest.skip("building the wheel needs setuptools>=77 from the package index, "
@@ -59,6 +61,45 @@ def wheel(tmp_path_factory) -> zipfile.ZipFile:
     assert p.returncode == 0, p.stderr[-3000:]
     (path,) = (tmp / "dist").glob("pelcs-*.whl")
     return zipfile.ZipFile(path)
+
+
+def _setup_module():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("pelcs_setup", ROOT / "setup.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)  # (setup() itself runs only as the build's __main__)
+    return module
+
+
+def test_the_wheel_is_for_this_platform(wheel):
+    # (it may carry the compiled module: not a pure-Python "none-any" wheel)
+    assert not Path(wheel.filename).name.endswith("-none-any.whl")
+    assert re.search(r"-cp\d+-cp\d+-\w+\.whl$", Path(wheel.filename).name)
+
+
+def test_the_build_keeps_the_module_and_drops_numbas_cache(tmp_path, capsys):
+    lib = tmp_path / "lib"
+    (lib / "lcs" / "__pycache__").mkdir(parents=True)
+    # A stand-in for the build: the module, its lock, numba's cache files beside it.
+    script = ("from pathlib import Path\n"
+              "aot = Path('lcs/__pycache__/aot-x'); aot.mkdir()\n"
+              "(aot / 'pelcs_kernels.so').write_bytes(b'so')\n"
+              "(aot / 'build.lock').write_text('')\n"
+              "k = Path('lcs/stepping/__pycache__/kernels-y'); k.mkdir(parents=True)\n"
+              "(k / 'grid.run_grid-1.py311.nbi').write_bytes(b'i')\n"
+              "Path('lcs/__pycache__/sparse_lu._link-40.py311.nbc').write_bytes(b'c')\n")
+    assert _setup_module().build_kernels(lib, script)
+    left = sorted(str(p.relative_to(lib)) for p in lib.rglob("*") if p.is_file())
+    assert left == ["lcs/__pycache__/aot-x/pelcs_kernels.so"]
+    assert "compiling the simulation kernels" in capsys.readouterr().err
+
+
+def test_a_failed_kernel_build_leaves_a_wheel_without_them(tmp_path, capsys):
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    assert not _setup_module().build_kernels(lib, "raise SystemExit('no C compiler')")
+    assert "could not be built" in capsys.readouterr().err
 
 
 def test_the_readme_names_netlists():
