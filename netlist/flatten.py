@@ -15,13 +15,16 @@ evaluated where the instance stands, and the body's ``.param`` lines), then amon
 ones (lexical scoping, as in ngspice). An instance ``X1`` turns element ``L1`` into ``X1.L1``
 and internal node ``n3`` into ``x1.n3`` (nested: ``X1.X2.L1``, ``x1.x2.n3``); ports become the
 instance's nodes, ground and ``.global`` nodes stay; references in the body (F/H sources, K
-inductors) get the prefix. ``.model`` lines are global (XSPICE cards evaluated per instance)."""
+inductors) get the prefix. ``.model`` lines are global, except those inside a ``.subckt``
+definition, local to it as in ngspice (:meth:`_Builder.models`); XSPICE cards are evaluated
+per instance."""
 
 from __future__ import annotations
 
+import copy
 import math
 import re
-from collections import ChainMap
+from collections import ChainMap, Counter
 from collections.abc import Callable, Mapping
 
 from lcs.signals import Exp, Pulse, Pwl, Signal, Sin
@@ -115,6 +118,8 @@ class _Builder:
         self.deck = deck
         self.thresholds: dict[str, float] = {}  # idealised transistors' thresholds, V
         self._macros: dict = {}  # subcircuit name -> netlist.devices.Macro or None
+        # subcircuit name -> {model name: its key in circuit.models} (models())
+        self.local_models: dict[str, dict[str, str]] = {}
         self.diags: list[Diagnostic] = []
         self.ref_locs: dict[tuple[str, str], Location] = {}
         self.circuit = Circuit(title=deck.title, file=deck.file)
@@ -329,9 +334,16 @@ class _Builder:
         return True
 
     def models(self) -> None:
+        """``.model`` cards -> ``circuit.models``. A card inside a ``.subckt`` definition is
+        local to it, as in ngspice: its elements see it before a global model of the same
+        name, which the rest of the netlist keeps. It is stored under
+        ``subckt:name`` (:meth:`model_key`), and under its own name as well when no other
+        card has that name (a model written inside a subcircuit and named elsewhere)."""
         env, failed = self.global_env, self.global_failed
+        names = Counter(m.name.lower() for m in self.deck.models)
         for m in self.deck.models:
-            key = m.name.lower()
+            name = m.name.lower()
+            key = name if m.scope is None else f"{m.scope}:{name}"
             loc = m.st.loc(0)
             if key in self.circuit.models:
                 first = self.circuit.models[key].location
@@ -343,7 +355,18 @@ class _Builder:
                 v = self.evaluate(p.value, env, failed)
                 if v is not None:
                     params[p.name] = v
-            self.circuit.models[key] = Model(m.name, m.type, params, loc)
+            model = Model(m.name, m.type, params, loc)
+            self.circuit.models[key] = model
+            if m.scope is not None:
+                self.local_models.setdefault(m.scope, {})[name] = key
+                if names[name] == 1:
+                    self.circuit.models[name] = model
+
+    def model_key(self, ref: str, scope: str | None) -> str:
+        """The model an element of subcircuit ``scope`` (None: the top level) names by
+        ``ref``: the subcircuit's own, else the global one."""
+        local = self.local_models.get(scope) if scope is not None else None
+        return local.get(ref.lower(), ref) if local else ref
 
     def steps(self) -> None:
         """``.step param`` lines -> ``circuit.steps`` (name, values), one sweep axis each."""
@@ -449,7 +472,13 @@ class _Builder:
             ics[node] = v
             self.ref_locs.setdefault(("ic", node), ic.st.loc(ic.offset))
 
+        scope = stack[-1] if stack else None
         for el in body.elements:
+            if el.kind in "DSMQ" and scope in self.local_models:
+                key = self.model_key(el.ref, scope)
+                if key != el.ref:
+                    el = copy.copy(el)
+                    el.ref = key
             if el.kind == "X":
                 self.instance(el, name_prefix, node_prefix, mapnode, env, failed, stack)
             elif el.kind in "MQ":
@@ -524,7 +553,9 @@ class _Builder:
         self.circuit.subckt_texts[sub.name.lower()] = subckt_text(sub)
         if macro.kind == "diode":
             a, k = (ports[p] for p in macro.ports)
-            models = tuple(e.ref for e in sub.body.elements if e.kind == "D")
+            scope = sub.name.lower()
+            models = tuple(self.model_key(e.ref, scope) for e in sub.body.elements
+                           if e.kind == "D")
             # a resistor joining the two ports is a leakage in parallel (NXP's 1N4148 has
             # 5.8 GΩ there), not in series with the junction
             port_set = {p.lower() for p in sub.ports}
@@ -537,7 +568,7 @@ class _Builder:
                 "no threshold", None, macro.dropped, loc))
             return
         dev = macro.device
-        model = self.circuit.models.get(dev.ref.lower())
+        model = self.circuit.models.get(self.model_key(dev.ref, sub.name.lower()).lower())
         want = ("NMOS", "PMOS", "VDMOS") if dev.kind == "M" else ("NPN", "PNP")
         if model is None or model.type not in want:
             self.error(f"{name}: the transistor {dev.name} of macro-model '{sub.name}' has no "

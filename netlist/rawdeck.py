@@ -158,12 +158,16 @@ class SubcktDef:
 
 @dataclass(eq=False)
 class RawModel:
-    """A ``.model`` card as written: name, device type and parameters."""
+    """A ``.model`` card as written: name, device type and parameters.
+
+    ``scope`` is the subcircuit whose definition holds the card (lower case), None at the
+    top level: ngspice makes such a model local to that subcircuit."""
 
     name: str
     type: str
     params: list[RawParam]
     st: Statement
+    scope: str | None = None
 
 
 @dataclass(eq=False)

@@ -622,7 +622,8 @@ class _Reader(ElementLines):
                 tok = t.children[0]
                 params.append(RawParam(tok.lower(), Value(1.0, None, st, tok.start_pos), st,
                                        tok.start_pos))
-        self.deck.models.append(RawModel(str(name_tok), _MODEL_TYPES[mtype], params, st))
+        scope = self.sub.name.lower() if self.sub is not None else None
+        self.deck.models.append(RawModel(str(name_tok), _MODEL_TYPES[mtype], params, st, scope))
 
     def cmd_ic(self, st: Statement) -> None:
         tree = self.parse(st, "ic_cmd", ".ic", ".ic v(node)=value [v(node)=value ...]")
