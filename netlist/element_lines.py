@@ -65,7 +65,7 @@ class ElementLines:
         elif rule == "diode":
             self.body.elements.append(RawElement(
                 "D", name, st, (node_name(ch[1]), node_name(ch[2])), ref=str(ch[3]),
-                ref_offset=ch[3].start_pos))
+                ref_offset=ch[3].start_pos, params=self.diode_area(ch[4:], st)))
         elif rule == "switch":
             state = None
             if len(ch) > 6:
@@ -173,10 +173,36 @@ class ElementLines:
                        "the run (for a saturable inductance, the unsaturated one)")
         return found is not None
 
+    def diode_area(self, extras: list, st: Statement) -> list[RawParam]:
+        """A D line's area factors: its positional AREA (the first bare value after the
+        model), ``area=`` and ``m=``. ngspice multiplies the area by m and scales the junction
+        by it (IS and the conductance 1/RS; diosetup.c, diotemp.c); its other instance
+        parameters (OFF, IC=, TEMP= ...) are read for their syntax only. The positional AREA
+        is SPICE3's and LTspice's spelling; ngspice 39 stops at it ("could not find a valid
+        modelname", measured), which a note says."""
+        out: list[RawParam] = []
+        for t in extras:
+            if isinstance(t, Token):
+                if any(p.name == "area" for p in out):
+                    continue
+                tok, key = t, "area"
+                self.deck.notes.append(
+                    f"line {st.loc(0).line}: diode area '{t}' written without area= (SPICE3, "
+                    f"LTspice), read as the area; ngspice 39 refuses that line: write area={t}")
+            elif t.data == "assign" and t.children[0].lower() in ("area", "m"):
+                tok, key = t.children[1], t.children[0].lower()
+            else:
+                continue
+            v = self.value(tok, st)
+            if v is not None:
+                out.append(RawParam(key, v, st, tok.start_pos))
+        return out
+
     def passive(self, letter: str, name: str, ch: list, st: Statement, what: str) -> None:
         v = self.value(ch[3], st)
         ic = None
         parasitics: dict = {}
+        mult: list[RawParam] = []
         for t in ch[4:]:
             if isinstance(t, Token):
                 if parse_number(t) is not None:
@@ -195,6 +221,13 @@ class ElementLines:
             elif key in _PASSIVE_IGNORED:
                 if self.value(val_tok, st) is None:
                     return
+            elif key == "m":
+                # ngspice's multiplicity: m elements in parallel (resload.c, capload.c,
+                # indtemp.c), applied in netlist.flatten
+                mv = self.value(val_tok, st)
+                if mv is None:
+                    return
+                mult.append(RawParam("m", mv, st, key_tok.start_pos))
             elif key in _PARASITICS.get(letter, ()):
                 pv = self.value(val_tok, st)
                 if pv is None:
@@ -206,16 +239,23 @@ class ElementLines:
                     accepted += ", and LTspice's " + ", ".join(
                         k.capitalize() + "=" for k in _PARASITICS[letter])
                 hint = f"instance parameters accepted for a {what}: {accepted}"
-                if key in ("m", "scale"):
-                    hint = "fold the multiplier into the value"
+                if key == "scale":
+                    hint = "fold the scale factor into the value"
                 self.error(f"unsupported parameter '{key_tok}' on {what} '{name}'", st,
                            key_tok.start_pos, hint)
                 return
         if v is None:
             return
+        if mult and parasitics:
+            self.error(f"{what} '{name}': m= together with LTspice's "
+                       f"{', '.join(k.capitalize() + '=' for k in parasitics)}", st,
+                       mult[0].offset, "write the parallel elements out, or fold the "
+                       "multiplier into the values")
+            return
         a, b = node_name(ch[1]), node_name(ch[2])
         b_main = self.parasitics(letter, name, a, b, parasitics, st)
-        self.body.elements.append(RawElement(letter, name, st, (a, b_main), value=v, ic=ic))
+        self.body.elements.append(RawElement(letter, name, st, (a, b_main), value=v, ic=ic,
+                                             params=mult))
 
     def parasitics(self, letter: str, name: str, a: str, b: str, found: dict,
                    st: Statement) -> str:

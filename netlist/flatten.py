@@ -697,6 +697,9 @@ class _Builder:
             problem = value_problem(kind, v)
             if problem:
                 self.error(f"{name}: {problem[0]}", el.value.loc, problem[1], (name,))
+            m = self.factor(el, name, env, failed)
+            # m elements in parallel, as ngspice: R/m, L/m, C*m
+            v = v * m if kind == "C" else v / m
             if kind == "R":
                 return Resistor(name, nodes, loc, v)
             ic = None if el.ic is None else self.value_or_nan(el.ic, env, failed)
@@ -711,7 +714,7 @@ class _Builder:
             return cls(name, nodes, loc, dc, wave)
         if kind == "D":
             self.ref_locs[(key, "model")] = st.loc(el.ref_offset)
-            return Diode(name, nodes, loc, el.ref)
+            return Diode(name, nodes, loc, el.ref, area=self.factor(el, name, env, failed))
         if kind == "S":
             self.ref_locs[(key, "model")] = st.loc(el.ref_offset)
             self.ref_locs[(key, "control")] = st.loc(0)
@@ -736,6 +739,22 @@ class _Builder:
             self.ref_locs[(key, "inductor1")] = st.loc(o2)
             return Coupling(name, (), loc, (prefix + l1, prefix + l2), k)
         raise AssertionError(f"element kind {kind}")  # the reader accepts no other kind
+
+    def factor(self, el: RawElement, name: str, env: Mapping[str, float],
+               failed: set[str]) -> float:
+        """The product of an element's multipliers (``m=`` of R, L, C; AREA and ``m=`` of a
+        D), 1 without any; an error for one that is not positive."""
+        out = 1.0
+        for p in el.params:
+            v = self.value_or_nan(p.value, env, failed)
+            if not v > 0:
+                if not math.isnan(v) or p.value.expr is None:
+                    self.error(f"{name}: {p.name} must be positive, got {v:g}", p.loc,
+                               f"{p.name} multiplies the element: give a positive number",
+                               (name,))
+                continue
+            out *= v
+        return out
 
     def waveform(self, wave: tuple[str, list[Value], int, dict], env: Mapping[str, float],
                  failed: set[str], st: Statement) -> Signal | None:

@@ -92,7 +92,7 @@ def _uses(deck: Deck) -> tuple[tuple[frozenset[str], ...], frozenset[str]]:
 
 
 def _element_values(el: RawElement) -> list:
-    values = [el.value, el.ic]
+    values = [el.value, el.ic, *(p.value for p in el.params)]
     if el.wave is not None:
         _, args, _, extras = el.wave
         values += list(args) + [val for val, _ in extras.values()]
