@@ -36,6 +36,11 @@ from .units import parse_number
 # Bname n+ n- V=expr | I=expr
 _VALUE_LINE = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+([RLC])\s*=\s*(\S.*?)\s*$")
 _B_LINE = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+([VI])\s*=\s*(\S.*?)\s*$")
+# Ename n+ n- VALUE={expr} (vol=), Gname n+ n- VALUE={expr} (cur=): ngspice's front end makes
+# them an E (G) of gain 1 driven by a B source V={expr} (inpcom.c), i.e. a B source V= (I=)
+# between n+ and n-; it reads the expression from its '{' to the end of the line
+_EG_VALUE = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+(value|vol|cur)\b\s*=?\s*"
+                       r"(\{.*\})\s*$")
 
 
 class ElementLines:
@@ -47,6 +52,8 @@ class ElementLines:
             self.behavioural(st, usage)
             return
         if letter in "RLC" and self.nonlinear_value(letter, st, what):
+            return
+        if letter in "EG" and self.value_source(letter, st):
             return
         if letter in "EFGH":
             m = _NONLINEAR.search(st.text)
@@ -133,6 +140,26 @@ class ElementLines:
         self.body.elements.append(RawElement(
             "B", name, st, (node_name(m.group(2)), node_name(m.group(3))),
             behaviour=(m.group(4).upper(), tree, text, offset)))
+
+    def value_source(self, letter: str, st: Statement) -> bool:
+        """``Ename n+ n- VALUE={expr}`` (or ``vol=``) and ``Gname n+ n- VALUE={expr}`` (or
+        ``cur=``) read as ngspice does, as a B source ``V={expr}`` (``I={expr}``) between the
+        same nodes; False for any other E/G line."""
+        m = _EG_VALUE.match(st.text)
+        if m is None or (m.group(4).lower(), letter) in (("vol", "G"), ("cur", "E")):
+            return False
+        text, offset = m.group(5), m.start(5)
+        try:
+            tree = parse_behavioural(text)
+        except BehaviouralError as exc:
+            self.error(exc.message, st, offset + exc.offset,
+                       exc.hint or f"syntax: {letter}name n+ n- VALUE={{expression}}")
+            return True
+        name = hierarchical_name(m.group(1), letter)
+        self.body.elements.append(RawElement(
+            "B", name, st, (node_name(m.group(2)), node_name(m.group(3))),
+            behaviour=("V" if letter == "E" else "I", tree, text, offset)))
+        return True
 
     def nonlinear_value(self, letter: str, st: Statement, what: str) -> bool:
         """``Cname n+ n- c='expression'`` (R, L alike) whose expression reads the circuit's

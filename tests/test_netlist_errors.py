@@ -34,7 +34,7 @@ CATALOGUE = [
     ("func", "t\n" + OK + ".func f(x) {x*2}\n", ".func is not supported", 4, 1, ".param"),
     ("poly", "t\n" + OK + "E1 b 0 POLY(1) a 0 0 1\n", "nonlinear or behavioural E source",
      4, 8, "linear controlled sources"),
-    ("g-value", "t\n" + OK + "G1 b 0 value={v(a)*2}\n", "('value')", 4, 8, "Gname"),
+    ("g-poly", "t\n" + OK + "G1 b 0 POLY(1) a 0 0 2\n", "('POLY')", 4, 8, "Gname"),
     ("bad-number", "t\nV1 a 0 1\nR1 a 0 1k2\n", "invalid number '1k2'", 3, 8, "suffix"),
     ("bare-param", "t\n.param rval=1k\nV1 a 0 1\nR1 a 0 rval\n", "invalid number 'rval'",
      4, 8, "write {rval}"),
