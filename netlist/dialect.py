@@ -96,7 +96,7 @@ UNSUPPORTED_WAVES = {
 }
 
 _WORD = re.compile(r"[^\s(){}=,'\"]+")
-_NONLINEAR = re.compile(r"(?i)\b(poly|value|table|laplace|freq|vol|cur)\s*[=(]")
+_NONLINEAR = re.compile(r"(?i)\b(poly|value|table|laplace|freq|vol|cur)\s*[=({]")
 _NUL_HINT = "pelcs reads plain-text SPICE netlists"
 
 _TOKEN_NAMES = {

@@ -39,6 +39,8 @@ _B_LINE = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+([VI])\s*=\s*(\S.*?)
 # Ename n+ n- VALUE={expr} (vol=), Gname n+ n- VALUE={expr} (cur=): ngspice's front end makes
 # them an E (G) of gain 1 driven by a B source V={expr} (inpcom.c), i.e. a B source V= (I=)
 # between n+ and n-; it reads the expression from its '{' to the end of the line
+# Ename n+ n- POLY(ND) ... (G alike; F, H with controlling sources): SPICE2's polynomial source
+_POLY = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+(poly)\s*\(\s*(\d+)\s*\)(.*)$")
 _EG_VALUE = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+(value|vol|cur)\b\s*=?\s*"
                        r"(\{.*\})\s*$")
 
@@ -54,6 +56,8 @@ class ElementLines:
         if letter in "RLC" and self.nonlinear_value(letter, st, what):
             return
         if letter in "EG" and self.value_source(letter, st):
+            return
+        if letter in "EFGH" and self.poly_source(letter, st):
             return
         if letter in "EFGH":
             m = _NONLINEAR.search(st.text)
@@ -159,6 +163,53 @@ class ElementLines:
         self.body.elements.append(RawElement(
             "B", name, st, (node_name(m.group(2)), node_name(m.group(3))),
             behaviour=("V" if letter == "E" else "I", tree, text, offset)))
+        return True
+
+    def poly_source(self, letter: str, st: Statement) -> bool:
+        """``Ename n+ n- POLY(ND) c1+ c1- ... p0 p1 ...`` (G alike; F and H name ND controlling
+        sources) whose polynomial is affine: read as the B source ``V=`` (E, H) or ``I=``
+        (G, F) ``p0 + p1*x1 + ... + pND*xND``. ngspice hands the coefficients as written to its
+        spice2poly code model (enhtrans.c): the first is p0 (measured in ngspice 39:
+        ``POLY(1) a 0 2`` is 2 V, not SPICE2's 2*v(a)), then one per input, then the
+        higher-order terms, which must be zero here. False when the line is not a POLY."""
+        m = _POLY.match(st.text)
+        if m is None:
+            return False
+        nd, rest, at = int(m.group(5)), m.group(6), m.start(4)
+        words = [(w.group(0), m.start(6) + w.start())
+                 for w in re.finditer(r"[^\s(),]+", rest)]
+        per = 2 if letter in "EG" else 1
+        usage = (f"{letter}name n+ n- POLY(ND) " +
+                 ("nc1+ nc1- ... " if per == 2 else "Vname1 ... ") + "p0 p1 ...")
+        if nd < 1 or len(words) < per * nd + 1:
+            self.error(f"POLY({nd}) needs {per * nd} "
+                       f"{'controlling nodes' if per == 2 else 'controlling sources'} and at "
+                       "least one coefficient", st, at, f"syntax: {usage}")
+            return True
+        ctl, coefs = words[:per * nd], words[per * nd:]
+        for word, offset in coefs[1 + nd:]:
+            if parse_number(word) != 0.0:
+                self.error(f"{letter} source with a nonlinear POLY({nd}): coefficient "
+                           f"'{word}' multiplies a product of its inputs", st, offset,
+                           "pelcs reads a POLY whose terms past p0 and the first-order ones "
+                           "are zero (an affine source)")
+                return True
+        if per == 2:
+            inputs = [f"v({ctl[2 * k][0]},{ctl[2 * k + 1][0]})" for k in range(nd)]
+        else:
+            inputs = [f"i({ctl[k][0]})" for k in range(nd)]
+        terms = [f"({coefs[0][0]})"] + [f"({c})*{x}" for (c, _), x in
+                                          zip(coefs[1:1 + nd], inputs, strict=False)]
+        text = " + ".join(terms)
+        try:
+            tree = parse_behavioural(text)
+        except BehaviouralError as exc:
+            self.error(f"POLY source: {exc.message}", st, at, f"syntax: {usage}")
+            return True
+        name = hierarchical_name(m.group(1), letter)
+        self.body.elements.append(RawElement(
+            "B", name, st, (node_name(m.group(2)), node_name(m.group(3))),
+            behaviour=("V" if letter in "EH" else "I", tree, text, at)))
         return True
 
     def nonlinear_value(self, letter: str, st: Statement, what: str) -> bool:

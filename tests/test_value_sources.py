@@ -84,3 +84,43 @@ def test_value_needs_braces_as_in_ngspice():
     # (ngspice stops at a VALUE expression without its '{': "mal formed E source")
     with pytest.raises(NetlistError, match="nonlinear or behavioural E source"):
         simulate(LINEAR.replace("VALUE={2*V(in)}", "VALUE=2*V(in)"))
+
+
+# SPICE2 POLY sources with affine polynomials: ngspice hands the coefficients to its
+# spice2poly code model as written, p0 first (so POLY(1) a 0 2 is 2 V, a constant)
+POLYS = """poly sources
+Va a 0 DC 1.5
+Vc c 0 DC 0.25
+Vs a s DC 0
+Rs s 0 1k
+E1 e1 0 POLY(1) a 0 2
+Re1 e1 0 1k
+E2 e2 0 POLY(2) a 0 (c,0) 0.5 2 3
+Re2 e2 0 1k
+G1 0 g1 POLY(2) a 0 c 0 0 1m 2m
+Rg1 g1 0 1k
+H1 h1 0 POLY(1) Vs 0 1k
+Rh1 h1 0 1k
+F1 0 f1 POLY(1) Vs 1m 2
+Rf1 f1 0 1k
+.tran 1u 10u
+.end
+"""
+POLY_PROBES = ["v(e1)", "v(e2)", "v(g1)", "v(h1)", "v(f1)"]
+
+
+def test_affine_poly_sources(tmp_path, ngspice):
+    if shutil.which("ngspice") is None:
+        pytest.skip("no ngspice executable")
+    want = [2.0, 0.5 + 2 * 1.5 + 3 * 0.25, 1e-3 * 1.5e3 + 2e-3 * 0.25e3, 1.5, 1.0 + 2 * 1.5]
+    res = simulate(POLYS, probes=POLY_PROBES)
+    assert np.allclose(res.y[-1], want, rtol=1e-9)
+    ng = _ngspice(POLYS, POLY_PROBES, tmp_path)
+    assert np.allclose(ng[-1, 1::2], want, rtol=1e-6)
+
+
+def test_a_nonlinear_poly_is_refused_at_its_coefficient():
+    with pytest.raises(NetlistError, match=r"nonlinear POLY\(1\): coefficient '0.1'") as info:
+        simulate(POLYS.replace("E1 e1 0 POLY(1) a 0 2", "E1 e1 0 POLY(1) a 0 0 2 0.1"))
+    (d,) = info.value.diagnostics
+    assert (d.location.line, d.location.column) == (6, 25)
