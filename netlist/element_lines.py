@@ -39,6 +39,8 @@ _B_LINE = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+([VI])\s*=\s*(\S.*?)
 # Ename n+ n- VALUE={expr} (vol=), Gname n+ n- VALUE={expr} (cur=): ngspice's front end makes
 # them an E (G) of gain 1 driven by a B source V={expr} (inpcom.c), i.e. a B source V= (I=)
 # between n+ and n-; it reads the expression from its '{' to the end of the line
+# Rname n+ n- r=value (C c=, L l=): the value named by its keyword
+_KEYWORD_VALUE = re.compile(r"(?is)\S+\s+[^\s=]+\s+[^\s=]+\s+(([RLC])\s*=\s*)")
 # Ename n+ n- POLY(ND) ... (G alike; F, H with controlling sources): SPICE2's polynomial source
 _POLY = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+(poly)\s*\(\s*(\d+)\s*\)(.*)$")
 _EG_VALUE = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+(value|vol|cur)\b\s*=?\s*"
@@ -55,6 +57,13 @@ class ElementLines:
             return
         if letter in "RLC" and self.nonlinear_value(letter, st, what):
             return
+        if letter in "RLC":
+            m = _KEYWORD_VALUE.match(st.text)
+            if m is not None and m.group(2).upper() == letter:
+                # ngspice's `R1 a b r=1k` (C c=, L l=): the value after its keyword, read
+                # with the keyword blanked out (the columns kept for the messages)
+                st = Statement(st.text[:m.start(2)] + " " * (m.end(0) - m.start(2)) +
+                               st.text[m.end(0):], st.file, st.segments)
         if letter in "EG" and self.value_source(letter, st):
             return
         if letter in "EFGH" and self.poly_source(letter, st):
