@@ -59,7 +59,6 @@ IGNORED_COMMANDS = {
 }
 
 UNSUPPORTED_COMMANDS: dict[str, str] = {
-    ".func": "user-defined functions are not supported: write the expression in a .param",
     ".if": "conditional netlists are not supported: choose with --param and expressions",
     ".elseif": "conditional netlists are not supported",
     ".else": "conditional netlists are not supported",

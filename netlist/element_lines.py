@@ -144,15 +144,29 @@ class ElementLines:
         text, offset = m.group(5), m.start(5)
         if len(text) >= 2 and text[0] == text[-1] and text[0] in "'\"":
             text, offset = text[1:-1], offset + 1
-        try:
-            tree = parse_behavioural(text)
-        except BehaviouralError as exc:
-            self.error(exc.message, st, offset + exc.offset, exc.hint or f"syntax: {usage}")
+        tree = self.behavioural_tree(text, st, offset, f"syntax: {usage}")
+        if tree is None:
             return
         name = hierarchical_name(m.group(1), "B")
         self.body.elements.append(RawElement(
             "B", name, st, (node_name(m.group(2)), node_name(m.group(3))),
             behaviour=(m.group(4).upper(), tree, text, offset)))
+
+    def behavioural_tree(self, text: str, st: Statement, offset: int, hint: str):
+        """A B expression parsed (netlist.behavioural_expr) after its ``.func`` calls are
+        expanded; None (and a diagnostic) if it cannot be."""
+        expanded = self.expand_funcs(text, st, offset)
+        if expanded is None:
+            return None
+        try:
+            return parse_behavioural(expanded)
+        except BehaviouralError as exc:
+            if expanded != text:  # (an offset in the expansion is not one in the text)
+                self.error(f"{exc.message} (with its .func calls expanded)", st, offset,
+                           exc.hint or hint)
+            else:
+                self.error(exc.message, st, offset + exc.offset, exc.hint or hint)
+            return None
 
     def value_source(self, letter: str, st: Statement) -> bool:
         """``Ename n+ n- VALUE={expr}`` (or ``vol=``) and ``Gname n+ n- VALUE={expr}`` (or
@@ -162,11 +176,9 @@ class ElementLines:
         if m is None or (m.group(4).lower(), letter) in (("vol", "G"), ("cur", "E")):
             return False
         text, offset = m.group(5), m.start(5)
-        try:
-            tree = parse_behavioural(text)
-        except BehaviouralError as exc:
-            self.error(exc.message, st, offset + exc.offset,
-                       exc.hint or f"syntax: {letter}name n+ n- VALUE={{expression}}")
+        tree = self.behavioural_tree(text, st, offset,
+                                     f"syntax: {letter}name n+ n- VALUE={{expression}}")
+        if tree is None:
             return True
         name = hierarchical_name(m.group(1), letter)
         self.body.elements.append(RawElement(

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import copy
 import math
-import re
 from collections import ChainMap, Counter
 from collections.abc import Callable, Mapping
 
@@ -55,8 +54,8 @@ from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
 from .expressions import CONSTANTS, ExpressionError
 from .limits import ELEMENTS
 from .rawdeck import Body, Deck, RawElement, RawParam, Statement, Value
+from .steps import evaluate_steps
 from .suggest import close_matches
-from .units import parse_number
 
 # default parameters of ngspice's SW model that pelcs uses
 SW_DEFAULTS = {"vt": 0.0, "vh": 0.0}
@@ -272,7 +271,7 @@ class _Builder:
         c.params = dict(self.global_env)
         self.models()
         self.tran()
-        self.steps()
+        evaluate_steps(self)
         c.options = dict(deck.options)
         c.ignored = list(deck.ignored)
         c.notes[:0] = list(deck.notes)
@@ -368,46 +367,6 @@ class _Builder:
         local = self.local_models.get(scope) if scope is not None else None
         return local.get(ref.lower(), ref) if local else ref
 
-    def steps(self) -> None:
-        """``.step param`` lines -> ``circuit.steps`` (name, values), one sweep axis each."""
-        seen: dict[str, int] = {}
-        known = {k.lower(): k for k in self.circuit.params}
-        for st in self.deck.steps:
-            loc = st.st.loc(st.name_pos)
-            key = st.name.lower()
-            if key not in known:
-                self.error(f".step: '{st.name}' is not a .param of the netlist", loc,
-                           "define it with .param (its value is the nominal one) or step one of "
-                           f"{', '.join(sorted(known.values())) or 'the parameters'}",
-                           dependent=True)
-                continue
-            if key in seen:
-                self.error(f".step: '{st.name}' is stepped twice (first at line {seen[key]})",
-                           loc, "give all its values on one .step line")
-                continue
-            seen[key] = loc.line
-            vals = [self.evaluate(v, self.global_env, self.global_failed) for v in st.values]
-            if any(v is None for v in vals):
-                continue
-            if st.linear:
-                start, stop, incr = vals
-                n = (stop - start) / incr if incr else -1.0
-                if not incr or n < -1e-9:
-                    self.error(f".step param {st.name}: INCR {incr:g} does not lead from "
-                               f"{start:g} to {stop:g}", st.values[2].loc,
-                               "give INCR with the sign of STOP - START (and not 0)")
-                    continue
-                count = int(math.floor(n + 1e-9)) + 1
-                if count > 100000:
-                    self.error(f".step param {st.name}: {count} values", st.values[2].loc,
-                               "at most 100000 values per .step: use a larger INCR")
-                    continue
-                # 12 digits: 0.2 + 2 * 0.2 is 0.6, not 0.6000000000000001
-                values = tuple(float(f"{start + k * incr:.12g}") for k in range(count))
-            else:
-                values = tuple(float(v) for v in vals)
-            self.circuit.steps.append((known[key], values))
-
     def tran(self) -> None:
         trans = self.deck.trans
         if not trans:
@@ -496,7 +455,7 @@ class _Builder:
     def device(self, el: RawElement, prefix: str, mapnode: Callable[[str], str]) -> list:
         """An M or Q element idealised: a switch, the VDMOS body diode (netlist.devices)."""
         # (imported by the circuits that have devices: 1 ms of the others' start)
-        from .devices import Replacement, threshold
+        from .devices import Replacement, gate_rc, threshold
 
         name = prefix + el.name if prefix else el.name
         loc = el.st.loc(0)
@@ -522,7 +481,7 @@ class _Builder:
         self.circuit.models[sw_model] = Model(sw_model, "SW", {**SW_DEFAULTS, "vt": thr}, loc)
         out: list = [Switch(name, (a, b), loc, control, sw_model, None,
                             device=(el.kind, nodes, model.name),
-                            gate_rc=_gate_rc(el, model, 0.0))]
+                            gate_rc=gate_rc(el, model, 0.0))]
         body = None
         if mt == "VDMOS":
             body = f"{name}_body"
@@ -544,7 +503,7 @@ class _Builder:
               ) -> None:
         """A device macro-model instance as one ideal switch (and body diode) or one ideal
         diode between its ports (netlist.devices.classify_macro)."""
-        from .devices import Replacement, subckt_text, threshold
+        from .devices import Replacement, gate_rc, subckt_text, threshold
 
         loc = el.st.loc(0)
         ports = {p.lower(): n for p, n in port_map.items()}
@@ -601,7 +560,7 @@ class _Builder:
                   and {n.lower() for n in e.nodes[:2]} & feedback)
         self.circuit.elements.append(Switch(name, (a, b), loc, control, sw_model, None,
                                             device=(*origin, model.name, series),
-                                            gate_rc=_gate_rc(dev, model, rg, cgd)))
+                                            gate_rc=gate_rc(dev, model, rg, cgd)))
         body = None
         if macro.body is not None or mt == "VDMOS":
             body = f"{name}_body"
@@ -816,35 +775,3 @@ class _Builder:
                     return None
             return Exp(*vals)
         raise AssertionError(f"waveform {kind} at {loc}")
-
-
-def _instance_length(el: RawElement, key: str, default: float) -> float:
-    """``W=``/``L=`` of an M line (m), ngspice's DEFW/DEFL of 100 µm when not given."""
-    m = re.search(rf"(?i)(?<![\w.]){key}\s*=\s*([^\s=]+)", el.st.text)
-    v = parse_number(m.group(1)) if m else None
-    return float(v) if v is not None and v > 0 else default
-
-
-def _gate_rc(el: RawElement, model: Model, rg: float, cgd: float = 0.0
-             ) -> tuple[float, float, float] | None:
-    """An idealised MOSFET's gate as a linear RC: (R Ω, Cgs F, Cgd F), or None (a BJT, no
-    capacitance).
-
-    At a fixed bias: for a level-1..3 model the overlap capacitances ``CGSO W`` and ``CGDO W``
-    (W the instance's, ngspice's default 100 µm); for a VDMOS ``CGS`` and ``CGDMAX``; plus
-    ``cgd``, a macro-model's gate-drain feedback capacitor. R is the model's ``RG`` (VDMOS)
-    plus ``rg``, the macro-model's resistor between its gate port and the channel's gate.
-    They set the switching instants: the switch turns when the gate-source capacitor's
-    voltage crosses the threshold (netlist.pwl).
-    """
-    if el.kind != "M":
-        return None
-    p = {k.lower(): float(v) for k, v in model.params.items()
-         if isinstance(v, (int, float))}
-    if model.type == "VDMOS":
-        cgs, cgd = p.get("cgs", 0.0), cgd + p.get("cgdmax", 0.0)
-        rg += p.get("rg", 0.0)
-    else:
-        w = _instance_length(el, "w", 100e-6)
-        cgs, cgd = p.get("cgso", 0.0) * w, cgd + p.get("cgdo", 0.0) * w
-    return (rg, cgs, cgd) if cgs + cgd > 0 else None

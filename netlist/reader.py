@@ -30,6 +30,7 @@ from .dialect import (
 from .element_lines import ElementLines
 from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
 from .expressions import ExpressionError, Token, Tree, lark_parser, parse_expression
+from .funcs import Func, FuncReading
 from .netlist_bytes import decode as _decode
 from .netlist_bytes import read_bytes as _read_bytes
 from .rawdeck import (
@@ -145,7 +146,7 @@ def split_statements(lines: list[tuple[int, str]], file: str, diags: list[Diagno
 # ------------------------------------------------------------------------------ the reader
 
 
-class _Reader(ElementLines):
+class _Reader(ElementLines, FuncReading):
     """Reads a netlist and its includes into a :class:`Deck`, collecting diagnostics."""
 
     def __init__(self, file: str):
@@ -161,6 +162,9 @@ class _Reader(ElementLines):
         self.deferred_models: dict[str, Diagnostic] = {}
         # the included files as read (display path, bytes): what netlist.deck_cache checks
         self.included: list[tuple[str, bytes]] = []
+        # .func definitions (netlist.funcs), by lower-case name, and their statements
+        self.funcs: dict[str, Func] = {}
+        self.func_defs: dict[str, Statement] = {}
 
     # -- diagnostics
 
@@ -328,6 +332,10 @@ class _Reader(ElementLines):
     # -- statements
 
     def run(self, statements: list[Statement | _Block]) -> None:
+        # .func definitions first: a call may come before them, as in ngspice
+        for st in statements:
+            if isinstance(st, Statement) and st.text[:5].lower() == ".func":
+                self.define_func(st)
         for st in statements:
             if isinstance(st, _Block):
                 self.deck.ignored.append(IgnoredCommand(st.text, st.loc))
@@ -469,10 +477,17 @@ class _Reader(ElementLines):
         return None
 
     def expression(self, text: str, st: Statement, offset: int) -> Value | None:
+        expanded = self.expand_funcs(text, st, offset)
+        if expanded is None:
+            return None
         try:
-            expr = parse_expression(text)
+            expr = parse_expression(expanded)
         except ExpressionError as exc:
-            self.error(exc.message, st, offset + exc.offset, exc.hint)
+            if expanded != text:  # (an offset in the expansion is not one in the text)
+                self.error(f"{exc.message} (with its .func calls expanded)", st, offset,
+                           exc.hint)
+            else:
+                self.error(exc.message, st, offset + exc.offset, exc.hint)
             return None
         if expr.constant:
             try:
@@ -756,6 +771,8 @@ _COMMANDS = {
     ".lib": _Reader.cmd_lib,
     ".global": _Reader.cmd_global,
     ".title": _Reader.cmd_title,
+    # (read before the rest of its file: _Reader.define_func)
+    ".func": lambda reader, st: None,
 }
 
 

@@ -31,7 +31,7 @@ CATALOGUE = [
      "R L C V I D S E F G H K X"),
     ("unknown-dot", "t\n" + OK + ".foo bar\n", "unknown dot command '.foo'", 4, 1,
      "supported: .param"),
-    ("func", "t\n" + OK + ".func f(x) {x*2}\n", ".func is not supported", 4, 1, ".param"),
+    ("func", "t\n" + OK + ".func f(x {x*2}\n", "malformed .func", 4, 7, "syntax"),
     ("poly", "t\n" + OK + "E1 b 0 POLY(1) a 0 0 1 3\n",
      "E source with a nonlinear POLY(1): coefficient '3'", 4, 24, "affine"),
     ("g-table", "t\n" + OK + "G1 b 0 TABLE {v(a)} = (0,0) (1,1)\n", "('TABLE')", 4, 8,
