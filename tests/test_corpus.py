@@ -77,7 +77,8 @@ COMPARED: dict[str, tuple[str, str]] = {
     # the line inductors L1, L3, L4 are the only branches from the sources' floating star
     # point n (netlist.inductor_cutsets). The diodes block every return path: no current
     # flows (ngspice: 1 uA at most, its junction capacitances), and the ideal model leaves
-    # v(n) anywhere at or below -max(phase); pelcs gives that bound, ngspice's diode
+    # v(n) anywhere at or below -max(phase); pelcs gives that bound, and a note says that only
+    # the diodes join n and the phases to the rest (netlist.free_potential); ngspice's diode
     # capacitances hold n nearer the peak (RMS v(n): ngspice 297.2 V, pelcs 275.2 V).
     # RMS line voltage at the inductors, ngspice and pelcs: 398.17 V, 398.16 V
     "pess/simulations/rectifiers/3Phase/rectifier_3P.cir": ("v(la_,lb_)", "rms"),
