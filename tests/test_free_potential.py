@@ -81,6 +81,7 @@ def test_ngspice_leaves_the_potential_to_the_leakage(tmp_path, ngspice):
     assert np.median((va_high[blocked] - va_low[blocked]) / window) > 0.8
 
 
+@pytest.mark.filterwarnings("ignore::lcs.notices.IdealisedDeviceWarning")
 def test_the_three_phase_star_point_is_noted():
     from pathlib import Path
 
