@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import re
 
-from . import xspice
+from . import current_switch, xspice
 from .behavioural_expr import BehaviouralError, circuit_quantity, parse_behavioural
 from .dialect import (
     _NONLINEAR,
@@ -128,6 +128,18 @@ class ElementLines:
             return
         self.body.elements.append(RawElement("A", name, st, (), ref=model, ref_offset=offset,
                                              ports=ports))
+
+    def current_switch(self, st: Statement) -> None:
+        """``Wname n+ n- Vcontrol model [ON|OFF]`` (netlist.current_switch)."""
+        try:
+            name, nodes, (vname, v_at), (model, m_at), state = current_switch.read_line(
+                st.text)
+        except current_switch.CswError as exc:
+            self.error(exc.message, st, exc.offset, exc.hint)
+            return
+        self.body.elements.append(RawElement(
+            "W", hierarchical_name(name, "W"), st, tuple(map(node_name, nodes)), ref=model,
+            ref_offset=m_at, refs=((vname, v_at),), state=state))
 
     def behavioural(self, st: Statement, usage: str) -> None:
         """``Bname n+ n- V=expr`` or ``I=expr``: the expression parsed here (its own grammar,

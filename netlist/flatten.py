@@ -28,7 +28,7 @@ from collections.abc import Callable, Mapping
 
 from lcs.signals import Exp, Pulse, Pwl, Signal, Sin
 
-from . import xspice
+from . import current_switch, xspice
 from .behavioural import elaborate, resolve_comparators
 from .checks import check_circuit, value_problem
 from .circuit import (
@@ -433,7 +433,7 @@ class _Builder:
 
         scope = stack[-1] if stack else None
         for el in body.elements:
-            if el.kind in "DSMQ" and scope in self.local_models:
+            if el.kind in "DSMQW" and scope in self.local_models:
                 key = self.model_key(el.ref, scope)
                 if key != el.ref:
                     el = copy.copy(el)
@@ -445,12 +445,27 @@ class _Builder:
             elif el.behaviour is not None:  # B: netlist.behavioural; C of a knee: netlist.knee
                 self.circuit.elements += elaborate(el, name_prefix, mapnode, env, failed,
                                                    self.error)
+            elif el.kind == "W":  # a current-controlled switch (netlist.current_switch)
+                self.circuit.elements += self.current_switch(el, name_prefix, mapnode)
             elif el.kind == "A":  # an XSPICE code model (netlist.xspice)
                 self.circuit.elements += xspice.elaborate_element(
                     el, name_prefix, mapnode, env, self.deck.code_models,
                     lambda v: self.evaluate(v, env, failed), self.circuit, self.error)
             else:
                 self.circuit.elements.append(self.element(el, name_prefix, mapnode, env, failed))
+
+    def current_switch(self, el: RawElement, prefix: str, mapnode: Callable[[str], str]
+                       ) -> list:
+        name = prefix + el.name
+        (vname, v_at), = el.refs
+        key, loc = name.lower(), el.st.loc(0)
+        self.ref_locs[(f"{key}#i", "source")] = el.st.loc(v_at)
+        self.ref_locs[(key, "model")] = el.st.loc(el.ref_offset)
+        self.ref_locs[(key, "control")] = loc
+        return current_switch.elaborate(
+            name, tuple(map(mapnode, el.nodes)), mapnode(f"{el.name.lower()}#i"),
+            prefix + vname, el.ref, el.state, loc, self.circuit,
+            lambda message, hint: self.error(message, el.st.loc(el.ref_offset), hint, (name,)))
 
     def device(self, el: RawElement, prefix: str, mapnode: Callable[[str], str]) -> list:
         """An M or Q element idealised: a switch, the VDMOS body diode (netlist.devices)."""

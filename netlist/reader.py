@@ -441,6 +441,9 @@ class _Reader(ElementLines, FuncReading):
         if letter == "A":
             self.xspice_element(st)
             return
+        if letter == "W":
+            self.current_switch(st)
+            return
         if letter in ELEMENTS:
             self.element(letter, st)
             return
@@ -449,7 +452,7 @@ class _Reader(ElementLines, FuncReading):
             self.error(f"unknown element type '{letter}' ({what})", st, 0, hint)
             return
         self.error(f"unknown element type '{word[0]}' in '{word}'", st, 0,
-                   "pelcs knows the elements R L C V I D S E F G H K X B M Q A and dot commands")
+                   "pelcs knows the elements R L C V I D S W E F G H K X B M Q A and dot commands")
 
     # -- values
 
@@ -621,7 +624,7 @@ class _Reader(ElementLines, FuncReading):
                 self.error(f"'{tok}' is a VDMOS flag, not a parameter of a {mtype} model", st,
                            tok.start_pos, "remove it")
                 return
-        if mtype in ("D", "SW"):
+        if mtype in ("D", "SW", "CSW"):
             params = self.assigns(items, st)
         else:
             # A vendor's transistor model: only its threshold matters to pelcs, and such

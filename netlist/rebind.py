@@ -67,9 +67,9 @@ def rebound_circuit(deck: Deck, overrides: Mapping[str, float] | None,
 
 
 def _eligible(deck: Deck) -> bool:
-    # (an instance, a transistor or a B source makes elements of other kinds, names and
-    # numbers)
-    return all(el.kind not in "XMQB" for el in deck.top.elements)
+    # (an instance, a transistor, a B source or a W switch makes elements of other kinds,
+    # names and numbers)
+    return all(el.kind not in "XMQBW" for el in deck.top.elements)
 
 
 def _names(values) -> frozenset[str]:
