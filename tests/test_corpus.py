@@ -212,6 +212,12 @@ PELCS_REFUSES: dict[str, tuple[str, str, str]] = {
          "from an ideal run first (with RON = 1 mOhm the loop has 4 mOhm)",
          "fails: '.tran 0 15m 0 100n', TSTEP is invalid (an LTspice netlist: LTspice's SW "
          "parameters Lser, Vser, .backanno)"),
+    "pyspice/examples/spice-examples/astable.cir":
+        ("nonlinear or behavioural E source ('TABLE') is not supported",
+         "the comparator is an E source with a two-point TABLE (0 V below -1 uV, 15 V above "
+         "1 uV) that drives the RC timing network: pelcs reads comparators that drive switch "
+         "controls only",
+         "runs"),
     "learning_ngspice/circuits/15_pwm_modulacao/01_pwm_modulador_demodulador.cir":
         ("unknown element type 'J' (JFET)",
          "a JFET source follower buffers the PWM signal (a linear stage, not a switch)",
