@@ -41,6 +41,10 @@ _B_LINE = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+([VI])\s*=\s*(\S.*?)
 # between n+ and n-; it reads the expression from its '{' to the end of the line
 # Rname n+ n- r=value (C c=, L l=): the value named by its keyword
 _KEYWORD_VALUE = re.compile(r"(?is)\S+\s+[^\s=]+\s+[^\s=]+\s+(([RLC])\s*=\s*)")
+# Ename n+ n- (nc+, nc-) gain (G alike): the control pair in parentheses
+_PAREN_CONTROL = re.compile(r"(?s)\S+\s+[^\s(),]+\s+[^\s(),]+\s+(\(\s*[^\s(),]+\s*[,\s]\s*"
+                            r"[^\s(),]+\s*\))")
+_PAREN_BLANKS = str.maketrans("(),", "   ")
 # Ename n+ n- POLY(ND) ... (G alike; F, H with controlling sources): SPICE2's polynomial source
 _POLY = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+(poly)\s*\(\s*(\d+)\s*\)(.*)$")
 _EG_VALUE = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+(value|vol|cur)\b\s*=?\s*"
@@ -68,6 +72,14 @@ class ElementLines:
             return
         if letter in "EFGH" and self.poly_source(letter, st):
             return
+        if letter in "EG":
+            m = _PAREN_CONTROL.match(st.text)
+            if m is not None:
+                # ngspice reads `E1 n+ n- (nc+, nc-) gain` as its control pair: the
+                # parentheses and the comma blanked out (the columns kept for the messages)
+                blank = st.text[m.start(1):m.end(1)].translate(_PAREN_BLANKS)
+                st = Statement(st.text[:m.start(1)] + blank + st.text[m.end(1):], st.file,
+                               st.segments)
         if letter in "EFGH":
             m = _NONLINEAR.search(st.text)
             if m:

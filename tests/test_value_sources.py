@@ -1,7 +1,8 @@
 """``Ename n+ n- VALUE={expr}`` and ``Gname n+ n- VALUE={expr}`` (also spelled ``vol=``,
 ``cur=``) as ngspice reads them: its front end turns each into a B source ``V={expr}``
 (``I={expr}``) between the same nodes (inpcom.c), so pelcs reads them as B sources
-(netlist.behavioural): linear expressions, and comparators that drive switch controls. Each
+(netlist.behavioural): linear expressions, and comparators that drive switch controls; POLY
+sources with affine polynomials, and control pairs written in parentheses. Each
 deck is run side by side with ngspice."""
 
 from __future__ import annotations
@@ -124,3 +125,26 @@ def test_a_nonlinear_poly_is_refused_at_its_coefficient():
         simulate(POLYS.replace("E1 e1 0 POLY(1) a 0 2", "E1 e1 0 POLY(1) a 0 0 2 0.1"))
     (d,) = info.value.diagnostics
     assert (d.location.line, d.location.column) == (6, 25)
+
+
+# a control pair in parentheses, as ngspice reads it
+PAREN = """control pairs in parentheses
+V1 in 0 SIN(0 1 1k)
+E1 e 0 (in,0) 2
+Re e 0 1k
+G1 0 g (in 0) 1m
+Rg g 0 1k
+.tran 10u 2m
+.end
+"""
+
+
+def test_control_pairs_in_parentheses(tmp_path, ngspice):
+    if shutil.which("ngspice") is None:
+        pytest.skip("no ngspice executable")
+    res = simulate(PAREN, probes=["v(in)", "v(e)", "v(g)"])
+    assert np.allclose(res.y[:, 1], 2 * res.y[:, 0], atol=1e-12)
+    assert np.allclose(res.y[:, 2], res.y[:, 0], atol=1e-12)
+    ng = _ngspice(PAREN, ["v(in)", "v(e)", "v(g)"], tmp_path)
+    assert np.allclose(ng[:, 3], 2 * ng[:, 1], atol=1e-6)
+    assert np.allclose(ng[:, 5], ng[:, 1], atol=1e-6)
