@@ -293,9 +293,10 @@ class _Builder:
 
         def size(body: Body, inside: tuple[str, ...]) -> int:
             n = 0
+            scope = inside[-1] if inside else None
             for el in body.elements:
-                key = el.ref.lower() if el.kind == "X" else None
-                if key is None or key not in subckts:
+                key = self.deck.subckt_key(el.ref, scope) if el.kind == "X" else None
+                if key is None:
                     n += 1  # (an unknown subcircuit: one error per instance path)
                 elif key in inside:
                     # (found here once: the expansion would meet it on every path to it,
@@ -362,10 +363,16 @@ class _Builder:
                     self.circuit.models[name] = model
 
     def model_key(self, ref: str, scope: str | None) -> str:
-        """The model an element of subcircuit ``scope`` (None: the top level) names by
-        ``ref``: the subcircuit's own, else the global one."""
-        local = self.local_models.get(scope) if scope is not None else None
-        return local.get(ref.lower(), ref) if local else ref
+        """The model an element of subcircuit ``scope`` (a key of ``deck.subckts``; None: the
+        top level) names by ``ref``: its own, else one of a definition around it, else the
+        global one."""
+        while scope is not None:  # (the definition's own, then those around it)
+            key = self.local_models.get(scope, {}).get(ref.lower())
+            if key is not None:
+                return key
+            sub = self.deck.subckts.get(scope)
+            scope = sub.parent if sub is not None else None
+        return ref
 
     def tran(self) -> None:
         trans = self.deck.trans
@@ -433,7 +440,7 @@ class _Builder:
 
         scope = stack[-1] if stack else None
         for el in body.elements:
-            if el.kind in "DSMQW" and scope in self.local_models:
+            if el.kind in "DSMQW" and self.local_models:
                 key = self.model_key(el.ref, scope)
                 if key != el.ref:
                     el = copy.copy(el)
@@ -527,8 +534,7 @@ class _Builder:
         self.circuit.subckt_texts[sub.name.lower()] = subckt_text(sub)
         if macro.kind == "diode":
             a, k = (ports[p] for p in macro.ports)
-            scope = sub.name.lower()
-            models = tuple(self.model_key(e.ref, scope) for e in sub.body.elements
+            models = tuple(self.model_key(e.ref, sub.key) for e in sub.body.elements
                            if e.kind == "D")
             # a resistor joining the two ports is a leakage in parallel (NXP's 1N4148 has
             # 5.8 GΩ there), not in series with the junction
@@ -542,7 +548,7 @@ class _Builder:
                 "no threshold", None, macro.dropped, loc))
             return
         dev = macro.device
-        model = self.circuit.models.get(self.model_key(dev.ref, sub.name.lower()).lower())
+        model = self.circuit.models.get(self.model_key(dev.ref, sub.key).lower())
         want = ("NMOS", "PMOS", "VDMOS") if dev.kind == "M" else ("NPN", "PNP")
         if model is None or model.type not in want:
             self.error(f"{name}: the transistor {dev.name} of macro-model '{sub.name}' has no "
@@ -601,10 +607,11 @@ class _Builder:
                  mapnode: Callable[[str], str], env: Mapping[str, float], failed: set[str],
                  stack: tuple[str, ...]) -> None:
         st = el.st
-        key = el.ref.lower()
+        key = self.deck.subckt_key(el.ref, stack[-1] if stack else None) or el.ref.lower()
         sub = self.deck.subckts.get(key)
         if sub is None:
-            known = ", ".join(s.name for s in self.deck.subckts.values()) or "none defined"
+            known = ", ".join(s.name for s in self.deck.subckts.values()
+                              if s.parent is None) or "none defined"
             self.error(f"unknown subcircuit '{el.ref}' in instance {name_prefix}{el.name}",
                        st.loc(el.ref_offset), f"define it with .subckt {el.ref} ... .ends "
                        f"(subcircuits: {known})", dependent=True)

@@ -222,14 +222,16 @@ class _Reader(ElementLines, FuncReading):
         """Report the deferred problems of what the circuit uses; note what it does not."""
         used: set[str] = set()
         refs: set[str] = set()
-        bodies = [self.deck.top]
+        bodies: list[tuple[Body, str | None]] = [(self.deck.top, None)]
         while bodies:
-            for el in bodies.pop().elements:
+            body, scope = bodies.pop()
+            for el in body.elements:
                 key = (el.ref or "").lower()
-                if el.kind == "X" and key in self.deck.subckts:
-                    if key not in used:
-                        used.add(key)
-                        bodies.append(self.deck.subckts[key].body)
+                sub_key = self.deck.subckt_key(key, scope) if el.kind == "X" else None
+                if sub_key is not None:
+                    if sub_key not in used:
+                        used.add(sub_key)
+                        bodies.append((self.deck.subckts[sub_key].body, sub_key))
                 elif key:
                     refs.add(key)
         for key, diags in self.deferred.items():
@@ -423,7 +425,7 @@ class _Reader(ElementLines, FuncReading):
             self.read_statement(st)
         finally:
             if len(self.diags) > n:
-                self.deferred.setdefault(sub.name.lower(), []).extend(self.diags[n:])
+                self.deferred.setdefault(sub.key, []).extend(self.diags[n:])
                 del self.diags[n:]
 
     def read_statement(self, st: Statement) -> None:
@@ -543,11 +545,6 @@ class _Reader(ElementLines, FuncReading):
     def cmd_subckt(self, st: Statement) -> None:
         usage = ".subckt name node... [params: name=value ...]"
         tree = self.parse(st, "subckt_cmd", ".subckt", usage)
-        if self.sub is not None:
-            self.error("nested .subckt definitions are not supported", st, 0,
-                       f"close '{self.sub.name}' with .ends first and define "
-                       "subcircuits at the top level")
-            raise _Abandon
         name_tok = tree.children[1]
         ports: list[str] = []
         defaults: list[RawParam] = []
@@ -561,8 +558,10 @@ class _Reader(ElementLines, FuncReading):
                     ports.append(node_name(item.children[0]))
             elif item.data == "assign":
                 defaults.extend(self.assigns([item], st, bare_expression=True))
-        key = name_tok.lower()
-        sub = SubcktDef(str(name_tok), ports, defaults, Body(), st)
+        # (a definition inside another is local to it, as in ngspice: Deck.subckt_key)
+        parent = self.sub.key if self.sub is not None else None
+        key = name_tok.lower() if parent is None else f"{parent}:{name_tok.lower()}"
+        sub = SubcktDef(str(name_tok), ports, defaults, Body(), st, key, parent)
         if key in self.deck.subckts:
             prev = self.deck.subckts[key].st.loc(0)
             self.error(f"subcircuit '{name_tok}' is defined twice (first at line {prev.line})",
@@ -581,7 +580,8 @@ class _Reader(ElementLines, FuncReading):
             if tok.lower() != self.sub.name.lower():
                 self.error(f".ends '{tok}' closes subcircuit '{self.sub.name}'", st,
                            tok.start_pos, f"write .ends {self.sub.name}")
-        self.sub = None
+        parent = self.sub.parent
+        self.sub = self.deck.subckts.get(parent) if parent is not None else None
 
     def cmd_model(self, st: Statement) -> None:
         m = _CODE_MODEL.match(st.text)
@@ -640,7 +640,7 @@ class _Reader(ElementLines, FuncReading):
                 tok = t.children[0]
                 params.append(RawParam(tok.lower(), Value(1.0, None, st, tok.start_pos), st,
                                        tok.start_pos))
-        scope = self.sub.name.lower() if self.sub is not None else None
+        scope = self.sub.key if self.sub is not None else None
         self.deck.models.append(RawModel(str(name_tok), _MODEL_TYPES[mtype], params, st, scope))
 
     def cmd_ic(self, st: Statement) -> None:

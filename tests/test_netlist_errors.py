@@ -97,8 +97,8 @@ CATALOGUE = [
     ("stray-ends", "t\n" + OK + ".ends\n", ".ends without .subckt", 4, 1, ""),
     ("ends-mismatch", "t\n" + OK + ".subckt s p\nR9 p 0 1\n.ends other\n",
      ".ends 'other' closes subcircuit 's'", 6, 7, ".ends s"),
-    ("nested-subckt", "t\n" + OK + ".subckt a p\n.subckt b q\n.ends\n.ends\n",
-     "nested .subckt definitions are not supported", 5, 1, "top level"),
+    ("nested-unclosed", "t\n" + OK + ".subckt a p\n.subckt b q\n.ends\n", "subcircuit 'a' has "
+     "no .ends", 4, 1, ".ends"),
     ("recursive-subckt", "t\n" + OK + ".subckt s p\nX1 p s\n.ends\nX1 a s\n",
      "subcircuit 's' instantiates itself (s -> s)", 5, 6, ""),
     ("duplicate-subckt", "t\n" + OK + ".subckt s p\n.ends\n.subckt S q\n.ends\n",
