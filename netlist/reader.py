@@ -104,6 +104,10 @@ def split_statements(lines: list[tuple[int, str]], file: str, diags: list[Diagno
                 control = None
             continue
         code = _strip_comment(raw) if (";" in raw or "$" in raw) else raw
+        if "\u00b5" in code:
+            # ngspice reads every micro sign (LTspice writes 1000µF) as 'u' (inpcom.c's
+            # utf8_check); the line shown in messages keeps it
+            code = code.replace("\u00b5", "u")
         stripped = code.strip()
         if not stripped or stripped[0] == "*":
             continue

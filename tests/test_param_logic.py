@@ -1,9 +1,10 @@
-"""Two spellings ngspice reads and pelcs now reads alike, each checked against ngspice's
+"""Spellings ngspice reads and pelcs now reads alike, each checked against ngspice's
 element values on the same deck (``print @R1[resistance]``):
 
 - comparisons, ``&&``, ``||`` and ``c ? a : b`` in parameter expressions (ngspice's numparam:
   a comparison is 1 or 0, ``c`` is true when not 0);
-- a value named by its keyword: ``R1 a b r=1k``, ``C1 a b c=1u``, ``L1 a b l=1m``.
+- a value named by its keyword: ``R1 a b r=1k``, ``C1 a b c=1u``, ``L1 a b l=1m``;
+- the micro sign ``µ`` (LTspice's ``1000µF``), read as ``u``.
 """
 
 from __future__ import annotations
@@ -62,3 +63,20 @@ def test_ngspice_values(tmp_path, ngspice):
            re.finditer(r"@(\w+)\[\w+\] = (\S+)", r.stdout)}
     for name, (_, want) in WANT.items():
         assert got.get(name) == pytest.approx(want, rel=1e-6), (name, r.stdout[-800:])
+
+
+def test_the_micro_sign_is_u(tmp_path, ngspice):
+    # LTspice writes µ (U+00B5) for micro; ngspice reads every one as 'u' (inpcom.c)
+    deck = ("micro sign\nV1 a 0 1\nC1 a 0 1000\u00b5F\nC2 a 0 2\u00b5\nR1 a 0 1k\n"
+            ".tran 1u 2u\n.end\n")
+    c = parse_string(deck)
+    assert (c.element("C1").value, c.element("C2").value) == (1e-3, 2e-6)
+    if shutil.which("ngspice") is None:
+        pytest.skip("no ngspice executable")
+    (tmp_path / "deck.cir").write_text(deck, encoding="utf-8")
+    r = subprocess.run(["ngspice", "-p"], input="source deck.cir\nrun\n"
+                       "print @c1[capacitance] @c2[capacitance]\nquit\n", cwd=tmp_path,
+                       capture_output=True, text=True, timeout=60,
+                       env={"HOME": str(tmp_path), "PATH": "/usr/bin:/bin"})
+    got = [float(m.group(1)) for m in re.finditer(r"\] = (\S+)", r.stdout)]
+    assert got == pytest.approx([1e-3, 2e-6]), r.stdout[-500:]
