@@ -148,3 +148,28 @@ def test_control_pairs_in_parentheses(tmp_path, ngspice):
     ng = _ngspice(PAREN, ["v(in)", "v(e)", "v(g)"], tmp_path)
     assert np.allclose(ng[:, 3], 2 * ng[:, 1], atol=1e-6)
     assert np.allclose(ng[:, 5], ng[:, 1], atol=1e-6)
+
+
+# a clamped error amplifier driving the switch itself: its band (VT 2.5 V) inside the clamp's
+# 0..5 V, so the switch turns where the linear expression crosses 2.5 V
+CLAMP_BUCK = BUCK.replace("E1 g 0 VALUE={V(ref) > V(ramp) ? 5 : 0}",
+                          "B1 g 0 V={max(0, min(5, 2500*(V(ref)-V(ramp))+2.5))}")
+
+
+def test_a_clamp_driving_a_switch_agrees_with_ngspice(tmp_path, ngspice):
+    if shutil.which("ngspice") is None:
+        pytest.skip("no ngspice executable")
+    ng = _ngspice(CLAMP_BUCK, ["v(out)"], tmp_path)
+    t0 = ng[-1, 0] / 2
+    keep = ng[:, 0] >= t0
+    want = np.trapezoid(ng[keep, 1], ng[keep, 0]) / (ng[-1, 0] - t0)
+    res = simulate(CLAMP_BUCK, probes=["v(out)"], devices="pwl")
+    assert any("B1: clamp" in n and "the output node g is gone" in n for n in res.notes)
+    keep = res.t >= t0
+    got = np.trapezoid(res.y[keep, 0], res.t[keep]) / (res.t[-1] - t0)
+    assert abs(got - want) <= 0.02 * want, (got, want)
+
+
+def test_a_clamp_that_decides_the_switch_is_refused():
+    with pytest.raises(NetlistError, match="switch S1 reads at VT 6 V, VH 0 V, beyond"):
+        simulate(CLAMP_BUCK.replace("SW(VT=2.5", "SW(VT=6"))
