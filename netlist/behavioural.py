@@ -34,7 +34,7 @@ The expressions themselves (grammar, linear and comparator forms) are
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar
 
 from lcs.signals import Dc, Pulse, Pwl
@@ -179,8 +179,8 @@ def elaborate(el: RawElement, prefix: str, mapnode: Callable[[str], str],
 
 _CLAMP_HINT = ("pelcs reads a clamp max(lo, min(hi, e)) of a linear e only in a control path: "
                "a V= source to ground whose output only comparator B sources read, each "
-               "comparing it with DC, PULSE or PWL sources that stay within [lo, hi]; "
-               + ACCEPTED)
+               "comparing it with DC, PULSE or PWL sources that stay within [lo, hi], or only "
+               "S switches whose VT ± VH lies inside (lo, hi); " + ACCEPTED)
 
 
 def _source_range(circuit: Circuit, node: str) -> tuple[float, float] | None:
@@ -266,6 +266,15 @@ def fold_clamps(circuit: Circuit) -> list[Diagnostic]:
             elif p in el.nodes or p in tuple(getattr(el, "control", ())) or (
                     isinstance(el, ClampSource) and ("v", p) in dict(el.clamp.form.terms)):
                 bad.append(el.name)
+        gated = [el for el in circuit.elements if isinstance(el, Switch)
+                 and p in el.control and p not in el.nodes]
+        if gated and not readers and set(bad) == {sw.name for sw in gated}:
+            why = _gate_switches(circuit, b, gated)
+            if why is None:
+                continue
+            diags.append(Diagnostic(f"{label} clamps a linear expression that switch "
+                                    f"{why}", b.location, _CLAMP_HINT, (b.name,)))
+            continue
         if bad or not readers:
             feeds = f"feeds {', '.join(bad)}" if bad else "feeds no comparator"
             diags.append(Diagnostic(f"{label} clamps a linear expression and its output "
@@ -284,6 +293,44 @@ def fold_clamps(circuit: Circuit) -> list[Diagnostic]:
                 f"{b.clamp.lo:g} to {b.clamp.hi:g} V, where comparing the clamp is comparing "
                 f"its linear expression (exact; its output node {p} is gone)")
     return diags
+
+
+def _gate_switches(circuit: Circuit, b: ClampSource, gated: list[Switch]) -> str | None:
+    """Drive the switches that read ``b``'s output with its linear expression instead, where
+    that is exact; else why not (the switch named first).
+
+    A switch whose control is ``±v(p)`` turns on above ``VT + |VH|`` and off below
+    ``VT - |VH|``; while that band lies inside the clamp's range ``(lo, hi)``, the clamp is
+    above (below) the band exactly when its expression is, so the switch turns at the same
+    instants reading the expression (on an inner node ``<b>#e``; the output node is gone).
+    """
+    assert b.clamp is not None
+    p, clamp = b.nodes[0], b.clamp
+    for sw in gated:
+        if set(sw.control) != {p, GROUND}:
+            return f"{sw.name} compares with another node"
+        model = circuit.models.get(sw.model.lower())
+        params = model.params if model is not None else {}
+        vt, vh = float(params.get("vt", 0.0)), abs(float(params.get("vh", 0.0)))
+        sign = 1.0 if sw.control[0] == p else -1.0
+        lo, hi = sorted((sign * (vt - vh), sign * (vt + vh)))
+        if not (clamp.lo < lo and hi < clamp.hi):
+            return (f"{sw.name} reads at VT {vt:g} V, VH {vh:g} V, beyond the clamp's range "
+                    f"{clamp.lo:g} to {clamp.hi:g} V, where the clamp decides it")
+    q = f"{b.name.lower()}#e"
+    circuit.elements.extend(linear_elements(b.name, "V", (q, GROUND), clamp.form, b.location))
+    for k, el in enumerate(circuit.elements):
+        if any(el is sw for sw in gated):
+            circuit.elements[k] = replace(el, control=tuple(q if c == p else c
+                                                            for c in el.control))
+    circuit.notes.append(
+        f"{b.name}: clamp ({b.text.strip()}) read only by the switch"
+        f"{'es' if len(gated) > 1 else ''} {', '.join(sw.name for sw in gated)}, whose band "
+        f"VT ± VH lies inside the clamp's range {clamp.lo:g} to {clamp.hi:g} V: "
+        f"{'they turn' if len(gated) > 1 else 'it turns'} at the same instants on the "
+        f"linear expression, which drives {'them' if len(gated) > 1 else 'it'} instead (exact; "
+        f"the output node {p} is gone)")
+    return None
 
 
 # ------------------------------------------------------------------------------ comparators

@@ -86,11 +86,13 @@ class CurrentSource(Element):
 
 @dataclass
 class Diode(Element):
-    """Ideal diode, nodes (anode, cathode). ``model`` is kept for ngspice only.
-    ``part_of``: the idealised transistor whose body diode this is (ngspice simulates the
-    transistor's own), else ""."""
+    """Ideal diode, nodes (anode, cathode). ``model`` is kept for ngspice and for the
+    ``--devices pwl`` fit, with ``area`` (the D line's AREA times its m: the junction's IS
+    and 1/RS scale with it, as in ngspice). ``part_of``: the idealised transistor whose body
+    diode this is (ngspice simulates the transistor's own), else ""."""
 
     model: str = ""
+    area: float = 1.0
     part_of: str = field(default="", compare=False)
     # a diode macro-model instance: ("X", its nodes, the subcircuit), written back for ngspice
     device: tuple | None = field(default=None, compare=False)

@@ -21,8 +21,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from .errors import Location
+from .units import parse_number
 
-__all__ = ["BJT_THRESHOLD", "DEVICE_TYPES", "Replacement", "threshold"]
+__all__ = ["BJT_THRESHOLD", "DEVICE_TYPES", "Replacement", "gate_rc", "threshold"]
 
 #: base–emitter voltage at which an idealised BJT switch turns on, V
 BJT_THRESHOLD = 0.7
@@ -218,3 +219,35 @@ def subckt_text(sub) -> str:
             lines.append(st.text)
     lines.append(f".ends {sub.name}")
     return "\n".join(lines)
+
+
+def _instance_length(el, key: str, default: float) -> float:
+    """``W=``/``L=`` of an M line (m), ngspice's DEFW/DEFL of 100 µm when not given."""
+    m = re.search(rf"(?i)(?<![\w.]){key}\s*=\s*([^\s=]+)", el.st.text)
+    v = parse_number(m.group(1)) if m else None
+    return float(v) if v is not None and v > 0 else default
+
+
+def gate_rc(el, model, rg: float, cgd: float = 0.0
+             ) -> tuple[float, float, float] | None:
+    """An idealised MOSFET's gate as a linear RC: (R Ω, Cgs F, Cgd F), or None (a BJT, no
+    capacitance).
+
+    At a fixed bias: for a level-1..3 model the overlap capacitances ``CGSO W`` and ``CGDO W``
+    (W the instance's, ngspice's default 100 µm); for a VDMOS ``CGS`` and ``CGDMAX``; plus
+    ``cgd``, a macro-model's gate-drain feedback capacitor. R is the model's ``RG`` (VDMOS)
+    plus ``rg``, the macro-model's resistor between its gate port and the channel's gate.
+    They set the switching instants: the switch turns when the gate-source capacitor's
+    voltage crosses the threshold (netlist.pwl).
+    """
+    if el.kind != "M":
+        return None
+    p = {k.lower(): float(v) for k, v in model.params.items()
+         if isinstance(v, (int, float))}
+    if model.type == "VDMOS":
+        cgs, cgd = p.get("cgs", 0.0), cgd + p.get("cgdmax", 0.0)
+        rg += p.get("rg", 0.0)
+    else:
+        w = _instance_length(el, "w", 100e-6)
+        cgs, cgd = p.get("cgso", 0.0) * w, cgd + p.get("cgdo", 0.0) * w
+    return (rg, cgs, cgd) if cgs + cgd > 0 else None

@@ -45,8 +45,6 @@ UNSUPPORTED_ELEMENTS: dict[str, tuple[str, str]] = {
     "U": ("uniform RC line", "approximate the line with a ladder of R and C sections"),
     "P": ("coupled transmission line", "approximate it with coupled inductors (K) and C"),
     "Y": ("transmission line", "approximate the line with a ladder of L and C sections"),
-    "W": ("current-controlled switch", "use an S switch driven by a voltage: sense the current "
-          "with an H source (v = r * i) and control the switch with that voltage"),
     "N": ("Verilog-A/OSDI device", _IDEAL),
 }
 
@@ -59,7 +57,6 @@ IGNORED_COMMANDS = {
 }
 
 UNSUPPORTED_COMMANDS: dict[str, str] = {
-    ".func": "user-defined functions are not supported: write the expression in a .param",
     ".if": "conditional netlists are not supported: choose with --param and expressions",
     ".elseif": "conditional netlists are not supported",
     ".else": "conditional netlists are not supported",
@@ -72,10 +69,10 @@ UNSUPPORTED_COMMANDS: dict[str, str] = {
 SUPPORTED_COMMANDS = (".param .subckt/.ends .model .ic .tran .step .options .include .lib "
                       ".global .title .control/.endc .end")
 
-_MODEL_TYPES = {"D": "D", "SW": "SW", "NMOS": "NMOS", "PMOS": "PMOS", "VDMOS": "VDMOS",
-                "NPN": "NPN", "PNP": "PNP"}
+_MODEL_TYPES = {"D": "D", "SW": "SW", "CSW": "CSW", "NMOS": "NMOS", "PMOS": "PMOS",
+                "VDMOS": "VDMOS", "NPN": "NPN", "PNP": "PNP"}
 _UNSUPPORTED_MODELS = {
-    "NJF": "JFET", "PJF": "JFET", "NMF": "MESFET", "PMF": "MESFET", "CSW": "current switch",
+    "NJF": "JFET", "PJF": "JFET", "NMF": "MESFET", "PMF": "MESFET",
     "R": "semiconductor resistor", "C": "semiconductor capacitor", "L": "inductor",
     "LTRA": "lossy line", "URC": "uniform RC line", "TRANSLINE": "line",
 }
@@ -96,7 +93,7 @@ UNSUPPORTED_WAVES = {
 }
 
 _WORD = re.compile(r"[^\s(){}=,'\"]+")
-_NONLINEAR = re.compile(r"(?i)\b(poly|value|table|laplace|freq|vol|cur)\s*[=(]")
+_NONLINEAR = re.compile(r"(?i)\b(poly|value|table|laplace|freq|vol|cur)\s*[=({]")
 _NUL_HINT = "pelcs reads plain-text SPICE netlists"
 
 _TOKEN_NAMES = {

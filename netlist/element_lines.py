@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import re
 
-from . import xspice
+from . import current_switch, xspice
 from .behavioural_expr import BehaviouralError, circuit_quantity, parse_behavioural
 from .dialect import (
     _NONLINEAR,
@@ -36,6 +36,19 @@ from .units import parse_number
 # Bname n+ n- V=expr | I=expr
 _VALUE_LINE = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+([RLC])\s*=\s*(\S.*?)\s*$")
 _B_LINE = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+([VI])\s*=\s*(\S.*?)\s*$")
+# Ename n+ n- VALUE={expr} (vol=), Gname n+ n- VALUE={expr} (cur=): ngspice's front end makes
+# them an E (G) of gain 1 driven by a B source V={expr} (inpcom.c), i.e. a B source V= (I=)
+# between n+ and n-; it reads the expression from its '{' to the end of the line
+# Rname n+ n- r=value (C c=, L l=): the value named by its keyword
+_KEYWORD_VALUE = re.compile(r"(?is)\S+\s+[^\s=]+\s+[^\s=]+\s+(([RLC])\s*=\s*)")
+# Ename n+ n- (nc+, nc-) gain (G alike): the control pair in parentheses
+_PAREN_CONTROL = re.compile(r"(?s)\S+\s+[^\s(),]+\s+[^\s(),]+\s+(\(\s*[^\s(),]+\s*[,\s]\s*"
+                            r"[^\s(),]+\s*\))")
+_PAREN_BLANKS = str.maketrans("(),", "   ")
+# Ename n+ n- POLY(ND) ... (G alike; F, H with controlling sources): SPICE2's polynomial source
+_POLY = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+(poly)\s*\(\s*(\d+)\s*\)(.*)$")
+_EG_VALUE = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+(value|vol|cur)\b\s*=?\s*"
+                       r"(\{.*\})\s*$")
 
 
 class ElementLines:
@@ -48,6 +61,25 @@ class ElementLines:
             return
         if letter in "RLC" and self.nonlinear_value(letter, st, what):
             return
+        if letter in "RLC":
+            m = _KEYWORD_VALUE.match(st.text)
+            if m is not None and m.group(2).upper() == letter:
+                # ngspice's `R1 a b r=1k` (C c=, L l=): the value after its keyword, read
+                # with the keyword blanked out (the columns kept for the messages)
+                st = Statement(st.text[:m.start(2)] + " " * (m.end(0) - m.start(2)) +
+                               st.text[m.end(0):], st.file, st.segments)
+        if letter in "EG" and self.value_source(letter, st):
+            return
+        if letter in "EFGH" and self.poly_source(letter, st):
+            return
+        if letter in "EG":
+            m = _PAREN_CONTROL.match(st.text)
+            if m is not None:
+                # ngspice reads `E1 n+ n- (nc+, nc-) gain` as its control pair: the
+                # parentheses and the comma blanked out (the columns kept for the messages)
+                blank = st.text[m.start(1):m.end(1)].translate(_PAREN_BLANKS)
+                st = Statement(st.text[:m.start(1)] + blank + st.text[m.end(1):], st.file,
+                               st.segments)
         if letter in "EFGH":
             m = _NONLINEAR.search(st.text)
             if m:
@@ -65,7 +97,7 @@ class ElementLines:
         elif rule == "diode":
             self.body.elements.append(RawElement(
                 "D", name, st, (node_name(ch[1]), node_name(ch[2])), ref=str(ch[3]),
-                ref_offset=ch[3].start_pos))
+                ref_offset=ch[3].start_pos, params=self.diode_area(ch[4:], st)))
         elif rule == "switch":
             state = None
             if len(ch) > 6:
@@ -109,6 +141,18 @@ class ElementLines:
         self.body.elements.append(RawElement("A", name, st, (), ref=model, ref_offset=offset,
                                              ports=ports))
 
+    def current_switch(self, st: Statement) -> None:
+        """``Wname n+ n- Vcontrol model [ON|OFF]`` (netlist.current_switch)."""
+        try:
+            name, nodes, (vname, v_at), (model, m_at), state = current_switch.read_line(
+                st.text)
+        except current_switch.CswError as exc:
+            self.error(exc.message, st, exc.offset, exc.hint)
+            return
+        self.body.elements.append(RawElement(
+            "W", hierarchical_name(name, "W"), st, tuple(map(node_name, nodes)), ref=model,
+            ref_offset=m_at, refs=((vname, v_at),), state=state))
+
     def behavioural(self, st: Statement, usage: str) -> None:
         """``Bname n+ n- V=expr`` or ``I=expr``: the expression parsed here (its own grammar,
         :mod:`netlist.behavioural`), evaluated in elaboration."""
@@ -124,15 +168,94 @@ class ElementLines:
         text, offset = m.group(5), m.start(5)
         if len(text) >= 2 and text[0] == text[-1] and text[0] in "'\"":
             text, offset = text[1:-1], offset + 1
-        try:
-            tree = parse_behavioural(text)
-        except BehaviouralError as exc:
-            self.error(exc.message, st, offset + exc.offset, exc.hint or f"syntax: {usage}")
+        tree = self.behavioural_tree(text, st, offset, f"syntax: {usage}")
+        if tree is None:
             return
         name = hierarchical_name(m.group(1), "B")
         self.body.elements.append(RawElement(
             "B", name, st, (node_name(m.group(2)), node_name(m.group(3))),
             behaviour=(m.group(4).upper(), tree, text, offset)))
+
+    def behavioural_tree(self, text: str, st: Statement, offset: int, hint: str):
+        """A B expression parsed (netlist.behavioural_expr) after its ``.func`` calls are
+        expanded; None (and a diagnostic) if it cannot be."""
+        expanded = self.expand_funcs(text, st, offset)
+        if expanded is None:
+            return None
+        try:
+            return parse_behavioural(expanded)
+        except BehaviouralError as exc:
+            if expanded != text:  # (an offset in the expansion is not one in the text)
+                self.error(f"{exc.message} (with its .func calls expanded)", st, offset,
+                           exc.hint or hint)
+            else:
+                self.error(exc.message, st, offset + exc.offset, exc.hint or hint)
+            return None
+
+    def value_source(self, letter: str, st: Statement) -> bool:
+        """``Ename n+ n- VALUE={expr}`` (or ``vol=``) and ``Gname n+ n- VALUE={expr}`` (or
+        ``cur=``) read as ngspice does, as a B source ``V={expr}`` (``I={expr}``) between the
+        same nodes; False for any other E/G line."""
+        m = _EG_VALUE.match(st.text)
+        if m is None or (m.group(4).lower(), letter) in (("vol", "G"), ("cur", "E")):
+            return False
+        text, offset = m.group(5), m.start(5)
+        tree = self.behavioural_tree(text, st, offset,
+                                     f"syntax: {letter}name n+ n- VALUE={{expression}}")
+        if tree is None:
+            return True
+        name = hierarchical_name(m.group(1), letter)
+        self.body.elements.append(RawElement(
+            "B", name, st, (node_name(m.group(2)), node_name(m.group(3))),
+            behaviour=("V" if letter == "E" else "I", tree, text, offset)))
+        return True
+
+    def poly_source(self, letter: str, st: Statement) -> bool:
+        """``Ename n+ n- POLY(ND) c1+ c1- ... p0 p1 ...`` (G alike; F and H name ND controlling
+        sources) whose polynomial is affine: read as the B source ``V=`` (E, H) or ``I=``
+        (G, F) ``p0 + p1*x1 + ... + pND*xND``. ngspice hands the coefficients as written to its
+        spice2poly code model (enhtrans.c): the first is p0 (measured in ngspice 39:
+        ``POLY(1) a 0 2`` is 2 V, not SPICE2's 2*v(a)), then one per input, then the
+        higher-order terms, which must be zero here. False when the line is not a POLY."""
+        m = _POLY.match(st.text)
+        if m is None:
+            return False
+        nd, rest, at = int(m.group(5)), m.group(6), m.start(4)
+        words = [(w.group(0), m.start(6) + w.start())
+                 for w in re.finditer(r"[^\s(),]+", rest)]
+        per = 2 if letter in "EG" else 1
+        usage = (f"{letter}name n+ n- POLY(ND) " +
+                 ("nc1+ nc1- ... " if per == 2 else "Vname1 ... ") + "p0 p1 ...")
+        if nd < 1 or len(words) < per * nd + 1:
+            self.error(f"POLY({nd}) needs {per * nd} "
+                       f"{'controlling nodes' if per == 2 else 'controlling sources'} and at "
+                       "least one coefficient", st, at, f"syntax: {usage}")
+            return True
+        ctl, coefs = words[:per * nd], words[per * nd:]
+        for word, offset in coefs[1 + nd:]:
+            if parse_number(word) != 0.0:
+                self.error(f"{letter} source with a nonlinear POLY({nd}): coefficient "
+                           f"'{word}' multiplies a product of its inputs", st, offset,
+                           "pelcs reads a POLY whose terms past p0 and the first-order ones "
+                           "are zero (an affine source)")
+                return True
+        if per == 2:
+            inputs = [f"v({ctl[2 * k][0]},{ctl[2 * k + 1][0]})" for k in range(nd)]
+        else:
+            inputs = [f"i({ctl[k][0]})" for k in range(nd)]
+        terms = [f"({coefs[0][0]})"] + [f"({c})*{x}" for (c, _), x in
+                                          zip(coefs[1:1 + nd], inputs, strict=False)]
+        text = " + ".join(terms)
+        try:
+            tree = parse_behavioural(text)
+        except BehaviouralError as exc:
+            self.error(f"POLY source: {exc.message}", st, at, f"syntax: {usage}")
+            return True
+        name = hierarchical_name(m.group(1), letter)
+        self.body.elements.append(RawElement(
+            "B", name, st, (node_name(m.group(2)), node_name(m.group(3))),
+            behaviour=("V" if letter in "EH" else "I", tree, text, at)))
+        return True
 
     def nonlinear_value(self, letter: str, st: Statement, what: str) -> bool:
         """``Cname n+ n- c='expression'`` (R, L alike) whose expression reads the circuit's
@@ -173,10 +296,36 @@ class ElementLines:
                        "the run (for a saturable inductance, the unsaturated one)")
         return found is not None
 
+    def diode_area(self, extras: list, st: Statement) -> list[RawParam]:
+        """A D line's area factors: its positional AREA (the first bare value after the
+        model), ``area=`` and ``m=``. ngspice multiplies the area by m and scales the junction
+        by it (IS and the conductance 1/RS; diosetup.c, diotemp.c); its other instance
+        parameters (OFF, IC=, TEMP= ...) are read for their syntax only. The positional AREA
+        is SPICE3's and LTspice's spelling; ngspice 39 stops at it ("could not find a valid
+        modelname", measured), which a note says."""
+        out: list[RawParam] = []
+        for t in extras:
+            if isinstance(t, Token):
+                if any(p.name == "area" for p in out):
+                    continue
+                tok, key = t, "area"
+                self.deck.notes.append(
+                    f"line {st.loc(0).line}: diode area '{t}' written without area= (SPICE3, "
+                    f"LTspice), read as the area; ngspice 39 refuses that line: write area={t}")
+            elif t.data == "assign" and t.children[0].lower() in ("area", "m"):
+                tok, key = t.children[1], t.children[0].lower()
+            else:
+                continue
+            v = self.value(tok, st)
+            if v is not None:
+                out.append(RawParam(key, v, st, tok.start_pos))
+        return out
+
     def passive(self, letter: str, name: str, ch: list, st: Statement, what: str) -> None:
         v = self.value(ch[3], st)
         ic = None
         parasitics: dict = {}
+        mult: list[RawParam] = []
         for t in ch[4:]:
             if isinstance(t, Token):
                 if parse_number(t) is not None:
@@ -195,6 +344,13 @@ class ElementLines:
             elif key in _PASSIVE_IGNORED:
                 if self.value(val_tok, st) is None:
                     return
+            elif key == "m":
+                # ngspice's multiplicity: m elements in parallel (resload.c, capload.c,
+                # indtemp.c), applied in netlist.flatten
+                mv = self.value(val_tok, st)
+                if mv is None:
+                    return
+                mult.append(RawParam("m", mv, st, key_tok.start_pos))
             elif key in _PARASITICS.get(letter, ()):
                 pv = self.value(val_tok, st)
                 if pv is None:
@@ -206,16 +362,23 @@ class ElementLines:
                     accepted += ", and LTspice's " + ", ".join(
                         k.capitalize() + "=" for k in _PARASITICS[letter])
                 hint = f"instance parameters accepted for a {what}: {accepted}"
-                if key in ("m", "scale"):
-                    hint = "fold the multiplier into the value"
+                if key == "scale":
+                    hint = "fold the scale factor into the value"
                 self.error(f"unsupported parameter '{key_tok}' on {what} '{name}'", st,
                            key_tok.start_pos, hint)
                 return
         if v is None:
             return
+        if mult and parasitics:
+            self.error(f"{what} '{name}': m= together with LTspice's "
+                       f"{', '.join(k.capitalize() + '=' for k in parasitics)}", st,
+                       mult[0].offset, "write the parallel elements out, or fold the "
+                       "multiplier into the values")
+            return
         a, b = node_name(ch[1]), node_name(ch[2])
         b_main = self.parasitics(letter, name, a, b, parasitics, st)
-        self.body.elements.append(RawElement(letter, name, st, (a, b_main), value=v, ic=ic))
+        self.body.elements.append(RawElement(letter, name, st, (a, b_main), value=v, ic=ic,
+                                             params=mult))
 
     def parasitics(self, letter: str, name: str, a: str, b: str, found: dict,
                    st: Statement) -> str:

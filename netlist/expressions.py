@@ -2,7 +2,9 @@
 
 Grammar (in ``grammar.lark``, start rule ``expression``): numbers with engineering suffixes
 (``2*10k``), parameter names, ``+ - * /``, ``**`` or ``^`` for powers, unary minus,
-parentheses, the functions in :data:`FUNCTIONS` and the constant ``pi``. Names are
+parentheses, the functions in :data:`FUNCTIONS` and the constant ``pi``; comparisons
+(``== != < > <= >=``), ``&&``, ``||`` and ``c ? a : b``, which ngspice's numparam reads in
+``.param`` expressions (a comparison is 1 or 0; ``c`` is true when not 0). Names are
 case-insensitive.
 
 An expression is parsed once into a small tree of tuples (:class:`Expression`) that lists the
@@ -136,7 +138,8 @@ class Expression:
         The expression as written (without braces or quotes).
     tree : tuple
         ``("num", value)``, ``("var", name, offset)``, ``("neg", a)``,
-        ``(op, a, b, offset)`` with op in ``+ - * / **``, or ``("call", name, args, offset)``.
+        ``(op, a, b, offset)`` with op in ``+ - * / ** && || == != < > <= >=``,
+        ``("?", c, a, b, offset)`` or ``("call", name, args, offset)``.
     names : frozenset of str
         Lower-case parameter names used.
     """
@@ -180,6 +183,15 @@ def _eval(node: tuple, env: Mapping[str, float]) -> float:
                               "define it with .param NAME=VALUE")
     if tag == "neg":
         return -_eval(node[1], env)
+    if tag == "?":
+        return _eval(node[2] if _eval(node[1], env) != 0.0 else node[3], env)
+    if tag in _LOGIC:
+        a = _eval(node[1], env) != 0.0
+        if tag == "&&":
+            return float(a and _eval(node[2], env) != 0.0)
+        return float(a or _eval(node[2], env) != 0.0)
+    if tag in _COMPARE:
+        return float(_COMPARE[tag](_eval(node[1], env), _eval(node[2], env)))
     if tag == "call":
         fn, _, _ = FUNCTIONS[node[1]]
         args = [_eval(a, env) for a in node[2]]
@@ -215,6 +227,10 @@ def _eval(node: tuple, env: Mapping[str, float]) -> float:
 _TOO_DEEP = "expression is nested too deeply"
 
 _BINARY = {"add": "+", "sub": "-", "mul": "*", "div": "/", "pow": "**"}
+_LOGIC = {"&&", "||"}
+_COMPARE: dict[str, Callable[[float, float], bool]] = {
+    "==": lambda a, b: a == b, "!=": lambda a, b: a != b, "<": lambda a, b: a < b,
+    ">": lambda a, b: a > b, "<=": lambda a, b: a <= b, ">=": lambda a, b: a >= b}
 
 
 def _build(t: Tree | Token, names: set[str]) -> tuple:
@@ -257,6 +273,17 @@ def _build(t: Tree | Token, names: set[str]) -> tuple:
                 f"{fname}() takes {want} argument{'s' if lo != 1 or hi is None else ''}, "
                 f"got {len(args)}", tok.start_pos)
         return ("call", fname, tuple(args), tok.start_pos)
+    if data == "ternary":
+        c, a, b = t.children
+        return ("?", _build(c, names), _build(a, names), _build(b, names),
+                _first_offset(c))
+    if data in ("logic_or", "logic_and"):
+        left, right = t.children
+        return ("||" if data == "logic_or" else "&&", _build(left, names),
+                _build(right, names), _first_offset(right))
+    if data == "compare":
+        left, op, right = t.children
+        return (str(op), _build(left, names), _build(right, names), op.start_pos)
     if data in _BINARY:
         if data == "pow":
             left, op, right = t.children

@@ -15,18 +15,20 @@ evaluated where the instance stands, and the body's ``.param`` lines), then amon
 ones (lexical scoping, as in ngspice). An instance ``X1`` turns element ``L1`` into ``X1.L1``
 and internal node ``n3`` into ``x1.n3`` (nested: ``X1.X2.L1``, ``x1.x2.n3``); ports become the
 instance's nodes, ground and ``.global`` nodes stay; references in the body (F/H sources, K
-inductors) get the prefix. ``.model`` lines are global (XSPICE cards evaluated per instance)."""
+inductors) get the prefix. ``.model`` lines are global, except those inside a ``.subckt``
+definition, local to it as in ngspice (:meth:`_Builder.models`); XSPICE cards are evaluated
+per instance."""
 
 from __future__ import annotations
 
+import copy
 import math
-import re
-from collections import ChainMap
+from collections import ChainMap, Counter
 from collections.abc import Callable, Mapping
 
 from lcs.signals import Exp, Pulse, Pwl, Signal, Sin
 
-from . import xspice
+from . import current_switch, xspice
 from .behavioural import elaborate, resolve_comparators
 from .checks import check_circuit, value_problem
 from .circuit import (
@@ -52,8 +54,8 @@ from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
 from .expressions import CONSTANTS, ExpressionError
 from .limits import ELEMENTS
 from .rawdeck import Body, Deck, RawElement, RawParam, Statement, Value
+from .steps import evaluate_steps
 from .suggest import close_matches
-from .units import parse_number
 
 # default parameters of ngspice's SW model that pelcs uses
 SW_DEFAULTS = {"vt": 0.0, "vh": 0.0}
@@ -115,6 +117,8 @@ class _Builder:
         self.deck = deck
         self.thresholds: dict[str, float] = {}  # idealised transistors' thresholds, V
         self._macros: dict = {}  # subcircuit name -> netlist.devices.Macro or None
+        # subcircuit name -> {model name: its key in circuit.models} (models())
+        self.local_models: dict[str, dict[str, str]] = {}
         self.diags: list[Diagnostic] = []
         self.ref_locs: dict[tuple[str, str], Location] = {}
         self.circuit = Circuit(title=deck.title, file=deck.file)
@@ -267,7 +271,7 @@ class _Builder:
         c.params = dict(self.global_env)
         self.models()
         self.tran()
-        self.steps()
+        evaluate_steps(self)
         c.options = dict(deck.options)
         c.ignored = list(deck.ignored)
         c.notes[:0] = list(deck.notes)
@@ -289,9 +293,10 @@ class _Builder:
 
         def size(body: Body, inside: tuple[str, ...]) -> int:
             n = 0
+            scope = inside[-1] if inside else None
             for el in body.elements:
-                key = el.ref.lower() if el.kind == "X" else None
-                if key is None or key not in subckts:
+                key = self.deck.subckt_key(el.ref, scope) if el.kind == "X" else None
+                if key is None:
                     n += 1  # (an unknown subcircuit: one error per instance path)
                 elif key in inside:
                     # (found here once: the expansion would meet it on every path to it,
@@ -329,9 +334,16 @@ class _Builder:
         return True
 
     def models(self) -> None:
+        """``.model`` cards -> ``circuit.models``. A card inside a ``.subckt`` definition is
+        local to it, as in ngspice: its elements see it before a global model of the same
+        name, which the rest of the netlist keeps. It is stored under
+        ``subckt:name`` (:meth:`model_key`), and under its own name as well when no other
+        card has that name (a model written inside a subcircuit and named elsewhere)."""
         env, failed = self.global_env, self.global_failed
+        names = Counter(m.name.lower() for m in self.deck.models)
         for m in self.deck.models:
-            key = m.name.lower()
+            name = m.name.lower()
+            key = name if m.scope is None else f"{m.scope}:{name}"
             loc = m.st.loc(0)
             if key in self.circuit.models:
                 first = self.circuit.models[key].location
@@ -343,47 +355,24 @@ class _Builder:
                 v = self.evaluate(p.value, env, failed)
                 if v is not None:
                     params[p.name] = v
-            self.circuit.models[key] = Model(m.name, m.type, params, loc)
+            model = Model(m.name, m.type, params, loc)
+            self.circuit.models[key] = model
+            if m.scope is not None:
+                self.local_models.setdefault(m.scope, {})[name] = key
+                if names[name] == 1:
+                    self.circuit.models[name] = model
 
-    def steps(self) -> None:
-        """``.step param`` lines -> ``circuit.steps`` (name, values), one sweep axis each."""
-        seen: dict[str, int] = {}
-        known = {k.lower(): k for k in self.circuit.params}
-        for st in self.deck.steps:
-            loc = st.st.loc(st.name_pos)
-            key = st.name.lower()
-            if key not in known:
-                self.error(f".step: '{st.name}' is not a .param of the netlist", loc,
-                           "define it with .param (its value is the nominal one) or step one of "
-                           f"{', '.join(sorted(known.values())) or 'the parameters'}",
-                           dependent=True)
-                continue
-            if key in seen:
-                self.error(f".step: '{st.name}' is stepped twice (first at line {seen[key]})",
-                           loc, "give all its values on one .step line")
-                continue
-            seen[key] = loc.line
-            vals = [self.evaluate(v, self.global_env, self.global_failed) for v in st.values]
-            if any(v is None for v in vals):
-                continue
-            if st.linear:
-                start, stop, incr = vals
-                n = (stop - start) / incr if incr else -1.0
-                if not incr or n < -1e-9:
-                    self.error(f".step param {st.name}: INCR {incr:g} does not lead from "
-                               f"{start:g} to {stop:g}", st.values[2].loc,
-                               "give INCR with the sign of STOP - START (and not 0)")
-                    continue
-                count = int(math.floor(n + 1e-9)) + 1
-                if count > 100000:
-                    self.error(f".step param {st.name}: {count} values", st.values[2].loc,
-                               "at most 100000 values per .step: use a larger INCR")
-                    continue
-                # 12 digits: 0.2 + 2 * 0.2 is 0.6, not 0.6000000000000001
-                values = tuple(float(f"{start + k * incr:.12g}") for k in range(count))
-            else:
-                values = tuple(float(v) for v in vals)
-            self.circuit.steps.append((known[key], values))
+    def model_key(self, ref: str, scope: str | None) -> str:
+        """The model an element of subcircuit ``scope`` (a key of ``deck.subckts``; None: the
+        top level) names by ``ref``: its own, else one of a definition around it, else the
+        global one."""
+        while scope is not None:  # (the definition's own, then those around it)
+            key = self.local_models.get(scope, {}).get(ref.lower())
+            if key is not None:
+                return key
+            sub = self.deck.subckts.get(scope)
+            scope = sub.parent if sub is not None else None
+        return ref
 
     def tran(self) -> None:
         trans = self.deck.trans
@@ -449,7 +438,13 @@ class _Builder:
             ics[node] = v
             self.ref_locs.setdefault(("ic", node), ic.st.loc(ic.offset))
 
+        scope = stack[-1] if stack else None
         for el in body.elements:
+            if el.kind in "DSMQW" and self.local_models:
+                key = self.model_key(el.ref, scope)
+                if key != el.ref:
+                    el = copy.copy(el)
+                    el.ref = key
             if el.kind == "X":
                 self.instance(el, name_prefix, node_prefix, mapnode, env, failed, stack)
             elif el.kind in "MQ":
@@ -457,6 +452,8 @@ class _Builder:
             elif el.behaviour is not None:  # B: netlist.behavioural; C of a knee: netlist.knee
                 self.circuit.elements += elaborate(el, name_prefix, mapnode, env, failed,
                                                    self.error)
+            elif el.kind == "W":  # a current-controlled switch (netlist.current_switch)
+                self.circuit.elements += self.current_switch(el, name_prefix, mapnode)
             elif el.kind == "A":  # an XSPICE code model (netlist.xspice)
                 self.circuit.elements += xspice.elaborate_element(
                     el, name_prefix, mapnode, env, self.deck.code_models,
@@ -464,10 +461,23 @@ class _Builder:
             else:
                 self.circuit.elements.append(self.element(el, name_prefix, mapnode, env, failed))
 
+    def current_switch(self, el: RawElement, prefix: str, mapnode: Callable[[str], str]
+                       ) -> list:
+        name = prefix + el.name
+        (vname, v_at), = el.refs
+        key, loc = name.lower(), el.st.loc(0)
+        self.ref_locs[(f"{key}#i", "source")] = el.st.loc(v_at)
+        self.ref_locs[(key, "model")] = el.st.loc(el.ref_offset)
+        self.ref_locs[(key, "control")] = loc
+        return current_switch.elaborate(
+            name, tuple(map(mapnode, el.nodes)), mapnode(f"{el.name.lower()}#i"),
+            prefix + vname, el.ref, el.state, loc, self.circuit,
+            lambda message, hint: self.error(message, el.st.loc(el.ref_offset), hint, (name,)))
+
     def device(self, el: RawElement, prefix: str, mapnode: Callable[[str], str]) -> list:
         """An M or Q element idealised: a switch, the VDMOS body diode (netlist.devices)."""
         # (imported by the circuits that have devices: 1 ms of the others' start)
-        from .devices import Replacement, threshold
+        from .devices import Replacement, gate_rc, threshold
 
         name = prefix + el.name if prefix else el.name
         loc = el.st.loc(0)
@@ -493,7 +503,7 @@ class _Builder:
         self.circuit.models[sw_model] = Model(sw_model, "SW", {**SW_DEFAULTS, "vt": thr}, loc)
         out: list = [Switch(name, (a, b), loc, control, sw_model, None,
                             device=(el.kind, nodes, model.name),
-                            gate_rc=_gate_rc(el, model, 0.0))]
+                            gate_rc=gate_rc(el, model, 0.0))]
         body = None
         if mt == "VDMOS":
             body = f"{name}_body"
@@ -515,7 +525,7 @@ class _Builder:
               ) -> None:
         """A device macro-model instance as one ideal switch (and body diode) or one ideal
         diode between its ports (netlist.devices.classify_macro)."""
-        from .devices import Replacement, subckt_text, threshold
+        from .devices import Replacement, gate_rc, subckt_text, threshold
 
         loc = el.st.loc(0)
         ports = {p.lower(): n for p, n in port_map.items()}
@@ -524,7 +534,8 @@ class _Builder:
         self.circuit.subckt_texts[sub.name.lower()] = subckt_text(sub)
         if macro.kind == "diode":
             a, k = (ports[p] for p in macro.ports)
-            models = tuple(e.ref for e in sub.body.elements if e.kind == "D")
+            models = tuple(self.model_key(e.ref, sub.key) for e in sub.body.elements
+                           if e.kind == "D")
             # a resistor joining the two ports is a leakage in parallel (NXP's 1N4148 has
             # 5.8 GΩ there), not in series with the junction
             port_set = {p.lower() for p in sub.ports}
@@ -537,7 +548,7 @@ class _Builder:
                 "no threshold", None, macro.dropped, loc))
             return
         dev = macro.device
-        model = self.circuit.models.get(dev.ref.lower())
+        model = self.circuit.models.get(self.model_key(dev.ref, sub.key).lower())
         want = ("NMOS", "PMOS", "VDMOS") if dev.kind == "M" else ("NPN", "PNP")
         if model is None or model.type not in want:
             self.error(f"{name}: the transistor {dev.name} of macro-model '{sub.name}' has no "
@@ -570,7 +581,7 @@ class _Builder:
                   and {n.lower() for n in e.nodes[:2]} & feedback)
         self.circuit.elements.append(Switch(name, (a, b), loc, control, sw_model, None,
                                             device=(*origin, model.name, series),
-                                            gate_rc=_gate_rc(dev, model, rg, cgd)))
+                                            gate_rc=gate_rc(dev, model, rg, cgd)))
         body = None
         if macro.body is not None or mt == "VDMOS":
             body = f"{name}_body"
@@ -596,10 +607,11 @@ class _Builder:
                  mapnode: Callable[[str], str], env: Mapping[str, float], failed: set[str],
                  stack: tuple[str, ...]) -> None:
         st = el.st
-        key = el.ref.lower()
+        key = self.deck.subckt_key(el.ref, stack[-1] if stack else None) or el.ref.lower()
         sub = self.deck.subckts.get(key)
         if sub is None:
-            known = ", ".join(s.name for s in self.deck.subckts.values()) or "none defined"
+            known = ", ".join(s.name for s in self.deck.subckts.values()
+                              if s.parent is None) or "none defined"
             self.error(f"unknown subcircuit '{el.ref}' in instance {name_prefix}{el.name}",
                        st.loc(el.ref_offset), f"define it with .subckt {el.ref} ... .ends "
                        f"(subcircuits: {known})", dependent=True)
@@ -666,6 +678,9 @@ class _Builder:
             problem = value_problem(kind, v)
             if problem:
                 self.error(f"{name}: {problem[0]}", el.value.loc, problem[1], (name,))
+            m = self.factor(el, name, env, failed)
+            # m elements in parallel, as ngspice: R/m, L/m, C*m
+            v = v * m if kind == "C" else v / m
             if kind == "R":
                 return Resistor(name, nodes, loc, v)
             ic = None if el.ic is None else self.value_or_nan(el.ic, env, failed)
@@ -680,7 +695,7 @@ class _Builder:
             return cls(name, nodes, loc, dc, wave)
         if kind == "D":
             self.ref_locs[(key, "model")] = st.loc(el.ref_offset)
-            return Diode(name, nodes, loc, el.ref)
+            return Diode(name, nodes, loc, el.ref, area=self.factor(el, name, env, failed))
         if kind == "S":
             self.ref_locs[(key, "model")] = st.loc(el.ref_offset)
             self.ref_locs[(key, "control")] = st.loc(0)
@@ -705,6 +720,22 @@ class _Builder:
             self.ref_locs[(key, "inductor1")] = st.loc(o2)
             return Coupling(name, (), loc, (prefix + l1, prefix + l2), k)
         raise AssertionError(f"element kind {kind}")  # the reader accepts no other kind
+
+    def factor(self, el: RawElement, name: str, env: Mapping[str, float],
+               failed: set[str]) -> float:
+        """The product of an element's multipliers (``m=`` of R, L, C; AREA and ``m=`` of a
+        D), 1 without any; an error for one that is not positive."""
+        out = 1.0
+        for p in el.params:
+            v = self.value_or_nan(p.value, env, failed)
+            if not v > 0:
+                if not math.isnan(v) or p.value.expr is None:
+                    self.error(f"{name}: {p.name} must be positive, got {v:g}", p.loc,
+                               f"{p.name} multiplies the element: give a positive number",
+                               (name,))
+                continue
+            out *= v
+        return out
 
     def waveform(self, wave: tuple[str, list[Value], int, dict], env: Mapping[str, float],
                  failed: set[str], st: Statement) -> Signal | None:
@@ -766,35 +797,3 @@ class _Builder:
                     return None
             return Exp(*vals)
         raise AssertionError(f"waveform {kind} at {loc}")
-
-
-def _instance_length(el: RawElement, key: str, default: float) -> float:
-    """``W=``/``L=`` of an M line (m), ngspice's DEFW/DEFL of 100 µm when not given."""
-    m = re.search(rf"(?i)(?<![\w.]){key}\s*=\s*([^\s=]+)", el.st.text)
-    v = parse_number(m.group(1)) if m else None
-    return float(v) if v is not None and v > 0 else default
-
-
-def _gate_rc(el: RawElement, model: Model, rg: float, cgd: float = 0.0
-             ) -> tuple[float, float, float] | None:
-    """An idealised MOSFET's gate as a linear RC: (R Ω, Cgs F, Cgd F), or None (a BJT, no
-    capacitance).
-
-    At a fixed bias: for a level-1..3 model the overlap capacitances ``CGSO W`` and ``CGDO W``
-    (W the instance's, ngspice's default 100 µm); for a VDMOS ``CGS`` and ``CGDMAX``; plus
-    ``cgd``, a macro-model's gate-drain feedback capacitor. R is the model's ``RG`` (VDMOS)
-    plus ``rg``, the macro-model's resistor between its gate port and the channel's gate.
-    They set the switching instants: the switch turns when the gate-source capacitor's
-    voltage crosses the threshold (netlist.pwl).
-    """
-    if el.kind != "M":
-        return None
-    p = {k.lower(): float(v) for k, v in model.params.items()
-         if isinstance(v, (int, float))}
-    if model.type == "VDMOS":
-        cgs, cgd = p.get("cgs", 0.0), cgd + p.get("cgdmax", 0.0)
-        rg += p.get("rg", 0.0)
-    else:
-        w = _instance_length(el, "w", 100e-6)
-        cgs, cgd = p.get("cgso", 0.0) * w, cgd + p.get("cgdo", 0.0) * w
-    return (rg, cgs, cgd) if cgs + cgd > 0 else None

@@ -40,6 +40,7 @@ from __future__ import annotations
 import os
 import re
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 
 from .capacitor_loops import reduce_capacitor_loops
@@ -48,6 +49,7 @@ from .dialect import hierarchical_name, node_name
 from .errors import Diagnostic, NetlistError
 from .expressions import ExpressionError, parse_expression
 from .flatten import build_circuit, independent_problems
+from .free_potential import free_potential_notes
 from .inductor_cutsets import regularise_inductor_cutsets
 from .netlist_bytes import decode as _decode
 from .netlist_bytes import read_bytes as _read_bytes
@@ -246,8 +248,11 @@ def is_pyspice_circuit(obj) -> bool:
 def _loops_and_cutsets(circuit: Circuit) -> Circuit:
     """The circuit with its loops of capacitors and voltage sources reduced
     (:mod:`netlist.capacitor_loops`) and its floating sources' inductor cutsets made regular
-    (:mod:`netlist.inductor_cutsets`): what the formulation would otherwise refuse."""
-    return regularise_inductor_cutsets(reduce_capacitor_loops(circuit))
+    (:mod:`netlist.inductor_cutsets`): what the formulation would otherwise refuse; a note for
+    each part whose potential only diodes bound (:mod:`netlist.free_potential`)."""
+    notes = free_potential_notes(circuit)  # (on the netlist's own nodes and elements)
+    out = regularise_inductor_cutsets(reduce_capacitor_loops(circuit))
+    return replace(out, notes=[*out.notes, *notes]) if notes else out
 
 
 def _idealised(circuit: Circuit) -> Circuit:

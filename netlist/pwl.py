@@ -238,18 +238,21 @@ def diode_params(circuit: Circuit, el: Diode, merged: dict | None = None
     defaults filled in; several for a macro-model's or merged parallel diodes) and the
     series resistance of its macro-model (Ω)."""
     merged = parallel_diodes(circuit) if merged is None else merged
-    names = [el.model] if el.model else []
+    # (model, area): ngspice scales IS by the area and RS by its inverse
+    names = [(el.model, el.area)] if el.model else []
     series = 0.0
     if el.device is not None and len(el.device) > 4:  # a diode macro-model
-        names, series = list(el.device[3]), float(el.device[4])
-    names += [e.model for e in circuit.elements
+        names, series = [(nm, 1.0) for nm in el.device[3]], float(el.device[4])
+    names += [(e.model, getattr(e, "area", 1.0)) for e in circuit.elements
               if merged.get(e.key) == el.name and getattr(e, "model", "")]
     params = []
-    for nm in names:
+    for nm, area in names:
         m = circuit.models.get(str(nm).lower())
         p = dict(_DIODE_DEFAULTS)
         if m is not None:
             p.update({k.lower(): float(v) for k, v in m.params.items() if k.lower() in p})
+        p["is"] *= area
+        p["rs"] /= area
         params.append(p)
     return params or [dict(_DIODE_DEFAULTS)], series
 

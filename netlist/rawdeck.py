@@ -147,23 +147,31 @@ class Body:
 
 @dataclass(eq=False)
 class SubcktDef:
-    """A ``.subckt`` definition: name, ports, default parameters and body."""
+    """A ``.subckt`` definition: name, ports, default parameters and body. ``key`` is its key
+    in :attr:`Deck.subckts`: its lower-case name, prefixed ``parent:`` for a definition nested
+    in ``parent``'s (local to it, as in ngspice); ``parent`` is that key, else None."""
 
     name: str
     ports: list[str]
     defaults: list[RawParam]
     body: Body
     st: Statement
+    key: str = ""
+    parent: str | None = None
 
 
 @dataclass(eq=False)
 class RawModel:
-    """A ``.model`` card as written: name, device type and parameters."""
+    """A ``.model`` card as written: name, device type and parameters.
+
+    ``scope`` is the subcircuit whose definition holds the card (lower case), None at the
+    top level: ngspice makes such a model local to that subcircuit."""
 
     name: str
     type: str
     params: list[RawParam]
     st: Statement
+    scope: str | None = None
 
 
 @dataclass(eq=False)
@@ -194,7 +202,8 @@ class Deck:
     file: str
     title: str = ""
     top: Body = field(default_factory=Body)
-    subckts: dict[str, SubcktDef] = field(default_factory=dict)  # lower-case name
+    # by SubcktDef.key: the lower-case name, a nested definition's prefixed by its parent's
+    subckts: dict[str, SubcktDef] = field(default_factory=dict)
     models: list[RawModel] = field(default_factory=list)
     # XSPICE code-model cards (netlist.xspice.CodeModel) by lower-case name
     code_models: dict = field(default_factory=dict)
@@ -205,4 +214,16 @@ class Deck:
     notes: list[str] = field(default_factory=list)  # what the reader did the user should know
     globals: set[str] = field(default_factory=set)
     files: list[str] = field(default_factory=list)  # display names in reading order
+
+    def subckt_key(self, ref: str, scope: str | None) -> str | None:
+        """The definition an instance in the body of ``scope`` (a key of :attr:`subckts`;
+        None at the top level) names by ``ref``: one nested in ``scope`` or in a definition
+        around it, nearest first, else a top-level one; None when there is none."""
+        name = ref.lower()
+        while scope is not None:
+            key = f"{scope}:{name}"
+            if key in self.subckts:
+                return key
+            scope = self.subckts[scope].parent if scope in self.subckts else None
+        return name if name in self.subckts else None
 

@@ -30,6 +30,7 @@ from .dialect import (
 from .element_lines import ElementLines
 from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
 from .expressions import ExpressionError, Token, Tree, lark_parser, parse_expression
+from .funcs import Func, FuncReading
 from .netlist_bytes import decode as _decode
 from .netlist_bytes import read_bytes as _read_bytes
 from .rawdeck import (
@@ -103,6 +104,10 @@ def split_statements(lines: list[tuple[int, str]], file: str, diags: list[Diagno
                 control = None
             continue
         code = _strip_comment(raw) if (";" in raw or "$" in raw) else raw
+        if "\u00b5" in code:
+            # ngspice reads every micro sign (LTspice writes 1000µF) as 'u' (inpcom.c's
+            # utf8_check); the line shown in messages keeps it
+            code = code.replace("\u00b5", "u")
         stripped = code.strip()
         if not stripped or stripped[0] == "*":
             continue
@@ -145,7 +150,7 @@ def split_statements(lines: list[tuple[int, str]], file: str, diags: list[Diagno
 # ------------------------------------------------------------------------------ the reader
 
 
-class _Reader(ElementLines):
+class _Reader(ElementLines, FuncReading):
     """Reads a netlist and its includes into a :class:`Deck`, collecting diagnostics."""
 
     def __init__(self, file: str):
@@ -161,6 +166,9 @@ class _Reader(ElementLines):
         self.deferred_models: dict[str, Diagnostic] = {}
         # the included files as read (display path, bytes): what netlist.deck_cache checks
         self.included: list[tuple[str, bytes]] = []
+        # .func definitions (netlist.funcs), by lower-case name, and their statements
+        self.funcs: dict[str, Func] = {}
+        self.func_defs: dict[str, Statement] = {}
 
     # -- diagnostics
 
@@ -218,14 +226,16 @@ class _Reader(ElementLines):
         """Report the deferred problems of what the circuit uses; note what it does not."""
         used: set[str] = set()
         refs: set[str] = set()
-        bodies = [self.deck.top]
+        bodies: list[tuple[Body, str | None]] = [(self.deck.top, None)]
         while bodies:
-            for el in bodies.pop().elements:
+            body, scope = bodies.pop()
+            for el in body.elements:
                 key = (el.ref or "").lower()
-                if el.kind == "X" and key in self.deck.subckts:
-                    if key not in used:
-                        used.add(key)
-                        bodies.append(self.deck.subckts[key].body)
+                sub_key = self.deck.subckt_key(key, scope) if el.kind == "X" else None
+                if sub_key is not None:
+                    if sub_key not in used:
+                        used.add(sub_key)
+                        bodies.append((self.deck.subckts[sub_key].body, sub_key))
                 elif key:
                     refs.add(key)
         for key, diags in self.deferred.items():
@@ -328,6 +338,10 @@ class _Reader(ElementLines):
     # -- statements
 
     def run(self, statements: list[Statement | _Block]) -> None:
+        # .func definitions first: a call may come before them, as in ngspice
+        for st in statements:
+            if isinstance(st, Statement) and st.text[:5].lower() == ".func":
+                self.define_func(st)
         for st in statements:
             if isinstance(st, _Block):
                 self.deck.ignored.append(IgnoredCommand(st.text, st.loc))
@@ -415,7 +429,7 @@ class _Reader(ElementLines):
             self.read_statement(st)
         finally:
             if len(self.diags) > n:
-                self.deferred.setdefault(sub.name.lower(), []).extend(self.diags[n:])
+                self.deferred.setdefault(sub.key, []).extend(self.diags[n:])
                 del self.diags[n:]
 
     def read_statement(self, st: Statement) -> None:
@@ -433,6 +447,9 @@ class _Reader(ElementLines):
         if letter == "A":
             self.xspice_element(st)
             return
+        if letter == "W":
+            self.current_switch(st)
+            return
         if letter in ELEMENTS:
             self.element(letter, st)
             return
@@ -441,7 +458,7 @@ class _Reader(ElementLines):
             self.error(f"unknown element type '{letter}' ({what})", st, 0, hint)
             return
         self.error(f"unknown element type '{word[0]}' in '{word}'", st, 0,
-                   "pelcs knows the elements R L C V I D S E F G H K X B M Q A and dot commands")
+                   "pelcs knows the elements R L C V I D S W E F G H K X B M Q A and dot commands")
 
     # -- values
 
@@ -469,10 +486,17 @@ class _Reader(ElementLines):
         return None
 
     def expression(self, text: str, st: Statement, offset: int) -> Value | None:
+        expanded = self.expand_funcs(text, st, offset)
+        if expanded is None:
+            return None
         try:
-            expr = parse_expression(text)
+            expr = parse_expression(expanded)
         except ExpressionError as exc:
-            self.error(exc.message, st, offset + exc.offset, exc.hint)
+            if expanded != text:  # (an offset in the expansion is not one in the text)
+                self.error(f"{exc.message} (with its .func calls expanded)", st, offset,
+                           exc.hint)
+            else:
+                self.error(exc.message, st, offset + exc.offset, exc.hint)
             return None
         if expr.constant:
             try:
@@ -525,11 +549,6 @@ class _Reader(ElementLines):
     def cmd_subckt(self, st: Statement) -> None:
         usage = ".subckt name node... [params: name=value ...]"
         tree = self.parse(st, "subckt_cmd", ".subckt", usage)
-        if self.sub is not None:
-            self.error("nested .subckt definitions are not supported", st, 0,
-                       f"close '{self.sub.name}' with .ends first and define "
-                       "subcircuits at the top level")
-            raise _Abandon
         name_tok = tree.children[1]
         ports: list[str] = []
         defaults: list[RawParam] = []
@@ -543,8 +562,10 @@ class _Reader(ElementLines):
                     ports.append(node_name(item.children[0]))
             elif item.data == "assign":
                 defaults.extend(self.assigns([item], st, bare_expression=True))
-        key = name_tok.lower()
-        sub = SubcktDef(str(name_tok), ports, defaults, Body(), st)
+        # (a definition inside another is local to it, as in ngspice: Deck.subckt_key)
+        parent = self.sub.key if self.sub is not None else None
+        key = name_tok.lower() if parent is None else f"{parent}:{name_tok.lower()}"
+        sub = SubcktDef(str(name_tok), ports, defaults, Body(), st, key, parent)
         if key in self.deck.subckts:
             prev = self.deck.subckts[key].st.loc(0)
             self.error(f"subcircuit '{name_tok}' is defined twice (first at line {prev.line})",
@@ -563,7 +584,8 @@ class _Reader(ElementLines):
             if tok.lower() != self.sub.name.lower():
                 self.error(f".ends '{tok}' closes subcircuit '{self.sub.name}'", st,
                            tok.start_pos, f"write .ends {self.sub.name}")
-        self.sub = None
+        parent = self.sub.parent
+        self.sub = self.deck.subckts.get(parent) if parent is not None else None
 
     def cmd_model(self, st: Statement) -> None:
         m = _CODE_MODEL.match(st.text)
@@ -606,7 +628,7 @@ class _Reader(ElementLines):
                 self.error(f"'{tok}' is a VDMOS flag, not a parameter of a {mtype} model", st,
                            tok.start_pos, "remove it")
                 return
-        if mtype in ("D", "SW"):
+        if mtype in ("D", "SW", "CSW"):
             params = self.assigns(items, st)
         else:
             # A vendor's transistor model: only its threshold matters to pelcs, and such
@@ -622,7 +644,8 @@ class _Reader(ElementLines):
                 tok = t.children[0]
                 params.append(RawParam(tok.lower(), Value(1.0, None, st, tok.start_pos), st,
                                        tok.start_pos))
-        self.deck.models.append(RawModel(str(name_tok), _MODEL_TYPES[mtype], params, st))
+        scope = self.sub.key if self.sub is not None else None
+        self.deck.models.append(RawModel(str(name_tok), _MODEL_TYPES[mtype], params, st, scope))
 
     def cmd_ic(self, st: Statement) -> None:
         tree = self.parse(st, "ic_cmd", ".ic", ".ic v(node)=value [v(node)=value ...]")
@@ -755,6 +778,8 @@ _COMMANDS = {
     ".lib": _Reader.cmd_lib,
     ".global": _Reader.cmd_global,
     ".title": _Reader.cmd_title,
+    # (read before the rest of its file: _Reader.define_func)
+    ".func": lambda reader, st: None,
 }
 
 

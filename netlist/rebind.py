@@ -67,9 +67,9 @@ def rebound_circuit(deck: Deck, overrides: Mapping[str, float] | None,
 
 
 def _eligible(deck: Deck) -> bool:
-    # (an instance, a transistor or a B source makes elements of other kinds, names and
-    # numbers)
-    return all(el.kind not in "XMQB" for el in deck.top.elements)
+    # (an instance, a transistor, a B source or a W switch makes elements of other kinds,
+    # names and numbers)
+    return all(el.kind not in "XMQBW" for el in deck.top.elements)
 
 
 def _names(values) -> frozenset[str]:
@@ -92,7 +92,7 @@ def _uses(deck: Deck) -> tuple[tuple[frozenset[str], ...], frozenset[str]]:
 
 
 def _element_values(el: RawElement) -> list:
-    values = [el.value, el.ic]
+    values = [el.value, el.ic, *(p.value for p in el.params)]
     if el.wave is not None:
         _, args, _, extras = el.wave
         values += list(args) + [val for val, _ in extras.values()]

@@ -3,11 +3,12 @@ them into ``circuit.steps`` and ``pelcs sweep`` runs them."""
 
 from __future__ import annotations
 
+import math
 import re
 
 from .rawdeck import RawStep, Statement
 
-__all__ = ["read_step"]
+__all__ = ["evaluate_steps", "read_step"]
 
 
 def read_step(reader, st: Statement) -> None:
@@ -47,3 +48,45 @@ def read_step(reader, st: Statement) -> None:
     if any(v is None for v in values):
         return
     reader.deck.steps.append(RawStep(name, values, linear, st, name_pos))
+
+
+def evaluate_steps(builder) -> None:
+    """``.step param`` lines -> ``builder.circuit.steps`` (name, values), one sweep axis each
+    (``builder``: netlist.flatten's, for its parameters, evaluation and errors)."""
+    seen: dict[str, int] = {}
+    known = {k.lower(): k for k in builder.circuit.params}
+    for st in builder.deck.steps:
+        loc = st.st.loc(st.name_pos)
+        key = st.name.lower()
+        if key not in known:
+            builder.error(f".step: '{st.name}' is not a .param of the netlist", loc,
+                          "define it with .param (its value is the nominal one) or step one of "
+                          f"{', '.join(sorted(known.values())) or 'the parameters'}",
+                          dependent=True)
+            continue
+        if key in seen:
+            builder.error(f".step: '{st.name}' is stepped twice (first at line {seen[key]})",
+                          loc, "give all its values on one .step line")
+            continue
+        seen[key] = loc.line
+        vals = [builder.evaluate(v, builder.global_env, builder.global_failed) for v in st.values]
+        if any(v is None for v in vals):
+            continue
+        if st.linear:
+            start, stop, incr = vals
+            n = (stop - start) / incr if incr else -1.0
+            if not incr or n < -1e-9:
+                builder.error(f".step param {st.name}: INCR {incr:g} does not lead from "
+                              f"{start:g} to {stop:g}", st.values[2].loc,
+                              "give INCR with the sign of STOP - START (and not 0)")
+                continue
+            count = int(math.floor(n + 1e-9)) + 1
+            if count > 100000:
+                builder.error(f".step param {st.name}: {count} values", st.values[2].loc,
+                              "at most 100000 values per .step: use a larger INCR")
+                continue
+            # 12 digits: 0.2 + 2 * 0.2 is 0.6, not 0.6000000000000001
+            values = tuple(float(f"{start + k * incr:.12g}") for k in range(count))
+        else:
+            values = tuple(float(v) for v in vals)
+        builder.circuit.steps.append((known[key], values))

@@ -197,7 +197,7 @@ UNUSED = """unused subcircuit and model that pelcs cannot read
 V1 a 0 1
 R1 a 0 1k
 .subckt opamp in out
-E1 out 0 poly(1) in 0 0 1e5
+E1 out 0 poly(1) in 0 0 1e5 1
 B1 x 0 V = V(in) * * 2
 .ends
 .model JX NJF(BETA=1m)
