@@ -23,7 +23,7 @@ import math
 import threading
 import weakref
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 from .circuit import Circuit
 from .flatten import _Builder, build_circuit
@@ -132,14 +132,40 @@ def _rebind(deck: Deck, base: _Base, overrides: dict) -> Circuit | None:
             el = builder.element(raw, "", _same_node, env, failed)
             if builder.diags:
                 return None
-        elements.append(copy.copy(el))
+        elements.append(_shallow(el))
     c = base.circuit
-    return replace(
-        c, elements=elements, params=dict(env),
-        models={k: replace(m, params=dict(m.params)) for k, m in c.models.items()},
-        initial_conditions=dict(c.initial_conditions), tran=copy.copy(c.tran),
-        options=dict(c.options), ignored=list(c.ignored), replacements=list(c.replacements),
-        notes=list(c.notes), subckt_texts=dict(c.subckt_texts), steps=list(c.steps))
+    # (what dataclasses.replace(c, ...) gives, field for field: Circuit has no __post_init__)
+    out = _shallow(c)
+    out.elements = elements
+    out.params = dict(env)
+    out.models = {k: _with_params(m) for k, m in c.models.items()}
+    out.initial_conditions = dict(c.initial_conditions)
+    out.tran = None if c.tran is None else _shallow(c.tran)
+    out.options = dict(c.options)
+    out.ignored = list(c.ignored)
+    out.replacements = list(c.replacements)
+    out.notes = list(c.notes)
+    out.subckt_texts = dict(c.subckt_texts)
+    out.steps = list(c.steps)
+    return out
+
+
+def _shallow(obj):
+    """``copy.copy`` of a plain dataclass instance (its attributes in a new instance of its
+    class) without ``copy``'s protocol: 0.5 us instead of 2.5 us an element, and a design
+    loop copies every element of the circuit each run."""
+    if not hasattr(obj, "__dict__") or hasattr(obj, "__copy__"):
+        return copy.copy(obj)
+    new = object.__new__(type(obj))
+    new.__dict__.update(obj.__dict__)
+    return new
+
+
+def _with_params(model):
+    """A copy of a model with its own parameter dict."""
+    new = _shallow(model)
+    new.params = dict(model.params)
+    return new
 
 
 def _same_node(node: str) -> str:
