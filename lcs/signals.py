@@ -415,6 +415,8 @@ def resolve(sig: Signal, tstep: float, tstop: float) -> Signal:
         The ``.tran`` step and stop time, s.
     """
     if isinstance(sig, Pulse):
+        if sig.tr and sig.tf and sig.pw and sig.per:
+            return sig  # (nothing to fill; and what it keeps of its evaluations serves)
         return replace(
             sig,
             tr=sig.tr if sig.tr else tstep,

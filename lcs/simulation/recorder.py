@@ -165,31 +165,34 @@ class Recorder:
         rows = self.ev_key[:count]
         info = self.ev_info[:count]
         keep = t <= t_last
-        t, rows, info = t[keep], rows[keep], info[keep]
+        if not keep.all():  # (a run that stopped early)
+            t, rows, info = t[keep], rows[keep], info[keep]
         if k <= 63:
             keys = rows[:, 0]  # (one word, no sign bit: the integers themselves)
         else:
             keys = np.array([from_words(r) for r in rows], dtype=object)
         k0 = key_of(mode0)
-        prev = np.concatenate(([k0], keys[:-1])) if len(keys) else keys
+        if len(keys):
+            prev = np.empty_like(keys)
+            prev[0] = k0
+            prev[1:] = keys[:-1]
+        else:
+            prev = keys
         change = keys != prev
-        tuples: dict[int, ModeKey] = {}
         ct = t[change].tolist()
         ck = keys[change].tolist()
-        events = []
-        for tt, kk in zip(ct, ck, strict=True):
-            md = tuples.get(kk)
-            if md is None:
-                md = tuples[kk] = mode_tuple(kk, k)
-            events.append((tt, md))
+        # (one tuple per mode, shared by its events)
+        tuples: dict[int, ModeKey] = {kk: mode_tuple(kk, k) for kk in dict.fromkeys(ck)}
+        events = list(zip(ct, map(tuples.__getitem__, ck)))
         visited = [tuple(mode0)]
-        for kk in dict.fromkeys(ck):
-            md = tuples[kk]
+        for md in tuples.values():
             if md not in visited:
                 visited.append(md)
         sliding = []
         open_slide: dict[int, float] = {}
-        for e in np.flatnonzero(info >= EV_SLIDE_START).tolist():
+        slides = (info >= EV_SLIDE_START).nonzero()[0].tolist() if info.size and \
+            info.max() >= EV_SLIDE_START else ()
+        for e in slides:
             i, tt = int(info[e]), float(t[e])
             if i >= EV_SLIDE_END:
                 sw = i - EV_SLIDE_END
