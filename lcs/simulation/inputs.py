@@ -15,7 +15,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from ..arrays import unique_sorted
-from ..signals import Dc
+from ..signals import Dc, Pulse
 
 InputFunction = Callable[[np.ndarray], np.ndarray]
 
@@ -62,6 +62,9 @@ def evaluate_inputs(inputs: Sequence[InputFunction], t: np.ndarray, side: int = 
 
     return _by_row_blocks(t, len(inputs), column)
 
+
+#: breakpoints of a source past which it is called, not tabulated (:class:`InputTable`)
+MAX_TABLE = 4_000_000
 
 #: rows of an (N, p) array of inputs computed at a time (see :func:`_by_row_blocks`)
 ROW_BLOCK = 4096
@@ -116,10 +119,19 @@ class InputTable:
                 # (what the general case gives a DC source: its value at both ends)
                 table = (np.array([t0, t1], dtype=float),
                          np.array([f.value, f.value], dtype=float))
+            elif type(f) is Pulse and t0 < t1 and not f.jumps:
+                # (its breakpoints are sorted and distinct already: those inside, and the
+                # ends)
+                pts = f.breakpoints(t0, t1)
+                pts = np.concatenate((
+                    [t0], pts[pts.searchsorted(t0, "right"):pts.searchsorted(t1, "left")],
+                    [t1]))
+                if len(pts) <= MAX_TABLE:
+                    table = (pts, np.asarray(f(pts), dtype=float).ravel())
             elif getattr(f, "piecewise_linear", False) and bp is not None and not _jumps(f):
                 pts = np.asarray(bp(t0, t1), dtype=float).ravel()
                 pts = unique_sorted(np.concatenate(([t0, t1], pts[(pts > t0) & (pts < t1)])))
-                if len(pts) <= 4_000_000:
+                if len(pts) <= MAX_TABLE:
                     table = (pts, np.asarray(f(pts), dtype=float).ravel())
             self.tables.append(table)
         self.jumps = has_jumps(self.inputs)

@@ -183,7 +183,7 @@ class Recorder:
         ck = keys[change].tolist()
         # (one tuple per mode, shared by its events)
         tuples: dict[int, ModeKey] = {kk: mode_tuple(kk, k) for kk in dict.fromkeys(ck)}
-        events = list(zip(ct, map(tuples.__getitem__, ck)))
+        events = list(zip(ct, map(tuples.__getitem__, ck), strict=True))
         visited = [tuple(mode0)]
         for md in tuples.values():
             if md not in visited:
