@@ -165,7 +165,8 @@ class Pulse:
         edges = (0.0, tr, tr + pw, tr + pw + tf, per)
         _snap_to_edges(tau, edges, tol)
         v1, v2 = self.v1, self.v2
-        out = np.full_like(tau, v1)
+        out = np.empty_like(tau)
+        out.fill(v1)
         top = tr + pw
         # (the three parts are disjoint; an instant on none of them is at V1)
         high = (tau >= tr) & (tau <= top)
