@@ -115,8 +115,16 @@ class Pulse:
             else:
                 new_t, new_v = np.concatenate((t, _NAN1)), np.concatenate((out, _NAN1))
         else:
-            out = self._values(t, side)
-            new_t, new_v = np.concatenate((t, _NAN1)), np.concatenate((out, _NAN1))
+            # (with the ends of the run whose breakpoints were asked for: a run evaluates its
+            # segments' starts, then their ends, the last of which is its end)
+            last = self.__dict__.get("_last_breakpoints")
+            ends = np.array([last[0], last[1], np.nan]) if last is not None and math.isfinite(
+                last[0]) and math.isfinite(last[1]) else _NAN1
+            new_t = np.concatenate((t, ends))
+            new_v = np.empty_like(new_t)
+            new_v[-1] = np.nan
+            new_v[:-1] = self._values(new_t[:-1], side)
+            out = new_v[:t.size].copy()
         order = new_t.argsort(kind="stable")  # (the NaN last)
         object.__setattr__(self, "_last_values", (side, new_t.take(order), new_v.take(order)))
         return out
