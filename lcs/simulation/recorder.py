@@ -164,26 +164,23 @@ class Recorder:
         t = self.ev_t[:count]
         rows = self.ev_key[:count]
         info = self.ev_info[:count]
-        keep = t <= t_last
-        if not keep.all():  # (a run that stopped early)
+        if count and not t.max() <= t_last:  # (a run that stopped early; or a NaN)
+            keep = t <= t_last
             t, rows, info = t[keep], rows[keep], info[keep]
         if k <= 63:
             keys = rows[:, 0]  # (one word, no sign bit: the integers themselves)
         else:
             keys = np.array([from_words(r) for r in rows], dtype=object)
-        k0 = key_of(mode0)
+        # (the events that change the key: the first against the initial mode's)
+        change = np.empty(len(keys), dtype=bool)
         if len(keys):
-            prev = np.empty_like(keys)
-            prev[0] = k0
-            prev[1:] = keys[:-1]
-        else:
-            prev = keys
-        change = keys != prev
+            change[0] = keys[0] != key_of(mode0)
+            np.not_equal(keys[1:], keys[:-1], out=change[1:])
         ct = t[change].tolist()
         ck = keys[change].tolist()
-        # (one tuple per mode, shared by its events)
+        # (one tuple per mode, shared by its events; ct and ck are of one length)
         tuples: dict[int, ModeKey] = {kk: mode_tuple(kk, k) for kk in dict.fromkeys(ck)}
-        events = list(zip(ct, map(tuples.__getitem__, ck), strict=True))
+        events = list(zip(ct, map(tuples.__getitem__, ck), strict=False))
         visited = [tuple(mode0)]
         for md in tuples.values():
             if md not in visited:
