@@ -252,7 +252,7 @@ class Pulse:
             if self.np_:
                 pts = pts[pts <= self.td + self.np_ * self.per]
                 end.append(self.td + self.np_ * self.per)
-            pts = np.append(pts, end)
+            pts = np.concatenate((pts, end))
         pts = unique_sorted(pts)
         # (sorted, no NaN: the instants in [t0, t1] are a slice)
         return pts[pts.searchsorted(t0, "left"):pts.searchsorted(t1, "right")]
@@ -270,9 +270,11 @@ def _snap_to_edges(tau: np.ndarray, edges: tuple[float, ...], tol: np.ndarray) -
         e = np.array(edges)
         dist = tau[:, None] - e
         np.abs(dist, out=dist)
-        near = dist <= tol[:, None]
-        which = near.argmax(axis=1)
-        np.copyto(tau, e.take(which), where=near.any(axis=1))
+        # (the first edge within tolerance, or edge 0 where none is, which then is not)
+        edge = e.take((dist <= tol[:, None]).argmax(axis=1))
+        dist = tau - edge
+        np.abs(dist, out=dist)
+        np.copyto(tau, edge, where=dist <= tol)
         return
     for edge in edges:
         dist = tau - edge

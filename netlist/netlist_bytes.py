@@ -51,7 +51,8 @@ def read_bytes(path: str | Path, display: str, at: Location | None) -> bytes:
         raise NetlistError(Diagnostic(str(exc), at, "unset it or give a number of bytes"),
                            display) from None
     try:
-        mode = os.stat(path).st_mode
+        info = os.stat(path)
+        mode = info.st_mode
         if stat.S_ISDIR(mode):
             raise NetlistError(Diagnostic(f"'{display}' is a directory, not a netlist file", at,
                                           "give the path of a netlist file"), display)
@@ -64,8 +65,9 @@ def read_bytes(path: str | Path, display: str, at: Location | None) -> bytes:
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_BINARY", 0))
         try:
             # Sized from the file (read(limit + 1) allocates the whole limit, 30 us a
-            # netlist); past the size (a pipe, a file growing) up to the limit.
-            want = min(int(limit), os.fstat(fd).st_size) + 1
+            # netlist); past the size (a pipe, a file grown or replaced since) up to the
+            # limit.
+            want = min(int(limit), info.st_size) + 1
             data = _read_fd(fd, want)
             if len(data) == want and want <= limit:
                 data += _read_fd(fd, int(limit) + 1 - want)
