@@ -12,6 +12,7 @@ jump.
 
 from __future__ import annotations
 
+import threading
 import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -55,6 +56,7 @@ class InitialState:
 # they depend on (a design loop starts every run from the same state and inputs).
 _KEPT: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 _KEPT_PER_PROBLEM = 16
+_LOCK = threading.Lock()
 
 
 def initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_maps: dict,
@@ -88,9 +90,10 @@ def initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_map
                                controllers, on_inconsistent, lcp, notes)
         if kept is None or len(notes) != n_notes:
             return found  # (an inconsistent state: its notes and its handler every run)
-        if len(kept) >= _KEPT_PER_PROBLEM:
-            kept.pop(next(iter(kept)))
-        kept[key] = found
+        with _LOCK:
+            while len(kept) >= _KEPT_PER_PROBLEM:
+                kept.pop(next(iter(kept)))
+            kept[key] = found
     # (copies: a run changes its state where a mode pins it)
     return InitialState(found.key, found.mode, found.x.copy(), found.lam.copy(), found.active)
 
