@@ -189,6 +189,12 @@ class Pulse:
             out[after] = v1
         return out
 
+    def value_at(self, t: float, side: int = 0) -> float:
+        """The value at one finite instant ``t`` (s): what :meth:`__call__` gives for it,
+        without the array."""
+        self._require_resolved()
+        return self._at(t, side)
+
     def _at(self, t: float, side: int) -> float:
         """:meth:`__call__` at one finite instant, operation for operation (IEEE doubles:
         the same bits)."""

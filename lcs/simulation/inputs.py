@@ -58,9 +58,7 @@ def evaluate_inputs(inputs: Sequence[InputFunction], t: np.ndarray, side: int = 
         if type(f) is Dc:
             return f.value  # (broadcast: what its call gives, without the array)
         if type(f) is Pulse and tb.shape == (1,) and math.isfinite(tb[0]):
-            # (what its call at one instant gives, without the array)
-            f._require_resolved()
-            return f._at(float(tb[0]), side if side != 0 and f.jumps else 0)
+            return f.value_at(float(tb[0]), side if side != 0 and f.jumps else 0)
         if side != 0 and _jumps(f):
             return f(tb, side)
         return f(tb)  # (a value or the block's values: _by_row_blocks broadcasts it)
