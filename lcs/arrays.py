@@ -23,4 +23,7 @@ def unique_sorted(values) -> np.ndarray:
     a = np.sort(np.asarray(values).ravel())
     if a.size < 2:
         return a
-    return a[np.concatenate(([True], a[1:] != a[:-1]))]
+    keep = np.empty(a.size, dtype=bool)
+    keep[0] = True
+    np.not_equal(a[1:], a[:-1], out=keep[1:])
+    return a[keep]

@@ -19,6 +19,7 @@ _EPS = float(np.finfo(float).eps)
 # Instants of a PULSE's evaluation kept for the next (a run's few hundred breakpoints; a
 # long array is not kept)
 _MEMO_MAX = 4096
+_NAN1 = np.array([np.nan])
 
 
 @dataclass(frozen=True)
@@ -69,9 +70,15 @@ class Pulse:
     def jumps(self) -> bool:
         """Whether the waveform may jump: at period starts when ``TR + PW + TF > PER``, and at
         the end of a fractional number of pulses."""
+        # (asked for every evaluation of the inputs: kept)
+        known = self.__dict__.get("_last_jumps")
+        if known is not None:
+            return known
         self._require_resolved()
         cut = self.tr + self.pw + self.tf > self.per
-        return self.per > 0 and (cut or bool(self.np_ and self.np_ != math.floor(self.np_)))
+        known = self.per > 0 and (cut or bool(self.np_ and self.np_ != math.floor(self.np_)))
+        object.__setattr__(self, "_last_jumps", known)
+        return known
 
     def __call__(self, t, side: int = 0):
         """Values at the times ``t`` (s); ``side`` +1 / -1: right / left limits (they differ
@@ -85,63 +92,108 @@ class Pulse:
         if t.ndim != 1 or t.size > _MEMO_MAX:
             return self._values(t, side)
         # A run asks for the same instants again (its segments' starts, their ends, its input
-        # table): each value depends on its instant alone, so those of the last call serve.
+        # table): each value depends on its instant alone, so those known serve. The known
+        # instants are sorted, and end with a NaN that no instant equals (no index past the
+        # end to clip).
         memo = self.__dict__.get("_last_values")
         if memo is not None and memo[0] == side:
             known_t, known_v = memo[1], memo[2]
-            idx = np.minimum(np.searchsorted(known_t, t), known_t.size - 1)
-            hit = known_t[idx] == t
+            idx = known_t.searchsorted(t)
+            hit = known_t.take(idx) == t
+            out = known_v.take(idx)
             if hit.all():
-                return known_v[idx]
-            out = np.empty_like(t)
-            out[hit] = known_v[idx[hit]]
-            miss = t[~hit]
-            out[~hit] = (self._at(float(miss[0]), side) if miss.size == 1
-                         and math.isfinite(miss[0]) else self._values(miss, side))
+                return out
+            miss = ~hit
+            new_t = t[miss]
+            new_v = (np.array([self._at(float(new_t[0]), side)]) if new_t.size == 1
+                     and math.isfinite(new_t[0]) else self._values(new_t, side))
+            out[miss] = new_v
+            if known_t.size + new_t.size <= _MEMO_MAX:
+                # (kept with those already known: the next call may ask for either)
+                new_t = np.concatenate((known_t, new_t))
+                new_v = np.concatenate((known_v, new_v))
+            else:
+                new_t, new_v = np.concatenate((t, _NAN1)), np.concatenate((out, _NAN1))
         else:
-            out = self._values(t, side)
-        order = np.argsort(t, kind="stable")
-        object.__setattr__(self, "_last_values", (side, t[order], out[order]))
+            # (with the ends of the run whose breakpoints were asked for: a run evaluates its
+            # segments' starts, then their ends, the last of which is its end)
+            last = self.__dict__.get("_last_breakpoints")
+            ends = np.array([last[0], last[1], np.nan]) if last is not None and math.isfinite(
+                last[0]) and math.isfinite(last[1]) else _NAN1
+            new_t = np.concatenate((t, ends))
+            new_v = np.empty_like(new_t)
+            new_v[-1] = np.nan
+            new_v[:-1] = self._values(new_t[:-1], side)
+            out = new_v[:t.size].copy()
+        order = new_t.argsort(kind="stable")  # (the NaN last)
+        object.__setattr__(self, "_last_values", (side, new_t.take(order), new_v.take(order)))
         return out
 
     def __getstate__(self) -> dict:
-        # (pickled without the kept evaluations and breakpoints: not part of the value)
+        # (pickled without what it keeps of its evaluations: not part of the value)
         return {k: v for k, v in self.__dict__.items() if not k.startswith("_last_")}
 
     def _values(self, t: np.ndarray, side: int) -> np.ndarray:
+        # (the arithmetic of _at, array-wise; in place where it can be: a run evaluates a
+        # few hundred instants, and each numpy call costs more than its arithmetic)
+        if t.ndim != 1:
+            return self._values(np.ravel(t), side).reshape(t.shape)
         tau = t - self.td
         per = self.per
-        after = np.zeros(tau.shape, dtype=bool)
+        after = None
         if per > 0:
             # the period an instant belongs to: [k PER, (k+1) PER), or (k PER, (k+1) PER] for
             # a left limit; a period start within round-off is one (9.8e-4 / 2e-5 exceeds 49
             # by an ulp, which would take the end of period 48 for the start of period 49)
             q = tau / per
-            near = np.round(q)
-            q = np.where(np.abs(q - near) <= 64 * _EPS * np.maximum(1.0, np.abs(q)), near, q)
-            k = np.ceil(q) - 1 if side < 0 else np.floor(q)
-            k = np.maximum(k, 0.0)
+            near = np.rint(q)  # (np.round's half to even)
+            off = q - near
+            np.abs(off, out=off)
+            scale = np.abs(q)
+            np.maximum(scale, 1.0, out=scale)
+            scale *= 64 * _EPS
+            np.copyto(q, near, where=off <= scale)
+            if side < 0:
+                k = np.ceil(q)
+                k -= 1.0
+            else:
+                k = np.floor(q)
+            np.maximum(k, 0.0, out=k)
             if self.np_:
                 # ngspice: V1 once TD + NP PER is past
                 tmax = self.np_ * per
                 after = tau >= tmax if side > 0 else tau > tmax
-            tau = tau - k * per
+            k *= per
+            tau -= k
         tr, tf, pw = self.tr, self.tf, self.pw
         # An instant within round-off of an edge is on it: the levels at the corners are then
         # exactly V1 and V2 (2.1e-3 - 1e-3 exceeds 1e-4 + 1e-3 by an ulp, which would put the
         # end of a flat top on its fall, 2e-15 V below V2, where a switch threshold may sit).
         tol = 16 * _EPS * (np.abs(t) + abs(self.td) + max(per, 0.0))
-        for edge in (0.0, tr, tr + pw, tr + pw + tf, per):
-            tau = np.where(np.abs(tau - edge) <= tol, edge, tau)
+        edges = (0.0, tr, tr + pw, tr + pw + tf, per)
+        _snap_to_edges(tau, edges, tol)
         v1, v2 = self.v1, self.v2
-        out = np.full_like(tau, v1)
+        out = np.empty_like(tau)
+        out.fill(v1)
+        top = tr + pw
+        # (the three parts are disjoint; an instant on none of them is at V1)
+        high = (tau >= tr) & (tau <= top)
+        out[high] = v2
         rising = (tau > 0) & (tau < tr)
-        high = (tau >= tr) & (tau <= tr + pw)
-        falling = (tau > tr + pw) & (tau < tr + pw + tf)
-        out = np.where(rising, v1 + (v2 - v1) * tau / tr, out)
-        out = np.where(high, v2, out)
-        out = np.where(falling, v2 + (v1 - v2) * (tau - tr - pw) / tf, out)
-        return np.where(after, v1, out)
+        if rising.any():
+            out[rising] = v1 + (v2 - v1) * tau[rising] / tr
+        falling = (tau > top) & (tau < top + tf)
+        if falling.any():
+            out[falling] = v2 + (v1 - v2) * (tau[falling] - tr - pw) / tf
+        if after is not None:
+            out[after] = v1
+        return out
+
+    def value_at(self, t: float, side: int = 0) -> float:
+        """The value at one finite instant ``t`` (s): what :meth:`__call__` gives for it,
+        without the array."""
+        self._require_resolved()
+        return self._at(t, side)
 
     def _at(self, t: float, side: int) -> float:
         """:meth:`__call__` at one finite instant, operation for operation (IEEE doubles:
@@ -189,25 +241,51 @@ class Pulse:
 
     def _breakpoints(self, t0: float, t1: float) -> np.ndarray:
         self._require_resolved()
-        edges = np.array([0.0, self.tr, self.tr + self.pw, self.tr + self.pw + self.tf])
+        edges = (0.0, self.tr, self.tr + self.pw, self.tr + self.pw + self.tf)
         if self.per <= 0:
-            pts = self.td + edges
+            pts = self.td + np.array(edges)
         else:
-            edges = edges[edges < self.per]
+            edges = np.array([e for e in edges if e < self.per])
             k0 = max(0, math.floor((t0 - self.td) / self.per) - 1)
             k1 = math.ceil((t1 - self.td) / self.per) + 1
             if self.np_:
                 k1 = min(k1, int(math.ceil(self.np_)) - 1)
-            ks = np.arange(k0, max(k1, k0) + 1)
+            last = max(k1, k0)
+            ks = np.arange(k0, last + 1)
             pts = (self.td + ks[:, None] * self.per + edges[None, :]).ravel()
             # the end of the last period (where a cut pulse jumps back to V1)
-            end = [self.td + (ks[-1] + 1) * self.per]
+            end = [self.td + (last + 1) * self.per]
             if self.np_:
                 pts = pts[pts <= self.td + self.np_ * self.per]
                 end.append(self.td + self.np_ * self.per)
-            pts = np.append(pts, end)
+            pts = np.concatenate((pts, end))
         pts = unique_sorted(pts)
-        return pts[(pts >= t0) & (pts <= t1)]
+        # (sorted, no NaN: the instants in [t0, t1] are a slice)
+        return pts[pts.searchsorted(t0, "left"):pts.searchsorted(t1, "right")]
+
+
+def _snap_to_edges(tau: np.ndarray, edges: tuple[float, ...], tol: np.ndarray) -> None:
+    """Set to each edge in turn the entries of ``tau`` within ``tol`` of it (in place).
+
+    Where the edges are more than four tolerances apart, an entry is within tolerance of
+    one edge at most, and the edge it then takes is no nearer another: one comparison of
+    every entry with every edge gives what the edges in turn give."""
+    order = sorted(edges)
+    gap = min(b - a for a, b in zip(order[:-1], order[1:], strict=True))
+    if gap > 4.0 * tol.max(initial=0.0):
+        e = np.array(edges)
+        dist = tau[:, None] - e
+        np.abs(dist, out=dist)
+        # (the first edge within tolerance, or edge 0 where none is, which then is not)
+        edge = e.take((dist <= tol[:, None]).argmax(axis=1))
+        dist = tau - edge
+        np.abs(dist, out=dist)
+        np.copyto(tau, edge, where=dist <= tol)
+        return
+    for edge in edges:
+        dist = tau - edge
+        np.abs(dist, out=dist)
+        np.copyto(tau, edge, where=dist <= tol)
 
 
 @dataclass(frozen=True)
@@ -354,6 +432,8 @@ def resolve(sig: Signal, tstep: float, tstop: float) -> Signal:
         The ``.tran`` step and stop time, s.
     """
     if isinstance(sig, Pulse):
+        if sig.tr and sig.tf and sig.pw and sig.per:
+            return sig  # (nothing to fill; and what it keeps of its evaluations serves)
         return replace(
             sig,
             tr=sig.tr if sig.tr else tstep,

@@ -46,7 +46,7 @@ _DECKS: OrderedDict[tuple, _Entry] = OrderedDict()
 _LOCK = threading.Lock()
 
 
-def cached_deck(text: str, file: str, path: Path | None,
+def cached_deck(text: str, file: str, path: str | Path | None,
                 params: Mapping[str, float] | None) -> Deck:
     """The deck of netlist ``text``, read now or kept from an earlier call.
 
@@ -57,7 +57,7 @@ def cached_deck(text: str, file: str, path: Path | None,
     file : str
         Its name as the user gave it (messages, and the directory relative includes start
         from), ``"<string>"`` for text.
-    path : Path, optional
+    path : str or Path, optional
         The file (resolved when it is read, for include cycles), None for text.
     params : mapping, optional
         The overrides of this run: they only complete the report of a netlist with syntax
@@ -83,7 +83,7 @@ def cached_deck(text: str, file: str, path: Path | None,
                 _DECKS.move_to_end(key)
         return entry.deck
     reader = _Reader(file)
-    reader.read_top(text, file, None if path is None else _resolved(path))
+    reader.read_top(text, file, None if path is None else _resolved(Path(path)))
     reader.raise_problems(dict(params or {}), independent_problems)
     with _LOCK:
         _DECKS[key] = _Entry(reader.deck, tuple(reader.included))

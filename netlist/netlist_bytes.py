@@ -41,7 +41,7 @@ def decode(data: bytes, file: str) -> str:
     return text
 
 
-def read_bytes(path: Path, display: str, at: Location | None) -> bytes:
+def read_bytes(path: str | Path, display: str, at: Location | None) -> bytes:
     """The bytes of a netlist file (``at``: the ``.include`` asking for it, None for the top
     file), bounded by :data:`netlist.limits.FILE_BYTES`. An include must be a regular file
     (``/dev/zero`` or a pipe would never end); the top file may also be a pipe."""
@@ -51,7 +51,8 @@ def read_bytes(path: Path, display: str, at: Location | None) -> bytes:
         raise NetlistError(Diagnostic(str(exc), at, "unset it or give a number of bytes"),
                            display) from None
     try:
-        mode = os.stat(path).st_mode
+        info = os.stat(path)
+        mode = info.st_mode
         if stat.S_ISDIR(mode):
             raise NetlistError(Diagnostic(f"'{display}' is a directory, not a netlist file", at,
                                           "give the path of a netlist file"), display)
@@ -59,13 +60,19 @@ def read_bytes(path: Path, display: str, at: Location | None) -> bytes:
             raise NetlistError(Diagnostic(
                 f"'{display}' is not a regular file (a device, a pipe or a socket)", at,
                 "give the path of a netlist file"), display)
-        with open(path, "rb") as fh:
+        # (unbuffered: a file object costs more than the read of a netlist, which a design
+        # loop does every run)
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_BINARY", 0))
+        try:
             # Sized from the file (read(limit + 1) allocates the whole limit, 30 us a
-            # netlist); past the size (a pipe, a file growing) up to the limit.
-            want = min(int(limit), os.fstat(fh.fileno()).st_size) + 1
-            data = fh.read(want)
+            # netlist); past the size (a pipe, a file grown or replaced since) up to the
+            # limit.
+            want = min(int(limit), info.st_size) + 1
+            data = _read_fd(fd, want)
             if len(data) == want and want <= limit:
-                data += fh.read(int(limit) + 1 - want)
+                data += _read_fd(fd, int(limit) + 1 - want)
+        finally:
+            os.close(fd)
     except FileNotFoundError:
         raise NetlistError(Diagnostic(f"file not found: '{display}'", at,
                                       "check the path (relative paths in .include and .lib "
@@ -79,3 +86,21 @@ def read_bytes(path: Path, display: str, at: Location | None) -> bytes:
             f"'{display}' is larger than {limit:.4g} bytes, the limit of a netlist file", at,
             FILE_BYTES.hint("500M")), display)
     return data
+
+
+#: bytes asked of one read (a file read past its size is read by such pieces)
+_CHUNK = 1 << 20
+
+
+def _read_fd(fd: int, n: int) -> bytes:
+    """Up to ``n`` bytes of ``fd``: fewer only at its end (a pipe gives what it holds at a
+    time)."""
+    parts = []
+    got = 0
+    while got < n:
+        part = os.read(fd, min(n - got, _CHUNK))
+        if not part:
+            break
+        parts.append(part)
+        got += len(part)
+    return parts[0] if len(parts) == 1 else b"".join(parts)

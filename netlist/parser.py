@@ -122,10 +122,9 @@ def parse_file(path: str | os.PathLike, params: dict[str, float] | None = None,
     """
     params = params or {}
     display = os.fspath(path)
-    p = Path(display)
-    text = _decode(_read_bytes(p, display, None), display)
+    text = _decode(_read_bytes(display, display, None), display)
     return _idealised(_loops_and_cutsets(
-        _build(_deck(text, display, p, params, reuse), params, thresholds, reuse)))
+        _build(_deck(text, display, display, params, reuse), params, thresholds, reuse)))
 
 
 def _build(deck: Deck, params: dict[str, float], thresholds, reuse: bool) -> Circuit:
@@ -138,10 +137,11 @@ def _build(deck: Deck, params: dict[str, float], thresholds, reuse: bool) -> Cir
     return build_circuit(deck, params, thresholds)
 
 
-def _deck(text: str, file: str, path: Path | None, params: dict[str, float],
+def _deck(text: str, file: str, path: str | None, params: dict[str, float],
           reuse: bool) -> Deck:
-    """The deck of ``text`` (read, or with ``reuse`` the one kept from an earlier read of
-    the same text and includes: :mod:`netlist.deck_cache`); raises its problems."""
+    """The deck of ``text`` (read from the file ``path``, None for text; or with ``reuse``
+    the one kept from an earlier read of the same text and includes:
+    :mod:`netlist.deck_cache`); raises its problems."""
     if reuse:
         from .deck_cache import cached_deck
 
@@ -149,9 +149,9 @@ def _deck(text: str, file: str, path: Path | None, params: dict[str, float],
     base = None
     if path is not None:
         try:
-            base = path.resolve()
+            base = Path(path).resolve()
         except (OSError, RuntimeError):
-            base = path
+            base = Path(path)
     reader = _Reader(file)
     reader.read_top(text, file, base)
     reader.raise_problems(params, independent_problems)

@@ -35,6 +35,7 @@ raise :class:`netlist.errors.NetlistError`; a run that cannot continue raises
 
 from __future__ import annotations
 
+import functools
 import os
 from collections.abc import Mapping, Sequence
 
@@ -219,14 +220,13 @@ def simulate(
             if dt is not None:
                 result = resample(result, dt)
     else:
-        from lcs.moreau import MoreauOptions
         from netlist.system_cache import reused_system
 
         # (the system is kept for the next run; its stored shortened steps are not, so that
         # this run gives what a newly parsed netlist gives, bit for bit)
         result = simulate_circuit(circuit, system=reused_system(circuit),
-                                  options=MoreauOptions(keep_odd_steps=False),
-                                  output_step=output_step, **kw)
+                                  options=_fresh_steps_options(), output_step=output_step,
+                                  **kw)
     if check:
         result.raise_if_error()
     return result
@@ -304,6 +304,14 @@ def ac(
             pass  # a .param name
     return ac_analysis(c, period=period, inject=inject, probes=probes, freqs=freq,
                        loop=loop, method=method, **options)
+
+
+@functools.cache
+def _fresh_steps_options():
+    """``MoreauOptions(keep_odd_steps=False)`` (frozen: one for every run)."""
+    from lcs.moreau import MoreauOptions
+
+    return MoreauOptions(keep_odd_steps=False)
 
 
 def _circuit(source: Source, params: Mapping[str, float] | None) -> Circuit:

@@ -171,11 +171,16 @@ def test_pulse_evaluated_again_at_some_of_the_same_instants_gives_the_same_bits(
     calls = [(grid[:-1], 1), (grid[1:], -1), (grid[1:], 1), (grid, 0), (grid[::-1], 0),
              (np.concatenate([grid[:30], rng.uniform(0, 4e-4, 50)]), 0),
              (rng.permutation(grid), 0)]
+    # (a pulse whose breakpoints were asked for evaluates the run's ends with its first
+    # instants)
+    q = Pulse(*[getattr(p, f) for f in ("v1", "v2", "td", "tr", "tf", "pw", "per")])
+    q.breakpoints(0.0, 4e-4)
     for t, side in calls:
         fresh = Pulse(*[getattr(p, f) for f in ("v1", "v2", "td", "tr", "tf", "pw", "per")])
         want = fresh._values(t, side)
-        got = p(t, side)
-        assert got.view(np.int64).tolist() == want.view(np.int64).tolist(), side
+        for pulse in (p, q):
+            got = pulse(t, side)
+            assert got.view(np.int64).tolist() == want.view(np.int64).tolist(), side
 
 
 def test_kept_shortened_steps_change_a_run_only_at_round_off():
@@ -294,3 +299,58 @@ def test_rebound_circuits_equal_full_evaluations():
     base = pelcs.load(text, params={"duty": 0.2})
     base.element("R1").value = 77.0
     assert pelcs.load(text, params={"duty": 0.25}).element("R1").value == 5.0
+
+
+def test_rebound_parameters_in_any_order_equal_full_evaluations():
+    # The global parameters are evaluated in an order found once per deck (each after those
+    # it uses); a cycle, a duplicate or a failing expression goes through the flattener.
+    chained = BUCK_PARAMS.replace(".param ts={1/fs}",
+                                  ".param ton={duty*ts} ts={1/fs} r2={rload*2}")
+    chained = chained.replace("R1 out 0 {rload}", "R1 out 0 {r2/2}")
+    cycle = BUCK_PARAMS.replace(".param ts={1/fs}", ".param ts={1/fs} a={b+1} b={a}")
+    twice = BUCK_PARAMS.replace(".param ts={1/fs}", ".param ts={1/fs} rload=6")
+    inverse = BUCK_PARAMS.replace("R1 out 0 {rload}", "R1 out 0 {1/rload}")
+    for text, sets in [(chained, [{"duty": 0.3}, {"rload": 2.0}, {"fs": 1e5, "duty": 0.6}]),
+                       (cycle, [{"duty": 0.3}, {"a": 1.0}, {"b": 2.0, "duty": 0.4}]),
+                       (twice, [{"duty": 0.3}, {"rload": 2.0}]),
+                       (inverse, [{"rload": 2.0}, {"rload": 0.0}, {"rload": 4.0}])]:
+        for params in sets:
+            kept = _state(lambda t=text, p=params: parse_string(t, params=p, reuse=True))
+            assert kept == _state(lambda t=text, p=params: parse_string(t, params=p)), params
+
+
+# An ideal diode forward biased by its capacitor's IC: an inconsistent initial state (the
+# state jumps at t = 0, with a note); the comparator's VH is ignored with
+# switching='implicit' (a note of the switch plan).
+JUMP = """capacitor charged across a diode
+.param duty=0.5
+Vg g 0 PULSE(0 1 0 10n 10n {duty*10u} 10u)
+R3 g a 1k
+C1 a 0 1u IC=1
+D1 a 0 DI
+S1 a b a 0 SWH
+R1 b 0 10
+.model SWH SW(VT=0.5 VH=0.1)
+.model DI D
+.tran 0.1u 50u UIC
+.end
+"""
+
+
+def test_kept_plans_and_initial_states_leave_every_run_its_notes():
+    # The switch plan and a consistent initial state are kept for the next runs; a run still
+    # gets the notes a fresh run gets (the plan's), and an inconsistent initial state is
+    # met, handled and noted again in every run.
+    for duty in (0.5, 0.3, 0.5):
+        for switching in ("implicit", None):
+            res = pelcs.simulate(JUMP, params={"duty": duty}, switching=switching)
+            ref = simulate_circuit(parse_string(JUMP, params={"duty": duty}),
+                                   switching=switching)
+            assert _same(res, ref), (duty, switching)
+            assert any("ignores its hysteresis" in n for n in res.notes) == \
+                (switching == "implicit")
+            assert any("jump" in n for n in res.notes), res.notes
+    res = pelcs.simulate(BUCK, tstop=TSTOP, probes=PROBES, params={"duty": 0.4})
+    res.x_final[:] = 7.0  # (a result's arrays are its own: the next run starts as before)
+    assert _same(pelcs.simulate(BUCK, tstop=TSTOP, probes=PROBES, params={"duty": 0.4}),
+                 _fresh_file(BUCK, {"duty": 0.4}))

@@ -120,3 +120,47 @@ def test_inputs_by_row_blocks_equal_each_source_on_its_own(monkeypatch):
         assert np.allclose(got, inputs.evaluate_inputs(sources, t, side), rtol=0, atol=1e-12)
     assert inputs.evaluate_inputs(sources, np.empty(0)).shape == (0, 5)
     assert inputs.evaluate_inputs([], t).shape == (100, 0)
+
+
+def _snapped_in_turn(tau, edges, tol):
+    """The PULSE's edge snapping as written first: each edge in turn."""
+    for edge in edges:
+        tau = np.where(np.abs(tau - edge) <= tol, edge, tau)
+    return tau
+
+
+def test_edges_snapped_at_once_as_in_turn():
+    # Edges more than four tolerances apart are snapped by one comparison of every instant
+    # with every edge; closer ones (a 1e-30 s rise) in turn: both as the loop gives them.
+    from lcs.signals import _snap_to_edges
+
+    rng = np.random.default_rng(4)
+    for edges in [(0.0, 1e-8, 8e-6, 8.01e-6, 2e-5), (0.0, 1e-30, 2e-30, 1e-6, 1e-6),
+                  (0.0, 3e-6, 9e-6, 1.2e-5, 1e-5), (0.0, 1e-3, 1e-3 + 5e-17, 2e-3, 3e-3)]:
+        e = np.array(edges)
+        tau = np.concatenate([rng.uniform(-1e-6, 3e-3, 200), e, np.nextafter(e, 1.0),
+                              np.nextafter(e, -1.0), e + 1e-19, e - 3e-20, [np.nan]])
+        tol = 16 * np.finfo(float).eps * (np.abs(tau) + 2e-5)
+        got = tau.copy()
+        _snap_to_edges(got, edges, tol)
+        want = _snapped_in_turn(tau, edges, tol)
+        assert got.view(np.int64).tolist() == want.view(np.int64).tolist(), edges
+
+
+def test_inputs_at_one_instant_are_the_sources_calls():
+    # evaluate_inputs takes a PULSE at one instant without its array, a DC source as its
+    # value: the bits of their calls, one-sided limits where a pulse jumps.
+    from lcs.simulation.inputs import evaluate_inputs
+
+    sources = [Pulse(0.0, 1.0, 0.0, 1e-8, 1e-8, 8e-6, 2e-5),
+               Pulse(0.0, 5.0, 1e-6, 3e-6, 4e-6, 9e-6, 1e-5),  # edges past the period
+               Pulse(1.0, 2.0, 0.0, 1e-6, 1e-6, 2e-6, 1e-5, 2.5), Dc(-0.0), Dc(3.3)]
+    instants = [0.0, 1e-8, 8.01e-6, 1e-5, 1.9e-5, 2e-5, 2.5e-5, 4e-5, np.inf, np.nan]
+    with np.errstate(invalid="ignore"):  # (at infinity: inf - inf, NaN as meant)
+        for x, side in [(x, side) for x in instants for side in (-1, 0, 1)]:
+            got = evaluate_inputs(sources, np.array([x]), side)[0]
+            for j, f in enumerate(sources):
+                ref = f(np.array([x]), side) if side and getattr(f, "jumps", False) \
+                    else f(np.array([x]))
+                assert got[j:j + 1].view(np.int64).tolist() == \
+                    np.asarray(ref, dtype=float).view(np.int64).tolist(), (x, side, j)

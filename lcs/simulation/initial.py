@@ -12,6 +12,8 @@ jump.
 
 from __future__ import annotations
 
+import threading
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -50,6 +52,13 @@ class InitialState:
     active: int
 
 
+# Per problem, the consistent initial states of its last runs without controllers, by what
+# they depend on (a design loop starts every run from the same state and inputs).
+_KEPT: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_KEPT_PER_PROBLEM = 16
+_LOCK = threading.Lock()
+
+
 def initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_maps: dict,
                   base: ModeKey, x0: np.ndarray, u0: np.ndarray, t_start: float,
                   controllers: Controllers, on_inconsistent: InconsistentHandler | None,
@@ -60,6 +69,39 @@ def initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_map
     ``mode_src``, ``src_maps`` and ``base`` (the guessed switch states) come from the run's
     :class:`~lcs.simulation.schedule.RunPlan` (see :meth:`Problem.control_rows`).
     """
+    if controllers or plan.surface:
+        return _initial_state(problem, plan, mode_src, src_maps, base, x0, u0, t_start,
+                              controllers, on_inconsistent, lcp, notes)
+    # (without controllers the result is a function of these values: the problem's mode
+    # arrays and control rows are its system's, kept with it)
+    x = np.asarray(x0, dtype=float)
+    u = np.asarray(u0, dtype=float)
+    key = (tuple(mode_src), tuple(base), plan.kind.tobytes(), plan.flags.tobytes(),
+           plan.vt.tobytes(), plan.vh.tobytes(), tuple(plan.source), x.shape, x.tobytes(),
+           u.shape, u.tobytes(), lcp)
+    try:
+        kept = _KEPT.setdefault(problem, {})
+    except TypeError:  # not weak-referenceable: not kept
+        kept = None
+    found = None if kept is None else kept.get(key)
+    if found is None:
+        n_notes = len(notes)
+        found = _initial_state(problem, plan, mode_src, src_maps, base, x, u, t_start,
+                               controllers, on_inconsistent, lcp, notes)
+        if kept is None or len(notes) != n_notes:
+            return found  # (an inconsistent state: its notes and its handler every run)
+        with _LOCK:
+            while len(kept) >= _KEPT_PER_PROBLEM:
+                kept.pop(next(iter(kept)))
+            kept[key] = found
+    # (copies: a run changes its state where a mode pins it)
+    return InitialState(found.key, found.mode, found.x.copy(), found.lam.copy(), found.active)
+
+
+def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_maps: dict,
+                   base: ModeKey, x0: np.ndarray, u0: np.ndarray, t_start: float,
+                   controllers: Controllers, on_inconsistent: InconsistentHandler | None,
+                   lcp: LcpOptions, notes: list[str]) -> InitialState:
     k = problem.k
     m = len(problem.system.diodes)
     key = sum(1 << i for i, on in enumerate(mode_src) if on)

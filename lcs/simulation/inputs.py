@@ -10,11 +10,13 @@ other instants of the array.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from ..arrays import unique_sorted
+from ..signals import Dc, Pulse
 
 InputFunction = Callable[[np.ndarray], np.ndarray]
 
@@ -53,12 +55,19 @@ def evaluate_inputs(inputs: Sequence[InputFunction], t: np.ndarray, side: int = 
 
     def column(j: int, tb: np.ndarray):
         f = inputs[j]
+        if type(f) is Dc:
+            return f.value  # (broadcast: what its call gives, without the array)
+        if type(f) is Pulse and tb.shape == (1,) and math.isfinite(tb[0]):
+            return f.value_at(float(tb[0]), side if side != 0 and f.jumps else 0)
         if side != 0 and _jumps(f):
             return f(tb, side)
         return f(tb)  # (a value or the block's values: _by_row_blocks broadcasts it)
 
     return _by_row_blocks(t, len(inputs), column)
 
+
+#: breakpoints of a source past which it is called, not tabulated (:class:`InputTable`)
+MAX_TABLE = 4_000_000
 
 #: rows of an (N, p) array of inputs computed at a time (see :func:`_by_row_blocks`)
 ROW_BLOCK = 4096
@@ -71,9 +80,14 @@ def _by_row_blocks(t: np.ndarray, p: int, column: Callable[[int, np.ndarray], np
     a time: each input's values go into a row of a (p, block) buffer, and the block is
     transposed into place. Writing a column of the C-ordered result directly strides p
     entries per value (a cache line each): 130 inputs over 46,081 instants took 0.10-0.17 s
-    that way, 0.06-0.08 s by blocks."""
+    that way, 0.06-0.08 s by blocks. An array of at most :data:`ROW_BLOCK` values is written
+    by columns (a run's few instants, evaluated several times each run)."""
     out = np.empty((t.size, p))
     if p == 0 or t.size == 0:
+        return out
+    if t.size * p <= ROW_BLOCK:
+        for j in range(p):
+            out[:, j] = column(j, t)
         return out
     buf = np.empty((p, min(ROW_BLOCK, t.size)))
     for a in range(0, t.size, ROW_BLOCK):
@@ -104,10 +118,23 @@ class InputTable:
         for f in self.inputs:
             table = None
             bp = getattr(f, "breakpoints", None)
-            if getattr(f, "piecewise_linear", False) and bp is not None and not _jumps(f):
+            if type(f) is Dc and t0 < t1:
+                # (what the general case gives a DC source: its value at both ends)
+                table = (np.array([t0, t1], dtype=float),
+                         np.array([f.value, f.value], dtype=float))
+            elif type(f) is Pulse and t0 < t1 and not f.jumps:
+                # (its breakpoints are sorted and distinct already: those inside, and the
+                # ends)
+                pts = f.breakpoints(t0, t1)
+                pts = np.concatenate((
+                    [t0], pts[pts.searchsorted(t0, "right"):pts.searchsorted(t1, "left")],
+                    [t1]))
+                if len(pts) <= MAX_TABLE:
+                    table = (pts, np.asarray(f(pts), dtype=float).ravel())
+            elif getattr(f, "piecewise_linear", False) and bp is not None and not _jumps(f):
                 pts = np.asarray(bp(t0, t1), dtype=float).ravel()
                 pts = unique_sorted(np.concatenate(([t0, t1], pts[(pts > t0) & (pts < t1)])))
-                if len(pts) <= 4_000_000:
+                if len(pts) <= MAX_TABLE:
                     table = (pts, np.asarray(f(pts), dtype=float).ravel())
             self.tables.append(table)
         self.jumps = has_jumps(self.inputs)
@@ -146,16 +173,19 @@ def collect_breakpoints(inputs: Sequence[InputFunction], t0: float, t1: float,
     pts = [np.asarray(extra, dtype=float).ravel()]
     for f in inputs:
         bp = getattr(f, "breakpoints", None)
-        if bp is not None:
+        if bp is not None and type(f) is not Dc:  # (a DC source has none)
             pts.append(np.asarray(bp(t0, t1), dtype=float).ravel())
-    allp = unique_sorted(np.concatenate(pts)) if pts else np.empty(0)
-    return allp[(allp > t0) & (allp < t1)]
+    allp = unique_sorted(np.concatenate(pts))
+    # (sorted, NaN last: the instants strictly inside are a slice)
+    return allp[allp.searchsorted(t0, "right"):allp.searchsorted(t1, "left")]
 
 
 def merge_close(times: np.ndarray, tol: float) -> np.ndarray:
     """Drop entries closer than ``tol`` to their predecessor (times sorted)."""
     if times.size < 2:
         return times
-    keep = np.concatenate(([True], np.diff(times) > tol))
+    keep = np.empty(times.size, dtype=bool)
+    keep[0] = True
+    np.greater(times[1:] - times[:-1], tol, out=keep[1:])
     return times[keep]
 

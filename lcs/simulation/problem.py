@@ -78,9 +78,12 @@ class OutputRows:
         """The probes at one instant (switch key ``key``; ``duty_value`` for the switch
         ``slide`` while it slides)."""
         y = self.Cy @ x + self.Dy @ lam + self.Fy @ u
-        for r, i in enumerate(self.duty):
-            if i >= 0:
-                y[r] = duty_value if i == slide else float((key >> int(i)) & 1)
+        rows = self.__dict__.get("_duty_rows")
+        if rows is None:  # (the d(S) probes, listed once: numpy scalars are slow to iterate)
+            rows = self.__dict__["_duty_rows"] = [
+                (r, int(i)) for r, i in enumerate(self.duty.tolist()) if i >= 0]
+        for r, i in rows:
+            y[r] = duty_value if i == slide else float((key >> i) & 1)
         return y
 
 

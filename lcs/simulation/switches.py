@@ -3,6 +3,7 @@ controller, or by its comparator (implicit, hysteresis, explicit or latched)."""
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -56,9 +57,20 @@ class SwitchPlan:
     def source_mask(self) -> int:
         return sum(1 << i for i in self.source)
 
+    def copy(self) -> SwitchPlan:
+        """A plan with its own arrays, lists and dicts (the controllers shared)."""
+        return SwitchPlan(self.names, self.kind.copy(), self.flags.copy(), self.vt.copy(),
+                          self.vh.copy(), list(self.method), list(self.source),
+                          dict(self.scheduled_by), dict(self.surface), dict(self.latch))
+
+
+# Per system, the plans without controllers and their notes, by method and guess: a system's
+# switches and output maps do not change, and a design loop asks for the same plan every run.
+_PLANS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
 
 def classify_switches(system: SwitchedLCS, controllers, method: str, guess: ModeKey,
-                        notes: list[str]) -> SwitchPlan:
+                      notes: list[str]) -> SwitchPlan:
     """Kind, flags, thresholds and method of every switch.
 
     Parameters
@@ -77,6 +89,24 @@ def classify_switches(system: SwitchedLCS, controllers, method: str, guess: Mode
     if method not in SWITCHING_METHODS:
         raise ValueError(f"switching must be one of {', '.join(SWITCHING_METHODS)}, got "
                          f"{method!r}")
+    if controllers:
+        return _classify(system, controllers, method, guess, notes)
+    try:
+        per_system = _PLANS.setdefault(system, {})
+    except TypeError:  # not weak-referenceable: not kept
+        return _classify(system, controllers, method, guess, notes)
+    key = (method, tuple(bool(on) for on in guess))
+    kept = per_system.get(key)
+    if kept is None:
+        kept_notes: list[str] = []
+        plan = _classify(system, (), method, guess, kept_notes)
+        kept = per_system[key] = (plan, tuple(kept_notes))
+    notes.extend(kept[1])
+    return kept[0].copy()
+
+
+def _classify(system: SwitchedLCS, controllers, method: str, guess: ModeKey,
+              notes: list[str]) -> SwitchPlan:
     sw = system.switches
     k = len(sw)
     lower = {s.name.lower(): i for i, s in enumerate(sw)}

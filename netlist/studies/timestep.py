@@ -114,18 +114,23 @@ def tran_step(tran: Tran, waves: Sequence[Signal], tstop: float,
     """
     span = tstop - tran.tstart if 0 <= tran.tstart < tstop else tstop
     if tran.tmax:
-        h, bound = float(tran.tmax), f".tran TMAX = {_eng_s(tran.tmax)}"
+        h = float(tran.tmax)
     else:
         h = min(float(tran.tstep), span / NGSPICE_STEPS_PER_RUN)
-        bound = (f"ngspice's bound min(TSTEP, (TSTOP - TSTART)/{NGSPICE_STEPS_PER_RUN}) = "
-                 f"{_eng_s(h)}")
+
+    def bound() -> str:  # (only for a note: a design loop asks for the step every run)
+        if tran.tmax:
+            return f".tran TMAX = {_eng_s(tran.tmax)}"
+        return (f"ngspice's bound min(TSTEP, (TSTOP - TSTART)/{NGSPICE_STEPS_PER_RUN}) = "
+                f"{_eng_s(h)}")
+
     smooth, what = smooth_step(waves, names)
     if smooth < h:
-        return smooth, (f"step h = {_eng_s(smooth)}: {what} (shorter than {bound}; .tran "
+        return smooth, (f"step h = {_eng_s(smooth)}: {what} (shorter than {bound()}; .tran "
                         f"TSTEP = {_eng_s(tran.tstep)} is ngspice's print interval, not its "
                         "step)")
     if not tran.tmax and h < tran.tstep:
-        return h, (f"step h = {_eng_s(h)}: {bound} (.tran TSTEP = {_eng_s(tran.tstep)} is "
+        return h, (f"step h = {_eng_s(h)}: {bound()} (.tran TSTEP = {_eng_s(tran.tstep)} is "
                    "ngspice's print interval, not its step)")
     return h, None
 

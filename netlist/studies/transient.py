@@ -762,10 +762,10 @@ def state_growth(result: SimulationResult) -> str | None:
     if y.ndim != 2 or y.shape[0] < 3 or not y.shape[1]:
         return None
     # the rows up to t[0] + a tenth of the run (times increase), the first one at least
-    first = max(1, int(np.searchsorted(t, t[0] + 0.1 * (t[-1] - t[0]), side="right")))
-    ref = float(np.max(np.abs(y[:first])))
-    end = float(np.max(np.abs(y[-1])))
-    if not np.isfinite(end):
+    first = max(1, int(t.searchsorted(t[0] + 0.1 * (t[-1] - t[0]), side="right")))
+    ref = float(np.abs(y[:first]).max())
+    end = float(np.abs(y[-1]).max())
+    if not math.isfinite(end):
         return "the recorded signals became non-finite during the run"
     if ref <= 0.0 or end <= GROWTH_LIMIT * ref:
         return None
