@@ -151,27 +151,33 @@ class Recorder:
         if n == 0:
             return
         t, key, info = self.ev_t[:n], self.ev_key[:n], self.ev_info[:n]
-        prev = np.empty_like(key)
-        prev[1:] = key[:-1]
-        if self._last_key is not None:
-            prev[0] = self._last_key
-        change = np.any(key != prev, axis=1)
-        if self._last_key is None:
-            change[0] = True
-        rows = key[change]
-        if rows.shape[1] == 1:
-            # (a few distinct keys: each looked up once)
-            uniq, inverse = np.unique(rows[:, 0], return_inverse=True)
-            ids = np.array([self._key_id(int(u)) for u in uniq.tolist()], np.int32)
-            index = ids[inverse] if len(uniq) else np.empty(0, np.int32)
+        change = np.empty(n, np.bool_)
+        if key.shape[1] == 1:
+            keys = key[:, 0]
+            change[0] = self._last_key is None or keys[0] != self._last_key[0]
+            np.not_equal(keys[1:], keys[:-1], out=change[1:])
+            changed = keys[change]
+            if len(changed) <= 256:
+                index = np.fromiter(map(self._key_id, changed.tolist()), np.int32,
+                                    len(changed))
+            else:
+                # (a few distinct keys: each looked up once)
+                uniq, inverse = np.unique(changed, return_inverse=True)
+                ids = np.array([self._key_id(u) for u in uniq.tolist()], np.int32)
+                index = ids[inverse]
         else:
-            index = np.array([self._key_id(from_words(r)) for r in rows], np.int32)
+            change[0] = self._last_key is None or bool(np.any(key[0] != self._last_key))
+            change[1:] = np.any(key[1:] != key[:-1], axis=1)
+            index = np.array([self._key_id(from_words(r)) for r in key[change]], np.int32)
         m = len(index)
-        if self._ev_n + m > len(self._ev_t):
-            size = max(self._ev_n + m, len(self._ev_t) + len(self._ev_t) // 2)
-            self._ev_t, self._ev_ix = grown(self._ev_t, size), grown(self._ev_ix, size)
-        self._ev_t[self._ev_n:self._ev_n + m] = t[change]
-        self._ev_ix[self._ev_n:self._ev_n + m] = index
+        if not self._ev_n:
+            self._ev_t, self._ev_ix = t[change], index
+        else:
+            if self._ev_n + m > len(self._ev_t):
+                size = max(self._ev_n + m, len(self._ev_t) + len(self._ev_t) // 2)
+                self._ev_t, self._ev_ix = grown(self._ev_t, size), grown(self._ev_ix, size)
+            self._ev_t[self._ev_n:self._ev_n + m] = t[change]
+            self._ev_ix[self._ev_n:self._ev_n + m] = index
         self._ev_n += m
         slide = info >= EV_SLIDE_START
         if slide.any():
