@@ -164,7 +164,7 @@ class MoreauOptions:
         moves the state stops the run (``"non_unique"``). Non-unique λ with a unique state (a
         freewheeling overlap) is accepted. Modes whose steps are proven to have one next state
         whatever λ they take (a passive mode: the system's ``storage`` verified, and θ = 1 or
-        steps short enough, :mod:`lcs.step_uniqueness`) are not enumerated: any solution
+        steps short enough, :mod:`lcs.theory.step_uniqueness`) are not enumerated: any solution
         will do.
     uniqueness_tol : float
         Relative state difference regarded as a different solution.
@@ -540,7 +540,7 @@ class MoreauIntegrator(Integrator):
         storage = getattr(self.run.problem.system, "storage", None)
         if storage is None or self.theta >= 1.0:
             return None
-        from .step_uniqueness import longest_unique_step
+        from .theory.step_uniqueness import longest_unique_step
 
         longest = longest_unique_step(lcs, storage, self.theta)
         if not 0.0 < longest < s:
@@ -642,7 +642,7 @@ def simulate(
         ``on_inconsistent(lcs, x, u) -> x_plus`` (or ``(x_plus, note)``, the note then
         replacing the generic one in ``result.notes``) applied once to an inconsistent initial
         state (one whose instantaneous LCP ``w = C x + D λ + F u`` has no solution), e.g.
-        built on ``lcs.wellposed.state_jump``. Without it, the first step absorbs the jump.
+        built on ``lcs.theory.wellposed.state_jump``. Without it, the first step absorbs the jump.
     options : MoreauOptions, optional
     switching : str, optional
         Overrides ``options.switching``: ``"auto"``, ``"implicit"``, ``"hysteresis"`` or

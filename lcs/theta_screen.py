@@ -130,7 +130,7 @@ def screen_theta(system, h: float, theta: float, keys=None, energy: np.ndarray |
         Default: every mode up to :data:`SCREEN_MAX_SWITCHES` switches, else all off and all
         on.
     energy : ndarray (n, n), optional
-        The storage matrix (``½ x' E x`` J, :func:`lcs.passivity.energy_matrix`): the
+        The storage matrix (``½ x' E x`` J, :func:`lcs.theory.passivity.energy_matrix`): the
         coordinates in which the cancellation is measured (default the states' own).
 
     Returns

@@ -154,7 +154,7 @@ def simulate(
     strict : bool
         A circuit that is certainly not passive (a negative resistance, an active source
         feeding a diode) raises :class:`NetlistError` instead of a
-        :class:`~lcs.passivity.NonPassiveWarning` (the run then goes on and may grow
+        :class:`~lcs.theory.passivity.NonPassiveWarning` (the run then goes on and may grow
         without bound; a state growth beyond 1e6 is noted in ``res.notes``).
     devices : str
         ``"ideal"`` or ``"pwl"``: diodes with a Vf and Ron fitted to their models, switches

@@ -158,7 +158,7 @@ class Event:
     hdot : float
         dh/dt just before the event.
     jump : bool
-        The state jumped at the event (impulsive diode currents, :mod:`lcs.wellposed`):
+        The state jumped at the event (impulsive diode currents, :mod:`lcs.theory.wellposed`):
         the next segment starts from the state after the jump.
     """
 

@@ -8,7 +8,7 @@ With the held set Z (``w_Z = 0``, ``λ_Z`` free) and the other pairs at ``λ = 0
 Where ``D_ZZ`` is singular (a diode in series with an inductor: ``w`` is a current that the
 multiplier cannot move directly), the null directions of ``D_ZZ`` are state constraints
 ``N^T (C_Z x + F_Z u) = 0``, differentiated once along the dynamics (index reduction, as in
-the GDCM reduced dynamics of :mod:`lcs.gdcm`). The multipliers then come out affine in the
+the GDCM reduced dynamics of :mod:`lcs.theory.gdcm`). The multipliers then come out affine in the
 state, the inputs and the inputs' time derivatives::
 
     λ = Lx x + Lu u + Ld u',    x' = Af x + Ef u + Ed u',    w = Wx x + Wu u + Wd u'.

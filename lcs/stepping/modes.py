@@ -196,7 +196,7 @@ class ModeStackBuilder:
 
     def _image_unique(self, mode: ModeKey) -> bool:
         """Whether every step of ``mode`` has a unique next state whatever its λ
-        (:func:`lcs.step_uniqueness.unique_next_state` with the system's storage): its
+        (:func:`lcs.theory.step_uniqueness.unique_next_state` with the system's storage): its
         solutions then need no enumeration for another next state. Steps are at most
         ``(1 + SNAP_FRACTION) h`` long (a remainder below ``SNAP_FRACTION h`` joins the last
         regular step: :mod:`lcs.stepping.gridplan`); the bound is taken with that margin
@@ -204,7 +204,7 @@ class ModeStackBuilder:
         storage = getattr(self.prob.system, "storage", None)
         if storage is None:
             return False
-        from ..step_uniqueness import unique_next_state
+        from ..theory.step_uniqueness import unique_next_state
 
         s_max = (1.0 + 2.0 * SNAP_FRACTION) * self.h
         return unique_next_state(self.prob.lcs(mode), storage, s_max, self.theta)

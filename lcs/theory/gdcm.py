@@ -74,7 +74,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from lcs.model import LCS
-from lcs.wellposed import LinearForm
+from lcs.theory.wellposed import LinearForm
 
 __all__ = [
     "GdcmCondition",

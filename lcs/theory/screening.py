@@ -1,7 +1,7 @@
 """Screening a switched LCS for passivity before a run: cheap, cached, certain when it speaks.
 
 Every mode (or, past :data:`SCREEN_MAX_SWITCHES` switches, all-off and all-on) goes through
-the cheap part of :func:`lcs.passivity.check_passivity`: the circuit's energy as a
+the cheap part of :func:`lcs.theory.passivity.check_passivity`: the circuit's energy as a
 certificate, then the exact necessary conditions. A mode that fails a necessary condition is
 certainly not passive and is reported; the semidefinite program is never run here.
 """
@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..notices import NonPassiveWarning
 from . import passivity
-from .notices import NonPassiveWarning
 
 __all__ = ["NonPassiveMode", "NonPassiveWarning", "SCREEN_MAX_SWITCHES", "screen_modes"]
 
@@ -29,7 +29,7 @@ class NonPassiveMode:
     switches : str
         ``"S1 on, S2 off"`` (``"no switches"`` for a diode-only circuit).
     reason : str
-        Why, as :func:`lcs.passivity.check_passivity` says it (names states and diodes).
+        Why, as :func:`lcs.theory.passivity.check_passivity` says it (names states and diodes).
     """
 
     key: tuple
@@ -52,7 +52,7 @@ SCREEN_MAX_SWITCHES = 4
 def screen_modes(system, energy: np.ndarray | None, keys=None) -> list[NonPassiveMode]:
     """The modes of a switched LCS that are certainly not passive.
 
-    The cheap part of :func:`lcs.passivity.check_passivity` only (``search=False``): the
+    The cheap part of :func:`lcs.theory.passivity.check_passivity` only (``search=False``): the
     circuit's energy as a certificate (an eigenvalue test, microseconds), and when it fails,
     the exact necessary conditions (``D + D' >= 0``, no unstable eigenvalue of A, positive
     realness on a frequency grid). No semidefinite program: a mode that passes both is not

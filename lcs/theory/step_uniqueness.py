@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model import LCS
+from ..model import LCS
 from .passivity import check_passivity
 
 __all__ = ["STORAGE_RTOL", "longest_unique_step", "unique_next_state"]
@@ -44,7 +44,7 @@ def longest_unique_step(lcs: LCS, storage: np.ndarray, theta: float) -> float:
     """The longest θ step of ``lcs`` shown to have a unique next state (module docstring):
     ``inf`` when every step length is (θ = 1, or no decay in the metric of P), 0 when
     ``½ x' storage x`` is not verified to be a storage function of the mode (the verification
-    only, no search: :func:`lcs.passivity.check_passivity` with :data:`STORAGE_RTOL`).
+    only, no search: :func:`lcs.theory.passivity.check_passivity` with :data:`STORAGE_RTOL`).
 
     Parameters
     ----------

@@ -7,8 +7,8 @@ of piecewise-linear networks", 2002). For ``x' = A x + B λ + E u``, ``w = C x +
 
 Existence and uniqueness
     If (A, B, C, D) is passive (a storage ``½ x'Kx``, ``K = K' > 0``, see
-    :mod:`lcs.passivity`) and ``col(B, D + D')`` has full column rank, then from every initial
-    state there is exactly one solution (x, λ) (with a state jump at t = 0 if the state is
+    :mod:`lcs.theory.passivity`) and ``col(B, D + D')`` has full column rank, then from every
+    initial state there is exactly one solution (x, λ) (with a state jump at t = 0 if the state is
     inconsistent). Passivity alone already makes the *state* trajectory exist and be unique:
     the KYP inequality forces ``K B = C'`` on ``ker(D + D')``, which is the condition under
     which the LCS, in the coordinates ``K^{1/2} x``, is a differential inclusion with a maximal
@@ -70,7 +70,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from lcs.model import LCS
-from lcs.passivity import PassivityReport, check_passivity
+from lcs.theory.passivity import PassivityReport, check_passivity
 
 __all__ = [
     "LinearForm",
@@ -394,7 +394,7 @@ def check_wellposedness(
     ----------
     lcs : LCS
     passivity : PassivityReport, optional
-        A report from :func:`lcs.passivity.check_passivity`; computed when omitted.
+        A report from :func:`lcs.theory.passivity.check_passivity`; computed when omitted.
     energy : ndarray (n, n), optional
         Energy matrix passed to :func:`check_passivity` when the report is computed here.
 

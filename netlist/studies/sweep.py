@@ -26,7 +26,7 @@ import numpy as np
 from lcs.analysis.maps import EventMap, StroboscopicMap
 from lcs.model import LCS
 from lcs.moreau import MoreauOptions
-from lcs.wellposed import state_jump
+from lcs.theory.wellposed import state_jump
 
 from ..circuit import Circuit
 from ..errors import Diagnostic, NetlistError
@@ -318,7 +318,7 @@ class _StateJump:
         self._reports = {}
 
     def __call__(self, lcs: LCS, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        from lcs.passivity import check_passivity
+        from lcs.theory.passivity import check_passivity
 
         entry = self._reports.get(id(lcs))
         if entry is None or entry[0] is not lcs:

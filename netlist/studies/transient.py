@@ -17,7 +17,7 @@ the other node is given); everything else starts at zero. pelcs always starts fr
 (as ngspice does with UIC); without UIC ngspice would first compute a DC operating point, which
 the result's notes point out. An initial state that the diodes cannot accept (e.g. a capacitor
 charged against a diode that connects it to another capacitor) jumps at t = 0 to the consistent
-state given by :func:`lcs.wellposed.state_jump` (charge and flux conservation through the
+state given by :func:`lcs.theory.wellposed.state_jump` (charge and flux conservation through the
 impulsive diode currents), reported once in the notes.
 
 Probes (:func:`check_probes`): ``v(n)``, ``v(a,b)``, ``i(X)`` for a two-terminal element, and
@@ -157,9 +157,9 @@ def transient_setup(
     The modes of a circuit that is not passive by construction
     (:func:`~netlist.passive.structurally_passive`: positive R, L, C, ideal diodes and
     switches, independent sources) are screened for passivity
-    (:func:`lcs.screening.screen_modes`: exact necessary conditions, cached with the
+    (:func:`lcs.theory.screening.screen_modes`: exact necessary conditions, cached with the
     formulation): a mode that fails gives a
-    :class:`~lcs.passivity.NonPassiveWarning` (once per set-up), a note and
+    :class:`~lcs.theory.passivity.NonPassiveWarning` (once per set-up), a note and
     ``setup.nonpassive``. The ideal model of a non-passive circuit may grow without bound;
     the run goes on, as the model says, unless ``strict``.
 
@@ -286,7 +286,7 @@ def _screen_passivity(circuit: Circuit, system: SwitchedLCS, energy: np.ndarray,
         return []
     import warnings
 
-    from lcs.screening import NonPassiveWarning, screen_modes
+    from lcs.theory.screening import NonPassiveWarning, screen_modes
 
     bad = screen_modes(system, energy)
     if not bad:
@@ -442,7 +442,8 @@ def _short(text: str, limit: int = 300) -> str:
 
 
 class _JumpRecorder:
-    """The ``on_inconsistent`` handler: :func:`~lcs.wellposed.state_jump` with a readable note.
+    """The ``on_inconsistent`` handler: :func:`~lcs.theory.wellposed.state_jump` with a readable
+    note.
 
     A non-passive mode has no jump rule; the state is then left as it is (the first step
     absorbs the jump, which the Moreau driver notes).
@@ -454,7 +455,7 @@ class _JumpRecorder:
 
     def __call__(self, lcs: LCS, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, str]:
         # (imported here: scipy.linalg is only needed for an inconsistent initial state)
-        from lcs.wellposed import state_jump
+        from lcs.theory.wellposed import state_jump
 
         try:
             jump = state_jump(lcs, x, u, energy=self.energy)
@@ -479,7 +480,7 @@ class _JumpRecorder:
             f"({', '.join(through) or 'none'} would have to conduct an impulse): the state "
             f"jumps ({'; '.join(changed)}); charge and flux are conserved through the "
             f"impulse ({impulse}), {jump.dissipated:.4g} J dissipated in it "
-            "(lcs.wellposed.state_jump)"
+            "(lcs.theory.wellposed.state_jump)"
         )
         return jump.x_plus, self.note
 
