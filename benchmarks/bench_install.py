@@ -97,7 +97,7 @@ def main() -> int:
         for label in ("first", "second"):
             if label == "second":
                 t1 = time.perf_counter()
-                code = ("import time, lcs.kernels as k, lcs.kernel_setup as s\n"
+                code = ("import time, lcs.build.kernels as k, lcs.build.kernel_setup as s\n"
                         "t0 = time.time()\n"
                         "while (not k.aot_path().is_file() and s.build_failure() is None\n"
                         "       and (s.build_running() or time.time() < t0 + 5)):\n"

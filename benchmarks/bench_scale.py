@@ -335,7 +335,7 @@ def main(argv=None) -> int:
         return 0
     global REPEAT
     REPEAT = max(1, args.repeat)
-    from lcs.stepping.warmup import warm_up
+    from lcs.build.warmup import warm_up
 
     warm_up()
     rows = []

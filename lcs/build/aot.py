@@ -5,13 +5,13 @@ A short simulation spends most of its time before the first step: importing numb
 each cached kernel from disk (about 0.03 s each). The extension module built here contains
 the same compiled kernels (the cached numba libraries, linked in as LLVM bitcode, so the code
 is the one the JIT runs) behind flat entry points that take every array as an argument;
-loading it takes milliseconds and imports nothing but numpy. :mod:`lcs.kernels` loads it when
-it was built from the current kernel sources (:func:`lcs.kernels.kernel_stamp`) and falls back
+loading it takes milliseconds and imports nothing but numpy. :mod:`lcs.build.kernels` loads it when
+it was built from the current kernel sources (:func:`lcs.build.kernels.kernel_stamp`) and falls back
 to numba otherwise.
 
-Build it with ``python -m lcs.aot`` (``scripts/setup`` does, after compiling the kernels).
-The kernels' argument types do not depend on the circuit (:mod:`lcs.stepping.warmup`), so
-the signatures exported are those :func:`~lcs.stepping.warmup.warm_up` compiles.
+Build it with ``python -m lcs.build.aot`` (``scripts/setup`` does, after compiling the kernels).
+The kernels' argument types do not depend on the circuit (:mod:`lcs.build.warmup`), so
+the signatures exported are those :func:`~lcs.build.warmup.warm_up` compiles.
 """
 
 from __future__ import annotations
@@ -65,7 +65,7 @@ def flat_wrapper(dispatcher, sig):
 
 def leaf_spec(ty) -> list:
     """A JSON-able description of a leaf argument type, checked by
-    :func:`lcs.kernels.aot_function` before every call: ``["array", dtype, ndim, layout,
+    :func:`lcs.build.kernels.aot_function` before every call: ``["array", dtype, ndim, layout,
     mutable]``, ``["int"]``, ``["float"]`` or ``["bool"]``."""
     if isinstance(ty, types.Array):
         return ["array", str(ty.dtype), int(ty.ndim), str(ty.layout), bool(ty.mutable)]
@@ -80,14 +80,14 @@ def leaf_spec(ty) -> list:
 
 def build(out_dir: Path | None = None, verbose: bool = False) -> Path:
     """Compile (or load from numba's cache) every kernel specialisation, then link them into
-    the extension module of :func:`lcs.kernels.aot_path`; returns its path."""
+    the extension module of :func:`lcs.build.kernels.aot_path`; returns its path."""
     from numba.core.errors import NumbaPendingDeprecationWarning
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", NumbaPendingDeprecationWarning)
         from numba.pycc import CC
 
-    from .stepping.warmup import warm_up
+    from .warmup import warm_up
 
     t0 = time.perf_counter()
     warm_up()

@@ -1,15 +1,15 @@
 """The kernels' first use after an installation: whether they are compiled, and building their
 ahead-of-time module in the background.
 
-``scripts/setup`` compiles the kernels and builds the ahead-of-time module (:mod:`lcs.aot`) of a
+``scripts/setup`` compiles the kernels and builds the ahead-of-time module (:mod:`lcs.build.aot`) of a
 checkout once. A ``pip install`` does neither: the first simulation compiles the kernels
 (minutes of one core, cached by numba on disk), and every later command would load them from
 numba's cache (about 1.5 s more per command than the ahead-of-time module). So ``pelcs
 simulate`` asks :func:`kernels_cached` before it loads them and says when it is about to
 compile (the other commands say so at numba's first compile event, :func:`announce_compiles`);
 after a command numba served, :func:`after_run` calls :func:`start_background_build`: a
-detached, lowest-priority ``python -m lcs.kernel_setup`` that builds the module into the cache
-(:func:`lcs.kernels.aot_path`: the installed package's ``__pycache__``, or the per-user cache
+detached, lowest-priority ``python -m lcs.build.kernel_setup`` that builds the module into the cache
+(:func:`lcs.build.kernels.aot_path`: the installed package's ``__pycache__``, or the per-user cache
 when that cannot be written). A lock file keeps it to one build at a time; a build that failed
 (no C compiler) leaves a note beside the module's path and is not retried in the background
 (``pelcs compile`` retries it and shows why it fails). ``PELCS_AOT_BUILD=0`` turns the
@@ -74,7 +74,7 @@ def _none_beside_the_sources() -> bool:
     when that cannot be told so (then :func:`kernels_cached` asks numba)."""
     if os.environ.get("NUMBA_CACHE_DIR"):
         return False
-    pycache = Path(kernels.__file__).resolve().parent / "stepping" / "__pycache__"
+    pycache = Path(kernels.__file__).resolve().parents[1] / "stepping" / "__pycache__"
     if not kernels._writable(pycache):
         return False
     # (lcs.jit_passes.KernelCacheLocator's directory; numba's index name for run_grid)
@@ -85,7 +85,7 @@ def _none_beside_the_sources() -> bool:
 def compiled_in_process() -> int:
     """How many kernel specialisations this process compiled (numba's cache misses) rather
     than loaded; 0 when numba was never imported (the ahead-of-time module served the run)."""
-    from . import jit
+    from .. import jit
 
     if not jit.materialized():
         return 0
@@ -131,7 +131,7 @@ def after_run() -> str | None:
     served them (:func:`start_background_build`); the line to print about it, or None (the
     module serves the kernels, no build is wanted, the kernels are not all compiled yet: an
     interrupted first run, whose successor compiles the rest first)."""
-    from . import jit
+    from .. import jit
 
     if not jit.materialized() or kernels.using_aot() or not build_wanted():
         return None
@@ -202,11 +202,11 @@ def start_background_build() -> Path | None:
         lock.parent.mkdir(parents=True, exist_ok=True)
         env = dict(os.environ)
         # The same pelcs as this process, wherever it was imported from.
-        root = str(Path(kernels.__file__).resolve().parent.parent)
+        root = str(Path(kernels.__file__).resolve().parents[2])
         env["PYTHONPATH"] = os.pathsep.join(
             [root] + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
         with open(log, "w") as out:
-            subprocess.Popen([sys.executable, "-m", "lcs.kernel_setup"], env=env,
+            subprocess.Popen([sys.executable, "-m", "lcs.build.kernel_setup"], env=env,
                              stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
                              start_new_session=True, close_fds=True)
     except OSError:

@@ -2,8 +2,8 @@
 from the current kernel sources, numba otherwise.
 
 A :class:`lcs.jit.Kernel` called from Python asks :func:`aot_function` first. The extension
-module (:mod:`lcs.aot`, built by ``scripts/setup``, by ``pelcs compile``, or in the
-background after a run served by numba: :mod:`lcs.kernel_setup`) holds the kernels that Python
+module (:mod:`lcs.build.aot`, built by ``scripts/setup``, by ``pelcs compile``, or in the
+background after a run served by numba: :mod:`lcs.build.kernel_setup`) holds the kernels that Python
 calls directly (the grid loop, the discretisation, the grid plan, the source switching
 instants), compiled from the same numba code; loading it takes milliseconds and imports nothing
 but numpy, so a short run never imports numba (measured in ``benchmarks/bench_command.py``).
@@ -31,7 +31,7 @@ __all__ = ["AOT_MODULE", "AOT_SOURCES", "KERNEL_SOURCES", "aot_function", "aot_m
            "aot_path", "aot_stamp", "aot_types_path", "cache_roots", "cpu_tag", "kernel_stamp",
            "user_cache_dir", "using_aot"]
 
-_LCS = Path(__file__).resolve().parent
+_LCS = Path(__file__).resolve().parent.parent
 # The packages whose compiled functions call or inline each other's, the other files with
 # compiled functions, and the compiler passes: a change to any of them recompiles every kernel.
 KERNEL_SOURCES = (_LCS / "jit.py", _LCS / "jit_passes.py", _LCS / "bits.py", _LCS / "lcp",
@@ -39,15 +39,15 @@ KERNEL_SOURCES = (_LCS / "jit.py", _LCS / "jit_passes.py", _LCS / "bits.py", _LC
                   _LCS / "simulation" / "codes.py")
 # What the ahead-of-time module also depends on: the export table and argument flattening
 # here, the flat wrappers of aot.py, the signatures warmup.py compiles.
-AOT_SOURCES = (_LCS / "kernels.py", _LCS / "aot.py", _LCS / "stepping" / "warmup.py",
-               _LCS / "sparse_lu.py")
+AOT_SOURCES = (_LCS / "build" / "kernels.py", _LCS / "build" / "aot.py",
+               _LCS / "build" / "warmup.py", _LCS / "sparse_lu.py")
 # Files in those packages that no kernel compiles or reads (Python only): editing them must
 # not recompile every kernel (6-9 minutes on 2 cores).
 PYTHON_ONLY = frozenset({"__init__.py", "driver.py", "enumeration.py", "modes.py",
-                         "warmup.py", "stack.py", "integrate.py"})
+                         "stack.py", "integrate.py"})
 AOT_MODULE = "pelcs_kernels"
 
-# export name -> (module, attribute): each kernel has one specialisation (lcs.stepping.warmup).
+# export name -> (module, attribute): each kernel has one specialisation (lcs.build.warmup).
 _EXPORTS = {
     "run_grid": ("lcs.stepping.grid", "run_grid"),
     "discretise_nb": ("lcs.stepping.discretise", "discretise_nb"),
@@ -182,7 +182,7 @@ def aot_path() -> Path:
 
 
 def aot_types_path() -> Path:
-    """The module's argument types (JSON, written by :func:`lcs.aot.build` beside it)."""
+    """The module's argument types (JSON, written by :func:`lcs.build.aot.build` beside it)."""
     return aot_path().with_name(AOT_MODULE + ".types.json")
 
 
@@ -273,7 +273,7 @@ def _aot_types() -> dict:
 @functools.cache
 def _checker(export: str) -> Callable[[list], bool] | None:
     """A function telling whether a list of leaf arguments has exactly the leaf types of
-    ``export`` (:func:`lcs.aot.leaf_spec`), or None when the module does not record them.
+    ``export`` (:func:`lcs.build.aot.leaf_spec`), or None when the module does not record them.
 
     Written out as one expression per export, built once: a run checks about 110 leaves, and a
     generic per-leaf test (a call, a tuple unpacking and a dtype comparison each) was a tenth

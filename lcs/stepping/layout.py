@@ -94,7 +94,8 @@ FV_LEN = 13
 MF_FAST = 0  # active-set fast path enabled
 MF_UNIQ = 1  # check state uniqueness of Lemke solutions when m <= this (-1: never)
 MF_OUTSTATE = 2  # the stored outputs are the states (skip the products)
-MF_IMAGE = 3  # every step's next state is unique whatever its λ (lcs.step_uniqueness): no check
+# every step's next state is unique whatever its λ (lcs.theory.step_uniqueness): no check
+MF_IMAGE = 3
 MF_LEN = 4
 
 # Shortest run of steps up to the next schedule entry that run_grid gives to its plain loop.

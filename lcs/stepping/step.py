@@ -298,7 +298,7 @@ def mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, ai
     ``act[ai]`` is the active set (bitset) to try first and ``slots[ai]`` its cache slot (-1:
     unknown); both are updated. With ``commit``, a pivoting solution is checked for a unique
     next state, unless the mode's flag ``MF_IMAGE`` says that every solution gives the same
-    one (:mod:`lcs.step_uniqueness`: then any λ will do). On failure, ``fail`` receives the
+    one (:mod:`lcs.theory.step_uniqueness`: then any λ will do). On failure, ``fail`` receives the
     pairs involved. Returns a ``STEP_*`` status.
     """
     mats = stack.mats

@@ -782,17 +782,17 @@ def warm_up() -> float:
     The first run in a process pays for loading the kernels from numba's cache (a few tenths
     of a second, more on the very first use after installation, when they are compiled).
     Calling this first lets a caller report the time per step of the run itself. See
-    :func:`lcs.stepping.warmup.warm_up` (every kernel specialisation).
+    :func:`lcs.build.warmup.warm_up` (every kernel specialisation).
     """
     import time
 
-    from lcs.kernels import using_aot
+    from lcs.build.kernels import using_aot
 
     t0 = time.perf_counter()
     if using_aot():
         # The ahead-of-time module holds every kernel a run calls from Python: nothing to
         # compile or load from numba's cache.
         return time.perf_counter() - t0
-    from lcs.stepping.warmup import warm_up as _warm_up
+    from lcs.build.warmup import warm_up as _warm_up
 
     return _warm_up()

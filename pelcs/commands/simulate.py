@@ -224,7 +224,7 @@ def run(args: argparse.Namespace) -> int:
                    every)
     # Load the compiled kernels first, so that the summary's time per step is the run's;
     # compiling them (the first run after an installation) is said before it starts.
-    from lcs import kernel_setup
+    from lcs.build import kernel_setup
 
     if not kernel_setup.kernels_cached():
         print(kernel_setup.COMPILING_MESSAGE, file=sys.stderr, flush=True)
