@@ -132,8 +132,8 @@ def simulate(
         (step: the bound ngspice puts on its own, ``netlist.studies.timestep.tran_step``).
     theta : float, optional
         θ in [1/2, 1]: 1/2 trapezoidal (second order between events), 1 backward Euler.
-        Default 1/2, or 1 where :mod:`lcs.theta_screen` finds θ < 1 unreliable (noted;
-        ``res.theta`` is the value used).
+        Default 1/2, or 1 where :mod:`lcs.integrators.moreau.theta_screen` finds θ < 1 unreliable
+        (noted; ``res.theta`` is the value used).
     probes : sequence of str, or str, optional
         ``"v(out)"``, ``"v(a,b)"``, ``"i(L1)"``, ``"i(D1)"``...; default every state.
     every : int
@@ -219,7 +219,7 @@ def simulate(
             if dt is not None:
                 result = resample(result, dt)
     else:
-        from lcs.moreau import MoreauOptions
+        from lcs.integrators.moreau.integrator import MoreauOptions
         from netlist.system_cache import reused_system
 
         # (the system is kept for the next run; its stored shortened steps are not, so that

@@ -225,7 +225,7 @@ def test_arguments_of_another_type_go_to_numba_not_the_module(aot_built):
 
     bounds = np.array([0.0, 10.0, 25.0])
     args = (bounds, 1.0, 0.5, 0.5, np.empty(2, np.int64), np.empty(2), np.empty(3, np.int64))
-    mod = "lcs.stepping.gridplan"
+    mod = "lcs.integrators.moreau.dense.gridplan"
     assert kernels.aot_function(mod, "_plan_nb", args) is not None
     wrong_dtype = (np.array([0, 10, 25]),) + args[1:]
     strided = (np.array([[0.0, 1], [10, 1], [25, 1]])[:, 0],) + args[1:]
@@ -242,7 +242,7 @@ def test_arguments_of_another_type_go_to_numba_not_the_module(aot_built):
     for bad in (wrong_dtype, strided, read_only, swapped, subclass, flag_for_float, one_more):
         assert kernels.aot_function(mod, "_plan_nb", bad) is None
     # Through the Kernel: the dispatcher takes them and gives the right numbers.
-    from lcs.stepping.gridplan import _plan_nb, plan_grid
+    from lcs.integrators.moreau.dense.gridplan import _plan_nb, plan_grid
 
     ref = plan_grid(bounds, 1.0)
     n_reg, last, start = np.empty(2, np.int64), np.empty(2), np.empty(3, np.int64)

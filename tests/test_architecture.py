@@ -166,8 +166,7 @@ def test_core_imports_studies_finds_an_edge():
 #: first use after an installation, the warm-up): it imports the kernels, no kernel imports it.
 BUILD = "lcs.build"
 #: The packages of the integrators, their kernels and the driver common to them.
-KERNEL_PACKAGES = ("lcs.stepping", "lcs.kkt", "lcs.moreau", "lcs.exact", "lcs.lcp",
-                   "lcs.simulation")
+KERNEL_PACKAGES = ("lcs.integrators", "lcs.lcp", "lcs.simulation")
 
 
 def kernels_importing_build(graph: dict[str, set[str]]) -> list[str]:
@@ -190,7 +189,7 @@ def test_kernels_importing_build_finds_an_edge():
     graph = {
         "lcs.simulation.driver": {"lcs.build.kernels"},
         "lcs.lcp.compiled": {"lcs.jit"},
-        "lcs.build.warmup": {"lcs.stepping.grid", "lcs.lcp.compiled"},
+        "lcs.build.warmup": {"lcs.integrators.moreau.dense.grid", "lcs.lcp.compiled"},
         "lcs.buildings": {"lcs.build"},
     }
     assert kernels_importing_build(graph) == ["lcs.simulation.driver -> lcs.build.kernels"]

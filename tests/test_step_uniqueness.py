@@ -11,9 +11,9 @@ import pytest
 from test_lcp import brute_force
 
 from converters.scaling import rectifier_12pulse
+from lcs.integrators.moreau.dense.discretise import discretise
+from lcs.integrators.moreau.integrator import MoreauOptions, simulate_lcs
 from lcs.model import LCS, ComplementarityPair
-from lcs.moreau import MoreauOptions, simulate_lcs
-from lcs.stepping.discretise import discretise
 from lcs.theory.step_uniqueness import unique_next_state
 from netlist.parser import parse_string
 from netlist.studies.transient import run_setup, transient_setup

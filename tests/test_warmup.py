@@ -110,6 +110,6 @@ def test_every_kernel_has_one_specialisation():
                        env={**os.environ, "PYTHONPATH": str(ROOT), "PELCS_AOT": "0"})
     assert r.returncode == 0, r.stderr
     counts = json.loads(r.stdout.strip().splitlines()[-1])
-    assert counts["lcs.stepping.grid.run_grid"] == 1
+    assert counts["lcs.integrators.moreau.dense.grid.run_grid"] == 1
     assert counts and all(n <= 1 for n in counts.values()), {
         k: n for k, n in counts.items() if n > 1}

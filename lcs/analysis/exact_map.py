@@ -14,10 +14,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..analysis.base import Map, MapError, Samples
-from ..analysis.patterns import PatternSegment, SwitchingPattern
+from ..integrators.exact.events import ExactError, Follower, one_blas_thread
 from ..model import ModeKey, SwitchedLCS
-from .events import ExactError, Follower, one_blas_thread
+from .base import Map, MapError, Samples
+from .patterns import PatternSegment, SwitchingPattern
 from .saltation import affine_period
 
 __all__ = ["ExactStroboscopicMap"]
@@ -221,7 +221,7 @@ class ExactStroboscopicMap(Map):
         if hasattr(seg, "flow"):
             from scipy.linalg import expm
 
-            from .flow import flow_matrix
+            from ..integrators.exact.flow import flow_matrix
 
             G = flow_matrix(seg.flow, seg.piece)
             xm = (expm(G * s) @ np.concatenate([seg.x_start, seg.piece.z0]))[:seg.x_start.size]

@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..integrators.exact.events import ExactError, Follower
 from ..model import ModeKey, SwitchedLCS
-from .events import ExactError, Follower
 from .saltation import affine_period
 
 __all__ = ["PwlOrbit", "PwlOrbitError", "exact_orbit", "follow_period"]

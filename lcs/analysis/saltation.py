@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import expm
 
-from .events import Event, Segment
+from ..integrators.exact.events import Event, Segment
 
 __all__ = ["AffinePeriod", "affine_period", "segment_field", "segment_output"]
 

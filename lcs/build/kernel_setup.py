@@ -74,7 +74,8 @@ def _none_beside_the_sources() -> bool:
     when that cannot be told so (then :func:`kernels_cached` asks numba)."""
     if os.environ.get("NUMBA_CACHE_DIR"):
         return False
-    pycache = Path(kernels.__file__).resolve().parents[1] / "stepping" / "__pycache__"
+    pycache = (Path(kernels.__file__).resolve().parents[1] / "integrators" / "moreau" / "dense"
+               / "__pycache__")
     if not kernels._writable(pycache):
         return False
     # (lcs.jit_passes.KernelCacheLocator's directory; numba's index name for run_grid)

@@ -34,8 +34,9 @@ __all__ = ["AOT_MODULE", "AOT_SOURCES", "KERNEL_SOURCES", "aot_function", "aot_m
 _LCS = Path(__file__).resolve().parent.parent
 # The packages whose compiled functions call or inline each other's, the other files with
 # compiled functions, and the compiler passes: a change to any of them recompiles every kernel.
+_MOREAU = _LCS / "integrators" / "moreau"
 KERNEL_SOURCES = (_LCS / "jit.py", _LCS / "jit_passes.py", _LCS / "bits.py", _LCS / "lcp",
-                  _LCS / "stepping", _LCS / "kkt", _LCS / "simulation" / "source_switching.py",
+                  _MOREAU / "dense", _MOREAU / "sparse", _LCS / "simulation" / "source_switching.py",
                   _LCS / "simulation" / "codes.py")
 # What the ahead-of-time module also depends on: the export table and argument flattening
 # here, the flat wrappers of aot.py, the signatures warmup.py compiles.
@@ -49,10 +50,10 @@ AOT_MODULE = "pelcs_kernels"
 
 # export name -> (module, attribute): each kernel has one specialisation (lcs.build.warmup).
 _EXPORTS = {
-    "run_grid": ("lcs.stepping.grid", "run_grid"),
-    "discretise_nb": ("lcs.stepping.discretise", "discretise_nb"),
-    "plan_grid_nb": ("lcs.stepping.gridplan", "_plan_nb"),
-    "fill_grid_nb": ("lcs.stepping.gridplan", "_fill_grid"),
+    "run_grid": ("lcs.integrators.moreau.dense.grid", "run_grid"),
+    "discretise_nb": ("lcs.integrators.moreau.dense.discretise", "discretise_nb"),
+    "plan_grid_nb": ("lcs.integrators.moreau.dense.gridplan", "_plan_nb"),
+    "fill_grid_nb": ("lcs.integrators.moreau.dense.gridplan", "_fill_grid"),
     "linear_switch_events_nb": ("lcs.simulation.source_switching", "_linear_switch_events"),
     "merge_keys_nb": ("lcs.simulation.source_switching", "_merge_keys"),
     "lu_factor_nb": ("lcs.sparse_lu", "_factor"),
@@ -60,10 +61,10 @@ _EXPORTS = {
     "lu_compress_nb": ("lcs.sparse_lu", "_compress"),
     "lu_solve_rows_nb": ("lcs.sparse_lu", "_solve_rows"),
     "lu_inv_norm1_nb": ("lcs.sparse_lu", "_inv_norm1"),
-    "run_kkt": ("lcs.kkt.grid", "run_kkt"),
-    "kkt_lookup": ("lcs.kkt.step", "lookup"),
-    "kkt_factor": ("lcs.kkt.lu", "factor"),
-    "kkt_min_degree": ("lcs.kkt.ordering", "_minimum_degree"),
+    "run_kkt": ("lcs.integrators.moreau.sparse.grid", "run_kkt"),
+    "kkt_lookup": ("lcs.integrators.moreau.sparse.step", "lookup"),
+    "kkt_factor": ("lcs.integrators.moreau.sparse.lu", "factor"),
+    "kkt_min_degree": ("lcs.integrators.moreau.sparse.ordering", "_minimum_degree"),
 }
 
 

@@ -4,15 +4,15 @@ kernels, so that no command compiles later.
 The kernels' argument types do not depend on the circuit (every array is float64 or int64,
 whatever n, m, p), so a few tiny runs reach every signature a run can use:
 
-* a single LCS over a short run -- :func:`~lcs.stepping.run_grid`, Lemke and enumeration,
+* a single LCS over a short run -- :func:`~lcs.integrators.moreau.dense.run_grid`, Lemke and enumeration,
   the source-switching and grid planners;
 * the same LCS over a long run with no comparator -- the plain loop
-  (:func:`~lcs.stepping.grid.plain_steps`, what a source-driven PWM converter takes);
+  (:func:`~lcs.integrators.moreau.dense.grid.plain_steps`, what a source-driven PWM converter takes);
 * a switch driven by a hysteretic comparator -- located switchings, the instant search;
 * the same switch without hysteresis on an attractive surface -- Filippov sliding;
 * the same switch sampled (explicit method);
 * a switch driven by a PWM source (its instants planned before stepping);
-* a circuit's network stepped by the sparse KKT kernel (:mod:`lcs.kkt`).
+* a circuit's network stepped by the sparse KKT kernel (:mod:`lcs.integrators.moreau.sparse`).
 
 ``tests/test_warmup.py`` checks, in fresh processes, that after :func:`warm_up` the README's
 commands find every kernel signature they use in the cache.
@@ -116,7 +116,7 @@ def _diode_rc_network() -> SwitchedLCS:
 def warm_up() -> float:
     """Load (or, the first time, compile) every Moreau kernel specialisation; returns the
     time it took, s."""
-    from ..moreau import MoreauOptions, simulate, simulate_lcs
+    from ..integrators.moreau.integrator import MoreauOptions, simulate, simulate_lcs
 
     t0 = time.perf_counter()
     lcs = _diode_rc()
@@ -126,9 +126,9 @@ def warm_up() -> float:
     simulate(_gated_rc(), [Dc(1.0), gate], [0.0], 2e-3, 1e-6)
     for vh, explicit in ((0.1, False), (0.0, False), (0.1, True)):
         simulate(_relay_system(vh, explicit), [Dc(1.0)], [0.0], 5e-2, 1e-3)
-    # The sparse KKT kernel (lcs.kkt): its grid loop, factorisations, ordering, and the
+    # The sparse KKT kernel (lcs.integrators.moreau.sparse): its grid loop, factorisations, ordering, and the
     # factorisation "auto" makes to estimate its cost.
-    from ..kkt.integrate import kept
+    from ..integrators.moreau.sparse.integrate import kept
 
     network = _diode_rc_network()
     simulate(network, [Pulse(0.0, 1.0, 0.0, 1e-4, 1e-4, 2e-4, 5e-4)], [0.0], 2e-3, 1e-5,

@@ -1,6 +1,6 @@
 """Whether every θ step of a passive LCS mode has a unique next state, whatever λ it takes.
 
-A step of length ``s`` (:mod:`lcs.stepping.discretise`) solves the LCP
+A step of length ``s`` (:mod:`lcs.integrators.moreau.dense.discretise`) solves the LCP
 ``w = M λ + q``, ``0 <= w ⊥ λ >= 0`` with ``M = D + C K``, ``K = s (I - sθA)^-1 B`` and moves the
 state to ``x_free + K λ``. Its λ need not be unique (an ideal diode bridge whose four diodes
 conduct: how the current splits between the legs is not determined), but for a passive mode

@@ -34,8 +34,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from lcs.integrators.moreau.integrator import MoreauOptions, simulate
 from lcs.model import LCS, SwitchedLCS
-from lcs.moreau import MoreauOptions, simulate
 from lcs.results import SimulationResult
 from lcs.signals import Dc, Signal, resolve
 
@@ -397,7 +397,7 @@ def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
         m = _PROBE_RE.match(probe)
         ok = False
         d = re.match(r"^\s*d\s*\(\s*([^,()\s]+)\s*\)\s*$", probe, re.I)
-        if d:  # d(S1): the on-fraction of a switch (lcs.moreau)
+        if d:  # d(S1): the on-fraction of a switch (lcs.integrators.moreau.integrator)
             ok = d.group(1).lower() in switches
         elif m:
             kind, a, b = m.group(1).lower(), m.group(2).lower(), m.group(3)
@@ -538,7 +538,7 @@ def simulate_circuit(
         Refuse a non-passive circuit instead of warning (see :func:`transient_setup`).
     method : str
         ``"moreau"`` (time-stepping) or ``"exact"`` (event-driven, exact between events:
-        :mod:`lcs.exact`; the step is then the output spacing; DC, PULSE, PWL and SIN
+        :mod:`lcs.integrators.exact`; the step is then the output spacing; DC, PULSE, PWL and SIN
         sources and netlist comparators only).
     output_step : float or "tran", optional
         The points returned: the instants ``k output_step`` (s) from TSTART on, linearly
@@ -555,7 +555,7 @@ def simulate_circuit(
     SimulationResult
         ``t`` shape (N,), ``y`` shape (N, len(probes)), ``res["v(out)"]`` by probe name.
         ``error`` is set (and the data end at the last completed step) if a step failed;
-        see :mod:`lcs.moreau`.
+        see :mod:`lcs.integrators.moreau.integrator`.
 
     Raises
     ------
@@ -617,7 +617,7 @@ def run_setup(
     if method == "moreau":
         theta, theta_note = choose_theta(setup, theta)
     if method == "exact":
-        from lcs.exact.simulate import simulate_exact
+        from lcs.integrators.exact.simulate import simulate_exact
 
         if controllers:
             raise ValueError("the exact method follows the netlist's comparators, not Python "
@@ -728,12 +728,12 @@ DEFAULT_THETA = 0.5
 def choose_theta(setup: TransientSetup, theta: float | None) -> tuple[float, str | None]:
     """θ for a Moreau run of ``setup``, and a note when θ < 1 is not reliable there.
 
-    ``theta=None``: :data:`DEFAULT_THETA`, unless :func:`lcs.theta_screen.screen_theta`
-    finds a mode whose λ = 0 configuration has stiff dynamics that its diodes cancel; then
-    θ = 1 (backward Euler, first order) with a note saying why. A θ < 1 given explicitly is
-    kept, with the same finding as a note.
+    ``theta=None``: :data:`DEFAULT_THETA`, unless
+    :func:`lcs.integrators.moreau.theta_screen.screen_theta` finds a mode whose λ = 0 configuration
+    has stiff dynamics that its diodes cancel; then θ = 1 (backward Euler, first order) with a note
+    saying why. A θ < 1 given explicitly is kept, with the same finding as a note.
     """
-    from lcs.theta_screen import screen_theta
+    from lcs.integrators.moreau.theta_screen import screen_theta
 
     wanted = DEFAULT_THETA if theta is None else float(theta)
     risks = screen_theta(setup.system, setup.h, wanted, energy=setup.energy)

@@ -26,7 +26,7 @@ import numpy as np
 from scipy.linalg import expm
 from scipy.optimize import brentq
 
-from ..model import ModeKey, SwitchedLCS
+from ...model import ModeKey, SwitchedLCS
 from .flow import InputPiece, ModeFlow, ModeFlowError, flow_matrix, linear_piece, mode_flow
 
 __all__ = ["Event", "ExactError", "Follower", "Segment", "SwitchRule", "switch_rules"]

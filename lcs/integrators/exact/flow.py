@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import expm
 
-from ..model import LCS
+from ...model import LCS
 
 __all__ = ["InputPiece", "ModeFlow", "ModeFlowError", "flow_matrix", "linear_piece",
            "mode_flow"]

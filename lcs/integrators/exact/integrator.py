@@ -21,13 +21,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import expm
 
-from .. import interrupt
-from ..bits import to_words
-from ..results import SimulationError
-from ..simulation import failures
-from ..simulation.integrator import Integrator, Run, Snapshot, Window
-from ..simulation.problem import key_of
-from ..simulation.recorder import EV_SLIDE_END, EV_SLIDE_START, EV_SWITCH
+from ... import interrupt
+from ...bits import to_words
+from ...results import SimulationError
+from ...simulation import failures
+from ...simulation.integrator import Integrator, Run, Snapshot, Window
+from ...simulation.problem import key_of
+from ...simulation.recorder import EV_SLIDE_END, EV_SLIDE_START, EV_SWITCH
 from .events import Event, ExactError, Follower, FollowStopped, Segment, one_blas_thread
 from .flow import flow_matrix
 from .sliding import SlidingSegment

@@ -7,10 +7,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ..model import OutputMap, SwitchedLCS
-from ..results import SimulationResult
-from ..simulation import driver
-from ..simulation.problem import Problem
+from ...model import OutputMap, SwitchedLCS
+from ...results import SimulationResult
+from ...simulation import driver
+from ...simulation.problem import Problem
 from .integrator import ExactIntegrator
 
 __all__ = ["simulate_exact"]
@@ -42,13 +42,13 @@ def simulate_exact(
         Stop time and output step, s (no time step: the flow between events is exact).
     t_start : float
     probes : sequence of str or OutputMap, optional
-        As for :func:`lcs.moreau.simulate`; default every state.
+        As for :func:`lcs.integrators.moreau.integrator.simulate`; default every state.
     save_at : sequence of float
         Further output instants, s.
     on_inconsistent : callable, optional
-        State jump, as for :func:`lcs.moreau.simulate`: for an inconsistent initial state,
-        and after an event that leaves no consistent continuation (a switch closing a diode
-        onto a charged capacitor); ``result.event_log`` then has a ``"jump"`` entry.
+        State jump, as for :func:`lcs.integrators.moreau.integrator.simulate`: for an inconsistent
+        initial state, and after an event that leaves no consistent continuation (a switch closing a
+        diode onto a charged capacitor); ``result.event_log`` then has a ``"jump"`` entry.
     log_breakpoints : bool
         Also list source corners in ``result.event_log``.
 

@@ -15,9 +15,10 @@ Layers:
   sampling instants of Python controllers (:mod:`lcs.controllers`), outputs, errors.
 * this module -- the Moreau integrator (:class:`MoreauIntegrator`, plugged into the driver):
   the time grid of each window, its chunks and their inputs, the mode stack
-  (:mod:`lcs.stepping.modes`, a mode is built the first time the kernel asks for it), and the
-  kernel's return codes turned into errors.
-* :mod:`lcs.stepping` -- the numba kernel: the whole grid of a chunk in one call, mode changes
+  (:mod:`lcs.integrators.moreau.dense.modes`, a mode is built the first time the kernel asks for
+  it), and the kernel's return codes turned into errors.
+* :mod:`lcs.integrators.moreau.dense` -- the numba kernel: the whole grid of a chunk in one call,
+mode changes
   from the schedule or from comparators evaluated after each step (instants located inside
   the step, the step split there), the Filippov relay for sliding modes; the step's LCP by
   :mod:`lcs.lcp.compiled` (cached active sets, Lemke, enumeration).
@@ -56,23 +57,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import interrupt
-from .arrays import unique_sorted
-from .bits import from_words, to_words, words
-from .kkt import integrate as sparse_kernel
-from .kkt.layout import STEP_FALLBACK, STEP_GROW
-from .lcp import LcpOptions
-from .model import LCS, ModeModel, OutputMap, SwitchedLCS
-from .results import SimulationError, SimulationResult
-from .simulation import driver, failures
-from .simulation.initial import InconsistentHandler
-from .simulation.inputs import MERGE_FRACTION, InputFunction, merge_close
-from .simulation.integrator import Integrator, Run, Snapshot, Window
-from .simulation.problem import Problem, mode_tuple, state_outputs
-from .simulation.switches import SWITCHING_METHODS
-from .stepping import run_grid
-from .stepping.gridplan import grid_chunks, plan_grid
-from .stepping.layout import (
+from ... import interrupt
+from ...arrays import unique_sorted
+from ...bits import from_words, to_words, words
+from ...lcp import LcpOptions
+from ...model import LCS, ModeModel, OutputMap, SwitchedLCS
+from ...results import SimulationError, SimulationResult
+from ...simulation import driver, failures
+from ...simulation.initial import InconsistentHandler
+from ...simulation.inputs import MERGE_FRACTION, InputFunction, merge_close
+from ...simulation.integrator import Integrator, Run, Snapshot, Window
+from ...simulation.problem import Problem, mode_tuple, state_outputs
+from ...simulation.switches import SWITCHING_METHODS
+from .dense import run_grid
+from .dense.gridplan import grid_chunks, plan_grid
+from .dense.layout import (
     FV_DUTY,
     FV_FAIL_T0,
     FV_FAIL_T1,
@@ -126,7 +125,9 @@ from .stepping.layout import (
     Store,
     SwitchArrays,
 )
-from .stepping.modes import cached_stack
+from .dense.modes import cached_stack
+from .sparse import integrate as sparse_kernel
+from .sparse.layout import STEP_FALLBACK, STEP_GROW
 
 __all__ = [
     "MoreauIntegrator",
@@ -190,8 +191,8 @@ class MoreauOptions:
         Lemke; 0 goes to Lemke directly.
     odd_slots : int
         Discretisations of shortened steps kept per mode (fewer for large circuits: 4 MiB a
-        mode, :func:`lcs.stepping.modes.odd_slots`); 0 discretises every shortened step
-        afresh.
+        mode, :func:`lcs.integrators.moreau.dense.modes.odd_slots`); 0 discretises every shortened
+        step afresh.
     keep_odd_steps : bool
         Start a run with the shortened steps stored by earlier runs of the same system
         (default: repeated runs, as a shooting method's, discretise each length once). A
@@ -200,11 +201,11 @@ class MoreauOptions:
         bit the result of a newly formulated system (the dense kernel's runs).
     kernel : str
         How the steps are solved: ``"dense"``, each mode's θ-discretised matrices stored
-        (:mod:`lcs.stepping`: fastest while they are small or sparse); ``"sparse"``,
-        factorised KKT systems of the circuit's network (:mod:`lcs.kkt`: a step costs the
-        non-zeros of its factors, linear in the circuit's size where the LCS's matrices are
-        dense, as on a voltage multiplier); ``"auto"`` (default), the sparse kernel where
-        it can take the run and its estimated cost per step is lower. The sparse kernel
+        (:mod:`lcs.integrators.moreau.dense`: fastest while they are small or sparse); ``"sparse"``,
+        factorised KKT systems of the circuit's network (:mod:`lcs.integrators.moreau.sparse`: a
+        step costs the non-zeros of its factors, linear in the circuit's size where the LCS's
+        matrices are dense, as on a voltage multiplier); ``"auto"`` (default), the sparse kernel
+        where it can take the run and its estimated cost per step is lower. The sparse kernel
         takes runs of circuits (modes with a :class:`~lcs.network.NetworkRealisation`)
         whose switches are driven by sources or controllers; a step whose block pivoting
         finds no solution goes to the dense kernel (Lemke) and back.
@@ -540,7 +541,7 @@ class MoreauIntegrator(Integrator):
         storage = getattr(self.run.problem.system, "storage", None)
         if storage is None or self.theta >= 1.0:
             return None
-        from .theory.step_uniqueness import longest_unique_step
+        from ...theory.step_uniqueness import longest_unique_step
 
         longest = longest_unique_step(lcs, storage, self.theta)
         if not 0.0 < longest < s:

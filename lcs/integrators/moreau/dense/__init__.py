@@ -3,9 +3,9 @@
 One call of :func:`run_grid` advances the state over a chunk of the time grid, through any
 number of switch-mode changes, without returning to Python except when it needs a mode whose
 matrices are not built yet (``STEP_NEED_MODE``), when an output buffer is full
-(``STEP_FULL``), or on failure. The Moreau integrator (:mod:`lcs.moreau`) builds the grid,
-the inputs on it, the schedule of known switching instants, and the per-mode matrices,
-stacked by mode id (:class:`~lcs.stepping.layout.ModeStack`).
+(``STEP_FULL``), or on failure. The Moreau integrator (:mod:`lcs.integrators.moreau.integrator`)
+builds the grid, the inputs on it, the schedule of known switching instants, and the per-mode
+matrices, stacked by mode id (:class:`~lcs.integrators.moreau.dense.layout.ModeStack`).
 
 One concept per module:
 

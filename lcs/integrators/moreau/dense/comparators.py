@@ -12,8 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..bits import bit, clear_bit, set_bit
-from ..jit import inline, kernel
+from lcs.bits import bit, clear_bit, set_bit
+from lcs.jit import inline, kernel
+
 from .layout import SW_LOCATED, SW_SAMPLED, SWF_LATCH
 
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..jit import inline, kernel
+from lcs.jit import inline, kernel
 
 
 @dataclass
@@ -151,9 +151,9 @@ COLUMN_MIN = 16
 @inline
 def free_regular(mats, inp, span, j, x, U0, U1, kk, xf, q):
     """Free state ``xf = Phi x + G0 u0 + G1 u1`` and ``q = C xf + F u1`` of a regular step
-    of mode ``j`` of the stacked matrices ``mats`` (:class:`~lcs.stepping.layout.ModeArrays`),
-    with ``u0 = U0[kk]`` and ``u1 = U1[kk]`` (:func:`free_state`). Returns False when they
-    are not finite."""
+    of mode ``j`` of the stacked matrices ``mats``
+    (:class:`~lcs.integrators.moreau.dense.layout.ModeArrays`), with ``u0 = U0[kk]`` and ``u1 =
+    U1[kk]`` (:func:`free_state`). Returns False when they are not finite."""
     return free_state(mats.Phi, mats.PhiT, mats.G0, mats.G1, j, True, mats, inp, span, j, x,
                       U0, U1, kk, xf, q)
 
@@ -162,7 +162,8 @@ def free_regular(mats, inp, span, j, x, U0, U1, kk, xf, q):
 def free_state(P, PT, G0, G1, ip, p_span, mats, inp, span, j, x, U0, U1, kk, xf, q):
     """``xf = P[ip] x + G0[ip] u0 + G1[ip] u1`` and ``q = C xf + F u1`` with mode ``j``'s
     ``C``, ``F`` of ``mats`` and ``u0 = U0[kk]``, ``u1 = U1[kk]``; the input terms over the
-    mode's input columns ``inp[j]`` only (:class:`~lcs.stepping.layout.ModeStack`). Below
+    mode's input columns ``inp[j]`` only (:class:`~lcs.integrators.moreau.dense.layout.ModeStack`).
+    Below
     :data:`COLUMN_MIN` states the products run row by row from ``P``, from there a column at
     a time from the transposes ``PT`` and ``mats.CT`` (each entry adds its terms in the same
     order, so the numbers are the same; the inner loops vectorise), each column over the

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..bits import (
+from lcs.bits import (
     bit,
     clear_bit,
     clear_bits,
@@ -31,8 +31,9 @@ from ..bits import (
     row_equals,
     set_bit,
 )
-from ..jit import kernel
-from ..lcp.compiled import LcpWork, lookup
+from lcs.jit import kernel
+from lcs.lcp.compiled import LcpWork, lookup
+
 from .comparators import crossing, row_value, sample_switches, sampled_controls
 from .layout import (
     EV_SLIDE_END,

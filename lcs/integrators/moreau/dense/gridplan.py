@@ -7,8 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..jit import jitted
-from ..simulation.inputs import MERGE_FRACTION, SNAP_FRACTION
+from lcs.jit import jitted
+from lcs.simulation.inputs import MERGE_FRACTION, SNAP_FRACTION
 
 
 @dataclass(frozen=True)

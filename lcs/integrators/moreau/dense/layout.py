@@ -22,17 +22,17 @@ from __future__ import annotations
 
 from collections import namedtuple
 
-from ..lcp.compiled import AS_MISSES, AS_NEXT_SLOT, AS_UPDATES
-from ..simulation.codes import EV_SLIDE_END as EV_SLIDE_END
-from ..simulation.codes import EV_SLIDE_START as EV_SLIDE_START
-from ..simulation.codes import EV_SWITCH as EV_SWITCH
-from ..simulation.codes import OP_REARM as OP_REARM
-from ..simulation.codes import OP_SET as OP_SET
-from ..simulation.codes import SW_LOCATED as SW_LOCATED
-from ..simulation.codes import SW_SAMPLED as SW_SAMPLED
-from ..simulation.codes import SW_SCHEDULED as SW_SCHEDULED
-from ..simulation.codes import SWF_LATCH as SWF_LATCH
-from ..simulation.codes import SWF_RELAY as SWF_RELAY
+from lcs.lcp.compiled import AS_MISSES, AS_NEXT_SLOT, AS_UPDATES
+from lcs.simulation.codes import EV_SLIDE_END as EV_SLIDE_END
+from lcs.simulation.codes import EV_SLIDE_START as EV_SLIDE_START
+from lcs.simulation.codes import EV_SWITCH as EV_SWITCH
+from lcs.simulation.codes import OP_REARM as OP_REARM
+from lcs.simulation.codes import OP_SET as OP_SET
+from lcs.simulation.codes import SW_LOCATED as SW_LOCATED
+from lcs.simulation.codes import SW_SAMPLED as SW_SAMPLED
+from lcs.simulation.codes import SW_SCHEDULED as SW_SCHEDULED
+from lcs.simulation.codes import SWF_LATCH as SWF_LATCH
+from lcs.simulation.codes import SWF_RELAY as SWF_RELAY
 
 # Kernel return codes.
 STEP_OK = 0
@@ -108,11 +108,11 @@ ModeArrays.__doc__ = """The matrices of a switch mode.
 
 The LCS ``A (n, n)``, ``B (n, m)``, ``C (m, n)``, ``D (m, m)``, ``E (n, p)``, ``F (m, p)``; its θ
 step of the regular length h, ``Phi (n, n)``, ``G0, G1 (n, p)``, ``K (n, m)``, ``M (m, m)``
-(:func:`lcs.stepping.discretise`); the stored probes ``y = Cy x + Dy λ + Fy u`` with ``Cy (r, n)``,
-``Dy (r, m)``, ``Fy (r, p)``; the switch controls ``c = Cc x + Dc λ + Fc u`` with ``Cc (k, n)``,
-``Dc (k, m)``, ``Fc (k, p)``; and ``PhiT (n, n)``, ``CT (n, m)``, ``KT (m, n)``, ``MT (m, m)``,
-the transposes of ``Phi``, ``C``, ``K`` and ``M`` for the regular step's products, taken a
-column at a time: each
+(:func:`lcs.integrators.moreau.dense.discretise`); the stored probes ``y = Cy x + Dy λ + Fy u``
+with ``Cy (r, n)``, ``Dy (r, m)``, ``Fy (r, p)``; the switch controls ``c = Cc x + Dc λ + Fc u``
+with ``Cc (k, n)``, ``Dc (k, m)``, ``Fc (k, p)``; and ``PhiT (n, n)``, ``CT (n, m)``, ``KT (m, n)``,
+``MT (m, m)``, the transposes of ``Phi``, ``C``, ``K`` and ``M`` for the regular step's products,
+taken a column at a time: each
 output entry sums its terms in the same order as a row-by-row product (the same numbers, bit
 for bit), and the inner loop runs over contiguous memory, which the compiler vectorises. In a
 :class:`ModeStack` every field has a leading mode axis.
@@ -131,8 +131,8 @@ OddSteps = namedtuple("OddSteps", ["s", "Phi", "G0", "G1", "KT", "M", "next", "s
 OddSteps.__doc__ = """Discretisations of shortened steps, ``OS`` per mode: the step length
 ``s (Q, OS)`` in s (-1: an empty slot); the matrices of slot ``o`` of mode ``j`` at index
 ``jj = j OS + o`` of ``Phi (Q OS, n, n)`` (transposed from
-:data:`~lcs.stepping.discretise.COLUMN_MIN` states on), ``G0, G1 (Q OS, n, p)``, the transpose
-of ``K``, ``KT (Q OS, m, n)``, and ``M (Q OS, m, m)``, with an
+:data:`~lcs.integrators.moreau.dense.discretise.COLUMN_MIN` states on), ``G0, G1 (Q OS, n, p)``,
+the transpose of ``K``, ``KT (Q OS, m, n)``, and ``M (Q OS, m, m)``, with an
 :class:`~lcs.lcp.compiled.ActiveSets` cache ``sets`` of :data:`ODD_SETS` active sets each (its
 own round-robin ``counters``, laid out as the kernel's ``ivars``, whose unused entry 0 counts
 evictions); ``next (Q,)`` the slot of each mode to fill next.

@@ -12,8 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..bits import copy_row
-from ..jit import inline, kernel
+from lcs.bits import copy_row
+from lcs.jit import inline, kernel
+
 from .comparators import control_rates, crossing, hermite_root
 from .layout import FV_H, FV_ROOT_TOL, IV_ROOTEVALS, STEP_OK
 from .sliding import advance

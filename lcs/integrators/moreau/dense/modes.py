@@ -1,6 +1,7 @@
 """The Moreau integrator's mode stack: per switch mode, the LCS, its θ discretisation, the
 probe and control rows and an active-set cache, stacked by mode id as the kernel takes them
-(:class:`~lcs.stepping.layout.ModeStack`), built the first time the kernel asks for a mode.
+(:class:`~lcs.integrators.moreau.dense.layout.ModeStack`), built the first time the kernel asks for
+a mode.
 
 Stacks are kept per system for the next run with the same configuration: parameter sweeps
 and maps re-run one system many times, and reuse the matrices, the discretisations and the
@@ -14,13 +15,14 @@ import weakref
 
 import numpy as np
 
-from ..bits import to_words, words
-from ..lcp import is_p_matrix
-from ..lcp.compiled import ActiveSets
-from ..model import LCS, ModeKey, OutputMap
-from ..simulation.inputs import SNAP_FRACTION
-from ..simulation.problem import Problem, mode_tuple
-from ..simulation.switches import SwitchPlan
+from lcs.bits import to_words, words
+from lcs.lcp import is_p_matrix
+from lcs.lcp.compiled import ActiveSets
+from lcs.model import LCS, ModeKey, OutputMap
+from lcs.simulation.inputs import SNAP_FRACTION
+from lcs.simulation.problem import Problem, mode_tuple
+from lcs.simulation.switches import SwitchPlan
+
 from .discretise import discretise
 from .layout import (
     IV_LEN,
@@ -199,12 +201,12 @@ class ModeStackBuilder:
         (:func:`lcs.theory.step_uniqueness.unique_next_state` with the system's storage): its
         solutions then need no enumeration for another next state. Steps are at most
         ``(1 + SNAP_FRACTION) h`` long (a remainder below ``SNAP_FRACTION h`` joins the last
-        regular step: :mod:`lcs.stepping.gridplan`); the bound is taken with that margin
-        twice."""
+        regular step: :mod:`lcs.integrators.moreau.dense.gridplan`); the bound is taken with that
+        margin twice."""
         storage = getattr(self.prob.system, "storage", None)
         if storage is None:
             return False
-        from ..theory.step_uniqueness import unique_next_state
+        from lcs.theory.step_uniqueness import unique_next_state
 
         s_max = (1.0 + 2.0 * SNAP_FRACTION) * self.h
         return unique_next_state(self.prob.lcs(mode), storage, s_max, self.theta)
@@ -250,7 +252,8 @@ ODD_SLOTS = 8
 
 def odd_slots(n: int, m: int, p: int, wanted: int = ODD_SLOTS) -> int:
     """Stored shortened-step discretisations per mode: ``wanted``, fewer when they (with their
-    :data:`~lcs.stepping.layout.ODD_SETS` active-set factorisations) would take more than
+    :data:`~lcs.integrators.moreau.dense.layout.ODD_SETS` active-set factorisations) would take more
+    than
     :data:`ODD_BYTES_PER_MODE` (0 when one slot alone would, or when ``wanted`` is 0)."""
     if wanted <= 0:
         return 0

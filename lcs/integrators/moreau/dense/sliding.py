@@ -9,7 +9,8 @@ condition solved in closed form (:func:`relay_fraction`) together with the two m
 
 from __future__ import annotations
 
-from ..jit import inline, kernel
+from lcs.jit import inline, kernel
+
 from .comparators import row_value
 from .layout import IV_FAILMODE, STEP_OK
 from .step import mode_step

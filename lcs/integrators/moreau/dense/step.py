@@ -15,9 +15,9 @@ loop takes a step, so that the hot loops pay no call overhead:
 
 from __future__ import annotations
 
-from ..bits import copy_bits
-from ..jit import inline, kernel
-from ..lcp.compiled import (
+from lcs.bits import copy_bits
+from lcs.jit import inline, kernel
+from lcs.lcp.compiled import (
     distinct_images,
     lookup,
     negative_q_mask,
@@ -27,6 +27,7 @@ from ..lcp.compiled import (
     solve_warm,
     solve_warm_direct,
 )
+
 from .discretise import COLUMN_MIN, discretise_nb, free_odd, free_regular, free_state
 from .layout import (
     FV_FEAS_TOL,
@@ -82,8 +83,8 @@ def impulse_cached(xf, K, j, sets, slot, na, za, lamn, xn):
 @inline
 def impulse_cached_t(xf, K, KT, j, sets, slot, na, za, lamn, xn):
     """:func:`impulse_cached`, with the transposes ``KT`` of the stored ``K`` a column at a
-    time from :data:`~lcs.stepping.discretise.COLUMN_MIN` states on (see
-    :class:`~lcs.stepping.layout.ModeArrays`): the same numbers."""
+    time from :data:`~lcs.integrators.moreau.dense.discretise.COLUMN_MIN` states on (see
+    :class:`~lcs.integrators.moreau.dense.layout.ModeArrays`): the same numbers."""
     if xf.shape[0] < COLUMN_MIN:
         return impulse_cached(xf, K, j, sets, slot, na, za, lamn, xn)
     return impulse_columns(xf, KT, j, sets, slot, na, za, lamn, xn)
@@ -92,8 +93,9 @@ def impulse_cached_t(xf, K, KT, j, sets, slot, na, za, lamn, xn):
 @inline
 def impulse_kt(xf, KT, j, sets, slot, na, za, lamn, xn):
     """:func:`impulse_cached` from the transposes ``KT`` alone (the stored shortened steps
-    keep ``K`` transposed): row by row below :data:`~lcs.stepping.discretise.COLUMN_MIN`
-    states, a column at a time from there; the same numbers either way."""
+    keep ``K`` transposed): row by row below
+    :data:`~lcs.integrators.moreau.dense.discretise.COLUMN_MIN` states, a column at a time from
+    there; the same numbers either way."""
     n = xf.shape[0]
     if n >= COLUMN_MIN:
         return impulse_columns(xf, KT, j, sets, slot, na, za, lamn, xn)
@@ -278,10 +280,11 @@ def transpose_square(a):
 @inline
 def odd_free(stack, j, jj, x, u0, u1, xf, q):
     """Free state ``xf`` and ``q`` of a shortened step of mode ``j`` from the stored
-    discretisation ``jj`` of :class:`~lcs.stepping.layout.OddSteps` (its ``Phi`` holds the
-    row form below :data:`~lcs.stepping.discretise.COLUMN_MIN` states, the transpose from
-    there), inputs ``u0`` to ``u1``: :func:`~lcs.stepping.discretise.free_state`. Returns
-    False when they are not finite."""
+    discretisation ``jj`` of :class:`~lcs.integrators.moreau.dense.layout.OddSteps` (its ``Phi``
+    holds the row form below :data:`~lcs.integrators.moreau.dense.discretise.COLUMN_MIN` states, the
+    transpose from there), inputs ``u0`` to ``u1``:
+    :func:`~lcs.integrators.moreau.dense.discretise.free_state`. Returns False when they are not
+    finite."""
     p = u0.shape[0]
     odd = stack.odd
     return free_state(odd.Phi, odd.Phi, odd.G0, odd.G1, jj, False, stack.mats, stack.inp,

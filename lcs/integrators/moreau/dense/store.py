@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from ..bits import bit
-from ..jit import inline, kernel
+from lcs.bits import bit
+from lcs.jit import inline, kernel
+
 from .layout import IV_EVPOS, MF_OUTSTATE
 
 

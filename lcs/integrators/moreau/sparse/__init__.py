@@ -2,8 +2,8 @@
 the circuit's own network unknowns, so that a step costs a time proportional to the size of
 the circuit rather than to its square.
 
-The dense kernel (:mod:`lcs.stepping`) stores per mode the θ-discretised matrices of the LCS
-(``Phi``, ``K``, ``M``) and per active set the inverse of ``M_aa``. On a voltage multiplier
+The dense kernel (:mod:`lcs.integrators.moreau.dense`) stores per mode the θ-discretised matrices of
+the LCS (``Phi``, ``K``, ``M``) and per active set the inverse of ``M_aa``. On a voltage multiplier
 these are dense (every capacitor voltage enters the diodes' ``w`` further up the ladder), so a
 step of a 100-stage multiplier reads about 0.7 MB of matrices, and its cost grows as the
 square of the size. Here a step solves the companion network of the mode with the active

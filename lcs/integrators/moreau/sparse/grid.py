@@ -1,20 +1,21 @@
 """The sparse KKT stepping's loop over a chunk of the time grid.
 
-The counterpart of :func:`lcs.stepping.grid.run_grid` for runs whose switches are all driven
-by sources or controllers (their instants are grid points, applied from the schedule):
+The counterpart of :func:`lcs.integrators.moreau.dense.grid.run_grid` for runs whose switches are
+all driven by sources or controllers (their instants are grid points, applied from the schedule):
 no comparator, no sliding, no latch. It shares the dense kernel's state, chunk, schedule,
-store and counters (:mod:`lcs.stepping.layout`), so that the integrator can hand a grid step
-to the dense kernel (``STEP_FALLBACK``: pivoting found no accepted set, the dense kernel then
-runs Lemke) and come back.
+store and counters (:mod:`lcs.integrators.moreau.dense.layout`), so that the integrator can hand a
+grid step to the dense kernel (``STEP_FALLBACK``: pivoting found no accepted set, the dense kernel
+then runs Lemke) and come back.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..bits import bit, copy_bits, equal_bits, row_equals
-from ..jit import inline, kernel
-from ..stepping.layout import (
+from lcs.bits import bit, copy_bits, equal_bits, row_equals
+from lcs.jit import inline, kernel
+
+from ..dense.layout import (
     FV_FAIL_T0,
     FV_FAIL_T1,
     FV_H,
@@ -35,7 +36,7 @@ from ..stepping.layout import (
     STEP_NEED_MODE,
     STEP_OK,
 )
-from ..stepping.store import find_mode, record
+from ..dense.store import find_mode, record
 from .layout import NF_OUTSTATE, STEP_FALLBACK, STEP_GROW
 from .step import step_body
 
@@ -67,12 +68,12 @@ def run_kkt(net, cache, chunk, sched, state, lim, store, W, stol):
     """Advance the state over the grid chunk (from grid step ``ivars[IV_K]``) by sparse KKT
     steps through the schedule's mode changes.
 
-    Parameters are those of :func:`lcs.stepping.grid.run_grid` with the mode store ``net``
-    (:class:`~lcs.kkt.layout.NetStack`, ``ivars[IV_NMODES]`` modes), the factorisation cache
-    ``cache`` (:class:`~lcs.kkt.layout.KKTCache`), its work space ``W``
-    (:class:`~lcs.kkt.step.KKTWork`) and ``stol``, the difference (s) within which two step
-    lengths share factorisations (a step then has the factorised length, as the dense
-    kernel's stored shortened steps).
+    Parameters are those of :func:`lcs.integrators.moreau.dense.grid.run_grid` with the mode store
+    ``net`` (:class:`~lcs.integrators.moreau.sparse.layout.NetStack`, ``ivars[IV_NMODES]`` modes),
+    the factorisation cache ``cache`` (:class:`~lcs.integrators.moreau.sparse.layout.KKTCache`), its
+    work space ``W`` (:class:`~lcs.integrators.moreau.sparse.step.KKTWork`) and ``stol``, the
+    difference (s) within which two step lengths share factorisations (a step then has the
+    factorised length, as the dense kernel's stored shortened steps).
 
     Returns ``STEP_OK`` (chunk done), ``STEP_NEED_MODE`` (build ``state.need``),
     ``STEP_FULL``, ``STEP_FALLBACK`` (the dense kernel takes grid step ``ivars[IV_K]``, whose

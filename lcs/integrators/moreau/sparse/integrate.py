@@ -1,7 +1,7 @@
 """The sparse KKT kernel inside the Moreau integrator: which runs it takes, its mode store
 and factorisation cache across runs, and the calls of its grid loop.
 
-:class:`lcs.moreau.MoreauIntegrator` asks :func:`choose` in ``prepare``; a
+:class:`lcs.integrators.moreau.integrator.MoreauIntegrator` asks :func:`choose` in ``prepare``; a
 :class:`SparseRun` then advances the chunks, and the integrator hands single grid steps to
 the dense kernel when it returns ``STEP_FALLBACK``.
 """
@@ -12,9 +12,10 @@ import weakref
 
 import numpy as np
 
-from ..bits import to_words, words
-from ..simulation.codes import SW_LOCATED, SW_SAMPLED, SWF_LATCH
-from ..stepping.layout import IV_NMODES
+from lcs.bits import to_words, words
+from lcs.simulation.codes import SW_LOCATED, SW_SAMPLED, SWF_LATCH
+
+from ..dense.layout import IV_NMODES
 from .grid import run_kkt
 from .layout import C_FACTOR, KKTCache
 from .stack import NetStackBuilder, NoNetwork, cache_for

@@ -1,4 +1,4 @@
-"""Typed containers and codes of the sparse KKT stepping (see :mod:`lcs.kkt`).
+"""Typed containers and codes of the sparse KKT stepping (see :mod:`lcs.integrators.moreau.sparse`).
 
 Every mode's sparse matrices live in one ragged store (:class:`NetStack`): flat ``ptr``,
 ``idx``, ``val`` arrays, and per mode a row of ``tab`` giving where each of its structures
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections import namedtuple
 
-# Kernel return codes beyond lcs.stepping.layout's STEP_* (0 ... 7).
+# Kernel return codes beyond lcs.integrators.moreau.dense.layout's STEP_* (0 ... 7).
 STEP_FALLBACK = 8  # this grid step needs the dense kernel (pivoting failed, no network)
 STEP_GROW = 9  # a factorisation needs more room than the cache's slots have
 
@@ -70,16 +70,16 @@ KKTCache.__doc__ = """Factorisations of KKT matrices, T slots shared by every mo
 
 Slot t holds the matrix of mode ``mode[t]``, step length ``s[t]`` (s) and active set
 ``sets[t] (Wm,)``; ``state[t]``: 0 factorised, -1 singular, -2 empty. Its factors
-(:func:`lcs.kkt.lu.factor`: ``Lp, Up (T, Nmax + 1)``, ``Li, Lx, Ui, Ux (T, cap)``,
-``pinv (T, Nmax)``) are those of the matrix scaled by rows ``rs`` and columns ``cs``
-(T, Nmax), powers of two. ``counters (C_LEN,)``: the next slot to reuse, factorisations,
-singular sets, KKT solves, refinements (the last three diagnostics, read from
-:func:`lcs.kkt.integrate.kept`).
+(:func:`lcs.integrators.moreau.sparse.lu.factor`: ``Lp, Up (T, Nmax + 1)``,
+``Li, Lx, Ui, Ux (T, cap)``, ``pinv (T, Nmax)``) are those of the matrix scaled by rows ``rs``
+and columns ``cs`` (T, Nmax), powers of two. ``counters (C_LEN,)``: the next slot to reuse,
+factorisations, singular sets, KKT solves, refinements (the last three diagnostics, read from
+:func:`lcs.integrators.moreau.sparse.integrate.kept`).
 ``hkey (T,)``: each slot's key hash; ``table, thash (H,)``: the slots by hash (open
 addressing, H a power of two >= 4 T; -1 empty) and the hash each entry was stored under.
 ``succ, succ_key (T,)``: the slot of the set a step last ended in after pivoting away from
 slot t's set, and that slot's key hash when it was recorded (-1: none): the set tried next
-when t's fails again (:func:`lcs.kkt.step.kkt_step`)."""
+when t's fails again (:func:`lcs.integrators.moreau.sparse.step.kkt_step`)."""
 
 C_NEXT = 0
 C_FACTOR = 1

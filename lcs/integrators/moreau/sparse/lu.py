@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..jit import inline, kernel
+from lcs.jit import inline, kernel
 
 __all__ = ["FACTOR_OK", "FACTOR_SINGULAR", "FACTOR_FULL", "factor", "solve", "solve_into",
            "lu_arrays"]

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..jit import jitted
+from lcs.jit import jitted
 
 __all__ = ["MAX_DENSE", "minimum_degree"]
 

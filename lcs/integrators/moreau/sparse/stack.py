@@ -6,10 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..bits import to_words, words
-from ..model import ModeKey
-from ..simulation.problem import Problem, mode_tuple
-from ..simulation.switches import SwitchPlan
+from lcs.bits import to_words, words
+from lcs.model import ModeKey
+from lcs.simulation.problem import Problem, mode_tuple
+from lcs.simulation.switches import SwitchPlan
+
 from .layout import (
     C_LEN,
     K_ALWAYS,
@@ -79,7 +80,8 @@ def compressed(major: np.ndarray, minor: np.ndarray, size: int):
 
 
 def _pow2_inverse(a: np.ndarray) -> np.ndarray:
-    """Powers of two nearest 1/a (1 where a is 0), as :func:`lcs.kkt.step._pow2_inverse`."""
+    """Powers of two nearest 1/a (1 where a is 0), as
+    :func:`lcs.integrators.moreau.sparse.step._pow2_inverse`."""
     out = np.ones_like(a)
     good = a > 0
     m, e = np.frexp(a[good])
@@ -88,7 +90,8 @@ def _pow2_inverse(a: np.ndarray) -> np.ndarray:
 
 
 class NetStackBuilder:
-    """Every mode's network in a :class:`~lcs.kkt.layout.NetStack`, grown on demand.
+    """Every mode's network in a :class:`~lcs.integrators.moreau.sparse.layout.NetStack`, grown on
+    demand.
 
     Parameters
     ----------
@@ -249,7 +252,7 @@ class NetStackBuilder:
 
 def _template(net, D, theta: float, zero: np.ndarray):
     """The KKT template's entries (rows, cols, val, val2, kind) for a step of length s:
-    value ``val + s val2``; see :mod:`lcs.kkt.layout` for the kinds."""
+    value ``val + s val2``; see :mod:`lcs.integrators.moreau.sparse.layout` for the kinds."""
     n, m, nz = net.n, net.m, net.nz
     Yr, Yc, Yv = net.Y
     Sr, Sc, Sv = net.S
@@ -347,8 +350,8 @@ def _factor_y(net, q: np.ndarray):
 
 
 def cache_for(slots: int, nmax: int, cap: int, Wm: int) -> KKTCache:
-    """An empty :class:`~lcs.kkt.layout.KKTCache` of ``slots`` slots for matrices up to
-    ``nmax`` unknowns with ``cap`` entries in each factor."""
+    """An empty :class:`~lcs.integrators.moreau.sparse.layout.KKTCache` of ``slots`` slots for
+    matrices up to ``nmax`` unknowns with ``cap`` entries in each factor."""
     T = max(1, int(slots))
     H = 1 << max(4, (4 * T - 1).bit_length())
     return KKTCache(np.full(T, -1, np.int64), np.zeros(T), np.zeros((T, Wm), np.int64),

@@ -1,7 +1,7 @@
 """One θ step of one mode by its sparse KKT system.
 
 For a step of length ``s`` from ``x_k`` (inputs ``u0`` to ``u1``, ``u_θ = (1-θ) u0 + θ u1``),
-Moreau's step (:mod:`lcs.stepping.discretise`) in the network's unknowns ``z``
+Moreau's step (:mod:`lcs.integrators.moreau.dense.discretise`) in the network's unknowns ``z``
 (:mod:`lcs.network`), with ``v = θ x_k+1 + (1-θ) x_k`` (so that ``A v`` carries the θ
 weighting and no solve of ``x_k``'s own network is needed)::
 
@@ -17,8 +17,8 @@ the fresh computation bounds it).
 
 For an active set ``a`` (the pairs with λ basic) the rows ``w_a = 0`` and ``λ_i = 0`` off
 ``a`` close the system: one sparse LU per mode, length and active set (:func:`lookup`, cached
-in :class:`~lcs.kkt.layout.KKTCache`), one solve per step; the set is accepted when
-``λ_a >= -rtol max|λ_a|`` and ``w_i >= -rtol Σ|terms|`` off ``a``, else block principal
+in :class:`~lcs.integrators.moreau.sparse.layout.KKTCache`), one solve per step; the set is accepted
+when ``λ_a >= -rtol max|λ_a|`` and ``w_i >= -rtol Σ|terms|`` off ``a``, else block principal
 pivoting goes on from it (:func:`kkt_step`), each basis a factorisation of its own. No dense
 matrix of the LCS is touched: a step costs the non-zeros of its factors.
 """
@@ -30,9 +30,10 @@ from collections import namedtuple
 
 import numpy as np
 
-from ..bits import bit
-from ..jit import inline, kernel
-from ..stepping.layout import IV_WARM
+from lcs.bits import bit
+from lcs.jit import inline, kernel
+
+from ..dense.layout import IV_WARM
 from .layout import (
     C_FACTOR,
     C_NEXT,
@@ -629,8 +630,8 @@ def kkt_step(net, cache, j, s, stol, theta, x, u0, u1, mask, slot, rtol, max_ite
              lamn, ivars):
     """:func:`step_body` as a kernel of its own, for one step called from Python.
 
-    The grid loop (:func:`lcs.kkt.grid.run_kkt`) inlines :func:`step_body` instead: a
-    compiled call that takes the mode store, the cache and the work space (108 arrays)
+    The grid loop (:func:`lcs.integrators.moreau.sparse.grid.run_kkt`) inlines :func:`step_body`
+    instead: a compiled call that takes the mode store, the cache and the work space (108 arrays)
     increfs each of them on entry and decrefs them on return, which was 10-14 % of a
     50-stage multiplier's stepping in a perf profile."""
     return step_body(net, cache, j, s, stol, theta, x, u0, u1, mask, slot, rtol, max_iter,
