@@ -3,7 +3,7 @@ pyproject.toml declares it, plus the kernels' ahead-of-time extension module com
 here, so that the first ``pelcs`` command after the install does not compile for minutes.
 
 The module is built for this machine's processor and numba (its directory says which,
-:func:`lcs.kernels.aot_path`); where it does not match at run time, or the build fails here
+:func:`lcs.build.kernels.aot_path`); where it does not match at run time, or the build fails here
 (no C compiler), pelcs compiles on first use as without it. ``PELCS_WHEEL_KERNELS=0`` builds
 the wheel without it (seconds instead of about three minutes of one core). An editable
 install (``pip install -e``) compiles nothing here: ``scripts/setup`` or the first use does.
@@ -22,7 +22,7 @@ from setuptools.command.build_py import build_py
 from setuptools.dist import Distribution
 
 # What the build runs in the built packages: the module built into their lcs/__pycache__.
-_BUILD = "import lcs.kernel_setup as k; print(k.build_now())"
+_BUILD = "import lcs.build.kernel_setup as k; print(k.build_now())"
 
 
 def build_kernels(lib: Path, script: str = _BUILD) -> bool:

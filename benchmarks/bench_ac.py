@@ -57,8 +57,8 @@ def main() -> int:
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args()
 
+    from lcs.analysis.exact_orbit import exact_orbit
     from lcs.analysis.orbits import find_orbit
-    from lcs.exact.orbit import exact_orbit
     from lcs.smallsignal.ltp import harmonic_response, probe_forms
     from netlist.parser import parse_file
     from netlist.studies.ac import ac_analysis, default_frequencies

@@ -1,5 +1,5 @@
 """What compiling the kernels costs from an empty cache: the CPU time and peak memory of
-``scripts/setup``'s compile step (:func:`lcs.stepping.warmup.warm_up` in a fresh process with
+``scripts/setup``'s compile step (:func:`lcs.build.warmup.warm_up` in a fresh process with
 an empty numba cache, ``PELCS_AOT=0``), and where it goes, function by function.
 
 Usage::
@@ -55,12 +55,12 @@ class Timer(event.Listener):
 
 event.register("numba:compile", Timer())
 t0 = time.perf_counter()
-from lcs.stepping.warmup import warm_up
+from lcs.build.warmup import warm_up
 warm_up()
 wall = time.perf_counter() - t0
 if "--aot" in sys.argv:
     t1 = time.perf_counter()
-    from lcs.aot import build
+    from lcs.build.aot import build
     build(out_dir=sys.argv[-1])
     aot = time.perf_counter() - t1
 else:

@@ -94,7 +94,7 @@ def main() -> int:
               f"{_children_cpu() - cpu0:.0f} s CPU (the build of the wheel, the kernels' "
               f"module compiled into it, the dependencies); with the venv "
               f"{time.perf_counter() - t0:.0f} s wall")
-        module = subprocess.run([str(py), "-c", "import lcs.kernels as k; "
+        module = subprocess.run([str(py), "-c", "import lcs.build.kernels as k; "
                                  "print(k.aot_path().is_file())"], env=_env(), cwd=work,
                                 capture_output=True, text=True)
         print(f"the kernels' module installed with the wheel: {module.stdout.strip()}")
@@ -107,7 +107,7 @@ def main() -> int:
         for label in ("first", "second"):
             if label == "second":
                 t1 = time.perf_counter()
-                code = ("import time, lcs.kernels as k, lcs.kernel_setup as s\n"
+                code = ("import time, lcs.build.kernels as k, lcs.build.kernel_setup as s\n"
                         "t0 = time.time()\n"
                         "while (not k.aot_path().is_file() and s.build_failure() is None\n"
                         "       and (s.build_running() or time.time() < t0 + 5)):\n"

@@ -13,7 +13,8 @@ For each netlist:
   counters, of a first run (modes formulated as they are reached) and of a second one (modes
   built: the stepping alone), and the formulation's cost per mode (their difference); the
   kernel "auto" chose, and the stepping with each kernel forced (``dense``: stored
-  θ-discretised matrices; ``sparse``: the circuit's factorised network, ``lcs.kkt``);
+  θ-discretised matrices; ``sparse``: the circuit's factorised network,
+  ``lcs.integrators.moreau.sparse``);
 * ``ngspice``: ``ngspice -b -r OUT.raw FILE`` in a fresh process, the netlist as written; when
   that fails ("timestep too small": ngspice's Newton iterations do not converge on the
   near-ideal models at this size), the same with softened models (diodes ``N=1 RS=10m``,
@@ -106,8 +107,9 @@ def _pelcs_inprocess(text: str, tmp: Path) -> dict:
 
 def _kernels(setup) -> dict:
     """The stepping (second run, µs per step) with each kernel forced: the dense one's stored
-    θ-discretised matrices and the sparse one's factorised network (lcs.kkt)."""
-    from lcs.moreau import MoreauOptions
+    θ-discretised matrices and the sparse one's factorised network
+    (lcs.integrators.moreau.sparse)."""
+    from lcs.integrators.moreau.integrator import MoreauOptions
     from netlist.studies.transient import run_setup
 
     out = {}
@@ -335,7 +337,7 @@ def main(argv=None) -> int:
         return 0
     global REPEAT
     REPEAT = max(1, args.repeat)
-    from lcs.stepping.warmup import warm_up
+    from lcs.build.warmup import warm_up
 
     warm_up()
     rows = []

@@ -37,8 +37,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from lcs.integrators.moreau.integrator import simulate_lcs  # noqa: E402
 from lcs.model import LCS, ComplementarityPair  # noqa: E402
-from lcs.moreau import simulate_lcs  # noqa: E402
 from lcs.signals import Pulse  # noqa: E402
 
 SICONOS_PYTHON = "/usr/bin/python3"

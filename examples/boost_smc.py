@@ -47,7 +47,7 @@ if str(ROOT) not in sys.path:  # run as a script from a checkout
     sys.path.insert(0, str(ROOT))
 
 from converters import factories as F  # noqa: E402
-from lcs.moreau import MoreauOptions  # noqa: E402
+from lcs.integrators.moreau.integrator import MoreauOptions  # noqa: E402
 from netlist.studies.transient import simulate_circuit  # noqa: E402
 
 NAME = "boost_smc"

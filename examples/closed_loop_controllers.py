@@ -30,7 +30,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from lcs.controllers import PIPWM, OpenLoopPWM, SlidingSurface  # noqa: E402
-from lcs.moreau import simulate  # noqa: E402
+from lcs.integrators.moreau.integrator import simulate  # noqa: E402
 from netlist.parser import parse_file  # noqa: E402
 from netlist.studies.transient import transient_setup  # noqa: E402
 

@@ -2,10 +2,10 @@
 
 Three single-mode runs (the switch's gate is a DC source, so the switch never changes state)
 show the three ways a GDCM can behave. For each, the GDCM region of the diode D1 comes from
-:func:`lcs.gdcm.gdcm_conditions` on the LCS of that switch mode: ``y = w(D1)`` (a linear
+:func:`lcs.theory.gdcm.gdcm_conditions` on the LCS of that switch mode: ``y = w(D1)`` (a linear
 function of the state) must be zero and ``Γ`` (the λ that holds y at zero, also a linear
 function of the state and input) must be positive. The simulated w(t), λ(t) go through
-:func:`lcs.gdcm.detect_gdcm_intervals`, and the figure shows the trajectory in the (y, Γ)
+:func:`lcs.theory.gdcm.detect_gdcm_intervals`, and the figure shows the trajectory in the (y, Γ)
 plane with the region {y = 0, Γ > 0} marked, λ(t) (with Γ(t) on top: inside the region the
 simulated λ must equal Γ) and w(t).
 
@@ -82,7 +82,7 @@ if str(ROOT) not in sys.path:  # run as a script from a checkout
     sys.path.insert(0, str(ROOT))
 
 from converters import factories as F  # noqa: E402
-from lcs.gdcm import GdcmCondition, GdcmInterval, detect_gdcm_intervals, gdcm_condition  # noqa: E402
+from lcs.theory.gdcm import GdcmCondition, GdcmInterval, detect_gdcm_intervals, gdcm_condition  # noqa: E402
 from netlist.formulation import formulate  # noqa: E402
 from netlist.studies.transient import simulate_circuit  # noqa: E402
 
@@ -200,7 +200,7 @@ def _check(r: CaseResult, u: np.ndarray) -> None:
         # has λ between 0 and Γ (it stops the rest of the motion), so compare the interior.
         inside[iv.i_start + 1:iv.i_end] = True
     # Inside the region the simulated λ is Γ(x, u) and w is y (both computed independently:
-    # λ, w from the run's probes, y, Γ from the GDCM forms of lcs.gdcm).
+    # λ, w from the run's probes, y, Γ from the GDCM forms of lcs.theory.gdcm).
     # λ of a step is Γ at some instant of that step (θ = 1/2: about its middle), so it may
     # differ from Γ at the sample time by up to h max|Γ'|.
     scale = np.nanmax(np.abs(r.lam))

@@ -1,7 +1,7 @@
 """Controllers in Python that drive named switches of a switched LCS without editing the netlist.
 
-Pass them to :func:`lcs.moreau.simulate` (``controllers=[...]``); a switch driven by a
-controller ignores its control nodes in the netlist. Two kinds (``controller.kind``):
+Pass them to :func:`lcs.integrators.moreau.integrator.simulate` (``controllers=[...]``); a switch
+driven by a controller ignores its control nodes in the netlist. Two kinds (``controller.kind``):
 
 ``"schedule"`` -- the controller decides switching instants. Protocol (duck-typed)::
 

@@ -9,7 +9,7 @@ Nothing is compiled, and numba is not even imported, when a module of kernels is
 the decorators return a :class:`Kernel`, which
 
 * called from Python, runs the ahead-of-time module's function when that module exists for the
-  current sources and exports this kernel (:mod:`lcs.kernels`; a short run then never imports
+  current sources and exports this kernel (:mod:`lcs.build.kernels`; a short run then never imports
   numba: about 0.6 s less per command);
 * otherwise, and on any other use (``.signatures``, ``.py_func``...), calls
   :func:`materialize`, which imports numba and :mod:`lcs.jit_passes`, makes every kernel's
@@ -28,7 +28,7 @@ import sys
 import threading
 from collections.abc import Callable
 
-from . import kernels
+from .build import kernels
 
 __all__ = ["Kernel", "inline", "jitted", "kernel", "materialize", "materialized"]
 

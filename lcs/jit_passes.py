@@ -1,7 +1,7 @@
 """Numba compiler passes and cache location of the integrators' kernels (imports numba).
 
 Imported by :func:`lcs.jit.materialize` when a kernel is first compiled or loaded from numba's
-cache, never on the path of a run served by the ahead-of-time module (:mod:`lcs.kernels`).
+cache, never on the path of a run served by the ahead-of-time module (:mod:`lcs.build.kernels`).
 
 :class:`ForwardCopies`: numba's inliner binds each parameter of an inlined function by a copy of
 the caller's variable (``param = arg``), and a copy of an array (or of a tuple of arrays) is a
@@ -12,9 +12,9 @@ exact, so that an inlined step compiles to the same code as the hand-written loo
 
 Cache freshness: numba keys a cached function on the contents of its own source file, while a
 compiled kernel contains the code of every function it calls or inlines from other files (and
-of this module's passes). Functions defined in :data:`lcs.kernels.KERNEL_SOURCES` are therefore
-cached under one stamp, the hash of all those files together (:class:`KernelCacheLocator`): a
-change to any of them recompiles every kernel once.
+of this module's passes). Functions defined in :data:`lcs.build.kernels.KERNEL_SOURCES` are
+therefore cached under one stamp, the hash of all those files together
+(:class:`KernelCacheLocator`): a change to any of them recompiles every kernel once.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from numba.core.ir_utils import replace_vars_stmt
 from numba.core.typed_passes import InlineOverloads
 from numba.core.untyped_passes import InlineInlinables
 
-from .kernels import KERNEL_SOURCES, kernel_stamp
+from .build.kernels import KERNEL_SOURCES, kernel_stamp
 
 __all__ = ["ForwardCopies", "HoistTupleFields", "KernelCacheLocator", "KernelCompiler",
            "forward_copies"]

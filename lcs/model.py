@@ -186,7 +186,7 @@ class SwitchedLCS:
         A candidate storage function ``½ x' storage x`` of every mode (a circuit's stored
         energy: H on inductor currents, F on capacitor voltages). Where it is verified to be
         one, a time step's next state is known to be unique whatever λ it takes
-        (:mod:`lcs.step_uniqueness`) and the integrator does not look for other solutions.
+        (:mod:`lcs.theory.step_uniqueness`) and the integrator does not look for other solutions.
     """
 
     def __init__(

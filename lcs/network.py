@@ -1,5 +1,5 @@
-"""The sparse network behind one mode's LCS: what the sparse KKT stepping (:mod:`lcs.kkt`)
-integrates instead of the LCS's dense matrices.
+"""The sparse network behind one mode's LCS: what the sparse KKT stepping
+(:mod:`lcs.integrators.moreau.sparse`) integrates instead of the LCS's dense matrices.
 
 A circuit's LCS comes from a linear network solved once per mode: the formulation writes
 ``Y z = S ξ`` (``z`` node voltages and branch currents, ``ξ = (x, λ, u)``) and reads the state

@@ -8,7 +8,7 @@ __all__ = ["IdealisedDeviceWarning", "NonPassiveWarning"]
 
 class NonPassiveWarning(UserWarning):
     """A simulated circuit is not passive: its ideal model may grow without bound (the run
-    goes on, unless asked to be strict). See :func:`lcs.passivity.screen_modes`."""
+    goes on, unless asked to be strict). See :func:`lcs.theory.passivity.screen_modes`."""
 
 
 class IdealisedDeviceWarning(UserWarning):

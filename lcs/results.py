@@ -1,4 +1,5 @@
-"""Results and errors of a Moreau time-stepping run (see :mod:`lcs.moreau`)."""
+"""Results and errors of a Moreau time-stepping run (see
+:mod:`lcs.integrators.moreau.integrator`)."""
 
 from __future__ import annotations
 
@@ -139,8 +140,8 @@ class SimulationStats:
         Switch modes whose matrices were built.
     kernel : str
         How the Moreau steps were solved: ``"dense"`` (each mode's stored θ-discretised
-        matrices, :mod:`lcs.stepping`) or ``"sparse"`` (factorised KKT systems of the
-        circuit's network, :mod:`lcs.kkt`).
+        matrices, :mod:`lcs.integrators.moreau.dense`) or ``"sparse"`` (factorised KKT systems of
+        the circuit's network, :mod:`lcs.integrators.moreau.sparse`).
     dense_steps : int
         In a sparse run, grid steps handed to the dense kernel (block pivoting found no
         accepted active set: Lemke decides), or taken by it after a mode without a network.
@@ -217,7 +218,7 @@ class SimulationResult:
     switching : dict[str, str]
         How each switch was driven: ``"source"``, ``"controller"``, ``"implicit"``,
         ``"hysteresis"``, ``"explicit"`` or ``"latched"`` (``docs/switching.md``).
-    event_log : list of lcs.exact.integrator.ExactEvent
+    event_log : list of lcs.integrators.exact.integrator.ExactEvent
         Exact method only: every event (time, element, kind, mode after).
     device_fits : list of netlist.pwl.PwlFit
         With piecewise-linear devices: each diode's and switch's Vf and Ron.

@@ -152,7 +152,7 @@ def storage_matrix(circuit: Circuit) -> np.ndarray:
     ``½ x' K x`` is the energy (J) stored in the inductors (including mutual inductances of K
     couplings) and capacitors, for ``x`` ordered as :attr:`SwitchedLCS.states` of
     :func:`formulate` (netlist order, inductors and capacitors interleaved). It is the usual
-    storage-function candidate for a passivity check (``lcs.passivity.check_passivity(lcs,
+    storage-function candidate for a passivity check (``lcs.theory.passivity.check_passivity(lcs,
     energy=K)``).
 
     Returns

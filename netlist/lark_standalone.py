@@ -41,10 +41,10 @@ _CACHE_NAME = "grammar.lark-standalone"
 
 
 def cache_dir() -> Path | None:
-    """The directory of the grammar's caches: the first of :func:`lcs.kernels.cache_roots`
+    """The directory of the grammar's caches: the first of :func:`lcs.build.kernels.cache_roots`
     for ``netlist/__pycache__`` that can be written (created if missing); None when none can.
     """
-    from lcs.kernels import cache_roots
+    from lcs.build.kernels import cache_roots
 
     for root in cache_roots(GRAMMAR_FILE.with_name("__pycache__")):
         try:

@@ -4,7 +4,7 @@ A network of positive resistors, inductors (with a positive definite inductance 
 couplings included) and capacitors, ideal diodes and ideal switches, driven by independent
 sources, is a linear passive network in every switch configuration (Camlibel, Heemels &
 Schumacher, "On linear passive complementarity systems", 2002): its stored energy is a storage
-function of each mode's LCS. The numerical screen (:func:`lcs.screening.screen_modes`) is for
+function of each mode's LCS. The numerical screen (:func:`lcs.theory.screening.screen_modes`) is for
 the other circuits.
 """
 

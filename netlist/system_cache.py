@@ -5,8 +5,9 @@ topology and on the values of its R, L, C, controlled sources, couplings and swi
 but not on what the independent sources do: they are the inputs ``u``. A design script that
 varies a duty cycle, a source amplitude or a load step therefore needs one system for all
 its runs, and with it the mode matrices, the passivity and θ screens and the discretised
-mode stacks that are kept with a system (:mod:`lcs.screening`, :mod:`lcs.theta_screen`,
-:mod:`lcs.stepping.modes`).
+mode stacks that are kept with a system (:mod:`lcs.theory.screening`,
+:mod:`lcs.integrators.moreau.theta_screen`,
+:mod:`lcs.integrators.moreau.dense.modes`).
 
 :func:`reused_system` keys the systems of the last :data:`MAX_SYSTEMS` circuits (fewer of
 large circuits: :data:`MAX_ELEMENTS`) by

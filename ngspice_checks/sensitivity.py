@@ -175,7 +175,7 @@ def _restart_check(circuit: Circuit, ng_name: Callable[[str], str], result: Simu
     ``""`` is returned. ``ng_name`` spells a state as ngspice measured it;
     ``reading``: per switch (name, control probe, VT, half band, initial
     state, instants from pelcs' events?, ngspice's instants)."""
-    from lcs.moreau import simulate
+    from lcs.integrators.moreau.integrator import simulate
     from netlist.studies.transient import transient_setup
 
     t_n = np.asarray(ng.time, dtype=float)

@@ -133,8 +133,8 @@ def simulate(
         (step: the bound ngspice puts on its own, ``netlist.studies.timestep.tran_step``).
     theta : float, optional
         θ in [1/2, 1]: 1/2 trapezoidal (second order between events), 1 backward Euler.
-        Default 1/2, or 1 where :mod:`lcs.theta_screen` finds θ < 1 unreliable (noted;
-        ``res.theta`` is the value used).
+        Default 1/2, or 1 where :mod:`lcs.integrators.moreau.theta_screen` finds θ < 1 unreliable
+        (noted; ``res.theta`` is the value used).
     probes : sequence of str, or str, optional
         ``"v(out)"``, ``"v(a,b)"``, ``"i(L1)"``, ``"i(D1)"``...; default every state.
     every : int
@@ -155,7 +155,7 @@ def simulate(
     strict : bool
         A circuit that is certainly not passive (a negative resistance, an active source
         feeding a diode) raises :class:`NetlistError` instead of a
-        :class:`~lcs.passivity.NonPassiveWarning` (the run then goes on and may grow
+        :class:`~lcs.theory.passivity.NonPassiveWarning` (the run then goes on and may grow
         without bound; a state growth beyond 1e6 is noted in ``res.notes``).
     devices : str
         ``"ideal"`` or ``"pwl"``: diodes with a Vf and Ron fitted to their models, switches
@@ -309,7 +309,7 @@ def ac(
 @functools.cache
 def _fresh_steps_options():
     """``MoreauOptions(keep_odd_steps=False)`` (frozen: one for every run)."""
-    from lcs.moreau import MoreauOptions
+    from lcs.integrators.moreau.integrator import MoreauOptions
 
     return MoreauOptions(keep_odd_steps=False)
 

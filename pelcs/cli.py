@@ -213,18 +213,18 @@ _OWN_COMPILE_NOTE = ("simulate", "compile", "info")
 def _announce_compiles() -> None:
     """Have the first compile of a kernel in this process said on stderr (after a ``pip
     install``, the first command compiles the kernels: minutes)."""
-    from lcs.kernel_setup import announce_compiles
+    from lcs.build.kernel_setup import announce_compiles
 
     announce_compiles(lambda text: print(text, file=sys.stderr, flush=True))
 
 
 def _after_run() -> None:
     """After a command that ran the kernels from numba's cache: the ahead-of-time module's
-    background build, said in one line (:func:`lcs.kernel_setup.after_run`)."""
+    background build, said in one line (:func:`lcs.build.kernel_setup.after_run`)."""
     jit = sys.modules.get("lcs.jit")
     if jit is None or not jit.materialized():
         return  # (no numba in this process: nothing to link, and nothing imported here)
-    from lcs.kernel_setup import after_run
+    from lcs.build.kernel_setup import after_run
 
     line = after_run()
     if line is not None:

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from converters.scaling import cockcroft_walton, interleaved_buck, mmc_arm
-from lcs import kernels
+from lcs.build import kernels
 
 ROOT = Path(__file__).resolve().parents[1]
 NETLISTS = ROOT / "converters" / "netlists"
@@ -66,7 +66,7 @@ def _run(env_aot: str) -> tuple[dict, str]:
 def aot_built():
     if not kernels.aot_path().is_file():
         msg = (f"the ahead-of-time kernel module {kernels.aot_path()} is not built: run "
-               "scripts/setup (python -m lcs.aot)")
+               "scripts/setup (python -m lcs.build.aot)")
         if os.environ.get("PELCS_REQUIRE_AOT") == "1":
             pytest.fail(msg)
         pytest.skip(msg)
@@ -137,7 +137,7 @@ def test_large_circuit_run_imports_no_scipy(aot_built, tmp_path):
 
 def test_missing_or_stale_module_falls_back_to_numba(tmp_path):
     # Another cache directory holds no module for these sources: numba serves the run.
-    code = ("import lcs.kernels as k, pelcs, sys; "
+    code = ("import lcs.build.kernels as k, pelcs, sys; "
             f"r = pelcs.simulate({str(NETLISTS / 'buck.cir')!r}, tstop='0.1m'); "
             "print('USING', k.using_aot(), 'numba' in sys.modules, r.stats.steps)")
     p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
@@ -191,7 +191,7 @@ def test_module_path_names_the_processor_it_was_compiled_for(monkeypatch):
 
 
 def test_a_rebuild_removes_only_this_processors_stale_modules(tmp_path):
-    from lcs.aot import stale_modules
+    from lcs.build.aot import stale_modules
 
     names = ["aot-aaaa-x86_64-cpu11111111-numba0.68.1", "aot-bbbb-x86_64-cpu11111111-numba0.68.1",
              "aot-cccc-x86_64-cpu22222222-numba0.68.1", "aot-dddd-aarch64-cpugeneric-numba0.68.1",
@@ -207,7 +207,7 @@ def test_module_is_compiled_for_the_host_extensions_llvm_reports():
     # virtual machine may mask: the build passes the features numba's JIT would use.
     from numba.core import codegen
 
-    from lcs.aot import _host_features
+    from lcs.build.aot import _host_features
 
     before = codegen.AOTCPUCodegen._customize_tm_features
     with _host_features(True):
@@ -225,7 +225,7 @@ def test_arguments_of_another_type_go_to_numba_not_the_module(aot_built):
 
     bounds = np.array([0.0, 10.0, 25.0])
     args = (bounds, 1.0, 0.5, 0.5, np.empty(2, np.int64), np.empty(2), np.empty(3, np.int64))
-    mod = "lcs.stepping.gridplan"
+    mod = "lcs.integrators.moreau.dense.gridplan"
     assert kernels.aot_function(mod, "_plan_nb", args) is not None
     wrong_dtype = (np.array([0, 10, 25]),) + args[1:]
     strided = (np.array([[0.0, 1], [10, 1], [25, 1]])[:, 0],) + args[1:]
@@ -242,7 +242,7 @@ def test_arguments_of_another_type_go_to_numba_not_the_module(aot_built):
     for bad in (wrong_dtype, strided, read_only, swapped, subclass, flag_for_float, one_more):
         assert kernels.aot_function(mod, "_plan_nb", bad) is None
     # Through the Kernel: the dispatcher takes them and gives the right numbers.
-    from lcs.stepping.gridplan import _plan_nb, plan_grid
+    from lcs.integrators.moreau.dense.gridplan import _plan_nb, plan_grid
 
     ref = plan_grid(bounds, 1.0)
     n_reg, last, start = np.empty(2, np.int64), np.empty(2), np.empty(3, np.int64)

@@ -187,7 +187,7 @@ def test_kept_shortened_steps_change_a_run_only_at_round_off():
     # Why the API starts every run without the stored shortened steps: with them (the
     # default for repeated runs of one system, e.g. shooting) a duty's run after another
     # duty's differs from its fresh run, at round-off.
-    from lcs.moreau import MoreauOptions
+    from lcs.integrators.moreau.integrator import MoreauOptions
 
     c3, c5 = parse_file(BUCK, {"duty": 0.3}), parse_file(BUCK, {"duty": 0.5})
     system = system_cache.formulate(c5)

@@ -3,7 +3,8 @@ modules, ``lcs`` imports nothing of ``netlist``/``pelcs``/``ngspice_checks``, ``
 nothing of ``pelcs``/``ngspice_checks``, the core of ``netlist`` (language, circuit,
 formulation) nothing of its studies ``netlist.studies``, ``ngspice_checks`` nothing of
 ``pelcs``, nothing imports the CLI (only the Python API's analyses use its commands' parsers
-and computing functions), and no code module is over 800 lines.
+and computing functions), no kernel module imports the build tools ``lcs.build``, and no code
+module is over 800 lines.
 
 Imports are read statically (every ``import`` statement, also those inside functions: a lazy
 import is still a dependency).
@@ -159,6 +160,39 @@ def test_core_imports_studies_finds_an_edge():
     assert core_imports_studies(graph) == [
         "netlist -> netlist.studies", "netlist.parser -> netlist.studies.transient"]
     assert STUDIES in _modules()
+
+
+#: The build machinery of the kernels (export table and stamp, the ahead-of-time module, the
+#: first use after an installation, the warm-up): it imports the kernels, no kernel imports it.
+BUILD = "lcs.build"
+#: The packages of the integrators, their kernels and the driver common to them.
+KERNEL_PACKAGES = ("lcs.integrators", "lcs.lcp", "lcs.simulation")
+
+
+def kernels_importing_build(graph: dict[str, set[str]]) -> list[str]:
+    """Imports of ``lcs.build`` by a module of an integrator, the LCP solvers or the driver."""
+    return sorted(f"{name} -> {t}" for name, targets in graph.items()
+                  if any(_in(name, pkg) for pkg in KERNEL_PACKAGES)
+                  for t in targets if _in(t, BUILD))
+
+
+def test_no_kernel_imports_the_build_tools():
+    bad = kernels_importing_build(_graph())
+    assert not bad, ("a kernel module imports the build tools (lcs.build imports the kernels, "
+                     "not the reverse):\n" + "\n".join(bad))
+    assert BUILD in _modules()
+
+
+def test_kernels_importing_build_finds_an_edge():
+    # The rule must be able to fail: a kernel module importing a build tool is reported (also
+    # a lazy import, read like any other); the build tools importing the kernels are not.
+    graph = {
+        "lcs.simulation.driver": {"lcs.build.kernels"},
+        "lcs.lcp.compiled": {"lcs.jit"},
+        "lcs.build.warmup": {"lcs.integrators.moreau.dense.grid", "lcs.lcp.compiled"},
+        "lcs.buildings": {"lcs.build"},
+    }
+    assert kernels_importing_build(graph) == ["lcs.simulation.driver -> lcs.build.kernels"]
 
 
 def test_module_sizes():

@@ -14,7 +14,7 @@ import pytest
 from scipy.linalg import expm
 from scipy.optimize import brentq
 
-from lcs.moreau import simulate
+from lcs.integrators.moreau.integrator import simulate
 from netlist.parser import parse_file
 from netlist.studies.transient import transient_setup
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lcs.moreau import simulate
+from lcs.integrators.moreau.integrator import simulate
 from netlist.parser import parse_file, parse_string
 from netlist.studies.transient import transient_setup
 

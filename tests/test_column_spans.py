@@ -1,6 +1,6 @@
 """The regular step's column products over each column's non-zero rows only
-(lcs.stepping.modes.column_spans, ModeStack.span): the spans themselves, and a run of an LCS
-with the multiplier's structure (Phi the identity but for a block, C triangular with zero
+(lcs.integrators.moreau.dense.modes.column_spans, ModeStack.span): the spans themselves, and a run
+of an LCS with the multiplier's structure (Phi the identity but for a block, C triangular with zero
 columns) from 16 states on, against the independent reference stepper."""
 
 from __future__ import annotations
@@ -10,10 +10,10 @@ import test_moreau_reference
 from test_moreau import make_lcs
 from test_moreau_reference import moreau_reference
 
-from lcs.moreau import simulate_lcs
-from lcs.stepping import discretise
-from lcs.stepping.discretise import COLUMN_MIN
-from lcs.stepping.modes import column_spans
+from lcs.integrators.moreau.dense import discretise
+from lcs.integrators.moreau.dense.discretise import COLUMN_MIN
+from lcs.integrators.moreau.dense.modes import column_spans
+from lcs.integrators.moreau.integrator import simulate_lcs
 
 
 def test_column_spans():

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from lcs.controllers import PIPWM, OpenLoopPWM, SlidingSurface, pwm_commands
-from lcs.moreau import simulate
+from lcs.integrators.moreau.integrator import simulate
 from netlist.parser import parse_file
 from netlist.studies.transient import transient_setup
 

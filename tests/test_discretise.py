@@ -1,5 +1,5 @@
-"""lcs.stepping.discretise against the θ-step formulas evaluated with numpy's LAPACK solve:
-dense matrices, and the sparse structures the row-wise, zero-skipping loops are for (an arrow
+"""lcs.integrators.moreau.dense.discretise against the θ-step formulas evaluated with numpy's LAPACK
+solve: dense matrices, and the sparse structures the row-wise, zero-skipping loops are for (an arrow
 A, as a shared inductor or capacitor makes, and a C whose rows name one or two states)."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lcs.stepping import discretise
+from lcs.integrators.moreau.dense import discretise
 
 
 def _reference(A, B, C, D, E, h, theta):

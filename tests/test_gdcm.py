@@ -8,9 +8,9 @@ import pytest
 import scipy.linalg as sla
 from scipy.optimize import brentq
 
-from lcs.gdcm import detect_gdcm_intervals, gdcm_condition, gdcm_conditions
 from lcs.model import LCS
 from lcs.model import ComplementarityPair as Pair
+from lcs.theory.gdcm import detect_gdcm_intervals, gdcm_condition, gdcm_conditions
 
 L, C, R = 100e-6, 470e-6, 10.0
 

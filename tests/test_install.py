@@ -1,5 +1,5 @@
 """What ``pip install`` gives: the wheel's files, ``pelcs --version``, the first-use message
-and the ahead-of-time module's background build (:mod:`lcs.kernel_setup`), the caches' places
+and the ahead-of-time module's background build (:mod:`lcs.build.kernel_setup`), the caches' places
 when the installed package cannot be written, the bundled netlists found by their checkout
 paths."""
 
@@ -16,7 +16,8 @@ from pathlib import Path
 
 import pytest
 
-from lcs import jit, kernel_setup, kernels
+from lcs import jit
+from lcs.build import kernel_setup, kernels
 from pelcs.cli import bundled_netlist, installed_version, main
 
 # (the slow part of the suite: outside the fast subset that `-m 'not slow'` selects)
@@ -165,7 +166,7 @@ def test_the_version_is_read_only_for_version():
 
 
 def test_kernels_cached_is_false_with_an_empty_cache_and_true_with_the_checkouts(tmp_path):
-    code = "from lcs.kernel_setup import kernels_cached; print(kernels_cached())"
+    code = "from lcs.build.kernel_setup import kernels_cached; print(kernels_cached())"
     env = {**os.environ, "PELCS_AOT": "0", "NUMBA_CACHE_DIR": str(tmp_path)}
     empty = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                            cwd=ROOT, env=env, timeout=120)
@@ -267,7 +268,7 @@ def test_no_build_after_a_run_interrupted_while_compiling_or_without_numba(monke
 def test_the_first_compile_of_a_process_is_announced_once(tmp_path):
     (tmp_path / "twice.py").write_text(
         "from lcs.jit import jitted\n\n\n@jitted\ndef f(x):\n    return x + 1\n")
-    code = ("import sys, lcs.kernel_setup as s\n"
+    code = ("import sys, lcs.build.kernel_setup as s\n"
             "print(s.announce_compiles(lambda text: print('SAID', text)))\n"
             "print(s.announce_compiles(lambda text: print('SAID', text)))\n"
             f"sys.path.insert(0, {str(tmp_path)!r})\n"
@@ -295,7 +296,7 @@ def test_every_command_but_info_watches_for_compiles(monkeypatch, capsys):
 def test_compiled_in_process_counts_numba_cache_misses(tmp_path):
     (tmp_path / "twice.py").write_text(
         "from lcs.jit import jitted\n\n\n@jitted\ndef f(x):\n    return x + 1\n")
-    code = ("import sys, lcs.kernel_setup as s\n"
+    code = ("import sys, lcs.build.kernel_setup as s\n"
             "print(s.compiled_in_process())\n"
             f"sys.path.insert(0, {str(tmp_path)!r})\n"
             "from twice import f\n"
@@ -330,7 +331,7 @@ def test_the_background_build_is_detached_and_started_once(empty_cache):
     assert log is not None and log.parent == kernels.aot_path().parent
     assert tmp in log.parents
     (argv, kw), = started
-    assert argv == [sys.executable, "-m", "lcs.kernel_setup"]
+    assert argv == [sys.executable, "-m", "lcs.build.kernel_setup"]
     assert kw["start_new_session"] and kw["stdin"] == subprocess.DEVNULL
     assert str(ROOT) in kw["env"]["PYTHONPATH"].split(os.pathsep)
     # A build holding the lock: none started beside it.
@@ -357,7 +358,7 @@ def test_the_background_build_can_be_turned_off(empty_cache, monkeypatch):
 
 
 def test_a_failed_build_leaves_a_note(empty_cache, monkeypatch):
-    from lcs import aot
+    from lcs.build import aot
 
     def fail(*a, **k):
         raise OSError("cc: not found")
@@ -454,7 +455,7 @@ def test_the_cli_runs_the_bundled_copy_and_says_so(tmp_path, monkeypatch, capsys
 
 
 def test_compile_reports_a_failed_link_with_a_hint(tmp_path, monkeypatch, capsys):
-    import lcs.stepping.warmup as warmup
+    import lcs.build.warmup as warmup
 
     monkeypatch.setenv("PELCS_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(kernel_setup, "kernels_cached", lambda: True)

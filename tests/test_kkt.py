@@ -1,6 +1,6 @@
-"""The sparse KKT stepping (lcs.kkt): its LU and ordering, the networks the formulation
-exports, one step against the θ formulas written with numpy, and whole runs against the dense
-kernel (an independent implementation of the same scheme, itself checked against Siconos)."""
+"""The sparse KKT stepping (lcs.integrators.moreau.sparse): its LU and ordering, the networks the
+formulation exports, one step against the θ formulas written with numpy, and whole runs against the
+dense kernel (an independent implementation of the same scheme, itself checked against Siconos)."""
 
 from __future__ import annotations
 
@@ -11,12 +11,19 @@ import pytest
 
 from converters import scaling
 from lcs.bits import to_words, words
-from lcs.kkt import integrate
-from lcs.kkt.lu import FACTOR_FULL, FACTOR_OK, FACTOR_SINGULAR, factor, lu_arrays, solve
-from lcs.kkt.ordering import minimum_degree
-from lcs.kkt.stack import NetStackBuilder, compressed
-from lcs.kkt.step import inputs_part, kkt_step, sync_c
-from lcs.moreau import MoreauOptions
+from lcs.integrators.moreau.integrator import MoreauOptions
+from lcs.integrators.moreau.sparse import integrate
+from lcs.integrators.moreau.sparse.lu import (
+    FACTOR_FULL,
+    FACTOR_OK,
+    FACTOR_SINGULAR,
+    factor,
+    lu_arrays,
+    solve,
+)
+from lcs.integrators.moreau.sparse.ordering import minimum_degree
+from lcs.integrators.moreau.sparse.stack import NetStackBuilder, compressed
+from lcs.integrators.moreau.sparse.step import inputs_part, kkt_step, sync_c
 from lcs.simulation.problem import Problem
 from netlist.formulation import formulate
 from netlist.parser import parse_file, parse_string
@@ -79,7 +86,7 @@ def test_minimum_degree_keeps_a_ladder_sparse():
     net = b.arrays()
     nz, N = net.dims[0]
     mask = to_words((1 << system.mode(()).m) - 1, words(system.mode(()).m))
-    from lcs.kkt.step import assemble
+    from lcs.integrators.moreau.sparse.step import assemble
 
     Ap = np.zeros(N + 1, np.int64)
     Ai = np.zeros(4 * b.tpl_nnz, np.int64)
@@ -191,7 +198,7 @@ def test_one_step_equals_the_theta_formulas(text, theta):
     lcs = system.mode(())
     b = _builder(system, theta)
     n, m, p = lcs.n, lcs.m, lcs.p
-    from lcs.kkt.stack import cache_for
+    from lcs.integrators.moreau.sparse.stack import cache_for
 
     cache = cache_for(64, b.nmax, 8 * b.tpl_nnz, words(m))
     sr = integrate.SparseRun(b, cache, 1e-5, MoreauOptions())
@@ -322,7 +329,7 @@ def test_a_recurring_commutation_takes_one_more_solve():
     step takes about one solve more than a step that keeps its set (1.12 here; without the
     remembered set 1.48: 997 extra solves for 675 pivoting steps), and the numbers are the
     dense kernel's."""
-    from lcs.kkt.layout import C_TRIALS
+    from lcs.integrators.moreau.sparse.layout import C_TRIALS
 
     text = scaling.cockcroft_walton(10, periods=30)
     setup = transient_setup(parse_string(text))
@@ -366,9 +373,9 @@ def test_without_pivoting_the_previous_set_is_still_tried():
 def test_a_failure_in_a_handed_step_names_its_mode(monkeypatch):
     """A grid step the sparse kernel hands to the dense one fails there: the error names
     the mode of the dense stack's id (the two kernels number modes differently)."""
-    import lcs.moreau as moreau
+    import lcs.integrators.moreau.integrator as moreau
     from lcs.bits import from_words
-    from lcs.stepping.layout import (
+    from lcs.integrators.moreau.dense.layout import (
         FV_FAIL_T0,
         FV_FAIL_T1,
         IV_FAILMODE,

@@ -17,7 +17,7 @@ import pytest
 
 from converters import scaling
 from lcs.bits import from_words, to_words, words
-from lcs.moreau import MoreauOptions
+from lcs.integrators.moreau.integrator import MoreauOptions
 from netlist.parser import parse_file, parse_string
 from netlist.studies.transient import run_setup, transient_setup
 

@@ -10,12 +10,12 @@ from scipy.linalg import expm
 from scipy.optimize import brentq
 from test_moreau_reference import moreau_reference
 
+from lcs.integrators.moreau.dense import discretise
+from lcs.integrators.moreau.integrator import MoreauOptions, simulate_lcs
 from lcs.lcp import is_p_matrix
 from lcs.model import LCS, ComplementarityPair, OutputMap
-from lcs.moreau import MoreauOptions, simulate_lcs
 from lcs.results import SimulationError
 from lcs.signals import Dc, Pwl
-from lcs.stepping import discretise
 
 
 def make_lcs(A, B, C, D, E, F, states=None, pairs=None, inputs=None):
@@ -395,7 +395,7 @@ def test_energy_balance_rlc_diode():
 def test_progress_bar_only_on_terminal(monkeypatch):
     import io
 
-    import lcs.moreau as mo
+    import lcs.integrators.moreau.integrator as mo
 
     class Tty(io.StringIO):
         def isatty(self):
@@ -419,7 +419,7 @@ def test_lcs_package_does_not_import_netlist():
     import subprocess
     import sys
 
-    code = "import sys, lcs.moreau, lcs.lcp; print('netlist' in sys.modules)"
+    code = "import sys, lcs.integrators.moreau.integrator, lcs.lcp; print('netlist' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)
     assert out.stdout.strip() == "False"

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from test_moreau_reference import moreau_reference
 
+from lcs.integrators.moreau.integrator import simulate
 from lcs.model import LCS, ComplementarityPair, ModeModel, OutputMap, SwitchControl, SwitchedLCS
-from lcs.moreau import simulate
 from lcs.signals import Dc, Pulse, Pwl, Sin
 
 VIN, L, C = 12.0, 100e-6, 100e-6

@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 import pelcs
-from lcs import screening
 from lcs.notices import NonPassiveWarning
 from lcs.results import SimulationResult
+from lcs.theory import screening
 from netlist.errors import NetlistError
 from netlist.studies.transient import state_growth
 from pelcs.cli import main

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from converters.scaling import interleaved_buck, mmc_arm
-from lcs.moreau import MoreauOptions
-from lcs.stepping.layout import ODD_SETS
-from lcs.stepping.modes import ODD_BYTES_PER_MODE, odd_slots
+from lcs.integrators.moreau.dense.layout import ODD_SETS
+from lcs.integrators.moreau.dense.modes import ODD_BYTES_PER_MODE, odd_slots
+from lcs.integrators.moreau.integrator import MoreauOptions
 from netlist.parser import parse_file, parse_string
 from netlist.studies.transient import simulate_circuit
 

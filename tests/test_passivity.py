@@ -7,7 +7,7 @@ import pytest
 
 from lcs.model import LCS
 from lcs.model import ComplementarityPair as Pair
-from lcs.passivity import check_passivity, energy_matrix
+from lcs.theory.passivity import check_passivity, energy_matrix
 
 cvxpy = pytest.importorskip("cvxpy")  # the general (SDP) search needs it
 

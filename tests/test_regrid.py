@@ -11,7 +11,7 @@ import pytest
 from test_inductor_cutsets import RL_SWITCH
 
 import lcs.simulation.recorder as recorder_module
-from lcs.moreau import MoreauOptions
+from lcs.integrators.moreau.integrator import MoreauOptions
 from lcs.results import resample, resample_arrays
 from lcs.simulation.regrid import Regrid
 from netlist.parser import parse_file, parse_string

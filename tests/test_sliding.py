@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from lcs.moreau import MoreauOptions, simulate
+from lcs.integrators.moreau.integrator import MoreauOptions, simulate
 from netlist.parser import parse_file, parse_string
 from netlist.studies.transient import transient_setup
 

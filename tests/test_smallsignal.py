@@ -14,8 +14,8 @@ import pytest
 from scipy.optimize import brentq
 
 from converters.averaged import small_signal_model
-from lcs.exact.flow import ModeFlowError, mode_flow
-from lcs.exact.orbit import PwlOrbitError, exact_orbit, follow_period
+from lcs.analysis.exact_orbit import PwlOrbitError, exact_orbit, follow_period
+from lcs.integrators.exact.flow import ModeFlowError, mode_flow
 from lcs.model import LCS, ComplementarityPair
 from lcs.smallsignal.ltp import sampled_data_model
 from lcs.smallsignal.response import loop_margins

@@ -1,5 +1,5 @@
-"""A θ step whose λ is not unique but whose next state is (lcs.step_uniqueness): the proof, an
-independent check of it by enumerating every complementary basis with numpy, and the dense
+"""A θ step whose λ is not unique but whose next state is (lcs.theory.step_uniqueness): the proof,
+an independent check of it by enumerating every complementary basis with numpy, and the dense
 kernel taking such steps (a diode bridge of macro-models, the 12-pulse rectifier) where it
 used to look for a second solution, with the sparse kernel as the reference; a step with two
 genuinely different next states still stops the run."""
@@ -11,10 +11,10 @@ import pytest
 from test_lcp import brute_force
 
 from converters.scaling import rectifier_12pulse
+from lcs.integrators.moreau.dense.discretise import discretise
+from lcs.integrators.moreau.integrator import MoreauOptions, simulate_lcs
 from lcs.model import LCS, ComplementarityPair
-from lcs.moreau import MoreauOptions, simulate_lcs
-from lcs.step_uniqueness import unique_next_state
-from lcs.stepping.discretise import discretise
+from lcs.theory.step_uniqueness import unique_next_state
 from netlist.parser import parse_string
 from netlist.studies.transient import run_setup, transient_setup
 

@@ -1,5 +1,5 @@
-"""The θ screen (lcs.theta_screen): where Moreau's θ < 1 with λ fully implicit integrates a
-stiff cancellation explicitly, the run takes θ = 1 and says why (the 12-pulse
+"""The θ screen (lcs.integrators.moreau.theta_screen): where Moreau's θ < 1 with λ fully implicit
+integrates a stiff cancellation explicitly, the run takes θ = 1 and says why (the 12-pulse
 rectifier, whose θ = 1/2 step LCP had no solution)."""
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ import pytest
 
 import pelcs
 from converters.scaling import rectifier_6pulse, rectifier_12pulse
+from lcs.integrators.moreau.theta_screen import G_LIMIT, screen_theta
 from lcs.model import LCS, ComplementarityPair, ModeModel, SwitchedLCS
-from lcs.theta_screen import G_LIMIT, screen_theta
 from netlist.parser import parse_file
 from netlist.studies.transient import transient_setup
 

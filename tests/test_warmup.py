@@ -4,7 +4,7 @@ The processes run with ``PELCS_AOT=0``: the ahead-of-time module (``tests/test_a
 would serve the commands without numba. Not a timed test: numba's own counters say whether
 a dispatcher found each signature it was called with in its on-disk cache
 (``stats.cache_hits``) or had to compile it (``stats.cache_misses``). A fresh process runs
-:func:`lcs.stepping.warmup.warm_up` (which compiles only when the cache is cold, as right
+:func:`lcs.build.warmup.warm_up` (which compiles only when the cache is cold, as right
 after a checkout); another fresh process then runs the README's commands (shortened) and
 reports every kernel that missed.
 """
@@ -74,7 +74,7 @@ for args in json.loads(sys.argv[1]):
 def test_readme_commands_compile_nothing_after_warm_up(tmp_path):
     env = {**os.environ, "PELCS_AOT": "0"}
     warm = subprocess.run([sys.executable, "-c",
-                           "from lcs.stepping.warmup import warm_up; warm_up()"],
+                           "from lcs.build.warmup import warm_up; warm_up()"],
                           cwd=ROOT, capture_output=True, text=True, timeout=900, env=env)
     assert warm.returncode == 0, warm.stderr
     cmds = [[a.replace("{out}", str(tmp_path)) for a in c] for c in COMMANDS]
@@ -95,7 +95,7 @@ def test_readme_commands_compile_nothing_after_warm_up(tmp_path):
 _SPECIALISATIONS = """
 import json
 from lcs import jit
-from lcs.stepping.warmup import warm_up
+from lcs.build.warmup import warm_up
 warm_up()
 print(json.dumps({f"{k.py_func.__module__}.{k.__name__}": len(k._dispatcher.signatures)
                   for k in jit._KERNELS if k._dispatcher is not None}))
@@ -110,6 +110,6 @@ def test_every_kernel_has_one_specialisation():
                        env={**os.environ, "PYTHONPATH": str(ROOT), "PELCS_AOT": "0"})
     assert r.returncode == 0, r.stderr
     counts = json.loads(r.stdout.strip().splitlines()[-1])
-    assert counts["lcs.stepping.grid.run_grid"] == 1
+    assert counts["lcs.integrators.moreau.dense.grid.run_grid"] == 1
     assert counts and all(n <= 1 for n in counts.values()), {
         k: n for k, n in counts.items() if n > 1}

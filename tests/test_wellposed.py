@@ -8,8 +8,8 @@ import pytest
 
 from lcs.model import LCS
 from lcs.model import ComplementarityPair as Pair
-from lcs.passivity import check_passivity
-from lcs.wellposed import (
+from lcs.theory.passivity import check_passivity
+from lcs.theory.wellposed import (
     check_wellposedness,
     consistent_set,
     is_consistent,

@@ -1,6 +1,7 @@
 """Nonsmooth bifurcation analysis of switched LCS.
 
-* :mod:`.maps` -- stroboscopic and event maps built on :func:`lcs.moreau.simulate`, and
+* :mod:`.maps` -- stroboscopic and event maps built on
+:func:`lcs.integrators.moreau.integrator.simulate`, and
   :class:`~.maps.FunctionMap` for any Python function (the names of :mod:`.base`,
   :mod:`.jacobians`, :mod:`.patterns`, :mod:`.lcs_map`, :mod:`.stroboscopic` and
   :mod:`.event_map`, gathered);

@@ -1,8 +1,9 @@
 """What the maps of a switched LCS share: the system, its sources and the stepper.
 
 :class:`LcsMapBase` holds a :class:`~lcs.model.SwitchedLCS` built for one parameter value,
-its resolved sources, the period T and the step h, and runs :func:`lcs.moreau.simulate`
-from a state over a span; :class:`~.stroboscopic.StroboscopicMap` and
+its resolved sources, the period T and the step h, and runs
+:func:`lcs.integrators.moreau.integrator.simulate` from a state over a span;
+:class:`~.stroboscopic.StroboscopicMap` and
 :class:`~.event_map.EventMap` sample those runs.
 """
 
@@ -13,8 +14,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..integrators.moreau.integrator import InconsistentHandler, MoreauOptions, simulate
 from ..model import SwitchedLCS
-from ..moreau import InconsistentHandler, MoreauOptions, simulate
 from ..results import SimulationResult
 from .base import Map, MapError
 from .patterns import SwitchingPattern, switching_pattern

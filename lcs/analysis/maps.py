@@ -11,8 +11,8 @@ A periodically driven converter is studied through a map ``x_{k+1} = P(x_k)``:
 * :class:`FunctionMap` wraps any Python function, so that the analysis cores (orbits,
   continuation, bifurcation sweeps, cell mapping) can be tested on maps with known answers.
 
-Every map is evaluated by :func:`lcs.moreau.simulate`; a map is built for one parameter
-value (the system is formulated once and its modes are cached by the
+Every map is evaluated by :func:`lcs.integrators.moreau.integrator.simulate`; a map is built for one
+parameter value (the system is formulated once and its modes are cached by the
 :class:`~lcs.model.SwitchedLCS`). Many periods are simulated in one ``simulate`` call with
 the instants ``t0 + k T`` as breakpoints and ``save_at`` points, so that exactly the period
 samples are stored (no Python work per period). Should a run lack a period sample, it is

@@ -2,9 +2,9 @@
 
 The sources must be T-periodic from ``t0`` on (a check is made and reported in
 :attr:`StroboscopicMap.notes`). Many periods are simulated in one
-:func:`~lcs.moreau.simulate` call with the instants ``t0 + k T`` as breakpoints and
-``save_at`` points, so that exactly the period samples are stored (no Python work per
-period). Should a run lack a period sample, it is repeated storing every step and the
+:func:`~lcs.integrators.moreau.integrator.simulate` call with the instants ``t0 + k T`` as
+breakpoints and ``save_at`` points, so that exactly the period samples are stored (no Python work
+per period). Should a run lack a period sample, it is repeated storing every step and the
 samples are picked by time.
 """
 
@@ -41,7 +41,8 @@ class StroboscopicMap(LcsMapBase):
     param, param_name : optional
         The parameter value this map was built for (bookkeeping only).
     on_inconsistent : callable, optional
-        Passed to :func:`~lcs.moreau.simulate` (state jump of an inconsistent start).
+        Passed to :func:`~lcs.integrators.moreau.integrator.simulate` (state jump of an inconsistent
+        start).
     options : MoreauOptions, optional
     diode_probes : sequence of str
         One probe per diode (in ``system.diodes`` order) that is positive while the diode

@@ -1,7 +1,7 @@
 """The integer codes the compiled kernels share with the Python side of a run.
 
 numba freezes module constants into the code it compiles, so these live in a file of their own
-that is part of the kernels' cache stamp (:data:`lcs.kernels.KERNEL_SOURCES`): changing one
+that is part of the kernels' cache stamp (:data:`lcs.build.kernels.KERNEL_SOURCES`): changing one
 recompiles every kernel, where a change elsewhere in the simulation package does not.
 """
 

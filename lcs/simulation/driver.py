@@ -75,9 +75,9 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
         output_from: float = -np.inf) -> SimulationResult:
     """Simulate ``problem`` from ``x0`` over ``[t_start, t_stop]`` with ``integrator``.
 
-    Arguments as in :func:`lcs.moreau.simulate` (``switching`` is the comparator method,
-    ``lcp`` the options of the initial LCP). Returns the result, with ``error`` set when the
-    run stopped early.
+    Arguments as in :func:`lcs.integrators.moreau.integrator.simulate` (``switching`` is the
+    comparator method, ``lcp`` the options of the initial LCP). Returns the result, with ``error``
+    set when the run stopped early.
 
     With ``output_step`` (s), the result is :func:`lcs.results.resample` of the stored rows
     at or after ``output_from`` (s), the same numbers, interpolated as the run goes

@@ -45,7 +45,8 @@ def non_unique(t0: float, t1: float, desc: dict[str, str], lcs: LCS,
 
 def theta_cause(theta: float, h: float, longest: float) -> str:
     """Why a step of a passive mode is ill-posed: θ < 1 with a step ``h`` (s) longer than the
-    ``longest`` (s) whose next state is unique (:func:`lcs.step_uniqueness.longest_unique_step`)."""
+    ``longest`` (s) whose next state is unique
+    (:func:`lcs.theory.step_uniqueness.longest_unique_step`)."""
     return (
         f"The circuit is passive in this mode (its stored energy is a storage function), so "
         f"its trajectory is unique; its θ = {theta:g} step of {h:.4g} s is not: a decay in it "

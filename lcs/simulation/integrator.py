@@ -10,8 +10,8 @@ controllers' sampling instants and asks the integrator to advance through each.
 
 An integrator implements :class:`Integrator`: ``prepare`` once, ``advance`` per window, and
 reports where it is (``snapshot``) and what it did (``stats``). The Moreau θ time-stepping
-(:class:`lcs.moreau.MoreauIntegrator`) is one; adding another means writing these methods,
-as a diffrax solver plugs into ``diffeqsolve``.
+(:class:`lcs.integrators.moreau.integrator.MoreauIntegrator`) is one; adding another means writing
+these methods, as a diffrax solver plugs into ``diffeqsolve``.
 """
 
 from __future__ import annotations

@@ -4,8 +4,8 @@ Switches driven by independent sources (the control's output map has ``Cy = 0`` 
 have a control that is a known function of time, ``c(t) = Fy u(t)``. Their switching instants
 are computed before stepping: exactly on piecewise-linear segments (DC, PULSE, PWL between
 breakpoints), by sampling and ``brentq`` otherwise. State-dependent controls (comparators) are
-located inside the steps by the kernel (:mod:`lcs.stepping`); here they only keep their
-initial state while the source-driven instants are computed.
+located inside the steps by the kernel (:mod:`lcs.integrators.moreau.dense`); here they only keep
+their initial state while the source-driven instants are computed.
 """
 
 from __future__ import annotations

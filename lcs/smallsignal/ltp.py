@@ -2,8 +2,8 @@
 system, its sampled-data model and its harmonic transfer function at the excitation
 frequency.
 
-Around the orbit of :mod:`lcs.exact.orbit`, a perturbation ``δu(t) = d e^{jωt}`` of the inputs
-(direction ``d``, shape (p,)) gives ``δx(t) = e^{jωt} q(t)`` with q T-periodic in the steady
+Around the orbit of :mod:`lcs.analysis.exact_orbit`, a perturbation ``δu(t) = d e^{jωt}`` of the
+inputs (direction ``d``, shape (p,)) gives ``δx(t) = e^{jωt} q(t)`` with q T-periodic in the steady
 state. On a segment of mode k::
 
     q' = (Af_k - jω I) q + (Ef_k + jω Ed_k) d,
@@ -30,8 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..exact.orbit import PwlOrbit
-from ..exact.saltation import AffinePeriod, affine_period
+from ..analysis.exact_orbit import PwlOrbit
+from ..analysis.saltation import AffinePeriod, affine_period
 from .response import FrequencyResponse
 
 __all__ = ["AffinePeriod", "SampledData", "affine_period", "harmonic_response", "probe_forms",

@@ -71,7 +71,8 @@ def sweep_response(simulate, signals: Sequence, inject_index: int, inject_name: 
     ----------
     simulate : callable
         ``simulate(signals, x0, t_start, t_stop, probes) -> SimulationResult`` (every step
-        saved), e.g. :func:`lcs.moreau.simulate` with the system and options bound.
+        saved), e.g. :func:`lcs.integrators.moreau.integrator.simulate` with the system and options
+        bound.
     signals : sequence
         The unperturbed inputs.
     inject_index : int

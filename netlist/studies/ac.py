@@ -7,7 +7,7 @@ input source line-to-output, a zero-valued current source at the output the outp
 impedance. With a loop source (``loop=``), the loop gain by Middlebrook's voltage injection.
 
 Methods: ``"exact"`` refines the orbit with exact flows and event instants
-(:mod:`lcs.exact.orbit`) and linearises it with the saltation of every switching
+(:mod:`lcs.analysis.exact_orbit`) and linearises it with the saltation of every switching
 instant (:mod:`lcs.smallsignal.ltp`); ``"sweep"`` perturbs the source by a sinusoid in the
 time domain and measures (:mod:`lcs.smallsignal.sweep`), as a PLECS AC sweep does.
 """
@@ -18,9 +18,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from lcs.analysis.exact_orbit import PwlOrbitError, exact_orbit
 from lcs.analysis.orbits import find_orbit
-from lcs.exact.orbit import PwlOrbitError, exact_orbit
-from lcs.moreau import MoreauOptions, simulate
+from lcs.integrators.moreau.integrator import MoreauOptions, simulate
 from lcs.smallsignal.ltp import harmonic_response, probe_forms, sampled_data
 from lcs.smallsignal.response import FrequencyResponse, loop_margins
 from lcs.smallsignal.sweep import sweep_response
@@ -169,7 +169,7 @@ def ac_analysis(circuit: Circuit, *, period: float | str | None, inject: str | N
     ------
     NetlistError
         Unknown source, probe or method.
-    lcs.analysis.MapError, lcs.exact.ExactError, SimulationError
+    lcs.analysis.MapError, lcs.integrators.exact.ExactError, SimulationError
         The steady state or a run failed (the message says why).
     """
     if method not in METHODS:

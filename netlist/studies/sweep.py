@@ -24,9 +24,9 @@ from pathlib import Path
 import numpy as np
 
 from lcs.analysis.maps import EventMap, StroboscopicMap
+from lcs.integrators.moreau.integrator import MoreauOptions
 from lcs.model import LCS
-from lcs.moreau import MoreauOptions
-from lcs.wellposed import state_jump
+from lcs.theory.wellposed import state_jump
 
 from ..circuit import Circuit
 from ..errors import Diagnostic, NetlistError
@@ -318,7 +318,7 @@ class _StateJump:
         self._reports = {}
 
     def __call__(self, lcs: LCS, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        from lcs.passivity import check_passivity
+        from lcs.theory.passivity import check_passivity
 
         entry = self._reports.get(id(lcs))
         if entry is None or entry[0] is not lcs:
@@ -361,7 +361,7 @@ def circuit_map(
         ``"S1:on"``, ``"D1:on"``, ``"v(out)>12"``...: an event map instead.
     method : str
         ``"moreau"`` (θ time-stepping, finite-difference Jacobians) or ``"exact"``
-        (:class:`lcs.exact.maps.ExactStroboscopicMap`: exact flows and events, exact
+        (:class:`lcs.analysis.exact_map.ExactStroboscopicMap`: exact flows and events, exact
         Jacobian; stroboscopic maps only).
 
     Returns
@@ -402,7 +402,7 @@ def circuit_map(
     if method == "exact":
         if event:
             raise _usage("--event needs the Moreau method", "drop --method exact")
-        from lcs.exact.maps import ExactStroboscopicMap
+        from lcs.analysis.exact_map import ExactStroboscopicMap
         from lcs.simulation.switches import initially_on
 
         key0 = tuple(initially_on(s.options) for s in system.switches)

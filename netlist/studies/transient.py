@@ -17,7 +17,7 @@ the other node is given); everything else starts at zero. pelcs always starts fr
 (as ngspice does with UIC); without UIC ngspice would first compute a DC operating point, which
 the result's notes point out. An initial state that the diodes cannot accept (e.g. a capacitor
 charged against a diode that connects it to another capacitor) jumps at t = 0 to the consistent
-state given by :func:`lcs.wellposed.state_jump` (charge and flux conservation through the
+state given by :func:`lcs.theory.wellposed.state_jump` (charge and flux conservation through the
 impulsive diode currents), reported once in the notes.
 
 Probes (:func:`check_probes`): ``v(n)``, ``v(a,b)``, ``i(X)`` for a two-terminal element, and
@@ -34,8 +34,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from lcs.integrators.moreau.integrator import MoreauOptions, simulate
 from lcs.model import LCS, SwitchedLCS
-from lcs.moreau import MoreauOptions, simulate
 from lcs.results import SimulationResult
 from lcs.signals import Dc, Signal, resolve
 
@@ -157,9 +157,9 @@ def transient_setup(
     The modes of a circuit that is not passive by construction
     (:func:`~netlist.passive.structurally_passive`: positive R, L, C, ideal diodes and
     switches, independent sources) are screened for passivity
-    (:func:`lcs.screening.screen_modes`: exact necessary conditions, cached with the
+    (:func:`lcs.theory.screening.screen_modes`: exact necessary conditions, cached with the
     formulation): a mode that fails gives a
-    :class:`~lcs.passivity.NonPassiveWarning` (once per set-up), a note and
+    :class:`~lcs.theory.passivity.NonPassiveWarning` (once per set-up), a note and
     ``setup.nonpassive``. The ideal model of a non-passive circuit may grow without bound;
     the run goes on, as the model says, unless ``strict``.
 
@@ -286,7 +286,7 @@ def _screen_passivity(circuit: Circuit, system: SwitchedLCS, energy: np.ndarray,
         return []
     import warnings
 
-    from lcs.screening import NonPassiveWarning, screen_modes
+    from lcs.theory.screening import NonPassiveWarning, screen_modes
 
     bad = screen_modes(system, energy)
     if not bad:
@@ -397,7 +397,7 @@ def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
         m = _PROBE_RE.match(probe)
         ok = False
         d = re.match(r"^\s*d\s*\(\s*([^,()\s]+)\s*\)\s*$", probe, re.I)
-        if d:  # d(S1): the on-fraction of a switch (lcs.moreau)
+        if d:  # d(S1): the on-fraction of a switch (lcs.integrators.moreau.integrator)
             ok = d.group(1).lower() in switches
         elif m:
             kind, a, b = m.group(1).lower(), m.group(2).lower(), m.group(3)
@@ -442,7 +442,8 @@ def _short(text: str, limit: int = 300) -> str:
 
 
 class _JumpRecorder:
-    """The ``on_inconsistent`` handler: :func:`~lcs.wellposed.state_jump` with a readable note.
+    """The ``on_inconsistent`` handler: :func:`~lcs.theory.wellposed.state_jump` with a readable
+    note.
 
     A non-passive mode has no jump rule; the state is then left as it is (the first step
     absorbs the jump, which the Moreau driver notes).
@@ -454,7 +455,7 @@ class _JumpRecorder:
 
     def __call__(self, lcs: LCS, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, str]:
         # (imported here: scipy.linalg is only needed for an inconsistent initial state)
-        from lcs.wellposed import state_jump
+        from lcs.theory.wellposed import state_jump
 
         try:
             jump = state_jump(lcs, x, u, energy=self.energy)
@@ -479,7 +480,7 @@ class _JumpRecorder:
             f"({', '.join(through) or 'none'} would have to conduct an impulse): the state "
             f"jumps ({'; '.join(changed)}); charge and flux are conserved through the "
             f"impulse ({impulse}), {jump.dissipated:.4g} J dissipated in it "
-            "(lcs.wellposed.state_jump)"
+            "(lcs.theory.wellposed.state_jump)"
         )
         return jump.x_plus, self.note
 
@@ -537,7 +538,7 @@ def simulate_circuit(
         Refuse a non-passive circuit instead of warning (see :func:`transient_setup`).
     method : str
         ``"moreau"`` (time-stepping) or ``"exact"`` (event-driven, exact between events:
-        :mod:`lcs.exact`; the step is then the output spacing; DC, PULSE, PWL and SIN
+        :mod:`lcs.integrators.exact`; the step is then the output spacing; DC, PULSE, PWL and SIN
         sources and netlist comparators only).
     output_step : float or "tran", optional
         The points returned: the instants ``k output_step`` (s) from TSTART on, linearly
@@ -554,7 +555,7 @@ def simulate_circuit(
     SimulationResult
         ``t`` shape (N,), ``y`` shape (N, len(probes)), ``res["v(out)"]`` by probe name.
         ``error`` is set (and the data end at the last completed step) if a step failed;
-        see :mod:`lcs.moreau`.
+        see :mod:`lcs.integrators.moreau.integrator`.
 
     Raises
     ------
@@ -616,7 +617,7 @@ def run_setup(
     if method == "moreau":
         theta, theta_note = choose_theta(setup, theta)
     if method == "exact":
-        from lcs.exact.simulate import simulate_exact
+        from lcs.integrators.exact.simulate import simulate_exact
 
         if controllers:
             raise ValueError("the exact method follows the netlist's comparators, not Python "
@@ -727,12 +728,12 @@ DEFAULT_THETA = 0.5
 def choose_theta(setup: TransientSetup, theta: float | None) -> tuple[float, str | None]:
     """θ for a Moreau run of ``setup``, and a note when θ < 1 is not reliable there.
 
-    ``theta=None``: :data:`DEFAULT_THETA`, unless :func:`lcs.theta_screen.screen_theta`
-    finds a mode whose λ = 0 configuration has stiff dynamics that its diodes cancel; then
-    θ = 1 (backward Euler, first order) with a note saying why. A θ < 1 given explicitly is
-    kept, with the same finding as a note.
+    ``theta=None``: :data:`DEFAULT_THETA`, unless
+    :func:`lcs.integrators.moreau.theta_screen.screen_theta` finds a mode whose λ = 0 configuration
+    has stiff dynamics that its diodes cancel; then θ = 1 (backward Euler, first order) with a note
+    saying why. A θ < 1 given explicitly is kept, with the same finding as a note.
     """
-    from lcs.theta_screen import screen_theta
+    from lcs.integrators.moreau.theta_screen import screen_theta
 
     wanted = DEFAULT_THETA if theta is None else float(theta)
     risks = screen_theta(setup.system, setup.h, wanted, energy=setup.energy)
@@ -781,17 +782,17 @@ def warm_up() -> float:
     The first run in a process pays for loading the kernels from numba's cache (a few tenths
     of a second, more on the very first use after installation, when they are compiled).
     Calling this first lets a caller report the time per step of the run itself. See
-    :func:`lcs.stepping.warmup.warm_up` (every kernel specialisation).
+    :func:`lcs.build.warmup.warm_up` (every kernel specialisation).
     """
     import time
 
-    from lcs.kernels import using_aot
+    from lcs.build.kernels import using_aot
 
     t0 = time.perf_counter()
     if using_aot():
         # The ahead-of-time module holds every kernel a run calls from Python: nothing to
         # compile or load from numba's cache.
         return time.perf_counter() - t0
-    from lcs.stepping.warmup import warm_up as _warm_up
+    from lcs.build.warmup import warm_up as _warm_up
 
     return _warm_up()

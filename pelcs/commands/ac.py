@@ -173,8 +173,8 @@ def run(args: argparse.Namespace) -> int:
             settle=parse_value(args.settle, "--settle") if args.settle else None,
             loop=args.loop)
     except Exception as exc:  # noqa: BLE001
+        from lcs.analysis.exact_orbit import PwlOrbitError
         from lcs.analysis.maps import MapError
-        from lcs.exact.orbit import PwlOrbitError
         from lcs.results import SimulationError
 
         if isinstance(exc, (MapError, SimulationError, PwlOrbitError)):

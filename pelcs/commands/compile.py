@@ -2,7 +2,7 @@
 module now, instead of on first use.
 
 After a ``pip install`` the first simulation compiles the kernels (minutes of one core, then
-cached on disk) and starts the module's build in the background (:mod:`lcs.kernel_setup`).
+cached on disk) and starts the module's build in the background (:mod:`lcs.build.kernel_setup`).
 This command does both in the foreground, says where the module is, and shows why a build
 fails (typically: no C compiler; pelcs then runs from numba's cache, about 1.5 s more per
 command). ``scripts/setup`` does the same for a checkout.
@@ -33,8 +33,8 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from lcs import kernel_setup
-    from lcs.kernels import aot_path
+    from lcs.build import kernel_setup
+    from lcs.build.kernels import aot_path
 
     path = aot_path()
     if path.is_file():
@@ -43,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     if not kernel_setup.kernels_cached():
         print(kernel_setup.COMPILING_MESSAGE, file=sys.stderr, flush=True)
-    from lcs.stepping.warmup import warm_up
+    from lcs.build.warmup import warm_up
 
     warm_up()
     what = "compiled" if kernel_setup.compiled_in_process() else "loaded"

@@ -124,11 +124,11 @@ def _rows(matrix: np.ndarray) -> list[list[float]]:
 def _passivity(lcs: LCS, energy: np.ndarray):
     """Passivity of one mode: (JSON summary, report or None).
 
-    :func:`lcs.passivity.check_passivity` with the circuit's stored energy as the first
+    :func:`lcs.theory.passivity.check_passivity` with the circuit's stored energy as the first
     candidate certificate (exact for circuits of non-negative resistors and no active
     elements), then its general search.
     """
-    from lcs.passivity import check_passivity
+    from lcs.theory.passivity import check_passivity
 
     try:
         rep = check_passivity(lcs, energy=energy)
@@ -143,8 +143,8 @@ def _passivity(lcs: LCS, energy: np.ndarray):
 
 
 def _wellposedness(lcs: LCS, passivity_report) -> dict | None:
-    """Sufficient well-posedness conditions (:mod:`lcs.wellposed`) of one mode."""
-    from lcs.wellposed import check_wellposedness
+    """Sufficient well-posedness conditions (:mod:`lcs.theory.wellposed`) of one mode."""
+    from lcs.theory.wellposed import check_wellposedness
 
     try:
         rep = check_wellposedness(lcs, passivity_report)
@@ -157,7 +157,7 @@ def _wellposedness(lcs: LCS, passivity_report) -> dict | None:
 
 
 def _gdcm(lcs: LCS) -> list[dict] | None:
-    """Single-pair GDCM conditions of one mode (:func:`lcs.gdcm.gdcm_conditions`).
+    """Single-pair GDCM conditions of one mode (:func:`lcs.theory.gdcm.gdcm_conditions`).
 
     One entry per diode that can be held at w = 0 with λ > 0: the region (forms that vanish
     on it), Γ (the λ that holds it, > 0 inside), the relative degree and whether the
@@ -165,7 +165,7 @@ def _gdcm(lcs: LCS) -> list[dict] | None:
     state and input name) of the region ``y = 0, gamma > 0``; for relative degree r > 1 the
     derivatives that must vanish too are in ``y_derivatives``.
     """
-    from lcs.gdcm import gdcm_conditions
+    from lcs.theory.gdcm import gdcm_conditions
 
     try:
         conditions = gdcm_conditions(lcs)

@@ -8,7 +8,7 @@
                         [-o OUT.csv|OUT.npz|OUT.parquet] [--plot OUT.png]
                         [--method moreau|exact] [--events]
 
-``--method exact`` integrates exactly between events (:mod:`lcs.exact`: one matrix
+``--method exact`` integrates exactly between events (:mod:`lcs.integrators.exact`: one matrix
 exponential per stretch, events located to round-off); the step is then the output spacing.
 ``--events`` prints the exact run's event list (time, element, kind, mode after).
 
@@ -224,7 +224,7 @@ def run(args: argparse.Namespace) -> int:
                    every)
     # Load the compiled kernels first, so that the summary's time per step is the run's;
     # compiling them (the first run after an installation) is said before it starts.
-    from lcs import kernel_setup
+    from lcs.build import kernel_setup
 
     if not kernel_setup.kernels_cached():
         print(kernel_setup.COMPILING_MESSAGE, file=sys.stderr, flush=True)
@@ -272,7 +272,7 @@ def _run(args, circuit, setup, probes, tstop, step, theta, every, output_step, o
         else:
             options = None
             if args.kernel != "auto":
-                from lcs.moreau import MoreauOptions
+                from lcs.integrators.moreau.integrator import MoreauOptions
 
                 options = MoreauOptions(kernel=args.kernel)
             # (the output grid computed as the run goes: it holds that grid, not every step)

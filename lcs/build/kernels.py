@@ -1,0 +1,318 @@
+"""Where the compiled kernels come from: the ahead-of-time extension module when it was built
+from the current kernel sources, numba otherwise.
+
+A :class:`lcs.jit.Kernel` called from Python asks :func:`aot_function` first. The extension
+module (:mod:`lcs.build.aot`, built by ``scripts/setup``, by ``pelcs compile``, or in the
+background after a run served by numba: :mod:`lcs.build.kernel_setup`) holds the kernels that Python
+calls directly (the grid loop, the discretisation, the grid plan, the source switching
+instants), compiled from the same numba code; loading it takes milliseconds and imports nothing
+but numpy, so a short run never imports numba (measured in ``benchmarks/bench_command.py``).
+Without it, or when its stamp does not match the sources (an edited kernel), the numba
+dispatchers are used, compiled or loaded from numba's cache. ``PELCS_AOT=0`` forces numba (the
+tests of the AOT module compare the two).
+
+Nothing here imports numba.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import importlib
+import importlib.machinery
+import importlib.util
+import os
+import platform
+import sysconfig
+from collections.abc import Callable
+from pathlib import Path
+
+__all__ = ["AOT_MODULE", "AOT_SOURCES", "KERNEL_SOURCES", "aot_function", "aot_module",
+           "aot_path", "aot_stamp", "aot_types_path", "cache_roots", "cpu_tag", "kernel_stamp",
+           "user_cache_dir", "using_aot"]
+
+_LCS = Path(__file__).resolve().parent.parent
+# The packages whose compiled functions call or inline each other's, the other files with
+# compiled functions, and the compiler passes: a change to any of them recompiles every kernel.
+_MOREAU = _LCS / "integrators" / "moreau"
+KERNEL_SOURCES = (_LCS / "jit.py", _LCS / "jit_passes.py", _LCS / "bits.py", _LCS / "lcp",
+                  _MOREAU / "dense", _MOREAU / "sparse", _LCS / "simulation" / "source_switching.py",
+                  _LCS / "simulation" / "codes.py")
+# What the ahead-of-time module also depends on: the export table and argument flattening
+# here, the flat wrappers of aot.py, the signatures warmup.py compiles.
+AOT_SOURCES = (_LCS / "build" / "kernels.py", _LCS / "build" / "aot.py",
+               _LCS / "build" / "warmup.py", _LCS / "sparse_lu.py")
+# Files in those packages that no kernel compiles or reads (Python only): editing them must
+# not recompile every kernel (6-9 minutes on 2 cores).
+PYTHON_ONLY = frozenset({"__init__.py", "driver.py", "enumeration.py", "modes.py",
+                         "stack.py", "integrate.py"})
+AOT_MODULE = "pelcs_kernels"
+
+# export name -> (module, attribute): each kernel has one specialisation (lcs.build.warmup).
+_EXPORTS = {
+    "run_grid": ("lcs.integrators.moreau.dense.grid", "run_grid"),
+    "discretise_nb": ("lcs.integrators.moreau.dense.discretise", "discretise_nb"),
+    "plan_grid_nb": ("lcs.integrators.moreau.dense.gridplan", "_plan_nb"),
+    "fill_grid_nb": ("lcs.integrators.moreau.dense.gridplan", "_fill_grid"),
+    "linear_switch_events_nb": ("lcs.simulation.source_switching", "_linear_switch_events"),
+    "merge_keys_nb": ("lcs.simulation.source_switching", "_merge_keys"),
+    "lu_factor_nb": ("lcs.sparse_lu", "_factor"),
+    "lu_count_nb": ("lcs.sparse_lu", "_count"),
+    "lu_compress_nb": ("lcs.sparse_lu", "_compress"),
+    "lu_solve_rows_nb": ("lcs.sparse_lu", "_solve_rows"),
+    "lu_inv_norm1_nb": ("lcs.sparse_lu", "_inv_norm1"),
+    "run_kkt": ("lcs.integrators.moreau.sparse.grid", "run_kkt"),
+    "kkt_lookup": ("lcs.integrators.moreau.sparse.step", "lookup"),
+    "kkt_factor": ("lcs.integrators.moreau.sparse.lu", "factor"),
+    "kkt_min_degree": ("lcs.integrators.moreau.sparse.ordering", "_minimum_degree"),
+}
+
+
+def _kernel_files() -> list[Path]:
+    files = []
+    for src in KERNEL_SOURCES:
+        if src.is_dir():
+            files.extend(f for f in sorted(src.glob("*.py")) if f.name not in PYTHON_ONLY)
+        else:
+            files.append(src)
+    return files
+
+
+@functools.lru_cache(maxsize=1)
+def kernel_stamp() -> bytes:
+    """SHA-256 of every kernel source file (names and contents), once per process."""
+    h = hashlib.sha256()
+    for f in _kernel_files():
+        h.update(f.name.encode())
+        h.update(f.read_bytes())
+    return h.digest()
+
+
+def aot_filename() -> str:
+    return AOT_MODULE + (sysconfig.get_config_var("EXT_SUFFIX") or ".so")
+
+
+def user_cache_dir() -> Path:
+    """The per-user cache of pelcs: ``$XDG_CACHE_HOME/pelcs``, else ``~/.cache/pelcs``
+    (``PELCS_CACHE_DIR`` replaces every cache location when set)."""
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    base = Path(xdg) if xdg and os.path.isabs(xdg) else Path.home() / ".cache"
+    return base / "pelcs"
+
+
+def cache_roots(package_cache: Path | None = None) -> tuple[Path, ...]:
+    """Where pelcs' caches (this module's extension module, the grammar's parser) are looked
+    for, in order: ``PELCS_CACHE_DIR`` alone when set, else the installed package's
+    ``package_cache`` (default ``lcs/__pycache__``: a checkout, a virtual environment) and the
+    per-user cache (a package directory the user may not write: a system-wide
+    installation)."""
+    env = os.environ.get("PELCS_CACHE_DIR")
+    if env:
+        return (Path(env),)
+    return (_LCS / "__pycache__" if package_cache is None else package_cache,
+            user_cache_dir())
+
+
+def _writable(directory: Path) -> bool:
+    """Whether a file can be created in ``directory`` (made if missing), tried as numba's
+    cache does: permission bits say nothing for root or on a read-only file system."""
+    import tempfile
+
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=directory).close()
+    except OSError:
+        return False
+    return True
+
+
+@functools.lru_cache(maxsize=1)
+def _numba_version() -> str:
+    # From the installed distribution's directory name: importlib.metadata costs 12 ms of
+    # imports, and importing numba to ask it is what this module avoids.
+    spec = importlib.util.find_spec("numba")
+    if spec is None or spec.origin is None:
+        return "none"
+    site = Path(spec.origin).resolve().parent.parent
+    names = sorted(d.name for d in site.glob("numba-*.dist-info"))
+    return names[-1][len("numba-"):-len(".dist-info")] if names else "unknown"
+
+
+@functools.cache
+def aot_stamp() -> bytes:
+    """SHA-256 of the kernel stamp and the sources the ahead-of-time module depends on."""
+    h = hashlib.sha256(kernel_stamp())
+    for f in AOT_SOURCES:
+        h.update(f.name.encode())
+        h.update(f.read_bytes())
+    return h.digest()
+
+
+@functools.lru_cache(maxsize=1)
+def cpu_tag() -> str:
+    """The instruction-set extensions of this machine's processor, hashed (8 hex digits), from
+    the first processor's ``flags`` in ``/proc/cpuinfo``; ``"generic"`` where there is no
+    such file. The ahead-of-time module is compiled for the host processor (AVX2, AVX-512:
+    the multiplier's step 25 % faster than with the generic x86-64 target), so a machine with
+    other extensions (a cluster node sharing the home directory) must not load it: it finds
+    no module under its own tag and builds or falls back to numba."""
+    try:
+        with open("/proc/cpuinfo", encoding="ascii", errors="replace") as fh:
+            for line in fh:
+                if line.startswith("flags"):
+                    return hashlib.sha256(line.encode()).hexdigest()[:8]
+                if not line.strip():
+                    break
+    except OSError:
+        pass
+    return "generic"
+
+
+def aot_path() -> Path:
+    """Where the extension module built from the current sources is, or else where it is to
+    be built (the first cache root that can be written, :func:`cache_roots`)."""
+    tag = (f"aot-{aot_stamp().hex()[:16]}-{platform.machine()}-cpu{cpu_tag()}"
+           f"-numba{_numba_version()}")
+    roots = cache_roots()
+    for root in roots:
+        path = root / tag / aot_filename()
+        if path.is_file():
+            return path
+    root = next((r for r in roots if _writable(r)), roots[-1])
+    return root / tag / aot_filename()
+
+
+def aot_types_path() -> Path:
+    """The module's argument types (JSON, written by :func:`lcs.build.aot.build` beside it)."""
+    return aot_path().with_name(AOT_MODULE + ".types.json")
+
+
+@functools.lru_cache(maxsize=1)
+def aot_module():
+    """The extension module of the current kernel sources, or None (not built, stale, or
+    ``PELCS_AOT=0``)."""
+    if os.environ.get("PELCS_AOT", "1") == "0":
+        return None
+    path = aot_path()
+    if not path.is_file():
+        return None
+    loader = importlib.machinery.ExtensionFileLoader(AOT_MODULE, str(path))
+    spec = importlib.util.spec_from_file_location(AOT_MODULE, str(path), loader=loader)
+    if spec is None:
+        return None
+    try:
+        mod = importlib.util.module_from_spec(spec)
+        loader.exec_module(mod)
+    except ImportError:
+        return None
+    return mod
+
+
+def using_aot() -> bool:
+    """Whether the kernels run from the ahead-of-time module."""
+    return aot_module() is not None
+
+
+def _flatten(args, out: list) -> list:
+    for a in args:
+        if a is None:
+            continue
+        if isinstance(a, tuple):
+            _flatten(a, out)
+        else:
+            out.append(a)
+    return out
+
+
+def exported_dispatchers():
+    """(export name, numba dispatcher) of every exported kernel (imports numba)."""
+    out = []
+    for export, (module, attr) in _EXPORTS.items():
+        disp = getattr(importlib.import_module(module), attr)
+        out.append((export, getattr(disp, "dispatcher", disp)))
+    return out
+
+
+@functools.cache
+def _export_of(module: str, attr: str) -> str | None:
+    return next((export for export, (m, a) in _EXPORTS.items() if m == module and a == attr),
+                None)
+
+
+def aot_function(module: str, attr: str, args: tuple) -> Callable | None:
+    """The ahead-of-time function of kernel ``module.attr`` bound to ``args`` (named tuples
+    flattened), ready to call with no arguments; None when there is no ahead-of-time module,
+    it does not export that kernel, or ``args`` do not have exactly the types it was
+    compiled for (numba's dispatcher then compiles or loads the right specialisation; the
+    extension module would reinterpret the memory of a wrong dtype or a strided array)."""
+    export = _export_of(module, attr)
+    if export is None:
+        return None
+    mod = aot_module()
+    if mod is None:
+        return None
+    fn = getattr(mod, export, None)
+    check = _checker(export)
+    if fn is None or check is None:
+        return None
+    flat = _flatten(args, [])
+    if not check(flat):
+        return None
+    return functools.partial(fn, *flat)
+
+
+@functools.cache
+def _aot_types() -> dict:
+    import json
+
+    try:
+        return json.loads(aot_types_path().read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+@functools.cache
+def _checker(export: str) -> Callable[[list], bool] | None:
+    """A function telling whether a list of leaf arguments has exactly the leaf types of
+    ``export`` (:func:`lcs.build.aot.leaf_spec`), or None when the module does not record them.
+
+    Written out as one expression per export, built once: a run checks about 110 leaves, and a
+    generic per-leaf test (a call, a tuple unpacking and a dtype comparison each) was a tenth
+    of what a short run costs outside the stepping. An array's dtype is compared by identity
+    (numpy's native dtypes are singletons; any other, e.g. byte-swapped, falls back to numba),
+    its class exactly (a subclass falls back too), so the test is never looser than numba's
+    typing of the same value."""
+    import numpy as np
+
+    specs = _aot_types().get(export)
+    if specs is None:
+        return None
+    env: dict = {"ndarray": np.ndarray, "np_bool": np.bool_, "np_int": np.integer,
+                 "np_float": np.floating}
+    terms = [f"len(a) == {len(specs)}"]
+    for i, spec in enumerate(specs):
+        v = f"a[{i}]"
+        kind = spec[0]
+        if kind == "array":
+            _, dtype, ndim, layout, mutable = spec
+            env[f"d{i}"] = np.dtype(dtype)
+            term = f"type({v}) is ndarray and {v}.dtype is d{i} and {v}.ndim == {int(ndim)}"
+            if layout == "C":
+                term += f" and {v}.flags.c_contiguous"
+            elif layout == "F":
+                term += f" and {v}.flags.f_contiguous"
+            if mutable:
+                term += f" and {v}.flags.writeable"
+        elif kind == "bool":
+            term = f"(type({v}) is bool or type({v}) is np_bool)"
+        elif kind == "int":
+            term = f"(type({v}) is int or isinstance({v}, np_int))"
+        elif kind == "float":
+            term = (f"(type({v}) is float or type({v}) is int"
+                    f" or isinstance({v}, (np_int, np_float)))")
+        else:
+            return None
+        terms.append(f"({term})")
+    src = "def check(a):\n    return (" + "\n            and ".join(terms) + ")\n"
+    exec(compile(src, f"<aot check {export}>", "exec"), env)
+    return env["check"]
