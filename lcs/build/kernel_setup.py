@@ -1,11 +1,11 @@
 """The kernels' first use after an installation: whether they are compiled, and building their
 ahead-of-time module in the background.
 
-``scripts/setup`` compiles the kernels and builds the ahead-of-time module (:mod:`lcs.build.aot`) of a
-checkout once; a wheel built by ``pip install .`` carries the module (``setup.py``). An editable
-install, or a wheel whose module does not match this machine, has neither: the first
-simulation compiles the kernels (minutes of one core, cached by numba on disk), and every
-later command would load them from
+``scripts/setup`` compiles the kernels and builds the ahead-of-time module
+(:mod:`lcs.build.aot`) of a checkout once; a wheel built by ``pip install .`` carries the
+module (``setup.py``). An editable install, or a wheel whose module does not match this
+machine, has neither: the first simulation compiles the kernels (minutes of one core, cached
+by numba on disk), and every later command would load them from
 numba's cache (about 1.5 s more per command than the ahead-of-time module). So ``pelcs
 simulate`` asks :func:`kernels_cached` before it loads them and says when it is about to
 compile (the other commands say so at numba's first compile event, :func:`announce_compiles`);

@@ -36,8 +36,8 @@ _LCS = Path(__file__).resolve().parent.parent
 # compiled functions, and the compiler passes: a change to any of them recompiles every kernel.
 _MOREAU = _LCS / "integrators" / "moreau"
 KERNEL_SOURCES = (_LCS / "jit.py", _LCS / "jit_passes.py", _LCS / "bits.py", _LCS / "lcp",
-                  _MOREAU / "dense", _MOREAU / "sparse", _LCS / "simulation" / "source_switching.py",
-                  _LCS / "simulation" / "codes.py")
+                  _MOREAU / "dense", _MOREAU / "sparse",
+                  _LCS / "simulation" / "source_switching.py", _LCS / "simulation" / "codes.py")
 # What the ahead-of-time module also depends on: the export table and argument flattening
 # here, the flat wrappers of aot.py, the signatures warmup.py compiles.
 AOT_SOURCES = (_LCS / "build" / "kernels.py", _LCS / "build" / "aot.py",

@@ -4,10 +4,11 @@ kernels, so that no command compiles later.
 The kernels' argument types do not depend on the circuit (every array is float64 or int64,
 whatever n, m, p), so a few tiny runs reach every signature a run can use:
 
-* a single LCS over a short run -- :func:`~lcs.integrators.moreau.dense.run_grid`, Lemke and enumeration,
-  the source-switching and grid planners;
+* a single LCS over a short run -- :func:`~lcs.integrators.moreau.dense.run_grid`, Lemke and
+  enumeration, the source-switching and grid planners;
 * the same LCS over a long run with no comparator -- the plain loop
-  (:func:`~lcs.integrators.moreau.dense.grid.plain_steps`, what a source-driven PWM converter takes);
+  (:func:`~lcs.integrators.moreau.dense.grid.plain_steps`, what a source-driven PWM converter
+  takes);
 * a switch driven by a hysteretic comparator -- located switchings, the instant search;
 * the same switch without hysteresis on an attractive surface -- Filippov sliding;
 * the same switch sampled (explicit method);
@@ -126,8 +127,8 @@ def warm_up() -> float:
     simulate(_gated_rc(), [Dc(1.0), gate], [0.0], 2e-3, 1e-6)
     for vh, explicit in ((0.1, False), (0.0, False), (0.1, True)):
         simulate(_relay_system(vh, explicit), [Dc(1.0)], [0.0], 5e-2, 1e-3)
-    # The sparse KKT kernel (lcs.integrators.moreau.sparse): its grid loop, factorisations, ordering, and the
-    # factorisation "auto" makes to estimate its cost.
+    # The sparse KKT kernel (lcs.integrators.moreau.sparse): its grid loop, factorisations,
+    # ordering, and the factorisation "auto" makes to estimate its cost.
     from ..integrators.moreau.sparse.integrate import kept
 
     network = _diode_rc_network()
