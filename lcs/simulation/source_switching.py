@@ -306,10 +306,16 @@ def _linear_events(maps, mode0, sub0, active, bands, bounds, u_start, u_end, lin
         return tuple(bool((key >> i) & 1) for i in range(k))
 
     # The rows must be the same in every mode reached (else the generic path decides).
-    scale = np.abs(rows[idx]).max() if idx else 0.0
+    ref = rows[idx]
+    scale = np.abs(ref).max() if idx else 0.0
     for key in {tuple(r) for r in out_k[:ne].tolist()} | {tuple(key0.tolist())}:
-        if not np.allclose(maps.rows(mode_of(key))[idx], rows[idx], rtol=0.0,
-                           atol=1e-13 * scale):
+        other = maps.rows(mode_of(key))
+        if other is rows:
+            continue
+        # (equal rows, the usual case, without allclose's temporaries)
+        sub = other[idx]
+        if not (np.array_equal(sub, ref)
+                or np.allclose(sub, ref, rtol=0.0, atol=1e-13 * scale)):
             return None
     return mode_of(key0), (out_t[:ne].copy(), out_k[:ne].copy())
 
