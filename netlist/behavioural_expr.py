@@ -383,6 +383,17 @@ class _Lineariser:
                 raise self.nonlinear(sub, "a clamp (min/max) of a circuit quantity inside "
                                           "a comparison or condition: pelcs reads a clamp "
                                           "only as a whole B source")
+        if tag in ("num", "var", "v", "i"):
+            return self._leaf(t)
+        if tag in ("neg", "+", "-", "*", "/", "**"):
+            return self._arith(t)
+        if tag == "call":
+            return self.call(t)
+        return self._logic(t)
+
+    def _leaf(self, t: Tree) -> Affine:
+        """A number, a parameter, a node voltage or a source's current."""
+        tag, args = t.tag, t.args
         if tag == "num":
             return _const(args[0])
         if tag == "var":
@@ -409,12 +420,14 @@ class _Lineariser:
             return Affine(tuple(terms), 0.0)
         if tag == "i":
             return Affine(((("i", self.source(args[0])), 1.0),), 0.0)
+        raise AssertionError(tag)
+
+    def _arith(self, t: Tree) -> Affine | Step:
+        """A negation, sum, difference, product, quotient or power (no clamp in them)."""
+        tag, args = t.tag, t.args
         if tag == "neg":
             x = self.form(args[0])
             return x.scaled(-1.0) if isinstance(x, Affine) else x.mapped(lambda v: -v)
-        if tag == "not":
-            x = self.form(args[0])
-            return self.truth(args[0], x, negate=True)
         if tag in ("+", "-"):
             a, b = self.form(args[0]), self.form(args[1])
             if tag == "-":
@@ -453,6 +466,14 @@ class _Lineariser:
             except (ZeroDivisionError, OverflowError, TypeError):
                 raise BehaviouralError(f"cannot evaluate {ka:g} ** {kb:g}", t.start) from None
             return _const(value)
+        raise AssertionError(tag)
+
+    def _logic(self, t: Tree) -> Affine | Step:
+        """A negation, comparison, conjunction, disjunction or condition."""
+        tag, args = t.tag, t.args
+        if tag == "not":
+            x = self.form(args[0])
+            return self.truth(args[0], x, negate=True)
         if tag in ("<", ">", "<=", ">=", "==", "!="):
             a, b = self.form(args[0]), self.form(args[1])
             for side, x in zip(args, (a, b), strict=True):
@@ -494,8 +515,6 @@ class _Lineariser:
                 raise self.nonlinear(bad, "a branch of a comparator that is not a constant")
             assert isinstance(c, Step)
             return Step(c.diff, c.strict, ka if c.hi != 0 else kb, ka if c.lo != 0 else kb)
-        if tag == "call":
-            return self.call(t)
         raise AssertionError(tag)
 
     def truth(self, t: Tree, x: Affine | Step, negate: bool) -> Affine | Step:

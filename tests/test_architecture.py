@@ -199,3 +199,96 @@ def test_module_sizes():
     big = {str(p.relative_to(ROOT)): n for p in _modules().values()
            if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES}
     assert not big, f"modules over {MAX_LINES} lines: {big}"
+
+
+#: Cyclomatic complexity (McCabe) a function may have, and the compiled kernels allowed more:
+#: their loops are inlined into one function on purpose (a call per step would cost more
+#: than the step; docs/performance.md).
+MAX_COMPLEXITY = 40
+COMPLEX_KERNELS = frozenset({"lcs.integrators.moreau.dense.grid.run_grid"})
+
+def _statements(stmts) -> int:
+    """McCabe's decision points of a block of statements, as ruff's C901 and PyCQA's mccabe
+    count them: each if/elif, loop (and its else), except handler, try's else and match case;
+    a nested function counts one and its body (a class its body); expressions count
+    nothing."""
+    n = 0
+    for st in stmts:
+        if isinstance(st, ast.If):
+            n += 1 + _statements(st.body)
+            orelse = st.orelse
+            # (an elif is an If alone in the else block)
+            while len(orelse) == 1 and isinstance(orelse[0], ast.If):
+                n += 1 + _statements(orelse[0].body)
+                orelse = orelse[0].orelse
+            n += _statements(orelse)
+        elif isinstance(st, ast.For | ast.AsyncFor | ast.While):
+            n += 1 + _statements(st.body) + _statements(st.orelse)
+        elif isinstance(st, ast.With | ast.AsyncWith):
+            n += _statements(st.body)
+        elif isinstance(st, ast.Match):
+            n += sum(1 + _statements(case.body) for case in st.cases)
+        elif isinstance(st, ast.Try):
+            n += (_statements(st.body) + (1 if st.orelse else 0) + _statements(st.orelse)
+                  + _statements(st.finalbody)
+                  + sum(1 + _statements(h.body) for h in st.handlers))
+        elif isinstance(st, ast.FunctionDef | ast.AsyncFunctionDef):
+            n += 1 + _statements(st.body)
+        elif isinstance(st, ast.ClassDef):
+            n += _statements(st.body)
+    return n
+
+
+def complexity(func: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
+    """Cyclomatic complexity of ``func``: 1 + its decision points (:func:`_statements`)."""
+    return 1 + _statements(func.body)
+
+
+def _functions(name: str, path: Path):
+    """``(qualified name, function node)`` of every function of a module."""
+    out = []
+
+    def walk(node, prefix):
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef):
+                out.append((f"{prefix}.{child.name}", child))
+                walk(child, f"{prefix}.{child.name}")
+            elif isinstance(child, ast.ClassDef):
+                walk(child, f"{prefix}.{child.name}")
+
+    walk(ast.parse(path.read_text(encoding="utf-8")), name)
+    return out
+
+
+def test_complexity_cap():
+    seen, over = set(), {}
+    for name, path in _modules().items():
+        for qual, func in _functions(name, path):
+            seen.add(qual)
+            if (c := complexity(func)) > MAX_COMPLEXITY and qual not in COMPLEX_KERNELS:
+                over[qual] = c
+    assert not over, f"functions over complexity {MAX_COMPLEXITY}: {over} (split them)"
+    assert COMPLEX_KERNELS <= seen  # (the allowed kernels still exist under these names)
+
+
+def test_complexity_counts_decisions():
+    code = ("def f(x, ys):\n"
+            "    if x and ys or not x:\n"
+            "        return [y for y in ys if y]\n"
+            "    elif x is None:\n"
+            "        pass\n"
+            "    for y in ys:\n"
+            "        while y:\n"
+            "            y -= 1\n"
+            "    try:\n"
+            "        pass\n"
+            "    except ValueError:\n"
+            "        pass\n"
+            "    def g():\n"
+            "        if x:\n"
+            "            pass\n"
+            "    return 1 if x else 2\n")
+    (f,) = ast.parse(code).body
+    # 1 + if + elif + for + while + except + the nested function and its if (expressions:
+    # nothing)
+    assert complexity(f) == 1 + 1 + 1 + 1 + 1 + 1 + 2
