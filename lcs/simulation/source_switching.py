@@ -503,6 +503,16 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
                     return _first_crossing(*args, thr, up, li, h, skip_start=skip)
 
                 sub = subs[i]
+                if sa == sa0 and (sub == SUB_OFF and ca[i] > hi and not (lo == hi and cb[i] > hi)
+                                  or sub == SUB_ON and ca[i] < lo
+                                  and not (lo == hi and cb[i] < lo)):
+                    # (the control jumped over the band at this breakpoint and crosses back
+                    # inside the segment: this path would miss the switching)
+                    raise NotImplementedError(
+                        f"switch {sw[i].name}: its control jumps over its threshold at "
+                        f"t = {sa:.6g} s and comes back within {sb - sa:.3g} s, in a circuit "
+                        "whose switch controls depend on the switch states; pelcs does not "
+                        "plan such switchings yet")
                 if sub == SUB_OFF:
                     # below the band: the first instant at or above lo (c >= lo is
                     # c > the float before lo)
