@@ -5,10 +5,10 @@
 from __future__ import annotations
 
 import shutil
-import subprocess
 
 import numpy as np
 import pytest
+from test_netlist_spellings import ngspice_wrdata
 
 from netlist.errors import NetlistError
 from pelcs.api import simulate
@@ -42,13 +42,7 @@ def test_hysteresis_and_on_resistance():
 def test_agrees_with_ngspice(tmp_path, ngspice):
     if shutil.which("ngspice") is None:
         pytest.skip("no ngspice executable")
-    (tmp_path / "deck.cir").write_text(DECK)
-    out = tmp_path / "out.txt"
-    r = subprocess.run(["ngspice", "-p"], input=f"source deck.cir\nrun\nwrdata {out} v(out)"
-                       "\nquit\n", cwd=tmp_path, capture_output=True, text=True, timeout=60,
-                       env={"HOME": str(tmp_path), "PATH": "/usr/bin:/bin"})
-    assert out.exists(), r.stdout + r.stderr
-    ng = np.loadtxt(out, ndmin=2)
+    ng = ngspice_wrdata(DECK, ["v(out)"], tmp_path, timeout=60)
     want = np.sqrt(np.trapezoid(ng[:, 1] ** 2, ng[:, 0]) / ng[-1, 0])
     res = simulate(DECK, probes=["v(out)"], devices="pwl")
     got = np.sqrt(np.trapezoid(res.y[:, 0] ** 2, res.t) / res.t[-1])

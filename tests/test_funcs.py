@@ -5,10 +5,10 @@ PWM comparator are written with functions runs side by side with ngspice."""
 from __future__ import annotations
 
 import shutil
-import subprocess
 
 import numpy as np
 import pytest
+from test_netlist_spellings import ngspice_wrdata
 
 from netlist.errors import NetlistError
 from netlist.expressions import parse_expression
@@ -60,14 +60,7 @@ def test_values():
 def test_buck_agrees_with_ngspice(tmp_path, ngspice):
     if shutil.which("ngspice") is None:
         pytest.skip("no ngspice executable")
-    deck = tmp_path / "deck.cir"
-    deck.write_text(BUCK)
-    out = tmp_path / "out.txt"
-    r = subprocess.run(["ngspice", "-p"], input=f"source {deck.name}\nrun\nwrdata {out} v(out)"
-                       "\nquit\n", cwd=tmp_path, capture_output=True, text=True, timeout=120,
-                       env={"HOME": str(tmp_path), "PATH": "/usr/bin:/bin"})
-    assert out.exists(), r.stdout + r.stderr
-    ng = np.loadtxt(out, ndmin=2)
+    ng = ngspice_wrdata(BUCK, ["v(out)"], tmp_path)
     t0 = ng[-1, 0] / 2
     keep = ng[:, 0] >= t0
     want = np.trapezoid(ng[keep, 1], ng[keep, 0]) / (ng[-1, 0] - t0)

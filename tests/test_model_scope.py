@@ -6,10 +6,10 @@ that its top-level netlist includes as well (tests/corpus/esim/.../FullwaveRecti
 from __future__ import annotations
 
 import shutil
-import subprocess
 
 import numpy as np
 import pytest
+from test_netlist_spellings import ngspice_wrdata
 
 from netlist.errors import NetlistError
 from pelcs.api import simulate
@@ -57,12 +57,5 @@ def test_a_model_twice_in_one_subcircuit_is_refused():
 def test_ngspice_scopes_the_subcircuit_model(tmp_path, ngspice):
     if shutil.which("ngspice") is None:
         pytest.skip("no ngspice executable")
-    deck = tmp_path / "scope.cir"
-    deck.write_text(DECK)
-    out = tmp_path / "out.txt"
-    r = subprocess.run(["ngspice", "-p"], input=f"source {deck.name}\nrun\nwrdata {out} v(b) "
-                       "v(x1.b)\nquit\n", cwd=tmp_path, capture_output=True, text=True,
-                       timeout=60, env={"HOME": str(tmp_path), "PATH": "/usr/bin:/bin"})
-    assert out.exists(), r.stdout + r.stderr
-    data = np.loadtxt(out, ndmin=2)
+    data = ngspice_wrdata(DECK, ["v(b)", "v(x1.b)"], tmp_path, timeout=60)
     assert np.allclose(data[-1, [1, 3]], [0.5, 0.25], atol=1e-6)

@@ -11,6 +11,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from test_netlist_spellings import ngspice_wrdata
 
 from netlist.errors import NetlistError
 from pelcs.api import simulate
@@ -40,17 +41,6 @@ R1 out 0 100
 """
 
 
-def _ngspice(text, probes, tmp_path):
-    deck = tmp_path / "deck.cir"
-    deck.write_text(text)
-    out = tmp_path / "out.txt"
-    r = subprocess.run(["ngspice", "-p"], input=f"source {deck.name}\nrun\nwrdata {out} "
-                       f"{' '.join(probes)}\nquit\n", cwd=tmp_path, capture_output=True,
-                       text=True, timeout=60, env={"HOME": str(tmp_path), "PATH": "/usr/bin:/bin"})
-    assert out.exists(), r.stdout + r.stderr
-    return np.loadtxt(out, ndmin=2)
-
-
 def _mean(t, y):
     return float(np.trapezoid(y, t) / (t[-1] - t[0]))
 
@@ -59,7 +49,7 @@ def test_m_puts_passives_in_parallel(tmp_path, ngspice):
     if shutil.which("ngspice") is None:
         pytest.skip("no ngspice executable")
     res = simulate(PASSIVES, probes=["v(c)", "i(L1)"], step=1e-6)
-    ng = _ngspice(PASSIVES, ["v(c)", "i(L1)"], tmp_path)
+    ng = ngspice_wrdata(PASSIVES, ["v(c)", "i(L1)"], tmp_path)
     # analytic, 1 ms in: v(c) = 1 - exp(-1), i(L1) = (1 - exp(-1)) / 500 Ohm
     want = [1 - np.exp(-1.0), (1 - np.exp(-1.0)) / 500]
     assert np.allclose(res.y[-1], want, rtol=2e-3)
@@ -69,13 +59,13 @@ def test_m_puts_passives_in_parallel(tmp_path, ngspice):
 def test_diode_area_and_m_scale_the_pwl_fit(tmp_path, ngspice):
     if shutil.which("ngspice") is None:
         pytest.skip("no ngspice executable")
-    ng = _ngspice(RECTIFIER, ["v(out)"], tmp_path)
+    ng = ngspice_wrdata(RECTIFIER, ["v(out)"], tmp_path)
     want = _mean(ng[:, 0], ng[:, 1])
     res = simulate(RECTIFIER, probes=["v(out)"], devices="pwl")
     got = _mean(res.t, res.y[:, 0])
     assert abs(got - want) <= 0.03 * want
     # the same diode at area 1: ngspice's output drops by more than the tolerance above
-    plain = _ngspice(RECTIFIER.replace("dm area=10 m=2", "dm"), ["v(out)"], tmp_path)
+    plain = ngspice_wrdata(RECTIFIER.replace("dm area=10 m=2", "dm"), ["v(out)"], tmp_path)
     assert want - _mean(plain[:, 0], plain[:, 1]) > 0.06 * want
 
 

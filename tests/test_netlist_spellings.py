@@ -45,6 +45,22 @@ def ngspice_print(deck: str, expressions: list[str], tmp: Path, files: dict | No
     return {e: out[e.lower()] for e in expressions}
 
 
+def ngspice_wrdata(deck: str, probes: list[str], tmp: Path, timeout: float = 120):
+    """Run ``deck`` in ngspice (``run``) and write the ``probes`` with ``wrdata``: the rows,
+    shape (N, 2 len(probes)) (time and value per probe)."""
+    import numpy as np
+
+    if shutil.which("ngspice") is None:
+        pytest.skip("no ngspice executable")
+    (tmp / "deck.cir").write_text(deck)
+    out = tmp / "out.txt"
+    r = subprocess.run(["ngspice", "-p"], input=f"source deck.cir\nrun\nwrdata {out} "
+                       f"{' '.join(probes)}\nquit\n", cwd=tmp, capture_output=True, text=True,
+                       timeout=timeout, env={"HOME": str(tmp), "PATH": "/usr/bin:/bin"})
+    assert out.exists(), r.stdout + r.stderr
+    return np.loadtxt(out, ndmin=2)
+
+
 SINE_DECK = """sine source as eSim writes it, and KiCad's DC/SIN/AC order
 v1 a 0 sine(0 5 50 0 0)
 V2 b 0 DC 0 SIN( 0 3 100 0 0 0 ) AC 1

@@ -8,10 +8,10 @@ deck is run side by side with ngspice."""
 from __future__ import annotations
 
 import shutil
-import subprocess
 
 import numpy as np
 import pytest
+from test_netlist_spellings import ngspice_wrdata
 
 from netlist.errors import NetlistError
 from pelcs.api import simulate
@@ -46,24 +46,13 @@ R1 out 0 5
 """
 
 
-def _ngspice(text, probes, tmp_path):
-    deck = tmp_path / "deck.cir"
-    deck.write_text(text)
-    out = tmp_path / "out.txt"
-    r = subprocess.run(["ngspice", "-p"], input=f"source {deck.name}\nrun\nwrdata {out} "
-                       f"{' '.join(probes)}\nquit\n", cwd=tmp_path, capture_output=True,
-                       text=True, timeout=120, env={"HOME": str(tmp_path), "PATH": "/usr/bin:/bin"})
-    assert out.exists(), r.stdout + r.stderr
-    return np.loadtxt(out, ndmin=2)
-
-
 def test_linear_value_sources(tmp_path, ngspice):
     if shutil.which("ngspice") is None:
         pytest.skip("no ngspice executable")
     res = simulate(LINEAR, probes=["v(in)", "v(e)", "v(g)"])
     assert np.allclose(res.y[:, 1], 2 * res.y[:, 0], atol=1e-9)
     assert np.allclose(res.y[:, 2], res.y[:, 0], atol=1e-9)
-    ng = _ngspice(LINEAR, ["v(in)", "v(e)", "v(g)"], tmp_path)
+    ng = ngspice_wrdata(LINEAR, ["v(in)", "v(e)", "v(g)"], tmp_path)
     assert np.allclose(ng[:, 3], 2 * ng[:, 1], atol=1e-6)
     assert np.allclose(ng[:, 5], ng[:, 1], atol=1e-6)
 
@@ -71,7 +60,7 @@ def test_linear_value_sources(tmp_path, ngspice):
 def test_a_value_comparator_drives_a_buck(tmp_path, ngspice):
     if shutil.which("ngspice") is None:
         pytest.skip("no ngspice executable")
-    ng = _ngspice(BUCK, ["v(out)"], tmp_path)
+    ng = ngspice_wrdata(BUCK, ["v(out)"], tmp_path)
     t0 = ng[-1, 0] / 2
     keep = ng[:, 0] >= t0
     want = np.trapezoid(ng[keep, 1], ng[keep, 0]) / (ng[-1, 0] - t0)
@@ -116,7 +105,7 @@ def test_affine_poly_sources(tmp_path, ngspice):
     want = [2.0, 0.5 + 2 * 1.5 + 3 * 0.25, 1e-3 * 1.5e3 + 2e-3 * 0.25e3, 1.5, 1.0 + 2 * 1.5]
     res = simulate(POLYS, probes=POLY_PROBES)
     assert np.allclose(res.y[-1], want, rtol=1e-9)
-    ng = _ngspice(POLYS, POLY_PROBES, tmp_path)
+    ng = ngspice_wrdata(POLYS, POLY_PROBES, tmp_path)
     assert np.allclose(ng[-1, 1::2], want, rtol=1e-6)
 
 
@@ -145,7 +134,7 @@ def test_control_pairs_in_parentheses(tmp_path, ngspice):
     res = simulate(PAREN, probes=["v(in)", "v(e)", "v(g)"])
     assert np.allclose(res.y[:, 1], 2 * res.y[:, 0], atol=1e-12)
     assert np.allclose(res.y[:, 2], res.y[:, 0], atol=1e-12)
-    ng = _ngspice(PAREN, ["v(in)", "v(e)", "v(g)"], tmp_path)
+    ng = ngspice_wrdata(PAREN, ["v(in)", "v(e)", "v(g)"], tmp_path)
     assert np.allclose(ng[:, 3], 2 * ng[:, 1], atol=1e-6)
     assert np.allclose(ng[:, 5], ng[:, 1], atol=1e-6)
 
@@ -159,7 +148,7 @@ CLAMP_BUCK = BUCK.replace("E1 g 0 VALUE={V(ref) > V(ramp) ? 5 : 0}",
 def test_a_clamp_driving_a_switch_agrees_with_ngspice(tmp_path, ngspice):
     if shutil.which("ngspice") is None:
         pytest.skip("no ngspice executable")
-    ng = _ngspice(CLAMP_BUCK, ["v(out)"], tmp_path)
+    ng = ngspice_wrdata(CLAMP_BUCK, ["v(out)"], tmp_path)
     t0 = ng[-1, 0] / 2
     keep = ng[:, 0] >= t0
     want = np.trapezoid(ng[keep, 1], ng[keep, 0]) / (ng[-1, 0] - t0)
