@@ -8,6 +8,26 @@ import re
 
 from .circuit import GROUND
 
+
+def split_top_level(text: str, keep_empty: bool = False) -> list[str]:
+    """``text`` split at the commas outside parentheses (``v(a,b), i(L1)``), each part
+    stripped; empty parts dropped, or with ``keep_empty`` kept where something else is
+    (a call's arguments ``f(a,,b)``: none at all for ``f()``)."""
+    parts, depth, start = [], 0, 0
+    for i, ch in enumerate(text):
+        if ch == "(":
+            depth += 1
+        elif ch == ")":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            parts.append(text[start:i].strip())
+            start = i + 1
+    parts.append(text[start:].strip())
+    if keep_empty:
+        return parts if any(parts) else []
+    return [p for p in parts if p]
+
+
 # ------------------------------------------------------------------------------ tables
 
 # element letter -> (start rule of grammar.lark, description, usage)

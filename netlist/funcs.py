@@ -14,6 +14,8 @@ import re
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from .dialect import split_top_level
+
 if TYPE_CHECKING:
     from .rawdeck import Statement
 
@@ -83,21 +85,6 @@ def _call_end(text: str, open_at: int) -> int:
     return -1
 
 
-def _split_args(text: str) -> list[str]:
-    """The comma-separated arguments of a call (commas inside parentheses kept)."""
-    out, depth, start = [], 0, 0
-    for i, ch in enumerate(text):
-        if ch == "(":
-            depth += 1
-        elif ch == ")":
-            depth -= 1
-        elif ch == "," and depth == 0:
-            out.append(text[start:i])
-            start = i + 1
-    out.append(text[start:])
-    return [a.strip() for a in out] if any(a.strip() for a in out) else []
-
-
 def _bind(body: str, bound: dict[str, str]) -> str:
     """``body`` with each parameter of ``bound`` replaced by its argument in parentheses."""
     def arg(w: re.Match) -> str:
@@ -136,7 +123,8 @@ def expand(text: str, funcs: dict[str, Func], depth: int = 0) -> str:
         if end < 0:
             raise FuncError(f"call of .func '{f.name}' is not closed", m.start(),
                             "close its argument list with ')'")
-        args = [expand(a, funcs, depth + 1) for a in _split_args(text[j + 1:end])]
+        args = [expand(a, funcs, depth + 1)
+                for a in split_top_level(text[j + 1:end], keep_empty=True)]
         if len(args) != len(f.params):
             raise FuncError(f".func '{f.name}' takes {len(f.params)} argument"
                             f"{'s' if len(f.params) != 1 else ''}, got {len(args)}", m.start(),

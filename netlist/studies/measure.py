@@ -27,6 +27,7 @@ from lcs.results import SimulationResult
 from lcs.signals import Pulse, Sin
 
 from ..circuit import GROUND, Circuit, CurrentSource, VoltageSource
+from ..dialect import split_top_level
 from ..errors import Diagnostic, NetlistError
 from .transient import check_probes
 
@@ -88,20 +89,6 @@ def _usage(message: str, hint: str = "") -> NetlistError:
     return NetlistError(Diagnostic(message=message, hint=hint), file="pelcs")
 
 
-def _split_top(text: str) -> list[str]:
-    """Split on commas outside parentheses."""
-    depth, cur, parts = 0, "", []
-    for ch in text:
-        depth += (ch == "(") - (ch == ")")
-        if ch == "," and depth == 0:
-            parts.append(cur)
-            cur = ""
-        else:
-            cur += ch
-    parts.append(cur)
-    return [p.strip() for p in parts if p.strip()]
-
-
 def parse_measurements(items: Sequence[str], circuit: Circuit) -> list[Measurement]:
     """Parse ``--measure`` items (each may hold several, comma-separated at the top level).
 
@@ -125,7 +112,7 @@ def parse_measurements(items: Sequence[str], circuit: Circuit) -> list[Measureme
                 hint="close every parenthesis, e.g. mean(v(out)) or ripple(v(a,b)); quote the "
                 "argument in the shell"))
             continue
-        for text in _split_top(item):
+        for text in split_top_level(item):
             m = _MEASURE_RE.match(text)
             bare_probe = m is not None and m.group(1).lower() in ("v", "i", "d") and \
                 "(" not in m.group(2)

@@ -29,6 +29,7 @@ from lcs.model import LCS
 from lcs.theory.wellposed import state_jump
 
 from ..circuit import Circuit
+from ..dialect import split_top_level
 from ..errors import Diagnostic, NetlistError
 from ..parser import parse_file, parse_overrides, parse_string
 from ..units import format_eng, parse_number
@@ -107,7 +108,7 @@ def parse_state(text: str, states: Sequence[str], default) -> np.ndarray:
     """
     x = np.array(default, dtype=float).copy()
     lower = [s.lower() for s in states]
-    for item in _split_top(text):
+    for item in split_top_level(text):
         name, sep, val = item.partition("=")
         if not sep or name.strip().lower() not in lower:
             raise _usage(f"bad state assignment {item!r}",
@@ -129,7 +130,7 @@ def parse_starts(text: str, states: Sequence[str], default) -> list[np.ndarray]:
     """
     lower = [s.lower() for s in states]
     axes: list[tuple[int, np.ndarray]] = []
-    for item in _split_top(text):
+    for item in split_top_level(text):
         name, sep, val = item.partition("=")
         key = name.strip().lower()
         if not sep or key not in lower:
@@ -149,23 +150,6 @@ def parse_starts(text: str, states: Sequence[str], default) -> list[np.ndarray]:
             x[i] = v
         out.append(x)
     return out
-
-
-def _split_top(text: str) -> list[str]:
-    """Split on commas outside parentheses."""
-    depth, cur, parts = 0, "", []
-    for ch in text:
-        if ch == "(":
-            depth += 1
-        elif ch == ")":
-            depth -= 1
-        if ch == "," and depth == 0:
-            parts.append(cur)
-            cur = ""
-        else:
-            cur += ch
-    parts.append(cur)
-    return [p.strip() for p in parts if p.strip()]
 
 
 def parse_range(text: str, *, need_count: bool = False) -> ParamRange:
@@ -229,7 +213,7 @@ def parse_grid(text: str, default_count: int | None = None
     """Parse ``"v(C1)=A:B:N,i(L1)=C:D:M"`` -> ``[(name, lo, hi, count), ...]`` (two axes);
     an axis without ``:N`` gets ``default_count`` cells (required when None)."""
     axes = []
-    for part in _split_top(text):
+    for part in split_top_level(text):
         if (error := range_misspelling(part)) is not None:
             raise error
         r = parse_range(part.strip(), need_count=default_count is None)

@@ -163,19 +163,9 @@ def split_probes(items: list[str]) -> list[str]:
 
     Commas inside parentheses belong to the probe (``v(a,b)``).
     """
-    out: list[str] = []
-    for item in items:
-        depth, start = 0, 0
-        for k, ch in enumerate(item):
-            if ch == "(":
-                depth += 1
-            elif ch == ")":
-                depth -= 1
-            elif ch == "," and depth == 0:
-                out.append(item[start:k])
-                start = k + 1
-        out.append(item[start:])
-    return [p.strip() for p in out if p.strip()]
+    from netlist.dialect import split_top_level
+
+    return [p for item in items for p in split_top_level(item)]
 
 
 def _check_path(option: str, path: str, suffixes: tuple[str, ...]) -> Path:
