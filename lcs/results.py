@@ -13,6 +13,9 @@ class Events(Sequence):
     """A run's switchings ``[(t, mode)]``: instants (s) and the modes entered, as arrays (12
     bytes a switching, not a Python tuple's 80), read as the list of pairs.
 
+    A run that keeps only its last switchings (``keep_events``) holds those, and counts the
+    others in ``earlier``: ``len(events)`` is the number held, :attr:`count` the run's.
+
     Parameters
     ----------
     t : ndarray, shape (N,)
@@ -21,21 +24,32 @@ class Events(Sequence):
         Per switching, the mode entered as an index into ``modes``.
     modes : tuple of tuple[bool, ...]
         The modes entered.
+    earlier : int
+        Switchings before ``t[0]`` that are not held.
     """
 
-    __slots__ = ("t", "index", "modes")
+    __slots__ = ("t", "index", "modes", "earlier")
 
-    def __init__(self, t: np.ndarray, index: np.ndarray, modes: tuple):
+    def __init__(self, t: np.ndarray, index: np.ndarray, modes: tuple, earlier: int = 0):
         self.t = t
         self.index = index
         self.modes = modes
+        self.earlier = int(earlier)
+
+    @property
+    def count(self) -> int:
+        """The run's switchings: those held and the earlier ones."""
+        return self.earlier + len(self.t)
 
     def __len__(self) -> int:
         return len(self.t)
 
     def __getitem__(self, i):
         if isinstance(i, slice):
-            return Events(self.t[i], self.index[i], self.modes)
+            start = range(len(self.t))[i]
+            earlier = self.earlier + start[0] if len(start) and i.step in (None, 1) \
+                else self.earlier
+            return Events(self.t[i], self.index[i], self.modes, earlier)
         return float(self.t[i]), self.modes[int(self.index[i])]
 
     def __iter__(self):
@@ -45,15 +59,19 @@ class Events(Sequence):
     def __eq__(self, other) -> bool:
         if not isinstance(other, Sequence) or isinstance(other, str):
             return NotImplemented
+        if isinstance(other, Events) and other.earlier != self.earlier:
+            return False
         return len(self) == len(other) and list(self) == list(other)
 
     __hash__ = None  # (mutable arrays; compared by value)
 
     def __repr__(self) -> str:
+        if self.earlier:
+            return f"Events(the last {len(self)} of {self.count} switchings)"
         return f"Events({len(self)} switchings)" if len(self) > 6 else repr(list(self))
 
     def __reduce__(self):
-        return Events, (self.t, self.index, self.modes)
+        return Events, (self.t, self.index, self.modes, self.earlier)
 
 
 class SimulationError(RuntimeError):
@@ -207,7 +225,9 @@ class SimulationResult:
         Switch modes in order of first use.
     events : Events or list of (float, tuple[bool, ...])
         Switching instants (s) and the mode entered (source-driven, controller, comparator
-        and sampled switchings alike), as pairs (:class:`Events` holds them as arrays).
+        and sampled switchings alike), as pairs (:class:`Events` holds them as arrays). A
+        run asked to keep only its last switchings holds those (:attr:`switchings` counts
+        them all).
     stats : SimulationStats
     notes : list[str]
         Things the user should know (e.g. an inconsistent initial state was corrected).
@@ -248,6 +268,11 @@ class SimulationResult:
     @property
     def ok(self) -> bool:
         return self.error is None
+
+    @property
+    def switchings(self) -> int:
+        """The run's switchings, those not held in ``events`` included."""
+        return getattr(self.events, "earlier", 0) + len(self.events)
 
     def __repr__(self) -> str:
         # A few lines, not the arrays (a run holds up to millions of points).

@@ -122,6 +122,7 @@ def simulate(
     load: str | None = None,
     pwl: Mapping[str, tuple[float, float]] | None = None,
     output_step: float | str | None = None,
+    keep_events: int | None = None,
 ) -> SimulationResult:
     """Simulate a circuit with the Moreau θ time-stepping scheme.
 
@@ -172,8 +173,11 @@ def simulate(
         every step where that grid is finer than the step or too coarse for the sources)
         the instants ``k dt`` from TSTART on, linearly interpolated between the stored
         points (:func:`lcs.results.resample`). The run then holds that grid and not every
-        step: its memory does not grow with its length (``res.stats.points_stored`` counts
-        the steps stored on the way).
+        step (``res.stats.points_stored`` counts the steps stored on the way).
+    keep_events : int, optional
+        Keep only the last ``keep_events`` switchings in ``res.events`` and count the others
+        (``res.switchings``). With ``output_step`` as well, the run's memory does not grow
+        with its length. Default: every switching (12 bytes each).
 
     Returns
     -------
@@ -226,7 +230,7 @@ def simulate(
         # this run gives what a newly parsed netlist gives, bit for bit)
         result = simulate_circuit(circuit, system=reused_system(circuit),
                                   options=_fresh_steps_options(), output_step=output_step,
-                                  **kw)
+                                  keep_events=keep_events, **kw)
     if check:
         result.raise_if_error()
     return result

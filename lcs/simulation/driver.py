@@ -72,7 +72,7 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
         on_inconsistent: InconsistentHandler | None = None, switching: str = "auto",
         controllers: Sequence = (), lcp: LcpOptions | None = None,
         t_wall: float | None = None, output_step: float | None = None,
-        output_from: float = -np.inf) -> SimulationResult:
+        output_from: float = -np.inf, keep_events: int | None = None) -> SimulationResult:
     """Simulate ``problem`` from ``x0`` over ``[t_start, t_stop]`` with ``integrator``.
 
     Arguments as in :func:`lcs.integrators.moreau.integrator.simulate` (``switching`` is the
@@ -85,6 +85,10 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
     system pins a state (a jump found after the run may cut its end) or where the integrator
     does not write until the buffer is full
     (:attr:`~.integrator.Integrator.writes_until_full`).
+
+    With ``keep_events``, ``result.events`` holds the last ``keep_events`` switchings and
+    counts the earlier ones (all are kept where a mode pins a state: the check of the pinned
+    jumps reads them).
     """
     t_wall = time.perf_counter() if t_wall is None else t_wall
     inputs = list(inputs)
@@ -112,7 +116,8 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
     sink = None
     if output_step is not None and pins is None and integrator.writes_until_full:
         sink = Regrid(output_step, len(out0.names), output_from)
-    recorder = Recorder(out0.names, 64, 64, out0.duty, words(k), sink)
+    recorder = Recorder(out0.names, 64, 64, out0.duty, words(k), sink,
+                        keep_events=keep_events if pins is None else None)
     recorder.append(t_start, problem.output(init.mode).row(init.key, -1, 0.0, init.x, init.lam,
                                                            u0))
     table = InputTable(inputs, t_start, sched.t1)
@@ -191,7 +196,7 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
         stored = len(t_res)
         if len(t_res):
             t_res, y_res = resample_arrays(t_res, y_res, output_step)
-    stats = SimulationStats(**integrator.stats(), intervals=len(events) + 1,
+    stats = SimulationStats(**integrator.stats(), intervals=events.count + 1,
                             wall_time=time.perf_counter() - t_wall, points_stored=stored,
                             peak_rows=recorder.peak_rows)
     result = SimulationResult(

@@ -6,7 +6,8 @@ the buffer is full, instead of growing it: the buffer then holds a block of rows
 run's memory is its output grid's, whatever the number of steps. The event records are
 compacted block by block as the buffer fills: only those that change the switch key (or
 start or end a sliding mode) are kept, and the result's events take 12 bytes each
-(:class:`~lcs.results.Events`).
+(:class:`~lcs.results.Events`). With ``keep_events`` only the last switchings are kept, and
+the earlier ones counted: a run's memory is then independent of its length.
 
 Event records are ``(t, switch key after it, info)``; ``info`` is the switch index of a
 comparator switching (-1 for a known switching), plus ``EV_SLIDE_START`` or ``EV_SLIDE_END``
@@ -52,6 +53,9 @@ class Recorder:
         (:meth:`room`).
     block : int
         Rows of the buffer with a sink.
+    keep_events : int, optional
+        Keep only the last ``keep_events`` switchings (at least; up to twice as many are held
+        between compactions) and count the earlier ones; None keeps them all.
 
     Attributes
     ----------
@@ -68,7 +72,10 @@ class Recorder:
     """
 
     def __init__(self, names: tuple[str, ...], rows: int, events: int, duty: np.ndarray,
-                 key_words: int = 1, sink: Regrid | None = None, block: int = 1 << 14):
+                 key_words: int = 1, sink: Regrid | None = None, block: int = 1 << 14,
+                 keep_events: int | None = None):
+        if keep_events is not None and keep_events < 1:
+            raise ValueError(f"keep_events must be at least 1, got {keep_events!r}")
         self.names = tuple(names)
         self.T = np.empty(rows)
         self.Y = np.empty((rows, len(self.names)))
@@ -88,6 +95,12 @@ class Recorder:
         self._slide_parts: list[tuple[np.ndarray, np.ndarray]] = []
         self._key_ids: dict[int, int] = {}
         self._last_key: np.ndarray | None = None
+        self.keep_events = keep_events
+        # Switchings dropped from the front (keep_events), the key ids they entered, and the
+        # key id of the very first record (which may only enter the initial mode).
+        self._dropped = 0
+        self._dropped_ids: set[int] = set()
+        self._first_id: int | None = None
 
     @property
     def stored(self) -> int:
@@ -170,6 +183,8 @@ class Recorder:
             change[1:] = np.any(key[1:] != key[:-1], axis=1)
             index = np.array([self._key_id(from_words(r)) for r in key[change]], np.int32)
         m = len(index)
+        if self._first_id is None and m:
+            self._first_id = int(index[0])
         if not self._ev_n:
             self._ev_t, self._ev_ix = t[change], index
         else:
@@ -179,11 +194,22 @@ class Recorder:
             self._ev_t[self._ev_n:self._ev_n + m] = t[change]
             self._ev_ix[self._ev_n:self._ev_n + m] = index
         self._ev_n += m
+        if self.keep_events is not None and self._ev_n > 2 * self.keep_events:
+            self._drop_front(self._ev_n - self.keep_events)
         slide = info >= EV_SLIDE_START
         if slide.any():
             self._slide_parts.append((t[slide].copy(), info[slide].copy()))
         self._last_key = key[n - 1].copy()
         self.evpos = 0
+
+    def _drop_front(self, n: int) -> None:
+        """The first ``n`` compacted switchings dropped (counted, their modes remembered)."""
+        self._dropped += n
+        self._dropped_ids.update(np.unique(self._ev_ix[:n]).tolist())
+        rest = self._ev_n - n
+        self._ev_t[:rest] = self._ev_t[n:self._ev_n]
+        self._ev_ix[:rest] = self._ev_ix[n:self._ev_n]
+        self._ev_n = rest
 
     def _key_id(self, key: int) -> int:
         """The index of switch key ``key`` among those met (added when new)."""
@@ -229,18 +255,30 @@ class Recorder:
         self._drain_events()
         t, index = self._ev_t[:self._ev_n], self._ev_ix[:self._ev_n]
         keys = list(self._key_ids)  # (in order of their ids: of first use)
-        if len(t) and keys[int(index[0])] == key_of(mode0):
-            t, index = t[1:], index[1:]  # (the first record enters the initial mode)
+        # (the first record enters the initial mode: not a switching)
+        enters_initial = self._first_id is not None and keys[self._first_id] == key_of(mode0)
+        earlier = self._dropped
+        if self._dropped:
+            earlier -= enters_initial
+        elif enters_initial:
+            t, index = t[1:], index[1:]
         n = int(np.searchsorted(t, t_last, side="right"))
         modes = tuple(mode_tuple(kk, k) for kk in keys)
         if n < len(t):
-            # (cut short: the modes of the switchings kept, in order of first use)
+            # (cut short: the modes of the switchings kept, in order of first use; those of
+            # dropped switchings first)
             t, index = t[:n].copy(), index[:n].copy()
             ids, first = np.unique(index, return_index=True)
-            used = [modes[j] for j in ids[np.argsort(first, kind="stable")].tolist()]
+            order = ids[np.argsort(first, kind="stable")].tolist()
+            if self._dropped:
+                order = sorted(self._dropped_ids.difference(order)) + order
+            used = [modes[j] for j in order]
         else:
             used = list(modes)
-        events = Events(t, index, modes)
+        if self.keep_events is not None and len(t) > self.keep_events:
+            earlier += len(t) - self.keep_events
+            t, index = t[-self.keep_events:].copy(), index[-self.keep_events:].copy()
+        events = Events(t, index, modes, earlier)
         visited = [tuple(mode0)]
         for md in used:
             if md not in visited:

@@ -503,6 +503,7 @@ def simulate_circuit(
     method: str = "moreau",
     output_step: float | str | None = None,
     knees: bool = True,
+    keep_events: int | None = None,
 ) -> SimulationResult:
     """Simulate a parsed circuit with the Moreau θ scheme (or exactly, ``method="exact"``).
 
@@ -549,6 +550,10 @@ def simulate_circuit(
     knees : bool
         Check that the capacitors constant below a knee stayed there (:mod:`netlist.knee`);
         off for a run whose result is not an answer (the ideal run that sizes pwl fits).
+    keep_events : int, optional
+        A Moreau run keeps only its last ``keep_events`` switchings in ``result.events``
+        and counts the others (``result.switchings``): with ``output_step`` its memory then
+        does not grow with its length. Default: all.
 
     Returns
     -------
@@ -573,7 +578,8 @@ def simulate_circuit(
     setup = transient_setup(circuit, tstop=tstop, step=step, system=system, strict=strict)
     return run_setup(setup, theta=theta, probes=probes, every=every, progress=progress,
                      options=options, switching=switching, controllers=controllers,
-                     save_at=save_at, method=method, output_step=output_step, knees=knees)
+                     save_at=save_at, method=method, output_step=output_step, knees=knees,
+                     keep_events=keep_events)
 
 
 def run_setup(
@@ -590,6 +596,7 @@ def run_setup(
     method: str = "moreau",
     output_step: float | str | None = None,
     knees: bool = True,
+    keep_events: int | None = None,
 ) -> SimulationResult:
     """Run a prepared :class:`TransientSetup` (arguments as in :func:`simulate_circuit`).
 
@@ -635,6 +642,7 @@ def run_setup(
             progress=progress, on_inconsistent=jump, options=options, switching=switching,
             save_at=save_at, controllers=controllers, output_step=streamed,
             output_from=setup.t_save if setup.t_save > 0 else -np.inf,
+            keep_events=keep_events,
         )
     result.notes[:0] = setup.notes + ([theta_note] if theta_note else [])
     if method == "moreau":

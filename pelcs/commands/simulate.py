@@ -227,6 +227,11 @@ def run(args: argparse.Namespace) -> int:
                     out, plot, load, compiled)
 
 
+#: The switchings a run keeps (the last ones: the summary counts them all, the detail view
+#: of the plot and the free-running period read the last few periods), so that a run's
+#: memory does not grow with its length.
+EVENTS_KEPT = 1 << 14
+
 #: What the first Ctrl-C (or SIGTERM) of a run prints.
 _INTERRUPT_MESSAGE = ("pelcs simulate: interrupted: the run stops after its current piece "
                       "of steps (or, exactly, stretch) and the results so far are written "
@@ -269,7 +274,8 @@ def _run(args, circuit, setup, probes, tstop, step, theta, every, output_step, o
             result = run_setup(setup, theta=theta, probes=probes, every=every,
                                progress=not args.no_progress, method=args.method,
                                options=options,
-                               output_step=spacing[0] if spacing is not None else None)
+                               output_step=spacing[0] if spacing is not None else None,
+                               keep_events=EVENTS_KEPT)
             regridded = spacing is not None
     except NotImplementedError as exc:
         # A circuit the stepper cannot handle yet: say so like an input error, no traceback.
@@ -445,7 +451,7 @@ def summary(result, file: str, title: str, *, tstop: float, step: float, theta: 
         modes = [_mode_text(switches, mode) for mode in visited[:_MAX_MODES_SHOWN]]
         if len(visited) > _MAX_MODES_SHOWN:
             modes.append(f"... ({len(visited)} in all)")
-        lines.append(f"switch modes visited: {' '.join(modes)}; {len(result.events)} "
+        lines.append(f"switch modes visited: {' '.join(modes)}; {result.switchings} "
                      "switching events")
     if st.steps and method != "exact" and st.kernel == "sparse":
         lines.append(f"LCPs: {st.steps - st.dense_steps} of {st.steps} steps solved on the "

@@ -605,6 +605,7 @@ def simulate(
     controllers: Sequence = (),
     output_step: float | None = None,
     output_from: float = -np.inf,
+    keep_events: int | None = None,
 ) -> SimulationResult:
     """Simulate a switched LCS with the Moreau θ scheme.
 
@@ -660,6 +661,10 @@ def simulate(
         (:mod:`lcs.simulation.regrid`).
     output_from : float
         The first time kept with ``output_step`` (``.tran`` TSTART), s.
+    keep_events : int, optional
+        Keep only the last ``keep_events`` switchings in ``result.events`` and count the
+        earlier ones (:attr:`lcs.results.Events.count`), so that with ``output_step`` the
+        run's memory does not grow with its length; None keeps them all.
 
     Returns
     -------
@@ -685,7 +690,7 @@ def simulate(
                       on_inconsistent=on_inconsistent,
                       switching=switching or opts.switching, controllers=list(controllers),
                       lcp=opts.lcp, t_wall=t_wall, output_step=output_step,
-                      output_from=output_from)
+                      output_from=output_from, keep_events=keep_events)
 
 
 _PROBLEMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
