@@ -1,6 +1,7 @@
 """Peak memory of a run against its length, side by side with ngspice.
 
     .venv/bin/python benchmarks/bench_memory.py [--periods P ...] [--points N] [--no-ngspice]
+                                                [--every-step]
 
 The open-loop buck of ``converters/netlists/buck.cir`` (50 kHz, h = 0.2 us, 104 steps a
 period) run for P switching periods (default 1e3, 1e4, 1e5 and 1e6), always written on N
@@ -17,10 +18,15 @@ recorded:
   ``.options interp`` and ``.save v(out) i(l1)`` (ngspice writes its raw file as it goes), up
   to 1e5 periods (1e6 takes ngspice about 10 minutes).
 
-``pelcs`` also prints its switching events: the memory that still grows with the run is the
-events it returns (12 bytes a switching, docs/performance.md); its plan is made a stretch of
-the run at a time. Results go to
-``benchmarks/results/bench_memory.json`` and the table to stdout.
+``pelcs simulate`` keeps the last 16,384 switchings (and counts them all) and plans the run a
+stretch at a time: its memory stops growing once the run is longer than one stretch.
+
+With ``--every-step`` the output is every step (the deck's ``.tran 0.2u``: P * 100 + 1
+points, written to an NPZ file), so that the output grows with the run: ``pelcs simulate``
+writes its file as the run goes (:func:`pelcs.writers.open_stream`), as ngspice writes its
+raw file; the middle column is the run held whole and written at the end. Results go to
+``benchmarks/results/bench_memory.json`` (``bench_memory_every_step.json``) and the table to
+stdout.
 """
 
 from __future__ import annotations
@@ -34,6 +40,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 NETLIST = ROOT / "converters" / "netlists" / "buck.cir"
@@ -67,8 +75,12 @@ def main() -> None:
     ap.add_argument("--periods", type=float, nargs="+", default=[1e3, 1e4, 1e5, 1e6])
     ap.add_argument("--points", type=int, default=1001)
     ap.add_argument("--no-ngspice", action="store_true")
-    ap.add_argument("--json", default=str(ROOT / "benchmarks" / "results" / "bench_memory.json"))
+    ap.add_argument("--every-step", action="store_true",
+                    help="write every step (the output grows with the run)")
+    ap.add_argument("--json")
     args = ap.parse_args()
+    name = "bench_memory_every_step.json" if args.every_step else "bench_memory.json"
+    args.json = args.json or str(ROOT / "benchmarks" / "results" / name)
 
     env = dict(os.environ)
     env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
@@ -79,21 +91,23 @@ def main() -> None:
         deck_text = NETLIST.read_text()
         for periods in args.periods:
             tstop = periods * PERIOD
-            dt = tstop / (args.points - 1)
-            row: dict = {"periods": periods, "steps": round(tstop / 0.2e-6),
-                         "points": args.points}
+            steps = round(tstop / 0.2e-6)
+            points = steps + 1 if args.every_step else args.points
+            dt = 0.2e-6 if args.every_step else tstop / (args.points - 1)
+            row: dict = {"periods": periods, "steps": steps, "points": points}
+            grid = [] if args.every_step else ["--output-step", repr(dt)]
             mb, wall, stdout = _timed([sys.executable, "-m", "pelcs.cli", "simulate",
-                                       str(NETLIST), "--tstop", repr(tstop), "--output-step",
-                                       repr(dt), "-o", str(out / "p.csv"), "--no-progress"],
-                                      env)
-            written = sum(1 for _ in open(out / "p.csv")) - 1
-            assert written == args.points, (written, args.points)
+                                       str(NETLIST), "--tstop", repr(tstop), *grid,
+                                       "-o", str(out / "p.npz"), "--no-progress"], env)
+            with np.load(out / "p.npz") as data:
+                written = len(data["t"])
+            assert written == points, (written, points)
             row["pelcs_mb"], row["pelcs_s"] = mb, wall
             events = re.search(r"(\d+) switching events", stdout)
             row["events"] = int(events.group(1)) if events else None
             if periods <= 1e5:
                 mb, wall, _ = _timed([sys.executable, "-c", _KEEP_ALL, str(NETLIST),
-                                      repr(tstop), repr(dt), str(out / "k.csv")], env)
+                                      repr(tstop), repr(dt), str(out / "k.npz")], env)
                 row["keep_all_mb"], row["keep_all_s"] = mb, wall
             if not args.no_ngspice and periods <= 1e5:
                 deck = out / "ng.cir"
@@ -109,15 +123,16 @@ def main() -> None:
     Path(args.json).parent.mkdir(parents=True, exist_ok=True)
     Path(args.json).write_text(json.dumps(rows, indent=1) + "\n")
     print()
-    print("| periods | steps | pelcs peak RSS | pelcs, every step kept then resampled "
-          "| ngspice -b -r peak RSS |")
-    print("|---|---|---|---|---|")
+    print("| periods | steps | points written | pelcs peak RSS | pelcs, every step kept then "
+          "written | ngspice -b -r peak RSS |")
+    print("|---|---|---|---|---|---|")
 
     def cell(mb, s):
         return f"{mb:.0f} MB ({s:.1f} s)" if mb is not None else "-"
 
     for r in rows:
-        print(f"| {r['periods']:.0e} | {r['steps']:.2e} | {cell(r['pelcs_mb'], r['pelcs_s'])} "
+        print(f"| {r['periods']:.0e} | {r['steps']:.2e} | {r['points']:.3g} "
+              f"| {cell(r['pelcs_mb'], r['pelcs_s'])} "
               f"| {cell(r.get('keep_all_mb'), r.get('keep_all_s'))} "
               f"| {cell(r.get('ngspice_mb'), r.get('ngspice_s'))} |")
 

@@ -176,6 +176,10 @@ class SimulationStats:
         The most stored points held at once (the output buffer's rows, and while resampling
         as the run goes the rows kept for the next output instants): a run's memory beyond
         its result and its events.
+    points_streamed : int
+        Output rows handed to the run's row stream as it went (``rows_to``): those are not
+        in the result, which then holds the last one only. -1 when the run was not
+        streamed.
     """
 
     steps: int = 0
@@ -199,6 +203,7 @@ class SimulationStats:
     kernel_time: float = 0.0
     points_stored: int = 0
     peak_rows: int = 0
+    points_streamed: int = -1
 
     @property
     def us_per_step(self) -> float:
@@ -319,19 +324,25 @@ class SimulationResult:
         return self
 
 
-def output_times(t_first: float, t_last: float, dt: float) -> np.ndarray:
+def output_times(t_first: float, t_last: float, dt: float, k_from: int | None = None
+                 ) -> np.ndarray:
     """The instants ``k dt`` (k = 0, 1, ...) in ``[t_first, t_last]``, and ``t_last`` itself
-    when it is not one of them (a stop time that is no multiple of ``dt``, a failed run), s."""
+    when it is not one of them (a stop time that is no multiple of ``dt``, a failed run), s.
+    With ``k_from``, those from the instant ``k_from dt`` on (the same numbers: the rest of
+    the grid)."""
     if not dt > 0:
         raise ValueError(f"output step must be positive, got {dt!r}")
     k0 = int(np.ceil(t_first / dt - 1e-9))
+    first = k_from is None or k_from <= k0
+    if not first:
+        k0 = k_from
     k1 = int(np.floor(t_last / dt + 1e-9))
     t = np.arange(k0, k1 + 1, dtype=float) * dt
     if t.size and abs(t[-1] - t_last) <= 1e-9 * dt:
         t[-1] = t_last
     elif t_last > (t[-1] if t.size else -np.inf):
         t = np.append(t, t_last)
-    if t.size and abs(t[0] - t_first) <= 1e-9 * dt:
+    if first and t.size and abs(t[0] - t_first) <= 1e-9 * dt:
         t[0] = t_first
     return t
 

@@ -21,7 +21,7 @@ from lcs.notices import NonPassiveWarning
 from lcs.results import SimulationResult
 from lcs.theory import screening
 from netlist.errors import NetlistError
-from netlist.studies.transient import state_growth
+from netlist.studies.growth import state_growth
 from pelcs.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -19,6 +19,7 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Sequence
+from typing import Protocol
 
 import numpy as np
 
@@ -33,7 +34,7 @@ from .integrator import Integrator, Run, Window
 from .pinned import PinnedJumps, key_after
 from .problem import Problem, mode_tuple
 from .recorder import Recorder
-from .regrid import Regrid
+from .regrid import Passthrough, Regrid
 from .schedule import Controllers, plan_run
 from .switches import classify_switches, initially_on
 
@@ -66,13 +67,25 @@ def check_args(system, signals, x0, t_start, t_stop, every) -> None:
         raise ValueError("x0 contains NaN or infinity")
 
 
+class RowStream(Protocol):
+    """Where a streamed run's output rows go as it makes them (a file written as the run
+    goes): :meth:`open` once with the probe names, then :meth:`write` with consecutive
+    blocks of times (s, shape (N,)) and rows (shape (N, q)), whose arrays may be reused
+    after the call."""
+
+    def open(self, names: tuple[str, ...]) -> None: ...
+
+    def write(self, t: np.ndarray, y: np.ndarray) -> None: ...
+
+
 def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_stop: float,
         integrator: Integrator, *, every: int = 1, breakpoints: Sequence[float] = (),
         save_at: Sequence[float] = (), progress: bool = False,
         on_inconsistent: InconsistentHandler | None = None, switching: str = "auto",
         controllers: Sequence = (), lcp: LcpOptions | None = None,
         t_wall: float | None = None, output_step: float | None = None,
-        output_from: float = -np.inf, keep_events: int | None = None) -> SimulationResult:
+        output_from: float = -np.inf, keep_events: int | None = None,
+        rows_to: RowStream | None = None) -> SimulationResult:
     """Simulate ``problem`` from ``x0`` over ``[t_start, t_stop]`` with ``integrator``.
 
     Arguments as in :func:`lcs.integrators.moreau.integrator.simulate` (``switching`` is the
@@ -89,6 +102,13 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
     With ``keep_events``, ``result.events`` holds the last ``keep_events`` switchings and
     counts the earlier ones (all are kept where a mode pins a state: the check of the pinned
     jumps reads them).
+
+    With ``rows_to``, the output rows (on the ``output_step`` grid, or the stored rows
+    themselves) from ``output_from`` on go to it as the run makes them, and the result holds
+    the last one only (``stats.points_streamed`` counts them), so that the run's memory does
+    not depend on its length. Only where every row is final as it is made: not where a mode
+    pins a state or the integrator does not write until its buffer is full (the result then
+    holds the rows, and ``points_streamed`` is -1).
     """
     t_wall = time.perf_counter() if t_wall is None else t_wall
     inputs = list(inputs)
@@ -114,7 +134,13 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
         pins.apply(init.mode, init.x, t_start)
     split = pins is not None and integrator.can_set_state
     sink = None
-    if output_step is not None and pins is None and integrator.writes_until_full:
+    streamed = rows_to is not None and pins is None and integrator.writes_until_full
+    if streamed:
+        rows_to.open(tuple(out0.names))
+        sink = (Regrid(output_step, len(out0.names), output_from, emit=rows_to.write)
+                if output_step is not None else
+                Passthrough(rows_to.write, len(out0.names), output_from))
+    elif output_step is not None and pins is None and integrator.writes_until_full:
         sink = Regrid(output_step, len(out0.names), output_from)
     recorder = Recorder(out0.names, 64, 64, out0.duty, words(k), sink,
                         keep_events=keep_events if pins is None else None)
@@ -198,7 +224,8 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
             t_res, y_res = resample_arrays(t_res, y_res, output_step)
     stats = SimulationStats(**integrator.stats(), intervals=events.count + 1,
                             wall_time=time.perf_counter() - t_wall, points_stored=stored,
-                            peak_rows=recorder.peak_rows)
+                            peak_rows=recorder.peak_rows,
+                            points_streamed=sink.written if streamed else -1)
     result = SimulationResult(
         t=t_res,
         names=tuple(recorder.names),

@@ -18,14 +18,29 @@ rows the next output instants lie between:
   they are as many as the output instants.
 
 Memory: the output rows, a block of rows while it is interpolated, and between blocks the
-last row or two.
+last row or two. With ``emit`` (a file written as the run goes), the output rows are handed
+on as they are made and not held either: the run's memory is then independent of its length
+and of its number of output points. :class:`Passthrough` hands on the stored rows themselves
+(a run without an output grid: every step, or every N-th).
+
+Streamed rows are those of the held run, bit for bit, with one exception: while every row so
+far is an output instant, the rows are handed on as they are (their values are the steps'),
+and if a later row then leaves the grid (a comparator's located instant stored between two
+steps), the held run interpolates all of its rows onto the instants instead, which moves the
+values handed on by at most the change over ``1e-9 dt``.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from ..results import interpolate, output_times, resample_arrays
+
+#: Where streamed rows go: ``emit(t, y)`` with times (s, shape (N,)) and rows (shape (N, q)),
+#: in order; the arrays may be reused after the call.
+Emit = Callable[[np.ndarray, np.ndarray], None]
 
 #: the closeness (in output spacings) at which an instant and a stored time are one
 #: (:func:`lcs.results.output_times`)
@@ -44,14 +59,19 @@ class Regrid:
     t_from : float
         Rows before this time are not kept (``.tran`` TSTART): the grid starts at the first
         kept row, s.
+    emit : callable, optional
+        Where the output rows go as they are made (:data:`Emit`); :meth:`finish` then
+        returns the last one only.
 
     Attributes
     ----------
     kept : int
         Rows kept (at or after ``t_from``): the points of the run's every step.
+    written : int
+        Output rows handed to ``emit``.
     """
 
-    def __init__(self, dt: float, q: int, t_from: float = -np.inf):
+    def __init__(self, dt: float, q: int, t_from: float = -np.inf, emit: Emit | None = None):
         if not dt > 0:
             raise ValueError(f"output step must be positive, got {dt!r}")
         self.dt = float(dt)
@@ -68,6 +88,9 @@ class Regrid:
         self.rows_y: list[np.ndarray] = []
         self.out_t: list[np.ndarray] = []
         self.out_y: list[np.ndarray] = []
+        self.emit = emit
+        self.written = 0
+        self._last: tuple[np.ndarray, np.ndarray] | None = None
 
     def held(self) -> int:
         """Rows held between blocks (not yet past every instant they serve)."""
@@ -90,8 +113,36 @@ class Regrid:
         self.rows_y.append(np.array(y, dtype=float))
         if self.on_grid:
             self.on_grid = self._on_grid(before, t)
+            if self.on_grid and self.emit is not None:
+                self._emit_on_grid()
         if not self.on_grid:
             self._interpolate_ready()
+
+    def _out(self, tout: np.ndarray, yout: np.ndarray) -> None:
+        """Output rows made: held, or handed on (the last one kept for :meth:`finish`)."""
+        if self.emit is None:
+            self.out_t.append(tout)
+            self.out_y.append(yout)
+            return
+        if tout.size:
+            self.emit(tout, yout)
+            self.written += tout.size
+            self._last = (tout[-1:].copy(), yout[-1:].copy())
+
+    def _emit_on_grid(self) -> None:
+        """The rows held but the last, handed on as the output instants they are (the first
+        at its own time); the last stays (it may be the run's end, off the grid)."""
+        t = np.concatenate(self.rows_t) if len(self.rows_t) > 1 else self.rows_t[0]
+        y = np.concatenate(self.rows_y) if len(self.rows_y) > 1 else self.rows_y[0]
+        n = t.size - 1
+        if n <= 0:
+            return
+        tout = np.arange(self.next_k, self.next_k + n, dtype=float) * self.dt
+        if self.next_k == self.k0:
+            tout[0] = self.t_first
+        self._out(tout, y[:n])
+        self.next_k += n
+        self.rows_t, self.rows_y = [t[n:].copy()], [y[n:].copy()]
 
     def _on_grid(self, before: int, t: np.ndarray) -> bool:
         """Whether the rows stay within ``1e-9 dt`` of their instants ``(k0 + i) dt``: the
@@ -119,8 +170,7 @@ class Regrid:
         if tout.size:
             if self.next_k == self.k0 and abs(tout[0] - self.t_first) <= _CLOSE * dt:
                 tout[0] = self.t_first
-            self.out_t.append(tout)
-            self.out_y.append(interpolate(t, y, tout))
+            self._out(tout, interpolate(t, y, tout))
             self.next_k += tout.size
         # the rows from the last one at or before the next instant (its left neighbour)
         t_next = self.next_k * dt
@@ -131,12 +181,21 @@ class Regrid:
 
     def finish(self) -> tuple[np.ndarray, np.ndarray]:
         """The output instants (s, shape (N',)) and rows (shape (N', q)) of the whole run,
-        the rows taken being all of it; as :func:`lcs.results.resample_arrays` of them."""
+        the rows taken being all of it; as :func:`lcs.results.resample_arrays` of them. With
+        ``emit``, the rest is handed on and the last output row returned."""
         if self.kept == 0:
             return np.zeros(0), np.zeros((0, self.q))
         t = np.concatenate(self.rows_t) if len(self.rows_t) > 1 else self.rows_t[0]
         y = np.concatenate(self.rows_y) if len(self.rows_y) > 1 else self.rows_y[0]
         self.rows_t, self.rows_y = [], []
+        if self.emit is not None:
+            rest = output_times(self.t_first, float(t[-1]), self.dt, self.next_k)
+            if self.on_grid and rest.size == t.size and np.all(
+                    np.abs(rest - t) <= _CLOSE * self.dt):
+                self._out(rest, y)  # (the output grid is the step grid)
+            else:
+                self._out(rest, interpolate(t, y, rest))
+            return self._last
         if self.on_grid:
             return resample_arrays(t, y, self.dt)
         tout = output_times(self.t_first, float(t[-1]), self.dt)
@@ -148,3 +207,39 @@ class Regrid:
         y_all = np.concatenate(self.out_y) if len(self.out_y) > 1 else self.out_y[0]
         self.out_t, self.out_y = [], []
         return t_all, y_all
+
+
+class Passthrough:
+    """The stored rows themselves handed on as they come (a run streamed without an output
+    grid: every step, or every N-th), those before ``t_from`` (s) dropped; the interface of
+    :class:`Regrid`.
+
+    Attributes
+    ----------
+    kept, written : int
+        Rows handed on.
+    """
+
+    def __init__(self, emit: Emit, q: int, t_from: float = -np.inf):
+        self.emit = emit
+        self.q = int(q)
+        self.t_from = float(t_from)
+        self.kept = self.written = 0
+        self._last = (np.zeros(0), np.zeros((0, self.q)))
+
+    def held(self) -> int:
+        return 0
+
+    def take(self, t: np.ndarray, y: np.ndarray) -> None:
+        if self.t_from > -np.inf and t.size and t[0] < self.t_from:
+            keep = t >= self.t_from
+            t, y = t[keep], y[keep]
+        if t.size:
+            self.emit(t, y)
+            self.kept += t.size
+            self.written += t.size
+            self._last = (t[-1:].copy(), y[-1:].copy())
+
+    def finish(self) -> tuple[np.ndarray, np.ndarray]:
+        """The last row handed on (shapes (1,), (1, q)), or none."""
+        return self._last

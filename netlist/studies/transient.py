@@ -56,6 +56,7 @@ from ..passive import structurally_passive
 from ..reductions import open_inductors, parallel_diodes, source_capacitors
 from ..suggest import did_you_mean
 from ..system_cache import kept_with
+from .growth import GrowthWatch, state_growth
 from .timestep import (
     MIN_STEPS_PER_RUN,
     STEPS_PER_PERIOD,
@@ -72,7 +73,6 @@ __all__ = [
     "print_step",
     "run_setup",
     "simulate_circuit",
-    "state_growth",
     "tran_step",
     "transient_setup",
     "warm_up",
@@ -597,8 +597,14 @@ def run_setup(
     output_step: float | str | None = None,
     knees: bool = True,
     keep_events: int | None = None,
+    rows_to=None,
 ) -> SimulationResult:
     """Run a prepared :class:`TransientSetup` (arguments as in :func:`simulate_circuit`).
+
+    With ``rows_to`` (:class:`lcs.simulation.driver.RowStream`), a Moreau run hands its
+    output rows to it as it makes them and the result holds the last one
+    (``result.stats.points_streamed`` counts them; -1 where the run could not stream: the
+    exact method, a knee check on every step, a mode that pins a state).
 
     The set-up's notes come first in ``result.notes``; an initial state jump is reported by
     a note of its own; points before ``setup.t_save`` are dropped. ``result.theta`` is the θ
@@ -617,6 +623,11 @@ def run_setup(
     # (a knee is checked on every step, not only on the output grid: such a run keeps every
     # step and is resampled at the end)
     streamed = output_step if method == "moreau" and not extra else None
+    watch = None
+    if rows_to is not None and method == "moreau" and not extra:
+        rows_to = watch = GrowthWatch(rows_to, setup.t_stop)
+    else:
+        rows_to = None
     check_run_size(setup, len(setup.system.states) if probes is None else len(probes), every,
                    streamed)
     jump = _JumpRecorder(setup.energy)
@@ -642,14 +653,15 @@ def run_setup(
             progress=progress, on_inconsistent=jump, options=options, switching=switching,
             save_at=save_at, controllers=controllers, output_step=streamed,
             output_from=setup.t_save if setup.t_save > 0 else -np.inf,
-            keep_events=keep_events,
+            keep_events=keep_events, rows_to=rows_to,
         )
     result.notes[:0] = setup.notes + ([theta_note] if theta_note else [])
     if method == "moreau":
         result.theta = theta
     if knees:
         check_knees(setup.knees, result, len(extra))
-    growth = state_growth(result)
+    growth = (watch.note(result) if watch is not None and result.stats.points_streamed >= 0
+              else state_growth(result))
     if growth is not None:
         result.notes.append(growth)
     if setup.t_save > 0:
@@ -666,7 +678,7 @@ def run_setup(
 
 
 def check_run_size(setup: TransientSetup, probes: int, every: int = 1,
-                   output_step: float | None = None) -> None:
+                   output_step: float | None = None, streamed: bool = False) -> None:
     """Refuse, before anything is allocated, a run whose steps or stored results exceed the
     limits :data:`netlist.limits.STEPS` and :data:`netlist.limits.MEMORY`.
 
@@ -680,6 +692,9 @@ def check_run_size(setup: TransientSetup, probes: int, every: int = 1,
     output_step : float, optional
         The points are the instants ``k output_step`` (s), computed as the run goes
         (:mod:`lcs.simulation.regrid`): the run holds those and a block of steps.
+    streamed : bool
+        The rows go to a file as the run makes them (``run_setup(rows_to=...)``): the run
+        holds a block of them.
 
     Raises
     ------
@@ -694,6 +709,8 @@ def check_run_size(setup: TransientSetup, probes: int, every: int = 1,
         # (a system that pins states keeps every step: lcs.simulation.driver)
         # the output grid (its rows gathered, then joined) and a block of the steps
         points = min(points, (setup.t_stop - setup.t_save) / output_step + 2 + _BLOCK_ROWS)
+    if streamed and not setup.system.pinnable and not setup.knees:
+        points = min(points, 2 * _BLOCK_ROWS)
     # the recorder's buffer, then the result copied out of it (or resampled)
     need = 2.0 * points * (probes + 1) * 8.0
     try:
@@ -754,34 +771,6 @@ def choose_theta(setup: TransientSetup, theta: float | None) -> tuple[float, str
                      f"{wanted:g} would need a step below {r.h_max:.3g} s")
     return wanted, (f"{text}; θ = 1 (backward Euler) or a step below {r.h_max:.3g} s avoids "
                     "it")
-
-
-#: growth of the recorded signals over a run beyond which the summary says so
-GROWTH_LIMIT = 1e6
-
-
-def state_growth(result: SimulationResult) -> str | None:
-    """A note when the recorded signals grew by more than :data:`GROWTH_LIMIT` over the run.
-
-    The reference is the largest magnitude in the first tenth of the run (the start alone
-    is often zero); the end is the last point. None when the growth is below the limit.
-    """
-    y = np.asarray(result.y, dtype=float)
-    t = np.asarray(result.t, dtype=float)
-    if y.ndim != 2 or y.shape[0] < 3 or not y.shape[1]:
-        return None
-    # the rows up to t[0] + a tenth of the run (times increase), the first one at least
-    first = max(1, int(t.searchsorted(t[0] + 0.1 * (t[-1] - t[0]), side="right")))
-    ref = float(np.abs(y[:first]).max())
-    end = float(np.abs(y[-1]).max())
-    if not math.isfinite(end):
-        return "the recorded signals became non-finite during the run"
-    if ref <= 0.0 or end <= GROWTH_LIMIT * ref:
-        return None
-    k = int(np.argmax(np.abs(y[-1])))
-    return (f"the state grew by a factor of {end / ref:.3g} over the run ({result.names[k]} "
-            f"= {y[-1, k]:.4g} at the end, largest magnitude {ref:.4g} in the first tenth): "
-            "an unstable or non-passive circuit?")
 
 
 def warm_up() -> float:

@@ -211,7 +211,7 @@ def run(args: argparse.Namespace) -> int:
 
     # (before loading anything: a run too large for the machine is refused at once)
     check_run_size(setup, len(probes) if probes is not None else len(setup.system.states),
-                   every)
+                   every, streamed=_streams(args, out, plot))
     # Load the compiled kernels first, so that the summary's time per step is the run's;
     # compiling them (the first run after an installation) is said before it starts.
     from lcs.build import kernel_setup
@@ -246,6 +246,11 @@ def _run(args, circuit, setup, probes, tstop, step, theta, every, output_step, o
     spacing = _output_spacing(output_step, args.all_steps or bool(args.every), circuit, setup)
     t0 = time.perf_counter()
     regridded = False
+    stream = None
+    if _streams(args, out, plot):
+        from pelcs.writers import open_stream
+
+        stream = open_stream(out)
     try:
         if args.devices == "pwl" or args.losses:
             from netlist.studies.realistic import simulate_devices
@@ -275,23 +280,32 @@ def _run(args, circuit, setup, probes, tstop, step, theta, every, output_step, o
                                progress=not args.no_progress, method=args.method,
                                options=options,
                                output_step=spacing[0] if spacing is not None else None,
-                               keep_events=EVENTS_KEPT)
+                               keep_events=EVENTS_KEPT, rows_to=stream)
             regridded = spacing is not None
     except NotImplementedError as exc:
         # A circuit the stepper cannot handle yet: say so like an input error, no traceback.
+        _abort(stream)
         raise NetlistError(Diagnostic(message=f"not supported: {exc}",
                                       hint="see docs/simulation.md"),
                            file=args.file) from exc
     except ValueError as exc:
         # The set-up of a mode failed before any step (e.g. I - hθA singular: an element
         # value of 1e-308 found by fuzzing): the values, not the run, are at fault.
+        _abort(stream)
         raise NetlistError(Diagnostic(message=f"cannot simulate: {exc}",
                                       hint="an element value of extreme magnitude? check the "
                                       "values and their units (pelcs lcs FILE shows the "
                                       "matrices)"), file=args.file) from exc
+    except BaseException:  # (a second Ctrl-C, a bug: no file, the earlier one kept)
+        _abort(stream)
+        raise
     wall = time.perf_counter() - t0
 
-    steps_stored = result.stats.points_stored if regridded else len(result.t)
+    streamed = stream is not None and result.stats.points_streamed >= 0
+    if not streamed:
+        _abort(stream)  # (a run that could not stream: its rows are written whole)
+        stream = None
+    steps_stored = result.stats.points_stored if regridded or streamed else len(result.t)
     if output_step is None and not (args.all_steps or args.every) and setup.print_note:
         result.notes.append(setup.print_note)
     if spacing is not None and not regridded:
@@ -301,7 +315,7 @@ def _run(args, circuit, setup, probes, tstop, step, theta, every, output_step, o
         result.notes.append(f"the run was interrupted at t = {_eng(err.time, 's')} "
                             f"({_eng(setup.t_stop, 's')} asked): the results end there")
     written = _write(result, out, plot, circuit.title or Path(args.file).name, args.file,
-                     setup.t_stop)
+                     setup.t_stop, stream)
     switches = [s.name for s in setup.system.switches]
     if spacing is not None:
         points = (f"every {_eng(spacing[0], 's')} ({spacing[1]}; --all-steps writes all "
@@ -356,15 +370,31 @@ def _output_spacing(output_step: float | None, all_steps: bool, circuit, setup
     return setup.print_step, ".tran TSTEP"
 
 
+def _streams(args, out: Path | None, plot: Path | None) -> bool:
+    """Whether the run writes its file as it goes (then it holds neither its steps nor its
+    output rows). A figure needs the rows, so a run with --plot holds its output grid; the
+    exact method and the piecewise-linear devices (their losses are integrated over every
+    step) hold their rows too."""
+    return (out is not None and plot is None and args.method == "moreau"
+            and not (args.devices == "pwl" or args.losses))
+
+
+def _abort(stream) -> None:
+    if stream is not None:
+        stream.abort()
+
+
 def _write(result, out: Path | None, plot: Path | None, title: str, file: str,
-           t_stop: float) -> Written:
+           t_stop: float, stream=None) -> Written:
     """Write the requested files (also for a failed or interrupted run); the names written
-    and the errors of those that could not be."""
+    and the errors of those that could not be. With ``stream``, ``out`` was written as the
+    run went and is completed."""
     from pelcs.plotting import plot_result
     from pelcs.writers import write_result
 
     return write_outputs("simulate", (
-        (out, lambda path: write_result(result, path)),
+        (out, lambda path: stream.close(result) if stream is not None
+         else write_result(result, path)),
         (plot, lambda path: plot_result(result, path, title=f"{title}  ({Path(file).name})",
                                         t_stop=t_stop)),
     ))
@@ -470,6 +500,7 @@ def summary(result, file: str, title: str, *, tstop: float, step: float, theta: 
     for note in result.notes:
         lines.append(f"note: {note}")
     if written:
-        lines.append(f"wrote {', '.join(written)} ({len(result.t)} points"
+        rows = st.points_streamed if st.points_streamed >= 0 else len(result.t)
+        lines.append(f"wrote {', '.join(written)} ({rows} points"
                      + (f", {points}" if points else "") + ")")
     return "\n".join(lines)

@@ -606,6 +606,7 @@ def simulate(
     output_step: float | None = None,
     output_from: float = -np.inf,
     keep_events: int | None = None,
+    rows_to=None,
 ) -> SimulationResult:
     """Simulate a switched LCS with the Moreau θ scheme.
 
@@ -665,6 +666,9 @@ def simulate(
         Keep only the last ``keep_events`` switchings in ``result.events`` and count the
         earlier ones (:attr:`lcs.results.Events.count`), so that with ``output_step`` the
         run's memory does not grow with its length; None keeps them all.
+    rows_to : lcs.simulation.driver.RowStream, optional
+        Where the output rows go as the run makes them (a file written as it goes): the
+        result then holds the last one (:func:`lcs.simulation.driver.run`).
 
     Returns
     -------
@@ -690,7 +694,7 @@ def simulate(
                       on_inconsistent=on_inconsistent,
                       switching=switching or opts.switching, controllers=list(controllers),
                       lcp=opts.lcp, t_wall=t_wall, output_step=output_step,
-                      output_from=output_from, keep_events=keep_events)
+                      output_from=output_from, keep_events=keep_events, rows_to=rows_to)
 
 
 _PROBLEMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()

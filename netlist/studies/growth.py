@@ -1,0 +1,83 @@
+"""A note when a run's recorded signals grew without bound: the ideal model of a non-passive
+or unstable circuit is followed as it is (its growth is its true solution), and the result
+says so. Read from the held rows (:func:`state_growth`) or, for a run written to its file as
+it went, from what :class:`GrowthWatch` kept of the rows on their way.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from lcs.results import SimulationResult
+
+__all__ = ["GROWTH_LIMIT", "GrowthWatch", "state_growth"]
+
+#: growth of the recorded signals over a run beyond which the summary says so
+GROWTH_LIMIT = 1e6
+
+
+def state_growth(result: SimulationResult) -> str | None:
+    """A note when the recorded signals grew by more than :data:`GROWTH_LIMIT` over the run.
+
+    The reference is the largest magnitude in the first tenth of the run (the start alone
+    is often zero); the end is the last point. None when the growth is below the limit.
+    """
+    y = np.asarray(result.y, dtype=float)
+    t = np.asarray(result.t, dtype=float)
+    if y.ndim != 2 or y.shape[0] < 3 or not y.shape[1]:
+        return None
+    # the rows up to t[0] + a tenth of the run (times increase), the first one at least
+    first = max(1, int(t.searchsorted(t[0] + 0.1 * (t[-1] - t[0]), side="right")))
+    return _growth_note(float(np.abs(y[:first]).max()), y[-1], result.names)
+
+
+class GrowthWatch:
+    """A row stream (:class:`lcs.simulation.driver.RowStream`) passed through, keeping what
+    :func:`state_growth` reads of the rows that are not held: the largest magnitude in the
+    first tenth of the run (up to ``t_stop``, s) and the number of rows."""
+
+    def __init__(self, stream, t_stop: float):
+        self.stream = stream
+        self.t_stop = float(t_stop)
+        self.ref = 0.0
+        self.rows = 0
+        self.t0 = np.nan
+
+    def open(self, names: tuple[str, ...]) -> None:
+        self.stream.open(names)
+
+    def write(self, t: np.ndarray, y: np.ndarray) -> None:
+        if not self.rows and t.size:
+            self.t0 = float(t[0])
+        if t.size and y.shape[1]:
+            end = self.t0 + 0.1 * (self.t_stop - self.t0)
+            first = max(1, int(t.searchsorted(end, side="right"))) if not self.rows \
+                else int(t.searchsorted(end, side="right"))
+            if first:
+                self.ref = max(self.ref, float(np.abs(y[:first]).max()))
+        self.rows += t.size
+        self.stream.write(t, y)
+
+    def note(self, result: SimulationResult) -> str | None:
+        """:func:`state_growth` of the streamed run (its last row is ``result``'s)."""
+        y = np.asarray(result.y, dtype=float)
+        if self.rows < 3 or y.ndim != 2 or not len(y) or not y.shape[1]:
+            return None
+        return _growth_note(self.ref, y[-1], result.names)
+
+
+def _growth_note(ref: float, last: np.ndarray, names) -> str | None:
+    """The note of :func:`state_growth`: ``ref`` the reference magnitude, ``last`` the last
+    row (shape (q,))."""
+    y_last = np.asarray(last, dtype=float)
+    end = float(np.abs(y_last).max())
+    if not math.isfinite(end):
+        return "the recorded signals became non-finite during the run"
+    if ref <= 0.0 or end <= GROWTH_LIMIT * ref:
+        return None
+    k = int(np.argmax(np.abs(y_last)))
+    return (f"the state grew by a factor of {end / ref:.3g} over the run ({names[k]} "
+            f"= {y_last[k]:.4g} at the end, largest magnitude {ref:.4g} in the first tenth): "
+            "an unstable or non-passive circuit?")
