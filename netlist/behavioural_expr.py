@@ -30,8 +30,8 @@ __all__ = ["ACCEPTED", "Affine", "BehaviouralError", "Clamp", "Step", "Tree",
 #: the forms pelcs reads, for the hints of every refusal
 ACCEPTED = ("pelcs reads B sources whose expression is linear in v() and i() (constants and "
             "parameters allowed; it becomes E/G/H/F sources), and comparators 'x > y ? A : B', "
-            "'u(x - y)' or 'A*(x > y)' with linear x, y and constant A, B, which must drive only "
-            "the controls of S switches")
+            "'u(x - y)' or 'A*(x > y)' with linear x, y and constant A, B (an ideal switch on "
+            "the comparison sets the output)")
 
 
 class BehaviouralError(Exception):
