@@ -169,3 +169,36 @@ def test_a_sawtooth_gate_through_an_enable_switch_against_ngspice(tmp_path, ngsp
     got = np.interp(t, res.t, res.y[:, 0])
     away = np.min(np.abs(t[:, None] - want[None, :]), axis=1) > 20e-9
     assert np.max(np.abs(got[away] - v[away])) < 12 * 1e-3, np.max(np.abs(got[away] - v[away]))
+
+
+# S1 closes while v(en) - v(b) > 0.5, S2 while v(a) > 0.5; each pulls the other's control:
+# when en rises, S1 on -> a = 1 -> S2 on -> b = 1 -> S1 off -> a = 0 -> S2 off -> S1 on ...
+RING = """two switches that switch each other with no delay
+Vu u 0 1
+Ven en 0 PULSE(0 1 1u 1n 1n 5u 10u)
+S1 u a en b SWA
+Ra a 0 1k
+S2 u b a 0 SWA
+Rb b 0 1k
+.model SWA SW(VT=0.5 VH=0)
+.tran 10n 20u
+.end
+"""
+
+
+def test_a_zero_time_loop_is_a_clear_error_of_the_command(tmp_path):
+    import contextlib
+    import io
+
+    from pelcs.cli import main
+
+    path = tmp_path / "ring.cir"
+    path.write_text(RING)
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(buf):
+        code = main(["simulate", str(path), "--no-progress"])
+    out = buf.getvalue()
+    assert code == 2, out
+    assert ("not supported: switches S1, S2 switch each other at t = 1.0005e-06 s without "
+            "settling") in out
+    assert "Traceback" not in out
