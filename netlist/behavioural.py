@@ -42,7 +42,7 @@ from typing import ClassVar
 
 from lcs.signals import Dc, Pulse, Pwl
 
-from .behavioural_expr import ACCEPTED, Affine, BehaviouralError, Clamp, Step, linearise
+from .behavioural_expr import ACCEPTED, Affine, BehaviouralError, Clamp, Select, Step, linearise
 from .circuit import (
     GROUND,
     Cccs,
@@ -77,7 +77,7 @@ class Comparator(Element):
     the expression as written."""
 
     kind_out: str = "V"
-    step: Step | None = None
+    step: Step | Select | None = None
     text: str = ""
     what: str = "comparator B source"  # what it is, for messages
     kind: ClassVar[str] = "B"
@@ -167,7 +167,7 @@ def elaborate(el: RawElement, prefix: str, mapnode: Callable[[str], str],
             error(f"{name}: {exc.message}", el.st.loc(offset + exc.offset), exc.hint, (name,),
                   dependent=unknown)
         return []
-    if isinstance(form, Step):
+    if isinstance(form, Step | Select):
         return [Comparator(name, nodes, loc, out_kind, form, text)]
     if isinstance(form, Clamp):
         if out_kind != "V" or nodes[1] != GROUND:
@@ -234,7 +234,7 @@ def _fold_one(circuit: Circuit, b: ClampSource, comp: Comparator) -> str | None:
         return (f"the level it is compared with spans {lo_r:g} to {hi_r:g} V, beyond the "
                 f"clamp's range {clamp.lo:g} to {clamp.hi:g} V, where the clamp decides the "
                 "comparison")
-    comp.step = Step(rest.plus(clamp.form.scaled(a)), step.strict, step.hi, step.lo)
+    comp.step = replace(step, diff=rest.plus(clamp.form.scaled(a)))
     return None
 
 
@@ -355,17 +355,20 @@ def _state(x: float, vt: float, vh: float) -> str | None:
     return None
 
 
-def _describe(step: Step) -> str:
+def _text(form: Affine) -> str:
+    """An affine form as text (``2*v(out) - v(ramp) + 0.4``)."""
     parts = []
-    for (kind, ref), c in step.diff.terms:
+    for (kind, ref), c in form.terms:
         q = f"v({ref})" if kind == "v" else f"i({ref})"
         parts.append(f"{'-' if c < 0 else '+'} {'' if abs(c) == 1 else f'{abs(c):g}*'}{q}")
-    if step.diff.const:
-        parts.append(f"{'-' if step.diff.const < 0 else '+'} {abs(step.diff.const):g}")
+    if form.const or not parts:
+        parts.append(f"{'-' if form.const < 0 else '+'} {abs(form.const):g}")
     text = " ".join(parts).lstrip("+ ")
-    if text.startswith("- "):
-        text = "-" + text[2:]
-    return f"{text} {'>' if step.strict else '>='} 0"
+    return "-" + text[2:] if text.startswith("- ") else text
+
+
+def _describe(step: Step | Select) -> str:
+    return f"{_text(step.diff)} {'>' if step.strict else '>='} 0"
 
 
 def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
@@ -400,7 +403,7 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
     for b in comps:
         p, n = b.nodes
         label = f"{b.what} {b.name} ({b.text.strip()})"
-        if b.kind_out != "V":
+        if b.kind_out != "V" or isinstance(b.step, Select):
             added.extend(_driving(circuit, b))
             continue
         uses: list[_Use] = []
@@ -499,6 +502,12 @@ def _driving(circuit: Circuit, b: Comparator) -> list[Element]:
     (a strict one keeps it off at equality, as the B's output is then ``lo``). It has
     ngspice's default RON (1 Ω, against 1 MΩ: ``--devices pwl`` and ngspice itself are
     exact to 1e-6; a smaller one would only add round-off to the other controls' rows).
+
+    A :class:`~netlist.behavioural_expr.Select` (linear branches): the branches are set on
+    nodes ``<b>#h`` and ``<b>#l`` (E chains; ground for a branch 0), the switch connects the
+    first to ``<b>#m``, which the resistor holds at the second while the switch is off (no
+    current flows: the output source only reads ``v(<b>#m)``), and the output is
+    ``v(<b>#m)``.
     """
     assert b.step is not None
     step, name, loc = b.step, b.name, b.location
@@ -510,15 +519,35 @@ def _driving(circuit: Circuit, b: Comparator) -> list[Element]:
     # at equality a >= comparison is true (on); UIC then starts it from its ON
     sw = Switch(f"{name}#s", (unit, node), loc, control=control, model=model,
                 initial=None if step.strict else True, strict=step.strict)
-    out: list[Element] = [VoltageSource(f"{name}#u", (unit, GROUND), loc, 1.0), sw,
-                          Resistor(f"{name}#r", (node, GROUND), loc, 1e6), *more]
+    cond = _describe(step)
+    unit_of = " V" if b.kind_out == "V" else " A"
+    if isinstance(step, Select):
+        # the branches on nodes <b>#h and <b>#l (E chains, or ground), the switch from the
+        # first to <b>#m, which the resistor holds at the second while it is off
+        ends = []
+        for tag, form in (("h", step.hi), ("l", step.lo)):
+            if form.constant and form.const == 0:
+                ends.append(GROUND)
+                continue
+            ends.append(f"{key}#{tag}")
+            more.extend(linear_elements(f"{name}#{tag}", "V", (ends[-1], GROUND), form, loc))
+        mid = f"{key}#m"
+        sw = replace(sw, nodes=(ends[0], mid))
+        out = [sw, Resistor(f"{name}#r", (mid, ends[1]), loc, 1e6), *more]
+        out.extend(linear_elements(name, b.kind_out, b.nodes, Affine(((("v", mid), 1.0),)),
+                                   loc))
+        circuit.notes.append(
+            f"{name}: {b.text.strip()}: its output is {_text(step.hi)}{unit_of} while {cond}, "
+            f"{_text(step.lo)}{unit_of} else, through an ideal switch {name}#s (exact)")
+        return out
+    out = [VoltageSource(f"{name}#u", (unit, GROUND), loc, 1.0), sw,
+           Resistor(f"{name}#r", (node, GROUND), loc, 1e6), *more]
     form = Affine(((("v", node), step.hi - step.lo),) if step.hi != step.lo else (), step.lo)
     out.extend(linear_elements(name, b.kind_out, b.nodes, form, loc))
-    cond = _describe(step)
     circuit.notes.append(
         f"{name}: {b.what} ({b.text.strip()}) drives more than switch controls: its output "
-        f"is {step.lo:g} + {step.hi - step.lo:g}*d({name}#s){' V' if b.kind_out == 'V' else ' A'}"
-        f", d({name}#s) the state of an ideal switch on while {cond} (exact)")
+        f"is {step.lo:g} + {step.hi - step.lo:g}*d({name}#s){unit_of}, d({name}#s) the state "
+        f"of an ideal switch on while {cond} (exact)")
     return out
 
 

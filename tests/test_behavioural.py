@@ -17,6 +17,7 @@ from netlist.behavioural_expr import (
     Affine,
     BehaviouralError,
     Clamp,
+    Select,
     Step,
     linearise,
     parse_behavioural,
@@ -74,13 +75,20 @@ def test_comparator_forms():
     s = form("!(v(x) > 1) ? 2 : 7")
     assert (s.hi, s.lo) == (7, 2)
     assert form("v(x) > 1 ? 3 : 3") == Affine((), 3.0)  # both values equal: a constant
+    # linear branches, as the whole expression
+    s = form("v(a) > 1 ? v(b) : 0")
+    assert isinstance(s, Select) and s.strict and dict(s.diff.terms) == {v("a"): 1}
+    assert s.hi == Affine(((v("b"), 1.0),), 0.0) and s.lo == Affine((), 0.0)
+    s = form("!(v(a) >= 1) ? v(b) - 5 : v(b) - 2")  # false first: the branches swap
+    assert not s.strict and s.hi.const == -2 and s.lo.const == -5
+    assert form("v(a) > 1 ? v(b) : v(b)") == Affine(((v("b"), 1.0),), 0.0)
 
 
 @pytest.mark.parametrize("text, offset, words", [
     ("v(a)*v(b)", 0, "product"),
     ("max(0, min(5, v(ref,x)*10k))", 7, "min()"),  # the innermost nonlinear operation
     ("2 + 1/v(a)", 4, "division"),
-    ("v(a) > 1 ? v(b) : 0", 11, "not a constant"),
+    ("2*(v(a) > 1 ? v(b) : 0)", 14, "not a constant"),  # linear branches: the whole B only
     ("v(a) > 1 && v(b) > 2", 0, "two comparisons"),
     ("v(a) == 1 ? 1 : 0", 0, "equality"),
     ("time < 1m ? 1 : 0", 0, "time-varying"),

@@ -171,3 +171,47 @@ def test_chained_and_current_comparators_against_ngspice(tmp_path, ngspice):
     # the 3 µs the current flows a period)
     assert mean_o == pytest.approx(_mean(ng[:, 0], ng[:, 1], 100e-6), rel=2e-3)
     assert mean_i == pytest.approx(_mean(ng[:, 0], ng[:, 3], 100e-6), rel=5e-3)
+
+
+# Linear branches (ngspice's semantics: the B's value is whichever branch the comparison
+# selects): a regulator stand-in whose output is v(in) - 5 above 7 V of input, v(in) - 2
+# below, into an RC; and a chopper, 2 v(in) while a gate pulse is high, 0 else. The input
+# rises to 12 V over 100 µs and is cut back to 0 every 200 µs.
+BRANCHES = """linear branches selected by a comparison
+Vin in 0 PULSE(0 12 0 100u 100u 0 200u)
+B1 out 0 V = V(in) > 7 ? V(in) - 5 : V(in) - 2
+R1 out o 1k
+C1 o 0 10n
+Vp p 0 PULSE(0 1 0 1u 1u 3u 10u)
+B2 ch 0 V = V(p) > 0.5 ? 2*V(in) : 0
+R2 ch 0 1k
+.tran 0.1u 400u 0 0.1u uic
+.end
+"""
+
+
+def test_linear_branches_against_the_formula_and_ngspice(tmp_path, ngspice):
+    c = parse_string(BRANCHES)
+    assert any("its output is v(in) - 5 V while v(in) - 7 > 0, v(in) - 2 V else" in n
+               for n in c.notes)
+    probes = ["v(in)", "v(out)", "v(p)", "v(ch)", "v(o)"]
+    res = simulate(BRANCHES, probes=probes)
+    vin, out, p, ch = (res[k] for k in probes[:4])
+    # at every point off the switching instants themselves, the selected branch exactly
+    off = np.abs(vin - 7) > 1e-9
+    assert np.allclose(out[off], np.where(vin > 7, vin - 5, vin - 2)[off], rtol=0, atol=1e-9)
+    off = np.abs(p - 0.5) > 1e-9
+    assert np.allclose(ch[off], np.where(p > 0.5, 2 * vin, 0)[off], rtol=0, atol=1e-9)
+    ng = ngspice_wrdata(BRANCHES, probes, tmp_path)
+    for j, probe in enumerate(probes):
+        # (ngspice's outputs change at its time points: 0.1 µs steps)
+        want = _mean(ng[:, 0], ng[:, 2 * j + 1], 0.0)
+        assert _mean(res.t, res[probe], 0.0) == pytest.approx(want, rel=2e-3), probe
+
+
+def test_a_comparison_of_comparisons_is_still_refused():
+    from netlist.errors import NetlistError
+
+    with pytest.raises(NetlistError, match=r"B1: '\(v\(a\) > 0\)' is a comparison used as an "
+                       r"operand of another comparison"):
+        parse_string("t\nVa a 0 1\nB1 g 0 V = (v(a) > 0) > 0.5 ? v(a) : 0\nR1 g 0 1k\n.end\n")

@@ -223,9 +223,11 @@ PELCS_REFUSES: dict[str, tuple[str, str, str]] = {
          "a JFET source follower buffers the PWM signal (a linear stage, not a switch)",
          "runs"),
     "learning_ngspice/circuits/09_fontes_alimentacao/02_reguladores_tensao.cir":
-        ("X7805.Breg: '(V(IN,GND) - 5.0)' is a branch of a comparator that is not a constant",
-         "the LM7805 stand-in is a B voltage source 'V(IN) > 7 ? V(IN) - 5 : V(IN) - 2' "
-         "driving the load: pelcs reads a comparator whose branches are constants",
+        ("loop of capacitors/voltage sources with X7805.Breg#s=off: X7805.Cint - Cout_7805",
+         "the LM7805 stand-in is a B voltage source 'V(IN) > 7 ? V(IN) - 5 : V(IN) - 2' from "
+         "the input source to the output (read: its branches are linear), across which the "
+         "stand-in's Cint and the load's Cout_7805 are in parallel: a loop of capacitors and "
+         "voltage sources",
          "runs"),
 }
 
