@@ -202,3 +202,19 @@ def test_a_zero_time_loop_is_a_clear_error_of_the_command(tmp_path):
     assert ("not supported: switches S1, S2 switch each other at t = 1.0005e-06 s without "
             "settling") in out
     assert "Traceback" not in out
+
+
+def test_a_gated_sine_jumps_over_the_threshold_and_crosses_back_by_root_finding():
+    # (a sine: the general path samples and refines with brentq) S2's gate is 5 sin(2π 1k t)
+    # while S1 is on, from 1.1 ms: it jumps to 5 sin(0.2π) = 2.94 V > 2 V there, falls through
+    # 2 V at (π - asin 0.4)/(2π 1k) past the period start, rises through it at asin(0.4)/(...)
+    from lcs.signals import Sin
+
+    en = Pwl([0.0, 1.1e-3, 1.1e-3, 2.5e-3], [0.0, 0.0, 1.0, 1.0])
+    mode0, ev = _plan(_system(_gated, SWITCHES), en, Sin(0.0, 5.0, 1e3), t1=2.5e-3)
+    down = (np.pi - np.arcsin(0.4)) / (2 * np.pi)  # ms into a period
+    up = np.arcsin(0.4) / (2 * np.pi)
+    assert mode0 == (False, False)
+    assert [m for _, m in ev] == [(True, True), (True, False), (True, True), (True, False)]
+    assert np.allclose([t for t, _ in ev], [1.1, 1 + down, 2 + up, 2 + down], rtol=0,
+                       atol=1e-9)
