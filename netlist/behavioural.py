@@ -19,7 +19,10 @@ equivalent, and refuses the others with the expression's place and the accepted 
   gives those switches the comparison itself as their control and removes the B source.
   Whether the run then computes the switching instants from the sources before stepping or
   locates them as comparator crossings follows from that control, as for any S switch
-  (``docs/switching.md``).
+  (``docs/switching.md``). A comparator whose output drives more than switch controls (a
+  load, a gate resistor, another comparator), and an ``I=`` one, is its value
+  ``lo + (hi - lo) s``, ``s`` the state of an ideal switch on the comparison
+  (:func:`_driving`).
 
 - **clamp in the control path**: ``max(lo, min(hi, e))`` (or ``min``/``max`` alone) of an
   affine ``e``, a ``V=`` source to ground whose output is read only by comparator B sources
@@ -39,7 +42,7 @@ from typing import ClassVar
 
 from lcs.signals import Dc, Pulse, Pwl
 
-from .behavioural_expr import ACCEPTED, Affine, BehaviouralError, Clamp, Step, linearise
+from .behavioural_expr import ACCEPTED, Affine, BehaviouralError, Clamp, Select, Step, linearise
 from .circuit import (
     GROUND,
     Cccs,
@@ -48,6 +51,7 @@ from .circuit import (
     CurrentSource,
     Element,
     Model,
+    Resistor,
     Switch,
     Vccs,
     Vcvs,
@@ -73,7 +77,7 @@ class Comparator(Element):
     the expression as written."""
 
     kind_out: str = "V"
-    step: Step | None = None
+    step: Step | Select | None = None
     text: str = ""
     what: str = "comparator B source"  # what it is, for messages
     kind: ClassVar[str] = "B"
@@ -163,7 +167,7 @@ def elaborate(el: RawElement, prefix: str, mapnode: Callable[[str], str],
             error(f"{name}: {exc.message}", el.st.loc(offset + exc.offset), exc.hint, (name,),
                   dependent=unknown)
         return []
-    if isinstance(form, Step):
+    if isinstance(form, Step | Select):
         return [Comparator(name, nodes, loc, out_kind, form, text)]
     if isinstance(form, Clamp):
         if out_kind != "V" or nodes[1] != GROUND:
@@ -230,7 +234,7 @@ def _fold_one(circuit: Circuit, b: ClampSource, comp: Comparator) -> str | None:
         return (f"the level it is compared with spans {lo_r:g} to {hi_r:g} V, beyond the "
                 f"clamp's range {clamp.lo:g} to {clamp.hi:g} V, where the clamp decides the "
                 "comparison")
-    comp.step = Step(rest.plus(clamp.form.scaled(a)), step.strict, step.hi, step.lo)
+    comp.step = replace(step, diff=rest.plus(clamp.form.scaled(a)))
     return None
 
 
@@ -351,17 +355,20 @@ def _state(x: float, vt: float, vh: float) -> str | None:
     return None
 
 
-def _describe(step: Step) -> str:
+def _text(form: Affine) -> str:
+    """An affine form as text (``2*v(out) - v(ramp) + 0.4``)."""
     parts = []
-    for (kind, ref), c in step.diff.terms:
+    for (kind, ref), c in form.terms:
         q = f"v({ref})" if kind == "v" else f"i({ref})"
         parts.append(f"{'-' if c < 0 else '+'} {'' if abs(c) == 1 else f'{abs(c):g}*'}{q}")
-    if step.diff.const:
-        parts.append(f"{'-' if step.diff.const < 0 else '+'} {abs(step.diff.const):g}")
+    if form.const or not parts:
+        parts.append(f"{'-' if form.const < 0 else '+'} {abs(form.const):g}")
     text = " ".join(parts).lstrip("+ ")
-    if text.startswith("- "):
-        text = "-" + text[2:]
-    return f"{text} {'>' if step.strict else '>='} 0"
+    return "-" + text[2:] if text.startswith("- ") else text
+
+
+def _describe(step: Step | Select) -> str:
+    return f"{_text(step.diff)} {'>' if step.strict else '>='} 0"
 
 
 def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
@@ -377,11 +384,14 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
     difference of two node voltages is the control pair itself; a longer one is built on
     inner nodes by E and H sources (``<B>#c1``...), each free of load.
 
+    A comparator whose output drives anything but switch controls across it (a load, a gate
+    resistor, another comparator's comparison), and an ``I=`` comparator, becomes its value
+    instead (:func:`_driving`); the switches across its output then read that value.
+
     Returns
     -------
     list of Diagnostic
-        A B output that feeds anything but switch controls, a switch whose control is not
-        across the output, a value inside a switch's band, an ``I=`` comparator.
+        A value inside the ``VH > 0`` band of a switch the output drives alone.
     """
     diags = fold_clamps(circuit)
     comps = [el for el in circuit.elements if isinstance(el, Comparator)]
@@ -393,11 +403,8 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
     for b in comps:
         p, n = b.nodes
         label = f"{b.what} {b.name} ({b.text.strip()})"
-        if b.kind_out != "V":
-            diags.append(Diagnostic(
-                f"{label} is a current source switching between constants", b.location,
-                "pelcs maps comparator B sources of the V= form onto the S switches they "
-                "control; " + ACCEPTED, (b.name,)))
+        if b.kind_out != "V" or isinstance(b.step, Select):
+            added.extend(_driving(circuit, b))
             continue
         uses: list[_Use] = []
         bad: list[str] = []
@@ -416,11 +423,9 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
         bad += [o.name for o in comps if o is not b and (outs & set(o.nodes) or any(
             q == ("v", x) for q, _ in o.step.diff.terms for x in outs))]
         if bad:
-            diags.append(Diagnostic(
-                f"the output of {label} feeds {', '.join(bad)}", b.location,
-                "pelcs maps a comparator B source onto the S switches whose control "
-                f"(nc+ nc-) is its output ({p} {n}); the output must drive nothing else. "
-                + ACCEPTED, (b.name, *bad)))
+            # (a load, a transistor's gate, another comparator: the output itself, and the
+            # switches above read it as the circuit sets it)
+            added.extend(_driving(circuit, b))
             continue
         step = b.step
         for use in uses:
@@ -483,6 +488,67 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
                                  "no switch: left out")
     circuit.elements[:] = keep + added
     return diags
+
+
+def _driving(circuit: Circuit, b: Comparator) -> list[Element]:
+    """The exact elements of a comparator B source whose output drives more than switch
+    controls: ``lo + (hi - lo) s`` (a ``V=`` source; an ``I=`` source the same current), ``s``
+    the state of an ideal switch ``<B>#s`` on exactly while the comparison is true.
+
+    The switch connects a 1 V source (``<B>#u``) to a node ``<b>#c`` held at 0 by ``<B>#r``
+    (1 MΩ) while it is off, so ``v(<b>#c)`` is 1 while the comparison is true and 0 else;
+    the output is then the linear B ``lo + (hi - lo) v(<b>#c)`` (:func:`linear_elements`: an
+    E or G source named ``<B>``, and the constant ``lo``). The switch turns on the comparison
+    (a strict one keeps it off at equality, as the B's output is then ``lo``). It has
+    ngspice's default RON (1 Ω, against 1 MΩ: ``--devices pwl`` and ngspice itself are
+    exact to 1e-6; a smaller one would only add round-off to the other controls' rows).
+
+    A :class:`~netlist.behavioural_expr.Select` (linear branches): the branches are set on
+    nodes ``<b>#h`` and ``<b>#l`` (E chains; ground for a branch 0), the switch connects the
+    first to ``<b>#m``, which the resistor holds at the second while the switch is off (no
+    current flows: the output source only reads ``v(<b>#m)``), and the output is
+    ``v(<b>#m)``.
+    """
+    assert b.step is not None
+    step, name, loc = b.step, b.name, b.location
+    key = name.lower()
+    unit, node = f"{key}#u", f"{key}#c"
+    control, vt, more = _control(f"{name}#s", step.diff, loc)
+    model = f"pelcs_sw_{key.replace('.', '_').replace('#', '_')}_s"
+    circuit.models[model] = Model(model, "SW", {"vt": vt, "vh": 0.0}, loc)
+    # at equality a >= comparison is true (on); UIC then starts it from its ON
+    sw = Switch(f"{name}#s", (unit, node), loc, control=control, model=model,
+                initial=None if step.strict else True, strict=step.strict)
+    cond = _describe(step)
+    unit_of = " V" if b.kind_out == "V" else " A"
+    if isinstance(step, Select):
+        # the branches on nodes <b>#h and <b>#l (E chains, or ground), the switch from the
+        # first to <b>#m, which the resistor holds at the second while it is off
+        ends = []
+        for tag, form in (("h", step.hi), ("l", step.lo)):
+            if form.constant and form.const == 0:
+                ends.append(GROUND)
+                continue
+            ends.append(f"{key}#{tag}")
+            more.extend(linear_elements(f"{name}#{tag}", "V", (ends[-1], GROUND), form, loc))
+        mid = f"{key}#m"
+        sw = replace(sw, nodes=(ends[0], mid))
+        out = [sw, Resistor(f"{name}#r", (mid, ends[1]), loc, 1e6), *more]
+        out.extend(linear_elements(name, b.kind_out, b.nodes, Affine(((("v", mid), 1.0),)),
+                                   loc))
+        circuit.notes.append(
+            f"{name}: {b.text.strip()}: its output is {_text(step.hi)}{unit_of} while {cond}, "
+            f"{_text(step.lo)}{unit_of} else, through an ideal switch {name}#s (exact)")
+        return out
+    out = [VoltageSource(f"{name}#u", (unit, GROUND), loc, 1.0), sw,
+           Resistor(f"{name}#r", (node, GROUND), loc, 1e6), *more]
+    form = Affine(((("v", node), step.hi - step.lo),) if step.hi != step.lo else (), step.lo)
+    out.extend(linear_elements(name, b.kind_out, b.nodes, form, loc))
+    circuit.notes.append(
+        f"{name}: {b.what} ({b.text.strip()}) drives more than switch controls: its output "
+        f"is {step.lo:g} + {step.hi - step.lo:g}*d({name}#s){unit_of}, d({name}#s) the state "
+        f"of an ideal switch on while {cond} (exact)")
+    return out
 
 
 def _control(name: str, diff: Affine, loc: Location | None

@@ -24,14 +24,15 @@ from .dialect import node_name
 from .expressions import CONSTANTS, FUNCTIONS
 from .units import parse_number
 
-__all__ = ["ACCEPTED", "Affine", "BehaviouralError", "Clamp", "Step", "Tree",
+__all__ = ["ACCEPTED", "Affine", "BehaviouralError", "Clamp", "Select", "Step", "Tree",
            "circuit_quantity", "linearise", "parse_behavioural"]
 
 #: the forms pelcs reads, for the hints of every refusal
 ACCEPTED = ("pelcs reads B sources whose expression is linear in v() and i() (constants and "
             "parameters allowed; it becomes E/G/H/F sources), and comparators 'x > y ? A : B', "
-            "'u(x - y)' or 'A*(x > y)' with linear x, y and constant A, B, which must drive only "
-            "the controls of S switches")
+            "'u(x - y)' or 'A*(x > y)' with linear x, y and constant A, B, or 'x > y ? A : B' "
+            "with linear A, B as the whole expression (an ideal switch on the comparison sets "
+            "the output)")
 
 
 class BehaviouralError(Exception):
@@ -286,6 +287,18 @@ class Step:
 
     def mapped(self, fn: Callable[[float], float]) -> Step:
         return Step(self.diff, self.strict, fn(self.hi), fn(self.lo))
+
+
+@dataclass(frozen=True)
+class Select:
+    """``hi`` while ``diff > 0`` (``strict``) or ``diff >= 0``, else ``lo``: a comparator whose
+    branches are affine forms, not both constants (read as a whole B expression only:
+    ``v(in) > 7 ? v(in) - 5 : v(in) - 2``)."""
+
+    diff: Affine
+    strict: bool
+    hi: Affine
+    lo: Affine
 
 
 @dataclass(frozen=True)
@@ -571,7 +584,7 @@ class _Lineariser:
 def linearise(tree: Tree, text: str, env: Mapping[str, float],
               mapnode: Callable[[str], str] = lambda n: n,
               source: Callable[[str], str] = lambda s: s, clamps: bool = False
-              ) -> Affine | Step | Clamp:
+              ) -> Affine | Step | Select | Clamp:
     """The linear, comparator or clamp form of a parsed B expression.
 
     Parameters
@@ -588,9 +601,10 @@ def linearise(tree: Tree, text: str, env: Mapping[str, float],
 
     Returns
     -------
-    Affine, Step or Clamp
+    Affine, Step, Select or Clamp
         An :class:`Affine` form (a linear source), a :class:`Step` (a comparator whose
-        values are constants), or (with ``clamps``) a :class:`Clamp`.
+        values are constants), a :class:`Select` (a comparator whose branches are linear, as
+        the whole expression), or (with ``clamps``) a :class:`Clamp`.
 
     Raises
     ------
@@ -601,10 +615,18 @@ def linearise(tree: Tree, text: str, env: Mapping[str, float],
         out = _Lineariser(text, env, mapnode, source, clamps).form(tree)
     except RecursionError:
         raise BehaviouralError(_TOO_DEEP, 0) from None
+    except BehaviouralError:
+        # a comparator whose branches are linear forms, as the whole expression
+        out = _select(tree, _Lineariser(text, env, mapnode, source, clamps))
+        if out is None:
+            raise
     if isinstance(out, Clamp):
         numbers = [c for _, c in out.form.terms] + [out.form.const]
     elif isinstance(out, Affine):
         numbers = [c for _, c in out.terms] + [out.const]
+    elif isinstance(out, Select):
+        numbers = [c for f in (out.diff, out.hi, out.lo) for c in (*dict(f.terms).values(),
+                                                                    f.const)]
     else:
         numbers = [*(c for _, c in out.diff.terms), out.diff.const, out.hi, out.lo]
     if not all(math.isfinite(c) for c in numbers):
@@ -612,4 +634,20 @@ def linearise(tree: Tree, text: str, env: Mapping[str, float],
                                "value is not a finite double", 0)
     if isinstance(out, Step) and out.hi == out.lo:
         return _const(out.hi)
+    if isinstance(out, Select) and out.hi == out.lo:
+        return out.hi
     return out
+
+
+def _select(tree: Tree, lin: _Lineariser) -> Select | None:
+    """``cond ? a : b`` with a comparison ``cond`` and affine ``a``, ``b`` as a
+    :class:`Select`; None for any other expression (or a part that is no such form)."""
+    if tree.tag != "?":
+        return None
+    try:
+        c, a, b = (lin.form(x) for x in tree.args)
+    except (BehaviouralError, RecursionError):
+        return None
+    if not (isinstance(c, Step) and isinstance(a, Affine) and isinstance(b, Affine)):
+        return None
+    return Select(c.diff, c.strict, a if c.hi != 0 else b, a if c.lo != 0 else b)

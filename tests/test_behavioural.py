@@ -17,6 +17,7 @@ from netlist.behavioural_expr import (
     Affine,
     BehaviouralError,
     Clamp,
+    Select,
     Step,
     linearise,
     parse_behavioural,
@@ -74,13 +75,20 @@ def test_comparator_forms():
     s = form("!(v(x) > 1) ? 2 : 7")
     assert (s.hi, s.lo) == (7, 2)
     assert form("v(x) > 1 ? 3 : 3") == Affine((), 3.0)  # both values equal: a constant
+    # linear branches, as the whole expression
+    s = form("v(a) > 1 ? v(b) : 0")
+    assert isinstance(s, Select) and s.strict and dict(s.diff.terms) == {v("a"): 1}
+    assert s.hi == Affine(((v("b"), 1.0),), 0.0) and s.lo == Affine((), 0.0)
+    s = form("!(v(a) >= 1) ? v(b) - 5 : v(b) - 2")  # false first: the branches swap
+    assert not s.strict and s.hi.const == -2 and s.lo.const == -5
+    assert form("v(a) > 1 ? v(b) : v(b)") == Affine(((v("b"), 1.0),), 0.0)
 
 
 @pytest.mark.parametrize("text, offset, words", [
     ("v(a)*v(b)", 0, "product"),
     ("max(0, min(5, v(ref,x)*10k))", 7, "min()"),  # the innermost nonlinear operation
     ("2 + 1/v(a)", 4, "division"),
-    ("v(a) > 1 ? v(b) : 0", 11, "not a constant"),
+    ("2*(v(a) > 1 ? v(b) : 0)", 14, "not a constant"),  # linear branches: the whole B only
     ("v(a) > 1 && v(b) > 2", 0, "two comparisons"),
     ("v(a) == 1 ? 1 : 0", 0, "equality"),
     ("time < 1m ? 1 : 0", 0, "time-varying"),
@@ -350,16 +358,21 @@ def test_nonlinear_b_names_file_line_column_and_the_accepted_forms():
     assert "n.cir:5:26: error: B1: 'V(ref,x)*V(x)' is a product of node voltages" in msg
 
 
-def test_comparator_output_feeding_a_load_is_refused():
-    msg = _error("t\nVa a 0 1\nB1 g 0 V = v(a) > 0 ? 1 : 0\nR1 g 0 1k\n.end\n")
-    assert "n.cir:3:1: error: the output of comparator B source B1" in msg
-    assert "feeds R1" in msg
+def test_comparator_output_feeding_a_load_is_its_value():
+    # (its output is set by an ideal switch on the comparison: tests/test_comparator_loads.py)
+    c = parse_string("t\nVa a 0 1\nB1 g 0 V = v(a) > 0 ? 1 : 0\nR1 g 0 1k\n.end\n")
+    names = {el.name for el in c.elements}
+    assert {"B1", "B1#s", "B1#u", "B1#r", "R1"} <= names
+    assert c.element("B1#s").control == ("a", "0")
 
 
-def test_comparator_feeding_another_comparator_is_refused():
-    msg = _error("t\nVa a 0 1\nB1 g 0 V = v(a) > 0 ? 1 : 0\nB2 h 0 V = v(g) > 0.5 ? 1 : 0\n"
-                 "Vin in 0 1\nS1 in o h 0 m\nRo o 0 1\n.model m SW()\n.end\n")
-    assert "the output of comparator B source B1 (v(a) > 0 ? 1 : 0) feeds B2" in msg
+def test_comparator_feeding_another_comparator_reads_its_value():
+    c = parse_string("t\nVa a 0 1\nB1 g 0 V = v(a) > 0 ? 1 : 0\nB2 h 0 V = v(g) > 0.5 ? 1 : 0\n"
+                     "Vin in 0 1\nS1 in o h 0 m\nRo o 0 1\n.model m SW()\n.end\n")
+    # B1 drives B2's comparison: its output is its value; B2 only drives S1's control
+    assert c.element("B1#s").control == ("a", "0")
+    assert c.element("S1").control == ("g", "0")
+    assert "B2#s" not in {el.name for el in c.elements}
 
 
 def test_comparator_values_inside_a_hysteresis_band_are_refused():

@@ -215,18 +215,19 @@ PELCS_REFUSES: dict[str, tuple[str, str, str]] = {
     "pyspice/examples/spice-examples/astable.cir":
         ("nonlinear or behavioural E source ('TABLE') is not supported",
          "the comparator is an E source with a two-point TABLE (0 V below -1 uV, 15 V above "
-         "1 uV) that drives the RC timing network: pelcs reads comparators that drive switch "
-         "controls only",
+         "1 uV) that drives the RC timing network: pelcs reads no TABLE (the same comparator "
+         "written as a B source, '? 15 : 0', is read)",
          "runs"),
     "learning_ngspice/circuits/15_pwm_modulacao/01_pwm_modulador_demodulador.cir":
         ("unknown element type 'J' (JFET)",
          "a JFET source follower buffers the PWM signal (a linear stage, not a switch)",
          "runs"),
     "learning_ngspice/circuits/09_fontes_alimentacao/02_reguladores_tensao.cir":
-        ("X7805.Breg: '(V(IN,GND) - 5.0)' is a branch of a comparator that is not a constant",
-         "the LM7805 stand-in is a B voltage source 'V(IN) > 7 ? V(IN) - 5 : V(IN) - 2' "
-         "driving the load: pelcs reads a comparator with constant branches, in a control "
-         "path only",
+        ("loop of capacitors/voltage sources with X7805.Breg#s=off: X7805.Cint - Cout_7805",
+         "the LM7805 stand-in is a B voltage source 'V(IN) > 7 ? V(IN) - 5 : V(IN) - 2' from "
+         "the input source to the output (read: its branches are linear), across which the "
+         "stand-in's Cint and the load's Cout_7805 are in parallel: a loop of capacitors and "
+         "voltage sources",
          "runs"),
 }
 

@@ -6,6 +6,10 @@ are computed before stepping: exactly on piecewise-linear segments (DC, PULSE, P
 breakpoints), by sampling and ``brentq`` otherwise. State-dependent controls (comparators) are
 located inside the steps by the kernel (:mod:`lcs.integrators.moreau.dense`); here they only keep
 their initial state while the source-driven instants are computed.
+
+This module holds the compiled path (controls whose rows do not depend on the mode, on
+piecewise-linear sources); the others take the general path of
+:mod:`lcs.simulation.source_general`. The band rules are :mod:`lcs.simulation.switch_bands`.
 """
 
 from __future__ import annotations
@@ -17,8 +21,10 @@ import numpy as np
 
 from ..bits import from_words, to_words, words
 from ..jit import jitted
-from ..model import IDEALISED_OPTION, OPERATING_POINT_OPTION, SwitchedLCS
+from ..model import SwitchedLCS
 from .inputs import MERGE_FRACTION, InputFunction, evaluate_inputs
+from .source_general import general_events
+from .switch_bands import SUB_BAND_OFF, SUB_BAND_ON, band_rule, initial_sub, initially_on, sub_on
 
 
 @dataclass
@@ -56,147 +62,13 @@ class _ControlMaps:
         return self.cache[mode]
 
 
-def _initially_on(options) -> bool:
-    """The netlist's ``ON``/``OFF`` of a switch (``options["initial"]``, or ``options["on"]``),
-    off by default as in ngspice."""
-    if not isinstance(options, dict):
-        return False
-    val = options.get("initial", options.get("on"))
-    return bool(val) if val is not None else False
-
-
-# Where a control is, relative to a switch's band [lo, hi] (see switches.band_rule).
-_BELOW, _IN, _ABOVE = 0, 1, 2
-
-
-def _region(c: float, lo: float, hi: float) -> int:
-    return _BELOW if c < lo else (_ABOVE if c > hi else _IN)
-
-
-def _enter(sub: int, region: int, rule: int) -> int:
-    """The sub-state (switches.SUB_*) of a switch whose control enters ``region``."""
-    if region == _ABOVE:
-        return SUB_ON
-    if region == _BELOW:
-        return SUB_OFF
-    if sub >= SUB_BAND_OFF:
-        return sub
-    if rule == RULE_KEEP:
-        return sub + 2
-    if rule == RULE_TOGGLE:
-        return 3 - sub
-    return SUB_BAND_OFF
-
-
-def _sub_on(sub: int) -> bool:
-    return sub == SUB_ON or sub == SUB_BAND_ON
-
-
-# How a switch behaves inside its band (see band_rule), and its sub-states: off below the band,
-# on above it, off or on inside it. The compiled _linear_switch_events writes these values.
-RULE_KEEP, RULE_TOGGLE, RULE_OFF = 0, 1, 2
-SUB_OFF, SUB_ON, SUB_BAND_OFF, SUB_BAND_ON = 0, 1, 2, 3
-
-
-def band_rule(sw) -> tuple[float, float, int]:
-    """The band ``[lo, hi]`` (V) of a switch's control and what the switch does inside it, as
-    ngspice's SW model (``swload.c``) decides at every time point:
-
-    * above ``hi`` it is on, below ``lo`` off;
-    * ``VH > 0``: ``lo, hi = VT - VH, VT + VH``, and inside the band it keeps its state
-      (:data:`RULE_KEEP`);
-    * ``VH <= 0`` (ngspice's default ``VH = 0`` included): ``lo, hi = VT - |VH|, VT + |VH|``,
-      and a control entering the band from below turns the switch on, from above off; it then
-      keeps that state while the control stays in the band (:data:`RULE_TOGGLE`). So with
-      ``VH = 0`` a gate falling to exactly ``VT`` (``PULSE(0 1 ...)`` and ``VT = 0``) turns the
-      switch off, and a gate rising to exactly ``VT`` turns it on;
-    * an idealised transistor (option :data:`IDEALISED_OPTION`): on only while the control
-      exceeds ``VT`` (:data:`RULE_OFF`, ``lo = hi = VT``), as the device it stands for.
-    """
-    vt, vh = float(sw.vt), float(sw.vh)
-    opts = sw.options if isinstance(sw.options, dict) else {}
-    if opts.get(IDEALISED_OPTION):
-        return vt, vt, RULE_OFF
-    if vh > 0:
-        return vt - vh, vt + vh, RULE_KEEP
-    return vt - abs(vh), vt + abs(vh), RULE_TOGGLE
-
-
-def initial_sub(c: float, sw) -> int:
-    """The sub-state of a switch whose control is ``c`` (V) at the start of a run: on above the
-    band, off below it; inside it, the netlist's ``ON``/``OFF`` (default off), except that an
-    idealised transistor is off, and a ``VH <= 0`` switch of a run from ngspice's operating
-    point (option :data:`OPERATING_POINT_OPTION`) is on: ngspice's operating point takes the
-    switch's state before the analysis as off and its control as entering the band from
-    below."""
-    lo, hi, rule = band_rule(sw)
-    region = _region(c, lo, hi)
-    if region != _IN:
-        return SUB_ON if region == _ABOVE else SUB_OFF
-    opts = sw.options if isinstance(sw.options, dict) else {}
-    if rule == RULE_OFF:
-        return SUB_BAND_OFF
-    if rule == RULE_TOGGLE and opts.get(OPERATING_POINT_OPTION):
-        return SUB_BAND_ON
-    return SUB_BAND_ON if _initially_on(opts) else SUB_BAND_OFF
-
-
-def _first_crossing(fun, sa: float, sb: float, ca: float, cb: float, thr: float, up: bool,
-                    linear: bool, h: float, skip_start: bool = False) -> float | None:
-    """First t in [sa, sb] where c(t) > thr (``up``) or c(t) < thr (not ``up``).
-
-    ``ca``/``cb`` are the right/left limits of c at sa/sb; ``fun`` evaluates c on arrays.
-    ``skip_start`` is set for a switch that flipped at ``sa``: its control sits on the other
-    threshold there (up to round-off), which must not count as a new crossing.
-    """
-    def beyond(v):
-        return v > thr if up else v < thr
-
-    if beyond(ca) and not skip_start:
-        return sa
-    if linear:
-        if not beyond(cb) or cb == ca:
-            return None
-        # c is linear on [sa, sb]: exact crossing of the threshold.
-        t = sa + (thr - ca) / (cb - ca) * (sb - sa)
-        if skip_start and t <= sa:
-            return None
-        return min(max(t, sa), sb)
-    # Smooth but not linear: sample (at most h apart, so no crossing longer than a step is
-    # missed) and refine the first sign change with brentq.
-    nseg = int(max(8, min(1e6, np.ceil((sb - sa) / h))))
-    ts = np.linspace(sa, sb, nseg + 1)
-    cs = fun(ts)
-    cs[0], cs[-1] = ca, cb
-    hit = np.flatnonzero(cs > thr if up else cs < thr)
-    if skip_start:
-        hit = hit[hit > 0]
-    if hit.size == 0:
-        return None
-    i = int(hit[0])
-    if i == 0:
-        return sa
-
-    def g(tt):
-        return float(fun(np.array([tt]))[0]) - thr
-
-    if g(ts[i - 1]) == 0.0:
-        lo = ts[i - 1]
-    else:
-        from scipy.optimize import brentq  # (only for sources that are not piecewise linear)
-
-        lo = brentq(g, ts[i - 1], ts[i], xtol=1e-300, rtol=1e-15)
-    # brentq returns a root; the switch acts just after it.
-    return float(lo)
-
-
 @jitted
 def _linear_switch_events(sa, sb, ca, cb, sub0, lo, hi, rule, out_t, out_on):
     """Switching instants of one switch whose control is linear on every segment
     ``[sa[s], sb[s]]`` (from the right limit ``ca[s]`` to the left limit ``cb[s]``), by
-    ngspice's rule (``switches.band_rule``): above the band ``[lo, hi]`` on, below it off,
-    inside it as ``rule`` says from the sub-state ``sub0`` at ``sa[0]``. Writes instants and
-    new states into ``out_t``/``out_on``; returns how many."""
+    ngspice's rule (:func:`~lcs.simulation.switch_bands.band_rule`): above the band
+    ``[lo, hi]`` on, below it off, inside it as ``rule`` says from the sub-state ``sub0`` at
+    ``sa[0]``. Writes instants and new states into ``out_t``/``out_on``; returns how many."""
     sub = sub0
     ne = 0
     ts = np.empty(3)
@@ -404,7 +276,8 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
     ------
     NotImplementedError
         If a switch of ``which`` has a control that depends on the state (``Cy`` or ``Dy``
-        nonzero) in some mode.
+        nonzero) in some mode, or switches that switch each other at one instant without
+        settling (:func:`~lcs.simulation.source_general.general_events`).
     """
     sw = system.switches
     if not sw:
@@ -421,7 +294,7 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
         return evaluate_inputs(inputs, np.atleast_1d(t), side) @ maps.rows(mode).T
 
     bands = [band_rule(s) for s in sw]
-    initial = [_initially_on(s.options) for s in sw]
+    initial = [initially_on(s.options) for s in sw]
     if base is not None:
         initial = [initial[i] if i in active else bool(base[i]) for i in range(len(sw))]
     mode = tuple(initial)
@@ -431,12 +304,11 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
         c0 = controls(mode, t0, +1)[0]
         subs = [initial_sub(float(c0[i]), sw[i]) if i in active else subs[i]
                 for i in range(len(sw))]
-        new = tuple(_sub_on(subs[i]) if i in active else mode[i] for i in range(len(sw)))
+        new = tuple(sub_on(subs[i]) if i in active else mode[i] for i in range(len(sw)))
         if new == mode:
             break
         mode = new
     mode0 = mode
-    events: list[tuple[float, tuple[bool, ...]]] = []
     bounds = np.concatenate(([t0], breakpoints, [t1]))
     tol = MERGE_FRACTION * h
     # Inputs at every segment end, once (vectorised): right limits at the starts, left
@@ -453,110 +325,10 @@ def source_switch_events(system: SwitchedLCS, inputs: Sequence[InputFunction], t
         keys = [from_words(row) for row in fk]
         return m0, [(t, tuple(bool((key >> i) & 1) for i in range(k)))
                     for t, key in zip(ft.tolist(), keys, strict=True)]
-    lin_cache: dict = {}
-
-    def linear_rows(mode) -> list[bool]:
-        if mode not in lin_cache:
-            rows = maps.rows(mode)
-            lin_cache[mode] = [
-                linear_inputs or all(getattr(inputs[j], "piecewise_linear", False)
-                                     for j in np.flatnonzero(rows[i]))
-                for i in range(len(sw))
-            ]
-        return lin_cache[mode]
-
-    # The generic path: per switch, the next instant its control leaves the region (below,
-    # in or above its band) its sub-state says; the earliest moves (sub-state and, when it
-    # changes, the switch's state).
-    for s_idx in range(len(bounds) - 1):
-        sa0 = sa = float(bounds[s_idx])
-        sb = float(bounds[s_idx + 1])
-        just_moved: list[int] = []
-        while sa < sb:
-            rows = maps.rows(mode)
-            lin = linear_rows(mode)
-            ca0 = rows @ u_start[s_idx]
-            cb = rows @ u_end[s_idx]
-            if sa > sa0:
-                # After an event inside the segment: the control there, by interpolation
-                # where it is linear, by evaluation otherwise.
-                frac = (sa - sa0) / (sb - sa0)
-                c_at = controls(mode, sa, 0)[0] if not all(lin) else None
-                ca = np.array([ca0[i] + (cb[i] - ca0[i]) * frac if lin[i] else c_at[i]
-                               for i in range(len(sw))])
-            else:
-                ca = ca0
-            best = None
-            moves: list[tuple[int, int]] = []
-            for i in range(len(sw)):
-                if i not in active or not rows[i].any():
-                    continue
-                lo, hi, rule = bands[i]
-
-                def fun(tt, i=i, mode=mode):
-                    return controls(mode, tt, 0)[:, i]
-
-                args = (fun, sa, sb, ca[i], cb[i])
-                skip = i in just_moved
-
-                def first(thr, up, args=args, li=lin[i], skip=skip):
-                    return _first_crossing(*args, thr, up, li, h, skip_start=skip)
-
-                sub = subs[i]
-                if sa == sa0 and (sub == SUB_OFF and ca[i] > hi and not (lo == hi and cb[i] > hi)
-                                  or sub == SUB_ON and ca[i] < lo
-                                  and not (lo == hi and cb[i] < lo)):
-                    # (the control jumped over the band at this breakpoint and crosses back
-                    # inside the segment: this path would miss the switching)
-                    raise NotImplementedError(
-                        f"switch {sw[i].name}: its control jumps over its threshold at "
-                        f"t = {sa:.6g} s and comes back within {sb - sa:.3g} s, in a circuit "
-                        "whose switch controls depend on the switch states; pelcs does not "
-                        "plan such switchings yet")
-                if sub == SUB_OFF:
-                    # below the band: the first instant at or above lo (c >= lo is
-                    # c > the float before lo)
-                    tc, region = first(np.nextafter(lo, -np.inf), True), _IN
-                    if tc is not None and lo == hi and not (lin[i] and cb[i] <= hi):
-                        region = _ABOVE
-                elif sub == SUB_ON:
-                    tc, region = first(np.nextafter(hi, np.inf), False), _IN
-                    if tc is not None and lo == hi and not (lin[i] and cb[i] >= lo):
-                        region = _BELOW
-                else:
-                    t_up, t_dn = first(hi, True), first(lo, False)
-                    tc, region = ((t_up, _ABOVE) if t_dn is None or (
-                        t_up is not None and t_up <= t_dn) else (t_dn, _BELOW))
-                if tc is None:
-                    continue
-                if best is None or tc < best - tol:
-                    best, moves = tc, [(i, region)]
-                elif abs(tc - best) <= tol:
-                    moves.append((i, region))
-            if best is None:
-                break
-            for i, region in moves:
-                subs[i] = _enter(subs[i], region, bands[i][2])
-            mode = tuple(_sub_on(subs[i]) if i in active else on for i, on in enumerate(mode))
-            if events and abs(events[-1][0] - best) <= tol:
-                events[-1] = (events[-1][0], mode)
-            elif best <= t0 + tol:
-                mode0 = mode
-            else:
-                events.append((best, mode))
-            if best >= sb:
-                break
-            sa = best
-            just_moved = [i for i, _ in moves]
-            if len(events) > 10_000_000:
-                raise RuntimeError("more than 1e7 switching events: chattering gate?")
-    # Drop events that do not change the mode (e.g. a flip and flip-back at the same instant).
-    out = []
-    prev = mode0
-    for t, md in events:
-        if md != prev:
-            out.append((t, md))
-            prev = md
+    # The general path (control rows that depend on the mode, or sources that are not
+    # piecewise linear): the switches moved one instant at a time.
+    mode0, out = general_events(sw, active, maps.rows, inputs, linear_inputs, bands, subs,
+                                mode0, bounds, u_start, u_end, h, tol, t0, controls)
     if as_arrays:
         Wk = words(len(sw))
         keys = np.zeros((len(out), Wk), np.int64)
