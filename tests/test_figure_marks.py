@@ -16,6 +16,7 @@ from matplotlib.colors import to_hex
 from lcs.analysis.basins import cell_basins
 from lcs.analysis.maps import FunctionMap
 from lcs.smallsignal.response import FrequencyResponse, loop_margins
+from pelcs.analysis_plots import plot_basins
 from pelcs.commands.ac import bode_figure
 
 AC = Path(__file__).resolve().parents[1] / "converters" / "netlists" / "ac"
@@ -158,7 +159,7 @@ def test_basins_plot_has_a_legend_per_colour_and_titles_that_fit(tmp_path, monke
     bm = cell_basins(m, [("v(C1)", -3.05, 3.05, 61), ("i(L1)", -1.05, 1.05, 21)], workers=1)
     long_title = ("basins: Voltage-mode controlled buck converter (Deane and Hamill chaotic "
                   "buck), the textbook example of period doubling")
-    bm.plot(tmp_path / "b.png", title=long_title)
+    plot_basins(bm, tmp_path / "b.png", title=long_title)
     fig = figures[-1]
     ax1, ax2 = fig.axes[:2]
     labels = ax1.get_legend_handles_labels()[1] + [

@@ -157,6 +157,7 @@ def run(args: argparse.Namespace) -> int:
     from ngspice_checks.compare import CheckError
     from ngspice_checks.report import format_table, to_json, write_report
     from ngspice_checks.runner import NgspiceFailed, NgspiceUnavailable
+    from pelcs.check_plots import plot_comparison
 
     try:
         with _term_as_interrupt():
@@ -180,7 +181,7 @@ def run(args: argparse.Namespace) -> int:
     written = []
     if args.report:
         try:
-            written = write_report(cmp, args.report)
+            written = write_report(cmp, args.report, figure=plot_comparison)
         except OSError as exc:
             raise _usage_error(f"cannot write the report into {args.report}: "
                                f"{exc.strerror or exc}",
