@@ -168,6 +168,8 @@ from typing import Any
 
 import numpy as np
 
+from netlist.units import parse_number
+
 from . import deck
 from .audit import _audit_diodes, _audited_diodes
 from .ladder import DEFAULT_LADDER, NgspiceSettings, SwitchModel, apply_settings, ladder_for
@@ -526,7 +528,7 @@ def _tstop_from_listing(listing: list[str]) -> float | None:
         body = line.split(":", 1)[-1] if re.match(r"^stdout\s+\d+\s*:", line) else ""
         tokens = deck.split_tokens(body)
         if tokens and tokens[0].lower() == ".tran" and len(tokens) > 2:
-            return deck.spice_number(tokens[2])
+            return parse_number(tokens[2])
     return None
 
 
