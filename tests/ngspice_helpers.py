@@ -16,14 +16,26 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-__all__ = ["ngspice_print", "ngspice_run", "ngspice_wrdata"]
+from ngspice_checks.availability import REQUIRE_ENV
+
+__all__ = ["ngspice_executable", "ngspice_print", "ngspice_run", "ngspice_wrdata"]
+
+
+def ngspice_executable() -> str:
+    """The path of the ngspice program; skips the test when there is none, or fails it under
+    ``PELCS_REQUIRE_NGSPICE=1`` (as the ``ngspice`` fixture does for the shared library)."""
+    exe = shutil.which("ngspice")
+    if exe is None:
+        message = "NGSPICE MISSING - no ngspice program on PATH: its cross-checks not run"
+        if os.environ.get(REQUIRE_ENV) == "1":
+            pytest.fail(f"{message} ({REQUIRE_ENV}=1 requires ngspice)", pytrace=False)
+        pytest.skip(message)
+    return exe
 
 
 def _pipe(commands: str, cwd: Path, home: Path, timeout: float) -> subprocess.CompletedProcess:
-    if shutil.which("ngspice") is None:
-        pytest.skip("no ngspice executable")
-    return subprocess.run(["ngspice", "-p"], input=commands, cwd=cwd, capture_output=True,
-                          text=True, timeout=timeout,
+    return subprocess.run([ngspice_executable(), "-p"], input=commands, cwd=cwd,
+                          capture_output=True, text=True, timeout=timeout,
                           env={"HOME": str(home), "PATH": os.environ.get("PATH", "/usr/bin")})
 
 

@@ -272,6 +272,19 @@ def test_missing_ngspice_skips_loudly_or_fails(monkeypatch):
         availability.require_ngspice()
 
 
+def test_missing_ngspice_program_skips_or_fails(monkeypatch, tmp_path):
+    # the tests' helper for the ngspice program (not the library): the same rule
+    import ngspice_helpers
+
+    monkeypatch.setenv("PATH", str(tmp_path))  # (an empty folder: no ngspice on it)
+    monkeypatch.delenv("PELCS_REQUIRE_NGSPICE", raising=False)
+    with pytest.raises(pytest.skip.Exception, match="NGSPICE MISSING"):
+        ngspice_helpers.ngspice_wrdata("t\nR1 a 0 1\n.end\n", ["v(a)"], tmp_path)
+    monkeypatch.setenv("PELCS_REQUIRE_NGSPICE", "1")
+    with pytest.raises(pytest.fail.Exception, match="PELCS_REQUIRE_NGSPICE=1"):
+        ngspice_helpers.ngspice_executable()
+
+
 def test_hopeless_run_is_halted_by_the_watchdog(ngspice):
     # the sliding-mode boost needs about 3 s for its 30 ms; allow 1 s
     text = (NETLISTS / "boost_smc.cir").read_text()
