@@ -125,13 +125,13 @@ class CheckResult(_Result):
 
     @property
     def verdict_line(self) -> str:
-        from ngspice_checks.report import verdict_line
+        from pelcs.check_report import verdict_line
 
         return verdict_line(self.comparison)
 
     @property
     def table(self) -> str:
-        from ngspice_checks.report import format_table
+        from pelcs.check_report import format_table
 
         return format_table(self.comparison)
 
@@ -139,7 +139,7 @@ class CheckResult(_Result):
         return f"pelcs check {_name(self.report)}: {self.verdict_line.split(':')[0]}"
 
     def summary(self) -> list[tuple[str, Any]]:
-        from ngspice_checks.report import probe_verdict, switch_verdict
+        from pelcs.check_report import probe_verdict, switch_verdict
 
         c = self.comparison
         rows = [("verdict", self.verdict_line),
@@ -156,7 +156,7 @@ class CheckResult(_Result):
         ``inconclusive``)."""
         import pandas as pd
 
-        from ngspice_checks.report import probe_verdict
+        from pelcs.check_report import probe_verdict
 
         cols = ["probe", "nrms", "nrms_tol", "mean_pelcs", "mean_ngspice", "mean_error",
                 "mean_tol", "ripple_pelcs", "ripple_ngspice", "ripple_error", "ripple_tol",
@@ -168,7 +168,7 @@ class CheckResult(_Result):
     def plot(self, ax=None):
         """pelcs (solid) and ngspice (dashed) per probe, whole run and last periods: the
         figure of ``pelcs check --report``."""
-        from pelcs.check_plots import comparison_figure
+        from pelcs.check_report import comparison_figure
 
         return _root(comparison_figure(self.comparison, fig=_target(ax)))
 

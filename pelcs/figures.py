@@ -5,7 +5,7 @@ envelope, and titles that fit.
 Figures are drawn on the Agg canvas directly (no pyplot: the caller's backend and open figures
 are left alone, and no display is needed). Used by every plot of the CLI and of the Python
 API (:mod:`pelcs.plotting`, :mod:`pelcs.api_plots`, :mod:`pelcs.analysis_plots`,
-:mod:`pelcs.sweep_plots`, :mod:`pelcs.check_plots`, the Bode plots of ``pelcs ac``).
+:mod:`pelcs.sweep_plots`, :mod:`pelcs.check_report`, the Bode plots of ``pelcs ac``).
 """
 
 from __future__ import annotations

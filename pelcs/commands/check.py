@@ -155,9 +155,8 @@ def _term_as_interrupt():
 
 def run(args: argparse.Namespace) -> int:
     from ngspice_checks.compare import CheckError
-    from ngspice_checks.report import format_table, to_json, write_report
     from ngspice_checks.runner import NgspiceFailed, NgspiceUnavailable
-    from pelcs.check_plots import plot_comparison
+    from pelcs.check_report import format_table, to_json, write_report
 
     try:
         with _term_as_interrupt():
@@ -181,7 +180,7 @@ def run(args: argparse.Namespace) -> int:
     written = []
     if args.report:
         try:
-            written = write_report(cmp, args.report, figure=plot_comparison)
+            written = write_report(cmp, args.report)
         except OSError as exc:
             raise _usage_error(f"cannot write the report into {args.report}: "
                                f"{exc.strerror or exc}",

@@ -1,9 +1,9 @@
-"""Present a :class:`~ngspice_checks.compare.Comparison`: text table, Markdown, JSON.
+"""Present a :class:`~ngspice_checks.compare.Comparison`: text table, figure, Markdown, JSON.
 
 :func:`write_report` writes, into one directory, for a netlist ``NAME.cir``:
 
-- ``NAME.png``: the figure the caller draws (``pelcs check --report``: one row per probe,
-  both traces over the whole run and a zoom on the last periods, :mod:`pelcs.check_plots`);
+- ``NAME.png``: one row per probe, both traces over the whole run (pelcs solid, ngspice
+  dashed) and a zoom on the last periods of the steady-state window;
 - ``NAME.md``: the verdict, the settings of both runs (ngspice's ladder rung), both wall
   times side by side, the metric tables with their tolerances, the notes, the figure;
 - ``NAME.json``: the same as data (:meth:`Comparison.to_dict`);
@@ -14,31 +14,30 @@
 
 from __future__ import annotations
 
-import json
 import math
 import os
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from lcs.atomic import atomic_path
 from netlist.units import format_eng, probe_unit
+from ngspice_checks.compare import Comparison
+from pelcs.figures import axis_label, envelope, new_figure, save_figure, time_unit
+from pelcs.jsonout import dumps
 
-from .compare import Comparison
-
-__all__ = ["eng", "format_table", "markdown_report", "percent", "settings_line", "to_json",
+__all__ = ["comparison_figure", "format_table", "markdown_report", "plot_comparison", "to_json",
            "verdict_line", "write_report"]
 
 
-def eng(value: float | None, unit: str = "") -> str:
+def _eng(value: float | None, unit: str = "") -> str:
     """``value`` in engineering notation (``"1.5 mV"``), ``"n/a"`` when there is none."""
     if value is None or not math.isfinite(value):
         return "n/a"
     return format_eng(float(value), unit)
 
 
-def percent(x: float) -> str:
+def _pct(x: float) -> str:
     """A fraction as a percentage (``"1.25 %"``), ``"n/a"`` when not finite."""
     return "n/a" if not math.isfinite(x) else f"{100 * x:.2f} %"
 
@@ -76,8 +75,8 @@ def _transient_cell(p) -> str:
     """Where the NRMS was taken, when not over the whole run, and the transient's figure."""
     if p.nrms_over == "run":
         return ""
-    return (f"; NRMS over the steady state, transient {percent(p.transient_nrms)} "
-            f"[{percent(p.transient_tol)}]")
+    return (f"; NRMS over the steady state, transient {_pct(p.transient_nrms)} "
+            f"[{_pct(p.transient_tol)}]")
 
 
 def _summary(cmp: Comparison) -> str:
@@ -113,7 +112,7 @@ def _devices_line(cmp: Comparison) -> str:
     return "ideal diodes and switches"
 
 
-def settings_line(cmp: Comparison) -> str:
+def _settings_line(cmp: Comparison) -> str:
     """ngspice's settings of the comparison: its rung of the ladder and what it set."""
     s = cmp.settings
     line = f"rung {cmp.rung} ({s.name}"
@@ -132,50 +131,50 @@ def format_table(cmp: Comparison) -> str:
     """
     lines = [f"{cmp.file}: {cmp.title}".rstrip(": ")]
     lines.append(
-        f"pelcs: {cmp.pelcs_steps} steps of {eng(cmp.step, 's')} (θ = {cmp.theta:g}) in "
+        f"pelcs: {cmp.pelcs_steps} steps of {_eng(cmp.step, 's')} (θ = {cmp.theta:g}) in "
         f"{cmp.pelcs_wall:.3g} s   |   ngspice: {cmp.ngspice_points} points in "
         f"{cmp.ngspice_wall:.3g} s ({cmp.ngspice_total:.3g} s with start-up"
         + (f" and {len(cmp.attempts)} failed rung{'s' * (len(cmp.attempts) > 1)}"
-           if cmp.attempts else "") + f"), {settings_line(cmp)}"
+           if cmp.attempts else "") + f"), {_settings_line(cmp)}"
     )
     per = (f"{cmp.n_periods} period{'s' if cmp.n_periods != 1 else ''} of "
-           f"{eng(cmp.period, 's')} ({cmp.period_source})"
+           f"{_eng(cmp.period, 's')} ({cmp.period_source})"
            if cmp.n_periods else cmp.period_source)
-    lines.append(f"steady state: {eng(cmp.window[0], 's')} to {eng(cmp.window[1], 's')}, "
+    lines.append(f"steady state: {_eng(cmp.window[0], 's')} to {_eng(cmp.window[1], 's')}, "
                  f"{per}; pelcs devices: {cmp.devices}; "
                  + ("model drops the fits leave" if cmp.devices == "pwl" else
-                    "non-ideal drops") + f" δ = {percent(cmp.nonideal.delta)} of "
-                 f"{eng(cmp.nonideal.v_ref, 'V')}")
+                    "non-ideal drops") + f" δ = {_pct(cmp.nonideal.delta)} of "
+                 f"{_eng(cmp.nonideal.v_ref, 'V')}")
     head = (f"{'probe':<12} {'NRMS [tol]':>18} {'mean pelcs':>11} {'ngspice':>11} "
             f"{'diff [tol]':>19} {'ripple pelcs':>12} {'ngspice':>11} {'diff [tol]':>19}  ")
     lines.append(head)
     for p in cmp.probes:
         u = probe_unit(p.probe)
         lines.append(
-            f"{p.probe:<12} {percent(p.nrms):>8} [{percent(p.nrms_tol):>7}] "
-            f"{eng(p.mean_pelcs, u):>11} {eng(p.mean_ngspice, u):>11} "
-            f"{percent(p.mean_error / p.scale):>8} [{percent(p.mean_tol / p.scale):>7}] "
-            f"{eng(p.ripple_pelcs, u):>12} {eng(p.ripple_ngspice, u):>11} "
-            f"{percent(p.ripple_error / p.scale):>8} [{percent(p.ripple_tol / p.scale):>7}]  "
+            f"{p.probe:<12} {_pct(p.nrms):>8} [{_pct(p.nrms_tol):>7}] "
+            f"{_eng(p.mean_pelcs, u):>11} {_eng(p.mean_ngspice, u):>11} "
+            f"{_pct(p.mean_error / p.scale):>8} [{_pct(p.mean_tol / p.scale):>7}] "
+            f"{_eng(p.ripple_pelcs, u):>12} {_eng(p.ripple_ngspice, u):>11} "
+            f"{_pct(p.ripple_error / p.scale):>8} [{_pct(p.ripple_tol / p.scale):>7}]  "
             f"{_probe_verdict(cmp, p)}" + (f" ({', '.join(p.failures)})" if p.failures
                                            else "") + _transient_cell(p)
         )
     for s in cmp.switches:
         if s.method == "instants" and s.reason:  # one side only, or neither, switches
             what = (f"{s.n_pelcs}/{s.n_ngspice} switchings: {s.reason}"
-                    + (f", max offset [{eng(s.tol, 's')}]" if not s.ok else ""))
+                    + (f", max offset [{_eng(s.tol, 's')}]" if not s.ok else ""))
         elif s.method == "instants":
             what = (f"{s.n_pelcs}/{s.n_ngspice} switchings, max offset "
-                    f"{eng(s.max_offset, 's')} [{eng(s.tol, 's')}]"
+                    f"{_eng(s.max_offset, 's')} [{_eng(s.tol, 's')}]"
                     + (f" ({s.note})" if s.note else ""))
         elif s.method == "frequency":
-            what = (f"frequency {eng(s.freq_pelcs, 'Hz')} / {eng(s.freq_ngspice, 'Hz')} "
-                    f"[{percent(s.tol)}] ({s.reason})")
+            what = (f"frequency {_eng(s.freq_pelcs, 'Hz')} / {_eng(s.freq_ngspice, 'Hz')} "
+                    f"[{_pct(s.tol)}] ({s.reason})")
         else:
             what = f"not compared: {s.reason}"
         verdict = ("" if s.method == "none" else
                    f"inconclusive ({s.inconclusive}: pelcs perturbed moves them by "
-                   f"{eng(s.self_offset, 's')})" if s.inconclusive else _verdict(s.ok))
+                   f"{_eng(s.self_offset, 's')})" if s.inconclusive else _verdict(s.ok))
         if s.inconclusive == "another orbit":
             verdict = "inconclusive (another orbit)"
         lines.append(f"switch {s.switch} ({s.driven}): {what}  {verdict}")
@@ -183,6 +182,91 @@ def format_table(cmp: Comparison) -> str:
         lines.append(f"note: {n}")
     lines.append(_summary(cmp))
     return "\n".join(line.rstrip() for line in lines)
+
+
+# ------------------------------------------------------------------------------------------
+# figure
+
+_PELCS, _NGSPICE = "#1f77b4", "#d62728"
+
+
+def plot_comparison(cmp: Comparison, path: str | os.PathLike, *, dpi: int = 110,
+                    zoom_periods: int = 5) -> Path:
+    """Write :func:`comparison_figure` to ``path`` (format from the extension)."""
+    return save_figure(comparison_figure(cmp, dpi=dpi, zoom_periods=zoom_periods), path)
+
+
+def comparison_figure(cmp: Comparison, *, dpi: int = 110, zoom_periods: int = 5, fig=None):
+    """Overlay plot: one row per probe, whole run and a zoom on the last periods.
+
+    Parameters
+    ----------
+    cmp : Comparison
+        With its ``pelcs_result`` and ``ngspice_result``.
+    dpi : int
+    zoom_periods : int
+        Periods shown in the zoom (fewer if the window has fewer); without a period the zoom
+        shows the whole steady-state window. The dotted lines are the means over the whole
+        window (``n_periods`` periods), which a waveform still settling may not centre on.
+
+    fig : matplotlib Figure or SubFigure, optional
+        To draw into (default a new Figure on an Agg canvas, no pyplot).
+
+    Returns
+    -------
+    The figure drawn into.
+    """
+    res, ng = cmp.pelcs_result, cmp.ngspice_result
+    if res is None or ng is None:
+        raise ValueError("the comparison holds no waveforms (pelcs_result/ngspice_result)")
+    t_p, t_n = np.asarray(res.t), np.asarray(ng.time)
+    scale, tunit = time_unit(cmp.span[1])
+    z1 = cmp.window[1]
+    if cmp.period and cmp.n_periods:
+        z0 = z1 - min(zoom_periods, cmp.n_periods) * cmp.period
+    else:
+        z0 = cmp.window[0]
+    zscale, zunit = time_unit(z1 - z0)
+    rows = max(1, len(cmp.probes))
+    fig = new_figure((12.5, 1.3 + 2.2 * rows), fig, dpi=dpi)
+    axes = fig.subplots(rows, 2, squeeze=False, width_ratios=[2.3, 1.4])
+    for k, p in enumerate(cmp.probes):
+        yp, yn = np.asarray(res[p.probe]), np.asarray(ng.signals[p.ngspice_probe])
+        u = probe_unit(p.probe)
+        ax = axes[k, 0]
+        tt, yy = envelope(t_p, yp)
+        ax.plot(tt / scale, yy, color=_PELCS, lw=0.9, label="pelcs")
+        tt, yy = envelope(t_n, yn)
+        ax.plot(tt / scale, yy, color=_NGSPICE, lw=0.9, ls="--", label="ngspice")
+        ax.axvspan(cmp.window[0] / scale, cmp.window[1] / scale, color="0.5", alpha=0.1, lw=0)
+        ax.set_xlim(cmp.span[0] / scale, cmp.span[1] / scale)
+        ax.set_ylabel(axis_label(p.probe))
+        ax.grid(True, color="0.9", lw=0.6)
+        color = "0.3" if p.ok else "red"
+        ax.set_title(f"NRMS {_pct(p.nrms)} (tol {_pct(p.nrms_tol)})", loc="right",
+                     fontsize=8, color=color, pad=3)
+        az = axes[k, 1]
+        for t, y, style in ((t_p, yp, dict(color=_PELCS, lw=1.1)),
+                            (t_n, yn, dict(color=_NGSPICE, lw=1.1, ls="--"))):
+            sel = (t >= z0) & (t <= z1)
+            az.plot(t[sel] / zscale, y[sel], **style)
+        az.axhline(p.mean_pelcs, color=_PELCS, lw=0.7, ls=":")
+        az.axhline(p.mean_ngspice, color=_NGSPICE, lw=0.7, ls=":")
+        az.set_xlim(z0 / zscale, z1 / zscale)
+        az.grid(True, color="0.9", lw=0.6)
+        az.tick_params(labelsize=8)
+        az.set_title(f"mean {_eng(p.mean_pelcs, u)} / {_eng(p.mean_ngspice, u)}, ripple "
+                     f"{_eng(p.ripple_pelcs, u)} / {_eng(p.ripple_ngspice, u)}",
+                     loc="right", fontsize=8, color=color, pad=3)
+    axes[0, 0].legend(fontsize=8, loc="best")  # (pelcs solid, ngspice dashed)
+    axes[-1, 0].set_xlabel(f"time [{tunit}]")
+    axes[-1, 1].set_xlabel(f"time [{zunit}] (last periods)")
+    name = Path(cmp.file).name
+    fig.suptitle(f"{cmp.title}  ({name})\npelcs (solid) vs ngspice (dashed, "
+                 f"{_settings_line(cmp)}): "
+                 f"{_summary(cmp).split(':')[0]}", fontsize=10,
+                 color="black" if cmp.ok else "red")
+    return fig
 
 
 # ------------------------------------------------------------------------------------------
@@ -203,9 +287,9 @@ def markdown_report(cmp: Comparison, figure: str | None = None) -> str:
             f"| wall time | {cmp.pelcs_wall:.3g} s (+ {cmp.pelcs_load:.2g} s loading the "
             f"compiled kernels) | {cmp.ngspice_wall:.3g} s ({cmp.ngspice_total:.3g} s with "
             "process start-up and failed rungs) |",
-            f"| time points | {cmp.pelcs_steps} steps of {eng(cmp.step, 's')}, θ = "
+            f"| time points | {cmp.pelcs_steps} steps of {_eng(cmp.step, 's')}, θ = "
             f"{cmp.theta:g} | {cmp.ngspice_points} (variable step) |",
-            f"| settings | {_devices_line(cmp)} | {settings_line(cmp)} |", ""]
+            f"| settings | {_devices_line(cmp)} | {_settings_line(cmp)} |", ""]
     if cmp.device_fits:
         out += ["pelcs' devices: " + "; ".join(f.line() for f in cmp.device_fits) + ".", ""]
     if s.options or s.pulse_min_edge or s.diode_model or s.switch_model:
@@ -214,7 +298,7 @@ def markdown_report(cmp: Comparison, figure: str | None = None) -> str:
             parts.append("`.options " + " ".join(
                 k if v is None else f"{k}={v}" for k, v in s.options.items()) + "`")
         if s.pulse_min_edge:
-            parts.append(f"PULSE edges and widths >= {eng(s.pulse_min_edge, 's')}")
+            parts.append(f"PULSE edges and widths >= {_eng(s.pulse_min_edge, 's')}")
         if s.diode_model:
             parts.append("diode models " + " ".join(f"{k}={v}" for k, v in
                                                    s.diode_model.items()))
@@ -227,18 +311,18 @@ def markdown_report(cmp: Comparison, figure: str | None = None) -> str:
     if cmp.attempts:
         out.append("")
     per = (f"{cmp.n_periods} period{'s' if cmp.n_periods != 1 else ''} of "
-           f"{eng(cmp.period, 's')} ({cmp.period_source})"
+           f"{_eng(cmp.period, 's')} ({cmp.period_source})"
            if cmp.n_periods else cmp.period_source)
-    out += [f"Compared from {eng(cmp.span[0], 's')} to {eng(cmp.span[1], 's')}; steady "
-            f"state from {eng(cmp.window[0], 's')}: {per}.", ""]
+    out += [f"Compared from {_eng(cmp.span[0], 's')} to {_eng(cmp.span[1], 's')}; steady "
+            f"state from {_eng(cmp.window[0], 's')}: {per}.", ""]
     ni = cmp.nonideal
-    drops = [f"{k} {eng(v, 'V')}" for k, v in {**ni.diode_drops, **ni.switch_drops}.items()]
+    drops = [f"{k} {_eng(v, 'V')}" for k, v in {**ni.diode_drops, **ni.switch_drops}.items()]
     what = ("What the fits leave of ngspice's models at the currents the devices carry"
             if cmp.devices == "pwl" else
             "Non-ideal drops of ngspice's models at the currents the devices carry")
     out += [f"{what}: "
-            f"{', '.join(drops) or 'none'}; δ = {percent(ni.delta)} of "
-            f"{eng(ni.v_ref, 'V')} (tolerances: module docstring of "
+            f"{', '.join(drops) or 'none'}; δ = {_pct(ni.delta)} of "
+            f"{_eng(ni.v_ref, 'V')} (tolerances: module docstring of "
             "`ngspice_checks/compare.py`).", ""]
     out += ["## Probes", "",
             "Differences relative to the probe's scale s = max(RMS, ½ peak-to-peak) of the "
@@ -249,14 +333,14 @@ def markdown_report(cmp: Comparison, figure: str | None = None) -> str:
     for p in cmp.probes:
         u = probe_unit(p.probe)
         out.append(
-            f"| `{p.probe}` | `{p.ngspice_probe}` | {percent(p.nrms)} [{percent(p.nrms_tol)}] | "
-            f"{eng(p.mean_pelcs, u)} | {eng(p.mean_ngspice, u)} | "
-            f"{percent(p.mean_error / p.scale)} [{percent(p.mean_tol / p.scale)}] | "
-            f"{eng(p.ripple_pelcs, u)} | {eng(p.ripple_ngspice, u)} | "
-            f"{percent(p.ripple_error / p.scale)} [{percent(p.ripple_tol / p.scale)}] | "
+            f"| `{p.probe}` | `{p.ngspice_probe}` | {_pct(p.nrms)} [{_pct(p.nrms_tol)}] | "
+            f"{_eng(p.mean_pelcs, u)} | {_eng(p.mean_ngspice, u)} | "
+            f"{_pct(p.mean_error / p.scale)} [{_pct(p.mean_tol / p.scale)}] | "
+            f"{_eng(p.ripple_pelcs, u)} | {_eng(p.ripple_ngspice, u)} | "
+            f"{_pct(p.ripple_error / p.scale)} [{_pct(p.ripple_tol / p.scale)}] | "
             f"{_probe_verdict(cmp, p)}" + _transient_cell(p) + " |")
     if cmp.probes:
-        out += ["", f"NRMS leaves out {percent(cmp.probes[0].excluded)} of the grid points "
+        out += ["", f"NRMS leaves out {_pct(cmp.probes[0].excluded)} of the grid points "
                 "(those next to a switching instant).", ""]
     if cmp.switches:
         out += ["## Switching", "",
@@ -264,11 +348,11 @@ def markdown_report(cmp: Comparison, figure: str | None = None) -> str:
                 "|---|---|---|---|---|---|---|---|"]
         for w in cmp.switches:
             if w.method == "frequency":
-                vals = (f"{eng(w.freq_pelcs, 'Hz')}", f"{eng(w.freq_ngspice, 'Hz')}", "",
-                        percent(w.tol))
+                vals = (f"{_eng(w.freq_pelcs, 'Hz')}", f"{_eng(w.freq_ngspice, 'Hz')}", "",
+                        _pct(w.tol))
             else:
                 vals = (f"{w.n_pelcs} switchings", f"{w.n_ngspice} switchings",
-                        eng(w.max_offset, "s"), eng(w.tol, "s"))
+                        _eng(w.max_offset, "s"), _eng(w.tol, "s"))
             verdict = _verdict(w.ok) if w.method != "none" else w.reason
             if w.note:
                 verdict += f" ({w.note})"
@@ -282,16 +366,9 @@ def markdown_report(cmp: Comparison, figure: str | None = None) -> str:
     return "\n".join(out)
 
 
-def write_report(cmp: Comparison, directory: str | os.PathLike, *,
-                 figure: Callable[[Comparison, Path], Path] | None = None) -> list[Path]:
-    """Write NAME.md, NAME.json, NAME.ngspice.cir and, with ``figure``, NAME.png into
-    ``directory``.
-
-    Parameters
-    ----------
-    figure : callable, optional
-        ``figure(cmp, path)`` writes the comparison's figure to ``path`` and returns it (the
-        application's drawing: ``pelcs.check_plots.plot_comparison``); None: no figure.
+def write_report(cmp: Comparison, directory: str | os.PathLike, *, plot: bool = True
+                 ) -> list[Path]:
+    """Write NAME.md, NAME.json, NAME.png (``plot``) and NAME.ngspice.cir into ``directory``.
 
     Returns
     -------
@@ -303,8 +380,8 @@ def write_report(cmp: Comparison, directory: str | os.PathLike, *,
     stem = Path(cmp.file).stem if cmp.file and cmp.file != "<string>" else "check"
     written = []
     png = None
-    if figure is not None and cmp.pelcs_result is not None and cmp.ngspice_result is not None:
-        png = figure(cmp, d / f"{stem}.png")
+    if plot and cmp.pelcs_result is not None and cmp.ngspice_result is not None:
+        png = plot_comparison(cmp, d / f"{stem}.png")
         written.append(png)
     md = d / f"{stem}.md"
     with atomic_path(md) as tmp:
@@ -322,25 +399,6 @@ def write_report(cmp: Comparison, directory: str | os.PathLike, *,
 
 
 def to_json(cmp: Comparison) -> str:
-    """:meth:`Comparison.to_dict` as JSON text (NaN written as null)."""
-    return json.dumps(_finite(cmp.to_dict()), indent=2, default=_json_default,
-                      allow_nan=False)
-
-
-def _json_default(obj):
-    if isinstance(obj, (np.floating, np.integer)):
-        return obj.item()
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    return str(obj)
-
-
-def _finite(obj):
-    """NaN and infinities as None (JSON has no NaN); containers walked recursively."""
-    if isinstance(obj, dict):
-        return {k: _finite(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_finite(v) for v in obj]
-    if isinstance(obj, (float, np.floating)) and not math.isfinite(float(obj)):
-        return None
-    return obj
+    """:meth:`Comparison.to_dict` as strict JSON text (:func:`pelcs.jsonout.dumps`: NaN and
+    infinities as null; anything else JSON has no type for as its text)."""
+    return dumps(cmp.to_dict(), indent=2, default=str)
