@@ -3,7 +3,7 @@
 The one parser (:func:`parse_number`) and the two writers of pelcs: :func:`format_number`
 writes SPICE text that reads back exactly (``100u``), :func:`format_eng` writes a value for
 people in engineering notation with SI prefixes (``100 µF``: every message, table, legend and
-axis), :func:`si_prefix` gives an axis its prefixed unit, :func:`probe_unit` a probe's unit.
+axis), :func:`si_prefix` gives an axis its prefixed unit.
 
 SPICE reads ``10uF`` as 10e-6, ``1kOhm`` as 1e3, ``1Meg`` as 1e6 and ``1mil`` as 25.4e-6: the
 letters after the number are a scale suffix (case-insensitive) followed by a unit that is
@@ -179,8 +179,3 @@ def si_prefix(magnitude: float) -> tuple[float, str]:
     p = _exponent(big)
     return 10.0**p, PREFIXES[p]
 
-
-def probe_unit(name: str) -> str:
-    """SI unit of a probe: ``"V"`` for ``v(...)``, ``"A"`` for ``i(...)``, else ``""``."""
-    head = name.strip()[:2].lower()
-    return {"v(": "V", "i(": "A"}.get(head, "")

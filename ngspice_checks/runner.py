@@ -168,6 +168,7 @@ from typing import Any
 
 import numpy as np
 
+from netlist.probes import PROBE
 from netlist.units import parse_number
 
 from . import deck
@@ -299,7 +300,6 @@ class NgspiceResult:
 # ------------------------------------------------------------------------------------------
 # probes
 
-_PROBE = re.compile(r"^\s*([vi])\s*\(\s*([^,()\s]+)\s*(?:,\s*([^,()\s]+)\s*)?\)\s*$", re.I)
 _GROUND = {"0", "gnd"}
 _BRANCH_KINDS = "vleh"  # elements for which ngspice has a <name>#branch vector
 _SENSE_KINDS = "rcdsifg"  # two-terminal currents measured with an inserted 0 V source
@@ -321,7 +321,7 @@ class _ProbePlan:
 
 
 def _parse_probe(text: str) -> _Probe:
-    m = _PROBE.match(text)
+    m = PROBE.match(text)
     if m is None:
         raise ProbeError(
             f"malformed probe {text!r}: expected v(node), v(node1,node2) or i(element)"

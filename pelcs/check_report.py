@@ -21,7 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from lcs.atomic import atomic_path
-from netlist.units import format_eng, probe_unit
+from netlist.probes import probe_unit
+from netlist.units import format_eng
 from ngspice_checks.compare import Comparison
 from pelcs.figures import axis_label, envelope, new_figure, save_figure, time_unit
 from pelcs.jsonout import dumps

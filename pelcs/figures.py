@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from lcs.atomic import atomic_path
-from netlist.units import probe_unit
+from netlist.probes import probe_unit
 
 __all__ = ["axis_label", "envelope", "fit_title", "new_figure", "probe_unit", "save_figure",
            "time_unit"]

@@ -28,7 +28,7 @@ from lcs.signals import Pulse, Sin
 from ..circuit import GROUND, Circuit, CurrentSource, VoltageSource
 from ..dialect import split_top_level
 from ..errors import Diagnostic, NetlistError
-from ..units import probe_unit  # (re-exported: the unit of a measurement is its probe's)
+from ..probes import probe_unit  # (re-exported: the unit of a measurement is its probe's)
 from .transient import check_probes
 
 __all__ = [
