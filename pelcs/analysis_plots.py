@@ -29,7 +29,9 @@ def plot_bifurcation(diagram: BifurcationDiagram, path: str | os.PathLike,
 
 def bifurcation_figure(diagram: BifurcationDiagram, probes: Sequence[str] | None = None,
                        title: str | None = None, fig=None):
-    """Scatter plot of the samples against the parameter, one panel per probe.
+    """Scatter plot of the samples against the parameter, one panel per probe, one colour
+    per direction of the sweep (with a legend when there are several); ``title`` default:
+    what is plotted.
 
     ``fig``: a matplotlib Figure or SubFigure to draw into (default a new Figure on an Agg
     canvas, no pyplot). Returns the figure drawn into.
@@ -54,8 +56,8 @@ def bifurcation_figure(diagram: BifurcationDiagram, probes: Sequence[str] | None
     if len(diagram.branches) > 1:
         axes[0].legend(markerscale=20, loc="best")
     axes[-1].set_xlabel(diagram.param_name)
-    if title:
-        axes[0].set_title(title)
+    axes[0].set_title(title or f"{', '.join(names)} sampled once a period against "
+                               f"{diagram.param_name}")
     return fig
 
 
