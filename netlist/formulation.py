@@ -55,7 +55,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import re
 from collections.abc import Iterator, Sequence
 from functools import cached_property
 
@@ -84,6 +83,7 @@ from .mna import VOLTAGE_KINDS as _VOLTAGE_KINDS
 from .mna import Mna as _Mna
 from .mna import Stamps, coalesce
 from .mna_solve import Entries, Solution, clean
+from .probes import PROBE, TWO_TERMINAL
 from .reductions import open_inductors, reduced
 from .suggest import did_you_mean
 from .topology import Partition, SwitchedBridges, UnionFind
@@ -94,10 +94,7 @@ __all__ = ["formulate", "storage_matrix", "EXHAUSTIVE_DIODE_LIMIT"]
 EXHAUSTIVE_DIODE_LIMIT = 12
 
 
-_TWO_TERMINAL = frozenset("RLCVIDSEFGH")
-_KNOWN_KINDS = _TWO_TERMINAL | {"K"}
-
-_PROBE_RE = re.compile(r"^\s*([vi])\s*\(\s*([^,()\s]+)\s*(?:,\s*([^,()\s]+)\s*)?\)\s*$", re.I)
+_KNOWN_KINDS = TWO_TERMINAL | {"K"}
 
 
 def formulate(circuit: Circuit) -> SwitchedLCS:
@@ -210,12 +207,12 @@ class _Formulator:
                 bad(f"duplicate element name {el.name}", el, "element names must be unique "
                     "(case-insensitive)")
                 continue
-            if el.kind in _TWO_TERMINAL and len(el.nodes) != 2:
+            if el.kind in TWO_TERMINAL and len(el.nodes) != 2:
                 bad(f"element {el.name} needs 2 nodes, has {len(el.nodes)}", el)
                 continue
             self.by_key[el.key] = el
             self.elements.append(el)
-        self.two_terminal = [el for el in self.elements if el.kind in _TWO_TERMINAL]
+        self.two_terminal = [el for el in self.elements if el.kind in TWO_TERMINAL]
         self._controlled = any(el.kind in "EFGH" for el in self.elements)
 
         for el in self.two_terminal:
@@ -753,7 +750,7 @@ class _Formulator:
 
     def _resolve_probe(self, probe: str) -> tuple:
         """What a probe names: ``("v", node, node)`` or ``("i", element)``."""
-        match = _PROBE_RE.match(probe)
+        match = PROBE.match(probe)
         if match:
             kind, a, b = match.group(1).lower(), match.group(2).lower(), match.group(3)
             a = GROUND if a == "gnd" else a
@@ -768,7 +765,7 @@ class _Formulator:
                 elif a in self.by_key and self.by_key[a].kind == "C":
                     # The state name v(C1) (a node of that name wins, as in SPICE).
                     return ("v", *self.by_key[a].nodes[:2])
-            elif b is None and a in self.by_key and self.by_key[a].kind in _TWO_TERMINAL:
+            elif b is None and a in self.by_key and self.by_key[a].kind in TWO_TERMINAL:
                 return "i", self.by_key[a]
         nodes = sorted(self.nodes)
         elements = [el.name for el in self.two_terminal]

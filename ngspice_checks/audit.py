@@ -9,6 +9,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from netlist.units import parse_number
+
 from . import deck
 
 #: a diode whose reverse charge exceeds this fraction of its forward charge is an artefact
@@ -36,7 +38,7 @@ def _audited_diodes(text: str) -> list[str]:
             continue
         model = models.get(el.tokens[3].lower())
         dynamic = model is not None and any(
-            deck.spice_number(model.params.get(k, "0")) not in (0.0,)
+            parse_number(model.params.get(k, "0")) not in (0.0,)
             for k in _DYNAMIC_DIODE_PARAMS
             if k in model.params
         )

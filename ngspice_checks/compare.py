@@ -3,7 +3,7 @@
 Entry point: :func:`compare` (``pelcs check FILE`` on the command line). It returns a
 :class:`Comparison` with one :class:`ProbeComparison` per probe, one
 :class:`SwitchingComparison` per switch, both wall times and the ngspice rung that was needed;
-:mod:`ngspice_checks.report` turns it into a table, plots, Markdown and JSON.
+``pelcs.check_report`` turns it into a table, a figure, Markdown and JSON.
 
 One circuit, two simulators
 ---------------------------

@@ -1,6 +1,6 @@
 """What :func:`ngspice_checks.compare.compare` returns: the tolerances it applies and the
 per-probe, per-switch and overall comparison records (presented by
-:mod:`ngspice_checks.report`, serialised by ``to_dict``)."""
+``pelcs.check_report``, serialised by ``to_dict``)."""
 
 from __future__ import annotations
 
@@ -224,7 +224,7 @@ class SwitchingComparison:
 
 @dataclass
 class Comparison:
-    """Everything :func:`compare` found; :mod:`ngspice_checks.report` presents it.
+    """Everything :func:`compare` found; ``pelcs.check_report`` presents it.
 
     Attributes
     ----------

@@ -20,42 +20,10 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-# SPICE scale suffixes; ngspice ignores letters after them (``10nF`` = 10n, ``5V`` = 5).
-_SCALE = {
-    "t": 1e12,
-    "g": 1e9,
-    "meg": 1e6,
-    "k": 1e3,
-    "mil": 25.4e-6,
-    "m": 1e-3,
-    "u": 1e-6,
-    "n": 1e-9,
-    "p": 1e-12,
-    "f": 1e-15,
-}
-_NUMBER = re.compile(r"^([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)(meg|mil|[tgkmunpf])?[a-z]*$")
+from netlist.units import parse_number
 
 # the first token of a logical line that ends the deck (``.ends`` closes a subcircuit)
 _END = re.compile(r"^\s*\.end\s*$", re.IGNORECASE)
-
-
-def spice_number(text: str) -> float | None:
-    """Value of a plain SPICE number such as ``10n`` or ``2.2e-3``; None for anything else.
-
-    Parameters
-    ----------
-    text : str
-        The token, e.g. ``"4.7u"``, ``"1meg"``, ``"{2*ts}"``.
-
-    Returns
-    -------
-    float or None
-        The value in SI units, or None when ``text`` is an expression or not a number.
-    """
-    m = _NUMBER.match(text.strip().lower())
-    if m is None:
-        return None
-    return float(m.group(1)) * _SCALE.get(m.group(2) or "", 1.0)
 
 
 def format_number(value: float) -> str:
@@ -252,7 +220,7 @@ def _at_least(value: str | None, floor: float) -> str:
     """An ngspice value equal to max(value, floor) (value None or absent counts as 0)."""
     if value is None:
         return format_number(floor)
-    num = spice_number(value)
+    num = parse_number(value)
     if num is not None:
         return value if num >= floor else format_number(floor)
     inner = value[1:-1] if value.startswith("{") and value.endswith("}") else value
@@ -313,7 +281,7 @@ def _expr(value: str) -> str:
     v = value.strip()
     if v.startswith("{") and v.endswith("}"):
         return "(" + v[1:-1] + ")"
-    num = spice_number(v)
+    num = parse_number(v)
     return format_number(num) if num is not None else v
 
 
@@ -331,7 +299,7 @@ def _finite_pulse(args: list[str], min_edge: float) -> list[str]:
     def floored(v: str | None) -> str | None:
         if v is None:
             return None
-        num = spice_number(v)
+        num = parse_number(v)
         if num is not None:
             return v if num == 0 or num >= min_edge else format_number(min_edge)
         return f"{{max({_expr(v)}, {format_number(min_edge)})}}"  # expressions: 0 can't be told
@@ -339,7 +307,7 @@ def _finite_pulse(args: list[str], min_edge: float) -> list[str]:
     new_tr, new_tf = floored(tr), floored(tf)
     new_pw = _at_least(pw, min_edge)
     if per is not None and new_tr is not None and new_tf is not None:
-        nums = [spice_number(v) for v in (new_tr, new_tf, new_pw, per)]
+        nums = [parse_number(v) for v in (new_tr, new_tf, new_pw, per)]
         if None not in nums:
             t_r, t_f, p_w, p = nums
             if p > 0 and t_r + t_f + p_w > p:
@@ -460,7 +428,7 @@ def set_tran(
                 tran.tstep = format_number(tstep)
             if tstop is not None:
                 tran.tstop = format_number(tstop)
-                start = spice_number(tran.tstart) if tran.tstart else None
+                start = parse_number(tran.tstart) if tran.tstart else None
                 if start is not None and start >= tstop:
                     tran.tstart = "0"
             fields = [tran.tstep, tran.tstop]

@@ -168,6 +168,9 @@ from typing import Any
 
 import numpy as np
 
+from netlist.probes import PROBE
+from netlist.units import parse_number
+
 from . import deck
 from .audit import _audit_diodes, _audited_diodes
 from .ladder import DEFAULT_LADDER, NgspiceSettings, SwitchModel, apply_settings, ladder_for
@@ -297,7 +300,6 @@ class NgspiceResult:
 # ------------------------------------------------------------------------------------------
 # probes
 
-_PROBE = re.compile(r"^\s*([vi])\s*\(\s*([^,()\s]+)\s*(?:,\s*([^,()\s]+)\s*)?\)\s*$", re.I)
 _GROUND = {"0", "gnd"}
 _BRANCH_KINDS = "vleh"  # elements for which ngspice has a <name>#branch vector
 _SENSE_KINDS = "rcdsifg"  # two-terminal currents measured with an inserted 0 V source
@@ -319,7 +321,7 @@ class _ProbePlan:
 
 
 def _parse_probe(text: str) -> _Probe:
-    m = _PROBE.match(text)
+    m = PROBE.match(text)
     if m is None:
         raise ProbeError(
             f"malformed probe {text!r}: expected v(node), v(node1,node2) or i(element)"
@@ -526,7 +528,7 @@ def _tstop_from_listing(listing: list[str]) -> float | None:
         body = line.split(":", 1)[-1] if re.match(r"^stdout\s+\d+\s*:", line) else ""
         tokens = deck.split_tokens(body)
         if tokens and tokens[0].lower() == ".tran" and len(tokens) > 2:
-            return deck.spice_number(tokens[2])
+            return parse_number(tokens[2])
     return None
 
 

@@ -7,18 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from lcs.axes import axis_label
-
-
-def _figure(fig, size: tuple[float, float]):
-    if fig is not None:
-        return fig
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=size, layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig
+from pelcs.figures import axis_label, new_figure
 
 
 def _unit_circle(ax) -> None:
@@ -30,7 +19,7 @@ def orbit_figure(report: dict, fig=None):
     """Two panels: the Floquet multipliers in the complex plane with the unit circle (none
     for an orbit not converged: said in the panel), and the orbit's points in the plane of
     its first two states (or the first state against k)."""
-    fig = _figure(fig, (10.0, 4.2))
+    fig = new_figure((10.0, 4.2), fig)
     ax1, ax2 = fig.subplots(1, 2)
     _unit_circle(ax1)
     if report["multipliers"] is not None:
@@ -68,7 +57,7 @@ def continuation_figure(report: dict, fig=None):
     """Two panels against the parameter: the largest multiplier modulus (|μ| = 1 marked) and
     the first state of the orbit's first point; bifurcations as vertical lines, one colour
     per type."""
-    fig = _figure(fig, (8.0, 5.6))
+    fig = new_figure((8.0, 5.6), fig)
     ax1, ax2 = fig.subplots(2, 1, sharex=True)
     pn = report["param_name"]
     branch = report["branch"]

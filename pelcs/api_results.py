@@ -125,13 +125,13 @@ class CheckResult(_Result):
 
     @property
     def verdict_line(self) -> str:
-        from ngspice_checks.report import verdict_line
+        from pelcs.check_report import verdict_line
 
         return verdict_line(self.comparison)
 
     @property
     def table(self) -> str:
-        from ngspice_checks.report import format_table
+        from pelcs.check_report import format_table
 
         return format_table(self.comparison)
 
@@ -139,7 +139,7 @@ class CheckResult(_Result):
         return f"pelcs check {_name(self.report)}: {self.verdict_line.split(':')[0]}"
 
     def summary(self) -> list[tuple[str, Any]]:
-        from ngspice_checks.report import probe_verdict, switch_verdict
+        from pelcs.check_report import probe_verdict, switch_verdict
 
         c = self.comparison
         rows = [("verdict", self.verdict_line),
@@ -156,7 +156,7 @@ class CheckResult(_Result):
         ``inconclusive``)."""
         import pandas as pd
 
-        from ngspice_checks.report import probe_verdict
+        from pelcs.check_report import probe_verdict
 
         cols = ["probe", "nrms", "nrms_tol", "mean_pelcs", "mean_ngspice", "mean_error",
                 "mean_tol", "ripple_pelcs", "ripple_ngspice", "ripple_error", "ripple_tol",
@@ -168,7 +168,7 @@ class CheckResult(_Result):
     def plot(self, ax=None):
         """pelcs (solid) and ngspice (dashed) per probe, whole run and last periods: the
         figure of ``pelcs check --report``."""
-        from ngspice_checks.report import comparison_figure
+        from pelcs.check_report import comparison_figure
 
         return _root(comparison_figure(self.comparison, fig=_target(ax)))
 
@@ -386,8 +386,10 @@ class BifurcationResult(_Result):
 
     def plot(self, ax=None):
         """The diagram as ``pelcs bifurcation --plot`` draws it."""
-        return _root(self.diagram.figure(title=self.title or Path(self.file).name,
-                                         fig=_target(ax)))
+        from pelcs.analysis_plots import bifurcation_figure
+
+        return _root(bifurcation_figure(self.diagram, title=self.title or Path(self.file).name,
+                                        fig=_target(ax)))
 
 
 @dataclass(repr=False)
@@ -438,8 +440,11 @@ class BasinsResult(_Result):
 
     def plot(self, ax=None):
         """Basins and transient time, as ``pelcs basins --plot`` draws them."""
-        return _root(self.basins.figure(
-            title=f"basins: {self.title or Path(self.file).name}", fig=_target(ax)))
+        from pelcs.analysis_plots import basins_figure
+
+        return _root(basins_figure(
+            self.basins, title=f"basins: {self.title or Path(self.file).name}",
+            fig=_target(ax)))
 
 
 @dataclass(repr=False)
@@ -500,11 +505,11 @@ class SweepResult(_Result):
     def plot(self, ax=None):
         """The measurements against the first swept parameter, or the histograms of a Monte
         Carlo run, as ``pelcs sweep --plot`` draws them."""
+        from pelcs.sweep_plots import histogram_figure, sweep_figure
+
         t = self.table
         title = self.plot_title or None
         fig = _target(ax)
         if t.runs:
-            return _root(t.histogram_figure(title=title, fig=fig))
-        if not t.swept:
-            raise ValueError("nothing swept: no parameter to plot against")
-        return _root(t.sweep_figure(title=title, fig=fig))
+            return _root(histogram_figure(t, title=title, fig=fig))
+        return _root(sweep_figure(t, title=title, fig=fig))

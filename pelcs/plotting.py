@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from lcs.atomic import atomic_path
-from lcs.axes import axis_label, probe_unit, time_unit
-from lcs.axes import envelope as _envelope  # shared with ngspice_checks
 from lcs.results import SimulationResult
+from netlist.units import format_eng
+from pelcs.figures import axis_label, new_figure, probe_unit, save_figure, time_unit
+from pelcs.figures import envelope as _envelope  # (tests read it here)
 from pelcs.writers import write_csv, write_npz, write_result  # noqa: F401  (their old home)
 
 __all__ = [
@@ -43,8 +43,6 @@ def period_mean(t: np.ndarray, y: np.ndarray) -> float:
 
 
 def _fmt_si(value: float, unit: str) -> str:
-    from netlist.units import format_eng
-
     return format_eng(float(value), unit)
 
 
@@ -113,9 +111,6 @@ def plot_result(
     Path
         The file written.
     """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
     names = list(probes) if probes is not None else list(result.names)
     t = np.asarray(result.t)
     t_end = float(t[-1]) if len(t) else 0.0
@@ -125,9 +120,7 @@ def plot_result(
     window = auto_zoom(result) if zoom == "auto" else zoom
     panels = max(1, len(names))
     ncols = 2 if window is not None else 1
-    fig = Figure(figsize=(9.0 + 3.2 * (ncols - 1), 1.2 + 2.1 * panels), dpi=dpi,
-                 layout="constrained")
-    FigureCanvasAgg(fig)
+    fig = new_figure((9.0 + 3.2 * (ncols - 1), 1.2 + 2.1 * panels), dpi=dpi)
     axes = fig.subplots(panels, ncols, sharex="col", squeeze=False,
                         width_ratios=[3.0, 1.3][:ncols])
     colors = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#17becf"]
@@ -163,10 +156,7 @@ def plot_result(
         axes[-1, 1].set_xlabel(f"time [{zunit}]")
     if title:
         fig.suptitle(title, fontsize=11)
-    out = Path(path)
-    with atomic_path(out) as tmp:
-        fig.savefig(tmp)
-    return out
+    return save_figure(fig, path)
 
 
 def _zoom_panel(ax, t: np.ndarray, y: np.ndarray, window: tuple[float, float], color: str,

@@ -10,6 +10,7 @@ from test_analysis_maps import buck_reference, netlists  # noqa: F401 - fixture
 from lcs.analysis.basins import CellGrid, GridAxis, cell_basins, simple_cell_mapping
 from lcs.analysis.maps import FunctionMap
 from netlist.studies.sweep import CircuitMapFactory
+from pelcs.analysis_plots import plot_basins, plot_bifurcation
 
 
 def two_wells(v):
@@ -93,7 +94,7 @@ def test_merging_touching_groups_and_two_cycles(tmp_path):
     # On the row y = 0 the cells x and -x form 2-cycles (x = 0 is a fixed cell).
     assert sorted(a.period for a in fl.attractors) == [1] + [2] * 10
     fl.to_npz(tmp_path / "b.npz")
-    fl.plot(tmp_path / "b.png")
+    plot_basins(fl, tmp_path / "b.png")
     z = np.load(tmp_path / "b.npz")
     np.testing.assert_array_equal(z["group"], fl.group)
     assert z["attractor_offsets"][-1] == 21
@@ -143,14 +144,15 @@ def test_plots_label_circuit_states_with_their_units(tmp_path, monkeypatch):
 
     monkeypatch.setattr(Figure, "savefig", capture)
     m = FunctionMap(two_wells, ("v(C1)", "i(L1)"))
-    cell_basins(m, [("v(C1)", -3, 3, 12), ("i(L1)", -1, 1, 4)], workers=1).plot(
-        tmp_path / "b.png")
+    plot_basins(cell_basins(m, [("v(C1)", -3, 3, 12), ("i(L1)", -1, 1, 4)], workers=1),
+                tmp_path / "b.png")
     assert {"v(C1) [V]", "i(L1) [A]"} <= labels[-1]
 
     def factory(p):
         return FunctionMap(lambda x, p=p: np.array([p * x[0] * (1 - x[0]), 0.0]),
                            ("v(out)", "k"), param=p)
 
-    bifurcation_diagram(factory, [2.8, 3.0, 3.2], x0=[0.3, 0.0], transient=20, record=2,
-                        workers=1, param_name="p").plot(tmp_path / "d.png")
+    plot_bifurcation(bifurcation_diagram(factory, [2.8, 3.0, 3.2], x0=[0.3, 0.0],
+                                         transient=20, record=2, workers=1, param_name="p"),
+                     tmp_path / "d.png")
     assert {"v(out) [V]", "k", "p"} <= labels[-1]

@@ -21,6 +21,7 @@ from lcs.analysis.bifurcation import attractor_period, bifurcation_diagram
 from lcs.analysis.continuation import continue_orbit
 from lcs.analysis.maps import FunctionMap, Map, PatternSegment, SwitchingPattern
 from netlist.studies.sweep import CircuitMapFactory
+from pelcs.analysis_plots import plot_bifurcation
 
 # -- map factories (module level: picklable for the worker processes) ----------------------
 
@@ -140,7 +141,7 @@ def test_follow_mode_shows_hysteresis(tmp_path):
     # Outputs.
     d.save(tmp_path / "d.npz")
     d.save(tmp_path / "d.csv")
-    d.plot(tmp_path / "d.png")
+    plot_bifurcation(d, tmp_path / "d.png")
     z = np.load(tmp_path / "d.npz")
     np.testing.assert_array_equal(z["down_samples"], down.samples)
     assert list(z["directions"]) == ["up", "down"]

@@ -3,8 +3,8 @@ modules, ``lcs`` imports nothing of ``netlist``/``pelcs``/``ngspice_checks``, ``
 nothing of ``pelcs``/``ngspice_checks``, the core of ``netlist`` (language, circuit,
 formulation) nothing of its studies ``netlist.studies``, ``ngspice_checks`` nothing of
 ``pelcs``, nothing imports the CLI (only the Python API's analyses use its commands' parsers
-and computing functions), no kernel module imports the build tools ``lcs.build``, and no code
-module is over 800 lines.
+and computing functions), ``lcs`` draws nothing (no matplotlib, no figure helpers), no kernel
+module imports the build tools ``lcs.build``, and no code module is over 800 lines.
 
 Imports are read statically (every ``import`` statement, also those inside functions: a lazy
 import is still a dependency).
@@ -126,6 +126,45 @@ def test_layers():
                 bad.append(f"{name} -> {t} (only the CLI and the Python API's analyses "
                            "use the commands)")
     assert not bad, "layering violations:\n" + "\n".join(sorted(bad))
+
+
+#: Libraries that draw: the mathematics (``lcs``) imports none of them, and holds no module of
+#: figure helpers (axis labels, units written for people); figures are the application's
+#: (``pelcs``), the numbers with units ``netlist.units``'.
+DRAWING = ("matplotlib",)
+PRESENTATION_IN_LCS = ("lcs.axes", "lcs.units_format")
+
+
+def drawing_imports(source: str) -> list[str]:
+    """The modules of :data:`DRAWING` that ``source`` imports (lazy imports included)."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            found += [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and not node.level:
+            found.append(node.module or "")
+    return sorted(m for m in found if m.split(".")[0] in DRAWING)
+
+
+def test_the_mathematics_draws_nothing():
+    bad = sorted(f"{name} -> {m}" for name, path in _modules().items() if _in(name, "lcs")
+                 for m in drawing_imports(path.read_text(encoding="utf-8")))
+    assert not bad, ("lcs imports a drawing library (figures belong to pelcs):\n"
+                     + "\n".join(bad))
+    left = [m for m in PRESENTATION_IN_LCS if m in _modules()]
+    assert not left, f"presentation modules in lcs: {left} (pelcs.figures, netlist.units)"
+
+
+def test_drawing_imports_finds_an_import():
+    # The rule must be able to fail: a lazy import inside a function counts, and so does a
+    # plain one; another library, a relative import or a name that only starts alike do not.
+    code = ("import numpy as np\n"
+            "import matplotlib.pyplot as plt\n"
+            "from . import matplotlib_like\n"
+            "import matplotlibish\n"
+            "def f():\n"
+            "    from matplotlib.figure import Figure\n")
+    assert drawing_imports(code) == ["matplotlib.figure", "matplotlib.pyplot"]
 
 
 #: The sub-package of ``netlist`` that runs integrators and analyses on a circuit; the rest of

@@ -4,14 +4,12 @@ analytic answers), comparators mapped onto the switches they drive, and the refu
 from __future__ import annotations
 
 import math
-import os
 import re
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
-from test_netlist_spellings import ngspice_print
+from ngspice_helpers import ngspice_print, ngspice_wrdata
 
 from netlist.behavioural_expr import (
     Affine,
@@ -306,11 +304,7 @@ def test_comparator_on_the_output_against_ngspice(tmp_path, ngspice):
     res = simulate_circuit(c, probes=["v(out)"])
     res.raise_if_error()
     assert res.switching == {"S1": "implicit"}
-    (tmp_path / "vm.cir").write_text(VM_BUCK)
-    subprocess.run(["ngspice", "-p"], input="source vm.cir\nrun\nwrdata ng.txt v(out)\nquit\n",
-                   cwd=tmp_path, capture_output=True, text=True, timeout=120,
-                   env={**os.environ, "HOME": str(tmp_path)})
-    ng = np.loadtxt(tmp_path / "ng.txt")
+    ng = ngspice_wrdata(VM_BUCK, ["v(out)"], tmp_path)
     keep, mine = ng[:, 0] >= 1e-3, res.t >= 1e-3
     want = np.trapezoid(ng[keep, 1], ng[keep, 0]) / (ng[-1, 0] - 1e-3)
     got = np.trapezoid(res["v(out)"][mine], res.t[mine]) / (res.t[-1] - 1e-3)
@@ -452,12 +446,7 @@ def test_clamped_error_amplifier_against_ngspice(tmp_path, ngspice):
     res = simulate_circuit(parse_string(text), probes=["v(out)"])
     res.raise_if_error()
     assert res.switching == {"S1": "implicit"}
-    (tmp_path / "c.cir").write_text(text)
-    subprocess.run(["ngspice", "-p"],
-                   input="source c.cir\nrun\nwrdata ng.txt v(out) v(ea)\nquit\n",
-                   cwd=tmp_path, capture_output=True, text=True, timeout=120,
-                   env={**os.environ, "HOME": str(tmp_path)})
-    ng = np.loadtxt(tmp_path / "ng.txt")
+    ng = ngspice_wrdata(text, ["v(out)", "v(ea)"], tmp_path)
     t_ng, out_ng, ea_ng = ng[:, 0], ng[:, 1], ng[:, 3]
     saturated = t_ng[np.argmax(ea_ng < 1.5 - 1e-9)]
     assert 50e-6 < saturated < 150e-6 and ea_ng[t_ng < 50e-6].min() == pytest.approx(1.5)

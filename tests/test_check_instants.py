@@ -49,8 +49,10 @@ def test_closed_loop_b_comparator_buck_agrees_with_ngspice(ngspice):
 
 
 def test_a_delayed_ramp_in_pelcs_fails_the_instants(ngspice):
-    # the ramp 300 ns late in pelcs only: every instant moves, the means do not
-    cmp = compare(VM_BUCK, pelcs_params={"td": "300n"}, timeout=120)
+    # the ramp 700 ns late in pelcs only: every instant moves, the means do not. (300 ns,
+    # under the 0.4 us tolerance, failed only through ngspice's own scatter: 0.42 us of
+    # offset, 0.11 us with no delay; 700 ns gives 0.80 us.)
+    cmp = compare(VM_BUCK, pelcs_params={"td": "700n"}, timeout=120)
     (sw,) = cmp.switches
     assert all(p.ok for p in cmp.probes)
     assert not sw.ok and sw.max_offset > 0.5e-6

@@ -6,12 +6,11 @@ from __future__ import annotations
 import contextlib
 import io
 import json
-import os
-import shutil
 import subprocess
 
 import numpy as np
 import pytest
+from ngspice_helpers import ngspice_executable
 
 from converters import factories as F
 from converters.averaged import averaged_model, effective_k, ripple
@@ -55,13 +54,7 @@ SHORT_RUNS = {
 
 @pytest.fixture(scope="module")
 def ngspice_exe() -> str:
-    exe = shutil.which("ngspice")
-    if exe is None:
-        message = "NGSPICE MISSING - 'ngspice -b' acceptance of the factory netlists not run"
-        if os.environ.get("PELCS_REQUIRE_NGSPICE") == "1":
-            pytest.fail(message + " (PELCS_REQUIRE_NGSPICE=1 requires ngspice)", pytrace=False)
-        pytest.skip(message)
-    return exe
+    return ngspice_executable()
 
 
 @pytest.mark.parametrize("name", sorted(F.FACTORIES))

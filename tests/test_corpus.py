@@ -25,11 +25,11 @@ import io
 import os
 import re
 import shutil
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
+from ngspice_helpers import ngspice_run
 
 from pelcs.cli import main
 
@@ -263,13 +263,7 @@ def run_ngspice(file: str, probe: str, tmp: Path) -> tuple[np.ndarray | None, st
     ref = main_file.with_name("_reference_" + main_file.name)
     ref.write_text(reference_deck(main_file.read_text(encoding="utf-8", errors="replace")),
                    encoding="utf-8")
-    out = tmp / "ngspice.txt"
-    commands = f"source {ref.name}\nrun\nwrdata {out} {probe}\nquit\n"
-    r = subprocess.run(["ngspice", "-p"], input=commands, cwd=main_file.parent,
-                       capture_output=True, text=True, timeout=300,
-                       env={**os.environ, "HOME": str(tmp)})
-    log = r.stdout + r.stderr
-    return (np.loadtxt(out, ndmin=2) if out.exists() else None), log
+    return ngspice_run(ref, [probe], tmp, timeout=300)
 
 
 def run_pelcs(file: str, probe: str | None, tmp: Path) -> tuple[int, str, np.ndarray | None]:

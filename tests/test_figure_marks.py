@@ -16,6 +16,7 @@ from matplotlib.colors import to_hex
 from lcs.analysis.basins import cell_basins
 from lcs.analysis.maps import FunctionMap
 from lcs.smallsignal.response import FrequencyResponse, loop_margins
+from pelcs.analysis_plots import plot_basins
 from pelcs.commands.ac import bode_figure
 
 AC = Path(__file__).resolve().parents[1] / "converters" / "netlists" / "ac"
@@ -158,7 +159,7 @@ def test_basins_plot_has_a_legend_per_colour_and_titles_that_fit(tmp_path, monke
     bm = cell_basins(m, [("v(C1)", -3.05, 3.05, 61), ("i(L1)", -1.05, 1.05, 21)], workers=1)
     long_title = ("basins: Voltage-mode controlled buck converter (Deane and Hamill chaotic "
                   "buck), the textbook example of period doubling")
-    bm.plot(tmp_path / "b.png", title=long_title)
+    plot_basins(bm, tmp_path / "b.png", title=long_title)
     fig = figures[-1]
     ax1, ax2 = fig.axes[:2]
     labels = ax1.get_legend_handles_labels()[1] + [
@@ -173,3 +174,49 @@ def test_basins_plot_has_a_legend_per_colour_and_titles_that_fit(tmp_path, monke
     assert " ".join(ax1.get_title().split()) == long_title  # wrapped, not cut
     for ax in (ax1, ax2):
         assert _title_fits(fig, ax)
+
+
+def _drawn_colours(ax) -> set[str]:
+    """The colours of the lines and scatters of ``ax`` that carry data (not the grid)."""
+    colours = {to_hex(line.get_color()) for line in ax.get_lines() if line.get_label()
+               and not line.get_label().startswith("_")}
+    for c in ax.collections:
+        colours |= {to_hex(f) for f in c.get_facecolor()}
+    return colours
+
+
+def test_bifurcation_figure_has_units_a_title_and_a_legend_per_direction():
+    from lcs.analysis.bifurcation import BifurcationDiagram, SweepBranch
+    from pelcs.analysis_plots import bifurcation_figure
+
+    values = np.array([1.0, 2.0, 3.0])
+    branches = [SweepBranch(d, values, np.random.default_rng(0).random((3, 4, 2)),
+                            np.zeros((3, 2)), np.ones(3, dtype=bool)) for d in ("up", "down")]
+    d = BifurcationDiagram("vin", ("v(out)", "i(L1)"), ("v(out)", "i(L1)"), 10, 4, True,
+                           branches)
+    fig = bifurcation_figure(d)
+    ax1, ax2 = fig.axes
+    assert ax1.get_ylabel() == "v(out) [V]" and ax2.get_ylabel() == "i(L1) [A]"
+    assert ax2.get_xlabel() == "vin"
+    assert ax1.get_title() == "v(out), i(L1) sampled once a period against vin"
+    assert [t.get_text() for t in ax1.get_legend().get_texts()] == ["up", "down"]
+    for ax in (ax1, ax2):
+        assert _drawn_colours(ax) <= _legend_colours(ax1) and len(_drawn_colours(ax)) == 2
+    assert bifurcation_figure(d, title="t").axes[0].get_title() == "t"
+
+
+def test_sweep_figure_has_units_a_title_and_a_legend_per_line():
+    from lcs.analysis.tables import SweepTable
+    from pelcs.sweep_plots import sweep_figure
+
+    grid = np.array([(vin, r) for r in (10.0, 20.0) for vin in (5.0, 10.0, 15.0)])
+    table = SweepTable(inputs=("vin", "R1"), input_values=grid, measures=("mean(v(out))",),
+                       values=grid[:, :1] / 2, ok=np.ones(6, dtype=bool), messages=[""] * 6,
+                       swept=("vin", "R1"), units={"vin": "V", "R1": "Ω",
+                                                   "mean(v(out))": "V"})
+    fig = sweep_figure(table)
+    (ax,) = fig.axes
+    assert ax.get_xlabel() == "vin (V)" and ax.get_ylabel() == "mean(v(out)) (V)"
+    assert ax.get_title() == "sweep of vin, R1"
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["R1 = 10", "R1 = 20"]
+    assert _drawn_colours(ax) <= _legend_colours(ax) and len(_drawn_colours(ax)) == 2

@@ -8,10 +8,10 @@ the diodes block (the output voltage less the source's)."""
 from __future__ import annotations
 
 import shutil
-import subprocess
 
 import numpy as np
 import pytest
+from ngspice_helpers import ngspice_wrdata
 
 from netlist.parser import parse_string
 
@@ -61,13 +61,8 @@ def test_ngspice_leaves_the_potential_to_the_leakage(tmp_path, ngspice):
     for to in ("0", "out"):
         deck = tmp_path / f"leak_{to}.cir"
         deck.write_text(BRIDGE.replace(".model dm D", f".model dm D\nRleak a {to} 1G"))
-        out = tmp_path / f"v_{to}.txt"
-        r = subprocess.run(["ngspice", "-p"], input=f"source {deck.name}\nrun\nlinearize\n"
-                           f"wrdata {out} v(a) v(out) v(a,b)\nquit\n", cwd=tmp_path,
-                           capture_output=True, text=True, timeout=60,
-                           env={"HOME": str(tmp_path), "PATH": "/usr/bin:/bin"})
-        assert out.exists(), r.stdout + r.stderr
-        runs.append(np.loadtxt(out, ndmin=2))
+        runs.append(ngspice_wrdata(deck, ["v(a)", "v(out)", "v(a,b)"], tmp_path, timeout=60,
+                                   before=["linearize"]))
     t, va_low, vout, vab = runs[0][:, [0, 1, 3, 5]].T
     va_high, vout_high = runs[1][:, 1], runs[1][:, 3]
     late = t > 0.03

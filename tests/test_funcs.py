@@ -8,7 +8,7 @@ import shutil
 
 import numpy as np
 import pytest
-from test_netlist_spellings import ngspice_wrdata
+from ngspice_helpers import ngspice_wrdata
 
 from netlist.errors import NetlistError
 from netlist.expressions import parse_expression

@@ -4,12 +4,11 @@ exponential diodes)."""
 
 from __future__ import annotations
 
-import os
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
+from ngspice_helpers import ngspice_wrdata
 
 from netlist.parser import parse_file
 from netlist.studies.realistic import simulate_devices
@@ -33,10 +32,6 @@ def test_coupled_isolated_converter_against_ngspice(name, tolerance, tmp_path, n
     res = simulate_devices(parse_file(file), devices="pwl", probes=["v(out)"])
     res.raise_if_error()
     got = _mean(res.t, res["v(out)"])
-    out = tmp_path / "ng.txt"
-    subprocess.run(["ngspice", "-p"], input=f"source {file}\nrun\nwrdata {out} v(out)\nquit\n",
-                   cwd=tmp_path, capture_output=True, text=True, timeout=300,
-                   env={**os.environ, "HOME": str(tmp_path)})
-    ng = np.loadtxt(out)
+    ng = ngspice_wrdata(file, ["v(out)"], tmp_path, timeout=300)
     assert ng[-1, 0] == pytest.approx(float(res.t[-1]))  # ngspice ran to the end
     assert got == pytest.approx(_mean(ng[:, 0], ng[:, 1]), rel=tolerance)

@@ -6,10 +6,10 @@ before the include as well as after it, and simulates what is left."""
 from __future__ import annotations
 
 import shutil
-import subprocess
 
 import numpy as np
 import pytest
+from ngspice_helpers import ngspice_run
 
 from netlist.errors import NetlistError
 from netlist.parser import parse_file
@@ -47,24 +47,16 @@ def test_pelcs_refuses_a_missing_top_include(tmp_path):
     assert d.location.line == 3 and "ngspice loads no circuit either" in d.hint
 
 
-def _ngspice(deck, cwd):
-    out = cwd / "out.txt"
-    r = subprocess.run(["ngspice", "-p"], input=f"source {deck.name}\nrun\nwrdata {out} i(V1)"
-                       "\nquit\n", cwd=cwd, capture_output=True, text=True, timeout=60,
-                       env={"HOME": str(cwd), "PATH": "/usr/bin:/bin:/usr/local/bin"})
-    return (np.loadtxt(out, ndmin=2) if out.exists() else None), r.stdout + r.stderr
-
-
 def test_ngspice_drops_the_including_file_whole(tmp_path, ngspice):
     if shutil.which("ngspice") is None:
         pytest.skip("no ngspice executable")
-    data, log = _ngspice(_write(tmp_path), tmp_path)
+    data, log = ngspice_run(_write(tmp_path), ["i(V1)"], tmp_path, timeout=60)
     assert "Could not find include file" in log
     # neither R3 nor R2 is there: no current at all (with them, -2 mA)
     assert data is not None and np.all(data[:, 1] == 0.0), log[-1000:]
     # the same deck with the include removed: both resistors, -2 mA
     (tmp_path / "part.net").write_text(PART.replace(f".include {MISSING}\n", ""))
-    data, log = _ngspice(tmp_path / "top.cir", tmp_path)
+    data, log = ngspice_run(tmp_path / "top.cir", ["i(V1)"], tmp_path, timeout=60)
     assert data is not None and np.allclose(data[:, 1], -2e-3), log[-1000:]
 
 
@@ -73,5 +65,5 @@ def test_ngspice_loads_no_circuit_for_a_missing_top_include(tmp_path, ngspice):
         pytest.skip("no ngspice executable")
     top = tmp_path / "top.cir"
     top.write_text(f"t\nV1 1 0 DC 1\n.include {MISSING}\nR1 1 0 1k\n.tran 1u 3u\n.end\n")
-    data, log = _ngspice(top, tmp_path)
+    data, log = ngspice_run(top, ["i(V1)"], tmp_path, timeout=60)
     assert data is None and "Could not find include file" in log, log[-1000:]

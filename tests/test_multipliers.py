@@ -11,7 +11,7 @@ import subprocess
 
 import numpy as np
 import pytest
-from test_netlist_spellings import ngspice_wrdata
+from ngspice_helpers import ngspice_wrdata
 
 from netlist.errors import NetlistError
 from pelcs.api import simulate

@@ -1,12 +1,11 @@
 """Converter netlists in ngspice style: expected elements, round trip, ngspice acceptance."""
 
 import dataclasses
-import os
-import shutil
 import subprocess
 from pathlib import Path
 
 import pytest
+from ngspice_helpers import ngspice_executable
 
 from lcs.signals import Exp, Pulse, Pwl, Sin
 from netlist.circuit import IgnoredCommand, Tran
@@ -117,15 +116,6 @@ def test_writer_names_and_values():
     assert text.rstrip().endswith(".end")
 
 
-def _ngspice():
-    exe = shutil.which("ngspice")
-    if exe is None:
-        if os.environ.get("PELCS_REQUIRE_NGSPICE") == "1":
-            pytest.fail("ngspice is not on PATH and PELCS_REQUIRE_NGSPICE=1")
-        pytest.skip("ngspice is not on PATH: cannot check that it accepts the written netlists")
-    return exe
-
-
 def _run_ngspice(exe, text, path):
     path.write_text(text)
     proc = subprocess.run([exe, "-b", str(path)], capture_output=True, text=True, timeout=60,
@@ -137,7 +127,7 @@ def _run_ngspice(exe, text, path):
 
 @pytest.mark.parametrize("path", NETLISTS, ids=lambda p: p.name)
 def test_ngspice_accepts_written_netlist(path, tmp_path):
-    exe = _ngspice()
+    exe = ngspice_executable()
     c = parse_file(path)
     # 1. the written text as it is: ngspice builds the circuit (unknown models, bad lines and
     # missing nodes are reported) but, without .print, runs nothing and exits with 1

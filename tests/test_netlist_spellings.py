@@ -7,58 +7,15 @@ on a small deck); the LTspice-only forms have notes that say what pelcs does ins
 from __future__ import annotations
 
 import math
-import os
-import shutil
-import subprocess
-from pathlib import Path
 
 import pytest
+from ngspice_helpers import ngspice_print
 
 from lcs.signals import Sin
 from netlist.errors import NetlistError
 from netlist.parser import parse_file, parse_string
 
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
-
-
-def ngspice_print(deck: str, expressions: list[str], tmp: Path, files: dict | None = None
-                  ) -> dict[str, float]:
-    """Run ``deck`` in ngspice (``run``), print each expression; their values."""
-    if shutil.which("ngspice") is None:
-        pytest.skip("no ngspice executable")
-    for name, text in (files or {}).items():
-        (tmp / name).write_text(text)
-    (tmp / "deck.cir").write_text(deck)
-    commands = "source deck.cir\nrun\n" + "".join(f"print {e}\n" for e in expressions) + "quit\n"
-    r = subprocess.run(["ngspice", "-p"], input=commands, cwd=tmp, capture_output=True,
-                       text=True, timeout=60, env={**os.environ, "HOME": str(tmp)})
-    out = {}
-    for line in r.stdout.splitlines():
-        if " = " in line:
-            key, _, value = line.partition(" = ")
-            try:
-                out[key.strip().lower()] = float(value.split()[0])
-            except ValueError:
-                pass
-    missing = [e for e in expressions if e.lower() not in out]
-    assert not missing, r.stdout[-2000:] + r.stderr[-2000:]
-    return {e: out[e.lower()] for e in expressions}
-
-
-def ngspice_wrdata(deck: str, probes: list[str], tmp: Path, timeout: float = 120):
-    """Run ``deck`` in ngspice (``run``) and write the ``probes`` with ``wrdata``: the rows,
-    shape (N, 2 len(probes)) (time and value per probe)."""
-    import numpy as np
-
-    if shutil.which("ngspice") is None:
-        pytest.skip("no ngspice executable")
-    (tmp / "deck.cir").write_text(deck)
-    out = tmp / "out.txt"
-    r = subprocess.run(["ngspice", "-p"], input=f"source deck.cir\nrun\nwrdata {out} "
-                       f"{' '.join(probes)}\nquit\n", cwd=tmp, capture_output=True, text=True,
-                       timeout=timeout, env={"HOME": str(tmp), "PATH": "/usr/bin:/bin"})
-    assert out.exists(), r.stdout + r.stderr
-    return np.loadtxt(out, ndmin=2)
 
 
 SINE_DECK = """sine source as eSim writes it, and KiCad's DC/SIN/AC order

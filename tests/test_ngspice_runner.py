@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from netlist.units import parse_number
 from ngspice_checks import (
     DEFAULT_LADDER,
     NgspiceFailed,
@@ -52,8 +53,8 @@ C1 out 0 1u IC=0
         ("abc", None),
     ],
 )
-def test_spice_number(text, value):
-    got = deck.spice_number(text)
+def test_deck_numbers_read_as_spice_numbers(text, value):
+    got = parse_number(text)
     assert got == pytest.approx(value) if value is not None else got is None
 
 
@@ -104,7 +105,7 @@ def test_pulse_edges_numbers_and_expressions():
 def test_pulse_that_overflows_its_period_gets_a_shorter_rise():
     out = deck.finite_pulse_edges("t\nV1 a 0 PULSE(0 1 0 10u 1p 0 10u)\n", 1e-9)
     args = out.splitlines()[1].split("(")[1].rstrip(")").split()
-    tr, tf, pw, per = (deck.spice_number(a) for a in args[3:7])
+    tr, tf, pw, per = (parse_number(a) for a in args[3:7])
     assert tr + tf + pw == pytest.approx(per) and pw == tf == 1e-9
 
 
@@ -269,6 +270,19 @@ def test_missing_ngspice_skips_loudly_or_fails(monkeypatch):
     monkeypatch.setenv("PELCS_REQUIRE_NGSPICE", "1")
     with pytest.raises(pytest.fail.Exception, match="PELCS_REQUIRE_NGSPICE=1"):
         availability.require_ngspice()
+
+
+def test_missing_ngspice_program_skips_or_fails(monkeypatch, tmp_path):
+    # the tests' helper for the ngspice program (not the library): the same rule
+    import ngspice_helpers
+
+    monkeypatch.setenv("PATH", str(tmp_path))  # (an empty folder: no ngspice on it)
+    monkeypatch.delenv("PELCS_REQUIRE_NGSPICE", raising=False)
+    with pytest.raises(pytest.skip.Exception, match="NGSPICE MISSING"):
+        ngspice_helpers.ngspice_wrdata("t\nR1 a 0 1\n.end\n", ["v(a)"], tmp_path)
+    monkeypatch.setenv("PELCS_REQUIRE_NGSPICE", "1")
+    with pytest.raises(pytest.fail.Exception, match="PELCS_REQUIRE_NGSPICE=1"):
+        ngspice_helpers.ngspice_executable()
 
 
 def test_hopeless_run_is_halted_by_the_watchdog(ngspice):

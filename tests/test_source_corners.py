@@ -3,10 +3,10 @@
 of the same sources across resistors, sampled at ngspice's own time points (TMAX small so
 that ngspice lands near every corner)."""
 
-import subprocess
 
 import numpy as np
 import pytest
+from ngspice_helpers import ngspice_wrdata
 
 from lcs.signals import Pulse, resolve
 from lcs.simulation.inputs import InputTable, has_jumps
@@ -67,14 +67,8 @@ def test_pulse_edges_outlasting_the_period_jump_at_period_starts():
 
 def test_sources_match_ngspice_at_its_time_points(ngspice, tmp_path):
     deck = _deck()
-    out = tmp_path / "src.dat"
-    cir = tmp_path / "src.cir"
     names = list(SOURCES)
-    cir.write_text(deck + ".control\nrun\nwrdata " + str(out) + " "
-                   + " ".join(f"v({n})" for n in names) + "\n.endc\n.end\n")
-    proc = subprocess.run(["ngspice", "-b", str(cir)], capture_output=True, timeout=60)
-    assert out.exists(), proc.stdout.decode(errors="replace")[-2000:]
-    data = np.loadtxt(out)
+    data = ngspice_wrdata(deck + ".end\n", [f"v({n})" for n in names], tmp_path, timeout=60)
     t = data[:, 0]
     setup = transient_setup(parse_string(deck + ".end\n"))
     order = [setup.system.inputs.index(f"V{i}") for i in range(len(names))]
@@ -138,9 +132,5 @@ def test_buck_at_duty_one_holds_the_switch_on(ngspice, tmp_path):
     assert means[1.0] == means[2.0]
     deck = open(BUCK).read().replace("duty=0.5", "duty=1.0").replace(
         ".tran 0.2u 5m 0 0.2u UIC", ".tran 0.2u 5m 0 0.02u UIC").replace(".end\n", "")
-    out = tmp_path / "buck.dat"
-    cir = tmp_path / "buck.cir"
-    cir.write_text(deck + f".control\nrun\nwrdata {out} v(out)\n.endc\n.end\n")
-    subprocess.run(["ngspice", "-b", str(cir)], capture_output=True, timeout=120)
-    data = np.loadtxt(out)
+    data = ngspice_wrdata(deck + ".end\n", ["v(out)"], tmp_path)
     assert means[1.0] == pytest.approx(_mean_late(data[:, 0], data[:, 1]), rel=1e-3)

@@ -30,6 +30,7 @@ from netlist.studies.param_sweep import (
     run_sweep,
 )
 from pelcs.cli import main
+from pelcs.sweep_plots import histogram_figure
 
 ROOT = Path(__file__).resolve().parents[1]
 BUCK = ROOT / "tests" / "netlists" / "sim" / "buck_ccm.cir"
@@ -496,7 +497,7 @@ def test_statistics_of_a_grid_need_a_point(rc):
 def test_histogram_of_a_grid_one_panel_and_colour_per_point(rc):
     table = run_sweep(rc, ["mean(v(out))"], params={"vs": [5.0, 10.0]},
                       tolerances=["R*=5%"], runs=6, seed=2, workers=1)
-    fig = table.histogram_figure(title="RC: Monte Carlo")
+    fig = histogram_figure(table, title="RC: Monte Carlo")
     axes = [ax for ax in fig.axes if ax.get_visible()]
     assert [ax.get_title(loc="left") for ax in axes] == ["vs = 5", "vs = 10"]
     colours = [ax.patches[0].get_facecolor() for ax in axes]
@@ -519,7 +520,7 @@ def test_histogram_title_fits_the_figure(rc):
                       workers=1)
     title = ("RC low-pass filter driven by a square wave (Monte Carlo reference): Monte "
              "Carlo, 4 runs (uniform, seed 1)")
-    fig = table.histogram_figure(title=title)
+    fig = histogram_figure(table, title=title)
     fig.canvas.draw()
     box = fig._suptitle.get_window_extent(fig.canvas.get_renderer())
     assert box.x0 >= 0 and box.x1 <= fig.bbox.width

@@ -7,10 +7,10 @@ included) it turns on when the control enters the band from below and off when f
 a gate ``PULSE(0 1 ...)`` falling to exactly ``VT = 0`` turns the switch off every period.
 """
 
-import subprocess
 
 import numpy as np
 import pytest
+from ngspice_helpers import ngspice_wrdata
 
 from lcs.model import IDEALISED_OPTION, OPERATING_POINT_OPTION, SwitchControl
 from lcs.signals import Pulse, Sin, resolve
@@ -108,13 +108,7 @@ DECKS = [  # (gate, VT, VH, switch flag, UIC)
 
 
 def _ngspice(tmp_path, deck: str, vectors: str) -> np.ndarray:
-    out = tmp_path / "out.dat"
-    cir = tmp_path / "deck.cir"
-    cir.write_text(deck + f".control\nrun\nwrdata {out} {vectors}\n.endc\n.end\n")
-    # ngspice -b exits 1 after a .control block even on success: judge by the data file
-    proc = subprocess.run(["ngspice", "-b", str(cir)], capture_output=True, timeout=60)
-    assert out.exists(), proc.stdout.decode(errors="replace")[-2000:]
-    return np.loadtxt(out)
+    return ngspice_wrdata(deck + ".end\n", vectors.split(), tmp_path, timeout=60)
 
 
 def _off_by_ngspice(t, data, col, level=0.5, near=20e-6):

@@ -4,11 +4,9 @@ an ideal switch) against ngspice, and the refusals with their place."""
 
 from __future__ import annotations
 
-import os
-import subprocess
-
 import numpy as np
 import pytest
+from ngspice_helpers import ngspice_wrdata
 
 from netlist.circuit import Vcvs, VoltageSource
 from netlist.errors import NetlistError
@@ -80,11 +78,7 @@ def test_aswitch_is_an_ideal_switch_at_the_control_midpoint():
 
 
 def _ngspice_mean(deck: str, tmp_path, start: float) -> float:
-    (tmp_path / "d.cir").write_text(deck)
-    subprocess.run(["ngspice", "-p"], input="source d.cir\nrun\nwrdata ng.txt v(out)\nquit\n",
-                   cwd=tmp_path, capture_output=True, text=True, timeout=120,
-                   env={**os.environ, "HOME": str(tmp_path)})
-    ng = np.loadtxt(tmp_path / "ng.txt")
+    ng = ngspice_wrdata(deck, ["v(out)"], tmp_path)
     keep = ng[:, 0] >= start
     return float(np.trapezoid(ng[keep, 1], ng[keep, 0]) / (ng[-1, 0] - start))
 

@@ -29,7 +29,6 @@ import numpy as np
 
 from .. import interrupt
 from ..atomic import atomic_path
-from ..axes import axis_label, fit_title
 from .maps import Map, MapError
 from .parallel import portable, task_engine
 
@@ -283,64 +282,6 @@ class BasinMap:
                 **({} if self.computed is None else {"computed": self.computed}),
             )
 
-    def plot(self, path: str | Path, title: str | None = None) -> None:
-        """Write :meth:`figure` to ``path`` (format from the extension)."""
-        fig = self.figure(title)
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=130)
-
-    def figure(self, title: str | None = None, fig=None):
-        """Two panels: basins (one colour per attractor, sink grey, attractor cells black)
-        and the step number (periods to reach the attractor).
-
-        ``fig``: a matplotlib Figure or SubFigure to draw into (default a new Figure on an
-        Agg canvas, no pyplot). Returns the figure drawn into.
-        """
-        from matplotlib.colors import ListedColormap
-        from matplotlib.patches import Patch
-
-        a0, a1 = self.grid.axes
-        extent = (a1.lo, a1.hi, a0.lo, a0.hi)
-        if fig is None:
-            from matplotlib.backends.backend_agg import FigureCanvasAgg
-            from matplotlib.figure import Figure
-
-            fig = Figure(figsize=(11, 4.6), layout="constrained")
-            FigureCanvasAgg(fig)
-        ax1, ax2 = fig.subplots(1, 2)
-        ng = len(self.attractors)
-        base = ["#bbbbbb"] + [c for _, c in zip(range(ng), _palette(ng), strict=False)]
-        # (bad: the cells not computed of an interrupted map)
-        cmap = ListedColormap(base).with_extremes(bad="white")
-        group, steps = self.group, self.steps
-        if self.computed is not None:
-            group, steps = np.ma.masked_less(group, 0), np.ma.masked_less(steps, 0)
-        ax1.imshow(group, origin="lower", extent=extent, aspect="auto", cmap=cmap,
-                   vmin=-0.5, vmax=ng + 0.5, interpolation="nearest")
-        for k, at in enumerate(self.attractors):
-            ax1.plot(at.points[:, 1], at.points[:, 0], "k.", ms=3,
-                     label="attractor cells" if k == 0 else None)
-        # One legend entry per colour of the basins image (an image has no legend of its own).
-        handles = [Patch(facecolor=base[0], label="leaves the grid")] + [
-            Patch(facecolor=base[at.group],
-                  label=f"basin of attractor {at.group} ({at.period} cell cycle)")
-            for at in self.attractors]
-        if self.computed is not None:
-            handles.append(Patch(facecolor="white", edgecolor="0.5", label="not computed"))
-        dots, _ = ax1.get_legend_handles_labels()
-        ax1.legend(handles=handles + dots, fontsize=7, loc="best", framealpha=0.8)
-        xlabel, ylabel = axis_label(a1.name), axis_label(a0.name)
-        ax1.set_xlabel(xlabel)
-        ax1.set_ylabel(ylabel)
-        fit_title(ax1, "basins" if title is None else title)
-        im = ax2.imshow(steps, origin="lower", extent=extent, aspect="auto",
-                        cmap="viridis", interpolation="nearest")
-        fig.colorbar(im, ax=ax2, label="periods to reach the attractor")
-        ax2.set_xlabel(xlabel)
-        ax2.set_ylabel(ylabel)
-        fit_title(ax2, "transient time")
-        return fig
-
 
 def merge_touching_groups(scm: ScmResult, grid: CellGrid) -> ScmResult:
     """Merge periodic groups whose cells are 8-neighbours on the grid (one attractor).
@@ -382,13 +323,6 @@ def merge_touching_groups(scm: ScmResult, grid: CellGrid) -> ScmResult:
                               if relabel[g] == k]) for k in range(1, len(roots) + 1)]
     return ScmResult(group=relabel[scm.group], steps=scm.steps, periodic=scm.periodic,
                      groups=groups)
-
-
-def _palette(n: int) -> list:
-    from matplotlib import colormaps
-
-    cm = colormaps["tab10" if n <= 10 else "hsv"]
-    return [cm(i % 10) if n <= 10 else cm(i / max(n, 1)) for i in range(n)]
 
 
 def _image_task(task, report) -> tuple[np.ndarray, np.ndarray]:

@@ -14,7 +14,7 @@ once per period). Two modes, as in the literature on nonsmooth converters:
   its attractor only from its own first value: use it when the attractor is unique or the
   transient is long enough, not for hysteresis hunting at the chunk boundaries).
 
-Results go to NPZ or CSV and to a scatter plot (matplotlib, Agg canvas).
+Results go to NPZ or CSV (the scatter plot is the application's: :mod:`pelcs.analysis_plots`).
 """
 
 from __future__ import annotations
@@ -30,7 +30,6 @@ import numpy as np
 
 from .. import interrupt
 from ..atomic import atomic_path
-from ..axes import axis_label
 from .maps import Map, MapError
 from .parallel import portable, task_engine
 
@@ -150,50 +149,6 @@ class BifurcationDiagram:
                     for k in range(b.samples.shape[1]):
                         w.writerow([b.direction, repr(float(p)), k,
                                     *(repr(float(v)) for v in b.samples[i, k])])
-
-    def plot(self, path: str | Path, probes: Sequence[str] | None = None,
-             title: str | None = None) -> None:
-        """Write :meth:`figure` to ``path`` (format from the extension)."""
-        fig = self.figure(probes, title)
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=150)
-
-    def figure(self, probes: Sequence[str] | None = None, title: str | None = None,
-               fig=None):
-        """Scatter plot of the samples against the parameter, one panel per probe.
-
-        ``fig``: a matplotlib Figure or SubFigure to draw into (default a new Figure on an
-        Agg canvas, no pyplot). Returns the figure drawn into.
-        """
-        names = list(probes) if probes else list(self.probes)
-        cols = [list(self.probes).index(p) for p in names]
-        if fig is None:
-            from matplotlib.backends.backend_agg import FigureCanvasAgg
-            from matplotlib.figure import Figure
-
-            fig = Figure(figsize=(8, 2.6 * len(names) + 0.8), layout="constrained")
-            FigureCanvasAgg(fig)
-        colours = {"fixed": "k", "up": "tab:blue", "down": "tab:red"}
-        # Marker area: fine for dense diagrams (300 x 100 points), visible for coarse ones.
-        npts = sum(b.samples.shape[0] * b.samples.shape[1] for b in self.branches)
-        size = float(np.clip(3e4 / max(npts, 1), 0.3, 6.0))
-        axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
-        for ax, name, c in zip(axes, names, cols, strict=True):
-            for b in self.branches:
-                K, M = b.samples.shape[:2]
-                px = np.repeat(b.values, M)
-                py = b.samples[:, :, c].ravel()
-                ax.scatter(px, py, s=size, c=colours.get(b.direction, "k"), marker=".",
-                           linewidths=0, rasterized=True,
-                           label=b.direction if len(self.branches) > 1 else None)
-            ax.set_ylabel(axis_label(name))
-            ax.grid(alpha=0.3)
-        if len(self.branches) > 1:
-            axes[0].legend(markerscale=20, loc="best")
-        axes[-1].set_xlabel(self.param_name)
-        if title:
-            axes[0].set_title(title)
-        return fig
 
 
 def _sweep_task(task, report) -> list[tuple[np.ndarray, np.ndarray, bool, str]]:

@@ -3,8 +3,7 @@
 :class:`SweepTable` is what a parameter sweep or a Monte Carlo run returns: the inputs of
 every run (swept parameter values, run index, the component values drawn) and its
 measurements, with the nominal measurements of a Monte Carlo run. It writes CSV, gives a
-pandas DataFrame, per-measurement statistics, a line plot against a swept parameter and
-histograms of the Monte Carlo distributions.
+pandas DataFrame and per-measurement statistics (its figures: :mod:`pelcs.sweep_plots`).
 
 A Monte Carlo table over a parameter grid holds ``runs`` consecutive rows per grid point; its
 statistics, nominal values and histograms are per grid point, never over the mixture of the
@@ -14,19 +13,16 @@ points.
 from __future__ import annotations
 
 import csv
-import math
-import textwrap
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..atomic import atomic_path
-from ..units_format import format_eng, si_prefix
 
 __all__ = ["MAX_HISTOGRAM_POINTS", "SweepTable"]
 
-#: Grid points of a Monte Carlo histogram at most (one panel each).
+#: Grid points of a Monte Carlo histogram at most (one panel each: :mod:`pelcs.sweep_plots`).
 MAX_HISTOGRAM_POINTS = 12
 
 @dataclass
@@ -218,165 +214,3 @@ class SweepTable:
             return [{"params": {}, "statistics": self.statistics()}]
         return [{"params": self.point_params(k), "statistics": self.statistics(k)}
                 for k in range(self.n_points)]
-
-    # -- figures ------------------------------------------------------------------------------
-
-    def _label(self, name: str) -> str:
-        unit = self.units.get(name, "")
-        return f"{name} ({unit})" if unit else name
-
-    def plot(self, path: str | Path, title: str | None = None) -> None:
-        """Histograms (Monte Carlo) or the measurements against the first swept parameter."""
-        if self.runs:
-            self.histogram(path, title=title)
-        else:
-            self.plot_sweep(path, title=title)
-
-    def plot_sweep(self, path: str | Path, title: str | None = None) -> None:
-        """Write :meth:`sweep_figure` to ``path`` (format from the extension)."""
-        fig = self.sweep_figure(title)
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=130)
-
-    def sweep_figure(self, title: str | None = None, fig=None):
-        """One panel per measurement against the first swept parameter; one line per value
-        of the other swept parameters.
-
-        ``fig``: a matplotlib Figure or SubFigure to draw into (default a new Figure on an
-        Agg canvas, no pyplot). Returns the figure drawn into.
-        """
-        if not self.swept:
-            raise ValueError("nothing swept: no parameter to plot against")
-        x_name = self.swept[0]
-        x = self.column(x_name)
-        others = list(self.swept[1:])
-        keys = [tuple(self.column(o)[i] for o in others) for i in range(len(self))]
-        groups = list(dict.fromkeys(keys))
-        if fig is None:
-            from matplotlib.backends.backend_agg import FigureCanvasAgg
-            from matplotlib.figure import Figure
-
-            fig = Figure(figsize=(8, 2.6 * len(self.measures) + 0.8), layout="constrained")
-            FigureCanvasAgg(fig)
-        axes = fig.subplots(len(self.measures), 1, sharex=True, squeeze=False)[:, 0]
-        for ax, name in zip(axes, self.measures, strict=True):
-            y = self.column(name)
-            for g in groups:
-                sel = np.array([k == g for k in keys])
-                order = np.argsort(x[sel], kind="stable")
-                label = ", ".join(f"{o} = {v:.4g}" for o, v in zip(others, g, strict=True))
-                ax.plot(x[sel][order], y[sel][order], "o-", ms=3, label=label or None)
-            # Runs whose window had not settled: their values are not steady-state ones.
-            loose = self.ok & np.array([name in u for u in self.unsettled], dtype=bool)
-            if loose.any():
-                ax.plot(x[loose], y[loose], "o", ms=8, mfc="none", mec="tab:red",
-                        label="not settled (simulate longer)")
-            ax.set_ylabel(self._label(name))
-            ax.grid(alpha=0.3)
-            if others or loose.any():
-                ax.legend(fontsize="small", loc="best")
-        axes[-1].set_xlabel(self._label(x_name))
-        axes[0].set_title(_wrap(title or f"sweep of {', '.join(self.swept)}", 8, 12))
-        return fig
-
-    def histogram(self, path: str | Path, title: str | None = None, bins: int | None = None
-                  ) -> None:
-        """Write :meth:`histogram_figure` to ``path`` (format from the extension)."""
-        fig = self.histogram_figure(title=title, bins=bins)
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=130)
-
-    def histogram_figure(self, title: str | None = None, bins: int | None = None, fig=None):
-        """One histogram per measurement (and grid point) over the successful runs, with the
-        mean, ±1 std and the nominal value marked.
-
-        A grid of several points gives one panel per (grid point, measurement), each grid
-        point in its own colour and named in the panel's title and legend.
-
-        Returns
-        -------
-        matplotlib.figure.Figure
-            On an Agg canvas (no pyplot).
-
-        Raises
-        ------
-        ValueError
-            More than :data:`MAX_HISTOGRAM_POINTS` grid points.
-        """
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-        from matplotlib.ticker import MaxNLocator
-
-        points = self.n_points
-        if points > MAX_HISTOGRAM_POINTS:
-            raise ValueError(f"{points} grid points: histograms of at most "
-                             f"{MAX_HISTOGRAM_POINTS}")
-        n = len(self.measures)
-        panels = [(k, j) for k in range(points) for j in range(n)]
-        cols = n if points > 1 and n > 1 else (1 if len(panels) == 1 else 2)
-        rows = (len(panels) + cols - 1) // cols
-        width = 5.2 * cols
-        if fig is None:  # (else the Figure or SubFigure given)
-            fig = Figure(figsize=(width, 3.1 * rows + 0.8), layout="constrained")
-            FigureCanvasAgg(fig)
-        axes = fig.subplots(rows, cols, squeeze=False).ravel()
-        colours = ["tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown",
-                   "tab:pink", "tab:olive", "tab:cyan", "tab:gray", "navy", "teal", "maroon"]
-        index = self.point_index()
-        stats = [self.statistics(k) for k in range(points)] if self.runs else \
-            [self.statistics()]
-        for ax, (k, j) in zip(axes, panels, strict=False):
-            name, unit = self.measures[j], self.units.get(self.measures[j], "")
-            colour = colours[k] if points > 1 else "tab:blue"
-            rows_k = (index == k) if self.runs else np.ones(len(self), dtype=bool)
-            v = self.values[self.ok & rows_k, j]
-            v = v[np.isfinite(v)]
-            nb = bins or int(np.clip(np.sqrt(max(v.size, 1)), 5, 50))
-            where = self.point_label(k) if points > 1 else ""
-            s = stats[k][name]
-            # The axis in the prefixed unit of the values (mV rather than 0.0150 V).
-            scale, prefix = _prefix(v, unit)
-            ax.hist(v / scale, bins=nb, color=colour, alpha=0.75,
-                    label=f"{where}: {v.size} runs" if where else f"{v.size} runs")
-            # Enough digits to tell the mean from the nominal value when the spread is small.
-            digits = 4
-            if v.size and s["std"] > 0 and s["mean"] != 0:
-                digits = int(np.clip(math.ceil(math.log10(abs(s["mean"]) / s["std"])) + 2,
-                                     4, 10))
-            if v.size:
-                ax.axvline(s["mean"] / scale, color="k", lw=1.5,
-                           label=f"mean {format_eng(s['mean'], unit, digits)}")
-                for sign in (-1, 1):
-                    ax.axvline((s["mean"] + sign * s["std"]) / scale, color="k", ls="--",
-                               lw=1, label=f"±1 std ({format_eng(s['std'], unit)})" if sign > 0
-                               else None)
-            if "nominal" in s and math.isfinite(s["nominal"]):
-                ax.axvline(s["nominal"] / scale, color="tab:red", lw=1.5,
-                           label=f"nominal {format_eng(s['nominal'], unit, digits)}")
-            if where:
-                ax.set_title(where, loc="left", fontsize=9, color=colour)
-            ax.set_xlabel(f"{name} ({prefix}{unit})" if unit else name)
-            ax.set_ylabel("runs")
-            # Counts of runs: whole numbers on the axis.
-            ax.yaxis.set_major_locator(MaxNLocator(integer=True))
-            ax.legend(fontsize="small", loc="best")
-        for ax in axes[len(panels):]:
-            ax.set_visible(False)
-        text = title or f"Monte Carlo, {self.runs} runs ({self.distribution})"
-        fig.suptitle(_wrap(text, width, 11), fontsize=11)
-        return fig
-
-
-def _prefix(values: np.ndarray, unit: str) -> tuple[float, str]:
-    """The SI prefix of the largest of ``values``: (its factor, its symbol); none without a
-    unit."""
-    if not unit or not np.size(values):
-        return 1.0, ""
-    return si_prefix(float(np.max(np.abs(values))))
-
-
-def _wrap(text: str, width_in: float, fontsize: float) -> str:
-    """``text`` in lines that fit a figure ``width_in`` inches wide at ``fontsize`` points
-    (an average character is about 0.55 em wide)."""
-    chars = max(20, int(width_in * 72 / (0.55 * fontsize)) - 4)
-    return "\n".join(textwrap.wrap(text, chars)) or text

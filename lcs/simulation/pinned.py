@@ -81,8 +81,7 @@ class PinnedJumps:
 
     def notes(self) -> list[str]:
         """One note per state that jumped."""
-        from ..units_format import format_eng
-
+        # (plain numbers: the layers above write values for people, this one only says them)
         out = []
         for i, (count, t0, x0, energy) in sorted(self.jumps.items()):
             name = self.system.states[i]
@@ -90,8 +89,8 @@ class PinnedJumps:
             times = "once" if count == 1 else f"{count} times"
             out.append(
                 f"{name}: the open switches leave it no path, so the ideal switches cut it to "
-                f"0 {times} (first at t = {format_eng(t0, 's')}, from "
-                f"{format_eng(x0, unit)}): its flux is lost, {format_eng(energy, 'J')} "
+                f"0 {times} (first at t = {t0:.4g} s, from {x0:.4g} {unit}".rstrip()
+                + f"): its flux is lost, {energy:.4g} J "
                 "(½ L i²) in all; a real switch spends it in a voltage spike across itself "
                 "(ngspice's SW in its ROFF)")
         return out

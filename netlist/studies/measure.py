@@ -22,13 +22,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from lcs.axes import probe_unit  # (re-exported: the unit of a measurement is its probe's)
 from lcs.results import SimulationResult
 from lcs.signals import Pulse, Sin
 
 from ..circuit import GROUND, Circuit, CurrentSource, VoltageSource
 from ..dialect import split_top_level
 from ..errors import Diagnostic, NetlistError
+from ..probes import probe_unit  # (re-exported: the unit of a measurement is its probe's)
 from .transient import check_probes
 
 __all__ = [

@@ -53,6 +53,7 @@ from ..formulation import formulate, storage_matrix
 from ..knee import KneeCapacitor, check_knees, knee_probes
 from ..limits import MEMORY, STEPS
 from ..passive import structurally_passive
+from ..probes import PROBE, TWO_TERMINAL
 from ..reductions import open_inductors, parallel_diodes, source_capacitors
 from ..suggest import did_you_mean
 from ..system_cache import kept_with
@@ -78,8 +79,6 @@ __all__ = [
     "warm_up",
 ]
 
-_PROBE_RE = re.compile(r"^\s*([vi])\s*\(\s*([^,()\s]+)\s*(?:,\s*([^,()\s]+)\s*)?\)\s*$", re.I)
-_TWO_TERMINAL = frozenset("RLCVIDSEFGH")
 
 
 @dataclass
@@ -388,13 +387,13 @@ def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
         One diagnostic per bad probe, with the nodes and elements in the hint.
     """
     nodes = {n.lower() for n in circuit.nodes} | {"gnd"}
-    two_terminal = {el.key: el for el in circuit.elements if el.kind in _TWO_TERMINAL}
+    two_terminal = {el.key: el for el in circuit.elements if el.kind in TWO_TERMINAL}
     capacitors = {k for k, el in two_terminal.items() if el.kind == "C"}
     out, bad = [], []
     switches = {el.key for el in circuit.elements if el.kind == "S"}
     merged = parallel_diodes(circuit)
     for probe in probes:
-        m = _PROBE_RE.match(probe)
+        m = PROBE.match(probe)
         ok = False
         d = re.match(r"^\s*d\s*\(\s*([^,()\s]+)\s*\)\s*$", probe, re.I)
         if d:  # d(S1): the on-fraction of a switch (lcs.integrators.moreau.integrator)

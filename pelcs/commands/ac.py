@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from lcs.atomic import atomic_path
-from lcs.axes import fit_title
+from pelcs.figures import fit_title, save_figure
 from pelcs.jsonout import dumps
 from pelcs.outputs import write_outputs
 
@@ -237,9 +237,7 @@ def _averaged_curve(averaged, probe: str, freq):
 
 
 def _plot(path: Path, fr, margins, title: str, averaged=None) -> None:
-    fig = bode_figure(fr, margins, title, averaged)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110)
+    save_figure(bode_figure(fr, margins, title, averaged), path, dpi=110)
 
 
 def bode_figure(fr, margins, title: str, averaged=None):

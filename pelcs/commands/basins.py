@@ -73,6 +73,8 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from pelcs.analysis_plots import plot_basins
+
     setup = prepare(args)
     factory, m, out, plot = setup["factory"], setup["m"], setup["out"], setup["plot"]
     with deferred_interrupts(interrupt_message("basins", "cells")):
@@ -80,8 +82,8 @@ def run(args: argparse.Namespace) -> int:
         title = factory.circuit().title
         written = write_outputs("basins", (
             (out, bm.to_npz),
-            (plot, lambda path: bm.plot(path,
-                                        title=f"basins: {title or Path(args.file).name}")),
+            (plot, lambda path: plot_basins(bm, path,
+                                            title=f"basins: {title or Path(args.file).name}")),
         ))
         print(summary(bm, args.file, title, m, written))
         not_written = written.exit_status()

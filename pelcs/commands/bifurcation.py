@@ -120,6 +120,8 @@ def check_output(command: str, option: str, path: str | None, suffixes: tuple[st
 
 
 def run(args: argparse.Namespace) -> int:
+    from pelcs.analysis_plots import plot_bifurcation
+
     setup = prepare(args)
     factory, m, circuit = setup["factory"], setup["m"], setup["circuit"]
     out, plot = setup["out"], setup["plot"]
@@ -132,7 +134,8 @@ def run(args: argparse.Namespace) -> int:
             (out, diagram.save),
             # (nothing to plot when an interrupt came before any value finished)
             (plot if any(b.values.size for b in diagram.branches) else None,
-             lambda path: diagram.plot(path, title=circuit.title or Path(args.file).name)),
+             lambda path: plot_bifurcation(diagram, path,
+                                           title=circuit.title or Path(args.file).name)),
         ))
         confirmations = confirm_runs(diagram, factory) if args.confirm and not stopped \
             else None

@@ -155,8 +155,8 @@ def _term_as_interrupt():
 
 def run(args: argparse.Namespace) -> int:
     from ngspice_checks.compare import CheckError
-    from ngspice_checks.report import format_table, to_json, write_report
     from ngspice_checks.runner import NgspiceFailed, NgspiceUnavailable
+    from pelcs.check_report import format_table, to_json, write_report
 
     try:
         with _term_as_interrupt():

@@ -226,6 +226,8 @@ def compute(args: argparse.Namespace, setup: dict):
 
 def _sweep(args, setup: dict) -> int:
     """The runs, the files and the summary; the exit status."""
+    from pelcs.sweep_plots import plot_table
+
     out, plot, title = setup["out"], setup["plot"], setup["title"]
     table = compute(args, setup)
     if plot is not None and not len(table):
@@ -234,7 +236,7 @@ def _sweep(args, setup: dict) -> int:
         (out, table.to_csv),
         # (nothing to plot when an interrupt came before any run finished)
         (plot if len(table) else None,
-         lambda path: table.plot(path, title=plot_title(table, title, args.file))),
+         lambda path: plot_table(table, path, title=plot_title(table, title, args.file))),
     ))
     if args.json:
         print(dumps(_results(table, args.file, title, written), indent=1))

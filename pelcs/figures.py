@@ -1,14 +1,26 @@
-"""What a plot's axes need from a run's data: units of probes, a readable time unit, and a
-dense waveform thinned to its visible envelope. Shared by the CLI's plots
-(:mod:`pelcs.plotting`) and the ngspice reports (:mod:`ngspice_checks.report`)."""
+"""What every figure of pelcs shares: a figure on matplotlib's Agg canvas, written whole,
+axis labels with units, a readable time unit, a dense waveform thinned to its visible
+envelope, and titles that fit.
+
+Figures are drawn on the Agg canvas directly (no pyplot: the caller's backend and open figures
+are left alone, and no display is needed). Used by every plot of the CLI and of the Python
+API (:mod:`pelcs.plotting`, :mod:`pelcs.api_plots`, :mod:`pelcs.analysis_plots`,
+:mod:`pelcs.sweep_plots`, :mod:`pelcs.check_report`, the Bode plots of ``pelcs ac``).
+"""
 
 from __future__ import annotations
 
 import math
+import os
+from pathlib import Path
 
 import numpy as np
 
-__all__ = ["axis_label", "envelope", "fit_title", "probe_unit", "time_unit"]
+from lcs.atomic import atomic_path
+from netlist.probes import probe_unit
+
+__all__ = ["axis_label", "envelope", "fit_title", "new_figure", "probe_unit", "save_figure",
+           "time_unit"]
 
 # Above this many points per panel the curve is drawn as its min/max envelope over buckets
 # of samples: a switching ripple of 10^5 points looks the same and draws 10x faster.
@@ -18,10 +30,27 @@ _ENVELOPE_BUCKETS = 4000
 _TIME_UNITS = [(1.0, "s"), (1e-3, "ms"), (1e-6, "µs"), (1e-9, "ns")]
 
 
-def probe_unit(name: str) -> str:
-    """SI unit of a probe: ``"V"`` for ``v(...)``, ``"A"`` for ``i(...)``, else ``""``."""
-    head = name.strip()[:2].lower()
-    return {"v(": "V", "i(": "A"}.get(head, "")
+def new_figure(size: tuple[float, float], fig=None, **kwargs):
+    """``fig`` if given (a matplotlib Figure or SubFigure to draw into), else a new Figure of
+    ``size`` inches with a constrained layout on an Agg canvas; ``kwargs`` go to
+    :class:`~matplotlib.figure.Figure` (``dpi``)."""
+    if fig is not None:
+        return fig
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=size, layout="constrained", **kwargs)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def save_figure(fig, path: str | os.PathLike, dpi: float | None = None) -> Path:
+    """Write ``fig`` to ``path``, whole or not at all (format from the extension; ``dpi``:
+    the figure's own when None); the path written."""
+    out = Path(path)
+    with atomic_path(out) as tmp:
+        fig.savefig(tmp, **({} if dpi is None else {"dpi": dpi}))
+    return out
 
 
 def axis_label(name: str) -> str:

@@ -1,4 +1,4 @@
-"""Present a :class:`~ngspice_checks.compare.Comparison`: text table, plots, Markdown, JSON.
+"""Present a :class:`~ngspice_checks.compare.Comparison`: text table, figure, Markdown, JSON.
 
 :func:`write_report` writes, into one directory, for a netlist ``NAME.cir``:
 
@@ -14,7 +14,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 import os
 from pathlib import Path
@@ -22,27 +21,25 @@ from pathlib import Path
 import numpy as np
 
 from lcs.atomic import atomic_path
+from netlist.probes import probe_unit
+from netlist.units import format_eng
+from ngspice_checks.compare import Comparison
+from pelcs.figures import axis_label, envelope, new_figure, save_figure, time_unit
+from pelcs.jsonout import dumps
 
-from .compare import Comparison
+__all__ = ["comparison_figure", "format_table", "markdown_report", "plot_comparison", "to_json",
+           "verdict_line", "write_report"]
 
-__all__ = ["format_table", "markdown_report", "plot_comparison", "to_json", "write_report"]
 
-
-def _eng(value: float, unit: str = "") -> str:
-    from netlist.units import format_eng
-
+def _eng(value: float | None, unit: str = "") -> str:
+    """``value`` in engineering notation (``"1.5 mV"``), ``"n/a"`` when there is none."""
     if value is None or not math.isfinite(value):
         return "n/a"
     return format_eng(float(value), unit)
 
 
-def _unit(probe: str) -> str:
-    from lcs.axes import probe_unit
-
-    return probe_unit(probe)
-
-
 def _pct(x: float) -> str:
+    """A fraction as a percentage (``"1.25 %"``), ``"n/a"`` when not finite."""
     return "n/a" if not math.isfinite(x) else f"{100 * x:.2f} %"
 
 
@@ -117,6 +114,7 @@ def _devices_line(cmp: Comparison) -> str:
 
 
 def _settings_line(cmp: Comparison) -> str:
+    """ngspice's settings of the comparison: its rung of the ladder and what it set."""
     s = cmp.settings
     line = f"rung {cmp.rung} ({s.name}"
     return line + (f": {s.description})" if s.description else ")")
@@ -152,7 +150,7 @@ def format_table(cmp: Comparison) -> str:
             f"{'diff [tol]':>19} {'ripple pelcs':>12} {'ngspice':>11} {'diff [tol]':>19}  ")
     lines.append(head)
     for p in cmp.probes:
-        u = _unit(p.probe)
+        u = probe_unit(p.probe)
         lines.append(
             f"{p.probe:<12} {_pct(p.nrms):>8} [{_pct(p.nrms_tol):>7}] "
             f"{_eng(p.mean_pelcs, u):>11} {_eng(p.mean_ngspice, u):>11} "
@@ -190,15 +188,13 @@ def format_table(cmp: Comparison) -> str:
 # ------------------------------------------------------------------------------------------
 # figure
 
+_PELCS, _NGSPICE = "#1f77b4", "#d62728"
+
 
 def plot_comparison(cmp: Comparison, path: str | os.PathLike, *, dpi: int = 110,
                     zoom_periods: int = 5) -> Path:
     """Write :func:`comparison_figure` to ``path`` (format from the extension)."""
-    fig = comparison_figure(cmp, dpi=dpi, zoom_periods=zoom_periods)
-    out = Path(path)
-    with atomic_path(out) as tmp:
-        fig.savefig(tmp)
-    return out
+    return save_figure(comparison_figure(cmp, dpi=dpi, zoom_periods=zoom_periods), path)
 
 
 def comparison_figure(cmp: Comparison, *, dpi: int = 110, zoom_periods: int = 5, fig=None):
@@ -221,9 +217,6 @@ def comparison_figure(cmp: Comparison, *, dpi: int = 110, zoom_periods: int = 5,
     -------
     The figure drawn into.
     """
-    from lcs.axes import envelope as _envelope
-    from lcs.axes import time_unit
-
     res, ng = cmp.pelcs_result, cmp.ngspice_result
     if res is None or ng is None:
         raise ValueError("the comparison holds no waveforms (pelcs_result/ngspice_result)")
@@ -236,35 +229,30 @@ def comparison_figure(cmp: Comparison, *, dpi: int = 110, zoom_periods: int = 5,
         z0 = cmp.window[0]
     zscale, zunit = time_unit(z1 - z0)
     rows = max(1, len(cmp.probes))
-    if fig is None:
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-
-        fig = Figure(figsize=(12.5, 1.3 + 2.2 * rows), dpi=dpi, layout="constrained")
-        FigureCanvasAgg(fig)
+    fig = new_figure((12.5, 1.3 + 2.2 * rows), fig, dpi=dpi)
     axes = fig.subplots(rows, 2, squeeze=False, width_ratios=[2.3, 1.4])
     for k, p in enumerate(cmp.probes):
         yp, yn = np.asarray(res[p.probe]), np.asarray(ng.signals[p.ngspice_probe])
-        u = _unit(p.probe)
+        u = probe_unit(p.probe)
         ax = axes[k, 0]
-        tt, yy = _envelope(t_p, yp)
-        ax.plot(tt / scale, yy, color="#1f77b4", lw=0.9, label="pelcs")
-        tt, yy = _envelope(t_n, yn)
-        ax.plot(tt / scale, yy, color="#d62728", lw=0.9, ls="--", label="ngspice")
+        tt, yy = envelope(t_p, yp)
+        ax.plot(tt / scale, yy, color=_PELCS, lw=0.9, label="pelcs")
+        tt, yy = envelope(t_n, yn)
+        ax.plot(tt / scale, yy, color=_NGSPICE, lw=0.9, ls="--", label="ngspice")
         ax.axvspan(cmp.window[0] / scale, cmp.window[1] / scale, color="0.5", alpha=0.1, lw=0)
         ax.set_xlim(cmp.span[0] / scale, cmp.span[1] / scale)
-        ax.set_ylabel(f"{p.probe} [{u}]" if u else p.probe)
+        ax.set_ylabel(axis_label(p.probe))
         ax.grid(True, color="0.9", lw=0.6)
         color = "0.3" if p.ok else "red"
         ax.set_title(f"NRMS {_pct(p.nrms)} (tol {_pct(p.nrms_tol)})", loc="right",
                      fontsize=8, color=color, pad=3)
         az = axes[k, 1]
-        for t, y, style in ((t_p, yp, dict(color="#1f77b4", lw=1.1)),
-                            (t_n, yn, dict(color="#d62728", lw=1.1, ls="--"))):
+        for t, y, style in ((t_p, yp, dict(color=_PELCS, lw=1.1)),
+                            (t_n, yn, dict(color=_NGSPICE, lw=1.1, ls="--"))):
             sel = (t >= z0) & (t <= z1)
             az.plot(t[sel] / zscale, y[sel], **style)
-        az.axhline(p.mean_pelcs, color="#1f77b4", lw=0.7, ls=":")
-        az.axhline(p.mean_ngspice, color="#d62728", lw=0.7, ls=":")
+        az.axhline(p.mean_pelcs, color=_PELCS, lw=0.7, ls=":")
+        az.axhline(p.mean_ngspice, color=_NGSPICE, lw=0.7, ls=":")
         az.set_xlim(z0 / zscale, z1 / zscale)
         az.grid(True, color="0.9", lw=0.6)
         az.tick_params(labelsize=8)
@@ -344,7 +332,7 @@ def markdown_report(cmp: Comparison, figure: str | None = None) -> str:
             "ripple ngspice | diff | |",
             "|---|---|---|---|---|---|---|---|---|---|"]
     for p in cmp.probes:
-        u = _unit(p.probe)
+        u = probe_unit(p.probe)
         out.append(
             f"| `{p.probe}` | `{p.ngspice_probe}` | {_pct(p.nrms)} [{_pct(p.nrms_tol)}] | "
             f"{_eng(p.mean_pelcs, u)} | {_eng(p.mean_ngspice, u)} | "
@@ -381,7 +369,7 @@ def markdown_report(cmp: Comparison, figure: str | None = None) -> str:
 
 def write_report(cmp: Comparison, directory: str | os.PathLike, *, plot: bool = True
                  ) -> list[Path]:
-    """Write NAME.md, NAME.json, NAME.png and NAME.ngspice.cir into ``directory``.
+    """Write NAME.md, NAME.json, NAME.png (``plot``) and NAME.ngspice.cir into ``directory``.
 
     Returns
     -------
@@ -392,13 +380,13 @@ def write_report(cmp: Comparison, directory: str | os.PathLike, *, plot: bool = 
     d.mkdir(parents=True, exist_ok=True)
     stem = Path(cmp.file).stem if cmp.file and cmp.file != "<string>" else "check"
     written = []
-    figure = None
+    png = None
     if plot and cmp.pelcs_result is not None and cmp.ngspice_result is not None:
-        figure = plot_comparison(cmp, d / f"{stem}.png")
-        written.append(figure)
+        png = plot_comparison(cmp, d / f"{stem}.png")
+        written.append(png)
     md = d / f"{stem}.md"
     with atomic_path(md) as tmp:
-        tmp.write_text(markdown_report(cmp, figure.name if figure else None))
+        tmp.write_text(markdown_report(cmp, png.name if png else None))
     js = d / f"{stem}.json"
     with atomic_path(js) as tmp:
         tmp.write_text(to_json(cmp) + "\n")
@@ -412,25 +400,6 @@ def write_report(cmp: Comparison, directory: str | os.PathLike, *, plot: bool = 
 
 
 def to_json(cmp: Comparison) -> str:
-    """:meth:`Comparison.to_dict` as JSON text (NaN written as null)."""
-    return json.dumps(_finite(cmp.to_dict()), indent=2, default=_json_default,
-                      allow_nan=False)
-
-
-def _json_default(obj):
-    if isinstance(obj, (np.floating, np.integer)):
-        return obj.item()
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    return str(obj)
-
-
-def _finite(obj):
-    """NaN and infinities as None (JSON has no NaN); containers walked recursively."""
-    if isinstance(obj, dict):
-        return {k: _finite(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_finite(v) for v in obj]
-    if isinstance(obj, (float, np.floating)) and not math.isfinite(float(obj)):
-        return None
-    return obj
+    """:meth:`Comparison.to_dict` as strict JSON text (:func:`pelcs.jsonout.dumps`: NaN and
+    infinities as null; anything else JSON has no type for as its text)."""
+    return dumps(cmp.to_dict(), indent=2, default=str)
