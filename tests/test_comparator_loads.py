@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_netlist_spellings import ngspice_wrdata
+from ngspice_helpers import ngspice_wrdata
 
 from netlist.circuit import Resistor, Switch, Vcvs, VoltageSource
 from netlist.parser import parse_string

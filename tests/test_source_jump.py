@@ -144,7 +144,7 @@ def _enabled_instants() -> np.ndarray:
 
 
 def test_a_sawtooth_gate_through_an_enable_switch_against_ngspice(tmp_path, ngspice):
-    from test_netlist_spellings import ngspice_wrdata
+    from ngspice_helpers import ngspice_wrdata
 
     from pelcs.api import simulate
 
