@@ -61,3 +61,19 @@ def test_sliced_events_count_what_precedes_them():
     assert ev[1:].count == 7 and ev[:2].count == 6
     assert "the last 3 of 7" in repr(ev)
     assert ev != Events(ev.t, ev.index, ev.modes)
+
+
+def test_the_last_sliding_intervals_kept_are_the_full_runs_last(monkeypatch):
+    # The sliding-mode boost with a square current reference (1 A and 3 A, 2 ms period):
+    # the surface is left at every step of the reference and reached again, two sliding
+    # intervals a period, the last one still open at the end.
+    from pathlib import Path
+
+    text = Path("tests/netlists/closed_loop/boost_smc.cir").read_text().replace(
+        "Viref ref 0 DC {-iref}", "Viref ref 0 PULSE(-1 -3 2m 1u 1u 1m 2m)")
+    whole = pelcs.simulate(text, check=False)
+    assert len(whole.sliding) > 20 and whole.sliding[-1][2] is None
+    monkeypatch.setattr(recorder, "EVENT_BLOCK", 3)
+    tail = pelcs.simulate(text, check=False, keep_events=4)
+    assert tail.sliding == whole.sliding[-4:]
+    assert tail.events == whole.events[len(whole.events) - 4:]

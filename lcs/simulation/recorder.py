@@ -93,6 +93,11 @@ class Recorder:
         # records), and the key of the last record drained.
         self._ev_t, self._ev_ix, self._ev_n = np.empty(0), np.empty(0, np.int32), 0
         self._slide_parts: list[tuple[np.ndarray, np.ndarray]] = []
+        self._slide_records = 0
+        # (with keep_events: the sliding records paired as they come, the last intervals
+        # kept: [(switch, t_start, t_end)], and those still open by switch)
+        self._slides: list[tuple[int, float, float]] = []
+        self._slide_open: dict[int, float] = {}
         self._key_ids: dict[int, int] = {}
         self._last_key: np.ndarray | None = None
         self.keep_events = keep_events
@@ -199,8 +204,25 @@ class Recorder:
         slide = info >= EV_SLIDE_START
         if slide.any():
             self._slide_parts.append((t[slide].copy(), info[slide].copy()))
+            self._slide_records += int(slide.sum())
+            if self.keep_events is not None and self._slide_records > 2 * self.keep_events:
+                self._pair_slides()
         self._last_key = key[n - 1].copy()
         self.evpos = 0
+
+    def _pair_slides(self) -> None:
+        """The sliding records held paired into intervals, of which the last
+        ``keep_events`` are kept (a run that keeps its last switchings keeps its last
+        sliding intervals)."""
+        for st, si in self._slide_parts:
+            for tt, i in zip(st.tolist(), si.tolist(), strict=True):
+                if i >= EV_SLIDE_END:
+                    sw = i - EV_SLIDE_END
+                    self._slides.append((sw, self._slide_open.pop(sw, tt), tt))
+                else:
+                    self._slide_open[i - EV_SLIDE_START] = tt
+        del self._slides[:-self.keep_events]
+        self._slide_parts, self._slide_records = [], 0
 
     def _drop_front(self, n: int) -> None:
         """The first ``n`` compacted switchings dropped (counted, their modes remembered)."""
@@ -283,8 +305,8 @@ class Recorder:
         for md in used:
             if md not in visited:
                 visited.append(md)
-        sliding = []
-        open_slide: dict[int, float] = {}
+        sliding = [(switch_names[sw], t0, t1) for sw, t0, t1 in self._slides if t1 <= t_last]
+        open_slide = dict(self._slide_open)
         for st, si in self._slide_parts:
             for tt, i in zip(st.tolist(), si.tolist(), strict=True):
                 if tt > t_last:
@@ -296,4 +318,6 @@ class Recorder:
                     open_slide[i - EV_SLIDE_START] = tt
         for i, t0 in open_slide.items():
             sliding.append((switch_names[i], t0, None))
+        if self.keep_events is not None:
+            sliding = sliding[-self.keep_events:]
         return events, sliding, visited
