@@ -5,6 +5,7 @@ run holds neither its steps nor its output rows."""
 from __future__ import annotations
 
 import os
+import signal
 from pathlib import Path
 
 import numpy as np
@@ -172,3 +173,34 @@ def test_the_run_size_check_counts_a_streamed_run_as_a_block(monkeypatch):
     with pytest.raises(NetlistError, match="memory"):
         check_run_size(setup, 2)
     check_run_size(setup, 2, streamed=True)
+
+
+def test_the_growth_note_of_a_run_stopped_early_is_the_held_ones(tmp_path, monkeypatch):
+    # The growing tunnel circuit stopped by an interrupt at about 1 ms of 5 ms: the note's
+    # reference is the largest magnitude in the first tenth of the rows made (0.1 ms), not
+    # of the asked run (0.5 ms, a reference e^10 larger: a factor 1.05e9 was printed
+    # instead of 8.22e14, and an earlier stop lost the note)
+    from lcs import interrupt
+
+    def stopped(rows_to):
+        calls = [0]
+
+        def requested():
+            calls[0] += 1
+            return signal.SIGINT if calls[0] > 30 else None
+
+        monkeypatch.setattr(interrupt, "requested", requested)
+        with pytest.warns(UserWarning):
+            setup = transient_setup(parse_file(TUNNEL), tstop=5e-3, step=1e-9)
+        return run_setup(setup, rows_to=rows_to, output_step="tran")
+
+    held = stopped(None)
+    stream = open_stream(tmp_path / "tunnel.npz")
+    streamed = stopped(stream)
+    stream.close(streamed)
+    assert held.error.kind == streamed.error.kind == "interrupted"
+    assert streamed.stats.points_streamed > 0 and held.t[-1] == streamed.t[-1] < 2e-3
+    note = [n for n in held.notes if "grew by a factor" in n]
+    assert note and note == [n for n in streamed.notes if "grew by a factor" in n]
+    with np.load(tmp_path / "tunnel.npz") as data:
+        assert note[0] in data["notes"].tolist()

@@ -35,15 +35,25 @@ def state_growth(result: SimulationResult) -> str | None:
 
 class GrowthWatch:
     """A row stream (:class:`lcs.simulation.driver.RowStream`) passed through, keeping what
-    :func:`state_growth` reads of the rows that are not held: the largest magnitude in the
-    first tenth of the run (up to ``t_stop``, s) and the number of rows."""
+    :func:`state_growth` reads of the rows that are not held: the largest magnitude up to
+    each row of the first tenth of the run, and the number of rows.
+
+    The first tenth is that of the rows the run made (up to its last row), as
+    :func:`state_growth` reads it: a run that fails or is interrupted ends before
+    ``t_stop``, and its reference is then over an earlier stretch. So the running largest
+    magnitude is kept where it grows (a staircase of instants and values) over the rows
+    within the first tenth of ``[t0, t_stop]`` (the longest the reference can span), and
+    read at the end at the run's own first tenth.
+    """
 
     def __init__(self, stream, t_stop: float):
         self.stream = stream
         self.t_stop = float(t_stop)
-        self.ref = 0.0
         self.rows = 0
         self.t0 = np.nan
+        self._peak = -np.inf  # (the largest magnitude so far, over the rows kept below)
+        self._t: list[np.ndarray] = []  # (where it grew: the row's instant, s)
+        self._m: list[np.ndarray] = []  # (and its value then)
 
     def open(self, names: tuple[str, ...]) -> None:
         self.stream.open(names)
@@ -52,20 +62,41 @@ class GrowthWatch:
         if not self.rows and t.size:
             self.t0 = float(t[0])
         if t.size and y.shape[1]:
-            end = self.t0 + 0.1 * (self.t_stop - self.t0)
-            first = max(1, int(t.searchsorted(end, side="right"))) if not self.rows \
-                else int(t.searchsorted(end, side="right"))
-            if first:
-                self.ref = max(self.ref, float(np.abs(y[:first]).max()))
+            # (the rows up to the end of the first tenth of the asked run, with a margin
+            # for round-off on the last instant)
+            end = self.t0 + 0.1 * (self.t_stop - self.t0) * (1 + 1e-6)
+            n = int(t.searchsorted(end, side="right"))
+            if not self.rows:
+                n = max(1, n)
+            if n:
+                m = np.maximum.accumulate(
+                    np.concatenate(([self._peak], np.abs(y[:n]).max(axis=1))))
+                grew = np.flatnonzero(m[1:] != m[:-1])  # (NaN included: it propagates)
+                if not self.rows:
+                    grew = np.union1d([0], grew)  # (the first row is the reference at least)
+                if grew.size:
+                    self._t.append(np.array(t[:n][grew], dtype=float))
+                    self._m.append(m[1:][grew])
+                self._peak = m[-1]
         self.rows += t.size
         self.stream.write(t, y)
+
+    def reference(self, t_last: float) -> float:
+        """The largest magnitude over the rows in the first tenth of ``[t0, t_last]`` (the
+        first row at least), as :func:`state_growth` takes it."""
+        if not self._t:
+            return 0.0
+        t = np.concatenate(self._t)
+        m = np.concatenate(self._m)
+        k = max(1, int(t.searchsorted(self.t0 + 0.1 * (t_last - self.t0), side="right")))
+        return float(m[k - 1])
 
     def note(self, result: SimulationResult) -> str | None:
         """:func:`state_growth` of the streamed run (its last row is ``result``'s)."""
         y = np.asarray(result.y, dtype=float)
         if self.rows < 3 or y.ndim != 2 or not len(y) or not y.shape[1]:
             return None
-        return _growth_note(self.ref, y[-1], result.names)
+        return _growth_note(self.reference(float(result.t[-1])), y[-1], result.names)
 
 
 def _growth_note(ref: float, last: np.ndarray, names) -> str | None:
