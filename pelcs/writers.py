@@ -231,10 +231,14 @@ class ResultStream:
         OSError
             A write that failed on the way (the target is left as it was).
         """
-        if self._error is None:
-            self._guard(self._flush)
-        if self._error is None:
-            self._guard(lambda: self._finish(result))
+        try:
+            if self._error is None:
+                self._guard(self._flush)
+            if self._error is None:
+                self._guard(lambda: self._finish(result))
+        except BaseException:  # (a second Ctrl-C while the file is finished: none left)
+            self.abort()
+            raise
         if self._error is not None:
             raise self._error
         self._target.__exit__(None, None, None)

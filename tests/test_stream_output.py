@@ -204,3 +204,20 @@ def test_the_growth_note_of_a_run_stopped_early_is_the_held_ones(tmp_path, monke
     assert note and note == [n for n in streamed.notes if "grew by a factor" in n]
     with np.load(tmp_path / "tunnel.npz") as data:
         assert note[0] in data["notes"].tolist()
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".npz", ".parquet"])
+def test_a_stream_stopped_while_it_finishes_leaves_no_file(suffix, tmp_path, monkeypatch):
+    # a second Ctrl-C while the file is completed (the NPZ copies every row once more):
+    # the temporary file and the NPZ's raw rows were left beside the target
+    stream = open_stream(tmp_path / f"run{suffix}")
+    stream.open(("v(a)",))
+    stream.write(np.arange(3.0), np.ones((3, 1)))
+
+    def stop(result):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(stream, "_finish", stop)
+    with pytest.raises(KeyboardInterrupt):
+        stream.close(None)
+    assert not list(tmp_path.iterdir())
