@@ -373,13 +373,26 @@ class _NpzStream(ResultStream):
 
 
 class _ParquetStream(ResultStream):
+    """The rows go to a Parquet file beside the target as they come, a row group at a time;
+    :meth:`close` copies its row groups into the target under the schema that carries the
+    notes and the error (known only then), as :func:`write_parquet` writes them: readers
+    take the key-value metadata from that schema (``pq.read_table(path).schema.metadata``),
+    not from the file's footer alone."""
+
     def _start(self) -> None:
         import pyarrow as pa
         import pyarrow.parquet as pq
 
         self._pa = pa
-        schema = pa.schema([(name, pa.float64()) for name in ("time", *self.names)])
-        self._writer = pq.ParquetWriter(self._tmp, schema, compression="zstd")
+        self._schema = pa.schema([(name, pa.float64()) for name in ("time", *self.names)])
+        if self._tmp == self.path:  # (a device written in place: the rows go elsewhere)
+            import tempfile
+
+            self._rawdir = Path(tempfile.mkdtemp(prefix="pelcs-parquet-"))
+            self._raw = self._rawdir / "rows.parquet"
+        else:
+            self._raw = self._tmp.with_name(self._tmp.name + ".rows")
+        self._writer = pq.ParquetWriter(self._raw, self._schema, compression="zstd")
 
     def _flush(self) -> None:
         if self._held:
@@ -387,16 +400,33 @@ class _ParquetStream(ResultStream):
             pa = self._pa
             self._writer.write_table(pa.table(
                 {name: pa.array(np.ascontiguousarray(data[:, j]))
-                 for j, name in enumerate(("time", *self.names))}))
+                 for j, name in enumerate(("time", *self.names))}, schema=self._schema))
 
     def _finish(self, result: SimulationResult) -> None:
-        self._writer.add_key_value_metadata(_parquet_metadata(result))
+        import pyarrow.parquet as pq
+
         self._writer.close()
+        schema = self._schema.with_metadata(_parquet_metadata(result))
+        rows = pq.ParquetFile(self._raw)
+        with pq.ParquetWriter(self._tmp, schema, compression="zstd") as out:
+            for i in range(rows.num_row_groups):
+                out.write_table(rows.read_row_group(i).replace_schema_metadata(
+                    schema.metadata))
+            if not rows.num_row_groups:
+                out.write_table(schema.empty_table())
+        rows.close()
+        self._discard()
 
     def _discard(self) -> None:
         writer = getattr(self, "_writer", None)
         if writer is not None and writer.is_open:
             writer.close()
+        raw = getattr(self, "_raw", None)
+        if raw is not None:
+            raw.unlink(missing_ok=True)
+        if getattr(self, "_rawdir", None) is not None:
+            self._rawdir.rmdir()
+            self._rawdir = None
 
 
 def open_stream(path: str | os.PathLike) -> ResultStream:

@@ -76,6 +76,8 @@ def test_the_streamed_npz_and_parquet_are_the_held_results(path, kw, tmp_path, m
     a, b, held, _ = _both(path, tmp_path, ".parquet", monkeypatch, **kw)
     ta, tb = pq.read_table(a), pq.read_table(b)
     assert ta.equals(tb)
+    # (the notes and the error where readers look: the schema's metadata; it was None)
+    assert tb.schema.metadata == ta.schema.metadata
     meta = pq.read_metadata(b).metadata
     assert meta[b"pelcs.notes"] == ta.schema.metadata[b"pelcs.notes"]
     assert not list(tmp_path.glob(".*"))
