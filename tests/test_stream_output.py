@@ -223,3 +223,19 @@ def test_a_stream_stopped_while_it_finishes_leaves_no_file(suffix, tmp_path, mon
     with pytest.raises(KeyboardInterrupt):
         stream.close(None)
     assert not list(tmp_path.iterdir())
+
+
+def test_a_streamed_run_of_every_step_is_held_to_a_block_by_the_size_check(
+        tmp_path, capsys, monkeypatch):
+    # 2.5e5 points of 2 probes held: 12 MB; streamed, a block of rows (6.3 MB). The run's
+    # own check counted the held points and refused it under a 10 MB limit
+    monkeypatch.setenv("PELCS_MAX_MEMORY", "10M")
+    out = tmp_path / "run.npz"
+    assert main(["simulate", BUCK, "--tstop", "50m", "--all-steps", "-o", str(out),
+                 "--no-progress"]) == 0, capsys.readouterr().err
+    with np.load(out) as data:
+        assert len(data["t"]) > 250_000
+    # (held, for a figure: refused, naming the limit)
+    assert main(["simulate", BUCK, "--tstop", "50m", "--all-steps", "-o", str(out),
+                 "--plot", str(tmp_path / "run.png"), "--no-progress"]) == 2
+    assert "more than the limit of 10 MB" in capsys.readouterr().err

@@ -628,7 +628,7 @@ def run_setup(
     else:
         rows_to = None
     check_run_size(setup, len(setup.system.states) if probes is None else len(probes), every,
-                   streamed)
+                   streamed, streamed=rows_to is not None)
     jump = _JumpRecorder(setup.energy)
     theta_note = None
     if method == "moreau":
