@@ -218,3 +218,96 @@ def test_a_gated_sine_jumps_over_the_threshold_and_crosses_back_by_root_finding(
     assert [m for _, m in ev] == [(True, True), (True, False), (True, True), (True, False)]
     assert np.allclose([t for t, _ in ev], [1.1, 1 + down, 2 + up, 2 + down], rtol=0,
                        atol=1e-9)
+
+
+def _cli(tmp_path, deck: str, *args: str) -> tuple[int, str]:
+    import contextlib
+    import io
+
+    from pelcs.cli import main
+
+    path = tmp_path / "deck.cir"
+    path.write_text(deck)
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(buf):
+        code = main(["simulate", str(path), "--no-progress", *args])
+    return code, buf.getvalue()
+
+
+# Loops with no consistent state from the start. Both ran with exit 0 and values that
+# contradict their own switches: the planner's fixed point of the initial states did not
+# settle, and its last pass was run as it was (B1#s on with v(b) = 0 V; S2 on with v(a) = 0 V).
+B_RING = """two comparators in an inverting loop with no delay
+B1 a 0 V = V(b) > 0.5 ? 0 : 1
+B2 b 0 V = V(a) > 0.5 ? 1 : 0
+R1 a 0 1k
+R2 b 0 1k
+.tran 10n 10u
+.end
+"""
+
+
+@pytest.mark.parametrize(("deck", "name"), [(B_RING, "switch B1#s"),
+                                            (RING.replace("PULSE(0 1 1u 1n 1n 5u 10u)", "DC 1"),
+                                             "switch S2")])
+def test_a_loop_with_no_consistent_start_is_refused_by_name(tmp_path, deck, name):
+    code, out = _cli(tmp_path, deck)
+    assert code == 2, out
+    assert f"not supported: {name}: no consistent state at the start (t = 0 s)" in out
+    assert "final values" not in out and "Traceback" not in out
+
+
+# A comparator reading its own output through a divider with the input: for 0 < v(in) < 1
+# no state is consistent (off: v(m) = (1 + v(in))/2 > 0.5 turns it on; on: v(m) = v(in)/2
+# < 0.5 turns it off). With a PWL input the run went on with the switch off while v(m) rose
+# to 0.86 V (v(a) = 1 V where the B says 0); with a sine, brentq's "f(a) and f(b) must have
+# different signs" came out as "cannot simulate", hinting at extreme element values.
+SELF = """comparator reading its own output with no delay
+Vin in 0 {wave}
+B1 a 0 V = V(m) > 0.5 ? 0 : 1
+R1 a m 1k
+R2 m in 1k
+.tran 10n 20u
+.end
+"""
+
+
+@pytest.mark.parametrize("wave", ["SIN(0 1 100k)",
+                                  "PWL(0 0 2.5u 1 7.5u -1 10u 0 12.5u 1 17.5u -1 20u 0)"])
+def test_a_comparator_that_switches_itself_is_refused_by_name(tmp_path, wave):
+    code, out = _cli(tmp_path, SELF.format(wave=wave))
+    assert code == 2, out
+    assert ("not supported: switch B1#s switches itself at t = 0 s without settling") in out
+    assert "f(a) and f(b)" not in out and "Traceback" not in out
+
+
+# A latch of two comparators, set by a pulse through a summing E: consistent states exist
+# (both off, both on), and the start from the netlist's states (off) is one: it runs, and
+# sets at the pulse's crossing of 0.5 V (2 us + 0.5 ns), as ngspice does
+LATCH = """two comparators in a latch with no delay, set by a pulse
+Vset s 0 PULSE(0 1 2u 1n 1n 1u 20u)
+B1 a 0 V = V(x) > 0.5 ? 1 : 0
+E1 x 0 VALUE = {V(b) + V(s)}
+B2 b 0 V = V(a) > 0.5 ? 1 : 0
+R1 a 0 1k
+R2 b 0 1k
+.tran 10n 10u 0 10n
+.end
+"""
+
+
+def test_a_latch_of_comparators_still_runs_against_ngspice(tmp_path, ngspice):
+    from ngspice_helpers import ngspice_wrdata
+
+    from pelcs.api import simulate
+
+    res = simulate(LATCH, probes=["v(a)", "v(b)"])
+    assert res.error is None
+    assert [(pytest.approx(t, abs=1e-15), m) for t, m in res.events] == [(2.0005e-6,
+                                                                          (True, True))]
+    ng = ngspice_wrdata(LATCH, ["v(a)", "v(b)"], tmp_path)
+    t = ng[:, 0]
+    away = np.abs(t - 2.0005e-6) > 20e-9
+    for j, p in enumerate(["v(a)", "v(b)"]):
+        mine = np.interp(t, res.t, res[p])
+        assert np.max(np.abs(mine[away] - ng[away, 1 + 2 * j])) < 1e-6

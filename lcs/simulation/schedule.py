@@ -22,9 +22,10 @@ from ..arrays import unique_sorted
 from ..bits import from_words, to_words, words
 from ..model import ModeKey, SwitchedLCS
 from .codes import OP_REARM, OP_SET  # noqa: F401  (operations of known switchings)
-from .inputs import InputFunction, collect_breakpoints, merge_close
+from .inputs import MERGE_FRACTION, InputFunction, collect_breakpoints, evaluate_inputs, merge_close
 from .problem import Problem, mode_tuple
-from .source_switching import source_switch_events
+from .source_general import check_start
+from .source_switching import _ControlMaps, source_switch_events
 from .switches import SwitchPlan
 
 
@@ -183,6 +184,8 @@ def _plan_part(system, inputs, plan, a, c, first, h, merge, user_bps, save_at, g
         mode_src, (src_t, src_k) = source_switch_events(system, inputs, a, c, bps, h,
                                                         which=plan.source, base=guess,
                                                         maps_out=src_maps, as_arrays=True)
+        if plan.source:
+            _check_start(system, inputs, plan, a, h, tuple(mode_src), src_maps)
     else:
         mode_src, src_t, src_k = (), np.empty(0), np.empty((0, 1), np.int64)
     Wk = words(k)
@@ -198,6 +201,14 @@ def _plan_part(system, inputs, plan, a, c, first, h, merge, user_bps, save_at, g
     order = np.lexsort((st_op, st_t))
     known = KnownSwitchings(st_t[order], st_op[order], st_a[order], st_b[order])
     return bps, known, tuple(mode_src)
+
+
+def _check_start(system, inputs, plan, a: float, h: float, mode: tuple, src_maps) -> None:
+    """The source-driven switches' states at ``a`` agree with their controls there
+    (:func:`~lcs.simulation.source_general.check_start`)."""
+    rows = _ControlMaps(system, src_maps, frozenset(plan.source)).rows(mode)
+    u = evaluate_inputs(inputs, np.array([a, a + MERGE_FRACTION * h]), +1)
+    check_start(system.switches, plan.source, rows, u[0], u[1], mode, a)
 
 
 def _boundary(system, inputs, plan, part, h, guess, src_maps) -> float | None:

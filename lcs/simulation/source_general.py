@@ -29,11 +29,12 @@ from .switch_bands import (
     IN,
     SUB_OFF,
     SUB_ON,
+    band_rule,
     enter,
     sub_on,
 )
 
-__all__ = ["first_crossing", "general_events"]
+__all__ = ["check_start", "first_crossing", "general_events"]
 
 # A control is taken to have jumped over its band only when it lies beyond the band's far
 # edge by more than this fraction of its magnitude (round-off is no jump). A switch that has
@@ -57,7 +58,14 @@ def first_crossing(fun, sa: float, sb: float, ca: float, cb: float, thr: float, 
     if beyond(ca) and not skip_start:
         return sa
     if linear:
-        if not beyond(cb) or cb == ca:
+        if not beyond(cb):
+            return None
+        if skip_start and (cb > ca if up else cb < ca) and beyond(ca):
+            # beyond at sa and moving further beyond: not round-off on the threshold but
+            # the control's value after the move (a switch whose move changed its own
+            # control, as a comparator reading its own output): it moves again at once
+            return sa
+        if cb == ca:
             return None
         # c is linear on [sa, sb]: exact crossing of the threshold.
         t = sa + (thr - ca) / (cb - ca) * (sb - sa)
@@ -72,6 +80,11 @@ def first_crossing(fun, sa: float, sb: float, ca: float, cb: float, thr: float, 
     cs[0], cs[-1] = ca, cb
     hit = np.flatnonzero(cs > thr if up else cs < thr)
     if skip_start:
+        if hit.size > 1 and hit[0] == 0 and hit[1] == 1:
+            # beyond at sa and still beyond a sample later: the control's value after the
+            # move, not round-off on the threshold (see the linear case); there is no sign
+            # change to refine between the two
+            return sa
         hit = hit[hit > 0]
     if hit.size == 0:
         return None
@@ -165,12 +178,65 @@ def _no_settling(sw, modes, t: float) -> NotImplementedError:
     """The error of switches that keep switching each other at one instant ``t`` (s):
     ``modes`` are the modes met there."""
     names = [sw[i].name for i in range(len(sw)) if len({m[i] for m in modes}) > 1]
+    if len(names) == 1:
+        return NotImplementedError(
+            f"switch {names[0]} switches itself at t = {t:.9g} s without settling: its "
+            "control, driven by sources through its own state, has no consistent state there "
+            "(a comparator reading its own output with no delay oscillates in zero time); "
+            "put a delay (an RC) or hysteresis (VH > 0) in the loop")
     return NotImplementedError(
-        f"switch{'es' if len(names) > 1 else ''} {', '.join(names)} switch each other at "
+        f"switches {', '.join(names)} switch each other at "
         f"t = {t:.9g} s without settling: their controls, driven by sources through each "
         "other's states, have no consistent state there (a loop of ideal switches with no "
         "delay oscillates in zero time); put a delay (an RC) or hysteresis (VH > 0) in the "
         "loop")
+
+
+def check_start(sw: Sequence, active, rows: np.ndarray, u_at: np.ndarray, u_after: np.ndarray,
+                mode: tuple, t: float) -> None:
+    """Refuse a start whose source-driven switch states disagree with their own controls.
+
+    The planner starts from the states its controls give in the initial states, iterated to
+    a fixed point; switches that switch each other with no delay reach none (each pass
+    changes another), and the states of the last pass would then be run as they are, each
+    contradicting a control (a switch on whose control is below its band).
+
+    Parameters
+    ----------
+    sw : sequence of SwitchControl
+    active : iterable of int
+        The source-driven switches.
+    rows : ndarray, shape (k, p)
+        The controls' rows in ``mode``.
+    u_at, u_after : ndarray, shape (p,)
+        The inputs at ``t`` (right limits) and a merge tolerance later: a switch that the
+        planner moves within that tolerance of the start is taken in its moved state.
+    mode : tuple of bool
+    t : float
+        The start, s.
+
+    Raises
+    ------
+    NotImplementedError
+        Naming the switches whose state contradicts their control at ``t`` and after.
+    """
+    def against(i: int, c: float) -> bool:
+        lo, hi, _ = band_rule(sw[i])
+        margin = JUMP_MARGIN * max(abs(c), abs(lo), abs(hi))
+        return bool(mode[i] and c < lo - margin or not mode[i] and c > hi + margin)
+
+    c_at, c_after = rows @ u_at, rows @ u_after
+    bad = [i for i in sorted(active)
+           if against(i, float(c_at[i])) and against(i, float(c_after[i]))]
+    if bad:
+        names = ", ".join(sw[i].name for i in bad)
+        raise NotImplementedError(
+            f"switch{'es' if len(bad) > 1 else ''} {names}: no consistent state at the start "
+            f"(t = {t:.9g} s): from their initial states the source-driven switches, whose "
+            "controls depend on each other's states with no delay, switch each other without "
+            f"settling, and {names} would be run against {'their' if len(bad) > 1 else 'its'} "
+            "control (a loop of ideal switches or comparators with no delay); put a delay (an "
+            "RC) or hysteresis (VH > 0) in the loop")
 
 
 def general_events(sw: Sequence, active: frozenset, rows_of: Callable, inputs: Sequence,
