@@ -253,7 +253,7 @@ R2 b 0 1k
 def test_a_loop_with_no_consistent_start_is_refused_by_name(tmp_path, deck, name):
     code, out = _cli(tmp_path, deck)
     assert code == 2, out
-    assert f"not supported: {name}: no consistent state at the start (t = 0 s)" in out
+    assert f"not supported: {name}: the start does not settle (t = 0 s)" in out
     assert "final values" not in out and "Traceback" not in out
 
 
@@ -311,3 +311,16 @@ def test_a_latch_of_comparators_still_runs_against_ngspice(tmp_path, ngspice):
     for j, p in enumerate(["v(a)", "v(b)"]):
         mine = np.interp(t, res.t, res[p])
         assert np.max(np.abs(mine[away] - ng[away, 1 + 2 * j])) < 1e-6
+
+
+def test_a_latch_started_against_itself_is_refused_without_a_false_claim(tmp_path):
+    # S1 ON and S2 OFF in the netlist: each contradicts the other's control. Consistent states
+    # exist (both off: ngspice's, both on), which the switches moving together do not reach:
+    # the refusal must not say there are none (it said "have no consistent state there")
+    deck = RING.replace("Ven en 0 PULSE(0 1 1u 1n 1n 5u 10u)", "").replace(
+        "S1 u a en b SWA", "S1 u a b 0 SWA ON").replace("S2 u b a 0 SWA", "S2 u b a 0 SWA OFF")
+    code, out = _cli(tmp_path, deck)
+    assert code == 2, out
+    assert "switches S1, S2 switch each other at t = 0 s without settling" in out
+    assert "whose consistent states the switches moving together do not reach" in out
+    assert "have no consistent state" not in out

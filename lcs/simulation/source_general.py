@@ -187,9 +187,10 @@ def _no_settling(sw, modes, t: float) -> NotImplementedError:
     return NotImplementedError(
         f"switches {', '.join(names)} switch each other at "
         f"t = {t:.9g} s without settling: their controls, driven by sources through each "
-        "other's states, have no consistent state there (a loop of ideal switches with no "
-        "delay oscillates in zero time); put a delay (an RC) or hysteresis (VH > 0) in the "
-        "loop")
+        "other's states, move them back and forth in zero time (a loop of ideal switches "
+        "with no delay that has no consistent state there, or whose consistent states the "
+        "switches moving together do not reach); put a delay (an RC) or hysteresis (VH > 0) "
+        "in the loop")
 
 
 def check_start(sw: Sequence, active, rows: np.ndarray, u_at: np.ndarray, u_after: np.ndarray,
@@ -230,13 +231,14 @@ def check_start(sw: Sequence, active, rows: np.ndarray, u_at: np.ndarray, u_afte
            if against(i, float(c_at[i])) and against(i, float(c_after[i]))]
     if bad:
         names = ", ".join(sw[i].name for i in bad)
+        its = "their" if len(bad) > 1 else "its"
         raise NotImplementedError(
-            f"switch{'es' if len(bad) > 1 else ''} {names}: no consistent state at the start "
-            f"(t = {t:.9g} s): from their initial states the source-driven switches, whose "
-            "controls depend on each other's states with no delay, switch each other without "
-            f"settling, and {names} would be run against {'their' if len(bad) > 1 else 'its'} "
-            "control (a loop of ideal switches or comparators with no delay); put a delay (an "
-            "RC) or hysteresis (VH > 0) in the loop")
+            f"switch{'es' if len(bad) > 1 else ''} {names}: the start does not settle "
+            f"(t = {t:.9g} s): the source-driven switches, whose controls depend on each "
+            "other's states with no delay, do not settle from their initial states, and "
+            f"{names} would be run against {its} control (a loop of ideal switches or "
+            "comparators with no delay); put a delay (an RC) or hysteresis (VH > 0) in the "
+            "loop, or give its switches initial states (ON/OFF) that agree")
 
 
 def general_events(sw: Sequence, active: frozenset, rows_of: Callable, inputs: Sequence,
