@@ -73,7 +73,9 @@ class GrowthWatch:
                     np.concatenate(([self._peak], np.abs(y[:n]).max(axis=1))))
                 grew = np.flatnonzero(m[1:] != m[:-1])  # (NaN included: it propagates)
                 if not self.rows:
-                    grew = np.union1d([0], grew)  # (the first row is the reference at least)
+                    # (the first row is the reference at least; np.union1d would import
+                    # numpy.ma, which the smallest command does without)
+                    grew = np.concatenate(([0], grew[grew > 0]))
                 if grew.size:
                     self._t.append(np.array(t[:n][grew], dtype=float))
                     self._m.append(m[1:][grew])
