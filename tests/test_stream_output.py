@@ -239,3 +239,10 @@ def test_a_streamed_run_of_every_step_is_held_to_a_block_by_the_size_check(
     assert main(["simulate", BUCK, "--tstop", "50m", "--all-steps", "-o", str(out),
                  "--plot", str(tmp_path / "run.png"), "--no-progress"]) == 2
     assert "more than the limit of 10 MB" in capsys.readouterr().err
+
+
+def test_the_summary_writes_ordinals():
+    from pelcs.commands.simulate import _ordinal
+
+    assert [_ordinal(n) for n in (2, 3, 4, 11, 12, 13, 21, 22, 101, 111)] == [
+        "2nd", "3rd", "4th", "11th", "12th", "13th", "21st", "22nd", "101st", "111th"]

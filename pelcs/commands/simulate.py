@@ -321,7 +321,7 @@ def _run(args, circuit, setup, probes, tstop, step, theta, every, output_step, o
         points = (f"every {_eng(spacing[0], 's')} ({spacing[1]}; --all-steps writes all "
                   f"{steps_stored})")
     else:
-        points = "every step" if every == 1 else f"every {every}th step"
+        points = "every step" if every == 1 else f"every {_ordinal(every)} step"
     used = result.theta if result.theta is not None else (theta or 0.5)
     print(summary(result, args.file, circuit.title, tstop=setup.t_stop, step=setup.h,
                   theta=used, wall=wall, written=written, switches=switches, load=load,
@@ -368,6 +368,12 @@ def _output_spacing(output_step: float | None, all_steps: bool, circuit, setup
     if setup.print_step is None:
         return None
     return setup.print_step, ".tran TSTEP"
+
+
+def _ordinal(n: int) -> str:
+    """``2nd``, ``3rd``, ``4th``, ``11th``, ``21st``."""
+    suffix = "th" if 10 <= n % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(n % 10, "th")
+    return f"{n}{suffix}"
 
 
 def _streams(args, out: Path | None, plot: Path | None) -> bool:
