@@ -246,3 +246,16 @@ def test_the_summary_writes_ordinals():
 
     assert [_ordinal(n) for n in (2, 3, 4, 11, 12, 13, 21, 22, 101, 111)] == [
         "2nd", "3rd", "4th", "11th", "12th", "13th", "21st", "22nd", "101st", "111th"]
+
+
+def test_a_run_that_fails_before_tstart_says_its_file_has_no_points(tmp_path, capsys):
+    # (negative_r fails at 0.5 ms; TSTART 0.8 ms keeps nothing before that)
+    deck = tmp_path / "late_fail.cir"
+    deck.write_text((ROOT / "tests/netlists/sim/negative_r.cir").read_text().replace(
+        ".tran 1u 1m", ".tran 1u 1m 0.8m"))
+    out = tmp_path / "run.csv"
+    assert main(["simulate", str(deck), "-o", str(out), "--no-progress"]) == 3
+    err = capsys.readouterr().err
+    assert "written with no points (the run stopped before the first point kept" in err
+    assert "results up to" not in err
+    assert out.read_text().count("\n") == 1  # (the header only)

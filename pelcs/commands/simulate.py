@@ -335,7 +335,11 @@ def _run(args, circuit, setup, probes, tstop, step, theta, every, output_step, o
             print(f"event {_eng(ev.t, 's'):>12}  {ev.kind:<10} {ev.element or '-':<8} "
                   f"-> {mode or 'no switches'}; w = 0 held: {held}")
     not_written = written.exit_status()
-    where = (f"results up to t = {_eng(err.t_prev, 's')} written to {', '.join(written)}"
+    rows = (result.stats.points_streamed if result.stats.points_streamed >= 0
+            else len(result.t))
+    where = ((f"results up to t = {_eng(err.t_prev, 's')} written to {', '.join(written)}"
+              if rows else f"{', '.join(written)} written with no points (the run stopped "
+              f"before the first point kept, t = {_eng(setup.t_save, 's')})")
              if written else "no output file written" if not_written
              else "no output file was requested (-o, --plot)") if err is not None else ""
     if err is not None and err.kind == "interrupted":
