@@ -71,8 +71,9 @@ class KnownSwitchings:
 
 # A run longer than this many grid steps is planned a stretch at a time (its breakpoints,
 # source-driven instants and input table held for one stretch only), so that its memory does
-# not grow with its length; a shorter one in one piece.
-STRETCH_STEPS = 1 << 21
+# not grow with its length; a shorter one in one piece. (2^18: the buck of bench_memory at
+# 1e7 steps peaks at 57 MB against 75 MB with 2^21, for the same CPU time within 3 %.)
+STRETCH_STEPS = 1 << 18
 # Breakpoints near a stretch's end that are tried as its boundary before the stretch is made
 # longer.
 _CUT_TRIES = 64
