@@ -113,12 +113,19 @@ def plain_steps(stack, j, key, chunk, kk, kstop, ends, acts, W, store, led, coun
     (updated; ``ends.xn``, ``ends.lamn`` are scratch). Stops at the first step it cannot take
     (shortened, output row ``cap_row`` reached, or failed), which :func:`run_grid` then
     takes; returns ``(kk, countdown, status)`` (``status`` of a failed step)."""
-    x, lam, xn, lamn = ends.x, ends.lam, ends.xn, ends.lamn
-    act, slots = acts.act, acts.slots
-    ivars, fvars, lim = led.ivars, led.fvars, led.lim
+    x = ends.x
+    lam = ends.lam
+    xn = ends.xn
+    lamn = ends.lamn
+    act = acts.act
+    slots = acts.slots
+    ivars = led.ivars
+    fvars = led.fvars
+    lim = led.lim
     n = x.shape[0]
     m = lam.shape[0]
-    U0, U1 = chunk.U0, chunk.U1
+    U0 = chunk.U0
+    U1 = chunk.U1
     rtol = fvars[FV_RTOL]
     every = lim.every
     pos = ivars[IV_OUTPOS]
@@ -132,7 +139,7 @@ def plain_steps(stack, j, key, chunk, kk, kstop, ends, acts, W, store, led, coun
         if not regular_cached_step(stack, j, x, U0, U1, kk, slots[0], W, xn, lamn, rtol):
             # (the general step, as run_grid would take it: Lemke, uniqueness check)
             st = mode_step(stack, j, Step(chunk.t[kk], fvars[FV_H], True, True), x,
-                           Inputs(U0[kk], U1[kk], chunk, kk, 0.0), acts, 0, W, xn, lamn, led)
+                           Inputs(U0[kk], U1[kk], U0, U1, kk, 0.0), acts, 0, W, xn, lamn, led)
             if st != STEP_OK:
                 break
         for i in range(n):
@@ -193,15 +200,22 @@ def run_grid(stack, sws, chunk, sched, state, lim, store):
         ``STEP_OK`` (chunk done) or another ``STEP_*``; ``ivars[IV_K]`` and
         ``fvars[FV_TCUR]`` say where the kernel stopped (x, lam hold the state there).
     """
-    x, lam, lama, key, act = state.x, state.lam, state.lama, state.key, state.act
-    fail, ivars, fvars = state.fail, state.ivars, state.fvars
+    x = state.x
+    lam = state.lam
+    lama = state.lama
+    key = state.key
+    act = state.act
+    fail = state.fail
+    ivars = state.ivars
+    fvars = state.fvars
     n = x.shape[0]
     m = lam.shape[0]
     p = chunk.U0.shape[1]
     k = sws.kind.shape[0]
     tgrid = chunk.t
     odd = chunk.odd
-    U0, U1 = chunk.U0, chunk.U1
+    U0 = chunk.U0
+    U1 = chunk.U1
     N = tgrid.shape[0] - 1
     theta = fvars[FV_THETA]
     h = fvars[FV_H]
@@ -392,7 +406,8 @@ def run_grid(stack, sws, chunk, sched, state, lim, store):
                 if (regular_cached_step(stack, j, x, U0, U1, kk, slots[0], W, xn, lamn, rtol)
                         and regular_cached_step(stack, ja, x, U0, U1, kk, slots[1], W, xa, lamna,
                                                 rtol)):
-                    dd = relay_combine(mats, Modes(j, ja, slide, base_on, vts), ub, ends)
+                    dd = relay_combine(mats, j, ja, slide, base_on, vts, ub, xn, lamn, xa, lamna,
+                                       sg)
                     done = True
             elif slide < 0 and regular and (m == 0 or flags[j, MF_FAST] != 0):
                 if m > 0 and slots[0] < 0:
@@ -408,7 +423,7 @@ def run_grid(stack, sws, chunk, sched, state, lim, store):
                                           rtol)
             if not done:
                 st, dd = advance(stack, Modes(j, ja, slide, base_on, vts),
-                                 Step(ta, s, regular, True), Inputs(ua, ub, chunk, kk, tau_a),
+                                 Step(ta, s, regular, True), Inputs(ua, ub, U0, U1, kk, tau_a),
                                  acts, W, ends, led)
             if st != STEP_OK:
                 status = st
@@ -468,8 +483,8 @@ def run_grid(stack, sws, chunk, sched, state, lim, store):
             slots[1] = slots0[1]
             st, s_star, dstar = locate(stack, Modes(j, ja, slide, base_on, vts),
                                        Step(ta, s, regular, True),
-                                       Inputs(ua, ub, chunk, kk, tau_a), acts, led, cross, ends,
-                                       dd, W, S)
+                                       Inputs(ua, ub, U0, U1, kk, tau_a), acts, led, cross, ends,
+                                       dd, W, S, chunk)
             if st != STEP_OK:
                 status = st
                 fvars[FV_FAIL_T0] = ta

@@ -237,11 +237,13 @@ and the grid's inputs ``U0[kk]``, ``U1[kk]`` (else discretised for ``s`` with th
 solution is checked for a unique next state (False for the trial steps of the instant
 search)."""
 
-Inputs = namedtuple("Inputs", ["u0", "u1", "chunk", "kk", "tau"])
-Inputs.__doc__ = """The inputs of a step inside grid step ``kk`` of ``chunk`` (:class:`Chunk`):
-``u0 (p,)`` at its start, which lies at the fraction ``tau`` (0 to 1) of the grid step, and
-``u1 (p,)`` at its end (input units); a regular step reads ``chunk.U0[kk]``, ``chunk.U1[kk]``
-instead (the same values)."""
+Inputs = namedtuple("Inputs", ["u0", "u1", "U0", "U1", "kk", "tau"])
+Inputs.__doc__ = """The inputs of a step inside grid step ``kk`` of a :class:`Chunk`: ``u0 (p,)``
+at its start, which lies at the fraction ``tau`` (0 to 1) of the grid step, and ``u1 (p,)`` at
+its end; the chunk's ``U0, U1 (N, p)``, of which a regular step reads ``U0[kk]``, ``U1[kk]``
+(the same values as ``u0``, ``u1``). Input units. (``U0``, ``U1`` rather than the whole chunk:
+its other arrays would be kept live, in registers or on the stack, through the loops that
+call a step.)"""
 
 Modes = namedtuple("Modes", ["j", "ja", "sw", "on", "vt"])
 Modes.__doc__ = """The modes a step is taken in: ``j``, the current mode (an index into the

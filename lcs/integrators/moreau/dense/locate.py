@@ -25,7 +25,9 @@ def u_interp(chunk, kk, tau, out):
     """Inputs at the fraction ``tau`` of grid step ``kk``: linear between the step ends (exact
     for piecewise-linear sources), or quadratic through the midpoint values ``chunk.Um`` when
     given (some source is not piecewise linear)."""
-    U0, Um, U1 = chunk.U0, chunk.Um, chunk.U1
+    U0 = chunk.U0
+    Um = chunk.Um
+    U1 = chunk.U1
     if Um.shape[0] == 0:
         for i in range(out.shape[0]):
             out[i] = U0[kk, i] + (U1[kk, i] - U0[kk, i]) * tau
@@ -38,10 +40,10 @@ def u_interp(chunk, kk, tau, out):
 
 
 @kernel
-def locate(stack, modes, step, io, acts, led, cross, full, dfull, W, S):
+def locate(stack, modes, step, io, acts, led, cross, full, dfull, W, S, chunk):
     """Locate the first comparator crossing inside the step ``step`` (``[ta, ta + s]``, in
     the modes ``modes``) of grid step ``io.kk`` (which starts at the fraction ``io.tau`` of
-    that grid step, inputs ``io.u0`` there and ``io.u1`` at its end).
+    that grid step of ``chunk``, inputs ``io.u0`` there and ``io.u1`` at its end).
 
     On entry ``cross.g``/``cross.gt`` hold the crossing functions at the end of the full step
     (some ``g > 0``), ``full`` (:class:`~lcs.integrators.moreau.dense.layout.Ends`) its start
@@ -50,14 +52,30 @@ def locate(stack, modes, step, io, acts, led, cross, full, dfull, W, S):
     S.lams, S.lamas``, the crossing functions there in ``cross.g``/``cross.gt``, and ``acts``
     holds the active sets of the step that ends there.
     """
-    j, ja, slide = modes.j, modes.ja, modes.sw
-    ta, s = step.ta, step.s
-    x, lam = full.x, full.lam
-    xfull, lamfull, lamafull = full.xn, full.lamn, full.lama
-    ua, ub, chunk, kk, tau_a = io.u0, io.u1, io.chunk, io.kk, io.tau
-    act, slots = acts.act, acts.slots
-    ivars, fvars = led.ivars, led.fvars
-    sws, key, c, cs, g, gt = cross.sws, cross.key, cross.c, cross.cs, cross.g, cross.gt
+    j = modes.j
+    ja = modes.ja
+    slide = modes.sw
+    ta = step.ta
+    s = step.s
+    x = full.x
+    lam = full.lam
+    xfull = full.xn
+    lamfull = full.lamn
+    lamafull = full.lama
+    ua = io.u0
+    ub = io.u1
+    kk = io.kk
+    tau_a = io.tau
+    act = acts.act
+    slots = acts.slots
+    ivars = led.ivars
+    fvars = led.fvars
+    sws = cross.sws
+    key = cross.key
+    c = cross.c
+    cs = cross.cs
+    g = cross.g
+    gt = cross.gt
     k = g.shape[0]
     n = x.shape[0]
     m = lam.shape[0]
@@ -68,7 +86,7 @@ def locate(stack, modes, step, io, acts, led, cross, full, dfull, W, S):
     slots_t = S.slots
     # The trial steps: from the same start, inputs up to the trial instant's S.ut, active sets
     # and end states in S.
-    io_t = Inputs(ua, S.ut, chunk, kk, tau_a)
+    io_t = Inputs(ua, S.ut, io.U0, io.U1, kk, tau_a)
     acts_t = Actives(act_t, slots_t)
     trial = Ends(x, lam, S.xt, S.lamt, S.xat, S.lamat, S.sg)
     # Crossing functions at the start (mode j; λ of the previous step, an estimate).

@@ -34,14 +34,13 @@ def relay_fraction(sig_off, sig_on, base_on):
 
 
 @inline
-def relay_combine(mats, modes, u, ends):
-    """Combine the end states of the two modes (``ends.xn, ends.lamn`` of mode ``modes.j``;
-    ``ends.xa, ends.lama`` of mode ``modes.ja``) into ``ends.xn`` by the relay of switch
-    ``modes.sw`` at the inputs ``u``; returns ``d``, the fraction of the step in the toggled
-    mode. ``ends.sg = [σ_j, σ_ja, tol]``: the relay values at the two end states and their
-    round-off scale."""
-    j, ja, sw, base_on, vt = modes.j, modes.ja, modes.sw, modes.on, modes.vt
-    xn, lamn, xa, lama, sg = ends.xn, ends.lamn, ends.xa, ends.lama, ends.sg
+def relay_combine(mats, j, ja, sw, base_on, vt, u, xn, lamn, xa, lama, sg):
+    """Combine the end states of the two modes (``xn, lamn`` of mode ``j``; ``xa, lama`` of
+    mode ``ja``) into ``xn`` by the relay of switch ``sw`` (on in mode ``j`` when
+    ``base_on``, threshold ``vt``) at the inputs ``u``; returns ``d``, the fraction of the step
+    in the toggled mode. ``sg = [σ_j, σ_ja, tol]``: the relay values at the two end states and
+    their round-off scale. (Its arguments one by one: it is inlined into run_grid's per-step
+    loop, which holds them in variables of its own.)"""
     sgb, scb = row_value(mats.Cc, mats.Dc, mats.Fc, j, sw, xn, lamn, u)
     sga, sca = row_value(mats.Cc, mats.Dc, mats.Fc, ja, sw, xa, lama, u)
     sgb -= vt
@@ -69,7 +68,8 @@ def advance(stack, modes, step, io, acts, W, ends, led):
     not sliding); the end state is left in ``ends.xn``, the multipliers of each mode in
     ``ends.lamn``, ``ends.lama``.
     """
-    j, ja = modes.j, modes.ja
+    j = modes.j
+    ja = modes.ja
     x = ends.x
     ivars = led.ivars
     st = mode_step(stack, j, step, x, io, acts, 0, W, ends.xn, ends.lamn, led)
@@ -82,4 +82,5 @@ def advance(stack, modes, step, io, acts, W, ends, led):
     if st != STEP_OK:
         ivars[IV_FAILMODE] = ja
         return st, 0.0
-    return STEP_OK, relay_combine(stack.mats, modes, io.u1, ends)
+    return STEP_OK, relay_combine(stack.mats, j, ja, modes.sw, modes.on, modes.vt, io.u1,
+                                  ends.xn, ends.lamn, ends.xa, ends.lama, ends.sg)

@@ -306,11 +306,20 @@ def mode_step(stack, j, step, x, io, acts, ai, W, xn, lamn, led):
     (:mod:`lcs.theory.step_uniqueness`: then any λ will do). On failure, ``led.fail`` receives
     the pairs involved. Returns a ``STEP_*`` status.
     """
-    s, regular, commit = step.s, step.regular, step.commit
-    u0, u1, kk = io.u0, io.u1, io.kk
-    U0, U1 = io.chunk.U0, io.chunk.U1
-    act, slots = acts.act, acts.slots
-    fail, ivars, fvars, lim = led.fail, led.ivars, led.fvars, led.lim
+    s = step.s
+    regular = step.regular
+    commit = step.commit
+    u0 = io.u0
+    u1 = io.u1
+    kk = io.kk
+    U0 = io.U0
+    U1 = io.U1
+    act = acts.act
+    slots = acts.slots
+    fail = led.fail
+    ivars = led.ivars
+    fvars = led.fvars
+    lim = led.lim
     theta = fvars[FV_THETA]
     mats = stack.mats
     fast = stack.flags[j, MF_FAST] != 0
