@@ -4,7 +4,9 @@ nothing of ``pelcs``/``ngspice_checks``, the core of ``netlist`` (language, circ
 formulation) nothing of its studies ``netlist.studies``, ``ngspice_checks`` nothing of
 ``pelcs``, nothing imports the CLI (only the Python API's analyses use its commands' parsers
 and computing functions), ``lcs`` draws nothing (no matplotlib, no figure helpers), no kernel
-module imports the build tools ``lcs.build``, and no code module is over 800 lines.
+module imports the build tools ``lcs.build``, and no code module is over 800 lines; no
+function is over the complexity cap, and no compiled function takes more than 13 arguments
+(the kernels' arguments travel in named tuples), but those listed.
 
 Imports are read statically (every ``import`` statement, also those inside functions: a lazy
 import is still a dependency).
@@ -334,3 +336,45 @@ def test_complexity_counts_decisions():
     # 1 + if + elif + for + while + except + the nested function and its if (expressions:
     # nothing)
     assert complexity(f) == 1 + 1 + 1 + 1 + 1 + 1 + 2
+
+
+#: Arguments a compiled function (``@kernel``, ``@inline``, ``@jitted``) may take: the rest
+#: travel in the named tuples of lcs.integrators.moreau.dense.layout. The ones still over it,
+#: with their counts (which may only go down).
+MAX_KERNEL_ARGS = 13
+WIDE_KERNELS = {
+    "lcs.integrators.moreau.dense.comparators.crossing": 15,
+    "lcs.integrators.moreau.dense.discretise.free_state": 16,
+    "lcs.integrators.moreau.dense.step.odd_cached_step": 16,
+    "lcs.integrators.moreau.dense.store.store_row": 17,
+    "lcs.integrators.moreau.sparse.lu.factor": 17,
+    "lcs.integrators.moreau.sparse.step.step_body": 17,
+    "lcs.integrators.moreau.sparse.step.kkt_step": 17,
+    "lcs.lcp.compiled.solve_warm": 15,
+    "lcs.sparse_lu._factor": 14,
+}
+
+
+def _compiled(func: ast.FunctionDef | ast.AsyncFunctionDef) -> bool:
+    """Whether ``func`` is decorated as a compiled function of :mod:`lcs.jit`."""
+    for dec in func.decorator_list:
+        target = dec.func if isinstance(dec, ast.Call) else dec
+        if isinstance(target, ast.Name) and target.id in ("kernel", "inline", "jitted"):
+            return True
+    return False
+
+
+def test_kernel_argument_cap():
+    wide = {}
+    for name, path in _modules().items():
+        if not name.startswith("lcs."):
+            continue
+        for qual, func in _functions(name, path):
+            n = len(func.args.args)
+            if _compiled(func) and n > MAX_KERNEL_ARGS:
+                wide[qual] = n
+    over = {q: n for q, n in wide.items() if n > WIDE_KERNELS.get(q, MAX_KERNEL_ARGS)}
+    assert not over, (f"compiled functions over {MAX_KERNEL_ARGS} arguments: {over} (group them "
+                      "in named tuples, lcs.integrators.moreau.dense.layout)")
+    assert wide.keys() == WIDE_KERNELS.keys(), (
+        f"listed but no longer over {MAX_KERNEL_ARGS}: {WIDE_KERNELS.keys() - wide.keys()}")

@@ -73,7 +73,14 @@ from .layout import (
     SW_LOCATED,
     SW_SAMPLED,
     SWF_RELAY,
+    Actives,
+    Crossings,
+    Ends,
+    Inputs,
+    Ledger,
     LocateWork,
+    Modes,
+    Step,
     StepWork,
 )
 from .locate import locate, u_interp
@@ -99,16 +106,26 @@ def _work(n, m, k, p):
 
 
 @kernel
-def plain_steps(stack, j, key, chunk, kk, kstop, x, lam, act, slots, W, xn, lamn, store, fail,
-                ivars, fvars, lim, countdown, cap_row):
+def plain_steps(stack, j, key, chunk, kk, kstop, ends, acts, W, store, led, countdown, cap_row):
     """Regular grid steps ``kk .. kstop-1`` of mode ``j`` with no comparator, no sliding and
     no schedule entry: :func:`run_grid`'s regular step without its per-step switching
-    machinery (the same arithmetic, so the same numbers). Stops at the first step it cannot
-    take (shortened, output buffer nearly full, or failed), which :func:`run_grid` then
+    machinery (the same arithmetic, so the same numbers), from ``ends.x``, ``ends.lam``
+    (updated; ``ends.xn``, ``ends.lamn`` are scratch). Stops at the first step it cannot take
+    (shortened, output row ``cap_row`` reached, or failed), which :func:`run_grid` then
     takes; returns ``(kk, countdown, status)`` (``status`` of a failed step)."""
+    x = ends.x
+    lam = ends.lam
+    xn = ends.xn
+    lamn = ends.lamn
+    act = acts.act
+    slots = acts.slots
+    ivars = led.ivars
+    fvars = led.fvars
+    lim = led.lim
     n = x.shape[0]
     m = lam.shape[0]
-    U0, U1 = chunk.U0, chunk.U1
+    U0 = chunk.U0
+    U1 = chunk.U1
     rtol = fvars[FV_RTOL]
     every = lim.every
     pos = ivars[IV_OUTPOS]
@@ -121,8 +138,8 @@ def plain_steps(stack, j, key, chunk, kk, kstop, x, lam, act, slots, W, xn, lamn
             slots[0] = lookup(stack.mats.M, j, act[0], stack.sets, ivars)
         if not regular_cached_step(stack, j, x, U0, U1, kk, slots[0], W, xn, lamn, rtol):
             # (the general step, as run_grid would take it: Lemke, uniqueness check)
-            st = mode_step(stack, j, fvars[FV_H], True, fvars[FV_THETA], x, U0[kk], U1[kk], U0,
-                           U1, kk, act, slots, 0, W, xn, lamn, fail, ivars, fvars, lim, True)
+            st = mode_step(stack, j, Step(chunk.t[kk], fvars[FV_H], True, True), x,
+                           Inputs(U0[kk], U1[kk], U0, U1, kk, 0.0), acts, 0, W, xn, lamn, led)
             if st != STEP_OK:
                 break
         for i in range(n):
@@ -183,15 +200,22 @@ def run_grid(stack, sws, chunk, sched, state, lim, store):
         ``STEP_OK`` (chunk done) or another ``STEP_*``; ``ivars[IV_K]`` and
         ``fvars[FV_TCUR]`` say where the kernel stopped (x, lam hold the state there).
     """
-    x, lam, lama, key, act = state.x, state.lam, state.lama, state.key, state.act
-    fail, ivars, fvars = state.fail, state.ivars, state.fvars
+    x = state.x
+    lam = state.lam
+    lama = state.lama
+    key = state.key
+    act = state.act
+    fail = state.fail
+    ivars = state.ivars
+    fvars = state.fvars
     n = x.shape[0]
     m = lam.shape[0]
     p = chunk.U0.shape[1]
     k = sws.kind.shape[0]
     tgrid = chunk.t
     odd = chunk.odd
-    U0, U1 = chunk.U0, chunk.U1
+    U0 = chunk.U0
+    U1 = chunk.U1
     N = tgrid.shape[0] - 1
     theta = fvars[FV_THETA]
     h = fvars[FV_H]
@@ -216,6 +240,12 @@ def run_grid(stack, sws, chunk, sched, state, lim, store):
     act0 = np.zeros_like(act)
     Wk = key.shape[0]
     akey = np.zeros(Wk, np.int64)
+    # (the arguments of the steps and of the instant search that stay the same arrays for
+    # the whole call)
+    led = Ledger(ivars, fvars, fail, lim)
+    acts = Actives(act, slots)
+    ends = Ends(x, lam, xn, lamn, xa, lamna, sg)
+    cross = Crossings(sws, key, c, cs, g, gt)
     tkey = np.zeros(Wk, np.int64)
     flips = np.zeros(Wk, np.int64)
     has_located = False
@@ -266,9 +296,8 @@ def run_grid(stack, sws, chunk, sched, state, lim, store):
             # (only for runs of PLAIN_MIN steps or more: a call costs the views of the
             # mode's matrices, more than a few steps gain)
             if kstop - kk >= PLAIN_MIN and (m == 0 or flags[j, MF_FAST] != 0):
-                k2, countdown, st = plain_steps(stack, j, key, chunk, kk, kstop, x, lam, act,
-                                                slots, W, xn, lamn, store, fail, ivars,
-                                                fvars, lim, countdown, cap_out - max_sw - 3)
+                k2, countdown, st = plain_steps(stack, j, key, chunk, kk, kstop, ends, acts, W,
+                                                store, led, countdown, cap_out - max_sw - 3)
                 plain_skip = k2
                 if st != STEP_OK:
                     ivars[IV_FAILMODE] = j
@@ -393,9 +422,9 @@ def run_grid(stack, sws, chunk, sched, state, lim, store):
                     done = odd_basis_step(stack, j, s, theta, x, ua, ub, act[0], W, xn, lamn,
                                           rtol)
             if not done:
-                st, dd = advance(stack, j, ja, slide, base_on, vts, s, regular, theta, x, ua,
-                                 ub, U0, U1, kk, act, slots, W, xn, lamn, xa, lamna, sg, fail,
-                                 ivars, fvars, lim, True)
+                st, dd = advance(stack, Modes(j, ja, slide, base_on, vts),
+                                 Step(ta, s, regular, True), Inputs(ua, ub, U0, U1, kk, tau_a),
+                                 acts, W, ends, led)
             if st != STEP_OK:
                 status = st
                 fvars[FV_FAIL_T0] = ta
@@ -452,10 +481,10 @@ def run_grid(stack, sws, chunk, sched, state, lim, store):
             copy_row(act0, 1, act, 1)
             slots[0] = slots0[0]
             slots[1] = slots0[1]
-            st, s_star, dstar = locate(stack, j, ja, slide, base_on, vts, ta, s, theta, x,
-                                       lam, ua, ub, act, slots, fail, ivars, fvars, lim, sws,
-                                       key, xn, lamn, lamna, dd, c, cs, g, gt, W, S, chunk, kk,
-                                       tau_a)
+            st, s_star, dstar = locate(stack, Modes(j, ja, slide, base_on, vts),
+                                       Step(ta, s, regular, True),
+                                       Inputs(ua, ub, U0, U1, kk, tau_a), acts, led, cross, ends,
+                                       dd, W, S, chunk)
             if st != STEP_OK:
                 status = st
                 fvars[FV_FAIL_T0] = ta

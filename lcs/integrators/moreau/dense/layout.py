@@ -9,7 +9,12 @@ array access; a mode is an index ``j`` into the stack):
 * :class:`SwitchArrays`, :class:`Chunk`, :class:`Schedule`, :class:`Store`, :class:`Limits` --
   the switches, a chunk of the time grid with its inputs, the known switching instants of the
   chunk, the output and event buffers, the integer options;
-* :class:`StepWork`, :class:`LocateWork` -- scratch arrays.
+* :class:`StepWork`, :class:`LocateWork` -- scratch arrays;
+* :class:`Ledger`, :class:`Actives`, :class:`Step`, :class:`Inputs`, :class:`Modes`,
+  :class:`Ends`, :class:`Crossings` -- the arguments of a step (:func:`~.step.mode_step`,
+  :func:`~.sliding.advance`) and of the instant search (:func:`~.locate.locate`) grouped by
+  what they hold: counters and options, active sets, the step's interval, its inputs, its
+  modes, the states at its ends, the comparators.
 
 The kernel's running state (counters, the current switch key, where it stopped) lives in the
 ``ivars`` (int64) and ``fvars`` (float64) arrays indexed by ``IV_*`` and ``FV_*``, which the
@@ -210,3 +215,54 @@ LocateWork = namedtuple("LocateWork", ["ga", "gta", "rate_a", "rate_b", "udot", 
                                        "lams", "lamas", "sg", "act", "slots"])
 LocateWork.__doc__ = """Scratch of the instant search; on return ``xs, lams, lamas`` hold the
 state and multipliers at the located instant."""
+
+
+Ledger = namedtuple("Ledger", ["ivars", "fvars", "fail", "lim"])
+Ledger.__doc__ = """What every step reads its options from and counts into: ``ivars`` (int64,
+``IV_*``) and ``fvars`` (float64, ``FV_*``: θ is ``fvars[FV_THETA]``, h ``fvars[FV_H]`` in s) of
+:class:`State`; ``fail (W,)`` int64, the pairs of a failed step (a bitset); ``lim``, the
+:class:`Limits`. The same arrays for a whole call of the kernel."""
+
+Actives = namedtuple("Actives", ["act", "slots"])
+Actives.__doc__ = """The active sets a step starts from, updated to those it ends with:
+``act (2, W)`` int64, bitsets of the pairs with basic λ, row 0 for mode ``j``, row 1 for mode
+``ja`` (the other mode of a sliding switch); ``slots (2,)`` int64, the cache slots of those
+sets in the :class:`ModeStack`'s ``sets`` (-1: not looked up)."""
+
+Step = namedtuple("Step", ["ta", "s", "regular", "commit"])
+Step.__doc__ = """One θ step: the interval ``[ta, ta + s]`` (start ``ta`` and length ``s``, in
+s); ``regular`` (bool): the length h from a grid point, taken with the stored discretisation
+and the grid's inputs ``U0[kk]``, ``U1[kk]`` (else discretised for ``s`` with the inputs
+``u0``, ``u1`` of :class:`Inputs`); ``commit`` (bool): a step that is kept, whose pivoting
+solution is checked for a unique next state (False for the trial steps of the instant
+search)."""
+
+Inputs = namedtuple("Inputs", ["u0", "u1", "U0", "U1", "kk", "tau"])
+Inputs.__doc__ = """The inputs of a step inside grid step ``kk`` of a :class:`Chunk`: ``u0 (p,)``
+at its start, which lies at the fraction ``tau`` (0 to 1) of the grid step, and ``u1 (p,)`` at
+its end; the chunk's ``U0, U1 (N, p)``, of which a regular step reads ``U0[kk]``, ``U1[kk]``
+(the same values as ``u0``, ``u1``). Input units. (``U0``, ``U1`` rather than the whole chunk:
+its other arrays would be kept live, in registers or on the stack, through the loops that
+call a step.)"""
+
+Modes = namedtuple("Modes", ["j", "ja", "sw", "on", "vt"])
+Modes.__doc__ = """The modes a step is taken in: ``j``, the current mode (an index into the
+:class:`ModeStack`); while switch ``sw`` slides (``sw >= 0``; -1: none), ``ja``, the mode with
+``sw`` toggled (-1 when none), ``on`` (bool) whether ``sw`` is on in mode ``j``, and ``vt`` its
+comparator threshold (control units; 0 when none)."""
+
+Ends = namedtuple("Ends", ["x", "lam", "xn", "lamn", "xa", "lama", "sg"])
+Ends.__doc__ = """The states at the ends of a step: at its start ``x (n,)`` and the
+multipliers ``lam (m,)`` of the step before; at its end, in mode ``j``, ``xn (n,)`` (the
+Filippov combination of both modes while a switch slides) and ``lamn (m,)``, in the toggled
+mode ``ja`` ``xa (n,)`` and ``lama (m,)``; ``sg (3,)``, the relay values ``[σ_j, σ_ja, tol]``
+(:func:`~lcs.integrators.moreau.dense.sliding.relay_combine`). States in state units,
+multipliers in pair units."""
+
+Crossings = namedtuple("Crossings", ["sws", "key", "c", "cs", "g", "gt"])
+Crossings.__doc__ = """The comparators and their last evaluation
+(:func:`~lcs.integrators.moreau.dense.comparators.crossing`): ``sws``, the
+:class:`SwitchArrays`; ``key (Wk,)`` int64, the switch key (a bitset: bit i, switch i on); per
+switch ``(k,)``: the control ``c`` and its round-off scale ``cs`` (control units), the
+crossing function ``g`` (positive: crossed; ``-inf``: not a located comparator) and its
+round-off tolerance ``gt``."""

@@ -16,7 +16,7 @@ from lcs.bits import copy_row
 from lcs.jit import inline, kernel
 
 from .comparators import control_rates, crossing, hermite_root
-from .layout import FV_H, FV_ROOT_TOL, IV_ROOTEVALS, STEP_OK
+from .layout import FV_H, FV_ROOT_TOL, IV_ROOTEVALS, STEP_OK, Actives, Ends, Inputs, Step
 from .sliding import advance
 
 
@@ -25,7 +25,9 @@ def u_interp(chunk, kk, tau, out):
     """Inputs at the fraction ``tau`` of grid step ``kk``: linear between the step ends (exact
     for piecewise-linear sources), or quadratic through the midpoint values ``chunk.Um`` when
     given (some source is not piecewise linear)."""
-    U0, Um, U1 = chunk.U0, chunk.Um, chunk.U1
+    U0 = chunk.U0
+    Um = chunk.Um
+    U1 = chunk.U1
     if Um.shape[0] == 0:
         for i in range(out.shape[0]):
             out[i] = U0[kk, i] + (U1[kk, i] - U0[kk, i]) * tau
@@ -38,18 +40,42 @@ def u_interp(chunk, kk, tau, out):
 
 
 @kernel
-def locate(stack, j, ja, slide, base_on, vt_s, ta, s, theta, x, lam, ua, ub, act, slots, fail,
-           ivars, fvars, lim, sws, key, xfull, lamfull, lamafull, dfull, c, cs, g, gt, W, S,
-           chunk, kk, tau_a):
-    """Locate the first comparator crossing inside the step ``[ta, ta + s]`` of grid step
-    ``kk`` (which starts at the fraction ``tau_a`` of that grid step).
+def locate(stack, modes, step, io, acts, led, cross, full, dfull, W, S, chunk):
+    """Locate the first comparator crossing inside the step ``step`` (``[ta, ta + s]``, in
+    the modes ``modes``) of grid step ``io.kk`` (which starts at the fraction ``io.tau`` of
+    that grid step of ``chunk``, inputs ``io.u0`` there and ``io.u1`` at its end).
 
-    On entry ``g``/``gt`` hold the crossing functions at the end of the full step (some
-    ``g > 0``), ``xfull, lamfull, lamafull, dfull`` the full step's result, and ``act``,
-    ``slots`` the active sets at the start. Returns ``(status, s_star, d_star)``; the state at
-    the instant is in ``S.xs, S.lams, S.lamas``, the crossing functions there in ``g``/``gt``,
-    and ``act``, ``slots`` hold the active sets of the step that ends there.
+    On entry ``cross.g``/``cross.gt`` hold the crossing functions at the end of the full step
+    (some ``g > 0``), ``full`` (:class:`~lcs.integrators.moreau.dense.layout.Ends`) its start
+    and result and ``dfull`` its fraction in the toggled mode, and ``acts`` the active sets at
+    the start. Returns ``(status, s_star, d_star)``; the state at the instant is in ``S.xs,
+    S.lams, S.lamas``, the crossing functions there in ``cross.g``/``cross.gt``, and ``acts``
+    holds the active sets of the step that ends there.
     """
+    j = modes.j
+    ja = modes.ja
+    slide = modes.sw
+    ta = step.ta
+    s = step.s
+    x = full.x
+    lam = full.lam
+    xfull = full.xn
+    lamfull = full.lamn
+    lamafull = full.lama
+    ua = io.u0
+    ub = io.u1
+    kk = io.kk
+    tau_a = io.tau
+    act = acts.act
+    slots = acts.slots
+    ivars = led.ivars
+    fvars = led.fvars
+    sws = cross.sws
+    key = cross.key
+    c = cross.c
+    cs = cross.cs
+    g = cross.g
+    gt = cross.gt
     k = g.shape[0]
     n = x.shape[0]
     m = lam.shape[0]
@@ -58,6 +84,11 @@ def locate(stack, j, ja, slide, base_on, vt_s, ta, s, theta, x, lam, ua, ub, act
     stol = max(fvars[FV_ROOT_TOL] * h, 8.9e-16 * abs(ta + s))
     act_t = S.act
     slots_t = S.slots
+    # The trial steps: from the same start, inputs up to the trial instant's S.ut, active sets
+    # and end states in S.
+    io_t = Inputs(ua, S.ut, io.U0, io.U1, kk, tau_a)
+    acts_t = Actives(act_t, slots_t)
+    trial = Ends(x, lam, S.xt, S.lamt, S.xat, S.lamat, S.sg)
     # Crossing functions at the start (mode j; λ of the previous step, an estimate).
     mats = stack.mats
     Ga = crossing(mats, j, ja, 0.0, sws, key, slide, x, lam, lam, ua, c, cs, S.ga, S.gta)
@@ -103,9 +134,8 @@ def locate(stack, j, ja, slide, base_on, vt_s, ta, s, theta, x, lam, ua, ub, act
         for r in range(2):
             copy_row(act, r, act_t, r)
             slots_t[r] = -1
-        st, d1 = advance(stack, j, ja, slide, base_on, vt_s, s1, False, theta, x, ua, S.ut,
-                         chunk.U0, chunk.U1, kk, act_t, slots_t, W, S.xt, S.lamt, S.xat,
-                         S.lamat, S.sg, fail, ivars, fvars, lim, False)
+        st, d1 = advance(stack, modes, Step(ta, s1, False, False), io_t, acts_t, W, trial,
+                         led)
         ivars[IV_ROOTEVALS] += 1
         if st != STEP_OK:
             return st, s1, 0.0

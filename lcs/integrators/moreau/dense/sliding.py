@@ -36,9 +36,11 @@ def relay_fraction(sig_off, sig_on, base_on):
 @inline
 def relay_combine(mats, j, ja, sw, base_on, vt, u, xn, lamn, xa, lama, sg):
     """Combine the end states of the two modes (``xn, lamn`` of mode ``j``; ``xa, lama`` of
-    mode ``ja``) into ``xn`` by the relay of switch ``sw``; returns ``d``, the fraction of the
-    step in the toggled mode. ``sg = [σ_j, σ_ja, tol]``: the relay values at the two end
-    states and their round-off scale."""
+    mode ``ja``) into ``xn`` by the relay of switch ``sw`` (on in mode ``j`` when
+    ``base_on``, threshold ``vt``) at the inputs ``u``; returns ``d``, the fraction of the step
+    in the toggled mode. ``sg = [σ_j, σ_ja, tol]``: the relay values at the two end states and
+    their round-off scale. (Its arguments one by one: it is inlined into run_grid's per-step
+    loop, which holds them in variables of its own.)"""
     sgb, scb = row_value(mats.Cc, mats.Dc, mats.Fc, j, sw, xn, lamn, u)
     sga, sca = row_value(mats.Cc, mats.Dc, mats.Fc, ja, sw, xa, lama, u)
     sgb -= vt
@@ -56,27 +58,29 @@ def relay_combine(mats, j, ja, sw, base_on, vt, u, xn, lamn, xa, lama, sg):
 
 
 @kernel
-def advance(stack, j, ja, sw, base_on, vt, s, regular, theta, x, u0, u1, U0, U1, kk, act,
-            slots, W, xn, lamn, xa, lama, sg, fail, ivars, fvars, lim, commit):
-    """One step of length ``s``: in mode ``j`` of ``stack``, or while switch ``sw`` slides
+def advance(stack, modes, step, io, acts, W, ends, led):
+    """One step ``step`` (:class:`~lcs.integrators.moreau.dense.layout.Step`, inputs ``io``)
+    from ``ends.x``: in mode ``modes.j`` of ``stack``, or while switch ``modes.sw`` slides
     (``sw >= 0``) the Filippov combination of modes ``j`` and ``ja`` (``sw`` toggled).
 
-    ``act (2, W)``: the active sets (bitsets) of the two modes, ``slots (2,)`` their cache
-    slots (updated). Returns ``(status, d)`` with ``d``
-    the fraction of the step in the toggled mode (0 when not sliding); the multipliers of each
-    mode are left in ``lamn``, ``lama``.
+    ``acts``: the active sets (bitsets) of the two modes and their cache slots (updated).
+    Returns ``(status, d)`` with ``d`` the fraction of the step in the toggled mode (0 when
+    not sliding); the end state is left in ``ends.xn``, the multipliers of each mode in
+    ``ends.lamn``, ``ends.lama``.
     """
-    st = mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, 0, W, xn,
-                   lamn, fail, ivars, fvars, lim, commit)
+    j = modes.j
+    ja = modes.ja
+    x = ends.x
+    ivars = led.ivars
+    st = mode_step(stack, j, step, x, io, acts, 0, W, ends.xn, ends.lamn, led)
     if st != STEP_OK:
         ivars[IV_FAILMODE] = j
         return st, 0.0
-    if sw < 0:
+    if modes.sw < 0:
         return STEP_OK, 0.0
-    st = mode_step(stack, ja, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, 1, W, xa,
-                   lama, fail, ivars, fvars, lim, commit)
+    st = mode_step(stack, ja, step, x, io, acts, 1, W, ends.xa, ends.lama, led)
     if st != STEP_OK:
         ivars[IV_FAILMODE] = ja
         return st, 0.0
-    return STEP_OK, relay_combine(stack.mats, j, ja, sw, base_on, vt, u1, xn, lamn, xa, lama,
-                                  sg)
+    return STEP_OK, relay_combine(stack.mats, j, ja, modes.sw, modes.on, modes.vt, io.u1,
+                                  ends.xn, ends.lamn, ends.xa, ends.lama, ends.sg)

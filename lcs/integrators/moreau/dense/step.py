@@ -34,6 +34,7 @@ from .layout import (
     FV_LEX_TOL,
     FV_PIVOT_TOL,
     FV_RTOL,
+    FV_THETA,
     FV_UNIQ_TOL,
     IV_FALLBACKS,
     IV_LEMKE,
@@ -292,18 +293,34 @@ def odd_free(stack, j, jj, x, u0, u1, xf, q):
 
 
 @kernel
-def mode_step(stack, j, s, regular, theta, x, u0, u1, U0, U1, kk, act, slots, ai, W, xn, lamn,
-              fail, ivars, fvars, lim, commit):
-    """One θ step of length ``s`` of mode ``j`` of ``stack`` from ``x`` into ``xn``, ``lamn``.
+def mode_step(stack, j, step, x, io, acts, ai, W, xn, lamn, led):
+    """One θ step of mode ``j`` of ``stack`` from ``x`` into ``xn``, ``lamn``.
 
-    ``regular`` steps (length h from a grid point) use the stored matrices and the inputs
-    ``U0[kk]``, ``U1[kk]``; others are discretised for ``s`` with inputs ``u0`` to ``u1``.
-    ``act[ai]`` is the active set (bitset) to try first and ``slots[ai]`` its cache slot (-1:
-    unknown); both are updated. With ``commit``, a pivoting solution is checked for a unique
-    next state, unless the mode's flag ``MF_IMAGE`` says that every solution gives the same
-    one (:mod:`lcs.theory.step_uniqueness`: then any λ will do). On failure, ``fail`` receives the
-    pairs involved. Returns a ``STEP_*`` status.
+    ``step`` (:class:`~lcs.integrators.moreau.dense.layout.Step`): its length ``s``; a
+    ``regular`` step (length h from a grid point) uses the stored matrices and the inputs
+    ``U0[kk]``, ``U1[kk]`` of ``io`` (:class:`~lcs.integrators.moreau.dense.layout.Inputs`),
+    others are discretised for ``s`` with inputs ``io.u0`` to ``io.u1``. ``acts.act[ai]`` is
+    the active set (bitset) to try first and ``acts.slots[ai]`` its cache slot (-1: unknown);
+    both are updated. With ``step.commit``, a pivoting solution is checked for a unique next
+    state, unless the mode's flag ``MF_IMAGE`` says that every solution gives the same one
+    (:mod:`lcs.theory.step_uniqueness`: then any λ will do). On failure, ``led.fail`` receives
+    the pairs involved. Returns a ``STEP_*`` status.
     """
+    s = step.s
+    regular = step.regular
+    commit = step.commit
+    u0 = io.u0
+    u1 = io.u1
+    kk = io.kk
+    U0 = io.U0
+    U1 = io.U1
+    act = acts.act
+    slots = acts.slots
+    fail = led.fail
+    ivars = led.ivars
+    fvars = led.fvars
+    lim = led.lim
+    theta = fvars[FV_THETA]
     mats = stack.mats
     fast = stack.flags[j, MF_FAST] != 0
     if regular:
