@@ -32,8 +32,8 @@ from lcs.atomic import atomic_path
 from lcs.results import SimulationResult
 
 __all__ = ["FORMATS", "ResultStream", "npz_name", "open_stream", "result_columns",
-           "write_arrays", "write_csv", "write_npz", "write_parquet", "write_result",
-           "write_table"]
+           "write_arrays", "write_basins", "write_bifurcation", "write_csv", "write_lcs_npz",
+           "write_npz", "write_parquet", "write_result", "write_sweep", "write_table"]
 
 #: File extensions the writers know, in the order the help lists them.
 FORMATS = (".csv", ".npz", ".parquet")
@@ -288,6 +288,42 @@ def write_result(result: SimulationResult, path: str | os.PathLike) -> Path:
     if suffix == ".parquet":
         return write_table(path, result_columns(result), meta=_parquet_metadata(result))
     return write_table(path, result_columns(result), npz=_result_npz(result))
+
+
+# ---------------------------------------------------------------------------------------------
+# The analyses' results: their plain data (``columns()``, ``arrays()``), written here
+
+
+def write_sweep(table, path: str | os.PathLike) -> Path:
+    """A sweep or Monte Carlo table (:class:`lcs.analysis.tables.SweepTable`) as CSV,
+    whatever the extension: one row per run, its :meth:`~lcs.analysis.tables.SweepTable.columns`,
+    the numbers in full precision (``repr``), ``ok`` and ``settled`` 1 or 0 (``settled``
+    empty for a failed run)."""
+    return write_table(path, table.columns(), digits=None, format=".csv")
+
+
+def write_bifurcation(diagram, path: str | os.PathLike, npz: bool | None = None) -> Path:
+    """A bifurcation diagram (:class:`lcs.analysis.bifurcation.BifurcationDiagram`): its
+    ``arrays()`` as a compressed NPZ when ``path`` ends in ``.npz`` (or ``npz``; ``.npz``
+    added to a name without it, as numpy does), else its ``columns()`` as CSV (one row per
+    recorded sample, full precision)."""
+    if npz if npz is not None else Path(path).suffix.lower() == ".npz":
+        return write_arrays(npz_name(path), diagram.arrays(), compress=True)
+    return write_table(path, diagram.columns(), digits=None, format=".csv")
+
+
+def write_basins(basins, path: str | os.PathLike) -> Path:
+    """Basins of attraction (:class:`lcs.analysis.basins.BasinMap`): its ``arrays()`` as a
+    compressed NPZ (``.npz`` added to a name without it, as numpy does)."""
+    return write_arrays(npz_name(path), basins.arrays(), compress=True)
+
+
+def write_lcs_npz(path: str | os.PathLike, obj, probes=(), modes=None) -> Path:
+    """An LCS or a switched LCS as ``.npz`` (:func:`lcs.export.to_arrays`; read back by
+    :func:`lcs.export.load_npz`), uncompressed, ``.npz`` added to a name without it."""
+    from lcs.export import to_arrays
+
+    return write_arrays(npz_name(path), to_arrays(obj, probes, modes))
 
 
 # Rows a stream gathers before it writes them (a Parquet row group; the CSV text and the raw

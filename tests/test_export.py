@@ -12,13 +12,13 @@ from lcs.export import (
     lcs_to_dict,
     lcs_to_statespace,
     load_npz,
-    save_npz,
     switched_from_dict,
     switched_to_dict,
     switched_to_statespaces,
 )
 from lcs.model import LCS, ModeModel, OutputMap, SwitchControl, SwitchedLCS
 from lcs.model import ComplementarityPair as Pair
+from pelcs.writers import write_lcs_npz as save_npz
 
 L, C, R = 100e-6, 470e-6, 10.0
 
