@@ -98,3 +98,31 @@ def test_a_failed_write_leaves_the_earlier_file(tmp_path):
         write_table(target, bad)
     assert target.read_text() == "good\n"
     assert [p.name for p in tmp_path.iterdir()] == ["t.csv"]
+
+
+def test_the_analyses_tables_as_they_were_written(tmp_path):
+    # The text the sweep and bifurcation writers wrote before they moved to pelcs, but for
+    # the line ends (one CSV dialect: "\n").
+    from lcs.analysis.bifurcation import BifurcationDiagram, SweepBranch
+    from lcs.analysis.tables import SweepTable
+    from pelcs.writers import write_bifurcation, write_sweep
+
+    table = SweepTable(inputs=("duty", "run"), input_values=np.array([[0.3, 0], [0.3, 1]]),
+                       measures=("mean(v(out))",), values=np.array([[2 / 3], [np.nan]]),
+                       ok=np.array([True, False]), messages=["", 'failed: "x", y'])
+    assert write_sweep(table, tmp_path / "s.csv").read_text() == (
+        "duty,run,mean(v(out)),ok,settled,message\n"
+        "0.3,0,0.6666666666666666,1,1,\n"
+        '0.3,1,nan,0,,"failed: ""x"", y"\n')
+    up = SweepBranch("up", np.array([0.1, 0.2]), np.arange(4.0).reshape(2, 2, 1) / 3,
+                     np.zeros((2, 1)), np.array([True, True]))
+    d = BifurcationDiagram("vin", ("v(out)",), ("x",), 5, 2, False, [up])
+    assert write_bifurcation(d, tmp_path / "d.csv").read_text() == (
+        "direction,vin,k,v(out)\n"
+        "up,0.1,0,0.0\nup,0.1,1,0.3333333333333333\n"
+        "up,0.2,0,0.6666666666666666\nup,0.2,1,1.0\n")
+    path = write_bifurcation(d, tmp_path / "d", npz=True)
+    assert path.name == "d.npz"
+    with np.load(path, allow_pickle=False) as z:
+        np.testing.assert_array_equal(z["up_samples"], up.samples)
+        assert str(z["param_name"]) == "vin" and list(z["directions"]) == ["up"]
