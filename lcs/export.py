@@ -332,7 +332,7 @@ def to_arrays(obj: LCS | SwitchedLCS, probes: Sequence[str] = (),
 
 
 def load_npz(path: str | os.PathLike) -> LCS | SwitchedLCS:
-    """Load what :func:`save_npz` wrote."""
+    """Load what :func:`pelcs.writers.write_lcs_npz` wrote (the arrays of :func:`to_arrays`)."""
     with np.load(path, allow_pickle=False) as data:
         meta = json.loads(str(data["meta"]))
         if meta.get("format") == _LCS_TAG:
