@@ -37,6 +37,7 @@ from lcs.analysis.continuation import continue_orbit  # noqa: E402
 from lcs.analysis.orbits import find_orbit  # noqa: E402
 from netlist.studies.sweep import CircuitMapFactory  # noqa: E402
 from pelcs.analysis_plots import plot_basins, plot_bifurcation  # noqa: E402
+from pelcs.writers import write_basins, write_bifurcation  # noqa: E402
 
 NETLIST = ROOT / "converters" / "netlists" / "vm_buck.cir"
 
@@ -59,7 +60,7 @@ def main(argv: list[str] | None = None) -> dict:
     d = bifurcation_diagram(f, vin, x0=f(20.0).x0, transient=200 if fast else 300,
                             record=24 if fast else 100, probes=["v(out)"], follow=True,
                             directions=("up", "down"), progress=True, param_name="vin")
-    d.save(out / "vm_buck_diagram.npz")
+    write_bifurcation(d, out / "vm_buck_diagram.npz")
     plot_bifurcation(d, out / "vm_buck_diagram.png",
                      title="voltage-mode buck: v(out) at t = kT")
     up = d.branch("up")
@@ -103,7 +104,7 @@ def main(argv: list[str] | None = None) -> dict:
     n = 40 if fast else 200
     bm = cell_basins(f, [("v(C1)", 8.0, 16.0, n), ("i(L1)", 0.0, 2.5, n)], param=30.0,
                      progress=True)
-    bm.to_npz(out / "vm_buck_basins.npz")
+    write_basins(bm, out / "vm_buck_basins.npz")
     plot_basins(bm, out / "vm_buck_basins.png", title="vm buck, vin = 30 V: basins")
     results["basins"] = bm
     print(f"basins at 30 V ({n} x {n} cells, {time.perf_counter() - t:.1f} s): "

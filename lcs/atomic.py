@@ -4,6 +4,10 @@ A result file is written under a temporary name in its own folder and renamed ov
 target once complete (``os.replace``, atomic on POSIX file systems). A write that fails (a
 full disk) or is interrupted (Ctrl-C) removes the temporary file and leaves the target as it
 was: an earlier good file is never destroyed, and no truncated file looks like a result.
+
+The result files are written by the application (``pelcs.writers``); this primitive stays at
+the bottom layer because ``ngspice_checks`` and the netlist parser's cache, which may not
+import ``pelcs``, write through it too.
 """
 
 from __future__ import annotations

@@ -9,8 +9,9 @@
   :func:`output_map_from_dict`, :func:`switched_to_dict` / :func:`switched_from_dict` — plain
   dicts of lists, strings, numbers and booleans (``json.dumps`` works on them), with a
   ``"format"`` tag and a ``"version"``.
-* :func:`save_npz` / :func:`load_npz` — matrices as arrays, names and structure as a JSON
-  string (loadable with ``allow_pickle=False``).
+* :func:`to_arrays` / :func:`load_npz` — matrices as arrays, names and structure as a JSON
+  string (loadable with ``allow_pickle=False``); the application writes the ``.npz`` file
+  (:func:`pelcs.writers.write_lcs_npz`).
 
 A switched system is exported mode by mode (all ``2**k`` switch configurations unless told
 otherwise); the loaded :class:`SwitchedLCS` serves the stored modes and the stored probes.
@@ -24,7 +25,6 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-from lcs.atomic import atomic_path
 from lcs.model import (
     LCS,
     ComplementarityPair,
@@ -45,7 +45,7 @@ __all__ = [
     "output_map_from_dict",
     "switched_to_dict",
     "switched_from_dict",
-    "save_npz",
+    "to_arrays",
     "load_npz",
 ]
 
@@ -302,16 +302,15 @@ def _split_arrays(d: dict, prefix: str, arrays: dict) -> dict:
     return rest
 
 
-def save_npz(path: str | os.PathLike, obj: LCS | SwitchedLCS, probes: Sequence[str] = (),
-             modes: Iterable | None = None) -> None:
-    """Save an LCS or a switched LCS to ``.npz``.
+def to_arrays(obj: LCS | SwitchedLCS, probes: Sequence[str] = (),
+              modes: Iterable | None = None) -> dict[str, np.ndarray]:
+    """The arrays of an LCS or a switched LCS's ``.npz`` file.
 
-    Matrices are stored as float arrays (``A``, ``B``... or ``mode3/A``...), everything else
-    as one JSON string under ``meta``; :func:`load_npz` reads it with ``allow_pickle=False``.
+    Matrices are float arrays (``A``, ``B``... or ``mode3/A``...), everything else one JSON
+    string under ``meta``; :func:`load_npz` reads the file with ``allow_pickle=False``.
 
     Parameters
     ----------
-    path : path-like
     obj : LCS or SwitchedLCS
     probes, modes :
         As in :func:`switched_to_dict` (ignored for a single LCS).
@@ -329,15 +328,11 @@ def save_npz(path: str | os.PathLike, obj: LCS | SwitchedLCS, probes: Sequence[s
     else:
         raise TypeError(f"cannot save {type(obj).__name__}")
     arrays["meta"] = np.array(json.dumps(meta))
-    # numpy adds ``.npz`` to a name without it; the file is written whole or not at all
-    final = os.fspath(path)
-    final = final if final.endswith(".npz") else final + ".npz"
-    with atomic_path(final) as tmp, open(tmp, "wb") as fh:
-        np.savez(fh, **arrays)
+    return arrays
 
 
 def load_npz(path: str | os.PathLike) -> LCS | SwitchedLCS:
-    """Load what :func:`save_npz` wrote."""
+    """Load what :func:`pelcs.writers.write_lcs_npz` wrote (the arrays of :func:`to_arrays`)."""
     with np.load(path, allow_pickle=False) as data:
         meta = json.loads(str(data["meta"]))
         if meta.get("format") == _LCS_TAG:

@@ -370,19 +370,7 @@ class BifurcationResult(_Result):
         the parameter, ``k`` (the recorded period), the probes (SI units)."""
         import pandas as pd
 
-        d = self.diagram
-        frames = []
-        for b in d.branches:
-            n, m = b.samples.shape[:2]
-            cols = {"direction": [b.direction] * (n * m),
-                    d.param_name: np.repeat(np.asarray(b.values, dtype=float), m),
-                    "k": np.tile(np.arange(m), n)}
-            for j, p in enumerate(d.probes):
-                cols[p] = b.samples[:, :, j].ravel()
-            frames.append(pd.DataFrame(cols))
-        if not frames:
-            return pd.DataFrame(columns=["direction", d.param_name, "k", *d.probes])
-        return pd.concat(frames, ignore_index=True)
+        return pd.DataFrame(self.diagram.columns())
 
     def plot(self, ax=None):
         """The diagram as ``pelcs bifurcation --plot`` draws it."""

@@ -1,4 +1,11 @@
-"""Files of simulation results: CSV, NPZ and Parquet, chosen by the file's extension.
+"""Files of results: CSV, NPZ and Parquet, chosen by the file's extension.
+
+One writer, :func:`write_table` (a table of named columns; :func:`write_arrays` its NPZ
+archive), writes every result file of pelcs: a run's waveforms (:func:`write_result`), and
+the tables the analyses' results give as plain data (a sweep's ``columns()``, a bifurcation
+diagram's ``columns()`` and ``arrays()``, the basins' ``arrays()``), which the commands and
+the Python API write; the mathematics (``lcs``) writes no file. A run's file written as the
+run goes is :func:`open_stream`'s.
 
 Each is written whole or not at all (:func:`lcs.atomic.atomic_path`): a full disk or a
 Ctrl-C during the write leaves an earlier file of the same name as it was.
@@ -15,15 +22,18 @@ from __future__ import annotations
 
 import csv
 import os
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from lcs.atomic import atomic_path
 from lcs.results import SimulationResult
 
-__all__ = ["FORMATS", "ResultStream", "open_stream", "write_csv", "write_npz",
-           "write_parquet", "write_result"]
+__all__ = ["FORMATS", "ResultStream", "npz_name", "open_stream", "result_columns",
+           "write_arrays", "write_basins", "write_bifurcation", "write_csv", "write_lcs_npz",
+           "write_npz", "write_parquet", "write_result", "write_sweep", "write_table"]
 
 #: File extensions the writers know, in the order the help lists them.
 FORMATS = (".csv", ".npz", ".parquet")
@@ -36,37 +46,183 @@ _DIGITS = 10
 _BLOCK = 4096
 
 
-def _columns(result: SimulationResult) -> np.ndarray:
-    if not len(result.t):
-        return np.empty((0, 1 + len(result.names)))
-    return np.column_stack([np.asarray(result.t, dtype=float),
-                            np.asarray(result.y, dtype=float).reshape(len(result.t), -1)])
+# ---------------------------------------------------------------------------------------------
+# The one writer: a table of named columns, by extension
+
+
+def write_table(path: str | os.PathLike, columns: Mapping[str, ArrayLike], *,
+                meta: Mapping[str, str] | None = None, digits: int | None = _DIGITS,
+                npz: Iterable[tuple[str, ArrayLike]] | None = None, compress: bool = False,
+                format: str | None = None) -> Path:
+    """Write a table of named columns as CSV, NPZ or Parquet, chosen by the extension of
+    ``path`` (or ``format``), whole or not at all (:func:`lcs.atomic.atomic_path`).
+
+    Every result file of pelcs goes through this function (or :func:`write_arrays`, its NPZ
+    archive): a run's waveforms (:func:`write_result`), a sweep's table, a bifurcation
+    diagram, the basins, a frequency response; only the files written as a run goes
+    (:func:`open_stream`) are written a block at a time.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    columns : mapping of str to array, each of shape (N,)
+        The columns in order. Floats (SI units), integers, booleans (written 1 or 0 in CSV)
+        or objects (strings; ``None`` is an empty CSV field).
+    meta : mapping of str to str, optional
+        Parquet: the file's key-value metadata. NPZ: one string member each, after the
+        columns. CSV: not written (the format has no place for it).
+    digits : int or None
+        CSV: significant digits of the floats (``%.{digits}g``); None writes the shortest
+        text that reads back as the same float (``repr``).
+    npz : iterable of (str, array), optional
+        The NPZ archive's members instead of the columns and ``meta`` (a run's archive holds
+        ``t``, ``y``, ``names``...; see :func:`write_npz`). Consumed lazily: a member may be
+        a buffer the iterable overwrites for the next one.
+    compress : bool
+        NPZ: deflate the members (``numpy.savez_compressed``).
+    format : {".csv", ".npz", ".parquet"}, optional
+        The format whatever the extension (default: the extension's).
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    ValueError
+        An extension (or ``format``) not in :data:`FORMATS`.
+    """
+    suffix = (format or Path(path).suffix).lower()
+    if suffix == ".csv":
+        return _write_csv_table(Path(path), columns, digits)
+    if suffix == ".npz":
+        if npz is None:
+            npz = [*columns.items(), *((k, np.array(v)) for k, v in (meta or {}).items())]
+        return write_arrays(path, npz, compress=compress)
+    if suffix == ".parquet":
+        return _write_parquet_table(Path(path), columns, meta or {})
+    raise ValueError(f"unknown output format {suffix or '(no extension)'!r}: use "
+                     f"{', '.join(FORMATS)}")
+
+
+def write_arrays(path: str | os.PathLike, arrays: Iterable[tuple[str, ArrayLike]]
+                 | Mapping[str, ArrayLike], *, compress: bool = False) -> Path:
+    """Write a NumPy ``.npz`` archive, member for member the one ``numpy.savez`` writes
+    (``numpy.savez_compressed`` with ``compress``), whole or not at all.
+
+    ``arrays`` is consumed lazily, one member written before the next is asked for; it holds
+    no object arrays (the archive is read with ``allow_pickle=False``).
+    """
+    import zipfile  # (only NPZ output needs it)
+
+    out = Path(path)
+    items = arrays.items() if isinstance(arrays, Mapping) else arrays
+    method = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
+    with atomic_path(out) as tmp, zipfile.ZipFile(tmp, "w", method, allowZip64=True) as archive:
+        for key, value in items:
+            with archive.open(key + ".npy", "w", force_zip64=True) as member:
+                np.lib.format.write_array(member, np.asanyarray(value), allow_pickle=False)
+    return out
+
+
+def npz_name(path: str | os.PathLike) -> Path:
+    """``path`` with ``.npz`` added when it has not that extension, as ``numpy.savez`` names
+    its files (the analyses' archives keep that name)."""
+    name = os.fspath(path)
+    return Path(name if name.endswith(".npz") else name + ".npz")
+
+
+def _write_csv_table(out: Path, columns: Mapping[str, ArrayLike], digits: int | None) -> Path:
+    arrays = [np.asarray(c) for c in columns.values()]
+    with atomic_path(out) as tmp, open(tmp, "w", newline="") as fh:
+        writer = csv.writer(fh, lineterminator="\n")
+        writer.writerow(list(columns))
+        if digits is not None and arrays and all(a.dtype.kind == "f" for a in arrays):
+            _csv_rows(fh, np.column_stack(arrays) if len(arrays[0])
+                      else np.empty((0, len(arrays))), digits)
+        elif arrays:
+            writer.writerows(zip(*(_csv_cells(a, digits) for a in arrays), strict=True))
+    return out
+
+
+def _csv_rows(fh, data: np.ndarray, digits: int = _DIGITS) -> None:
+    """Rows of floats (``data``: shape (N, columns)), a block at a time: the text of
+    ``numpy.savetxt(fmt="%.{digits}g", delimiter=",")``, 5 times faster."""
+    row = ",".join([f"%.{digits}g"] * data.shape[1]) + "\n"
+    for i in range(0, len(data), _BLOCK):
+        block = data[i:i + _BLOCK]
+        fh.write((row * len(block)) % tuple(block.ravel().tolist()))
+
+
+def _csv_cells(column: np.ndarray, digits: int | None) -> list[str]:
+    """The CSV text of one column's values (see :func:`write_table`)."""
+    def number(v: float) -> str:
+        return repr(float(v)) if digits is None else f"%.{digits}g" % v
+
+    kind = column.dtype.kind
+    values = column.tolist()
+    if kind == "f":
+        return [number(v) for v in values]
+    if kind == "b":
+        return ["1" if v else "0" for v in values]
+    if kind in "iu":
+        return [str(v) for v in values]
+    return ["" if v is None else "1" if v is True else "0" if v is False
+            else number(v) if isinstance(v, float) else str(v) for v in values]
+
+
+def _write_parquet_table(out: Path, columns: Mapping[str, ArrayLike],
+                         meta: Mapping[str, str]) -> Path:
+    """An Apache Parquet table (pyarrow, zstd), ``meta`` as its key-value metadata."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    def array(c):
+        c = np.asarray(c)
+        return pa.array(np.ascontiguousarray(c) if c.dtype.kind in "fiub" else c.tolist())
+
+    table = pa.table({name: array(c) for name, c in columns.items()})
+    table = table.replace_schema_metadata(dict(meta))
+    with atomic_path(out) as tmp:
+        pq.write_table(table, tmp, compression="zstd")
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# A simulation's result
+
+
+def result_columns(result: SimulationResult) -> dict[str, np.ndarray]:
+    """``time`` (s) and one float column per probe (SI units): the table of the run's CSV and
+    Parquet files."""
+    t = np.asarray(result.t, dtype=float)
+    y = np.asarray(result.y, dtype=float).reshape(len(t), len(result.names))
+    return {"time": t, **{name: y[:, j] for j, name in enumerate(result.names)}}
+
+
+def _result_npz(result: SimulationResult) -> Iterator[tuple[str, ArrayLike]]:
+    """The members of a run's archive (see :func:`write_npz`), the probes' columns last."""
+    y = np.asarray(result.y)
+    yield "t", result.t
+    yield "y", y
+    yield "names", np.array(result.names, dtype=str)
+    yield "notes", np.array(result.notes, dtype=str)
+    yield "error", np.array(result.error.message if result.error is not None else "")
+    columns = _probe_columns(y.reshape(len(result.t), len(result.names)))
+    yield from zip(result.names, columns, strict=True)
 
 
 def write_csv(result: SimulationResult, path: str | os.PathLike) -> Path:
     """Write ``time,<probe>,...`` rows in SI units (s, V, A), 10 significant digits.
 
     A probe name with a comma (``v(a,b)``) is quoted in the header, as CSV requires. The rows
-    are the text of ``numpy.savetxt(fmt="%.10g", delimiter=",")``, formatted a block of rows
-    at a time (5 times faster).
+    are the text of ``numpy.savetxt(fmt="%.10g", delimiter=",")``.
     """
-    out = Path(path)
-    with atomic_path(out) as tmp, open(tmp, "w", newline="") as fh:
-        _csv_header(fh, result.names)
-        _csv_rows(fh, _columns(result))
-    return out
+    return write_table(path, result_columns(result), format=".csv")
 
 
 def _csv_header(fh, names) -> None:
     csv.writer(fh, lineterminator="\n").writerow(["time", *names])
-
-
-def _csv_rows(fh, data: np.ndarray) -> None:
-    """Rows ``time,<probe>,...`` (``data``: shape (N, 1 + q)), a block at a time."""
-    row = ",".join([f"%.{_DIGITS}g"] * data.shape[1]) + "\n"
-    for i in range(0, len(data), _BLOCK):
-        block = data[i:i + _BLOCK]
-        fh.write((row * len(block)) % tuple(block.ravel().tolist()))
 
 
 def write_npz(result: SimulationResult, path: str | os.PathLike, compress: bool = False
@@ -78,25 +234,7 @@ def write_npz(result: SimulationResult, path: str | os.PathLike, compress: bool 
     error message, empty for a complete run). The archive is the one ``numpy.savez`` writes
     (``numpy.savez_compressed`` with ``compress``), member for member.
     """
-    import zipfile  # (only NPZ output needs it)
-
-    out = Path(path)
-    y = np.asarray(result.y)
-    method = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
-    with atomic_path(out) as tmp, zipfile.ZipFile(tmp, "w", method, allowZip64=True) as archive:
-        def put(key: str, value) -> None:
-            with archive.open(key + ".npy", "w", force_zip64=True) as member:
-                np.lib.format.write_array(member, np.asanyarray(value), allow_pickle=False)
-
-        put("t", result.t)
-        put("y", y)
-        put("names", np.array(result.names, dtype=str))
-        put("notes", np.array(result.notes, dtype=str))
-        put("error", np.array(result.error.message if result.error is not None else ""))
-        columns = _probe_columns(y.reshape(len(result.t), len(result.names)))
-        for name, column in zip(result.names, columns, strict=True):
-            put(name, column)
-    return out
+    return write_arrays(path, _result_npz(result), compress=compress)
 
 
 def _probe_columns(y: np.ndarray, block_bytes: int = 4 << 20):
@@ -125,17 +263,8 @@ def write_parquet(result: SimulationResult, path: str | os.PathLike) -> Path:
     ``pandas.read_parquet(path)`` gives the same frame as ``result.to_pandas()`` with
     ``time`` as a column.
     """
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
-    out = Path(path)
-    cols = {"time": pa.array(np.asarray(result.t, dtype=float))}
-    for j, name in enumerate(result.names):
-        cols[name] = pa.array(np.ascontiguousarray(result.y[:, j], dtype=float))
-    table = pa.table(cols).replace_schema_metadata(_parquet_metadata(result))
-    with atomic_path(out) as tmp:
-        pq.write_table(table, tmp, compression="zstd")
-    return out
+    return write_table(path, result_columns(result), meta=_parquet_metadata(result),
+                       format=".parquet")
 
 
 def _parquet_metadata(result: SimulationResult) -> dict[str, str]:
@@ -147,7 +276,8 @@ def _parquet_metadata(result: SimulationResult) -> dict[str, str]:
 
 
 def write_result(result: SimulationResult, path: str | os.PathLike) -> Path:
-    """Write a result as CSV, NPZ or Parquet, chosen by the extension of ``path``.
+    """Write a result as CSV, NPZ or Parquet, chosen by the extension of ``path``
+    (:func:`write_csv`, :func:`write_npz`, :func:`write_parquet`).
 
     Raises
     ------
@@ -155,14 +285,45 @@ def write_result(result: SimulationResult, path: str | os.PathLike) -> Path:
         For any other extension.
     """
     suffix = Path(path).suffix.lower()
-    if suffix == ".csv":
-        return write_csv(result, path)
-    if suffix == ".npz":
-        return write_npz(result, path)
     if suffix == ".parquet":
-        return write_parquet(result, path)
-    raise ValueError(f"unknown output format {suffix or '(no extension)'!r}: use "
-                     f"{', '.join(FORMATS)}")
+        return write_table(path, result_columns(result), meta=_parquet_metadata(result))
+    return write_table(path, result_columns(result), npz=_result_npz(result))
+
+
+# ---------------------------------------------------------------------------------------------
+# The analyses' results: their plain data (``columns()``, ``arrays()``), written here
+
+
+def write_sweep(table, path: str | os.PathLike) -> Path:
+    """A sweep or Monte Carlo table (:class:`lcs.analysis.tables.SweepTable`) as CSV,
+    whatever the extension: one row per run, its :meth:`~lcs.analysis.tables.SweepTable.columns`,
+    the numbers in full precision (``repr``), ``ok`` and ``settled`` 1 or 0 (``settled``
+    empty for a failed run)."""
+    return write_table(path, table.columns(), digits=None, format=".csv")
+
+
+def write_bifurcation(diagram, path: str | os.PathLike, npz: bool | None = None) -> Path:
+    """A bifurcation diagram (:class:`lcs.analysis.bifurcation.BifurcationDiagram`): its
+    ``arrays()`` as a compressed NPZ when ``path`` ends in ``.npz`` (or ``npz``; ``.npz``
+    added to a name without it, as numpy does), else its ``columns()`` as CSV (one row per
+    recorded sample, full precision)."""
+    if npz if npz is not None else Path(path).suffix.lower() == ".npz":
+        return write_arrays(npz_name(path), diagram.arrays(), compress=True)
+    return write_table(path, diagram.columns(), digits=None, format=".csv")
+
+
+def write_basins(basins, path: str | os.PathLike) -> Path:
+    """Basins of attraction (:class:`lcs.analysis.basins.BasinMap`): its ``arrays()`` as a
+    compressed NPZ (``.npz`` added to a name without it, as numpy does)."""
+    return write_arrays(npz_name(path), basins.arrays(), compress=True)
+
+
+def write_lcs_npz(path: str | os.PathLike, obj, probes=(), modes=None) -> Path:
+    """An LCS or a switched LCS as ``.npz`` (:func:`lcs.export.to_arrays`; read back by
+    :func:`lcs.export.load_npz`), uncompressed, ``.npz`` added to a name without it."""
+    from lcs.export import to_arrays
+
+    return write_arrays(npz_name(path), to_arrays(obj, probes, modes))
 
 
 # Rows a stream gathers before it writes them (a Parquet row group; the CSV text and the raw

@@ -11,6 +11,7 @@ from lcs.analysis.basins import CellGrid, GridAxis, cell_basins, simple_cell_map
 from lcs.analysis.maps import FunctionMap
 from netlist.studies.sweep import CircuitMapFactory
 from pelcs.analysis_plots import plot_basins, plot_bifurcation
+from pelcs.writers import write_basins
 
 
 def two_wells(v):
@@ -93,7 +94,7 @@ def test_merging_touching_groups_and_two_cycles(tmp_path):
                      merge_adjacent=False)
     # On the row y = 0 the cells x and -x form 2-cycles (x = 0 is a fixed cell).
     assert sorted(a.period for a in fl.attractors) == [1] + [2] * 10
-    fl.to_npz(tmp_path / "b.npz")
+    write_basins(fl, tmp_path / "b.npz")
     plot_basins(fl, tmp_path / "b.png")
     z = np.load(tmp_path / "b.npz")
     np.testing.assert_array_equal(z["group"], fl.group)

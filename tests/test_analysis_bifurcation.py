@@ -22,6 +22,7 @@ from lcs.analysis.continuation import continue_orbit
 from lcs.analysis.maps import FunctionMap, Map, PatternSegment, SwitchingPattern
 from netlist.studies.sweep import CircuitMapFactory
 from pelcs.analysis_plots import plot_bifurcation
+from pelcs.writers import write_bifurcation
 
 # -- map factories (module level: picklable for the worker processes) ----------------------
 
@@ -139,8 +140,8 @@ def test_follow_mode_shows_hysteresis(tmp_path):
     dn = ch.branch("down").samples[:, -1, 0]
     assert dn[20] > 0 > dn[21]  # the second piece restarts at p = -0.05 from x0 = -1
     # Outputs.
-    d.save(tmp_path / "d.npz")
-    d.save(tmp_path / "d.csv")
+    write_bifurcation(d, tmp_path / "d.npz")
+    write_bifurcation(d, tmp_path / "d.csv")
     plot_bifurcation(d, tmp_path / "d.png")
     z = np.load(tmp_path / "d.npz")
     np.testing.assert_array_equal(z["down_samples"], down.samples)

@@ -3,10 +3,11 @@ modules, ``lcs`` imports nothing of ``netlist``/``pelcs``/``ngspice_checks``, ``
 nothing of ``pelcs``/``ngspice_checks``, the core of ``netlist`` (language, circuit,
 formulation) nothing of its studies ``netlist.studies``, ``ngspice_checks`` nothing of
 ``pelcs``, nothing imports the CLI (only the Python API's analyses use its commands' parsers
-and computing functions), ``lcs`` draws nothing (no matplotlib, no figure helpers), no kernel
-module imports the build tools ``lcs.build``, and no code module is over 800 lines; no
-function is over the complexity cap, and no compiled function takes more than 13 arguments
-(the kernels' arguments travel in named tuples), but those listed.
+and computing functions), ``lcs`` draws nothing (no matplotlib, no figure helpers), ``lcs``
+and ``netlist`` write no file (results are written by ``pelcs.writers``), no kernel module
+imports the build tools ``lcs.build``, and no code module is over 800 lines; no function is
+over the complexity cap, and no compiled function takes more than 13 arguments (the kernels'
+arguments travel in named tuples), but those listed.
 
 Imports are read statically (every ``import`` statement, also those inside functions: a lazy
 import is still a dependency).
@@ -167,6 +168,80 @@ def test_drawing_imports_finds_an_import():
             "def f():\n"
             "    from matplotlib.figure import Figure\n")
     assert drawing_imports(code) == ["matplotlib.figure", "matplotlib.pyplot"]
+
+
+#: What writes a file: modules imported for writing, and functions and methods that write.
+#: Result files are the application's (``pelcs.writers.write_table``); the mathematics and the
+#: language give plain data (``columns()``, ``arrays()``) and write none.
+WRITING_MODULES = ("csv", "zipfile")
+WRITING_CALLS = ("savez", "savez_compressed", "savetxt", "save", "tofile", "to_csv",
+                 "to_parquet", "to_npz", "write_text", "write_bytes", "write_table",
+                 "write_arrays", "atomic_path")
+#: The files ``lcs`` and ``netlist`` may write, none of them a result: ``atomic_path`` itself
+#: (below ``ngspice_checks`` and the parser cache, which may not import ``pelcs``), the build
+#: tools' compiler logs and compiled module, the stand-alone parser's cache.
+WRITES_ALLOWED = ("lcs.atomic", "lcs.build", "netlist.lark_standalone")
+_WRITE_FLAGS = ("O_WRONLY", "O_RDWR", "O_CREAT", "O_APPEND", "O_TRUNC")
+
+
+def file_writes(source: str) -> list[str]:
+    """What in ``source`` writes a file (see :data:`WRITING_MODULES`, :data:`WRITING_CALLS`;
+    ``open`` or ``os.open`` with a mode or flags that write)."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            found += [f"import {a.name}" for a in node.names
+                      if a.name.split(".")[0] in WRITING_MODULES]
+        elif isinstance(node, ast.ImportFrom) and not node.level:
+            if (node.module or "").split(".")[0] in WRITING_MODULES:
+                found.append(f"from {node.module} import")
+        elif isinstance(node, ast.Call):
+            f = node.func
+            name = f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", "")
+            if name in WRITING_CALLS:
+                found.append(f"{name}()")
+            elif name == "open":
+                mode = node.args[1] if len(node.args) > 1 else next(
+                    (k.value for k in node.keywords if k.arg in ("mode", "flags")), None)
+                if mode is None:
+                    continue
+                text = ast.unparse(mode)
+                # (a mode string that writes, flags that write, a mode not spelled out)
+                if (any(c in mode.value for c in "wax+") if isinstance(mode, ast.Constant)
+                        else "O_" not in text or any(f in text for f in _WRITE_FLAGS)):
+                    found.append(f"open(..., {text})")
+    return found
+
+
+def test_the_mathematics_and_the_language_write_no_file():
+    bad = sorted(f"{name}: {w}" for name, path in _modules().items()
+                 if (_in(name, "lcs") or _in(name, "netlist"))
+                 and not any(_in(name, a) for a in WRITES_ALLOWED)
+                 for w in file_writes(path.read_text(encoding="utf-8")))
+    assert not bad, ("lcs or netlist writes a file (results are written by pelcs.writers; "
+                     "give the data as columns() or arrays()):\n" + "\n".join(bad))
+
+
+def test_file_writes_finds_a_write():
+    # The rule must be able to fail: every way of writing is reported, lazy ones too; reading
+    # a file, numpy's load, a name that only starts alike are not.
+    code = ("import csv\n"
+            "import numpy as np\n"
+            "from zipfile import ZipFile\n"
+            "import csvkit_like\n"
+            "def f(path, x):\n"
+            "    np.savez_compressed(path, x=x)\n"
+            "    open(path, 'w').write('x')\n"
+            "    open(path, mode='ab')\n"
+            "    open(path).read(); open(path, 'rb'); np.load(path)\n"
+            "    path.write_text('x'); path.read_text()\n"
+            "    with atomic_path(path) as tmp: pass\n"
+            "    os.open(path, os.O_RDONLY | getattr(os, 'O_BINARY', 0))\n"
+            "    os.open(path, os.O_WRONLY | os.O_CREAT)\n")
+    assert sorted(file_writes(code)) == sorted([
+        "import csv", "from zipfile import", "savez_compressed()", "open(..., 'w')",
+        "open(..., 'ab')", "write_text()", "atomic_path()",
+        "open(..., os.O_WRONLY | os.O_CREAT)"])
 
 
 #: The sub-package of ``netlist`` that runs integrators and analyses on a circuit; the rest of

@@ -12,13 +12,13 @@ from lcs.export import (
     lcs_to_dict,
     lcs_to_statespace,
     load_npz,
-    save_npz,
     switched_from_dict,
     switched_to_dict,
     switched_to_statespaces,
 )
 from lcs.model import LCS, ModeModel, OutputMap, SwitchControl, SwitchedLCS
 from lcs.model import ComplementarityPair as Pair
+from pelcs.writers import write_lcs_npz
 
 L, C, R = 100e-6, 470e-6, 10.0
 
@@ -117,14 +117,14 @@ def test_empty_dimensions_round_trip(tmp_path):
     lcs = LCS(np.zeros((0, 0)), np.zeros((0, 2)), np.zeros((2, 0)), np.eye(2), np.zeros((0, 0)),
               np.zeros((2, 0)), (), (Pair("D1"), Pair("D2", "voltage")), ())
     assert_same_lcs(lcs, lcs_from_dict(json.loads(json.dumps(lcs_to_dict(lcs)))))
-    save_npz(tmp_path / "e.npz", lcs)
+    write_lcs_npz(tmp_path / "e.npz", lcs)
     assert_same_lcs(lcs, load_npz(tmp_path / "e.npz"))
 
 
 def test_npz_round_trip_lcs(tmp_path):
     lcs = boost_mode(True)
     path = tmp_path / "mode.npz"
-    save_npz(path, lcs)
+    write_lcs_npz(path, lcs)
     with np.load(path, allow_pickle=False) as data:
         assert {"A", "B", "C", "D", "E", "F", "meta"} <= set(data.files)
     assert_same_lcs(lcs, load_npz(path))
@@ -149,7 +149,7 @@ def test_switched_dict_round_trip():
 def test_switched_npz_round_trip(tmp_path):
     sw = boost_switched()
     path = tmp_path / "boost.npz"
-    save_npz(path, sw, probes=["v(out)"], modes=[{"S1": True}])
+    write_lcs_npz(path, sw, probes=["v(out)"], modes=[{"S1": True}])
     back = load_npz(path)
     assert isinstance(back, SwitchedLCS)
     assert_same_lcs(sw.mode({"S1": True}), back.mode({"S1": True}))

@@ -31,6 +31,7 @@ from netlist.studies.param_sweep import (
 )
 from pelcs.cli import main
 from pelcs.sweep_plots import histogram_figure
+from pelcs.writers import write_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 BUCK = ROOT / "tests" / "netlists" / "sim" / "buck_ccm.cir"
@@ -293,7 +294,7 @@ def test_dataframe_and_csv(rc, tmp_path):
     assert df["run"].dtype.kind == "i" and df["ok"].all() and len(df) == 6
     np.testing.assert_array_equal(df["ripple(v(out))"].to_numpy(), table["ripple(v(out))"])
     path = tmp_path / "t.csv"
-    table.to_csv(path)
+    write_sweep(table, path)
     import pandas as pd
 
     back = pd.read_csv(path)
@@ -563,7 +564,7 @@ def test_settling_names_the_runs_of_a_sweep(tmp_path):
     assert not table.settled.any() and table.ok.all()
     assert any(n.startswith("not settled: 2 of 2 run(s) (duty=0.3; duty=0.6)")
                for n in table.notes)
-    table.to_csv(tmp_path / "t.csv")
+    write_sweep(table, tmp_path / "t.csv")
     lines = (tmp_path / "t.csv").read_text().splitlines()
     assert lines[0] == "duty,mean(v(out)),ok,settled,message"
     assert all(line.split(",")[2:4] == ["1", "0"] for line in lines[1:])

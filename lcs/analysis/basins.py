@@ -19,16 +19,13 @@ images of any :class:`~.maps.Map` (in parallel) and runs it.
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from .. import interrupt
-from ..atomic import atomic_path
 from .maps import Map, MapError
 from .parallel import portable, task_engine
 
@@ -257,30 +254,27 @@ class BasinMap:
     engine: str = ""
     computed: np.ndarray | None = None
 
-    def to_npz(self, path: str | Path) -> None:
+    def arrays(self) -> dict[str, np.ndarray]:
         """Arrays ``group``, ``steps``, ``image``, ``failed`` (N0, N1), the axes
         (``axis0_centres``, ``axis1_centres``, ``axis_names``, ``axis_bounds``) and the
-        attractors (``attractor_groups``, ``attractor_cells`` flat, ``attractor_offsets``)."""
+        attractors (``attractor_groups``, ``attractor_cells`` flat, ``attractor_offsets``):
+        the members of ``pelcs basins -o OUT.npz``."""
         cells = [a.cells for a in self.attractors]
         offsets = np.cumsum([0] + [c.size for c in cells])
-        final = os.fspath(path)  # (numpy adds .npz to a name without it)
-        final = final if final.endswith(".npz") else final + ".npz"
-        with atomic_path(final) as tmp, open(tmp, "wb") as fh:
-            np.savez_compressed(
-                fh,
-                group=self.group, steps=self.steps, image=self.image, failed=self.failed,
-                axis_names=np.array([a.name for a in self.grid.axes]),
-                axis_bounds=np.array([[a.lo, a.hi] for a in self.grid.axes]),
-                axis0_centres=self.grid.axes[0].centres(),
-                axis1_centres=self.grid.axes[1].centres(),
-                base_state=self.base_state, state_indices=np.array(self.state_indices),
-                attractor_groups=np.array([a.group for a in self.attractors], dtype=np.int64),
-                attractor_cells=np.concatenate(cells) if cells else np.empty(0, np.int64),
-                attractor_offsets=offsets,
-                param=np.array(np.nan if self.param is None else self.param),
-                param_name=np.array(self.param_name or ""),
-                **({} if self.computed is None else {"computed": self.computed}),
-            )
+        return dict(
+            group=self.group, steps=self.steps, image=self.image, failed=self.failed,
+            axis_names=np.array([a.name for a in self.grid.axes]),
+            axis_bounds=np.array([[a.lo, a.hi] for a in self.grid.axes]),
+            axis0_centres=self.grid.axes[0].centres(),
+            axis1_centres=self.grid.axes[1].centres(),
+            base_state=self.base_state, state_indices=np.array(self.state_indices),
+            attractor_groups=np.array([a.group for a in self.attractors], dtype=np.int64),
+            attractor_cells=np.concatenate(cells) if cells else np.empty(0, np.int64),
+            attractor_offsets=offsets,
+            param=np.array(np.nan if self.param is None else self.param),
+            param_name=np.array(self.param_name or ""),
+            **({} if self.computed is None else {"computed": self.computed}),
+        )
 
 
 def merge_touching_groups(scm: ScmResult, grid: CellGrid) -> ScmResult:

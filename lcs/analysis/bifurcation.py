@@ -14,22 +14,20 @@ once per period). Two modes, as in the literature on nonsmooth converters:
   its attractor only from its own first value: use it when the attractor is unique or the
   transient is long enough, not for hysteresis hunting at the chunk boundaries).
 
-Results go to NPZ or CSV (the scatter plot is the application's: :mod:`pelcs.analysis_plots`).
+The diagram gives its arrays and its table as plain data; the files (NPZ or CSV) and the
+scatter plot are the application's (:func:`pelcs.writers.write_bifurcation`,
+:mod:`pelcs.analysis_plots`).
 """
 
 from __future__ import annotations
 
-import csv
-import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from .. import interrupt
-from ..atomic import atomic_path
 from .maps import Map, MapError
 from .parallel import portable, task_engine
 
@@ -108,18 +106,11 @@ class BifurcationDiagram:
                 return b
         raise KeyError(direction)
 
-    def save(self, path: str | Path) -> None:
-        """Write NPZ (``.npz``) or CSV (any other suffix)."""
-        path = Path(path)
-        if path.suffix.lower() == ".npz":
-            self.to_npz(path)
-        else:
-            self.to_csv(path)
-
-    def to_npz(self, path: str | Path) -> None:
+    def arrays(self) -> dict[str, np.ndarray]:
         """Arrays ``<direction>_values`` (K,), ``<direction>_samples`` (K, M, q),
         ``<direction>_x_final`` (K, n), ``<direction>_ok`` (K,) per branch, plus
-        ``probes``, ``states``, ``param_name``, ``directions``, ``transient``, ``record``."""
+        ``probes``, ``states``, ``param_name``, ``directions``, ``transient``, ``record``,
+        ``follow``: the members of ``pelcs bifurcation -o OUT.npz``."""
         arrays: dict[str, np.ndarray] = {
             "param_name": np.array(self.param_name),
             "probes": np.array(self.probes),
@@ -134,21 +125,28 @@ class BifurcationDiagram:
             arrays[f"{b.direction}_samples"] = b.samples
             arrays[f"{b.direction}_x_final"] = b.x_final
             arrays[f"{b.direction}_ok"] = b.ok
-        final = os.fspath(path)  # (numpy adds .npz to a name without it)
-        final = final if final.endswith(".npz") else final + ".npz"
-        with atomic_path(final) as tmp, open(tmp, "wb") as fh:
-            np.savez_compressed(fh, **arrays)
+        return arrays
 
-    def to_csv(self, path: str | Path) -> None:
-        """One row per recorded sample: ``direction, <param>, k, <probes...>``."""
-        with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(["direction", self.param_name, "k", *self.probes])
-            for b in self.branches:
-                for i, p in enumerate(b.values):
-                    for k in range(b.samples.shape[1]):
-                        w.writerow([b.direction, repr(float(p)), k,
-                                    *(repr(float(v)) for v in b.samples[i, k])])
+    def columns(self) -> dict[str, np.ndarray]:
+        """One row per recorded sample: ``direction`` (str), the parameter, ``k`` (the
+        recorded iterate, int), the probes (SI units); what ``pelcs bifurcation -o OUT.csv``
+        writes."""
+        direction, param, k = [], [], []
+        samples = []
+        for b in self.branches:
+            n, m = b.samples.shape[:2]
+            direction += [b.direction] * (n * m)
+            param.append(np.repeat(np.asarray(b.values, dtype=float), m))
+            k.append(np.tile(np.arange(m, dtype=np.int64), n))
+            samples.append(np.asarray(b.samples, dtype=float).reshape(n * m, -1))
+        q = len(self.probes)
+        rows = np.concatenate(samples) if samples else np.empty((0, q))
+        cols = {"direction": np.array(direction, dtype=object),
+                self.param_name: np.concatenate(param) if param else np.empty(0),
+                "k": np.concatenate(k) if k else np.empty(0, np.int64)}
+        for j, probe in enumerate(self.probes):
+            cols[probe] = rows[:, j]
+        return cols
 
 
 def _sweep_task(task, report) -> list[tuple[np.ndarray, np.ndarray, bool, str]]:

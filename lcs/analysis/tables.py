@@ -2,8 +2,9 @@
 
 :class:`SweepTable` is what a parameter sweep or a Monte Carlo run returns: the inputs of
 every run (swept parameter values, run index, the component values drawn) and its
-measurements, with the nominal measurements of a Monte Carlo run. It writes CSV, gives a
-pandas DataFrame and per-measurement statistics (its figures: :mod:`pelcs.sweep_plots`).
+measurements, with the nominal measurements of a Monte Carlo run. It gives its columns (the
+application writes them: :func:`pelcs.writers.write_sweep`), a pandas DataFrame and
+per-measurement statistics (its figures: :mod:`pelcs.sweep_plots`).
 
 A Monte Carlo table over a parameter grid holds ``runs`` consecutive rows per grid point; its
 statistics, nominal values and histograms are per grid point, never over the mixture of the
@@ -12,13 +13,9 @@ points.
 
 from __future__ import annotations
 
-import csv
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
-
-from ..atomic import atomic_path
 
 __all__ = ["MAX_HISTOGRAM_POINTS", "SweepTable"]
 
@@ -148,19 +145,21 @@ class SweepTable:
         data["message"] = list(self.messages)
         return pd.DataFrame(data)
 
-    def to_csv(self, path: str | Path) -> None:
-        """CSV with a header row; numbers in full precision (``repr``), SI units; ``ok`` and
-        ``settled`` are 1 or 0 (``settled`` empty for a failed run)."""
-        with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow([*self.inputs, *self.measures, "ok", "settled", "message"])
-            for i in range(len(self)):
-                ins = [str(int(v)) if n == "run" else repr(float(v))
-                       for n, v in zip(self.inputs, self.input_values[i], strict=True)]
-                w.writerow([*ins, *(repr(float(v)) for v in self.values[i]),
-                            int(bool(self.ok[i])),
-                            int(bool(self.settled[i])) if self.ok[i] else "",
-                            self.messages[i]])
+    def columns(self) -> dict[str, np.ndarray]:
+        """The table's columns in order: the inputs (``run`` as integers), the measurements
+        (SI units, NaN where a run failed), ``ok`` (bool), ``settled`` (True, False, or None
+        for a failed run) and ``message`` (str); what ``pelcs sweep -o OUT.csv`` writes."""
+        data: dict[str, np.ndarray] = {}
+        for j, name in enumerate(self.inputs):
+            col = self.input_values[:, j]
+            data[name] = col.astype(np.int64) if name == "run" else col.astype(float)
+        for j, name in enumerate(self.measures):
+            data[name] = self.values[:, j].astype(float)
+        data["ok"] = np.asarray(self.ok, dtype=bool)
+        data["settled"] = np.array([bool(s) if ok else None for s, ok in
+                                    zip(self.settled, self.ok, strict=True)], dtype=object)
+        data["message"] = np.array(list(self.messages), dtype=object)
+        return data
 
     def statistics(self, point: int | None = None) -> dict[str, dict[str, float]]:
         """Per measurement over the successful runs: ``n`` (int), ``mean``, ``std`` (sample,

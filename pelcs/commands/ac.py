@@ -34,16 +34,15 @@ unstable orbit; docs/smallsignal.md); 3 the steady state or a run failed.
 from __future__ import annotations
 
 import argparse
-import csv
 import sys
 from pathlib import Path
 
 import numpy as np
 
-from lcs.atomic import atomic_path
 from pelcs.figures import fit_title, save_figure
 from pelcs.jsonout import dumps
 from pelcs.outputs import write_outputs
+from pelcs.writers import write_table
 
 from . import options
 from .orbit import EXIT_FAILED, usage_error
@@ -214,12 +213,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _write_csv(path: Path, fr) -> None:
-    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["freq"] + [f"{p}_{k}" for p in fr.probes for k in ("mag_db", "phase_deg")])
-        for i, f in enumerate(fr.freq):
-            w.writerow([f"{f:.9g}"] + [f"{v:.9g}" for p in fr.probes
-                                       for v in (fr.mag_db(p)[i], fr.phase_deg(p)[i])])
+    """``freq`` (Hz), then per probe its magnitude (dB) and phase (degrees), 9 digits."""
+    columns = {"freq": np.asarray(fr.freq, dtype=float)}
+    for p in fr.probes:
+        columns[f"{p}_mag_db"] = np.asarray(fr.mag_db(p), dtype=float)
+        columns[f"{p}_phase_deg"] = np.asarray(fr.phase_deg(p), dtype=float)
+    write_table(path, columns, digits=9, format=".csv")
 
 
 def _averaged_curve(averaged, probe: str, freq):

@@ -35,6 +35,7 @@ import numpy as np
 
 from lcs.interrupt import deferred_interrupts
 from pelcs.outputs import interrupt_message, interrupted_status, write_outputs
+from pelcs.writers import write_basins
 
 from . import options
 from .bifurcation import check_output, scheduler_errors
@@ -81,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
         bm = compute(args, setup)
         title = factory.circuit().title
         written = write_outputs("basins", (
-            (out, bm.to_npz),
+            (out, lambda path: write_basins(bm, path)),
             (plot, lambda path: plot_basins(bm, path,
                                             title=f"basins: {title or Path(args.file).name}")),
         ))

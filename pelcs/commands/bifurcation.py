@@ -24,7 +24,7 @@ runs the orbit solver at the middle value of each run, from its recorded state, 
 the orbit's stability and multipliers.
 
 Outputs: ``-o OUT.csv`` (rows ``direction, NAME, k, probes...``) or ``-o OUT.npz`` (arrays
-per direction, see :meth:`lcs.analysis.bifurcation.BifurcationDiagram.to_npz`); ``--plot``
+per direction, see :meth:`lcs.analysis.bifurcation.BifurcationDiagram.arrays`); ``--plot``
 a scatter plot (PNG/SVG/PDF).
 
 Ctrl-C (SIGINT) or SIGTERM stops the diagram: the values under way are dropped, the finished
@@ -46,6 +46,7 @@ import numpy as np
 from lcs import interrupt
 from lcs.interrupt import deferred_interrupts
 from pelcs.outputs import interrupt_message, interrupted_status, write_outputs
+from pelcs.writers import write_bifurcation
 
 from . import options
 from .orbit import (
@@ -131,7 +132,7 @@ def run(args: argparse.Namespace) -> int:
         if plot is not None and not any(b.values.size for b in diagram.branches):
             diagram.notes.append("no plot written: no value finished")
         written = write_outputs("bifurcation", (
-            (out, diagram.save),
+            (out, lambda path: write_bifurcation(diagram, path)),
             # (nothing to plot when an interrupt came before any value finished)
             (plot if any(b.values.size for b in diagram.branches) else None,
              lambda path: plot_bifurcation(diagram, path,

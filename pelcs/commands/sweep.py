@@ -66,6 +66,7 @@ from lcs.interrupt import deferred_interrupts
 from netlist.errors import NetlistError
 from pelcs.jsonout import dumps, json_ready
 from pelcs.outputs import interrupt_message, interrupted_status, write_outputs
+from pelcs.writers import write_sweep
 
 from . import options
 from .bifurcation import check_output, scheduler_errors
@@ -233,7 +234,7 @@ def _sweep(args, setup: dict) -> int:
     if plot is not None and not len(table):
         table.notes.append("no plot written: no run finished")
     written = write_outputs("sweep", (
-        (out, table.to_csv),
+        (out, lambda path: write_sweep(table, path)),
         # (nothing to plot when an interrupt came before any run finished)
         (plot if len(table) else None,
          lambda path: plot_table(table, path, title=plot_title(table, title, args.file))),
