@@ -38,9 +38,10 @@ import numpy as np
 from .circuit import Capacitor, Circuit, Diode, Resistor, Switch, VoltageSource
 from .reductions import parallel_diodes
 
-__all__ = ["PwlFit", "VT_THERMAL", "carried_current", "diode_fit", "diode_params",
-           "diode_residual", "diode_voltage", "parallel_fit", "parallel_voltage",
-           "pwl_circuit", "switch_residual", "switch_resistance"]
+__all__ = ["LOW_FRACTION", "PwlFit", "SEGMENT_TOLERANCE", "VT_THERMAL", "carried_current",
+           "diode_fit", "diode_params", "diode_residual", "diode_voltage", "model_voltage",
+           "parallel_fit", "parallel_voltage", "pwl_circuit", "pwl_voltage", "segment_fit",
+           "switch_residual", "switch_resistance"]
 
 #: thermal voltage at ngspice's nominal 27 °C, V
 VT_THERMAL = 0.025852
@@ -65,9 +66,23 @@ class PwlFit:
     vf: float
     ron: float
     how: str
+    #: a diode of several segments: the other branches' ``(vf, ron)`` (V, Ω), each an
+    #: ideal diode in series with its source and resistor, in parallel with the first
+    branches: tuple[tuple[float, float], ...] = ()
+    #: the largest distance from the model over the fit's range (V), where it was fitted
+    error: float | None = None
+
+    def voltage(self, i: np.ndarray) -> np.ndarray:
+        """The device's voltage while it carries ``i >= 0`` (A), V: :func:`pwl_voltage`."""
+        return pwl_voltage(self.vf, self.ron, self.branches, i)
 
     def line(self) -> str:
-        return f"{self.element}: Vf = {self.vf:.4g} V, Ron = {self.ron:.4g} Ω ({self.how})"
+        if not self.branches:
+            return f"{self.element}: Vf = {self.vf:.4g} V, Ron = {self.ron:.4g} Ω ({self.how})"
+        segs = ((self.vf, self.ron),) + self.branches
+        return (f"{self.element}: {len(segs)} segments in parallel, "
+                + ", ".join(f"Vf = {vf:.4g} V with Ron = {r:.4g} Ω" for vf, r in segs)
+                + f" ({self.how})")
 
 
 def carried_current(t: np.ndarray, i: np.ndarray, quantile: float = 0.99) -> float:
@@ -159,6 +174,122 @@ def parallel_fit(params: list[dict], i_max: float) -> tuple[float, float]:
     return _bounded_line(i, vi, min(rs_min, slope_lo), max(slope_lo, rs_min), float(vi[-1]))
 
 
+#: a diode's fit must hold from this fraction of the current it carries up to that current
+#: (a clamp's or a doubler's current decays through decades while it conducts)
+LOW_FRACTION = 1e-3
+#: the largest distance from the model (V) one segment may leave over that range before two
+#: (then three) are fitted
+SEGMENT_TOLERANCE = 0.02
+MAX_SEGMENTS = 3
+
+
+def pwl_voltage(vf: float, ron: float, branches: tuple = (), i: np.ndarray | float = 0.0
+                ) -> np.ndarray:
+    """Voltage (V) of ``vf + ron i`` in parallel with ``branches`` (each ``(vf, ron)``
+    behind its own ideal diode, V and Ω) carrying a total current ``i >= 0`` (A): with
+    branches ``1..k`` conducting, ``i = sum_j (v - vf_j)/ron_j``; the voltage is the least of
+    these lines over ``k`` (the branch current is convex in ``v``, so ``v(i)`` is concave)."""
+    i = np.asarray(i, float)
+    if not branches:
+        return vf + ron * i
+    g = gv = 0.0
+    out = None
+    for vk, rk in ((vf, ron), *branches):
+        g, gv = g + 1.0 / rk, gv + vk / rk
+        line = (i + gv) / g
+        out = line if out is None else np.minimum(out, line)
+    return out
+
+
+def _chord_errors(i: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``E[a, b]``: the largest ``v - chord`` over ``i[a..b]`` of the chord from point ``a``
+    to point ``b`` (V; >= 0 for a concave ``v``)."""
+    n = len(i)
+    err = np.full((n, n), np.inf)
+    idx = np.arange(n)
+    for a in range(n - 1):
+        b = idx[a + 1:]
+        slope = (v[b] - v[a]) / (i[b] - i[a])
+        dev = v[None, a:] - (v[a] + slope[:, None] * (i[None, a:] - i[a]))
+        dev = np.where(idx[None, a:] <= b[:, None], dev, -np.inf)
+        err[a, a + 1:] = dev.max(axis=1)
+    return err
+
+
+def _knots(err: np.ndarray, k: int) -> tuple[list[int], float]:
+    """Grid indices of the ``k + 1`` knots whose chords' largest error is least, and it."""
+    n = err.shape[0]
+    last = n - 1
+    if k == 1:
+        return [0, last], float(err[0, last])
+    if k == 2:
+        m = np.arange(1, last)
+        worst = np.maximum(err[0, m], err[m, last])
+        j = int(np.argmin(worst))
+        return [0, int(m[j]), last], float(worst[j])
+    worst = np.maximum(np.maximum(err[0][:, None], err), err[:, last][None, :])
+    m1, m2 = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    worst = np.where((m1 >= 1) & (m1 < m2) & (m2 < last), worst, np.inf)
+    a, b = np.unravel_index(int(np.argmin(worst)), worst.shape)
+    return [0, int(a), int(b), last], float(worst[a, b])
+
+
+def model_voltage(params: list[dict], i: np.ndarray, series: float = 0.0) -> np.ndarray:
+    """Voltage (V) of a diode's junctions in parallel (:func:`diode_voltage`, or
+    :func:`parallel_voltage` for several) and its series resistance (Ω) at ``i`` (A)."""
+    i = np.asarray(i, float)
+    if len(params) == 1:
+        p = params[0]
+        return diode_voltage(i, p["is"], p["n"], p["rs"]) + series * i
+    return parallel_voltage(params, i) + series * i
+
+
+def segment_fit(params: list[dict], i_max: float, series: float = 0.0
+                ) -> tuple[float, float, tuple[tuple[float, float], ...], float]:
+    """A diode's piecewise-linear fit, ``(vf, ron, branches, error)`` (V, Ω, the other
+    segments' branches as :func:`pwl_voltage` takes them, and the largest distance from the
+    model, V, over ``[LOW_FRACTION i_max, i_max]``, A).
+
+    One segment (:func:`parallel_fit`, plus ``series``) when it stays within
+    :data:`SEGMENT_TOLERANCE` of the model over that range; else two, else three: the
+    chords of the model's ``v(i)`` between knots chosen on a log grid (20 a decade) for the
+    least largest error, all moved up by half of it (so the error is ``±error/2``). The
+    model's ``v(i)`` is concave, so the chords' lines are a convex piecewise-linear
+    characteristic: parallel branches, branch ``k`` conducting from the knee voltage
+    where segment ``k`` begins."""
+    vf, ron = parallel_fit(params, i_max)
+    ron += series
+    if not (i_max > 1e-9 and math.isfinite(i_max)):
+        return vf, ron, (), 0.0
+    fine = np.logspace(np.log10(LOW_FRACTION * i_max), np.log10(i_max), 400)
+    v_fine = model_voltage(params, fine, series)
+    error = float(np.max(np.abs(vf + ron * fine - v_fine)))
+    if error <= SEGMENT_TOLERANCE:
+        return vf, ron, (), error
+    grid = np.logspace(np.log10(LOW_FRACTION * i_max), np.log10(i_max),
+                       int(round(20 * math.log10(1.0 / LOW_FRACTION))) + 1)
+    v = model_voltage(params, grid, series)
+    err = _chord_errors(grid, v)
+    best = (vf, ron, (), error)
+    for k in range(2, MAX_SEGMENTS + 1):
+        knots, e = _knots(err, k)
+        c, vc = grid[knots], v[knots]
+        slopes = np.diff(vc) / np.diff(c)
+        if not (np.all(slopes > 0) and np.all(np.diff(slopes) < 0)):
+            break  # not strictly concave on the grid: no more segments to gain
+        lines = [(float(vc[0] - slopes[0] * c[0] + e / 2), float(slopes[0]))]
+        for j in range(1, k):  # branch j: its knee at knot j, the conductance it adds
+            g = 1.0 / slopes[j] - 1.0 / slopes[j - 1]
+            lines.append((float(vc[j] + e / 2), float(1.0 / g)))
+        fit = lines[0] + (tuple(lines[1:]),)
+        got = float(np.max(np.abs(pwl_voltage(*fit, fine) - v_fine)))
+        if got < best[3]:
+            best = (*fit, got)
+        if got <= SEGMENT_TOLERANCE:
+            break
+    return best
+
+
 def switch_resistance(circuit: Circuit, sw: Switch, drive: float | None) -> tuple[float, float,
                                                                                    str]:
     """``(Ron, Vdrop, how)`` of a switch when on (Ω, V)."""
@@ -209,14 +340,20 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
         if isinstance(el, Diode):
             params, series = diode_params(circuit, el, merged)
             imax = i_max.get(el.name, 0.0)
-            vf, ron = parallel_fit(params, imax)
-            ron += series
+            vf, ron, branches, error = segment_fit(params, imax, series)
             what = " || ".join(f"IS={p['is']:.3g} N={p['n']:.3g} RS={p['rs']:.3g}"
                                for p in params)
-            span = (f"over {imax / 20:.3g}..{imax:.3g} A" if imax > 1e-9
-                    else "at 1 mA: it carries no current in the ideal run")
-            fits.append(PwlFit(el.name, vf, ron, f"fit of {what} {span}"))
-            out.extend(_series(el, vf, ron))
+            if imax <= 1e-9:
+                span = "at 1 mA: it carries no current in the ideal run"
+            elif branches:
+                span = (f"over {LOW_FRACTION * imax:.3g}..{imax:.3g} A, within "
+                        f"{1e3 * error:.3g} mV")
+            else:
+                span = (f"over {imax / 20:.3g}..{imax:.3g} A, within {1e3 * error:.3g} mV "
+                        f"down to {LOW_FRACTION * imax:.3g} A")
+            fits.append(PwlFit(el.name, vf, ron, f"fit of {what} {span}", branches,
+                               error if imax > 1e-9 else None))
+            out.extend(_series(el, vf, ron, branches))
         elif isinstance(el, Switch):
             ron, vdrop, how = switch_resistance(circuit, el, drives.get(el.name))
             gate = getattr(el, "gate_rc", None)
@@ -258,10 +395,11 @@ def diode_params(circuit: Circuit, el: Diode, merged: dict | None = None
 
 
 def diode_residual(circuit: Circuit, el: Diode, vf: float, ron: float, i_lo: float,
-                   i_hi: float) -> float:
+                   i_hi: float, branches: tuple = ()) -> float:
     """Largest ``|vf + ron i - v(i)|`` over ``[i_lo, i_hi]`` (A), V: how far a diode's
-    piecewise-linear line is from its model (:func:`diode_voltage` of its junctions in
-    parallel, plus its macro-model's series resistance) over the currents it carries."""
+    piecewise-linear line (with ``branches``, its segments: :func:`pwl_voltage`) is from its
+    model (:func:`diode_voltage` of its junctions in parallel, plus its macro-model's series
+    resistance) over the currents it carries."""
     if not (i_hi > 0 and math.isfinite(i_hi)):
         return 0.0
     params, series = diode_params(circuit, el)
@@ -271,7 +409,7 @@ def diode_residual(circuit: Circuit, el: Diode, vf: float, ron: float, i_lo: flo
         v = diode_voltage(i, p["is"], p["n"], p["rs"])
     else:
         v = parallel_voltage(params, i)
-    return float(np.max(np.abs(vf + ron * i - (v + series * i))))
+    return float(np.max(np.abs(pwl_voltage(vf, ron, branches, i) - (v + series * i))))
 
 
 def switch_residual(circuit: Circuit, sw: Switch, ron: float, i_max: float,
@@ -320,10 +458,12 @@ def _gate(sw: Switch, rg: float, cgs: float, cgd: float) -> tuple[Switch, list]:
     return replace(sw, control=control), parts
 
 
-def _series(el, vf: float, ron: float) -> list:
-    """``el`` between its first node and an internal node, then Vf and Ron to its second."""
+def _series(el, vf: float, ron: float, branches: tuple = ()) -> list:
+    """``el`` between its first node and an internal node, then Vf and Ron to its second;
+    each of ``branches`` from that internal node to the second through its own ideal diode
+    ``<element>#d<k>``, source and resistor (so ``el`` carries the total current)."""
     a, b = el.nodes[0], el.nodes[1]
-    if vf == 0.0 and ron == 0.0:
+    if vf == 0.0 and ron == 0.0 and not branches:
         return [el]
     key = el.name.lower()
     parts = []
@@ -335,4 +475,9 @@ def _series(el, vf: float, ron: float) -> list:
         node = nxt
     if ron > 0:
         parts.append(Resistor(f"{el.name}#ron", (node, b), el.location, ron))
+    for k, (vk, rk) in enumerate(branches, start=2):
+        inner, mid = f"{key}#a{k}", f"{key}#b{k}"
+        parts.append(Diode(f"{el.name}#d{k}", (f"{key}#a", inner), el.location))
+        parts.append(VoltageSource(f"{el.name}#vf{k}", (inner, mid), el.location, vk))
+        parts.append(Resistor(f"{el.name}#ron{k}", (mid, b), el.location, rk))
     return parts
