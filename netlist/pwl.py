@@ -31,6 +31,7 @@ The added elements are named ``<element>#vf`` and ``<element>#ron`` on internal 
 from __future__ import annotations
 
 import math
+from collections.abc import Collection
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -77,12 +78,12 @@ class PwlFit:
         return pwl_voltage(self.vf, self.ron, self.branches, i)
 
     def line(self) -> str:
+        first = f"{self.element}: Vf = {self.vf:.4g} V, Ron = {self.ron:.4g} Ω"
         if not self.branches:
-            return f"{self.element}: Vf = {self.vf:.4g} V, Ron = {self.ron:.4g} Ω ({self.how})"
-        segs = ((self.vf, self.ron),) + self.branches
-        return (f"{self.element}: {len(segs)} segments in parallel, "
-                + ", ".join(f"Vf = {vf:.4g} V with Ron = {r:.4g} Ω" for vf, r in segs)
-                + f" ({self.how})")
+            return f"{first} ({self.how})"
+        return (first + "".join(f", in parallel with Vf = {vf:.4g} V, Ron = {r:.4g} Ω"
+                                for vf, r in self.branches)
+                + f" ({1 + len(self.branches)} segments: {self.how})")
 
 
 def carried_current(t: np.ndarray, i: np.ndarray, quantile: float = 0.99) -> float:
@@ -244,14 +245,15 @@ def model_voltage(params: list[dict], i: np.ndarray, series: float = 0.0) -> np.
     return parallel_voltage(params, i) + series * i
 
 
-def segment_fit(params: list[dict], i_max: float, series: float = 0.0
+def segment_fit(params: list[dict], i_max: float, series: float = 0.0, segments: bool = True
                 ) -> tuple[float, float, tuple[tuple[float, float], ...], float]:
     """A diode's piecewise-linear fit, ``(vf, ron, branches, error)`` (V, Ω, the other
     segments' branches as :func:`pwl_voltage` takes them, and the largest distance from the
     model, V, over ``[LOW_FRACTION i_max, i_max]``, A).
 
     One segment (:func:`parallel_fit`, plus ``series``) when it stays within
-    :data:`SEGMENT_TOLERANCE` of the model over that range; else two, else three: the
+    :data:`SEGMENT_TOLERANCE` of the model over that range or ``segments`` is false; else
+    two, else three: the
     chords of the model's ``v(i)`` between knots chosen on a log grid (20 a decade) for the
     least largest error, all moved up by half of it (so the error is ``±error/2``). The
     model's ``v(i)`` is concave, so the chords' lines are a convex piecewise-linear
@@ -264,7 +266,7 @@ def segment_fit(params: list[dict], i_max: float, series: float = 0.0
     fine = np.logspace(np.log10(LOW_FRACTION * i_max), np.log10(i_max), 400)
     v_fine = model_voltage(params, fine, series)
     error = float(np.max(np.abs(vf + ron * fine - v_fine)))
-    if error <= SEGMENT_TOLERANCE:
+    if error <= SEGMENT_TOLERANCE or not segments:
         return vf, ron, (), error
     grid = np.logspace(np.log10(LOW_FRACTION * i_max), np.log10(i_max),
                        int(round(20 * math.log10(1.0 / LOW_FRACTION))) + 1)
@@ -319,11 +321,13 @@ def switch_resistance(circuit: Circuit, sw: Switch, drive: float | None) -> tupl
 
 
 def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, float],
-                explicit: dict | None = None) -> tuple[Circuit, list[PwlFit]]:
+                explicit: dict | None = None, single: Collection[str] = ()
+                ) -> tuple[Circuit, list[PwlFit]]:
     """The circuit with every diode and switch made piecewise linear (see the module
     docstring); ``i_max`` (A) and ``drives`` (V) by element name, from an ideal run;
     ``explicit``: ``{element or model name: (vf, ron)}`` given by the user (V, Ω), used as
-    they are instead of a fit."""
+    they are instead of a fit; ``single``: diodes (by name) kept at one segment (the others
+    get two or three where one misses their model: :func:`segment_fit`)."""
     merged = parallel_diodes(circuit)
     given = {str(k).lower(): v for k, v in (explicit or {}).items()}
     out, fits = [], []
@@ -340,7 +344,8 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
         if isinstance(el, Diode):
             params, series = diode_params(circuit, el, merged)
             imax = i_max.get(el.name, 0.0)
-            vf, ron, branches, error = segment_fit(params, imax, series)
+            vf, ron, branches, error = segment_fit(params, imax, series,
+                                                   el.name not in single)
             what = " || ".join(f"IS={p['is']:.3g} N={p['n']:.3g} RS={p['rs']:.3g}"
                                for p in params)
             if imax <= 1e-9:
@@ -351,6 +356,9 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
             else:
                 span = (f"over {imax / 20:.3g}..{imax:.3g} A, within {1e3 * error:.3g} mV "
                         f"down to {LOW_FRACTION * imax:.3g} A")
+                if el.name in single and error > SEGMENT_TOLERANCE:
+                    span += ("; one segment: an inductor's current runs through it, and "
+                             "segments would make θ = 1/2 unreliable")
             fits.append(PwlFit(el.name, vf, ron, f"fit of {what} {span}", branches,
                                error if imax > 1e-9 else None))
             out.extend(_series(el, vf, ron, branches))

@@ -69,6 +69,8 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
             drives[sw.name] = float(np.max(ideal[f"v({a})" if b == GROUND
                                                   else f"v({a},{b})"]))
         run_circuit, fits = pwl_circuit(circuit, i_max, drives, pwl)
+        run_circuit, fits = _segments_theta_allows(circuit, run_circuit, fits, i_max,
+                                                   drives, pwl, kw)
     want = list(probes) if probes is not None else None
     extra = loss_probes(circuit) if losses else []
     if want is None:
@@ -89,3 +91,51 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         k = len(dict.fromkeys(want))
         res.names, res.y = tuple(res.names[:k]), res.y[:, :k]
     return res
+
+
+def _theta_pairs(run_circuit: Circuit, kw: dict) -> set[str] | None:
+    """The pairs :func:`lcs.integrators.moreau.theta_screen.screen_theta` finds cancelling a
+    stiff part of the dynamics at the default θ (empty: θ = 1/2 is reliable), or None when θ
+    or the method is given."""
+    if kw.get("theta") is not None or kw.get("method", "moreau") != "moreau":
+        return None
+    from lcs.integrators.moreau.theta_screen import screen_theta
+
+    from .transient import DEFAULT_THETA, transient_setup
+
+    setup = transient_setup(run_circuit, tstop=kw.get("tstop"), step=kw.get("step"))
+    risks = screen_theta(setup.system, setup.h, DEFAULT_THETA, energy=setup.energy)
+    return {p.split("#")[0].lower() for r in risks for p in r.pairs} | (
+        {"?"} if risks else set())
+
+
+def _segments_theta_allows(circuit: Circuit, run_circuit: Circuit, fits: list,
+                           i_max: dict, drives: dict, pwl: dict | None, kw: dict
+                           ) -> tuple[Circuit, list]:
+    """The piecewise-linear circuit with one segment for the diodes whose segments would make
+    the default θ unreliable (:func:`netlist.studies.transient.choose_theta`).
+
+    A segment's diode lowers the resistance in series when it turns on; where an inductor's
+    current runs through the diode (a converter's freewheeling diode), that cancels a stiff
+    part of the dynamics, which θ < 1 integrates explicitly, and the run would fall back to
+    θ = 1 (first order). Such a diode turns off at its load current rather than letting a
+    current decay through decades, which is what the segments are for. A circuit that needs
+    θ = 1 with one segment a diode keeps its segments (they cost nothing more)."""
+    segmented = {f.element.lower(): f.element for f in fits if f.branches}
+    if not segmented:
+        return run_circuit, fits
+    pairs = _theta_pairs(run_circuit, kw)
+    if not pairs:
+        return run_circuit, fits
+    one, one_fits = pwl_circuit(circuit, i_max, drives, pwl, set(segmented.values()))
+    if _theta_pairs(one, kw):
+        return run_circuit, fits
+    single: set[str] = set()
+    while pairs:  # each round keeps at least one more diode at one segment
+        more = {segmented[p] for p in pairs if p in segmented} - single
+        if not more:
+            return one, one_fits
+        single |= more
+        run_circuit, fits = pwl_circuit(circuit, i_max, drives, pwl, single)
+        pairs = _theta_pairs(run_circuit, kw)
+    return run_circuit, fits

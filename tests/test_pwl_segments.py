@@ -1,0 +1,102 @@
+"""Diodes of several piecewise-linear segments (``--devices pwl``, :func:`netlist.pwl.segment_fit`):
+the fitted characteristic against Shockley's equation with series resistance, evaluated here
+on its own, and the circuit pelcs builds from it (ideal diodes in parallel, each behind its
+own Vf and Ron) against the characteristic it was built from."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import pelcs
+from netlist.circuit import Diode
+from netlist.pwl import (LOW_FRACTION, SEGMENT_TOLERANCE, VT_THERMAL, diode_fit,
+                         pwl_circuit, segment_fit)
+from netlist.studies.transient import simulate_circuit
+
+
+def shockley(i, is_, n, rs):
+    """The diode's voltage at current i: n Vt ln(1 + i/IS) + RS i (V)."""
+    return n * VT_THERMAL * np.log1p(np.asarray(i) / is_) + rs * np.asarray(i)
+
+
+def branch_voltage(vf, ron, branches, i):
+    """The voltage at which the parallel branches, each max(0, (v - Vf_k)/Ron_k), carry i
+    in all: bisection on the branches' current (not the lines the fit is written as)."""
+    segs = [(vf, ron), *branches]
+    lo, hi = 0.0, 10.0
+    for _ in range(200):
+        v = 0.5 * (lo + hi)
+        total = sum(max(0.0, (v - a) / r) for a, r in segs)
+        lo, hi = (v, hi) if total < i else (lo, v)
+    return 0.5 * (lo + hi)
+
+
+# (IS, N, RS, carried current): the corpus' DC restorer's diode, the doubler's BAR42, the
+# mixer's diode, and a power diode at 10 A
+CASES = [(2.0298e-15, 1.0, 0.0, 1.26e-3), (1.13853e-8, 1.0, 0.99517, 0.0771),
+         (2.52e-9, 1.75, 0.568, 4.49e-4), (1e-9, 1.5, 0.05, 10.0)]
+
+
+@pytest.mark.parametrize("is_, n, rs, i_max", CASES)
+def test_segments_follow_shockley_over_three_decades(is_, n, rs, i_max):
+    vf, ron, branches, error = segment_fit([{"is": is_, "n": n, "rs": rs}], i_max)
+    assert 1 <= len(branches) <= 2  # one segment misses by far more than the tolerance
+    i = np.logspace(math.log10(LOW_FRACTION * i_max), math.log10(i_max), 37)
+    got = np.array([branch_voltage(vf, ron, branches, x) for x in i])
+    miss = np.abs(got - shockley(i, is_, n, rs))
+    assert miss.max() <= error + 1e-6  # the error it reports bounds it
+    # two segments within 20 mV, or three within their own error (N = 1.75: 14 mV)
+    assert error <= SEGMENT_TOLERANCE if len(branches) == 1 else error < 0.6 * n * VT_THERMAL
+    # the one segment it replaces misses by several times more at the low end
+    vf1, ron1 = diode_fit(is_, n, rs, i_max)
+    assert np.max(np.abs(vf1 + ron1 * i - shockley(i, is_, n, rs))) > 3 * error
+    # a convex characteristic: each branch opens above the last, and all conduct
+    knees = [vf] + [b[0] for b in branches]
+    assert knees == sorted(knees) and ron > 0 and all(b[1] > 0 for b in branches)
+
+
+def test_one_segment_kept_where_it_fits():
+    # the bundled converters' near-ideal diode (N = 0.05): one line within 6 mV of the model
+    # over the three decades, the same line as before
+    vf, ron, branches, error = segment_fit([{"is": 1e-12, "n": 0.05, "rs": 1e-3}], 8.91)
+    assert branches == () and (vf, ron) == diode_fit(1e-12, 0.05, 1e-3, 8.91)
+    i = np.logspace(math.log10(LOW_FRACTION * 8.91), math.log10(8.91), 200)
+    assert error == pytest.approx(np.max(np.abs(vf + ron * i - shockley(i, 1e-12, 0.05, 1e-3))),
+                                  rel=0.05)
+    assert error < SEGMENT_TOLERANCE
+
+
+NETLIST = """* a ramp through 1 kOhm into a diode
+V1 in 0 PWL(0 0 1m 5)
+R1 in a 1k
+D1 a 0 DR
+.model DR D(IS=2.0298e-15 N=1)
+.tran 1u 1m
+.end
+"""
+
+
+def test_circuit_realises_the_segments(tmp_path):
+    path = tmp_path / "ramp.cir"
+    path.write_text(NETLIST)
+    circuit = pelcs.load(path)
+    run, fits = pwl_circuit(circuit, {"D1": 4.3e-3}, {})
+    fit = fits[0]
+    assert len(fit.branches) >= 1 and fit.error is not None
+    assert "segments: fit of IS=2.03e-15" in fit.line()
+    diodes = [el.name for el in run.elements if isinstance(el, Diode)]
+    # one complementarity pair per segment
+    assert len(diodes) == 1 + len(fit.branches)
+    res = simulate_circuit(run, probes=["v(a)", "i(D1)"])
+    v, i = np.asarray(res["v(a)"]), np.asarray(res["i(D1)"])
+    on = i > 1e-9
+    # D1 carries the total current: the node voltage is the characteristic at it
+    want = np.array([branch_voltage(fit.vf, fit.ron, fit.branches, x) for x in i[on]])
+    assert np.max(np.abs(v[on] - want)) < 1e-6
+    # and the source's current balances: (v(in) - v(a))/1k = i(D1)
+    t = np.asarray(res.t)
+    assert np.max(np.abs((5.0 * t / 1e-3 - v) / 1e3 - i)) < 1e-9
+    assert np.max(np.abs(fit.voltage(i[on]) - want)) < 1e-9
