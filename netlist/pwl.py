@@ -245,20 +245,38 @@ def model_voltage(params: list[dict], i: np.ndarray, series: float = 0.0) -> np.
     return parallel_voltage(params, i) + series * i
 
 
+def _branches(lines: list[tuple[float, float]]) -> tuple[float, float, tuple] | None:
+    """Lines ``v = a + b i`` (V, Ω), steepest first, as :func:`pwl_voltage`'s first segment
+    and branches: branch ``k`` opens at the voltage where line ``k`` meets line ``k - 1`` and
+    adds the conductance ``1/b_k - 1/b_{k-1}``. None unless the slopes fall and the knees
+    rise (a convex characteristic)."""
+    out, knee = [lines[0]], -math.inf
+    for (a0, b0), (a1, b1) in zip(lines[:-1], lines[1:], strict=True):
+        if not (b1 < b0 and b1 > 0):
+            return None
+        i_x = (a1 - a0) / (b0 - b1)  # where they meet, A
+        v_x = a0 + b0 * i_x
+        if not (i_x > 0 and v_x > knee):
+            return None
+        knee = v_x
+        out.append((float(v_x), float(1.0 / (1.0 / b1 - 1.0 / b0))))
+    return out[0][0], out[0][1], tuple(out[1:])
+
+
 def segment_fit(params: list[dict], i_max: float, series: float = 0.0, segments: bool = True
                 ) -> tuple[float, float, tuple[tuple[float, float], ...], float]:
     """A diode's piecewise-linear fit, ``(vf, ron, branches, error)`` (V, Ω, the other
     segments' branches as :func:`pwl_voltage` takes them, and the largest distance from the
     model, V, over ``[LOW_FRACTION i_max, i_max]``, A).
 
-    One segment (:func:`parallel_fit`, plus ``series``) when it stays within
-    :data:`SEGMENT_TOLERANCE` of the model over that range or ``segments`` is false; else
-    two, else three: the
-    chords of the model's ``v(i)`` between knots chosen on a log grid (20 a decade) for the
-    least largest error, all moved up by half of it (so the error is ``±error/2``). The
-    model's ``v(i)`` is concave, so the chords' lines are a convex piecewise-linear
-    characteristic: parallel branches, branch ``k`` conducting from the knee voltage
-    where segment ``k`` begins."""
+    The line of :func:`parallel_fit` (plus ``series``) over ``[i_max/20, i_max]``, alone when
+    it stays within :data:`SEGMENT_TOLERANCE` of the model down to ``LOW_FRACTION i_max`` or
+    ``segments`` is false. Else, below it, one or two more (as few as reach the tolerance):
+    chords of the model's ``v(i)`` over ``[LOW_FRACTION i_max, i_max/20]`` between knots
+    chosen on a log grid (20 a decade) for the least largest error, moved up by half of it.
+    The model's ``v(i)`` is concave, so the lines are a convex piecewise-linear
+    characteristic (:func:`_branches`); above the first knee the line is the one-segment
+    fit itself, so the currents a converter's diode carries see the same diode."""
     vf, ron = parallel_fit(params, i_max)
     ron += series
     if not (i_max > 1e-9 and math.isfinite(i_max)):
@@ -268,22 +286,21 @@ def segment_fit(params: list[dict], i_max: float, series: float = 0.0, segments:
     error = float(np.max(np.abs(vf + ron * fine - v_fine)))
     if error <= SEGMENT_TOLERANCE or not segments:
         return vf, ron, (), error
-    grid = np.logspace(np.log10(LOW_FRACTION * i_max), np.log10(i_max),
-                       int(round(20 * math.log10(1.0 / LOW_FRACTION))) + 1)
+    lo, hi = LOW_FRACTION * i_max, i_max / 20.0
+    grid = np.logspace(np.log10(lo), np.log10(hi),
+                       int(round(20 * math.log10(hi / lo))) + 1)
     v = model_voltage(params, grid, series)
     err = _chord_errors(grid, v)
     best = (vf, ron, (), error)
-    for k in range(2, MAX_SEGMENTS + 1):
+    for k in range(1, MAX_SEGMENTS):
         knots, e = _knots(err, k)
         c, vc = grid[knots], v[knots]
         slopes = np.diff(vc) / np.diff(c)
-        if not (np.all(slopes > 0) and np.all(np.diff(slopes) < 0)):
-            break  # not strictly concave on the grid: no more segments to gain
-        lines = [(float(vc[0] - slopes[0] * c[0] + e / 2), float(slopes[0]))]
-        for j in range(1, k):  # branch j: its knee at knot j, the conductance it adds
-            g = 1.0 / slopes[j] - 1.0 / slopes[j - 1]
-            lines.append((float(vc[j] + e / 2), float(1.0 / g)))
-        fit = lines[0] + (tuple(lines[1:]),)
+        lines = [(float(vc[j] - slopes[j] * c[j] + e / 2), float(slopes[j]))
+                 for j in range(k)] + [(vf, ron)]
+        fit = _branches(lines)
+        if fit is None:
+            break  # not convex: no more segments to gain
         got = float(np.max(np.abs(pwl_voltage(*fit, fine) - v_fine)))
         if got < best[3]:
             best = (*fit, got)
@@ -351,8 +368,8 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
             if imax <= 1e-9:
                 span = "at 1 mA: it carries no current in the ideal run"
             elif branches:
-                span = (f"over {LOW_FRACTION * imax:.3g}..{imax:.3g} A, within "
-                        f"{1e3 * error:.3g} mV")
+                span = (f"over {LOW_FRACTION * imax:.3g}..{imax:.3g} A (the top segment "
+                        f"over {imax / 20:.3g}..{imax:.3g} A), within {1e3 * error:.3g} mV")
             else:
                 span = (f"over {imax / 20:.3g}..{imax:.3g} A, within {1e3 * error:.3g} mV "
                         f"down to {LOW_FRACTION * imax:.3g} A")
