@@ -77,6 +77,16 @@ class PwlFit:
         """The device's voltage while it carries ``i >= 0`` (A), V: :func:`pwl_voltage`."""
         return pwl_voltage(self.vf, self.ron, self.branches, i)
 
+    @property
+    def top(self) -> tuple[float, float]:
+        """``(vf, ron)`` of the segment of the largest currents (V, Ω): the one-segment fit
+        over the currents the device carries (every branch conducting)."""
+        if not self.branches:
+            return self.vf, self.ron
+        segs = ((self.vf, self.ron), *self.branches)
+        g = sum(1.0 / r for _, r in segs)
+        return sum(v / r for v, r in segs) / g, 1.0 / g
+
     def line(self) -> str:
         first = f"{self.element}: Vf = {self.vf:.4g} V, Ron = {self.ron:.4g} Ω"
         if not self.branches:

@@ -105,3 +105,5 @@ def test_circuit_realises_the_segments(tmp_path):
     t = np.asarray(res.t)
     assert np.max(np.abs((5.0 * t / 1e-3 - v) / 1e3 - i)) < 1e-9
     assert np.max(np.abs(fit.voltage(i[on]) - want)) < 1e-9
+    # the segment of the largest currents is the one-segment fit
+    assert fit.top == pytest.approx(diode_fit(2.0298e-15, 1.0, 0.0, 4.3e-3), rel=1e-9)

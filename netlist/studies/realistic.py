@@ -93,10 +93,17 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
     return res
 
 
-def _theta_pairs(run_circuit: Circuit, kw: dict) -> set[str] | None:
+#: the segments' diodes must cancel nothing θ = 1/2 would feel even at this many times the
+#: run's step (the θ screen's G is proportional to the step; a buck's freewheeling diode of
+#: three segments at 0.1 µs: G = -0.0008, under the screen's limit of 0.001, and the mean
+#: output moves 0.05 % between h = 0.1 µs and 0.025 µs, where one segment moves 1e-7)
+SEGMENT_STEP_MARGIN = 100.0
+
+
+def _theta_pairs(run_circuit: Circuit, kw: dict, margin: float = 1.0) -> set[str] | None:
     """The pairs :func:`lcs.integrators.moreau.theta_screen.screen_theta` finds cancelling a
-    stiff part of the dynamics at the default θ (empty: θ = 1/2 is reliable), or None when θ
-    or the method is given."""
+    stiff part of the dynamics at the default θ and ``margin`` times the run's step (names;
+    empty: θ = 1/2 is reliable), or None when θ or the method is given."""
     if kw.get("theta") is not None or kw.get("method", "moreau") != "moreau":
         return None
     from lcs.integrators.moreau.theta_screen import screen_theta
@@ -104,38 +111,41 @@ def _theta_pairs(run_circuit: Circuit, kw: dict) -> set[str] | None:
     from .transient import DEFAULT_THETA, transient_setup
 
     setup = transient_setup(run_circuit, tstop=kw.get("tstop"), step=kw.get("step"))
-    risks = screen_theta(setup.system, setup.h, DEFAULT_THETA, energy=setup.energy)
-    return {p.split("#")[0].lower() for r in risks for p in r.pairs} | (
-        {"?"} if risks else set())
+    risks = screen_theta(setup.system, margin * setup.h, DEFAULT_THETA, energy=setup.energy)
+    return {p for r in risks for p in r.pairs} | ({"?"} if risks else set())
 
 
 def _segments_theta_allows(circuit: Circuit, run_circuit: Circuit, fits: list,
                            i_max: dict, drives: dict, pwl: dict | None, kw: dict
                            ) -> tuple[Circuit, list]:
-    """The piecewise-linear circuit with one segment for the diodes whose segments would make
-    the default θ unreliable (:func:`netlist.studies.transient.choose_theta`).
+    """The piecewise-linear circuit with one segment for the diodes whose segments would
+    make θ = 1/2 less accurate (:func:`netlist.studies.transient.choose_theta`).
 
     A segment's diode lowers the resistance in series when it turns on; where an inductor's
     current runs through the diode (a converter's freewheeling diode), that cancels a stiff
-    part of the dynamics, which θ < 1 integrates explicitly, and the run would fall back to
-    θ = 1 (first order). Such a diode turns off at its load current rather than letting a
-    current decay through decades, which is what the segments are for. A circuit that needs
-    θ = 1 with one segment a diode keeps its segments (they cost nothing more)."""
+    part of the dynamics, which θ < 1 integrates explicitly: the run would lose accuracy, or
+    fall back to θ = 1 (first order). Such a diode turns off at its load current rather than
+    letting a current decay through decades, which is what the segments are for. The screen
+    runs at :data:`SEGMENT_STEP_MARGIN` times the step. A circuit that needs θ = 1 with one
+    segment a diode keeps its segments (they cost no accuracy there)."""
     segmented = {f.element.lower(): f.element for f in fits if f.branches}
+
+    def flagged(pairs):  # the diodes whose segments' own diodes (<element>#d<k>) it names
+        return {segmented[p.split("#")[0].lower()] for p in pairs or ()
+                if "#d" in p and p.split("#")[0].lower() in segmented}
+
     if not segmented:
         return run_circuit, fits
-    pairs = _theta_pairs(run_circuit, kw)
-    if not pairs:
+    single = flagged(_theta_pairs(run_circuit, kw, SEGMENT_STEP_MARGIN))
+    if not single:
         return run_circuit, fits
     one, one_fits = pwl_circuit(circuit, i_max, drives, pwl, set(segmented.values()))
     if _theta_pairs(one, kw):
         return run_circuit, fits
-    single: set[str] = set()
-    while pairs:  # each round keeps at least one more diode at one segment
-        more = {segmented[p] for p in pairs if p in segmented} - single
-        if not more:
-            return one, one_fits
-        single |= more
+    for _ in range(len(segmented)):  # each round keeps at least one more at one segment
         run_circuit, fits = pwl_circuit(circuit, i_max, drives, pwl, single)
-        pairs = _theta_pairs(run_circuit, kw)
+        more = flagged(_theta_pairs(run_circuit, kw, SEGMENT_STEP_MARGIN)) - single
+        if not more:
+            break
+        single |= more
     return run_circuit, fits
