@@ -12,8 +12,14 @@ import pytest
 
 import pelcs
 from netlist.circuit import Diode
-from netlist.pwl import (LOW_FRACTION, SEGMENT_TOLERANCE, VT_THERMAL, diode_fit,
-                         pwl_circuit, segment_fit)
+from netlist.pwl import (
+    LOW_FRACTION,
+    SEGMENT_TOLERANCE,
+    VT_THERMAL,
+    diode_fit,
+    pwl_circuit,
+    segment_fit,
+)
 from netlist.studies.transient import simulate_circuit
 
 
