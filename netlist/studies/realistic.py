@@ -94,10 +94,11 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
 
 
 #: the segments' diodes must cancel nothing θ = 1/2 would feel even at this many times the
-#: run's step (the θ screen's G is proportional to the step; a buck's freewheeling diode of
-#: three segments at 0.1 µs: G = -0.0008, under the screen's limit of 0.001, and the mean
-#: output moves 0.05 % between h = 0.1 µs and 0.025 µs, where one segment moves 1e-7)
-SEGMENT_STEP_MARGIN = 100.0
+#: run's step (the θ screen's G is proportional to the step, so in effect nothing: a
+#: buck's freewheeling diode of three segments at 0.1 µs has G = -0.0008, under the
+#: screen's limit of 0.001, and its mean output moves 0.05 % between h = 0.1 µs and
+#: 0.025 µs, where with one segment it moves 1e-7)
+SEGMENT_STEP_MARGIN = 1e4
 
 
 def _theta_pairs(run_circuit: Circuit, kw: dict, margin: float = 1.0) -> set[str] | None:
