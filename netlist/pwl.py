@@ -15,6 +15,18 @@ diode's slopes at both ends of the range). Diodes merged in parallel are fitted 
 (their total current). ``Vf`` and ``Ron`` may also be given per element or model (``--pwl
 NAME=VF:RON``), then used as they are.
 
+Where that line misses the model by more than :data:`SEGMENT_TOLERANCE` (20 mV) down to
+:data:`LOW_FRACTION` (1e-3) of the current, the diode gets two or three **segments**
+(:func:`segment_fit`): the line stays the segment of the largest currents, and chords of the
+model below it carry the fit down to ``I/1000``, where a capacitor charged through the
+diode (a clamp, a doubler) leaves its current decaying. ``v(i)`` is concave, so the segments
+are a convex characteristic, still an LCS: ideal diodes in parallel, each behind its own
+source and resistor (``<element>#d<k>``, ``#vf<k>``, ``#ron<k>``; one complementarity pair
+more per segment), the element itself in series with them all, carrying the total current.
+``netlist.studies.realistic`` keeps one segment for a diode whose segments would cancel a
+stiff part of the dynamics (an inductor's current through it), which θ = 1/2 integrates
+explicitly (:mod:`lcs.integrators.moreau.theta_screen`).
+
 A switch is ``Ron`` when on: ``RON`` of its SW model (ngspice's default 1 Ω), or for an
 idealised MOSFET the channel resistance at its gate drive from the model, ``RD + RS +
 1/(KP (Vgs - VTO))`` (the triode region at small drain-source voltage), Vgs the largest
