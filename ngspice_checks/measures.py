@@ -284,7 +284,8 @@ def _pwl_residual(
 ) -> NonIdeality:
     """δ of what ngspice's models differ from pelcs' piecewise-linear devices
     (:mod:`netlist.pwl`): per diode the largest distance between its line and its model over
-    the currents it carries (from a twentieth of the fitted current to the larger of the
+    the currents it carries (from a twentieth of the fitted current, a thousandth for a fit
+    of several segments, to the larger of the
     fitted current and the one it carries in the pwl run, A; nothing for a diode that
     carries nothing), per switch what its ``Ron``
     leaves of its model (:func:`netlist.pwl.switch_residual`); over the largest source
