@@ -17,7 +17,7 @@ from .losses import loss_probes
 from .losses import losses as loss_report
 from .transient import simulate_circuit
 
-__all__ = ["simulate_devices"]
+__all__ = ["fitted_circuit", "simulate_devices"]
 
 
 def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool = False,
@@ -68,9 +68,7 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
             a, b = sw.control
             drives[sw.name] = float(np.max(ideal[f"v({a})" if b == GROUND
                                                   else f"v({a},{b})"]))
-        run_circuit, fits = pwl_circuit(circuit, i_max, drives, pwl)
-        run_circuit, fits = _segments_theta_allows(circuit, run_circuit, fits, i_max,
-                                                   drives, pwl, kw)
+        run_circuit, fits = fitted_circuit(circuit, i_max, drives, pwl, **kw)
     want = list(probes) if probes is not None else None
     extra = loss_probes(circuit) if losses else []
     if want is None:
@@ -101,18 +99,29 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
 SEGMENT_STEP_MARGIN = 1e4
 
 
+def fitted_circuit(circuit: Circuit, i_max: dict, drives: dict, pwl: dict | None = None,
+                   **kw) -> tuple[Circuit, list]:
+    """:func:`netlist.pwl.pwl_circuit`, with one segment for the diodes whose segments would
+    cost the run's θ accuracy (see :func:`_segments_theta_allows`).
+
+    ``kw``: the run's ``theta``, ``method``, ``tstop`` and ``step`` (others ignored)."""
+    run_circuit, fits = pwl_circuit(circuit, i_max, drives, pwl)
+    return _segments_theta_allows(circuit, run_circuit, fits, i_max, drives, pwl, kw)
+
+
 def _theta_pairs(run_circuit: Circuit, kw: dict, margin: float = 1.0) -> set[str] | None:
     """The pairs :func:`lcs.integrators.moreau.theta_screen.screen_theta` finds cancelling a
-    stiff part of the dynamics at the default θ and ``margin`` times the run's step (names;
-    empty: θ = 1/2 is reliable), or None when θ or the method is given."""
-    if kw.get("theta") is not None or kw.get("method", "moreau") != "moreau":
+    stiff part of the dynamics at the run's θ (default 1/2) and ``margin`` times its step
+    (names; empty: θ is reliable), or None for θ = 1 or another method than Moreau's."""
+    from .transient import DEFAULT_THETA, transient_setup
+
+    theta = DEFAULT_THETA if kw.get("theta") is None else float(kw["theta"])
+    if theta >= 1.0 or kw.get("method", "moreau") != "moreau":
         return None
     from lcs.integrators.moreau.theta_screen import screen_theta
 
-    from .transient import DEFAULT_THETA, transient_setup
-
     setup = transient_setup(run_circuit, tstop=kw.get("tstop"), step=kw.get("step"))
-    risks = screen_theta(setup.system, margin * setup.h, DEFAULT_THETA, energy=setup.energy)
+    risks = screen_theta(setup.system, margin * setup.h, theta, energy=setup.energy)
     return {p for r in risks for p in r.pairs} | ({"?"} if risks else set())
 
 
