@@ -15,6 +15,18 @@ diode's slopes at both ends of the range). Diodes merged in parallel are fitted 
 (their total current). ``Vf`` and ``Ron`` may also be given per element or model (``--pwl
 NAME=VF:RON``), then used as they are.
 
+Where that line misses the model by more than :data:`SEGMENT_TOLERANCE` (20 mV) down to
+:data:`LOW_FRACTION` (1e-3) of the current, the diode gets two or three **segments**
+(:func:`segment_fit`): the line stays the segment of the largest currents, and chords of the
+model below it carry the fit down to ``I/1000``, where a capacitor charged through the
+diode (a clamp, a doubler) leaves its current decaying. ``v(i)`` is concave, so the segments
+are a convex characteristic, still an LCS: ideal diodes in parallel, each behind its own
+source and resistor (``<element>#d<k>``, ``#vf<k>``, ``#ron<k>``; one complementarity pair
+more per segment), the element itself in series with them all, carrying the total current.
+``netlist.studies.realistic`` keeps one segment for a diode whose segments would cancel a
+stiff part of the dynamics (an inductor's current through it), which θ = 1/2 integrates
+explicitly (:mod:`lcs.integrators.moreau.theta_screen`).
+
 A switch is ``Ron`` when on: ``RON`` of its SW model (ngspice's default 1 Ω), or for an
 idealised MOSFET the channel resistance at its gate drive from the model, ``RD + RS +
 1/(KP (Vgs - VTO))`` (the triode region at small drain-source voltage), Vgs the largest
@@ -31,16 +43,19 @@ The added elements are named ``<element>#vf`` and ``<element>#ron`` on internal 
 from __future__ import annotations
 
 import math
+from collections.abc import Collection
 from dataclasses import dataclass, replace
+from functools import lru_cache
 
 import numpy as np
 
 from .circuit import Capacitor, Circuit, Diode, Resistor, Switch, VoltageSource
 from .reductions import parallel_diodes
 
-__all__ = ["PwlFit", "VT_THERMAL", "carried_current", "diode_fit", "diode_params",
-           "diode_residual", "diode_voltage", "parallel_fit", "parallel_voltage",
-           "pwl_circuit", "switch_residual", "switch_resistance"]
+__all__ = ["LOW_FRACTION", "PwlFit", "SEGMENT_TOLERANCE", "VT_THERMAL", "carried_current",
+           "diode_fit", "diode_params", "diode_residual", "diode_voltage", "model_voltage",
+           "parallel_fit", "parallel_voltage", "pwl_circuit", "pwl_voltage", "segment_fit",
+           "switch_residual", "switch_resistance"]
 
 #: thermal voltage at ngspice's nominal 27 °C, V
 VT_THERMAL = 0.025852
@@ -65,9 +80,33 @@ class PwlFit:
     vf: float
     ron: float
     how: str
+    #: a diode of several segments: the other branches' ``(vf, ron)`` (V, Ω), each an
+    #: ideal diode in series with its source and resistor, in parallel with the first
+    branches: tuple[tuple[float, float], ...] = ()
+    #: the largest distance from the model over the fit's range (V), where it was fitted
+    error: float | None = None
+
+    def voltage(self, i: np.ndarray) -> np.ndarray:
+        """The device's voltage while it carries ``i >= 0`` (A), V: :func:`pwl_voltage`."""
+        return pwl_voltage(self.vf, self.ron, self.branches, i)
+
+    @property
+    def top(self) -> tuple[float, float]:
+        """``(vf, ron)`` of the segment of the largest currents (V, Ω): the one-segment fit
+        over the currents the device carries (every branch conducting)."""
+        if not self.branches:
+            return self.vf, self.ron
+        segs = ((self.vf, self.ron), *self.branches)
+        g = sum(1.0 / r for _, r in segs)
+        return sum(v / r for v, r in segs) / g, 1.0 / g
 
     def line(self) -> str:
-        return f"{self.element}: Vf = {self.vf:.4g} V, Ron = {self.ron:.4g} Ω ({self.how})"
+        first = f"{self.element}: Vf = {self.vf:.4g} V, Ron = {self.ron:.4g} Ω"
+        if not self.branches:
+            return f"{first} ({self.how})"
+        return (first + "".join(f", in parallel with Vf = {vf:.4g} V, Ron = {r:.4g} Ω"
+                                for vf, r in self.branches)
+                + f" ({1 + len(self.branches)} segments: {self.how})")
 
 
 def carried_current(t: np.ndarray, i: np.ndarray, quantile: float = 0.99) -> float:
@@ -134,11 +173,23 @@ def _branch_current(v: np.ndarray, is_: float, n: float, rs: float) -> np.ndarra
     return 0.5 * (lo + hi)
 
 
+@lru_cache(maxsize=64)
+def _parallel_table(junctions: tuple[tuple[float, float, float], ...]
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Total current (A) of junctions ``(IS, N, RS)`` in parallel on a 0.5 mV grid (V)
+    (computed once per set: a fit evaluates it at several sets of currents)."""
+    v = np.linspace(0.0, 3.0, 6001)
+    total = sum(_branch_current(v, *j) for j in junctions)
+    v.flags.writeable = False
+    total.flags.writeable = False
+    return v, total
+
+
 def parallel_voltage(params: list[dict], i: np.ndarray) -> np.ndarray:
     """Voltage of diodes in parallel carrying a total current ``i`` (A), V: their total
     current's characteristic inverted on a fine voltage grid (0.5 mV)."""
-    v = np.linspace(0.0, 3.0, 6001)
-    total = sum(_branch_current(v, p["is"], p["n"], p["rs"]) for p in params)
+    v, total = _parallel_table(tuple((float(p["is"]), float(p["n"]), float(p["rs"]))
+                                     for p in params))
     return np.interp(np.asarray(i, float), total, v)
 
 
@@ -157,6 +208,140 @@ def parallel_fit(params: list[dict], i_max: float) -> tuple[float, float]:
     rs_min = (1.0 / sum(1.0 / p["rs"] for p in params)
               if all(p["rs"] > 0 for p in params) else 0.0)
     return _bounded_line(i, vi, min(rs_min, slope_lo), max(slope_lo, rs_min), float(vi[-1]))
+
+
+#: a diode's fit must hold from this fraction of the current it carries up to that current
+#: (a clamp's or a doubler's current decays through decades while it conducts)
+LOW_FRACTION = 1e-3
+#: the largest distance from the model (V) one segment may leave over that range before two
+#: (then three) are fitted
+SEGMENT_TOLERANCE = 0.02
+MAX_SEGMENTS = 3
+
+
+def pwl_voltage(vf: float, ron: float, branches: tuple = (), i: np.ndarray | float = 0.0
+                ) -> np.ndarray:
+    """Voltage (V) of ``vf + ron i`` in parallel with ``branches`` (each ``(vf, ron)``
+    behind its own ideal diode, V and Ω) carrying a total current ``i >= 0`` (A): with
+    branches ``1..k`` conducting, ``i = sum_j (v - vf_j)/ron_j``; the voltage is the least of
+    these lines over ``k`` (the branch current is convex in ``v``, so ``v(i)`` is concave)."""
+    i = np.asarray(i, float)
+    if not branches:
+        return vf + ron * i
+    g = gv = 0.0
+    out = None
+    for vk, rk in ((vf, ron), *branches):
+        g, gv = g + 1.0 / rk, gv + vk / rk
+        line = (i + gv) / g
+        out = line if out is None else np.minimum(out, line)
+    return out
+
+
+def _chord_errors(i: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``E[a, b]``: the largest ``v - chord`` over ``i[a..b]`` of the chord from point ``a``
+    to point ``b`` (V; >= 0 for a concave ``v``)."""
+    n = len(i)
+    err = np.full((n, n), np.inf)
+    idx = np.arange(n)
+    for a in range(n - 1):
+        b = idx[a + 1:]
+        slope = (v[b] - v[a]) / (i[b] - i[a])
+        dev = v[None, a:] - (v[a] + slope[:, None] * (i[None, a:] - i[a]))
+        dev = np.where(idx[None, a:] <= b[:, None], dev, -np.inf)
+        err[a, a + 1:] = dev.max(axis=1)
+    return err
+
+
+def _knots(err: np.ndarray, k: int) -> tuple[list[int], float]:
+    """Grid indices of the ``k + 1`` knots whose chords' largest error is least, and it."""
+    n = err.shape[0]
+    last = n - 1
+    if k == 1:
+        return [0, last], float(err[0, last])
+    if k == 2:
+        m = np.arange(1, last)
+        worst = np.maximum(err[0, m], err[m, last])
+        j = int(np.argmin(worst))
+        return [0, int(m[j]), last], float(worst[j])
+    worst = np.maximum(np.maximum(err[0][:, None], err), err[:, last][None, :])
+    m1, m2 = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    worst = np.where((m1 >= 1) & (m1 < m2) & (m2 < last), worst, np.inf)
+    a, b = np.unravel_index(int(np.argmin(worst)), worst.shape)
+    return [0, int(a), int(b), last], float(worst[a, b])
+
+
+def model_voltage(params: list[dict], i: np.ndarray, series: float = 0.0) -> np.ndarray:
+    """Voltage (V) of a diode's junctions in parallel (:func:`diode_voltage`, or
+    :func:`parallel_voltage` for several) and its series resistance (Ω) at ``i`` (A)."""
+    i = np.asarray(i, float)
+    if len(params) == 1:
+        p = params[0]
+        return diode_voltage(i, p["is"], p["n"], p["rs"]) + series * i
+    return parallel_voltage(params, i) + series * i
+
+
+def _branches(lines: list[tuple[float, float]]) -> tuple[float, float, tuple] | None:
+    """Lines ``v = a + b i`` (V, Ω), steepest first, as :func:`pwl_voltage`'s first segment
+    and branches: branch ``k`` opens at the voltage where line ``k`` meets line ``k - 1`` and
+    adds the conductance ``1/b_k - 1/b_{k-1}``. None unless the slopes fall and the knees
+    rise (a convex characteristic)."""
+    out, knee = [lines[0]], -math.inf
+    for (a0, b0), (a1, b1) in zip(lines[:-1], lines[1:], strict=True):
+        if not (b1 < b0 and b1 > 0):
+            return None
+        i_x = (a1 - a0) / (b0 - b1)  # where they meet, A
+        v_x = a0 + b0 * i_x
+        if not (i_x > 0 and v_x > knee):
+            return None
+        knee = v_x
+        out.append((float(v_x), float(1.0 / (1.0 / b1 - 1.0 / b0))))
+    return out[0][0], out[0][1], tuple(out[1:])
+
+
+def segment_fit(params: list[dict], i_max: float, series: float = 0.0, segments: bool = True
+                ) -> tuple[float, float, tuple[tuple[float, float], ...], float]:
+    """A diode's piecewise-linear fit, ``(vf, ron, branches, error)`` (V, Ω, the other
+    segments' branches as :func:`pwl_voltage` takes them, and the largest distance from the
+    model, V, over ``[LOW_FRACTION i_max, i_max]``, A).
+
+    The line of :func:`parallel_fit` (plus ``series``) over ``[i_max/20, i_max]``, alone when
+    it stays within :data:`SEGMENT_TOLERANCE` of the model down to ``LOW_FRACTION i_max`` or
+    ``segments`` is false. Else, below it, one or two more (as few as reach the tolerance):
+    chords of the model's ``v(i)`` over ``[LOW_FRACTION i_max, i_max/20]`` between knots
+    chosen on a log grid (20 a decade) for the least largest error, moved up by half of it.
+    The model's ``v(i)`` is concave, so the lines are a convex piecewise-linear
+    characteristic (:func:`_branches`); above the first knee the line is the one-segment
+    fit itself, so the currents a converter's diode carries see the same diode."""
+    vf, ron = parallel_fit(params, i_max)
+    ron += series
+    if not (i_max > 1e-9 and math.isfinite(i_max)):
+        return vf, ron, (), 0.0
+    fine = np.logspace(np.log10(LOW_FRACTION * i_max), np.log10(i_max), 400)
+    v_fine = model_voltage(params, fine, series)
+    error = float(np.max(np.abs(vf + ron * fine - v_fine)))
+    if error <= SEGMENT_TOLERANCE or not segments:
+        return vf, ron, (), error
+    lo, hi = LOW_FRACTION * i_max, i_max / 20.0
+    grid = np.logspace(np.log10(lo), np.log10(hi),
+                       int(round(20 * math.log10(hi / lo))) + 1)
+    v = model_voltage(params, grid, series)
+    err = _chord_errors(grid, v)
+    best = (vf, ron, (), error)
+    for k in range(1, MAX_SEGMENTS):
+        knots, e = _knots(err, k)
+        c, vc = grid[knots], v[knots]
+        slopes = np.diff(vc) / np.diff(c)
+        lines = [(float(vc[j] - slopes[j] * c[j] + e / 2), float(slopes[j]))
+                 for j in range(k)] + [(vf, ron)]
+        fit = _branches(lines)
+        if fit is None:
+            break  # not convex: no more segments to gain
+        got = float(np.max(np.abs(pwl_voltage(*fit, fine) - v_fine)))
+        if got < best[3]:
+            best = (*fit, got)
+        if got <= SEGMENT_TOLERANCE:
+            break
+    return best
 
 
 def switch_resistance(circuit: Circuit, sw: Switch, drive: float | None) -> tuple[float, float,
@@ -188,11 +373,13 @@ def switch_resistance(circuit: Circuit, sw: Switch, drive: float | None) -> tupl
 
 
 def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, float],
-                explicit: dict | None = None) -> tuple[Circuit, list[PwlFit]]:
+                explicit: dict | None = None, single: Collection[str] = ()
+                ) -> tuple[Circuit, list[PwlFit]]:
     """The circuit with every diode and switch made piecewise linear (see the module
     docstring); ``i_max`` (A) and ``drives`` (V) by element name, from an ideal run;
     ``explicit``: ``{element or model name: (vf, ron)}`` given by the user (V, Ω), used as
-    they are instead of a fit."""
+    they are instead of a fit; ``single``: diodes (by name) kept at one segment (the others
+    get two or three where one misses their model: :func:`segment_fit`)."""
     merged = parallel_diodes(circuit)
     given = {str(k).lower(): v for k, v in (explicit or {}).items()}
     out, fits = [], []
@@ -209,14 +396,24 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
         if isinstance(el, Diode):
             params, series = diode_params(circuit, el, merged)
             imax = i_max.get(el.name, 0.0)
-            vf, ron = parallel_fit(params, imax)
-            ron += series
+            vf, ron, branches, error = segment_fit(params, imax, series,
+                                                   el.name not in single)
             what = " || ".join(f"IS={p['is']:.3g} N={p['n']:.3g} RS={p['rs']:.3g}"
                                for p in params)
-            span = (f"over {imax / 20:.3g}..{imax:.3g} A" if imax > 1e-9
-                    else "at 1 mA: it carries no current in the ideal run")
-            fits.append(PwlFit(el.name, vf, ron, f"fit of {what} {span}"))
-            out.extend(_series(el, vf, ron))
+            if imax <= 1e-9:
+                span = "at 1 mA: it carries no current in the ideal run"
+            elif branches:
+                span = (f"over {LOW_FRACTION * imax:.3g}..{imax:.3g} A (the top segment "
+                        f"over {imax / 20:.3g}..{imax:.3g} A), within {1e3 * error:.3g} mV")
+            else:
+                span = (f"over {imax / 20:.3g}..{imax:.3g} A, within {1e3 * error:.3g} mV "
+                        f"down to {LOW_FRACTION * imax:.3g} A")
+                if el.name in single and error > SEGMENT_TOLERANCE:
+                    span += ("; one segment: an inductor's current runs through it, and "
+                             "segments would make θ = 1/2 unreliable")
+            fits.append(PwlFit(el.name, vf, ron, f"fit of {what} {span}", branches,
+                               error if imax > 1e-9 else None))
+            out.extend(_series(el, vf, ron, branches))
         elif isinstance(el, Switch):
             ron, vdrop, how = switch_resistance(circuit, el, drives.get(el.name))
             gate = getattr(el, "gate_rc", None)
@@ -258,10 +455,11 @@ def diode_params(circuit: Circuit, el: Diode, merged: dict | None = None
 
 
 def diode_residual(circuit: Circuit, el: Diode, vf: float, ron: float, i_lo: float,
-                   i_hi: float) -> float:
+                   i_hi: float, branches: tuple = ()) -> float:
     """Largest ``|vf + ron i - v(i)|`` over ``[i_lo, i_hi]`` (A), V: how far a diode's
-    piecewise-linear line is from its model (:func:`diode_voltage` of its junctions in
-    parallel, plus its macro-model's series resistance) over the currents it carries."""
+    piecewise-linear line (with ``branches``, its segments: :func:`pwl_voltage`) is from its
+    model (:func:`diode_voltage` of its junctions in parallel, plus its macro-model's series
+    resistance) over the currents it carries."""
     if not (i_hi > 0 and math.isfinite(i_hi)):
         return 0.0
     params, series = diode_params(circuit, el)
@@ -271,7 +469,7 @@ def diode_residual(circuit: Circuit, el: Diode, vf: float, ron: float, i_lo: flo
         v = diode_voltage(i, p["is"], p["n"], p["rs"])
     else:
         v = parallel_voltage(params, i)
-    return float(np.max(np.abs(vf + ron * i - (v + series * i))))
+    return float(np.max(np.abs(pwl_voltage(vf, ron, branches, i) - (v + series * i))))
 
 
 def switch_residual(circuit: Circuit, sw: Switch, ron: float, i_max: float,
@@ -320,10 +518,12 @@ def _gate(sw: Switch, rg: float, cgs: float, cgd: float) -> tuple[Switch, list]:
     return replace(sw, control=control), parts
 
 
-def _series(el, vf: float, ron: float) -> list:
-    """``el`` between its first node and an internal node, then Vf and Ron to its second."""
+def _series(el, vf: float, ron: float, branches: tuple = ()) -> list:
+    """``el`` between its first node and an internal node, then Vf and Ron to its second;
+    each of ``branches`` from that internal node to the second through its own ideal diode
+    ``<element>#d<k>``, source and resistor (so ``el`` carries the total current)."""
     a, b = el.nodes[0], el.nodes[1]
-    if vf == 0.0 and ron == 0.0:
+    if vf == 0.0 and ron == 0.0 and not branches:
         return [el]
     key = el.name.lower()
     parts = []
@@ -335,4 +535,9 @@ def _series(el, vf: float, ron: float) -> list:
         node = nxt
     if ron > 0:
         parts.append(Resistor(f"{el.name}#ron", (node, b), el.location, ron))
+    for k, (vk, rk) in enumerate(branches, start=2):
+        inner, mid = f"{key}#a{k}", f"{key}#b{k}"
+        parts.append(Diode(f"{el.name}#d{k}", (f"{key}#a", inner), el.location))
+        parts.append(VoltageSource(f"{el.name}#vf{k}", (inner, mid), el.location, vk))
+        parts.append(Resistor(f"{el.name}#ron{k}", (mid, b), el.location, rk))
     return parts

@@ -157,7 +157,7 @@ from netlist.circuit import (
     Switch,
 )
 from netlist.errors import Diagnostic, NetlistError
-from netlist.pwl import carried_current, pwl_circuit
+from netlist.pwl import carried_current
 
 from .comparison import Comparison, ProbeComparison, SwitchingComparison, Tolerances
 from .measures import (
@@ -440,7 +440,9 @@ def compare(
     fits: list = []
     run_c = pel  # the circuit pelcs' compared run simulates
     if use_pwl:
-        pwl_c, fits = pwl_circuit(pel, carried, drives)
+        from netlist.studies.realistic import fitted_circuit
+
+        pwl_c, fits = fitted_circuit(pel, carried, drives, theta=theta)
         run_c = pwl_c
         t0 = time.perf_counter()
         fitted = simulate_circuit(pwl_c, theta=theta, probes=pel_probes)

@@ -360,7 +360,8 @@ class Comparison:
             "failures": self.failures,
             "inconclusive": self.inconclusive,
             "devices": self.devices,
-            "device_fits": [{"element": f.element, "vf": f.vf, "ron": f.ron, "how": f.how}
+            "device_fits": [{"element": f.element, "vf": f.vf, "ron": f.ron, "how": f.how,
+                             "branches": [list(b) for b in f.branches], "error": f.error}
                             for f in self.device_fits],
             "params": _jsonable(self.params),
             "pelcs_params": _jsonable(self.pelcs_params),

@@ -19,7 +19,7 @@ from netlist.circuit import (
     Switch,
     VoltageSource,
 )
-from netlist.pwl import diode_residual
+from netlist.pwl import LOW_FRACTION, diode_residual
 from netlist.studies.measure import steady_state_period, steady_state_window
 
 from .runner import NgspiceSettings
@@ -284,7 +284,8 @@ def _pwl_residual(
 ) -> NonIdeality:
     """δ of what ngspice's models differ from pelcs' piecewise-linear devices
     (:mod:`netlist.pwl`): per diode the largest distance between its line and its model over
-    the currents it carries (from a twentieth of the fitted current to the larger of the
+    the currents it carries (from a twentieth of the fitted current, a thousandth for a fit
+    of several segments, to the larger of the
     fitted current and the one it carries in the pwl run, A; nothing for a diode that
     carries nothing), per switch what its ``Ron``
     leaves of its model (:func:`netlist.pwl.switch_residual`); over the largest source
@@ -303,8 +304,10 @@ def _pwl_residual(
             if not i_hi > 1e-9:  # it carries nothing: no drop to miss
                 diodes[el.name] = 0.0
                 continue
-            i_lo = (i_fit if i_fit > 1e-9 else i_hi) / 20.0
-            diodes[el.name] = (diode_residual(circuit, el, f.vf, f.ron, i_lo, i_hi)
+            # a fit of several segments holds down to LOW_FRACTION of its current
+            i_lo = (i_fit if i_fit > 1e-9 else i_hi) * (LOW_FRACTION if f.branches else 0.05)
+            diodes[el.name] = (diode_residual(circuit, el, f.vf, f.ron, i_lo, i_hi,
+                                              f.branches)
                                if f.how != "given" else
                                _nonideality_drop(circuit, el, i_hi, f.vf, f.ron))
         elif isinstance(el, Switch):

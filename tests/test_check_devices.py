@@ -102,7 +102,8 @@ def test_a_macros_port_to_port_leakage_is_not_series_resistance():
                              tstop="2m")
     fit = {f.element: f for f in res.device_fits}["X1"]
     # 10 V into 1 kΩ: about 9 mA; the line there: Vf ~ 0.6 V, Ron ~ 6..30 Ω
-    assert 0.4 < fit.vf < 0.8 and 1.0 < fit.ron < 50.0
+    vf, ron = fit.top
+    assert 0.4 < vf < 0.8 and 1.0 < ron < 50.0
     assert res["v(k1)"].max() > 9.0
 
 
@@ -191,7 +192,7 @@ def test_pyspice_rectifiers_pwl_is_closer_to_ngspice_than_ideal(ngspice, kind, c
            for k in ("ideal", "pwl")}
     means = {k: _mean_last(*runs[k][:2], 20e-3, 40e-3) for k in runs}
     fits = {f.element: f for f in runs["pwl"][2].device_fits}
-    assert all(f.ron < 50.0 for f in fits.values())  # not the 5.8 GΩ leakage
+    assert all(f.top[1] < 50.0 for f in fits.values())  # not the 5.8 GΩ leakage
     assert means["pwl"] > 0.5 * means["ngspice"] > 1.0  # not 0 V
     # the figures of the docs: largest difference over the run and mean of the 2nd period
     assert err["pwl"] < 0.5 * err["ideal"], (err, means)
@@ -330,4 +331,4 @@ def test_the_fit_range_is_not_an_inrush_only_the_step_limits():
     assert 0.05 < top < 1.0, fit.how
     # the line at the current it carries: within 0.65 N Vt of the model
     v = 1.906 * VT_THERMAL * np.log1p(0.1 / 4.352e-9) + 0.6458 * 0.1
-    assert abs(fit.vf + fit.ron * 0.1 - v) < 0.65 * 1.906 * VT_THERMAL
+    assert abs(fit.voltage(0.1) - v) < 0.65 * 1.906 * VT_THERMAL

@@ -214,7 +214,7 @@ def losses(result, circuit: Circuit, fits: Sequence = (), load: str | None = Non
                 rep.devices[el.name] = 0.0
                 continue
             i = np.asarray(result[f"i({el.name})"], dtype=float)
-            rep.devices[el.name] = mean(f.vf * np.abs(i) + f.ron * i * i)
+            rep.devices[el.name] = mean(np.abs(i) * f.voltage(np.abs(i)))
     powers = {}
     for el in circuit.elements:
         if isinstance(el, Resistor):

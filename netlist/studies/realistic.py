@@ -17,7 +17,7 @@ from .losses import loss_probes
 from .losses import losses as loss_report
 from .transient import simulate_circuit
 
-__all__ = ["simulate_devices"]
+__all__ = ["fitted_circuit", "simulate_devices"]
 
 
 def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool = False,
@@ -68,7 +68,7 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
             a, b = sw.control
             drives[sw.name] = float(np.max(ideal[f"v({a})" if b == GROUND
                                                   else f"v({a},{b})"]))
-        run_circuit, fits = pwl_circuit(circuit, i_max, drives, pwl)
+        run_circuit, fits = fitted_circuit(circuit, i_max, drives, pwl, **kw)
     want = list(probes) if probes is not None else None
     extra = loss_probes(circuit) if losses else []
     if want is None:
@@ -89,3 +89,73 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         k = len(dict.fromkeys(want))
         res.names, res.y = tuple(res.names[:k]), res.y[:, :k]
     return res
+
+
+#: the segments' diodes must cancel nothing θ = 1/2 would feel even at this many times the
+#: run's step (the θ screen's G is proportional to the step, so in effect nothing: a
+#: buck's freewheeling diode of three segments at 0.1 µs has G = -0.0008, under the
+#: screen's limit of 0.001, and its mean output moves 0.05 % between h = 0.1 µs and
+#: 0.025 µs, where with one segment it moves 1e-7)
+SEGMENT_STEP_MARGIN = 1e4
+
+
+def fitted_circuit(circuit: Circuit, i_max: dict, drives: dict, pwl: dict | None = None,
+                   **kw) -> tuple[Circuit, list]:
+    """:func:`netlist.pwl.pwl_circuit`, with one segment for the diodes whose segments would
+    cost the run's θ accuracy (see :func:`_segments_theta_allows`).
+
+    ``kw``: the run's ``theta``, ``method``, ``tstop`` and ``step`` (others ignored)."""
+    run_circuit, fits = pwl_circuit(circuit, i_max, drives, pwl)
+    return _segments_theta_allows(circuit, run_circuit, fits, i_max, drives, pwl, kw)
+
+
+def _theta_pairs(run_circuit: Circuit, kw: dict, margin: float = 1.0) -> set[str] | None:
+    """The pairs :func:`lcs.integrators.moreau.theta_screen.screen_theta` finds cancelling a
+    stiff part of the dynamics at the run's θ (default 1/2) and ``margin`` times its step
+    (names; empty: θ is reliable), or None for θ = 1 or another method than Moreau's."""
+    from .transient import DEFAULT_THETA, transient_setup
+
+    theta = DEFAULT_THETA if kw.get("theta") is None else float(kw["theta"])
+    if theta >= 1.0 or kw.get("method", "moreau") != "moreau":
+        return None
+    from lcs.integrators.moreau.theta_screen import screen_theta
+
+    setup = transient_setup(run_circuit, tstop=kw.get("tstop"), step=kw.get("step"))
+    risks = screen_theta(setup.system, margin * setup.h, theta, energy=setup.energy)
+    return {p for r in risks for p in r.pairs} | ({"?"} if risks else set())
+
+
+def _segments_theta_allows(circuit: Circuit, run_circuit: Circuit, fits: list,
+                           i_max: dict, drives: dict, pwl: dict | None, kw: dict
+                           ) -> tuple[Circuit, list]:
+    """The piecewise-linear circuit with one segment for the diodes whose segments would
+    make θ = 1/2 less accurate (:func:`netlist.studies.transient.choose_theta`).
+
+    A segment's diode lowers the resistance in series when it turns on; where an inductor's
+    current runs through the diode (a converter's freewheeling diode), that cancels a stiff
+    part of the dynamics, which θ < 1 integrates explicitly: the run would lose accuracy, or
+    fall back to θ = 1 (first order). Such a diode turns off at its load current rather than
+    letting a current decay through decades, which is what the segments are for. The screen
+    runs at :data:`SEGMENT_STEP_MARGIN` times the step. A circuit that needs θ = 1 with one
+    segment a diode keeps its segments (they cost no accuracy there)."""
+    segmented = {f.element.lower(): f.element for f in fits if f.branches}
+
+    def flagged(pairs):  # the diodes whose segments' own diodes (<element>#d<k>) it names
+        return {segmented[p.split("#")[0].lower()] for p in pairs or ()
+                if "#d" in p and p.split("#")[0].lower() in segmented}
+
+    if not segmented:
+        return run_circuit, fits
+    single = flagged(_theta_pairs(run_circuit, kw, SEGMENT_STEP_MARGIN))
+    if not single:
+        return run_circuit, fits
+    one, one_fits = pwl_circuit(circuit, i_max, drives, pwl, set(segmented.values()))
+    if _theta_pairs(one, kw):
+        return run_circuit, fits
+    for _ in range(len(segmented)):  # each round keeps at least one more at one segment
+        run_circuit, fits = pwl_circuit(circuit, i_max, drives, pwl, single)
+        more = flagged(_theta_pairs(run_circuit, kw, SEGMENT_STEP_MARGIN)) - single
+        if not more:
+            break
+        single |= more
+    return run_circuit, fits
