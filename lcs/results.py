@@ -38,7 +38,9 @@ class Events(Sequence):
 
     @property
     def count(self) -> int:
-        """The run's switchings: those held and the earlier ones."""
+        """The switchings up to the last one held: those held and the earlier ones (for a
+        run's ``result.events``, all of its switchings; a slice keeps the earlier ones
+        before its first, not those after its last)."""
         return self.earlier + len(self.t)
 
     def __len__(self) -> int:
