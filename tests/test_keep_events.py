@@ -77,3 +77,22 @@ def test_the_last_sliding_intervals_kept_are_the_full_runs_last(monkeypatch):
     tail = pelcs.simulate(text, check=False, keep_events=4)
     assert tail.sliding == whole.sliding[-4:]
     assert tail.events == whole.events[len(whole.events) - 4:]
+
+
+def test_paired_sliding_intervals_are_cut_at_the_runs_end():
+    # Records paired as they came (keep_events), then a run whose end comes before some of
+    # them (a run cut short): an interval ending after the end is open there, a start after
+    # it did not happen.
+    from lcs.simulation.codes import EV_SLIDE_END, EV_SLIDE_START
+
+    rec = recorder.Recorder(("x",), 4, 4, np.array([-1]), keep_events=1)
+    rec._slide_parts = [(np.array([1.0, 2.0, 3.0, 4.0, 6.0]),
+                         np.array([EV_SLIDE_START, EV_SLIDE_END, EV_SLIDE_START, EV_SLIDE_END,
+                                   EV_SLIDE_START], np.int64))]
+    rec.keep_events = 2
+    rec._pair_slides()
+    assert rec._slides == [(0, 1.0, 2.0), (0, 3.0, 4.0)] and rec._slide_open == {0: 6.0}
+    _, sliding, _ = rec.events(["S1"], (False,), 3.5)
+    assert sliding == [("S1", 1.0, 2.0), ("S1", 3.0, None)]
+    _, sliding, _ = rec.events(["S1"], (False,), 10.0)
+    assert sliding == [("S1", 3.0, 4.0), ("S1", 6.0, None)]  # (the last two kept)

@@ -305,8 +305,15 @@ class Recorder:
         for md in used:
             if md not in visited:
                 visited.append(md)
-        sliding = [(switch_names[sw], t0, t1) for sw, t0, t1 in self._slides if t1 <= t_last]
-        open_slide = dict(self._slide_open)
+        # (intervals paired as they came: those that end after t_last, the end of a run cut
+        # short, are still open there, and starts after it did not happen)
+        sliding, open_slide = [], {}
+        for sw, t0, t1 in self._slides:
+            if t1 <= t_last:
+                sliding.append((switch_names[sw], t0, t1))
+            elif t0 <= t_last:
+                open_slide[sw] = t0
+        open_slide.update((sw, t0) for sw, t0 in self._slide_open.items() if t0 <= t_last)
         for st, si in self._slide_parts:
             for tt, i in zip(st.tolist(), si.tolist(), strict=True):
                 if tt > t_last:
