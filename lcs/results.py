@@ -387,9 +387,16 @@ def resample_arrays(t: np.ndarray, y: np.ndarray, dt: float) -> tuple[np.ndarray
     probes ``y`` (shape (N, q)): the output instants and their rows (``y`` itself when the
     output grid is the step grid)."""
     tout = output_times(float(t[0]), float(t[-1]), dt)
+    return tout, rows_at(t, y, tout, dt)
+
+
+def rows_at(t: np.ndarray, y: np.ndarray, tout: np.ndarray, dt: float) -> np.ndarray:
+    """The rows of stored times ``t`` (s, shape (N,)) and probes ``y`` (shape (N, q)) at the
+    output instants ``tout`` (s) of spacing ``dt``: ``y`` itself when the instants are the
+    stored times (within ``1e-9 dt``, one for one), else :func:`interpolate`."""
     if tout.size == t.size and np.all(np.abs(tout - t) <= 1e-9 * dt):
-        return tout, y  # (the output grid is the step grid)
-    return tout, interpolate(t, y, tout)
+        return y  # (the output grid is the step grid)
+    return interpolate(t, y, tout)
 
 
 def interpolate(t: np.ndarray, y: np.ndarray, tout: np.ndarray) -> np.ndarray:

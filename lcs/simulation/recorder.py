@@ -214,13 +214,7 @@ class Recorder:
         """The sliding records held paired into intervals, of which the last
         ``keep_events`` are kept (a run that keeps its last switchings keeps its last
         sliding intervals)."""
-        for st, si in self._slide_parts:
-            for tt, i in zip(st.tolist(), si.tolist(), strict=True):
-                if i >= EV_SLIDE_END:
-                    sw = i - EV_SLIDE_END
-                    self._slides.append((sw, self._slide_open.pop(sw, tt), tt))
-                else:
-                    self._slide_open[i - EV_SLIDE_START] = tt
+        _pair(self._slide_parts, self._slide_open, self._slides)
         del self._slides[:-self.keep_events]
         self._slide_parts, self._slide_records = [], 0
 
@@ -314,17 +308,27 @@ class Recorder:
             elif t0 <= t_last:
                 open_slide[sw] = t0
         open_slide.update((sw, t0) for sw, t0 in self._slide_open.items() if t0 <= t_last)
-        for st, si in self._slide_parts:
-            for tt, i in zip(st.tolist(), si.tolist(), strict=True):
-                if tt > t_last:
-                    break
-                if i >= EV_SLIDE_END:
-                    sw = i - EV_SLIDE_END
-                    sliding.append((switch_names[sw], open_slide.pop(sw, tt), tt))
-                else:
-                    open_slide[i - EV_SLIDE_START] = tt
+        intervals: list[tuple[int, float, float]] = []
+        _pair(self._slide_parts, open_slide, intervals, t_last)
+        sliding.extend((switch_names[sw], t0, t1) for sw, t0, t1 in intervals)
         for i, t0 in open_slide.items():
             sliding.append((switch_names[i], t0, None))
         if self.keep_events is not None:
             sliding = sliding[-self.keep_events:]
         return events, sliding, visited
+
+
+def _pair(parts, open_slide: dict[int, float], intervals: list,
+          t_last: float = np.inf) -> None:
+    """Sliding records ``[(times, infos)]`` up to ``t_last`` (s) paired into ``intervals``
+    ``(switch, t_start, t_end)``; the starts not yet ended are left in ``open_slide`` (by
+    switch). An end with no start begins where it ends."""
+    for st, si in parts:
+        for tt, i in zip(st.tolist(), si.tolist(), strict=True):
+            if tt > t_last:
+                return
+            if i >= EV_SLIDE_END:
+                sw = i - EV_SLIDE_END
+                intervals.append((sw, open_slide.pop(sw, tt), tt))
+            else:
+                open_slide[i - EV_SLIDE_START] = tt

@@ -36,7 +36,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..results import interpolate, output_times, resample_arrays
+from ..results import interpolate, output_times, resample_arrays, rows_at
 
 #: Where streamed rows go: ``emit(t, y)`` with times (s, shape (N,)) and rows (shape (N, q)),
 #: in order; the arrays may be reused after the call.
@@ -45,6 +45,14 @@ Emit = Callable[[np.ndarray, np.ndarray], None]
 #: the closeness (in output spacings) at which an instant and a stored time are one
 #: (:func:`lcs.results.output_times`)
 _CLOSE = 1e-9
+
+
+def _kept(t: np.ndarray, y: np.ndarray, t_from: float) -> tuple[np.ndarray, np.ndarray]:
+    """The rows at or after ``t_from`` (s; ``.tran`` TSTART)."""
+    if t_from > -np.inf and t.size and t[0] < t_from:
+        keep = t >= t_from
+        t, y = t[keep], y[keep]
+    return t, y
 
 
 class Regrid:
@@ -99,9 +107,7 @@ class Regrid:
     def take(self, t: np.ndarray, y: np.ndarray) -> None:
         """The next stored rows, in order: times ``t`` (s, shape (N,)), probes ``y`` (shape
         (N, q)). They are copied where kept: the caller may reuse its buffers."""
-        if self.t_from > -np.inf and t.size and t[0] < self.t_from:
-            keep = t >= self.t_from
-            t, y = t[keep], y[keep]
+        t, y = _kept(t, y, self.t_from)
         if t.size == 0:
             return
         if self.kept == 0:
@@ -118,6 +124,12 @@ class Regrid:
         if not self.on_grid:
             self._interpolate_ready()
 
+    def _held_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """The rows held, joined."""
+        if len(self.rows_t) == 1:
+            return self.rows_t[0], self.rows_y[0]
+        return np.concatenate(self.rows_t), np.concatenate(self.rows_y)
+
     def _out(self, tout: np.ndarray, yout: np.ndarray) -> None:
         """Output rows made: held, or handed on (the last one kept for :meth:`finish`)."""
         if self.emit is None:
@@ -132,8 +144,7 @@ class Regrid:
     def _emit_on_grid(self) -> None:
         """The rows held but the last, handed on as the output instants they are (the first
         at its own time); the last stays (it may be the run's end, off the grid)."""
-        t = np.concatenate(self.rows_t) if len(self.rows_t) > 1 else self.rows_t[0]
-        y = np.concatenate(self.rows_y) if len(self.rows_y) > 1 else self.rows_y[0]
+        t, y = self._held_rows()
         n = t.size - 1
         if n <= 0:
             return
@@ -157,8 +168,7 @@ class Regrid:
     def _interpolate_ready(self) -> None:
         """The instants more than ``1e-9 dt`` before the last row so far, interpolated; the
         rows before the one at or before the next instant dropped."""
-        t = np.concatenate(self.rows_t) if len(self.rows_t) > 1 else self.rows_t[0]
-        y = np.concatenate(self.rows_y) if len(self.rows_y) > 1 else self.rows_y[0]
+        t, y = self._held_rows()
         tl = float(t[-1])
         dt = self.dt
         # An instant more than 1e-9 dt before this row is one the run's last time (this or
@@ -185,16 +195,12 @@ class Regrid:
         ``emit``, the rest is handed on and the last output row returned."""
         if self.kept == 0:
             return np.zeros(0), np.zeros((0, self.q))
-        t = np.concatenate(self.rows_t) if len(self.rows_t) > 1 else self.rows_t[0]
-        y = np.concatenate(self.rows_y) if len(self.rows_y) > 1 else self.rows_y[0]
+        t, y = self._held_rows()
         self.rows_t, self.rows_y = [], []
         if self.emit is not None:
             rest = output_times(self.t_first, float(t[-1]), self.dt, self.next_k)
-            if self.on_grid and rest.size == t.size and np.all(
-                    np.abs(rest - t) <= _CLOSE * self.dt):
-                self._out(rest, y)  # (the output grid is the step grid)
-            else:
-                self._out(rest, interpolate(t, y, rest))
+            self._out(rest, rows_at(t, y, rest, self.dt) if self.on_grid
+                      else interpolate(t, y, rest))
             return self._last
         if self.on_grid:
             return resample_arrays(t, y, self.dt)
@@ -231,9 +237,7 @@ class Passthrough:
         return 0
 
     def take(self, t: np.ndarray, y: np.ndarray) -> None:
-        if self.t_from > -np.inf and t.size and t[0] < self.t_from:
-            keep = t >= self.t_from
-            t, y = t[keep], y[keep]
+        t, y = _kept(t, y, self.t_from)
         if t.size:
             self.emit(t, y)
             self.kept += t.size
