@@ -101,8 +101,12 @@ def write_table(path: str | os.PathLike, columns: Mapping[str, ArrayLike], *,
         return write_arrays(path, npz, compress=compress)
     if suffix == ".parquet":
         return _write_parquet_table(Path(path), columns, meta or {})
-    raise ValueError(f"unknown output format {suffix or '(no extension)'!r}: use "
-                     f"{', '.join(FORMATS)}")
+    raise _unknown_format(suffix)
+
+
+def _unknown_format(suffix: str) -> ValueError:
+    return ValueError(f"unknown output format {suffix or '(no extension)'!r}: use "
+                      f"{', '.join(FORMATS)}")
 
 
 def write_arrays(path: str | os.PathLike, arrays: Iterable[tuple[str, ArrayLike]]
@@ -205,11 +209,17 @@ def _result_npz(result: SimulationResult) -> Iterator[tuple[str, ArrayLike]]:
     y = np.asarray(result.y)
     yield "t", result.t
     yield "y", y
-    yield "names", np.array(result.names, dtype=str)
-    yield "notes", np.array(result.notes, dtype=str)
-    yield "error", np.array(result.error.message if result.error is not None else "")
+    yield from _run_info(result.names, result)
     columns = _probe_columns(y.reshape(len(result.t), len(result.names)))
     yield from zip(result.names, columns, strict=True)
+
+
+def _run_info(names, result: SimulationResult) -> Iterator[tuple[str, np.ndarray]]:
+    """The members of a run's archive after ``t`` and ``y``: ``names``, ``notes``,
+    ``error``."""
+    yield "names", np.array(names, dtype=str)
+    yield "notes", np.array(result.notes, dtype=str)
+    yield "error", np.array(result.error.message if result.error is not None else "")
 
 
 def write_csv(result: SimulationResult, path: str | os.PathLike) -> Path:
@@ -359,6 +369,8 @@ class ResultStream:
         self._t: list[np.ndarray] = []
         self._y: list[np.ndarray] = []
         self._held = 0
+        self._sides: list[Path] = []
+        self._sidedir: Path | None = None
 
     def open(self, names: tuple[str, ...]) -> None:
         """Start the file (a temporary one beside ``path``) with the probe names."""
@@ -420,7 +432,30 @@ class ResultStream:
             self._error = exc
             self.abort()
 
-    def _take(self) -> tuple[np.ndarray, np.ndarray]:
+    def _side(self, suffix: str) -> Path:
+        """A file for the rows before the target is finished: beside the temporary file, or
+        in a temporary folder of its own when the target is a device written in place (such
+        as /dev/null); removed by :meth:`_discard_sides`."""
+        if self._tmp == self.path:
+            if self._sidedir is None:
+                import tempfile
+
+                self._sidedir = Path(tempfile.mkdtemp(prefix="pelcs-rows-"))
+            side = self._sidedir / ("rows" + suffix)
+        else:
+            side = self._tmp.with_name(self._tmp.name + suffix)
+        self._sides.append(side)
+        return side
+
+    def _discard_sides(self) -> None:
+        for side in self._sides:
+            side.unlink(missing_ok=True)
+        self._sides = []
+        if self._sidedir is not None:
+            self._sidedir.rmdir()
+            self._sidedir = None
+
+    def _take(self) -> np.ndarray:
         """The rows gathered, as ``time,<probe>...`` columns (shape (N, 1 + q))."""
         data = np.empty((self._held, 1 + len(self.names)))
         i = 0
@@ -468,16 +503,7 @@ class _NpzStream(ResultStream):
     copies them into the archive a block at a time (the probes' columns too)."""
 
     def _start(self) -> None:
-        # (beside the temporary archive; in the temporary folder when the target is written
-        # in place, a device such as /dev/null)
-        if self._tmp == self.path:
-            import tempfile
-
-            self._rawdir = Path(tempfile.mkdtemp(prefix="pelcs-npz-"))
-            base = self._rawdir / "rows"
-        else:
-            base = self._tmp
-        self._raw = [base.with_name(base.name + k) for k in (".t", ".y")]
+        self._raw = [self._side(k) for k in (".t", ".y")]
         self._fh = [open(p, "wb") for p in self._raw]
 
     def _flush(self) -> None:
@@ -516,9 +542,8 @@ class _NpzStream(ResultStream):
 
             raw("t", self._raw[0], (n,))
             raw("y", self._raw[1], (n, q), q)
-            put("names", np.array(self.names, dtype=str))
-            put("notes", np.array(result.notes, dtype=str))
-            put("error", np.array(result.error.message if result.error is not None else ""))
+            for key, value in _run_info(self.names, result):
+                put(key, value)
             for j, name in enumerate(self.names):
                 raw(name, self._raw[1], (n,), q, j)
         self._discard()
@@ -526,11 +551,7 @@ class _NpzStream(ResultStream):
     def _discard(self) -> None:
         for fh in getattr(self, "_fh", ()):
             fh.close()
-        for p in getattr(self, "_raw", ()):
-            p.unlink(missing_ok=True)
-        if getattr(self, "_rawdir", None) is not None:
-            self._rawdir.rmdir()
-            self._rawdir = None
+        self._discard_sides()
 
 
 class _ParquetStream(ResultStream):
@@ -546,13 +567,7 @@ class _ParquetStream(ResultStream):
 
         self._pa = pa
         self._schema = pa.schema([(name, pa.float64()) for name in ("time", *self.names)])
-        if self._tmp == self.path:  # (a device written in place: the rows go elsewhere)
-            import tempfile
-
-            self._rawdir = Path(tempfile.mkdtemp(prefix="pelcs-parquet-"))
-            self._raw = self._rawdir / "rows.parquet"
-        else:
-            self._raw = self._tmp.with_name(self._tmp.name + ".rows")
+        self._raw = self._side(".rows")
         self._writer = pq.ParquetWriter(self._raw, self._schema, compression="zstd")
 
     def _flush(self) -> None:
@@ -582,12 +597,7 @@ class _ParquetStream(ResultStream):
         writer = getattr(self, "_writer", None)
         if writer is not None and writer.is_open:
             writer.close()
-        raw = getattr(self, "_raw", None)
-        if raw is not None:
-            raw.unlink(missing_ok=True)
-        if getattr(self, "_rawdir", None) is not None:
-            self._rawdir.rmdir()
-            self._rawdir = None
+        self._discard_sides()
 
 
 def open_stream(path: str | os.PathLike) -> ResultStream:
@@ -602,6 +612,5 @@ def open_stream(path: str | os.PathLike) -> ResultStream:
     streams = {".csv": _CsvStream, ".npz": _NpzStream, ".parquet": _ParquetStream}
     suffix = Path(path).suffix.lower()
     if suffix not in streams:
-        raise ValueError(f"unknown output format {suffix or '(no extension)'!r}: use "
-                         f"{', '.join(FORMATS)}")
+        raise _unknown_format(suffix)
     return streams[suffix](path)
