@@ -277,6 +277,13 @@ class SimulationResult:
         return self.error is None
 
     @property
+    def points(self) -> int:
+        """The run's output points: those held in ``t``, or those streamed to a file as the
+        run went (``stats.points_streamed``)."""
+        streamed = self.stats.points_streamed
+        return streamed if streamed >= 0 else len(self.t)
+
+    @property
     def switchings(self) -> int:
         """The run's switchings, those not held in ``events`` included."""
         return getattr(self.events, "earlier", 0) + len(self.events)

@@ -134,13 +134,15 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
         pins.apply(init.mode, init.x, t_start)
     split = pins is not None and integrator.can_set_state
     sink = None
-    streamed = rows_to is not None and pins is None and integrator.writes_until_full
+    # (rows final as they are made: no pinned jump found later cuts them)
+    final_rows = pins is None and integrator.writes_until_full
+    streamed = rows_to is not None and final_rows
     if streamed:
         rows_to.open(tuple(out0.names))
         sink = (Regrid(output_step, len(out0.names), output_from, emit=rows_to.write)
                 if output_step is not None else
                 Passthrough(rows_to.write, len(out0.names), output_from))
-    elif output_step is not None and pins is None and integrator.writes_until_full:
+    elif output_step is not None and final_rows:
         sink = Regrid(output_step, len(out0.names), output_from)
     recorder = Recorder(out0.names, 64, 64, out0.duty, words(k), sink,
                         keep_events=keep_events if pins is None else None)

@@ -28,9 +28,14 @@ def state_growth(result: SimulationResult) -> str | None:
     t = np.asarray(result.t, dtype=float)
     if y.ndim != 2 or y.shape[0] < 3 or not y.shape[1]:
         return None
-    # the rows up to t[0] + a tenth of the run (times increase), the first one at least
-    first = max(1, int(t.searchsorted(t[0] + 0.1 * (t[-1] - t[0]), side="right")))
+    first = _first_tenth(t, float(t[0]), float(t[-1]))
     return _growth_note(float(np.abs(y[:first]).max()), y[-1], result.names)
+
+
+def _first_tenth(t: np.ndarray, t0: float, t_last: float) -> int:
+    """How many of the increasing instants ``t`` (s) lie in the first tenth of
+    ``[t0, t_last]``: the first one at least."""
+    return max(1, int(t.searchsorted(t0 + 0.1 * (t_last - t0), side="right")))
 
 
 class GrowthWatch:
@@ -90,8 +95,7 @@ class GrowthWatch:
             return 0.0
         t = np.concatenate(self._t)
         m = np.concatenate(self._m)
-        k = max(1, int(t.searchsorted(self.t0 + 0.1 * (t_last - self.t0), side="right")))
-        return float(m[k - 1])
+        return float(m[_first_tenth(t, self.t0, t_last) - 1])
 
     def note(self, result: SimulationResult) -> str | None:
         """:func:`state_growth` of the streamed run (its last row is ``result``'s)."""

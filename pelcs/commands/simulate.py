@@ -241,64 +241,21 @@ _INTERRUPT_MESSAGE = ("pelcs simulate: interrupted: the run stops after its curr
 def _run(args, circuit, setup, probes, tstop, step, theta, every, output_step, out, plot,
          load, compiled=False) -> int:
     """The run, its files and its summary; the exit status."""
-    from netlist.studies.transient import run_setup
 
     spacing = _output_spacing(output_step, args.all_steps or bool(args.every), circuit, setup)
     t0 = time.perf_counter()
-    regridded = False
     stream = None
     if _streams(args, out, plot):
         from pelcs.writers import open_stream
 
         stream = open_stream(out)
     try:
-        if args.devices == "pwl" or args.losses:
-            from netlist.studies.realistic import simulate_devices
-
-            given = {}
-            for item in args.pwl:
-                name, _, vals = item.partition("=")
-                try:
-                    vf, ron = (float(_number("--pwl", v)) for v in vals.split(":"))
-                except (ValueError, NetlistError):
-                    raise _usage_error(f"--pwl {item}: expected NAME=VF:RON",
-                                       "e.g. --pwl D1=0.7:0.05 (volts, ohms)") from None
-                given[name.strip()] = (vf, ron)
-            result = simulate_devices(circuit, pwl=given, tstop=tstop, step=step, theta=theta,
-                                      probes=probes, every=every,
-                                      progress=not args.no_progress, method=args.method,
-                                      devices=args.devices, losses=args.losses,
-                                      load=args.load)
-        else:
-            options = None
-            if args.kernel != "auto":
-                from lcs.integrators.moreau.integrator import MoreauOptions
-
-                options = MoreauOptions(kernel=args.kernel)
-            # (the output grid computed as the run goes: it holds that grid, not every step)
-            result = run_setup(setup, theta=theta, probes=probes, every=every,
-                               progress=not args.no_progress, method=args.method,
-                               options=options,
-                               output_step=spacing[0] if spacing is not None else None,
-                               keep_events=EVENTS_KEPT, rows_to=stream)
-            regridded = spacing is not None
-    except NotImplementedError as exc:
-        # A circuit the stepper cannot handle yet: say so like an input error, no traceback.
-        _abort(stream)
-        raise NetlistError(Diagnostic(message=f"not supported: {exc}",
-                                      hint="see docs/simulation.md"),
-                           file=args.file) from exc
-    except ValueError as exc:
-        # The set-up of a mode failed before any step (e.g. I - hθA singular: an element
-        # value of 1e-308 found by fuzzing): the values, not the run, are at fault.
-        _abort(stream)
-        raise NetlistError(Diagnostic(message=f"cannot simulate: {exc}",
-                                      hint="an element value of extreme magnitude? check the "
-                                      "values and their units (pelcs lcs FILE shows the "
-                                      "matrices)"), file=args.file) from exc
-    except BaseException:  # (a second Ctrl-C, a bug: no file, the earlier one kept)
+        result = _simulated(args, circuit, setup, probes, tstop, step, theta, every, spacing,
+                            stream)
+    except BaseException:  # (a second Ctrl-C, an error: no file, the earlier one kept)
         _abort(stream)
         raise
+    regridded = spacing is not None and not _fitted(args)
     wall = time.perf_counter() - t0
 
     streamed = stream is not None and result.stats.points_streamed >= 0
@@ -335,10 +292,8 @@ def _run(args, circuit, setup, probes, tstop, step, theta, every, output_step, o
             print(f"event {_eng(ev.t, 's'):>12}  {ev.kind:<10} {ev.element or '-':<8} "
                   f"-> {mode or 'no switches'}; w = 0 held: {held}")
     not_written = written.exit_status()
-    rows = (result.stats.points_streamed if result.stats.points_streamed >= 0
-            else len(result.t))
     where = ((f"results up to t = {_eng(err.t_prev, 's')} written to {', '.join(written)}"
-              if rows else f"{', '.join(written)} written with no points (the run stopped "
+              if result.points else f"{', '.join(written)} written with no points (the run stopped "
               f"before the first point kept, t = {_eng(setup.t_save, 's')})")
              if written else "no output file written" if not_written
              else "no output file was requested (-o, --plot)") if err is not None else ""
@@ -380,13 +335,67 @@ def _ordinal(n: int) -> str:
     return f"{n}{suffix}"
 
 
+def _simulated(args, circuit, setup, probes, tstop, step, theta, every, spacing, stream):
+    """The run's result (its rows to ``stream`` as it goes, where it can); the stepper's
+    refusals as input errors."""
+    from netlist.studies.transient import run_setup
+
+    try:
+        if _fitted(args):
+            from netlist.studies.realistic import simulate_devices
+
+            given = {}
+            for item in args.pwl:
+                name, _, vals = item.partition("=")
+                try:
+                    vf, ron = (float(_number("--pwl", v)) for v in vals.split(":"))
+                except (ValueError, NetlistError):
+                    raise _usage_error(f"--pwl {item}: expected NAME=VF:RON",
+                                       "e.g. --pwl D1=0.7:0.05 (volts, ohms)") from None
+                given[name.strip()] = (vf, ron)
+            return simulate_devices(circuit, pwl=given, tstop=tstop, step=step, theta=theta,
+                                    probes=probes, every=every,
+                                    progress=not args.no_progress, method=args.method,
+                                    devices=args.devices, losses=args.losses,
+                                    load=args.load)
+        else:
+            options = None
+            if args.kernel != "auto":
+                from lcs.integrators.moreau.integrator import MoreauOptions
+
+                options = MoreauOptions(kernel=args.kernel)
+            # (the output grid computed as the run goes: it holds that grid, not every step)
+            return run_setup(setup, theta=theta, probes=probes, every=every,
+                             progress=not args.no_progress, method=args.method,
+                             options=options,
+                             output_step=spacing[0] if spacing is not None else None,
+                             keep_events=EVENTS_KEPT, rows_to=stream)
+    except NotImplementedError as exc:
+        # A circuit the stepper cannot handle yet: say so like an input error, no traceback.
+        raise NetlistError(Diagnostic(message=f"not supported: {exc}",
+                                      hint="see docs/simulation.md"),
+                           file=args.file) from exc
+    except ValueError as exc:
+        # The set-up of a mode failed before any step (e.g. I - hθA singular: an element
+        # value of 1e-308 found by fuzzing): the values, not the run, are at fault.
+        raise NetlistError(Diagnostic(message=f"cannot simulate: {exc}",
+                                      hint="an element value of extreme magnitude? check the "
+                                      "values and their units (pelcs lcs FILE shows the "
+                                      "matrices)"), file=args.file) from exc
+
+
 def _streams(args, out: Path | None, plot: Path | None) -> bool:
     """Whether the run writes its file as it goes (then it holds neither its steps nor its
     output rows). A figure needs the rows, so a run with --plot holds its output grid; the
     exact method and the piecewise-linear devices (their losses are integrated over every
     step) hold their rows too."""
     return (out is not None and plot is None and args.method == "moreau"
-            and not (args.devices == "pwl" or args.losses))
+            and not _fitted(args))
+
+
+def _fitted(args) -> bool:
+    """Whether the run is of the fitted devices (``--devices pwl``, ``--losses``)."""
+    return args.devices == "pwl" or args.losses
 
 
 def _abort(stream) -> None:
@@ -510,7 +519,6 @@ def summary(result, file: str, title: str, *, tstop: float, step: float, theta: 
     for note in result.notes:
         lines.append(f"note: {note}")
     if written:
-        rows = st.points_streamed if st.points_streamed >= 0 else len(result.t)
-        lines.append(f"wrote {', '.join(written)} ({rows} points"
+        lines.append(f"wrote {', '.join(written)} ({result.points} points"
                      + (f", {points}" if points else "") + ")")
     return "\n".join(lines)
