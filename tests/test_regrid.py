@@ -102,17 +102,23 @@ def test_comparator_every_and_sparse_kernel_resampled_as_they_go():
     assert full.stats.kernel == "sparse"
 
 
-def test_tiny_blocks_and_tstart(monkeypatch):
-    # Blocks of 40 rows (the kernel returns STEP_FULL mid-chunk, hands its rows over, goes
-    # on) and a .tran TSTART: still resample's numbers.
+def small_blocks(monkeypatch, rows: int = 40) -> None:
+    """Recorders whose buffers hold ``rows`` rows: the kernel returns STEP_FULL mid-chunk
+    and hands its rows over many times in a run."""
     init = recorder_module.Recorder.__init__
 
     def small(self, *a, **k):
         init(self, *a, **k)
-        self.block = 40
+        self.block = rows
 
     monkeypatch.setattr(recorder_module.Recorder, "__init__", small)
     monkeypatch.setattr(recorder_module.Recorder, "room", lambda self, rows: None)
+
+
+def test_tiny_blocks_and_tstart(monkeypatch):
+    # Blocks of 40 rows (the kernel returns STEP_FULL mid-chunk, hands its rows over, goes
+    # on) and a .tran TSTART: still resample's numbers.
+    small_blocks(monkeypatch)
     _same_as_resampled(parse_file(VM_BUCK), 2.1e-5, tstop=3e-3)
     text = BUCK.read_text().replace(".tran 0.2u 5m 0 0.2u UIC", ".tran 0.2u 3m 1.03m 0.2u UIC")
     full, went = _same_as_resampled(parse_string(text), 1.1e-5)

@@ -11,8 +11,9 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
+from test_regrid import small_blocks
 
-from lcs.simulation import recorder, regrid
+from lcs.simulation import regrid
 from netlist.parser import parse_file
 from netlist.studies.transient import run_setup, transient_setup
 from pelcs.cli import main
@@ -21,21 +22,12 @@ from pelcs.writers import open_stream, write_result
 ROOT = Path(__file__).resolve().parents[1]
 BUCK = str(ROOT / "converters/netlists/buck.cir")          # .tran TSTEP = the step
 VM_BUCK = str(ROOT / "converters/netlists/vm_buck.cir")    # comparator: rows off the grid
-BUCK_TSTART = ROOT / "converters/netlists/buck.cir"
 TUNNEL = str(ROOT / "tests/netlists/sim/tunnel_nonpassive.cir")
 
 
 def _both(path: str, tmp: Path, suffix: str, monkeypatch, **kw):
     """The file of the run streamed, and of the run held whole, and the two results."""
-    # (small buffers: the rows reach the stream in many blocks; as in test_regrid)
-    init = recorder.Recorder.__init__
-
-    def small(self, *a, **k):
-        init(self, *a, **k)
-        self.block = 40
-
-    monkeypatch.setattr(recorder.Recorder, "__init__", small)
-    monkeypatch.setattr(recorder.Recorder, "room", lambda self, rows: None)
+    small_blocks(monkeypatch)  # (the rows reach the stream in many blocks)
     setup = transient_setup(parse_file(path))
     held = run_setup(setup, **kw)
     a = tmp / f"held{suffix}"
@@ -154,7 +146,7 @@ def test_an_earlier_file_survives_a_run_that_fails_while_streaming(suffix, failu
 
 
 def test_tstart_rows_are_dropped_in_the_stream(tmp_path, monkeypatch):
-    text = BUCK_TSTART.read_text().replace(".tran 0.2u 5m 0 0.2u UIC",
+    text = Path(BUCK).read_text().replace(".tran 0.2u 5m 0 0.2u UIC",
                                            ".tran 0.2u 3m 1.03m 0.2u UIC")
     path = tmp_path / "late.cir"
     path.write_text(text)
