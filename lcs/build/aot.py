@@ -113,7 +113,7 @@ def build(out_dir: Path | None = None, verbose: bool = False) -> Path:
     tmp = Path(tempfile.mkdtemp(prefix="pelcs-aot-"))
     try:
         cc.output_dir = str(tmp)
-        with _host_features(host):
+        with _host_features(host), _no_second_optimisation():
             cc.compile()
         built = tmp / Path(cc._output_file).name
         target.parent.mkdir(parents=True, exist_ok=True)
@@ -138,6 +138,29 @@ def stale_modules(current: Path) -> list[Path]:
     good. Another processor's, in a home directory a cluster shares, are that node's."""
     suffix = current.name.split("-", 2)[2]
     return sorted(p for p in current.parent.glob(f"aot-*-{suffix}") if p != current)
+
+
+@contextlib.contextmanager
+def _no_second_optimisation():
+    """Link the kernels as the JIT optimised them, without optimising the whole module again.
+
+    pycc runs LLVM's module pipeline (-O3) over the extension's module, which holds a copy of
+    every kernel's already optimised code: about 10 s of the link's CPU, for code the JIT
+    cache already holds optimised. The flat wrappers it adds were optimised function by
+    function when they were lowered.
+    """
+    from numba.core import codegen
+
+    cls = getattr(codegen, "AOTCodeLibrary", None)
+    if cls is None or not hasattr(cls, "_optimize_final_module"):
+        yield
+        return
+    original = cls._optimize_final_module
+    cls._optimize_final_module = lambda self: None
+    try:
+        yield
+    finally:
+        cls._optimize_final_module = original
 
 
 @contextlib.contextmanager
