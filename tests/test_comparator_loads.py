@@ -215,3 +215,49 @@ def test_a_comparison_of_comparisons_is_still_refused():
     with pytest.raises(NetlistError, match=r"B1: '\(v\(a\) > 0\)' is a comparison used as an "
                        r"operand of another comparison"):
         parse_string("t\nVa a 0 1\nB1 g 0 V = (v(a) > 0) > 0.5 ? v(a) : 0\nR1 g 0 1k\n.end\n")
+
+
+# A closed-loop buck whose comparator (output voltage against a ramp: located, it reads the
+# state) drives the switch's gate through a gate resistor and a pull-down: the gate reads no
+# state, but jumps whenever the comparator switches, so S1 is a comparator of its own and turns
+# at the comparator's instants (FOLDED: the same comparator driving S1 directly).
+CLOSED_LOOP_GATE = """closed-loop buck, its comparator driving the gate through a resistor
+V1 in 0 DC 24
+Vramp r 0 PULSE(0 1 0 9.99u 10n 0 10u)
+B1 gd 0 V = (0.5 - 0.1*v(out) + 0.2 > v(r)) ? 10 : 0
+Rg gd g 10
+Rgs g 0 10k
+S1 in sw g 0 SMOD
+.model SMOD SW(VT=5 VH=0 RON=10m ROFF=1e6)
+D1 0 sw DMOD
+.model DMOD D(IS=1e-14)
+L1 sw out 100u
+C1 out 0 100u
+Rl out 0 5
+.tran 0.1u 2m
+.end
+"""
+FOLDED = (CLOSED_LOOP_GATE.replace("Rg gd g 10\n", "").replace("Rgs g 0 10k\n", "")
+          .replace("S1 in sw g 0", "S1 in sw gd 0"))
+
+
+def test_a_closed_loop_comparator_driving_a_gate_divider(tmp_path, ngspice):
+    res = simulate(CLOSED_LOOP_GATE, probes=["v(out)"], devices="pwl")
+    folded = simulate(FOLDED, probes=["v(out)"], devices="pwl")
+    # S1 turns at B1#s's instants, which are the folded comparator's (to round-off)
+    events = [(0.0, (True, True))] + list(res.events)
+    turns = {0: [], 1: []}
+    for (t, m), (_, prev) in zip(events[1:], events[:-1], strict=True):
+        for i in (0, 1):
+            if m[i] != prev[i]:
+                turns[i].append(t)
+    s1 = np.array(sorted(set(turns[0])))
+    assert np.array_equal(s1, np.array(sorted(set(turns[1]))))
+    direct = np.array([t for t, _ in folded.events])
+    assert len(s1) == len(direct) > 300
+    assert np.allclose(s1, direct, rtol=0, atol=1e-15)
+    assert np.allclose(res["v(out)"], folded["v(out)"], rtol=0, atol=1e-8)
+    ng = ngspice_wrdata(CLOSED_LOOP_GATE, ["v(out)"], tmp_path)
+    want = _mean(ng[:, 0], ng[:, 1], 1e-3)
+    # (measured: 4.7572 V against ngspice's 4.7486 V, 0.18 %)
+    assert _mean(res.t, res["v(out)"], 1e-3) == pytest.approx(want, rel=5e-3)

@@ -127,6 +127,7 @@ def _classify(system: SwitchedLCS, controllers, method: str, guess: ModeKey,
                 out.surface[i] = ctrl
             else:
                 out.scheduled_by[i] = ctrl
+    by_sources = _driven_by_sources(system, guess, out)
     for i, s in enumerate(sw):
         if i in out.scheduled_by:
             out.kind[i] = SW_SCHEDULED
@@ -140,8 +141,7 @@ def _classify(system: SwitchedLCS, controllers, method: str, guess: ModeKey,
             explicit_flag = sw_method == "explicit"
             latch = None
         else:
-            om = system.outputs(guess, [s.control])
-            if not (np.any(np.asarray(om.Cy) != 0) or np.any(np.asarray(om.Dy) != 0)):
+            if i in by_sources:
                 out.kind[i] = SW_SCHEDULED
                 out.method[i] = "source"
                 out.source.append(i)
@@ -180,3 +180,67 @@ def _classify(system: SwitchedLCS, controllers, method: str, guess: ModeKey,
                 out.vh[i] = 0.0
         out.method[i] = sw_method
     return out
+
+
+def _driven_by_sources(system: SwitchedLCS, guess: ModeKey, plan: SwitchPlan) -> set[int]:
+    """The switches whose instants can be computed from the sources before stepping: their
+    control does not depend on the state in ``guess``, nor on the state of a switch that is
+    not itself driven by sources.
+
+    A gate that a comparator drives through a resistor (a B source's output into a gate
+    resistor and a pull-down) reads no state, but its value changes when that comparator
+    switches: it is not known before stepping. Such a switch is a comparator of its own (its
+    control is located like any other, and jumps with the mode), here found by flipping each
+    switch not driven by sources in ``guess`` and comparing the control's rows (repeated until
+    no more switch leaves the set, since a gate may in turn depend on such a switch). Rows that
+    change only with combinations of several switches are caught when the run checks the
+    rows in each mode it enters (an error there, not a wrong instant).
+    """
+    sw = system.switches
+    k = len(sw)
+    candidates = set()
+    for i, s in enumerate(sw):
+        if i in plan.scheduled_by or i in plan.surface:
+            continue
+        om = system.outputs(guess, [s.control])
+        if not (np.any(np.asarray(om.Cy) != 0) or np.any(np.asarray(om.Dy) != 0)):
+            candidates.add(i)
+    changed = True
+    while changed:
+        changed = False
+        drivers = [j for j in range(k) if j not in candidates]
+        for i in sorted(candidates):
+            if _gate_moves_with(system, guess, sw[i].control, drivers):
+                candidates.discard(i)
+                changed = True
+    return candidates
+
+
+def _gate_moves_with(system: SwitchedLCS, guess: ModeKey, control: str,
+                     drivers: list[int]) -> bool:
+    """Whether ``control``'s rows in ``guess`` change when one of ``drivers`` is flipped (or
+    read the state there). A flipped configuration the circuit cannot be in (its formulation
+    fails) tells nothing."""
+    ref = np.asarray(system.outputs(guess, [control]).Fy, dtype=float)
+    for j in drivers:
+        mode = tuple(not on if q == j else on for q, on in enumerate(guess))
+        try:
+            om = system.outputs(mode, [control])
+        except Exception:  # noqa: BLE001  (an impossible configuration: no information)
+            continue
+        if (np.any(np.asarray(om.Cy) != 0) or np.any(np.asarray(om.Dy) != 0)
+                or not _same_row(np.asarray(om.Fy, dtype=float), ref)):
+            return True
+    return False
+
+
+def _same_row(a: np.ndarray, b: np.ndarray) -> bool:
+    """Equal input rows to round-off (each mode's rows come from its own solve), a missing
+    trailing input column read as zero (a mode's output map may omit inputs that only other
+    modes use)."""
+    a, b = a.reshape(-1), b.reshape(-1)
+    if a.shape != b.shape:
+        w = max(a.size, b.size)
+        a, b = np.pad(a, (0, w - a.size)), np.pad(b, (0, w - b.size))
+    scale = max(1.0, float(np.max(np.abs(b), initial=0.0)))
+    return bool(np.allclose(a, b, rtol=1e-12, atol=1e-12 * scale))
