@@ -492,12 +492,19 @@ def run_grid(stack, sws, chunk, sched, state, lim, store):
                 break
             clear_bits(flips)
             first = -1
+            # The switch that turned at this very instant sits on its threshold: it turns
+            # again with the others only if it is clearly past it (a comparator driving
+            # another switch's gate turns that one at its own instant, without a zero-time
+            # toggle of its own); alone, it is the sliding test below.
+            just = -1
+            if s_star <= min_step and fvars[FV_LASTT] == tcur:
+                just = ivars[IV_LASTSW]
             for i in range(k):
-                if g[i] != -np.inf and g[i] >= -gt[i]:
+                if g[i] != -np.inf and (g[i] > gt[i] if i == just else g[i] >= -gt[i]):
                     set_bit(flips, i)
                     if first < 0:
                         first = i
-            if first < 0:  # (cannot happen: the instant search ends on a crossing)
+            if first < 0:  # (alone: the switch that turned at this instant, or round-off)
                 gm = -np.inf
                 for i in range(k):
                     if g[i] > gm:
