@@ -39,7 +39,10 @@ cutset of inductors / current sources / F, G sources, ``k = 1`` coupling) are re
 Two such loops and cutsets never reach it, made regular when the netlist is read: capacitors
 from one node to nodes that voltage sources join (:mod:`netlist.capacitor_loops`, one state
 for them) and inductors that are the only branches from a floating group of voltage sources
-(:mod:`netlist.inductor_cutsets`, the group's potential held by E sources).
+(:mod:`netlist.inductor_cutsets`, the group's potential held by E sources). A capacitor
+whose terminals V, E and H sources alone join is no state at all
+(:func:`netlist.reductions.held_capacitors`: its voltage is theirs, its current a loop
+current through them that changes nothing else).
 One cutset is not degenerate: an uncoupled inductor that no other branch parallels in a mode
 carries no current there. In every mode when nothing else joins its terminals
 (:func:`netlist.reductions.open_inductors`, e.g. one end unconnected); in the modes whose open
@@ -84,7 +87,7 @@ from .mna import Mna as _Mna
 from .mna import Stamps, coalesce
 from .mna_solve import Entries, Solution, clean
 from .probes import PROBE, TWO_TERMINAL
-from .reductions import open_inductors, reduced
+from .reductions import held_capacitors, open_inductors, reduced
 from .suggest import did_you_mean
 from .topology import Partition, SwitchedBridges, UnionFind
 
@@ -131,7 +134,10 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         For invalid element values or references, or a singular inductance matrix; later,
         when a mode is built, for a degenerate topology in that mode.
     """
-    formulator = _Formulator(reduced(circuit))
+    held = held_capacitors(circuit)
+    formulator = _Formulator(reduced(circuit, held))
+    # (v(C) of a capacitor left out is still its voltage: that of the sources across it)
+    formulator.held_nodes = {key: h.nodes for key, h in held.items()}
     return SwitchedLCS(
         switches=formulator.switch_controls,
         states=formulator.state_names,
@@ -293,6 +299,8 @@ class _Formulator:
             self.pinnable = pinnable_inductors(self)
         # What each probe asked for names (probe -> ("v", node, node) or ("i", element)).
         self._probes: dict[str, tuple] = {}
+        # the terminals of the capacitors :func:`formulate` left out, by key
+        self.held_nodes: dict[str, tuple[str, str]] = {}
         self.Lmat = np.zeros((0, 0))  # set by _inductance_inverse
         self.Linv = self._inductance_inverse(bad)
         if diagnostics:
@@ -765,6 +773,8 @@ class _Formulator:
                 elif a in self.by_key and self.by_key[a].kind == "C":
                     # The state name v(C1) (a node of that name wins, as in SPICE).
                     return ("v", *self.by_key[a].nodes[:2])
+                elif a in self.held_nodes:
+                    return ("v", *self.held_nodes[a])
             elif b is None and a in self.by_key and self.by_key[a].kind in TWO_TERMINAL:
                 return "i", self.by_key[a]
         nodes = sorted(self.nodes)

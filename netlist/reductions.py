@@ -1,9 +1,16 @@
 """What the formulation leaves out of the LCS, and why (decided on the circuit, once, before
 any mode is built):
 
-- a capacitor whose terminals independent voltage sources alone join (an input capacitor
-  across the supply): its voltage is the sources', so it holds no state, and nothing else
-  depends on its current (only the sources' own currents would);
+- a capacitor whose terminals voltage sources alone join (V, E and H sources, in every
+  mode: an input capacitor across the supply, a load capacitor across an E source's output,
+  a regulator model's output capacitor across a B source fed from the supply): its voltage
+  is the sources', so it holds no state. Its current ``C dv/dt`` flows around the loop it
+  closes with them and nowhere else: a loop current through voltage-defined branches
+  changes no node voltage and no other branch current (Kirchhoff's current law holds with it
+  at every node of the loop), so leaving it out is exact for everything but the currents of
+  those sources, which :func:`held_capacitors` names (probes of them are refused unless the
+  sources are DC, where the capacitor carries no current). Not when an F or H source senses
+  the current of one of those V sources (then it matters: the loop stays, refused);
 - an ideal diode in parallel with an earlier one of the same orientation: one
   complementarity pair carries both (two would leave the split of their current
   undetermined, a non-unique λ);
@@ -18,28 +25,98 @@ refused with the name of the diode that carries it.
 
 from __future__ import annotations
 
-from dataclasses import replace
+from collections import deque
+from dataclasses import dataclass, replace
 
-from .circuit import Capacitor, Circuit, Inductor, VoltageSource
+from .circuit import Capacitor, Ccvs, Circuit, Inductor, Vcvs, VoltageSource
 from .topology import UnionFind, bridges
 
-__all__ = ["open_inductors", "parallel_diodes", "reduced", "source_capacitors"]
+__all__ = ["HeldCapacitor", "held_capacitors", "open_inductors", "parallel_diodes", "reduced",
+           "source_capacitors"]
+
+
+@dataclass(frozen=True)
+class HeldCapacitor:
+    """A capacitor whose terminals voltage sources alone join (module docstring).
+
+    Attributes
+    ----------
+    name : str
+        The capacitor's name.
+    nodes : tuple of str
+        Its terminals (n+, n-).
+    path : tuple of str
+        The names of the V, E and H sources that join them, from n+ to n-: its current
+        ``C dv/dt`` flows through them.
+    constant : bool
+        Every source of the path is an independent DC source: the capacitor's voltage is
+        constant, its current zero, and the sources' currents exact.
+    """
+
+    name: str
+    nodes: tuple[str, str]
+    path: tuple[str, ...]
+    constant: bool
+
+
+def held_capacitors(circuit: Circuit) -> dict[str, HeldCapacitor]:
+    """The capacitors whose terminals V, E and H sources alone join, by key, in netlist
+    order: their voltage is set by the sources, so they hold no state; :func:`formulate`
+    leaves them out (a note says so in a run). V sources whose current an F or H source
+    senses are not used to join them (that current would then depend on the capacitor's)."""
+    sensed = {str(el.source).lower() for el in circuit.elements if el.kind in "FH"
+              and getattr(el, "source", None)}
+    sources = [el for el in circuit.elements
+               if isinstance(el, VoltageSource | Vcvs | Ccvs) and el.key not in sensed
+               and len(el.nodes) >= 2 and el.nodes[0] != el.nodes[1]]
+    if not sources:
+        return {}
+    uf = UnionFind()
+    for el in sources:
+        uf.union(*el.nodes[:2])
+    caps = [el for el in circuit.elements if isinstance(el, Capacitor)
+            and el.nodes[0] != el.nodes[1] and uf.find(el.nodes[0]) == uf.find(el.nodes[1])]
+    if not caps:
+        return {}
+    adjacent: dict[str, list[tuple[str, int]]] = {}
+    for i, el in enumerate(sources):
+        a, b = el.nodes[:2]
+        adjacent.setdefault(a, []).append((b, i))
+        adjacent.setdefault(b, []).append((a, i))
+    out = {}
+    for el in caps:
+        path = _path(adjacent, *el.nodes[:2])
+        members = [sources[i] for i in path]
+        constant = all(type(s) is VoltageSource and s.waveform is None for s in members)
+        out[el.key] = HeldCapacitor(el.name, (el.nodes[0], el.nodes[1]),
+                                    tuple(s.name for s in members), constant)
+    return out
+
+
+def _path(adjacent: dict[str, list[tuple[str, int]]], a: str, b: str) -> list[int]:
+    """Indices of the branches of a path from node ``a`` to node ``b`` (breadth first: the
+    sources form a forest where the mode is regular, so the path is the only one)."""
+    came: dict[str, tuple[str, int] | None] = {a: None}
+    queue = deque([a])
+    while queue:
+        node = queue.popleft()
+        if node == b:
+            break
+        for nxt, i in adjacent.get(node, ()):
+            if nxt not in came:
+                came[nxt] = (node, i)
+                queue.append(nxt)
+    path = []
+    node = b
+    while came[node] is not None:
+        node, i = came[node]
+        path.append(i)
+    return path[::-1]
 
 
 def source_capacitors(circuit: Circuit) -> list[str]:
-    """Keys of the capacitors whose terminals independent voltage sources alone join (an
-    input capacitor across the supply): their voltage is set by the sources, so they hold no
-    state; :func:`formulate` leaves them out (a note says so in a run)."""
-    uf = UnionFind()
-    for el in circuit.elements:
-        if isinstance(el, VoltageSource):
-            uf.union(*el.nodes[:2])
-    out = []
-    for el in circuit.elements:
-        if isinstance(el, Capacitor) and el.nodes[0] != el.nodes[1] and \
-                uf.find(el.nodes[0]) == uf.find(el.nodes[1]):
-            out.append(el.key)
-    return out
+    """Keys of the capacitors of :func:`held_capacitors` (no state), in netlist order."""
+    return list(held_capacitors(circuit))
 
 
 def parallel_diodes(circuit: Circuit) -> dict[str, str]:
@@ -71,12 +148,14 @@ def open_inductors(circuit: Circuit) -> list[str]:
             if i in cut and isinstance(el, Inductor) and el.key not in coupled]
 
 
-def reduced(circuit: Circuit) -> Circuit:
+def reduced(circuit: Circuit, capacitors: dict[str, HeldCapacitor] | None = None) -> Circuit:
     """The circuit without what :func:`netlist.formulation.formulate` leaves out: the
-    capacitors of :func:`source_capacitors` and the diodes of :func:`parallel_diodes` (one
-    complementarity pair carries each group: two would leave the split of the current
-    undetermined, a non-unique λ)."""
-    held = set(source_capacitors(circuit)) | set(parallel_diodes(circuit))
+    capacitors of :func:`held_capacitors` (``capacitors``, found when not given) and the
+    diodes of :func:`parallel_diodes` (one complementarity pair carries each group: two
+    would leave the split of the current undetermined, a non-unique λ)."""
+    if capacitors is None:
+        capacitors = held_capacitors(circuit)
+    held = set(capacitors) | set(parallel_diodes(circuit))
     if not held:
         return circuit
     return replace(circuit, elements=[el for el in circuit.elements if el.key not in held])

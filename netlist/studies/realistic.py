@@ -11,6 +11,7 @@ import numpy as np
 from lcs.results import SimulationResult
 
 from ..circuit import GROUND, Circuit, Diode, Switch
+from ..errors import NetlistError
 from ..pwl import carried_current, pwl_circuit
 from ..reductions import parallel_diodes
 from .losses import loss_probes
@@ -49,6 +50,7 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         raise ValueError(f"devices must be 'ideal' or 'pwl', got {devices!r}")
     fits: list = []
     run_circuit = circuit
+    sizing_note = None
     if devices == "pwl":
         merged = parallel_diodes(circuit)
         sws = [el for el in circuit.elements if isinstance(el, Switch)]
@@ -57,7 +59,25 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         pre += [f"v({a})" if b == GROUND else f"v({a},{b})" for a, b in
                 (sw.control for sw in sws)]
         # (its knees unchecked: it sizes the fits, the pwl run below is the answer)
-        ideal = simulate_circuit(circuit, probes=list(dict.fromkeys(pre)), knees=False, **kw)
+        try:
+            ideal = simulate_circuit(circuit, probes=list(dict.fromkeys(pre)), knees=False,
+                                     **kw)
+        except NetlistError as exc:
+            if not _switch_loop(exc, sws):
+                raise
+            # an ideal switch closes a loop with capacitors and voltage sources, which the
+            # switches' own resistances break: the fits are sized from a run with them (and
+            # the diodes at their 1 mA fit) instead
+            sized, _ = pwl_circuit(circuit, {}, {}, pwl)
+            ideal = simulate_circuit(sized, probes=list(dict.fromkeys(pre)), knees=False,
+                                     **kw)
+            if any(isinstance(el, Diode) for el in circuit.elements):
+                sizing_note = (
+                    "pwl: the ideal run that sizes the diodes' fits is degenerate ("
+                    f"{exc.message.split(':')[0]}: an ideal switch would tie a capacitor's "
+                    "voltage to voltage sources, a jump), so they are sized from a run "
+                    "with the switches at their on resistance and the diodes at their "
+                    "1 mA fit")
         # the current each device carries, not an inrush only the time step limits
         t = np.asarray(ideal.t, float)
         i_max = {el.name: carried_current(t, ideal[f"i({el.name})"])
@@ -78,6 +98,8 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
     res = simulate_circuit(run_circuit, probes=list(dict.fromkeys(want + extra)), **kw)
     res.device_fits = fits
     res.notes.extend(f"pwl: {f.line()}" for f in fits)
+    if devices == "pwl" and sizing_note:
+        res.notes.append(sizing_note)
     if losses:
         res.losses = loss_report(res, circuit, fits, load)
         if not res.losses.settled:
@@ -89,6 +111,14 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         k = len(dict.fromkeys(want))
         res.names, res.y = tuple(res.names[:k]), res.y[:, :k]
     return res
+
+
+def _switch_loop(exc: NetlistError, switches: Sequence[Switch]) -> bool:
+    """Whether ``exc`` refuses a loop of capacitors and voltage sources that closed ideal
+    switches of ``switches`` close (:func:`netlist.degenerate.check_topology`)."""
+    names = {sw.name for sw in switches}
+    return any(d.message.startswith("loop of capacitors/voltage sources with")
+               and names.intersection(d.elements) for d in exc.diagnostics)
 
 
 #: the segments' diodes must cancel nothing θ = 1/2 would feel even at this many times the

@@ -54,7 +54,7 @@ from ..knee import KneeCapacitor, check_knees, knee_probes
 from ..limits import MEMORY, STEPS
 from ..passive import structurally_passive
 from ..probes import PROBE, TWO_TERMINAL
-from ..reductions import open_inductors, parallel_diodes, source_capacitors
+from ..reductions import held_capacitors, open_inductors, parallel_diodes
 from ..suggest import did_you_mean
 from ..system_cache import kept_with
 from .growth import GrowthWatch, state_growth
@@ -233,11 +233,8 @@ def transient_setup(
     # (a fact of the topology: kept with the system, formulated from the same circuit)
     _pin_open_inductors(circuit, system.states, x0, notes,
                         kept_with(system, "open_inductors", lambda: open_inductors(circuit)))
-    across = set(kept_with(system, "source_capacitors", lambda: source_capacitors(circuit)))
-    held = [el.name for el in circuit.elements if el.key in across]
-    if held:
-        notes.append(f"{', '.join(held)}: across voltage sources only, so no state (the "
-                     "sources set its voltage; the source currents leave out its charging)")
+    notes.extend(held_note(kept_with(system, "held_capacitors",
+                                     lambda: held_capacitors(circuit))))
     if circuit.steps:
         notes.append(_step_note(circuit, given or {}))
     t_save = tran.tstart if tran is not None and tran.tstart < tstop else 0.0
@@ -256,6 +253,62 @@ def transient_setup(
                           energy, notes, nonpassive, default_probes, circuit.file or "",
                           shown, shown_note,
                           tuple(el for el in circuit.elements if isinstance(el, KneeCapacitor)))
+
+
+def held_note(held: dict) -> list[str]:
+    """The notes of the capacitors that voltage sources alone join
+    (:func:`netlist.reductions.held_capacitors`), one per group on the same sources."""
+    groups: dict[tuple[str, ...], list] = {}
+    for h in held.values():
+        groups.setdefault(h.path, []).append(h)
+    notes = []
+    for path, caps in groups.items():
+        names = ", ".join(h.name for h in caps)
+        one = len(caps) == 1
+        sources = ", ".join(path)
+        text = (f"{names}: {'its terminals are' if one else 'their terminals are each'} "
+                f"joined by voltage sources alone ({sources}), so "
+                f"{'it holds' if one else 'they hold'} no state: the sources set "
+                f"{'its' if one else 'their'} voltage, and {'its' if one else 'their'} "
+                f"current flows only through {sources}")
+        if caps[0].constant:
+            text += (" (DC: it is zero, and the sources' currents are exact)" if one else
+                     " (DC: they are zero, and the sources' currents are exact)")
+        else:
+            text += (f"; i() of {sources} and of {'it' if one else 'them'} are not "
+                     "computed (refused as probes)")
+        notes.append(text)
+    return notes
+
+
+def held_probe(probe: str, key: str, held: dict) -> Diagnostic | None:
+    """The error of a probe ``i(X)`` that pelcs does not compute because of a capacitor that
+    voltage sources alone join: ``X`` that capacitor, or (unless they are DC) a source it is
+    across; None for any other element."""
+    if key in held:
+        h = held[key]
+        return Diagnostic(
+            message=f"probe {probe.strip()!r}: {h.name} is joined by voltage sources alone "
+                    f"({', '.join(h.path)}), so it holds no state and its current is not "
+                    "computed",
+            hint=f"its voltage is v({h.nodes[0]},{h.nodes[1]}) (probe v({h.name})), and "
+                 + ("its current zero (the sources are DC)" if h.constant else
+                    "its current C times the derivative of that voltage")
+                 + "; to make it a state, give it a series resistance (its ESR)")
+    for h in held.values():
+        if h.constant:
+            continue
+        name = next((n for n in h.path if n.lower() == key), None)
+        if name is not None:
+            return Diagnostic(
+                message=f"probe {probe.strip()!r}: the current of {name} includes the "
+                        f"charging current of {h.name}, which voltage sources alone join "
+                        f"({', '.join(h.path)}): pelcs keeps no state for it and does not "
+                        "compute that current",
+                hint=f"probe the current of the branches {name} feeds other than "
+                     f"{h.name}, or give {h.name} a series resistance (its ESR) to make it a "
+                     "state")
+    return None
 
 
 def _step_note(circuit: Circuit, given: dict[str, float]) -> str:
@@ -392,6 +445,7 @@ def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
     out, bad = [], []
     switches = {el.key for el in circuit.elements if el.kind == "S"}
     merged = parallel_diodes(circuit)
+    held = held_capacitors(circuit)
     for probe in probes:
         m = PROBE.match(probe)
         ok = False
@@ -406,6 +460,9 @@ def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
                 ok = (a in nodes and (b is None or b.lower() in nodes)) or (
                     b is None and a in capacitors)
             else:
+                stop = held_probe(probe, a, held) if b is None else None
+                if stop is not None:
+                    raise NetlistError([stop], file=circuit.file)
                 ok = b is None and a in two_terminal and a not in merged
                 if b is None and a in merged:
                     raise NetlistError([Diagnostic(
