@@ -133,3 +133,21 @@ def test_a_switch_closing_a_capacitor_across_a_source(tmp_path, ngspice):
     keep = (pel[:, 0] < 0.49e-3) | (pel[:, 0] > 0.51e-3)
     got = np.interp(pel[keep, 0], ng[:, 0], ng[:, 1])
     assert np.max(np.abs(pel[keep, 1] - got)) < 5e-3
+
+
+def test_losses_add_the_power_of_a_capacitor_across_the_input(tmp_path):
+    # v = 10 V/ms ramp across Cin = 100 µF and R1 = 100 Ω: over the window [a, b] the source
+    # gives mean(v²/R) + ½ C (v(b)² - v(a)²)/(b - a); its recorded current leaves Cin's out
+    from netlist.studies.realistic import simulate_devices
+
+    text = ("ramp\nV1 in 0 PWL(0 0 1m 10)\nCin in 0 100u\nR1 in 0 100\n.tran 1u 1m\n.end\n")
+    res = simulate_devices(parse_string(text), losses=True, probes=["v(in)"])
+    a, b = res.losses.window
+    k = 1e4
+    p_r = k * k * (b ** 3 - a ** 3) / 3 / 100 / (b - a)
+    p_c = 0.5 * 100e-6 * k * k * (b * b - a * a) / (b - a)
+    assert res.losses.p_in == pytest.approx(p_r + p_c, rel=2e-3)
+    assert res.losses.p_out == pytest.approx(p_r, rel=2e-3)
+    # the user's own probes are still checked
+    with pytest.raises(NetlistError, match="charging current of Cin"):
+        simulate_devices(parse_string(text), losses=True, probes=["i(V1)"])

@@ -16,7 +16,7 @@ from ..pwl import carried_current, pwl_circuit
 from ..reductions import parallel_diodes
 from .losses import loss_probes
 from .losses import losses as loss_report
-from .transient import simulate_circuit
+from .transient import check_probes, simulate_circuit
 
 __all__ = ["fitted_circuit", "simulate_devices"]
 
@@ -95,7 +95,13 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         from ..formulation import formulate as _formulate
 
         want = list(_formulate(run_circuit).states)
-    res = simulate_circuit(run_circuit, probes=list(dict.fromkeys(want + extra)), **kw)
+    elif extra:
+        # (the user's probes checked as they are: the losses' own may take the currents of
+        # sources without the charging current of a capacitor across them, which the losses
+        # add as its power)
+        check_probes(circuit, want)
+    res = simulate_circuit(run_circuit, probes=list(dict.fromkeys(want + extra)),
+                           path_currents=bool(extra), **kw)
     res.device_fits = fits
     res.notes.extend(f"pwl: {f.line()}" for f in fits)
     if devices == "pwl" and sizing_note:

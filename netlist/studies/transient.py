@@ -281,10 +281,12 @@ def held_note(held: dict) -> list[str]:
     return notes
 
 
-def held_probe(probe: str, key: str, held: dict) -> Diagnostic | None:
+def held_probe(probe: str, key: str, held: dict, path_currents: bool = False
+               ) -> Diagnostic | None:
     """The error of a probe ``i(X)`` that pelcs does not compute because of a capacitor that
     voltage sources alone join: ``X`` that capacitor, or (unless they are DC) a source it is
-    across; None for any other element."""
+    across; None for any other element. ``path_currents``: the sources' currents without
+    the capacitor's are asked for knowingly (:mod:`netlist.studies.losses` adds its power)."""
     if key in held:
         h = held[key]
         return Diagnostic(
@@ -296,7 +298,7 @@ def held_probe(probe: str, key: str, held: dict) -> Diagnostic | None:
                     "its current C times the derivative of that voltage")
                  + "; to make it a state, give it a series resistance (its ESR)")
     for h in held.values():
-        if h.constant:
+        if h.constant or path_currents:
             continue
         name = next((n for n in h.path if n.lower() == key), None)
         if name is not None:
@@ -418,7 +420,8 @@ def initial_state(circuit: Circuit, states: Sequence[str], notes: list[str] | No
     return x0
 
 
-def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
+def check_probes(circuit: Circuit, probes: Sequence[str], *,
+                 path_currents: bool = False) -> list[str]:
     """Check probe names against the circuit's nodes and elements.
 
     Parameters
@@ -428,6 +431,11 @@ def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
         ``v(n)``, ``v(a,b)`` (``0`` or ``gnd`` is ground), ``i(X)`` for a two-terminal
         element, or a state name (``v(C1)`` is the capacitor voltage unless a node ``c1``
         exists, as in SPICE).
+
+    path_currents : bool
+        Accept ``i(V)`` of a source that a capacitor without a state is across
+        (:func:`netlist.reductions.held_capacitors`): its current without the capacitor's,
+        for a caller that accounts for the rest (the losses' input power).
 
     Returns
     -------
@@ -460,7 +468,7 @@ def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
                 ok = (a in nodes and (b is None or b.lower() in nodes)) or (
                     b is None and a in capacitors)
             else:
-                stop = held_probe(probe, a, held) if b is None else None
+                stop = held_probe(probe, a, held, path_currents) if b is None else None
                 if stop is not None:
                     raise NetlistError([stop], file=circuit.file)
                 ok = b is None and a in two_terminal and a not in merged
@@ -560,6 +568,7 @@ def simulate_circuit(
     output_step: float | str | None = None,
     knees: bool = True,
     keep_events: int | None = None,
+    path_currents: bool = False,
 ) -> SimulationResult:
     """Simulate a parsed circuit with the Moreau θ scheme (or exactly, ``method="exact"``).
 
@@ -610,6 +619,9 @@ def simulate_circuit(
         A Moreau run keeps only its last ``keep_events`` switchings in ``result.events``
         and counts the others (``result.switchings``): with ``output_step`` its memory then
         does not grow with its length. Default: all.
+    path_currents : bool
+        ``i(V)`` probes of sources that capacitors without a state are across, without their
+        current (:func:`check_probes`); for :mod:`netlist.studies.losses`.
 
     Returns
     -------
@@ -629,8 +641,10 @@ def simulate_circuit(
         # A typo is an input error before any work, not a failure in the middle of a run.
         # (the names a circuit knows are those of the system's circuit: kept with it)
         names = tuple(probes)
-        probes = list(check_probes(circuit, probes) if system is None else kept_with(
-            system, ("probes", names), lambda: check_probes(circuit, names)))
+        probes = list(check_probes(circuit, probes, path_currents=path_currents)
+                      if system is None else kept_with(
+                          system, ("probes", names, path_currents),
+                          lambda: check_probes(circuit, names, path_currents=path_currents)))
     setup = transient_setup(circuit, tstop=tstop, step=step, system=system, strict=strict)
     return run_setup(setup, theta=theta, probes=probes, every=every, progress=progress,
                      options=options, switching=switching, controllers=controllers,
