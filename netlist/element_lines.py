@@ -29,6 +29,7 @@ from .rawdeck import (
     Statement,
     Value,
 )
+from .table_source import TableError, read_table
 from .units import parse_number
 
 # ------------------------------------------------------------------------------ reading
@@ -71,6 +72,8 @@ class ElementLines:
         if letter in "EG" and self.value_source(letter, st):
             return
         if letter in "EFGH" and self.poly_source(letter, st):
+            return
+        if letter in "EG" and self.table_source(letter, st):
             return
         if letter in "EG":
             m = _PAREN_CONTROL.match(st.text)
@@ -208,6 +211,28 @@ class ElementLines:
         self.body.elements.append(RawElement(
             "B", name, st, (node_name(m.group(2)), node_name(m.group(3))),
             behaviour=("V" if letter == "E" else "I", tree, text, offset)))
+        return True
+
+    def table_source(self, letter: str, st: Statement) -> bool:
+        """``Ename n+ n- TABLE {expr} = (x1, y1) (x2, y2)`` (G alike) read as the B source
+        :mod:`netlist.table_source` makes of it, with its note; False for any other line."""
+        try:
+            table = read_table(st.text, letter)
+        except TableError as exc:
+            self.error(exc.message, st, exc.offset, exc.hint)
+            return True
+        if table is None:
+            return False
+        tree = self.behavioural_tree(table.text, st, table.offset,
+                                     f"syntax: {letter}name n+ n- TABLE {{expression}} = "
+                                     "(x1, y1) (x2, y2)")
+        if tree is None:
+            return True
+        self.body.elements.append(RawElement(
+            "B", hierarchical_name(table.name, letter), st,
+            (node_name(table.nodes[0]), node_name(table.nodes[1])),
+            behaviour=("V" if letter == "E" else "I", tree, table.text, table.offset),
+            note=table.note))
         return True
 
     def poly_source(self, letter: str, st: Statement) -> bool:

@@ -452,6 +452,8 @@ class _Builder:
             elif el.behaviour is not None:  # B: netlist.behavioural; C of a knee: netlist.knee
                 self.circuit.elements += elaborate(el, name_prefix, mapnode, env, failed,
                                                    self.error)
+                if el.note:
+                    self.circuit.notes.append(f"{name_prefix}{el.name}: {el.note}")
             elif el.kind == "W":  # a current-controlled switch (netlist.current_switch)
                 self.circuit.elements += self.current_switch(el, name_prefix, mapnode)
             elif el.kind == "A":  # an XSPICE code model (netlist.xspice)

@@ -96,6 +96,7 @@ def split_statements(lines: list[tuple[int, str]], file: str, diags: list[Diagno
     cur: Statement | None = None
     control: list[str] | None = None
     control_loc: Location | None = None
+    ended = False
     for lineno, raw in lines:
         if control is not None:
             control.append(raw.rstrip())
@@ -111,6 +112,8 @@ def split_statements(lines: list[tuple[int, str]], file: str, diags: list[Diagno
         stripped = code.strip()
         if not stripped or stripped[0] == "*":
             continue
+        if ended and not stripped.lower().startswith(".control"):
+            continue  # (past .end ngspice still reads .control blocks, and nothing else)
         col0 = len(code) - len(code.lstrip())
         if stripped[0] == "+":
             if cur is None:
@@ -138,7 +141,8 @@ def split_statements(lines: list[tuple[int, str]], file: str, diags: list[Diagno
             cur = None
             continue
         if first == ".end":
-            break
+            ended, cur = True, None
+            continue
         cur = Statement(stripped.rstrip(), file, [(0, lineno, col0, raw)])
         out.append(cur)
     if control is not None:
