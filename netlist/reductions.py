@@ -11,6 +11,16 @@ any mode is built):
   those sources, which :func:`held_capacitors` names (probes of them are refused unless the
   sources are DC, where the capacitor carries no current). Not when an F or H source senses
   the current of one of those V sources (then it matters: the loop stays, refused);
+- a capacitor that closes a loop of capacitors and DC voltage sources (a *link*: the
+  junction capacitances of a multiplier's diodes with its pump capacitors and 0 V sense
+  sources; a triangle of capacitors): its voltage is that of the loop's other capacitors
+  (the *tree* ones, which stay states) and sources, ``v_l = Σ a_lk v_k + c``, so it is no
+  state, and its current ``C_l dv_l/dt`` circulates around the loop through them. With the
+  links left open the network gives the tree capacitors' currents ``i``; with them,
+  ``(D + Aᵀ C_L A) v' = i`` exactly (``D`` the tree capacitances, ``A`` the ``a_lk``,
+  ``C_L`` the links'): the charge constraint, :func:`capacitor_links` finds them and
+  :mod:`netlist.formulation` applies ``(D + Aᵀ C_L A)⁻¹ D`` to the tree rows. Only DC
+  sources on the loop (a source's derivative would enter); others stay refused;
 - an ideal diode in parallel with an earlier one of the same orientation: one
   complementarity pair carries both (two would leave the split of their current
   undetermined, a non-unique λ);
@@ -31,8 +41,8 @@ from dataclasses import dataclass, replace
 from .circuit import Capacitor, Ccvs, Circuit, Inductor, Vcvs, VoltageSource
 from .topology import UnionFind, bridges
 
-__all__ = ["HeldCapacitor", "held_capacitors", "open_inductors", "parallel_diodes", "reduced",
-           "source_capacitors"]
+__all__ = ["HeldCapacitor", "LinkCapacitor", "capacitor_links", "held_capacitors",
+           "open_inductors", "parallel_diodes", "reduced", "source_capacitors"]
 
 
 @dataclass(frozen=True)
@@ -114,6 +124,92 @@ def _path(adjacent: dict[str, list[tuple[str, int]]], a: str, b: str) -> list[in
     return path[::-1]
 
 
+@dataclass(frozen=True)
+class LinkCapacitor:
+    """A capacitor that closes a loop of capacitors and DC sources (module docstring).
+
+    Attributes
+    ----------
+    name : str
+    nodes : tuple of str
+        Its terminals (n+, n-).
+    value : float
+        Its capacitance, F.
+    terms : tuple of (str, float)
+        ``(key, a)`` of the tree capacitors on its loop: ``v_l = Σ a v_key + const``.
+    const : float
+        The DC sources' voltage on the loop, V.
+    path : tuple of str
+        Names of the loop's other branches, from n+ to n-.
+    sources : tuple of str
+        The DC sources among them (they carry its current).
+    """
+
+    name: str
+    nodes: tuple[str, str]
+    value: float
+    terms: tuple[tuple[str, float], ...]
+    const: float
+    path: tuple[str, ...]
+    sources: tuple[str, ...]
+
+
+def capacitor_links(circuit: Circuit, held: dict[str, HeldCapacitor] | None = None
+                    ) -> dict[str, LinkCapacitor]:
+    """The link capacitors of the circuit by key (module docstring), in netlist order: each
+    plain capacitor, other than those of :func:`held_capacitors` (``held``), whose terminals
+    the DC sources and the earlier capacitors already join. V sources whose current an F or
+    H source senses are not used (their current would then include the link's)."""
+    if held is None:
+        held = held_capacitors(circuit)
+    caps = [el for el in circuit.elements if type(el) is Capacitor and el.key not in held
+            and el.nodes[0] != el.nodes[1]]
+    if len(caps) < 2:
+        return {}  # (a loop of one capacitor and sources is held: most circuits end here)
+    sensed = {str(el.source).lower() for el in circuit.elements if el.kind in "FH"
+              and getattr(el, "source", None)}
+    uf = UnionFind()
+    edges: list = []  # the forest's branches
+    adjacent: dict[str, list[tuple[str, int]]] = {}
+
+    def add(el) -> None:
+        a, b = el.nodes[:2]
+        uf.union(a, b)
+        edges.append(el)
+        adjacent.setdefault(a, []).append((b, len(edges) - 1))
+        adjacent.setdefault(b, []).append((a, len(edges) - 1))
+
+    for el in circuit.elements:
+        if type(el) is VoltageSource and el.waveform is None and el.key not in sensed \
+                and el.nodes[0] != el.nodes[1] and uf.find(el.nodes[0]) != uf.find(el.nodes[1]):
+            add(el)
+    out = {}
+    for el in caps:
+        a, b = el.nodes[:2]
+        if uf.find(a) != uf.find(b):
+            add(el)
+            continue
+        terms: list[tuple[str, float]] = []
+        const = 0.0
+        node = a
+        for i in _path(adjacent, a, b):
+            branch = edges[i]
+            sign = 1.0 if branch.nodes[0] == node else -1.0
+            node = branch.nodes[1] if sign > 0 else branch.nodes[0]
+            if isinstance(branch, Capacitor):
+                terms.append((branch.key, sign))
+            else:
+                const += sign * float(branch.dc)
+        if not terms:
+            continue  # (sources alone: a held capacitor, not a link)
+        path = [edges[i] for i in _path(adjacent, a, b)]
+        out[el.key] = LinkCapacitor(
+            el.name, (a, b), float(el.value), tuple(terms), const,
+            tuple(e.name for e in path),
+            tuple(e.name for e in path if not isinstance(e, Capacitor)))
+    return out
+
+
 def source_capacitors(circuit: Circuit) -> list[str]:
     """Keys of the capacitors of :func:`held_capacitors` (no state), in netlist order."""
     return list(held_capacitors(circuit))
@@ -148,14 +244,18 @@ def open_inductors(circuit: Circuit) -> list[str]:
             if i in cut and isinstance(el, Inductor) and el.key not in coupled]
 
 
-def reduced(circuit: Circuit, capacitors: dict[str, HeldCapacitor] | None = None) -> Circuit:
+def reduced(circuit: Circuit, capacitors: dict[str, HeldCapacitor] | None = None,
+            links: dict[str, LinkCapacitor] | None = None) -> Circuit:
     """The circuit without what :func:`netlist.formulation.formulate` leaves out: the
-    capacitors of :func:`held_capacitors` (``capacitors``, found when not given) and the
-    diodes of :func:`parallel_diodes` (one complementarity pair carries each group: two
-    would leave the split of the current undetermined, a non-unique λ)."""
+    capacitors of :func:`held_capacitors` (``capacitors``) and :func:`capacitor_links`
+    (``links``), each found when not given, and the diodes of :func:`parallel_diodes` (one
+    complementarity pair carries each group: two would leave the split of the current
+    undetermined, a non-unique λ)."""
     if capacitors is None:
         capacitors = held_capacitors(circuit)
-    held = set(capacitors) | set(parallel_diodes(circuit))
+    if links is None:
+        links = capacitor_links(circuit, capacitors)
+    held = set(capacitors) | set(links) | set(parallel_diodes(circuit))
     if not held:
         return circuit
     return replace(circuit, elements=[el for el in circuit.elements if el.key not in held])

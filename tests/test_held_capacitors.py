@@ -151,3 +151,90 @@ def test_losses_add_the_power_of_a_capacitor_across_the_input(tmp_path):
     # the user's own probes are still checked
     with pytest.raises(NetlistError, match="charging current of Cin"):
         simulate_devices(parse_string(text), losses=True, probes=["i(V1)"])
+
+
+# A triangle of capacitors: C1 from a, C2 from a to b, C3 from b: C3 closes the loop, so its
+# voltage is v(C1) - v(C2) and the states are v(C1), v(C2). By hand, with x = (v1, v2):
+# C1 v1' + C2 v2' = (u - v1)/R1 (node a), C2 v2' = C3 (v1' - v2') + (v1 - v2)/R2 (node b),
+# i.e. M x' = [(u - v1)/R1 - (v1 - v2)/R2, (v1 - v2)/R2], M = [[C1 + C3, -C3], [-C3, C2 + C3]]
+TRIANGLE = """triangle of capacitors
+V1 in 0 SIN(0 1 1k)
+R1 in a 100
+C1 a 0 1u
+C2 a b 2u
+C3 b 0 3u
+R2 b 0 200
+.tran 1u 3m
+.end
+"""
+
+
+def test_a_loop_of_capacitors_keeps_its_independent_ones_matrices_by_hand():
+    from netlist.formulation import storage_matrix
+
+    c = parse_string(TRIANGLE)
+    system = formulate(c)
+    assert list(system.states) == ["v(C1)", "v(C2)"]
+    c1, c2, c3, r1, r2 = 1e-6, 2e-6, 3e-6, 100.0, 200.0
+    m = np.array([[c1 + c3, -c3], [-c3, c2 + c3]])
+    lcs = system.mode(())
+    assert lcs.A == pytest.approx(np.linalg.solve(
+        m, [[-1 / r1 - 1 / r2, 1 / r2], [1 / r2, -1 / r2]]))
+    assert lcs.E == pytest.approx(np.linalg.solve(m, [[1 / r1], [0.0]]))
+    # its energy ½ xᵀ M x: C3's ½ C3 (v1 - v2)² with the others'
+    assert storage_matrix(c) == pytest.approx(m)
+    # i(C3) = C3 (v1' - v2'), i(C1) = C1 v1': rows of x'; v(C3) = v1 - v2
+    out = system.outputs((), ("i(C3)", "i(C1)", "v(C3)"))
+    assert out.Cy[0] == pytest.approx(c3 * (lcs.A[0] - lcs.A[1]))
+    assert out.Cy[1] == pytest.approx(c1 * lcs.A[0])
+    assert out.Cy[2] == pytest.approx([1.0, -1.0])
+
+
+def test_a_loop_of_capacitors_side_by_side_with_ngspice(tmp_path, ngspice):
+    res = simulate_circuit(parse_string(TRIANGLE), probes=["v(b)", "i(V1)", "i(C3)"])
+    assert any(n.startswith("C3: closes a loop of capacitors and DC sources (C2, C1)")
+               for n in res.notes)
+    # (ngspice keeps a device's current as a vector when saved)
+    ng, log = ngspice_run(TRIANGLE.replace(".end", ".save v(b) i(V1) @c3[i]\n.end"),
+                          ["v(b)", "i(V1)", "@c3[i]"], tmp_path)
+    assert ng is not None, log
+    for k, probe in enumerate(["v(b)", "i(V1)", "i(C3)"]):
+        want = np.interp(res.t, ng[:, 2 * k], ng[:, 2 * k + 1])
+        scale = np.max(np.abs(want))
+        assert np.max(np.abs(res[probe] - want)) < 2e-3 * scale, probe
+
+
+# Three capacitors in series across a 10 V DC source, a resistor from each inner node: C3
+# closes the loop with V1 (v3 = 10 - v1 - v2). From 0 V (UIC) the first instant puts the
+# charge on the chain at once; then it settles to the resistors' divider.
+CHAIN = """chain of three across a DC source
+V1 a 0 10
+C1 a m 1u IC=0
+C2 m p 2u IC=0
+C3 p 0 1u IC={ic3}
+R1 m 0 1k
+R2 p 0 1k
+.tran 1u 5m uic
+.end
+"""
+
+
+def test_a_chain_across_a_dc_source_side_by_side_with_ngspice(tmp_path, ngspice):
+    deck = CHAIN.format(ic3=10)  # the loop's voltage at t = 0: 10 - 0 - 0
+    res = simulate_circuit(parse_string(deck), probes=["v(m)", "v(p)"])
+    ng, log = ngspice_run(deck, ["v(m)", "v(p)"], tmp_path)
+    assert ng is not None, log
+    for k, probe in enumerate(["v(m)", "v(p)"]):
+        want = np.interp(res.t, ng[:, 2 * k], ng[:, 2 * k + 1])
+        assert np.max(np.abs(res[probe] - want)) < 5e-3, probe
+    with pytest.raises(NetlistError, match="the current of V1 includes that of C3"):
+        check_probes(parse_string(deck), ["i(V1)"])
+
+
+def test_a_link_that_starts_off_its_loop_is_refused():
+    with pytest.raises(NetlistError) as exc:
+        simulate_circuit(parse_string(CHAIN.format(ic3=0)), probes=["v(m)"])
+    d = exc.value.diagnostics[0]
+    assert "C3 starts at 0 V, but the loop it closes with C2, C1, V1 puts it at 10 V" \
+        in d.message
+    assert d.location.line == 5

@@ -54,7 +54,7 @@ from ..knee import KneeCapacitor, check_knees, knee_probes
 from ..limits import MEMORY, STEPS
 from ..passive import structurally_passive
 from ..probes import PROBE, TWO_TERMINAL
-from ..reductions import held_capacitors, open_inductors, parallel_diodes
+from ..reductions import capacitor_links, held_capacitors, open_inductors, parallel_diodes
 from ..suggest import did_you_mean
 from ..system_cache import kept_with
 from .growth import GrowthWatch, state_growth
@@ -235,6 +235,10 @@ def transient_setup(
                         kept_with(system, "open_inductors", lambda: open_inductors(circuit)))
     notes.extend(held_note(kept_with(system, "held_capacitors",
                                      lambda: held_capacitors(circuit))))
+    links = kept_with(system, "capacitor_links", lambda: capacitor_links(circuit))
+    if links:
+        _link_initial(circuit, links, system.states, x0)
+        notes.extend(link_note(links))
     if circuit.steps:
         notes.append(_step_note(circuit, given or {}))
     t_save = tran.tstart if tran is not None and tran.tstart < tstop else 0.0
@@ -279,6 +283,64 @@ def held_note(held: dict) -> list[str]:
                      "computed (refused as probes)")
         notes.append(text)
     return notes
+
+
+def link_note(links: dict) -> list[str]:
+    """The notes of the link capacitors (:func:`netlist.reductions.capacitor_links`)."""
+    notes = []
+    for link in links.values():
+        loop = ", ".join(link.path)
+        notes.append(
+            f"{link.name}: closes a loop of capacitors and DC sources ({loop}), so it holds "
+            "no state: its voltage is theirs, and its current C dv/dt circulates through "
+            "them (their capacitance matrix holds it: the charge constraint)"
+            + (f"; i() of {', '.join(link.sources)} are not computed (refused as probes)"
+               if link.sources else ""))
+    return notes
+
+
+def link_probe(probe: str, key: str, links: dict) -> Diagnostic | None:
+    """The error of ``i(V)`` of a DC source that a link capacitor's current flows through
+    (pelcs does not compute that current in it); None for any other element."""
+    for link in links.values():
+        name = next((n for n in link.sources if n.lower() == key), None)
+        if name is not None:
+            return Diagnostic(
+                message=f"probe {probe.strip()!r}: the current of {name} includes that of "
+                        f"{link.name}, which closes a loop of capacitors and DC sources "
+                        f"({', '.join(link.path)}) and holds no state: pelcs does not "
+                        "compute it there",
+                hint=f"probe i({link.name}) or the capacitors' currents, or give {link.name} "
+                     "a series resistance (its ESR) to make it a state")
+    return None
+
+
+def _link_initial(circuit: Circuit, links: dict, states: Sequence[str], x0: np.ndarray
+                  ) -> None:
+    """Refuse a link capacitor whose given initial voltage does not fit its loop's (pelcs
+    starts the loop from its tree capacitors' and the sources' voltages)."""
+    index = {name[2:-1].lower(): k for k, name in enumerate(states)}
+    ics = circuit.initial_conditions
+    for link in links.values():
+        el = circuit.element(link.name)
+        a, b = link.nodes
+        if el.ic is not None:
+            given = float(el.ic)
+        elif a in ics or b in ics:
+            given = (0.0 if a == GROUND else ics.get(a, 0.0)) - \
+                (0.0 if b == GROUND else ics.get(b, 0.0))
+        else:
+            given = 0.0
+        loop = link.const + sum(sign * x0[index[k]] for k, sign in link.terms)
+        if abs(given - loop) > 1e-9 * max(1.0, abs(given), abs(loop)):
+            raise NetlistError(Diagnostic(
+                message=f"{link.name} starts at {given:.6g} V, but the loop it closes with "
+                        f"{', '.join(link.path)} puts it at {loop:.6g} V",
+                location=el.location,
+                hint="a capacitor of a loop of capacitors and sources holds no state of its "
+                     "own: give initial voltages (IC=, .ic) that fit the loop, or a series "
+                     "resistance to the capacitor",
+                elements=(link.name,)), file=circuit.file)
 
 
 def held_probe(probe: str, key: str, held: dict, path_currents: bool = False
@@ -454,6 +516,7 @@ def check_probes(circuit: Circuit, probes: Sequence[str], *,
     switches = {el.key for el in circuit.elements if el.kind == "S"}
     merged = parallel_diodes(circuit)
     held = held_capacitors(circuit)
+    links = capacitor_links(circuit, held)
     for probe in probes:
         m = PROBE.match(probe)
         ok = False
@@ -469,6 +532,8 @@ def check_probes(circuit: Circuit, probes: Sequence[str], *,
                     b is None and a in capacitors)
             else:
                 stop = held_probe(probe, a, held, path_currents) if b is None else None
+                if stop is None and b is None and not path_currents:
+                    stop = link_probe(probe, a, links)
                 if stop is not None:
                     raise NetlistError([stop], file=circuit.file)
                 ok = b is None and a in two_terminal and a not in merged
