@@ -183,6 +183,19 @@ def test_a_loop_of_capacitors_keeps_its_independent_ones_matrices_by_hand():
     assert lcs.E == pytest.approx(np.linalg.solve(m, [[1 / r1], [0.0]]))
     # its energy ½ xᵀ M x: C3's ½ C3 (v1 - v2)² with the others'
     assert storage_matrix(c) == pytest.approx(m)
+    # the sparse kernel's network realisation gives the same rows: x' = Rx Y⁻¹ S ξ
+    import scipy.sparse as sparse
+
+    net = system._mode_model(system.key(())).network()
+    nxi = net.n + net.m + net.p
+
+    def dense(triplets, shape):
+        rows, cols, values = triplets
+        return sparse.coo_matrix((values, (rows, cols)), shape=shape).toarray()
+
+    rx = dense(net.Rx, (net.n, net.nz))
+    y = np.linalg.solve(dense(net.Y, (net.nz, net.nz)), dense(net.S, (net.nz, nxi)))
+    assert rx @ y == pytest.approx(np.hstack([lcs.A, lcs.B, lcs.E]))
     # i(C3) = C3 (v1' - v2'), i(C1) = C1 v1': rows of x'; v(C3) = v1 - v2
     out = system.outputs((), ("i(C3)", "i(C1)", "v(C3)"))
     assert out.Cy[0] == pytest.approx(c3 * (lcs.A[0] - lcs.A[1]))
