@@ -110,9 +110,9 @@ COMPARED: dict[str, tuple[str, str]] = {
     # the LM7805 stand-in is a B voltage source 'V(IN) > 7 ? V(IN) - 5 : V(IN) - 2' from the
     # input source to the output, across which the stand-in's Cint and the load's Cout_7805
     # are in parallel: voltage sources alone join their terminals, so they hold no state
-    # (netlist.reductions.held_capacitors). ngspice 5.000 V, pelcs 5.000 V. (Not this
-    # probe: the file's Zener stage, v(n_zener), needs the DZ5V1's reverse breakdown BV =
-    # 5.1 V, which pelcs's diodes do not model: ngspice 5.097 V, pelcs 7.500 V)
+    # (netlist.reductions.held_capacitors). ngspice 5.000 V, pelcs 5.000 V. Its Zener stage,
+    # v(n_zener), needs the DZ5V1's reverse breakdown (BV = 5.1 V, netlist.breakdown):
+    # ngspice 5.097 V, pelcs 5.096 V (7.500 V without it)
     "learning_ngspice/circuits/09_fontes_alimentacao/02_reguladores_tensao.cir":
         ("v(out_7805)", "mean"),
     # five switches, four diodes, gates as PWL sources repeated with r=0, run from .control
