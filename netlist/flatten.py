@@ -205,8 +205,7 @@ class _Builder:
         def done(name: str) -> bool:
             return name in values or name in failed or state.get(name) == 2
 
-        # depth-first search without recursion: a generated netlist may chain thousands of
-        # parameters; evaluate each one after the ones it uses
+        # each after the ones it uses, depth first without recursion (thousands may chain)
         for root in table:
             if done(root):
                 continue

@@ -39,10 +39,8 @@ cutset of inductors / current sources / F, G sources, ``k = 1`` coupling) are re
 Two such loops and cutsets never reach it, made regular when the netlist is read: capacitors
 from one node to nodes that voltage sources join (:mod:`netlist.capacitor_loops`, one state
 for them) and inductors that are the only branches from a floating group of voltage sources
-(:mod:`netlist.inductor_cutsets`, the group's potential held by E sources). A capacitor
-whose terminals V, E and H sources alone join is no state at all
-(:func:`netlist.reductions.held_capacitors`: its voltage is theirs, its current a loop
-current through them that changes nothing else).
+(:mod:`netlist.inductor_cutsets`, the group's potential held by E sources). Capacitors
+without a state: :mod:`netlist.reductions`, :mod:`netlist.capacitor_links`.
 One cutset is not degenerate: an uncoupled inductor that no other branch parallels in a mode
 carries no current there. In every mode when nothing else joins its terminals
 (:func:`netlist.reductions.open_inductors`, e.g. one end unconnected); in the modes whose open
@@ -78,17 +76,18 @@ from lcs.model import (
 )
 from lcs.network import NetworkRealisation
 
+from .capacitor_links import capacitor_links, linked_builder
 from .circuit import GROUND, Circuit, Element
 from .degenerate import CURRENT_KINDS as _CURRENT_KINDS
 from .degenerate import check_topology, pinnable_inductors, pinned_in
 from .errors import Diagnostic, NetlistError
 from .mna import VOLTAGE_KINDS as _VOLTAGE_KINDS
 from .mna import Mna as _Mna
-from .mna import Stamps, coalesce
+from .mna import Stamps, coalesce, dense_form
 from .mna_solve import Entries, Solution, clean
 from .probes import PROBE, TWO_TERMINAL
-from .reductions import capacitor_links, held_capacitors, open_inductors, reduced
-from .suggest import did_you_mean
+from .reductions import held_capacitors, open_inductors, reduced
+from .suggest import did_you_mean, short_list
 from .topology import Partition, SwitchedBridges, UnionFind
 
 __all__ = ["formulate", "storage_matrix", "EXHAUSTIVE_DIODE_LIMIT"]
@@ -140,7 +139,7 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         states=formulator.state_names,
         inputs=formulator.input_names,
         diodes=[d.name for d in formulator.diodes],
-        builder=formulator.build_mode,
+        builder=formulator.builder,
         pinnable=sorted(formulator.state_index[k] for k in formulator.pinnable),
         storage=_storage(formulator),
     )
@@ -165,18 +164,14 @@ def storage_matrix(circuit: Circuit) -> np.ndarray:
 
 
 def _formulator(circuit: Circuit) -> _Formulator:
-    """The formulator of a circuit without what :func:`netlist.reductions.reduced` leaves
-    out, told of the capacitors it left out (their voltages, the link capacitors' loops)."""
+    """The formulator of the circuit without what :func:`netlist.reductions.reduced` leaves
+    out (``v(C)`` still their voltage; links: :func:`~netlist.capacitor_links.linked_builder`)."""
     held = held_capacitors(circuit)
     links = capacitor_links(circuit, held)
-    formulator = _Formulator(reduced(circuit, held, links))
-    # (v(C) of a capacitor left out is still its voltage: that of the sources across it, of
-    # its loop)
-    formulator.held_nodes = {key: h.nodes for key, h in held.items()}
-    formulator.held_nodes.update({key: link.nodes for key, link in links.items()})
-    if links:
-        formulator.link(links)
-    return formulator
+    f = _Formulator(reduced(circuit, held, links))
+    f.held_nodes = {key: x.nodes for key, x in (*held.items(), *links.items())}
+    f.builder = linked_builder(f.build_mode, links, f.state_index, f.by_key, f.n)
+    return f
 
 
 def _storage(f: _Formulator) -> np.ndarray:
@@ -186,11 +181,7 @@ def _storage(f: _Formulator) -> np.ndarray:
     K[np.ix_(rows, rows)] = f.Lmat
     for el in f.capacitors:
         K[f.state_index[el.key], f.state_index[el.key]] = float(el.value)
-    if f.links:
-        # the links' energy, ½ C_l v_l², in the tree capacitors' voltages (its terms in the
-        # DC sources' voltages are not quadratic: left out, as a source's own)
-        K[np.ix_(f.link_rows, f.link_rows)] = f.link_M
-    return K
+    return getattr(f.builder, "storage", lambda k: k)(K)
 
 
 def _error(message: str, hint: str = "", elements: Sequence[str] = (), el: Element | None = None,
@@ -317,37 +308,11 @@ class _Formulator:
         self._probes: dict[str, tuple] = {}
         # the terminals of the capacitors :func:`formulate` left out, by key
         self.held_nodes: dict[str, tuple[str, str]] = {}
-        # the link capacitors (netlist.reductions.capacitor_links), set by :meth:`link`
-        self.links: dict = {}
-        self.link_rows: list[int] = []
-        self.link_M = np.zeros((0, 0))
-        self.link_P = np.zeros((0, 0))
+        self.builder = self.build_mode
         self.Lmat = np.zeros((0, 0))  # set by _inductance_inverse
         self.Linv = self._inductance_inverse(bad)
         if diagnostics:
             raise NetlistError(diagnostics, file=self.file)
-
-    # -- capacitor loops ---------------------------------------------------------------
-
-    def link(self, links: dict) -> None:
-        """Take the link capacitors (:func:`netlist.reductions.capacitor_links`, left out of
-        the circuit) into the tree capacitors' dynamics: ``(D + Aᵀ C_L A) v' = i``, ``i``
-        their currents with the links open, so their rows of ``x'`` are ``P = (D + Aᵀ C_L
-        A)⁻¹ D`` times those of the network without the links."""
-        keys = list(dict.fromkeys(k for link in links.values() for k, _ in link.terms))
-        col = {k: j for j, k in enumerate(keys)}
-        A = np.zeros((len(links), len(keys)))
-        for i, link in enumerate(links.values()):
-            for k, a in link.terms:
-                A[i, col[k]] += a
-        D = np.diag([float(self.by_key[k].value) for k in keys])
-        cl = np.array([link.value for link in links.values()])
-        self.links = links
-        self.link_rows = [self.state_index[k] for k in keys]
-        self.link_M = D + A.T @ (cl[:, None] * A)
-        self.link_P = np.linalg.solve(self.link_M, D)
-        # a link's current C_l dv_l/dt in the tree rows of x' (probes i(C) of the link)
-        self.link_A = A
 
     # -- inductance matrix -------------------------------------------------------------
 
@@ -523,10 +488,6 @@ class _Formulator:
             i_c = sol.evaluate_terms([mna._current_terms(el) for el in self.capacitors])
             rows = [self.state_index[el.key] for el in self.capacitors]
             dx[rows] = i_c / np.array([float(el.value) for el in self.capacitors])[:, None]
-            if self.links:
-                # (the links' currents circulate through the tree capacitors: the charge
-                # constraint, netlist.reductions.capacitor_links)
-                dx[self.link_rows] = self.link_P @ dx[self.link_rows]
         live = [a for a, el in enumerate(self.inductors) if el.key not in pins]
         if live:
             # (a pinned inductor has no dynamics: its row stays zero; it is uncoupled, so
@@ -569,7 +530,7 @@ class _Formulator:
             for probe in names:
                 form = self._probe_terms(mna, probe)
                 # (with no null space every quantity is determined)
-                if sol.null.shape[1] and not sol.determined(_dense(form, mna.nz)):
+                if sol.null.shape[1] and not sol.determined(dense_form(form, mna.nz)):
                     raise _error(
                         f"probe {probe} is not determined with {desc or 'this circuit'}",
                         "part of the circuit floats in this configuration (e.g. a node reached "
@@ -578,35 +539,11 @@ class _Formulator:
                         file=self.file)
                 forms.append(form)
             y = clean(sol.evaluate_forms(forms, mna.width))
-            if self.links:
-                # a capacitor of a loop with links carries C v' (its rows of x'), not the
-                # current the network without the links gives it
-                for r, probe in enumerate(names):
-                    row = self._loop_current(probe, dx)
-                    if row is not None:
-                        y[r] = row
             return OutputMap(names=names, Cy=y[:, :n], Dy=y[:, n:n + m], Fy=y[:, n + m:])
 
         return ModeModel(lcs=lcs, output=output, network=network,
                          pinned={self.state_index[k]: float(self.by_key[k].value)
                                  for k in sorted(pins, key=lambda k: self.state_index[k])})
-
-    def _loop_current(self, probe: str, dx: np.ndarray) -> np.ndarray | None:
-        """The row over ``(x, λ, u)`` of ``i(C)`` for a capacitor of a loop with links (a
-        tree capacitor: ``C x'_k``; a link: ``C_l Σ a_lk x'_k``), or None for any other
-        probe."""
-        what = self._probes.get(probe)
-        if what is None:
-            return None
-        if what[0] == "link":
-            link = self.links[what[1]]
-            row = np.zeros(dx.shape[1])
-            for k, a in link.terms:
-                row += a * dx[self.state_index[k]]
-            return link.value * row
-        if what[0] == "i" and self.state_index.get(what[1].key, -1) in self.link_rows:
-            return float(what[1].value) * dx[self.state_index[what[1].key]]
-        return None
 
     def _network(self, mna: _Mna, shorted: list[int], isolated: list[int],
                  pins: frozenset[str]) -> NetworkRealisation:
@@ -618,18 +555,9 @@ class _Formulator:
         xr: list[int] = []
         xc: list[int] = []
         xv: list[float] = []
-        mixed = {r: j for j, r in enumerate(self.link_rows)}
         for el in self.capacitors:
             i = self.state_index[el.key]
             for c, v in mna._current_terms(el):
-                if i in mixed:
-                    # (a tree capacitor of a loop with links: its row of P spreads it)
-                    for j, r in enumerate(self.link_rows):
-                        if self.link_P[j, mixed[i]] != 0.0:
-                            xr.append(r)
-                            xc.append(c)
-                            xv.append(self.link_P[j, mixed[i]] * v / float(el.value))
-                    continue
                 xr.append(i)
                 xc.append(c)
                 xv.append(v / float(el.value))
@@ -834,8 +762,6 @@ class _Formulator:
             what = self._probes[probe] = self._resolve_probe(probe)
         if what[0] == "v":
             return mna._voltage_terms(what[1], what[2])
-        if what[0] == "link":
-            return []  # (a link capacitor's current: from the rows of x', _loop_current)
         return mna._current_terms(what[1])
 
     def _resolve_probe(self, probe: str) -> tuple:
@@ -859,12 +785,10 @@ class _Formulator:
                     return ("v", *self.held_nodes[a])
             elif b is None and a in self.by_key and self.by_key[a].kind in TWO_TERMINAL:
                 return "i", self.by_key[a]
-            elif b is None and a in self.links:
-                return "link", a
         nodes = sorted(self.nodes)
         elements = [el.name for el in self.two_terminal]
         hint = ("probes are v(NODE), v(NODE,NODE), i(ELEMENT) or a state name; nodes: "
-                + _short_list([GROUND, *nodes]) + "; elements: " + _short_list(elements))
+                + short_list([GROUND, *nodes]) + "; elements: " + short_list(elements))
         guess = did_you_mean(probe, [f"v({n})" for n in nodes]
                              + [f"i({e})" for e in elements]
                              + [f"v({el.name})" for el in self.two_terminal
@@ -874,18 +798,3 @@ class _Formulator:
 
     def _is_node(self, name: str) -> bool:
         return name == GROUND or name in self.node_index
-
-
-def _dense(terms: list[tuple[int, float]], width: int) -> np.ndarray:
-    """The first ``width`` entries of the form that ``terms`` add up to (in their order)."""
-    form = np.zeros(width)
-    for c, v in terms:
-        if c < width:
-            form[c] += v
-    return form
-
-
-def _short_list(names: Sequence[str], limit: int = 30) -> str:
-    names = list(names)
-    text = ", ".join(names[:limit])
-    return text + (f", ... ({len(names)} in all)" if len(names) > limit else "")

@@ -39,10 +39,11 @@ from collections import deque
 from dataclasses import dataclass, replace
 
 from .circuit import Capacitor, Ccvs, Circuit, Inductor, Vcvs, VoltageSource
+from .errors import Diagnostic
 from .topology import UnionFind, bridges
 
-__all__ = ["HeldCapacitor", "LinkCapacitor", "capacitor_links", "held_capacitors",
-           "open_inductors", "parallel_diodes", "reduced", "source_capacitors"]
+__all__ = ["HeldCapacitor", "held_capacitors", "held_note", "held_probe", "open_inductors",
+           "parallel_diodes", "reduced", "source_capacitors"]
 
 
 @dataclass(frozen=True)
@@ -95,7 +96,7 @@ def held_capacitors(circuit: Circuit) -> dict[str, HeldCapacitor]:
         adjacent.setdefault(b, []).append((a, i))
     out = {}
     for el in caps:
-        path = _path(adjacent, *el.nodes[:2])
+        path = path_between(adjacent, *el.nodes[:2])
         members = [sources[i] for i in path]
         constant = all(type(s) is VoltageSource and s.waveform is None for s in members)
         out[el.key] = HeldCapacitor(el.name, (el.nodes[0], el.nodes[1]),
@@ -103,7 +104,7 @@ def held_capacitors(circuit: Circuit) -> dict[str, HeldCapacitor]:
     return out
 
 
-def _path(adjacent: dict[str, list[tuple[str, int]]], a: str, b: str) -> list[int]:
+def path_between(adjacent: dict[str, list[tuple[str, int]]], a: str, b: str) -> list[int]:
     """Indices of the branches of a path from node ``a`` to node ``b`` (breadth first: the
     sources form a forest where the mode is regular, so the path is the only one)."""
     came: dict[str, tuple[str, int] | None] = {a: None}
@@ -124,90 +125,62 @@ def _path(adjacent: dict[str, list[tuple[str, int]]], a: str, b: str) -> list[in
     return path[::-1]
 
 
-@dataclass(frozen=True)
-class LinkCapacitor:
-    """A capacitor that closes a loop of capacitors and DC sources (module docstring).
-
-    Attributes
-    ----------
-    name : str
-    nodes : tuple of str
-        Its terminals (n+, n-).
-    value : float
-        Its capacitance, F.
-    terms : tuple of (str, float)
-        ``(key, a)`` of the tree capacitors on its loop: ``v_l = Σ a v_key + const``.
-    const : float
-        The DC sources' voltage on the loop, V.
-    path : tuple of str
-        Names of the loop's other branches, from n+ to n-.
-    sources : tuple of str
-        The DC sources among them (they carry its current).
-    """
-
-    name: str
-    nodes: tuple[str, str]
-    value: float
-    terms: tuple[tuple[str, float], ...]
-    const: float
-    path: tuple[str, ...]
-    sources: tuple[str, ...]
+def held_note(held: dict) -> list[str]:
+    """The notes of the capacitors that voltage sources alone join
+    (:func:`netlist.reductions.held_capacitors`), one per group on the same sources."""
+    groups: dict[tuple[str, ...], list] = {}
+    for h in held.values():
+        groups.setdefault(h.path, []).append(h)
+    notes = []
+    for path, caps in groups.items():
+        names = ", ".join(h.name for h in caps)
+        one = len(caps) == 1
+        sources = ", ".join(path)
+        text = (f"{names}: {'its terminals are' if one else 'their terminals are each'} "
+                f"joined by voltage sources alone ({sources}), so "
+                f"{'it holds' if one else 'they hold'} no state: the sources set "
+                f"{'its' if one else 'their'} voltage, and {'its' if one else 'their'} "
+                f"current flows only through {sources}")
+        if caps[0].constant:
+            text += (" (DC: it is zero, and the sources' currents are exact)" if one else
+                     " (DC: they are zero, and the sources' currents are exact)")
+        else:
+            text += (f"; i() of {sources} and of {'it' if one else 'them'} are not "
+                     "computed (refused as probes)")
+        notes.append(text)
+    return notes
 
 
-def capacitor_links(circuit: Circuit, held: dict[str, HeldCapacitor] | None = None
-                    ) -> dict[str, LinkCapacitor]:
-    """The link capacitors of the circuit by key (module docstring), in netlist order: each
-    plain capacitor, other than those of :func:`held_capacitors` (``held``), whose terminals
-    the DC sources and the earlier capacitors already join. V sources whose current an F or
-    H source senses are not used (their current would then include the link's)."""
-    if held is None:
-        held = held_capacitors(circuit)
-    caps = [el for el in circuit.elements if type(el) is Capacitor and el.key not in held
-            and el.nodes[0] != el.nodes[1]]
-    if len(caps) < 2:
-        return {}  # (a loop of one capacitor and sources is held: most circuits end here)
-    sensed = {str(el.source).lower() for el in circuit.elements if el.kind in "FH"
-              and getattr(el, "source", None)}
-    uf = UnionFind()
-    edges: list = []  # the forest's branches
-    adjacent: dict[str, list[tuple[str, int]]] = {}
-
-    def add(el) -> None:
-        a, b = el.nodes[:2]
-        uf.union(a, b)
-        edges.append(el)
-        adjacent.setdefault(a, []).append((b, len(edges) - 1))
-        adjacent.setdefault(b, []).append((a, len(edges) - 1))
-
-    for el in circuit.elements:
-        if type(el) is VoltageSource and el.waveform is None and el.key not in sensed \
-                and el.nodes[0] != el.nodes[1] and uf.find(el.nodes[0]) != uf.find(el.nodes[1]):
-            add(el)
-    out = {}
-    for el in caps:
-        a, b = el.nodes[:2]
-        if uf.find(a) != uf.find(b):
-            add(el)
+def held_probe(probe: str, key: str, held: dict, path_currents: bool = False
+               ) -> Diagnostic | None:
+    """The error of a probe ``i(X)`` that pelcs does not compute because of a capacitor that
+    voltage sources alone join: ``X`` that capacitor, or (unless they are DC) a source it is
+    across; None for any other element. ``path_currents``: the sources' currents without
+    the capacitor's are asked for knowingly (:mod:`netlist.studies.losses` adds its power)."""
+    if key in held:
+        h = held[key]
+        return Diagnostic(
+            message=f"probe {probe.strip()!r}: {h.name} is joined by voltage sources alone "
+                    f"({', '.join(h.path)}), so it holds no state and its current is not "
+                    "computed",
+            hint=f"its voltage is v({h.nodes[0]},{h.nodes[1]}) (probe v({h.name})), and "
+                 + ("its current zero (the sources are DC)" if h.constant else
+                    "its current C times the derivative of that voltage")
+                 + "; to make it a state, give it a series resistance (its ESR)")
+    for h in held.values():
+        if h.constant or path_currents:
             continue
-        terms: list[tuple[str, float]] = []
-        const = 0.0
-        node = a
-        for i in _path(adjacent, a, b):
-            branch = edges[i]
-            sign = 1.0 if branch.nodes[0] == node else -1.0
-            node = branch.nodes[1] if sign > 0 else branch.nodes[0]
-            if isinstance(branch, Capacitor):
-                terms.append((branch.key, sign))
-            else:
-                const += sign * float(branch.dc)
-        if not terms:
-            continue  # (sources alone: a held capacitor, not a link)
-        path = [edges[i] for i in _path(adjacent, a, b)]
-        out[el.key] = LinkCapacitor(
-            el.name, (a, b), float(el.value), tuple(terms), const,
-            tuple(e.name for e in path),
-            tuple(e.name for e in path if not isinstance(e, Capacitor)))
-    return out
+        name = next((n for n in h.path if n.lower() == key), None)
+        if name is not None:
+            return Diagnostic(
+                message=f"probe {probe.strip()!r}: the current of {name} includes the "
+                        f"charging current of {h.name}, which voltage sources alone join "
+                        f"({', '.join(h.path)}): pelcs keeps no state for it and does not "
+                        "compute that current",
+                hint=f"probe the current of the branches {name} feeds other than "
+                     f"{h.name}, or give {h.name} a series resistance (its ESR) to make it a "
+                     "state")
+    return None
 
 
 def source_capacitors(circuit: Circuit) -> list[str]:
@@ -244,17 +217,12 @@ def open_inductors(circuit: Circuit) -> list[str]:
             if i in cut and isinstance(el, Inductor) and el.key not in coupled]
 
 
-def reduced(circuit: Circuit, capacitors: dict[str, HeldCapacitor] | None = None,
-            links: dict[str, LinkCapacitor] | None = None) -> Circuit:
+def reduced(circuit: Circuit, capacitors: dict[str, HeldCapacitor], links: dict) -> Circuit:
     """The circuit without what :func:`netlist.formulation.formulate` leaves out: the
-    capacitors of :func:`held_capacitors` (``capacitors``) and :func:`capacitor_links`
-    (``links``), each found when not given, and the diodes of :func:`parallel_diodes` (one
-    complementarity pair carries each group: two would leave the split of the current
-    undetermined, a non-unique λ)."""
-    if capacitors is None:
-        capacitors = held_capacitors(circuit)
-    if links is None:
-        links = capacitor_links(circuit, capacitors)
+    capacitors of :func:`held_capacitors` (``capacitors``) and of
+    :func:`netlist.capacitor_links.capacitor_links` (``links``), and the diodes of
+    :func:`parallel_diodes` (one complementarity pair carries each group: two would leave the
+    split of the current undetermined, a non-unique λ)."""
     held = set(capacitors) | set(links) | set(parallel_diodes(circuit))
     if not held:
         return circuit

@@ -39,6 +39,7 @@ from lcs.model import LCS, SwitchedLCS
 from lcs.results import SimulationResult
 from lcs.signals import Dc, Signal, resolve
 
+from ..capacitor_links import capacitor_links, check_link_initial, link_note, link_probe
 from ..capacitor_loops import reduced_probe
 from ..circuit import (
     GROUND,
@@ -54,7 +55,8 @@ from ..knee import KneeCapacitor, check_knees, knee_probes
 from ..limits import MEMORY, STEPS
 from ..passive import structurally_passive
 from ..probes import PROBE, TWO_TERMINAL
-from ..reductions import capacitor_links, held_capacitors, open_inductors, parallel_diodes
+from ..reductions import held_capacitors, held_note, held_probe, open_inductors, parallel_diodes
+from ..steps import step_note
 from ..suggest import did_you_mean
 from ..system_cache import kept_with
 from .growth import GrowthWatch, state_growth
@@ -233,14 +235,14 @@ def transient_setup(
     # (a fact of the topology: kept with the system, formulated from the same circuit)
     _pin_open_inductors(circuit, system.states, x0, notes,
                         kept_with(system, "open_inductors", lambda: open_inductors(circuit)))
-    notes.extend(held_note(kept_with(system, "held_capacitors",
-                                     lambda: held_capacitors(circuit))))
-    links = kept_with(system, "capacitor_links", lambda: capacitor_links(circuit))
+    held = kept_with(system, "held_capacitors", lambda: held_capacitors(circuit))
+    notes.extend(held_note(held))
+    links = kept_with(system, "capacitor_links", lambda: capacitor_links(circuit, held))
     if links:
-        _link_initial(circuit, links, system.states, x0)
+        check_link_initial(circuit, links, system.states, x0)
         notes.extend(link_note(links))
     if circuit.steps:
-        notes.append(_step_note(circuit, given or {}))
+        notes.append(step_note(circuit, given or {}))
     t_save = tran.tstart if tran is not None and tran.tstart < tstop else 0.0
     # (formulate keeps the circuit's stored energy: built again it cost as much as the
     # formulation itself, 5 ms on a 200-stage multiplier)
@@ -257,137 +259,6 @@ def transient_setup(
                           energy, notes, nonpassive, default_probes, circuit.file or "",
                           shown, shown_note,
                           tuple(el for el in circuit.elements if isinstance(el, KneeCapacitor)))
-
-
-def held_note(held: dict) -> list[str]:
-    """The notes of the capacitors that voltage sources alone join
-    (:func:`netlist.reductions.held_capacitors`), one per group on the same sources."""
-    groups: dict[tuple[str, ...], list] = {}
-    for h in held.values():
-        groups.setdefault(h.path, []).append(h)
-    notes = []
-    for path, caps in groups.items():
-        names = ", ".join(h.name for h in caps)
-        one = len(caps) == 1
-        sources = ", ".join(path)
-        text = (f"{names}: {'its terminals are' if one else 'their terminals are each'} "
-                f"joined by voltage sources alone ({sources}), so "
-                f"{'it holds' if one else 'they hold'} no state: the sources set "
-                f"{'its' if one else 'their'} voltage, and {'its' if one else 'their'} "
-                f"current flows only through {sources}")
-        if caps[0].constant:
-            text += (" (DC: it is zero, and the sources' currents are exact)" if one else
-                     " (DC: they are zero, and the sources' currents are exact)")
-        else:
-            text += (f"; i() of {sources} and of {'it' if one else 'them'} are not "
-                     "computed (refused as probes)")
-        notes.append(text)
-    return notes
-
-
-def link_note(links: dict) -> list[str]:
-    """The notes of the link capacitors (:func:`netlist.reductions.capacitor_links`)."""
-    notes = []
-    for link in links.values():
-        loop = ", ".join(link.path)
-        notes.append(
-            f"{link.name}: closes a loop of capacitors and DC sources ({loop}), so it holds "
-            "no state: its voltage is theirs, and its current C dv/dt circulates through "
-            "them (their capacitance matrix holds it: the charge constraint)"
-            + (f"; i() of {', '.join(link.sources)} are not computed (refused as probes)"
-               if link.sources else ""))
-    return notes
-
-
-def link_probe(probe: str, key: str, links: dict) -> Diagnostic | None:
-    """The error of ``i(V)`` of a DC source that a link capacitor's current flows through
-    (pelcs does not compute that current in it); None for any other element."""
-    for link in links.values():
-        name = next((n for n in link.sources if n.lower() == key), None)
-        if name is not None:
-            return Diagnostic(
-                message=f"probe {probe.strip()!r}: the current of {name} includes that of "
-                        f"{link.name}, which closes a loop of capacitors and DC sources "
-                        f"({', '.join(link.path)}) and holds no state: pelcs does not "
-                        "compute it there",
-                hint=f"probe i({link.name}) or the capacitors' currents, or give {link.name} "
-                     "a series resistance (its ESR) to make it a state")
-    return None
-
-
-def _link_initial(circuit: Circuit, links: dict, states: Sequence[str], x0: np.ndarray
-                  ) -> None:
-    """Refuse a link capacitor whose given initial voltage does not fit its loop's (pelcs
-    starts the loop from its tree capacitors' and the sources' voltages)."""
-    index = {name[2:-1].lower(): k for k, name in enumerate(states)}
-    ics = circuit.initial_conditions
-    for link in links.values():
-        el = circuit.element(link.name)
-        a, b = link.nodes
-        if el.ic is not None:
-            given = float(el.ic)
-        elif a in ics or b in ics:
-            given = (0.0 if a == GROUND else ics.get(a, 0.0)) - \
-                (0.0 if b == GROUND else ics.get(b, 0.0))
-        else:
-            given = 0.0
-        loop = link.const + sum(sign * x0[index[k]] for k, sign in link.terms)
-        if abs(given - loop) > 1e-9 * max(1.0, abs(given), abs(loop)):
-            raise NetlistError(Diagnostic(
-                message=f"{link.name} starts at {given:.6g} V, but the loop it closes with "
-                        f"{', '.join(link.path)} puts it at {loop:.6g} V",
-                location=el.location,
-                hint="a capacitor of a loop of capacitors and sources holds no state of its "
-                     "own: give initial voltages (IC=, .ic) that fit the loop, or a series "
-                     "resistance to the capacitor",
-                elements=(link.name,)), file=circuit.file)
-
-
-def held_probe(probe: str, key: str, held: dict, path_currents: bool = False
-               ) -> Diagnostic | None:
-    """The error of a probe ``i(X)`` that pelcs does not compute because of a capacitor that
-    voltage sources alone join: ``X`` that capacitor, or (unless they are DC) a source it is
-    across; None for any other element. ``path_currents``: the sources' currents without
-    the capacitor's are asked for knowingly (:mod:`netlist.studies.losses` adds its power)."""
-    if key in held:
-        h = held[key]
-        return Diagnostic(
-            message=f"probe {probe.strip()!r}: {h.name} is joined by voltage sources alone "
-                    f"({', '.join(h.path)}), so it holds no state and its current is not "
-                    "computed",
-            hint=f"its voltage is v({h.nodes[0]},{h.nodes[1]}) (probe v({h.name})), and "
-                 + ("its current zero (the sources are DC)" if h.constant else
-                    "its current C times the derivative of that voltage")
-                 + "; to make it a state, give it a series resistance (its ESR)")
-    for h in held.values():
-        if h.constant or path_currents:
-            continue
-        name = next((n for n in h.path if n.lower() == key), None)
-        if name is not None:
-            return Diagnostic(
-                message=f"probe {probe.strip()!r}: the current of {name} includes the "
-                        f"charging current of {h.name}, which voltage sources alone join "
-                        f"({', '.join(h.path)}): pelcs keeps no state for it and does not "
-                        "compute that current",
-                hint=f"probe the current of the branches {name} feeds other than "
-                     f"{h.name}, or give {h.name} a series resistance (its ESR) to make it a "
-                     "state")
-    return None
-
-
-def _step_note(circuit: Circuit, given: dict[str, float]) -> str:
-    """The note of a netlist with ``.step`` lines, which a simulation does not sweep: the
-    values of the stepped parameters it uses, nominal or ``given`` (``--param``)."""
-    names = ", ".join(name for name, _ in circuit.steps)
-    head = f"the netlist's .step ({names}) is run by `pelcs sweep`; this run uses "
-    given = {k.lower(): v for k, v in given.items()}
-    if not any(name.lower() in given for name, _ in circuit.steps):
-        return head + "the nominal .param values"
-    return head + ", ".join(
-        f"{name} = {given[name.lower()]:.6g} (--param)" if name.lower() in given
-        else f"{name} = {circuit.params.get(name, circuit.params.get(name.lower())):.6g} "
-        "(nominal)"
-        for name, _ in circuit.steps)
 
 
 def _screen_passivity(circuit: Circuit, system: SwitchedLCS, energy: np.ndarray,
@@ -495,9 +366,8 @@ def check_probes(circuit: Circuit, probes: Sequence[str], *,
         exists, as in SPICE).
 
     path_currents : bool
-        Accept ``i(V)`` of a source that a capacitor without a state is across
-        (:func:`netlist.reductions.held_capacitors`): its current without the capacitor's,
-        for a caller that accounts for the rest (the losses' input power).
+        Accept ``i(V)`` of a source a capacitor without a state is across, without its
+        current, for a caller that accounts for the rest (the losses' input power).
 
     Returns
     -------
