@@ -15,7 +15,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.sparse import coo_matrix
 
 from lcs.model import ModeKey, ModeModel, OutputMap
 
@@ -204,6 +203,9 @@ def linked_builder(build: Callable[[ModeKey], ModeModel], links: dict[str, LinkC
     rows = [state_index[k] for k in keys]
     t = np.eye(n)
     t[np.ix_(rows, rows)] = p  # x' = T x'(without the links)
+    order = np.argsort(rows)
+    rows_sorted = [rows[i] for i in order]
+    p_sorted = p[np.ix_(order, order)]
 
     def builder(key: ModeKey) -> ModeModel:
         model = build(key)
@@ -231,9 +233,16 @@ def linked_builder(build: Callable[[ModeKey], ModeModel], links: dict[str, LinkC
         if network is not None:
             def network(net=network):
                 net = net() if callable(net) else net
-                rx = coo_matrix((net.Rx[2], (net.Rx[0], net.Rx[1])), shape=(net.n, net.nz))
-                mixed = coo_matrix(t @ rx.toarray())
-                return replace(net, Rx=coalesce(mixed.row, mixed.col, mixed.data, net.nz))
+                r, c, v = net.Rx
+                block = np.zeros((len(rows), net.nz))  # the tree rows, mapped by P
+                mine = np.isin(r, rows)
+                np.add.at(block, (np.searchsorted(rows_sorted, r[mine]), c[mine]), v[mine])
+                mixed = p_sorted @ block
+                mr, mc = np.nonzero(mixed)
+                return replace(net, Rx=coalesce(
+                    np.concatenate([r[~mine], np.asarray(rows_sorted)[mr]]),
+                    np.concatenate([c[~mine], mc]),
+                    np.concatenate([v[~mine], mixed[mr, mc]]), net.nz))
         return replace(model, lcs=replace(lcs, A=dx[:, :k], B=dx[:, k:k + q],
                                           E=dx[:, k + q:]),
                        output=output, network=network)
