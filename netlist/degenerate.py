@@ -49,14 +49,23 @@ def check_topology(f, on: frozenset[str], desc: str) -> None:
     ]
     loop = find_loop(voltage_branches)
     if loop is not None:
+        closing = [name for name in loop if f.by_key[name.lower()].kind == "S"]
+        hint = ("their voltages are tied by Kirchhoff's voltage law, so they cannot all be "
+                "states or sources; add a small series resistance in the loop (e.g. the "
+                "capacitor's ESR or a source resistance)")
+        if closing and any(f.by_key[name.lower()].kind == "C" for name in loop):
+            # (a capacitor straight across voltage sources is read: no state; one that an
+            # ideal switch puts there jumps to their voltage, an impulse of current)
+            hint = (f"closing {', '.join(closing)} ties the voltages at once: a capacitor "
+                    "voltage would jump, an impulse of current that ideal switches cannot "
+                    "carry; run with --devices pwl (each switch at its on resistance, RON of "
+                    "its model) or add a small series resistance in the loop (e.g. the "
+                    "capacitor's ESR)")
         raise _error(
             f"loop of capacitors/voltage sources{where}: {' - '.join(loop)} (capacitors, "
             "voltage sources, closed switches and E/H sources with no impedance between "
             "them)",
-            "their voltages are tied by Kirchhoff's voltage law, so they cannot all be "
-            "states or sources; add a small series resistance in the loop (e.g. the "
-            "capacitor's ESR or a source resistance)",
-            loop, el=f.by_key[loop[-1].lower()], file=f.file)
+            hint, loop, el=f.by_key[loop[-1].lower()], file=f.file)
     contracted = [
         el.nodes for el in f.two_terminal
         if (el.kind not in CURRENT_KINDS or el.key in on)

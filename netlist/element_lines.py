@@ -29,6 +29,7 @@ from .rawdeck import (
     Statement,
     Value,
 )
+from .table_source import TableError, read_table
 from .units import parse_number
 
 # ------------------------------------------------------------------------------ reading
@@ -51,6 +52,29 @@ _EG_VALUE = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+(value|vol|cur)\b\
                        r"(\{.*\})\s*$")
 
 
+def ngspice_value_token(text: str) -> str:
+    """The part of an unquoted, unbraced ``R``/``L``/``C`` value (``c = ...``) that ngspice
+    takes for the value: up to the first blank outside parentheses. Its front end puts braces
+    around that token alone (inpcom.c, ``inp_fix_param_values``), and the transformation of a
+    value that reads the circuit takes the first braced expression of the line as the
+    equation (``inp_compat``); the rest of the line is dropped. So
+    ``c = (v(a) < {5}) ? {1u} : {2u}`` is the capacitance ``(v(a) < 5)``, 1 F or 0 F
+    (measured in ngspice 39: an RC of 1 Ohm at 2e-6 of its 1 V after 2 us), while
+    ``c = (v(a)<{5})?{1u}:{2u}``, one token, is the conditional (0.865 V, 1 uF). A value
+    starting with a digit, a sign, a point or a quote is not cut."""
+    if not text or text[0] in "0123456789.+-'\"{":
+        return text
+    depth = 0
+    for k, ch in enumerate(text):
+        if ch == "(":
+            depth += 1
+        elif ch == ")":
+            depth -= 1
+        elif ch.isspace() and depth <= 0:
+            return text[:k]
+    return text
+
+
 class ElementLines:
     """The element-line handlers of :class:`netlist.reader._Reader`."""
 
@@ -71,6 +95,8 @@ class ElementLines:
         if letter in "EG" and self.value_source(letter, st):
             return
         if letter in "EFGH" and self.poly_source(letter, st):
+            return
+        if letter in "EG" and self.table_source(letter, st):
             return
         if letter in "EG":
             m = _PAREN_CONTROL.match(st.text)
@@ -210,6 +236,28 @@ class ElementLines:
             behaviour=("V" if letter == "E" else "I", tree, text, offset)))
         return True
 
+    def table_source(self, letter: str, st: Statement) -> bool:
+        """``Ename n+ n- TABLE {expr} = (x1, y1) (x2, y2)`` (G alike) read as the B source
+        :mod:`netlist.table_source` makes of it, with its note; False for any other line."""
+        try:
+            table = read_table(st.text, letter)
+        except TableError as exc:
+            self.error(exc.message, st, exc.offset, exc.hint)
+            return True
+        if table is None:
+            return False
+        tree = self.behavioural_tree(table.text, st, table.offset,
+                                     f"syntax: {letter}name n+ n- TABLE {{expression}} = "
+                                     "(x1, y1) (x2, y2)")
+        if tree is None:
+            return True
+        self.body.elements.append(RawElement(
+            "B", hierarchical_name(table.name, letter), st,
+            (node_name(table.nodes[0]), node_name(table.nodes[1])),
+            behaviour=("V" if letter == "E" else "I", tree, table.text, table.offset),
+            note=table.note))
+        return True
+
     def poly_source(self, letter: str, st: Statement) -> bool:
         """``Ename n+ n- POLY(ND) c1+ c1- ... p0 p1 ...`` (G alike; F and H name ND controlling
         sources) whose polynomial is affine: read as the B source ``V=`` (E, H) or ``I=``
@@ -265,22 +313,17 @@ class ElementLines:
         if m is None or m.group(4).upper() != letter:
             return False
         text, offset = m.group(5), m.start(5)
-        quoted = len(text) >= 2 and text[0] == text[-1] and text[0] in "'\""
         if len(text) >= 2 and text[0] == text[-1] and text[0] in "'\"{":
             text, offset = text[1:-1], offset + 1
+        else:
+            token = ngspice_value_token(text)
+            if token != text:
+                return self.cut_value(letter, st, what, m, text, token, offset)
         try:
             tree = parse_behavioural(text)
             found = circuit_quantity(tree)
         except BehaviouralError:
             return False  # (the grammar's message)
-        if found is not None and letter == "C" and tree.tag == "?" and not quoted:
-            # (ngspice 39, measured: 'c = (v(a) < {5}) ? {1u} : {2u}' unquoted is 1 F, not the
-            # conditional)
-            self.error(f"{what} '{m.group(1)}': a conditional value must be in quotes: "
-                       "ngspice does not read it as written without them (it takes "
-                       "c = (v(a) < 5) ? 1u : 2u for 1 F)", st, offset,
-                       f"write {m.group(4)} = '...' for the conditional ngspice reads")
-            return True
         if found is not None and letter == "C" and tree.tag == "?" and \
                 circuit_quantity(tree.args[1]) is None:
             # constant below a knee of its voltage (netlist.knee): checked in elaboration
@@ -295,6 +338,48 @@ class ElementLines:
                        offset, f"pelcs needs a constant {what} value: give the one it has over "
                        "the run (for a saturable inductance, the unsaturated one)")
         return found is not None
+
+    def cut_value(self, letter: str, st: Statement, what: str, m: re.Match, text: str,
+                  token: str, offset: int) -> bool:
+        """An unquoted value that reads the circuit and has a blank outside parentheses:
+        ngspice's value is its first token only (:func:`ngspice_value_token`). A capacitor
+        whose token compares its own voltage with a constant is read as ngspice reads it,
+        the comparison's 1 F while it holds (a knee capacitor: the run is checked to stay on
+        that side, where ngspice's capacitance would be 0 F), with a note; anything else that
+        reads the circuit is refused, saying what ngspice reads. False when the value reads
+        nothing of the circuit (a constant expression: the grammar's own rules)."""
+        try:
+            found = circuit_quantity(parse_behavioural(text))
+        except BehaviouralError:
+            found = None
+        if found is None:
+            return False
+        name, key = m.group(1), m.group(4)
+        rest = text[len(token):].strip()
+        reads = (f"ngspice reads an unquoted value only up to its first blank outside "
+                 f"parentheses: {key} = {token}, the rest ('{rest}') dropped")
+        try:
+            tree = parse_behavioural(token)
+        except BehaviouralError:
+            tree = None
+        if letter == "C" and tree is not None and tree.tag in ("<", ">", "<=", ">="):
+            knee = parse_behavioural(f"{token} ? 1 : 0")
+            self.body.elements.append(RawElement(
+                "C", hierarchical_name(name, "C"), st,
+                (node_name(m.group(2)), node_name(m.group(3))),
+                behaviour=("knee", knee, f"{token} ? 1 : 0", offset),
+                note=(f"value written unquoted, {key} = {text}: {reads}, so its capacitance "
+                      f"is the comparison {token} itself, 1 F while it holds (0 F else), as "
+                      f"ngspice simulates it; write {key} = '...' in quotes for the "
+                      "conditional")))
+            return True
+        self.error(f"{what} '{name}': its value is written unquoted: {reads}", st, offset,
+                   f"write {key} = '...' in quotes for the expression as written; pelcs "
+                   f"reads a {what} value 'v(n+,n-) < K ? C0 : ...' (a constant below a knee)"
+                   if letter == "C" else
+                   f"write {key} = '...' in quotes for the expression as written; pelcs "
+                   f"needs a constant {what} value")
+        return True
 
     def diode_area(self, extras: list, st: Statement) -> list[RawParam]:
         """A D line's area factors: its positional AREA (the first bare value after the

@@ -205,8 +205,7 @@ class _Builder:
         def done(name: str) -> bool:
             return name in values or name in failed or state.get(name) == 2
 
-        # depth-first search without recursion: a generated netlist may chain thousands of
-        # parameters; evaluate each one after the ones it uses
+        # each after the ones it uses, depth first without recursion (thousands may chain)
         for root in table:
             if done(root):
                 continue
@@ -452,6 +451,8 @@ class _Builder:
             elif el.behaviour is not None:  # B: netlist.behavioural; C of a knee: netlist.knee
                 self.circuit.elements += elaborate(el, name_prefix, mapnode, env, failed,
                                                    self.error)
+                if el.note:
+                    self.circuit.notes.append(f"{name_prefix}{el.name}: {el.note}")
             elif el.kind == "W":  # a current-controlled switch (netlist.current_switch)
                 self.circuit.elements += self.current_switch(el, name_prefix, mapnode)
             elif el.kind == "A":  # an XSPICE code model (netlist.xspice)

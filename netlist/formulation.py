@@ -39,7 +39,8 @@ cutset of inductors / current sources / F, G sources, ``k = 1`` coupling) are re
 Two such loops and cutsets never reach it, made regular when the netlist is read: capacitors
 from one node to nodes that voltage sources join (:mod:`netlist.capacitor_loops`, one state
 for them) and inductors that are the only branches from a floating group of voltage sources
-(:mod:`netlist.inductor_cutsets`, the group's potential held by E sources).
+(:mod:`netlist.inductor_cutsets`, the group's potential held by E sources). Capacitors
+without a state: :mod:`netlist.reductions`, :mod:`netlist.capacitor_links`.
 One cutset is not degenerate: an uncoupled inductor that no other branch parallels in a mode
 carries no current there. In every mode when nothing else joins its terminals
 (:func:`netlist.reductions.open_inductors`, e.g. one end unconnected); in the modes whose open
@@ -75,17 +76,18 @@ from lcs.model import (
 )
 from lcs.network import NetworkRealisation
 
+from .capacitor_links import capacitor_links, linked_builder
 from .circuit import GROUND, Circuit, Element
 from .degenerate import CURRENT_KINDS as _CURRENT_KINDS
 from .degenerate import check_topology, pinnable_inductors, pinned_in
 from .errors import Diagnostic, NetlistError
 from .mna import VOLTAGE_KINDS as _VOLTAGE_KINDS
 from .mna import Mna as _Mna
-from .mna import Stamps, coalesce
+from .mna import Stamps, coalesce, dense_form
 from .mna_solve import Entries, Solution, clean
 from .probes import PROBE, TWO_TERMINAL
-from .reductions import open_inductors, reduced
-from .suggest import did_you_mean
+from .reductions import held_capacitors, open_inductors, reduced
+from .suggest import did_you_mean, short_list
 from .topology import Partition, SwitchedBridges, UnionFind
 
 __all__ = ["formulate", "storage_matrix", "EXHAUSTIVE_DIODE_LIMIT"]
@@ -131,13 +133,13 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         For invalid element values or references, or a singular inductance matrix; later,
         when a mode is built, for a degenerate topology in that mode.
     """
-    formulator = _Formulator(reduced(circuit))
+    formulator = _formulator(circuit)
     return SwitchedLCS(
         switches=formulator.switch_controls,
         states=formulator.state_names,
         inputs=formulator.input_names,
         diodes=[d.name for d in formulator.diodes],
-        builder=formulator.build_mode,
+        builder=formulator.builder,
         pinnable=sorted(formulator.state_index[k] for k in formulator.pinnable),
         storage=_storage(formulator),
     )
@@ -158,7 +160,18 @@ def storage_matrix(circuit: Circuit) -> np.ndarray:
         Symmetric; H on inductor rows/columns, F on capacitor ones. A capacitor that
         :func:`formulate` leaves out (across sources only) has no row.
     """
-    return _storage(_Formulator(reduced(circuit)))
+    return _storage(_formulator(circuit))
+
+
+def _formulator(circuit: Circuit) -> _Formulator:
+    """The formulator of the circuit without what :func:`netlist.reductions.reduced` leaves
+    out (``v(C)`` still their voltage; links: :func:`~netlist.capacitor_links.linked_builder`)."""
+    held = held_capacitors(circuit)
+    links = capacitor_links(circuit, held)
+    f = _Formulator(reduced(circuit, held, links))
+    f.held_nodes = {key: x.nodes for key, x in (*held.items(), *links.items())}
+    f.builder = linked_builder(f.build_mode, links, f.state_index, f.by_key, f.n)
+    return f
 
 
 def _storage(f: _Formulator) -> np.ndarray:
@@ -168,7 +181,7 @@ def _storage(f: _Formulator) -> np.ndarray:
     K[np.ix_(rows, rows)] = f.Lmat
     for el in f.capacitors:
         K[f.state_index[el.key], f.state_index[el.key]] = float(el.value)
-    return K
+    return getattr(f.builder, "storage", lambda k: k)(K)
 
 
 def _error(message: str, hint: str = "", elements: Sequence[str] = (), el: Element | None = None,
@@ -293,6 +306,9 @@ class _Formulator:
             self.pinnable = pinnable_inductors(self)
         # What each probe asked for names (probe -> ("v", node, node) or ("i", element)).
         self._probes: dict[str, tuple] = {}
+        # the terminals of the capacitors :func:`formulate` left out, by key
+        self.held_nodes: dict[str, tuple[str, str]] = {}
+        self.builder = self.build_mode
         self.Lmat = np.zeros((0, 0))  # set by _inductance_inverse
         self.Linv = self._inductance_inverse(bad)
         if diagnostics:
@@ -514,7 +530,7 @@ class _Formulator:
             for probe in names:
                 form = self._probe_terms(mna, probe)
                 # (with no null space every quantity is determined)
-                if sol.null.shape[1] and not sol.determined(_dense(form, mna.nz)):
+                if sol.null.shape[1] and not sol.determined(dense_form(form, mna.nz)):
                     raise _error(
                         f"probe {probe} is not determined with {desc or 'this circuit'}",
                         "part of the circuit floats in this configuration (e.g. a node reached "
@@ -765,12 +781,14 @@ class _Formulator:
                 elif a in self.by_key and self.by_key[a].kind == "C":
                     # The state name v(C1) (a node of that name wins, as in SPICE).
                     return ("v", *self.by_key[a].nodes[:2])
+                elif a in self.held_nodes:
+                    return ("v", *self.held_nodes[a])
             elif b is None and a in self.by_key and self.by_key[a].kind in TWO_TERMINAL:
                 return "i", self.by_key[a]
         nodes = sorted(self.nodes)
         elements = [el.name for el in self.two_terminal]
         hint = ("probes are v(NODE), v(NODE,NODE), i(ELEMENT) or a state name; nodes: "
-                + _short_list([GROUND, *nodes]) + "; elements: " + _short_list(elements))
+                + short_list([GROUND, *nodes]) + "; elements: " + short_list(elements))
         guess = did_you_mean(probe, [f"v({n})" for n in nodes]
                              + [f"i({e})" for e in elements]
                              + [f"v({el.name})" for el in self.two_terminal
@@ -780,18 +798,3 @@ class _Formulator:
 
     def _is_node(self, name: str) -> bool:
         return name == GROUND or name in self.node_index
-
-
-def _dense(terms: list[tuple[int, float]], width: int) -> np.ndarray:
-    """The first ``width`` entries of the form that ``terms`` add up to (in their order)."""
-    form = np.zeros(width)
-    for c, v in terms:
-        if c < width:
-            form[c] += v
-    return form
-
-
-def _short_list(names: Sequence[str], limit: int = 30) -> str:
-    names = list(names)
-    text = ", ".join(names[:limit])
-    return text + (f", ... ({len(names)} in all)" if len(names) > limit else "")

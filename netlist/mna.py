@@ -8,7 +8,7 @@ import numpy as np
 
 from .circuit import GROUND, Element
 
-__all__ = ["VOLTAGE_KINDS", "Mna", "Stamps", "coalesce"]
+__all__ = ["VOLTAGE_KINDS", "Mna", "Stamps", "coalesce", "dense_form"]
 
 # Branches whose voltage is imposed (a loop of them is degenerate); closed switches too.
 VOLTAGE_KINDS = frozenset("VCEH")
@@ -313,3 +313,12 @@ def coalesce(rows, cols, vals, width: int) -> tuple[np.ndarray, np.ndarray, np.n
 def _terms(form: np.ndarray) -> list[tuple[int, float]]:
     """A dense form as (column, coefficient) terms."""
     return [(int(c), float(form[c])) for c in np.flatnonzero(form)]
+
+
+def dense_form(terms: list[tuple[int, float]], width: int) -> np.ndarray:
+    """The first ``width`` entries of the form that ``terms`` add up to (in their order)."""
+    form = np.zeros(width)
+    for c, v in terms:
+        if c < width:
+            form[c] += v
+    return form

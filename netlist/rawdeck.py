@@ -122,6 +122,9 @@ class RawElement:
     state: bool | None = None
     # a B source: ("V" or "I", the parsed expression, its text, its offset in the statement)
     behaviour: tuple | None = None
+    # what the reading of the line made of it, noted in each instance after the element's
+    # name (an E/G TABLE read as a comparator: netlist.table_source)
+    note: str = ""
     # an XSPICE A element: its ports (netlist.xspice.Port); ``ref`` is its model
     ports: tuple = ()
 

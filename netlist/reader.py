@@ -96,6 +96,7 @@ def split_statements(lines: list[tuple[int, str]], file: str, diags: list[Diagno
     cur: Statement | None = None
     control: list[str] | None = None
     control_loc: Location | None = None
+    ended = False
     for lineno, raw in lines:
         if control is not None:
             control.append(raw.rstrip())
@@ -105,11 +106,12 @@ def split_statements(lines: list[tuple[int, str]], file: str, diags: list[Diagno
             continue
         code = _strip_comment(raw) if (";" in raw or "$" in raw) else raw
         if "\u00b5" in code:
-            # ngspice reads every micro sign (LTspice writes 1000µF) as 'u' (inpcom.c's
-            # utf8_check); the line shown in messages keeps it
+            # ngspice reads every µ as 'u' (inpcom.c's utf8_check; LTspice writes 1000µF)
             code = code.replace("\u00b5", "u")
         stripped = code.strip()
         if not stripped or stripped[0] == "*":
+            continue
+        if ended and not stripped.lower().startswith(".control"):
             continue
         col0 = len(code) - len(code.lstrip())
         if stripped[0] == "+":
@@ -125,8 +127,7 @@ def split_statements(lines: list[tuple[int, str]], file: str, diags: list[Diagno
             cur.segments.append((start, lineno, col0 + 1, raw))
             continue
         if stripped == ")" and cur is not None and cur.text.count("(") > cur.text.count(")"):
-            # a multi-line .model closed by a bare ')' line: ngspice reads it as the end of
-            # the statement it closes
+            # a bare ')' line closes a multi-line .model, as ngspice reads it
             start = len(cur.text) + 1
             cur.text = f"{cur.text} )"
             cur.segments.append((start, lineno, col0, raw))
@@ -138,7 +139,8 @@ def split_statements(lines: list[tuple[int, str]], file: str, diags: list[Diagno
             cur = None
             continue
         if first == ".end":
-            break
+            ended = True  # (past it ngspice still reads .control blocks, and nothing else)
+            continue
         cur = Statement(stripped.rstrip(), file, [(0, lineno, col0, raw)])
         out.append(cur)
     if control is not None:
@@ -610,8 +612,7 @@ class _Reader(ElementLines, FuncReading):
                 hint = "use an S switch with a SW model, controlled by a voltage"
             label = f" ({what})" if what else ""
             if mtype == "R":
-                # a resistor model (TC1, TC2, RSH ...): the resistors that name it keep their
-                # value (netlist.element_lines)
+                # a resistor model (TC1, TC2, RSH ...): its resistors keep their value
                 self.deck.notes.append(f"line {st.loc(0).line}: resistor model '{name_tok}' "
                                        "read for its name only")
                 return

@@ -5,10 +5,14 @@ from __future__ import annotations
 
 import math
 import re
+from typing import TYPE_CHECKING
 
 from .rawdeck import RawStep, Statement
 
-__all__ = ["evaluate_steps", "read_step"]
+if TYPE_CHECKING:
+    from .circuit import Circuit
+
+__all__ = ["evaluate_steps", "read_step", "step_note"]
 
 
 def read_step(reader, st: Statement) -> None:
@@ -90,3 +94,18 @@ def evaluate_steps(builder) -> None:
         else:
             values = tuple(float(v) for v in vals)
         builder.circuit.steps.append((known[key], values))
+
+
+def step_note(circuit: Circuit, given: dict[str, float]) -> str:
+    """The note of a netlist with ``.step`` lines, which a simulation does not sweep: the
+    values of the stepped parameters it uses, nominal or ``given`` (``--param``)."""
+    names = ", ".join(name for name, _ in circuit.steps)
+    head = f"the netlist's .step ({names}) is run by `pelcs sweep`; this run uses "
+    given = {k.lower(): v for k, v in given.items()}
+    if not any(name.lower() in given for name, _ in circuit.steps):
+        return head + "the nominal .param values"
+    return head + ", ".join(
+        f"{name} = {given[name.lower()]:.6g} (--param)" if name.lower() in given
+        else f"{name} = {circuit.params.get(name, circuit.params.get(name.lower())):.6g} "
+        "(nominal)"
+        for name, _ in circuit.steps)

@@ -28,3 +28,10 @@ def did_you_mean(word: str, candidates: Iterable[str]) -> str:
 
 def _key(text: str) -> str:
     return re.sub(r"\s+", "", text).lower()
+
+
+def short_list(names: Iterable[str], limit: int = 30) -> str:
+    """``names`` joined by commas, the first ``limit`` of them and how many in all."""
+    names = list(names)
+    text = ", ".join(names[:limit])
+    return text + (f", ... ({len(names)} in all)" if len(names) > limit else "")

@@ -235,7 +235,7 @@ def default_probes(circuit: Circuit) -> list[str]:
     """
     from netlist.reductions import source_capacitors
 
-    held = set(source_capacitors(circuit))  # across sources only: no state
+    held = set(source_capacitors(circuit))  # voltage sources alone across them: no state
     out = [f"i({el.name})" if el.kind == "L" else f"v({el.name})"
            for el in circuit.elements if el.kind in ("L", "C") and el.key not in held]
     if not out:

@@ -87,11 +87,36 @@ def test_a_part_held_by_a_tiny_conductance(g, regular):
         assert sol.inconsistent == [0]
 
 
-def test_an_unquoted_conditional_is_refused():
-    # ngspice 39 reads 'c = (v(a) < {5}) ? {1u} : {2u}' without quotes as 1 F (an RC of 1 Ohm
-    # reaches 1 uV after 1 us, not 0.632 V): not the conditional pelcs would read
+# An RC of 1 Ohm from 1 V, with UIC: ngspice cuts an unquoted value at its first blank
+# outside parentheses (netlist.element_lines.ngspice_value_token)
+UNQUOTED = "unquoted\nV1 in 0 DC 1\nR1 in a 1\nC1 a 0 c = {value}\n.tran 0.1u 2u uic\n.end\n"
+
+
+@pytest.mark.parametrize("value, farads", [
+    ("(v(a) < {5}) ? {1u} : {2u}", 1.0),  # the comparison alone: 1 F while it holds
+    ("(v(a)<{5})?{1u}:{2u}", 1e-6),  # one token: the conditional as written
+])
+def test_an_unquoted_value_is_read_as_ngspice_reads_it(value, farads, tmp_path, ngspice):
+    from ngspice_helpers import ngspice_print
+
+    deck = UNQUOTED.format(value=value)
+    c = parse_string(deck)
+    assert c.element("C1").value == farads
+    res = simulate_circuit(c, probes=["v(a)"])
+    got = float(res["v(a)"][-1])
+    assert got == pytest.approx(1 - math.exp(-2e-6 / farads), rel=1e-3)
+    ng = ngspice_print(deck, ["v(a)[length(v(a))-1]"], tmp_path)
+    assert got == pytest.approx(ng["v(a)[length(v(a))-1]"], rel=2e-3)
+    cut = [n for n in c.notes if n.startswith("C1: value written unquoted")]
+    assert bool(cut) == (farads == 1.0)
+    if cut:
+        assert "c = (v(a) < {5}), the rest ('? {1u} : {2u}') dropped" in cut[0]
+        assert "1 F while it holds (0 F else)" in cut[0]
+
+
+def test_an_unquoted_value_ngspice_cuts_to_a_nonlinear_one_is_refused():
     with pytest.raises(NetlistError) as exc:
-        parse_string(RC.replace("c = 'v(a) < 5 ? 1u : 0.99u*exp(-10*v(a)) + 0.01u'",
-                                "c = (v(a) < {5}) ? {1u} : {2u}"))
-    assert "<string>:4:12: error: capacitor 'C1': a conditional value must be in quotes" \
-        in str(exc.value)
+        parse_string(UNQUOTED.format(value="(v(a)*{2}) ? {1u} : {2u}"))
+    text = str(exc.value)
+    assert "<string>:4:12: error: capacitor 'C1': its value is written unquoted" in text
+    assert "c = (v(a)*{2}), the rest ('? {1u} : {2u}') dropped" in text

@@ -40,7 +40,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..circuit import Capacitor, Circuit, Diode, Inductor, Resistor, Switch, VoltageSource
-from ..reductions import parallel_diodes
+from ..reductions import held_capacitors, parallel_diodes
 from .measure import (
     Measurement,
     probe_unit,
@@ -173,6 +173,30 @@ def storage_probes(circuit: Circuit) -> list[str]:
     return list(dict.fromkeys(probes))
 
 
+def _held_power(result, circuit: Circuit, sel: np.ndarray, span: float, p_in: float
+                ) -> tuple[float, str]:
+    """The input power with that of the capacitors the sources alone join
+    (:func:`netlist.reductions.held_capacitors`), whose current the recorded source currents
+    leave out, and a caveat ("" when none). Through independent sources only, the power they
+    give such a capacitor is ``d(½ C v²)/dt``: its mean over the window is exact from the
+    capacitor's voltage at the window's ends. Through E or H sources too, the sources' share
+    is not known: NaN and the caveat."""
+    held = [(k, h) for k, h in held_capacitors(circuit).items() if not h.constant]
+    if not held or span <= 0:
+        return p_in, ""
+    values = {el.key: float(el.value) for el in circuit.elements if isinstance(el, Capacitor)}
+    names = {v.name for v in _sources(circuit)}
+    for key, h in held:
+        if not set(h.path) <= names:
+            return float("nan"), (
+                f"input power not computed: {h.name} is across {', '.join(h.path)}, not "
+                "independent sources alone, whose share of its charging current is not "
+                "known (it holds no state)")
+        v = np.asarray(result[_vprobe(*h.nodes)], dtype=float)[sel]
+        p_in += 0.5 * values[key] * (v[-1] ** 2 - v[0] ** 2) / span
+    return p_in, ""
+
+
 def loss_probes(circuit: Circuit) -> list[str]:
     """The probes :func:`losses` needs."""
     merged = parallel_diodes(circuit)
@@ -229,6 +253,7 @@ def losses(result, circuit: Circuit, fits: Sequence = (), load: str | None = Non
     for v in _sources(circuit):
         p_in += mean(-np.asarray(result[_vprobe(*v.nodes[:2])], dtype=float)
                      * np.asarray(result[f"i({v.name})"], dtype=float))
+    p_in, rep.caveat = _held_power(result, circuit, sel, span, p_in)
     rep.p_in = p_in
     rep.efficiency = rep.p_out / p_in if p_in > 0 else float("nan")
     checks = settling(result, [Measurement("mean", p, f"mean({p})")

@@ -5,17 +5,20 @@ losses and efficiency of the steady state (:mod:`.losses`), on top of
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 
 from lcs.results import SimulationResult
 
+from ..breakdown import breakdown_elements, breakdowns
 from ..circuit import GROUND, Circuit, Diode, Switch
+from ..errors import Diagnostic, NetlistError
 from ..pwl import carried_current, pwl_circuit
 from ..reductions import parallel_diodes
 from .losses import loss_probes
 from .losses import losses as loss_report
-from .transient import simulate_circuit
+from .transient import check_probes, simulate_circuit
 
 __all__ = ["fitted_circuit", "simulate_devices"]
 
@@ -49,6 +52,9 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         raise ValueError(f"devices must be 'ideal' or 'pwl', got {devices!r}")
     fits: list = []
     run_circuit = circuit
+    sizing_note = None
+    bds = breakdowns(circuit) if devices == "pwl" else {}
+    broken: set[str] = set()
     if devices == "pwl":
         merged = parallel_diodes(circuit)
         sws = [el for el in circuit.elements if isinstance(el, Switch)]
@@ -56,8 +62,27 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
                if isinstance(el, (Diode, Switch)) and el.key not in merged]
         pre += [f"v({a})" if b == GROUND else f"v({a},{b})" for a, b in
                 (sw.control for sw in sws)]
+        pre += [bd.probe for bd in bds.values()]
         # (its knees unchecked: it sizes the fits, the pwl run below is the answer)
-        ideal = simulate_circuit(circuit, probes=list(dict.fromkeys(pre)), knees=False, **kw)
+        try:
+            ideal = simulate_circuit(circuit, probes=list(dict.fromkeys(pre)), knees=False,
+                                     **kw)
+        except NetlistError as exc:
+            if not _switch_loop(exc, sws):
+                raise
+            # an ideal switch closes a loop with capacitors and voltage sources, which the
+            # switches' own resistances break: the fits are sized from a run with them (and
+            # the diodes at their 1 mA fit) instead
+            sized, _ = pwl_circuit(circuit, {}, {}, pwl)
+            ideal = simulate_circuit(sized, probes=list(dict.fromkeys(pre)), knees=False,
+                                     **kw)
+            if any(isinstance(el, Diode) for el in circuit.elements):
+                sizing_note = (
+                    "pwl: the ideal run that sizes the diodes' fits is degenerate ("
+                    f"{exc.message.split(':')[0]}: an ideal switch would tie a capacitor's "
+                    "voltage to voltage sources, a jump), so they are sized from a run "
+                    "with the switches at their on resistance and the diodes at their "
+                    "1 mA fit")
         # the current each device carries, not an inrush only the time step limits
         t = np.asarray(ideal.t, float)
         i_max = {el.name: carried_current(t, ideal[f"i({el.name})"])
@@ -69,15 +94,43 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
             drives[sw.name] = float(np.max(ideal[f"v({a})" if b == GROUND
                                                   else f"v({a},{b})"]))
         run_circuit, fits = fitted_circuit(circuit, i_max, drives, pwl, **kw)
+        # the diodes the ideal run takes past their breakdown voltage (netlist.breakdown)
+        broken = {name for name, bd in bds.items()
+                  if float(np.max(ideal[bd.probe], initial=0.0)) > bd.bv}
+    fitted = run_circuit
     want = list(probes) if probes is not None else None
     extra = loss_probes(circuit) if losses else []
     if want is None:
         from ..formulation import formulate as _formulate
 
         want = list(_formulate(run_circuit).states)
-    res = simulate_circuit(run_circuit, probes=list(dict.fromkeys(want + extra)), **kw)
+    elif extra:
+        # (the user's probes checked as they are: the losses' own may take the currents of
+        # sources without the charging current of a capacitor across them, which the losses
+        # add as its power)
+        check_probes(circuit, want)
+    for _ in range(2):  # (once more if the pwl run takes another diode past its BV)
+        run_circuit, lines = _broken_down(fitted, bds, broken)
+        watch = [bd.probe for name, bd in bds.items() if name not in broken]
+        res = simulate_circuit(run_circuit, probes=list(dict.fromkeys(want + extra + watch)),
+                               path_currents=bool(extra), **kw)
+        more = {name for name, bd in bds.items() if name not in broken
+                and float(np.max(res[bd.probe], initial=0.0)) > bd.bv}
+        if not more:
+            break
+        broken |= more
+    else:
+        bd = bds[sorted(more)[0]]
+        raise NetlistError(Diagnostic(
+            message=f"diode {bd.name}: the run takes it past its breakdown voltage BV = "
+                    f"{bd.bv:g} V again with its reverse breakdown modelled",
+            hint="pelcs models a diode's breakdown where a run first takes it there; shorten "
+                 "the run or check the circuit"), file=circuit.file)
     res.device_fits = fits
     res.notes.extend(f"pwl: {f.line()}" for f in fits)
+    res.notes.extend(f"pwl: {line}" for line in lines)
+    if devices == "pwl" and sizing_note:
+        res.notes.append(sizing_note)
     if losses:
         res.losses = loss_report(res, circuit, fits, load)
         if not res.losses.settled:
@@ -85,10 +138,31 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
             res.notes.append(f"losses: the window {a:.6g}..{b:.6g} s is not a steady state "
                              f"({res.losses.settling_text()}): the efficiency is that of the "
                              "transient, not of the converter")
-    if extra:  # the losses' probes are not the user's: they came after them
+    if extra or watch:  # the losses' and breakdowns' probes are not the user's: after them
         k = len(dict.fromkeys(want))
         res.names, res.y = tuple(res.names[:k]), res.y[:, :k]
     return res
+
+
+def _broken_down(circuit: Circuit, bds: dict, broken: set[str]) -> tuple[Circuit, list[str]]:
+    """The piecewise-linear circuit with the reversed branch of each diode of ``broken``
+    (:func:`netlist.breakdown.breakdown_elements`), and their notes."""
+    if not broken:
+        return circuit, []
+    parts, lines = [], []
+    for name in sorted(broken):
+        elements, line = breakdown_elements(bds[name])
+        parts += elements
+        lines.append(line)
+    return replace(circuit, elements=[*circuit.elements, *parts]), lines
+
+
+def _switch_loop(exc: NetlistError, switches: Sequence[Switch]) -> bool:
+    """Whether ``exc`` refuses a loop of capacitors and voltage sources that closed ideal
+    switches of ``switches`` close (:func:`netlist.degenerate.check_topology`)."""
+    names = {sw.name for sw in switches}
+    return any(d.message.startswith("loop of capacitors/voltage sources with")
+               and names.intersection(d.elements) for d in exc.diagnostics)
 
 
 #: the segments' diodes must cancel nothing θ = 1/2 would feel even at this many times the

@@ -39,6 +39,7 @@ from lcs.model import LCS, SwitchedLCS
 from lcs.results import SimulationResult
 from lcs.signals import Dc, Signal, resolve
 
+from ..capacitor_links import capacitor_links, check_link_initial, link_note, link_probe
 from ..capacitor_loops import reduced_probe
 from ..circuit import (
     GROUND,
@@ -54,7 +55,8 @@ from ..knee import KneeCapacitor, check_knees, knee_probes
 from ..limits import MEMORY, STEPS
 from ..passive import structurally_passive
 from ..probes import PROBE, TWO_TERMINAL
-from ..reductions import open_inductors, parallel_diodes, source_capacitors
+from ..reductions import held_capacitors, held_note, held_probe, open_inductors, parallel_diodes
+from ..steps import step_note
 from ..suggest import did_you_mean
 from ..system_cache import kept_with
 from .growth import GrowthWatch, state_growth
@@ -233,13 +235,14 @@ def transient_setup(
     # (a fact of the topology: kept with the system, formulated from the same circuit)
     _pin_open_inductors(circuit, system.states, x0, notes,
                         kept_with(system, "open_inductors", lambda: open_inductors(circuit)))
-    across = set(kept_with(system, "source_capacitors", lambda: source_capacitors(circuit)))
-    held = [el.name for el in circuit.elements if el.key in across]
-    if held:
-        notes.append(f"{', '.join(held)}: across voltage sources only, so no state (the "
-                     "sources set its voltage; the source currents leave out its charging)")
+    held = kept_with(system, "held_capacitors", lambda: held_capacitors(circuit))
+    notes.extend(held_note(held))
+    links = kept_with(system, "capacitor_links", lambda: capacitor_links(circuit, held))
+    if links:
+        check_link_initial(circuit, links, system.states, x0)
+        notes.extend(link_note(links))
     if circuit.steps:
-        notes.append(_step_note(circuit, given or {}))
+        notes.append(step_note(circuit, given or {}))
     t_save = tran.tstart if tran is not None and tran.tstart < tstop else 0.0
     # (formulate keeps the circuit's stored energy: built again it cost as much as the
     # formulation itself, 5 ms on a 200-stage multiplier)
@@ -256,21 +259,6 @@ def transient_setup(
                           energy, notes, nonpassive, default_probes, circuit.file or "",
                           shown, shown_note,
                           tuple(el for el in circuit.elements if isinstance(el, KneeCapacitor)))
-
-
-def _step_note(circuit: Circuit, given: dict[str, float]) -> str:
-    """The note of a netlist with ``.step`` lines, which a simulation does not sweep: the
-    values of the stepped parameters it uses, nominal or ``given`` (``--param``)."""
-    names = ", ".join(name for name, _ in circuit.steps)
-    head = f"the netlist's .step ({names}) is run by `pelcs sweep`; this run uses "
-    given = {k.lower(): v for k, v in given.items()}
-    if not any(name.lower() in given for name, _ in circuit.steps):
-        return head + "the nominal .param values"
-    return head + ", ".join(
-        f"{name} = {given[name.lower()]:.6g} (--param)" if name.lower() in given
-        else f"{name} = {circuit.params.get(name, circuit.params.get(name.lower())):.6g} "
-        "(nominal)"
-        for name, _ in circuit.steps)
 
 
 def _screen_passivity(circuit: Circuit, system: SwitchedLCS, energy: np.ndarray,
@@ -365,7 +353,8 @@ def initial_state(circuit: Circuit, states: Sequence[str], notes: list[str] | No
     return x0
 
 
-def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
+def check_probes(circuit: Circuit, probes: Sequence[str], *,
+                 path_currents: bool = False) -> list[str]:
     """Check probe names against the circuit's nodes and elements.
 
     Parameters
@@ -375,6 +364,10 @@ def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
         ``v(n)``, ``v(a,b)`` (``0`` or ``gnd`` is ground), ``i(X)`` for a two-terminal
         element, or a state name (``v(C1)`` is the capacitor voltage unless a node ``c1``
         exists, as in SPICE).
+
+    path_currents : bool
+        Accept ``i(V)`` of a source a capacitor without a state is across, without its
+        current, for a caller that accounts for the rest (the losses' input power).
 
     Returns
     -------
@@ -392,6 +385,8 @@ def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
     out, bad = [], []
     switches = {el.key for el in circuit.elements if el.kind == "S"}
     merged = parallel_diodes(circuit)
+    held = held_capacitors(circuit)
+    links = capacitor_links(circuit, held)
     for probe in probes:
         m = PROBE.match(probe)
         ok = False
@@ -406,6 +401,11 @@ def check_probes(circuit: Circuit, probes: Sequence[str]) -> list[str]:
                 ok = (a in nodes and (b is None or b.lower() in nodes)) or (
                     b is None and a in capacitors)
             else:
+                stop = held_probe(probe, a, held, path_currents) if b is None else None
+                if stop is None and b is None and not path_currents:
+                    stop = link_probe(probe, a, links)
+                if stop is not None:
+                    raise NetlistError([stop], file=circuit.file)
                 ok = b is None and a in two_terminal and a not in merged
                 if b is None and a in merged:
                     raise NetlistError([Diagnostic(
@@ -503,6 +503,7 @@ def simulate_circuit(
     output_step: float | str | None = None,
     knees: bool = True,
     keep_events: int | None = None,
+    path_currents: bool = False,
 ) -> SimulationResult:
     """Simulate a parsed circuit with the Moreau θ scheme (or exactly, ``method="exact"``).
 
@@ -553,6 +554,9 @@ def simulate_circuit(
         A Moreau run keeps only its last ``keep_events`` switchings in ``result.events``
         and counts the others (``result.switchings``): with ``output_step`` its memory then
         does not grow with its length. Default: all.
+    path_currents : bool
+        ``i(V)`` probes of sources that capacitors without a state are across, without their
+        current (:func:`check_probes`); for :mod:`netlist.studies.losses`.
 
     Returns
     -------
@@ -572,8 +576,10 @@ def simulate_circuit(
         # A typo is an input error before any work, not a failure in the middle of a run.
         # (the names a circuit knows are those of the system's circuit: kept with it)
         names = tuple(probes)
-        probes = list(check_probes(circuit, probes) if system is None else kept_with(
-            system, ("probes", names), lambda: check_probes(circuit, names)))
+        probes = list(check_probes(circuit, probes, path_currents=path_currents)
+                      if system is None else kept_with(
+                          system, ("probes", names, path_currents),
+                          lambda: check_probes(circuit, names, path_currents=path_currents)))
     setup = transient_setup(circuit, tstop=tstop, step=step, system=system, strict=strict)
     return run_setup(setup, theta=theta, probes=probes, every=every, progress=progress,
                      options=options, switching=switching, controllers=controllers,
