@@ -248,3 +248,17 @@ def test_arguments_of_another_type_go_to_numba_not_the_module(aot_built):
     n_reg, last, start = np.empty(2, np.int64), np.empty(2), np.empty(3, np.int64)
     _plan_nb(np.array([[0.0, 1], [10, 1], [25, 1]])[:, 0], 1.0, 0.5, 0.5, n_reg, last, start)
     assert np.array_equal(n_reg, ref.n_regular) and np.array_equal(start, ref.start)
+
+
+def test_a_rebuild_warms_up_through_numba_not_the_module_it_replaces(aot_built, monkeypatch):
+    # (rebuilding with the module present: its warm-up must make the dispatchers' signatures,
+    # which calls served by the module would bypass; the environment is restored after)
+    from lcs.build import aot
+
+    monkeypatch.delenv("PELCS_AOT", raising=False)
+    kernels.aot_module.cache_clear()
+    assert kernels.aot_module() is not None
+    with aot._through_numba():
+        assert kernels.aot_module() is None
+    assert "PELCS_AOT" not in os.environ
+    assert kernels.aot_module() is not None

@@ -90,7 +90,8 @@ def build(out_dir: Path | None = None, verbose: bool = False) -> Path:
     from .warmup import warm_up
 
     t0 = time.perf_counter()
-    warm_up()
+    with _through_numba():
+        warm_up()
     target = kernels.aot_path() if out_dir is None else Path(out_dir) / kernels.aot_filename()
     name = kernels.AOT_MODULE
     cc = CC(name)
@@ -138,6 +139,24 @@ def stale_modules(current: Path) -> list[Path]:
     good. Another processor's, in a home directory a cluster shares, are that node's."""
     suffix = current.name.split("-", 2)[2]
     return sorted(p for p in current.parent.glob(f"aot-*-{suffix}") if p != current)
+
+
+@contextlib.contextmanager
+def _through_numba():
+    """Run the kernels through numba's dispatchers, not an extension module already built
+    (rebuilding it: the warm-up must make the dispatchers' signatures, which the module's
+    functions would bypass)."""
+    before = os.environ.get("PELCS_AOT")
+    os.environ["PELCS_AOT"] = "0"
+    kernels.aot_module.cache_clear()
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop("PELCS_AOT", None)
+        else:
+            os.environ["PELCS_AOT"] = before
+        kernels.aot_module.cache_clear()
 
 
 @contextlib.contextmanager
