@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["OpenLoopPWM", "PIPWM", "SlidingSurface", "pwm_commands"]
+__all__ = ["OpenLoopPWM", "PIPWM", "SlidingSurface", "measured_probes", "pwm_commands"]
 
 
 def pwm_commands(t0: float, period: float, duty: float, switch: str,
@@ -68,6 +68,14 @@ def pwm_commands(t0: float, period: float, duty: float, switch: str,
             cmds.append((t0, {complement: False}))
     cmds.sort(key=lambda c: c[0])
     return cmds
+
+
+def measured_probes(controllers) -> list[str]:
+    """The probe names ``controllers`` measure, each once: a schedule controller's
+    ``probes``, a surface controller's ``terms``."""
+    names = [name for c in controllers for name in
+             (c.terms if getattr(c, "kind", None) == "surface" else getattr(c, "probes", ()))]
+    return list(dict.fromkeys(names))
 
 
 @dataclass

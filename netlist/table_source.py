@@ -18,7 +18,8 @@ the form a comparator or a clamped amplifier takes:
 - **gentle**: the clamp ``max(lo, min(hi, line))`` of the table's line, which pelcs reads in
   a control path only (:mod:`netlist.behavioural` refuses it elsewhere, saying why).
 
-Other tables (more points) are refused with what pelcs reads.
+Other tables (more points, or points not in increasing x: ngspice does not read
+those as the line through them) are refused with what pelcs reads.
 """
 
 from __future__ import annotations
@@ -90,7 +91,16 @@ def read_table(line: str, letter: str) -> TableSource | None:
         raise TableError(f"{letter} source TABLE with {len(points)} points", m.start(5),
                          "pelcs reads a TABLE of two points (a comparator, or a line clamped "
                          "at its ends); write more as a B source of comparators")
-    (x1, y1), (x2, y2) = sorted(points)
+    (x1, y1), (x2, y2) = points
+    if not x1 < x2:
+        # ngspice interpolates the points in the order written, x increasing: written
+        # otherwise it is not the line through them (measured: (1u, 0) (-1u, 15) gives 0 V
+        # at an input of -0.8 V and 15 V at +3 uV), and at one x it does not run
+        raise TableError(f"{letter} source TABLE points not in increasing x ({x1:g}, then "
+                         f"{x2:g})", m.start(5),
+                         "ngspice reads a TABLE's points in the order written, x "
+                         "increasing (otherwise not as the line through them); write them "
+                         "so, e.g. (-1u, 15) (1u, 0) for an inverting comparator")
     unit = "V" if letter == "E" else "A"
     if y1 == y2:  # a constant
         text = repr(y1)

@@ -99,3 +99,33 @@ def test_a_control_block_after_end_is_read_as_ngspice_reads_it():
     c = parse_string(text)
     assert c.tran is not None and c.tran.tstop == pytest.approx(500e-6)
     assert "never" not in c.nodes
+
+
+# ngspice's table interpolation takes its points in the order written, x increasing: points
+# written x decreasing are not the line through them there. Measured (ngspice 39, V(in) a
+# ramp from -1 V to 1 V): TABLE {V(in)} = (1u, 0) (-1u, 15) gives 0 V at V(in) = -0.81 V and
+# 15 V at V(in) = +2.9 µV, where pelcs, reading the points sorted, gave 15 V and 0 V; equal x,
+# (0, 0) (0, 15), ngspice cannot run (its operating point fails).
+DESCENDING = """table written x decreasing
+V1 in 0 PWL(0 -1 1m 1)
+E1 o1 0 TABLE {V(in)} = (1u, 0) (-1u, 15)
+R1 o1 0 1k
+.tran 1u 1m
+.end
+"""
+
+
+@pytest.mark.parametrize("points", ["(1u, 0) (-1u, 15)", "(0, 0) (0, 15)"])
+def test_a_table_whose_x_does_not_increase_is_refused_where_it_is(points):
+    with pytest.raises(NetlistError) as exc:
+        parse_string(DESCENDING.replace("(1u, 0) (-1u, 15)", points))
+    d = exc.value.diagnostics[0]
+    assert d.location.line == 3 and "increasing" in d.message
+
+
+def test_a_descending_table_is_not_what_ngspice_runs(tmp_path, ngspice):
+    # the reference for the refusal: ngspice's output is not the table read sorted
+    ng, log = ngspice_run(DESCENDING, ["v(o1)", "v(in)"], tmp_path)
+    assert ng is not None, log
+    early = np.argmin(np.abs(ng[:, 3] + 0.8))
+    assert ng[early, 1] == pytest.approx(0.0, abs=1e-6)  # the sorted table: 15 V

@@ -25,8 +25,11 @@ from lcs.smallsignal.ltp import harmonic_response, probe_forms, sampled_data
 from lcs.smallsignal.response import FrequencyResponse, loop_margins
 from lcs.smallsignal.sweep import sweep_response
 
+from ..capacitor_links import capacitor_links
 from ..circuit import Circuit, CurrentSource, VoltageSource
 from ..errors import Diagnostic, NetlistError
+from ..probes import PROBE
+from ..reductions import held_capacitors
 from ..units import format_eng
 from .measure import _latch_clocks, _periodic_sources, defined_period
 from .sweep import check_period_multiple, circuit_map, resolve_period
@@ -52,6 +55,40 @@ def _source(circuit: Circuit, name: str):
                  f"independent sources: {', '.join(names) or 'none'} (a DC control source "
                  "gives control-to-output, the input source line-to-output, a zero-valued "
                  "current source at the output the output impedance)")
+
+
+def _check_perturbed(circuit: Circuit, inject: str, probes: Sequence[str]) -> None:
+    """Refuse what the perturbation of ``inject`` makes wrong where the formulation took it
+    for a DC source: a loop of capacitors through it (its link's current takes the source's
+    derivative, which the tree capacitors' rows leave out: every response would be wrong),
+    and ``i()`` of a capacitor that sources alone join across it, or of those sources (the
+    capacitor's current, zero at DC, is ``C`` times the perturbation's derivative; node
+    voltages stay exact)."""
+    name = inject.lower()
+    held = held_capacitors(circuit)
+    for link in capacitor_links(circuit, held).values():
+        if name in (s.lower() for s in link.sources):
+            raise _error(circuit, f"{link.name} closes a loop of capacitors through "
+                         f"{inject} ({', '.join(link.path)}): pelcs takes {inject} for a DC "
+                         "source there, so it cannot perturb it (the loop's capacitors would "
+                         f"miss {link.name}'s current C d{inject}/dt)",
+                         f"give {link.name} a series resistance (its ESR) to make it a "
+                         "state, or perturb another source")
+    for h in held.values():
+        if not h.constant or name not in (s.lower() for s in h.path):
+            continue
+        keys = {h.name.lower()} | {s.lower() for s in h.path}
+        for probe in probes:
+            m = PROBE.match(probe)
+            if m and m.group(1).lower() == "i" and m.group(3) is None \
+                    and m.group(2).lower() in keys:
+                raise _error(circuit, f"probe {probe!r}: {h.name} is joined by voltage "
+                             f"sources alone ({', '.join(h.path)}) and holds no state; "
+                             f"with {inject} perturbed its current C dv/dt flows through "
+                             f"{', '.join(h.path)}, and pelcs does not compute it",
+                             f"probe node voltages or the currents of the branches "
+                             f"{inject} feeds, or give {h.name} a series resistance (its "
+                             "ESR) to make it a state")
 
 
 def self_oscillating_switches(circuit: Circuit) -> list[str]:
@@ -217,6 +254,7 @@ def ac_analysis(circuit: Circuit, *, period: float | str | None, inject: str | N
         raise _error(circuit, "no source to perturb", "pass --inject SOURCE (or --loop)")
     _source(circuit, inject)
     probes = check_probes(circuit, list(probes)) if probes else []
+    _check_perturbed(circuit, inject, probes)
     if not probes:
         raise _error(circuit, "no probe to measure", "pass --probe, e.g. --probe 'v(out)'")
     freqs = default_frequencies(T) if freqs is None else np.asarray(freqs, dtype=float)

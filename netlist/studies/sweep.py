@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from lcs.analysis.event_map import EventSpec
 from lcs.analysis.maps import EventMap, StroboscopicMap
 from lcs.integrators.moreau.integrator import MoreauOptions
 from lcs.model import LCS
@@ -34,7 +35,7 @@ from ..errors import Diagnostic, NetlistError
 from ..parser import parse_file, parse_overrides, parse_string
 from ..units import format_eng, parse_number
 from .measure import defined_period
-from .transient import choose_theta, transient_setup
+from .transient import check_probes, choose_theta, transient_setup
 
 __all__ = [
     "CircuitMapFactory",
@@ -404,6 +405,9 @@ def circuit_map(
                   on_inconsistent=_StateJump(setup.energy), options=options,
                   diode_probes=[f"i({d})" for d in system.diodes])
     if event:
+        spec = EventSpec.parse(event)
+        if spec.kind == "probe":  # read as a run's probe: a current pelcs does not compute
+            check_probes(circuit, [spec.name])
         m = EventMap(system, setup.signals, T, h, event, max_periods=max_periods, **kwargs)
     else:
         m = StroboscopicMap(system, setup.signals, T, h, **kwargs)

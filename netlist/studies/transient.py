@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from lcs.controllers import measured_probes
 from lcs.integrators.moreau.integrator import MoreauOptions, simulate
 from lcs.model import LCS, SwitchedLCS
 from lcs.results import SimulationResult
@@ -244,8 +245,7 @@ def transient_setup(
     if circuit.steps:
         notes.append(step_note(circuit, given or {}))
     t_save = tran.tstart if tran is not None and tran.tstart < tstop else 0.0
-    # (formulate keeps the circuit's stored energy: built again it cost as much as the
-    # formulation itself, 5 ms on a 200-stage multiplier)
+    # (formulate keeps the stored energy: built again, 5 ms on a 200-stage multiplier)
     energy = system.storage if system.storage is not None else storage_matrix(circuit)
     nonpassive = _screen_passivity(circuit, system, energy, notes, strict)
     default_probes = None
@@ -267,9 +267,8 @@ def _screen_passivity(circuit: Circuit, system: SwitchedLCS, energy: np.ndarray,
     passive = (kept_with(system, "passive", lambda: structurally_passive(circuit, energy))
                if energy is system.storage else structurally_passive(circuit, energy))
     if passive:
-        # Passive by construction: the numerical screen could not fire (0.3 s of the set-up
-        # of a 200-stage multiplier, an eigenvalue problem of 800 unknowns; and the import of
-        # the screen, 1.5 ms of every start).
+        # Passive by construction: the numerical screen could not fire (0.3 s of a 200-stage
+        # multiplier's set-up, 800 unknowns' eigenvalues; its import, 1.5 ms of every start).
         return []
     import warnings
 
@@ -573,13 +572,14 @@ def simulate_circuit(
         θ outside [1/2, 1] or ``every`` not a positive integer.
     """
     if probes is not None:
-        # A typo is an input error before any work, not a failure in the middle of a run.
-        # (the names a circuit knows are those of the system's circuit: kept with it)
+        # a typo is an input error before any work (the names known: kept with the system)
         names = tuple(probes)
         probes = list(check_probes(circuit, probes, path_currents=path_currents)
                       if system is None else kept_with(
                           system, ("probes", names, path_currents),
                           lambda: check_probes(circuit, names, path_currents=path_currents)))
+    if controllers:  # what they measure too: a current pelcs does not compute is refused
+        check_probes(circuit, measured_probes(controllers))
     setup = transient_setup(circuit, tstop=tstop, step=step, system=system, strict=strict)
     return run_setup(setup, theta=theta, probes=probes, every=every, progress=progress,
                      options=options, switching=switching, controllers=controllers,
