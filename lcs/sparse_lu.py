@@ -26,6 +26,7 @@ Dense storage needs ``9 nz²`` bytes: :data:`MAX_SIZE` bounds it.
 from __future__ import annotations
 
 import threading
+from collections import namedtuple
 
 import numpy as np
 
@@ -37,41 +38,54 @@ __all__ = ["MAX_SIZE", "LUFactors", "kept_array", "lu_factor", "lu_rcond", "lu_s
 MAX_SIZE = 3000
 
 
+Lists = namedtuple("Lists", ["head", "nxt", "val"])
+Lists.__doc__ = """Linked lists in a pool of entries (int64 arrays): list ``i`` starts at entry
+``head[i]`` (-1: empty); entry ``e`` holds ``val[e]`` and continues at entry ``nxt[e]`` (-1: the
+end). The pattern's lists by row hold column indices, those by column row indices."""
+
+
 @jitted
-def _link(head, nxt, val, at, item, free):
-    """Prepend ``item`` to list ``at`` of a linked-list pool; returns the next free slot, or
-    -1 when the pool is full."""
-    if free >= nxt.shape[0]:
+def _link(lists, at, item, free):
+    """Prepend ``item`` to list ``at`` of ``lists`` (:class:`Lists`), in pool entry ``free``;
+    returns the next free entry, or -1 when the pool is full."""
+    if free >= lists.nxt.shape[0]:
         return -1
-    val[free] = item
-    nxt[free] = head[at]
-    head[at] = free
+    lists.val[free] = item
+    lists.nxt[free] = lists.head[at]
+    lists.head[at] = free
     return free + 1
 
 
 @jitted
-def _add_entry(S, r, c, rhead, rnext, rcol, chead, cnext, crow, fr, fc):
-    """Mark ``(r, c)`` in the pattern ``S`` and link it into its row's and column's lists,
-    unless it is there; returns the pools' next free slots (``fr < 0``: a pool is full)."""
+def _add_entry(S, r, c, by_row, by_col, fr, fc):
+    """Mark ``(r, c)`` in the pattern ``S`` and link it into its row's and column's lists
+    (:class:`Lists` ``by_row``, ``by_col``), unless it is there; returns the pools' next free
+    entries (``fr < 0``: a pool is full)."""
     if S[r, c] != 0:
         return fr, fc
     S[r, c] = 1
-    fr = _link(rhead, rnext, rcol, r, c, fr)
-    fc = _link(chead, cnext, crow, c, r, fc)
+    fr = _link(by_row, r, c, fr)
+    fc = _link(by_col, c, r, fc)
     if fc < 0:
         fr = -1
     return fr, fc
 
 
 @jitted
-def _factor(I, J, v, q, pos, W, S, rhead, rnext, rcol, chead, cnext, crow, p):
+def _factor(I, J, v, q, pos, W, S, by_row, by_col, p):
     """Eliminate the matrix of entries ``v`` at ``(I, J)`` (summed) in the column order ``q``
     (``pos[q[k]] = k``): values in ``W`` (n, n, zero on entry), the non-zero pattern in ``S``
-    (int8, zero on entry) and in linked lists by row (``rhead, rnext, rcol``) and by column
-    (``chead, cnext, crow``; heads -1, pools of equal size), fill-in included, so that every
-    pass touches non-zero entries only. The pivot row of step k goes to ``p[k]``; multipliers
-    replace the eliminated entries. Returns -1, the first step with no non-zero pivot
-    candidate, or -2 when the pools are too small."""
+    (int8, zero on entry) and in the :class:`Lists` by row ``by_row`` (of column indices) and by
+    column ``by_col`` (of row indices; heads -1, pools of equal size), fill-in included, so that
+    every pass touches non-zero entries only. The pivot row of step k goes to ``p[k]``;
+    multipliers replace the eliminated entries. Returns -1, the first step with no non-zero
+    pivot candidate, or -2 when the pools are too small."""
+    rhead = by_row.head
+    rnext = by_row.nxt
+    rcol = by_row.val
+    chead = by_col.head
+    cnext = by_col.nxt
+    crow = by_col.val
     n = W.shape[0]
     fr = 0
     fc = 0
@@ -79,7 +93,7 @@ def _factor(I, J, v, q, pos, W, S, rhead, rnext, rcol, chead, cnext, crow, p):
         r = I[t]
         c = J[t]
         W[r, c] += v[t]
-        fr, fc = _add_entry(S, r, c, rhead, rnext, rcol, chead, cnext, crow, fr, fc)
+        fr, fc = _add_entry(S, r, c, by_row, by_col, fr, fc)
         if fr < 0:
             return -2
     done = np.zeros(n, np.bool_)
@@ -125,7 +139,7 @@ def _factor(I, J, v, q, pos, W, S, rhead, rnext, rcol, chead, cnext, crow, p):
             W[r, c] = mult
             for s in range(ncol):
                 j = cols[s]
-                fr, fc = _add_entry(S, r, j, rhead, rnext, rcol, chead, cnext, crow, fr, fc)
+                fr, fc = _add_entry(S, r, j, by_row, by_col, fr, fc)
                 if fr < 0:
                     return -2
                 W[r, j] -= mult * W[pr, j]
@@ -356,8 +370,9 @@ def lu_factor(n: int, rows: np.ndarray, cols: np.ndarray, values: np.ndarray
             chead = np.full(n, -1, np.int64)
             lists = (np.empty(size, np.int64), np.empty(size, np.int64),
                      np.empty(size, np.int64), np.empty(size, np.int64))
-            status = _factor(rows, cols, values, q, pos, W, S, rhead, lists[0], lists[1],
-                             chead, lists[2], lists[3], p)
+            status = _factor(rows, cols, values, q, pos, W, S,
+                             Lists(rhead, lists[0], lists[1]), Lists(chead, lists[2], lists[3]),
+                             p)
             if status != -2:
                 break
             W.fill(0.0)

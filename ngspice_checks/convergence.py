@@ -2,7 +2,10 @@
 
 ::
 
-    .venv/bin/python -m ngspice_checks.convergence [--out DIR] [--fast] [--converters buck,boost]
+    .venv/bin/python -m pelcs.convergence [--out DIR] [--fast] [--converters buck,boost]
+
+(:mod:`pelcs.convergence` runs :func:`run_study` and writes :func:`columns` and :func:`figure`:
+this package gives the data and writes no file.)
 
 pelcs treats D and S as ideal whatever their ``.model`` says; ngspice simulates the models.
 Here one scale ε sets all three departures from the ideal at once,
@@ -34,21 +37,18 @@ not its models, is what is left. The boost needs the ladder's rung 3 (Gear + shu
 
 from __future__ import annotations
 
-import argparse
-import csv
 import math
-import sys
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
-from lcs.atomic import atomic_path
+import numpy as np
 
 from . import deck
 from .compare import compare
 from .runner import DEFAULT_LADDER
 
-__all__ = ["ConvergencePoint", "main", "model_deck", "run_study"]
+__all__ = ["ConvergencePoint", "columns", "figure", "model_deck", "order", "run_study"]
 
 NETLISTS = Path(__file__).resolve().parents[1] / "converters" / "netlists"
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -147,21 +147,32 @@ def run_study(converters: Sequence[str] = ("buck", "boost"),
     return points
 
 
-def write_csv(points: Sequence[ConvergencePoint], path: Path) -> Path:
-    """One row per point, columns as :class:`ConvergencePoint` (SI units)."""
-    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
-        names = list(asdict(points[0]))
-        writer = csv.DictWriter(fh, fieldnames=names, lineterminator="\n")
-        writer.writeheader()
-        for p in points:
-            row = asdict(p)
-            writer.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v)
-                             for k, v in row.items()})
-    return path
+def columns(points: Sequence[ConvergencePoint]) -> dict[str, np.ndarray]:
+    """The study as a table: one column per field of :class:`ConvergencePoint`, in its order,
+    one row per point (``converter``, ``settings``: strings; ``rung``: int; the rest floats in
+    SI units: ``eps`` in ohm (and dimensionless N), ``vout_*`` in V, ``*_wall`` in s,
+    ``delta``, ``mean_error`` and ``nrms_*`` fractions)."""
+    out = {}
+    for f in fields(ConvergencePoint):
+        values = [getattr(p, f.name) for p in points]
+        out[f.name] = np.array(values, dtype=object if f.type == "str" else
+                               np.int64 if f.type == "int" else float)
+    return out
 
 
-def plot(points: Sequence[ConvergencePoint], path: Path) -> Path:
-    """Log-log plot of the three differences against ε, one panel per converter."""
+def order(points: Sequence[ConvergencePoint], converter: str) -> float | None:
+    """The order in ε of the mean error of ``converter`` between its largest and smallest ε
+    (the slope of the log-log line through the two), or None with fewer than two points or a
+    zero error."""
+    pts = sorted((p for p in points if p.converter == converter), key=lambda p: p.eps)
+    if len(pts) < 2 or not (pts[0].mean_error > 0 and pts[-1].mean_error > 0):
+        return None
+    return math.log(pts[-1].mean_error / pts[0].mean_error) / math.log(pts[-1].eps / pts[0].eps)
+
+
+def figure(points: Sequence[ConvergencePoint]):
+    """Log-log plot of the three differences against ε, one panel per converter: a matplotlib
+    Figure on the Agg canvas (written by the caller)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -193,41 +204,4 @@ def plot(points: Sequence[ConvergencePoint], path: Path) -> Path:
         ax.legend(fontsize=8, loc="lower right")
     fig.suptitle("ngspice converges to pelcs as its diode and switch models approach the ideal",
                  fontsize=10)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp)
-    return path
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the study, write the CSV and PNG, print a table; returns 0."""
-    ap = argparse.ArgumentParser(prog="python -m ngspice_checks.convergence",
-                                 description=__doc__.split("\n\n")[0])
-    ap.add_argument("--out", type=Path, default=RESULTS, help=f"output folder ({RESULTS})")
-    ap.add_argument("--fast", action="store_true", help="two levels, 1 ms runs")
-    ap.add_argument("--converters", default="buck,boost", help="comma-separated netlists")
-    args = ap.parse_args(argv)
-    converters = [c.strip() for c in args.converters.split(",") if c.strip()]
-    points = run_study(converters, FAST_LEVELS if args.fast else LEVELS,
-                       FAST_TSTOP if args.fast else TSTOP)
-    args.out.mkdir(parents=True, exist_ok=True)
-    csv_path = write_csv(points, args.out / "convergence.csv")
-    png_path = plot(points, args.out / "convergence.png")
-    print(f"{'converter':<9} {'eps':>7} {'delta':>9} {'rung':>4} {'mean err':>10} "
-          f"{'NRMS v':>10} {'NRMS i':>10} {'ngspice s':>9}")
-    for p in points:
-        print(f"{p.converter:<9} {p.eps:>7.3g} {p.delta:>9.3g} {p.rung:>4d} "
-              f"{p.mean_error:>10.3g} {p.nrms_vout:>10.3g} {p.nrms_il:>10.3g} "
-              f"{p.ngspice_wall:>9.3g}")
-    for name in converters:
-        pts = sorted((p for p in points if p.converter == name), key=lambda p: p.eps)
-        if len(pts) > 1 and pts[0].mean_error > 0 and pts[-1].mean_error > 0:
-            order = math.log(pts[-1].mean_error / pts[0].mean_error) / math.log(
-                pts[-1].eps / pts[0].eps)
-            print(f"{name}: mean error falls as ε^{order:.2f} from ε = {pts[-1].eps:g} to "
-                  f"{pts[0].eps:g}")
-    print(f"wrote {csv_path}, {png_path}")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+    return fig

@@ -11,6 +11,15 @@ import pytest
 
 from converters import scaling
 from lcs.bits import to_words, words
+from lcs.integrators.moreau.dense.layout import (
+    FV_LEN,
+    FV_RTOL,
+    FV_THETA,
+    IV_LEN,
+    Actives,
+    Ledger,
+    Limits,
+)
 from lcs.integrators.moreau.integrator import MoreauOptions
 from lcs.integrators.moreau.sparse import integrate
 from lcs.integrators.moreau.sparse.lu import (
@@ -62,7 +71,7 @@ def test_lu_solves_random_sparse_systems():
         st, arrs = _factor(A, q)
         assert st == FACTOR_OK
         b = rng.normal(size=N)
-        x = solve(arrs, q, b)
+        x = solve(arrs[0], q, b)
         ref = np.linalg.solve(A, b)
         worst = max(worst, np.abs(x - ref).max() / (np.linalg.cond(A) * np.abs(ref).max()))
     assert tried > 100
@@ -97,7 +106,7 @@ def test_minimum_degree_keeps_a_ladder_sparse():
     for name, order in (("md", q), ("natural", np.arange(N, dtype=np.int64))):
         arrs = lu_arrays(N, N * N, N * N)
         assert factor(N, Ap, Ai, Ax[:], order, 0.1, 1e-13, *arrs) == FACTOR_OK
-        fill[name] = arrs[0][N] + arrs[3][N]
+        fill[name] = arrs[0].Lp[N] + arrs[0].Up[N]
     assert fill["md"] < 3 * Ap[N]
     assert fill["natural"] > 3 * fill["md"]
 
@@ -213,11 +222,15 @@ def test_one_step_equals_the_theta_formulas(text, theta):
         # pivots)
         start = sum(1 << i for i in range(m) if ref_lam[i] > 0) ^ (1 << int(rng.integers(m)))
         mask = to_words(start, words(m))
-        slot = np.full(1, -1, np.int64)
+        acts = Actives(np.stack([mask, np.zeros_like(mask)]), np.full(2, -1, np.int64))
+        fvars = np.zeros(FV_LEN)
+        fvars[FV_THETA] = theta
+        fvars[FV_RTOL] = 1e-11
+        led = Ledger(np.zeros(IV_LEN, np.int64), fvars, np.zeros_like(mask),
+                     Limits(100, -1, 1, 10, 32))
         W.csync[0] = -1
         xn, lamn = np.zeros(n), np.zeros(m)
-        st = kkt_step(b.arrays(), cache, 0, s, 1e-9 * s, theta, x, u0, u1, mask, slot, 1e-11,
-                      32, W, xn, lamn, np.zeros(40, np.int64))
+        st = kkt_step(b.arrays(), cache, 0, s, 1e-9 * s, x, u0, u1, acts, W, xn, lamn, led)
         assert st == 0
         assert np.allclose(xn, ref_x, rtol=1e-10, atol=1e-10 * np.abs(ref_x).max())
         assert np.allclose(lamn, ref_lam, rtol=1e-9, atol=1e-9 * max(1, np.abs(ref_lam).max()))

@@ -245,10 +245,11 @@ def test_tolerances_widen_with_the_model_drops(ngspice):
 
 
 def test_convergence_study_two_points(ngspice, tmp_path):
-    # the fast version of ngspice_checks/convergence.py: ε = 0.1 and 0.01 on 1 ms runs
+    # the fast version of the convergence study (python -m pelcs.convergence): ε = 0.1 and
+    # 0.01 on 1 ms runs
     import csv
 
-    from ngspice_checks import convergence
+    from pelcs import convergence
 
     assert convergence.main(["--fast", "--out", str(tmp_path)]) == 0
     assert (tmp_path / "convergence.png").stat().st_size > 0

@@ -60,17 +60,19 @@ per matrix, keeps reference counting out of the steps.)
 """
 
 LcpWork = namedtuple("LcpWork", ["z", "w", "active", "tableau", "basis", "aug", "mask",
-                                 "prev"])
-LcpWork.__doc__ = """Work arrays of the pivoting and basis solvers, for ``m`` pairs: ``z, w (m,)``,
-``active (m,) bool``, ``tableau (m, 2m + 2)``, ``basis (m,) int64``, ``aug (m, m + 1)``, two
-bitsets ``mask, prev (W,)``."""
+                                 "prev", "za", "wv", "ws"])
+LcpWork.__doc__ = """Work arrays of the LCP solvers, for ``m`` pairs: of the pivoting and basis
+solvers ``z, w (m,)``, ``active (m,) bool``, ``tableau (m, 2m + 2)``, ``basis (m,) int64``,
+``aug (m, m + 1)``, two bitsets ``mask, prev (W,)``; of the cached path (:func:`solve_cached`,
+:func:`solve_warm`) ``λ_a`` into ``za (m,)``, the inactive pairs' ``w`` into ``wv (m,)`` and
+its scale into ``ws (m,)``."""
 
 
 def lcp_work(m: int) -> LcpWork:
     """Allocate the work arrays of :class:`LcpWork` for ``m`` pairs."""
     return LcpWork(np.zeros(m), np.zeros(m), np.zeros(m, np.bool_), np.zeros((m, 2 * m + 2)),
                    np.zeros(m, np.int64), np.zeros((m, m + 1)), np.zeros(words(m), np.int64),
-                   np.zeros(words(m), np.int64))
+                   np.zeros(words(m), np.int64), np.zeros(m), np.zeros(m), np.zeros(m))
 
 
 @kernel
@@ -406,8 +408,7 @@ def solve_cached(M, MT, columns, j, q, sets, slot, za, rtol, wv, ws):
 
 
 @kernel
-def solve_warm(M, MT, columns, j, q, mask, sets, counters, za, rtol, max_iter, viol, prev, wv,
-               ws):
+def solve_warm(M, MT, columns, j, q, mask, sets, counters, rtol, max_iter, work):
     """Block principal pivoting from the active set ``mask`` (Júdice–Pires, with Murty's
     single-index rule when the number of infeasibilities stops decreasing) for
     ``w = M[j] λ + q``, each basis factorised through the cache of matrix ``j``.
@@ -417,11 +418,16 @@ def solve_warm(M, MT, columns, j, q, mask, sets, counters, za, rtol, max_iter, v
     new basis, a cached factorisation when the set was seen before; a flip that makes the
     basis singular is undone and the pivoting goes on one index at a time. Finite for
     P-matrices; stops after ``max_iter`` iterations otherwise. Returns ``(slot, na)`` of the
-    solution's cache slot (``λ_a`` in ``za[:na]``, ``mask`` its active set), or ``(-1, 0)``.
-    ``viol`` (m,) int64 and the bitset ``prev`` are work space; with ``columns`` the inactive
-    pairs' ``w`` is summed from the transpose ``MT`` into ``wv``, ``ws`` as in
-    :func:`solve_cached`.
+    solution's cache slot (``λ_a`` in ``work.za[:na]``, ``mask`` its active set), or
+    ``(-1, 0)``. ``work`` (:class:`LcpWork`): ``basis`` and the bitset ``prev`` are work space;
+    with ``columns`` the inactive pairs' ``w`` is summed from the transpose ``MT`` into
+    ``wv``, ``ws`` as in :func:`solve_cached`.
     """
+    za = work.za
+    viol = work.basis
+    prev = work.prev
+    wv = work.wv
+    ws = work.ws
     m = q.shape[0]
     best = m + 1
     tries = 0

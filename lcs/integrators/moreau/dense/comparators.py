@@ -40,15 +40,25 @@ def row_value(Cr, Dr, Fr, j, r, x, lam, u):
 
 
 @inline
-def crossing(mats, j, ja, d, sws, key, slide, x, lam, lama, u, c, cs, g, gt):
-    """Crossing functions ``g`` of the located comparators (``-inf`` for the others and for
-    the sliding switch ``slide``), their round-off scales ``gt``, and the controls ``c``,
-    ``cs`` behind them; returns ``max g``.
+def crossing(mats, blend, cross, x, lam, lama, u):
+    """Crossing functions ``cross.g`` of the located comparators (``-inf`` for the others and
+    for the sliding switch ``blend.sw``), their round-off scales ``cross.gt``, and the controls
+    ``cross.c``, ``cross.cs`` behind them (:class:`~.layout.Crossings`); returns ``max g``.
 
-    The controls are those of mode ``j`` of the stacked matrices ``mats`` at
-    ``(x, lam, u)``, or while a switch slides with ``d != 0`` the combination with mode
-    ``ja`` at ``(x, lama, u)``.
+    The controls are those of mode ``blend.j`` of the stacked matrices ``mats`` at
+    ``(x, lam, u)``, or while a switch slides with ``blend.d != 0`` the combination with mode
+    ``blend.ja`` at ``(x, lama, u)`` (:class:`~.layout.Blend`).
     """
+    j = blend.j
+    ja = blend.ja
+    slide = blend.sw
+    d = blend.d
+    sws = cross.sws
+    key = cross.key
+    c = cross.c
+    cs = cross.cs
+    g = cross.g
+    gt = cross.gt
     Cc, Dc, Fc = mats.Cc, mats.Dc, mats.Fc
     G = -np.inf
     for i in range(sws.kind.shape[0]):

@@ -149,29 +149,36 @@ COLUMN_MIN = 16
 
 
 @inline
-def free_regular(mats, inp, span, j, x, U0, U1, kk, xf, q):
-    """Free state ``xf = Phi x + G0 u0 + G1 u1`` and ``q = C xf + F u1`` of a regular step
-    of mode ``j`` of the stacked matrices ``mats``
-    (:class:`~lcs.integrators.moreau.dense.layout.ModeArrays`), with ``u0 = U0[kk]`` and ``u1 =
-    U1[kk]`` (:func:`free_state`). Returns False when they are not finite."""
-    return free_state(mats.Phi, mats.PhiT, mats.G0, mats.G1, j, True, mats, inp, span, j, x,
-                      U0, U1, kk, xf, q)
+def free_regular(stack, j, x, U0, U1, kk, W):
+    """Free state ``W.xf = Phi x + G0 u0 + G1 u1`` and ``W.q = C xf + F u1`` of a regular step
+    of mode ``j`` of ``stack`` (:class:`~lcs.integrators.moreau.dense.layout.ModeStack`), with
+    ``u0 = U0[kk]`` and ``u1 = U1[kk]`` (:func:`free_state`). Returns False when they are not
+    finite."""
+    mats = stack.mats
+    return free_state(mats.Phi, mats.PhiT, mats.G0, mats.G1, j, True, stack, j, x, U0, U1, kk,
+                      W)
 
 
 @inline
-def free_state(P, PT, G0, G1, ip, p_span, mats, inp, span, j, x, U0, U1, kk, xf, q):
-    """``xf = P[ip] x + G0[ip] u0 + G1[ip] u1`` and ``q = C xf + F u1`` with mode ``j``'s
-    ``C``, ``F`` of ``mats`` and ``u0 = U0[kk]``, ``u1 = U1[kk]``; the input terms over the
-    mode's input columns ``inp[j]`` only (:class:`~lcs.integrators.moreau.dense.layout.ModeStack`).
+def free_state(P, PT, G0, G1, ip, p_span, stack, j, x, U0, U1, kk, W):
+    """``xf = P[ip] x + G0[ip] u0 + G1[ip] u1`` and ``q = C xf + F u1`` into ``W.xf``, ``W.q``
+    (:class:`~lcs.integrators.moreau.dense.layout.StepWork`) with mode ``j``'s ``C``, ``F`` of
+    ``stack.mats`` and ``u0 = U0[kk]``, ``u1 = U1[kk]``; the input terms over the mode's input
+    columns ``stack.inp[j]`` only (:class:`~lcs.integrators.moreau.dense.layout.ModeStack`).
     Below
     :data:`COLUMN_MIN` states the products run row by row from ``P``, from there a column at
     a time from the transposes ``PT`` and ``mats.CT`` (each entry adds its terms in the same
     order, so the numbers are the same; the inner loops vectorise), each column over the
-    rows between its first and last non-zero entries only (``span[j]``, for ``P`` when
+    rows between its first and last non-zero entries only (``stack.span[j]``, for ``P`` when
     ``p_span``, i.e. ``P`` is the mode's regular ``Phi``; the skipped terms are exact zeros).
     The stacks are indexed (``ip``, ``j``) rather than viewed, which keeps reference counting
     out of the steps; a store that keeps one form of ``P`` only passes it as both. Returns
     False when the results are not finite."""
+    mats = stack.mats
+    inp = stack.inp
+    span = stack.span
+    xf = W.xf
+    q = W.q
     F = mats.F
     n = x.shape[0]
     m = q.shape[0]

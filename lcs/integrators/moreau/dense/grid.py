@@ -74,6 +74,7 @@ from .layout import (
     SW_SAMPLED,
     SWF_RELAY,
     Actives,
+    Blend,
     Crossings,
     Ends,
     Inputs,
@@ -91,13 +92,13 @@ from .store import find_mode, record, store_row
 
 @kernel
 def _work(n, m, k, p):
-    W = StepWork(np.zeros(n), np.zeros(m), np.zeros(m), np.zeros((n, m)), np.zeros((m, m)),
+    W = StepWork(np.zeros(n), np.zeros(m), np.zeros((n, m)), np.zeros((m, m)),
                  np.zeros((n, n + 1 + m)),
                  LcpWork(np.zeros(m), np.zeros(m), np.zeros(m, np.bool_),
                          np.zeros((m, 2 * m + 2)), np.zeros(m, np.int64), np.zeros((m, m + 1)),
                          np.zeros(max(1, (m + 63) // 64), np.int64),
-                         np.zeros(max(1, (m + 63) // 64), np.int64)),
-                 np.zeros(m), np.zeros(m))
+                         np.zeros(max(1, (m + 63) // 64), np.int64), np.zeros(m), np.zeros(m),
+                         np.zeros(m)))
     S = LocateWork(np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(p), np.zeros(n),
                    np.zeros(p), np.zeros(n), np.zeros(m), np.zeros(m), np.zeros(n), np.zeros(k),
                    np.zeros(k), np.zeros(n), np.zeros(m), np.zeros(m), np.zeros(3),
@@ -151,8 +152,8 @@ def plain_steps(stack, j, key, chunk, kk, kstop, ends, acts, W, store, led, coun
         if countdown == 0 or chunk.force_out[kk]:
             if countdown == 0:
                 countdown = every
-            store_row(stack, j, j, 0.0, -1, key, store.duty, 0.0, x, lam, lam, U1, kk, store.T,
-                      store.Y, pos, chunk.t[kk + 1])
+            store_row(stack, Blend(j, j, -1, 0.0), key, 0.0, x, lam, lam, U1, kk, store, pos,
+                      chunk.t[kk + 1])
             pos += 1
         kk += 1
     ivars[IV_OUTPOS] = pos
@@ -416,8 +417,8 @@ def run_grid(stack, sws, chunk, sched, state, lim, store):
             elif slide < 0 and (m == 0 or flags[j, MF_FAST] != 0):
                 if odd[kk] and ta == ta_grid:
                     # A shortened step onto a boundary: its length recurs every period.
-                    done = odd_cached_step(stack, j, s, fvars[FV_H], theta, x, ua, ub, act[0],
-                                           slots, W, xn, lamn, rtol, ivars, lim)
+                    done = odd_cached_step(stack, j, s, x, ua, ub, act[0], slots, W, xn, lamn,
+                                           led)
                 else:
                     done = odd_basis_step(stack, j, s, theta, x, ua, ub, act[0], W, xn, lamn,
                                           rtol)
@@ -432,7 +433,7 @@ def run_grid(stack, sws, chunk, sched, state, lim, store):
                 break
             G = -np.inf
             if has_located:
-                G = crossing(mats, j, ja, dd, sws, key, slide, xn, lamn, lamna, ub, c, cs, g, gt)
+                G = crossing(mats, Blend(j, ja, slide, dd), cross, xn, lamn, lamna, ub)
             if not (G > 0.0):
                 for i in range(n):
                     x[i] = xn[i]
@@ -526,8 +527,8 @@ def run_grid(stack, sws, chunk, sched, state, lim, store):
                 if every == 1:
                     u_interp(chunk, kk, (tcur - ta_grid) / (tb - ta_grid), S.ut)
                     pos = ivars[IV_OUTPOS]
-                    store_row(stack, j, ja, d, slide, key, store.duty, fvars[FV_DUTY], x, lam,
-                              lama, ut2, 0, store.T, store.Y, pos, tcur)
+                    store_row(stack, Blend(j, ja, slide, d), key, fvars[FV_DUTY], x, lam, lama,
+                              ut2, 0, store, pos, tcur)
                     ivars[IV_OUTPOS] = pos + 1
             elif ivars[IV_LASTSW] == first and fvars[FV_LASTT] == tcur:
                 # The switch it flipped at this very instant wants to flip back before the
@@ -591,8 +592,8 @@ def run_grid(stack, sws, chunk, sched, state, lim, store):
             if countdown == 0:
                 countdown = every
             pos = ivars[IV_OUTPOS]
-            store_row(stack, j, ja, d, slide, key, store.duty, fvars[FV_DUTY], x, lam, lama, U1,
-                      kk, store.T, store.Y, pos, tb)
+            store_row(stack, Blend(j, ja, slide, d), key, fvars[FV_DUTY], x, lam, lama, U1, kk,
+                      store, pos, tb)
             ivars[IV_OUTPOS] = pos + 1
         if has_sampled:
             sampled_controls(mats, j, ja, d, slide, sws, x, lam, lama, U1[kk], c)

@@ -11,10 +11,12 @@ array access; a mode is an index ``j`` into the stack):
   chunk, the output and event buffers, the integer options;
 * :class:`StepWork`, :class:`LocateWork` -- scratch arrays;
 * :class:`Ledger`, :class:`Actives`, :class:`Step`, :class:`Inputs`, :class:`Modes`,
-  :class:`Ends`, :class:`Crossings` -- the arguments of a step (:func:`~.step.mode_step`,
-  :func:`~.sliding.advance`) and of the instant search (:func:`~.locate.locate`) grouped by
-  what they hold: counters and options, active sets, the step's interval, its inputs, its
-  modes, the states at its ends, the comparators.
+  :class:`Ends`, :class:`Crossings`, :class:`Blend` -- the arguments of a step
+  (:func:`~.step.mode_step`, :func:`~.sliding.advance`), of the instant search
+  (:func:`~.locate.locate`), of the crossing test and of the output row grouped by what they
+  hold: counters and options, active sets, the step's interval, its inputs, its modes, the
+  states at its ends, the comparators, the mode (or Filippov combination of two) a value is
+  taken in.
 
 The kernel's running state (counters, the current switch key, where it stopped) lives in the
 ``ivars`` (int64) and ``fvars`` (float64) arrays indexed by ``IV_*`` and ``FV_*``, which the
@@ -204,11 +206,11 @@ Limits.__doc__ = """Lemke's pivot budget; enumeration fallback up to this m (-1:
 every ``every``-th grid step; at most ``max_sw`` comparator switchings per grid step; at most
 ``warm_iter`` iterations of warm-started principal pivoting (0: none, straight to Lemke)."""
 
-StepWork = namedtuple("StepWork", ["xf", "q", "za", "Ko", "Mo", "augn", "lcp", "wv", "ws"])
-StepWork.__doc__ = """Scratch of one θ step: ``x_free (n,)``, ``q (m,)``, the cached path's
-``λ_a (m,)``, the matrices of a step of another length ``K (n, m)``, ``M (m, m)``, the
-elimination array ``(n, n + 1 + m)``, the LCP solvers' :class:`LcpWork`, and the cached path's
-``w (m,)`` and its scale ``ws (m,)`` (:func:`lcs.lcp.compiled.solve_cached`)."""
+StepWork = namedtuple("StepWork", ["xf", "q", "Ko", "Mo", "augn", "lcp"])
+StepWork.__doc__ = """Scratch of one θ step: ``x_free (n,)``, ``q (m,)``, the matrices of a step of
+another length ``K (n, m)``, ``M (m, m)``, the elimination array ``(n, n + 1 + m)``, and the
+LCP solvers' :class:`~lcs.lcp.compiled.LcpWork` (with the cached path's ``λ_a``, ``w`` and its
+scale: :func:`lcs.lcp.compiled.solve_cached`)."""
 
 LocateWork = namedtuple("LocateWork", ["ga", "gta", "rate_a", "rate_b", "udot", "xdot", "ut",
                                        "xt", "lamt", "lamat", "xat", "g_hi", "gt_hi", "xs",
@@ -258,6 +260,13 @@ Filippov combination of both modes while a switch slides) and ``lamn (m,)``, in 
 mode ``ja`` ``xa (n,)`` and ``lama (m,)``; ``sg (3,)``, the relay values ``[σ_j, σ_ja, tol]``
 (:func:`~lcs.integrators.moreau.dense.sliding.relay_combine`). States in state units,
 multipliers in pair units."""
+
+Blend = namedtuple("Blend", ["j", "ja", "sw", "d"])
+Blend.__doc__ = """The mode a value (a control, a probe) is taken in: mode ``j`` (an index into the
+:class:`ModeStack`), or while switch ``sw`` slides (``sw >= 0``; -1: none) with ``d != 0``, the
+Filippov combination ``(1 - d) v_j + d v_ja`` with its value in mode ``ja``, the mode with
+``sw`` toggled; ``d`` is the fraction of the step in mode ``ja`` (0 to 1). Scalars only: built
+where it is passed, it costs nothing."""
 
 Crossings = namedtuple("Crossings", ["sws", "key", "c", "cs", "g", "gt"])
 Crossings.__doc__ = """The comparators and their last evaluation

@@ -16,7 +16,18 @@ from lcs.bits import copy_row
 from lcs.jit import inline, kernel
 
 from .comparators import control_rates, crossing, hermite_root
-from .layout import FV_H, FV_ROOT_TOL, IV_ROOTEVALS, STEP_OK, Actives, Ends, Inputs, Step
+from .layout import (
+    FV_H,
+    FV_ROOT_TOL,
+    IV_ROOTEVALS,
+    STEP_OK,
+    Actives,
+    Blend,
+    Crossings,
+    Ends,
+    Inputs,
+    Step,
+)
 from .sliding import advance
 
 
@@ -91,7 +102,8 @@ def locate(stack, modes, step, io, acts, led, cross, full, dfull, W, S, chunk):
     trial = Ends(x, lam, S.xt, S.lamt, S.xat, S.lamat, S.sg)
     # Crossing functions at the start (mode j; λ of the previous step, an estimate).
     mats = stack.mats
-    Ga = crossing(mats, j, ja, 0.0, sws, key, slide, x, lam, lam, ua, c, cs, S.ga, S.gta)
+    Ga = crossing(mats, Blend(j, ja, slide, 0.0), Crossings(sws, key, c, cs, S.ga, S.gta), x,
+                  lam, lam, ua)
     for i in range(p):
         S.udot[i] = (ub[i] - ua[i]) / s
     control_rates(mats, j, x, lam, ua, S.udot, S.rate_a, S.xdot)
@@ -139,8 +151,7 @@ def locate(stack, modes, step, io, acts, led, cross, full, dfull, W, S, chunk):
         ivars[IV_ROOTEVALS] += 1
         if st != STEP_OK:
             return st, s1, 0.0
-        G1 = crossing(mats, j, ja, d1, sws, key, slide, S.xt, S.lamt, S.lamat, S.ut, c, cs, g,
-                      gt)
+        G1 = crossing(mats, Blend(j, ja, slide, d1), cross, S.xt, S.lamt, S.lamat, S.ut)
         gtol = 0.0
         for i in range(k):
             if gt[i] > gtol:

@@ -31,6 +31,7 @@ from lcs.lcp.compiled import (
 from .discretise import COLUMN_MIN, discretise_nb, free_odd, free_regular, free_state
 from .layout import (
     FV_FEAS_TOL,
+    FV_H,
     FV_LEX_TOL,
     FV_PIVOT_TOL,
     FV_RTOL,
@@ -159,17 +160,17 @@ def regular_cached_step(stack, j, x, U0, U1, kk, slot, W, xn, lamn, rtol):
     non-finite result); :func:`mode_step` then decides.
     """
     mats = stack.mats
-    if not free_regular(mats, stack.inp, stack.span, j, x, U0, U1, kk, W.xf, W.q):
+    if not free_regular(stack, j, x, U0, U1, kk, W):
         return False
     if W.q.shape[0] == 0:
         for i in range(x.shape[0]):
             xn[i] = W.xf[i]
         return True
     na = solve_cached(mats.M, mats.MT, W.q.shape[0] >= COLUMN_MIN, j, W.q, stack.sets, slot,
-                      W.za, rtol, W.wv, W.ws)
+                      W.lcp.za, rtol, W.lcp.wv, W.lcp.ws)
     if na < 0:
         return False
-    return impulse_cached_t(W.xf, mats.K, mats.KT, j, stack.sets, slot, na, W.za, lamn,
+    return impulse_cached_t(W.xf, mats.K, mats.KT, j, stack.sets, slot, na, W.lcp.za, lamn,
                             xn)
 
 
@@ -186,8 +187,7 @@ def odd_basis_step(stack, j, s, theta, x, u0, u1, mask, W, xn, lamn, rtol):
 
 
 @inline
-def odd_cached_step(stack, j, s, h, theta, x, u0, u1, mask, slots, W, xn, lamn, rtol, ivars,
-                    lim):
+def odd_cached_step(stack, j, s, x, u0, u1, mask, slots, W, xn, lamn, led):
     """A shortened step of length ``s`` of mode ``j`` by the active set ``mask``, with the
     discretisation of that length and the factorisations of its active sets stored in
     ``stack.odd`` (made on the first step of a length within 1e-9 h of it); when the set is
@@ -195,8 +195,16 @@ def odd_cached_step(stack, j, s, h, theta, x, u0, u1, mask, slots, W, xn, lamn, 
     then updated and ``slots[0]`` forgotten): a PWM edge changes the same pairs at the same
     offset every period, so the new set is factorised once. Falls back to
     :func:`odd_basis_step` once stored lengths do not recur (more evictions than hits after
-    64 evictions). False when not taken this way (:func:`mode_step` decides: Lemke,
-    uniqueness)."""
+    64 evictions). h, θ, the acceptance tolerance and the limits are those of ``led``
+    (:class:`~lcs.integrators.moreau.dense.layout.Ledger`), whose ``ivars`` count the stored
+    lengths' hits and misses. False when not taken this way (:func:`mode_step` decides:
+    Lemke, uniqueness)."""
+    ivars = led.ivars
+    fvars = led.fvars
+    lim = led.lim
+    h = fvars[FV_H]
+    theta = fvars[FV_THETA]
+    rtol = fvars[FV_RTOL]
     odd = stack.odd
     mats = stack.mats
     nslots = odd.s.shape[1]
@@ -239,7 +247,7 @@ def odd_cached_step(stack, j, s, h, theta, x, u0, u1, mask, slots, W, xn, lamn, 
     else:
         ivars[IV_ODDHIT] += 1
     jj = j * nslots + slot
-    if not odd_free(stack, j, jj, x, u0, u1, W.xf, W.q):
+    if not odd_free(stack, j, jj, x, u0, u1, W):
         return False
     xf = W.xf
     q = W.q
@@ -249,9 +257,10 @@ def odd_cached_step(stack, j, s, h, theta, x, u0, u1, mask, slots, W, xn, lamn, 
             xn[i] = xf[i]
         return True
     so = lookup(odd.M, jj, mask, odd.sets, odd.counters)
-    na = solve_cached(odd.M, odd.M, False, jj, q, odd.sets, so, W.za, rtol, W.wv, W.ws)
+    na = solve_cached(odd.M, odd.M, False, jj, q, odd.sets, so, W.lcp.za, rtol, W.lcp.wv,
+                      W.lcp.ws)
     if na >= 0:
-        return impulse_kt(xf, odd.KT, jj, odd.sets, so, na, W.za, lamn, xn)
+        return impulse_kt(xf, odd.KT, jj, odd.sets, so, na, W.lcp.za, lamn, xn)
     # A switching changes the active set: pivot from the previous one here, through the
     # stored factorisations, rather than discretise again in mode_step (unless its solutions
     # must be checked for uniqueness, which mode_step does).
@@ -259,13 +268,13 @@ def odd_cached_step(stack, j, s, h, theta, x, u0, u1, mask, slots, W, xn, lamn, 
         return False
     copy_bits(mask, W.lcp.mask)
     ivars[IV_WARM] += 1
-    so, na = solve_warm(odd.M, odd.M, False, jj, q, W.lcp.mask, odd.sets, odd.counters, W.za,
-                        rtol, lim.warm_iter, W.lcp.basis, W.lcp.prev, W.wv, W.ws)
+    so, na = solve_warm(odd.M, odd.M, False, jj, q, W.lcp.mask, odd.sets, odd.counters, rtol,
+                        lim.warm_iter, W.lcp)
     if so < 0:
         return False
     copy_bits(W.lcp.mask, mask)
     slots[0] = -1
-    return impulse_kt(xf, odd.KT, jj, odd.sets, so, na, W.za, lamn, xn)
+    return impulse_kt(xf, odd.KT, jj, odd.sets, so, na, W.lcp.za, lamn, xn)
 
 
 @inline
@@ -279,8 +288,8 @@ def transpose_square(a):
 
 
 @inline
-def odd_free(stack, j, jj, x, u0, u1, xf, q):
-    """Free state ``xf`` and ``q`` of a shortened step of mode ``j`` from the stored
+def odd_free(stack, j, jj, x, u0, u1, W):
+    """Free state ``W.xf`` and ``W.q`` of a shortened step of mode ``j`` from the stored
     discretisation ``jj`` of :class:`~lcs.integrators.moreau.dense.layout.OddSteps` (its ``Phi``
     holds the row form below :data:`~lcs.integrators.moreau.dense.discretise.COLUMN_MIN` states, the
     transpose from there), inputs ``u0`` to ``u1``:
@@ -288,8 +297,8 @@ def odd_free(stack, j, jj, x, u0, u1, xf, q):
     finite."""
     p = u0.shape[0]
     odd = stack.odd
-    return free_state(odd.Phi, odd.Phi, odd.G0, odd.G1, jj, False, stack.mats, stack.inp,
-                      stack.span, j, x, u0.reshape((1, p)), u1.reshape((1, p)), 0, xf, q)
+    return free_state(odd.Phi, odd.Phi, odd.G0, odd.G1, jj, False, stack, j, x,
+                      u0.reshape((1, p)), u1.reshape((1, p)), 0, W)
 
 
 @kernel
@@ -324,7 +333,7 @@ def mode_step(stack, j, step, x, io, acts, ai, W, xn, lamn, led):
     mats = stack.mats
     fast = stack.flags[j, MF_FAST] != 0
     if regular:
-        finite = free_regular(mats, stack.inp, stack.span, j, x, U0, U1, kk, W.xf, W.q)
+        finite = free_regular(stack, j, x, U0, U1, kk, W)
         Kk = mats.K[j]
         Mk = mats.M[j]
     else:
@@ -351,19 +360,19 @@ def mode_step(stack, j, step, x, io, acts, ai, W, xn, lamn, led):
             slot = lookup(mats.M, j, mask, stack.sets, ivars)
             slots[ai] = slot
         na = solve_cached(mats.M, mats.MT, q.shape[0] >= COLUMN_MIN, j, q, stack.sets, slot,
-                          W.za, rtol, W.wv, W.ws)
+                          W.lcp.za, rtol, W.lcp.wv, W.lcp.ws)
         if na >= 0:
-            if impulse_cached_t(xf, mats.K, mats.KT, j, stack.sets, slot, na, W.za, lamn, xn):
+            if impulse_cached_t(xf, mats.K, mats.KT, j, stack.sets, slot, na, W.lcp.za, lamn,
+                                xn):
                 return STEP_OK
             return STEP_NONFINITE
         if lim.warm_iter > 0:
             slot, na = solve_warm(mats.M, mats.MT, m >= COLUMN_MIN, j, q, mask, stack.sets,
-                                  ivars, W.za, rtol, lim.warm_iter, W.lcp.basis, W.lcp.prev,
-                                  W.wv, W.ws)
+                                  ivars, rtol, lim.warm_iter, W.lcp)
             ivars[IV_WARM] += 1
             if slot >= 0:
                 slots[ai] = slot
-                if not impulse_cached_t(xf, mats.K, mats.KT, j, stack.sets, slot, na, W.za,
+                if not impulse_cached_t(xf, mats.K, mats.KT, j, stack.sets, slot, na, W.lcp.za,
                                         lamn, xn):
                     return STEP_NONFINITE
                 if check:

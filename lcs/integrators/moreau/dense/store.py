@@ -22,15 +22,23 @@ def _row_at(Cr, Dr, Fr, j, r, x, lam, U, ur):
 
 
 @inline
-def store_row(stack, j, ja, d, slide, key, duty, duty_value, x, lam, lama, U, ur, T, Y, pos, t):
-    """Write the stored probes at time ``t`` into row ``pos`` of ``T``, ``Y``; the inputs are
-    row ``ur`` of ``U`` (a row index, not a row: a view per stored step costs as much as the
-    step).
+def store_row(stack, blend, key, duty_value, x, lam, lama, U, ur, store, pos, t):
+    """Write the stored probes at time ``t`` into row ``pos`` of ``store.T``, ``store.Y``; the
+    inputs are row ``ur`` of ``U`` (a row index, not a row: a view per stored step costs as
+    much as the step).
 
-    A probe row of ``duty`` >= 0 is the state of that switch (1 on, 0 off; ``duty_value``, the
-    equivalent duty, while it slides). The probes are those of mode ``j`` of ``stack``, or
-    while a switch slides with ``d != 0`` the Filippov combination with mode ``ja``.
+    A probe row of ``store.duty`` >= 0 is the state of that switch in ``key`` (1 on, 0 off;
+    ``duty_value``, the equivalent duty, while it slides). The probes are those of mode
+    ``blend.j`` of ``stack``, or while a switch slides with ``blend.d != 0`` the Filippov
+    combination with mode ``blend.ja`` (:class:`~.layout.Blend`).
     """
+    j = blend.j
+    ja = blend.ja
+    slide = blend.sw
+    d = blend.d
+    duty = store.duty
+    T = store.T
+    Y = store.Y
     T[pos] = t
     sliding = slide >= 0 and d != 0.0
     if stack.flags[j, MF_OUTSTATE] != 0 and not sliding:

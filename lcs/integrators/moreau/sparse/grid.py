@@ -19,9 +19,7 @@ from ..dense.layout import (
     FV_FAIL_T0,
     FV_FAIL_T1,
     FV_H,
-    FV_RTOL,
     FV_TCUR,
-    FV_THETA,
     IV_EVPOS,
     IV_FAILMODE,
     IV_GSTEP,
@@ -35,6 +33,8 @@ from ..dense.layout import (
     STEP_FULL,
     STEP_NEED_MODE,
     STEP_OK,
+    Actives,
+    Ledger,
 )
 from ..dense.store import find_mode, record
 from .layout import NF_OUTSTATE, STEP_FALLBACK, STEP_GROW
@@ -87,9 +87,7 @@ def run_kkt(net, cache, chunk, sched, state, lim, store, W, stol):
     tg = chunk.t
     N = tg.shape[0] - 1
     U0, U1 = chunk.U0, chunk.U1
-    theta = fvars[FV_THETA]
     h = fvars[FV_H]
-    rtol = fvars[FV_RTOL]
     every = lim.every
     countdown = every - ivars[IV_GSTEP] % every
     cap_out = store.T.shape[0]
@@ -98,8 +96,10 @@ def run_kkt(net, cache, chunk, sched, state, lim, store, W, stol):
     xn = np.zeros(n)
     lamn = np.zeros(m)
     tkey = np.zeros_like(key)
-    slot = np.full(1, -1, np.int64)
-    mask = act[0]
+    # (the step's active set is act[0], its cache slot slot[0]; built once for the call)
+    slot = np.full(2, -1, np.int64)
+    acts = Actives(act, slot)
+    led = Ledger(ivars, fvars, state.fail, lim)
     W.csync[0] = -1  # (C x computed afresh: the state may come from elsewhere)
     j = -1
     js = -1.0
@@ -137,8 +137,7 @@ def run_kkt(net, cache, chunk, sched, state, lim, store, W, stol):
             slot[0] = -1
             js = s
         # (inlined: a call would incref and decref every array of net, cache and W each step)
-        st = step_body(net, cache, j, s, stol, theta, x, U0[kk], U1[kk], mask, slot, rtol,
-                       lim.warm_iter, W, xn, lamn, ivars)
+        st = step_body(net, cache, j, s, stol, x, U0[kk], U1[kk], acts, W, xn, lamn, led)
         if st != 0:
             fvars[FV_FAIL_T0] = ta
             fvars[FV_FAIL_T1] = tb

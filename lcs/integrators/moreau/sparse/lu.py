@@ -19,16 +19,25 @@ pivot steps.
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numpy as np
 
 from lcs.jit import inline, kernel
 
-__all__ = ["FACTOR_OK", "FACTOR_SINGULAR", "FACTOR_FULL", "factor", "solve", "solve_into",
-           "lu_arrays"]
+__all__ = ["FACTOR_OK", "FACTOR_SINGULAR", "FACTOR_FULL", "Factors", "factor", "solve",
+           "solve_into", "lu_arrays"]
 
 FACTOR_OK = 0
 FACTOR_SINGULAR = -1  # a column with no usable pivot
 FACTOR_FULL = -2  # the storage for L or U is too small
+
+Factors = namedtuple("Factors", ["Lp", "Li", "Lx", "Up", "Ui", "Ux", "pinv"])
+Factors.__doc__ = """The factors ``P A Q = L U`` of an N x N matrix (:func:`factor`), both by
+columns with row indices as pivot steps: ``Lp, Up (N + 1,)`` int64, the column pointers;
+``Li, Lx`` the strictly lower part of ``L`` (unit diagonal not stored) and ``Ui, Ux`` the upper
+part of ``U`` with its diagonal last in each column (their capacity is their length);
+``pinv (N,)`` int64, the pivot step of each row."""
 
 
 @kernel
@@ -74,20 +83,23 @@ def _reach(N, Ap, Ai, col, Lp, Li, pinv, mark, stamp, xi, top):
 
 
 @kernel
-def factor(N, Ap, Ai, Ax, q, tol, pivmin, Lp, Li, Lx, Up, Ui, Ux, pinv, x, xi, mark):
+def factor(N, Ap, Ai, Ax, q, tol, pivmin, lu, x, xi, mark):
     """Factorise the N x N matrix of columns ``Ap, Ai, Ax`` (CSC, any row order within a
-    column, no duplicates) as ``P A Q = L U`` with the column order ``q``; a column whose
-    largest candidate pivot is not above ``pivmin`` makes the matrix singular.
+    column, no duplicates) as ``P A Q = L U`` with the column order ``q`` into ``lu``
+    (:class:`Factors`); a column whose largest candidate pivot is not above ``pivmin`` makes
+    the matrix singular. ``x (N,)`` float, ``xi (2N,)`` and ``mark (N,)`` int64 are work space
+    (``mark`` zero, or left by an earlier call: its entries are compared with a fresh stamp).
 
-    ``Lp, Up (N+1,)``; ``Li, Lx`` and ``Ui, Ux`` hold the strictly lower part of ``L`` and the
-    upper part of ``U`` with its diagonal last in each column (their capacity is their
-    length); row indices are pivot steps. ``pinv (N,)`` receives the step of each row.
-    ``x (N,)`` float, ``xi (2N,)`` and ``mark (N,)`` int64 are work space (``mark`` zero, or
-    left by an earlier call: its entries are compared with a fresh stamp).
-
-    Returns ``FACTOR_OK``, ``FACTOR_SINGULAR`` (``Lp[0]`` then holds the step) or
+    Returns ``FACTOR_OK``, ``FACTOR_SINGULAR`` (``lu.Lp[0]`` then holds the step) or
     ``FACTOR_FULL``.
     """
+    Lp = lu.Lp
+    Li = lu.Li
+    Lx = lu.Lx
+    Up = lu.Up
+    Ui = lu.Ui
+    Ux = lu.Ux
+    pinv = lu.pinv
     for r in range(N):
         pinv[r] = -1
     # (a stamp above every entry of ``mark``: no clearing per column)
@@ -184,19 +196,20 @@ def solve_into(N, q, Lp, Li, Lx, Up, Ui, Ux, pinv, b, y, out):
         out[q[k]] = y[k]
 
 
-def lu_arrays(N: int, capL: int, capU: int):
-    """Allocate the factor and work arrays of :func:`factor` for an N x N matrix:
-    ``(Lp, Li, Lx, Up, Ui, Ux, pinv, x, xi, mark)``."""
-    return (np.zeros(N + 1, np.int64), np.zeros(capL, np.int64), np.zeros(capL),
-            np.zeros(N + 1, np.int64), np.zeros(capU, np.int64), np.zeros(capU),
-            np.zeros(N, np.int64), np.zeros(N), np.zeros(2 * N, np.int64),
-            np.zeros(N, np.int64))
+def lu_arrays(N: int, capL: int, capU: int) -> tuple[Factors, np.ndarray, np.ndarray,
+                                                     np.ndarray]:
+    """Allocate the factors and work arrays of :func:`factor` for an N x N matrix, with room
+    for ``capL`` entries of ``L`` and ``capU`` of ``U``: ``(lu, x, xi, mark)``, the arguments
+    of :func:`factor` after ``pivmin``."""
+    lu = Factors(np.zeros(N + 1, np.int64), np.zeros(capL, np.int64), np.zeros(capL),
+                 np.zeros(N + 1, np.int64), np.zeros(capU, np.int64), np.zeros(capU),
+                 np.zeros(N, np.int64))
+    return lu, np.zeros(N), np.zeros(2 * N, np.int64), np.zeros(N, np.int64)
 
 
-def solve(lu: tuple, q: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Python entry: ``A⁻¹ b`` from ``lu`` as returned by :func:`lu_arrays` after
-    :func:`factor`."""
-    Lp, Li, Lx, Up, Ui, Ux, pinv = lu[:7]
+def solve(lu: Factors, q: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Python entry: ``A⁻¹ b`` from the factors ``lu`` of :func:`factor`."""
+    Lp, Li, Lx, Up, Ui, Ux, pinv = lu
     N = pinv.shape[0]
     out = np.zeros(N)
     solve_into(N, q, Lp, Li, Lx, Up, Ui, Ux, pinv, np.ascontiguousarray(b, dtype=float),

@@ -344,7 +344,7 @@ def _factor_y(net, q: np.ndarray):
         cap *= 4
     if st != FACTOR_OK:
         return yq, None
-    Lp, Li, Lx, Up, Ui, Ux, pinv = arrs[:7]
+    Lp, Li, Lx, Up, Ui, Ux, pinv = arrs[0]
     return yq, (Lp, Li[:Lp[nz]].copy(), Lx[:Lp[nz]].copy(), Up, Ui[:Up[nz]].copy(),
                 Ux[:Up[nz]].copy(), pinv, rs, cs)
 

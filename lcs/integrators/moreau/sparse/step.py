@@ -33,7 +33,7 @@ import numpy as np
 from lcs.bits import bit
 from lcs.jit import inline, kernel
 
-from ..dense.layout import IV_WARM
+from ..dense.layout import FV_RTOL, FV_THETA, IV_WARM
 from .layout import (
     C_FACTOR,
     C_NEXT,
@@ -59,7 +59,7 @@ from .layout import (
     VI_YORDER,
     VI_YPINV,
 )
-from .lu import FACTOR_FULL, FACTOR_OK, factor, solve_into
+from .lu import FACTOR_FULL, FACTOR_OK, Factors, factor, solve_into
 
 KKTWork = namedtuple("KKTWork", ["Ap", "Ai", "Ax", "x", "xi", "mark", "rhs", "rhs0", "sol",
                                  "y", "zy", "v", "fd", "fu", "c", "wt", "csync", "marginal",
@@ -211,9 +211,9 @@ def lookup(net, cache, j, s, stol, mask, W):
     if N < 0:
         return -1
     q = net.ivec[net.vtab[j, VI_ORDER]:net.vtab[j, VI_ORDER] + N]
-    st = factor(N, W.Ap, W.Ai, W.Ax, q, PIVOT_TOL, PIVOT_MIN, cache.Lp[t], cache.Li[t],
-                cache.Lx[t], cache.Up[t], cache.Ui[t], cache.Ux[t], cache.pinv[t], W.x, W.xi,
-                W.mark)
+    st = factor(N, W.Ap, W.Ai, W.Ax, q, PIVOT_TOL, PIVOT_MIN,
+                Factors(cache.Lp[t], cache.Li[t], cache.Lx[t], cache.Up[t], cache.Ui[t],
+                        cache.Ux[t], cache.pinv[t]), W.x, W.xi, W.mark)
     cache.counters[C_FACTOR] += 1
     if st == FACTOR_FULL:
         return -1
@@ -504,25 +504,33 @@ def _alternative(prev, viol, nv, a, m, mask):
 
 
 @inline
-def step_body(net, cache, j, s, stol, theta, x, u0, u1, mask, slot, rtol, max_iter, W, xn,
-              lamn, ivars):
+def step_body(net, cache, j, s, stol, x, u0, u1, acts, W, xn, lamn, led):
     """One θ step of length ``s`` of mode ``j`` from ``x`` into ``xn``, ``lamn``, from the
-    active set ``mask`` (cache slot ``slot[0]``, -1: unknown), by block principal pivoting
+    active set ``mask = acts.act[0]`` (cache slot ``slot[0]``, ``slot = acts.slots``, -1:
+    unknown; :class:`~lcs.integrators.moreau.dense.layout.Actives`), by block principal pivoting
     (Júdice–Pires, Murty's single flip once the infeasibilities stop decreasing, as
     :func:`lcs.lcp.compiled.solve_warm`) when it is not accepted, and around a flip that
     makes the set singular the single flips and swaps of :func:`_alternative`
-    (``max_iter`` bases at most; 0: the previous set only). When the first set fails, the
+    (``max_iter = led.lim.warm_iter`` bases at most; 0: the previous set only; θ and the
+    acceptance tolerance ``rtol`` from ``led.fvars``,
+    :class:`~lcs.integrators.moreau.dense.layout.Ledger`). When the first set fails, the
     set its steps last ended in after pivoting (``cache.succ``) is tried next, and when that
     fails too, pivoting goes on from the first set: on a 100-stage multiplier the
     half-period commutations took up to 26 bases a step, and the remembered sets save 11 %
     of the run's KKT solves. ``mask`` and ``slot[0]`` are
-    updated; a step taken after pivoting counts in ``ivars[IV_WARM]``; ``W.c`` must hold
+    updated; a step taken after pivoting counts in ``led.ivars[IV_WARM]``; ``W.c`` must hold
     ``C x`` (``W.csync[0]`` steps old, -1: not valid) and is carried to ``C xn``. Step lengths
     within ``stol`` (s) of each other share factorisations, and the step taken is one of the
     factorised length (as the dense kernel's stored shortened steps: the matrix and the state
     update of one length). Returns 0 (taken), 1 (no accepted set, or a basis whose solution
     is not finite: the caller takes the step otherwise) or 3 (a factorisation needs more
     room)."""
+    mask = acts.act[0]
+    slot = acts.slots
+    ivars = led.ivars
+    theta = led.fvars[FV_THETA]
+    rtol = led.fvars[FV_RTOL]
+    max_iter = led.lim.warm_iter
     if theta < 1.0 and (W.csync[0] < 0 or W.csync[0] >= SYNC_STEPS):
         if not sync_c(net, j, x, W):
             return 1
@@ -626,13 +634,11 @@ def step_body(net, cache, j, s, stol, theta, x, u0, u1, mask, slot, rtol, max_it
 
 
 @kernel
-def kkt_step(net, cache, j, s, stol, theta, x, u0, u1, mask, slot, rtol, max_iter, W, xn,
-             lamn, ivars):
+def kkt_step(net, cache, j, s, stol, x, u0, u1, acts, W, xn, lamn, led):
     """:func:`step_body` as a kernel of its own, for one step called from Python.
 
     The grid loop (:func:`lcs.integrators.moreau.sparse.grid.run_kkt`) inlines :func:`step_body`
     instead: a compiled call that takes the mode store, the cache and the work space (108 arrays)
     increfs each of them on entry and decrefs them on return, which was 10-14 % of a
     50-stage multiplier's stepping in a perf profile."""
-    return step_body(net, cache, j, s, stol, theta, x, u0, u1, mask, slot, rtol, max_iter,
-                     W, xn, lamn, ivars)
+    return step_body(net, cache, j, s, stol, x, u0, u1, acts, W, xn, lamn, led)
