@@ -165,3 +165,20 @@ def test_cli_large_multiplier_scales(tmp_path, capsys, monkeypatch):
     assert json.loads(capsys.readouterr().out)["modes"][0]["gdcm"] is None
     assert main(["lcs", str(small), "--json", "--gdcm"]) == 0
     assert json.loads(capsys.readouterr().out)["modes"][0]["gdcm"] == listed["modes"][0]["gdcm"]
+
+
+def test_the_report_names_the_capacitors_that_hold_no_state(tmp_path, capsys):
+    # C3 closes a loop of capacitors (no state); Cin sits across V1 (no state, DC: exact)
+    from pelcs.cli import main
+
+    deck = tmp_path / "loops.cir"
+    deck.write_text("capacitors without a state\nV1 a 0 DC 10\nCin a 0 10u\nR1 a p 1k\n"
+                    "C1 p m 1u\nC2 m 0 1u\nC3 p 0 1u\nR2 m 0 10k\n.tran 1u 5m\n.end\n")
+    assert main(["lcs", str(deck)]) == 0
+    text = capsys.readouterr().out
+    assert "states (2): v(C1), v(C2)" in text
+    assert "note: C3: closes a loop of capacitors and DC sources (C1, C2)" in text
+    assert "note: Cin: its terminals are joined by voltage sources alone (V1)" in text
+    assert main(["lcs", str(deck), "--json"]) == 0
+    notes = json.loads(capsys.readouterr().out)["notes"]
+    assert len(notes) == 2 and notes[0].startswith("Cin:") and notes[1].startswith("C3:")

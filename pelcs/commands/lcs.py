@@ -74,11 +74,32 @@ def run(args: argparse.Namespace) -> int:
                           progress=not args.no_progress)
     report["file"] = args.file
     report["title"] = circuit.title
+    report["notes"] = reduction_notes(circuit)
     if args.json:
         print(dumps(report, indent=1))
     else:
         print(format_report(report))
     return 0
+
+
+def reduction_notes(circuit) -> list[str]:
+    """What the matrices leave out of the circuit: capacitors that hold no state (across
+    voltage sources, or closing a loop of capacitors and DC sources), whose currents the
+    printed ``E`` columns of those sources do not carry (they hold while the sources stay
+    as the netlist gives them)."""
+    from netlist.capacitor_links import capacitor_links, link_note
+    from netlist.reductions import held_capacitors, held_note
+
+    held = held_capacitors(circuit)
+    notes = held_note(held)
+    links = capacitor_links(circuit, held)
+    notes.extend(link_note(links))
+    sources = sorted({v for link in links.values() for v in link.sources})
+    if sources:
+        notes.append(f"the rows of x' of the loops' capacitors hold while {', '.join(sources)} "
+                     "stay constant, as the netlist gives them (a varying source would drive "
+                     "the links' currents through the loop, which the E columns leave out)")
+    return notes
 
 
 # -- arguments -----------------------------------------------------------------------------
@@ -329,6 +350,9 @@ def format_report(report: dict) -> str:
     if report.get("gdcm_skipped"):
         out.append("")
         out.append(f"note: {report['gdcm_skipped']}")
+    if report.get("notes"):
+        out.append("")
+        out.extend(f"note: {n}" for n in report["notes"])
     if report["modes"]:
         verdict = {True: "every mode passive", False: "not every mode passive",
                    None: "passivity unknown"}[report["passive"]]
