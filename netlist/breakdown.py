@@ -14,7 +14,9 @@ takes a diode past its ``BV`` (the ideal run that sizes the fits, or the piecewi
 run itself), :func:`netlist.studies.realistic.simulate_devices` gives it a reversed branch in
 parallel (:func:`breakdown_elements`): an ideal diode from its cathode, a source and a
 resistor to its anode, the line fitted to the breakdown characteristic over ``[IBV/20,
-IBV]`` (the current the model states its ``BV`` at). A note says so.
+IBV]`` (the current the model states its ``BV`` at), or, where the run takes it well outside
+that range, over ``[I/20, I]`` with ``I`` the current it carries there (one more run). A note
+says so.
 """
 
 from __future__ import annotations
@@ -58,11 +60,11 @@ class Breakdown:
             x = self.bv - self.nbv * vt * math.log(self.ibv / self.is_ + 1.0 - x / vt)
         return x
 
-    def fit(self) -> tuple[float, float]:
+    def fit(self, top: float | None = None) -> tuple[float, float]:
         """``(vf, ron)`` of the reversed branch (V, Ω): :func:`netlist.pwl.diode_fit` of the
-        breakdown characteristic over ``[IBV/20, IBV]``."""
+        breakdown characteristic over ``[top/20, top]`` (A; default ``IBV``)."""
         is_bv = self.is_ * math.exp(-self.xbv / (self.nbv * VT_THERMAL))
-        return diode_fit(is_bv, self.nbv, self.rs, self.ibv)
+        return diode_fit(is_bv, self.nbv, self.rs, self.ibv if top is None else top)
 
 
 def breakdowns(circuit: Circuit) -> dict[str, Breakdown]:
@@ -87,10 +89,13 @@ def breakdowns(circuit: Circuit) -> dict[str, Breakdown]:
     return out
 
 
-def breakdown_elements(bd: Breakdown) -> tuple[list, str]:
+def breakdown_elements(bd: Breakdown, top: float | None = None) -> tuple[list, str]:
     """The reversed branch of a diode in breakdown (``<name>#bv``, ``#vbv``, ``#rbv``, on
-    nodes ``<name>#z``, ``#zr``) and the line for its note."""
-    vf, ron = bd.fit()
+    nodes ``<name>#z``, ``#zr``), its line fitted over ``[top/20, top]`` (A; default
+    ``IBV``, else the current a run took it to), and the line for its note."""
+    vf, ron = bd.fit(top)
+    hi = bd.ibv if top is None else top
+    sized = "" if top is None else ", the current its run takes it to"
     key = bd.name.lower()
     z, zr = f"{key}#z", f"{key}#zr"
     parts: list = [Diode(f"{bd.name}#bv", (bd.cathode, z), None),
@@ -102,5 +107,5 @@ def breakdown_elements(bd: Breakdown) -> tuple[list, str]:
     line = (f"{bd.name}: reverse breakdown past BV = {bd.bv:.4g} V (its run takes it there): "
             f"a reversed branch in parallel, Vf = {vf:.4g} V, Ron = {ron:.4g} Ω (fit of "
             f"BV={bd.bv:.4g} IBV={bd.ibv:.3g} NBV={bd.nbv:.3g} RS={bd.rs:.3g} over "
-            f"{bd.ibv / 20:.3g}..{bd.ibv:.3g} A)")
+            f"{hi / 20:.3g}..{hi:.3g} A{sized})")
     return parts, line

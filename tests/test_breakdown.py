@@ -57,6 +57,24 @@ def test_a_zener_regulator_side_by_side_with_ngspice(tmp_path, ngspice):
     assert abs(np.mean(res["v(z)"][late]) - np.mean(want)) < 5e-3
 
 
+# The Zener carries about 30 mA: with IBV = 13 mA, or ngspice's default 1 mA, the line fitted
+# over [IBV/20, IBV] would miss it (measured: 5.309 V and 6.601 V against ngspice's 5.153 V and
+# 5.263 V); fitted again over the current the run takes it to: 5.174 V and 5.283 V.
+@pytest.mark.parametrize("ibv", ["13m", "1m"])
+def test_a_zener_far_above_its_ibv_gets_a_line_at_its_current(ibv, tmp_path, ngspice):
+    deck = ZENER.replace("IBV=49m", f"IBV={ibv}")
+    res = simulate_devices(parse_string(deck), devices="pwl", probes=["v(z)"])
+    note = next(n for n in res.notes if n.startswith("pwl: Dz: reverse breakdown"))
+    assert note.endswith("A, the current its run takes it to)")
+    assert res.names == ("v(z)",)
+    ng, log = ngspice_run(deck, ["v(z)"], tmp_path)
+    assert ng is not None, log
+    late = res.t > 20e-3
+    want = np.interp(res.t[late], ng[:, 0], ng[:, 1])
+    assert np.max(np.abs(res["v(z)"][late] - want)) < 0.04
+    assert abs(np.mean(res["v(z)"][late]) - np.mean(want)) < 0.025
+
+
 def test_a_diode_kept_below_its_breakdown_gets_no_branch():
     text = ZENER.replace("BV=5.1", "BV=50")
     res = simulate_devices(parse_string(text), devices="pwl", probes=["v(z)"])

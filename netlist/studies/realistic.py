@@ -109,23 +109,33 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         # sources without the charging current of a capacitor across them, which the losses
         # add as its power)
         check_probes(circuit, want)
-    for _ in range(2):  # (once more if the pwl run takes another diode past its BV)
-        run_circuit, lines = _broken_down(fitted, bds, broken)
+    # Once more if the pwl run takes another diode past its BV, and once more if it takes a
+    # broken-down diode well outside the current its branch was fitted over.
+    tops: dict[str, float] = {}
+    extended = False
+    for attempt in range(3):
+        run_circuit, lines = _broken_down(fitted, bds, broken, tops)
         watch = [bd.probe for name, bd in bds.items() if name not in broken]
+        watch += [f"i({name}#bv)" for name in sorted(broken)]
         res = simulate_circuit(run_circuit, probes=list(dict.fromkeys(want + extra + watch)),
                                path_currents=bool(extra), **kw)
         more = {name for name, bd in bds.items() if name not in broken
                 and float(np.max(res[bd.probe], initial=0.0)) > bd.bv}
-        if not more:
+        if more:
+            if extended:
+                bd = bds[sorted(more)[0]]
+                raise NetlistError(Diagnostic(
+                    message=f"diode {bd.name}: the run takes it past its breakdown voltage "
+                            f"BV = {bd.bv:g} V again with its reverse breakdown modelled",
+                    hint="pelcs models a diode's breakdown where a run first takes it there; "
+                         "shorten the run or check the circuit"), file=circuit.file)
+            broken |= more
+            extended = True
+            continue
+        resized = _resized(res, bds, broken, tops) if attempt < 2 else {}
+        if not resized:
             break
-        broken |= more
-    else:
-        bd = bds[sorted(more)[0]]
-        raise NetlistError(Diagnostic(
-            message=f"diode {bd.name}: the run takes it past its breakdown voltage BV = "
-                    f"{bd.bv:g} V again with its reverse breakdown modelled",
-            hint="pelcs models a diode's breakdown where a run first takes it there; shorten "
-                 "the run or check the circuit"), file=circuit.file)
+        tops.update(resized)
     res.device_fits = fits
     res.notes.extend(f"pwl: {f.line()}" for f in fits)
     res.notes.extend(f"pwl: {line}" for line in lines)
@@ -144,17 +154,34 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
     return res
 
 
-def _broken_down(circuit: Circuit, bds: dict, broken: set[str]) -> tuple[Circuit, list[str]]:
+def _broken_down(circuit: Circuit, bds: dict, broken: set[str], tops: dict[str, float]
+                 ) -> tuple[Circuit, list[str]]:
     """The piecewise-linear circuit with the reversed branch of each diode of ``broken``
-    (:func:`netlist.breakdown.breakdown_elements`), and their notes."""
+    (:func:`netlist.breakdown.breakdown_elements`, fitted up to ``tops[name]`` A where given),
+    and their notes."""
     if not broken:
         return circuit, []
     parts, lines = [], []
     for name in sorted(broken):
-        elements, line = breakdown_elements(bds[name])
+        elements, line = breakdown_elements(bds[name], tops.get(name))
         parts += elements
         lines.append(line)
     return replace(circuit, elements=[*circuit.elements, *parts]), lines
+
+
+def _resized(res: SimulationResult, bds: dict, broken: set[str], tops: dict[str, float]
+             ) -> dict[str, float]:
+    """The broken-down diodes whose branch carries a current well outside the range its
+    line was fitted over (above 1.5 times its top, or below a twentieth of it), and that
+    current (A): their line is fitted again there."""
+    t = np.asarray(res.t, float)
+    out = {}
+    for name in sorted(broken):
+        top = tops.get(name, bds[name].ibv)
+        carried = carried_current(t, res[f"i({name}#bv)"])
+        if carried > 1.5 * top or 1e-12 < carried < top / 20:
+            out[name] = carried
+    return out
 
 
 def _switch_loop(exc: NetlistError, switches: Sequence[Switch]) -> bool:
