@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..capacitor_links import capacitor_links
 from ..circuit import Capacitor, Circuit, Diode, Inductor, Resistor, Switch, VoltageSource
 from ..reductions import held_capacitors, parallel_diodes
 from .measure import (
@@ -181,7 +182,10 @@ def _held_power(result, circuit: Circuit, sel: np.ndarray, span: float, p_in: fl
     give such a capacitor is ``d(½ C v²)/dt``: its mean over the window is exact from the
     capacitor's voltage at the window's ends. Through E or H sources too, the sources' share
     is not known: NaN and the caveat."""
-    held = [(k, h) for k, h in held_capacitors(circuit).items() if not h.constant]
+    everything_held = held_capacitors(circuit)
+    if span > 0:
+        p_in += _link_power(result, circuit, everything_held, sel, span)
+    held = [(k, h) for k, h in everything_held.items() if not h.constant]
     if not held or span <= 0:
         return p_in, ""
     values = {el.key: float(el.value) for el in circuit.elements if isinstance(el, Capacitor)}
@@ -195,6 +199,22 @@ def _held_power(result, circuit: Circuit, sel: np.ndarray, span: float, p_in: fl
         v = np.asarray(result[_vprobe(*h.nodes)], dtype=float)[sel]
         p_in += 0.5 * values[key] * (v[-1] ** 2 - v[0] ** 2) / span
     return p_in, ""
+
+
+def _link_power(result, circuit: Circuit, held: dict, sel: np.ndarray, span: float) -> float:
+    """The mean power the DC sources give the link capacitors of loops of capacitors and DC
+    sources (:func:`netlist.capacitor_links.capacitor_links`), which the recorded source
+    currents leave out: a link's current ``C dv/dt`` circulates through its loop, where the
+    sources' voltage is its ``const`` (``v = Σ a v_key + const``), so they give it
+    ``const C dv/dt``, whose mean over the window is exact from the link's voltage at the
+    window's ends (zero over a settled whole number of periods)."""
+    total = 0.0
+    for link in capacitor_links(circuit, held).values():
+        if not link.sources or link.const == 0.0:
+            continue
+        v = np.asarray(result[_vprobe(*link.nodes)], dtype=float)[sel]
+        total += link.const * link.value * (v[-1] - v[0]) / span
+    return total
 
 
 def loss_probes(circuit: Circuit) -> list[str]:
