@@ -45,6 +45,7 @@ from netlist.circuit import Circuit
 from netlist.errors import Diagnostic, NetlistError
 
 from .api_analyses import basins, bifurcation, check, continuation, orbit, sweep
+from .api_results import Simulation, as_simulation
 
 __all__ = ["SimulationError", "SimulationResult", "ac", "basins", "bifurcation", "check",
            "continuation", "formulate", "load", "orbit", "simulate", "sweep"]
@@ -123,7 +124,7 @@ def simulate(
     pwl: Mapping[str, tuple[float, float]] | None = None,
     output_step: float | str | None = None,
     keep_events: int | None = None,
-) -> SimulationResult:
+) -> Simulation:
     """Simulate a circuit with the Moreau θ time-stepping scheme.
 
     Parameters
@@ -181,9 +182,11 @@ def simulate(
 
     Returns
     -------
-    SimulationResult
-        ``res.t`` (s, shape (N,)), ``res["v(out)"]`` (shape (N,), SI units), ``res.y``
-        (shape (N, len(probes))), ``res.names``, ``res.notes``, ``res.stats``.
+    pelcs.api_results.Simulation
+        A :class:`~lcs.results.SimulationResult`: ``res.t`` (s, shape (N,)), ``res["v(out)"]``
+        (shape (N,), SI units), ``res.y`` (shape (N, len(probes))), ``res.names``,
+        ``res.notes``, ``res.stats``; ``res.to_pandas()``, ``res.plot(ax=None)`` (the
+        figure of ``pelcs simulate --plot``) and a notebook display.
 
     Raises
     ------
@@ -231,6 +234,9 @@ def simulate(
         result = simulate_circuit(circuit, system=reused_system(circuit),
                                   options=_fresh_steps_options(), output_step=output_step,
                                   keep_events=keep_events, **kw)
+    result = as_simulation(result)
+    if result.error is not None:
+        result.error.result = result
     if check:
         result.raise_if_error()
     return result

@@ -24,6 +24,8 @@ from typing import Any
 
 import numpy as np
 
+from lcs.results import SimulationResult
+
 #: The resolution of the figure inlined by ``_repr_html_`` (dots per inch): small pages.
 HTML_DPI = 50
 
@@ -501,3 +503,46 @@ class SweepResult(_Result):
         if t.runs:
             return _root(histogram_figure(t, title=title, fig=fig))
         return _root(sweep_figure(t, title=title, fig=fig))
+
+
+class Simulation(SimulationResult):
+    """``pelcs simulate``: a run's probes (:class:`lcs.results.SimulationResult`, every
+    attribute and method of it), with the figure ``pelcs simulate --plot`` draws
+    (``.plot(ax=None)``) and a notebook display of its summary and figure."""
+
+    def plot(self, ax=None):
+        """One panel per probe over the run, and the last switching periods with their mean
+        where the run has them, as ``pelcs simulate --plot`` draws them."""
+        from pelcs.plotting import result_figure
+
+        return _root(result_figure(self, fig=_target(ax)))
+
+    def summary(self) -> list[tuple[str, Any]]:
+        """What ``pelcs simulate`` prints first: points, span, probes, steps, switchings,
+        and the error or the notes."""
+        t = np.asarray(self.t)
+        rows: list[tuple[str, Any]] = [
+            ("points", self.points),
+            ("t", f"{t[0]:.6g} .. {t[-1]:.6g} s" if t.size else "no points"),
+            ("probes", ", ".join(self.names)),
+            ("steps", self.stats.steps),
+            ("switchings", self.switchings),
+        ]
+        if self.error is not None:
+            rows.append(("error", str(self.error)))
+        rows += [("note", note) for note in self.notes]
+        return rows
+
+    def _repr_html_(self) -> str:
+        t = np.asarray(self.t)
+        fig = self.plot() if t.size and len(self.names) else None
+        return _html("simulation", self.summary(), fig)
+
+
+def as_simulation(result: SimulationResult) -> Simulation:
+    """``result`` as a :class:`Simulation` (the same attributes; no copy of its arrays)."""
+    if isinstance(result, Simulation):
+        return result
+    out = Simulation.__new__(Simulation)
+    out.__dict__.update(result.__dict__)
+    return out

@@ -24,6 +24,7 @@ __all__ = [
     "auto_zoom",
     "period_mean",
     "plot_result",
+    "result_figure",
     "probe_unit",
     "time_unit",
     "write_csv",
@@ -84,14 +85,30 @@ def plot_result(
     t_stop: float | None = None,
     dpi: int = 130,
 ) -> Path:
-    """Plot probes of a run, one panel per probe over a shared time axis, into a file.
+    """Plot probes of a run (:func:`result_figure`) into a file, whole or not at all; the
+    format follows the extension (``.png``, ``.svg``, ``.pdf``); returns the path written."""
+    return save_figure(result_figure(result, title=title, probes=probes, zoom=zoom,
+                                     t_stop=t_stop, dpi=dpi), path)
+
+
+def result_figure(
+    result: SimulationResult,
+    *,
+    fig=None,
+    title: str | None = None,
+    probes: Sequence[str] | None = None,
+    zoom: tuple[float, float] | str | None = "auto",
+    t_stop: float | None = None,
+    dpi: int = 130,
+):
+    """Probes of a run, one panel per probe over a shared time axis.
 
     Parameters
     ----------
     result : SimulationResult
         A run, possibly failed: the failure time is then marked on every panel.
-    path : str or path-like
-        Output file; the format follows the extension (``.png``, ``.svg``, ``.pdf``).
+    fig : matplotlib Figure or SubFigure, optional
+        Where to draw; default a new Figure.
     title : str, optional
         Figure title (e.g. the netlist title).
     probes : sequence of str, optional
@@ -104,12 +121,12 @@ def plot_result(
         The stop time the run was asked for, s: the time axis of a failed run extends to it,
         the part not simulated shaded.
     dpi : int
-        Resolution of raster formats.
+        Resolution of a new figure (dots per inch).
 
     Returns
     -------
-    Path
-        The file written.
+    matplotlib Figure or SubFigure
+        ``fig``, or the new Figure.
     """
     names = list(probes) if probes is not None else list(result.names)
     t = np.asarray(result.t)
@@ -120,7 +137,7 @@ def plot_result(
     window = auto_zoom(result) if zoom == "auto" else zoom
     panels = max(1, len(names))
     ncols = 2 if window is not None else 1
-    fig = new_figure((9.0 + 3.2 * (ncols - 1), 1.2 + 2.1 * panels), dpi=dpi)
+    fig = new_figure((9.0 + 3.2 * (ncols - 1), 1.2 + 2.1 * panels), fig=fig, dpi=dpi)
     axes = fig.subplots(panels, ncols, sharex="col", squeeze=False,
                         width_ratios=[3.0, 1.3][:ncols])
     colors = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#17becf"]
@@ -156,7 +173,7 @@ def plot_result(
         axes[-1, 1].set_xlabel(f"time [{zunit}]")
     if title:
         fig.suptitle(title, fontsize=11)
-    return save_figure(fig, path)
+    return fig
 
 
 def _zoom_panel(ax, t: np.ndarray, y: np.ndarray, window: tuple[float, float], color: str,

@@ -271,3 +271,28 @@ def test_frequency_response_repr_is_short():
     fr = pelcs.ac(str(bucks), period="ts", inject="Vc", probes=["v(out)"], freq="100:10k:3")
     text = repr(fr)
     assert len(text) <= MAX_REPR and "3 frequencies, 100 .. 1e+04 Hz" in text, text
+
+
+def test_a_simulation_shows_as_the_commands_plot(tmp_path):
+    res = pelcs.simulate(BUCK, tstop="1m", probes=["v(out)", "i(L1)"])
+    assert isinstance(res, pelcs.api.SimulationResult)
+    shown(res, lines=4)
+    fig = res.plot()
+    # the whole run and the last switching periods, one row per probe, as --plot draws it
+    assert len(fig.axes) == 4 and "[V]" in fig.axes[0].get_ylabel()
+    assert "[A]" in fig.axes[2].get_ylabel()
+    assert any("mean" in ax.get_title(loc="right") for ax in fig.axes)
+    outer = Figure()
+    left, right = outer.subplots(1, 2)
+    assert res.plot(ax=right) is outer
+    rows = dict(res.summary())
+    assert rows["points"] == len(res.t) and rows["switchings"] == res.switchings
+    # a failed run, returned or raised, is shown the same way with its error
+    failing = str(ROOT / "tests" / "netlists" / "sim" / "negative_r.cir")
+    with pytest.warns(UserWarning):
+        bad = pelcs.simulate(failing, probes=["v(in)"], check=False)
+    assert bad.error is not None and "error" in dict(bad.summary())
+    shown(bad, lines=4)
+    with pytest.raises(pelcs.SimulationError) as exc, pytest.warns(UserWarning):
+        pelcs.simulate(failing, probes=["v(in)"])
+    assert isinstance(exc.value.result, type(res))
