@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 import os
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -45,6 +46,32 @@ def _pct(x: float) -> str:
 
 def _verdict(ok: bool) -> str:
     return "ok" if ok else "FAIL"
+
+
+class _Cells(NamedTuple):
+    """A compared probe's figures as the table and the Markdown report write them."""
+
+    nrms: str
+    nrms_tol: str
+    mean_pelcs: str
+    mean_ngspice: str
+    mean_diff: str
+    mean_tol: str
+    ripple_pelcs: str
+    ripple_ngspice: str
+    ripple_diff: str
+    ripple_tol: str
+
+
+def _probe_cells(p) -> _Cells:
+    """The figures of one compared probe: NRMS and the mean and ripple differences as
+    percentages of the probe's scale, the values in SI units, the tolerances beside them."""
+    u = probe_unit(p.probe)
+    return _Cells(_pct(p.nrms), _pct(p.nrms_tol), _eng(p.mean_pelcs, u),
+                  _eng(p.mean_ngspice, u), _pct(p.mean_error / p.scale),
+                  _pct(p.mean_tol / p.scale), _eng(p.ripple_pelcs, u),
+                  _eng(p.ripple_ngspice, u), _pct(p.ripple_error / p.scale),
+                  _pct(p.ripple_tol / p.scale))
 
 
 def _probe_verdict(cmp: Comparison, p) -> str:
@@ -150,13 +177,11 @@ def format_table(cmp: Comparison) -> str:
             f"{'diff [tol]':>19} {'ripple pelcs':>12} {'ngspice':>11} {'diff [tol]':>19}  ")
     lines.append(head)
     for p in cmp.probes:
-        u = probe_unit(p.probe)
+        c = _probe_cells(p)
         lines.append(
-            f"{p.probe:<12} {_pct(p.nrms):>8} [{_pct(p.nrms_tol):>7}] "
-            f"{_eng(p.mean_pelcs, u):>11} {_eng(p.mean_ngspice, u):>11} "
-            f"{_pct(p.mean_error / p.scale):>8} [{_pct(p.mean_tol / p.scale):>7}] "
-            f"{_eng(p.ripple_pelcs, u):>12} {_eng(p.ripple_ngspice, u):>11} "
-            f"{_pct(p.ripple_error / p.scale):>8} [{_pct(p.ripple_tol / p.scale):>7}]  "
+            f"{p.probe:<12} {c.nrms:>8} [{c.nrms_tol:>7}] {c.mean_pelcs:>11} "
+            f"{c.mean_ngspice:>11} {c.mean_diff:>8} [{c.mean_tol:>7}] {c.ripple_pelcs:>12} "
+            f"{c.ripple_ngspice:>11} {c.ripple_diff:>8} [{c.ripple_tol:>7}]  "
             f"{_probe_verdict(cmp, p)}" + (f" ({', '.join(p.failures)})" if p.failures
                                            else "") + _transient_cell(p)
         )
@@ -332,13 +357,11 @@ def markdown_report(cmp: Comparison, figure: str | None = None) -> str:
             "ripple ngspice | diff | |",
             "|---|---|---|---|---|---|---|---|---|---|"]
     for p in cmp.probes:
-        u = probe_unit(p.probe)
+        c = _probe_cells(p)
         out.append(
-            f"| `{p.probe}` | `{p.ngspice_probe}` | {_pct(p.nrms)} [{_pct(p.nrms_tol)}] | "
-            f"{_eng(p.mean_pelcs, u)} | {_eng(p.mean_ngspice, u)} | "
-            f"{_pct(p.mean_error / p.scale)} [{_pct(p.mean_tol / p.scale)}] | "
-            f"{_eng(p.ripple_pelcs, u)} | {_eng(p.ripple_ngspice, u)} | "
-            f"{_pct(p.ripple_error / p.scale)} [{_pct(p.ripple_tol / p.scale)}] | "
+            f"| `{p.probe}` | `{p.ngspice_probe}` | {c.nrms} [{c.nrms_tol}] | "
+            f"{c.mean_pelcs} | {c.mean_ngspice} | {c.mean_diff} [{c.mean_tol}] | "
+            f"{c.ripple_pelcs} | {c.ripple_ngspice} | {c.ripple_diff} [{c.ripple_tol}] | "
             f"{_probe_verdict(cmp, p)}" + _transient_cell(p) + " |")
     if cmp.probes:
         out += ["", f"NRMS leaves out {_pct(cmp.probes[0].excluded)} of the grid points "
