@@ -109,11 +109,12 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         # sources without the charging current of a capacitor across them, which the losses
         # add as its power)
         check_probes(circuit, want)
-    # Once more if the pwl run takes another diode past its BV, and once more if it takes a
-    # broken-down diode well outside the current its branch was fitted over.
+    # Once more if the pwl run takes another diode past its BV (a second time is an error),
+    # and, in the first two runs, once more if it takes a broken-down diode well outside the
+    # current its branch was fitted over: at most four runs, the last one never continued.
     tops: dict[str, float] = {}
     extended = False
-    for attempt in range(3):
+    for attempt in range(4):
         run_circuit, lines = _broken_down(fitted, bds, broken, tops)
         watch = [bd.probe for name, bd in bds.items() if name not in broken]
         watch += [f"i({name}#bv)" for name in sorted(broken)]
