@@ -14,7 +14,7 @@ import numpy as np
 
 from ..model import LCS, ModeKey, OutputMap, SwitchedLCS
 from ..network import NetworkRealisation
-from .switches import SW_SCHEDULED
+from .switches import SW_SCHEDULED, reads_state, same_input_rows
 
 
 def contiguous(a, shape=None) -> np.ndarray:
@@ -224,8 +224,7 @@ class Problem:
         ``mode``, nor differ from the rows their instants were computed with."""
         switches = self.system.switches
         om = self.system.outputs(mode, [switches[i].control for i in idx])
-        state_dep = np.any(np.asarray(om.Cy) != 0, axis=1) | np.any(np.asarray(om.Dy) != 0,
-                                                                      axis=1)
+        state_dep = reads_state(om)
         if state_dep.any():
             s = switches[idx[int(np.flatnonzero(state_dep)[0])]]
             raise NotImplementedError(
@@ -240,9 +239,7 @@ class Problem:
         if rows is None:
             return
         Fy = np.asarray(om.Fy, dtype=float).reshape(len(idx), -1)
-        if np.array_equal(rows[idx], Fy):  # (the usual case; isclose was 0.3 ms a mode)
-            return
-        ok = np.isclose(rows[idx], Fy, rtol=1e-12, atol=0.0).all(axis=1)
+        ok = same_input_rows(rows[idx], Fy)
         if not ok.all():
             s = switches[idx[int(np.flatnonzero(~ok)[0])]]
             raise NotImplementedError(
