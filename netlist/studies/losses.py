@@ -174,17 +174,14 @@ def storage_probes(circuit: Circuit) -> list[str]:
     return list(dict.fromkeys(probes))
 
 
-def _held_power(result, circuit: Circuit, sel: np.ndarray, span: float, p_in: float
-                ) -> tuple[float, str]:
+def _held_power(result, circuit: Circuit, everything_held: dict, sel: np.ndarray,
+                span: float, p_in: float) -> tuple[float, str]:
     """The input power with that of the capacitors the sources alone join
     (:func:`netlist.reductions.held_capacitors`), whose current the recorded source currents
     leave out, and a caveat ("" when none). Through independent sources only, the power they
     give such a capacitor is ``d(½ C v²)/dt``: its mean over the window is exact from the
     capacitor's voltage at the window's ends. Through E or H sources too, the sources' share
-    is not known: NaN and the caveat."""
-    everything_held = held_capacitors(circuit)
-    if span > 0:
-        p_in += _link_power(result, circuit, everything_held, sel, span)
+    is not known: NaN and the caveat (``everything_held``: :func:`held_capacitors`)."""
     held = [(k, h) for k, h in everything_held.items() if not h.constant]
     if not held or span <= 0:
         return p_in, ""
@@ -209,6 +206,8 @@ def _link_power(result, circuit: Circuit, held: dict, sel: np.ndarray, span: flo
     ``const C dv/dt``, whose mean over the window is exact from the link's voltage at the
     window's ends (zero over a settled whole number of periods)."""
     total = 0.0
+    if span <= 0:
+        return total
     for link in capacitor_links(circuit, held).values():
         if not link.sources or link.const == 0.0:
             continue
@@ -273,7 +272,9 @@ def losses(result, circuit: Circuit, fits: Sequence = (), load: str | None = Non
     for v in _sources(circuit):
         p_in += mean(-np.asarray(result[_vprobe(*v.nodes[:2])], dtype=float)
                      * np.asarray(result[f"i({v.name})"], dtype=float))
-    p_in, rep.caveat = _held_power(result, circuit, sel, span, p_in)
+    held = held_capacitors(circuit)
+    p_in += _link_power(result, circuit, held, sel, span)
+    p_in, rep.caveat = _held_power(result, circuit, held, sel, span, p_in)
     rep.p_in = p_in
     rep.efficiency = rep.p_out / p_in if p_in > 0 else float("nan")
     checks = settling(result, [Measurement("mean", p, f"mean({p})")
