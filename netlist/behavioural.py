@@ -24,11 +24,13 @@ equivalent, and refuses the others with the expression's place and the accepted 
   ``lo + (hi - lo) s``, ``s`` the state of an ideal switch on the comparison
   (:func:`_driving`).
 
-- **clamp in the control path**: ``max(lo, min(hi, e))`` (or ``min``/``max`` alone) of an
-  affine ``e``, a ``V=`` source to ground whose output is read only by comparator B sources
-  comparing it with known waveforms (DC, PULSE, PWL sources) that stay within the clamp's
-  range: there ``clamp(e) > r`` is ``e > r`` at every instant, so :func:`fold_clamps` puts
-  ``e`` into those comparisons and removes the clamp (exact; anything else is refused).
+- **clamp**: ``max(lo, min(hi, e))`` (or ``min``/``max`` alone) of an affine ``e``. A ``V=``
+  source to ground whose output only comparator B sources read, comparing it with known
+  waveforms (DC, PULSE, PWL sources) that stay within the clamp's range, is folded into
+  them: there ``clamp(e) > r`` is ``e > r`` at every instant (:func:`fold_clamps`); so is one
+  that only S switches read with their band inside the range. Any other is built as an ideal
+  limiter (:mod:`netlist.limiter`: ideal diodes hold an inner node at the bounds). Both are
+  exact.
 
 The expressions themselves (grammar, linear and comparator forms) are
 :mod:`netlist.behavioural_expr`.
@@ -42,7 +44,7 @@ from typing import ClassVar
 
 from lcs.signals import Dc, Pulse, Pwl
 
-from .behavioural_expr import ACCEPTED, Affine, BehaviouralError, Clamp, Select, Step, linearise
+from .behavioural_expr import Affine, BehaviouralError, Clamp, Select, Step, linearise
 from .circuit import (
     GROUND,
     Cccs,
@@ -60,6 +62,7 @@ from .circuit import (
 from .dialect import hierarchical_name
 from .errors import Diagnostic, Location
 from .knee import elaborate_knee
+from .limiter import LIMITER_OHMS, limiter_elements
 from .rawdeck import RawElement
 
 __all__ = ["ClampSource", "Comparator", "elaborate", "fold_clamps", "linear_elements",
@@ -91,6 +94,7 @@ class ClampSource(Element):
 
     clamp: Clamp | None = None
     text: str = ""
+    kind_out: str = "V"
     kind: ClassVar[str] = "B"
 
 
@@ -170,21 +174,11 @@ def elaborate(el: RawElement, prefix: str, mapnode: Callable[[str], str],
     if isinstance(form, Step | Select):
         return [Comparator(name, nodes, loc, out_kind, form, text)]
     if isinstance(form, Clamp):
-        if out_kind != "V" or nodes[1] != GROUND:
-            error(f"{name}: '{text.strip()}' clamps a linear expression (min/max) "
-                  f"{'as a current' if out_kind != 'V' else 'between two nodes'}",
-                  el.st.loc(offset), _CLAMP_HINT, (name,))
-            return []
-        return [ClampSource(name, nodes, el.st.loc(offset), form, text)]
+        return [ClampSource(name, nodes, el.st.loc(offset), form, text, out_kind)]
     return linear_elements(name, out_kind, nodes, form, loc)
 
 
 # ------------------------------------------------------------------------------ clamps
-
-_CLAMP_HINT = ("pelcs reads a clamp max(lo, min(hi, e)) of a linear e only in a control path: "
-               "a V= source to ground whose output only comparator B sources read, each "
-               "comparing it with DC, PULSE or PWL sources that stay within [lo, hi], or only "
-               "S switches whose VT ± VH lies inside (lo, hi); " + ACCEPTED)
 
 
 def _source_range(circuit: Circuit, node: str) -> tuple[float, float] | None:
@@ -206,9 +200,10 @@ def _source_range(circuit: Circuit, node: str) -> tuple[float, float] | None:
     return None
 
 
-def _fold_one(circuit: Circuit, b: ClampSource, comp: Comparator) -> str | None:
-    """Put ``b``'s affine form into ``comp``'s comparison, where that is exact; else why
-    not."""
+def _fold_one(circuit: Circuit, b: ClampSource, comp: Comparator, dry: bool = False
+              ) -> str | None:
+    """Put ``b``'s affine form into ``comp``'s comparison, where that is exact (only check,
+    if ``dry``); else why not."""
     assert b.clamp is not None and comp.step is not None
     p = b.nodes[0]
     step, clamp = comp.step, b.clamp
@@ -234,24 +229,27 @@ def _fold_one(circuit: Circuit, b: ClampSource, comp: Comparator) -> str | None:
         return (f"the level it is compared with spans {lo_r:g} to {hi_r:g} V, beyond the "
                 f"clamp's range {clamp.lo:g} to {clamp.hi:g} V, where the clamp decides the "
                 "comparison")
-    comp.step = replace(step, diff=rest.plus(clamp.form.scaled(a)))
+    if not dry:
+        comp.step = replace(step, diff=rest.plus(clamp.form.scaled(a)))
     return None
 
 
 def fold_clamps(circuit: Circuit) -> list[Diagnostic]:
-    """Fold every :class:`ClampSource` into the comparator B sources that read its output,
-    and remove it.
+    """Fold every :class:`ClampSource` into the comparator B sources or the switches that
+    read its output, or else build it as an exact limiter; remove it.
 
     ``max(lo, min(hi, e))`` compared with a level ``r`` is ``e`` compared with ``r`` while
     ``lo < r < hi`` (and at one of the two bounds, by the comparison's direction and
     strictness); so when the other side of every comparison reading the clamp is a known
     waveform (independent DC, PULSE or PWL sources) within that range, the comparison of
-    ``e`` is exact at every instant, whether or not the clamp is active.
+    ``e`` is exact at every instant, whether or not the clamp is active. A clamp that
+    anything else reads (a capacitor, a resistor, another B source, a transistor's gate
+    network) becomes the ideal-diode limiter of :mod:`netlist.limiter`, also exact.
 
     Returns
     -------
     list of Diagnostic
-        A clamp whose output feeds anything but comparators, or a comparison it decides.
+        Always empty (kept for the callers that collect the diagnostics of each pass).
     """
     diags: list[Diagnostic] = []
     clamps = [el for el in circuit.elements if isinstance(el, ClampSource)]
@@ -260,7 +258,6 @@ def fold_clamps(circuit: Circuit) -> list[Diagnostic]:
     circuit.elements[:] = [el for el in circuit.elements if not isinstance(el, ClampSource)]
     for b in clamps:
         p = b.nodes[0]
-        label = f"B source {b.name} ({b.text.strip()})"
         readers: list[Comparator] = []
         bad: list[str] = []
         for el in circuit.elements + [c for c in clamps if c is not b]:
@@ -272,31 +269,48 @@ def fold_clamps(circuit: Circuit) -> list[Diagnostic]:
                 bad.append(el.name)
         gated = [el for el in circuit.elements if isinstance(el, Switch)
                  and p in el.control and p not in el.nodes]
-        if gated and not readers and set(bad) == {sw.name for sw in gated}:
+        why = "its output is read by nothing"
+        if b.kind_out != "V" or b.nodes[1] != GROUND:
+            why = "it is a current" if b.kind_out != "V" else "it is not a voltage to ground"
+        elif gated and not readers and set(bad) == {sw.name for sw in gated}:
             why = _gate_switches(circuit, b, gated)
             if why is None:
                 continue
-            diags.append(Diagnostic(f"{label} clamps a linear expression that switch "
-                                    f"{why}", b.location, _CLAMP_HINT, (b.name,)))
-            continue
-        if bad or not readers:
-            feeds = f"feeds {', '.join(bad)}" if bad else "feeds no comparator"
-            diags.append(Diagnostic(f"{label} clamps a linear expression and its output "
-                                    f"{p} {feeds}", b.location, _CLAMP_HINT, (b.name, *bad)))
-            continue
-        for comp in readers:
-            why = _fold_one(circuit, b, comp)
-            if why is not None:
-                diags.append(Diagnostic(
-                    f"{label} clamps a linear expression that comparator {comp.name} "
-                    f"reads, and {why}", b.location, _CLAMP_HINT, (b.name, comp.name)))
+            why = "switch " + why
+        elif readers and not bad:
+            whys = [_fold_one(circuit, b, comp, dry=True) for comp in readers]
+            if all(w is None for w in whys):
+                for comp in readers:
+                    _fold_one(circuit, b, comp)
+                    circuit.notes.append(
+                        f"{b.name}: clamp ({b.text.strip()}) folded into comparator "
+                        f"{comp.name}: the level it is compared with stays within the clamp's "
+                        f"range {b.clamp.lo:g} to {b.clamp.hi:g} V, where comparing the clamp "
+                        f"is comparing its linear expression (exact; its output node {p} is "
+                        "gone)")
                 continue
-            circuit.notes.append(
-                f"{b.name}: clamp ({b.text.strip()}) folded into comparator {comp.name}: "
-                f"the level it is compared with stays within the clamp's range "
-                f"{b.clamp.lo:g} to {b.clamp.hi:g} V, where comparing the clamp is comparing "
-                f"its linear expression (exact; its output node {p} is gone)")
+            why = next(f"comparator {comp.name} reads it, and {w}"
+                       for comp, w in zip(readers, whys, strict=True) if w is not None)
+        elif bad:
+            why = f"it feeds {', '.join(bad)}"
+        _limiter(circuit, b, why)
     return diags
+
+
+def _limiter(circuit: Circuit, b: ClampSource, why: str) -> None:
+    """Build ``b`` as the exact ideal-diode limiter of :mod:`netlist.limiter`, with a note
+    saying why it was not folded (``why``)."""
+    assert b.clamp is not None
+    e_node = f"{b.name.lower()}#e"
+    chain = linear_elements(f"{b.name}#e", "V", (e_node, GROUND), b.clamp.form, b.location)
+    circuit.elements.extend(limiter_elements(circuit, b.name, b.kind_out, b.nodes, b.clamp,
+                                             b.location, chain))
+    circuit.notes.append(
+        f"{b.name}: clamp ({b.text.strip()}) built as an ideal limiter ({why}): the linear "
+        f"expression on node {e_node} through {LIMITER_OHMS:g} Ω to node "
+        f"{b.name.lower()}#c, which ideal diodes hold within {b.clamp.lo:g} to "
+        f"{b.clamp.hi:g} V, buffered to the output (exact: v({b.name.lower()}#c) is the "
+        "clamp at every instant)")
 
 
 def _gate_switches(circuit: Circuit, b: ClampSource, gated: list[Switch]) -> str | None:
@@ -313,6 +327,10 @@ def _gate_switches(circuit: Circuit, b: ClampSource, gated: list[Switch]) -> str
     for sw in gated:
         if set(sw.control) != {p, GROUND}:
             return f"{sw.name} compares with another node"
+        if sw.gate_rc is not None:
+            # with --devices pwl the clamp charges the device's gate capacitances, which the
+            # unclamped expression would drive far beyond the clamp's range
+            return f"{sw.name} is a transistor whose gate network it drives"
         model = circuit.models.get(sw.model.lower())
         params = model.params if model is not None else {}
         vt, vh = float(params.get("vt", 0.0)), abs(float(params.get("vh", 0.0)))

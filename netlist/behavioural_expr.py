@@ -32,7 +32,8 @@ ACCEPTED = ("pelcs reads B sources whose expression is linear in v() and i() (co
             "parameters allowed; it becomes E/G/H/F sources), and comparators 'x > y ? A : B', "
             "'u(x - y)' or 'A*(x > y)' with linear x, y and constant A, B, or 'x > y ? A : B' "
             "with linear A, B as the whole expression (an ideal switch on the comparison sets "
-            "the output)")
+            "the output), and clamps max(lo, min(hi, x)) of a linear x with constant lo, hi "
+            "(ideal diodes hold it within the bounds)")
 
 
 class BehaviouralError(Exception):
@@ -305,8 +306,8 @@ class Select:
 class Clamp:
     """``max(lo, min(hi, form))``: an affine form clamped between constants (``lo`` may be
     ``-inf``, ``hi`` ``+inf``; ``lo < hi``), as ``min``/``max`` of an affine form and
-    constants give. pelcs reads it only where it is compared against a known waveform
-    (:func:`netlist.behavioural.resolve_comparators` folds it into the comparison)."""
+    constants give: folded into what compares it, or an ideal limiter
+    (:func:`netlist.behavioural.fold_clamps`)."""
 
     form: Affine
     lo: float

@@ -94,6 +94,9 @@ class Diode(Element):
     model: str = ""
     area: float = 1.0
     part_of: str = field(default="", compare=False)
+    # a diode of pelcs's own construction (a B source's limiter, netlist.limiter): ideal
+    # whatever --devices says, never fitted
+    ideal: bool = field(default=False, compare=False)
     # a diode macro-model instance: ("X", its nodes, the subcircuit), written back for ngspice
     device: tuple | None = field(default=None, compare=False)
     kind: ClassVar[str] = "D"
@@ -210,6 +213,10 @@ class Circuit:
     notes: list = field(default_factory=list, compare=False)
     # macro-model subcircuits replaced by ideal elements: name -> definition text (ngspice)
     subckt_texts: dict = field(default_factory=dict, compare=False)
+    # elements pelcs built for one element line it cannot simulate as written (a clamping B
+    # source's limiter): lower-case name -> the line written for ngspice in its place (the
+    # group's first element), or "" (the others)
+    written_as: dict = field(default_factory=dict, compare=False)
     # capacitors in a loop with voltage sources, reduced to one state each
     # (netlist.capacitor_loops): lower-case name -> (name, its nodes, the capacitor for them)
     loop_capacitors: dict = field(default_factory=dict, compare=False)

@@ -393,6 +393,9 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
             fits.append(PwlFit(el.name, vf, ron, "given"))
             out.extend(_series(el, vf, ron))
             continue
+        if isinstance(el, Diode) and el.ideal:
+            out.append(el)  # pelcs's own (a limiter's): no device to fit
+            continue
         if isinstance(el, Diode):
             params, series = diode_params(circuit, el, merged)
             imax = i_max.get(el.name, 0.0)

@@ -161,6 +161,10 @@ def write_circuit(circuit: Circuit) -> str:
     for el in circuit.elements:
         if isinstance(el, Diode) and el.part_of:
             continue  # a transistor's body diode: part of its model in ngspice
+        if el.key in circuit.written_as:  # one of the elements that stand for one line
+            if circuit.written_as[el.key]:
+                lines.append(circuit.written_as[el.key])
+            continue
         lines.append(_element(el, circuit, kinds))
     devices = {el.model.lower() for el in circuit.elements
                if isinstance(el, Switch) and el.device is not None}
