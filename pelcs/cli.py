@@ -126,9 +126,17 @@ def bundled_netlist(path: str) -> str | None:
     return None
 
 
+#: the warnings a command has printed: each text once (the "once" filter alone is not enough:
+#: Python forgets what it showed whenever a library changes the filters, as imports do)
+_SHOWN: set[str] = set()
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     # A user-facing one-liner, not Python's "file:line: Category: ..." with a source line.
-    print(f"warning: {message}", file=sys.stderr)
+    text = str(message)
+    if text not in _SHOWN:
+        _SHOWN.add(text)
+        print(f"warning: {text}", file=sys.stderr)
 
 
 #: The cyclic garbage collector's first threshold during a command (Python's default is 700
@@ -167,6 +175,7 @@ def _main(argv: list[str] | None) -> int:
 
     from lcs.notices import IdealisedDeviceWarning, NonPassiveWarning
 
+    _SHOWN.clear()
     with warnings.catch_warnings():
         warnings.showwarning = _show_warning
         for category in (NonPassiveWarning, IdealisedDeviceWarning):

@@ -19,7 +19,7 @@ V1 in 0 PULSE(0 10 0 1u 1u 5u 10u)
 R1 in a 10
 C1 a 0 1u
 L1 a b 1m {ic}
-.tran 10n 50u
+.tran 10n 50u uic
 .end
 """
 
@@ -32,7 +32,7 @@ L1 a b 1m
 R1 b 0 10
 Vc ctl 0 PULSE(1 0 50u 1n 1n 30u 1)
 .model SW1 SW(VT=0.5)
-.tran 100n 150u
+.tran 100n 150u UIC
 .end
 """
 
@@ -118,12 +118,11 @@ def test_switch_opened_inductor_against_ngspice(ngspice):
     """ngspice's SW is open with ROFF = 1/GMIN = 1e12 Ω: the current decays in L/ROFF = 1 fs
     through a spike of megavolts across the switch, so it too loses the flux at the
     opening, within its step. Compared away from the two switching edges. (RON = 1 µΩ for
-    ngspice, whose default is 1 Ω; UIC: from i = 0 as pelcs, not the operating point.)"""
+    ngspice, whose default is 1 Ω; UIC in the deck: from i = 0, not the operating point.)"""
     from ngspice_checks.runner import run_ngspice
 
     res = simulate_circuit(parse_string(RL_SWITCH), probes=["i(L1)"], step=1e-7)
-    deck = RL_SWITCH.replace("SW(VT=0.5)", "SW(VT=0.5 RON=1e-6)").replace(
-        ".tran 100n 150u", ".tran 100n 150u UIC")
+    deck = RL_SWITCH.replace("SW(VT=0.5)", "SW(VT=0.5 RON=1e-6)")
     ng = run_ngspice(deck, ["i(L1)", "v(a)"], timeout=60)
     assert ng["v(a)"].min() < -1e5  # (the spike that spends ½ L i² in ROFF)
     far = (np.abs(res.t - 50e-6) > 1e-7) & (np.abs(res.t - 80e-6) > 1e-7)
@@ -151,7 +150,7 @@ R1 b 0 10
 R2 b c 1k
 C2 c 0 1n
 .model SW1 SW(VT=1 VH=0.1)
-.tran 100n 100u
+.tran 100n 100u uic
 .end
 """
     res = simulate_circuit(parse_string(text), probes=["i(L1)"])

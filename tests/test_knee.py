@@ -19,7 +19,7 @@ V1 in 0 DC {vin}
 R1 in a 1k
 C1 a 0 c = 'v(a) < 5 ? 1u : 0.99u*exp(-10*v(a)) + 0.01u'
 .param vin=4
-.tran 1u 5m
+.tran 1u 5m uic
 .end
 """
 

@@ -85,12 +85,14 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
         controllers: Sequence = (), lcp: LcpOptions | None = None,
         t_wall: float | None = None, output_step: float | None = None,
         output_from: float = -np.inf, keep_events: int | None = None,
-        rows_to: RowStream | None = None) -> SimulationResult:
+        rows_to: RowStream | None = None, operating_point: bool = False) -> SimulationResult:
     """Simulate ``problem`` from ``x0`` over ``[t_start, t_stop]`` with ``integrator``.
 
     Arguments as in :func:`lcs.integrators.moreau.integrator.simulate` (``switching`` is the
     comparator method, ``lcp`` the options of the initial LCP). Returns the result, with ``error``
-    set when the run stopped early.
+    set when the run stopped early. With ``operating_point``, the run starts from the DC
+    operating point of its initial mode (:mod:`lcs.theory.operating_point`; ``x0`` gives the
+    states that no DC equation sets), as ngspice's ``.tran`` without ``UIC``.
 
     With ``output_step`` (s), the result is :func:`lcs.results.resample` of the stored rows
     at or after ``output_from`` (s), the same numbers, interpolated as the run goes
@@ -126,7 +128,7 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
     ctrls = Controllers(system, plan, t_start, t_stop, tol)
     u0 = evaluate_inputs(inputs, np.array([t_start]), +1)[0]
     init = initial_state(problem, plan, sched.mode_src, sched.src_maps, guess, x0, u0, t_start,
-                         ctrls, on_inconsistent, lcp or LcpOptions(), notes)
+                         ctrls, on_inconsistent, lcp or LcpOptions(), notes, operating_point)
     # States some modes hold at zero (an inductor an open switch leaves with no path): set
     # to zero where such a mode starts, at t_start and at every known switching instant.
     pins = PinnedJumps(system, k) if system.pinnable else None

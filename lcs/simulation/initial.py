@@ -21,6 +21,7 @@ import numpy as np
 
 from ..lcp import LcpOptions, solve_lcp
 from ..model import LCS, ModeKey
+from ..theory.operating_point import dc_point
 from .problem import Problem, mode_tuple
 from .schedule import Controllers
 from .switches import SW_SCHEDULED, SWF_LATCH, SwitchPlan
@@ -62,23 +63,26 @@ _LOCK = threading.Lock()
 def initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_maps: dict,
                   base: ModeKey, x0: np.ndarray, u0: np.ndarray, t_start: float,
                   controllers: Controllers, on_inconsistent: InconsistentHandler | None,
-                  lcp: LcpOptions, notes: list[str]) -> InitialState:
+                  lcp: LcpOptions, notes: list[str], operating_point: bool = False
+                  ) -> InitialState:
     """The initial mode, state and multipliers (see the module docstring); notes about an
-    inconsistent initial state are appended to ``notes``.
+    inconsistent initial state are appended to ``notes``. With ``operating_point``, the state
+    is the DC operating point of the mode (which the comparators then read, to a fixed point
+    of both), ``x0`` only giving the states that no DC equation sets.
 
     ``mode_src``, ``src_maps`` and ``base`` (the guessed switch states) come from the run's
     :class:`~lcs.simulation.schedule.RunPlan` (see :meth:`Problem.control_rows`).
     """
     if controllers or plan.surface:
         return _initial_state(problem, plan, mode_src, src_maps, base, x0, u0, t_start,
-                              controllers, on_inconsistent, lcp, notes)
+                              controllers, on_inconsistent, lcp, notes, operating_point)
     # (without controllers the result is a function of these values: the problem's mode
     # arrays and control rows are its system's, kept with it)
     x = np.asarray(x0, dtype=float)
     u = np.asarray(u0, dtype=float)
     key = (tuple(mode_src), tuple(base), plan.kind.tobytes(), plan.flags.tobytes(),
            plan.vt.tobytes(), plan.vh.tobytes(), tuple(plan.source), x.shape, x.tobytes(),
-           u.shape, u.tobytes(), lcp)
+           u.shape, u.tobytes(), lcp, operating_point)
     try:
         kept = _KEPT.setdefault(problem, {})
     except TypeError:  # not weak-referenceable: not kept
@@ -87,9 +91,9 @@ def initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_map
     if found is None:
         n_notes = len(notes)
         found = _initial_state(problem, plan, mode_src, src_maps, base, x, u, t_start,
-                               controllers, on_inconsistent, lcp, notes)
+                               controllers, on_inconsistent, lcp, notes, operating_point)
         if kept is None or len(notes) != n_notes:
-            return found  # (an inconsistent state: its notes and its handler every run)
+            return found  # (notes: said again every run)
         with _LOCK:
             while len(kept) >= _KEPT_PER_PROBLEM:
                 kept.pop(next(iter(kept)))
@@ -101,11 +105,19 @@ def initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_map
 def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_maps: dict,
                    base: ModeKey, x0: np.ndarray, u0: np.ndarray, t_start: float,
                    controllers: Controllers, on_inconsistent: InconsistentHandler | None,
-                   lcp: LcpOptions, notes: list[str]) -> InitialState:
+                   lcp: LcpOptions, notes: list[str], operating_point: bool = False
+                   ) -> InitialState:
     k = problem.k
     m = len(problem.system.diodes)
     key = sum(1 << i for i, on in enumerate(mode_src) if on)
     x = np.array(x0, dtype=float)
+    point = None
+
+    def dc(key):
+        """The operating point of a mode, or None (x0 kept) where it has none."""
+        nonlocal x, point
+        point = dc_point(*problem.mode_arrays(mode_tuple(key, k)), u0, x0, lcp)
+        x = point.x.copy() if point.ok else np.array(x0, dtype=float)
 
     def initial_lcp(key):
         if not m:
@@ -114,11 +126,14 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
         return solve_lcp(Dm, Cm @ x + Fm @ u0, lcp)
 
     comparators = [i for i in range(k) if plan.kind[i] != SW_SCHEDULED]
+    settled = not comparators
     res0 = None
     lam = np.zeros(m)
     for _ in range(k + 2):
         mode = mode_tuple(key, k)
         Cc, Dc, Fc = problem.control_rows(mode, plan, src_maps, base)
+        if operating_point:
+            dc(key)
         res0 = initial_lcp(key)
         lam = res0.z.copy() if (res0 is not None and res0.ok) else np.zeros(m)
         if not comparators:
@@ -135,14 +150,29 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
                 on = False
             new = (new | (1 << i)) if on else (new & ~(1 << i))
         if new == key:
+            settled = True
             break
         key = new
+    if operating_point and not settled:
+        # each mode's operating point turns the comparators to another (a closed loop that
+        # regulates has no DC point with ideal comparators): the start without it
+        notes.append("no DC operating point: the comparators have no consistent state there "
+                     "(each mode's operating point turns them to another, as in a closed loop "
+                     "that regulates): the run starts from the initial conditions, as ngspice "
+                     "with UIC")
+        return _initial_state(problem, plan, mode_src, src_maps, base, x0, u0, t_start,
+                              controllers, on_inconsistent, lcp, notes)
     if controllers:
         key = controllers.commands(controllers.ctrls, t_start, key, x, lam, u0, -1, 0.0)
         problem.control_rows(mode_tuple(key, k), plan, src_maps, base)
+        if operating_point:
+            dc(key)
         res0 = initial_lcp(key)
         lam = res0.z.copy() if (res0 is not None and res0.ok) else np.zeros(m)
     mode = mode_tuple(key, k)
+    if point is not None and not point.ok:
+        notes.append(f"no DC operating point ({point.reason}): the run starts from the "
+                     "initial conditions, as ngspice with UIC")
     if res0 is not None and not res0.ok:
         if on_inconsistent is not None:
             handled = on_inconsistent(problem.lcs(mode), x.copy(), u0.copy())

@@ -11,11 +11,8 @@ print interval (:func:`print_step`); points before TSTART are not returned. A
 netlist without ``.tran`` needs the stop time from the caller; the step then defaults to
 1/100 of the shortest source period (PULSE PER, SIN 1/FREQ), at most 1/5000 of the run.
 
-Initial state: an element's ``IC=`` first; otherwise a capacitor gets ``v(n+) - v(n-)`` from
-``.ic v(node)=...`` lines (ground is 0 V; a node missing from ``.ic`` counts as 0 V only if
-the other node is given); everything else starts at zero. pelcs always starts from these values
-(as ngspice does with UIC); without UIC ngspice would first compute a DC operating point, which
-the result's notes point out. An initial state that the diodes cannot accept (e.g. a capacitor
+Initial state (:mod:`.start`): with UIC, the ``IC=`` and ``.ic`` values; without, ngspice's
+DC operating point. An initial state that the diodes cannot accept (e.g. a capacitor
 charged against a diode that connects it to another capacitor) jumps at t = 0 to the consistent
 state given by :func:`lcs.theory.wellposed.state_jump` (charge and flux conservation through the
 impulsive diode currents), reported once in the notes.
@@ -43,11 +40,8 @@ from lcs.signals import Dc, Signal, resolve
 from ..capacitor_links import capacitor_links, check_link_initial, link_note, link_probe
 from ..capacitor_loops import reduced_probe
 from ..circuit import (
-    GROUND,
-    Capacitor,
     Circuit,
     CurrentSource,
-    Inductor,
     VoltageSource,
 )
 from ..errors import Diagnostic, NetlistError
@@ -61,6 +55,7 @@ from ..steps import step_note
 from ..suggest import did_you_mean
 from ..system_cache import kept_with
 from .growth import GrowthWatch, state_growth
+from .start import initial_state, start_state
 from .timestep import (
     MIN_STEPS_PER_RUN,
     STEPS_PER_PERIOD,
@@ -114,6 +109,8 @@ class TransientSetup:
         The spacing of the points written by default, s (None: every step).
     print_note : str or None
         Why that spacing is not the ``.tran`` TSTEP (:func:`print_step`).
+    operating_point : bool
+        Start from the DC operating point (ngspice's ``.tran`` without ``UIC``).
     """
 
     system: SwitchedLCS
@@ -130,6 +127,9 @@ class TransientSetup:
     print_step: float | None = None
     print_note: str | None = None
     knees: tuple = ()  # the netlist.knee capacitors, checked after the run
+    # start from the DC operating point (ngspice's .tran without UIC), x0 giving only the
+    # states no DC equation sets
+    operating_point: bool = False
 
 
 def _input_error(circuit: Circuit, message: str, hint: str) -> NetlistError:
@@ -220,12 +220,7 @@ def transient_setup(
     tstep_res = tran.tstep if tran is not None else step
     signals = [resolve(w, tstep_res, tstop) for w in waves]
 
-    x0 = initial_state(circuit, system.states, notes)
-    if tran is not None and not tran.uic and (
-        any(x != 0 for x in x0) or circuit.initial_conditions
-    ):
-        notes.append("pelcs starts from the given initial conditions (as ngspice with UIC); "
-                     "without UIC ngspice first computes a DC operating point")
+    x0, operating_point = start_state(circuit, system.states, notes)
     notes.extend(circuit.notes)
     for r in circuit.replacements:
         notes.append("idealised: " + r.line())
@@ -258,7 +253,8 @@ def transient_setup(
     return TransientSetup(system, signals, x0, float(tstop), float(step), float(t_save),
                           energy, notes, nonpassive, default_probes, circuit.file or "",
                           shown, shown_note,
-                          tuple(el for el in circuit.elements if isinstance(el, KneeCapacitor)))
+                          tuple(el for el in circuit.elements if isinstance(el, KneeCapacitor)),
+                          operating_point)
 
 
 def _screen_passivity(circuit: Circuit, system: SwitchedLCS, energy: np.ndarray,
@@ -311,45 +307,6 @@ def _pin_open_inductors(circuit: Circuit, states: Sequence[str], x0: np.ndarray,
                      f"to 0 at t = 0 and {format_eng(lost, 'J')} (½ L i²) is lost")
             x0[k] = 0.0
         notes.append(text)
-
-
-def initial_state(circuit: Circuit, states: Sequence[str], notes: list[str] | None = None
-                  ) -> np.ndarray:
-    """Initial state from element ``IC=`` values and ``.ic`` node voltages.
-
-    Parameters
-    ----------
-    circuit : Circuit
-    states : sequence of str
-        State names ``i(L1)`` / ``v(C1)`` in the order wanted.
-    notes : list of str, optional
-        Receives a note for every capacitor whose ``.ic`` names only one of its nodes.
-
-    Returns
-    -------
-    ndarray, shape (len(states),)
-        A for inductor currents, V for capacitor voltages.
-    """
-    ics = circuit.initial_conditions
-    x0 = np.zeros(len(states))
-    for k, name in enumerate(states):
-        el = circuit.element(name[2:-1])
-        if isinstance(el, Inductor):
-            x0[k] = el.ic or 0.0
-        elif isinstance(el, Capacitor):
-            if el.ic is not None:
-                x0[k] = el.ic
-                continue
-            a, b = el.nodes
-            if a not in ics and b not in ics:
-                continue  # no .ic on either node (ground is never in .ic): starts at 0 V
-            va = 0.0 if a == GROUND else ics.get(a)
-            vb = 0.0 if b == GROUND else ics.get(b)
-            if (va is None or vb is None) and notes is not None:
-                missing = a if va is None else b
-                notes.append(f"{el.name}: node {missing} has no .ic; taken as 0 V")
-            x0[k] = (va or 0.0) - (vb or 0.0)
-    return x0
 
 
 def check_probes(circuit: Circuit, probes: Sequence[str], *,
@@ -648,7 +605,7 @@ def run_setup(
         result = simulate_exact(
             setup.system, setup.signals, setup.x0, setup.t_stop, setup.h,
             probes=None if probes is None else list(probes), save_at=save_at,
-            on_inconsistent=jump)
+            on_inconsistent=jump, operating_point=setup.operating_point)
     elif method != "moreau":
         raise ValueError(f"unknown method {method!r}: 'moreau' or 'exact'")
     else:
@@ -658,7 +615,7 @@ def run_setup(
             progress=progress, on_inconsistent=jump, options=options, switching=switching,
             save_at=save_at, controllers=controllers, output_step=streamed,
             output_from=setup.t_save if setup.t_save > 0 else -np.inf,
-            keep_events=keep_events, rows_to=rows_to,
+            keep_events=keep_events, rows_to=rows_to, operating_point=setup.operating_point,
         )
     result.notes[:0] = setup.notes + ([theta_note] if theta_note else [])
     if method == "moreau":

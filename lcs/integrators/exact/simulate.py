@@ -28,6 +28,7 @@ def simulate_exact(
     save_at: Sequence[float] = (),
     on_inconsistent=None,
     log_breakpoints: bool = False,
+    operating_point: bool = False,
 ) -> SimulationResult:
     """Simulate a switched LCS exactly: one matrix exponential per stretch between events.
 
@@ -51,6 +52,9 @@ def simulate_exact(
         diode onto a charged capacitor); ``result.event_log`` then has a ``"jump"`` entry.
     log_breakpoints : bool
         Also list source corners in ``result.event_log``.
+    operating_point : bool
+        Start from the DC operating point instead of ``x0``, as for
+        :func:`lcs.integrators.moreau.integrator.simulate`.
 
     Returns
     -------
@@ -66,6 +70,7 @@ def simulate_exact(
     integ = ExactIntegrator(float(h), save_at, log_breakpoints, jump=on_inconsistent)
     result = driver.run(Problem(system, probes), list(signals), np.asarray(x0, dtype=float),
                         float(t_start), float(t_stop), integ, save_at=save_at,
-                        on_inconsistent=on_inconsistent, switching="auto", t_wall=t_wall)
+                        on_inconsistent=on_inconsistent, switching="auto", t_wall=t_wall,
+                        operating_point=operating_point)
     result.event_log = list(integ.event_log)
     return result

@@ -607,6 +607,7 @@ def simulate(
     output_from: float = -np.inf,
     keep_events: int | None = None,
     rows_to=None,
+    operating_point: bool = False,
 ) -> SimulationResult:
     """Simulate a switched LCS with the Moreau θ scheme.
 
@@ -669,6 +670,11 @@ def simulate(
     rows_to : lcs.simulation.driver.RowStream, optional
         Where the output rows go as the run makes them (a file written as it goes): the
         result then holds the last one (:func:`lcs.simulation.driver.run`).
+    operating_point : bool
+        Start from the DC operating point of the initial mode (capacitors open, inductors
+        shorted: :mod:`lcs.theory.operating_point`), as ngspice's ``.tran`` without ``UIC``;
+        ``x0`` then only gives the states that no DC equation sets. Where there is none, the
+        run starts from ``x0`` and a note says why.
 
     Returns
     -------
@@ -694,7 +700,8 @@ def simulate(
                       on_inconsistent=on_inconsistent,
                       switching=switching or opts.switching, controllers=list(controllers),
                       lcp=opts.lcp, t_wall=t_wall, output_step=output_step,
-                      output_from=output_from, keep_events=keep_events, rows_to=rows_to)
+                      output_from=output_from, keep_events=keep_events, rows_to=rows_to,
+                      operating_point=operating_point)
 
 
 _PROBLEMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()

@@ -1,0 +1,116 @@
+"""The DC operating point of one mode of an LCS: the state where nothing moves.
+
+ngspice starts a ``.tran`` without ``UIC`` from its DC operating point: capacitors open,
+inductors shorted, sources at their ``t = 0`` values. For a mode ``x' = Ax + Bλ + Eu``,
+``w = Cx + Dλ + Fu``, ``0 <= w ⊥ λ >= 0`` that point solves the mixed complementarity problem
+
+    0 = A x + B λ + E u,    w = C x + D λ + F u,    0 <= w ⊥ λ >= 0.
+
+With ``A⁺`` the pseudo-inverse, ``x = x_N - A⁺(Bλ + Eu)``, where ``x_N`` is the part of the
+given state ``x0`` in the null space of ``A`` (a state that no DC equation sets, such as the
+voltage of a capacitor that only open switches and other capacitors reach: it keeps its given
+value, zero unless ``IC=`` sets it). Then ``λ`` solves the LCP
+``w = (D - C A⁺ B) λ + C (x_N - A⁺ E u) + F u``. There is no operating point when the DC
+equations cannot hold (a DC current into a capacitor with no other path, a voltage across an
+inductor loop: the state would grow without bound) or when the LCP has no solution; the
+result says which.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..lcp import LcpOptions, solve_lcp
+
+__all__ = ["DcPoint", "dc_point"]
+
+
+@dataclass
+class DcPoint:
+    """An operating point, or why there is none.
+
+    Attributes
+    ----------
+    ok : bool
+    x : ndarray, shape (n,)
+        The state (``x0`` when not ``ok``).
+    lam : ndarray, shape (m,)
+        The multipliers (zeros when not ``ok``).
+    free : ndarray of bool, shape (n,)
+        The states that no DC equation sets (kept at their given values).
+    reason : str
+        Why there is no operating point ("" when ``ok``).
+    """
+
+    ok: bool
+    x: np.ndarray
+    lam: np.ndarray
+    free: np.ndarray
+    reason: str = ""
+
+
+def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.ndarray,
+             F: np.ndarray, u: np.ndarray, x0: np.ndarray, lcp: LcpOptions | None = None,
+             rtol: float = 1e-10) -> DcPoint:
+    """The operating point of one mode (module docstring).
+
+    Parameters
+    ----------
+    A, B, C, D, E, F : ndarray
+        The mode's matrices, shapes (n, n), (n, m), (m, n), (m, m), (n, p), (m, p).
+    u : ndarray, shape (p,)
+        The inputs at the start.
+    x0 : ndarray, shape (n,)
+        The given state: its values along the states that no DC equation sets are kept.
+    lcp : LcpOptions, optional
+    rtol : float
+        Relative size below which a singular value of ``A`` counts as zero, and below which
+        the residual of the DC equations counts as zero.
+    """
+    n, m = A.shape[0], B.shape[1]
+    x0 = np.asarray(x0, dtype=float)
+    u = np.asarray(u, dtype=float)
+    if n == 0:
+        res = solve_lcp(D, F @ u, lcp) if m else None
+        if res is not None and not res.ok:
+            return DcPoint(False, x0.copy(), np.zeros(m), np.zeros(0, bool),
+                           "the diodes' LCP at the start has no solution")
+        return DcPoint(True, x0.copy(), res.z.copy() if res is not None else np.zeros(m),
+                       np.zeros(0, bool))
+    U, s, Vt = np.linalg.svd(A)
+    scale = max(float(s[0]), 1e-300)
+    rank = int(np.sum(s > rtol * scale))
+    inv = np.zeros_like(s)
+    inv[:rank] = 1.0 / s[:rank]
+    A_pinv = (Vt.T * inv) @ U.T
+    null = Vt[rank:].T  # (n, n - rank): the states no DC equation sets
+    x_null = null @ (null.T @ x0)
+    free = np.zeros(n, bool)
+    if null.size:
+        free = np.abs(null).max(axis=1) > 1e-9
+    left_null = U[:, rank:]  # the DC equations' combinations that A cannot satisfy
+    if left_null.size and np.abs(left_null.T @ B).max(initial=0.0) > rtol * max(
+            1.0, np.abs(B).max(initial=0.0)):
+        return DcPoint(False, x0.copy(), np.zeros(m), free,
+                       "the diodes act on a DC equation that the state cannot satisfy")
+    M = D - C @ A_pinv @ B
+    q = C @ (x_null - A_pinv @ (E @ u)) + F @ u
+    if m:
+        res = solve_lcp(M, q, lcp)
+        if not res.ok:
+            return DcPoint(False, x0.copy(), np.zeros(m), free,
+                           "the diodes' LCP at the operating point has no solution")
+        lam = res.z.copy()
+    else:
+        lam = np.zeros(0)
+    x = x_null - A_pinv @ (B @ lam + E @ u)
+    residual = A @ x + B @ lam + E @ u
+    size = max(np.abs(A).max(initial=0.0) * np.abs(x).max(initial=0.0),
+               np.abs(E @ u).max(initial=0.0), np.abs(B @ lam).max(initial=0.0), 1e-300)
+    if np.abs(residual).max(initial=0.0) > 1e-8 * size:
+        return DcPoint(False, x0.copy(), np.zeros(m), free,
+                       "the DC equations have no solution (a DC current into a capacitor "
+                       "with no other path, or a DC voltage across an inductor loop)")
+    return DcPoint(True, x, lam, free)

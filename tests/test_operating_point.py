@@ -1,0 +1,111 @@
+"""ngspice's start of a ``.tran`` without UIC: the DC operating point (capacitors open,
+inductors shorted, sources at t = 0), element IC= values ignored; with UIC the initial
+conditions. Checked on a hand-derived LCS, analytic circuits and ngspice side by side."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from ngspice_helpers import ngspice_wrdata
+
+from lcs.theory.operating_point import dc_point
+from netlist.parser import parse_string
+from netlist.studies.realistic import simulate_devices
+from netlist.studies.transient import simulate_circuit
+
+
+def test_dc_point_of_a_hand_derived_lcs():
+    # x = (i_L, v_C): L from a 10 V source through 1 Ω into C || 4 Ω, and an ideal diode from
+    # the node to a 3 V clamp: i_L' = (10 - i_L - v_C)/L, v_C' = (i_L - v_C/4 - λ)/C,
+    # w = 3 - v_C >= 0 (the diode conducts λ when v_C would pass 3 V).
+    # DC: v_C = 10 - i_L; unclamped 8 V > 3 V, so the diode holds v_C = 3 V, i_L = 7 A and
+    # λ = i_L - v_C/4 = 6.25 A.
+    A = np.array([[-1.0, -1.0], [1.0, -0.25]])
+    B = np.array([[0.0], [-1.0]])
+    C = np.array([[0.0, -1.0]])
+    D = np.zeros((1, 1))
+    E = np.array([[10.0], [0.0]])
+    F = np.array([[3.0]])
+    p = dc_point(A, B, C, D, E, F, np.array([1.0]), np.zeros(2))
+    assert p.ok and not p.free.any()
+    assert p.x == pytest.approx([7.0, 3.0]) and p.lam == pytest.approx([6.25])
+    # with the clamp at 9 V the diode stays off: v_C = 8 V, i_L = 2 A
+    p = dc_point(A, B, C, D, E, 3 * F, np.array([1.0]), np.zeros(2))
+    assert p.x == pytest.approx([2.0, 8.0]) and p.lam == pytest.approx([0.0])
+
+
+def test_a_state_no_dc_equation_sets_keeps_its_given_value():
+    # two capacitors in series, only each other: their common charge is free; a DC current
+    # into a capacitor alone has no operating point
+    A = np.zeros((1, 1))
+    p = dc_point(A, np.zeros((1, 0)), np.zeros((0, 1)), np.zeros((0, 0)), np.zeros((1, 1)),
+                 np.zeros((0, 1)), np.array([0.0]), np.array([2.5]))
+    assert p.ok and p.free.all() and p.x == pytest.approx([2.5])
+    p = dc_point(A, np.zeros((1, 0)), np.zeros((0, 1)), np.zeros((0, 0)), np.ones((1, 1)),
+                 np.zeros((0, 1)), np.array([1.0]), np.array([0.0]))
+    assert not p.ok and "no solution" in p.reason
+
+
+RC = "rc\nV1 in 0 DC 5\nR1 in a 1k\nC1 a 0 1u{ic}\n.tran 10u 1m{uic}\n.end\n"
+
+
+def test_an_rc_starts_where_ngspice_does(tmp_path, ngspice):
+    for ic, uic, start in (("", "", 5.0), (" IC=2", "", 5.0), (" IC=2", " uic", 2.0)):
+        deck = RC.format(ic=ic, uic=uic)
+        res = simulate_circuit(parse_string(deck), probes=["v(a)"])
+        ng = ngspice_wrdata(deck, ["v(a)"], tmp_path)
+        assert res["v(a)"][0] == pytest.approx(start)
+        assert ng[0, 1] == pytest.approx(start, abs=1e-3)  # (its first row, t = 0 or just after)
+        assert np.interp(ng[:, 0], res.t, res["v(a)"]) == pytest.approx(ng[:, 1], abs=2e-3)
+        assert any("IC= of C1 ignored" in n for n in res.notes) == (ic != "" and uic == "")
+
+
+BOOST = """boost that starts switching at 20 us
+Vin in 0 DC 12
+L1 in sw 100u
+S1 sw 0 g 0 smod
+.model smod SW(VT=2.5 RON=10m ROFF=1e9)
+Vg g 0 PULSE(0 5 20u 10n 10n 4u 10u)
+D1 sw out dmod
+.model dmod D(IS=1e-12 RS=20m)
+C1 out 0 100u
+R1 out 0 10
+.tran 0.1u 200u
+.end
+"""
+
+
+def test_a_boost_starts_from_its_operating_point_as_in_ngspice(tmp_path, ngspice):
+    # switch off at t = 0: the inductor carries (12 V - Vd)/10 Ω through the diode and the
+    # capacitor holds 12 V - Vd (ideal diode: 1.2 A and 12 V)
+    ideal = simulate_circuit(parse_string(BOOST), probes=["i(L1)", "v(out)"])
+    assert ideal["i(L1)"][0] == pytest.approx(1.2) and ideal["v(out)"][0] == pytest.approx(12)
+    res = simulate_devices(parse_string(BOOST), devices="pwl", probes=["i(L1)", "v(out)"])
+    ng = ngspice_wrdata(BOOST, ["i(L1)", "v(out)"], tmp_path)
+    assert res["i(L1)"][0] == pytest.approx(ng[0, 1], rel=0.01)
+    assert res["v(out)"][0] == pytest.approx(ng[0, 3], rel=0.01)
+    for col, probe in ((1, "i(L1)"), (3, "v(out)")):
+        got = np.interp(ng[:, 0], res.t, res[probe])
+        assert np.abs(got - ng[:, col]).max() <= 0.02 * np.abs(ng[:, col]).max()
+
+
+def test_a_regulating_loop_has_no_operating_point_and_says_so():
+    # the comparator turns the switch on while v(out) < 5 V: on, the operating point is
+    # 12 V (off); off, it is 0 V (on)
+    deck = """bang-bang buck
+Vin in 0 DC 12
+S1 in sw out 0 smod
+.model smod SW(VT=5)
+Vd 0 sw DC 0
+L1 sw out 100u
+C1 out 0 10u
+R1 out 0 10
+.tran 1u 200u
+.end
+""".replace("S1 in sw out 0 smod", "S1 in sw ref out smod\nVref ref 0 5").replace(
+        ".model smod SW(VT=5)", ".model smod SW(VT=0)").replace("Vd 0 sw DC 0\n",
+                                                                  "D1 0 sw dm\n.model dm D\n")
+    res = simulate_circuit(parse_string(deck), probes=["v(out)"])
+    assert any("no DC operating point: the comparators have no consistent state" in n
+               for n in res.notes)
+    assert res["v(out)"][0] == 0.0
