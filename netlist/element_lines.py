@@ -30,6 +30,8 @@ from .rawdeck import (
     Value,
 )
 from .table_source import TableError, read_table
+from .time_value import ACCEPTED as TIME_ACCEPTED
+from .time_value import other_quantity, reads_time_only
 from .units import parse_number
 
 # ------------------------------------------------------------------------------ reading
@@ -324,6 +326,15 @@ class ElementLines:
             found = circuit_quantity(tree)
         except BehaviouralError:
             return False  # (the grammar's message)
+        if found is not None and letter == "R" and reads_time_only(tree):
+            # a piecewise-constant function of time (netlist.time_value): read in elaboration
+            self.body.elements.append(RawElement(
+                "R", hierarchical_name(m.group(1), "R"), st,
+                (node_name(m.group(2)), node_name(m.group(3))),
+                behaviour=("time", tree, text, offset)))
+            return True
+        if found == "time" and letter == "R":
+            found = other_quantity(tree) or found
         if found is not None and letter == "C" and tree.tag == "?" and \
                 circuit_quantity(tree.args[1]) is None:
             # constant below a knee of its voltage (netlist.knee): checked in elaboration
@@ -335,7 +346,8 @@ class ElementLines:
         if found is not None:
             self.error(f"{what} '{m.group(1)}' has a value that depends on {found}: a "
                        f"{'time-varying' if found == 'time' else 'nonlinear'} {what}", st,
-                       offset, f"pelcs needs a constant {what} value: give the one it has over "
+                       offset, TIME_ACCEPTED if letter == "R" else
+                       f"pelcs needs a constant {what} value: give the one it has over "
                        "the run (for a saturable inductance, the unsaturated one)")
         return found is not None
 
@@ -362,6 +374,14 @@ class ElementLines:
             tree = parse_behavioural(token)
         except BehaviouralError:
             tree = None
+        if letter == "R" and tree is not None and reads_time_only(tree):
+            self.body.elements.append(RawElement(
+                "R", hierarchical_name(name, "R"), st,
+                (node_name(m.group(2)), node_name(m.group(3))),
+                behaviour=("time", tree, token, offset),
+                note=(f"value written unquoted, {key} = {text}: {reads}; write {key} = '...' "
+                      "in quotes for the expression as written")))
+            return True
         if letter == "C" and tree is not None and tree.tag in ("<", ">", "<=", ">="):
             knee = parse_behavioural(f"{token} ? 1 : 0")
             self.body.elements.append(RawElement(
@@ -377,8 +397,9 @@ class ElementLines:
                    f"write {key} = '...' in quotes for the expression as written; pelcs "
                    f"reads a {what} value 'v(n+,n-) < K ? C0 : ...' (a constant below a knee)"
                    if letter == "C" else
-                   f"write {key} = '...' in quotes for the expression as written; pelcs "
-                   f"needs a constant {what} value")
+                   f"write {key} = '...' in quotes for the expression as written; "
+                   + (TIME_ACCEPTED if letter == "R" else f"pelcs needs a constant {what} "
+                      "value"))
         return True
 
     def diode_area(self, extras: list, st: Statement) -> list[RawParam]:

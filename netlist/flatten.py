@@ -56,6 +56,7 @@ from .limits import ELEMENTS
 from .rawdeck import Body, Deck, RawElement, RawParam, Statement, Value
 from .steps import evaluate_steps
 from .suggest import close_matches
+from .time_value import elaborate_time_resistor
 
 # default parameters of ngspice's SW model that pelcs uses
 SW_DEFAULTS = {"vt": 0.0, "vh": 0.0}
@@ -448,6 +449,11 @@ class _Builder:
                 self.instance(el, name_prefix, node_prefix, mapnode, env, failed, stack)
             elif el.kind in "MQ":
                 self.circuit.elements.extend(self.device(el, name_prefix, mapnode))
+            elif el.kind == "R" and el.behaviour is not None:  # stepped in time
+                self.circuit.elements += elaborate_time_resistor(
+                    el, name_prefix, mapnode, env, self.circuit, self.error)
+                if el.note:
+                    self.circuit.notes.append(f"{name_prefix}{el.name}: {el.note}")
             elif el.behaviour is not None:  # B: netlist.behavioural; C of a knee: netlist.knee
                 self.circuit.elements += elaborate(el, name_prefix, mapnode, env, failed,
                                                    self.error)

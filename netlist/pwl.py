@@ -386,6 +386,9 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
     for el in circuit.elements:
         if el.key in merged:
             continue  # carried by the diode it is in parallel with (one pair)
+        if isinstance(el, Switch) and el.part_of:
+            out.append(el)  # a time-valued resistor's bypass (netlist.time_value): no device
+            continue
         model = str(getattr(el, "model", "") or "").lower()
         key = el.key if el.key in given else model if model in given else None
         if key is not None and isinstance(el, (Diode, Switch)):
