@@ -31,7 +31,7 @@ from .rawdeck import (
 )
 from .table_source import TableError, read_table
 from .time_value import ACCEPTED as TIME_ACCEPTED
-from .time_value import other_quantity, reads_time_only
+from .time_value import other_quantity, reads_time_only, time_in_comparisons
 from .units import parse_number
 
 # ------------------------------------------------------------------------------ reading
@@ -50,6 +50,9 @@ _PAREN_CONTROL = re.compile(r"(?s)\S+\s+[^\s(),]+\s+[^\s(),]+\s+(\(\s*[^\s(),]+\
 _PAREN_BLANKS = str.maketrans("(),", "   ")
 # Ename n+ n- POLY(ND) ... (G alike; F, H with controlling sources): SPICE2's polynomial source
 _POLY = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+(poly)\s*\(\s*(\d+)\s*\)(.*)$")
+# Rname n+ n- {expr} (or 'expr'): a value written without its keyword
+_POSITIONAL_VALUE = re.compile(r"""(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+"""
+                               r"""(\{.*\}|'[^']*'|"[^"]*")\s*$""")
 _EG_VALUE = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+(value|vol|cur)\b\s*=?\s*"
                        r"(\{.*\})\s*$")
 
@@ -313,7 +316,7 @@ class ElementLines:
         (the grammar would stop at the '=')."""
         m = _VALUE_LINE.match(st.text)
         if m is None or m.group(4).upper() != letter:
-            return False
+            return letter == "R" and self.positional_time_value(st)
         text, offset = m.group(5), m.start(5)
         if len(text) >= 2 and text[0] == text[-1] and text[0] in "'\"{":
             text, offset = text[1:-1], offset + 1
@@ -351,6 +354,27 @@ class ElementLines:
                        "the run (for a saturable inductance, the unsaturated one)")
         return found is not None
 
+    def positional_time_value(self, st: Statement) -> bool:
+        """``Rname n+ n- {expression}`` (or ``'expression'``) whose expression reads time
+        and nothing else of the circuit: ngspice makes it a B source as it does ``R = ...``
+        (inpcom.c); read as a resistor stepped in time (:mod:`netlist.time_value`). False for
+        any other line (the grammar's)."""
+        m = _POSITIONAL_VALUE.match(st.text)
+        if m is None:
+            return False
+        text, offset = m.group(4)[1:-1], m.start(4) + 1
+        try:
+            tree = parse_behavioural(text)
+        except BehaviouralError:
+            return False
+        if not reads_time_only(tree):
+            return False
+        self.body.elements.append(RawElement(
+            "R", hierarchical_name(m.group(1), "R"), st,
+            (node_name(m.group(2)), node_name(m.group(3))),
+            behaviour=("time", tree, text, offset)))
+        return True
+
     def cut_value(self, letter: str, st: Statement, what: str, m: re.Match, text: str,
                   token: str, offset: int) -> bool:
         """An unquoted value that reads the circuit and has a blank outside parentheses:
@@ -363,7 +387,10 @@ class ElementLines:
         try:
             found = circuit_quantity(parse_behavioural(text))
         except BehaviouralError:
-            found = None
+            try:  # (what follows the token may not be an expression: ngspice drops it)
+                found = circuit_quantity(parse_behavioural(token))
+            except BehaviouralError:
+                found = None
         if found is None:
             return False
         name, key = m.group(1), m.group(4)
@@ -374,7 +401,8 @@ class ElementLines:
             tree = parse_behavioural(token)
         except BehaviouralError:
             tree = None
-        if letter == "R" and tree is not None and reads_time_only(tree):
+        if letter == "R" and tree is not None and reads_time_only(tree) and \
+                time_in_comparisons(tree):
             self.body.elements.append(RawElement(
                 "R", hierarchical_name(name, "R"), st,
                 (node_name(m.group(2)), node_name(m.group(3))),

@@ -55,7 +55,8 @@ from .rawdeck import RawElement
 from .units import format_eng, format_number
 
 __all__ = ["ACCEPTED", "MAX_INTERVALS", "TimeValue", "elaborate_time_resistor",
-           "other_quantity", "reads_time_only", "time_resistor_nodes", "time_value"]
+           "other_quantity", "reads_time_only", "time_in_comparisons", "time_resistor_nodes",
+           "time_value"]
 
 #: the most intervals of constant value pelcs expands a resistor into
 MAX_INTERVALS = 8
@@ -141,6 +142,26 @@ def reads_time_only(tree: Tree) -> bool:
     return other_quantity(tree) is None and _has_time(tree)
 
 
+def _is_comparison(t: Tree) -> bool:
+    """A comparison, or ``u()`` (the unit step of its argument)."""
+    return t.tag in _COMPARISONS or (t.tag == "call" and t.args[0] == "u" and len(t.args) == 2)
+
+
+def time_in_comparisons(tree: Tree) -> bool:
+    """Whether every ``time`` an expression reads stands inside a comparison (or ``u()``):
+    the shape of a piecewise-constant function of time (the comparisons' own form is checked
+    with the parameters' values, :func:`time_value`)."""
+    stack = [tree]
+    while stack:
+        t = stack.pop()
+        if _is_comparison(t):
+            continue
+        if t.tag == "var" and t.args[0] == "time":
+            return False
+        stack.extend(a for a in t.args if isinstance(a, Tree))
+    return True
+
+
 def _with_time_node(tree: Tree) -> Tree:
     """``tree`` with ``time`` read as the voltage of a pseudo node (so that the comparison's
     affine form in it comes from :func:`netlist.behavioural_expr.linearise`)."""
@@ -180,8 +201,8 @@ def _instants(tree: Tree, text: str, env: Mapping[str, float]) -> set[float]:
     stack = [tree]
     while stack:
         t = stack.pop()
-        is_step = t.tag == "call" and t.args[0] == "u" and len(t.args) == 2
-        if (t.tag in _COMPARISONS or is_step) and _has_time(t):
+        is_step = t.tag == "call"
+        if _is_comparison(t) and _has_time(t):
             at = _threshold(Tree(">", (t.args[1], Tree("num", (0.0,), t.start, t.start)),
                                  t.start, t.end) if is_step else t, text, env)
             if at is not None:
