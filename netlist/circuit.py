@@ -14,14 +14,12 @@ Units are SI throughout (ohm, henry, farad, volt, ampere, second).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, ClassVar
+from typing import ClassVar
 
 from lcs.signals import Signal
 
 from .errors import Location
-
-if TYPE_CHECKING:
-    from .time_value import TimeValue
+from .time_function import TimeValue
 
 GROUND = "0"
 

@@ -18,7 +18,8 @@ from netlist.circuit import Resistor, Switch, VoltageSource
 from netlist.errors import NetlistError
 from netlist.parser import parse_file, parse_string
 from netlist.pwl import pwl_circuit
-from netlist.time_value import TimeValue, time_value
+from netlist.time_function import TimeValue
+from netlist.time_value import time_value
 from netlist.writer import write_circuit
 from pelcs.api import simulate
 
