@@ -55,8 +55,8 @@ from .time_function import TimeValue
 from .units import format_eng
 
 __all__ = ["ACCEPTED", "MAX_INTERVALS", "TimeValue", "elaborate_time_resistor",
-           "other_quantity", "reads_time_only", "time_in_comparisons", "time_resistor_nodes",
-           "time_value"]
+           "internal_nodes", "other_quantity", "reads_time_only", "time_in_comparisons",
+           "time_resistor_nodes", "time_value"]
 
 #: the most intervals of constant value pelcs expands a resistor into
 MAX_INTERVALS = 8
@@ -245,6 +245,21 @@ def _control(tv: TimeValue, on: list[bool]) -> tuple[float, Pwl]:
         times += [at, 0.5 * (at + ends[k + 1])]
         values += [0.0 if on[k + 1] != on[k] else level, level]
     return values[0], Pwl(tuple(times), tuple(values))
+
+
+def internal_nodes(circuit: Circuit) -> set[str]:
+    """The nodes pelcs adds for its resistors stepped in time (their segments' and controls'
+    nodes): not in the netlist ngspice runs (:meth:`TimeValue.expression` is written)."""
+    ends: set[str] = {GROUND}
+    inner: set[str] = set()
+    for el in circuit.elements:
+        if isinstance(el, Resistor) and el.time_value is not None:
+            ends.update(time_resistor_nodes(circuit, el))
+            inner.add(el.nodes[1])
+        elif isinstance(el, Resistor | Switch | VoltageSource) and el.part_of:
+            inner.update(el.nodes)
+            inner.update(getattr(el, "control", ()))
+    return inner - ends
 
 
 def elaborate_time_resistor(el: RawElement, prefix: str, mapnode: Callable[[str], str],
