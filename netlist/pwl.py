@@ -36,6 +36,8 @@ gate as a linear RC (``Switch.gate_rc``, from ``netlist.flatten``: the model's g
 resistance, its gate-source capacitance to the source and its gate-drain capacitance to the
 drain, at a fixed bias), and the switch turns when the gate-source voltage behind the gate
 resistance crosses the threshold, as the channel does.
+The bypass switches of a resistor stepped in time (``Switch.part_of``, :mod:`netlist.time_value`)
+are pelcs' model of that resistor, not devices: they stay ideal.
 The added elements are named ``<element>#vf`` and ``<element>#ron`` on internal nodes
 ``<element>#a``/``#b``; they belong to pelcs' model only (ngspice keeps the real devices).
 """
