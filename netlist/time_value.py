@@ -208,7 +208,11 @@ def time_value(tree: Tree, text: str, env: Mapping[str, float]) -> TimeValue:
         ``time`` outside a comparison, a comparison that is not of an affine function of
         time with constants, an unknown parameter, with its offset in ``text``.
     """
-    instants = sorted(x for x in _instants(tree, text, env) if x > 0 and math.isfinite(x))
+    instants: list[float] = []
+    for x in sorted(x for x in _instants(tree, text, env) if x > 0 and math.isfinite(x)):
+        if instants and x - instants[-1] <= 1e-12 * x:
+            continue  # (one instant written two ways, apart by round-off: 0.3 and 0.1*3)
+        instants.append(x)
     # the value between the instants, read at the middle of each interval (the last: past it
     # by as much again)
     ends = [0.0, *instants, 2.0 * instants[-1] if instants else 1.0]

@@ -42,7 +42,9 @@ def test_the_intervals_of_the_dcdc_load_by_hand():
             ("1k + 1k*u(time - 1m)", ((1e-3,), (1e3, 2e3))),
             # an instant where the value does not change is no instant
             ("time < 1m ? 1k : time < 2m ? 1k : 3k", ((2e-3,), (1e3, 3e3))),
-            ("time > -1 ? 1k : 2k", ((), (1e3,)))]:
+            ("time > -1 ? 1k : 2k", ((), (1e3,))),
+            # one instant written two ways (0.3 and 0.1*3 differ by round-off): one instant
+            ("time < 0.3 ? 1k : time < 0.1*3 ? 2k : 3k", ((0.3,), (1e3, 3e3)))]:
         assert time_value(parse_behavioural(text), text, {}) == TimeValue(*want), text
 
 
@@ -265,3 +267,35 @@ def test_pelcs_check_compares_a_buck_with_a_load_step(tmp_path, ngspice):
     assert res.verdict == "ok", res.verdict_line
     # the bypass is pelcs' model of R1, not a switch of the circuit ngspice runs
     assert "switch S1" in res.table and "R1#s2" not in res.table
+
+
+def test_a_subcircuit_instance_and_a_parameter_override():
+    deck = """sub
+.param Rl=1k
+.subckt load a b R0=1k
+R4 a b R = 'time < 1m ? {R0} : {2*R0}'
+.ends
+V1 in 0 1
+R1 in out 1k
+X1 out 0 load R0={Rl}
+C1 out 0 1u ic=0
+.tran 10u 3m 0 1u uic
+.end
+"""
+    c = parse_string(deck)
+    assert c.element("X1.R4").time_value == TimeValue((1e-3,), (1e3, 2e3))
+    assert c.element("X1.R4#s2").nodes == ("x1.r4#m1", "0")
+    written = write_circuit(c)
+    assert "R.X1.R4 out 0 R = 'time < 1m ? 1k : 2k'" in written
+    assert parse_string(written).elements == c.elements
+    # 1 V through 1 kΩ into 1 µF || R(t): v = 0.5 (1 - exp(-t/0.5 ms)) until 1 ms, then
+    # towards 2/3 V with 1 kΩ || 2 kΩ = 2/3 kΩ: v(3 ms) = 0.6550000 V (ngspice 39 on the
+    # written deck: 0.6549999 V)
+    v1 = 0.5 * (1 - math.exp(-2.0))
+    want = 2 / 3 + (v1 - 2 / 3) * math.exp(-2e-3 / (2e-3 / 3))
+    res = simulate(deck, probes=["v(out)"])
+    assert float(res["v(out)"][-1]) == pytest.approx(want, abs=1e-6)
+    over = simulate(deck, probes=["v(out)"], params={"rl": 2000.0})
+    v1 = 2 / 3 * (1 - math.exp(-1e-3 / (2e-3 / 3)))  # 1 kΩ || 2 kΩ until 1 ms
+    want = 0.8 + (v1 - 0.8) * math.exp(-2e-3 / 0.8e-3)  # then 1 kΩ || 4 kΩ
+    assert float(over["v(out)"][-1]) == pytest.approx(want, abs=1e-6)
