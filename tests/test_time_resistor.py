@@ -74,6 +74,9 @@ def test_the_dcdc_line_becomes_its_least_value_and_bypassed_segments():
     note = next(n for n in c.notes if n.startswith("R4:"))
     assert "100 Ω until 12 ms, 50 Ω until 20 ms, 200 Ω after" in note
     assert "no breakpoint at the instants" in note
+    from pelcs.commands.info import describe
+
+    assert f"note: {note}" in describe(c)  # (pelcs info: the elements and the note)
 
 
 def test_the_dcdc_file_is_refused_for_its_clamp_not_its_load():
@@ -115,6 +118,15 @@ def test_the_rc_response_is_the_analytic_one():
     inside = (np.abs(t - 1e-3) > 1e-9) & (np.abs(t - 2e-3) > 1e-9)
     assert np.allclose(np.asarray(res["i(R1)"])[inside], ((1 - v) / r)[inside], rtol=0,
                        atol=1e-12)
+
+
+def test_the_exact_method_switches_at_the_instants():
+    from netlist.studies.transient import simulate_circuit
+
+    res = simulate_circuit(parse_string(RC), method="exact", probes=["v(out)"])
+    t, v = np.asarray(res.t), np.asarray(res["v(out)"])
+    # (exact between events: the round-off of the matrix exponentials only)
+    assert np.max(np.abs(v - _rc_exact(t))) < 1e-12
 
 
 def test_an_inductor_in_series_keeps_its_current_through_the_steps():
