@@ -164,10 +164,11 @@ def _instants(tree: Tree, text: str, env: Mapping[str, float]) -> set[float]:
     stack = [tree]
     while stack:
         t = stack.pop()
-        is_step = t.tag == "call"
         if _is_comparison(t) and _has_time(t):
-            at = _threshold(Tree(">", (t.args[1], Tree("num", (0.0,), t.start, t.start)),
-                                 t.start, t.end) if is_step else t, text, env)
+            if t.tag == "call":  # u(x): x > 0 (u(0) = 0.5 lasts an instant)
+                t = Tree(">", (t.args[1], Tree("num", (0.0,), t.start, t.start)), t.start,
+                         t.end)
+            at = _threshold(t, text, env)
             if at is not None:
                 found.add(at)
             continue
