@@ -19,6 +19,7 @@ from typing import ClassVar
 from lcs.signals import Signal
 
 from .errors import Location
+from .time_function import TimeValue
 
 GROUND = "0"
 
@@ -42,9 +43,14 @@ class Element:
 
 @dataclass
 class Resistor(Element):
-    """A resistor; ``value`` in Ω."""
+    """A resistor; ``value`` in Ω. ``time_value``: the value as a piecewise-constant
+    function of time (:class:`netlist.time_value.TimeValue`) of the resistor this element
+    stands for, ``value`` its least (its other parts carry ``part_of``); ``part_of``: the
+    resistor whose model this element is part of (:mod:`netlist.time_value`), else ""."""
 
     value: float = 0.0
+    time_value: TimeValue | None = field(default=None, compare=False)
+    part_of: str = field(default="", compare=False)
     kind: ClassVar[str] = "R"
 
 
@@ -72,6 +78,9 @@ class VoltageSource(Element):
 
     dc: float = 0.0
     waveform: Signal | None = None
+    # the element whose model this source is part of (the control of a time-valued
+    # resistor's switch, netlist.time_value): not a source of the circuit's power, else ""
+    part_of: str = field(default="", compare=False)
     kind: ClassVar[str] = "V"
 
 
@@ -118,6 +127,10 @@ class Switch(Element):
     # on only while the control exceeds VT, off at VT itself: a switch a comparator B source
     # drives through a strict comparison (netlist.behavioural)
     strict: bool = False
+    # the element whose model this switch is part of (a bypass of a time-valued resistor,
+    # netlist.time_value): ideal in every model (--devices pwl fits no resistance to it), no
+    # loss, not written for ngspice (the element is), else ""
+    part_of: str = field(default="", compare=False)
     kind: ClassVar[str] = "S"
 
 

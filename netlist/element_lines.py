@@ -30,6 +30,8 @@ from .rawdeck import (
     Value,
 )
 from .table_source import TableError, read_table
+from .time_value import ACCEPTED as TIME_ACCEPTED
+from .time_value import other_quantity, reads_time_only, time_in_comparisons
 from .units import parse_number
 
 # ------------------------------------------------------------------------------ reading
@@ -48,6 +50,9 @@ _PAREN_CONTROL = re.compile(r"(?s)\S+\s+[^\s(),]+\s+[^\s(),]+\s+(\(\s*[^\s(),]+\
 _PAREN_BLANKS = str.maketrans("(),", "   ")
 # Ename n+ n- POLY(ND) ... (G alike; F, H with controlling sources): SPICE2's polynomial source
 _POLY = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+(poly)\s*\(\s*(\d+)\s*\)(.*)$")
+# Rname n+ n- {expr} (or 'expr'): a value written without its keyword
+_POSITIONAL_VALUE = re.compile(r"""(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+"""
+                               r"""(\{.*\}|'[^']*'|"[^"]*")\s*$""")
 _EG_VALUE = re.compile(r"(?is)(\S+)\s+([^\s=]+)\s+([^\s=]+)\s+(value|vol|cur)\b\s*=?\s*"
                        r"(\{.*\})\s*$")
 
@@ -311,7 +316,7 @@ class ElementLines:
         (the grammar would stop at the '=')."""
         m = _VALUE_LINE.match(st.text)
         if m is None or m.group(4).upper() != letter:
-            return False
+            return letter == "R" and self.positional_time_value(st)
         text, offset = m.group(5), m.start(5)
         if len(text) >= 2 and text[0] == text[-1] and text[0] in "'\"{":
             text, offset = text[1:-1], offset + 1
@@ -324,6 +329,15 @@ class ElementLines:
             found = circuit_quantity(tree)
         except BehaviouralError:
             return False  # (the grammar's message)
+        if found is not None and letter == "R" and reads_time_only(tree):
+            # a piecewise-constant function of time (netlist.time_value): read in elaboration
+            self.body.elements.append(RawElement(
+                "R", hierarchical_name(m.group(1), "R"), st,
+                (node_name(m.group(2)), node_name(m.group(3))),
+                behaviour=("time", tree, text, offset)))
+            return True
+        if found == "time" and letter == "R":
+            found = other_quantity(tree) or found
         if found is not None and letter == "C" and tree.tag == "?" and \
                 circuit_quantity(tree.args[1]) is None:
             # constant below a knee of its voltage (netlist.knee): checked in elaboration
@@ -335,9 +349,31 @@ class ElementLines:
         if found is not None:
             self.error(f"{what} '{m.group(1)}' has a value that depends on {found}: a "
                        f"{'time-varying' if found == 'time' else 'nonlinear'} {what}", st,
-                       offset, f"pelcs needs a constant {what} value: give the one it has over "
+                       offset, TIME_ACCEPTED if letter == "R" else
+                       f"pelcs needs a constant {what} value: give the one it has over "
                        "the run (for a saturable inductance, the unsaturated one)")
         return found is not None
+
+    def positional_time_value(self, st: Statement) -> bool:
+        """``Rname n+ n- {expression}`` (or ``'expression'``) whose expression reads time
+        and nothing else of the circuit: ngspice makes it a B source as it does ``R = ...``
+        (inpcom.c); read as a resistor stepped in time (:mod:`netlist.time_value`). False for
+        any other line (the grammar's)."""
+        m = _POSITIONAL_VALUE.match(st.text)
+        if m is None:
+            return False
+        text, offset = m.group(4)[1:-1], m.start(4) + 1
+        try:
+            tree = parse_behavioural(text)
+        except BehaviouralError:
+            return False
+        if not reads_time_only(tree):
+            return False
+        self.body.elements.append(RawElement(
+            "R", hierarchical_name(m.group(1), "R"), st,
+            (node_name(m.group(2)), node_name(m.group(3))),
+            behaviour=("time", tree, text, offset)))
+        return True
 
     def cut_value(self, letter: str, st: Statement, what: str, m: re.Match, text: str,
                   token: str, offset: int) -> bool:
@@ -351,7 +387,10 @@ class ElementLines:
         try:
             found = circuit_quantity(parse_behavioural(text))
         except BehaviouralError:
-            found = None
+            try:  # (what follows the token may not be an expression: ngspice drops it)
+                found = circuit_quantity(parse_behavioural(token))
+            except BehaviouralError:
+                found = None
         if found is None:
             return False
         name, key = m.group(1), m.group(4)
@@ -362,6 +401,15 @@ class ElementLines:
             tree = parse_behavioural(token)
         except BehaviouralError:
             tree = None
+        if letter == "R" and tree is not None and reads_time_only(tree) and \
+                time_in_comparisons(tree):
+            self.body.elements.append(RawElement(
+                "R", hierarchical_name(name, "R"), st,
+                (node_name(m.group(2)), node_name(m.group(3))),
+                behaviour=("time", tree, token, offset),
+                note=(f"value written unquoted, {key} = {text}: {reads}; write {key} = '...' "
+                      "in quotes for the expression as written")))
+            return True
         if letter == "C" and tree is not None and tree.tag in ("<", ">", "<=", ">="):
             knee = parse_behavioural(f"{token} ? 1 : 0")
             self.body.elements.append(RawElement(
@@ -377,8 +425,9 @@ class ElementLines:
                    f"write {key} = '...' in quotes for the expression as written; pelcs "
                    f"reads a {what} value 'v(n+,n-) < K ? C0 : ...' (a constant below a knee)"
                    if letter == "C" else
-                   f"write {key} = '...' in quotes for the expression as written; pelcs "
-                   f"needs a constant {what} value")
+                   f"write {key} = '...' in quotes for the expression as written; "
+                   + (TIME_ACCEPTED if letter == "R" else f"pelcs needs a constant {what} "
+                      "value"))
         return True
 
     def diode_area(self, extras: list, st: Statement) -> list[RawParam]:

@@ -56,6 +56,7 @@ from .limits import ELEMENTS
 from .rawdeck import Body, Deck, RawElement, RawParam, Statement, Value
 from .steps import evaluate_steps
 from .suggest import close_matches
+from .time_value import elaborate_time_resistor
 
 # default parameters of ngspice's SW model that pelcs uses
 SW_DEFAULTS = {"vt": 0.0, "vh": 0.0}
@@ -254,8 +255,7 @@ class _Builder:
             if key not in defined:
                 known = ", ".join(sorted(defined)) or "none"
                 self.error(f"unknown parameter '{name}' in the overrides (--param)", None,
-                           f"the netlist defines these global parameters: {known}",
-                           dependent=True)
+                           f"the netlist defines these global parameters: {known}", dependent=True)
             else:
                 try:
                     number = float(value)
@@ -448,9 +448,10 @@ class _Builder:
                 self.instance(el, name_prefix, node_prefix, mapnode, env, failed, stack)
             elif el.kind in "MQ":
                 self.circuit.elements.extend(self.device(el, name_prefix, mapnode))
-            elif el.behaviour is not None:  # B: netlist.behavioural; C of a knee: netlist.knee
-                self.circuit.elements += elaborate(el, name_prefix, mapnode, env, failed,
-                                                   self.error)
+            elif el.behaviour is not None:  # B, C of a knee (.behavioural); R (.time_value)
+                self.circuit.elements += elaborate_time_resistor(
+                    el, name_prefix, mapnode, env, self.circuit, self.error) if el.kind == "R" \
+                    else elaborate(el, name_prefix, mapnode, env, failed, self.error)
                 if el.note:
                     self.circuit.notes.append(f"{name_prefix}{el.name}: {el.note}")
             elif el.kind == "W":  # a current-controlled switch (netlist.current_switch)
@@ -732,8 +733,7 @@ class _Builder:
             if not v > 0:
                 if not math.isnan(v) or p.value.expr is None:
                     self.error(f"{name}: {p.name} must be positive, got {v:g}", p.loc,
-                               f"{p.name} multiplies the element: give a positive number",
-                               (name,))
+                               f"{p.name} multiplies the element: give a positive number", (name,))
                 continue
             out *= v
         return out

@@ -29,9 +29,11 @@ from .circuit import (
     CurrentSource,
     Diode,
     Element,
+    Resistor,
     Switch,
     VoltageSource,
 )
+from .time_value import time_resistor_nodes
 from .units import format_number
 
 __all__ = ["write_circuit", "spice_name"]
@@ -103,6 +105,11 @@ def _element(el: Element, circuit: Circuit, kinds: dict[str, str]) -> str:
     name = spice_name(el.name, el.kind)
     nodes = " ".join(el.nodes)
     kind = el.kind
+    if isinstance(el, Resistor) and el.time_value is not None:
+        # a resistor stepped in time (netlist.time_value): its expression, which ngspice
+        # reads (as a B source) and pelcs reads back to the same elements
+        a, b = time_resistor_nodes(circuit, el)
+        return f"{name} {a} {b} R = '{el.time_value.expression()}'"
     if kind in ("R", "L", "C"):
         line = f"{name} {nodes} {_num(el.value)}"
         ic = getattr(el, "ic", None)
@@ -159,18 +166,22 @@ def write_circuit(circuit: Circuit) -> str:
         lines.append(f".param {name}={_num(value)}")
     kinds = {el.key: el.kind for el in circuit.elements}
     for el in circuit.elements:
-        if isinstance(el, Diode) and el.part_of:
-            continue  # a transistor's body diode: part of its model in ngspice
+        if isinstance(el, Diode | Resistor | Switch | VoltageSource) and el.part_of:
+            # a transistor's body diode, part of its model in ngspice; the parts of a
+            # resistor stepped in time, written as that resistor
+            continue
         if el.key in circuit.written_as:  # one of the elements that stand for one line
             if circuit.written_as[el.key]:
                 lines.append(circuit.written_as[el.key])
             continue
         lines.append(_element(el, circuit, kinds))
     devices = {el.model.lower() for el in circuit.elements
-               if isinstance(el, Switch) and el.device is not None}
+               if isinstance(el, Switch) and (el.device is not None or el.part_of)}
     for key, model in circuit.models.items():
         if key in devices:
-            continue  # the switch stand-in of a transistor's threshold: pelcs-only
+            # the switch stand-in of a transistor's threshold, the bypasses of a resistor
+            # stepped in time: pelcs-only
+            continue
 
         params = " ".join(f"{k}={_num(v)}" for k, v in model.params.items())
         lines.append(f".model {model.name} {model.type}({params})")

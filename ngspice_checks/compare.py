@@ -158,6 +158,7 @@ from netlist.circuit import (
 )
 from netlist.errors import Diagnostic, NetlistError
 from netlist.pwl import carried_current
+from netlist.time_value import internal_nodes
 
 from .comparison import Comparison, ProbeComparison, SwitchingComparison, Tolerances
 from .measures import (
@@ -405,18 +406,22 @@ def compare(
         pel = circuit
     probes = check_probes(circuit, list(probes)) if probes else default_probes(circuit)
     ng_probes = [ngspice_probe(circuit, p) for p in probes]
-    switch_els = [el for el in circuit.elements if isinstance(el, Switch)]
+    # (not the ideal bypasses of a resistor stepped in time: ngspice runs that resistor)
+    switch_els = [el for el in circuit.elements if isinstance(el, Switch) and not el.part_of]
     controls = [f"v({a},{b})" if b != GROUND else f"v({a})" for a, b in
                 (sw.control for sw in switch_els)]
     # pelcs also records every diode and switch current: the drop estimate needs them
     from netlist.reductions import parallel_diodes
 
     merged = parallel_diodes(circuit)  # carried by another diode's pair in pelcs
-    extra = [f"i({el.name})" for el in circuit.elements
-             if isinstance(el, (Diode, Switch)) and el.key not in merged]
+    switch_keys = {sw.key for sw in switch_els}
+    devices_els = [el for el in circuit.elements if (isinstance(el, Diode) and el.key not in
+                                                     merged) or el.key in switch_keys]
+    extra = [f"i({el.name})" for el in devices_els]
     pel_probes = list(dict.fromkeys(list(probes) + extra + controls))
     # every node voltage too: their values at t = 0+ give ngspice a consistent start
-    node_probes = [f"v({n})" for n in circuit.nodes if n != GROUND]
+    inner = internal_nodes(circuit)
+    node_probes = [f"v({n})" for n in circuit.nodes if n != GROUND and n not in inner]
     pel_probes = list(dict.fromkeys(pel_probes + node_probes))
 
     # ngspice missing: say so before spending time on the pelcs run
@@ -431,8 +436,7 @@ def compare(
     # like with like: real device models -> pelcs with piecewise-linear fits of them
     t_ideal = np.asarray(result.t, dtype=float)
     carried = {el.name: carried_current(t_ideal, result[f"i({el.name})"])
-               for el in circuit.elements
-               if isinstance(el, (Diode, Switch)) and el.key not in merged}
+               for el in devices_els}
     drives = {sw.name: float(np.max(np.abs(result[ctrl])))
               for sw, ctrl in zip(switch_els, controls, strict=True)}
     ideal_delta = _nonideality(circuit, NgspiceSettings("as-written"), carried, drives)
@@ -492,8 +496,7 @@ def compare(
 
     t_run = np.asarray(result.t, dtype=float)
     currents = {el.name: carried_current(t_run, result[f"i({el.name})"])
-                for el in circuit.elements
-                if isinstance(el, (Diode, Switch)) and el.key not in merged}
+                for el in devices_els}
     rung_models = (ng.settings_used.diode_model is not None
                    or ng.settings_used.switch_model is not None)
     if use_pwl and not rung_models:

@@ -6,7 +6,9 @@ Over the window ``pelcs check`` uses (the last whole periods of the switching so
 
 - conduction loss of every diode and switch, ``mean(Vf |i| + Ron i²)`` with the device's
   piecewise-linear parameters (zero for ideal devices), W;
-- loss in every resistor, ``mean(R i²)``;
+- loss in every resistor, ``mean(R i²)`` (a resistor stepped in time, :mod:`netlist.time_value`,
+  the sum over its segments: ``mean(R(t) i²)``; its ideal bypass switches lose nothing and are
+  not listed);
 - input power, the power the independent voltage sources deliver, ``mean(-v i)`` (SPICE's
   current direction, from n+ through the source);
 - output power, the power of the load: the resistor named by ``load``, else the resistor
@@ -221,8 +223,8 @@ def loss_probes(circuit: Circuit) -> list[str]:
     merged = parallel_diodes(circuit)
     probes = []
     for el in circuit.elements:
-        if isinstance(el, (Diode, Switch, Resistor)) and "#" not in el.name \
-                and el.key not in merged:
+        own = "#" not in el.name or (isinstance(el, Resistor) and el.part_of)
+        if isinstance(el, (Diode, Switch, Resistor)) and own and el.key not in merged:
             probes.append(f"i({el.name})")
     for v in _sources(circuit):
         probes += [f"i({v.name})", _vprobe(*v.nodes[:2])]
@@ -251,6 +253,8 @@ def losses(result, circuit: Circuit, fits: Sequence = (), load: str | None = Non
     rep = LossReport((a, b), n)
     merged = parallel_diodes(circuit)
     for el in circuit.elements:
+        if isinstance(el, Switch) and el.part_of:
+            continue  # a bypass of a resistor stepped in time: ideal, part of the resistor
         if isinstance(el, (Diode, Switch)) and el.key not in merged:
             f = fit.get(el.name)
             if f is None:
@@ -262,7 +266,9 @@ def losses(result, circuit: Circuit, fits: Sequence = (), load: str | None = Non
     for el in circuit.elements:
         if isinstance(el, Resistor):
             i = np.asarray(result[f"i({el.name})"], dtype=float)
-            powers[el.name] = mean(el.value * i * i)
+            # (a segment of a resistor stepped in time: that resistor's power)
+            owner = el.part_of or el.name
+            powers[owner] = powers.get(owner, 0.0) + mean(el.value * i * i)
     if powers:
         rep.load = next((k for k in powers if load and k.lower() == load.lower()), None) or \
             max(powers, key=powers.get)

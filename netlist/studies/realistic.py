@@ -57,9 +57,11 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
     broken: set[str] = set()
     if devices == "pwl":
         merged = parallel_diodes(circuit)
-        sws = [el for el in circuit.elements if isinstance(el, Switch)]
+        # (the bypasses of a resistor stepped in time stay ideal: netlist.time_value)
+        sws = [el for el in circuit.elements if isinstance(el, Switch) and not el.part_of]
         pre = [f"i({el.name})" for el in circuit.elements
-               if isinstance(el, (Diode, Switch)) and el.key not in merged]
+               if isinstance(el, Diode) and el.key not in merged] + [
+            f"i({el.name})" for el in sws]
         pre += [f"v({a})" if b == GROUND else f"v({a},{b})" for a, b in
                 (sw.control for sw in sws)]
         pre += [bd.probe for bd in bds.values()]
@@ -87,7 +89,8 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         t = np.asarray(ideal.t, float)
         i_max = {el.name: carried_current(t, ideal[f"i({el.name})"])
                  for el in circuit.elements
-                 if isinstance(el, (Diode, Switch)) and el.key not in merged}
+                 if (isinstance(el, Diode) and el.key not in merged)
+                 or (isinstance(el, Switch) and not el.part_of)}
         drives = {}
         for sw in sws:
             a, b = sw.control
