@@ -306,11 +306,10 @@ def _limiter(circuit: Circuit, b: ClampSource, why: str) -> None:
     circuit.elements.extend(limiter_elements(circuit, b.name, b.kind_out, b.nodes, b.clamp,
                                              b.location, chain))
     circuit.notes.append(
-        f"{b.name}: clamp ({b.text.strip()}) built as an ideal limiter ({why}): the linear "
-        f"expression on node {e_node} through {LIMITER_OHMS:g} Ω to node "
-        f"{b.name.lower()}#c, which ideal diodes hold within {b.clamp.lo:g} to "
-        f"{b.clamp.hi:g} V, buffered to the output (exact: v({b.name.lower()}#c) is the "
-        "clamp at every instant)")
+        f"{b.name}: clamp ({b.text.strip()}) built as an ideal limiter ({why}): ideal diodes "
+        f"hold its linear expression within {b.clamp.lo:g} to {b.clamp.hi:g} V on node "
+        f"{b.name.lower()}#c (through {LIMITER_OHMS:g} Ω from {e_node}), which drives the "
+        "output; exact")
 
 
 def _gate_switches(circuit: Circuit, b: ClampSource, gated: list[Switch]) -> str | None:

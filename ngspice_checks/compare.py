@@ -12,9 +12,9 @@ overrides). pelcs simulates that circuit; ngspice runs ``netlist.writer.write_ci
 *same* object (flattened, every value evaluated), so both see identical element values. The
 only differences between the two decks are these, each reported in ``Comparison.notes``:
 
-- ngspice gets ``UIC`` on its ``.tran`` line when the netlist has none: pelcs always starts
-  from the initial conditions as written, ngspice without UIC would first compute an
-  operating point and start elsewhere;
+- both get ``UIC`` on the ``.tran`` line when the netlist has none: they start from the same
+  initial conditions (without it each would start from its own DC operating point, which
+  ideal and real devices make differ);
 - commands pelcs ignores (``.save``, ``.control`` blocks, ``.four``, ``.meas``, ``.print``)
   are left out: a ``.save`` would hide the probes' vectors and a ``.control`` block would run
   the analysis a second time;
@@ -300,8 +300,9 @@ def _prepare(circuit: Circuit, tstop: float | None, notes: list[str]) -> Circuit
         tran = replace(tran, tstop=float(tstop),
                        tstart=tran.tstart if tran.tstart < tstop else 0.0)
     if not tran.uic:
-        notes.append("ngspice runs with UIC (added): pelcs starts from the initial conditions "
-                     "as written, ngspice without UIC would start from an operating point")
+        notes.append("both run with UIC (added): from the same initial conditions (without it "
+                     "each would start from its own DC operating point, which ideal and real "
+                     "devices make differ)")
         tran = replace(tran, uic=True)
     c.tran = tran
     if c.ignored:

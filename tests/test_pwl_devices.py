@@ -81,3 +81,36 @@ def test_api_returns_losses_as_data():
     assert d["load"] == "R1" and d["devices_W"]["D1"] > d["devices_W"]["S1"] > 0
     assert res.names == ("v(out)",)  # the losses' probes stay out of the result
     assert [f.element for f in res.device_fits] == ["S1", "D1"]
+
+
+def test_a_chattering_mosfet_with_gate_drain_capacitance_is_explained():
+    # ngspice's examples/vdmos/dcdc.sp with --devices pwl chatters at 6 ms on M1 (its Cgd,
+    # 0.2 nF, above its Cgs): the note says why and what to do; any other failure gets none
+    from lcs.results import SimulationResult
+    from lcs.simulation.failures import chattering
+    from netlist.parser import parse_string
+    from netlist.studies.realistic import _miller_note
+
+    deck = """vdmos boost
+Vin in 0 5
+L1 in d 220u
+M1 d g 0 IRF510
+Vg g 0 PULSE(0 5 0 1u 1u 8u 20u)
+D1 d out dm
+C1 out 0 33u
+R1 out 0 100
+.model dm D(IS=1e-9 RS=0.04)
+.model IRF510 VDMOS nchan Vto=3.6 Kp=1.3 Rg=3 Cgdmax=.2n Cgdmin=.05n Cgs=.12n
+.tran 10n 200u 0 5n uic
+.end
+"""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdealisedDeviceWarning)
+        circuit = parse_string(deck)
+    res = SimulationResult(np.zeros(1), np.zeros((1, 0)), (), np.zeros(0), np.zeros(0))
+    res.error = chattering(1e-3, 1.1e-3, {}, "M1", 16)
+    note = _miller_note(circuit, res)
+    assert "M1's gate-drain capacitance (2e-10 F, Cgs 1.2e-10 F)" in note
+    assert "--devices ideal" in note
+    res.error = chattering(1e-3, 1.1e-3, {}, "nobody", 16)
+    assert _miller_note(circuit, res) == ""

@@ -53,7 +53,7 @@ class DcPoint:
 
 def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.ndarray,
              F: np.ndarray, u: np.ndarray, x0: np.ndarray, lcp: LcpOptions | None = None,
-             rtol: float = 1e-10) -> DcPoint:
+             rtol: float = 1e-12) -> DcPoint:
     """The operating point of one mode (module docstring).
 
     Parameters
@@ -79,6 +79,12 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
                            "the diodes' LCP at the start has no solution")
         return DcPoint(True, x0.copy(), res.z.copy() if res is not None else np.zeros(m),
                        np.zeros(0, bool))
+    # each state equation scaled by its largest coefficient: the rank is then judged on
+    # equations of one size, not across time constants 1e17 apart (a MOSFET's gate RC beside
+    # an integrator)
+    rows = np.abs(np.hstack([A, B, E])).max(axis=1, initial=0.0)
+    scale_rows = 1.0 / np.where(rows > 0, rows, 1.0)
+    A, B, E = A * scale_rows[:, None], B * scale_rows[:, None], E * scale_rows[:, None]
     U, s, Vt = np.linalg.svd(A)
     scale = max(float(s[0]), 1e-300)
     rank = int(np.sum(s > rtol * scale))

@@ -141,6 +141,9 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
             break
         tops.update(resized)
     res.device_fits = fits
+    miller = _miller_note(circuit, res)
+    if miller:
+        res.notes.append(miller)
     res.notes.extend(f"pwl: {f.line()}" for f in fits)
     res.notes.extend(f"pwl: {line}" for line in lines)
     if devices == "pwl" and sizing_note:
@@ -156,6 +159,24 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         k = len(dict.fromkeys(want))
         res.names, res.y = tuple(res.names[:k]), res.y[:, :k]
     return res
+
+
+def _miller_note(circuit: Circuit, res: SimulationResult) -> str:
+    """Why a pwl run stopped chattering on a MOSFET whose gate-drain capacitance couples its
+    gate to its own drain, and what to do ("" for any other run)."""
+    err = res.error
+    if err is None or err.kind != "chattering":
+        return ""
+    sw = next((el for el in circuit.elements if isinstance(el, Switch)
+               and el.name == getattr(err, "switch", None)), None)
+    gate = getattr(sw, "gate_rc", None)
+    if gate is None or not gate[2] > 0:
+        return ""
+    return (f"pwl: {sw.name}'s gate-drain capacitance ({gate[2]:.3g} F, Cgs {gate[1]:.3g} F) "
+            "kicks its gate back across the threshold at each edge: a real MOSFET crosses "
+            "that Miller plateau in its linear region, which an ideal switch does not have, so "
+            "it toggles without end there; simulate with ideal devices (--devices ideal), where "
+            "the gate has no capacitances")
 
 
 def _broken_down(circuit: Circuit, bds: dict, broken: set[str], tops: dict[str, float]
