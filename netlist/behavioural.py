@@ -62,7 +62,6 @@ from .circuit import (
 from .dialect import hierarchical_name
 from .errors import Diagnostic, Location
 from .knee import elaborate_knee
-from .limiter import LIMITER_OHMS, limiter_elements
 from .rawdeck import RawElement
 
 __all__ = ["ClampSource", "Comparator", "elaborate", "fold_clamps", "linear_elements",
@@ -300,6 +299,8 @@ def fold_clamps(circuit: Circuit) -> list[Diagnostic]:
 def _limiter(circuit: Circuit, b: ClampSource, why: str) -> None:
     """Build ``b`` as the exact ideal-diode limiter of :mod:`netlist.limiter`, with a note
     saying why it was not folded (``why``)."""
+    from .limiter import LIMITER_OHMS, limiter_elements  # (only where a clamp is a limiter)
+
     assert b.clamp is not None
     e_node = f"{b.name.lower()}#e"
     chain = linear_elements(f"{b.name}#e", "V", (e_node, GROUND), b.clamp.form, b.location)
