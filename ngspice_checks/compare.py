@@ -328,7 +328,7 @@ def compare(
     pelcs_params: Mapping[str, float | str] | None = None,
     tstop: float | None = None,
     period: float | None = None,
-    theta: float = 0.5,
+    theta: float | None = None,
     tolerances: Tolerances | None = None,
     settings: NgspiceSettings | Sequence[NgspiceSettings] | None = None,
     timeout: float | None = 600.0,
@@ -351,8 +351,9 @@ def compare(
         Stop time for both (s); default the ``.tran`` TSTOP.
     period : float, optional
         Steady-state period (s); default :func:`detect_period`.
-    theta : float
-        pelcs' θ.
+    theta : float, optional
+        pelcs' θ; default as ``pelcs simulate`` chooses it (1/2, or 1 where θ < 1 is
+        unreliable: :func:`netlist.studies.transient.choose_theta`).
     tolerances : Tolerances, optional
     settings : NgspiceSettings or sequence of them, optional
         ngspice ladder (default the runner's :data:`~ngspice_checks.runner.DEFAULT_LADDER`).
@@ -468,6 +469,8 @@ def compare(
     notes.extend(f"pelcs: {n}" for n in result.notes)
     # switching that follows the state (comparators): pelcs once more at half the step, to
     # tell its own sensitivity from a disagreement (module docstring, "Sensitive runs")
+    # (the θ the compared run used: the same for the runs that check its sensitivity)
+    theta = float(result.theta) if getattr(result, "theta", None) is not None else 0.5
     others = _perturbed_runs(run_c, result, theta, pel_probes, switch_els, notes)
     # and ngspice measures every state then: pelcs may restart from its state (below)
     state_probes = ([ngspice_probe(circuit, st) for st in default_probes(circuit)]
