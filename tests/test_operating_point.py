@@ -109,3 +109,35 @@ R1 out 0 10
     assert any("no DC operating point: the comparators have no consistent state" in n
                for n in res.notes)
     assert res["v(out)"][0] == 0.0
+
+
+def test_a_free_combination_keeps_its_conserved_charge_or_flux():
+    # Two inductors in parallel from a 5 V source through 10 Ω: at DC they carry 0.5 A
+    # between them, and their loop flux L1 i1 - L2 i2 is never changed by anything (zero
+    # from the start): i1 = 1/3 A, i2 = 1/6 A, where the transient from zero currents also
+    # ends. (The split orthogonal to the DC equations, 0.25 A each, carries a loop flux of
+    # -0.25 mWb that no circuit gave it.) ngspice's own operating point fails here (singular
+    # matrix) and it ends its transient at 0.3333 / 0.16667 A.
+    deck = ("lloop\nV1 in 0 DC 5\nR1 in a 10\nL1 a 0 1m\nL2 a 0 2m\n.tran 1u 1m\n.end\n")
+    res = simulate_circuit(parse_string(deck), probes=["i(L1)", "i(L2)"])
+    assert res["i(L1)"][0] == pytest.approx(1 / 3) and res["i(L2)"][0] == pytest.approx(1 / 6)
+    assert res["i(L1)"][-1] == pytest.approx(1 / 3)
+    # A 1 mA source into 1 kΩ || C1 and the series C2 (a-b), C3 (b-0): v(a) = 1 V at DC and
+    # node b, reached only by capacitors, keeps its charge (zero): v(b) = C2/(C2 + C3) v(a).
+    deck = ("isrc\nI1 0 a DC 1m\nR1 a 0 1k\nC1 a 0 1u\nC2 a b 1u\nC3 b 0 2u\n.tran 10u 5m\n"
+            ".end\n")
+    res = simulate_circuit(parse_string(deck), probes=["v(a)", "v(b)"])
+    assert res["v(a)"][0] == pytest.approx(1.0) and res["v(b)"][0] == pytest.approx(1 / 3)
+    assert res["v(b)"][-1] == pytest.approx(1 / 3)
+
+
+def test_dc_point_keeps_the_conserved_combinations_of_the_given_state():
+    # x = (i1, i2), the two inductors of the test above with x0 = (0.1, 0): the loop flux
+    # L1 i1 - L2 i2 = 1e-4 Wb is kept: i1 + i2 = 0.5, 1e-3 i1 - 2e-3 i2 = 1e-4
+    L1, L2, R = 1e-3, 2e-3, 10.0
+    A = -R * np.array([[1 / L1, 1 / L1], [1 / L2, 1 / L2]])
+    E = np.array([[1 / L1], [1 / L2]])
+    p = dc_point(A, np.zeros((2, 0)), np.zeros((0, 2)), np.zeros((0, 0)), E, np.zeros((0, 1)),
+                 np.array([5.0]), np.array([0.1, 0.0]))
+    i2 = (0.5 * L1 - 1e-4) / (L1 + L2)
+    assert p.ok and p.x == pytest.approx([0.5 - i2, i2])

@@ -6,11 +6,17 @@ inductors shorted, sources at their ``t = 0`` values. For a mode ``x' = Ax + Bλ
 
     0 = A x + B λ + E u,    w = C x + D λ + F u,    0 <= w ⊥ λ >= 0.
 
-With ``A⁺`` the pseudo-inverse, ``x = x_N - A⁺(Bλ + Eu)``, where ``x_N`` is the part of the
-given state ``x0`` in the null space of ``A`` (a state that no DC equation sets, such as the
-voltage of a capacitor that only open switches and other capacitors reach: it keeps its given
-value, zero unless ``IC=`` sets it). Then ``λ`` solves the LCP
-``w = (D - C A⁺ B) λ + C (x_N - A⁺ E u) + F u``. There is no operating point when the DC
+The DC equations leave free the states in the null space of ``A`` (the voltage of a
+capacitor that only open switches and other capacitors reach, the current around a loop of
+inductors). What the dynamics never change there is kept from the given state ``x0`` (zero
+unless ``IC=`` sets it): the combinations ``W^T x`` with ``W^T A = 0`` (the charge of a node
+that only capacitors reach, the flux around a loop of inductors), whose derivative
+``W^T (Bλ + Eu)`` is zero at the point. With ``P = N (W^T N)^{-1} W^T`` the projector onto the
+null space ``N`` of ``A`` along its range, and ``A⁺`` the pseudo-inverse,
+``x = P x0 + (I - P) x_p`` with ``x_p = -A⁺(Bλ + Eu)``: ``A x = A x_p`` and ``W^T x = W^T x0``.
+(Where ``W^T N`` is singular, a zero eigenvalue of ``A`` with a Jordan chain, ``P`` is the
+orthogonal projector onto ``N``.) Then ``λ`` solves the LCP
+``w = (D - C (I - P) A⁺ B) λ + C (P x0 - (I - P) A⁺ E u) + F u``. There is no operating point when the DC
 equations cannot hold (a DC current into a capacitor with no other path, a voltage across an
 inductor loop: the state would grow without bound) or when the LCP has no solution; the
 result says which.
@@ -92,17 +98,27 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
     inv[:rank] = 1.0 / s[:rank]
     A_pinv = (Vt.T * inv) @ U.T
     null = Vt[rank:].T  # (n, n - rank): the states no DC equation sets
-    x_null = null @ (null.T @ x0)
+    left_null = U[:, rank:]  # the DC equations' combinations that A cannot satisfy
+    # the conserved combinations W^T x of the unscaled equations (W^T A = 0): W = S W_s
+    conserved = left_null * scale_rows[:, None]
+    P = null @ null.T  # (orthogonal: where W^T N is singular)
     free = np.zeros(n, bool)
     if null.size:
         free = np.abs(null).max(axis=1) > 1e-9
-    left_null = U[:, rank:]  # the DC equations' combinations that A cannot satisfy
+        WN = conserved.T @ null
+        sv = np.linalg.svd(WN, compute_uv=False)
+        if sv.min() > 1e-9 * max(sv.max(), 1e-300):
+            # the projector onto null(A) along range(A): keeps W^T x0 (the charges and
+            # fluxes the run could never change), not the part of x0 orthogonal to range(A^T)
+            P = null @ np.linalg.solve(WN, conserved.T)
+    x_null = P @ x0
+    keep = np.eye(n) - P
     if left_null.size and np.abs(left_null.T @ B).max(initial=0.0) > rtol * max(
             1.0, np.abs(B).max(initial=0.0)):
         return DcPoint(False, x0.copy(), np.zeros(m), free,
                        "the diodes act on a DC equation that the state cannot satisfy")
-    M = D - C @ A_pinv @ B
-    q = C @ (x_null - A_pinv @ (E @ u)) + F @ u
+    M = D - C @ keep @ A_pinv @ B
+    q = C @ (x_null - keep @ A_pinv @ (E @ u)) + F @ u
     if m:
         res = solve_lcp(M, q, lcp)
         if not res.ok:
@@ -111,7 +127,7 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
         lam = res.z.copy()
     else:
         lam = np.zeros(0)
-    x = x_null - A_pinv @ (B @ lam + E @ u)
+    x = x_null - keep @ A_pinv @ (B @ lam + E @ u)
     residual = A @ x + B @ lam + E @ u
     size = max(np.abs(A).max(initial=0.0) * np.abs(x).max(initial=0.0),
                np.abs(E @ u).max(initial=0.0), np.abs(B @ lam).max(initial=0.0), 1e-300)
