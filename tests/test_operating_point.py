@@ -141,3 +141,36 @@ def test_dc_point_keeps_the_conserved_combinations_of_the_given_state():
                  np.array([5.0]), np.array([0.1, 0.0]))
     i2 = (0.5 * L1 - 1e-4) / (L1 + L2)
     assert p.ok and p.x == pytest.approx([0.5 - i2, i2])
+
+
+SAMPLE = """capacitor that only an open switch reaches at t = 0
+V1 in 0 DC 5
+R1 in a 1k
+C1 a 0 1u
+S1 a b g 0 smod
+.model smod SW(VT=2.5 RON=1 ROFF=1e12)
+Vg g 0 PULSE(0 5 100u 1n 1n 1 2)
+R2 b c 1
+C2 c 0 1u
+.tran 1u 1m
+.end
+"""
+
+
+def test_a_state_the_dc_equations_leave_free_is_said(tmp_path, ngspice):
+    # C2 is reached only by S1, open at t = 0: no DC equation of the ideal circuit sets its
+    # voltage, and pelcs keeps its charge (0 V). ngspice's operating point sets it through
+    # S1's ROFF (5 V), so the two runs differ from the start (at 1 ms: ngspice 5 V, pelcs
+    # 2.5 V after S1 shares C1's charge): the start must say so.
+    res = simulate_circuit(parse_string(SAMPLE), probes=["v(c)"])
+    ng = ngspice_wrdata(SAMPLE, ["v(c)"], tmp_path)
+    assert res["v(c)"][0] == 0.0 and ng[0, 1] == pytest.approx(5.0, abs=1e-3)
+    notes = [n for n in res.notes if "v(C2)" in n and "operating point" in n]
+    assert notes and "ROFF" in notes[0] and "UIC" in notes[0], res.notes
+    # with UIC both start from the initial conditions and agree
+    uic = SAMPLE.replace(".tran 1u 1m", ".tran 1u 1m uic")
+    res = simulate_circuit(parse_string(uic), probes=["v(c)"])
+    ng = ngspice_wrdata(uic, ["v(c)"], tmp_path)
+    assert not any("v(C2)" in n for n in res.notes)
+    late = ng[:, 0] > 150e-6  # (away from S1's edge at 100 us)
+    assert np.interp(ng[late, 0], res.t, res["v(c)"]) == pytest.approx(ng[late, 1], abs=0.02)

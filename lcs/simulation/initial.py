@@ -173,6 +173,8 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
     if point is not None and not point.ok:
         notes.append(f"no DC operating point ({point.reason}): the run starts from the "
                      "initial conditions, as ngspice with UIC")
+    elif point is not None and point.free.any():
+        notes.append(_free_note(problem, point.free, x))
     if res0 is not None and not res0.ok:
         if on_inconsistent is not None:
             handled = on_inconsistent(problem.lcs(mode), x.copy(), u0.copy())
@@ -203,3 +205,16 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
     if res0 is not None and res0.ok and res0.basis is not None:
         active = int(sum(1 << int(i) for i in np.flatnonzero(res0.basis)))
     return InitialState(key, mode, x, lam, active)
+
+
+def _free_note(problem: Problem, free: np.ndarray, x: np.ndarray) -> str:
+    """What the start does with the states no DC equation of the initial mode sets."""
+    states = problem.system.states
+    named = ", ".join(f"{states[i]} = {x[i]:.6g}" for i in np.flatnonzero(free))
+    return (f"DC operating point: the DC equations of the initial mode leave free (a "
+            "combination of) the states reached only through open switches, blocking diodes, "
+            f"capacitors or inductors, here {named}: they keep the charges and fluxes of the "
+            "initial conditions. ngspice's operating point sets "
+            "them through the switches' ROFF and the diodes' leakage instead (or finds its "
+            "matrix singular), so the runs may differ: UIC on the .tran line starts both from "
+            "the initial conditions")

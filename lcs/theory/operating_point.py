@@ -16,10 +16,10 @@ null space ``N`` of ``A`` along its range, and ``A⁺`` the pseudo-inverse,
 ``x = P x0 + (I - P) x_p`` with ``x_p = -A⁺(Bλ + Eu)``: ``A x = A x_p`` and ``W^T x = W^T x0``.
 (Where ``W^T N`` is singular, a zero eigenvalue of ``A`` with a Jordan chain, ``P`` is the
 orthogonal projector onto ``N``.) Then ``λ`` solves the LCP
-``w = (D - C (I - P) A⁺ B) λ + C (P x0 - (I - P) A⁺ E u) + F u``. There is no operating point when the DC
-equations cannot hold (a DC current into a capacitor with no other path, a voltage across an
-inductor loop: the state would grow without bound) or when the LCP has no solution; the
-result says which.
+``w = (D - C (I - P) A⁺ B) λ + C (P x0 - (I - P) A⁺ E u) + F u``. There is no operating
+point when the DC equations cannot hold (a DC current into a capacitor with no other path,
+a voltage across an inductor loop: the state would grow without bound) or when the LCP has
+no solution; the result says which.
 """
 
 from __future__ import annotations
