@@ -134,3 +134,16 @@ Rl out 0 1k
     assert not any("#" in k for k in (*rep.devices, *rep.resistors)), rep.to_dict()
     assert rep.load == "Rl"
     assert rep.p_out == pytest.approx((1 / 3 - np.sqrt(3) / (4 * np.pi)) * 1e-3, rel=1e-3)
+
+
+def test_check_does_not_take_the_limiter_for_devices(ngspice):
+    # RC_LOAD has no device at all: its only source peaks at 1 V (the limiter's 2 V rail is
+    # no source of the circuit), no drop widens the tolerances, and nothing calls for
+    # piecewise-linear devices (the limiter's ideal diodes are not ngspice's: it runs the B
+    # source)
+    from ngspice_checks.compare import compare
+
+    cmp = compare(RC_LOAD, timeout=60)
+    assert cmp.ok
+    assert cmp.nonideal.v_ref == pytest.approx(1.0)
+    assert not cmp.nonideal.diode_drops and cmp.devices == "ideal"
