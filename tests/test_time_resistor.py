@@ -311,3 +311,29 @@ C1 out 0 1u ic=0
     v1 = 2 / 3 * (1 - math.exp(-1e-3 / (2e-3 / 3)))  # 1 kΩ || 2 kΩ until 1 ms
     want = 0.8 + (v1 - 0.8) * math.exp(-2e-3 / 0.8e-3)  # then 1 kΩ || 4 kΩ
     assert float(over["v(out)"][-1]) == pytest.approx(want, abs=1e-6)
+
+
+def test_a_periodic_steady_state_takes_the_resistor_at_its_value_at_t0():
+    # A periodic orbit (pelcs orbit, continue, basins, bifurcation) or a small-signal response
+    # around it (pelcs ac) has one load: the resistor's value at the map's t0, said in the
+    # notes, and the same orbit and response as that constant resistor
+    from lcs.analysis.orbits import find_orbit
+    from netlist.studies.ac import ac_analysis
+    from netlist.studies.sweep import circuit_map
+
+    for t0, ohms in ((0.0, 5), (1.5e-3, 10)):
+        m = circuit_map(parse_string(BUCK), None, t0=t0)
+        const = circuit_map(parse_string(BUCK.replace("R = 'time < 1ms ? 5 : 10'",
+                                                      str(ohms))), None, t0=t0)
+        said = [n for n in m.notes if n.startswith("R1 is stepped in time")]
+        assert said and f"R1 = {ohms} Ω here" in said[0], m.notes
+        assert not any("is not periodic" in n for n in m.notes)
+        orbit = find_orbit(m, m.x0)
+        want = find_orbit(const, const.x0)
+        assert orbit.points[0] == pytest.approx(want.points[0], rel=1e-9, abs=1e-12)
+    fr = ac_analysis(parse_string(BUCK), period=None, inject="Vin", probes=["v(out)"],
+                     freqs=[100.0, 1e3])
+    const = ac_analysis(parse_string(BUCK.replace("R = 'time < 1ms ? 5 : 10'", "5")),
+                        period=None, inject="Vin", probes=["v(out)"], freqs=[100.0, 1e3])
+    assert any(n.startswith("R1 is stepped in time") for n in fr.notes), fr.notes
+    assert fr["v(out)"] == pytest.approx(const["v(out)"], rel=1e-9)
