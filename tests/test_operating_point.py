@@ -174,3 +174,16 @@ def test_a_state_the_dc_equations_leave_free_is_said(tmp_path, ngspice):
     assert not any("v(C2)" in n for n in res.notes)
     late = ng[:, 0] > 150e-6  # (away from S1's edge at 100 us)
     assert np.interp(ng[late, 0], res.t, res["v(c)"]) == pytest.approx(ng[late, 1], abs=0.02)
+
+
+def test_a_capacitor_only_a_diode_charges_is_said(tmp_path, ngspice):
+    # C1 is reached only by D1: the DC equations hold for any v(C1) at which D1 blocks
+    # (>= 10 V), ideal diodes do not choose one and ngspice's diode leakage puts it at the
+    # source's 10 V; pelcs starts from the initial conditions and says why, naming C1
+    deck = ("peak\nV1 in 0 DC 10\nR0 in a 1\nD1 a out dm\n.model dm D(IS=1e-14)\n"
+            "C1 out 0 10u\n.tran 1u 100u\n.end\n")
+    res = simulate_circuit(parse_string(deck), probes=["v(out)"])
+    ng = ngspice_wrdata(deck, ["v(out)"], tmp_path)
+    assert ng[0, 1] == pytest.approx(10.0, abs=1e-3) and res["v(out)"][0] == 0.0
+    said = [n for n in res.notes if "DC operating point" in n]
+    assert said and "v(C1)" in said[0] and "leakage" in said[0] and "UIC" in said[0], said

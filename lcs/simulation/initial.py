@@ -171,8 +171,11 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
         lam = res0.z.copy() if (res0 is not None and res0.ok) else np.zeros(m)
     mode = mode_tuple(key, k)
     if point is not None and not point.ok:
-        notes.append(f"no DC operating point ({point.reason}): the run starts from the "
-                     "initial conditions, as ngspice with UIC")
+        states = problem.system.states
+        free = ", ".join(states[i] for i in np.flatnonzero(point.free))
+        notes.append(f"no DC operating point ({point.reason}"
+                     + (f"; the states the DC equations leave free: {free}" if free else "")
+                     + "): the run starts from the initial conditions, as ngspice with UIC")
     elif point is not None and point.free.any():
         notes.append(_free_note(problem, point.free, x))
     if res0 is not None and not res0.ok:

@@ -115,8 +115,12 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
     keep = np.eye(n) - P
     if left_null.size and np.abs(left_null.T @ B).max(initial=0.0) > rtol * max(
             1.0, np.abs(B).max(initial=0.0)):
+        # (a capacitor only diodes reach: any value at which they block holds at DC)
         return DcPoint(False, x0.copy(), np.zeros(m), free,
-                       "the diodes act on a DC equation that the state cannot satisfy")
+                       "diodes act on states that no DC equation sets, as on a capacitor "
+                       "only diodes charge: pelcs does not choose among the values the ideal "
+                       "diodes allow there, which ngspice's operating point sets through the "
+                       "diodes' leakage")
     M = D - C @ keep @ A_pinv @ B
     q = C @ (x_null - keep @ A_pinv @ (E @ u)) + F @ u
     if m:
