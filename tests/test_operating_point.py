@@ -187,3 +187,31 @@ def test_a_capacitor_only_a_diode_charges_is_said(tmp_path, ngspice):
     assert ng[0, 1] == pytest.approx(10.0, abs=1e-3) and res["v(out)"][0] == 0.0
     said = [n for n in res.notes if "DC operating point" in n]
     assert said and "v(C1)" in said[0] and "leakage" in said[0] and "UIC" in said[0], said
+
+
+def test_an_inductor_a_blocking_diode_holds_at_zero(tmp_path, ngspice):
+    # A boost with S1 open at t = 0 and no load: the inductor's current is the diode's, zero
+    # at DC, and the diode blocks for any v(C1) >= 12 V; its reverse voltage (the pair's λ in
+    # this mode) is zero at the point nearest the given state: v(out) = 12 V, where ngspice's
+    # diode leakage also puts it (11.9989 V). (Round-off of 1e-16 in the DC equations' inverse
+    # made the LCP w = 0 λ - 1e-16 read as having no solution.)
+    deck = """boost off at t = 0, no load
+Vin in 0 DC 12
+Rin in a 1
+L1 a sw 100u
+S1 sw 0 g 0 smod
+.model smod SW(VT=2.5 RON=10m ROFF=1e9)
+Vg g 0 PULSE(0 5 20u 10n 10n 4u 10u)
+D1 sw out dmod
+.model dmod D(IS=1e-12 RS=20m)
+C1 out 0 10u
+.tran 0.1u 20u
+.end
+"""
+    res = simulate_circuit(parse_string(deck), probes=["i(L1)", "v(out)"])
+    ng = ngspice_wrdata(deck, ["i(L1)", "v(out)"], tmp_path)
+    assert not any("no DC operating point" in n for n in res.notes), res.notes
+    assert res["i(L1)"][0] == pytest.approx(0.0, abs=1e-12)
+    assert res["v(out)"][0] == pytest.approx(12.0)
+    assert ng[0, 3] == pytest.approx(12.0, abs=2e-3)
+    assert np.interp(ng[:, 0], res.t, res["v(out)"]) == pytest.approx(ng[:, 3], abs=2e-3)

@@ -121,8 +121,19 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
                        "only diodes charge: pelcs does not choose among the values the ideal "
                        "diodes allow there, which ngspice's operating point sets through the "
                        "diodes' leakage")
-    M = D - C @ keep @ A_pinv @ B
-    q = C @ (x_null - keep @ A_pinv @ (E @ u)) + F @ u
+    KA = keep @ A_pinv
+    M = D - C @ KA @ B
+    q = C @ (x_null - KA @ (E @ u)) + F @ u
+    # round-off of the inverse (1e-16 where the DC equations give an exact 0) made zero,
+    # relative to the sizes of the factors: an LCP w = -5e-17 λ - 6e-16 has no solution,
+    # w = 0 λ + 0 has λ = 0 (an inductor in series with a diode, both at zero)
+    c_rows = np.abs(C).max(axis=1, initial=0.0)
+    ka = np.abs(KA).max(initial=0.0)
+    M_size = np.abs(D) + np.outer(c_rows, np.abs(B).max(axis=0, initial=0.0)) * ka
+    M = np.where(np.abs(M) <= 1e-12 * M_size, 0.0, M)
+    q_size = (c_rows * (np.abs(x_null).max(initial=0.0) + ka * np.abs(E @ u).max(initial=0.0))
+              + np.abs(F) @ np.abs(u))
+    q = np.where(np.abs(q) <= 1e-12 * q_size, 0.0, q)
     if m:
         res = solve_lcp(M, q, lcp)
         if not res.ok:
@@ -131,7 +142,7 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
         lam = res.z.copy()
     else:
         lam = np.zeros(0)
-    x = x_null - keep @ A_pinv @ (B @ lam + E @ u)
+    x = x_null - KA @ (B @ lam + E @ u)
     residual = A @ x + B @ lam + E @ u
     size = max(np.abs(A).max(initial=0.0) * np.abs(x).max(initial=0.0),
                np.abs(E @ u).max(initial=0.0), np.abs(B @ lam).max(initial=0.0), 1e-300)
