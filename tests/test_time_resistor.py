@@ -337,3 +337,27 @@ def test_a_periodic_steady_state_takes_the_resistor_at_its_value_at_t0():
                         period=None, inject="Vin", probes=["v(out)"], freqs=[100.0, 1e3])
     assert any(n.startswith("R1 is stepped in time") for n in fr.notes), fr.notes
     assert fr["v(out)"] == pytest.approx(const["v(out)"], rel=1e-9)
+
+
+def test_a_monte_carlo_tolerance_scales_the_whole_resistor_stepped_in_time():
+    # R1 is 1 kΩ until 0.5 ms, 2 kΩ after, into 1 kΩ || 10 nF from 10 V: a draw of R1 at
+    # (1 + d) of its value makes it (1 + d) 1 kΩ, then (1 + d) 2 kΩ, so that the final
+    # v(a) = 10 V · 1k / (1k + 2k (1 + d)). A pattern matches the resistor, not its parts.
+    from netlist.studies.param_sweep import run_sweep
+
+    deck = """time R Monte Carlo
+V1 in 0 DC 10
+R1 in a R = 'time < 0.5ms ? 1k : 2k'
+R2 a 0 1k
+C1 a 0 10n
+.tran 1u 1m
+.end
+"""
+    for tol in ("R1=20%", "R1*=20%"):
+        table = run_sweep(deck, ["final(v(a))"], tolerances=[tol], runs=4, seed=3,
+                          period=100e-6, workers=1)
+        assert table.inputs == ("run", "R1")
+        d = table.input_values[:, 1] / 1e3 - 1
+        assert np.abs(d).max() > 0.02
+        want = 10 * 1e3 / (1e3 + 2e3 * (1 + d))
+        assert table.values[:, 0] == pytest.approx(want, rel=1e-6)
