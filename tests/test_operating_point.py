@@ -215,3 +215,36 @@ C1 out 0 10u
     assert res["v(out)"][0] == pytest.approx(12.0)
     assert ng[0, 3] == pytest.approx(12.0, abs=2e-3)
     assert np.interp(ng[:, 0], res.t, res["v(out)"]) == pytest.approx(ng[:, 3], abs=2e-3)
+
+
+TIE = """a comparator whose control sits inside its band at the operating point
+V1 in 0 DC 5
+R1 in a 1k
+R2 a 0 1k
+C1 a 0 1u
+V2 s 0 DC 3
+S1 s c a 0 smod
+.model smod SW(VT=2.5 {vh} RON=1m ROFF=1e12)
+Rc c b 10
+R3 b 0 1k
+C3 b 0 1u
+.tran 1u 1m
+.end
+"""
+
+
+def test_a_comparator_inside_its_band_starts_as_ngspice_decides(tmp_path, ngspice):
+    # v(a) = 2.5 V at DC, inside S1's band: with VH <= 0 ngspice's operating point takes
+    # the switch's state before it as off and its control as entering the band from below:
+    # on (v(b) = 3 V · 1k/1.01k), as for a source-driven control (docs/switching.md); with
+    # VH > 0 the netlist's OFF (default): v(b) = 0
+    for vh, on in (("VH=-0.5", True), ("", True), ("VH=0.5", False)):
+        deck = TIE.format(vh=vh)
+        res = simulate_circuit(parse_string(deck), probes=["v(b)"])
+        ng = ngspice_wrdata(deck, ["v(b)"], tmp_path)
+        want = 3.0 / 1.01 if on else 0.0
+        assert ng[0, 1] == pytest.approx(want, abs=1e-3)
+        assert res["v(b)"][0] == pytest.approx(want, abs=1e-3), vh
+        if vh:  # (VH = 0: the control sits on VT, a relay question after t = 0)
+            got = np.interp(ng[:, 0], res.t, res["v(b)"])
+            assert got == pytest.approx(ng[:, 1], abs=1e-3)

@@ -20,10 +20,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..lcp import LcpOptions, solve_lcp
-from ..model import LCS, ModeKey
+from ..model import LCS, OPERATING_POINT_OPTION, ModeKey
 from ..theory.operating_point import dc_point
 from .problem import Problem, mode_tuple
 from .schedule import Controllers
+from .switch_bands import RULE_OFF, RULE_TOGGLE, band_rule
 from .switches import SW_SCHEDULED, SWF_LATCH, SwitchPlan
 
 InconsistentHandler = Callable[[LCS, np.ndarray, np.ndarray], object]
@@ -126,6 +127,7 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
         return solve_lcp(Dm, Cm @ x + Fm @ u0, lcp)
 
     comparators = [i for i in range(k) if plan.kind[i] != SW_SCHEDULED]
+    switches = problem.system.switches
     settled = not comparators
     res0 = None
     lam = np.zeros(m)
@@ -148,6 +150,16 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
                 on = True
             elif c[i] < plan.vt[i] - plan.vh[i]:
                 on = False
+            elif i not in plan.surface:
+                # inside the band, ngspice's rule at the start (switch_bands.initial_sub):
+                # a VH <= 0 switch of a run from the operating point on, an idealised
+                # transistor off, a VH > 0 switch as it is
+                rule = band_rule(switches[i])[2]
+                opts = switches[i].options if isinstance(switches[i].options, dict) else {}
+                if rule == RULE_OFF:
+                    on = False
+                elif rule == RULE_TOGGLE and opts.get(OPERATING_POINT_OPTION):
+                    on = True
             new = (new | (1 << i)) if on else (new & ~(1 << i))
         if new == key:
             settled = True
