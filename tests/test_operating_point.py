@@ -248,3 +248,24 @@ def test_a_comparator_inside_its_band_starts_as_ngspice_decides(tmp_path, ngspic
         if vh:  # (VH = 0: the control sits on VT, a relay question after t = 0)
             got = np.interp(ng[:, 0], res.t, res["v(b)"])
             assert got == pytest.approx(ng[:, 1], abs=1e-3)
+
+
+def test_an_inductor_an_open_switch_holds_at_zero_is_no_free_state(tmp_path, ngspice):
+    # L1's only path is S1, open at t = 0: the mode holds its current at zero, as ngspice's
+    # ROFF does (12 V / 1 GΩ): nothing to warn about
+    deck = """inductor whose only path is an open switch
+Vin in 0 DC 12
+L1 in sw 100u
+S1 sw 0 g 0 smod
+.model smod SW(VT=2.5 RON=10m ROFF=1e9)
+Vg g 0 PULSE(0 5 20u 10n 10n 4u 10u)
+L2 in x 10u
+R2 x 0 10
+.tran 0.1u 10u
+.end
+"""
+    res = simulate_circuit(parse_string(deck), probes=["i(L1)", "i(L2)"])
+    ng = ngspice_wrdata(deck, ["i(L1)", "i(L2)"], tmp_path)
+    assert ng[0, 1] == pytest.approx(0.0, abs=1e-6) and res["i(L1)"][0] == 0.0
+    assert res["i(L2)"][0] == pytest.approx(1.2) and ng[0, 3] == pytest.approx(1.2)
+    assert not any("leave free" in n for n in res.notes), res.notes

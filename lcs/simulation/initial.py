@@ -189,7 +189,13 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
                      + (f"; the states the DC equations leave free: {free}" if free else "")
                      + "): the run starts from the initial conditions, as ngspice with UIC")
     elif point is not None and point.free.any():
-        notes.append(_free_note(problem, point.free, x))
+        # (a state the mode holds at zero, an inductor an open switch leaves with no path,
+        # is zero in ngspice too, through ROFF: not said)
+        free = point.free.copy()
+        if problem.system.pinnable:
+            free[list(problem.system.pinned(mode))] = False
+        if free.any():
+            notes.append(_free_note(problem, free, x))
     if res0 is not None and not res0.ok:
         if on_inconsistent is not None:
             handled = on_inconsistent(problem.lcs(mode), x.copy(), u0.copy())
