@@ -20,12 +20,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..lcp import LcpOptions, solve_lcp
-from ..model import LCS, OPERATING_POINT_OPTION, ModeKey
+from ..model import LCS, OPERATING_POINT_OPTION, TERMINALS_OPTION, ModeKey
 from ..theory.operating_point import dc_point
 from .problem import Problem, mode_tuple
 from .schedule import Controllers
 from .switch_bands import RULE_OFF, RULE_TOGGLE, band_rule
-from .switches import SW_SCHEDULED, SWF_LATCH, SwitchPlan
+from .switches import SW_SCHEDULED, SWF_LATCH, SwitchPlan, switch_option
 
 InconsistentHandler = Callable[[LCS, np.ndarray, np.ndarray], object]
 
@@ -117,7 +117,8 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
     def dc(key):
         """The operating point of a mode, or None (x0 kept) where it has none."""
         nonlocal x, point
-        point = dc_point(*problem.mode_arrays(mode_tuple(key, k)), u0, x0, lcp)
+        mode = mode_tuple(key, k)
+        point = dc_point(*problem.mode_arrays(mode), u0, x0, lcp, leaks=_leaks(problem, mode))
         x = point.x.copy() if point.ok else np.array(x0, dtype=float)
 
     def initial_lcp(key):
@@ -229,13 +230,34 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
 
 
 def _free_note(problem: Problem, free: np.ndarray, x: np.ndarray) -> str:
-    """What the start does with the states no DC equation of the initial mode sets."""
+    """What the start does with the states no DC equation of the initial mode sets (and no
+    open switch's ROFF reaches)."""
     states = problem.system.states
     named = ", ".join(f"{states[i]} = {x[i]:.6g}" for i in np.flatnonzero(free))
     return (f"DC operating point: the DC equations of the initial mode leave free (a "
-            "combination of) the states reached only through open switches, blocking diodes, "
-            f"capacitors or inductors, here {named}: they keep the charges and fluxes of the "
-            "initial conditions. ngspice's operating point sets "
-            "them through the switches' ROFF and the diodes' leakage instead (or finds its "
-            "matrix singular), so the runs may differ: UIC on the .tran line starts both from "
-            "the initial conditions")
+            "combination of) the states reached only through capacitors, inductors or "
+            f"blocking diodes, here {named}: they keep the charges and fluxes of the initial "
+            "conditions. ngspice's operating point finds its matrix singular there (or sets "
+            "them through the diodes' leakage), so the runs may differ: UIC on the .tran line "
+            "starts both from the initial conditions")
+
+
+def _leaks(problem: Problem, mode: ModeKey) -> tuple[np.ndarray, ...] | None:
+    """The voltages across the switches open in ``mode`` (their option
+    :data:`~lcs.model.TERMINALS_OPTION`), weighted by ``1/sqrt(ROFF)`` (ngspice's default
+    ``ROFF`` 1e12 Ω): :func:`lcs.theory.operating_point.dc_point`'s leaks."""
+    probes, weights = [], []
+    for on, sw in zip(mode, problem.system.switches, strict=True):
+        opts = sw.options if isinstance(sw.options, dict) else {}
+        probe = opts.get(TERMINALS_OPTION)
+        if on or not probe:
+            continue
+        roff = switch_option(opts, "roff", None)
+        roff = float(roff) if roff is not None and float(roff) > 0 else 1e12
+        probes.append(probe)
+        weights.append(1.0 / np.sqrt(roff))
+    if not probes:
+        return None
+    out = problem.system.outputs(mode, probes)
+    w = np.asarray(weights)[:, None]
+    return w * out.Cy, w * out.Dy, w * out.Fy

@@ -59,7 +59,7 @@ class DcPoint:
 
 def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.ndarray,
              F: np.ndarray, u: np.ndarray, x0: np.ndarray, lcp: LcpOptions | None = None,
-             rtol: float = 1e-12) -> DcPoint:
+             rtol: float = 1e-12, leaks: tuple[np.ndarray, ...] | None = None) -> DcPoint:
     """The operating point of one mode (module docstring).
 
     Parameters
@@ -74,6 +74,13 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
     rtol : float
         Relative size below which a singular value of ``A`` counts as zero, and below which
         the residual of the DC equations counts as zero.
+    leaks : tuple of ndarray, optional
+        ``(Cl, Dl, Fl)``, shapes (r, n), (r, m), (r, p): voltages ``Cl x + Dl λ + Fl u`` across
+        vanishing conductances (the open switches' ROFF, weighted by ``1/sqrt(ROFF)``). The
+        states the DC equations leave free and these voltages reach take the limit of
+        ngspice's operating point as the conductances vanish: the least sum of squares of
+        the voltages (a capacitor that only an open switch reaches charges to the voltage
+        on the switch's other side); the others keep their conserved values.
     """
     n, m = A.shape[0], B.shape[1]
     x0 = np.asarray(x0, dtype=float)
@@ -123,6 +130,42 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
                        "diodes' leakage")
     KA = keep @ A_pinv
     M = D - C @ KA @ B
+    solved = _solve(M, C, D, F, KA, B, E, u, x_null, lcp)
+    if solved is None:
+        return DcPoint(False, x0.copy(), np.zeros(m), free,
+                       "the diodes' LCP at the operating point has no solution")
+    x, lam = solved
+    if leaks is not None and null.size and leaks[0].size:
+        Cl, Dl, Fl = leaks
+        Ug, sG, VGt = np.linalg.svd(Cl @ null)
+        reached = int(np.sum(sG > 1e-9 * max(float(sG[0]) if sG.size else 0.0, 1e-300)))
+        if reached:
+            # the free directions the leaks reach: least squares of the leak voltages (the
+            # vanishing-conductance limit); minimal norm leaves the others as they are
+            v = Cl @ x + Dl @ lam + Fl @ u
+            z = -VGt[:reached].T @ ((Ug[:, :reached].T @ v) / sG[:reached])
+            x_null = x_null + null @ z
+            solved = _solve(M, C, D, F, KA, B, E, u, x_null, lcp)
+            if solved is None:
+                return DcPoint(False, x0.copy(), np.zeros(m), free,
+                               "the diodes' LCP at the operating point has no solution")
+            x, lam = solved
+            rest = null @ VGt[reached:].T
+            free = np.abs(rest).max(axis=1, initial=0.0) > 1e-9
+    residual = A @ x + B @ lam + E @ u
+    size = max(np.abs(A).max(initial=0.0) * np.abs(x).max(initial=0.0),
+               np.abs(E @ u).max(initial=0.0), np.abs(B @ lam).max(initial=0.0), 1e-300)
+    if np.abs(residual).max(initial=0.0) > 1e-8 * size:
+        return DcPoint(False, x0.copy(), np.zeros(m), free,
+                       "the DC equations have no solution (a DC current into a capacitor "
+                       "with no other path, or a DC voltage across an inductor loop)")
+    return DcPoint(True, x, lam, free)
+
+
+def _solve(M, C, D, F, KA, B, E, u, x_null, lcp):
+    """``(x, λ)`` of the operating point with the free part ``x_null``, or None when the
+    diodes' LCP has no solution."""
+    m = M.shape[0]
     q = C @ (x_null - KA @ (E @ u)) + F @ u
     # round-off of the inverse (1e-16 where the DC equations give an exact 0) made zero,
     # relative to the sizes of the factors: an LCP w = -5e-17 λ - 6e-16 has no solution,
@@ -137,17 +180,13 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
     if m:
         res = solve_lcp(M, q, lcp)
         if not res.ok:
-            return DcPoint(False, x0.copy(), np.zeros(m), free,
-                           "the diodes' LCP at the operating point has no solution")
+            return None
         lam = res.z.copy()
     else:
         lam = np.zeros(0)
-    x = x_null - KA @ (B @ lam + E @ u)
-    residual = A @ x + B @ lam + E @ u
-    size = max(np.abs(A).max(initial=0.0) * np.abs(x).max(initial=0.0),
-               np.abs(E @ u).max(initial=0.0), np.abs(B @ lam).max(initial=0.0), 1e-300)
-    if np.abs(residual).max(initial=0.0) > 1e-8 * size:
-        return DcPoint(False, x0.copy(), np.zeros(m), free,
-                       "the DC equations have no solution (a DC current into a capacitor "
-                       "with no other path, or a DC voltage across an inductor loop)")
-    return DcPoint(True, x, lam, free)
+    drive = B @ lam + E @ u
+    x = x_null - KA @ drive
+    # (the same round-off in the state: an inductor current of -1e-16 A against a diode
+    # that blocks would read as an inconsistent start)
+    x_size = np.abs(x_null).max(initial=0.0) + ka * np.abs(drive).max(initial=0.0)
+    return np.where(np.abs(x) <= 1e-12 * x_size, 0.0, x), lam
