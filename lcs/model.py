@@ -132,6 +132,10 @@ IDEALISED_OPTION = "idealised"
 #: UIC), which decides the state of a VH <= 0 switch whose control starts inside its band
 #: (:func:`lcs.simulation.source_switching.initial_sub`)
 OPERATING_POINT_OPTION = "operating_point"
+#: a switch option: the probe of the voltage across the switch (``"v(a,b)"``), through which
+#: ngspice's operating point reaches what an open switch alone joins to the circuit (its
+#: ROFF: :func:`lcs.theory.operating_point.dc_point`'s leaks)
+TERMINALS_OPTION = "terminals"
 
 
 # A mode is the tuple of switch states, True = on (short), in the order of

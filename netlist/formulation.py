@@ -67,6 +67,7 @@ from lcs.model import (
     LAMBDA_VOLTAGE,
     LCS,
     OPERATING_POINT_OPTION,
+    TERMINALS_OPTION,
     ComplementarityPair,
     ModeKey,
     ModeModel,
@@ -290,14 +291,12 @@ class _Formulator:
                         "add a `.model NAME SW(VT=... VH=...)` line")
                 else:
                     params = {k.lower(): v for k, v in model.params.items()}
-            ncp, ncm = sw.control
-            options: dict = dict(params)
-            if sw.initial is not None:
-                options["initial"] = sw.initial
+            (ncp, ncm), (na, nb) = sw.control, sw.nodes[:2]
+            options: dict = params | ({} if sw.initial is None else {"initial": sw.initial})
             if sw.device is not None or sw.strict:
                 options[IDEALISED_OPTION] = True
-            if circuit.tran is not None and not circuit.tran.uic:
-                options[OPERATING_POINT_OPTION] = True
+            if circuit.tran is not None and not circuit.tran.uic:  # (ROFF: the DC point)
+                options |= {OPERATING_POINT_OPTION: True, TERMINALS_OPTION: f"v({na},{nb})"}
             self.switch_controls.append(SwitchControl(
                 name=sw.name, control=f"v({ncp},{ncm})", vt=float(params.get("vt", 0.0)),
                 vh=float(params.get("vh", 0.0)), options=options))

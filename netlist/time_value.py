@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 
 from lcs.signals import Pwl
 
@@ -55,8 +56,8 @@ from .time_function import TimeValue
 from .units import format_eng
 
 __all__ = ["ACCEPTED", "MAX_INTERVALS", "TimeValue", "elaborate_time_resistor",
-           "internal_nodes", "other_quantity", "reads_time_only", "time_in_comparisons",
-           "time_resistor_nodes", "time_value"]
+           "frozen_at", "internal_nodes", "other_quantity", "reads_time_only",
+           "time_in_comparisons", "time_resistor_nodes", "time_value"]
 
 #: the most intervals of constant value pelcs expands a resistor into
 MAX_INTERVALS = 8
@@ -334,3 +335,37 @@ def elaborate_time_resistor(el: RawElement, prefix: str, mapnode: Callable[[str]
         "that step, not at the instant; the two agree as ngspice's step there shrinks "
         "(TMAX)")
     return out
+
+
+def frozen_at(circuit: Circuit, t0: float) -> tuple[Circuit, list[str]]:
+    """The circuit with each resistor stepped in time made the constant resistor of its value
+    at ``t0`` (s), and a note per resistor; ``circuit`` itself when it has none.
+
+    A periodic steady state (a stroboscopic map's orbit, the small-signal response around
+    it) has one value of every resistor: the map over a period from ``t0`` sees the value
+    at ``t0`` (the others would make the map depend on the period's index).
+    """
+    stepped = [el for el in circuit.elements
+               if isinstance(el, Resistor) and el.time_value is not None]
+    if not stepped:
+        return circuit, []
+    notes = []
+    parts = {el.name for el in stepped}
+    elements: list[Element] = []
+    for el in circuit.elements:
+        if getattr(el, "part_of", "") in parts:
+            continue
+        if el in stepped:
+            value = el.time_value.at(t0)
+            elements.append(Resistor(el.name, time_resistor_nodes(circuit, el), el.location,
+                                     value))
+            notes.append(f"{el.name} is stepped in time ({el.time_value.describe('Ω')}): a "
+                         f"periodic steady state has one value, {el.name} = "
+                         f"{format_eng(value, 'Ω')} here (its value at t0 = "
+                         f"{format_eng(t0, 's')}, where the map's periods start)")
+            continue
+        elements.append(el)
+    # (the note of reading the resistor describes the steps this circuit no longer has)
+    kept = [n for n in circuit.notes if not any(
+        isinstance(n, str) and n.startswith(f"{name}: resistor value") for name in parts)]
+    return replace(circuit, elements=elements, notes=kept), notes

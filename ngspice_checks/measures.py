@@ -256,6 +256,8 @@ def _nonideality(
     drives = drives or {}
     diodes, switches = {}, {}
     for el in circuit.elements:
+        if el.key in circuit.written_as:
+            continue  # pelcs's construction for one B line (a limiter): ngspice runs the B
         i_max = float(np.max(np.abs(currents[el.name]))) if el.name in currents else 0.0
         if isinstance(el, Diode):
             if settings.diode_model is not None:
@@ -330,10 +332,11 @@ def _nonideality_drop(circuit: Circuit, el: Diode, i: float, vf: float, ron: flo
 
 
 def _v_ref(circuit: Circuit) -> float:
-    """The largest independent source voltage (V)."""
+    """The largest independent source voltage (V); a limiter's rails (pelcs's construction
+    for a B line, ``Circuit.written_as``) are none."""
     v_ref = 0.0
     for el in circuit.elements:
-        if isinstance(el, VoltageSource):
+        if isinstance(el, VoltageSource) and el.key not in circuit.written_as:
             v_ref = max(v_ref, abs(el.dc), _peak(el.waveform))
     return v_ref
 

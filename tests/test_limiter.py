@@ -112,3 +112,38 @@ def test_pwl_devices_keep_the_limiter_ideal():
     assert "D1:" in fitted and "B1#" not in fitted
     want = _clamp(3 * res["v(in)"] + 0.5, -1, 2)
     assert np.abs(res["v(out)"] - want).max() <= 1e-9
+
+
+def test_losses_leave_the_limiter_out():
+    # a sine clamped to ±0.5 V into a 1 kΩ load: the load takes mean(clamp(sin)²)/1 kΩ =
+    # (1/3 - √3/(4π)) mW; the limiter's inner resistor and diodes are pelcs's construction
+    # of an ideal source, not parts that lose power
+    deck = """clamped sine into a load
+V1 in 0 SIN(0 1 1k)
+R2 in 0 1k
+B1 out 0 V = max(-0.5, min(0.5, v(in)))
+Rl out 0 1k
+.tran 1u 5m
+.end
+"""
+    from netlist.studies.realistic import simulate_devices
+
+    res = simulate_devices(parse_string(deck), losses=True, load="Rl", probes=["v(out)"])
+    res.raise_if_error()
+    rep = res.losses
+    assert not any("#" in k for k in (*rep.devices, *rep.resistors)), rep.to_dict()
+    assert rep.load == "Rl"
+    assert rep.p_out == pytest.approx((1 / 3 - np.sqrt(3) / (4 * np.pi)) * 1e-3, rel=1e-3)
+
+
+def test_check_does_not_take_the_limiter_for_devices(ngspice):
+    # RC_LOAD has no device at all: its only source peaks at 1 V (the limiter's 2 V rail is
+    # no source of the circuit), no drop widens the tolerances, and nothing calls for
+    # piecewise-linear devices (the limiter's ideal diodes are not ngspice's: it runs the B
+    # source)
+    from ngspice_checks.compare import compare
+
+    cmp = compare(RC_LOAD, timeout=60)
+    assert cmp.ok
+    assert cmp.nonideal.v_ref == pytest.approx(1.0)
+    assert not cmp.nonideal.diode_drops and cmp.devices == "ideal"

@@ -79,11 +79,17 @@ def test_the_dcdc_line_becomes_its_least_value_and_bypassed_segments():
     assert f"note: {note}" in describe(c)  # (pelcs info: the elements and the note)
 
 
-def test_the_dcdc_file_reads_its_load_as_stepped_in_time():
-    with pytest.warns(UserWarning):  # (its VDMOS idealised)
+def test_the_dcdc_file_reads_its_load_stepped_in_time_and_its_clamp_as_a_limiter():
+    import warnings
+
+    from lcs.notices import IdealisedDeviceWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdealisedDeviceWarning)  # (its VDMOS: a switch)
         c = parse_file(DCDC)
-    assert any(n.startswith("R4: resistor value") and "100 Ω until 12 ms, 50 Ω until 20 ms, "
-               "200 Ω after" in n for n in c.notes)
+    r4 = c.element("R4")
+    assert isinstance(r4, Resistor) and r4.time_value is not None
+    assert any(n.startswith("B1: clamp") and "ideal limiter" in n for n in c.notes), c.notes
 
 
 # An RC charged through a resistor stepped at 1 ms and 2 ms: 1 kΩ, 500 Ω, then 2 kΩ.
@@ -311,3 +317,53 @@ C1 out 0 1u ic=0
     v1 = 2 / 3 * (1 - math.exp(-1e-3 / (2e-3 / 3)))  # 1 kΩ || 2 kΩ until 1 ms
     want = 0.8 + (v1 - 0.8) * math.exp(-2e-3 / 0.8e-3)  # then 1 kΩ || 4 kΩ
     assert float(over["v(out)"][-1]) == pytest.approx(want, abs=1e-6)
+
+
+def test_a_periodic_steady_state_takes_the_resistor_at_its_value_at_t0():
+    # A periodic orbit (pelcs orbit, continue, basins, bifurcation) or a small-signal response
+    # around it (pelcs ac) has one load: the resistor's value at the map's t0, said in the
+    # notes, and the same orbit and response as that constant resistor
+    from lcs.analysis.orbits import find_orbit
+    from netlist.studies.ac import ac_analysis
+    from netlist.studies.sweep import circuit_map
+
+    for t0, ohms in ((0.0, 5), (1.5e-3, 10)):
+        m = circuit_map(parse_string(BUCK), None, t0=t0)
+        const = circuit_map(parse_string(BUCK.replace("R = 'time < 1ms ? 5 : 10'",
+                                                      str(ohms))), None, t0=t0)
+        said = [n for n in m.notes if n.startswith("R1 is stepped in time")]
+        assert said and f"R1 = {ohms} Ω here" in said[0], m.notes
+        assert not any("is not periodic" in n for n in m.notes)
+        orbit = find_orbit(m, m.x0)
+        want = find_orbit(const, const.x0)
+        assert orbit.points[0] == pytest.approx(want.points[0], rel=1e-9, abs=1e-12)
+    fr = ac_analysis(parse_string(BUCK), period=None, inject="Vin", probes=["v(out)"],
+                     freqs=[100.0, 1e3])
+    const = ac_analysis(parse_string(BUCK.replace("R = 'time < 1ms ? 5 : 10'", "5")),
+                        period=None, inject="Vin", probes=["v(out)"], freqs=[100.0, 1e3])
+    assert any(n.startswith("R1 is stepped in time") for n in fr.notes), fr.notes
+    assert fr["v(out)"] == pytest.approx(const["v(out)"], rel=1e-9)
+
+
+def test_a_monte_carlo_tolerance_scales_the_whole_resistor_stepped_in_time():
+    # R1 is 1 kΩ until 0.5 ms, 2 kΩ after, into 1 kΩ || 10 nF from 10 V: a draw of R1 at
+    # (1 + d) of its value makes it (1 + d) 1 kΩ, then (1 + d) 2 kΩ, so that the final
+    # v(a) = 10 V · 1k / (1k + 2k (1 + d)). A pattern matches the resistor, not its parts.
+    from netlist.studies.param_sweep import run_sweep
+
+    deck = """time R Monte Carlo
+V1 in 0 DC 10
+R1 in a R = 'time < 0.5ms ? 1k : 2k'
+R2 a 0 1k
+C1 a 0 10n
+.tran 1u 1m
+.end
+"""
+    for tol in ("R1=20%", "R1*=20%"):
+        table = run_sweep(deck, ["final(v(a))"], tolerances=[tol], runs=4, seed=3,
+                          period=100e-6, workers=1)
+        assert table.inputs == ("run", "R1")
+        d = table.input_values[:, 1] / 1e3 - 1
+        assert np.abs(d).max() > 0.02
+        want = 10 * 1e3 / (1e3 + 2e3 * (1 + d))
+        assert table.values[:, 0] == pytest.approx(want, rel=1e-6)

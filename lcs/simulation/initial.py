@@ -20,11 +20,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..lcp import LcpOptions, solve_lcp
-from ..model import LCS, ModeKey
+from ..model import LCS, OPERATING_POINT_OPTION, TERMINALS_OPTION, ModeKey
 from ..theory.operating_point import dc_point
 from .problem import Problem, mode_tuple
 from .schedule import Controllers
-from .switches import SW_SCHEDULED, SWF_LATCH, SwitchPlan
+from .switch_bands import RULE_OFF, RULE_TOGGLE, band_rule
+from .switches import SW_SCHEDULED, SWF_LATCH, SwitchPlan, switch_option
 
 InconsistentHandler = Callable[[LCS, np.ndarray, np.ndarray], object]
 
@@ -116,7 +117,8 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
     def dc(key):
         """The operating point of a mode, or None (x0 kept) where it has none."""
         nonlocal x, point
-        point = dc_point(*problem.mode_arrays(mode_tuple(key, k)), u0, x0, lcp)
+        mode = mode_tuple(key, k)
+        point = dc_point(*problem.mode_arrays(mode), u0, x0, lcp, leaks=_leaks(problem, mode))
         x = point.x.copy() if point.ok else np.array(x0, dtype=float)
 
     def initial_lcp(key):
@@ -126,6 +128,7 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
         return solve_lcp(Dm, Cm @ x + Fm @ u0, lcp)
 
     comparators = [i for i in range(k) if plan.kind[i] != SW_SCHEDULED]
+    switches = problem.system.switches
     settled = not comparators
     res0 = None
     lam = np.zeros(m)
@@ -148,6 +151,16 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
                 on = True
             elif c[i] < plan.vt[i] - plan.vh[i]:
                 on = False
+            elif i not in plan.surface:
+                # inside the band, ngspice's rule at the start (switch_bands.initial_sub):
+                # a VH <= 0 switch of a run from the operating point on, an idealised
+                # transistor off, a VH > 0 switch as it is
+                rule = band_rule(switches[i])[2]
+                opts = switches[i].options if isinstance(switches[i].options, dict) else {}
+                if rule == RULE_OFF:
+                    on = False
+                elif rule == RULE_TOGGLE and opts.get(OPERATING_POINT_OPTION):
+                    on = True
             new = (new | (1 << i)) if on else (new & ~(1 << i))
         if new == key:
             settled = True
@@ -171,8 +184,19 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
         lam = res0.z.copy() if (res0 is not None and res0.ok) else np.zeros(m)
     mode = mode_tuple(key, k)
     if point is not None and not point.ok:
-        notes.append(f"no DC operating point ({point.reason}): the run starts from the "
-                     "initial conditions, as ngspice with UIC")
+        states = problem.system.states
+        free = ", ".join(states[i] for i in np.flatnonzero(point.free))
+        notes.append(f"no DC operating point ({point.reason}"
+                     + (f"; the states the DC equations leave free: {free}" if free else "")
+                     + "): the run starts from the initial conditions, as ngspice with UIC")
+    elif point is not None and point.free.any():
+        # (a state the mode holds at zero, an inductor an open switch leaves with no path,
+        # is zero in ngspice too, through ROFF: not said)
+        free = point.free.copy()
+        if problem.system.pinnable:
+            free[list(problem.system.pinned(mode))] = False
+        if free.any():
+            notes.append(_free_note(problem, free, x))
     if res0 is not None and not res0.ok:
         if on_inconsistent is not None:
             handled = on_inconsistent(problem.lcs(mode), x.copy(), u0.copy())
@@ -203,3 +227,43 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
     if res0 is not None and res0.ok and res0.basis is not None:
         active = int(sum(1 << int(i) for i in np.flatnonzero(res0.basis)))
     return InitialState(key, mode, x, lam, active)
+
+
+def _free_note(problem: Problem, free: np.ndarray, x: np.ndarray) -> str:
+    """What the start does with the states no DC equation of the initial mode sets (and no
+    open switch's ROFF reaches)."""
+    states = problem.system.states
+    named = ", ".join(f"{states[i]} = {x[i]:.6g}" for i in np.flatnonzero(free))
+    return (f"DC operating point: the DC equations of the initial mode leave free (a "
+            "combination of) the states reached only through capacitors, inductors or "
+            f"blocking diodes, here {named}: they keep the charges and fluxes of the initial "
+            "conditions. ngspice's operating point finds its matrix singular there (or sets "
+            "them through the diodes' leakage), so the runs may differ: UIC on the .tran line "
+            "starts both from the initial conditions")
+
+
+def _leaks(problem: Problem, mode: ModeKey) -> tuple[np.ndarray, ...] | None:
+    """The voltages across the switches open in ``mode`` (their option
+    :data:`~lcs.model.TERMINALS_OPTION`), weighted by ``1/sqrt(ROFF)`` (ngspice's default
+    ``ROFF`` 1e12 Ω): :func:`lcs.theory.operating_point.dc_point`'s leaks."""
+    probes, weights = [], []
+    for on, sw in zip(mode, problem.system.switches, strict=True):
+        opts = sw.options if isinstance(sw.options, dict) else {}
+        probe = opts.get(TERMINALS_OPTION)
+        if on or not probe:
+            continue
+        roff = switch_option(opts, "roff", None)
+        roff = float(roff) if roff is not None and float(roff) > 0 else 1e12
+        probes.append(probe)
+        weights.append(1.0 / np.sqrt(roff))
+    rows = []
+    for probe, weight in zip(probes, weights, strict=True):
+        try:
+            out = problem.system.outputs(mode, [probe])
+        except Exception:  # (a probe this system cannot read, whatever its builder raises:
+            # no leak through that switch)
+            continue
+        rows.append((weight * out.Cy, weight * out.Dy, weight * out.Fy))
+    if not rows:
+        return None
+    return tuple(np.vstack([r[j] for r in rows]) for j in range(3))

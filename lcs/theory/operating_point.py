@@ -6,14 +6,20 @@ inductors shorted, sources at their ``t = 0`` values. For a mode ``x' = Ax + Bλ
 
     0 = A x + B λ + E u,    w = C x + D λ + F u,    0 <= w ⊥ λ >= 0.
 
-With ``A⁺`` the pseudo-inverse, ``x = x_N - A⁺(Bλ + Eu)``, where ``x_N`` is the part of the
-given state ``x0`` in the null space of ``A`` (a state that no DC equation sets, such as the
-voltage of a capacitor that only open switches and other capacitors reach: it keeps its given
-value, zero unless ``IC=`` sets it). Then ``λ`` solves the LCP
-``w = (D - C A⁺ B) λ + C (x_N - A⁺ E u) + F u``. There is no operating point when the DC
-equations cannot hold (a DC current into a capacitor with no other path, a voltage across an
-inductor loop: the state would grow without bound) or when the LCP has no solution; the
-result says which.
+The DC equations leave free the states in the null space of ``A`` (the voltage of a
+capacitor that only open switches and other capacitors reach, the current around a loop of
+inductors). What the dynamics never change there is kept from the given state ``x0`` (zero
+unless ``IC=`` sets it): the combinations ``W^T x`` with ``W^T A = 0`` (the charge of a node
+that only capacitors reach, the flux around a loop of inductors), whose derivative
+``W^T (Bλ + Eu)`` is zero at the point. With ``P = N (W^T N)^{-1} W^T`` the projector onto the
+null space ``N`` of ``A`` along its range, and ``A⁺`` the pseudo-inverse,
+``x = P x0 + (I - P) x_p`` with ``x_p = -A⁺(Bλ + Eu)``: ``A x = A x_p`` and ``W^T x = W^T x0``.
+(Where ``W^T N`` is singular, a zero eigenvalue of ``A`` with a Jordan chain, ``P`` is the
+orthogonal projector onto ``N``.) Then ``λ`` solves the LCP
+``w = (D - C (I - P) A⁺ B) λ + C (P x0 - (I - P) A⁺ E u) + F u``. There is no operating
+point when the DC equations cannot hold (a DC current into a capacitor with no other path,
+a voltage across an inductor loop: the state would grow without bound) or when the LCP has
+no solution; the result says which.
 """
 
 from __future__ import annotations
@@ -53,7 +59,7 @@ class DcPoint:
 
 def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.ndarray,
              F: np.ndarray, u: np.ndarray, x0: np.ndarray, lcp: LcpOptions | None = None,
-             rtol: float = 1e-12) -> DcPoint:
+             rtol: float = 1e-12, leaks: tuple[np.ndarray, ...] | None = None) -> DcPoint:
     """The operating point of one mode (module docstring).
 
     Parameters
@@ -68,6 +74,13 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
     rtol : float
         Relative size below which a singular value of ``A`` counts as zero, and below which
         the residual of the DC equations counts as zero.
+    leaks : tuple of ndarray, optional
+        ``(Cl, Dl, Fl)``, shapes (r, n), (r, m), (r, p): voltages ``Cl x + Dl λ + Fl u`` across
+        vanishing conductances (the open switches' ROFF, weighted by ``1/sqrt(ROFF)``). The
+        states the DC equations leave free and these voltages reach take the limit of
+        ngspice's operating point as the conductances vanish: the least sum of squares of
+        the voltages (a capacitor that only an open switch reaches charges to the voltage
+        on the switch's other side); the others keep their conserved values.
     """
     n, m = A.shape[0], B.shape[1]
     x0 = np.asarray(x0, dtype=float)
@@ -92,26 +105,53 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
     inv[:rank] = 1.0 / s[:rank]
     A_pinv = (Vt.T * inv) @ U.T
     null = Vt[rank:].T  # (n, n - rank): the states no DC equation sets
-    x_null = null @ (null.T @ x0)
+    left_null = U[:, rank:]  # the DC equations' combinations that A cannot satisfy
+    # the conserved combinations W^T x of the unscaled equations (W^T A = 0): W = S W_s
+    conserved = left_null * scale_rows[:, None]
+    P = null @ null.T  # (orthogonal: where W^T N is singular)
     free = np.zeros(n, bool)
     if null.size:
         free = np.abs(null).max(axis=1) > 1e-9
-    left_null = U[:, rank:]  # the DC equations' combinations that A cannot satisfy
+        WN = conserved.T @ null
+        sv = np.linalg.svd(WN, compute_uv=False)
+        if sv.min() > 1e-9 * max(sv.max(), 1e-300):
+            # the projector onto null(A) along range(A): keeps W^T x0 (the charges and
+            # fluxes the run could never change), not the part of x0 orthogonal to range(A^T)
+            P = null @ np.linalg.solve(WN, conserved.T)
+    x_null = P @ x0
+    keep = np.eye(n) - P
     if left_null.size and np.abs(left_null.T @ B).max(initial=0.0) > rtol * max(
             1.0, np.abs(B).max(initial=0.0)):
+        # (a capacitor only diodes reach: any value at which they block holds at DC)
         return DcPoint(False, x0.copy(), np.zeros(m), free,
-                       "the diodes act on a DC equation that the state cannot satisfy")
-    M = D - C @ A_pinv @ B
-    q = C @ (x_null - A_pinv @ (E @ u)) + F @ u
-    if m:
-        res = solve_lcp(M, q, lcp)
-        if not res.ok:
-            return DcPoint(False, x0.copy(), np.zeros(m), free,
-                           "the diodes' LCP at the operating point has no solution")
-        lam = res.z.copy()
-    else:
-        lam = np.zeros(0)
-    x = x_null - A_pinv @ (B @ lam + E @ u)
+                       "diodes act on states that no DC equation sets, as on a capacitor "
+                       "only diodes charge: pelcs does not choose among the values the ideal "
+                       "diodes allow there, which ngspice's operating point sets through the "
+                       "diodes' leakage")
+    KA = keep @ A_pinv
+    M = D - C @ KA @ B
+    solved = _solve(M, C, D, F, KA, B, E, u, x_null, lcp)
+    if solved is None:
+        return DcPoint(False, x0.copy(), np.zeros(m), free,
+                       "the diodes' LCP at the operating point has no solution")
+    x, lam = solved
+    if leaks is not None and null.size and leaks[0].size:
+        Cl, Dl, Fl = leaks
+        Ug, sG, VGt = np.linalg.svd(Cl @ null)
+        reached = int(np.sum(sG > 1e-9 * max(float(sG[0]) if sG.size else 0.0, 1e-300)))
+        if reached:
+            # the free directions the leaks reach: least squares of the leak voltages (the
+            # vanishing-conductance limit); minimal norm leaves the others as they are
+            v = Cl @ x + Dl @ lam + Fl @ u
+            z = -VGt[:reached].T @ ((Ug[:, :reached].T @ v) / sG[:reached])
+            x_null = x_null + null @ z
+            solved = _solve(M, C, D, F, KA, B, E, u, x_null, lcp)
+            if solved is None:
+                return DcPoint(False, x0.copy(), np.zeros(m), free,
+                               "the diodes' LCP at the operating point has no solution")
+            x, lam = solved
+            rest = null @ VGt[reached:].T
+            free = np.abs(rest).max(axis=1, initial=0.0) > 1e-9
     residual = A @ x + B @ lam + E @ u
     size = max(np.abs(A).max(initial=0.0) * np.abs(x).max(initial=0.0),
                np.abs(E @ u).max(initial=0.0), np.abs(B @ lam).max(initial=0.0), 1e-300)
@@ -120,3 +160,33 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
                        "the DC equations have no solution (a DC current into a capacitor "
                        "with no other path, or a DC voltage across an inductor loop)")
     return DcPoint(True, x, lam, free)
+
+
+def _solve(M, C, D, F, KA, B, E, u, x_null, lcp):
+    """``(x, λ)`` of the operating point with the free part ``x_null``, or None when the
+    diodes' LCP has no solution."""
+    m = M.shape[0]
+    q = C @ (x_null - KA @ (E @ u)) + F @ u
+    # round-off of the inverse (1e-16 where the DC equations give an exact 0) made zero,
+    # relative to the sizes of the factors: an LCP w = -5e-17 λ - 6e-16 has no solution,
+    # w = 0 λ + 0 has λ = 0 (an inductor in series with a diode, both at zero)
+    c_rows = np.abs(C).max(axis=1, initial=0.0)
+    ka = np.abs(KA).max(initial=0.0)
+    M_size = np.abs(D) + np.outer(c_rows, np.abs(B).max(axis=0, initial=0.0)) * ka
+    M = np.where(np.abs(M) <= 1e-12 * M_size, 0.0, M)
+    q_size = (c_rows * (np.abs(x_null).max(initial=0.0) + ka * np.abs(E @ u).max(initial=0.0))
+              + np.abs(F) @ np.abs(u))
+    q = np.where(np.abs(q) <= 1e-12 * q_size, 0.0, q)
+    if m:
+        res = solve_lcp(M, q, lcp)
+        if not res.ok:
+            return None
+        lam = res.z.copy()
+    else:
+        lam = np.zeros(0)
+    drive = B @ lam + E @ u
+    x = x_null - KA @ drive
+    # (the same round-off in the state: an inductor current of -1e-16 A against a diode
+    # that blocks would read as an inconsistent start)
+    x_size = np.abs(x_null).max(initial=0.0) + ka * np.abs(drive).max(initial=0.0)
+    return np.where(np.abs(x) <= 1e-12 * x_size, 0.0, x), lam

@@ -261,6 +261,9 @@ def ac_analysis(circuit: Circuit, *, period: float | str | None, inject: str | N
     if np.any(~np.isfinite(freqs)) or np.any(freqs <= 0):
         raise _error(circuit, "frequencies must be positive", "e.g. --freq 100:50k:40")
     m = circuit_map(circuit, T, step=step, theta=theta, options=options)
+    # (a resistor stepped in time: the map, and the response around its orbit, take its
+    # value at t0; the note says which)
+    period_notes = period_notes + [n for n in m.notes if " is stepped in time (" in n]
     system = m.system
     idx = [s.lower() for s in system.inputs].index(inject.lower())
     start = m.x0 if x0 is None else np.asarray(x0, dtype=float)

@@ -218,6 +218,13 @@ def _link_power(result, circuit: Circuit, held: dict, sel: np.ndarray, span: flo
     return total
 
 
+def _limiter_part(el) -> bool:
+    """An element of a B source's limiter (:mod:`netlist.limiter`): pelcs's construction of
+    an ideal source, whose inner currents are no power of the circuit."""
+    return "#" in el.name and (isinstance(el, Diode) and el.ideal
+                               or isinstance(el, Resistor) and not el.part_of)
+
+
 def loss_probes(circuit: Circuit) -> list[str]:
     """The probes :func:`losses` needs."""
     merged = parallel_diodes(circuit)
@@ -255,6 +262,8 @@ def losses(result, circuit: Circuit, fits: Sequence = (), load: str | None = Non
     for el in circuit.elements:
         if isinstance(el, Switch) and el.part_of:
             continue  # a bypass of a resistor stepped in time: ideal, part of the resistor
+        if _limiter_part(el):
+            continue
         if isinstance(el, (Diode, Switch)) and el.key not in merged:
             f = fit.get(el.name)
             if f is None:
@@ -264,7 +273,7 @@ def losses(result, circuit: Circuit, fits: Sequence = (), load: str | None = Non
             rep.devices[el.name] = mean(np.abs(i) * f.voltage(np.abs(i)))
     powers = {}
     for el in circuit.elements:
-        if isinstance(el, Resistor):
+        if isinstance(el, Resistor) and not _limiter_part(el):
             i = np.asarray(result[f"i({el.name})"], dtype=float)
             # (a segment of a resistor stepped in time: that resistor's power)
             owner = el.part_of or el.name

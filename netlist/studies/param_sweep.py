@@ -46,9 +46,10 @@ from lcs import interrupt
 from lcs.analysis.parallel import task_engine
 from lcs.analysis.tables import SweepTable
 
-from ..circuit import Circuit, CurrentSource, VoltageSource
+from ..circuit import Circuit, CurrentSource, Resistor, VoltageSource
 from ..errors import Diagnostic, NetlistError
 from ..parser import parse_string
+from ..time_function import TimeValue
 from ..units import format_eng, parse_number
 from .measure import (
     Measurement,
@@ -201,7 +202,9 @@ def parse_tolerance(text: str) -> Tolerance:
 
 
 def _tolerable(el) -> bool:
-    if el.kind not in _VALUE_ATTR:
+    if el.kind not in _VALUE_ATTR or "#" in el.name:
+        # (pelcs's parts of one element: a resistor stepped in time varies as a whole, a
+        # B source's limiter not at all)
         return False
     if isinstance(el, (VoltageSource, CurrentSource)):
         return el.waveform is None
@@ -365,6 +368,16 @@ def _perturbed(circuit: Circuit, toleranced, deviations) -> tuple[Circuit, list[
             problem = f"{el.name} drawn as {what} its nominal {nominal:.6g}: narrow its " \
                 "tolerance"
         elements[i] = replace(el, **{attr: value})
+        if isinstance(el, Resistor) and el.time_value is not None:
+            # a resistor stepped in time (netlist.time_value): its every value varies, so
+            # its segments (differences of its values) scale with a relative draw
+            tv = el.time_value
+            vals = tuple(v * (1.0 + d) if relative else v + d for v in tv.values)
+            elements[i] = replace(elements[i], time_value=TimeValue(tv.times, vals))
+            if relative:
+                for j, part in enumerate(elements):
+                    if isinstance(part, Resistor) and part.part_of == el.name:
+                        elements[j] = replace(part, value=part.value * (1.0 + d))
         used.append(value)
     if problem:
         raise _DrawError(problem, used)

@@ -33,6 +33,7 @@ from ..circuit import Circuit
 from ..dialect import split_top_level
 from ..errors import Diagnostic, NetlistError
 from ..parser import parse_file, parse_overrides, parse_string
+from ..time_value import frozen_at
 from ..units import format_eng, parse_number
 from .measure import defined_period
 from .transient import check_probes, choose_theta, transient_setup
@@ -356,6 +357,8 @@ def circuit_map(
         diode probes ``i(D)`` for switching patterns; ``period_note`` says which period the
         netlist defined when ``period`` is None (else None).
     """
+    # (one value of each resistor stepped in time: a periodic orbit has one load)
+    circuit, frozen = frozen_at(circuit, t0)
     period_notes = []
     if period is None:
         T, origin = defined_period(circuit)
@@ -396,7 +399,7 @@ def circuit_map(
                                   diode_probes=[f"i({d})" for d in system.diodes])
         em.x0 = setup.x0.copy()
         em.period_note = period_notes[0] if period_notes else None
-        em.notes[:0] = period_notes + list(setup.notes)
+        em.notes[:0] = period_notes + frozen + list(setup.notes)
         return em
     if method != "moreau":
         raise _usage(f"unknown method {method!r}", "moreau or exact")
@@ -413,7 +416,8 @@ def circuit_map(
         m = StroboscopicMap(system, setup.signals, T, h, **kwargs)
     m.x0 = setup.x0.copy()
     m.period_note = period_notes[0] if period_notes else None
-    m.notes[:0] = period_notes + list(setup.notes) + ([theta_note] if theta_note else [])
+    m.notes[:0] = (period_notes + frozen + list(setup.notes)
+                   + ([theta_note] if theta_note else []))
     return m
 
 
