@@ -125,8 +125,13 @@ def _row(el: Element, circuit: Circuit, unit: str) -> list[str]:
         return [el.name, nodes, f"control v({','.join(el.control)})",
                 f"model {el.model}: {thr}{state}"]
     if kind == "D":
-        return [el.name, f"{el.nodes[0]} -> {el.nodes[1]}", f"model {el.model}",
-                "(anode -> cathode)"]
+        if getattr(el, "ideal", False):
+            what = "ideal (a clamp's limiter)"
+        elif getattr(el, "part_of", ""):
+            what = f"body diode of {el.part_of}"
+        else:
+            what = f"model {el.model}"
+        return [el.name, f"{el.nodes[0]} -> {el.nodes[1]}", what, "(anode -> cathode)"]
     return [el.name, nodes, "", ""]
 
 
