@@ -10,6 +10,8 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 
 
@@ -21,6 +23,7 @@ def load(name: str):
     return module
 
 
+@pytest.mark.slow  # (a few seconds: outside the fast subset)
 def test_bifurcation_vm_buck_fast(tmp_path, capsys):
     t0 = time.perf_counter()
     res = load("bifurcation_vm_buck").main(["--fast", "--out", str(tmp_path)])

@@ -42,6 +42,7 @@ def test_one_command_parser_equals_the_full_one():
     assert all(one[k] == full[k] for k in one if k != "func")
 
 
+@pytest.mark.slow  # (a few seconds: outside the fast subset)
 @pytest.mark.parametrize("cache, standalone", [("grammar.lark-standalone", "1"),
                                                ("grammar.lark-tables", "0")])
 def test_grammar_caches_survive_a_corrupt_file(tmp_path, cache, standalone):

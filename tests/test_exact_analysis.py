@@ -13,6 +13,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from lcs.analysis.bifurcation import bifurcation_diagram
 from lcs.analysis.orbits import find_orbit
@@ -23,6 +24,7 @@ ROOT = Path(__file__).resolve().parents[1]
 VM_BUCK = str(ROOT / "converters" / "netlists" / "vm_buck.cir")
 
 
+@pytest.mark.slow  # (a few seconds: outside the fast subset)
 def test_exact_bifurcation_takes_circuit_probes(capsys):
     code = main(["bifurcation", VM_BUCK, "--period", "tp", "--param", "vin=20:26:2",
                  "--transient", "150", "--record", "8", "--method", "exact",

@@ -73,6 +73,7 @@ def _q_samples(lcs, disc, rng, count):
         yield lcs.C @ xf + lcs.F @ u
 
 
+@pytest.mark.slow  # (a few seconds: outside the fast subset)
 def test_12_pulse_rectifier_step_is_unique_at_theta_1_and_not_at_one_half():
     """θ = 1: every λ of the step (m = 12, λ not unique) gives the same next state; θ = 1/2 at
     the same step: the proof fails, and rightly so: some steps have several next states."""
