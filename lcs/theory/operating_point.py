@@ -138,7 +138,10 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
     if leaks is not None and null.size and leaks[0].size:
         Cl, Dl, Fl = leaks
         Ug, sG, VGt = np.linalg.svd(Cl @ null)
-        reached = int(np.sum(sG > 1e-9 * max(float(sG[0]) if sG.size else 0.0, 1e-300)))
+        # (relative to the leaks' own size, not to the largest singular value: a leak that
+        # reaches no free state gives round-off, 1e-21, that would otherwise count as reached
+        # and move the state by its voltage over that round-off, 1e18 V)
+        reached = int(np.sum(sG > 1e-9 * max(float(np.linalg.norm(Cl, 2)), 1e-300)))
         if reached:
             # the free directions the leaks reach: least squares of the leak voltages (the
             # vanishing-conductance limit); minimal norm leaves the others as they are
