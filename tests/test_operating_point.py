@@ -306,3 +306,50 @@ def test_open_switches_that_reach_no_free_state_move_nothing():
     assert res["v(mid)"][0] == pytest.approx(res["v(p)"][0] / 2, rel=1e-6)
     assert np.abs(res["v(mid)"]).max() < 100
     assert any("leave free" in n and "v(C1) = 45.45" in n for n in res.notes)
+
+
+def test_a_diode_voltage_the_lcp_leaves_open_is_set_by_the_leaks():
+    # x = (i_L, v_C): a buck's inductor from the switch node into C, no load, the switch
+    # open: the freewheeling diode's pair is w = i_L (its current), λ = v(sw) (its reverse
+    # voltage); DC: i_L = 0 and v_C = λ for any λ >= 0 (M = 0, q = 0). The open switch's
+    # leak v(in, sw) = 12 - λ sets λ = 12 V; without a leak v_C is said free.
+    L, Cap = 47e-6, 22e-6
+    A = np.array([[0.0, -1 / L], [1 / Cap, 0.0]])
+    B = np.array([[1 / L], [0.0]])
+    C, D = np.array([[1.0, 0.0]]), np.zeros((1, 1))
+    E, F = np.zeros((2, 1)), np.zeros((1, 1))
+    u, x0 = np.array([12.0]), np.zeros(2)
+    w = 1 / np.sqrt(1e9)
+    leaks = (np.zeros((1, 2)), np.array([[-w]]), np.array([[w]]))
+    p = dc_point(A, B, C, D, E, F, u, x0, leaks=leaks)
+    assert p.ok and not p.free.any()
+    assert p.x == pytest.approx([0.0, 12.0]) and p.lam == pytest.approx([12.0])
+    p = dc_point(A, B, C, D, E, F, u, x0)
+    assert p.ok and list(p.free) == [False, True]
+
+
+BUCK_NO_LOAD = """buck with no load, its switch open at t = 0
+V1 in 0 DC 12
+S1 in sw g 0 sw
+D1 0 sw dd
+Vg g 0 PULSE(0 5 20u 10n 10n 5u 10u)
+L1 sw out 47u
+C1 out 0 22u
+.model sw SW(VT=2.5 RON=1m ROFF=1e9)
+.model dd D(IS=1e-14 N=0.01)
+.tran 0.05u 40u
+.end
+"""
+
+
+def test_a_buck_with_no_load_starts_at_its_input_as_in_ngspice(tmp_path, ngspice):
+    # the inductor's only DC path is the blocking diode: the LCP leaves v(sw) = v(out)
+    # anywhere the diode blocks; ngspice's point puts it at 12 V through S1's ROFF (11.988 V:
+    # ROFF 1e9 against the diode's GMIN 1e12). Before: 0 V without a note, and the run
+    # stayed there (1.40 V at 40 us against ngspice's 11.988 V)
+    res = simulate_circuit(parse_string(BUCK_NO_LOAD), probes=["v(out)"])
+    ng = ngspice_wrdata(BUCK_NO_LOAD, ["v(out)"], tmp_path)
+    assert res["v(out)"][0] == pytest.approx(12.0)
+    assert not any("leave free" in n or "no DC operating point" in n for n in res.notes)
+    assert ng[0, 1] == pytest.approx(12.0, abs=0.02)
+    assert np.interp(ng[:, 0], res.t, res["v(out)"]) == pytest.approx(ng[:, 1], abs=0.02)

@@ -16,7 +16,9 @@ null space ``N`` of ``A`` along its range, and ``A⁺`` the pseudo-inverse,
 ``x = P x0 + (I - P) x_p`` with ``x_p = -A⁺(Bλ + Eu)``: ``A x = A x_p`` and ``W^T x = W^T x0``.
 (Where ``W^T N`` is singular, a zero eigenvalue of ``A`` with a Jordan chain, ``P`` is the
 orthogonal projector onto ``N``.) Then ``λ`` solves the LCP
-``w = (D - C (I - P) A⁺ B) λ + C (P x0 - (I - P) A⁺ E u) + F u``. There is no operating
+``w = (D - C (I - P) A⁺ B) λ + C (P x0 - (I - P) A⁺ E u) + F u``; where its solutions form
+a set along which the state moves (a diode voltage that only the blocking diode bounds), the
+open switches' leaks choose one (:func:`_along_lcp`). There is no operating
 point when the DC equations cannot hold (a DC current into a capacitor with no other path,
 a voltage across an inductor loop: the state would grow without bound) or when the LCP has
 no solution; the result says which.
@@ -80,7 +82,8 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
         states the DC equations leave free and these voltages reach take the limit of
         ngspice's operating point as the conductances vanish: the least sum of squares of
         the voltages (a capacitor that only an open switch reaches charges to the voltage
-        on the switch's other side); the others keep their conserved values.
+        on the switch's other side); the others keep their conserved values. The same
+        least squares chooses among the diodes' LCP solutions where they move the state.
     """
     n, m = A.shape[0], B.shape[1]
     x0 = np.asarray(x0, dtype=float)
@@ -134,7 +137,7 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
     if solved is None:
         return DcPoint(False, x0.copy(), np.zeros(m), free,
                        "the diodes' LCP at the operating point has no solution")
-    x, lam = solved
+    x, lam, solution = solved
     if leaks is not None and null.size and leaks[0].size:
         Cl, Dl, Fl = leaks
         Ug, sG, VGt = np.linalg.svd(Cl @ null)
@@ -152,9 +155,13 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
             if solved is None:
                 return DcPoint(False, x0.copy(), np.zeros(m), free,
                                "the diodes' LCP at the operating point has no solution")
-            x, lam = solved
+            x, lam, solution = solved
             rest = null @ VGt[reached:].T
             free = np.abs(rest).max(axis=1, initial=0.0) > 1e-9
+    if m:
+        # (a set of LCP solutions along which the state moves: the leaks choose, or it is free)
+        x, lam, free_lcp = _along_lcp(solution, lam, KA @ B, leaks, x, u)
+        free = free | free_lcp
     residual = A @ x + B @ lam + E @ u
     size = max(np.abs(A).max(initial=0.0) * np.abs(x).max(initial=0.0),
                np.abs(E @ u).max(initial=0.0), np.abs(B @ lam).max(initial=0.0), 1e-300)
@@ -166,8 +173,8 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
 
 
 def _solve(M, C, D, F, KA, B, E, u, x_null, lcp):
-    """``(x, λ)`` of the operating point with the free part ``x_null``, or None when the
-    diodes' LCP has no solution."""
+    """``(x, λ, the LCP as solved)`` of the operating point with the free part ``x_null``,
+    or None when the diodes' LCP has no solution."""
     m = M.shape[0]
     q = C @ (x_null - KA @ (E @ u)) + F @ u
     # round-off of the inverse (1e-16 where the DC equations give an exact 0) made zero,
@@ -192,4 +199,94 @@ def _solve(M, C, D, F, KA, B, E, u, x_null, lcp):
     # (the same round-off in the state: an inductor current of -1e-16 A against a diode
     # that blocks would read as an inconsistent start)
     x_size = np.abs(x_null).max(initial=0.0) + ka * np.abs(drive).max(initial=0.0)
-    return np.where(np.abs(x) <= 1e-12 * x_size, 0.0, x), lam
+    return (np.where(np.abs(x) <= 1e-12 * x_size, 0.0, x), lam,
+            _Lcp(M, M_size, M @ lam + q, q_size))
+
+
+@dataclass
+class _Lcp:
+    """The diodes' LCP at the point as solved (round-off made zero) and its entries' sizes."""
+
+    M: np.ndarray
+    M_size: np.ndarray
+    w: np.ndarray
+    q_size: np.ndarray
+
+
+def _along_lcp(lcp: _Lcp, lam: np.ndarray, KB: np.ndarray, leaks, x: np.ndarray,
+               u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where the diodes' LCP has a set of solutions that move the state, the one nearest
+    the open switches' leaks; and the states the set leaves free.
+
+    At the solution ``λ``, the pairs with ``w = 0`` (``S``) may move along the null space
+    ``K`` of ``M[S, S]`` without changing ``w[S]``: ``λ[S] + K z`` solves the LCP while it
+    stays ``>= 0`` and keeps ``w`` of the other pairs ``>= 0``; the state moves by
+    ``-KA B[:, S] K z`` (``KB = KA B``). An inductor whose only path at DC is a blocking
+    diode leaves the diode's voltage, and the capacitor behind the inductor, anywhere the
+    diode blocks (a buck with its switch open and no load: ngspice's point puts the output at
+    the input through the switch's ROFF). ``z`` minimises the leak voltages' sum of squares
+    under those bounds (a small convex QP, solved as the LCP of its dual); the directions
+    no leak reaches are said free.
+
+    Returns
+    -------
+    x, lam : ndarray
+        The moved point.
+    free : ndarray of bool, shape (n,)
+    """
+    n, m = x.shape[0], lam.shape[0]
+    free = np.zeros(n, bool)
+    w_size = lcp.M_size @ np.abs(lam) + lcp.q_size
+    S = np.flatnonzero(np.abs(lcp.w) <= 1e-9 * np.maximum(w_size, 1e-300))
+    if not S.size:
+        return x, lam, free
+    MSS = lcp.M[np.ix_(S, S)]
+    _, s, Vt = np.linalg.svd(MSS)
+    rank = int(np.sum(s > 1e-9 * max(float(lcp.M_size[np.ix_(S, S)].max(initial=0.0)),
+                                      1e-300)))
+    K = Vt[rank:].T  # (|S|, k)
+    if not K.size:
+        return x, lam, free
+    # the directions that move the state (the others change only multipliers)
+    dx = -KB[:, S] @ K
+    kb = max(float(np.abs(KB).max(initial=0.0)), 1e-300)
+    Ux, sx, Vxt = np.linalg.svd(dx, full_matrices=False)
+    moving = int(np.sum(sx > 1e-9 * kb))
+    if not moving:
+        return x, lam, free
+    K = K @ Vxt[:moving].T
+    dx = -KB[:, S] @ K
+    N = np.setdiff1d(np.arange(m), S)
+    # bounds G t >= h: λ[S] + K t >= 0, w[N] + M[N, S] K t >= 0
+    G = np.vstack([K, lcp.M[np.ix_(N, S)] @ K])
+    h = -np.concatenate([lam[S], lcp.w[N]])
+    rest = K
+    if leaks is not None and leaks[0].size:
+        Cl, Dl, Fl = leaks
+        dv = Cl @ dx + Dl[:, S] @ K
+        Ug, sg, Vgt = np.linalg.svd(dv, full_matrices=False)
+        scale = max(float(np.linalg.norm(np.hstack([Cl, Dl]), 2)), 1e-300)
+        reached = int(np.sum(sg > 1e-9 * scale))
+        if reached:
+            v = Cl @ x + Dl @ lam + Fl @ u
+            # in y = Σ V^T t: minimise |y + U^T v|^2 subject to G V Σ^-1 y >= h; its dual:
+            # y = c + Gy^T μ, 0 <= Gy Gy^T μ + (Gy c - h) ⊥ μ >= 0
+            V, sig = Vgt[:reached].T, sg[:reached]
+            c = -(Ug[:, :reached].T @ v)
+            Gy = (G @ V) / sig
+            res = solve_lcp(Gy @ Gy.T, Gy @ c - h)
+            if res.ok:
+                t = V @ ((c + Gy.T @ res.z) / sig)
+                x = x + dx @ t
+                lam = lam.copy()
+                lam[S] = np.maximum(lam[S] + K @ t, 0.0)
+            rest = K @ Vgt[reached:].T
+    if rest.size:
+        # a direction no leak reaches, along which the solutions go (either way the bounds
+        # allow), leaves the states it moves free
+        tight = np.concatenate([lam[S] <= 0.0, np.zeros(N.size, bool)])
+        for d in rest.T:
+            gd = (G @ d)[tight]
+            if np.all(gd >= -1e-9) or np.all(gd <= 1e-9):
+                free |= np.abs(KB[:, S] @ d) > 1e-9 * kb
+    return x, lam, free
