@@ -159,9 +159,8 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
             rest = null @ VGt[reached:].T
             free = np.abs(rest).max(axis=1, initial=0.0) > 1e-9
     if m:
-        # (a set of LCP solutions along which the state moves: the leaks choose, or it is free)
-        x, lam, free_lcp = _along_lcp(solution, lam, KA @ B, leaks, x, u)
-        free = free | free_lcp
+        # (a set of LCP solutions along which the state moves: the leaks choose)
+        x, lam = _along_lcp(solution, lam, KA @ B, leaks, x, u)
     residual = A @ x + B @ lam + E @ u
     size = max(np.abs(A).max(initial=0.0) * np.abs(x).max(initial=0.0),
                np.abs(E @ u).max(initial=0.0), np.abs(B @ lam).max(initial=0.0), 1e-300)
@@ -214,9 +213,10 @@ class _Lcp:
 
 
 def _along_lcp(lcp: _Lcp, lam: np.ndarray, KB: np.ndarray, leaks, x: np.ndarray,
-               u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Where the diodes' LCP has a set of solutions that move the state, the one nearest
-    the open switches' leaks; and the states the set leaves free.
+               u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Where the diodes' LCP has a set of solutions that move the state, the one ngspice's
+    operating point tends to: nearest the open switches' leaks, then with the least
+    multipliers.
 
     At the solution ``λ``, the pairs with ``w = 0`` (``S``) may move along the null space
     ``K`` of ``M[S, S]`` without changing ``w[S]``: ``λ[S] + K z`` solves the LCP while it
@@ -225,68 +225,64 @@ def _along_lcp(lcp: _Lcp, lam: np.ndarray, KB: np.ndarray, leaks, x: np.ndarray,
     diode leaves the diode's voltage, and the capacitor behind the inductor, anywhere the
     diode blocks (a buck with its switch open and no load: ngspice's point puts the output at
     the input through the switch's ROFF). ``z`` minimises the leak voltages' sum of squares
-    under those bounds (a small convex QP, solved as the LCP of its dual); the directions
-    no leak reaches are said free.
+    under those bounds; in the directions no leak reaches, ``|λ[S]|`` (ngspice's diodes
+    leak too, through GMIN: a diode's voltage, and with it its current, as near zero as the
+    circuit lets it).
 
     Returns
     -------
     x, lam : ndarray
         The moved point.
-    free : ndarray of bool, shape (n,)
     """
-    n, m = x.shape[0], lam.shape[0]
-    free = np.zeros(n, bool)
+    m = lam.shape[0]
     w_size = lcp.M_size @ np.abs(lam) + lcp.q_size
     S = np.flatnonzero(np.abs(lcp.w) <= 1e-9 * np.maximum(w_size, 1e-300))
     if not S.size:
-        return x, lam, free
-    MSS = lcp.M[np.ix_(S, S)]
-    _, s, Vt = np.linalg.svd(MSS)
+        return x, lam
+    _, s, Vt = np.linalg.svd(lcp.M[np.ix_(S, S)])
     rank = int(np.sum(s > 1e-9 * max(float(lcp.M_size[np.ix_(S, S)].max(initial=0.0)),
                                       1e-300)))
     K = Vt[rank:].T  # (|S|, k)
     if not K.size:
-        return x, lam, free
+        return x, lam
     # the directions that move the state (the others change only multipliers)
-    dx = -KB[:, S] @ K
     kb = max(float(np.abs(KB).max(initial=0.0)), 1e-300)
-    Ux, sx, Vxt = np.linalg.svd(dx, full_matrices=False)
+    _, sx, Vxt = np.linalg.svd(KB[:, S] @ K, full_matrices=False)
     moving = int(np.sum(sx > 1e-9 * kb))
     if not moving:
-        return x, lam, free
+        return x, lam
     K = K @ Vxt[:moving].T
-    dx = -KB[:, S] @ K
     N = np.setdiff1d(np.arange(m), S)
-    # bounds G t >= h: λ[S] + K t >= 0, w[N] + M[N, S] K t >= 0
-    G = np.vstack([K, lcp.M[np.ix_(N, S)] @ K])
-    h = -np.concatenate([lam[S], lcp.w[N]])
-    rest = K
-    if leaks is not None and leaks[0].size:
-        Cl, Dl, Fl = leaks
-        dv = Cl @ dx + Dl[:, S] @ K
-        Ug, sg, Vgt = np.linalg.svd(dv, full_matrices=False)
-        scale = max(float(np.linalg.norm(np.hstack([Cl, Dl]), 2)), 1e-300)
-        reached = int(np.sum(sg > 1e-9 * scale))
-        if reached:
-            v = Cl @ x + Dl @ lam + Fl @ u
-            # in y = Σ V^T t: minimise |y + U^T v|^2 subject to G V Σ^-1 y >= h; its dual:
+    lam, w = lam.copy(), lcp.w.copy()
+
+    def move(Kd, dv, v, scale):
+        """Move along ``Kd`` to the least ``|v + dv t|^2`` within the bounds; the
+        directions of ``Kd`` that ``dv`` does not reach."""
+        nonlocal x
+        # bounds G t >= h: λ[S] + Kd t >= 0, w[N] + M[N, S] Kd t >= 0
+        G = np.vstack([Kd, lcp.M[np.ix_(N, S)] @ Kd])
+        h = -np.concatenate([lam[S], w[N]])
+        U, sg, VT = np.linalg.svd(dv, full_matrices=False)
+        r = int(np.sum(sg > 1e-9 * scale))
+        if r:
+            # in y = Σ V^T t: the least |y + U^T v|^2 with G V Σ^-1 y >= h; its dual:
             # y = c + Gy^T μ, 0 <= Gy Gy^T μ + (Gy c - h) ⊥ μ >= 0
-            V, sig = Vgt[:reached].T, sg[:reached]
-            c = -(Ug[:, :reached].T @ v)
+            V, sig = VT[:r].T, sg[:r]
+            c = -(U[:, :r].T @ v)
             Gy = (G @ V) / sig
             res = solve_lcp(Gy @ Gy.T, Gy @ c - h)
             if res.ok:
                 t = V @ ((c + Gy.T @ res.z) / sig)
-                x = x + dx @ t
-                lam = lam.copy()
-                lam[S] = np.maximum(lam[S] + K @ t, 0.0)
-            rest = K @ Vgt[reached:].T
-    if rest.size:
-        # a direction no leak reaches, along which the solutions go (either way the bounds
-        # allow), leaves the states it moves free
-        tight = np.concatenate([lam[S] <= 0.0, np.zeros(N.size, bool)])
-        for d in rest.T:
-            gd = (G @ d)[tight]
-            if np.all(gd >= -1e-9) or np.all(gd <= 1e-9):
-                free |= np.abs(KB[:, S] @ d) > 1e-9 * kb
-    return x, lam, free
+                x = x - KB[:, S] @ (Kd @ t)
+                lam[S] = np.maximum(lam[S] + Kd @ t, 0.0)
+                w[N] = w[N] + lcp.M[np.ix_(N, S)] @ (Kd @ t)
+        return Kd @ VT[r:].T
+
+    if leaks is not None and leaks[0].size:
+        Cl, Dl, Fl = leaks
+        dv = -Cl @ (KB[:, S] @ K) + Dl[:, S] @ K
+        scale = max(float(np.linalg.norm(np.hstack([Cl, Dl]), 2)), 1e-300)
+        K = move(K, dv, Cl @ x + Dl @ lam + Fl @ u, scale)
+    if K.size:
+        move(K, K, lam[S], 1.0)  # (K's columns are orthonormal: every one reached)
+    return x, lam
