@@ -181,7 +181,7 @@ from .measures import (
     detect_period,
 )
 from .runner import NgspiceSettings, ProbeError, ngspice_version, run_ngspice
-from .sensitivity import _nrms, _perturbed_runs, _restart_check, _sensitivity
+from .sensitivity import _nrms, _perturbed_runs, _restart_check, _sensitivity, run_theta
 
 __all__ = [
     "CheckError",
@@ -469,8 +469,7 @@ def compare(
     notes.extend(f"pelcs: {n}" for n in result.notes)
     # switching that follows the state (comparators): pelcs once more at half the step, to
     # tell its own sensitivity from a disagreement (module docstring, "Sensitive runs")
-    # (the θ the compared run used: the same for the runs that check its sensitivity)
-    theta = float(result.theta) if getattr(result, "theta", None) is not None else 0.5
+    theta = run_theta(result)
     others = _perturbed_runs(run_c, result, theta, pel_probes, switch_els, notes)
     # and ngspice measures every state then: pelcs may restart from its state (below)
     state_probes = ([ngspice_probe(circuit, st) for st in default_probes(circuit)]

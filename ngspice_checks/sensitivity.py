@@ -70,6 +70,13 @@ def _nrms(d: np.ndarray, sel: np.ndarray) -> float:
     return float(np.sqrt(np.mean(d[sel] ** 2))) if sel.any() else math.nan
 
 
+def run_theta(result: SimulationResult) -> float:
+    """The θ a compared run used (``result.theta``; 1/2 where it records none): the runs
+    that check its sensitivity or restart it use the same."""
+    theta = getattr(result, "theta", None)
+    return float(theta) if theta is not None else 0.5
+
+
 def _perturbed_runs(circuit: Circuit, result: SimulationResult, theta: float,
                     probes: Sequence[str], switches: Sequence[Switch], notes: list[str]
                     ) -> list[SimulationResult]:
@@ -187,7 +194,7 @@ def _restart_check(circuit: Circuit, ng_name: Callable[[str], str], result: Simu
     except (KeyError, NetlistError):  # a state ngspice does not show (a pwl gate's RC)
         return ""
     controls = [r[1] for r in reading]
-    theta = float(result.theta) if getattr(result, "theta", None) is not None else 0.5
+    theta = run_theta(result)
     try:
         restart = simulate(setup.system, setup.signals, x0, setup.t_stop, setup.h,
                            theta=theta, t_start=window[0],

@@ -373,3 +373,13 @@ C1 out 0 1u
     assert res["v(out)"][0] == pytest.approx(10.0)
     assert not any("leave free" in n for n in res.notes), res.notes
     assert np.interp(ng[:, 0], res.t, res["v(out)"]) == pytest.approx(ng[:, 1], abs=0.01)
+
+
+def test_a_leak_sets_what_it_reaches_and_leaves_the_rest_free():
+    # two free states, one leak 5 - x1 (an open switch from a 5 V node to x1): x1 = 5, x2
+    # keeps its given 2 and is said free
+    A, B, C, D = np.zeros((2, 2)), np.zeros((2, 0)), np.zeros((0, 2)), np.zeros((0, 0))
+    leaks = (np.array([[1.0, 0.0]]), np.zeros((1, 0)), np.array([[-5.0]]))
+    p = dc_point(A, B, C, D, np.zeros((2, 1)), np.zeros((0, 1)), np.array([1.0]),
+                 np.array([1.0, 2.0]), leaks=leaks)
+    assert p.ok and p.x == pytest.approx([5.0, 2.0]) and list(p.free) == [False, True]

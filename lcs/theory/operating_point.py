@@ -140,11 +140,7 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
     x, lam, solution = solved
     if leaks is not None and null.size and leaks[0].size:
         Cl, Dl, Fl = leaks
-        Ug, sG, VGt = np.linalg.svd(Cl @ null)
-        # (relative to the leaks' own size, not to the largest singular value: a leak that
-        # reaches no free state gives round-off, 1e-21, that would otherwise count as reached
-        # and move the state by its voltage over that round-off, 1e18 V)
-        reached = int(np.sum(sG > 1e-9 * max(float(np.linalg.norm(Cl, 2)), 1e-300)))
+        Ug, sG, VGt, reached = _reach(Cl @ null, float(np.linalg.norm(Cl, 2)))
         if reached:
             # the free directions the leaks reach: least squares of the leak voltages (the
             # vanishing-conductance limit); minimal norm leaves the others as they are
@@ -200,6 +196,16 @@ def _solve(M, C, D, F, KA, B, E, u, x_null, lcp):
     x_size = np.abs(x_null).max(initial=0.0) + ka * np.abs(drive).max(initial=0.0)
     return (np.where(np.abs(x) <= 1e-12 * x_size, 0.0, x), lam,
             _Lcp(M, M_size, M @ lam + q, q_size))
+
+
+def _reach(dv: np.ndarray, scale: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """The SVD ``U, s, V^T`` of how the leak voltages move along some directions, and how
+    many of its directions they reach: singular values above 1e-9 of the leaks' own size
+    ``scale`` (not of the largest singular value: a leak that reaches none gives round-off,
+    1e-21, that would count as reached and move the state by its voltage over that
+    round-off, 1e18 V)."""
+    U, s, Vt = np.linalg.svd(dv)  # (full: the rows of V^T past the reached ones are the rest)
+    return U, s, Vt, int(np.sum(s > 1e-9 * max(scale, 1e-300)))
 
 
 @dataclass
@@ -262,8 +268,7 @@ def _along_lcp(lcp: _Lcp, lam: np.ndarray, KB: np.ndarray, leaks, x: np.ndarray,
         # bounds G t >= h: λ[S] + Kd t >= 0, w[N] + M[N, S] Kd t >= 0
         G = np.vstack([Kd, lcp.M[np.ix_(N, S)] @ Kd])
         h = -np.concatenate([lam[S], w[N]])
-        U, sg, VT = np.linalg.svd(dv, full_matrices=False)
-        r = int(np.sum(sg > 1e-9 * scale))
+        U, sg, VT, r = _reach(dv, scale)
         if r:
             # in y = Σ V^T t: the least |y + U^T v|^2 with G V Σ^-1 y >= h; its dual:
             # y = c + Gy^T μ, 0 <= Gy Gy^T μ + (Gy c - h) ⊥ μ >= 0
@@ -281,8 +286,7 @@ def _along_lcp(lcp: _Lcp, lam: np.ndarray, KB: np.ndarray, leaks, x: np.ndarray,
     if leaks is not None and leaks[0].size:
         Cl, Dl, Fl = leaks
         dv = -Cl @ (KB[:, S] @ K) + Dl[:, S] @ K
-        scale = max(float(np.linalg.norm(np.hstack([Cl, Dl]), 2)), 1e-300)
-        K = move(K, dv, Cl @ x + Dl @ lam + Fl @ u, scale)
+        K = move(K, dv, Cl @ x + Dl @ lam + Fl @ u, float(np.linalg.norm(np.hstack([Cl, Dl]), 2)))
     if K.size:
         move(K, K, lam[S], 1.0)  # (K's columns are orthonormal: every one reached)
     return x, lam
