@@ -374,3 +374,15 @@ def test_a_leak_sets_what_it_reaches_and_leaves_the_rest_free():
     p = dc_point(A, B, C, D, np.zeros((2, 1)), np.zeros((0, 1)), np.array([1.0]),
                  np.array([1.0, 2.0]), leaks=leaks)
     assert p.ok and p.x == pytest.approx([5.0, 2.0]) and list(p.free) == [False, True]
+
+
+def test_pairs_of_very_different_sizes_are_no_set_of_solutions():
+    # x' = -x + λ0, w = diag(2^-14, 2^20) λ + F u (a pair in volts beside one in amperes):
+    # the unique solution λ = (2, 3), x = 2 (exact in binary, so that Lemke returns w = 0).
+    # Judged against its largest entry, M's 6.1e-5 read as zero, a set of solutions along
+    # λ0, and the least λ0 moved the point to x = 0, λ0 = 0, where w0 < 0
+    A, B, E = np.array([[-1.0]]), np.array([[1.0, 0.0]]), np.zeros((1, 1))
+    C, D = np.zeros((2, 1)), np.diag([2.0**-14, 2.0**20])
+    F = np.array([[-2 * 2.0**-14], [-3 * 2.0**20]])
+    p = dc_point(A, B, C, D, E, F, np.array([1.0]), np.zeros(1))
+    assert p.ok and p.x == pytest.approx([2.0]) and p.lam == pytest.approx([2.0, 3.0])

@@ -245,12 +245,16 @@ def _along_lcp(lcp: _Lcp, lam: np.ndarray, KB: np.ndarray, leaks, x: np.ndarray,
     S = np.flatnonzero(np.abs(lcp.w) <= 1e-9 * np.maximum(w_size, 1e-300))
     if not S.size:
         return x, lam
-    _, s, Vt = np.linalg.svd(lcp.M[np.ix_(S, S)])
-    rank = int(np.sum(s > 1e-9 * max(float(lcp.M_size[np.ix_(S, S)].max(initial=0.0)),
-                                      1e-300)))
-    K = Vt[rank:].T  # (|S|, k)
-    if not K.size:
+    # the rank judged on M[S, S] scaled by its entries' sizes, row and column (pairs in
+    # volts beside pairs in amperes), not on its largest entry
+    size = lcp.M_size[np.ix_(S, S)]
+    rs, cs = size.max(axis=1, initial=0.0), size.max(axis=0, initial=0.0)
+    rs, cs = np.sqrt(np.where(rs > 0, rs, 1.0)), np.sqrt(np.where(cs > 0, cs, 1.0))
+    _, s, Vt = np.linalg.svd(lcp.M[np.ix_(S, S)] / rs[:, None] / cs[None, :])
+    rank = int(np.sum(s > 1e-9 * max(float(s[0]), 1e-300)))
+    if rank == S.size:
         return x, lam
+    K = np.linalg.qr(Vt[rank:].T / cs[:, None])[0]  # (|S|, k), orthonormal
     # the directions that move the state (the others change only multipliers)
     kb = max(float(np.abs(KB).max(initial=0.0)), 1e-300)
     _, sx, Vxt = np.linalg.svd(KB[:, S] @ K, full_matrices=False)
@@ -259,6 +263,7 @@ def _along_lcp(lcp: _Lcp, lam: np.ndarray, KB: np.ndarray, leaks, x: np.ndarray,
         return x, lam
     K = K @ Vxt[:moving].T
     N = np.setdiff1d(np.arange(m), S)
+    x_in, lam_in = x, lam
     lam, w = lam.copy(), lcp.w.copy()
 
     def move(Kd, dv, v, scale):
@@ -289,4 +294,9 @@ def _along_lcp(lcp: _Lcp, lam: np.ndarray, KB: np.ndarray, leaks, x: np.ndarray,
         K = move(K, dv, Cl @ x + Dl @ lam + Fl @ u, float(np.linalg.norm(np.hstack([Cl, Dl]), 2)))
     if K.size:
         move(K, K, lam[S], 1.0)  # (K's columns are orthonormal: every one reached)
+    # still a solution of the LCP (else the point as first solved)
+    w = lcp.M @ lam + (lcp.w - lcp.M @ lam_in)
+    tol = 1e-9 * (lcp.M_size @ np.abs(lam) + w_size)
+    if np.any(w < -tol) or np.any(np.minimum(lam, w) > tol):
+        return x_in, lam_in
     return x, lam
