@@ -308,7 +308,8 @@ def _limiter(circuit: Circuit, b: ClampSource, why: str) -> None:
                                              b.location, chain))
     circuit.notes.append(
         f"{b.name}: clamp ({b.text.strip()}) built as an ideal limiter ({why}): ideal diodes "
-        f"hold its linear expression within {b.clamp.lo:g} to {b.clamp.hi:g} V on node "
+        f"hold its linear expression within {b.clamp.lo:g} to {b.clamp.hi:g} "
+        f"{'V' if b.kind_out == 'V' else 'A (as volts)'} on node "
         f"{b.name.lower()}#c (through {LIMITER_OHMS:g} Ω from {e_node}), which drives the "
         "output; exact")
 
