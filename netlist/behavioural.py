@@ -38,6 +38,7 @@ The expressions themselves (grammar, linear and comparator forms) are
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from typing import ClassVar
@@ -296,10 +297,21 @@ def fold_clamps(circuit: Circuit) -> list[Diagnostic]:
     return diags
 
 
+def _bounds_text(lo: float, hi: float, unit: str) -> str:
+    """``within 0 to 5 V``, ``at or above 0 V``, ``at or below 5 V``."""
+    if math.isinf(hi):
+        return f"at or above {lo:g} {unit}"
+    if math.isinf(lo):
+        return f"at or below {hi:g} {unit}"
+    return f"within {lo:g} to {hi:g} {unit}"
+
+
 def _limiter(circuit: Circuit, b: ClampSource, why: str) -> None:
     """Build ``b`` as the exact ideal-diode limiter of :mod:`netlist.limiter`, with a note
     saying why it was not folded (``why``)."""
     from .limiter import LIMITER_OHMS, limiter_elements  # (only where a clamp is a limiter)
+
+    unit = "V" if b.kind_out == "V" else "A (as volts)"
 
     assert b.clamp is not None
     e_node = f"{b.name.lower()}#e"
@@ -308,8 +320,7 @@ def _limiter(circuit: Circuit, b: ClampSource, why: str) -> None:
                                              b.location, chain))
     circuit.notes.append(
         f"{b.name}: clamp ({b.text.strip()}) built as an ideal limiter ({why}): ideal diodes "
-        f"hold its linear expression within {b.clamp.lo:g} to {b.clamp.hi:g} "
-        f"{'V' if b.kind_out == 'V' else 'A (as volts)'} on node "
+        f"hold its linear expression {_bounds_text(b.clamp.lo, b.clamp.hi, unit)} on node "
         f"{b.name.lower()}#c (through {LIMITER_OHMS:g} Ω from {e_node}), which drives the "
         "output; exact")
 
