@@ -355,7 +355,10 @@ def _leak_balanced(A, B, C, D, E, F, u, x0, lcp, rtol, leaks, Lb, Le, null, KA, 
     of LCP solutions, that keep every bound (a diode from 10 V into a capacitor: ``w = v_C -
     10 >= 0``, least at ``v_C = 10 V``; a forward-biased diode is held at ``w = 0``, as
     its exponential holds it); then the least multipliers, as in :func:`_along_lcp`. The
-    point found is checked against the DC equations and the LCP (else None).
+    search keeps the rest's pairs as its LCP solution has them (those at ``w = 0`` stay
+    there, the others do not conduct): a balance that would need another of them to
+    conduct is not found, and the note stays. The point found is checked against the DC
+    equations and the LCP (else None).
     """
     m = B.shape[1]
     cols = np.abs(Lb).max(axis=0, initial=0.0)
