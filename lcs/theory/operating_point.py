@@ -18,10 +18,14 @@ null space ``N`` of ``A`` along its range, and ``A⁺`` the pseudo-inverse,
 orthogonal projector onto ``N``.) Then ``λ`` solves the LCP
 ``w = (D - C (I - P) A⁺ B) λ + C (P x0 - (I - P) A⁺ E u) + F u``; where its solutions form
 a set along which the state moves (a diode voltage that only the blocking diode bounds), the
-open switches' leaks choose one (:func:`_along_lcp`). There is no operating
-point when the DC equations cannot hold (a DC current into a capacitor with no other path,
-a voltage across an inductor loop: the state would grow without bound) or when the LCP has
-no solution; the result says which.
+open switches' leaks choose one (:func:`_along_lcp`). Where diodes act on the free states
+(a capacitor that only diodes charge: ``W^T B != 0``), no DC current may enter them; where
+that holds only with those diodes' ``λ = 0``, the diodes' leakage sets the states, as in
+ngspice: the least squares of those diodes' voltages within their bounds
+(:func:`_leak_balanced`: a diode from 10 V into a lone capacitor charges it to 10 V).
+There is no operating point when the DC equations cannot hold (a DC current into a
+capacitor with no other path, a voltage across an inductor loop: the state would grow
+without bound) or when the LCP has no solution; the result says which.
 """
 
 from __future__ import annotations
@@ -100,6 +104,7 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
     # an integrator)
     rows = np.abs(np.hstack([A, B, E])).max(axis=1, initial=0.0)
     scale_rows = 1.0 / np.where(rows > 0, rows, 1.0)
+    A_in, B_in, E_in = A, B, E
     A, B, E = A * scale_rows[:, None], B * scale_rows[:, None], E * scale_rows[:, None]
     U, s, Vt = np.linalg.svd(A)
     scale = max(float(s[0]), 1e-300)
@@ -123,15 +128,20 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
             P = null @ np.linalg.solve(WN, conserved.T)
     x_null = P @ x0
     keep = np.eye(n) - P
+    KA = keep @ A_pinv
     if left_null.size and np.abs(left_null.T @ B).max(initial=0.0) > rtol * max(
             1.0, np.abs(B).max(initial=0.0)):
-        # (a capacitor only diodes reach: any value at which they block holds at DC)
+        # (a capacitor only diodes reach: any value at which they block holds at DC; their
+        # leakage chooses, where that can be made exact)
+        found = _leak_balanced(A_in, B_in, C, D, E_in, F, u, x0, lcp, rtol, leaks,
+                               left_null.T @ B, left_null.T @ (E @ u), null, KA, B)
+        if found is not None:
+            return found
         return DcPoint(False, x0.copy(), np.zeros(m), free,
-                       "diodes act on states that no DC equation sets, as on a capacitor "
-                       "only diodes charge: pelcs does not choose among the values the ideal "
-                       "diodes allow there, which ngspice's operating point sets through the "
-                       "diodes' leakage")
-    KA = keep @ A_pinv
+                       "diodes act on states that no DC equation sets, and pelcs finds no "
+                       "point among the values the ideal diodes allow there where their "
+                       "leakage balances, as ngspice's operating point does (as where a DC "
+                       "current may pass from one diode through such a state into another)")
     M = D - C @ KA @ B
     solved = _solve(M, C, D, F, KA, B, E, u, x_null, lcp)
     if solved is None:
@@ -300,3 +310,132 @@ def _along_lcp(lcp: _Lcp, lam: np.ndarray, KB: np.ndarray, leaks, x: np.ndarray,
     if np.any(w < -tol) or np.any(np.minimum(lam, w) > tol):
         return x_in, lam_in
     return x, lam
+
+
+# ngspice's GMIN (1e-12 S) across every diode, as a leak's weight sqrt(conductance): the
+# diodes' leaks beside the open switches' 1/sqrt(ROFF)
+_DIODE_LEAK = 1e-6
+
+
+def _bounded_least_squares(dv: np.ndarray, v: np.ndarray, G: np.ndarray, h: np.ndarray,
+                           scale: float) -> tuple[np.ndarray | None, np.ndarray]:
+    """A ``t`` of least ``|v + dv t|^2`` with ``G t >= h`` (None when no ``t`` keeps the
+    bounds), and a basis of the directions ``dv`` does not reach (:func:`_reach`), along
+    which every such ``t`` moved keeps ``dv t`` (the least squares' residual is unique).
+
+    Along directions ``dv`` does not reach the QP is only semidefinite, and a bound may need
+    a move along them to hold: its KKT conditions with ``t = t+ - t-`` are the monotone LCP
+    ``H t + g - G^T μ = 0``, ``0 <= G t - h ⊥ μ >= 0`` (``H = dv^T dv``, ``g = dv^T v``, both
+    over ``scale^2``), which Lemke's method solves whenever the bounds can hold."""
+    k = dv.shape[1]
+    _, _, VT, r = _reach(dv, scale)
+    s = max(scale, 1e-300)
+    H, g = (dv.T @ dv) / s**2, (dv.T @ v) / s**2
+    b = G.shape[0]
+    Mq = np.block([[H, -H, -G.T], [-H, H, G.T], [G, -G, np.zeros((b, b))]])
+    res = solve_lcp(Mq, np.concatenate([g, -g, -h]))
+    if not res.ok:
+        return None, VT[r:].T
+    return res.z[:k] - res.z[k:2 * k], VT[r:].T
+
+
+def _leak_balanced(A, B, C, D, E, F, u, x0, lcp, rtol, leaks, Lb, Le, null, KA, Bs
+                   ) -> DcPoint | None:
+    """The operating point where diodes act on states that no DC equation sets (a
+    capacitor that only diodes charge), as ngspice's diode leakage sets it; None where this
+    cannot be made exact.
+
+    At DC no current enters those states: ``Lb λ + Le = 0`` (``Lb``, ``Le``: the DC
+    equations' combinations that ``A`` cannot satisfy, applied to ``B`` and ``E u``). Where
+    ``Le = 0`` and some combination of them has every acting pair's entry positive, that
+    holds only with the acting pairs ``J`` at ``λ_J = 0``; the point without them (the
+    rest's operating point) then leaves the free states anywhere their ``w_J >= 0``. The
+    diodes' leakage (GMIN beside the open switches' ROFF) takes the least weighted sum of
+    squares of ``w_J`` and of the switches' voltages over the states, and the rest's sets
+    of LCP solutions, that keep every bound (a diode from 10 V into a capacitor: ``w = v_C -
+    10 >= 0``, least at ``v_C = 10 V``; a forward-biased diode is held at ``w = 0``, as
+    its exponential holds it); then the least multipliers, as in :func:`_along_lcp`. The
+    search keeps the rest's pairs as its LCP solution has them (those at ``w = 0`` stay
+    there, the others do not conduct): a balance that would need another of them to
+    conduct is not found, and the note stays. The point found is checked against the DC
+    equations and the LCP (else None).
+    """
+    m = B.shape[1]
+    cols = np.abs(Lb).max(axis=0, initial=0.0)
+    J = np.flatnonzero(cols > rtol * max(np.abs(Bs).max(initial=0.0), 1.0))
+    R = np.setdiff1d(np.arange(m), J)
+    if np.abs(Le).max(initial=0.0) > rtol * max(np.abs(Lb).max(initial=0.0),
+                                                np.abs(E @ u).max(initial=0.0), 1.0):
+        return None
+    y = np.linalg.lstsq(Lb[:, J].T, np.ones(J.size), rcond=None)[0]
+    if not np.all(Lb[:, J].T @ y > 0.5):
+        return None  # (a current in one acting diode could balance another's)
+    sub = dc_point(A, B[:, R], C[R], D[np.ix_(R, R)], E, F[R], u, x0, lcp, rtol, leaks)
+    if not sub.ok:
+        return None
+    x, lam = sub.x.copy(), np.zeros(m)
+    lam[R] = sub.lam
+    KB = KA @ Bs
+    Mf = D - C @ KB
+    w = C @ x + D @ lam + F @ u
+    w_size = np.abs(C) @ np.abs(x) + np.abs(D) @ np.abs(lam) + np.abs(F) @ np.abs(u)
+    S = R[np.abs(w[R]) <= 1e-9 * np.maximum(w_size[R], 1e-300)]
+    N = np.setdiff1d(np.arange(m), S)
+    # the moves (dz along the null space, dλ_S) that keep w_S = 0
+    Q = np.hstack([C[S] @ null, Mf[np.ix_(S, S)]])
+    nz = null.shape[1]
+    if Q.size:
+        rows = np.abs(Q).max(axis=1, initial=0.0)
+        Q = Q / np.where(rows > 0, rows, 1.0)[:, None]
+        _, sq, Qt = np.linalg.svd(Q)
+        rank = int(np.sum(sq > 1e-9 * max(float(sq[0]) if sq.size else 0.0, 1e-300)))
+        K = Qt[rank:].T
+    else:
+        K = np.eye(nz + S.size)
+    Kz, Kl = K[:nz], K[nz:]
+    dx = null @ Kz - KB[:, S] @ Kl
+    dw = C @ null @ Kz + Mf[:, S] @ Kl
+    rows_v = [_DIODE_LEAK * dw[J]]
+    v = [_DIODE_LEAK * w[J]]
+    scale = _DIODE_LEAK * float(np.linalg.norm(np.hstack([C[J], D[J]]), 2))
+    if leaks is not None and leaks[0].size:
+        Cl, Dl, Fl = leaks
+        rows_v.append(Cl @ dx + Dl[:, S] @ Kl)
+        v.append(Cl @ x + Dl @ lam + Fl @ u)
+        scale = max(scale, float(np.linalg.norm(np.hstack([Cl, Dl]), 2)))
+    dv, vv = np.vstack(rows_v), np.concatenate(v)
+    # bounds: λ_S + Kl t >= 0, w_N + dw_N t >= 0
+    G = np.vstack([Kl, dw[N]])
+    h = -np.concatenate([lam[S], w[N]])
+    t, rest = _bounded_least_squares(dv, vv, G, h, scale)
+    if t is None:
+        return None
+    # then, in the directions no leak reaches, the least multipliers (as in _along_lcp),
+    # and what is left the least move from the rest's point (what the initial conditions
+    # kept there stays, where the bounds let it)
+    for stage, (target, now) in enumerate(((Kl, lam[S]), (np.eye(t.size), np.zeros(t.size)))):
+        if stage == 1:
+            free_dirs = rest  # (before the least move: the directions nothing sets)
+        if not rest.size:
+            continue
+        dt, unreached = _bounded_least_squares(target @ rest, now + target @ t, G @ rest,
+                                               h - G @ t, 1.0)
+        if dt is None:
+            return None
+        t, rest = t + rest @ dt, rest @ unreached
+    x = x + dx @ t
+    lam = lam.copy()
+    lam[S] = lam[S] + Kl @ t
+    lam = np.where(np.abs(lam) <= 1e-12 * max(np.abs(lam).max(initial=0.0), 1e-300), 0.0, lam)
+    # the point is checked, not assumed: DC equations, bounds and complementarity
+    w = C @ x + D @ lam + F @ u
+    w_size = np.abs(C) @ np.abs(x) + np.abs(D) @ np.abs(lam) + np.abs(F) @ np.abs(u)
+    tol = 1e-9 * np.maximum(w_size, 1e-300)
+    residual = A @ x + B @ lam + E @ u
+    size = (np.abs(A) @ np.abs(x) + np.abs(B) @ np.abs(lam) + np.abs(E) @ np.abs(u))
+    lam_tol = 1e-9 * max(np.abs(lam).max(initial=0.0), 1e-300)
+    if (np.any(lam < -lam_tol) or np.any(w < -tol) or np.any((lam > lam_tol) & (w > tol))
+            or np.any(np.abs(residual) > 1e-8 * np.maximum(size, 1e-300))):
+        return None
+    free = np.abs(dx @ free_dirs).max(axis=1, initial=0.0) > 1e-9
+    return DcPoint(True, x, np.maximum(lam, 0.0), free)
