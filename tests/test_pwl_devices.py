@@ -114,3 +114,17 @@ R1 out 0 100
     assert "--devices ideal" in note
     res.error = chattering(1e-3, 1.1e-3, {}, "nobody", 16)
     assert _miller_note(circuit, res) == ""
+
+
+def test_a_pwl_run_warns_once_about_the_circuit_it_simulates(capsys):
+    # ngspice's dcdc.sp: its ideal circuit (which the command sets up, and whose run sizes
+    # the fits) and its pwl circuit are both not passive, with different eigenvalues; only
+    # the simulated (pwl) one is reported; --strict still refuses a non-passive pwl run
+    dcdc = str(Path(__file__).parent / "corpus/ngspice/examples/vdmos/dcdc.sp")
+    assert main(["simulate", dcdc, "--devices", "pwl", "--tstop", "50u", "--no-progress"]) == 0
+    out = capsys.readouterr()
+    warned = [ln for ln in (out.out + out.err).splitlines()
+              if ln.startswith("warning:") and "not passive" in ln]
+    assert len(warned) == 1
+    tunnel = str(Path(__file__).parent / "netlists/sim/tunnel_nonpassive.cir")
+    assert main(["simulate", tunnel, "--devices", "pwl", "--strict", "--no-progress"]) == 2

@@ -67,8 +67,7 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         pre += [bd.probe for bd in bds.values()]
         # (its knees unchecked: it sizes the fits, the pwl run below is the answer)
         try:
-            ideal = simulate_circuit(circuit, probes=list(dict.fromkeys(pre)), knees=False,
-                                     **kw)
+            ideal = _sizing_run(circuit, list(dict.fromkeys(pre)), kw)
         except NetlistError as exc:
             if not _switch_loop(exc, sws):
                 raise
@@ -76,8 +75,7 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
             # switches' own resistances break: the fits are sized from a run with them (and
             # the diodes at their 1 mA fit) instead
             sized, _ = pwl_circuit(circuit, {}, {}, pwl)
-            ideal = simulate_circuit(sized, probes=list(dict.fromkeys(pre)), knees=False,
-                                     **kw)
+            ideal = _sizing_run(sized, list(dict.fromkeys(pre)), kw)
             if any(isinstance(el, Diode) for el in circuit.elements):
                 sizing_note = (
                     "pwl: the ideal run that sizes the diodes' fits is degenerate ("
@@ -159,6 +157,20 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         k = len(dict.fromkeys(want))
         res.names, res.y = tuple(res.names[:k]), res.y[:, :k]
     return res
+
+
+def _sizing_run(circuit: Circuit, probes: list[str], kw: dict) -> SimulationResult:
+    """The ideal run that sizes the fits (its knees unchecked: the pwl run is the answer).
+    Its circuit is not the one simulated: a warning that it is not passive would be a second
+    one beside the pwl run's, about another circuit, so only the pwl run's is shown (a strict
+    run is still refused here)."""
+    import warnings
+
+    from lcs.notices import NonPassiveWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NonPassiveWarning)
+        return simulate_circuit(circuit, probes=probes, knees=False, **kw)
 
 
 def _miller_note(circuit: Circuit, res: SimulationResult) -> str:
