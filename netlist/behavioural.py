@@ -234,7 +234,7 @@ def _fold_one(circuit: Circuit, b: ClampSource, comp: Comparator, dry: bool = Fa
     return None
 
 
-def fold_clamps(circuit: Circuit) -> list[Diagnostic]:
+def fold_clamps(circuit: Circuit) -> None:
     """Fold every :class:`ClampSource` into the comparator B sources or the switches that
     read its output, or else build it as an exact limiter; remove it.
 
@@ -245,16 +245,10 @@ def fold_clamps(circuit: Circuit) -> list[Diagnostic]:
     ``e`` is exact at every instant, whether or not the clamp is active. A clamp that
     anything else reads (a capacitor, a resistor, another B source, a transistor's gate
     network) becomes the ideal-diode limiter of :mod:`netlist.limiter`, also exact.
-
-    Returns
-    -------
-    list of Diagnostic
-        Always empty (kept for the callers that collect the diagnostics of each pass).
     """
-    diags: list[Diagnostic] = []
     clamps = [el for el in circuit.elements if isinstance(el, ClampSource)]
     if not clamps:
-        return diags
+        return
     circuit.elements[:] = [el for el in circuit.elements if not isinstance(el, ClampSource)]
     for b in clamps:
         p = b.nodes[0]
@@ -294,7 +288,6 @@ def fold_clamps(circuit: Circuit) -> list[Diagnostic]:
         elif bad:
             why = f"it feeds {', '.join(bad)}"
         _limiter(circuit, b, why)
-    return diags
 
 
 def _bounds_text(lo: float, hi: float, unit: str) -> str:
@@ -423,7 +416,8 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
     list of Diagnostic
         A value inside the ``VH > 0`` band of a switch the output drives alone.
     """
-    diags = fold_clamps(circuit)
+    fold_clamps(circuit)
+    diags: list[Diagnostic] = []
     comps = [el for el in circuit.elements if isinstance(el, Comparator)]
     if not comps:
         return diags

@@ -18,7 +18,7 @@ from ..pwl import carried_current, pwl_circuit
 from ..reductions import parallel_diodes
 from .losses import loss_probes
 from .losses import losses as loss_report
-from .transient import check_probes, simulate_circuit
+from .transient import check_probes, passivity_unreported, simulate_circuit
 
 __all__ = ["fitted_circuit", "simulate_devices"]
 
@@ -164,12 +164,7 @@ def _sizing_run(circuit: Circuit, probes: list[str], kw: dict) -> SimulationResu
     Its circuit is not the one simulated: a warning that it is not passive would be a second
     one beside the pwl run's, about another circuit, so only the pwl run's is shown (a strict
     run is still refused here)."""
-    import warnings
-
-    from lcs.notices import NonPassiveWarning
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", NonPassiveWarning)
+    with passivity_unreported():
         return simulate_circuit(circuit, probes=probes, knees=False, **kw)
 
 

@@ -26,7 +26,8 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -69,6 +70,7 @@ __all__ = [
     "check_probes",
     "default_step",
     "initial_state",
+    "passivity_unreported",
     "print_step",
     "run_setup",
     "simulate_circuit",
@@ -255,6 +257,21 @@ def transient_setup(
                           shown, shown_note,
                           tuple(el for el in circuit.elements if isinstance(el, KneeCapacitor)),
                           operating_point)
+
+
+@contextmanager
+def passivity_unreported() -> Iterator[None]:
+    """No :class:`~lcs.notices.NonPassiveWarning` inside: for a set-up or run of a circuit
+    that is not the one simulated (the ideal circuit of a ``--devices pwl`` run), whose
+    passivity is not the user's question. A strict set-up is still refused (``strict``
+    raises, not warns)."""
+    import warnings
+
+    from lcs.notices import NonPassiveWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NonPassiveWarning)
+        yield
 
 
 def _screen_passivity(circuit: Circuit, system: SwitchedLCS, energy: np.ndarray,

@@ -181,7 +181,13 @@ def _check_path(option: str, path: str, suffixes: tuple[str, ...]) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     from netlist.parser import parse_file, parse_overrides
-    from netlist.studies.transient import check_probes, check_run_size, transient_setup, warm_up
+    from netlist.studies.transient import (
+        check_probes,
+        check_run_size,
+        passivity_unreported,
+        transient_setup,
+        warm_up,
+    )
 
     tstop = _number("--tstop", args.tstop, ("", "s"))
     step = _number("--step", args.step, ("", "s"))
@@ -210,12 +216,7 @@ def run(args: argparse.Namespace) -> int:
     if getattr(args, "devices", "ideal") == "pwl":
         # the ideal circuit is not the one simulated: its passivity is not reported, the
         # pwl run's is (a strict run is refused there)
-        import warnings
-
-        from lcs.notices import NonPassiveWarning
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", NonPassiveWarning)
+        with passivity_unreported():
             setup = transient_setup(circuit, tstop=tstop, step=step, given=params)
     else:
         setup = transient_setup(circuit, tstop=tstop, step=step, given=params)
