@@ -156,10 +156,10 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
                 # a VH <= 0 switch of a run from the operating point on, an idealised
                 # transistor off, a VH > 0 switch as it is
                 rule = band_rule(switches[i])[2]
-                opts = switches[i].options if isinstance(switches[i].options, dict) else {}
                 if rule == RULE_OFF:
                     on = False
-                elif rule == RULE_TOGGLE and opts.get(OPERATING_POINT_OPTION):
+                elif rule == RULE_TOGGLE and switch_option(switches[i].options,
+                                                           OPERATING_POINT_OPTION):
                     on = True
             new = (new | (1 << i)) if on else (new & ~(1 << i))
         if new == key:
@@ -248,11 +248,10 @@ def _leaks(problem: Problem, mode: ModeKey) -> tuple[np.ndarray, ...] | None:
     ``ROFF`` 1e12 Ω): :func:`lcs.theory.operating_point.dc_point`'s leaks."""
     probes, weights = [], []
     for on, sw in zip(mode, problem.system.switches, strict=True):
-        opts = sw.options if isinstance(sw.options, dict) else {}
-        probe = opts.get(TERMINALS_OPTION)
+        probe = switch_option(sw.options, TERMINALS_OPTION)
         if on or not probe:
             continue
-        roff = switch_option(opts, "roff", None)
+        roff = switch_option(sw.options, "roff", None)
         roff = float(roff) if roff is not None and float(roff) > 0 else 1e12
         probes.append(probe)
         weights.append(1.0 / np.sqrt(roff))
