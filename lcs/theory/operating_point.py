@@ -283,20 +283,12 @@ def _along_lcp(lcp: _Lcp, lam: np.ndarray, KB: np.ndarray, leaks, x: np.ndarray,
         # bounds G t >= h: λ[S] + Kd t >= 0, w[N] + M[N, S] Kd t >= 0
         G = np.vstack([Kd, lcp.M[np.ix_(N, S)] @ Kd])
         h = -np.concatenate([lam[S], w[N]])
-        U, sg, VT, r = _reach(dv, scale)
-        if r:
-            # in y = Σ V^T t: the least |y + U^T v|^2 with G V Σ^-1 y >= h; its dual:
-            # y = c + Gy^T μ, 0 <= Gy Gy^T μ + (Gy c - h) ⊥ μ >= 0
-            V, sig = VT[:r].T, sg[:r]
-            c = -(U[:, :r].T @ v)
-            Gy = (G @ V) / sig
-            res = solve_lcp(Gy @ Gy.T, Gy @ c - h)
-            if res.ok:
-                t = V @ ((c + Gy.T @ res.z) / sig)
-                x = x - KB[:, S] @ (Kd @ t)
-                lam[S] = np.maximum(lam[S] + Kd @ t, 0.0)
-                w[N] = w[N] + lcp.M[np.ix_(N, S)] @ (Kd @ t)
-        return Kd @ VT[r:].T
+        t, unreached = _bounded_least_squares(dv, v, G, h, scale)
+        if t is not None:
+            x = x - KB[:, S] @ (Kd @ t)
+            lam[S] = np.maximum(lam[S] + Kd @ t, 0.0)
+            w[N] = w[N] + lcp.M[np.ix_(N, S)] @ (Kd @ t)
+        return Kd @ unreached
 
     if leaks is not None and leaks[0].size:
         Cl, Dl, Fl = leaks
