@@ -269,21 +269,23 @@ def _chord_errors(i: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def _knots(err: np.ndarray, k: int) -> tuple[list[int], float]:
-    """Grid indices of the ``k + 1`` knots whose chords' largest error is least, and it."""
+    """Grid indices of the ``k + 1`` knots (the first and last points among them) whose
+    chords' largest error is least, and it: dynamic programming over the knots, ``worst[j,
+    m]`` the least largest error of ``j`` chords from point 0 to point ``m``."""
     n = err.shape[0]
-    last = n - 1
-    if k == 1:
-        return [0, last], float(err[0, last])
-    if k == 2:
-        m = np.arange(1, last)
-        worst = np.maximum(err[0, m], err[m, last])
-        j = int(np.argmin(worst))
-        return [0, int(m[j]), last], float(worst[j])
-    worst = np.maximum(np.maximum(err[0][:, None], err), err[:, last][None, :])
-    m1, m2 = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    worst = np.where((m1 >= 1) & (m1 < m2) & (m2 < last), worst, np.inf)
-    a, b = np.unravel_index(int(np.argmin(worst)), worst.shape)
-    return [0, int(a), int(b), last], float(worst[a, b])
+    worst = np.full((k + 1, n), np.inf)
+    prev = np.zeros((k + 1, n), dtype=int)
+    worst[0, 0] = 0.0
+    for j in range(1, k + 1):
+        # (a chord from each a < m: the larger of the best j - 1 chords to a and its own)
+        cand = np.maximum(worst[j - 1][:, None], err)
+        prev[j] = np.argmin(cand, axis=0)
+        worst[j] = cand[prev[j], np.arange(n)]
+    knots, m = [n - 1], n - 1
+    for j in range(k, 0, -1):
+        m = int(prev[j, m])
+        knots.append(m)
+    return knots[::-1], float(worst[k, n - 1])
 
 
 def model_voltage(params: list[dict], i: np.ndarray, series: float = 0.0) -> np.ndarray:

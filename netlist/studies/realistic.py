@@ -112,13 +112,19 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         check_probes(circuit, want)
     # Once more if the pwl run takes another diode past its BV (a second time is an error),
     # and, in the first two runs, once more if it takes a broken-down diode well outside the
-    # current its branch was fitted over: at most four runs, the last one never continued.
+    # current its branch was fitted over, or a diode well outside the currents of its fit
+    # (sized by the ideal run, whose diodes drop nothing: a diode driven by a voltage near
+    # its own drop carries far less): at most six runs, the last one never continued.
     tops: dict[str, float] = {}
     extended = False
-    for attempt in range(4):
+    refits: list[str] = []
+    watched = [f.element for f in fits if f.how != "given" and
+               isinstance(circuit.element(f.element), Diode)]
+    for attempt in range(6):
         run_circuit, lines = _broken_down(fitted, bds, broken, tops)
         watch = [bd.probe for name, bd in bds.items() if name not in broken]
         watch += [f"i({name}#bv)" for name in sorted(broken)]
+        watch += [f"i({name})" for name in watched]
         res = simulate_circuit(run_circuit, probes=list(dict.fromkeys(want + extra + watch)),
                                path_currents=bool(extra), **kw)
         more = {name for name, bd in bds.items() if name not in broken
@@ -135,15 +141,23 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
             extended = True
             continue
         resized = _resized(res, bds, broken, tops) if attempt < 2 else {}
-        if not resized:
+        moved = _refitted(res, watched, i_max) if len(refits) < 2 and attempt < 5 else {}
+        if not resized and not moved:
             break
         tops.update(resized)
+        if moved:
+            refits += [f"pwl: {name}'s fit sized again from the pwl run, where it carries "
+                       f"{cur:.3g} A (its fit was over {_fit_top(i_max[name]) / 20:.3g}.."
+                       f"{_fit_top(i_max[name]):.3g} A)" for name, cur in moved.items()]
+            i_max.update(moved)
+            fitted, fits = fitted_circuit(circuit, i_max, drives, pwl, **kw)
     res.device_fits = fits
     miller = _miller_note(circuit, res)
     if miller:
         res.notes.append(miller)
     res.notes.extend(f"pwl: {f.line()}" for f in fits)
     res.notes.extend(f"pwl: {line}" for line in lines)
+    res.notes.extend(refits)
     if devices == "pwl" and sizing_note:
         res.notes.append(sizing_note)
     if losses:
@@ -212,6 +226,28 @@ def _resized(res: SimulationResult, bds: dict, broken: set[str], tops: dict[str,
         top = tops.get(name, bds[name].ibv)
         carried = carried_current(t, res[f"i({name}#bv)"])
         if carried > 1.5 * top or 1e-12 < carried < top / 20:
+            out[name] = carried
+    return out
+
+
+def _fit_top(i_max: float) -> float:
+    """The top of the current range a diode's fit covers (A): its carried current, or the
+    1 mA a diode that carries none is fitted at (:func:`netlist.pwl.segment_fit`)."""
+    return i_max if i_max > 1e-9 else 1e-3
+
+
+def _refitted(res: SimulationResult, diodes: Sequence[str], i_max: dict[str, float]
+              ) -> dict[str, float]:
+    """The diodes whose current in the pwl run ``res`` lies well outside the range their
+    fit's top segment was fitted over (above 1.5 times its top, or below a twentieth of it,
+    the criterion of a breakdown's branch, :func:`_resized`), and that current (A): their
+    fit is sized again there."""
+    t = np.asarray(res.t, float)
+    out = {}
+    for name in diodes:
+        top = _fit_top(i_max.get(name, 0.0))
+        carried = carried_current(t, res[f"i({name})"])
+        if carried > 1.5 * top or 1e-9 < carried < top / 20:
             out[name] = carried
     return out
 
