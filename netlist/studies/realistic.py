@@ -65,8 +65,6 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         pre += [f"v({a})" if b == GROUND else f"v({a},{b})" for a, b in
                 (sw.control for sw in sws)]
         pre += [bd.probe for bd in bds.values()]
-        pre += [_voltage_probe(el) for el in circuit.elements
-                if isinstance(el, Diode) and not el.ideal]
         # (its knees unchecked: it sizes the fits, the pwl run below is the answer)
         try:
             ideal = _sizing_run(circuit, list(dict.fromkeys(pre)), kw)
@@ -96,11 +94,7 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
             a, b = sw.control
             drives[sw.name] = float(np.max(ideal[f"v({a})" if b == GROUND
                                                   else f"v({a},{b})"]))
-        swings = {el.name: (float(np.min(ideal[_voltage_probe(el)], initial=0.0)),
-                            float(np.max(ideal[_voltage_probe(el)], initial=0.0)))
-                  for el in circuit.elements if isinstance(el, Diode) and not el.ideal}
         run_circuit, fits = fitted_circuit(circuit, i_max, drives, pwl, **kw)
-        run_circuit, charge_lines = _with_charge(run_circuit, circuit, swings)
         # the diodes the ideal run takes past their breakdown voltage (netlist.breakdown)
         broken = {name for name, bd in bds.items()
                   if float(np.max(ideal[bd.probe], initial=0.0)) > bd.bv}
@@ -157,7 +151,6 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
                        f"{_fit_top(i_max[name]):.3g} A)" for name, cur in moved.items()]
             i_max.update(moved)
             fitted, fits = fitted_circuit(circuit, i_max, drives, pwl, **kw)
-            fitted, charge_lines = _with_charge(fitted, circuit, swings)
     res.device_fits = fits
     miller = _miller_note(circuit, res)
     if miller:
@@ -165,8 +158,6 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
     res.notes.extend(f"pwl: {f.line()}" for f in fits)
     res.notes.extend(f"pwl: {line}" for line in lines)
     res.notes.extend(refits)
-    if devices == "pwl":
-        res.notes.extend(charge_lines)
     if devices == "pwl" and sizing_note:
         res.notes.append(sizing_note)
     if losses:
@@ -237,49 +228,6 @@ def _resized(res: SimulationResult, bds: dict, broken: set[str], tops: dict[str,
         if carried > 1.5 * top or 1e-12 < carried < top / 20:
             out[name] = carried
     return out
-
-
-def _voltage_probe(el: Diode) -> str:
-    a, b = el.nodes[0], el.nodes[1]
-    return f"v({a})" if b == GROUND else f"v({a},{b})"
-
-
-def _with_charge(run_circuit: Circuit, circuit: Circuit, swings: dict
-                 ) -> tuple[Circuit, list[str]]:
-    import os
-
-    from ..circuit import Capacitor
-    from ..junction_charge import charge_params, swing_capacitance
-
-    if os.environ.get("PELCS_CJ") != "1":
-        return run_circuit, []
-    from ..circuit import VoltageSource
-    parent: dict = {}
-
-    def root(n):
-        while parent.get(n, n) != n:
-            n = parent[n]
-        return n
-    for e in run_circuit.elements:
-        if isinstance(e, (Capacitor, VoltageSource)):
-            parent[root(e.nodes[0])] = root(e.nodes[1])
-    parts, lines = [], []
-    for el in circuit.elements:
-        if not isinstance(el, Diode) or el.ideal or not el.model or el.name not in swings:
-            continue
-        if root(el.nodes[0]) == root(el.nodes[1]):
-            lines.append(f"pwl: {el.name}: junction charge left out (a capacitor loop)")
-            continue
-        m = circuit.models.get(str(el.model).lower())
-        q = charge_params(m.params, float(el.area or 1.0)) if m is not None else None
-        if q is None:
-            continue
-        lo, hi = swings[el.name]
-        c = swing_capacitance(q, lo, hi)
-        parts.append(Capacitor(f"{el.name}#cj", (el.nodes[0], el.nodes[1]), el.location, c))
-        parent[root(el.nodes[0])] = root(el.nodes[1])
-        lines.append(f"pwl: {el.name}: junction charge as {c:.4g} F over {lo:.3g}..{hi:.3g} V")
-    return replace(run_circuit, elements=[*run_circuit.elements, *parts]), lines
 
 
 def _fit_top(i_max: float) -> float:
