@@ -14,7 +14,7 @@ from lcs.results import SimulationResult
 from ..breakdown import breakdown_elements, breakdowns
 from ..circuit import GROUND, Circuit, Diode, Switch
 from ..errors import Diagnostic, NetlistError
-from ..pwl import carried_current, pwl_circuit
+from ..pwl import carried_current, diode_params, model_current, pwl_circuit
 from ..reductions import parallel_diodes
 from .losses import loss_probes
 from .losses import losses as loss_report
@@ -125,6 +125,7 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         watch = [bd.probe for name, bd in bds.items() if name not in broken]
         watch += [f"i({name}#bv)" for name in sorted(broken)]
         watch += [f"i({name})" for name in watched]
+        watch += [_voltage_probe(circuit.element(name)) for name in watched]
         res = simulate_circuit(run_circuit, probes=list(dict.fromkeys(want + extra + watch)),
                                path_currents=bool(extra), **kw)
         more = {name for name, bd in bds.items() if name not in broken
@@ -141,7 +142,8 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
             extended = True
             continue
         resized = _resized(res, bds, broken, tops) if attempt < 2 else {}
-        moved = _refitted(res, watched, i_max) if len(refits) < 2 and attempt < 5 else {}
+        moved = (_refitted(res, circuit, watched, i_max) if len(refits) < 2 and attempt < 5
+                 else {})
         if not resized and not moved:
             break
         tops.update(resized)
@@ -236,17 +238,35 @@ def _fit_top(i_max: float) -> float:
     return i_max if i_max > 1e-9 else 1e-3
 
 
-def _refitted(res: SimulationResult, diodes: Sequence[str], i_max: dict[str, float]
-              ) -> dict[str, float]:
+def _voltage_probe(el: Diode) -> str:
+    """The probe of a diode's voltage, anode to cathode."""
+    a, b = el.nodes[0], el.nodes[1]
+    return f"v({a})" if b == GROUND else f"v({a},{b})"
+
+
+def _refitted(res: SimulationResult, circuit: Circuit, diodes: Sequence[str],
+              i_max: dict[str, float]) -> dict[str, float]:
     """The diodes whose current in the pwl run ``res`` lies well outside the range their
     fit's top segment was fitted over (above 1.5 times its top, or below a twentieth of it,
     the criterion of a breakdown's branch, :func:`_resized`), and that current (A): their
-    fit is sized again there."""
+    fit is sized again there.
+
+    The current a diode carries is the larger of its current in the run and the current its
+    model carries at the voltages the run puts across it (both
+    :func:`netlist.pwl.carried_current`): a diode driven by a voltage (a source through a
+    small resistance) carries the model's current at that voltage, which a line fitted over
+    lower currents understates beyond its top (an exponential against a line), so the run's
+    own current would keep the fit there."""
     t = np.asarray(res.t, float)
+    merged = parallel_diodes(circuit)
     out = {}
     for name in diodes:
+        el = circuit.element(name)
         top = _fit_top(i_max.get(name, 0.0))
-        carried = carried_current(t, res[f"i({name})"])
+        params, series = diode_params(circuit, el, merged)
+        v = np.asarray(res[_voltage_probe(el)], float)
+        carried = max(carried_current(t, res[f"i({name})"]),
+                      carried_current(t, model_current(params, v, series)))
         if carried > 1.5 * top or 1e-9 < carried < top / 20:
             out[name] = carried
     return out
