@@ -112,7 +112,7 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         check_probes(circuit, want)
     # Once more if the pwl run takes another diode past its BV (a second time is an error),
     # and, in the first two runs, once more if it takes a broken-down diode well outside the
-    # current its branch was fitted over, or a diode well outside the currents of its fit
+    # current its branch was fitted over, or a diode well below the currents of its fit
     # (sized by the ideal run, whose diodes drop nothing: a diode driven by a voltage near
     # its own drop carries far less): at most six runs, the last one never continued.
     tops: dict[str, float] = {}
@@ -142,8 +142,8 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
             extended = True
             continue
         resized = _resized(res, bds, broken, tops) if attempt < 2 else {}
-        moved = (_refitted(res, circuit, watched, i_max) if len(refits) < 2 and attempt < 5
-                 else {})
+        moved = (_refitted(res, circuit, watched, i_max)
+                 if watched and len(refits) < 2 and attempt < 5 else {})
         if not resized and not moved:
             break
         tops.update(resized)
@@ -246,10 +246,11 @@ def _voltage_probe(el: Diode) -> str:
 
 def _refitted(res: SimulationResult, circuit: Circuit, diodes: Sequence[str],
               i_max: dict[str, float]) -> dict[str, float]:
-    """The diodes whose current in the pwl run ``res`` lies well outside the range their
-    fit's top segment was fitted over (above 1.5 times its top, or below a twentieth of it,
-    the criterion of a breakdown's branch, :func:`_resized`), and that current (A): their
-    fit is sized again there.
+    """The diodes whose current in the pwl run ``res`` lies well below the range their fit's
+    top segment was fitted over (below a twentieth of its top), and that current (A): their
+    fit is sized again there. (Not above: where the pwl run carries more than the ideal one,
+    it is an inrush the ideal run's quantile left out as lasting a step or two, which the
+    diode's resistance now spreads over more steps: a capacitor charged from a square wave.)
 
     The current a diode carries is the larger of its current in the run and the current its
     model carries at the voltages the run puts across it (both
@@ -267,7 +268,7 @@ def _refitted(res: SimulationResult, circuit: Circuit, diodes: Sequence[str],
         v = np.asarray(res[_voltage_probe(el)], float)
         carried = max(carried_current(t, res[f"i({name})"]),
                       carried_current(t, model_current(params, v, series)))
-        if carried > 1.5 * top or 1e-9 < carried < top / 20:
+        if 1e-9 < carried < top / 20:
             out[name] = carried
     return out
 
