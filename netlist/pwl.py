@@ -4,8 +4,10 @@ an on-resistance, switches with an on-resistance, still a linear complementarity
 A diode becomes an ideal diode in series with a source ``Vf`` and a resistor ``Ron`` (so
 ``v = Vf + Ron i`` while it conducts): ``Ron`` enters the LCS's D, which also makes the
 LCP's solution unique, and ``Vf`` enters F. The pair is **fitted** to the diode's model,
-``v(i) = N Vt ln(1 + i/IS) + RS i`` (Vt = 25.85 mV at 27 °C; ngspice's defaults IS = 1e-14 A,
-N = 1, RS = 0), by least squares on 50 currents log-spaced over ``[I/20, I]``, I the current
+ngspice's static characteristic at 27 °C (:mod:`netlist.diode_dc`: ``v(i) = N Vt ln(1 +
+i/IS) + RS i``, Vt = 25.86 mV, ngspice's defaults IS = 1e-14 A, N = 1, RS = 0; with the
+recombination current of ``ISR``, ``NR`` and the high injection of ``IKF`` where the model
+gives them), by least squares on 50 currents log-spaced over ``[I/20, I]``, I the current
 the diode carries in an ideal run of the same circuit (:func:`carried_current`: the current
 it stays below for 99 % of its conduction time, so that an inrush lasting a step or two, which
 in an ideal circuit only the time step limits, does not set the range); a diode that carries
@@ -23,6 +25,12 @@ diode (a clamp, a doubler) leaves its current decaying. ``v(i)`` is concave, so 
 are a convex characteristic, still an LCS: ideal diodes in parallel, each behind its own
 source and resistor (``<element>#d<k>``, ``#vf<k>``, ``#ron<k>``; one complementarity pair
 more per segment), the element itself in series with them all, carrying the total current.
+The segments' knots are those of least largest error (:func:`_knots`, dynamic programming).
+The ideal run overstates the current of a diode driven near its own drop (a mixer's diode at
+a few tenths of a volt: 0.45 mA ideal, 1.9 µA real); where the piecewise-linear run then
+finds a diode well below its fit's range, ``netlist.studies.realistic`` fits it again over
+the current it carries there (the larger of its own and its model's at the voltages that
+run puts across it, :func:`model_current`) and runs once more.
 ``netlist.studies.realistic`` keeps one segment for a diode whose segments would cancel a
 stiff part of the dynamics (an inductor's current through it), which θ = 1/2 integrates
 explicitly (:mod:`lcs.integrators.moreau.theta_screen`).
@@ -52,17 +60,15 @@ from functools import lru_cache
 import numpy as np
 
 from .circuit import Capacitor, Circuit, Diode, Resistor, Switch, VoltageSource
+from .diode_dc import VT_THERMAL, describe, ignored, junction_current, junction_params
+from .diode_dc import diode_voltage as junction_diode_voltage
 from .reductions import parallel_diodes
 
 __all__ = ["LOW_FRACTION", "PwlFit", "SEGMENT_TOLERANCE", "VT_THERMAL", "carried_current",
-           "diode_fit", "diode_params", "diode_residual", "diode_voltage", "model_voltage",
-           "parallel_fit", "parallel_voltage", "pwl_circuit", "pwl_voltage", "segment_fit",
-           "switch_residual", "switch_resistance"]
+           "diode_fit", "diode_ignored", "diode_params", "diode_residual", "diode_voltage",
+           "model_current", "model_voltage", "parallel_fit", "parallel_voltage", "pwl_circuit",
+           "pwl_voltage", "segment_fit", "switch_residual", "switch_resistance"]
 
-#: thermal voltage at ngspice's nominal 27 °C, V
-VT_THERMAL = 0.025852
-
-_DIODE_DEFAULTS = {"is": 1e-14, "n": 1.0, "rs": 0.0}
 
 
 @dataclass(frozen=True)
@@ -162,26 +168,35 @@ def diode_fit(is_: float, n: float, rs: float, i_max: float) -> tuple[float, flo
     return _bounded_line(i, v, rs, slope_lo, float(v[-1]))
 
 
-def _branch_current(v: np.ndarray, is_: float, n: float, rs: float) -> np.ndarray:
-    """Current of one diode branch at voltage v: solve v = n Vt ln(1 + i/IS) + RS i."""
-    i = is_ * np.expm1(np.minimum(v / (n * VT_THERMAL), 700.0))
-    if rs <= 0:
-        return i
-    lo, hi = np.zeros_like(v), np.minimum(i, np.maximum(v, 0) / rs)
-    for _ in range(200):  # bisection: monotone in i
+def _plain(p: dict) -> bool:
+    """Whether a junction is Shockley's equation alone (no ISR, no IKF)."""
+    return "isr" not in p and "ikf" not in p
+
+
+def _branch_current(v: np.ndarray, p: dict) -> np.ndarray:
+    """Current of one diode branch ``p`` (:func:`netlist.diode_dc.junction_params`) at the
+    voltage v, its RS included: the junction voltage ``vd`` with ``vd + RS I(vd) = v``."""
+    if p["rs"] <= 0:
+        return junction_current(v, p)
+    lo, hi = np.zeros_like(v), np.maximum(v, 0.0)
+    for _ in range(200):  # bisection: vd + RS I(vd) is monotone in vd
         mid = 0.5 * (lo + hi)
-        f = n * VT_THERMAL * np.log1p(mid / is_) + rs * mid - v
+        f = mid + p["rs"] * junction_current(mid, p) - v
         lo, hi = np.where(f < 0, mid, lo), np.where(f < 0, hi, mid)
-    return 0.5 * (lo + hi)
+    return junction_current(0.5 * (lo + hi), p)
+
+
+def _key(p: dict) -> tuple:
+    return tuple(sorted((k, float(v)) for k, v in p.items()))
 
 
 @lru_cache(maxsize=64)
-def _parallel_table(junctions: tuple[tuple[float, float, float], ...]
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """Total current (A) of junctions ``(IS, N, RS)`` in parallel on a 0.5 mV grid (V)
-    (computed once per set: a fit evaluates it at several sets of currents)."""
+def _parallel_table(junctions: tuple[tuple, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Total current (A) of junctions (each :func:`_key` of its parameters) in parallel on a
+    0.5 mV grid (V) (computed once per set: a fit evaluates it at several sets of
+    currents)."""
     v = np.linspace(0.0, 3.0, 6001)
-    total = sum(_branch_current(v, *j) for j in junctions)
+    total = sum(_branch_current(v, dict(j)) for j in junctions)
     v.flags.writeable = False
     total.flags.writeable = False
     return v, total
@@ -190,22 +205,27 @@ def _parallel_table(junctions: tuple[tuple[float, float, float], ...]
 def parallel_voltage(params: list[dict], i: np.ndarray) -> np.ndarray:
     """Voltage of diodes in parallel carrying a total current ``i`` (A), V: their total
     current's characteristic inverted on a fine voltage grid (0.5 mV)."""
-    v, total = _parallel_table(tuple((float(p["is"]), float(p["n"]), float(p["rs"]))
-                                     for p in params))
+    v, total = _parallel_table(tuple(_key(p) for p in params))
     return np.interp(np.asarray(i, float), total, v)
 
 
 def parallel_fit(params: list[dict], i_max: float) -> tuple[float, float]:
-    """:func:`diode_fit` of diodes in parallel (a Schottky macro's junction and guard ring):
-    the total current's characteristic (:func:`parallel_voltage`)."""
-    if len(params) == 1:
+    """:func:`diode_fit` of a diode's junctions (:func:`model_voltage`): one of Shockley's
+    equation alone, or several in parallel (a Schottky macro's junction and guard ring), or
+    one with ngspice's recombination current or high injection."""
+    if len(params) == 1 and _plain(params[0]):
         p = params[0]
         return diode_fit(p["is"], p["n"], p["rs"], i_max)
     if not (i_max > 1e-9 and math.isfinite(i_max)):
         i_max = 1e-3
     i = np.logspace(np.log10(i_max / 20.0), np.log10(i_max), 50)
-    vi = parallel_voltage(params, i)
-    slope_lo = float(np.gradient(vi, i)[0])
+    vi = model_voltage(params, i)
+    if len(params) == 1:  # the slope at the low end from the characteristic itself
+        h = 1e-4
+        slope_lo = float((model_voltage(params, i[0] * (1 + h))[()]
+                          - model_voltage(params, i[0] * (1 - h))[()]) / (2 * h * i[0]))
+    else:
+        slope_lo = float(np.gradient(vi, i)[0])
     # no line flatter than the series resistances in parallel
     rs_min = (1.0 / sum(1.0 / p["rs"] for p in params)
               if all(p["rs"] > 0 for p in params) else 0.0)
@@ -255,31 +275,42 @@ def _chord_errors(i: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def _knots(err: np.ndarray, k: int) -> tuple[list[int], float]:
-    """Grid indices of the ``k + 1`` knots whose chords' largest error is least, and it."""
+    """Grid indices of the ``k + 1`` knots (the first and last points among them) whose
+    chords' largest error is least, and it: dynamic programming over the knots, ``worst[j,
+    m]`` the least largest error of ``j`` chords from point 0 to point ``m``."""
     n = err.shape[0]
-    last = n - 1
-    if k == 1:
-        return [0, last], float(err[0, last])
-    if k == 2:
-        m = np.arange(1, last)
-        worst = np.maximum(err[0, m], err[m, last])
-        j = int(np.argmin(worst))
-        return [0, int(m[j]), last], float(worst[j])
-    worst = np.maximum(np.maximum(err[0][:, None], err), err[:, last][None, :])
-    m1, m2 = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-    worst = np.where((m1 >= 1) & (m1 < m2) & (m2 < last), worst, np.inf)
-    a, b = np.unravel_index(int(np.argmin(worst)), worst.shape)
-    return [0, int(a), int(b), last], float(worst[a, b])
+    worst = np.full((k + 1, n), np.inf)
+    prev = np.zeros((k + 1, n), dtype=int)
+    worst[0, 0] = 0.0
+    for j in range(1, k + 1):
+        # (a chord from each a < m: the larger of the best j - 1 chords to a and its own)
+        cand = np.maximum(worst[j - 1][:, None], err)
+        prev[j] = np.argmin(cand, axis=0)
+        worst[j] = cand[prev[j], np.arange(n)]
+    knots, m = [n - 1], n - 1
+    for j in range(k, 0, -1):
+        m = int(prev[j, m])
+        knots.append(m)
+    return knots[::-1], float(worst[k, n - 1])
 
 
 def model_voltage(params: list[dict], i: np.ndarray, series: float = 0.0) -> np.ndarray:
-    """Voltage (V) of a diode's junctions in parallel (:func:`diode_voltage`, or
-    :func:`parallel_voltage` for several) and its series resistance (Ω) at ``i`` (A)."""
+    """Voltage (V) of a diode's junctions (:func:`netlist.diode_dc.diode_voltage` of one, or
+    :func:`parallel_voltage` of several) and its series resistance (Ω) at ``i`` (A)."""
     i = np.asarray(i, float)
     if len(params) == 1:
-        p = params[0]
-        return diode_voltage(i, p["is"], p["n"], p["rs"]) + series * i
+        return junction_diode_voltage(i, params[0]) + series * i
     return parallel_voltage(params, i) + series * i
+
+
+def model_current(params: list[dict], v: np.ndarray, series: float = 0.0) -> np.ndarray:
+    """The current (A) a diode's model (:func:`model_voltage`) carries at the voltage ``v``
+    (V; 0 at and below 0 V): the characteristic inverted on 40 currents a decade from 1 fA
+    to 100 A."""
+    grid = np.logspace(-15, 2, 681)
+    vg = model_voltage(params, grid, series)
+    v = np.asarray(v, float)
+    return np.where(v > 0, np.interp(v, vg, grid, left=0.0), 0.0)
 
 
 def _branches(lines: list[tuple[float, float]]) -> tuple[float, float, tuple] | None:
@@ -406,8 +437,7 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
             imax = i_max.get(el.name, 0.0)
             vf, ron, branches, error = segment_fit(params, imax, series,
                                                    el.name not in single)
-            what = " || ".join(f"IS={p['is']:.3g} N={p['n']:.3g} RS={p['rs']:.3g}"
-                               for p in params)
+            what = " || ".join(describe(p) for p in params)
             if imax <= 1e-9:
                 span = "at 1 mA: it carries no current in the ideal run"
             elif branches:
@@ -419,6 +449,9 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
                 if el.name in single and error > SEGMENT_TOLERANCE:
                     span += ("; one segment: an inductor's current runs through it, and "
                              "segments would make θ = 1/2 unreliable")
+            left = diode_ignored(circuit, el, merged)
+            if left:
+                span += f"; {left}"
             fits.append(PwlFit(el.name, vf, ron, f"fit of {what} {span}", branches,
                                error if imax > 1e-9 else None))
             out.extend(_series(el, vf, ron, branches))
@@ -437,47 +470,62 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
     return replace(circuit, elements=out), fits
 
 
-def diode_params(circuit: Circuit, el: Diode, merged: dict | None = None
-                 ) -> tuple[list[dict], float]:
-    """The junction models of a diode element (``{"is", "n", "rs"}`` each, ngspice's
-    defaults filled in; several for a macro-model's or merged parallel diodes) and the
-    series resistance of its macro-model (Ω)."""
-    merged = parallel_diodes(circuit) if merged is None else merged
-    # (model, area): ngspice scales IS by the area and RS by its inverse
+def _junction_models(circuit: Circuit, el: Diode, merged: dict
+                     ) -> tuple[list[tuple[dict, float]], float]:
+    """A diode element's junctions as ``(model parameters, area)`` (a macro-model's or
+    merged parallel diodes' several) and its macro-model's series resistance (Ω)."""
     names = [(el.model, el.area)] if el.model else []
     series = 0.0
     if el.device is not None and len(el.device) > 4:  # a diode macro-model
         names, series = [(nm, 1.0) for nm in el.device[3]], float(el.device[4])
     names += [(e.model, getattr(e, "area", 1.0)) for e in circuit.elements
               if merged.get(e.key) == el.name and getattr(e, "model", "")]
-    params = []
+    out = []
     for nm, area in names:
         m = circuit.models.get(str(nm).lower())
-        p = dict(_DIODE_DEFAULTS)
-        if m is not None:
-            p.update({k.lower(): float(v) for k, v in m.params.items() if k.lower() in p})
-        p["is"] *= area
-        p["rs"] /= area
-        params.append(p)
-    return params or [dict(_DIODE_DEFAULTS)], series
+        out.append((dict(m.params) if m is not None else {},
+                    float(area) if area is not None else 1.0))
+    return out, series
+
+
+def diode_params(circuit: Circuit, el: Diode, merged: dict | None = None
+                 ) -> tuple[list[dict], float]:
+    """The junctions of a diode element (:func:`netlist.diode_dc.junction_params` each,
+    ngspice's defaults filled in and the area applied; several for a macro-model's or merged
+    parallel diodes) and the series resistance of its macro-model (Ω)."""
+    merged = parallel_diodes(circuit) if merged is None else merged
+    models, series = _junction_models(circuit, el, merged)
+    params = [junction_params(m, area) for m, area in models]
+    return params or [junction_params({})], series
+
+
+def diode_ignored(circuit: Circuit, el: Diode, merged: dict | None = None) -> str:
+    """What of a diode's models its piecewise-linear fit does not follow, as its report line
+    says it (:func:`netlist.diode_dc.ignored`), or ""."""
+    merged = parallel_diodes(circuit) if merged is None else merged
+    models, _ = _junction_models(circuit, el, merged)
+    charge = list(dict.fromkeys(k for m, _ in models for k in ignored(m)[0]))
+    static = list(dict.fromkeys(k for m, _ in models for k in ignored(m)[1]))
+    parts = []
+    if charge:
+        parts.append(f"its charge ({', '.join(charge)}) not modelled")
+    if static:
+        parts.append(f"{', '.join(static)} not modelled")
+    return "; ".join(parts)
 
 
 def diode_residual(circuit: Circuit, el: Diode, vf: float, ron: float, i_lo: float,
                    i_hi: float, branches: tuple = ()) -> float:
     """Largest ``|vf + ron i - v(i)|`` over ``[i_lo, i_hi]`` (A), V: how far a diode's
     piecewise-linear line (with ``branches``, its segments: :func:`pwl_voltage`) is from its
-    model (:func:`diode_voltage` of its junctions in parallel, plus its macro-model's series
+    model (:func:`model_voltage` of its junctions, plus its macro-model's series
     resistance) over the currents it carries."""
     if not (i_hi > 0 and math.isfinite(i_hi)):
         return 0.0
     params, series = diode_params(circuit, el)
     i = np.logspace(np.log10(max(min(i_lo, i_hi), 1e-12)), np.log10(i_hi), 200)
-    if len(params) == 1:
-        p = params[0]
-        v = diode_voltage(i, p["is"], p["n"], p["rs"])
-    else:
-        v = parallel_voltage(params, i)
-    return float(np.max(np.abs(pwl_voltage(vf, ron, branches, i) - (v + series * i))))
+    v = model_voltage(params, i, series)
+    return float(np.max(np.abs(pwl_voltage(vf, ron, branches, i) - v)))
 
 
 def switch_residual(circuit: Circuit, sw: Switch, ron: float, i_max: float,

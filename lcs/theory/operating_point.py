@@ -362,7 +362,9 @@ def _leak_balanced(A, B, C, D, E, F, u, x0, lcp, rtol, leaks, Lb, Le, null, KA, 
     y = np.linalg.lstsq(Lb[:, J].T, np.ones(J.size), rcond=None)[0]
     if not np.all(Lb[:, J].T @ y > 0.5):
         return None  # (a current in one acting diode could balance another's)
-    sub = dc_point(A, B[:, R], C[R], D[np.ix_(R, R)], E, F[R], u, x0, lcp, rtol, leaks)
+    # (the leaks' multiplier columns those of the rest's pairs, as its B and D)
+    sub_leaks = None if leaks is None else (leaks[0], leaks[1][:, R], leaks[2])
+    sub = dc_point(A, B[:, R], C[R], D[np.ix_(R, R)], E, F[R], u, x0, lcp, rtol, sub_leaks)
     if not sub.ok:
         return None
     x, lam = sub.x.copy(), np.zeros(m)

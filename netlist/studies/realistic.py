@@ -14,7 +14,7 @@ from lcs.results import SimulationResult
 from ..breakdown import breakdown_elements, breakdowns
 from ..circuit import GROUND, Circuit, Diode, Switch
 from ..errors import Diagnostic, NetlistError
-from ..pwl import carried_current, pwl_circuit
+from ..pwl import carried_current, diode_params, model_current, pwl_circuit
 from ..reductions import parallel_diodes
 from .losses import loss_probes
 from .losses import losses as loss_report
@@ -112,13 +112,20 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         check_probes(circuit, want)
     # Once more if the pwl run takes another diode past its BV (a second time is an error),
     # and, in the first two runs, once more if it takes a broken-down diode well outside the
-    # current its branch was fitted over: at most four runs, the last one never continued.
+    # current its branch was fitted over, or a diode well below the currents of its fit
+    # (sized by the ideal run, whose diodes drop nothing: a diode driven by a voltage near
+    # its own drop carries far less): at most six runs, the last one never continued.
     tops: dict[str, float] = {}
     extended = False
-    for attempt in range(4):
+    refits: list[str] = []
+    watched = [f.element for f in fits if f.how != "given" and
+               isinstance(circuit.element(f.element), Diode)]
+    for attempt in range(6):
         run_circuit, lines = _broken_down(fitted, bds, broken, tops)
         watch = [bd.probe for name, bd in bds.items() if name not in broken]
         watch += [f"i({name}#bv)" for name in sorted(broken)]
+        watch += [f"i({name})" for name in watched]
+        watch += [_voltage_probe(circuit.element(name)) for name in watched]
         res = simulate_circuit(run_circuit, probes=list(dict.fromkeys(want + extra + watch)),
                                path_currents=bool(extra), **kw)
         more = {name for name, bd in bds.items() if name not in broken
@@ -135,15 +142,24 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
             extended = True
             continue
         resized = _resized(res, bds, broken, tops) if attempt < 2 else {}
-        if not resized:
+        moved = (_refitted(res, circuit, watched, i_max)
+                 if watched and len(refits) < 2 and attempt < 5 else {})
+        if not resized and not moved:
             break
         tops.update(resized)
+        if moved:
+            refits += [f"pwl: {name}'s fit sized again from the pwl run, where it carries "
+                       f"{cur:.3g} A (its fit was over {_fit_top(i_max[name]) / 20:.3g}.."
+                       f"{_fit_top(i_max[name]):.3g} A)" for name, cur in moved.items()]
+            i_max.update(moved)
+            fitted, fits = fitted_circuit(circuit, i_max, drives, pwl, **kw)
     res.device_fits = fits
     miller = _miller_note(circuit, res)
     if miller:
         res.notes.append(miller)
     res.notes.extend(f"pwl: {f.line()}" for f in fits)
     res.notes.extend(f"pwl: {line}" for line in lines)
+    res.notes.extend(refits)
     if devices == "pwl" and sizing_note:
         res.notes.append(sizing_note)
     if losses:
@@ -212,6 +228,47 @@ def _resized(res: SimulationResult, bds: dict, broken: set[str], tops: dict[str,
         top = tops.get(name, bds[name].ibv)
         carried = carried_current(t, res[f"i({name}#bv)"])
         if carried > 1.5 * top or 1e-12 < carried < top / 20:
+            out[name] = carried
+    return out
+
+
+def _fit_top(i_max: float) -> float:
+    """The top of the current range a diode's fit covers (A): its carried current, or the
+    1 mA a diode that carries none is fitted at (:func:`netlist.pwl.segment_fit`)."""
+    return i_max if i_max > 1e-9 else 1e-3
+
+
+def _voltage_probe(el: Diode) -> str:
+    """The probe of a diode's voltage, anode to cathode."""
+    a, b = el.nodes[0], el.nodes[1]
+    return f"v({a})" if b == GROUND else f"v({a},{b})"
+
+
+def _refitted(res: SimulationResult, circuit: Circuit, diodes: Sequence[str],
+              i_max: dict[str, float]) -> dict[str, float]:
+    """The diodes whose current in the pwl run ``res`` lies well below the range their fit's
+    top segment was fitted over (below a twentieth of its top), and that current (A): their
+    fit is sized again there. (Not above: where the pwl run carries more than the ideal one,
+    it is an inrush the ideal run's quantile left out as lasting a step or two, which the
+    diode's resistance now spreads over more steps: a capacitor charged from a square wave.)
+
+    The current a diode carries is the larger of its current in the run and the current its
+    model carries at the voltages the run puts across it (both
+    :func:`netlist.pwl.carried_current`): a diode driven by a voltage (a source through a
+    small resistance) carries the model's current at that voltage, which a line fitted over
+    lower currents understates beyond its top (an exponential against a line), so the run's
+    own current would keep the fit there."""
+    t = np.asarray(res.t, float)
+    merged = parallel_diodes(circuit)
+    out = {}
+    for name in diodes:
+        el = circuit.element(name)
+        top = _fit_top(i_max.get(name, 0.0))
+        params, series = diode_params(circuit, el, merged)
+        v = np.asarray(res[_voltage_probe(el)], float)
+        carried = max(carried_current(t, res[f"i({name})"]),
+                      carried_current(t, model_current(params, v, series)))
+        if 1e-9 < carried < top / 20:
             out[name] = carried
     return out
 
