@@ -178,10 +178,11 @@ def _check_references(circuit: Circuit, by_key: dict[str, Element],
     for el in circuit.elements:
         kind = el.kind
         if kind in ("D", "S"):
-            if getattr(el, "part_of", "") or getattr(el, "device", None) is not None or \
-                    getattr(el, "ideal", False):
+            if getattr(el, "body_of", "") or getattr(el, "device", None) is not None or \
+                    el.built_for:
                 continue  # an idealised device's part (the device's own model is checked),
-                # or pelcs's own ideal diode (a limiter's)
+                # or an element pelcs built for a line (a limiter's diode, a time-stepped
+                # resistor's bypass: their models are pelcs's own)
             want, what = ("D", "diode") if kind == "D" else ("SW", "switch")
             loc = refs.get((el.key, "model"), el.location)
             if not el.model:

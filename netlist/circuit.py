@@ -13,6 +13,7 @@ Units are SI throughout (ohm, henry, farad, volt, ampere, second).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -26,11 +27,15 @@ GROUND = "0"
 
 @dataclass
 class Element:
-    """Base of all elements. ``nodes`` are the terminals, positive first."""
+    """Base of all elements. ``nodes`` are the terminals, positive first. ``built_for``: the
+    name of the netlist line pelcs built this element for, one of a group of elements that
+    stands for that line (:class:`BuiltGroup`, :meth:`Circuit.built_group`), else ""."""
 
     name: str
     nodes: tuple[str, ...]
     location: Location | None = field(default=None, compare=False, repr=False)
+    # (keyword-only: it follows every subclass's own fields in the constructor)
+    built_for: str = field(default="", compare=False, kw_only=True)
     # The lower-case name, the key of lookups (an attribute, not a property: the formulation
     # reads it about 5,000 times a mode on a 64-cell MMC arm).
     key: str = field(init=False, compare=False, repr=False)
@@ -44,13 +49,12 @@ class Element:
 @dataclass
 class Resistor(Element):
     """A resistor; ``value`` in Ω. ``time_value``: the value as a piecewise-constant
-    function of time (:class:`netlist.time_value.TimeValue`) of the resistor this element
-    stands for, ``value`` its least (its other parts carry ``part_of``); ``part_of``: the
-    resistor whose model this element is part of (:mod:`netlist.time_value`), else ""."""
+    function of time (:class:`netlist.time_value.TimeValue`) of the time-stepped resistor
+    whose group this element leads (it keeps the resistor's name), ``value`` its least;
+    else None."""
 
     value: float = 0.0
     time_value: TimeValue | None = field(default=None, compare=False)
-    part_of: str = field(default="", compare=False)
     kind: ClassVar[str] = "R"
 
 
@@ -78,9 +82,6 @@ class VoltageSource(Element):
 
     dc: float = 0.0
     waveform: Signal | None = None
-    # the element whose model this source is part of (the control of a time-valued
-    # resistor's switch, netlist.time_value): not a source of the circuit's power, else ""
-    part_of: str = field(default="", compare=False)
     kind: ClassVar[str] = "V"
 
 
@@ -97,12 +98,12 @@ class CurrentSource(Element):
 class Diode(Element):
     """Ideal diode, nodes (anode, cathode). ``model`` is kept for ngspice and for the
     ``--devices pwl`` fit, with ``area`` (the D line's AREA times its m: the junction's IS
-    and 1/RS scale with it, as in ngspice). ``part_of``: the idealised transistor whose body
+    and 1/RS scale with it, as in ngspice). ``body_of``: the idealised transistor whose body
     diode this is (ngspice simulates the transistor's own), else ""."""
 
     model: str = ""
     area: float = 1.0
-    part_of: str = field(default="", compare=False)
+    body_of: str = field(default="", compare=False)
     # a diode of pelcs's own construction (a B source's limiter, netlist.limiter): ideal
     # whatever --devices says, never fitted
     ideal: bool = field(default=False, compare=False)
@@ -127,10 +128,6 @@ class Switch(Element):
     # on only while the control exceeds VT, off at VT itself: a switch a comparator B source
     # drives through a strict comparison (netlist.behavioural)
     strict: bool = False
-    # the element whose model this switch is part of (a bypass of a time-valued resistor,
-    # netlist.time_value): ideal in every model (--devices pwl fits no resistance to it), no
-    # loss, not written for ngspice (the element is), else ""
-    part_of: str = field(default="", compare=False)
     kind: ClassVar[str] = "S"
 
 
@@ -208,6 +205,33 @@ class IgnoredCommand:
     location: Location | None = field(default=None, compare=False)
 
 
+#: :attr:`BuiltGroup.construct` of a clamping B source's limiter (:mod:`netlist.limiter`)
+LIMITER = "limiter"
+#: :attr:`BuiltGroup.construct` of a resistor stepped in time (:mod:`netlist.time_value`)
+TIME_STEPPED_RESISTOR = "time-stepped resistor"
+
+
+@dataclass(frozen=True)
+class BuiltGroup:
+    """A netlist line pelcs simulates as a group of elements it built, each of which names
+    the line in :attr:`Element.built_for`.
+
+    Attributes
+    ----------
+    name : str
+        The line's element name (``B1``, ``R4``, ``X1.B1``): its elements' ``built_for``.
+    construct : str
+        What pelcs built: :data:`LIMITER` or :data:`TIME_STEPPED_RESISTOR`.
+    line : str
+        The line ngspice is given in the group's place (:func:`netlist.writer.write_circuit`
+        writes it at the group's first element, and none of its elements).
+    """
+
+    name: str
+    construct: str
+    line: str
+
+
 @dataclass
 class Circuit:
     """A flattened circuit: no subcircuits, all parameters evaluated."""
@@ -226,10 +250,9 @@ class Circuit:
     notes: list = field(default_factory=list, compare=False)
     # macro-model subcircuits replaced by ideal elements: name -> definition text (ngspice)
     subckt_texts: dict = field(default_factory=dict, compare=False)
-    # elements pelcs built for one element line it cannot simulate as written (a clamping B
-    # source's limiter): lower-case name -> the line written for ngspice in its place (the
-    # group's first element), or "" (the others)
-    written_as: dict = field(default_factory=dict, compare=False)
+    # the element lines pelcs simulates as groups of elements it built (a clamping B source,
+    # a resistor stepped in time): lower-case name -> BuiltGroup
+    built_groups: dict[str, BuiltGroup] = field(default_factory=dict, compare=False)
     # capacitors in a loop with voltage sources, reduced to one state each
     # (netlist.capacitor_loops): lower-case name -> (name, its nodes, the capacitor for them)
     loop_capacitors: dict = field(default_factory=dict, compare=False)
@@ -247,6 +270,18 @@ class Circuit:
 
     def of_kind(self, kind: str) -> list[Element]:
         return [el for el in self.elements if el.kind == kind]
+
+    def built_group(self, el: Element) -> BuiltGroup | None:
+        """The group of elements pelcs built that ``el`` belongs to, None for an element of
+        the netlist's own."""
+        return self.built_groups[el.built_for.lower()] if el.built_for else None
+
+    def add_built_group(self, group: BuiltGroup, elements: Sequence[Element]) -> None:
+        """Record ``group``, the elements pelcs built for one netlist line: each of
+        ``elements`` gets its name in ``built_for``."""
+        for el in elements:
+            el.built_for = group.name
+        self.built_groups[group.name.lower()] = group
 
     @property
     def nodes(self) -> list[str]:

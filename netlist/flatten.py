@@ -509,7 +509,7 @@ class _Builder:
         body = None
         if mt == "VDMOS":
             body = f"{name}_body"
-            out.append(Diode(body, (a, b) if pchan else (b, a), loc, "", part_of=name))
+            out.append(Diode(body, (a, b) if pchan else (b, a), loc, "", body_of=name))
         terms = ("drain", "source", "gate") if el.kind == "M" else ("collector", "emitter",
                                                                       "base")
         ctl = f"v({control[0]})" if control[1] == GROUND else f"v({control[0]},{control[1]})"
@@ -590,7 +590,7 @@ class _Builder:
             an, ca = ((ports[macro.body[0]], ports[macro.body[1]]) if macro.body is not None
                       else ((a, b) if pchan else (b, a)))
             self.circuit.elements.append(Diode(body, (an, ca), loc, macro.body_model,
-                                               part_of=name))
+                                               body_of=name))
         terms = ("drain", "source") if dev.kind == "M" and not macro.igbt else (
             "collector", "emitter")
         ctl = f"v({control[0]})" if control[1] == GROUND else f"v({control[0]},{control[1]})"

@@ -15,8 +15,9 @@ inner node ``c`` but the buffer, so while ``lo < e < hi`` no current flows in ``
 ``R``'s value changes nothing but the size of the diodes' currents (1 Ω: amperes per volt of
 overshoot). A missing bound (``min`` or ``max`` alone) has no diode.
 
-For ngspice (:func:`netlist.writer.write_circuit`) the elements are written back as the one B
-source they stand for (``Circuit.written_as``).
+The elements are a group built for the B line (:class:`netlist.circuit.BuiltGroup`, construct
+:data:`~netlist.circuit.LIMITER`): for ngspice (:func:`netlist.writer.write_circuit`) they are
+written back as the one B source they stand for.
 """
 
 from __future__ import annotations
@@ -24,7 +25,18 @@ from __future__ import annotations
 import math
 
 from .behavioural_expr import Clamp
-from .circuit import GROUND, Circuit, Diode, Element, Resistor, Vccs, Vcvs, VoltageSource
+from .circuit import (
+    GROUND,
+    LIMITER,
+    BuiltGroup,
+    Circuit,
+    Diode,
+    Element,
+    Resistor,
+    Vccs,
+    Vcvs,
+    VoltageSource,
+)
 from .errors import Location
 from .writer import spice_name
 
@@ -54,7 +66,7 @@ def limiter_elements(circuit: Circuit, name: str, kind_out: str, nodes: tuple[st
     Parameters
     ----------
     circuit : Circuit
-        Receives, in ``written_as``, the B line that ngspice is given for these elements.
+        Receives the elements' group, with the B line that ngspice is given in their place.
     name : str
         The B source's name: the output buffer keeps it (``i(B1)`` of a ``V=`` source is
         its current), the others are ``<name>#...``.
@@ -84,8 +96,7 @@ def limiter_elements(circuit: Circuit, name: str, kind_out: str, nodes: tuple[st
         out.append(Diode(f"{name}#dhi", (c_node, node), loc, ideal=True))
     buffer = (Vcvs if kind_out == "V" else Vccs)(name, tuple(nodes), loc, (c_node, GROUND), 1.0)
     out.append(buffer)
-    # ngspice is given the B source itself: the first element carries its line, the others
-    # nothing
+    # ngspice is given the B source itself
     terms = [f"{_number(c)}*" + (f"v({q[1]})" if q[0] == "v" else f"i({spice_name(q[1])})")
              for q, c in clamp.form.terms]
     value = " + ".join(terms + [_number(clamp.form.const)])
@@ -94,6 +105,5 @@ def limiter_elements(circuit: Circuit, name: str, kind_out: str, nodes: tuple[st
     if math.isfinite(clamp.lo):
         value = f"max({_number(clamp.lo)}, {value})"
     line = f"{spice_name(name, 'B')} {nodes[0]} {nodes[1]} {kind_out} = {value}"
-    for k, el in enumerate(out):
-        circuit.written_as[el.key] = line if k == 0 else ""
+    circuit.add_built_group(BuiltGroup(name, LIMITER, line), out)
     return out

@@ -44,7 +44,7 @@ gate as a linear RC (``Switch.gate_rc``, from ``netlist.flatten``: the model's g
 resistance, its gate-source capacitance to the source and its gate-drain capacitance to the
 drain, at a fixed bias), and the switch turns when the gate-source voltage behind the gate
 resistance crosses the threshold, as the channel does.
-The bypass switches of a resistor stepped in time (``Switch.part_of``, :mod:`netlist.time_value`)
+The bypass switches of a resistor stepped in time (``built_for``, :mod:`netlist.time_value`)
 are pelcs' model of that resistor, not devices: they stay ideal.
 The added elements are named ``<element>#vf`` and ``<element>#ron`` on internal nodes
 ``<element>#a``/``#b``; they belong to pelcs' model only (ngspice keeps the real devices).
@@ -419,7 +419,7 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
     for el in circuit.elements:
         if el.key in merged:
             continue  # carried by the diode it is in parallel with (one pair)
-        if isinstance(el, Switch) and el.part_of:
+        if isinstance(el, Switch) and el.built_for:
             out.append(el)  # a time-valued resistor's bypass (netlist.time_value): no device
             continue
         model = str(getattr(el, "model", "") or "").lower()

@@ -26,10 +26,12 @@ The resistor becomes elements pelcs simulates exactly (:func:`elaborate_time_res
 
 The switches are driven by sources alone, so the run computes their instants before stepping
 and steps to each of them. At an instant several switches may turn at once; a bypassed
-segment is never an open circuit, so the order cannot break the resistor's path. The parts
-carry :attr:`~netlist.circuit.Switch.part_of` (the resistor's name): ``--devices pwl`` leaves
-those switches ideal, losses give them none and count the segments' power as the resistor's,
-and the writer writes the resistor back as its expression (:meth:`TimeValue.expression`).
+segment is never an open circuit, so the order cannot break the resistor's path. The elements
+are a group built for the R line (:class:`~netlist.circuit.BuiltGroup`, construct
+:data:`~netlist.circuit.TIME_STEPPED_RESISTOR`; each carries the resistor's name in
+``built_for``): ``--devices pwl`` leaves the switches ideal, losses give them none and count
+the segments' power as the resistor's, and the writer writes the resistor back as its
+expression (:func:`time_resistor_line`).
 
 ngspice evaluates the expression at its own time points and puts no breakpoint at the
 instants: the new value holds from its first time point past the instant, over the whole
@@ -50,14 +52,26 @@ from dataclasses import replace
 from lcs.signals import Pwl
 
 from .behavioural_expr import Affine, BehaviouralError, Step, Tree, linearise
-from .circuit import GROUND, Circuit, Element, Model, Resistor, Switch, VoltageSource
+from .circuit import (
+    GROUND,
+    TIME_STEPPED_RESISTOR,
+    BuiltGroup,
+    Circuit,
+    Element,
+    Model,
+    Resistor,
+    Switch,
+    VoltageSource,
+)
 from .rawdeck import RawElement
 from .time_function import TimeValue
 from .units import format_eng
+from .writer import spice_name
 
 __all__ = ["ACCEPTED", "MAX_INTERVALS", "TimeValue", "elaborate_time_resistor",
            "frozen_at", "internal_nodes", "other_quantity", "reads_time_only",
-           "time_in_comparisons", "time_resistor_nodes", "time_value"]
+           "time_in_comparisons", "time_resistor_line", "time_resistor_nodes",
+           "time_resistor_part", "time_resistor_segments", "time_value"]
 
 #: the most intervals of constant value pelcs expands a resistor into
 MAX_INTERVALS = 8
@@ -236,8 +250,21 @@ def time_resistor_nodes(circuit: Circuit, el: Resistor) -> tuple[str, str]:
     """The two nodes of the resistor stepped in time that ``el`` (the element that keeps its
     name, :func:`elaborate_time_resistor`) stands for: its first node and the far end of its
     last segment."""
-    segments = [p for p in circuit.elements if isinstance(p, Resistor) and p.part_of == el.name]
+    segments = time_resistor_segments(circuit, el)
     return el.nodes[0], (segments[-1].nodes[1] if segments else el.nodes[1])
+
+
+def time_resistor_segments(circuit: Circuit, el: Resistor) -> list[Resistor]:
+    """The series segments ``<name>#r<j>`` of the resistor stepped in time that ``el`` (the
+    element that keeps its name) stands for, in order."""
+    return [p for p in circuit.elements if isinstance(p, Resistor) and p.time_value is None
+            and p.built_for and p.built_for == el.built_for]
+
+
+def time_resistor_line(name: str, nodes: tuple[str, str], tv: TimeValue) -> str:
+    """The R line ngspice is given for a resistor stepped in time: its value as an
+    expression of ``time`` (:meth:`TimeValue.expression`) between its two nodes."""
+    return f"{spice_name(name, 'R')} {nodes[0]} {nodes[1]} R = '{tv.expression()}'"
 
 
 def _control(tv: TimeValue, on: list[bool]) -> tuple[float, Pwl]:
@@ -262,10 +289,16 @@ def internal_nodes(circuit: Circuit) -> set[str]:
         if isinstance(el, Resistor) and el.time_value is not None:
             ends.update(time_resistor_nodes(circuit, el))
             inner.add(el.nodes[1])
-        elif isinstance(el, Resistor | Switch | VoltageSource) and el.part_of:
+        elif time_resistor_part(circuit, el):
             inner.update(el.nodes)
             inner.update(getattr(el, "control", ()))
     return inner - ends
+
+
+def time_resistor_part(circuit: Circuit, el: Element) -> bool:
+    """Whether ``el`` is one of the elements that stand for a resistor stepped in time."""
+    group = circuit.built_group(el)
+    return group is not None and group.construct == TIME_STEPPED_RESISTOR
 
 
 def elaborate_time_resistor(el: RawElement, prefix: str, mapnode: Callable[[str], str],
@@ -318,12 +351,12 @@ def elaborate_time_resistor(el: RawElement, prefix: str, mapnode: Callable[[str]
         ctl = f"{low}#c{j + 1}"
         on = [v < levels[j] for v in tv.values]
         dc, wave = _control(tv, on)
-        out += [Resistor(f"{name}#r{j + 1}", seg, loc, levels[j] - levels[j - 1],
-                         part_of=name),
-                Switch(f"{name}#s{j + 1}", seg, loc, (ctl, GROUND), model, part_of=name),
-                VoltageSource(f"{name}#v{j + 1}", (ctl, GROUND), loc, dc, wave,
-                              part_of=name)]
+        out += [Resistor(f"{name}#r{j + 1}", seg, loc, levels[j] - levels[j - 1]),
+                Switch(f"{name}#s{j + 1}", seg, loc, (ctl, GROUND), model),
+                VoltageSource(f"{name}#v{j + 1}", (ctl, GROUND), loc, dc, wave)]
         parts.append(f"{name}#r{j + 1} = {format_eng(levels[j] - levels[j - 1], 'Ω')}")
+    circuit.add_built_group(
+        BuiltGroup(name, TIME_STEPPED_RESISTOR, time_resistor_line(name, nodes, tv)), out)
     circuit.notes.append(
         f"{name}: resistor value '{text.strip()}' read as a piecewise-constant function of "
         f"time: {tv.describe('Ω')}; pelcs changes it at exactly those instants ({name} = "
@@ -353,7 +386,7 @@ def frozen_at(circuit: Circuit, t0: float) -> tuple[Circuit, list[str]]:
     parts = {el.name for el in stepped}
     elements: list[Element] = []
     for el in circuit.elements:
-        if getattr(el, "part_of", "") in parts:
+        if el.built_for in parts and el not in stepped:
             continue
         if el in stepped:
             value = el.time_value.at(t0)
@@ -368,4 +401,6 @@ def frozen_at(circuit: Circuit, t0: float) -> tuple[Circuit, list[str]]:
     # (the note of reading the resistor describes the steps this circuit no longer has)
     kept = [n for n in circuit.notes if not any(
         isinstance(n, str) and n.startswith(f"{name}: resistor value") for name in parts)]
-    return replace(circuit, elements=elements, notes=kept), notes
+    # (the constant resistors are the netlist's own now, written as such)
+    groups = {k: g for k, g in circuit.built_groups.items() if g.name not in parts}
+    return replace(circuit, elements=elements, notes=kept, built_groups=groups), notes

@@ -17,6 +17,13 @@ as ``x1.n3`` need no change.
 
 Ignored commands (``.print``, ``.control`` blocks, ...) are written back verbatim at the end,
 since they are what the user asked ngspice to do.
+
+Built groups
+------------
+Where pelcs simulates a netlist line as a group of elements it built (a clamping B source's
+limiter, a resistor stepped in time: :class:`netlist.circuit.BuiltGroup`), ngspice is given
+that line instead: the group's line is written where its first element stands, and none of
+its elements.
 """
 
 from __future__ import annotations
@@ -29,11 +36,9 @@ from .circuit import (
     CurrentSource,
     Diode,
     Element,
-    Resistor,
     Switch,
     VoltageSource,
 )
-from .time_value import time_resistor_nodes
 from .units import format_number
 
 __all__ = ["write_circuit", "spice_name"]
@@ -105,11 +110,6 @@ def _element(el: Element, circuit: Circuit, kinds: dict[str, str]) -> str:
     name = spice_name(el.name, el.kind)
     nodes = " ".join(el.nodes)
     kind = el.kind
-    if isinstance(el, Resistor) and el.time_value is not None:
-        # a resistor stepped in time (netlist.time_value): its expression, which ngspice
-        # reads (as a B source) and pelcs reads back to the same elements
-        a, b = time_resistor_nodes(circuit, el)
-        return f"{name} {a} {b} R = '{el.time_value.expression()}'"
     if kind in ("R", "L", "C"):
         line = f"{name} {nodes} {_num(el.value)}"
         ic = getattr(el, "ic", None)
@@ -165,22 +165,23 @@ def write_circuit(circuit: Circuit) -> str:
     for name, value in circuit.params.items():
         lines.append(f".param {name}={_num(value)}")
     kinds = {el.key: el.kind for el in circuit.elements}
+    written_groups: set[str] = set()
     for el in circuit.elements:
-        if isinstance(el, Diode | Resistor | Switch | VoltageSource) and el.part_of:
-            # a transistor's body diode, part of its model in ngspice; the parts of a
-            # resistor stepped in time, written as that resistor
+        group = circuit.built_group(el)
+        if group is not None:
+            if group.name not in written_groups:
+                written_groups.add(group.name)
+                lines.append(group.line)
             continue
-        if el.key in circuit.written_as:  # one of the elements that stand for one line
-            if circuit.written_as[el.key]:
-                lines.append(circuit.written_as[el.key])
-            continue
+        if isinstance(el, Diode) and el.body_of:
+            continue  # a transistor's body diode, part of its model in ngspice
         lines.append(_element(el, circuit, kinds))
     devices = {el.model.lower() for el in circuit.elements
-               if isinstance(el, Switch) and (el.device is not None or el.part_of)}
+               if isinstance(el, Switch) and (el.device is not None or el.built_for)}
     for key, model in circuit.models.items():
         if key in devices:
-            # the switch stand-in of a transistor's threshold, the bypasses of a resistor
-            # stepped in time: pelcs-only
+            # the switch stand-in of a transistor's threshold, a built group's switch (the
+            # bypasses of a resistor stepped in time): pelcs-only
             continue
 
         params = " ".join(f"{k}={_num(v)}" for k, v in model.params.items())

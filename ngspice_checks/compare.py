@@ -409,7 +409,7 @@ def compare(
     probes = check_probes(circuit, list(probes)) if probes else default_probes(circuit)
     ng_probes = [ngspice_probe(circuit, p) for p in probes]
     # (not the ideal bypasses of a resistor stepped in time: ngspice runs that resistor)
-    switch_els = [el for el in circuit.elements if isinstance(el, Switch) and not el.part_of]
+    switch_els = [el for el in circuit.elements if isinstance(el, Switch) and not el.built_for]
     controls = [f"v({a},{b})" if b != GROUND else f"v({a})" for a, b in
                 (sw.control for sw in switch_els)]
     # pelcs also records every diode and switch current: the drop estimate needs them

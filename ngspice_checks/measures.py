@@ -256,8 +256,8 @@ def _nonideality(
     drives = drives or {}
     diodes, switches = {}, {}
     for el in circuit.elements:
-        if el.key in circuit.written_as:
-            continue  # pelcs's construction for one B line (a limiter): ngspice runs the B
+        if el.built_for:
+            continue  # pelcs's construction for one line (a limiter): ngspice runs the line
         i_max = float(np.max(np.abs(currents[el.name]))) if el.name in currents else 0.0
         if isinstance(el, Diode):
             if settings.diode_model is not None:
@@ -332,11 +332,12 @@ def _nonideality_drop(circuit: Circuit, el: Diode, i: float, vf: float, ron: flo
 
 
 def _v_ref(circuit: Circuit) -> float:
-    """The largest independent source voltage (V); a limiter's rails (pelcs's construction
-    for a B line, ``Circuit.written_as``) are none."""
+    """The largest independent source voltage (V); the sources pelcs built for a line
+    ngspice runs as written (a limiter's rails, a time-stepped resistor's controls:
+    ``Element.built_for``) are none."""
     v_ref = 0.0
     for el in circuit.elements:
-        if isinstance(el, VoltageSource) and el.key not in circuit.written_as:
+        if isinstance(el, VoltageSource) and not el.built_for:
             v_ref = max(v_ref, abs(el.dc), _peak(el.waveform))
     return v_ref
 

@@ -60,9 +60,9 @@ def test_the_dcdc_line_becomes_its_least_value_and_bypassed_segments():
     assert els["R4#r2"].nodes == ("r4#m1", "r4#m2") and els["R4#r3"].nodes == ("r4#m2", "out")
     for j, on in ((2, (False, True, False)), (3, (True, True, False))):
         sw, src = els[f"R4#s{j}"], els[f"R4#v{j}"]
-        assert isinstance(sw, Switch) and sw.part_of == "R4" and sw.nodes == els[
+        assert isinstance(sw, Switch) and sw.built_for == "R4" and sw.nodes == els[
             f"R4#r{j}"].nodes and sw.control == (f"r4#c{j}", "0")
-        assert isinstance(src, VoltageSource) and src.part_of == "R4"
+        assert isinstance(src, VoltageSource) and src.built_for == "R4"
         # the control is +1 V where the switch is on, -1 V where off, 0 V at an instant
         # where it turns
         wave = src.waveform

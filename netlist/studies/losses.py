@@ -44,6 +44,7 @@ import numpy as np
 from ..capacitor_links import capacitor_links
 from ..circuit import Capacitor, Circuit, Diode, Inductor, Resistor, Switch, VoltageSource
 from ..reductions import held_capacitors, parallel_diodes
+from ..time_value import time_resistor_part
 from .measure import (
     Measurement,
     probe_unit,
@@ -218,11 +219,14 @@ def _link_power(result, circuit: Circuit, held: dict, sel: np.ndarray, span: flo
     return total
 
 
-def _limiter_part(el) -> bool:
-    """An element of a B source's limiter (:mod:`netlist.limiter`): pelcs's construction of
-    an ideal source, whose inner currents are no power of the circuit."""
+def _b_source_part(circuit: Circuit, el) -> bool:
+    """An element pelcs built inside a B source (the diodes and resistor of a limiter,
+    :mod:`netlist.limiter`; a comparator's resistor): pelcs's construction of an ideal
+    source, whose inner currents are no power of the circuit. Not a segment of a resistor
+    stepped in time (that resistor's power)."""
     return "#" in el.name and (isinstance(el, Diode) and el.ideal
-                               or isinstance(el, Resistor) and not el.part_of)
+                               or isinstance(el, Resistor)
+                               and not time_resistor_part(circuit, el))
 
 
 def loss_probes(circuit: Circuit) -> list[str]:
@@ -230,7 +234,8 @@ def loss_probes(circuit: Circuit) -> list[str]:
     merged = parallel_diodes(circuit)
     probes = []
     for el in circuit.elements:
-        own = "#" not in el.name or (isinstance(el, Resistor) and el.part_of)
+        own = "#" not in el.name or (isinstance(el, Resistor)
+                                     and time_resistor_part(circuit, el))
         if isinstance(el, (Diode, Switch, Resistor)) and own and el.key not in merged:
             probes.append(f"i({el.name})")
     for v in _sources(circuit):
@@ -260,9 +265,9 @@ def losses(result, circuit: Circuit, fits: Sequence = (), load: str | None = Non
     rep = LossReport((a, b), n)
     merged = parallel_diodes(circuit)
     for el in circuit.elements:
-        if isinstance(el, Switch) and el.part_of:
+        if isinstance(el, Switch) and el.built_for:
             continue  # a bypass of a resistor stepped in time: ideal, part of the resistor
-        if _limiter_part(el):
+        if _b_source_part(circuit, el):
             continue
         if isinstance(el, (Diode, Switch)) and el.key not in merged:
             f = fit.get(el.name)
@@ -273,10 +278,10 @@ def losses(result, circuit: Circuit, fits: Sequence = (), load: str | None = Non
             rep.devices[el.name] = mean(np.abs(i) * f.voltage(np.abs(i)))
     powers = {}
     for el in circuit.elements:
-        if isinstance(el, Resistor) and not _limiter_part(el):
+        if isinstance(el, Resistor) and not _b_source_part(circuit, el):
             i = np.asarray(result[f"i({el.name})"], dtype=float)
             # (a segment of a resistor stepped in time: that resistor's power)
-            owner = el.part_of or el.name
+            owner = el.built_for or el.name
             powers[owner] = powers.get(owner, 0.0) + mean(el.value * i * i)
     if powers:
         rep.load = next((k for k in powers if load and k.lower() == load.lower()), None) or \

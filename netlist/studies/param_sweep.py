@@ -50,6 +50,7 @@ from ..circuit import Circuit, CurrentSource, Resistor, VoltageSource
 from ..errors import Diagnostic, NetlistError
 from ..parser import parse_string
 from ..time_function import TimeValue
+from ..time_value import time_resistor_line, time_resistor_nodes, time_resistor_segments
 from ..units import format_eng, parse_number
 from .measure import (
     Measurement,
@@ -352,6 +353,7 @@ def _perturbed(circuit: Circuit, toleranced, deviations) -> tuple[Circuit, list[
     if deviations is None:
         return circuit, []
     elements = list(circuit.elements)
+    groups = dict(circuit.built_groups)
     index = {el.name.lower(): i for i, el in enumerate(elements)}
     used = []
     problem = ""
@@ -371,17 +373,21 @@ def _perturbed(circuit: Circuit, toleranced, deviations) -> tuple[Circuit, list[
         if isinstance(el, Resistor) and el.time_value is not None:
             # a resistor stepped in time (netlist.time_value): its every value varies, so
             # its segments (differences of its values) scale with a relative draw
-            tv = el.time_value
-            vals = tuple(v * (1.0 + d) if relative else v + d for v in tv.values)
-            elements[i] = replace(elements[i], time_value=TimeValue(tv.times, vals))
+            tv = TimeValue(el.time_value.times, tuple(
+                v * (1.0 + d) if relative else v + d for v in el.time_value.values))
+            elements[i] = replace(elements[i], time_value=tv)
             if relative:
-                for j, part in enumerate(elements):
-                    if isinstance(part, Resistor) and part.part_of == el.name:
-                        elements[j] = replace(part, value=part.value * (1.0 + d))
+                for part in time_resistor_segments(circuit, el):
+                    j = index[part.key]
+                    elements[j] = replace(elements[j], value=elements[j].value * (1.0 + d))
+            # (and the line ngspice would be given for it)
+            group = circuit.built_group(el)
+            groups[group.name.lower()] = replace(group, line=time_resistor_line(
+                el.name, time_resistor_nodes(circuit, el), tv))
         used.append(value)
     if problem:
         raise _DrawError(problem, used)
-    return replace(circuit, elements=elements), used
+    return replace(circuit, elements=elements, built_groups=groups), used
 
 
 def _run_point(job: _Job, params: tuple[tuple[str, float], ...], deviations

@@ -58,7 +58,7 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
     if devices == "pwl":
         merged = parallel_diodes(circuit)
         # (the bypasses of a resistor stepped in time stay ideal: netlist.time_value)
-        sws = [el for el in circuit.elements if isinstance(el, Switch) and not el.part_of]
+        sws = [el for el in circuit.elements if isinstance(el, Switch) and not el.built_for]
         pre = [f"i({el.name})" for el in circuit.elements
                if isinstance(el, Diode) and el.key not in merged] + [
             f"i({el.name})" for el in sws]
@@ -88,7 +88,7 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         i_max = {el.name: carried_current(t, ideal[f"i({el.name})"])
                  for el in circuit.elements
                  if (isinstance(el, Diode) and el.key not in merged)
-                 or (isinstance(el, Switch) and not el.part_of)}
+                 or (isinstance(el, Switch) and not el.built_for)}
         drives = {}
         for sw in sws:
             a, b = sw.control

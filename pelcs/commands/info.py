@@ -127,8 +127,8 @@ def _row(el: Element, circuit: Circuit, unit: str) -> list[str]:
     if kind == "D":
         if getattr(el, "ideal", False):
             what = "ideal (a clamp's limiter)"
-        elif getattr(el, "part_of", ""):
-            what = f"body diode of {el.part_of}"
+        elif getattr(el, "body_of", ""):
+            what = f"body diode of {el.body_of}"
         else:
             what = f"model {el.model}"
         return [el.name, f"{el.nodes[0]} -> {el.nodes[1]}", what, "(anode -> cathode)"]
