@@ -356,17 +356,34 @@ def _leak_balanced(A, B, C, D, E, F, u, x0, lcp, rtol, leaks, Lb, Le, null, KA, 
     cols = np.abs(Lb).max(axis=0, initial=0.0)
     J = np.flatnonzero(cols > rtol * max(np.abs(Bs).max(initial=0.0), 1.0))
     R = np.setdiff1d(np.arange(m), J)
+    lam_J = np.zeros(J.size)
     if np.abs(Le).max(initial=0.0) > rtol * max(np.abs(Lb).max(initial=0.0),
                                                 np.abs(E @ u).max(initial=0.0), 1.0):
-        return None
-    y = np.linalg.lstsq(Lb[:, J].T, np.ones(J.size), rcond=None)[0]
-    if not np.all(Lb[:, J].T @ y > 0.5):
-        return None  # (a current in one acting diode could balance another's)
-    sub = dc_point(A, B[:, R], C[R], D[np.ix_(R, R)], E, F[R], u, x0, lcp, rtol, leaks)
+        # a source drives the free combination: the acting pairs' multipliers must take it
+        # (an inductor whose only path is a blocking diode, held 8 V from its source: that
+        # diode's λ = 8 V, and w = i_L = 0 where λ > 0); where they set them uniquely and
+        # none is negative, the rest's point with those multipliers as inputs
+        sv = np.linalg.svd(Lb[:, J], compute_uv=False)
+        if sv.size < J.size or sv.min() <= 1e-9 * max(float(sv.max()), 1e-300):
+            return None
+        lam_J = np.linalg.lstsq(Lb[:, J], -Le, rcond=None)[0]
+        if (np.abs(Lb[:, J] @ lam_J + Le).max(initial=0.0) > 1e-9 * np.abs(Le).max()
+                or np.any(lam_J < -1e-9 * np.abs(lam_J).max())):
+            return None
+        lam_J = np.maximum(lam_J, 0.0)
+    else:
+        y = np.linalg.lstsq(Lb[:, J].T, np.ones(J.size), rcond=None)[0]
+        if not np.all(Lb[:, J].T @ y > 0.5):
+            return None  # (a current in one acting diode could balance another's)
+    sub = dc_point(A, B[:, R], C[R], D[np.ix_(R, R)], np.hstack([E, B[:, J]]),
+                   np.hstack([F[R], D[np.ix_(R, J)]]), np.concatenate([u, lam_J]), x0, lcp,
+                   rtol, leaks if leaks is None else
+                   (leaks[0], leaks[1][:, R], np.hstack([leaks[2], leaks[1][:, J]])))
     if not sub.ok:
         return None
     x, lam = sub.x.copy(), np.zeros(m)
     lam[R] = sub.lam
+    lam[J] = lam_J
     KB = KA @ Bs
     Mf = D - C @ KB
     w = C @ x + D @ lam + F @ u
