@@ -560,3 +560,27 @@ def test_a_source_the_diodes_take_on_a_free_state_sets_their_multipliers():
     p = dc_point(A, B, C, D, E, F, np.array([12.0, 20.0]), np.array([0.5]))
     assert p.ok and p.x == pytest.approx([0.0]) and p.lam == pytest.approx([8.0])
     assert not dc_point(A, B, C, D, E, F, np.array([12.0, 5.0]), np.zeros(1)).ok
+
+
+def test_an_inductor_a_source_holds_its_diode_off_in_a_switch_mode():
+    # the two-phase buck with S1 on and S2 off: L1 shorts the 24 V input onto the 2 Ω load
+    # (12 A, 24 V); L2's only path is D2, which the output holds 24 V reverse-biased: i(L2) =
+    # 0, λ(D2) = 24 V. The point is checked against the DC equations and the LCP, where a
+    # remainder of 2e-16 A in L2 (1.8 A moved to 0) counts as zero.
+    from pathlib import Path
+
+    from lcs.lcp import LcpOptions
+    from lcs.simulation.held_point import mode_point
+    from lcs.simulation.problem import Problem
+    from netlist.parser import parse_file
+    from netlist.studies.transient import transient_setup
+
+    s = transient_setup(parse_file(Path(__file__).parent / "netlists" / "closed_loop"
+                                   / "two_phase_buck.cir"))
+    u0 = np.array([sig(0.0) for sig in s.signals])
+    for x0 in (np.zeros(3), np.array([0.0, 1.8, 0.0])):
+        p = mode_point(Problem(s.system, None), (True, False), u0, x0, LcpOptions())
+        assert p.ok
+        assert dict(zip(s.system.states, p.x, strict=True)) == pytest.approx(
+            {"i(L1)": 12.0, "i(L2)": 0.0, "v(C1)": 24.0})
+        assert p.lam == pytest.approx([0.0, 24.0])
