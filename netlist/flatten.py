@@ -24,7 +24,7 @@ from __future__ import annotations
 import copy
 import math
 from collections import ChainMap, Counter
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 
 from lcs.signals import Exp, Pulse, Pwl, Signal, Sin
 
@@ -538,11 +538,12 @@ class _Builder:
             a, k = (ports[p] for p in macro.ports)
             models = tuple(self.model_key(e.ref, sub.key) for e in sub.body.elements
                            if e.kind == "D")
-            # a resistor joining the two ports is a leakage in parallel (NXP's 1N4148 has
-            # 5.8 GΩ there), not in series with the junction
-            port_set = {p.lower() for p in sub.ports}
-            series = sum(self._resistance(e) for e in sub.body.elements if e.kind == "R"
-                         and not {n.lower() for n in e.nodes[:2]} <= port_set)
+            # only the resistors on the junction's path to the ports are in series with it:
+            # one joining the two ports is a leakage in parallel (NXP's 1N4148 has 5.8 GΩ
+            # there), one leading to a capacitor a snubber across it (10 kΩ + 10 nF)
+            junction = next(e for e in sub.body.elements if e.kind == "D")
+            series = sum(self._resistance(e) for e in _series_path(
+                sub.body.elements, junction.nodes[:2], [p.lower() for p in sub.ports]))
             self.circuit.elements.append(Diode(name, (a, k), loc, models[0],
                                                device=(*origin, models, series)))
             self.circuit.replacements.append(Replacement(
@@ -798,3 +799,34 @@ class _Builder:
                     return None
             return Exp(*vals)
         raise AssertionError(f"waveform {kind} at {loc}")
+
+
+def _series_path(elements: Sequence, terminals: Sequence[str], ports: Sequence[str]) -> list:
+    """The resistors on the path from each of a junction's ``terminals`` to the port it
+    reaches through resistors alone (netlist.devices.classify_macro: a diode macro-model),
+    without going through the other port: those in series with it. A resistor off that
+    path (in series with a capacitor across the junction, or joining the two ports) is
+    not."""
+    adjacent: dict[str, list] = {}
+    for e in elements:
+        if e.kind == "R":
+            a, b = (n.lower() for n in e.nodes[:2])
+            adjacent.setdefault(a, []).append((b, e))
+            adjacent.setdefault(b, []).append((a, e))
+    out = []
+    for terminal in terminals:
+        start = terminal.lower()
+        came: dict[str, tuple] = {start: ()}
+        queue = [start]
+        while queue:
+            node = queue.pop(0)
+            if node in ports:
+                while came[node]:  # back along the path it was reached by
+                    node, e = came[node]
+                    out.append(e)
+                break
+            for nxt, e in adjacent.get(node, ()):
+                if nxt not in came:
+                    came[nxt] = (node, e)
+                    queue.append(nxt)
+    return out
