@@ -7,8 +7,8 @@ The work is done in three stages:
    the first line of the top file is the title; ``*`` comment lines, ``;`` and ``$``
    inline comments and blank lines are dropped; ``+`` continuation lines are joined to their
    statement while remembering the original line and column of every character;
-   ``.control ... .endc`` blocks are kept aside as ignored; ``.end`` ends the netlist (a
-   ``.control`` block after it is still read, as ngspice reads it: its ``tran`` command).
+   ``.control ... .endc`` blocks are kept aside as ignored; ``.end`` is read as a comment,
+   as ngspice reads it: the lines after it are still the netlist's.
    ``.include`` and ``.lib`` are followed (paths relative to the including file, cycles
    detected).
 2. *Syntax* (:mod:`netlist.reader`; the dialect's tables in :mod:`netlist.dialect`). Each
