@@ -56,6 +56,7 @@ from .netlist_bytes import decode as _decode
 from .netlist_bytes import read_bytes as _read_bytes
 from .rawdeck import Deck, Statement
 from .reader import _Reader, read_deck
+from .switch_leakage import model_off_resistances
 from .units import parse_number
 
 __all__ = ["parse_file", "parse_string", "parse_overrides", "load_source", "read_deck", "Deck",
@@ -252,7 +253,7 @@ def _loops_and_cutsets(circuit: Circuit) -> Circuit:
     (:mod:`netlist.inductor_cutsets`): what the formulation would otherwise refuse; a note for
     each part whose potential only diodes bound (:mod:`netlist.free_potential`)."""
     notes = free_potential_notes(circuit)  # (on the netlist's own nodes and elements)
-    out = regularise_inductor_cutsets(reduce_capacitor_loops(circuit))
+    out = regularise_inductor_cutsets(reduce_capacitor_loops(model_off_resistances(circuit)))
     return replace(out, notes=[*out.notes, *notes]) if notes else out
 
 
