@@ -194,6 +194,32 @@ def _error(message: str, hint: str = "", elements: Sequence[str] = (), el: Eleme
     )
 
 
+#: transistors idealised inside one subcircuit instance, past which the instance is read as a
+#: transistor-level amplifier (an op-amp's 20 BJTs) in an error's hint
+AMPLIFIER_TRANSISTORS = 4
+
+
+def _amplifier_hint(circuit: Circuit, involved: Sequence[str]) -> str:
+    """The hint of a mode with undetermined quantities where those include transistors that
+    pelcs idealised, :data:`AMPLIFIER_TRANSISTORS` or more inside one subcircuit instance
+    (eSim's LM741, a precision rectifier's op-amp): a linear amplifier built of transistors,
+    which switches do not make; "" otherwise."""
+    names = {n.lower() for n in involved}
+    per: dict[str, list[str]] = {}
+    for r in circuit.replacements:
+        if r.element.lower() in names and "." in r.element \
+                and r.device in ("NPN", "PNP", "NMOS", "PMOS", "VDMOS"):
+            per.setdefault(r.element.rsplit(".", 1)[0], []).append(r.element)
+    big = {inst: els for inst, els in per.items() if len(els) >= AMPLIFIER_TRANSISTORS}
+    if not big:
+        return ""
+    insts = ", ".join(f"{inst} ({len(els)} transistors)" for inst, els in big.items())
+    return (f"{insts}: a linear amplifier built of transistors (an op-amp's own circuit), "
+            "which pelcs idealises into switches that amplify nothing, so its nodes are left "
+            "undetermined; model the amplifier as ideal instead: an E source of high gain "
+            "between its inputs, or a B source (clamped to its supplies)")
+
+
 class _Formulator:
     """Mode-independent bookkeeping of one circuit, and the per-mode builder."""
 
@@ -745,9 +771,10 @@ class _Formulator:
             f"no explicit LCS{where}: " + "; ".join(text for text, _ in defects[:6])
             + (" ..." if len(defects) > 6 else "")
             + (" (with every diode's λ its current)" if not vdiodes else ""),
-            "some quantity is not fixed by the circuit in this configuration (a floating part "
-            "that matters, or controlled sources whose gains make the network singular); "
-            "check the connections of the elements named, or add resistances",
+            _amplifier_hint(self.circuit, involved)
+            or "some quantity is not fixed by the circuit in this configuration (a floating "
+            "part that matters, or controlled sources whose gains make the network "
+            "singular); check the connections of the elements named, or add resistances",
             involved, file=self.file)
 
     # -- probes ------------------------------------------------------------------------
