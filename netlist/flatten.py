@@ -24,7 +24,7 @@ from __future__ import annotations
 import copy
 import math
 from collections import ChainMap, Counter
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 
 from lcs.signals import Exp, Pulse, Pwl, Signal, Sin
 
@@ -527,7 +527,7 @@ class _Builder:
               ) -> None:
         """A device macro-model instance as one ideal switch (and body diode) or one ideal
         diode between its ports (netlist.devices.classify_macro)."""
-        from .devices import Replacement, gate_rc, subckt_text, threshold
+        from .devices import Replacement, gate_rc, series_path, subckt_text, threshold
 
         loc = el.st.loc(0)
         ports = {p.lower(): n for p, n in port_map.items()}
@@ -538,11 +538,10 @@ class _Builder:
             a, k = (ports[p] for p in macro.ports)
             models = tuple(self.model_key(e.ref, sub.key) for e in sub.body.elements
                            if e.kind == "D")
-            # only the resistors on the junction's path to the ports are in series with it:
-            # one joining the two ports is a leakage in parallel (NXP's 1N4148 has 5.8 GΩ
-            # there), one leading to a capacitor a snubber across it (10 kΩ + 10 nF)
+            # in series: the resistors on the junction's path to the ports (not a leakage
+            # across them, NXP's 1N4148's 5.8 GΩ, nor a snubber's R + C across it)
             junction = next(e for e in sub.body.elements if e.kind == "D")
-            series = sum(self._resistance(e) for e in _series_path(
+            series = sum(self._resistance(e) for e in series_path(
                 sub.body.elements, junction.nodes[:2], [p.lower() for p in sub.ports]))
             self.circuit.elements.append(Diode(name, (a, k), loc, models[0],
                                                device=(*origin, models, series)))
@@ -799,34 +798,3 @@ class _Builder:
                     return None
             return Exp(*vals)
         raise AssertionError(f"waveform {kind} at {loc}")
-
-
-def _series_path(elements: Sequence, terminals: Sequence[str], ports: Sequence[str]) -> list:
-    """The resistors on the path from each of a junction's ``terminals`` to the port it
-    reaches through resistors alone (netlist.devices.classify_macro: a diode macro-model),
-    without going through the other port: those in series with it. A resistor off that
-    path (in series with a capacitor across the junction, or joining the two ports) is
-    not."""
-    adjacent: dict[str, list] = {}
-    for e in elements:
-        if e.kind == "R":
-            a, b = (n.lower() for n in e.nodes[:2])
-            adjacent.setdefault(a, []).append((b, e))
-            adjacent.setdefault(b, []).append((a, e))
-    out = []
-    for terminal in terminals:
-        start = terminal.lower()
-        came: dict[str, tuple] = {start: ()}
-        queue = [start]
-        while queue:
-            node = queue.pop(0)
-            if node in ports:
-                while came[node]:  # back along the path it was reached by
-                    node, e = came[node]
-                    out.append(e)
-                break
-            for nxt, e in adjacent.get(node, ()):
-                if nxt not in came:
-                    came[nxt] = (node, e)
-                    queue.append(nxt)
-    return out

@@ -81,6 +81,7 @@ from .capacitor_links import capacitor_links, linked_builder
 from .circuit import GROUND, Circuit, Element
 from .degenerate import CURRENT_KINDS as _CURRENT_KINDS
 from .degenerate import check_topology, pinnable_inductors, pinned_in
+from .devices import amplifier_hint
 from .errors import Diagnostic, NetlistError
 from .mna import VOLTAGE_KINDS as _VOLTAGE_KINDS
 from .mna import Mna as _Mna
@@ -192,32 +193,6 @@ def _error(message: str, hint: str = "", elements: Sequence[str] = (), el: Eleme
         Diagnostic(message=message, location=location, hint=hint, elements=tuple(elements)),
         file=file,
     )
-
-
-#: transistors idealised inside one subcircuit instance, past which the instance is read as a
-#: transistor-level amplifier (an op-amp's 20 BJTs) in an error's hint
-AMPLIFIER_TRANSISTORS = 4
-
-
-def _amplifier_hint(circuit: Circuit, involved: Sequence[str]) -> str:
-    """The hint of a mode with undetermined quantities where those include transistors that
-    pelcs idealised, :data:`AMPLIFIER_TRANSISTORS` or more inside one subcircuit instance
-    (eSim's LM741, a precision rectifier's op-amp): a linear amplifier built of transistors,
-    which switches do not make; "" otherwise."""
-    names = {n.lower() for n in involved}
-    per: dict[str, list[str]] = {}
-    for r in circuit.replacements:
-        if r.element.lower() in names and "." in r.element \
-                and r.device in ("NPN", "PNP", "NMOS", "PMOS", "VDMOS"):
-            per.setdefault(r.element.rsplit(".", 1)[0], []).append(r.element)
-    big = {inst: els for inst, els in per.items() if len(els) >= AMPLIFIER_TRANSISTORS}
-    if not big:
-        return ""
-    insts = ", ".join(f"{inst} ({len(els)} transistors)" for inst, els in big.items())
-    return (f"{insts}: a linear amplifier built of transistors (an op-amp's own circuit), "
-            "which pelcs idealises into switches that amplify nothing, so its nodes are left "
-            "undetermined; model the amplifier as ideal instead: an E source of high gain "
-            "between its inputs, or a B source (clamped to its supplies)")
 
 
 class _Formulator:
@@ -771,10 +746,9 @@ class _Formulator:
             f"no explicit LCS{where}: " + "; ".join(text for text, _ in defects[:6])
             + (" ..." if len(defects) > 6 else "")
             + (" (with every diode's λ its current)" if not vdiodes else ""),
-            _amplifier_hint(self.circuit, involved)
-            or "some quantity is not fixed by the circuit in this configuration (a floating "
-            "part that matters, or controlled sources whose gains make the network "
-            "singular); check the connections of the elements named, or add resistances",
+            amplifier_hint(self.circuit.replacements, involved) or "some quantity is not fixed "
+            "by the circuit in this configuration (a floating part that matters, or controlled "
+            "sources whose gains make the network singular); check the elements named",
             involved, file=self.file)
 
     # -- probes ------------------------------------------------------------------------
