@@ -289,6 +289,14 @@ PELCS_REFUSES: dict[str, tuple[str, str, str]] = {
          "the precision rectifiers' op-amps are LM741s at transistor level (14 BJTs each "
          "idealised): switches amplify nothing, and the error says so",
          "runs"),
+    "ngspice/examples/p-to-n-examples/switch-oscillators.cir":
+        ("the comparator chatters",
+         "'.tran 10n 80n 50p': the third field is TSTART, so the step is ngspice's bound "
+         "min(TSTEP, (TSTOP - TSTART)/50) = 1.6 ns, eight times the inverters' RC of 0.2 ns: "
+         "a switch's control moves faster than the grid resolves (the error says to take a "
+         "smaller step). At --step 10p pelcs runs, but its 17-stage ring stays high for 40 ns "
+         "where ngspice oscillates with a 4.36 ns period (a 3-stage ring agrees): open",
+         "runs"),
 }
 
 # file -> (what ngspice does, what pelcs does): pelcs runs them, ngspice cannot, so there is
