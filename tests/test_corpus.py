@@ -294,8 +294,8 @@ PELCS_REFUSES: dict[str, tuple[str, str, str]] = {
          "'.tran 10n 80n 50p': the third field is TSTART, so the step is ngspice's bound "
          "min(TSTEP, (TSTOP - TSTART)/50) = 1.6 ns, eight times the inverters' RC of 0.2 ns: "
          "a switch's control moves faster than the grid resolves (the error says to take a "
-         "smaller step). At --step 10p pelcs runs, but its 17-stage ring stays high for 40 ns "
-         "where ngspice oscillates with a 4.36 ns period (a 3-stage ring agrees): open",
+         "smaller step). At --step 10p pelcs runs it: mean v(osc_out) over 40-80 ns 1.515 V, "
+         "ngspice 1.528 V; period 4.49 ns, ngspice 4.36 ns",
          "runs"),
 }
 
