@@ -374,8 +374,8 @@ class _Formulator:
             bad(f"coupled inductors {', '.join(el.name for el in involved)} have a "
                 f"{'singular' if abs(eig[0]) <= 1e-9 else 'indefinite'} inductance matrix "
                 f"(couplings {', '.join(k.name for k in ks)})", diagnostics_el,
-                "a coupling coefficient |k| = 1 makes the inductor currents dependent; use "
-                "|k| < 1 (e.g. 0.999) to keep a leakage inductance",
+                "|k| = 1 makes the currents dependent (a pair coupled to nothing else is an "
+                "ideal transformer to pelcs); use |k| < 1 (0.999: a leakage inductance)",
                 [k.name for k in ks] + [el.name for el in involved])
             return np.diag(1.0 / np.diag(lmat))
         return np.linalg.inv(lmat)

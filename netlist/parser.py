@@ -54,6 +54,7 @@ from .free_potential import free_potential_notes
 from .inductor_cutsets import regularise_inductor_cutsets
 from .netlist_bytes import decode as _decode
 from .netlist_bytes import read_bytes as _read_bytes
+from .perfect_coupling import ideal_transformers
 from .rawdeck import Deck, Statement
 from .reader import _Reader, read_deck
 from .switch_leakage import model_off_resistances
@@ -253,7 +254,8 @@ def _loops_and_cutsets(circuit: Circuit) -> Circuit:
     (:mod:`netlist.inductor_cutsets`): what the formulation would otherwise refuse; a note for
     each part whose potential only diodes bound (:mod:`netlist.free_potential`)."""
     notes = free_potential_notes(circuit)  # (on the netlist's own nodes and elements)
-    out = regularise_inductor_cutsets(reduce_capacitor_loops(model_off_resistances(circuit)))
+    out = regularise_inductor_cutsets(reduce_capacitor_loops(model_off_resistances(
+        ideal_transformers(circuit))))
     return replace(out, notes=[*out.notes, *notes]) if notes else out
 
 

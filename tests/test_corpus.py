@@ -270,9 +270,11 @@ PELCS_REFUSES: dict[str, tuple[str, str, str]] = {
          "its diodes have no model name ('D1 bp ba'), which tiny-spice-rs accepts",
          "fails: can't find model 'ba' (it reads the cathode as the model)"),
     "xyce_regression/Netlists/MPDE/converter.cir":
-        ("coupled inductors L1, L2 have a singular inductance matrix",
-         "'K1 L1 L2 1.0': a transformer without leakage, whose winding currents pelcs's "
-         "inductor states cannot hold apart",
+        ("cutset of inductors/current sources with Q3=off: L1_m, FK1",
+         "'K1 L1 L2 1.0' is read as an ideal transformer (netlist.perfect_coupling: L1 as "
+         "the magnetizing L1_m across the primary, E/F sources); with the BJT off the primary "
+         "is only L1_m and the transformer's F source, a cutset pelcs refuses: the flux's "
+         "jump to the secondary, which ngspice's k = 1 pair makes, is not modelled",
          "fails: '.tran 0 2.0e-3 0 1e-7', TSTEP = 0 (Xyce accepts it); with TSTEP 0.1 us it "
          "stops at 10 us, timestep too small"),
     "pi0_buck/buck_converter.cir":

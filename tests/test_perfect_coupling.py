@@ -1,0 +1,82 @@
+"""Inductors coupled with |k| = 1 read as an ideal transformer and its magnetizing
+inductance (:mod:`netlist.perfect_coupling`), side by side with ngspice, which runs them."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from ngspice_helpers import ngspice_run
+
+from netlist.errors import NetlistError
+from netlist.parser import parse_string
+from netlist.studies.realistic import simulate_devices
+from netlist.studies.transient import simulate_circuit
+
+FLYBACK = """flyback, K = 1
+V1 a 0 PULSE(0 10 0 1n 1n 5u 10u)
+R1 a b 1
+L1 b 0 10u
+L2 c 0 40u
+K1 L1 L2 1
+D1 c o dm
+C1 o 0 1u
+R2 o 0 100
+.model dm D
+.tran 10n 200u
+.end
+"""
+
+# k = -1 (the dots opposite), initial currents, a resistive secondary: the signs and the
+# magnetizing current's start im = i1 + n i2, n = -2
+REVERSED = """transformer, k = -1, initial currents
+V1 a 0 SIN(0 5 50k)
+R1 a b 2
+L1 b 0 10u IC=0.1
+L2 c 0 40u IC=0.02
+K1 L1 L2 -1
+R2 c 0 50
+.tran 10n 100u UIC
+.end
+"""
+
+
+def _mean(t, y, t0):
+    keep = t >= t0
+    return float(np.trapezoid(y[keep], t[keep]) / (t[keep][-1] - t[keep][0]))
+
+
+def test_flyback_with_unity_coupling_against_ngspice(tmp_path, ngspice):
+    c = parse_string(FLYBACK)
+    names = {el.name for el in c.elements}
+    assert {"VL1_i", "L1_m", "FK1", "EK1", "VL2_i"} <= names and "L1" not in names
+    assert any("ideal transformer of ratio 2" in n for n in c.notes)
+    res = simulate_devices(c, devices="pwl", probes=["v(o)", "i(VL2_i)"])
+    ng, log = ngspice_run(FLYBACK, ["v(o)", "i(L2)"], tmp_path)
+    assert ng is not None, log
+    t = np.asarray(res.t)
+    # mean output over the second half: ngspice 9.52 V; pelcs 9.53 V (pwl diode)
+    want = _mean(ng[:, 0], ng[:, 1], 100e-6)
+    assert _mean(t, np.asarray(res["v(o)"]), 100e-6) == pytest.approx(want, rel=0.01)
+    # the secondary winding's current is i(L2) of ngspice
+    want_i = _mean(ng[:, 2], ng[:, 3], 100e-6)
+    assert _mean(t, np.asarray(res["i(VL2_i)"]), 100e-6) == pytest.approx(want_i, rel=0.01)
+
+
+def test_reversed_coupling_and_initial_currents_against_ngspice(tmp_path, ngspice):
+    c = parse_string(REVERSED)
+    (lm,) = [el for el in c.elements if el.name == "L1_m"]
+    assert lm.ic == pytest.approx(0.1 - 2 * 0.02)
+    res = simulate_circuit(c, probes=["v(c)", "i(VL1_i)"])
+    ng, log = ngspice_run(REVERSED, ["v(c)", "i(L1)"], tmp_path)
+    assert ng is not None, log
+    tt = np.linspace(1e-6, 100e-6, 400)
+    for k, p in enumerate(["v(c)", "i(VL1_i)"]):
+        want = np.interp(tt, ng[:, 2 * k], ng[:, 2 * k + 1])
+        got = np.interp(tt, np.asarray(res.t), np.asarray(res[p]))
+        assert np.max(np.abs(got - want)) <= 0.01 * np.max(np.abs(want)), p
+
+
+def test_a_winding_in_two_couplings_stays_refused():
+    deck = FLYBACK.replace("K1 L1 L2 1\n", "K1 L1 L2 1\nL3 c 0 40u\nK2 L1 L3 0.5\n")
+    with pytest.raises(NetlistError, match="inductance matrix"):
+        simulate_circuit(parse_string(deck), probes=["v(o)"])
