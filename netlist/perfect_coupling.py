@@ -13,13 +13,13 @@ so the pair is the magnetizing inductance L1 carrying ``im = i1 + n i2`` across 
 and an ideal transformer of ratio ``n``: an E source ``v2 = n v1`` on the secondary and an
 F source drawing ``-n i2`` across the primary. Built as
 
-    VL1_i  p1 q      0 V   (the primary's current i1)
+    VL1    p1 q      0 V   (the primary's current i1)
     L1_m   q  p2     L1    (im; IC = IC(L1) + n IC(L2))
-    FK1    q  p2     VL2_i  -n
+    FK1    q  p2     VL2   -n
     EK1    s1 r      q p2   n
-    VL2_i  r  s2     0 V   (the secondary's current i2)
+    VL2    r  s2     0 V   (the secondary's current i2)
 
-A note names them: ``i(VL1_i)`` and ``i(VL2_i)`` are the winding currents ngspice calls
+A note names them: ``i(VL1)`` and ``i(VL2)`` are the winding currents ngspice calls
 ``i(L1)``, ``i(L2)``; ``i(L1)``, ``i(L2)`` are no longer elements, so probing them is an error
 rather than another current under their name. An inductor in another coupling as well keeps
 the pair as it is (the formulation refuses the singular matrix, with its hint).
@@ -74,8 +74,8 @@ def ideal_transformers(circuit: Circuit) -> Circuit:
         s1, s2 = lb.nodes[:2]
         q = unique_name(f"{la.name.lower()}_q", nodes)
         r = unique_name(f"{lb.name.lower()}_r", nodes)
-        vp = unique_name(f"V{la.name}_i", used)
-        vs = unique_name(f"V{lb.name}_i", used)
+        vp = unique_name(f"V{la.name}", used)
+        vs = unique_name(f"V{lb.name}", used)
         lm = unique_name(f"{la.name}_m", used)
         ic = None
         if la.ic is not None or lb.ic is not None:
