@@ -270,7 +270,7 @@ PELCS_REFUSES: dict[str, tuple[str, str, str]] = {
          "its diodes have no model name ('D1 bp ba'), which tiny-spice-rs accepts",
          "fails: can't find model 'ba' (it reads the cathode as the model)"),
     "xyce_regression/Netlists/MPDE/converter.cir":
-        ("cutset of inductors/current sources with Q3=off: L1_m, FK1",
+        ("cutset of inductors/current sources with Q3=off: L1_m, FL2",
          "'K1 L1 L2 1.0' is read as an ideal transformer (netlist.perfect_coupling: L1 as "
          "the magnetizing L1_m across the primary, E/F sources); with the BJT off the primary "
          "is only L1_m and the transformer's F source, a cutset pelcs refuses: the flux's "
