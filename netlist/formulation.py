@@ -785,6 +785,9 @@ class _Formulator:
                     return ("v", *self.held_nodes[a])
             elif b is None and a in self.by_key and self.by_key[a].kind in TWO_TERMINAL:
                 return "i", self.by_key[a]
+            elif b is None and (carrier := self.circuit.current_carrier(a)) is not None:
+                # (a netlist element pelcs replaced: the built element carrying its current)
+                return "i", self.by_key[carrier.lower()]
         nodes = sorted(self.nodes)
         elements = [el.name for el in self.two_terminal]
         hint = ("probes are v(NODE), v(NODE,NODE), i(ELEMENT) or a state name; nodes: "

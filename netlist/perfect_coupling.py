@@ -19,9 +19,11 @@ F source drawing ``-n i2`` across the primary. Built as
     EL2    s1 r      q p2   n
     VL2    r  s2     0 V   (the secondary's current i2)
 
-A note names them: ``i(VL1)`` and ``i(VL2)`` are the winding currents ngspice calls
-``i(L1)``, ``i(L2)``; ``i(L1)``, ``i(L2)`` are no longer elements, so probing them is an error
-rather than another current under their name.
+``i(VL1)`` and ``i(VL2)`` are the winding currents, which ngspice calls ``i(L1)``, ``i(L2)``:
+those probes read them (the group's :attr:`~netlist.circuit.BuiltGroup.currents`), and
+``i(L1_m)`` is the magnetizing current. The elements are a group built for the K line
+(:class:`~netlist.circuit.BuiltGroup`, construct :data:`IDEAL_TRANSFORMER`): a deck written
+for ngspice gets the windings' and the K lines back.
 
 More windings on one core (a centre-tapped secondary: ``K1 L1 L2 1``, ``K2 L2 L3 1``,
 ``K3 L1 L3 1``) are the same with an E, F and sense source per winding beyond the first,
@@ -35,9 +37,23 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from .circuit import Cccs, Circuit, Coupling, Element, Inductor, Vcvs, VoltageSource, unique_name
+from .circuit import (
+    BuiltGroup,
+    Cccs,
+    Circuit,
+    Coupling,
+    Element,
+    Inductor,
+    Vcvs,
+    VoltageSource,
+    unique_name,
+)
+from .writer import element_line
 
-__all__ = ["ideal_transformers"]
+__all__ = ["IDEAL_TRANSFORMER", "ideal_transformers"]
+
+#: :attr:`netlist.circuit.BuiltGroup.construct` of windings coupled with |k| = 1
+IDEAL_TRANSFORMER = "ideal transformer"
 
 #: |k| within this of 1 is a perfect coupling (the formulation's singularity test is 1e-9)
 UNITY = 1e-9
@@ -107,6 +123,8 @@ def ideal_transformers(circuit: Circuit) -> Circuit:
     new: dict[str, list[Element]] = {}
     gone: set[str] = set()
     notes = list(circuit.notes)
+    # (a new circuit: the one given may be a parse cached for reuse)
+    out = replace(circuit, built_groups=dict(circuit.built_groups))
     for windings, signs, ks in groups:
         la, kel = windings[0], ks[0]
         ns = [sign * math.sqrt(lw.value / la.value) for lw, sign in zip(windings, signs,
@@ -134,21 +152,26 @@ def ideal_transformers(circuit: Circuit) -> Circuit:
             names.append((lw.name, vs, n))
         new[la.key] = primary
         gone.update(k.key for k in ks)
+        built = primary + [el for lw in windings[1:] for el in new[lw.key]]
+        out.add_built_group(BuiltGroup(
+            kel.name, IDEAL_TRANSFORMER,
+            "\n".join(element_line(el, circuit) for el in (*windings, *ks)),
+            currents=((la.name, vp), *((name, vs) for name, vs, _ in names))), built)
         ratios = ", ".join(f"{name} {n:.6g}" for name, _, n in names)
         notes.append(
             f"{', '.join(k.name for k in ks)}: |k| = 1 couples "
             f"{', '.join(lw.name for lw in windings)} without leakage (one flux: their "
             f"currents cannot all be states), read exactly as an ideal transformer (turns "
             f"ratios to {la.name}: {ratios}) with {la.name}'s inductance, {lm}, across "
-            f"{la.name}'s terminals: probe i({vp}), "
-            + ", ".join(f"i({vs})" for _, vs, _ in names)
-            + f", the winding currents ngspice calls i({la.name}), "
+            f"{la.name}'s terminals: i({la.name}), "
             + ", ".join(f"i({name})" for name, _, _ in names)
-            + f"; i({lm}) is the magnetizing current, the turns-weighted sum of those")
+            + f" probe the winding currents (the 0 V sources {vp}, "
+            + ", ".join(vs for _, vs, _ in names)
+            + f"), i({lm}) the magnetizing current, the turns-weighted sum of those")
     elements: list[Element] = []
     for el in circuit.elements:
         if el.key in new:
             elements.extend(new[el.key])
         elif el.key not in gone:
             elements.append(el)
-    return replace(circuit, elements=elements, notes=notes)
+    return replace(out, elements=elements, notes=notes)

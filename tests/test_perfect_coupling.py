@@ -11,6 +11,7 @@ from netlist.errors import NetlistError
 from netlist.parser import parse_string
 from netlist.studies.realistic import simulate_devices
 from netlist.studies.transient import simulate_circuit
+from netlist.writer import write_circuit
 
 FLYBACK = """flyback, K = 1
 V1 a 0 PULSE(0 10 0 1n 1n 5u 10u)
@@ -66,14 +67,33 @@ def test_reversed_coupling_and_initial_currents_against_ngspice(tmp_path, ngspic
     c = parse_string(REVERSED)
     (lm,) = [el for el in c.elements if el.name == "L1_m"]
     assert lm.ic == pytest.approx(0.1 - 2 * 0.02)
-    res = simulate_circuit(c, probes=["v(c)", "i(VL1)"])
-    ng, log = ngspice_run(REVERSED, ["v(c)", "i(L1)"], tmp_path)
+    res = simulate_circuit(c, probes=["v(c)", "i(L1)", "i(L2)", "i(VL1)"])
+    # i(L1), i(L2) name the winding currents, as in ngspice: the 0 V sources' currents
+    assert np.array_equal(np.asarray(res["i(L1)"]), np.asarray(res["i(VL1)"]))
+    ng, log = ngspice_run(REVERSED, ["v(c)", "i(L1)", "i(L2)"], tmp_path)
     assert ng is not None, log
     tt = np.linspace(1e-6, 100e-6, 400)
-    for k, p in enumerate(["v(c)", "i(VL1)"]):
+    for k, p in enumerate(["v(c)", "i(L1)", "i(L2)"]):
         want = np.interp(tt, ng[:, 2 * k], ng[:, 2 * k + 1])
         got = np.interp(tt, np.asarray(res.t), np.asarray(res[p]))
         assert np.max(np.abs(got - want)) <= 0.01 * np.max(np.abs(want)), p
+
+
+def test_the_deck_written_for_ngspice_has_the_windings_and_the_k_line(tmp_path, ngspice):
+    # the transformer's elements are a group built for the K line: ngspice gets the
+    # netlist's L and K lines back, and runs them as it runs the netlist
+    written = write_circuit(parse_string(REVERSED))
+    assert "L1 b 0 10u" in written and "L2 c 0 40u" in written and "K1 L1 L2 -1" in written
+    assert "VL1" not in written and "L1_m" not in written and "EL2" not in written
+    (tmp_path / "netlist").mkdir()
+    (tmp_path / "written").mkdir()
+    ng, log = ngspice_run(REVERSED, ["v(c)"], tmp_path / "netlist")
+    ngw, logw = ngspice_run(written, ["v(c)"], tmp_path / "written")
+    assert ng is not None and ngw is not None, (log, logw)
+    tt = np.linspace(1e-6, 100e-6, 400)
+    a = np.interp(tt, ng[:, 0], ng[:, 1])
+    b = np.interp(tt, ngw[:, 0], ngw[:, 1])
+    assert np.max(np.abs(a - b)) <= 1e-6 * np.max(np.abs(a))
 
 
 def test_a_winding_in_two_couplings_stays_refused():
