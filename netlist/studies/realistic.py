@@ -16,6 +16,7 @@ from ..circuit import GROUND, Circuit, Diode, Switch
 from ..errors import Diagnostic, NetlistError
 from ..pwl import carried_current, diode_params, model_current, pwl_circuit
 from ..reductions import parallel_diodes
+from ..units import parse_number
 from .losses import loss_probes
 from .losses import losses as loss_report
 from .transient import check_probes, passivity_unreported, simulate_circuit
@@ -159,6 +160,9 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         res.notes.append(miller)
     res.notes.extend(f"pwl: {f.line()}" for f in fits)
     res.notes.extend(f"pwl: {line}" for line in lines)
+    temperature = _temperature_note(circuit) if watched else ""
+    if temperature:
+        res.notes.append(temperature)
     res.notes.extend(refits)
     if devices == "pwl" and sizing_note:
         res.notes.append(sizing_note)
@@ -230,6 +234,31 @@ def _resized(res: SimulationResult, bds: dict, broken: set[str], tops: dict[str,
         if carried > 1.5 * top or 1e-12 < carried < top / 20:
             out[name] = carried
     return out
+
+
+def _temperature_note(circuit: Circuit) -> str:
+    """What the deck's temperatures (``.temp``, ``.options temp=``, ``tnom=``) change in
+    ngspice that the diode fits, at 27 °C (:mod:`netlist.diode_dc`), do not follow; "" at
+    27 °C."""
+    temps = {}
+    for cmd in circuit.ignored:
+        words = str(cmd.text).split()
+        if words and words[0].lower() == ".temp" and len(words) > 1:
+            temps["temp"] = words[1]
+    for key in ("temp", "tnom"):
+        for k, v in circuit.options.items():
+            if k.lower() == key:
+                temps[key] = v
+    said = []
+    for key, text in temps.items():
+        value = parse_number(str(text))
+        if value is not None and abs(value - 27.0) > 1e-9:
+            said.append(f"{value:g} °C" if key == "temp" else f"TNOM = {value:g} °C")
+    if not said:
+        return ""
+    return (f"pwl: the diode fits follow ngspice's characteristic at 27 °C; the deck sets "
+            f"{' and '.join(said)}, where ngspice's diodes (IS, its temperature terms) carry "
+            "other currents: the runs differ (remove the temperature to compare)")
 
 
 def _fit_top(i_max: float) -> float:
