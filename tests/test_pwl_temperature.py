@@ -1,4 +1,4 @@
-"""``--devices pwl`` fits its diodes to ngspice's characteristic at 27 °C: a deck that sets
+"""``--devices pwl`` fits its diodes to ngspice's characteristic at 27 °C of their models as given: a deck that sets
 another temperature (``.temp``, ``.options temp=``/``tnom=``) runs ngspice elsewhere on the
 characteristic (a rectifier at 100 °C averages 2.41 V in ngspice, 2.35 V at 27 °C), which a
 note says; at 27 °C, none."""
@@ -38,3 +38,15 @@ def test_a_temperature_the_fit_does_not_follow_is_noted(line, said):
 @pytest.mark.parametrize("line", ["", ".temp 27", ".options temp=27 tnom=27"])
 def test_none_at_the_nominal_temperature(line):
     assert _notes(line) == []
+
+
+def test_a_models_nominal_temperature_is_noted_its_own_first():
+    deck = DECK.replace("NR=2 IKF=0.05)", "NR=2 IKF=0.05 TNOM=-50)")
+    res = pelcs.simulate(deck.format(title="", line=".options tnom=27"), devices="pwl",
+                         probes=["v(out)"])
+    notes = [n for n in res.notes if "°C" in n]
+    assert len(notes) == 1 and "TNOM = -50 °C" in notes[0], notes
+    deck = DECK.replace("NR=2 IKF=0.05)", "NR=2 IKF=0.05 TNOM=27)")
+    res = pelcs.simulate(deck.format(title="", line=".options tnom=50"), devices="pwl",
+                         probes=["v(out)"])
+    assert [n for n in res.notes if "°C" in n] == []
