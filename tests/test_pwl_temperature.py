@@ -1,7 +1,7 @@
-"""``--devices pwl`` fits its diodes to ngspice's characteristic at 27 °C of their models as given: a deck that sets
-another temperature (``.temp``, ``.options temp=``/``tnom=``) runs ngspice elsewhere on the
-characteristic (a rectifier at 100 °C averages 2.41 V in ngspice, 2.35 V at 27 °C), which a
-note says; at 27 °C, none."""
+"""``--devices pwl`` fits its diodes to ngspice's characteristic at 27 °C of their models as
+given: a deck that sets another temperature (``.temp``, ``.options temp=``/``tnom=``, a
+model's ``TNOM``) runs ngspice elsewhere on the characteristic (a rectifier at 100 °C
+averages 2.41 V in ngspice, 2.35 V at 27 °C), which a note says; at 27 °C, none."""
 
 from __future__ import annotations
 
