@@ -245,8 +245,10 @@ def _solve(M, C, D, F, KA, B, E, u, x_null, lcp):
     drive = B @ lam + E @ u
     x = x_null - KA @ drive
     # (the same round-off in the state: an inductor current of -1e-16 A against a diode
-    # that blocks would read as an inconsistent start)
-    x_size = np.abs(x_null).max(initial=0.0) + ka * np.abs(drive).max(initial=0.0)
+    # that blocks would read as an inconsistent start), beside the drive's terms, not what
+    # is left of them (a pwl diode's λ = Vf cancelling its source: 1e-16 of 0.8 V)
+    drive_size = np.abs(B) @ np.abs(lam) + np.abs(E) @ np.abs(u)
+    x_size = np.abs(x_null).max(initial=0.0) + ka * drive_size.max(initial=0.0)
     return (_zero_round_off(x, x_size), lam,
             _Lcp(M, M_size, M @ lam + q, q_size))
 
