@@ -55,12 +55,15 @@ _STATIC_OTHER = ("jsw", "ns", "jtun", "jtunsw", "ntun", "ikr")
 
 
 def _param(params: Mapping[str, float], name: str) -> float | None:
-    """A model parameter by ngspice's name or one of its aliases (lower case), or None."""
+    """A model parameter by ngspice's name or one of its aliases (lower case), or None; of
+    a model that gives it under both names the one written last, as ngspice reads a model's
+    parameters in order (``IS=1e-14 JS=1e-12``: 1e-12)."""
+    found = None
     for key, value in params.items():
         k = key.lower()
         if k == name or _ALIASES.get(k) == name:
-            return float(value)
-    return None
+            found = float(value)
+    return found
 
 
 def junction_params(params: Mapping[str, float], area: float = 1.0) -> dict:

@@ -60,7 +60,7 @@ from functools import lru_cache
 import numpy as np
 
 from .circuit import Capacitor, Circuit, Diode, Resistor, Switch, VoltageSource
-from .diode_dc import VT_THERMAL, describe, ignored, junction_current, junction_params
+from .diode_dc import VT_THERMAL, describe, ignored, junction_params
 from .diode_dc import diode_voltage as junction_diode_voltage
 from .reductions import parallel_diodes
 
@@ -173,38 +173,33 @@ def _plain(p: dict) -> bool:
     return "isr" not in p and "ikf" not in p
 
 
-def _branch_current(v: np.ndarray, p: dict) -> np.ndarray:
-    """Current of one diode branch ``p`` (:func:`netlist.diode_dc.junction_params`) at the
-    voltage v, its RS included: the junction voltage ``vd`` with ``vd + RS I(vd) = v``."""
-    if p["rs"] <= 0:
-        return junction_current(v, p)
-    lo, hi = np.zeros_like(v), np.maximum(v, 0.0)
-    for _ in range(200):  # bisection: vd + RS I(vd) is monotone in vd
-        mid = 0.5 * (lo + hi)
-        f = mid + p["rs"] * junction_current(mid, p) - v
-        lo, hi = np.where(f < 0, mid, lo), np.where(f < 0, hi, mid)
-    return junction_current(0.5 * (lo + hi), p)
-
-
 def _key(p: dict) -> tuple:
     return tuple(sorted((k, float(v)) for k, v in p.items()))
 
 
 @lru_cache(maxsize=64)
 def _parallel_table(junctions: tuple[tuple, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """Total current (A) of junctions (each :func:`_key` of its parameters) in parallel on a
-    0.5 mV grid (V) (computed once per set: a fit evaluates it at several sets of
-    currents)."""
-    v = np.linspace(0.0, 3.0, 6001)
-    total = sum(_branch_current(v, dict(j)) for j in junctions)
+    """Total current (A) of junctions (each :func:`_key` of its parameters) in parallel, at
+    the voltages (V) where each of them carries one of 100 currents a decade from 1e-18 A to
+    1 kA (:func:`netlist.diode_dc.diode_voltage`, RS included), each junction's current
+    between them interpolated in its logarithm (exact where the exponential dominates,
+    within 1e-5 of it elsewhere). The voltages reach where the junctions carry 1 kA whatever
+    their drop (a stack's model, N = 10: volts). Computed once per set: a fit evaluates it
+    at several sets of currents."""
+    i = np.logspace(-18.0, 3.0, 2101)
+    log_i = np.log(i)
+    curves = [np.asarray(junction_diode_voltage(i, dict(j)), float) for j in junctions]
+    v = np.unique(np.concatenate([[0.0], *curves]))
+    # (below a junction's voltage at 1e-18 A it carries nothing)
+    total = sum(np.exp(np.interp(v, vk, log_i, left=-np.inf)) for vk in curves)
     v.flags.writeable = False
     total.flags.writeable = False
     return v, total
 
 
 def parallel_voltage(params: list[dict], i: np.ndarray) -> np.ndarray:
-    """Voltage of diodes in parallel carrying a total current ``i`` (A), V: their total
-    current's characteristic inverted on a fine voltage grid (0.5 mV)."""
+    """Voltage of diodes in parallel carrying a total current ``i`` (A; up to 1 kA), V:
+    their total current's characteristic (:func:`_parallel_table`) inverted."""
     v, total = _parallel_table(tuple(_key(p) for p in params))
     return np.interp(np.asarray(i, float), total, v)
 

@@ -325,10 +325,10 @@ def _pwl_residual(
 
 
 def _nonideality_drop(circuit: Circuit, el: Diode, i: float, vf: float, ron: float) -> float:
-    """A diode's model drop at ``i`` against a line given by the user (V)."""
-    p = _model_params(circuit, el.model, _DIODE_DEFAULTS)
-    v = p["n"] * VT_THERMAL * math.log1p(i / p["is"]) + p["rs"] * i
-    return abs(vf + ron * i - v)
+    """A diode's model drop at ``i`` against a line given by the user (V): the distance at
+    ``i`` from the line to the characteristic the fits follow (:func:`netlist.pwl.
+    diode_residual`: the area, ISR, IKF, a macro-model's junctions)."""
+    return diode_residual(circuit, el, vf, ron, i, i)
 
 
 def _v_ref(circuit: Circuit) -> float:

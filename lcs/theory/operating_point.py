@@ -245,8 +245,10 @@ def _solve(M, C, D, F, KA, B, E, u, x_null, lcp):
     drive = B @ lam + E @ u
     x = x_null - KA @ drive
     # (the same round-off in the state: an inductor current of -1e-16 A against a diode
-    # that blocks would read as an inconsistent start)
-    x_size = np.abs(x_null).max(initial=0.0) + ka * np.abs(drive).max(initial=0.0)
+    # that blocks would read as an inconsistent start), beside the drive's terms, not what
+    # is left of them (a pwl diode's λ = Vf cancelling its source: 1e-16 of 0.8 V)
+    drive_size = np.abs(B) @ np.abs(lam) + np.abs(E) @ np.abs(u)
+    x_size = np.abs(x_null).max(initial=0.0) + ka * drive_size.max(initial=0.0)
     return (_zero_round_off(x, x_size), lam,
             _Lcp(M, M_size, M @ lam + q, q_size))
 
@@ -403,11 +405,11 @@ def _leak_balanced(A, B, C, D, E, F, u, x0, lcp, rtol, leaks, Lb, Le, null, KA, 
                                                 np.abs(E @ u).max(initial=0.0), 1.0):
         # a source drives the free combination: the acting pairs' multipliers must take it
         # (an inductor whose only path is a blocking diode, held 8 V from its source: that
-        # diode's λ = 8 V, and w = i_L = 0 where λ > 0); where they set them uniquely and
-        # none is negative, the rest's point with those multipliers as inputs
-        sv = np.linalg.svd(Lb[:, J], compute_uv=False)
-        if sv.size < J.size or sv.min() <= 1e-9 * max(float(sv.max()), 1e-300):
-            return None
+        # diode's λ = 8 V, and w = i_L = 0 where λ > 0); where they set them and none is
+        # negative, the rest's point with those multipliers as inputs. Where they leave a
+        # choice (two diodes in series on that inductor share its 8 V), the least
+        # multipliers: ngspice splits the voltage by the junctions' leakage, alike for
+        # alike junctions (GMIN across each); the point found is checked as every other
         lam_J = np.linalg.lstsq(Lb[:, J], -Le, rcond=None)[0]
         # (the free combinations' DC equations Lb_J λ_J + Le = 0, with λ_J for x)
         if (not _dc_holds(Lb[:, J], np.zeros((Le.size, 0)), Le[:, None], lam_J, np.zeros(0),

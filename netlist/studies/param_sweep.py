@@ -46,7 +46,7 @@ from lcs import interrupt
 from lcs.analysis.parallel import task_engine
 from lcs.analysis.tables import SweepTable
 
-from ..circuit import Circuit, CurrentSource, Resistor, VoltageSource
+from ..circuit import TIME_STEPPED_RESISTOR, Circuit, CurrentSource, Resistor, VoltageSource
 from ..errors import Diagnostic, NetlistError
 from ..parser import parse_string
 from ..time_function import TimeValue
@@ -202,11 +202,14 @@ def parse_tolerance(text: str) -> Tolerance:
     return Tolerance(pattern, float(num) / 100 if relative else float(num), relative, text)
 
 
-def _tolerable(el) -> bool:
+def _tolerable(el, circuit: Circuit) -> bool:
     if el.kind not in _VALUE_ATTR or "#" in el.name:
         # (pelcs's parts of one element: a resistor stepped in time varies as a whole, a
         # B source's limiter not at all)
         return False
+    group = circuit.built_group(el)
+    if group is not None and group.construct != TIME_STEPPED_RESISTOR:
+        return False  # (a limiter's output buffer: it keeps the B source's name, no value)
     if isinstance(el, (VoltageSource, CurrentSource)):
         return el.waveform is None
     return True
@@ -237,7 +240,7 @@ def match_tolerances(circuit: Circuit, tolerances: Sequence[Tolerance]
             first[key] = tol
     if diags:
         raise NetlistError(diags, file="pelcs sweep")
-    tolerable = [el for el in circuit.elements if _tolerable(el)]
+    tolerable = [el for el in circuit.elements if _tolerable(el, circuit)]
     out: list[tuple[str, Tolerance]] = []
     used: set[int] = set()
     for el in tolerable:
@@ -272,7 +275,7 @@ def match_tolerances(circuit: Circuit, tolerances: Sequence[Tolerance]
             matches = [e for e in circuit.elements
                        if fnmatch.fnmatchcase(e.name.lower(), tol.pattern.lower())]
             # Elements that an exact tolerance takes: the pattern varies none of them.
-            taken = [e for e in matches if _tolerable(e) and e.name.lower() in exact]
+            taken = [e for e in matches if _tolerable(e, circuit) and e.name.lower() in exact]
             if taken:
                 msg = (f"tolerance {tol.text!r} varies nothing: it matches only "
                        + ", ".join(f"{e.name} (given as {exact[e.name.lower()].text!r})"

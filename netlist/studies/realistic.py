@@ -14,8 +14,9 @@ from lcs.results import SimulationResult
 from ..breakdown import breakdown_elements, breakdowns
 from ..circuit import GROUND, Circuit, Diode, Switch
 from ..errors import Diagnostic, NetlistError
-from ..pwl import carried_current, diode_params, model_current, pwl_circuit
+from ..pwl import _junction_models, carried_current, diode_params, model_current, pwl_circuit
 from ..reductions import parallel_diodes
+from ..units import parse_number
 from .losses import loss_probes
 from .losses import losses as loss_report
 from .transient import check_probes, passivity_unreported, simulate_circuit
@@ -159,6 +160,9 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         res.notes.append(miller)
     res.notes.extend(f"pwl: {f.line()}" for f in fits)
     res.notes.extend(f"pwl: {line}" for line in lines)
+    temperature = _temperature_note(circuit, watched) if watched else ""
+    if temperature:
+        res.notes.append(temperature)
     res.notes.extend(refits)
     if devices == "pwl" and sizing_note:
         res.notes.append(sizing_note)
@@ -230,6 +234,43 @@ def _resized(res: SimulationResult, bds: dict, broken: set[str], tops: dict[str,
         if carried > 1.5 * top or 1e-12 < carried < top / 20:
             out[name] = carried
     return out
+
+
+def _temperature_note(circuit: Circuit, diodes: Sequence[str]) -> str:
+    """What the deck's temperatures change in ngspice that the fits of ``diodes``, at 27 °C
+    with their models' parameters as given (:mod:`netlist.diode_dc`), do not follow: a
+    circuit temperature (``.temp``, ``.options temp=``) or a model's nominal temperature
+    (its ``TNOM``, else ``.options tnom=``) other than 27 °C, at which ngspice scales the
+    model's ``IS`` (``EG``, ``XTI``); "" where there is none."""
+
+    def number(text) -> float | None:
+        value = parse_number(str(text))
+        return value if value is not None and abs(value - 27.0) > 1e-9 else None
+
+    options = {str(k).lower(): v for k, v in circuit.options.items()}
+    temp = options.get("temp")
+    for cmd in circuit.ignored:
+        words = str(cmd.text).split()
+        if len(words) > 1 and words[0].lower() == ".temp":
+            temp = words[1]
+    said = [f"{number(temp):g} °C"] if temp is not None and number(temp) is not None else []
+    merged = parallel_diodes(circuit)
+    tnoms = {}
+    for name in diodes:
+        models, _ = _junction_models(circuit, circuit.element(name), merged)
+        for params, _ in models:
+            given = {str(k).lower(): v for k, v in params.items()}.get("tnom",
+                                                                       options.get("tnom"))
+            if given is not None and number(given) is not None:
+                tnoms[f"{number(given):g}"] = None
+    if tnoms:
+        said.append(f"TNOM = {', '.join(tnoms)} °C")
+    if not said:
+        return ""
+    return (f"pwl: the diode fits follow ngspice's characteristic at 27 °C of the models as "
+            f"given; the deck sets {' and '.join(said)}, where ngspice scales IS (EG, XTI) and "
+            "its diodes carry other currents: the runs differ (remove the temperatures to "
+            "compare)")
 
 
 def _fit_top(i_max: float) -> float:
