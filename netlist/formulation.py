@@ -755,11 +755,9 @@ class _Formulator:
 
     def _probe_terms(self, mna: _Mna, probe: str) -> list[tuple[int, float]]:
         """A probe's linear form in ``mna``'s mode as (column over (z, ξ), coefficient)
-        terms, added in the order of its dense form (:meth:`_Mna.voltage`,
-        :meth:`_Mna.current`)."""
-        what = self._probes.get(probe)
-        if what is None:
-            what = self._probes[probe] = self._resolve_probe(probe)
+        terms, in the order of its dense form (:meth:`_Mna.voltage`, :meth:`_Mna.current`)."""
+        what = self._probes.get(probe) or self._probes.setdefault(probe,
+                                                                  self._resolve_probe(probe))
         if what[0] == "v":
             return mna._voltage_terms(what[1], what[2])
         return mna._current_terms(what[1])
@@ -783,11 +781,10 @@ class _Formulator:
                     return ("v", *self.by_key[a].nodes[:2])
                 elif a in self.held_nodes:
                     return ("v", *self.held_nodes[a])
-            elif b is None and a in self.by_key and self.by_key[a].kind in TWO_TERMINAL:
-                return "i", self.by_key[a]
-            elif b is None and (carrier := self.circuit.current_carrier(a)) is not None:
-                # (a netlist element pelcs replaced: the built element carrying its current)
-                return "i", self.by_key[carrier.lower()]
+            elif b is None:  # (an element pelcs replaced: the one carrying its current)
+                el = self.by_key.get((self.circuit.current_carrier(a) or a).lower())
+                if el is not None and el.kind in TWO_TERMINAL:
+                    return "i", el
         nodes = sorted(self.nodes)
         elements = [el.name for el in self.two_terminal]
         hint = ("probes are v(NODE), v(NODE,NODE), i(ELEMENT) or a state name; nodes: "
