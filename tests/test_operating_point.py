@@ -443,3 +443,144 @@ def test_pairs_of_very_different_sizes_are_no_set_of_solutions():
     F = np.array([[-2 * 2.0**-14], [-3 * 2.0**20]])
     p = dc_point(A, B, C, D, E, F, np.array([1.0]), np.zeros(1))
     assert p.ok and p.x == pytest.approx([2.0]) and p.lam == pytest.approx([2.0, 3.0])
+
+
+# .ic without UIC: ngspice's operating point holds the .ic nodes (its matrix row of such a node
+# replaced by v = value, or a 1e10 S conductance to it where a branch current enters), then
+# the transient releases them. pelcs: the operating point of the circuit with a voltage source
+# on each .ic node.
+RC_IC = ("rc\nV1 in 0 DC 5\nR1 in out 1k\nC1 out 0 1u{ic}\nC2 out b 1u{ic}\nR3 b 0 1k\n"
+         ".ic v(out)=2\n.tran 10u 5m\n.end\n")
+
+
+def _close(res, ng, probes, tol, after=-1.0):
+    """pelcs's run against ngspice's rows at their times (those after ``after``)."""
+    rows = ng[ng[:, 0] > after]
+    for j, probe in enumerate(probes):
+        got = np.interp(rows[:, 0], res.t, res[probe])
+        assert got == pytest.approx(rows[:, 2 * j + 1], abs=tol), probe
+
+
+def test_an_ic_node_is_held_during_the_operating_point_as_in_ngspice(tmp_path, ngspice):
+    # v(out) starts at 2 V and relaxes to the 5 V source; C2 (out to b) starts at 2 V, its
+    # IC= ignored as ngspice ignores it without UIC
+    for ic in ("", " IC=3"):
+        deck = RC_IC.format(ic=ic)
+        res = simulate_circuit(parse_string(deck), probes=["v(out)", "v(b)", "v(C2)"])
+        ng = ngspice_wrdata(deck, ["v(out)", "v(b)"], tmp_path)
+        assert res.y[0] == pytest.approx([2.0, 0.0, 2.0]) and ng[0, [1, 3]] == pytest.approx(
+            [2.0, 0.0])
+        _close(res, ng, ["v(out)", "v(b)"], 2e-3)
+        assert any("with the .ic nodes held (v(out) = 2 V)" in n for n in res.notes)
+        assert not any("pelcs starts from the .ic values" in n for n in res.notes)
+        assert any("IC= of C1, C2 ignored" in n for n in res.notes) == (ic != "")
+
+
+def test_an_inductor_starts_at_its_dc_current_with_the_ic_node_held(tmp_path, ngspice):
+    # L1 feeds the held capacitor node: i(L1) = (5 V - 2 V)/10 Ω = 0.3 A, R2's current taken
+    # by the hold (ngspice: 0.3 A, v(a) = 2 V)
+    deck = ("rlc\nV1 in 0 DC 5\nR1 in a 10\nL1 a out 1m\nC1 out 0 10u\nR2 out 0 100\n"
+            ".ic v(out)=2\n.tran 1u 2m\n.end\n")
+    probes = ["v(out)", "i(L1)", "v(a)"]
+    res = simulate_circuit(parse_string(deck), probes=probes)
+    ng = ngspice_wrdata(deck, probes, tmp_path)
+    assert res.y[0] == pytest.approx([2.0, 0.3, 2.0])
+    assert ng[0, [1, 3, 5]] == pytest.approx([2.0, 0.3, 2.0], abs=1e-9)
+    _close(res, ng, probes, 2e-3)
+
+
+def test_a_boost_with_ic_on_its_output_starts_as_in_ngspice(tmp_path, ngspice):
+    # out held at 20 V above the 12 V input: the diode blocks, the inductor (whose only path
+    # with S1 open is the diode) carries nothing; then the output discharges into R1 until
+    # the switching starts (ngspice: i(L1) = 1.2e-8 A, v(out) = 20 V)
+    deck = BOOST.replace(".tran", ".ic v(out)=20\n.tran")
+    probes = ["i(L1)", "v(out)"]
+    ideal = simulate_circuit(parse_string(deck), probes=probes)
+    assert ideal.y[0] == pytest.approx([0.0, 20.0])
+    assert not any("no DC operating point" in n for n in ideal.notes)
+    res = simulate_devices(parse_string(deck), devices="pwl", probes=probes)
+    ng = ngspice_wrdata(deck, probes, tmp_path)
+    assert ng[0, [1, 3]] == pytest.approx([0.0, 20.0], abs=1e-6)
+    assert res.y[0] == pytest.approx([0.0, 20.0])
+    for col, probe in ((1, "i(L1)"), (3, "v(out)")):
+        got = np.interp(ng[:, 0], res.t, res[probe])
+        assert np.abs(got - ng[:, col]).max() <= 0.01 * np.abs(ng[:, col]).max()
+
+
+def test_an_ic_node_a_source_fixes_keeps_the_source_value(tmp_path, ngspice):
+    # ngspice's source equation holds (its .ic row sets only the source's current): 5 V
+    deck = "vs\nV1 in 0 DC 5\nR1 in out 1k\nC1 out 0 1u\n.ic v(in)=2\n.tran 10u 5m\n.end\n"
+    res = simulate_circuit(parse_string(deck), probes=["v(in)", "v(out)"])
+    ng = ngspice_wrdata(deck, ["v(in)", "v(out)"], tmp_path)
+    assert res.y[0] == pytest.approx([5.0, 5.0]) and ng[0, [1, 3]] == pytest.approx([5.0, 5.0])
+    _close(res, ng, ["v(in)", "v(out)"], 1e-9)
+    assert any(".ic on in: voltage sources tie it to ground" in n for n in res.notes)
+
+
+def test_several_ic_nodes_and_element_ics_start_as_in_ngspice(tmp_path, ngspice):
+    # the states at the held point: v(C1) = 3 V, v(C2) = 5 - 2 = 3 V, L1 shorted puts d at
+    # 3 V with i(L1) = 3 V / 10 Ω = 0.3 A (its IC= ignored), v(C3) = v(d) - v(e) = -4 V (its
+    # IC= ignored). Released at t = 0, the nodes no state holds (b, c, d, e) move at once:
+    # ngspice's row at t = 0 is its operating point, pelcs's the start of the transient, so
+    # the node waveforms are compared after it
+    from test_transient import IC_NETLIST
+
+    probes = ["v(a)", "v(b,c)", "v(d,e)", "i(L1)", "v(d)", "v(e)"]
+    res = simulate_circuit(parse_string(IC_NETLIST), probes=probes)
+    ng = ngspice_wrdata(IC_NETLIST, probes, tmp_path)
+    assert res.y[0, :4] == pytest.approx([3.0, 3.0, -4.0, 0.3])
+    assert ng[0, [1, 3, 5, 7]] == pytest.approx([3.0, 3.0, -4.0, 0.3], abs=1e-9)
+    _close(res, ng, probes, 1e-4, after=0.0)
+
+
+def test_ic_nodes_a_source_joins_or_an_inductor_shorts_say_how_the_start_differs():
+    # two .ic nodes a source joins: pelcs holds the first alone (ngspice shares the
+    # differences out: 4 V and -1 V from .ic 1 V and 2 V), and says so
+    deck = ("grp\nV1 a b DC 5\nR1 a 0 1k\nR2 b 0 1k\nC1 a 0 1u\nC2 b 0 1u\n"
+            ".ic v(a)=1 v(b)=2\n.tran 10u 1m\n.end\n")
+    res = simulate_circuit(parse_string(deck), probes=["v(a)", "v(b)"])
+    assert res.y[0] == pytest.approx([1.0, -4.0])
+    assert any(".ic on a, b: voltage sources join these nodes" in n for n in res.notes)
+    # a held node an inductor shorts to a source: no DC point (ngspice's has 3e10 A in L1)
+    deck = ("ind\nV1 in 0 DC 5\nL1 in out 1m\nR1 out 0 10\nC1 out 0 1u\n.ic v(out)=2\n"
+            ".tran 1u 1m\n.end\n")
+    res = simulate_circuit(parse_string(deck), probes=["v(out)", "i(L1)"])
+    assert res.y[0] == pytest.approx([2.0, 0.0])
+    assert any(n.startswith("no DC operating point") and "initial conditions" in n
+               for n in res.notes)
+
+
+def test_a_source_the_diodes_take_on_a_free_state_sets_their_multipliers():
+    # an inductor whose only path is a blocking diode, 12 V on one side and 20 V on the
+    # other: i_L' = (12 - 20 + λ)/L, w = i_L. DC: λ = 8 V (the diode's reverse voltage) and
+    # i_L = 0; with 5 V on the other side λ = -7 V: no point (ngspice's has 306 A through
+    # the diode's RS)
+    A, B, C, D = np.zeros((1, 1)), np.array([[1e4]]), np.ones((1, 1)), np.zeros((1, 1))
+    E, F = np.array([[1e4, -1e4]]), np.zeros((1, 2))
+    p = dc_point(A, B, C, D, E, F, np.array([12.0, 20.0]), np.array([0.5]))
+    assert p.ok and p.x == pytest.approx([0.0]) and p.lam == pytest.approx([8.0])
+    assert not dc_point(A, B, C, D, E, F, np.array([12.0, 5.0]), np.zeros(1)).ok
+
+
+def test_an_inductor_a_source_holds_its_diode_off_in_a_switch_mode():
+    # the two-phase buck with S1 on and S2 off: L1 shorts the 24 V input onto the 2 Ω load
+    # (12 A, 24 V); L2's only path is D2, which the output holds 24 V reverse-biased: i(L2) =
+    # 0, λ(D2) = 24 V. The point is checked against the DC equations and the LCP, where a
+    # remainder of 2e-16 A in L2 (1.8 A moved to 0) counts as zero.
+    from pathlib import Path
+
+    from lcs.lcp import LcpOptions
+    from lcs.simulation.held_point import mode_point
+    from lcs.simulation.problem import Problem
+    from netlist.parser import parse_file
+    from netlist.studies.transient import transient_setup
+
+    s = transient_setup(parse_file(Path(__file__).parent / "netlists" / "closed_loop"
+                                   / "two_phase_buck.cir"))
+    u0 = np.array([sig(0.0) for sig in s.signals])
+    for x0 in (np.zeros(3), np.array([0.0, 1.8, 0.0])):
+        p = mode_point(Problem(s.system, None), (True, False), u0, x0, LcpOptions())
+        assert p.ok
+        assert dict(zip(s.system.states, p.x, strict=True)) == pytest.approx(
+            {"i(L1)": 12.0, "i(L2)": 0.0, "v(C1)": 24.0})
+        assert p.lam == pytest.approx([0.0, 24.0])

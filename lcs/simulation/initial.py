@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..lcp import LcpOptions, solve_lcp
-from ..model import LCS, OPERATING_POINT_OPTION, TERMINALS_OPTION, ModeKey
-from ..theory.operating_point import dc_point
+from ..model import LCS, OPERATING_POINT_OPTION, ModeKey
+from .held_point import AuxiliaryPoint, mode_point
 from .problem import Problem, mode_tuple
 from .schedule import Controllers
 from .switch_bands import RULE_OFF, RULE_TOGGLE, band_rule
@@ -64,12 +64,15 @@ _LOCK = threading.Lock()
 def initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_maps: dict,
                   base: ModeKey, x0: np.ndarray, u0: np.ndarray, t_start: float,
                   controllers: Controllers, on_inconsistent: InconsistentHandler | None,
-                  lcp: LcpOptions, notes: list[str], operating_point: bool = False
+                  lcp: LcpOptions, notes: list[str],
+                  operating_point: bool | AuxiliaryPoint = False
                   ) -> InitialState:
     """The initial mode, state and multipliers (see the module docstring); notes about an
     inconsistent initial state are appended to ``notes``. With ``operating_point``, the state
     is the DC operating point of the mode (which the comparators then read, to a fixed point
-    of both), ``x0`` only giving the states that no DC equation sets.
+    of both), ``x0`` only giving the states that no DC equation sets; an
+    :class:`~lcs.simulation.held_point.AuxiliaryPoint` takes it from its auxiliary system's
+    (a circuit's ``.ic`` nodes held during it).
 
     ``mode_src``, ``src_maps`` and ``base`` (the guessed switch states) come from the run's
     :class:`~lcs.simulation.schedule.RunPlan` (see :meth:`Problem.control_rows`).
@@ -106,7 +109,8 @@ def initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_map
 def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_maps: dict,
                    base: ModeKey, x0: np.ndarray, u0: np.ndarray, t_start: float,
                    controllers: Controllers, on_inconsistent: InconsistentHandler | None,
-                   lcp: LcpOptions, notes: list[str], operating_point: bool = False
+                   lcp: LcpOptions, notes: list[str],
+                   operating_point: bool | AuxiliaryPoint = False
                    ) -> InitialState:
     k = problem.k
     m = len(problem.system.diodes)
@@ -118,7 +122,10 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
         """The operating point of a mode, or None (x0 kept) where it has none."""
         nonlocal x, point
         mode = mode_tuple(key, k)
-        point = dc_point(*problem.mode_arrays(mode), u0, x0, lcp, leaks=_leaks(problem, mode))
+        if isinstance(operating_point, AuxiliaryPoint):
+            point = operating_point(mode, u0, x0, lcp)
+        else:
+            point = mode_point(problem, mode, u0, x0, lcp)
         x = point.x.copy() if point.ok else np.array(x0, dtype=float)
 
     def initial_lcp(key):
@@ -240,29 +247,3 @@ def _free_note(problem: Problem, free: np.ndarray, x: np.ndarray) -> str:
             "conditions. ngspice's operating point finds its matrix singular there (or sets "
             "them through the diodes' leakage), so the runs may differ: UIC on the .tran line "
             "starts both from the initial conditions")
-
-
-def _leaks(problem: Problem, mode: ModeKey) -> tuple[np.ndarray, ...] | None:
-    """The voltages across the switches open in ``mode`` (their option
-    :data:`~lcs.model.TERMINALS_OPTION`), weighted by ``1/sqrt(ROFF)`` (ngspice's default
-    ``ROFF`` 1e12 Ω): :func:`lcs.theory.operating_point.dc_point`'s leaks."""
-    probes, weights = [], []
-    for on, sw in zip(mode, problem.system.switches, strict=True):
-        probe = switch_option(sw.options, TERMINALS_OPTION)
-        if on or not probe:
-            continue
-        roff = switch_option(sw.options, "roff", None)
-        roff = float(roff) if roff is not None and float(roff) > 0 else 1e12
-        probes.append(probe)
-        weights.append(1.0 / np.sqrt(roff))
-    rows = []
-    for probe, weight in zip(probes, weights, strict=True):
-        try:
-            out = problem.system.outputs(mode, [probe])
-        except Exception:  # (a probe this system cannot read, whatever its builder raises:
-            # no leak through that switch)
-            continue
-        rows.append((weight * out.Cy, weight * out.Dy, weight * out.Fy))
-    if not rows:
-        return None
-    return tuple(np.vstack([r[j] for r in rows]) for j in range(3))

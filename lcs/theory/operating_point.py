@@ -38,6 +38,52 @@ from ..lcp import LcpOptions, solve_lcp
 
 __all__ = ["DcPoint", "dc_point"]
 
+# The tolerances of the module's three questions, each relative to the sizes of the terms
+# that make the quantity asked about (the sum of their absolute values, entry by entry), never
+# to a quantity of other units (a pair in amperes beside one in volts):
+#: a number this small beside its terms is round-off (1e-16 where exact arithmetic gives 0):
+#: made zero (:func:`_zero_round_off`)
+ROUND_OFF = 1e-12
+#: a ``w`` or ``λ`` this small beside its terms sits on its bound ``0``
+#: (:func:`_on_bound`, :func:`_is_lcp_solution`)
+ON_BOUND = 1e-9
+#: the DC equations ``0 = A x + B λ + E u`` hold where each residual is this small beside its
+#: equation's terms (:func:`_dc_holds`)
+DC_RESIDUAL = 1e-8
+
+
+def _zero_round_off(a: np.ndarray, size) -> np.ndarray:
+    """``a`` with the entries no larger than ``ROUND_OFF`` times ``size`` (their terms'
+    sizes, V, A or their ratios) made zero: an LCP ``w = -5e-17 λ - 6e-16`` has no solution,
+    ``w = 0 λ + 0`` has ``λ = 0``."""
+    return np.where(np.abs(a) <= ROUND_OFF * size, 0.0, a)
+
+
+def _on_bound(w: np.ndarray, size: np.ndarray) -> np.ndarray:
+    """Which entries of ``w`` are at zero beside their terms' sizes ``size``."""
+    return np.abs(w) <= ON_BOUND * np.maximum(size, 1e-300)
+
+
+def _is_lcp_solution(lam: np.ndarray, w: np.ndarray, w_size: np.ndarray) -> bool:
+    """Whether ``0 <= w ⊥ λ >= 0`` holds within :data:`ON_BOUND`: ``w`` beside its terms'
+    sizes ``w_size``, ``λ`` beside the largest multiplier (its own terms are the LCP's)."""
+    w_tol = ON_BOUND * np.maximum(w_size, 1e-300)
+    lam_tol = ON_BOUND * max(np.abs(lam).max(initial=0.0), 1e-300)
+    return not (np.any(lam < -lam_tol) or np.any(w < -w_tol)
+                or np.any((lam > lam_tol) & (w > w_tol)))
+
+
+def _dc_holds(A: np.ndarray, B: np.ndarray, E: np.ndarray, x: np.ndarray, lam: np.ndarray,
+              u: np.ndarray) -> bool:
+    """Whether ``0 = A x + B λ + E u`` holds within :data:`DC_RESIDUAL`, each equation beside
+    its own terms; an equation whose terms are all round-off beside the largest equation's
+    (``ROUND_OFF`` times them: a state of 1e-23 V left by a 1e4 V one) is judged beside that
+    round-off, which its terms cannot measure."""
+    residual = A @ x + B @ lam + E @ u
+    size = np.abs(A) @ np.abs(x) + np.abs(B) @ np.abs(lam) + np.abs(E) @ np.abs(u)
+    floor = ROUND_OFF * max(size.max(initial=0.0), 1e-300)
+    return not np.any(np.abs(residual) > DC_RESIDUAL * np.maximum(size, floor))
+
 
 @dataclass
 class DcPoint:
@@ -167,10 +213,7 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
     if m:
         # (a set of LCP solutions along which the state moves: the leaks choose)
         x, lam = _along_lcp(solution, lam, KA @ B, leaks, x, u)
-    residual = A @ x + B @ lam + E @ u
-    size = max(np.abs(A).max(initial=0.0) * np.abs(x).max(initial=0.0),
-               np.abs(E @ u).max(initial=0.0), np.abs(B @ lam).max(initial=0.0), 1e-300)
-    if np.abs(residual).max(initial=0.0) > 1e-8 * size:
+    if not _dc_holds(A, B, E, x, lam, u):
         return DcPoint(False, x0.copy(), np.zeros(m), free,
                        "the DC equations have no solution (a DC current into a capacitor "
                        "with no other path, or a DC voltage across an inductor loop)")
@@ -188,10 +231,10 @@ def _solve(M, C, D, F, KA, B, E, u, x_null, lcp):
     c_rows = np.abs(C).max(axis=1, initial=0.0)
     ka = np.abs(KA).max(initial=0.0)
     M_size = np.abs(D) + np.outer(c_rows, np.abs(B).max(axis=0, initial=0.0)) * ka
-    M = np.where(np.abs(M) <= 1e-12 * M_size, 0.0, M)
+    M = _zero_round_off(M, M_size)
     q_size = (c_rows * (np.abs(x_null).max(initial=0.0) + ka * np.abs(E @ u).max(initial=0.0))
               + np.abs(F) @ np.abs(u))
-    q = np.where(np.abs(q) <= 1e-12 * q_size, 0.0, q)
+    q = _zero_round_off(q, q_size)
     if m:
         res = solve_lcp(M, q, lcp)
         if not res.ok:
@@ -204,7 +247,7 @@ def _solve(M, C, D, F, KA, B, E, u, x_null, lcp):
     # (the same round-off in the state: an inductor current of -1e-16 A against a diode
     # that blocks would read as an inconsistent start)
     x_size = np.abs(x_null).max(initial=0.0) + ka * np.abs(drive).max(initial=0.0)
-    return (np.where(np.abs(x) <= 1e-12 * x_size, 0.0, x), lam,
+    return (_zero_round_off(x, x_size), lam,
             _Lcp(M, M_size, M @ lam + q, q_size))
 
 
@@ -252,7 +295,7 @@ def _along_lcp(lcp: _Lcp, lam: np.ndarray, KB: np.ndarray, leaks, x: np.ndarray,
     """
     m = lam.shape[0]
     w_size = lcp.M_size @ np.abs(lam) + lcp.q_size
-    S = np.flatnonzero(np.abs(lcp.w) <= 1e-9 * np.maximum(w_size, 1e-300))
+    S = np.flatnonzero(_on_bound(lcp.w, w_size))
     if not S.size:
         return x, lam
     # the rank judged on M[S, S] scaled by its entries' sizes, row and column (pairs in
@@ -298,8 +341,7 @@ def _along_lcp(lcp: _Lcp, lam: np.ndarray, KB: np.ndarray, leaks, x: np.ndarray,
         move(K, K, lam[S], 1.0)  # (K's columns are orthonormal: every one reached)
     # still a solution of the LCP (else the point as first solved)
     w = lcp.M @ lam + (lcp.w - lcp.M @ lam_in)
-    tol = 1e-9 * (lcp.M_size @ np.abs(lam) + w_size)
-    if np.any(w < -tol) or np.any(np.minimum(lam, w) > tol):
+    if not _is_lcp_solution(lam, w, lcp.M_size @ np.abs(lam) + w_size):
         return x_in, lam_in
     return x, lam
 
@@ -356,24 +398,41 @@ def _leak_balanced(A, B, C, D, E, F, u, x0, lcp, rtol, leaks, Lb, Le, null, KA, 
     cols = np.abs(Lb).max(axis=0, initial=0.0)
     J = np.flatnonzero(cols > rtol * max(np.abs(Bs).max(initial=0.0), 1.0))
     R = np.setdiff1d(np.arange(m), J)
+    lam_J = np.zeros(J.size)
     if np.abs(Le).max(initial=0.0) > rtol * max(np.abs(Lb).max(initial=0.0),
                                                 np.abs(E @ u).max(initial=0.0), 1.0):
-        return None
-    y = np.linalg.lstsq(Lb[:, J].T, np.ones(J.size), rcond=None)[0]
-    if not np.all(Lb[:, J].T @ y > 0.5):
-        return None  # (a current in one acting diode could balance another's)
-    # (the leaks' multiplier columns those of the rest's pairs, as its B and D)
-    sub_leaks = None if leaks is None else (leaks[0], leaks[1][:, R], leaks[2])
-    sub = dc_point(A, B[:, R], C[R], D[np.ix_(R, R)], E, F[R], u, x0, lcp, rtol, sub_leaks)
+        # a source drives the free combination: the acting pairs' multipliers must take it
+        # (an inductor whose only path is a blocking diode, held 8 V from its source: that
+        # diode's λ = 8 V, and w = i_L = 0 where λ > 0); where they set them uniquely and
+        # none is negative, the rest's point with those multipliers as inputs
+        sv = np.linalg.svd(Lb[:, J], compute_uv=False)
+        if sv.size < J.size or sv.min() <= 1e-9 * max(float(sv.max()), 1e-300):
+            return None
+        lam_J = np.linalg.lstsq(Lb[:, J], -Le, rcond=None)[0]
+        # (the free combinations' DC equations Lb_J λ_J + Le = 0, with λ_J for x)
+        if (not _dc_holds(Lb[:, J], np.zeros((Le.size, 0)), Le[:, None], lam_J, np.zeros(0),
+                          np.ones(1))
+                or np.any(lam_J < -ON_BOUND * np.abs(lam_J).max())):
+            return None
+        lam_J = np.maximum(lam_J, 0.0)
+    else:
+        y = np.linalg.lstsq(Lb[:, J].T, np.ones(J.size), rcond=None)[0]
+        if not np.all(Lb[:, J].T @ y > 0.5):
+            return None  # (a current in one acting diode could balance another's)
+    sub = dc_point(A, B[:, R], C[R], D[np.ix_(R, R)], np.hstack([E, B[:, J]]),
+                   np.hstack([F[R], D[np.ix_(R, J)]]), np.concatenate([u, lam_J]), x0, lcp,
+                   rtol, leaks if leaks is None else
+                   (leaks[0], leaks[1][:, R], np.hstack([leaks[2], leaks[1][:, J]])))
     if not sub.ok:
         return None
     x, lam = sub.x.copy(), np.zeros(m)
     lam[R] = sub.lam
+    lam[J] = lam_J
     KB = KA @ Bs
     Mf = D - C @ KB
     w = C @ x + D @ lam + F @ u
     w_size = np.abs(C) @ np.abs(x) + np.abs(D) @ np.abs(lam) + np.abs(F) @ np.abs(u)
-    S = R[np.abs(w[R]) <= 1e-9 * np.maximum(w_size[R], 1e-300)]
+    S = R[_on_bound(w[R], w_size[R])]
     N = np.setdiff1d(np.arange(m), S)
     # the moves (dz along the null space, dλ_S) that keep w_S = 0
     Q = np.hstack([C[S] @ null, Mf[np.ix_(S, S)]])
@@ -417,19 +476,16 @@ def _leak_balanced(A, B, C, D, E, F, u, x0, lcp, rtol, leaks, Lb, Le, null, KA, 
         if dt is None:
             return None
         t, rest = t + rest @ dt, rest @ unreached
-    x = x + dx @ t
+    # (the round-off of the move made zero, as in _solve: i_L = 1.8 A - 1.8 A = 2e-16 A
+    # through a diode the source holds reverse-biased would read as conducting)
+    x = _zero_round_off(x + dx @ t, np.abs(x) + np.abs(dx) @ np.abs(t))
     lam = lam.copy()
     lam[S] = lam[S] + Kl @ t
-    lam = np.where(np.abs(lam) <= 1e-12 * max(np.abs(lam).max(initial=0.0), 1e-300), 0.0, lam)
+    lam = _zero_round_off(lam, max(np.abs(lam).max(initial=0.0), 1e-300))
     # the point is checked, not assumed: DC equations, bounds and complementarity
     w = C @ x + D @ lam + F @ u
     w_size = np.abs(C) @ np.abs(x) + np.abs(D) @ np.abs(lam) + np.abs(F) @ np.abs(u)
-    tol = 1e-9 * np.maximum(w_size, 1e-300)
-    residual = A @ x + B @ lam + E @ u
-    size = (np.abs(A) @ np.abs(x) + np.abs(B) @ np.abs(lam) + np.abs(E) @ np.abs(u))
-    lam_tol = 1e-9 * max(np.abs(lam).max(initial=0.0), 1e-300)
-    if (np.any(lam < -lam_tol) or np.any(w < -tol) or np.any((lam > lam_tol) & (w > tol))
-            or np.any(np.abs(residual) > 1e-8 * np.maximum(size, 1e-300))):
+    if not (_is_lcp_solution(lam, w, w_size) and _dc_holds(A, B, E, x, lam, u)):
         return None
     free = np.abs(dx @ free_dirs).max(axis=1, initial=0.0) > 1e-9
     return DcPoint(True, x, np.maximum(lam, 0.0), free)

@@ -37,6 +37,7 @@ from lcs.integrators.moreau.integrator import MoreauOptions, simulate
 from lcs.model import LCS, SwitchedLCS
 from lcs.results import SimulationResult
 from lcs.signals import Dc, Signal, resolve
+from lcs.simulation.held_point import AuxiliaryPoint
 
 from ..capacitor_links import capacitor_links, check_link_initial, link_note, link_probe
 from ..capacitor_loops import reduced_probe
@@ -130,8 +131,9 @@ class TransientSetup:
     print_note: str | None = None
     knees: tuple = ()  # the netlist.knee capacitors, checked after the run
     # start from the DC operating point (ngspice's .tran without UIC), x0 giving only the
-    # states no DC equation sets
-    operating_point: bool = False
+    # states no DC equation sets; an AuxiliaryPoint: that of the circuit with its .ic nodes
+    # held (netlist.studies.start.held_start)
+    operating_point: bool | AuxiliaryPoint = False
 
 
 def _input_error(circuit: Circuit, message: str, hint: str) -> NetlistError:
@@ -222,7 +224,7 @@ def transient_setup(
     tstep_res = tran.tstep if tran is not None else step
     signals = [resolve(w, tstep_res, tstop) for w in waves]
 
-    x0, operating_point = start_state(circuit, system.states, notes)
+    x0, operating_point = start_state(circuit, system, notes)
     notes.extend(circuit.notes)
     for r in circuit.replacements:
         notes.append("idealised: " + r.line())
