@@ -48,6 +48,7 @@ The bypass switches of a resistor stepped in time (``built_for``, :mod:`netlist.
 are pelcs' model of that resistor, not devices: they stay ideal.
 The added elements are named ``<element>#vf`` and ``<element>#ron`` on internal nodes
 ``<element>#a``/``#b``; they belong to pelcs' model only (ngspice keeps the real devices).
+A diode's depletion charge is added to this circuit by :mod:`netlist.junction_charge`.
 """
 
 from __future__ import annotations
@@ -313,6 +314,28 @@ def model_current(params: list[dict], v: np.ndarray, series: float = 0.0) -> np.
     return np.where(v > 0, np.interp(v, vg, grid, left=0.0), 0.0)
 
 
+def segment_lines(vf: float, ron: float, branches: tuple = ()) -> list[tuple[float, float]]:
+    """The lines ``v = a + b i`` (V, Ω) of a fit's segments, steepest first: the inverse of
+    :func:`lines_fit` (segment ``k`` is branches ``1..k`` conducting, :func:`pwl_voltage`)."""
+    g = gv = 0.0
+    out = []
+    for vk, rk in ((vf, ron), *branches):
+        g, gv = g + 1.0 / rk, gv + vk / rk
+        out.append((gv / g, 1.0 / g))
+    return out
+
+
+def lines_fit(lines: list[tuple[float, float]]) -> tuple[float, float, tuple] | None:
+    """A convex characteristic's lines (steepest first) as a fit ``(vf, ron, branches)``,
+    or None where they are not convex (:func:`_branches`)."""
+    return _branches(lines)
+
+
+def diode_chain(el: Diode, vf: float, ron: float, branches: tuple = ()) -> list:
+    """The elements of a fitted diode (module docstring) between its two nodes."""
+    return _series(el, vf, ron, branches)
+
+
 def _branches(lines: list[tuple[float, float]]) -> tuple[float, float, tuple] | None:
     """Lines ``v = a + b i`` (V, Ω), steepest first, as :func:`pwl_voltage`'s first segment
     and branches: branch ``k`` opens at the voltage where line ``k`` meets line ``k - 1`` and
@@ -406,13 +429,15 @@ def switch_resistance(circuit: Circuit, sw: Switch, drive: float | None) -> tupl
 
 
 def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, float],
-                explicit: dict | None = None, single: Collection[str] = ()
-                ) -> tuple[Circuit, list[PwlFit]]:
+                explicit: dict | None = None, single: Collection[str] = (),
+                charged: Collection[str] = ()) -> tuple[Circuit, list[PwlFit]]:
     """The circuit with every diode and switch made piecewise linear (see the module
     docstring); ``i_max`` (A) and ``drives`` (V) by element name, from an ideal run;
     ``explicit``: ``{element or model name: (vf, ron)}`` given by the user (V, Ω), used as
     they are instead of a fit; ``single``: diodes (by name) kept at one segment (the others
-    get two or three where one misses their model: :func:`segment_fit`)."""
+    get two or three where one misses their model: :func:`segment_fit`); ``charged``: the
+    diodes whose depletion charge the run models (:mod:`netlist.junction_charge`), which
+    their lines say."""
     merged = parallel_diodes(circuit)
     given = {str(k).lower(): v for k, v in (explicit or {}).items()}
     out, fits = [], []
@@ -449,7 +474,7 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
                 if el.name in single and error > SEGMENT_TOLERANCE:
                     span += ("; one segment: an inductor's current runs through it, and "
                              "segments would make θ = 1/2 unreliable")
-            left = diode_ignored(circuit, el, merged)
+            left = diode_ignored(circuit, el, merged, el.name in charged)
             if left:
                 span += f"; {left}"
             fits.append(PwlFit(el.name, vf, ron, f"fit of {what} {span}", branches,
@@ -470,8 +495,8 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
     return replace(circuit, elements=out), fits
 
 
-def _junction_models(circuit: Circuit, el: Diode, merged: dict
-                     ) -> tuple[list[tuple[dict, float]], float]:
+def junction_models(circuit: Circuit, el: Diode, merged: dict
+                    ) -> tuple[list[tuple[dict, float]], float]:
     """A diode element's junctions as ``(model parameters, area)`` (a macro-model's or
     merged parallel diodes' several) and its macro-model's series resistance (Ω)."""
     names = [(el.model, el.area)] if el.model else []
@@ -494,17 +519,21 @@ def diode_params(circuit: Circuit, el: Diode, merged: dict | None = None
     ngspice's defaults filled in and the area applied; several for a macro-model's or merged
     parallel diodes) and the series resistance of its macro-model (Ω)."""
     merged = parallel_diodes(circuit) if merged is None else merged
-    models, series = _junction_models(circuit, el, merged)
+    models, series = junction_models(circuit, el, merged)
     params = [junction_params(m, area) for m, area in models]
     return params or [junction_params({})], series
 
 
-def diode_ignored(circuit: Circuit, el: Diode, merged: dict | None = None) -> str:
+def diode_ignored(circuit: Circuit, el: Diode, merged: dict | None = None,
+                  depletion: bool = False) -> str:
     """What of a diode's models its piecewise-linear fit does not follow, as its report line
-    says it (:func:`netlist.diode_dc.ignored`), or ""."""
+    says it (:func:`netlist.diode_dc.ignored`), or ""; ``depletion``: the run models its
+    depletion charge (``CJO``, ``VJ``, ``M``, ``FC``: :mod:`netlist.junction_charge`)."""
     merged = parallel_diodes(circuit) if merged is None else merged
-    models, _ = _junction_models(circuit, el, merged)
-    charge = list(dict.fromkeys(k for m, _ in models for k in ignored(m)[0]))
+    models, _ = junction_models(circuit, el, merged)
+    modelled = ("CJO", "CJ0", "CJ", "VJ", "M", "FC") if depletion else ()
+    charge = list(dict.fromkeys(k for m, _ in models for k in ignored(m)[0]
+                                if k not in modelled))
     static = list(dict.fromkeys(k for m, _ in models for k in ignored(m)[1]))
     parts = []
     if charge:

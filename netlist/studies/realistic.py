@@ -4,7 +4,7 @@ losses and efficiency of the steady state (:mod:`.losses`), on top of
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -14,6 +14,7 @@ from lcs.results import SimulationResult
 from ..breakdown import breakdown_elements, breakdowns
 from ..circuit import GROUND, Circuit, Diode, Switch
 from ..errors import Diagnostic, NetlistError
+from ..junction_charge import fastest_junction_mode, junction_charges, with_junction_charge
 from ..pwl import carried_current, diode_params, model_current, pwl_circuit
 from ..reductions import parallel_diodes
 from .losses import loss_probes
@@ -51,6 +52,7 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
     if devices not in ("ideal", "pwl"):
         raise ValueError(f"devices must be 'ideal' or 'pwl', got {devices!r}")
     fits: list = []
+    charge_lines: list[str] = []
     run_circuit = circuit
     sizing_note = None
     bds = breakdowns(circuit) if devices == "pwl" else {}
@@ -65,6 +67,8 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         pre += [f"v({a})" if b == GROUND else f"v({a},{b})" for a, b in
                 (sw.control for sw in sws)]
         pre += [bd.probe for bd in bds.values()]
+        pre += [_voltage_probe(el) for el in circuit.elements
+                if isinstance(el, Diode) and not el.ideal and el.key not in merged]
         # (its knees unchecked: it sizes the fits, the pwl run below is the answer)
         try:
             ideal = _sizing_run(circuit, list(dict.fromkeys(pre)), kw)
@@ -94,7 +98,17 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
             a, b = sw.control
             drives[sw.name] = float(np.max(ideal[f"v({a})" if b == GROUND
                                                   else f"v({a},{b})"]))
-        run_circuit, fits = fitted_circuit(circuit, i_max, drives, pwl, **kw)
+        # the depletion charge of each diode, over the voltages the ideal run puts across it
+        swings = {el.name: (float(np.min(ideal[_voltage_probe(el)], initial=0.0)),
+                            float(np.max(ideal[_voltage_probe(el)], initial=0.0)))
+                  for el in circuit.elements
+                  if isinstance(el, Diode) and not el.ideal and el.key not in merged}
+        charges, charge_lines = junction_charges(circuit, swings, merged)
+        run_circuit, fits = fitted_circuit(circuit, i_max, drives, pwl, charged=charges, **kw)
+        run_circuit = with_junction_charge(circuit, run_circuit, fits, charges)
+        kw, theta_line = _junction_theta(run_circuit, charges, kw)
+        if theta_line:
+            charge_lines.append(theta_line)
         # the diodes the ideal run takes past their breakdown voltage (netlist.breakdown)
         broken = {name for name, bd in bds.items()
                   if float(np.max(ideal[bd.probe], initial=0.0)) > bd.bv}
@@ -152,7 +166,8 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
                        f"{cur:.3g} A (its fit was over {_fit_top(i_max[name]) / 20:.3g}.."
                        f"{_fit_top(i_max[name]):.3g} A)" for name, cur in moved.items()]
             i_max.update(moved)
-            fitted, fits = fitted_circuit(circuit, i_max, drives, pwl, **kw)
+            fitted, fits = fitted_circuit(circuit, i_max, drives, pwl, charged=charges, **kw)
+            fitted = with_junction_charge(circuit, fitted, fits, charges)
     res.device_fits = fits
     miller = _miller_note(circuit, res)
     if miller:
@@ -160,6 +175,8 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
     res.notes.extend(f"pwl: {f.line()}" for f in fits)
     res.notes.extend(f"pwl: {line}" for line in lines)
     res.notes.extend(refits)
+    if devices == "pwl":
+        res.notes.extend(f"pwl: {line}" for line in charge_lines)
     if devices == "pwl" and sizing_note:
         res.notes.append(sizing_note)
     if losses:
@@ -232,6 +249,31 @@ def _resized(res: SimulationResult, bds: dict, broken: set[str], tops: dict[str,
     return out
 
 
+def _junction_theta(run_circuit: Circuit, charges: dict, kw: dict) -> tuple[dict, str]:
+    """The run's arguments with θ = 1 where the junction capacitors' fastest mode
+    (:func:`netlist.junction_charge.fastest_junction_mode`) is not resolved by the step
+    (``|h μ| > 1``) and no θ is given, and a note ("" when nothing changes)."""
+    if not charges or kw.get("method", "moreau") != "moreau":
+        return kw, ""
+    from .transient import transient_setup
+
+    with passivity_unreported():  # (the run reports the circuit's passivity, once)
+        setup = transient_setup(run_circuit, tstop=kw.get("tstop"), step=kw.get("step"))
+    mu = fastest_junction_mode(setup.system, setup.energy, list(charges))
+    if mu is None or abs(mu) * setup.h <= 1.0:
+        return kw, ""
+    what = (f"the junction capacitances add a mode at |μ| = {abs(mu):.3g} 1/s (Re μ = "
+            f"{mu.real:.3g} 1/s) that the step h = {setup.h:.3g} s does not resolve (|h μ| = "
+            f"{abs(mu) * setup.h:.3g})")
+    if kw.get("theta") is not None:
+        if float(kw["theta"]) >= 1.0:
+            return kw, ""
+        return kw, f"{what}: θ = {kw['theta']:g} as given, which integrates it unresolved"
+    return {**kw, "theta": 1.0}, (f"{what}: the run uses θ = 1 (backward Euler, first order), "
+                                  "which damps it unresolved; θ = 1/2 would keep it ringing "
+                                  "or alternating from step to step")
+
+
 def _fit_top(i_max: float) -> float:
     """The top of the current range a diode's fit covers (A): its carried current, or the
     1 mA a diode that carries none is fitted at (:func:`netlist.pwl.segment_fit`)."""
@@ -290,13 +332,15 @@ SEGMENT_STEP_MARGIN = 1e4
 
 
 def fitted_circuit(circuit: Circuit, i_max: dict, drives: dict, pwl: dict | None = None,
-                   **kw) -> tuple[Circuit, list]:
+                   charged: Collection[str] = (), **kw) -> tuple[Circuit, list]:
     """:func:`netlist.pwl.pwl_circuit`, with one segment for the diodes whose segments would
     cost the run's θ accuracy (see :func:`_segments_theta_allows`).
 
+    ``charged``: the diodes whose depletion charge the run models (their fit lines say so).
     ``kw``: the run's ``theta``, ``method``, ``tstop`` and ``step`` (others ignored)."""
-    run_circuit, fits = pwl_circuit(circuit, i_max, drives, pwl)
-    return _segments_theta_allows(circuit, run_circuit, fits, i_max, drives, pwl, kw)
+    run_circuit, fits = pwl_circuit(circuit, i_max, drives, pwl, charged=charged)
+    return _segments_theta_allows(circuit, run_circuit, fits, i_max, drives, pwl, kw,
+                                  charged)
 
 
 def _theta_pairs(run_circuit: Circuit, kw: dict, margin: float = 1.0) -> set[str] | None:
@@ -310,14 +354,15 @@ def _theta_pairs(run_circuit: Circuit, kw: dict, margin: float = 1.0) -> set[str
         return None
     from lcs.integrators.moreau.theta_screen import screen_theta
 
-    setup = transient_setup(run_circuit, tstop=kw.get("tstop"), step=kw.get("step"))
+    with passivity_unreported():  # (not the circuit simulated: the junction charge is not in)
+        setup = transient_setup(run_circuit, tstop=kw.get("tstop"), step=kw.get("step"))
     risks = screen_theta(setup.system, margin * setup.h, theta, energy=setup.energy)
     return {p for r in risks for p in r.pairs} | ({"?"} if risks else set())
 
 
 def _segments_theta_allows(circuit: Circuit, run_circuit: Circuit, fits: list,
-                           i_max: dict, drives: dict, pwl: dict | None, kw: dict
-                           ) -> tuple[Circuit, list]:
+                           i_max: dict, drives: dict, pwl: dict | None, kw: dict,
+                           charged: Collection[str] = ()) -> tuple[Circuit, list]:
     """The piecewise-linear circuit with one segment for the diodes whose segments would
     make θ = 1/2 less accurate (:func:`netlist.studies.transient.choose_theta`).
 
@@ -339,11 +384,12 @@ def _segments_theta_allows(circuit: Circuit, run_circuit: Circuit, fits: list,
     single = flagged(_theta_pairs(run_circuit, kw, SEGMENT_STEP_MARGIN))
     if not single:
         return run_circuit, fits
-    one, one_fits = pwl_circuit(circuit, i_max, drives, pwl, set(segmented.values()))
+    one, one_fits = pwl_circuit(circuit, i_max, drives, pwl, set(segmented.values()),
+                                charged=charged)
     if _theta_pairs(one, kw):
         return run_circuit, fits
     for _ in range(len(segmented)):  # each round keeps at least one more at one segment
-        run_circuit, fits = pwl_circuit(circuit, i_max, drives, pwl, single)
+        run_circuit, fits = pwl_circuit(circuit, i_max, drives, pwl, single, charged=charged)
         more = flagged(_theta_pairs(run_circuit, kw, SEGMENT_STEP_MARGIN)) - single
         if not more:
             break
