@@ -141,16 +141,7 @@ IDEAL_DEVICES: dict[str, str] = {
 }
 
 # Compared files whose averages differ by more than 5 %: file -> why (measured figures).
-DISAGREES: dict[str, str] = {
-    "learning_ngspice/circuits/06_rf_comunicacoes/mixer_diodo.cir":
-        "a 1N4148 driven near its own drop (0.3 V through 25 Ohm): the mixing product comes from "
-        "the curvature of its characteristic, which three line segments over three decades "
-        "follow within 28 mV, not closely enough: without the junction charge pelcs gives "
-        "0.1428 mV where ngspice with CJO = 0 gives 0.1294 mV (10 % apart). The depletion "
-        "charge moves both the same way (ngspice +11 %, to 0.1432 mV as written; pelcs +7.9 %, "
-        "to 0.1541 mV, 7.6 % off); TT moves nothing in ngspice. Five chords of the "
-        "characteristic (a few mV) measured 0.1301 mV without the charge, 0.1408 mV with it",
-}
+DISAGREES: dict[str, str] = {}
 
 # Files whose ngspice run as written is not converged in time: compared with ngspice bounded
 # by a maximum step, TMAX s (the .tran line's fourth field), and why (measured)
