@@ -5,7 +5,7 @@ losses and efficiency of the steady state (:mod:`.losses`), on top of
 from __future__ import annotations
 
 from collections.abc import Collection, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -21,7 +21,7 @@ from .losses import loss_probes
 from .losses import losses as loss_report
 from .transient import check_probes, passivity_unreported, simulate_circuit
 
-__all__ = ["fitted_circuit", "simulate_devices"]
+__all__ = ["PwlRun", "fitted_circuit", "pwl_run", "simulate_devices"]
 
 
 def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool = False,
@@ -36,7 +36,7 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
     devices : str
         ``"ideal"``, or ``"pwl"``: diodes with a fitted Vf and Ron, switches with their Ron
         (:mod:`netlist.pwl`; an ideal run first gives the current range of the fit,
-        :func:`netlist.pwl.carried_current`);
+        :func:`netlist.pwl.carried_current`), built by :func:`pwl_run`;
         ``result.device_fits`` lists them.
     losses : bool
         Also compute ``result.losses`` (:mod:`netlist.studies.losses`): conduction losses, input and
@@ -51,10 +51,93 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
     """
     if devices not in ("ideal", "pwl"):
         raise ValueError(f"devices must be 'ideal' or 'pwl', got {devices!r}")
+    want = list(probes) if probes is not None else None
+    extra = loss_probes(circuit) if losses else []
+    if want is not None and extra:
+        # (the user's probes checked as they are: the losses' own may take the currents of
+        # sources without the charging current of a capacitor across them, which the losses
+        # add as its power)
+        check_probes(circuit, want)
+    run = _devices_run(circuit, devices, want, extra, pwl, kw)
+    res = run.result
+    if losses:
+        res.losses = loss_report(res, circuit, run.fits, load)
+        if not res.losses.settled:
+            a, b = res.losses.window
+            res.notes.append(f"losses: the window {a:.6g}..{b:.6g} s is not a steady state "
+                             f"({res.losses.settling_text()}): the efficiency is that of the "
+                             "transient, not of the converter")
+    return _keep(res, run.kept)
+
+
+@dataclass
+class PwlRun:
+    """A run with piecewise-linear devices (:func:`pwl_run`) and what it ran.
+
+    Attributes
+    ----------
+    result : SimulationResult
+        The run, its notes saying what each device became (``result.device_fits``).
+    circuit : Circuit
+        The piecewise-linear circuit it simulated: the fits, the junctions' charges, the
+        breakdown branches it needed.
+    fits : list of netlist.pwl.PwlFit
+    sized : dict
+        The current (A) each diode's and switch's fit was sized at, by name (after the
+        refits from the pwl run).
+    drives : dict
+        Each switch's largest control voltage in the ideal run (V), by name.
+    kept : int
+        The first ``kept`` probes are the caller's (the rest the run watched for itself).
+    """
+
+    result: SimulationResult
+    circuit: Circuit
+    fits: list
+    sized: dict
+    drives: dict
+    kept: int
+
+
+def pwl_run(circuit: Circuit, probes: Sequence[str] | None = None, pwl: dict | None = None,
+            **kw) -> PwlRun:
+    """The run ``pelcs simulate --devices pwl`` makes (:func:`simulate_devices` with
+    ``devices="pwl"``), and the circuit it built: an ideal run sizes each device's fit, the
+    pwl run is made once more where it takes a diode past its breakdown voltage or well
+    below its fit's currents. ``pelcs check`` compares this run.
+
+    Parameters
+    ----------
+    circuit : Circuit
+    probes : sequence of str, optional
+        The result's probes (default every state).
+    pwl : mapping, optional
+        ``{element or model name: (vf, ron)}`` (V, Ω) given instead of the fit.
+    **kw
+        The other arguments of :func:`~netlist.studies.transient.simulate_circuit`.
+    """
+    run = _devices_run(circuit, "pwl", list(probes) if probes is not None else None, [],
+                       pwl, kw)
+    return replace(run, result=_keep(run.result, run.kept))
+
+
+def _keep(res: SimulationResult, k: int) -> SimulationResult:
+    """The run with its first ``k`` probes only (the others it watched for itself)."""
+    if len(res.names) > k:
+        res.names, res.y = tuple(res.names[:k]), res.y[:, :k]
+    return res
+
+
+def _devices_run(circuit: Circuit, devices: str, want: list[str] | None, extra: list[str],
+                 pwl: dict | None, kw: dict) -> PwlRun:
+    """The run of :func:`simulate_devices` (``extra``: the losses' probes, after ``want``),
+    with every probe it watched; ``kept``: how many are ``want``."""
     fits: list = []
     charge_lines: list[str] = []
     run_circuit = circuit
     sizing_note = None
+    i_max: dict[str, float] = {}
+    drives: dict[str, float] = {}
     bds = breakdowns(circuit) if devices == "pwl" else {}
     broken: set[str] = set()
     if devices == "pwl":
@@ -93,7 +176,6 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
                  for el in circuit.elements
                  if (isinstance(el, Diode) and el.key not in merged)
                  or (isinstance(el, Switch) and not el.built_for)}
-        drives = {}
         for sw in sws:
             a, b = sw.control
             drives[sw.name] = float(np.max(ideal[f"v({a})" if b == GROUND
@@ -113,17 +195,10 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         broken = {name for name, bd in bds.items()
                   if float(np.max(ideal[bd.probe], initial=0.0)) > bd.bv}
     fitted = run_circuit
-    want = list(probes) if probes is not None else None
-    extra = loss_probes(circuit) if losses else []
     if want is None:
         from ..formulation import formulate as _formulate
 
         want = list(_formulate(run_circuit).states)
-    elif extra:
-        # (the user's probes checked as they are: the losses' own may take the currents of
-        # sources without the charging current of a capacitor across them, which the losses
-        # add as its power)
-        check_probes(circuit, want)
     # Once more if the pwl run takes another diode past its BV (a second time is an error),
     # and, in the first two runs, once more if it takes a broken-down diode well outside the
     # current its branch was fitted over, or a diode well below the currents of its fit
@@ -179,17 +254,7 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         res.notes.extend(f"pwl: {line}" for line in charge_lines)
     if devices == "pwl" and sizing_note:
         res.notes.append(sizing_note)
-    if losses:
-        res.losses = loss_report(res, circuit, fits, load)
-        if not res.losses.settled:
-            a, b = res.losses.window
-            res.notes.append(f"losses: the window {a:.6g}..{b:.6g} s is not a steady state "
-                             f"({res.losses.settling_text()}): the efficiency is that of the "
-                             "transient, not of the converter")
-    if extra or watch:  # the losses' and breakdowns' probes are not the user's: after them
-        k = len(dict.fromkeys(want))
-        res.names, res.y = tuple(res.names[:k]), res.y[:, :k]
-    return res
+    return PwlRun(res, run_circuit, fits, dict(i_max), drives, len(dict.fromkeys(want)))
 
 
 def _sizing_run(circuit: Circuit, probes: list[str], kw: dict) -> SimulationResult:
