@@ -40,7 +40,9 @@ ngspice runs the netlist's device models. pelcs runs ideal devices, or (``device
 and by default when the netlist has idealised transistors or macro-models, or diode and
 switch models whose drops would widen the tolerances past their floors, k·δ > 1 %)
 piecewise-linear fits of those models (:mod:`netlist.pwl`: diodes fitted over the current
-they carry in an ideal run, switches with their on-resistance, MOSFETs with their gate RC).
+they carry in an ideal run, switches with their on-resistance, MOSFETs with their gate RC):
+the run ``pelcs simulate --devices pwl`` makes, on the circuit it builds
+(:func:`netlist.studies.realistic.pwl_run`: refits, junction charges, breakdown branches).
 docs/check.md says how the choice is made.
 
 Metrics and their tolerances
