@@ -221,15 +221,21 @@ class BuiltGroup:
     name : str
         The line's element name (``B1``, ``R4``, ``X1.B1``): its elements' ``built_for``.
     construct : str
-        What pelcs built: :data:`LIMITER` or :data:`TIME_STEPPED_RESISTOR`.
+        What pelcs built: :data:`LIMITER`, :data:`TIME_STEPPED_RESISTOR`, ...
     line : str
         The line ngspice is given in the group's place (:func:`netlist.writer.write_circuit`
-        writes it at the group's first element, and none of its elements).
+        writes it at the group's first element, and none of its elements); several lines
+        where the group stands for several (an ideal transformer: its windings and K lines).
+    currents : tuple of (str, str)
+        ``(netlist element, built element)``: a netlist element the group replaced whose
+        current a built element carries, so that ``i(netlist element)`` probes it as in
+        ngspice (:meth:`Circuit.current_carrier`).
     """
 
     name: str
     construct: str
     line: str
+    currents: tuple[tuple[str, str], ...] = ()
 
 
 @dataclass
@@ -275,6 +281,17 @@ class Circuit:
         """The group of elements pelcs built that ``el`` belongs to, None for an element of
         the netlist's own."""
         return self.built_groups[el.built_for.lower()] if el.built_for else None
+
+    def current_carrier(self, name: str) -> str | None:
+        """The element pelcs built to carry the current of the netlist's element ``name``
+        (case-insensitive) that a built group replaced (:attr:`BuiltGroup.currents`), None
+        if there is none."""
+        key = name.lower()
+        for group in self.built_groups.values():
+            for original, carrier in group.currents:
+                if original.lower() == key:
+                    return carrier
+        return None
 
     def add_built_group(self, group: BuiltGroup, elements: Sequence[Element]) -> None:
         """Record ``group``, the elements pelcs built for one netlist line: each of

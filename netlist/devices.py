@@ -17,7 +17,7 @@ ngspice still runs the device with its real model (the writer writes the origina
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from .errors import Location
@@ -251,3 +251,60 @@ def gate_rc(el, model, rg: float, cgd: float = 0.0
         w = _instance_length(el, "w", 100e-6)
         cgs, cgd = p.get("cgso", 0.0) * w, cgd + p.get("cgdo", 0.0) * w
     return (rg, cgs, cgd) if cgs + cgd > 0 else None
+
+
+def series_path(elements: Sequence, terminals: Sequence[str], ports: Sequence[str]) -> list:
+    """The resistors on the path from each of a junction's ``terminals`` to the port it
+    reaches through resistors alone (netlist.devices.classify_macro: a diode macro-model),
+    without going through the other port: those in series with it. A resistor off that
+    path (in series with a capacitor across the junction, or joining the two ports) is
+    not."""
+    adjacent: dict[str, list] = {}
+    for e in elements:
+        if e.kind == "R":
+            a, b = (n.lower() for n in e.nodes[:2])
+            adjacent.setdefault(a, []).append((b, e))
+            adjacent.setdefault(b, []).append((a, e))
+    out = []
+    for terminal in terminals:
+        start = terminal.lower()
+        came: dict[str, tuple] = {start: ()}
+        queue = [start]
+        while queue:
+            node = queue.pop(0)
+            if node in ports:
+                while came[node]:  # back along the path it was reached by
+                    node, e = came[node]
+                    out.append(e)
+                break
+            for nxt, e in adjacent.get(node, ()):
+                if nxt not in came:
+                    came[nxt] = (node, e)
+                    queue.append(nxt)
+    return out
+
+
+#: transistors idealised inside one subcircuit instance, past which the instance is read as a
+#: transistor-level amplifier (an op-amp's 20 BJTs) in an error's hint
+AMPLIFIER_TRANSISTORS = 4
+
+
+def amplifier_hint(replacements: Sequence[Replacement], involved: Sequence[str]) -> str:
+    """The hint of a mode with undetermined quantities where those include transistors that
+    pelcs idealised, :data:`AMPLIFIER_TRANSISTORS` or more inside one subcircuit instance
+    (eSim's LM741, a precision rectifier's op-amp): a linear amplifier built of transistors,
+    which switches do not make; "" otherwise."""
+    names = {n.lower() for n in involved}
+    per: dict[str, list[str]] = {}
+    for r in replacements:
+        if r.element.lower() in names and "." in r.element \
+                and r.device in ("NPN", "PNP", "NMOS", "PMOS", "VDMOS"):
+            per.setdefault(r.element.rsplit(".", 1)[0], []).append(r.element)
+    big = {inst: els for inst, els in per.items() if len(els) >= AMPLIFIER_TRANSISTORS}
+    if not big:
+        return ""
+    insts = ", ".join(f"{inst} ({len(els)} transistors)" for inst, els in big.items())
+    return (f"{insts}: a linear amplifier built of transistors (an op-amp's own circuit), "
+            "which pelcs idealises into switches that amplify nothing, so its nodes are left "
+            "undetermined; model the amplifier as ideal instead: an E source of high gain "
+            "between its inputs, or a B source (clamped to its supplies)")

@@ -527,7 +527,7 @@ class _Builder:
               ) -> None:
         """A device macro-model instance as one ideal switch (and body diode) or one ideal
         diode between its ports (netlist.devices.classify_macro)."""
-        from .devices import Replacement, gate_rc, subckt_text, threshold
+        from .devices import Replacement, gate_rc, series_path, subckt_text, threshold
 
         loc = el.st.loc(0)
         ports = {p.lower(): n for p, n in port_map.items()}
@@ -538,11 +538,11 @@ class _Builder:
             a, k = (ports[p] for p in macro.ports)
             models = tuple(self.model_key(e.ref, sub.key) for e in sub.body.elements
                            if e.kind == "D")
-            # a resistor joining the two ports is a leakage in parallel (NXP's 1N4148 has
-            # 5.8 GΩ there), not in series with the junction
-            port_set = {p.lower() for p in sub.ports}
-            series = sum(self._resistance(e) for e in sub.body.elements if e.kind == "R"
-                         and not {n.lower() for n in e.nodes[:2]} <= port_set)
+            # in series: the resistors on the junction's path to the ports (not a leakage
+            # across them, NXP's 1N4148's 5.8 GΩ, nor a snubber's R + C across it)
+            junction = next(e for e in sub.body.elements if e.kind == "D")
+            series = sum(self._resistance(e) for e in series_path(
+                sub.body.elements, junction.nodes[:2], [p.lower() for p in sub.ports]))
             self.circuit.elements.append(Diode(name, (a, k), loc, models[0],
                                                device=(*origin, models, series)))
             self.circuit.replacements.append(Replacement(

@@ -81,6 +81,7 @@ from .capacitor_links import capacitor_links, linked_builder
 from .circuit import GROUND, Circuit, Element
 from .degenerate import CURRENT_KINDS as _CURRENT_KINDS
 from .degenerate import check_topology, pinnable_inductors, pinned_in
+from .devices import amplifier_hint
 from .errors import Diagnostic, NetlistError
 from .mna import VOLTAGE_KINDS as _VOLTAGE_KINDS
 from .mna import Mna as _Mna
@@ -373,8 +374,8 @@ class _Formulator:
             bad(f"coupled inductors {', '.join(el.name for el in involved)} have a "
                 f"{'singular' if abs(eig[0]) <= 1e-9 else 'indefinite'} inductance matrix "
                 f"(couplings {', '.join(k.name for k in ks)})", diagnostics_el,
-                "a coupling coefficient |k| = 1 makes the inductor currents dependent; use "
-                "|k| < 1 (e.g. 0.999) to keep a leakage inductance",
+                "|k| = 1 makes the currents dependent (a pair coupled to nothing else is an "
+                "ideal transformer to pelcs); use |k| < 1 (0.999: a leakage inductance)",
                 [k.name for k in ks] + [el.name for el in involved])
             return np.diag(1.0 / np.diag(lmat))
         return np.linalg.inv(lmat)
@@ -745,9 +746,9 @@ class _Formulator:
             f"no explicit LCS{where}: " + "; ".join(text for text, _ in defects[:6])
             + (" ..." if len(defects) > 6 else "")
             + (" (with every diode's λ its current)" if not vdiodes else ""),
-            "some quantity is not fixed by the circuit in this configuration (a floating part "
-            "that matters, or controlled sources whose gains make the network singular); "
-            "check the connections of the elements named, or add resistances",
+            amplifier_hint(self.circuit.replacements, involved) or "some quantity is not fixed "
+            "by the circuit in this configuration (a floating part that matters, or controlled "
+            "sources whose gains make the network singular); check the elements named",
             involved, file=self.file)
 
     # -- probes ------------------------------------------------------------------------
@@ -784,6 +785,9 @@ class _Formulator:
                     return ("v", *self.held_nodes[a])
             elif b is None and a in self.by_key and self.by_key[a].kind in TWO_TERMINAL:
                 return "i", self.by_key[a]
+            elif b is None and (carrier := self.circuit.current_carrier(a)) is not None:
+                # (a netlist element pelcs replaced: the built element carrying its current)
+                return "i", self.by_key[carrier.lower()]
         nodes = sorted(self.nodes)
         elements = [el.name for el in self.two_terminal]
         hint = ("probes are v(NODE), v(NODE,NODE), i(ELEMENT) or a state name; nodes: "

@@ -7,8 +7,8 @@ The work is done in three stages:
    the first line of the top file is the title; ``*`` comment lines, ``;`` and ``$``
    inline comments and blank lines are dropped; ``+`` continuation lines are joined to their
    statement while remembering the original line and column of every character;
-   ``.control ... .endc`` blocks are kept aside as ignored; ``.end`` ends the netlist (a
-   ``.control`` block after it is still read, as ngspice reads it: its ``tran`` command).
+   ``.control ... .endc`` blocks are kept aside as ignored; ``.end`` is read as a comment,
+   as ngspice reads it: the lines after it are still the netlist's.
    ``.include`` and ``.lib`` are followed (paths relative to the including file, cycles
    detected).
 2. *Syntax* (:mod:`netlist.reader`; the dialect's tables in :mod:`netlist.dialect`). Each
@@ -54,8 +54,10 @@ from .free_potential import free_potential_notes
 from .inductor_cutsets import regularise_inductor_cutsets
 from .netlist_bytes import decode as _decode
 from .netlist_bytes import read_bytes as _read_bytes
+from .perfect_coupling import ideal_transformers
 from .rawdeck import Deck, Statement
 from .reader import _Reader, read_deck
+from .switch_leakage import model_off_resistances
 from .units import parse_number
 
 __all__ = ["parse_file", "parse_string", "parse_overrides", "load_source", "read_deck", "Deck",
@@ -252,7 +254,8 @@ def _loops_and_cutsets(circuit: Circuit) -> Circuit:
     (:mod:`netlist.inductor_cutsets`): what the formulation would otherwise refuse; a note for
     each part whose potential only diodes bound (:mod:`netlist.free_potential`)."""
     notes = free_potential_notes(circuit)  # (on the netlist's own nodes and elements)
-    out = regularise_inductor_cutsets(reduce_capacitor_loops(circuit))
+    out = regularise_inductor_cutsets(reduce_capacitor_loops(model_off_resistances(
+        ideal_transformers(circuit))))
     return replace(out, notes=[*out.notes, *notes]) if notes else out
 
 

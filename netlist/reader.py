@@ -96,7 +96,6 @@ def split_statements(lines: list[tuple[int, str]], file: str, diags: list[Diagno
     cur: Statement | None = None
     control: list[str] | None = None
     control_loc: Location | None = None
-    ended = False
     for lineno, raw in lines:
         if control is not None:
             control.append(raw.rstrip())
@@ -110,8 +109,6 @@ def split_statements(lines: list[tuple[int, str]], file: str, diags: list[Diagno
             code = code.replace("\u00b5", "u")
         stripped = code.strip()
         if not stripped or stripped[0] == "*":
-            continue
-        if ended and not stripped.lower().startswith(".control"):
             continue
         col0 = len(code) - len(code.lstrip())
         if stripped[0] == "+":
@@ -139,7 +136,8 @@ def split_statements(lines: list[tuple[int, str]], file: str, diags: list[Diagno
             cur = None
             continue
         if first == ".end":
-            ended = True  # (past it ngspice still reads .control blocks, and nothing else)
+            # ngspice turns the line into a comment and reads on (inpcom.c), so what follows
+            # it is still the netlist: elements and analyses as well as .control blocks
             continue
         cur = Statement(stripped.rstrip(), file, [(0, lineno, col0, raw)])
         out.append(cur)

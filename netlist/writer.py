@@ -41,7 +41,7 @@ from .circuit import (
 )
 from .units import format_number
 
-__all__ = ["write_circuit", "spice_name"]
+__all__ = ["element_line", "spice_name", "write_circuit"]
 
 
 def spice_name(name: str, kind: str | None = None) -> str:
@@ -104,6 +104,12 @@ def _waveform(sig: Signal, circuit: Circuit) -> str:
                 v = 0.0
         out.append(_num(v))
     return f"{keyword}({' '.join(out)})"
+
+
+def element_line(el: Element, circuit: Circuit) -> str:
+    """The netlist line of one element of ``circuit`` (the names it refers to, such as a K
+    line's inductors, spelled as ``circuit`` has them)."""
+    return _element(el, circuit, {e.key: e.kind for e in circuit.elements})
 
 
 def _element(el: Element, circuit: Circuit, kinds: dict[str, str]) -> str:

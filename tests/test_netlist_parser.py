@@ -88,9 +88,15 @@ def test_continuation_lines_keep_original_locations():
     assert "invalid number '5x/'" in d.message
 
 
-def test_end_stops_reading():
-    c = parse("V1 a 0 1\nR1 a 0 1\n.end\nR2 a 0 0\nthis is not a netlist line\n")
-    assert [e.name for e in c.elements] == ["V1", "R1"]
+def test_end_does_not_stop_reading():
+    # ngspice reads on past .end (a comment to it): on this deck it stops at line 6, "this is
+    # not a netlist line", with "unknown parameter (line)"; pelcs at both lines after .end
+    with pytest.raises(NetlistError) as info:
+        parse("V1 a 0 1\nR1 a 0 1\n.end\nR2 a 0 0\nthis is not a netlist line\n")
+    assert "R2: resistance is zero" in str(info.value)
+    assert "unknown element type 'T'" in str(info.value)
+    c = parse("V1 a 0 1\nR1 a 0 1\n.end\nR2 a 0 2\n")
+    assert [e.name for e in c.elements] == ["V1", "R1", "R2"]
 
 
 def test_control_block_is_skipped_and_listed():

@@ -204,3 +204,25 @@ def test_control_block_tran(tmp_path, ngspice):
     # ngspice runs the block's tran when it reads the file
     got = ngspice_print(deck, ["time[length(time)-1]"], tmp_path)
     assert got["time[length(time)-1]"] == pytest.approx(50e-6)
+
+
+AFTER_END = """elements after .end (engineer-e's form2: a .control block, .end, then the netlist)
+.control
+tran 1u 1m
+.endc
+.end
+V1 a 0 1
+R1 a 0 1k
+.END
+R2 a 0 1k
+"""
+
+
+def test_lines_after_end_are_still_the_netlist(tmp_path, ngspice):
+    """ngspice turns a ``.end`` line into a comment and reads on (inpcom.c): the elements
+    after it, even after a second one, are in the circuit (R1 || R2: 2 mA)."""
+    c = parse_string(AFTER_END)
+    assert [e.name for e in c.elements] == ["V1", "R1", "R2"]
+    assert c.tran.tstop == 1e-3
+    got = ngspice_print(AFTER_END, ["i(V1)[1]"], tmp_path)
+    assert got["i(V1)[1]"] == pytest.approx(-2e-3)

@@ -110,7 +110,7 @@ def test_a_control_block_after_end_is_read_as_ngspice_reads_it():
                            "R9 never 0 1\n")
     c = parse_string(text)
     assert c.tran is not None and c.tran.tstop == pytest.approx(500e-6)
-    assert "never" not in c.nodes
+    assert "never" in c.nodes  # (read too: tests/test_netlist_spellings.py, AFTER_END)
 
 
 # ngspice's table interpolation takes its points in the order written, x increasing: points

@@ -70,8 +70,9 @@ def chattering(t0: float, t1: float, desc: dict[str, str], switch: str,
     msg = (
         f"switch {switch} at t = {t0:.9g} s (mode: {fmt_mode(desc)}): more than {limit} "
         f"comparator switchings inside one step of the grid (up to {t1:.9g} s): the "
-        "comparator chatters. Check its control and threshold, add hysteresis (VH > 0) or "
-        "raise MoreauOptions.max_switchings."
+        "comparator chatters. Check its control and threshold, add hysteresis (VH > 0), take "
+        "a smaller step (a control that moves faster than the grid resolves: pelcs simulate "
+        "--step) or raise MoreauOptions.max_switchings."
     )
     return SimulationError(msg, kind="chattering", time=t1, t_prev=t0, mode=desc, switch=switch)
 

@@ -376,6 +376,9 @@ def check_probes(circuit: Circuit, probes: Sequence[str], *,
                 ok = (a in nodes and (b is None or b.lower() in nodes)) or (
                     b is None and a in capacitors)
             else:
+                if b is None and a not in two_terminal:
+                    # (an element pelcs replaced: the built element carrying its current)
+                    a = (circuit.current_carrier(a) or a).lower()
                 stop = held_probe(probe, a, held, path_currents) if b is None else None
                 if stop is None and b is None and not path_currents:
                     stop = link_probe(probe, a, links)
