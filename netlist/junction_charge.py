@@ -124,13 +124,16 @@ def junction_charges(circuit: Circuit, swings: Mapping[str, tuple[float, float]]
 
 
 def with_junction_charge(circuit: Circuit, run_circuit: Circuit, fits: Sequence,
-                         charges: Mapping[str, tuple[float, float]]) -> Circuit:
+                         charges: Mapping[str, tuple[float, float]],
+                         notes: list[str] | None = None) -> Circuit:
     """The piecewise-linear circuit ``run_circuit`` (:func:`netlist.pwl.pwl_circuit` of
     ``circuit``, with its ``fits``) with each diode of ``charges`` (``{name: (RS in Ω, C in
     F)}``) rebuilt as ``RS`` from its anode to ``<element>#j``, the junction's own
     characteristic from there to its cathode (every segment's line ``v = a + b i`` less
     ``RS i``: the fit's characteristic less the drop on ``RS``, convex as the fit is) and the
-    capacitor ``<element>#cj`` across the junction (across the diode where ``RS`` is 0)."""
+    capacitor ``<element>#cj`` across the junction (across the diode where ``RS`` is 0).
+    Where the fit's least slope is under twice ``RS`` (a diode fitted at its bound ``Ron =
+    RS``), ``RS`` outside is half that slope, and a line appended to ``notes`` says so."""
     from .pwl import diode_chain, lines_fit, segment_lines
 
     fit_of = {f.element: f for f in fits}
@@ -143,8 +146,16 @@ def with_junction_charge(circuit: Circuit, run_circuit: Circuit, fits: Sequence,
         key = name.lower()
         anode, cathode = el.nodes[0], el.nodes[1]
         lines = segment_lines(f.vf, f.ron, tuple(f.branches))
-        # (the fit bounds every slope to RS or more; at the bound a sliver stays inside)
-        rs = min(rs, (1.0 - 1e-9) * min(b for _, b in lines))
+        # (the fit bounds every slope to RS or more; at or near the bound half the least
+        # slope stays inside: a sliver there would put the capacitor behind a vanishing
+        # resistance, a mode of RS C times that sliver's fraction, which round-off turns
+        # unstable: a rectifier's 8 pF behind 1e-11 Ohm, no step solution)
+        least = min(b for _, b in lines)
+        if rs > 0.5 * least and notes is not None:
+            notes.append(f"{name}: its junction capacitor behind {0.5 * least:.3g} Ω of its "
+                         f"RS = {rs:.3g} Ω (its fit's least slope, {least:.3g} Ω, leaves no "
+                         "more inside)")
+        rs = min(rs, 0.5 * least)
         inner = lines_fit([(a, b - rs) for a, b in lines]) if rs > 0 else None
         if inner is None:  # no RS: the capacitor across the diode
             rebuilt[name] = [*(e for e in run_circuit.elements if _of(e, name)),

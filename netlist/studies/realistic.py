@@ -138,6 +138,7 @@ def _devices_run(circuit: Circuit, devices: str, want: list[str] | None, extra: 
     sizing_note = None
     i_max: dict[str, float] = {}
     drives: dict[str, float] = {}
+    split_lines: list[str] = []
     bds = breakdowns(circuit) if devices == "pwl" else {}
     broken: set[str] = set()
     if devices == "pwl":
@@ -187,7 +188,8 @@ def _devices_run(circuit: Circuit, devices: str, want: list[str] | None, extra: 
                   if isinstance(el, Diode) and not el.ideal and el.key not in merged}
         charges, charge_lines = junction_charges(circuit, swings, merged)
         run_circuit, fits = fitted_circuit(circuit, i_max, drives, pwl, charged=charges, **kw)
-        run_circuit = with_junction_charge(circuit, run_circuit, fits, charges)
+        split_lines: list[str] = []
+        run_circuit = with_junction_charge(circuit, run_circuit, fits, charges, split_lines)
         kw, theta_line = _junction_theta(run_circuit, charges, kw)
         if theta_line:
             charge_lines.append(theta_line)
@@ -242,7 +244,8 @@ def _devices_run(circuit: Circuit, devices: str, want: list[str] | None, extra: 
                        f"{_fit_top(i_max[name]):.3g} A)" for name, cur in moved.items()]
             i_max.update(moved)
             fitted, fits = fitted_circuit(circuit, i_max, drives, pwl, charged=charges, **kw)
-            fitted = with_junction_charge(circuit, fitted, fits, charges)
+            split_lines = []
+            fitted = with_junction_charge(circuit, fitted, fits, charges, split_lines)
     res.device_fits = fits
     miller = _miller_note(circuit, res)
     if miller:
@@ -251,7 +254,7 @@ def _devices_run(circuit: Circuit, devices: str, want: list[str] | None, extra: 
     res.notes.extend(f"pwl: {line}" for line in lines)
     res.notes.extend(refits)
     if devices == "pwl":
-        res.notes.extend(f"pwl: {line}" for line in charge_lines)
+        res.notes.extend(f"pwl: {line}" for line in charge_lines + split_lines)
     if devices == "pwl" and sizing_note:
         res.notes.append(sizing_note)
     return PwlRun(res, run_circuit, fits, dict(i_max), drives, len(dict.fromkeys(want)))
