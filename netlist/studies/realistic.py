@@ -4,6 +4,7 @@ losses and efficiency of the steady state (:mod:`.losses`), on top of
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Collection, Sequence
 from dataclasses import dataclass, replace
 
@@ -217,8 +218,12 @@ def _devices_run(circuit: Circuit, devices: str, want: list[str] | None, extra: 
         watch += [f"i({name}#bv)" for name in sorted(broken)]
         watch += [f"i({name})" for name in watched]
         watch += [_voltage_probe(circuit.element(name)) for name in watched]
-        res = simulate_circuit(run_circuit, probes=list(dict.fromkeys(want + extra + watch)),
-                               path_currents=bool(extra), **kw)
+        # (its warnings held: only the run that is the answer reports, once, below)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            res = simulate_circuit(run_circuit,
+                                   probes=list(dict.fromkeys(want + extra + watch)),
+                                   path_currents=bool(extra), **kw)
         more = {name for name, bd in bds.items() if name not in broken
                 and float(np.max(res[bd.probe], initial=0.0)) > bd.bv}
         if more:
@@ -246,6 +251,8 @@ def _devices_run(circuit: Circuit, devices: str, want: list[str] | None, extra: 
             fitted, fits = fitted_circuit(circuit, i_max, drives, pwl, charged=charges, **kw)
             split_lines = []
             fitted = with_junction_charge(circuit, fitted, fits, charges, split_lines)
+    for w in {(w.category, str(w.message)): w for w in caught}.values():
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, source=w.source)
     res.device_fits = fits
     miller = _miller_note(circuit, res)
     if miller:
