@@ -40,7 +40,9 @@ ngspice runs the netlist's device models. pelcs runs ideal devices, or (``device
 and by default when the netlist has idealised transistors or macro-models, or diode and
 switch models whose drops would widen the tolerances past their floors, k·δ > 1 %)
 piecewise-linear fits of those models (:mod:`netlist.pwl`: diodes fitted over the current
-they carry in an ideal run, switches with their on-resistance, MOSFETs with their gate RC).
+they carry in an ideal run, switches with their on-resistance, MOSFETs with their gate RC):
+the run ``pelcs simulate --devices pwl`` makes, on the circuit it builds
+(:func:`netlist.studies.realistic.pwl_run`: refits, junction charges, breakdown branches).
 docs/check.md says how the choice is made.
 
 Metrics and their tolerances
@@ -445,17 +447,30 @@ def compare(
     use_pwl, why = _choose_devices(devices, circuit, ideal_delta, tol)
     fits: list = []
     run_c = pel  # the circuit pelcs' compared run simulates
+    fitted_at = carried  # the currents the fits were sized at (A)
     if use_pwl:
-        from netlist.studies.realistic import fitted_circuit
+        # the run `pelcs simulate --devices pwl` makes, on the circuit it builds (the fits,
+        # their refits from the pwl run, the junctions' charge, breakdown branches)
+        from netlist.studies.realistic import pwl_run
 
-        pwl_c, fits = fitted_circuit(pel, carried, drives, theta=theta)
-        run_c = pwl_c
         t0 = time.perf_counter()
-        fitted = simulate_circuit(pwl_c, theta=theta, probes=pel_probes)
-        if fitted.error is None:
+        try:
+            run = pwl_run(pel, pel_probes, theta=theta)
+        except NetlistError as exc:
+            if devices == "pwl":
+                raise
+            run = None  # auto: compare the ideal run, with the tolerances of ideal devices
+            use_pwl = False
+            notes.append(f"pelcs with --devices pwl ({why}) stopped ({exc.message}): ideal "
+                         "devices compared")
+        fitted = run.result if run is not None else None
+        if fitted is None:
+            pass
+        elif fitted.error is None:
+            # (the fits' lines are among the run's notes, below)
             result, pelcs_wall = fitted, time.perf_counter() - t0
-            notes.append(f"pelcs ran with --devices pwl ({why}): "
-                         + "; ".join(f.line() for f in fits))
+            fits, run_c, fitted_at = run.fits, run.circuit, run.sized
+            notes.append(f"pelcs ran with --devices pwl ({why})")
         elif devices == "pwl":
             raise CheckError(f"pelcs (--devices pwl) failed at t = "
                              f"{fitted.error.time:.6g} s: {fitted.error.message}")
@@ -503,7 +518,7 @@ def compare(
     rung_models = (ng.settings_used.diode_model is not None
                    or ng.settings_used.switch_model is not None)
     if use_pwl and not rung_models:
-        nonideal = _pwl_residual(circuit, fits, carried, currents, drives)
+        nonideal = _pwl_residual(circuit, fits, fitted_at, currents, drives)
     else:
         if use_pwl:
             notes.append("ngspice's ladder replaced the device models (rung "

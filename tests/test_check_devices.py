@@ -336,7 +336,8 @@ def test_the_fit_range_is_not_an_inrush_only_the_step_limits():
 
 def test_the_check_uses_the_theta_a_run_would(ngspice):
     # ngspice's dcdc.sp: θ = 1/2 is unreliable at its 5 ns step (a 20 ps time constant its
-    # diodes cancel), so `pelcs simulate` runs θ = 1; the check compares that run, not θ = 1/2
+    # diodes cancel; and D1's 0.23 nF junction behind its RS adds a 0.2 ns mode the step does
+    # not resolve), so `pelcs simulate` runs θ = 1; the check compares that run, not θ = 1/2
     from ngspice_checks.compare import compare
 
     dcdc = Path(__file__).parent / "corpus/ngspice/examples/vdmos/dcdc.sp"
@@ -344,4 +345,4 @@ def test_the_check_uses_the_theta_a_run_would(ngspice):
         warnings.simplefilter("ignore")
         cmp = compare(str(dcdc), ["v(C1)"], tstop=0.2e-3)
     assert cmp.theta == 1.0
-    assert any("θ = 0.5 is not reliable" in n for n in cmp.notes)
+    assert any("θ = 0.5 is not reliable" in n or "the run uses θ = 1" in n for n in cmp.notes)

@@ -163,16 +163,7 @@ IDEAL_DEVICES: dict[str, str] = {
 }
 
 # Compared files whose averages differ by more than 5 %: file -> why (measured figures).
-DISAGREES: dict[str, str] = {
-    "python_ngspice/archive/vDubMult.net":
-        "the BAR42's junction capacitance, which the pwl diode lacks: ngspice 4.745 V, pelcs "
-        "5.413 V (14 %). Its static characteristic is ngspice's, recombination current (ISR) "
-        "included: ngspice with CJO = 0 (at a 0.05 ns step) gives 5.421 V. A linear capacitor "
-        "per diode, charge-matched over its swing in the ideal run, gives 4.759 V (0.3 %), but "
-        "pelcs keeps none: at the default steps it rings unresolved with kk/boost_converter's "
-        "inductor (17.76 V; 11.587 V at a 5 ns step), and it moves rectifier_3P and the mixer "
-        "out of 5 % and closes loops with sources in the clamper",
-}
+DISAGREES: dict[str, str] = {}
 
 # Files whose ngspice run as written is not converged in time: compared with ngspice bounded
 # by a maximum step, TMAX s (the .tran line's fourth field), and why (measured)

@@ -4,8 +4,9 @@ losses and efficiency of the steady state (:mod:`.losses`), on top of
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import replace
+import warnings
+from collections.abc import Collection, Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -14,6 +15,7 @@ from lcs.results import SimulationResult
 from ..breakdown import breakdown_elements, breakdowns
 from ..circuit import GROUND, Circuit, Diode, Switch
 from ..errors import Diagnostic, NetlistError
+from ..junction_charge import fastest_junction_mode, junction_charges, with_junction_charge
 from ..pwl import _junction_models, carried_current, diode_params, model_current, pwl_circuit
 from ..reductions import parallel_diodes
 from ..units import parse_number
@@ -21,7 +23,7 @@ from .losses import loss_probes
 from .losses import losses as loss_report
 from .transient import check_probes, passivity_unreported, simulate_circuit
 
-__all__ = ["fitted_circuit", "simulate_devices"]
+__all__ = ["PwlRun", "fitted_circuit", "pwl_run", "simulate_devices"]
 
 
 def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool = False,
@@ -36,7 +38,7 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
     devices : str
         ``"ideal"``, or ``"pwl"``: diodes with a fitted Vf and Ron, switches with their Ron
         (:mod:`netlist.pwl`; an ideal run first gives the current range of the fit,
-        :func:`netlist.pwl.carried_current`);
+        :func:`netlist.pwl.carried_current`), built by :func:`pwl_run`;
         ``result.device_fits`` lists them.
     losses : bool
         Also compute ``result.losses`` (:mod:`netlist.studies.losses`): conduction losses, input and
@@ -51,9 +53,94 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
     """
     if devices not in ("ideal", "pwl"):
         raise ValueError(f"devices must be 'ideal' or 'pwl', got {devices!r}")
+    want = list(probes) if probes is not None else None
+    extra = loss_probes(circuit) if losses else []
+    if want is not None and extra:
+        # (the user's probes checked as they are: the losses' own may take the currents of
+        # sources without the charging current of a capacitor across them, which the losses
+        # add as its power)
+        check_probes(circuit, want)
+    run = _devices_run(circuit, devices, want, extra, pwl, kw)
+    res = run.result
+    if losses:
+        res.losses = loss_report(res, circuit, run.fits, load)
+        if not res.losses.settled:
+            a, b = res.losses.window
+            res.notes.append(f"losses: the window {a:.6g}..{b:.6g} s is not a steady state "
+                             f"({res.losses.settling_text()}): the efficiency is that of the "
+                             "transient, not of the converter")
+    return _keep(res, run.kept)
+
+
+@dataclass
+class PwlRun:
+    """A run with piecewise-linear devices (:func:`pwl_run`) and what it ran.
+
+    Attributes
+    ----------
+    result : SimulationResult
+        The run, its notes saying what each device became (``result.device_fits``).
+    circuit : Circuit
+        The piecewise-linear circuit it simulated: the fits, the junctions' charges, the
+        breakdown branches it needed.
+    fits : list of netlist.pwl.PwlFit
+    sized : dict
+        The current (A) each diode's and switch's fit was sized at, by name (after the
+        refits from the pwl run).
+    drives : dict
+        Each switch's largest control voltage in the ideal run (V), by name.
+    kept : int
+        The first ``kept`` probes are the caller's (the rest the run watched for itself).
+    """
+
+    result: SimulationResult
+    circuit: Circuit
+    fits: list
+    sized: dict
+    drives: dict
+    kept: int
+
+
+def pwl_run(circuit: Circuit, probes: Sequence[str] | None = None, pwl: dict | None = None,
+            **kw) -> PwlRun:
+    """The run ``pelcs simulate --devices pwl`` makes (:func:`simulate_devices` with
+    ``devices="pwl"``), and the circuit it built: an ideal run sizes each device's fit, the
+    pwl run is made once more where it takes a diode past its breakdown voltage or well
+    below its fit's currents. ``pelcs check`` compares this run.
+
+    Parameters
+    ----------
+    circuit : Circuit
+    probes : sequence of str, optional
+        The result's probes (default every state).
+    pwl : mapping, optional
+        ``{element or model name: (vf, ron)}`` (V, Ω) given instead of the fit.
+    **kw
+        The other arguments of :func:`~netlist.studies.transient.simulate_circuit`.
+    """
+    run = _devices_run(circuit, "pwl", list(probes) if probes is not None else None, [],
+                       pwl, kw)
+    return replace(run, result=_keep(run.result, run.kept))
+
+
+def _keep(res: SimulationResult, k: int) -> SimulationResult:
+    """The run with its first ``k`` probes only (the others it watched for itself)."""
+    if len(res.names) > k:
+        res.names, res.y = tuple(res.names[:k]), res.y[:, :k]
+    return res
+
+
+def _devices_run(circuit: Circuit, devices: str, want: list[str] | None, extra: list[str],
+                 pwl: dict | None, kw: dict) -> PwlRun:
+    """The run of :func:`simulate_devices` (``extra``: the losses' probes, after ``want``),
+    with every probe it watched; ``kept``: how many are ``want``."""
     fits: list = []
+    charge_lines: list[str] = []
     run_circuit = circuit
     sizing_note = None
+    i_max: dict[str, float] = {}
+    drives: dict[str, float] = {}
+    split_lines: list[str] = []
     bds = breakdowns(circuit) if devices == "pwl" else {}
     broken: set[str] = set()
     if devices == "pwl":
@@ -66,6 +153,8 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         pre += [f"v({a})" if b == GROUND else f"v({a},{b})" for a, b in
                 (sw.control for sw in sws)]
         pre += [bd.probe for bd in bds.values()]
+        pre += [_voltage_probe(el) for el in circuit.elements
+                if isinstance(el, Diode) and not el.ideal and el.key not in merged]
         # (its knees unchecked: it sizes the fits, the pwl run below is the answer)
         try:
             ideal = _sizing_run(circuit, list(dict.fromkeys(pre)), kw)
@@ -90,27 +179,30 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
                  for el in circuit.elements
                  if (isinstance(el, Diode) and el.key not in merged)
                  or (isinstance(el, Switch) and not el.built_for)}
-        drives = {}
         for sw in sws:
             a, b = sw.control
             drives[sw.name] = float(np.max(ideal[f"v({a})" if b == GROUND
                                                   else f"v({a},{b})"]))
-        run_circuit, fits = fitted_circuit(circuit, i_max, drives, pwl, **kw)
+        # the depletion charge of each diode, over the voltages the ideal run puts across it
+        swings = {el.name: (float(np.min(ideal[_voltage_probe(el)], initial=0.0)),
+                            float(np.max(ideal[_voltage_probe(el)], initial=0.0)))
+                  for el in circuit.elements
+                  if isinstance(el, Diode) and not el.ideal and el.key not in merged}
+        charges, charge_lines = junction_charges(circuit, swings, merged)
+        run_circuit, fits = fitted_circuit(circuit, i_max, drives, pwl, charged=charges, **kw)
+        split_lines: list[str] = []
+        run_circuit = with_junction_charge(circuit, run_circuit, fits, charges, split_lines)
+        kw, theta_line = _junction_theta(run_circuit, charges, kw)
+        if theta_line:
+            charge_lines.append(theta_line)
         # the diodes the ideal run takes past their breakdown voltage (netlist.breakdown)
         broken = {name for name, bd in bds.items()
                   if float(np.max(ideal[bd.probe], initial=0.0)) > bd.bv}
     fitted = run_circuit
-    want = list(probes) if probes is not None else None
-    extra = loss_probes(circuit) if losses else []
     if want is None:
         from ..formulation import formulate as _formulate
 
         want = list(_formulate(run_circuit).states)
-    elif extra:
-        # (the user's probes checked as they are: the losses' own may take the currents of
-        # sources without the charging current of a capacitor across them, which the losses
-        # add as its power)
-        check_probes(circuit, want)
     # Once more if the pwl run takes another diode past its BV (a second time is an error),
     # and, in the first two runs, once more if it takes a broken-down diode well outside the
     # current its branch was fitted over, or a diode well below the currents of its fit
@@ -127,8 +219,12 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
         watch += [f"i({name}#bv)" for name in sorted(broken)]
         watch += [f"i({name})" for name in watched]
         watch += [_voltage_probe(circuit.element(name)) for name in watched]
-        res = simulate_circuit(run_circuit, probes=list(dict.fromkeys(want + extra + watch)),
-                               path_currents=bool(extra), **kw)
+        # (its warnings held: only the run that is the answer reports, once, below)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            res = simulate_circuit(run_circuit,
+                                   probes=list(dict.fromkeys(want + extra + watch)),
+                                   path_currents=bool(extra), **kw)
         more = {name for name, bd in bds.items() if name not in broken
                 and float(np.max(res[bd.probe], initial=0.0)) > bd.bv}
         if more:
@@ -153,7 +249,11 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
                        f"{cur:.3g} A (its fit was over {_fit_top(i_max[name]) / 20:.3g}.."
                        f"{_fit_top(i_max[name]):.3g} A)" for name, cur in moved.items()]
             i_max.update(moved)
-            fitted, fits = fitted_circuit(circuit, i_max, drives, pwl, **kw)
+            fitted, fits = fitted_circuit(circuit, i_max, drives, pwl, charged=charges, **kw)
+            split_lines = []
+            fitted = with_junction_charge(circuit, fitted, fits, charges, split_lines)
+    for w in {(w.category, str(w.message)): w for w in caught}.values():
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, source=w.source)
     res.device_fits = fits
     miller = _miller_note(circuit, res)
     if miller:
@@ -164,19 +264,11 @@ def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool =
     if temperature:
         res.notes.append(temperature)
     res.notes.extend(refits)
+    if devices == "pwl":
+        res.notes.extend(f"pwl: {line}" for line in charge_lines + split_lines)
     if devices == "pwl" and sizing_note:
         res.notes.append(sizing_note)
-    if losses:
-        res.losses = loss_report(res, circuit, fits, load)
-        if not res.losses.settled:
-            a, b = res.losses.window
-            res.notes.append(f"losses: the window {a:.6g}..{b:.6g} s is not a steady state "
-                             f"({res.losses.settling_text()}): the efficiency is that of the "
-                             "transient, not of the converter")
-    if extra or watch:  # the losses' and breakdowns' probes are not the user's: after them
-        k = len(dict.fromkeys(want))
-        res.names, res.y = tuple(res.names[:k]), res.y[:, :k]
-    return res
+    return PwlRun(res, run_circuit, fits, dict(i_max), drives, len(dict.fromkeys(want)))
 
 
 def _sizing_run(circuit: Circuit, probes: list[str], kw: dict) -> SimulationResult:
@@ -273,6 +365,31 @@ def _temperature_note(circuit: Circuit, diodes: Sequence[str]) -> str:
             "compare)")
 
 
+def _junction_theta(run_circuit: Circuit, charges: dict, kw: dict) -> tuple[dict, str]:
+    """The run's arguments with θ = 1 where the junction capacitors' fastest mode
+    (:func:`netlist.junction_charge.fastest_junction_mode`) is not resolved by the step
+    (``|h μ| > 1``) and no θ is given, and a note ("" when nothing changes)."""
+    if not charges or kw.get("method", "moreau") != "moreau":
+        return kw, ""
+    from .transient import transient_setup
+
+    with passivity_unreported():  # (the run reports the circuit's passivity, once)
+        setup = transient_setup(run_circuit, tstop=kw.get("tstop"), step=kw.get("step"))
+    mu = fastest_junction_mode(setup.system, setup.energy, list(charges))
+    if mu is None or abs(mu) * setup.h <= 1.0:
+        return kw, ""
+    what = (f"the junction capacitances add a mode at |μ| = {abs(mu):.3g} 1/s (Re μ = "
+            f"{mu.real:.3g} 1/s) that the step h = {setup.h:.3g} s does not resolve (|h μ| = "
+            f"{abs(mu) * setup.h:.3g})")
+    if kw.get("theta") is not None:
+        if float(kw["theta"]) >= 1.0:
+            return kw, ""
+        return kw, f"{what}: θ = {kw['theta']:g} as given, which integrates it unresolved"
+    return {**kw, "theta": 1.0}, (f"{what}: the run uses θ = 1 (backward Euler, first order), "
+                                  "which damps it unresolved; θ = 1/2 would keep it ringing "
+                                  "or alternating from step to step")
+
+
 def _fit_top(i_max: float) -> float:
     """The top of the current range a diode's fit covers (A): its carried current, or the
     1 mA a diode that carries none is fitted at (:func:`netlist.pwl.segment_fit`)."""
@@ -331,13 +448,15 @@ SEGMENT_STEP_MARGIN = 1e4
 
 
 def fitted_circuit(circuit: Circuit, i_max: dict, drives: dict, pwl: dict | None = None,
-                   **kw) -> tuple[Circuit, list]:
+                   charged: Collection[str] = (), **kw) -> tuple[Circuit, list]:
     """:func:`netlist.pwl.pwl_circuit`, with one segment for the diodes whose segments would
     cost the run's θ accuracy (see :func:`_segments_theta_allows`).
 
+    ``charged``: the diodes whose depletion charge the run models (their fit lines say so).
     ``kw``: the run's ``theta``, ``method``, ``tstop`` and ``step`` (others ignored)."""
-    run_circuit, fits = pwl_circuit(circuit, i_max, drives, pwl)
-    return _segments_theta_allows(circuit, run_circuit, fits, i_max, drives, pwl, kw)
+    run_circuit, fits = pwl_circuit(circuit, i_max, drives, pwl, charged=charged)
+    return _segments_theta_allows(circuit, run_circuit, fits, i_max, drives, pwl, kw,
+                                  charged)
 
 
 def _theta_pairs(run_circuit: Circuit, kw: dict, margin: float = 1.0) -> set[str] | None:
@@ -351,14 +470,15 @@ def _theta_pairs(run_circuit: Circuit, kw: dict, margin: float = 1.0) -> set[str
         return None
     from lcs.integrators.moreau.theta_screen import screen_theta
 
-    setup = transient_setup(run_circuit, tstop=kw.get("tstop"), step=kw.get("step"))
+    with passivity_unreported():  # (not the circuit simulated: the junction charge is not in)
+        setup = transient_setup(run_circuit, tstop=kw.get("tstop"), step=kw.get("step"))
     risks = screen_theta(setup.system, margin * setup.h, theta, energy=setup.energy)
     return {p for r in risks for p in r.pairs} | ({"?"} if risks else set())
 
 
 def _segments_theta_allows(circuit: Circuit, run_circuit: Circuit, fits: list,
-                           i_max: dict, drives: dict, pwl: dict | None, kw: dict
-                           ) -> tuple[Circuit, list]:
+                           i_max: dict, drives: dict, pwl: dict | None, kw: dict,
+                           charged: Collection[str] = ()) -> tuple[Circuit, list]:
     """The piecewise-linear circuit with one segment for the diodes whose segments would
     make θ = 1/2 less accurate (:func:`netlist.studies.transient.choose_theta`).
 
@@ -380,11 +500,12 @@ def _segments_theta_allows(circuit: Circuit, run_circuit: Circuit, fits: list,
     single = flagged(_theta_pairs(run_circuit, kw, SEGMENT_STEP_MARGIN))
     if not single:
         return run_circuit, fits
-    one, one_fits = pwl_circuit(circuit, i_max, drives, pwl, set(segmented.values()))
+    one, one_fits = pwl_circuit(circuit, i_max, drives, pwl, set(segmented.values()),
+                                charged=charged)
     if _theta_pairs(one, kw):
         return run_circuit, fits
     for _ in range(len(segmented)):  # each round keeps at least one more at one segment
-        run_circuit, fits = pwl_circuit(circuit, i_max, drives, pwl, single)
+        run_circuit, fits = pwl_circuit(circuit, i_max, drives, pwl, single, charged=charged)
         more = flagged(_theta_pairs(run_circuit, kw, SEGMENT_STEP_MARGIN)) - single
         if not more:
             break
