@@ -16,7 +16,7 @@ from ..breakdown import breakdown_elements, breakdowns
 from ..circuit import GROUND, Circuit, Diode, Switch
 from ..errors import Diagnostic, NetlistError
 from ..junction_charge import fastest_junction_mode, junction_charges, with_junction_charge
-from ..pwl import _junction_models, carried_current, diode_params, model_current, pwl_circuit
+from ..pwl import carried_current, diode_params, junction_models, model_current, pwl_circuit
 from ..reductions import parallel_diodes
 from ..units import parse_number
 from .losses import loss_probes
@@ -349,7 +349,7 @@ def _temperature_note(circuit: Circuit, diodes: Sequence[str]) -> str:
     merged = parallel_diodes(circuit)
     tnoms = {}
     for name in diodes:
-        models, _ = _junction_models(circuit, circuit.element(name), merged)
+        models, _ = junction_models(circuit, circuit.element(name), merged)
         for params, _ in models:
             given = {str(k).lower(): v for k, v in params.items()}.get("tnom",
                                                                        options.get("tnom"))
