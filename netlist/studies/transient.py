@@ -56,6 +56,7 @@ from ..reductions import held_capacitors, held_note, held_probe, open_inductors,
 from ..steps import step_note
 from ..suggest import did_you_mean
 from ..system_cache import kept_with
+from .finer_step import finer_on_chattering
 from .growth import GrowthWatch, state_growth
 from .start import initial_state, start_state
 from .timestep import (
@@ -560,10 +561,20 @@ def simulate_circuit(
     if controllers:  # what they measure too: a current pelcs does not compute is refused
         check_probes(circuit, measured_probes(controllers))
     setup = transient_setup(circuit, tstop=tstop, step=step, system=system, strict=strict)
-    return run_setup(setup, theta=theta, probes=probes, every=every, progress=progress,
-                     options=options, switching=switching, controllers=controllers,
-                     save_at=save_at, method=method, output_step=output_step, knees=knees,
-                     keep_events=keep_events)
+
+    def run(finer: float | None) -> SimulationResult:
+        s = setup
+        if finer is not None:
+            with passivity_unreported():  # (reported by the first set-up)
+                s = transient_setup(circuit, tstop=tstop, step=finer, system=setup.system)
+        return run_setup(s, theta=theta, probes=probes, every=every, progress=progress,
+                         options=options, switching=switching, controllers=controllers,
+                         save_at=save_at, method=method, output_step=output_step,
+                         knees=knees, keep_events=keep_events)
+
+    if step is not None or method != "moreau":
+        return run(None)
+    return finer_on_chattering(run, setup.h, setup.t_stop)
 
 
 def run_setup(
