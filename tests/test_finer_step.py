@@ -43,12 +43,14 @@ def test_the_result_is_the_finer_of_two_runs_that_agree():
     assert "the runs at 0.01 s and 0.001 s agree" in res.notes[0]
 
 
-def test_runs_that_never_agree_within_the_budget_say_not_converged():
+def test_runs_that_never_agree_within_the_budget_leave_the_error_and_say_not_converged():
     def run(step):
         return _run(1.0, chatter=True) if step is None else _run(1.0 / step)
 
     res = finer_on_chattering(run, 1.0, 1000.0)  # the budget allows 1e-3 s steps at most
     assert "NOT CONVERGED" in res.notes[0] and "0.1 s, 0.01 s, 0.001 s" in res.notes[0]
+    # no answer established: the first run, stopped by its error (the command exits 1)
+    assert res.error is not None and res.error.kind == "chattering"
     assert AGREEMENT < 0.05
 
 
