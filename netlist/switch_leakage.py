@@ -73,7 +73,7 @@ def _dc_floating(circuit: Circuit, sw: Switch) -> str | None:
     if ends[0] == ends[1]:  # (a path beside the switch: ROFF only parallels it)
         return None
     ground = root(GROUND)
-    return next((n for n, e in zip(sw.nodes[:2], ends) if e != ground), None)
+    return next((n for n, e in zip(sw.nodes[:2], ends, strict=True) if e != ground), None)
 
 
 def model_off_resistances(circuit: Circuit) -> Circuit:
