@@ -121,3 +121,21 @@ def test_roff_as_a_capacitor_s_only_dc_path_is_modelled(tmp_path, ngspice):
     got = np.interp(t, np.asarray(res.t), np.asarray(res["v(c)"]))
     assert want[-1] == pytest.approx(5 * np.exp(-4), rel=0.05)
     assert np.max(np.abs(got - want)) < 0.02
+
+
+def test_check_runs_the_hold_as_simulate_pwl_does(tmp_path, ngspice, capsys):
+    """pelcs check --devices pwl on the sample-and-hold: its ideal switch closes a loop with
+    the source and the capacitor, which pelcs simulate --devices pwl sizes from a run at RON;
+    the check stopped at that loop (advising --devices pwl). (RON = 10 kΩ and a 1 µs step:
+    the check runs both from UIC, and a charge through RON = 10 Ω in 10 ns is a mode the
+    step would not resolve.)"""
+    from pelcs.cli import main
+
+    deck = tmp_path / "hold.cir"
+    deck.write_text(HOLD.replace("RON=10 ", "RON=10k ").replace(".tran 10u", ".tran 1u"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rc = main(["check", str(deck), "--devices", "pwl", "--probe", "v(c)"])
+    out = capsys.readouterr().out
+    assert rc == 0, out
+    assert "within tolerance" in out.splitlines()[-1]

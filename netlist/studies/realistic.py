@@ -23,7 +23,7 @@ from .losses import loss_probes
 from .losses import losses as loss_report
 from .transient import check_probes, passivity_unreported, simulate_circuit
 
-__all__ = ["PwlRun", "fitted_circuit", "pwl_run", "simulate_devices"]
+__all__ = ["PwlRun", "fitted_circuit", "pwl_run", "simulate_devices", "switch_loop"]
 
 
 def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool = False,
@@ -159,7 +159,7 @@ def _devices_run(circuit: Circuit, devices: str, want: list[str] | None, extra: 
         try:
             ideal = _sizing_run(circuit, list(dict.fromkeys(pre)), kw)
         except NetlistError as exc:
-            if not _switch_loop(exc, sws):
+            if not switch_loop(exc, sws):
                 raise
             # an ideal switch closes a loop with capacitors and voltage sources, which the
             # switches' own resistances break: the fits are sized from a run with them (and
@@ -431,7 +431,7 @@ def _refitted(res: SimulationResult, circuit: Circuit, diodes: Sequence[str],
     return out
 
 
-def _switch_loop(exc: NetlistError, switches: Sequence[Switch]) -> bool:
+def switch_loop(exc: NetlistError, switches: Sequence[Switch]) -> bool:
     """Whether ``exc`` refuses a loop of capacitors and voltage sources that closed ideal
     switches of ``switches`` close (:func:`netlist.degenerate.check_topology`)."""
     names = {sw.name for sw in switches}
