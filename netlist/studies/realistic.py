@@ -13,7 +13,7 @@ import numpy as np
 from lcs.results import SimulationResult
 
 from ..breakdown import breakdown_elements, breakdowns
-from ..circuit import GROUND, Capacitor, Circuit, Diode, Switch
+from ..circuit import GROUND, Capacitor, Circuit, Diode, Switch, VoltageSource
 from ..errors import Diagnostic, NetlistError
 from ..junction_charge import fastest_junction_mode, junction_charges, with_junction_charge
 from ..pwl import carried_current, diode_params, junction_models, model_current, pwl_circuit
@@ -166,9 +166,7 @@ def _devices_run(circuit: Circuit, devices: str, want: list[str] | None, extra: 
             # switches' own resistances break: the fits are sized from a run with them (and
             # the diodes at their 1 mA fit) instead
             sized, _ = pwl_circuit(circuit, {}, {}, pwl)
-            caps = {el.key: el.name for el in circuit.elements if isinstance(el, Capacitor)}
-            loop_caps = [caps[n.lower()] for d in exc.diagnostics for n in d.elements
-                         if n.lower() in caps]
+            loop_caps = _driven_loop_caps(circuit, exc)
             ideal = _sizing_run(sized, list(dict.fromkeys(pre)), kw)
             if any(isinstance(el, Diode) for el in circuit.elements):
                 sizing_note = (
@@ -443,6 +441,26 @@ def _refitted(res: SimulationResult, circuit: Circuit, diodes: Sequence[str],
         if 1e-9 < carried < top / 20:
             out[name] = carried
     return out
+
+
+def _driven_loop_caps(circuit: Circuit, exc: NetlistError) -> list[str]:
+    """The capacitors of the loops ``exc`` refuses (closed by ideal switches), if every
+    switch of those loops is driven by a voltage source across its control: their RON C
+    mode is then a settling the source's timing starts, which θ = 1 may damp unresolved;
+    where a switch's control is the circuit's own voltage (an inverter ring), the mode is
+    its timing, which an unresolved step gets wrong whatever θ ([] then)."""
+    by_key = {el.key: el for el in circuit.elements}
+    sources = {frozenset(el.nodes[:2]) for el in circuit.elements
+               if isinstance(el, VoltageSource)}
+    caps: list[str] = []
+    for d in exc.diagnostics:
+        for name in d.elements:
+            el = by_key.get(name.lower())
+            if isinstance(el, Switch) and frozenset(el.control) not in sources:
+                return []
+            if isinstance(el, Capacitor):
+                caps.append(el.name)
+    return caps
 
 
 def switch_loop(exc: NetlistError, switches: Sequence[Switch]) -> bool:
