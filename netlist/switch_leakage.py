@@ -76,28 +76,12 @@ def _dc_floating(circuit: Circuit, sw: Switch) -> str | None:
     return next((n for n, e in zip(sw.nodes[:2], ends, strict=True) if e != ground), None)
 
 
-def _dc_reach(nodes, shorts: dict[str, list[str]]) -> set[str]:
-    """``nodes`` and the nodes inductors and voltage sources join them to (ground aside,
-    and not through it): where a resistor sits at the switch for direct current (an off
-    switch, an inductor, a load: the load's resistance is what ROFF divides against)."""
-    seen: set[str] = set()
-    todo = [n for n in nodes if n != GROUND]
-    while todo:
-        n = todo.pop()
-        if n in seen:
-            continue
-        seen.add(n)
-        todo.extend(m for m in shorts.get(n, ()) if m != GROUND and m not in seen)
-    return seen
-
-
 def model_off_resistances(circuit: Circuit) -> Circuit:
     """The circuit with a resistor ROFF across each switch whose ROFF is within
     :data:`LEAKAGE_RATIO` times the largest resistance at its terminals other than ground
-    (Ω; or at the nodes inductors and voltage sources join them to), or that is a terminal's
-    only path for direct current, and a note for each; the circuit itself if there is none.
-    Transistors idealised as switches have no ROFF (their off state is the device's, left
-    out)."""
+    (Ω), or that is a terminal's only path for direct current, and a note for each; the
+    circuit itself if there is none. Transistors idealised as
+    switches have no ROFF (their off state is the device's, left out)."""
     # the resistors at each node (pelcs's own, built for other lines, left out)
     at: dict[str, list[float]] = {}
     for el in circuit.elements:
@@ -105,20 +89,13 @@ def model_off_resistances(circuit: Circuit) -> Circuit:
                 and el.value > 0:
             for node in el.nodes[:2]:
                 at.setdefault(node, []).append(float(el.value))
-    # the nodes inductors and voltage sources join for direct current
-    shorts: dict[str, list[str]] = {}
-    for el in circuit.elements:
-        if isinstance(el, (Inductor, VoltageSource)):
-            a, b = el.nodes[:2]
-            shorts.setdefault(a, []).append(b)
-            shorts.setdefault(b, []).append(a)
     leaky = []
     for el in circuit.elements:
         if not isinstance(el, Switch) or el.device is not None or el.built_for:
             continue
         model = circuit.models.get(el.model.lower())
         roff = float(model.params.get("roff", math.inf)) if model is not None else math.inf
-        near = [r for node in _dc_reach(el.nodes[:2], shorts) for r in at.get(node, ())]
+        near = [r for node in el.nodes[:2] if node != GROUND for r in at.get(node, ())]
         if not (math.isfinite(roff) and roff > 0):
             continue
         if near and roff < LEAKAGE_RATIO * max(near):

@@ -157,27 +157,3 @@ def test_a_hold_charged_through_ron_from_uic_follows_ngspice(tmp_path, ngspice):
     got = np.interp(t, np.asarray(res.t), np.asarray(res["v(c)"]))
     # (backward Euler at h = 1 % of the 1 ms decay: within 0.05 V of 5 V)
     assert np.max(np.abs(got - want)) < 0.05
-
-
-def test_a_load_behind_an_inductor_counts_as_at_the_terminal(tmp_path, ngspice):
-    """An off switch, then an inductor, then a 10k load: ROFF = 1 MΩ divides 10 V to 99 mV
-    on the load in ngspice, as if the load sat at the switch (the inductor is a short for
-    direct current); the rule looked at the switch's own nodes only and left it open (0 V)."""
-    deck = """switch through an inductor to its load
-V1 in 0 DC 10
-Vc ctl 0 DC 0
-S1 in a ctl 0 SMOD
-L1 a o 1m
-R1 o 0 10k
-.model SMOD SW(VT=0.5 VH=0 RON=1 ROFF=1MEG)
-.tran 1u 1m
-.end
-"""
-    c = _parse(deck)
-    assert [el.name for el in c.elements if isinstance(el, Resistor) and el.built_for] \
-        == ["RS1_off"]
-    res = simulate_circuit(c, probes=["v(o)"])
-    ng, log = ngspice_run(deck, ["v(o)"], tmp_path)
-    assert ng is not None, log
-    assert ng[-1, 1] == pytest.approx(10 * 10e3 / 1.01e6, rel=1e-3)
-    assert float(np.asarray(res["v(o)"])[-1]) == pytest.approx(ng[-1, 1], rel=1e-3)
