@@ -28,6 +28,7 @@ from dataclasses import replace
 from .circuit import (
     GROUND,
     BuiltGroup,
+    Capacitor,
     Ccvs,
     Circuit,
     Inductor,
@@ -48,11 +49,14 @@ LEAKAGE_RATIO = 1e3
 OFF_RESISTANCE = "switch off resistance"
 
 
-def _dc_floating(circuit: Circuit, sw: Switch) -> str | None:
+def _dc_floating(circuit: Circuit, sw: Switch, roff: float) -> str | None:
     """A terminal of ``sw`` (a node name) that has no path for direct current to ground but
     through ``sw``: through resistors, inductors, voltage sources, E and H sources and the
     other switches (taken as conducting, on or through their own leakage); None if both
-    have one, or if a path beside ``sw`` joins its terminals (a part floating as a whole)."""
+    have one, or if a path beside ``sw`` joins its terminals (a part floating as a whole),
+    or if ``roff`` (Ω) times the capacitance of that terminal's part exceeds
+    :data:`LEAKAGE_RATIO` times the run's TSTOP (it moves the part's voltage by less than
+    0.1 % over the run; the operating point still sets it through ROFF, as ngspice's)."""
     parent: dict[str, str] = {}
 
     def root(n: str) -> str:
@@ -73,7 +77,15 @@ def _dc_floating(circuit: Circuit, sw: Switch) -> str | None:
     if ends[0] == ends[1]:  # (a path beside the switch: ROFF only parallels it)
         return None
     ground = root(GROUND)
-    return next((n for n, e in zip(sw.nodes[:2], ends, strict=True) if e != ground), None)
+    node = next((n for n, e in zip(sw.nodes[:2], ends, strict=True) if e != ground), None)
+    if node is None or circuit.tran is None:
+        return None
+    part = root(node)
+    cap = sum(float(el.value) for el in circuit.elements if isinstance(el, Capacitor)
+              and part in (root(el.nodes[0]), root(el.nodes[1])) and math.isfinite(el.value))
+    # (no capacitance: no charge for ROFF to move, the part's potential only, which
+    # netlist.free_potential reports)
+    return node if 0 < roff * cap <= LEAKAGE_RATIO * circuit.tran.tstop else None
 
 
 def model_off_resistances(circuit: Circuit) -> Circuit:
@@ -100,7 +112,7 @@ def model_off_resistances(circuit: Circuit) -> Circuit:
             continue
         if near and roff < LEAKAGE_RATIO * max(near):
             leaky.append((el, roff, max(near), None))
-        elif (node := _dc_floating(circuit, el)) is not None:
+        elif (node := _dc_floating(circuit, el, roff)) is not None:
             leaky.append((el, roff, None, node))
     if not leaky:
         return circuit
