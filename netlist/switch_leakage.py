@@ -16,7 +16,9 @@ A resistance R beside a switch of ROFF at least LEAKAGE_RATIO R moves the voltag
 than R / ROFF, 0.1 %, below what the ideal devices themselves change: such switches stay
 open. A terminal with no path for direct current to ground but through the switch itself
 (a hold capacitor, a switched capacitor) has its voltage set by ROFF alone when the switch is
-off, whatever the resistances elsewhere: ROFF is modelled there too. ngspice is given the
+off, whatever the resistances elsewhere: ROFF is modelled there too, where ROFF times the
+part's capacitance is within LEAKAGE_RATIO times the run (a slower decay moves it by less
+than 0.1 % over the run). ngspice is given the
 switch line alone (its own ROFF), not the resistor.
 """
 
