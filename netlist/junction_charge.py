@@ -181,13 +181,14 @@ def _of(e, name: str) -> bool:
     return e.name == name or e.name.startswith(f"{name}#")
 
 
-def fastest_junction_mode(system, energy: np.ndarray, names: Sequence[str]
-                          ) -> complex | None:
+def fastest_junction_mode(system, energy: np.ndarray, names: Sequence[str],
+                          states: Sequence[str] = ()) -> complex | None:
     """The eigenvalue (1/s) of largest modulus, over the switch modes' state matrices (every
     diode at λ = 0, blocking: where the junction capacitors act), among the modes whose
     energy (``½ x' E x``, ``energy`` = E) lies half or more in the junction capacitors
-    ``<name>#cj`` of ``names``; None if none. ``system``: a ``lcs.model.SwitchedLCS``."""
-    want = {f"v({n.lower()}#cj)" for n in names}
+    ``<name>#cj`` of ``names`` and the ``states`` named (``v(C1)``); None if none.
+    ``system``: a ``lcs.model.SwitchedLCS``."""
+    want = {f"v({n.lower()}#cj)" for n in names} | {s.lower() for s in states}
     idx = [i for i, s in enumerate(system.states) if s.lower() in want]
     if not idx:
         return None

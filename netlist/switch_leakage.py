@@ -14,7 +14,12 @@ group: off, the two ends are joined by ROFF as in ngspice; on, the ideal switch 
 the manual's CSW, RON = 1 kΩ and ROFF = 10 kΩ, is 9 % low when on).
 A resistance R beside a switch of ROFF at least LEAKAGE_RATIO R moves the voltages by less
 than R / ROFF, 0.1 %, below what the ideal devices themselves change: such switches stay
-open. ngspice is given the switch line alone (its own ROFF), not the resistor.
+open. A terminal with no path for direct current to ground but through the switch itself
+(a hold capacitor, a switched capacitor) has its voltage set by ROFF alone when the switch is
+off, whatever the resistances elsewhere: ROFF is modelled there too, where ROFF times the
+part's capacitance is within LEAKAGE_RATIO times the run (a slower decay moves it by less
+than 0.1 % over the run). ngspice is given the
+switch line alone (its own ROFF), not the resistor.
 """
 
 from __future__ import annotations
@@ -22,7 +27,19 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from .circuit import GROUND, BuiltGroup, Circuit, Resistor, Switch, unique_name
+from .circuit import (
+    GROUND,
+    BuiltGroup,
+    Capacitor,
+    Ccvs,
+    Circuit,
+    Inductor,
+    Resistor,
+    Switch,
+    Vcvs,
+    VoltageSource,
+    unique_name,
+)
 from .units import format_eng
 
 __all__ = ["LEAKAGE_RATIO", "OFF_RESISTANCE", "model_off_resistances"]
@@ -34,10 +51,50 @@ LEAKAGE_RATIO = 1e3
 OFF_RESISTANCE = "switch off resistance"
 
 
+def _dc_floating(circuit: Circuit, sw: Switch, roff: float) -> str | None:
+    """A terminal of ``sw`` (a node name) that has no path for direct current to ground but
+    through ``sw``: through resistors, inductors, voltage sources, E and H sources and the
+    other switches (taken as conducting, on or through their own leakage); None if both
+    have one, or if a path beside ``sw`` joins its terminals (a part floating as a whole),
+    or if ``roff`` (Ω) times the capacitance of that terminal's part exceeds
+    :data:`LEAKAGE_RATIO` times the run's TSTOP (it moves the part's voltage by less than
+    0.1 % over the run; the operating point still sets it through ROFF, as ngspice's)."""
+    parent: dict[str, str] = {}
+
+    def root(n: str) -> str:
+        while parent.get(n, n) != n:
+            n = parent[n]
+        return n
+
+    for el in circuit.elements:
+        if el is sw or not isinstance(
+                el, (Resistor, Inductor, VoltageSource, Vcvs, Ccvs, Switch)):
+            continue
+        if isinstance(el, Resistor) and not (math.isfinite(el.value) and el.value > 0):
+            continue
+        a, b = root(el.nodes[0]), root(el.nodes[1])
+        if a != b:
+            parent[a] = b
+    ends = [root(n) for n in sw.nodes[:2]]
+    if ends[0] == ends[1]:  # (a path beside the switch: ROFF only parallels it)
+        return None
+    ground = root(GROUND)
+    node = next((n for n, e in zip(sw.nodes[:2], ends, strict=True) if e != ground), None)
+    if node is None or circuit.tran is None:
+        return None
+    part = root(node)
+    cap = sum(float(el.value) for el in circuit.elements if isinstance(el, Capacitor)
+              and part in (root(el.nodes[0]), root(el.nodes[1])) and math.isfinite(el.value))
+    # (no capacitance: no charge for ROFF to move, the part's potential only, which
+    # netlist.free_potential reports)
+    return node if 0 < roff * cap <= LEAKAGE_RATIO * circuit.tran.tstop else None
+
+
 def model_off_resistances(circuit: Circuit) -> Circuit:
     """The circuit with a resistor ROFF across each switch whose ROFF is within
     :data:`LEAKAGE_RATIO` times the largest resistance at its terminals other than ground
-    (Ω), and a note for each; the circuit itself if there is none. Transistors idealised as
+    (Ω), or that is a terminal's only path for direct current, and a note for each; the
+    circuit itself if there is none. Transistors idealised as
     switches have no ROFF (their off state is the device's, left out)."""
     # the resistors at each node (pelcs's own, built for other lines, left out)
     at: dict[str, list[float]] = {}
@@ -53,25 +110,30 @@ def model_off_resistances(circuit: Circuit) -> Circuit:
         model = circuit.models.get(el.model.lower())
         roff = float(model.params.get("roff", math.inf)) if model is not None else math.inf
         near = [r for node in el.nodes[:2] if node != GROUND for r in at.get(node, ())]
-        if math.isfinite(roff) and roff > 0 and near and roff < LEAKAGE_RATIO * max(near):
-            leaky.append((el, roff, max(near)))
+        if not (math.isfinite(roff) and roff > 0):
+            continue
+        if near and roff < LEAKAGE_RATIO * max(near):
+            leaky.append((el, roff, max(near), None))
+        elif (node := _dc_floating(circuit, el, roff)) is not None:
+            leaky.append((el, roff, None, node))
     if not leaky:
         return circuit
     used = {e.key for e in circuit.elements}
     elements, notes = list(circuit.elements), list(circuit.notes)
     # (a new circuit: the one given may be a parse cached for reuse)
     out = replace(circuit, built_groups=dict(circuit.built_groups))
-    for sw, roff, r_max in leaky:
+    for sw, roff, r_max, floating in leaky:
         r = Resistor(unique_name(f"R{sw.name}_off", used), tuple(sw.nodes[:2]),
                      location=sw.location, value=roff)
         elements.insert(elements.index(sw) + 1, r)
         # (a comment in ngspice's deck: the switch line itself carries its ROFF there)
         out.add_built_group(BuiltGroup(
             r.name, OFF_RESISTANCE, f"* {r.name}: {sw.name}'s ROFF, in its own line"), [r])
+        why = (f"is within {LEAKAGE_RATIO:g} times the resistances at its terminals (up to "
+               f"{format_eng(r_max, 'Ω')})" if floating is None else
+               f"is node {floating}'s only path for direct current when the switch is off")
         notes.append(
-            f"{sw.name}: its off resistance ROFF = {format_eng(roff, 'Ω')} is within "
-            f"{LEAKAGE_RATIO:g} times the resistances at its terminals (up to "
-            f"{format_eng(r_max, 'Ω')}), so its leakage when off matters: modelled as a "
-            f"resistor {r.name} across it (ngspice's switch conducts 1/ROFF when off, pelcs's "
-            "is open)")
+            f"{sw.name}: its off resistance ROFF = {format_eng(roff, 'Ω')} {why}, so its "
+            f"leakage when off matters: modelled as a resistor {r.name} across it (ngspice's "
+            "switch conducts 1/ROFF when off, pelcs's is open)")
     return replace(out, elements=elements, notes=notes)

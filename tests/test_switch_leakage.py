@@ -11,6 +11,7 @@ from ngspice_helpers import ngspice_run
 
 from netlist.circuit import Resistor
 from netlist.parser import parse_string
+from netlist.studies.realistic import simulate_devices
 from netlist.studies.transient import simulate_circuit
 from netlist.writer import write_circuit
 
@@ -89,3 +90,70 @@ R1 out 0 5
 """)
     assert not any(isinstance(el, Resistor) and el.built_for for el in c.elements)
     assert not any("ROFF" in n for n in c.notes)
+
+
+# a sample-and-hold: the open switch is the hold capacitor's only path for direct current,
+# so its ROFF (1 MΩ, with 1 nF a time constant of 1 ms) discharges the held 5 V towards the
+# input's 0 V, no resistor anywhere at the switch's terminals
+HOLD = """sample and hold
+V1 in 0 PULSE(5 0 1m 1u 1u 100m 200m)
+Vc ctl 0 PULSE(1 0 0.5m 1n 1n 100m 200m)
+S1 in c ctl 0 SMOD
+C1 c 0 1n
+.model SMOD SW(VT=0.5 VH=0 RON=10 ROFF=1MEG)
+.tran 10u 5m
+.end
+"""
+
+
+def test_roff_as_a_capacitor_s_only_dc_path_is_modelled(tmp_path, ngspice):
+    """v(c) after the hold: ngspice's decays as exp(-(t - 1 ms) / 1 ms) (0.092 V at 5 ms);
+    an open switch held 5 V."""
+    c = _parse(HOLD)
+    assert [el.name for el in c.elements if isinstance(el, Resistor) and el.built_for] \
+        == ["RS1_off"]
+    assert any("RS1_off" in n and "direct current" in n for n in c.notes)
+    res = simulate_devices(c, devices="pwl", probes=["v(c)"])
+    ng, log = ngspice_run(HOLD, ["v(c)"], tmp_path)
+    assert ng is not None, log
+    t = np.linspace(1.5e-3, 5e-3, 351)
+    want = np.interp(t, ng[:, 0], ng[:, 1])
+    got = np.interp(t, np.asarray(res.t), np.asarray(res["v(c)"]))
+    assert want[-1] == pytest.approx(5 * np.exp(-4), rel=0.05)
+    assert np.max(np.abs(got - want)) < 0.02
+
+
+def test_check_runs_the_hold_as_simulate_pwl_does(tmp_path, ngspice, capsys):
+    """pelcs check --devices pwl on the sample-and-hold: its ideal switch closes a loop with
+    the source and the capacitor, which pelcs simulate --devices pwl sizes from a run at RON;
+    the check stopped at that loop (advising --devices pwl). (RON = 10 kΩ and a 1 µs step:
+    the check runs both from UIC, and a charge through RON = 10 Ω in 10 ns is a mode the
+    step would not resolve.)"""
+    from pelcs.cli import main
+
+    deck = tmp_path / "hold.cir"
+    deck.write_text(HOLD.replace("RON=10 ", "RON=10k ").replace(".tran 10u", ".tran 1u"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rc = main(["check", str(deck), "--devices", "pwl", "--probe", "v(c)"])
+    out = capsys.readouterr().out
+    assert rc == 0, out
+    assert "within tolerance" in out.splitlines()[-1]
+
+
+def test_a_hold_charged_through_ron_from_uic_follows_ngspice(tmp_path, ngspice):
+    """From UIC the hold capacitor charges through RON = 10 Ω in 10 ns, a mode the 10 µs
+    step does not resolve: at θ = 1/2 v(c) alternated between 0 and 10 V (1.1 V at 5 ms,
+    ngspice 0.09 V); the pwl run takes θ = 1 for it, with a note."""
+    deck = HOLD.replace(".tran 10u 5m", ".tran 10u 5m UIC")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = simulate_devices(parse_string(deck), devices="pwl", probes=["v(c)"])
+    assert any("on resistance and C1" in n and "θ = 1" in n for n in res.notes)
+    ng, log = ngspice_run(deck, ["v(c)"], tmp_path)
+    assert ng is not None, log
+    t = np.linspace(0.1e-3, 5e-3, 491)
+    want = np.interp(t, ng[:, 0], ng[:, 1])
+    got = np.interp(t, np.asarray(res.t), np.asarray(res["v(c)"]))
+    # (backward Euler at h = 1 % of the 1 ms decay: within 0.05 V of 5 V)
+    assert np.max(np.abs(got - want)) < 0.05

@@ -13,7 +13,7 @@ import numpy as np
 from lcs.results import SimulationResult
 
 from ..breakdown import breakdown_elements, breakdowns
-from ..circuit import GROUND, Circuit, Diode, Switch
+from ..circuit import GROUND, Capacitor, Circuit, Diode, Switch, VoltageSource
 from ..errors import Diagnostic, NetlistError
 from ..junction_charge import fastest_junction_mode, junction_charges, with_junction_charge
 from ..pwl import carried_current, diode_params, junction_models, model_current, pwl_circuit
@@ -23,7 +23,7 @@ from .losses import loss_probes
 from .losses import losses as loss_report
 from .transient import check_probes, passivity_unreported, simulate_circuit
 
-__all__ = ["PwlRun", "fitted_circuit", "pwl_run", "simulate_devices"]
+__all__ = ["PwlRun", "fitted_circuit", "pwl_run", "simulate_devices", "switch_loop"]
 
 
 def simulate_devices(circuit: Circuit, *, devices: str = "ideal", losses: bool = False,
@@ -138,6 +138,7 @@ def _devices_run(circuit: Circuit, devices: str, want: list[str] | None, extra: 
     charge_lines: list[str] = []
     run_circuit = circuit
     sizing_note = None
+    loop_caps: list[str] = []  # capacitors an ideal switch would tie to voltage sources
     i_max: dict[str, float] = {}
     drives: dict[str, float] = {}
     split_lines: list[str] = []
@@ -159,12 +160,13 @@ def _devices_run(circuit: Circuit, devices: str, want: list[str] | None, extra: 
         try:
             ideal = _sizing_run(circuit, list(dict.fromkeys(pre)), kw)
         except NetlistError as exc:
-            if not _switch_loop(exc, sws):
+            if not switch_loop(exc, sws):
                 raise
             # an ideal switch closes a loop with capacitors and voltage sources, which the
             # switches' own resistances break: the fits are sized from a run with them (and
             # the diodes at their 1 mA fit) instead
             sized, _ = pwl_circuit(circuit, {}, {}, pwl)
+            loop_caps = _driven_loop_caps(circuit, exc)
             ideal = _sizing_run(sized, list(dict.fromkeys(pre)), kw)
             if any(isinstance(el, Diode) for el in circuit.elements):
                 sizing_note = (
@@ -192,7 +194,7 @@ def _devices_run(circuit: Circuit, devices: str, want: list[str] | None, extra: 
         run_circuit, fits = fitted_circuit(circuit, i_max, drives, pwl, charged=charges, **kw)
         split_lines: list[str] = []
         run_circuit = with_junction_charge(circuit, run_circuit, fits, charges, split_lines)
-        kw, theta_line = _junction_theta(run_circuit, charges, kw)
+        kw, theta_line = _junction_theta(run_circuit, charges, kw, loop_caps)
         if theta_line:
             charge_lines.append(theta_line)
         # the diodes the ideal run takes past their breakdown voltage (netlist.breakdown)
@@ -365,20 +367,30 @@ def _temperature_note(circuit: Circuit, diodes: Sequence[str]) -> str:
             "compare)")
 
 
-def _junction_theta(run_circuit: Circuit, charges: dict, kw: dict) -> tuple[dict, str]:
+def _junction_theta(run_circuit: Circuit, charges: dict, kw: dict,
+                    loop_caps: Sequence[str] = ()) -> tuple[dict, str]:
     """The run's arguments with θ = 1 where the junction capacitors' fastest mode
     (:func:`netlist.junction_charge.fastest_junction_mode`) is not resolved by the step
-    (``|h μ| > 1``) and no θ is given, and a note ("" when nothing changes)."""
-    if not charges or kw.get("method", "moreau") != "moreau":
+    (``|h μ| > 1``) and no θ is given, and a note ("" when nothing changes). ``loop_caps``:
+    capacitors that only a switch's RON parts from voltage sources (the loop an ideal switch
+    closes), whose RON C mode is judged the same way: at θ = 1/2 an unresolved one
+    alternates from step to step (a 1 nF hold capacitor charged through RON = 10 Ω at a
+    10 µs step read 0 V and 10 V in turn for a 5 V source)."""
+    if not (charges or loop_caps) or kw.get("method", "moreau") != "moreau":
         return kw, ""
     from .transient import transient_setup
 
     with passivity_unreported():  # (the run reports the circuit's passivity, once)
         setup = transient_setup(run_circuit, tstop=kw.get("tstop"), step=kw.get("step"))
-    mu = fastest_junction_mode(setup.system, setup.energy, list(charges))
+    mu = fastest_junction_mode(setup.system, setup.energy, list(charges),
+                               [f"v({c})" for c in loop_caps])
     if mu is None or abs(mu) * setup.h <= 1.0:
         return kw, ""
-    what = (f"the junction capacitances add a mode at |μ| = {abs(mu):.3g} 1/s (Re μ = "
+    which = ("the junction capacitances" if not loop_caps else
+             f"the switches' on resistance and {', '.join(loop_caps)}" if not charges else
+             f"the junction capacitances, the switches' on resistance and "
+             f"{', '.join(loop_caps)}")
+    what = (f"{which} add a mode at |μ| = {abs(mu):.3g} 1/s (Re μ = "
             f"{mu.real:.3g} 1/s) that the step h = {setup.h:.3g} s does not resolve (|h μ| = "
             f"{abs(mu) * setup.h:.3g})")
     if kw.get("theta") is not None:
@@ -431,7 +443,27 @@ def _refitted(res: SimulationResult, circuit: Circuit, diodes: Sequence[str],
     return out
 
 
-def _switch_loop(exc: NetlistError, switches: Sequence[Switch]) -> bool:
+def _driven_loop_caps(circuit: Circuit, exc: NetlistError) -> list[str]:
+    """The capacitors of the loops ``exc`` refuses (closed by ideal switches), if every
+    switch of those loops is driven by a voltage source across its control: their RON C
+    mode is then a settling the source's timing starts, which θ = 1 may damp unresolved;
+    where a switch's control is the circuit's own voltage (an inverter ring), the mode is
+    its timing, which an unresolved step gets wrong whatever θ ([] then)."""
+    by_key = {el.key: el for el in circuit.elements}
+    sources = {frozenset(el.nodes[:2]) for el in circuit.elements
+               if isinstance(el, VoltageSource)}
+    caps: list[str] = []
+    for d in exc.diagnostics:
+        for name in d.elements:
+            el = by_key.get(name.lower())
+            if isinstance(el, Switch) and frozenset(el.control) not in sources:
+                return []
+            if isinstance(el, Capacitor):
+                caps.append(el.name)
+    return caps
+
+
+def switch_loop(exc: NetlistError, switches: Sequence[Switch]) -> bool:
     """Whether ``exc`` refuses a loop of capacitors and voltage sources that closed ideal
     switches of ``switches`` close (:func:`netlist.degenerate.check_topology`)."""
     names = {sw.name for sw in switches}
