@@ -37,7 +37,16 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from .circuit import GROUND, Capacitor, Circuit, Element, Vcvs, VoltageSource, unique_name
+from .circuit import (
+    GROUND,
+    Capacitor,
+    Circuit,
+    Element,
+    Vcvs,
+    VoltageSource,
+    substituted,
+    unique_name,
+)
 from .errors import Diagnostic
 from .topology import UnionFind, find_loop
 
@@ -160,13 +169,8 @@ def reduce_capacitor_loops(circuit: Circuit) -> Circuit:
                f"{m} from their initial voltages: where those do not fit the sources, the "
                "capacitor voltages jump at t = 0 to the ones the loop allows with that "
                "charge, as ngspice does with UIC" if given else ""))
-    elements: list[Element] = []
-    for el in circuit.elements:
-        if el.key in new:
-            elements.extend(new[el.key])
-        elif el.key not in gone:
-            elements.append(el)
-    return replace(circuit, elements=elements, notes=notes, loop_capacitors=loop_capacitors)
+    return replace(circuit, elements=substituted(circuit.elements, new, gone), notes=notes,
+                   loop_capacitors=loop_capacitors)
 
 
 def reduced_probe(circuit: Circuit, probe: str, kind: str, key: str) -> Diagnostic:

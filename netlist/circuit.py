@@ -13,7 +13,7 @@ Units are SI throughout (ohm, henry, farad, volt, ampere, second).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -320,3 +320,17 @@ def unique_name(name: str, used: set[str]) -> str:
         name += "_"
     used.add(name.lower())
     return name
+
+
+def substituted(elements: Sequence[Element], new: Mapping[str, Sequence[Element]],
+                gone: Collection[str]) -> list[Element]:
+    """``elements`` with each whose key is in ``new`` replaced, where it stands, by the
+    elements ``new`` gives for it, and those whose key is in ``gone`` left out: the element
+    list of a circuit a reduction rewrote."""
+    out: list[Element] = []
+    for el in elements:
+        if el.key in new:
+            out.extend(new[el.key])
+        elif el.key not in gone:
+            out.append(el)
+    return out

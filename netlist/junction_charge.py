@@ -25,6 +25,7 @@ from dataclasses import replace
 import numpy as np
 
 from .circuit import Capacitor, Circuit, Diode, Resistor, VoltageSource
+from .topology import UnionFind
 
 __all__ = ["charge_params", "depletion_charge", "fastest_junction_mode", "junction_charges",
            "swing_capacitance", "with_junction_charge"]
@@ -81,16 +82,10 @@ def junction_charges(circuit: Circuit, swings: Mapping[str, tuple[float, float]]
     capacitor would sit across them and close a loop), each with a note."""
     from .pwl import diode_params, junction_models
 
-    parent: dict[str, str] = {}
-
-    def root(n: str) -> str:
-        while parent.get(n, n) != n:
-            n = parent[n]
-        return n
-
+    joined = UnionFind()  # (the nodes capacitors and voltage sources join)
     for e in circuit.elements:
         if isinstance(e, (Capacitor, VoltageSource)):
-            parent[root(e.nodes[0])] = root(e.nodes[1])
+            joined.union(e.nodes[0], e.nodes[1])
     out: dict[str, tuple[float, float]] = {}
     lines: list[str] = []
     for el in circuit.elements:
@@ -109,12 +104,11 @@ def junction_charges(circuit: Circuit, swings: Mapping[str, tuple[float, float]]
         c = swing_capacitance(charged[0], lo, hi)
         rs = float(params[0]["rs"]) + float(series)
         if not rs > 0:
-            if root(el.nodes[0]) == root(el.nodes[1]):
+            if not joined.union(el.nodes[0], el.nodes[1]):
                 lines.append(f"{el.name}: its depletion charge (CJO) not modelled: without RS "
                              "its capacitor would close a loop of capacitors and voltage "
                              "sources")
                 continue
-            parent[root(el.nodes[0])] = root(el.nodes[1])
         out[el.name] = (rs, c)
         tt = any(k.lower() == "tt" and float(v) > 0 for k, v in models[0][0].items())
         lines.append(f"{el.name}: depletion charge (CJO, VJ, M, FC) as {c:.4g} F behind RS = "

@@ -46,6 +46,7 @@ from .circuit import (
     Inductor,
     Vcvs,
     VoltageSource,
+    substituted,
     unique_name,
 )
 from .writer import element_line
@@ -168,10 +169,4 @@ def ideal_transformers(circuit: Circuit) -> Circuit:
             + f" probe the winding currents (the 0 V sources {vp}, "
             + ", ".join(vs for _, vs, _ in names)
             + f"), i({lm}) the magnetizing current, the turns-weighted sum of those")
-    elements: list[Element] = []
-    for el in circuit.elements:
-        if el.key in new:
-            elements.extend(new[el.key])
-        elif el.key not in gone:
-            elements.append(el)
-    return replace(out, elements=elements, notes=notes)
+    return replace(out, elements=substituted(circuit.elements, new, gone), notes=notes)

@@ -40,6 +40,7 @@ from .circuit import (
     VoltageSource,
     unique_name,
 )
+from .topology import UnionFind
 from .units import format_eng
 
 __all__ = ["LEAKAGE_RATIO", "OFF_RESISTANCE", "model_off_resistances"]
@@ -59,22 +60,15 @@ def _dc_floating(circuit: Circuit, sw: Switch, roff: float) -> str | None:
     or if ``roff`` (Ω) times the capacitance of that terminal's part exceeds
     :data:`LEAKAGE_RATIO` times the run's TSTOP (it moves the part's voltage by less than
     0.1 % over the run; the operating point still sets it through ROFF, as ngspice's)."""
-    parent: dict[str, str] = {}
-
-    def root(n: str) -> str:
-        while parent.get(n, n) != n:
-            n = parent[n]
-        return n
-
+    paths = UnionFind()  # (the nodes joined by paths for direct current beside sw)
     for el in circuit.elements:
         if el is sw or not isinstance(
                 el, (Resistor, Inductor, VoltageSource, Vcvs, Ccvs, Switch)):
             continue
         if isinstance(el, Resistor) and not (math.isfinite(el.value) and el.value > 0):
             continue
-        a, b = root(el.nodes[0]), root(el.nodes[1])
-        if a != b:
-            parent[a] = b
+        paths.union(el.nodes[0], el.nodes[1])
+    root = paths.find
     ends = [root(n) for n in sw.nodes[:2]]
     if ends[0] == ends[1]:  # (a path beside the switch: ROFF only parallels it)
         return None

@@ -38,6 +38,7 @@ from lcs.simulation.problem import Problem
 from ..circuit import GROUND, Capacitor, Circuit, Inductor, VoltageSource, unique_name
 from ..errors import NetlistError
 from ..formulation import formulate
+from ..topology import UnionFind
 
 __all__ = ["held_start", "initial_state", "start_state"]
 
@@ -136,18 +137,11 @@ def _holds(circuit: Circuit) -> tuple[dict[str, float], list[str], dict[str, lis
     ngspice's branch equations) tie to ground, which keep the sources' values; and, for a
     held node, the other ``.ic`` nodes voltage sources tie to it (not held: one source
     each would close a loop of sources)."""
-    parent: dict[str, str] = {}
-
-    def root(node: str) -> str:
-        while parent.get(node, node) != node:
-            node = parent[node]
-        return node
-
+    sources = UnionFind()
     for el in circuit.elements:
         if el.kind in ("V", "E", "H"):
-            a, b = root(el.nodes[0]), root(el.nodes[1])
-            if a != b:
-                parent[a] = b
+            sources.union(el.nodes[0], el.nodes[1])
+    root = sources.find
     holds: dict[str, float] = {}
     tied: list[str] = []
     joined: dict[str, list[str]] = {}  # the first held node of a group -> the others
