@@ -61,6 +61,19 @@ def ngspice_print(deck: str, expressions: list[str], tmp: Path, files: dict | No
     return {e: out[e.lower()] for e in expressions}
 
 
+def ngspice_dc_voltages(devices: str, currents: Sequence[float], tmp: Path) -> np.ndarray:
+    """ngspice's operating point ``v(a)`` (V) with each of ``currents`` (A) driven into node
+    ``a`` by a current source from ground; ``devices``: the deck's other lines (the devices
+    from ``a`` to ground and their models), one deck per current in a folder of ``tmp``."""
+    out = []
+    for k, current in enumerate(currents):
+        sub = tmp / f"dc{k}"
+        sub.mkdir()
+        deck = f"* at {current} A\nI1 0 a DC {current}\n{devices}.op\n.end\n"
+        out.append(ngspice_print(deck, ["v(a)"], sub)["v(a)"])
+    return np.array(out)
+
+
 def ngspice_run(deck: str | Path, probes: Sequence[str], tmp: Path, timeout: float = 120, *,
                 before: Sequence[str] = ()) -> tuple[np.ndarray | None, str]:
     """Run a deck in ngspice (``run``, the commands ``before``, then ``wrdata`` of the

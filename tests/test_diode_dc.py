@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 import pytest
-from ngspice_helpers import ngspice_print, ngspice_run
+from ngspice_helpers import ngspice_dc_voltages, ngspice_run
 
 import pelcs
 from netlist.diode_dc import diode_voltage, ignored, junction_params
@@ -36,14 +36,8 @@ CURRENTS = [1e-8, 1e-6, 1e-4, 1e-2, 0.1, 1.0]
 def _ngspice_voltages(tmp_path, model: str, area: float) -> list[float]:
     """ngspice's operating point of the diode at each of CURRENTS (a current source
     into it), V."""
-    out = []
-    for k, current in enumerate(CURRENTS):
-        sub = tmp_path / str(k)
-        sub.mkdir()
-        deck = (f"* diode at {current} A\nI1 0 a DC {current}\nD1 a 0 {model} area={area}\n"
-                f"{MODELS}.op\n.end\n")
-        out.append(ngspice_print(deck, ["v(a)"], sub)["v(a)"])
-    return out
+    return list(ngspice_dc_voltages(f"D1 a 0 {model} area={area}\n{MODELS}", CURRENTS,
+                                    tmp_path))
 
 
 @pytest.mark.parametrize("model, params, area", [("BAR42", BAR42, 1.0),
@@ -84,14 +78,9 @@ def test_segments_follow_ngspices_characteristic(tmp_path, ngspice, model, param
     decades: within the error the fit reports (plus ngspice's convergence)."""
     vf, ron, branches, error = segment_fit([junction_params(params)], i_max)
     currents = [LOW_FRACTION * i_max, 0.01 * i_max, 0.1 * i_max, i_max]
-    want = []
-    for k, current in enumerate(currents):
-        sub = tmp_path / str(k)
-        sub.mkdir()
-        deck = f"* diode\nI1 0 a DC {current}\nD1 a 0 {model}\n{MODELS}.op\n.end\n"
-        want.append(ngspice_print(deck, ["v(a)"], sub)["v(a)"])
+    want = ngspice_dc_voltages(f"D1 a 0 {model}\n{MODELS}", currents, tmp_path)
     got = pwl_voltage(vf, ron, branches, np.array(currents))
-    assert branches and np.max(np.abs(got - np.array(want))) <= error + 2e-5
+    assert branches and np.max(np.abs(got - want)) <= error + 2e-5
 
 
 def test_knots_are_the_least_largest_error():

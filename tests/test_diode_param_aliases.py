@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from ngspice_helpers import ngspice_print
+from ngspice_helpers import ngspice_dc_voltages
 
 from netlist.diode_dc import diode_voltage, junction_params
 
@@ -20,16 +20,10 @@ CURRENTS = [1e-6, 1e-3]
 ])
 def test_the_name_written_last_is_the_one_used(tmp_path, ngspice, params):
     model = " ".join(f"{k}={v:g}" for k, v in params.items())
-    want = []
-    for k, current in enumerate(CURRENTS):
-        sub = tmp_path / str(k)
-        sub.mkdir()
-        deck = (f"* diode at {current} A\nI1 0 a DC {current}\nD1 a 0 DX\n"
-                f".model DX D({model})\n.op\n.end\n")
-        want.append(ngspice_print(deck, ["v(a)"], sub)["v(a)"])
+    want = ngspice_dc_voltages(f"D1 a 0 DX\n.model DX D({model})\n", CURRENTS, tmp_path)
     got = diode_voltage(np.array(CURRENTS), junction_params(params))
     # (the other reading is 0.1 V and more away)
-    assert np.max(np.abs(got - np.array(want))) < 2e-5, (got, want)
+    assert np.max(np.abs(got - want)) < 2e-5, (got, want)
 
 
 def test_the_later_alias_wins_in_each_pair():

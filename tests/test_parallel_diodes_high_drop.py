@@ -6,7 +6,7 @@ ngspice. The voltage came from a table that stopped at 3 V, so the fit was Vf = 
 from __future__ import annotations
 
 import numpy as np
-from ngspice_helpers import ngspice_print, ngspice_run
+from ngspice_helpers import ngspice_dc_voltages, ngspice_run
 
 import pelcs
 from netlist.diode_dc import junction_params
@@ -17,17 +17,11 @@ CURRENTS = [1e-6, 1e-3, 0.1, 1.0]
 
 
 def test_voltage_of_parallel_junctions_is_ngspices(tmp_path, ngspice):
-    want = []
-    for k, current in enumerate(CURRENTS):
-        sub = tmp_path / str(k)
-        sub.mkdir()
-        deck = (f"* two diodes at {current} A\nI1 0 a DC {current}\nD1 a 0 DH1\nD2 a 0 DH2\n"
-                f"{MODELS}.op\n.end\n")
-        want.append(ngspice_print(deck, ["v(a)"], sub)["v(a)"])
+    want = ngspice_dc_voltages(f"D1 a 0 DH1\nD2 a 0 DH2\n{MODELS}", CURRENTS, tmp_path)
     params = [junction_params({"IS": 1e-14, "N": 10, "RS": 5}),
               junction_params({"IS": 1e-13, "N": 10, "RS": 5})]
     got = parallel_voltage(params, np.array(CURRENTS))
-    assert np.max(np.abs(got - np.array(want))) < 1e-3, (got, want)
+    assert np.max(np.abs(got - want)) < 1e-3, (got, want)
 
 
 RECTIFIER = f"""rectifier through two diodes in parallel of a 6 V drop

@@ -108,23 +108,18 @@ def test_chords_over_the_whole_range_where_the_line_misses(is_, n, rs, i_max):
 def test_mixer_diode_follows_ngspice_over_three_decades(tmp_path, ngspice):
     # the fit at 2.03 uA against ngspice's own operating points of the same diode, from
     # 1e-3 of that current up to it: within the error the fit reports
-    from ngspice_helpers import ngspice_print
+    from ngspice_helpers import ngspice_dc_voltages
 
     i_max = 2.03e-6
     vf, ron, branches, error = segment_fit([MIXER], i_max)
     currents = i_max * np.array([1e-3, 3e-3, 1e-2, 3e-2, 0.1, 0.3, 1.0])
-    want = []
-    for k, current in enumerate(currents):
-        sub = tmp_path / str(k)
-        sub.mkdir()
-        deck = (f"* diode\nI1 0 a DC {current}\nD1 a 0 DM\n"
-                ".model DM D(IS=2.52n RS=0.568 N=1.752 CJO=4p VJ=0.5 M=0.4 TT=20n BV=100)\n"
-                ".op\n.end\n")
-        want.append(ngspice_print(deck, ["v(a)"], sub)["v(a)"])
+    want = ngspice_dc_voltages(
+        "D1 a 0 DM\n.model DM D(IS=2.52n RS=0.568 N=1.752 CJO=4p VJ=0.5 M=0.4 TT=20n BV=100)\n",
+        currents, tmp_path)
     got = pwl_voltage(vf, ron, branches, currents)
-    assert np.max(np.abs(got - np.array(want))) <= error + 2e-5
+    assert np.max(np.abs(got - want)) <= error + 2e-5
     # in current, the model's exponential: within 12 % at every one of these voltages
-    assert np.max(np.abs(got - np.array(want))) / (MIXER["n"] * VT_THERMAL) < 0.11
+    assert np.max(np.abs(got - want)) / (MIXER["n"] * VT_THERMAL) < 0.11
 
 
 def test_one_segment_kept_where_it_fits():
