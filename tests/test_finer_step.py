@@ -65,6 +65,7 @@ def test_a_run_that_does_not_chatter_is_the_result_as_it_is():
     assert calls == [None] and res.notes == []
 
 
+@pytest.mark.slow  # (two runs of the ring, about 1.5 s)
 def test_ngspices_ring_of_switch_inverters_runs_on_a_finer_grid():
     # '.tran 10n 80n 50p': the step is ngspice's bound 1.6 ns, eight times the inverters'
     # RC; at 0.16 ns and 16 ps the mean of v(osc_out) over the second half is 1.526 V and
@@ -79,6 +80,7 @@ def test_ngspices_ring_of_switch_inverters_runs_on_a_finer_grid():
     assert mean == pytest.approx(1.528, rel=0.02)
 
 
+@pytest.mark.slow
 def test_a_step_the_user_gives_is_not_refined():
     res = simulate_devices(parse_file(RING), devices="pwl", probes=["v(osc_out)"],
                            step=1.6e-9)
