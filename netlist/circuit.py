@@ -262,6 +262,9 @@ class Circuit:
     # capacitors in a loop with voltage sources, reduced to one state each
     # (netlist.capacitor_loops): lower-case name -> (name, its nodes, the capacitor for them)
     loop_capacitors: dict = field(default_factory=dict, compare=False)
+    # quantities a run must keep on the linear side of a knee, checked after it besides the
+    # knee capacitors (netlist.knee): a magnetic core's field (netlist.magnetic_core)
+    knees: list = field(default_factory=list, compare=False)
     # .step param lines: (parameter, values), one sweep axis each (run by pelcs sweep)
     steps: list[tuple[str, tuple[float, ...]]] = field(default_factory=list)
     file: str = "<string>"

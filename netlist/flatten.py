@@ -28,7 +28,7 @@ from collections.abc import Callable, Mapping
 
 from lcs.signals import Exp, Pulse, Pwl, Signal, Sin
 
-from . import current_switch, xspice
+from . import current_switch, magnetic_core, xspice
 from .behavioural import elaborate, resolve_comparators
 from .checks import check_circuit, value_problem
 from .circuit import (
@@ -100,11 +100,10 @@ def build_circuit(deck: Deck, overrides: Mapping[str, float] | None = None,
 
 def independent_problems(deck: Deck, overrides: Mapping[str, float] | None = None
                          ) -> list[Diagnostic]:
-    """Problems of a deck some statements of could not be read (they are missing from
-    ``deck``): those a missing statement cannot cause or hide (bad values, expression errors
-    other than unknown names, duplicate definitions, parameter cycles, malformed instances).
-    Unknown parameters, models, subcircuits and controlling sources, and the connectivity
-    checks, wait until the syntax is fixed."""
+    """Problems of a deck some statements of could not be read (missing from ``deck``):
+    those a missing statement cannot cause or hide (bad values, expression errors other than
+    unknown names, duplicate definitions, parameter cycles, malformed instances). Unknown
+    parameters, models, subcircuits, controlling sources and connectivity wait for the syntax."""
     builder = _Builder(deck)
     circuit = builder.build(overrides or {})
     diags = [d for i, d in enumerate(builder.diags) if i not in builder.dependent]
@@ -277,6 +276,7 @@ class _Builder:
         if self.within_element_limit():
             self.expand(deck.top, "", "", None, self.global_env, self.global_failed, ())
             self.diags.extend(resolve_comparators(c))
+            self.diags.extend(magnetic_core.resolve_cores(c, bool(self.diags)))
         return c
 
     def within_element_limit(self) -> bool:

@@ -44,6 +44,29 @@ class KneeCapacitor(Capacitor):
     text: str = ""
 
     @property
+    def probes(self) -> tuple[str, ...]:
+        return (f"v({self.name})",)
+
+    def quantity(self, columns: Sequence[np.ndarray]) -> np.ndarray:
+        return columns[0]
+
+    def inside(self, v: np.ndarray) -> np.ndarray:
+        g = self.gain * v + self.offset
+        return g > 0 if self.strict else g >= 0
+
+    def outside(self, v: float, t: float) -> Diagnostic:
+        return Diagnostic(
+            f"capacitor '{self.name}' ({self.text}) is {self.value:g} F only while "
+            f"{self.region}; the run took it to {v:.4g} V at t = {t:.6g} s, past the knee, "
+            "where its value depends on its voltage (nonlinear)", self.location,
+            "pelcs simulates such a capacitor below its knee only; shorten the run or "
+            "change the circuit so that it stays below", (self.name,))
+
+    def stayed(self, lo: float, hi: float) -> str:
+        return (f"{self.name}: capacitor value '{self.text}' read as {self.value:g} F, its "
+                f"value while {self.region}: the run stayed there ({lo:.4g} V to {hi:.4g} V)")
+
+    @property
     def region(self) -> str:
         """The constant side, as ``v < 5 V``."""
         knee = -self.offset / self.gain
@@ -92,42 +115,47 @@ def elaborate_knee(el: RawElement, prefix: str, mapnode: Callable[[str], str],
                           text)]
 
 
-def knee_probes(knees: Sequence[KneeCapacitor], probes: Sequence[str] | None) -> list[str]:
-    """The capacitor voltages a run must store besides ``probes`` to check its knees (none
-    when ``probes`` is None: every state is stored)."""
+def knee_probes(knees: Sequence, probes: Sequence[str] | None) -> list[str]:
+    """The probes a run must store besides ``probes`` to check its knees (none when
+    ``probes`` is None: every state is stored, and a knee reads states)."""
     if probes is None:
         return []
     have = {p.lower() for p in probes}
-    return [f"v({k.name})" for k in knees if f"v({k.name})".lower() not in have]
+    out = []
+    for k in knees:
+        for p in k.probes:
+            if p.lower() not in have:
+                have.add(p.lower())
+                out.append(p)
+    return out
 
 
-def check_knees(knees: Sequence[KneeCapacitor], result, extra: int) -> None:
-    """Check every knee capacitor stayed on its constant side over ``result``; drop the
-    ``extra`` last columns (:func:`knee_probes`); a note per capacitor.
+def check_knees(knees: Sequence, result, extra: int) -> None:
+    """Check that every knee's quantity stayed on its linear side over ``result``; drop the
+    ``extra`` last columns (:func:`knee_probes`); a note per knee.
+
+    A knee is a :class:`KneeCapacitor` or another object with its ``probes`` (state names
+    it reads), ``quantity(columns)``, ``inside(values)`` (a boolean array), ``outside(value,
+    t)`` (the :class:`~netlist.errors.Diagnostic` of a run that left) and ``stayed(lo, hi)``
+    (the note of one that did not): a magnetic core (:mod:`netlist.magnetic_core`).
 
     Raises
     ------
     NetlistError
-        A capacitor whose voltage crossed its knee: when, and where it got to.
+        A quantity that crossed its knee: when, and where it got to.
     """
     names = [n.lower() for n in result.names]
     for k in knees:
-        v = np.asarray(result.y[:, names.index(f"v({k.name})".lower())], dtype=float)
-        if not v.size:
+        columns = [np.asarray(result.y[:, names.index(p.lower())], dtype=float)
+                   for p in k.probes]
+        if not columns[0].size:
             continue
-        g = k.gain * v + k.offset
-        bad = np.flatnonzero(g <= 0 if k.strict else g < 0)
+        q = k.quantity(columns)
+        bad = np.flatnonzero(~k.inside(q))
         if bad.size:
             i = int(bad[0])
-            raise NetlistError(Diagnostic(
-                f"capacitor '{k.name}' ({k.text}) is {k.value:g} F only while {k.region}; "
-                f"the run took it to {v[i]:.4g} V at t = {result.t[i]:.6g} s, past the knee, "
-                "where its value depends on its voltage (nonlinear)", k.location,
-                "pelcs simulates such a capacitor below its knee only; shorten the run or "
-                "change the circuit so that it stays below", (k.name,)))
-        result.notes.append(
-            f"{k.name}: capacitor value '{k.text}' read as {k.value:g} F, its value while "
-            f"{k.region}: the run stayed there ({v.min():.4g} V to {v.max():.4g} V)")
+            raise NetlistError(k.outside(float(q[i]), float(result.t[i])))
+        result.notes.append(k.stayed(float(q.min()), float(q.max())))
     if extra:
         result.names = tuple(result.names[:-extra])
         result.y = result.y[:, :-extra]

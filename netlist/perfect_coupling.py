@@ -35,6 +35,7 @@ its group as it is (the formulation refuses the singular matrix, with its hint).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import replace
 
 from .circuit import (
@@ -49,9 +50,10 @@ from .circuit import (
     substituted,
     unique_name,
 )
+from .errors import Location
 from .writer import element_line
 
-__all__ = ["IDEAL_TRANSFORMER", "ideal_transformers"]
+__all__ = ["IDEAL_TRANSFORMER", "build_transformer", "ideal_transformers"]
 
 #: :attr:`netlist.circuit.BuiltGroup.construct` of windings coupled with |k| = 1
 IDEAL_TRANSFORMER = "ideal transformer"
@@ -127,37 +129,11 @@ def ideal_transformers(circuit: Circuit) -> Circuit:
     # (a new circuit: the one given may be a parse cached for reuse)
     out = replace(circuit, built_groups=dict(circuit.built_groups))
     for windings, signs, ks in groups:
-        la, kel = windings[0], ks[0]
-        ns = [sign * math.sqrt(lw.value / la.value) for lw, sign in zip(windings, signs,
-                                                                         strict=True)]
-        p1, p2 = la.nodes[:2]
-        q = unique_name(f"{la.name.lower()}_q", nodes)
-        vp = unique_name(f"V{la.name}", used)
-        lm = unique_name(f"{la.name}_m", used)
-        ic = None
-        if any(lw.ic is not None for lw in windings):
-            ic = sum(n * (lw.ic or 0.0) for n, lw in zip(ns, windings, strict=True))
-        primary: list[Element] = [VoltageSource(vp, (p1, q), la.location, 0.0),
-                                  Inductor(lm, (q, p2), la.location, value=la.value, ic=ic)]
-        names = []
-        for lw, n in zip(windings[1:], ns[1:], strict=True):
-            s1, s2 = lw.nodes[:2]
-            r = unique_name(f"{lw.name.lower()}_r", nodes)
-            vs = unique_name(f"V{lw.name}", used)
-            primary.append(Cccs(unique_name(f"F{lw.name}", used), (q, p2), kel.location,
-                                source=vs, gain=-n))
-            new[lw.key] = [
-                Vcvs(unique_name(f"E{lw.name}", used), (s1, r), kel.location,
-                     control=(q, p2), gain=n),
-                VoltageSource(vs, (r, s2), lw.location, 0.0)]
-            names.append((lw.name, vs, n))
-        new[la.key] = primary
+        la = windings[0]
+        lm, vp, names = build_transformer(
+            out, windings, signs, ks[0].name, IDEAL_TRANSFORMER, ks[0].location,
+            "\n".join(element_line(el, circuit) for el in (*windings, *ks)), used, nodes, new)
         gone.update(k.key for k in ks)
-        built = primary + [el for lw in windings[1:] for el in new[lw.key]]
-        out.add_built_group(BuiltGroup(
-            kel.name, IDEAL_TRANSFORMER,
-            "\n".join(element_line(el, circuit) for el in (*windings, *ks)),
-            currents=((la.name, vp), *((name, vs) for name, vs, _ in names))), built)
         ratios = ", ".join(f"{name} {n:.6g}" for name, _, n in names)
         notes.append(
             f"{', '.join(k.name for k in ks)}: |k| = 1 couples "
@@ -170,3 +146,67 @@ def ideal_transformers(circuit: Circuit) -> Circuit:
             + ", ".join(vs for _, vs, _ in names)
             + f"), i({lm}) the magnetizing current, the turns-weighted sum of those")
     return replace(out, elements=substituted(circuit.elements, new, gone), notes=notes)
+
+
+def build_transformer(out: Circuit, windings: Sequence[Inductor], signs: Sequence[float],
+                      group: str, construct: str, location: Location | None, line: str,
+                      used: set[str], nodes: set[str], new: dict[str, list[Element]]
+                      ) -> tuple[str, str, list[tuple[str, str, float]]]:
+    """The elements of one group of perfectly coupled windings (the module docstring), put
+    in ``new`` by winding key and recorded in ``out`` as the built group ``group``.
+
+    Parameters
+    ----------
+    out : Circuit
+        Gets the :class:`~netlist.circuit.BuiltGroup` (``construct``, ``line`` written for
+        ngspice in the group's place).
+    windings : sequence of Inductor
+        The windings, the first one's inductance the magnetizing inductance (H).
+    signs : sequence of float
+        ±1 per winding: the sign of its coupling to the first.
+    location : Location or None
+        Where the built sources point in messages.
+    used, nodes : set of str
+        The circuit's element and node names (lower case), extended by those added.
+
+    Returns
+    -------
+    magnetizing : str
+        The name of the magnetizing inductor (its current is the turns-weighted sum of the
+        winding currents).
+    sense : str
+        The 0 V source that carries the first winding's current.
+    secondaries : list of (str, str, float)
+        ``(winding, its sense source, its turns ratio to the first)`` beyond the first.
+    """
+    la = windings[0]
+    ns = [sign * math.sqrt(lw.value / la.value) for lw, sign in zip(windings, signs,
+                                                                     strict=True)]
+    p1, p2 = la.nodes[:2]
+    q = unique_name(f"{la.name.lower()}_q", nodes)
+    vp = unique_name(f"V{la.name}", used)
+    lm = unique_name(f"{la.name}_m", used)
+    ic = None
+    if any(lw.ic is not None for lw in windings):
+        ic = sum(n * (lw.ic or 0.0) for n, lw in zip(ns, windings, strict=True))
+    primary: list[Element] = [VoltageSource(vp, (p1, q), la.location, 0.0),
+                              Inductor(lm, (q, p2), la.location, value=la.value, ic=ic)]
+    names = []
+    built: list[Element] = []
+    for lw, n in zip(windings[1:], ns[1:], strict=True):
+        s1, s2 = lw.nodes[:2]
+        r = unique_name(f"{lw.name.lower()}_r", nodes)
+        vs = unique_name(f"V{lw.name}", used)
+        primary.append(Cccs(unique_name(f"F{lw.name}", used), (q, p2), location,
+                            source=vs, gain=-n))
+        new[lw.key] = [
+            Vcvs(unique_name(f"E{lw.name}", used), (s1, r), location,
+                 control=(q, p2), gain=n),
+            VoltageSource(vs, (r, s2), lw.location, 0.0)]
+        built += new[lw.key]
+        names.append((lw.name, vs, n))
+    new[la.key] = primary
+    out.add_built_group(BuiltGroup(
+        group, construct, line,
+        currents=((la.name, vp), *((name, vs) for name, vs, _ in names))), primary + built)
+    return lm, vp, names

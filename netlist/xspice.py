@@ -6,7 +6,8 @@ card whose parameters may be vectors (``in_gain=[1 -1]``) and booleans (``log=FA
 A port is a node (``n``), a differential pair (``(a b)``, or ``a b`` after a differential
 type), or a vector of these in brackets (``[a b]``), optionally preceded by its type: ``%v``
 (a node voltage), ``%vd`` (a voltage difference), ``%gd`` (a conductance between two nodes);
-the current, digital and other types are refused. pelcs reads five analog models:
+``%h``/``%hd`` (a current in, the lcouple's ports); the current, digital and other types
+are refused. pelcs reads seven analog models:
 
 ==========  ==================================================================================
 model       becomes
@@ -22,6 +23,9 @@ limit       of ``|gain| >= 1000``: a comparator between ``out_lower_limit`` and
             idealisation: said in a note)
 aswitch     an ideal S switch (``RON = r_on``, off open) on while the control is past the
             midpoint of ``cntl_off`` and ``cntl_on`` (an idealisation: said in a note)
+lcouple,    windings on a magnetic core: coupled inductors from the slope of the core's B-H
+core        table around H = 0, the run checked to stay on that segment
+            (:mod:`netlist.magnetic_core`: exact there)
 ==========  ==================================================================================
 
 The limit comparator then goes where a comparator B source goes
@@ -74,11 +78,18 @@ _SPECS: dict[str, tuple[tuple[tuple[str, str, tuple[str, ...], bool], ...], dict
                   "out_high": 1.0, "duty_cycle": 0.5}),
     "aswitch": ((("cntl_in", "v", ("v", "vd"), False), ("out", "gd", ("gd",), False)),
                 {"cntl_off": 0.0, "cntl_on": 1.0, "log": 1.0, "r_off": 1e12, "r_on": 1.0}),
+    "lcouple": ((("l", "hd", ("h", "hd"), False), ("mmf_out", "hd", ("hd",), False)),
+                {"num_turns": 1.0}),
+    "core": ((("mc", "gd", ("g", "gd"), False),),
+             {"h_array": [], "b_array": [], "area": None, "length": None,
+              "input_domain": 0.01, "fraction": 1.0, "mode": 1.0, "in_low": 0.0,
+              "in_high": 1.0, "hyst": 0.1, "out_lower_limit": 0.0, "out_upper_limit": 1.0}),
 }
 ACCEPTED_MODELS = tuple(_SPECS)
 ACCEPTED = ("pelcs reads the XSPICE code models gain, summer, triangle (constant frequency), "
-            "limit (gain >= 1000, as a comparator) and aswitch (as an ideal switch), with "
-            "%v, %vd and %gd ports (docs/xspice.md)")
+            "limit (gain >= 1000, as a comparator), aswitch (as an ideal switch), and "
+            "lcouple windings on a core (linear around H = 0), with %v, %vd, %gd and the "
+            "lcouple's %hd ports (docs/xspice.md)")
 _DIFFERENTIAL = ("vd", "id", "gd", "hd")
 _MIN_LIMIT_GAIN = 1e3
 
@@ -347,7 +358,7 @@ def elaborate(name: str, ports: tuple[Port, ...], model: CodeModel, st: Statemen
         params[pname] = nums if vector else nums[0]
     for pname, dv in defaults.items():
         if pname not in params:
-            if dv is None:
+            if dv is None or dv == []:
                 raise _fail(f"model '{model.name}': the {mtype} code model needs '{pname}'",
                             0, f"add {pname}=VALUE to .model {model.name}", st=model.st)
             params[pname] = dv
@@ -387,6 +398,8 @@ def elaborate(name: str, ports: tuple[Port, ...], model: CodeModel, st: Statemen
     def affine(text: str):
         return linearise(parse_behavioural(text), text, env, mapnode, source_name(prefix))
 
+    if mtype in ("lcouple", "core"):  # a core and its windings: netlist.magnetic_core
+        return _magnetic(name, ports, model, params, mapnode, loc)
     if mtype in ("gain", "summer"):
         if mtype == "gain":
             text = f"{p['out_offset']!r} + {p['gain']!r}*({quantities[0][0]} + {p['in_offset']!r})"
@@ -477,3 +490,31 @@ def elaborate(name: str, ports: tuple[Port, ...], model: CodeModel, st: Statemen
                  f"r_off {p['r_off']:g} Ω at cntl_off to r_on at cntl_on, and beyond them: "
                  "the same where the control sits at cntl_off or cntl_on")
     return [Switch(name, out_nodes, loc, ctl, key, None)]
+
+
+def _magnetic(name: str, ports: tuple[Port, ...], model: CodeModel, p: dict,
+              mapnode: Callable[[str], str], loc) -> list[Element]:
+    """An lcouple winding or a core, resolved together by
+    :func:`netlist.magnetic_core.resolve_cores` once every element is read."""
+    from .magnetic_core import MagneticCore, Winding
+
+    def port(i: int) -> tuple[str, str]:
+        nodes = tuple(map(mapnode, ports[i].nodes))
+        return (nodes[0], GROUND) if len(nodes) == 1 else (nodes[0], nodes[1])
+
+    if model.type == "lcouple":
+        return [Winding(name, port(0), loc, value=math.nan, mmf=port(1),
+                        turns=p["num_turns"])]
+    if p["mode"] != 1.0:
+        raise _fail(f"model '{model.name}': the core's hysteresis mode (mode={p['mode']:g}) "
+                    "has no ideal equivalent in pelcs", model.params["mode"][1],
+                    "pelcs reads a core in its piecewise-linear mode (mode=1, the default) "
+                    "on the straight segment of its table around H = 0", st=model.st)
+    for key in ("area", "length"):
+        if not p[key] > 0:
+            raise _fail(f"model '{model.name}': the core's {key} {p[key]:g} is not positive",
+                        model.params[key][1], f"give {key} in m{'²' if key == 'area' else ''}",
+                        st=model.st)
+    return [MagneticCore(name, port(0), loc, h=tuple(p["h_array"]), b=tuple(p["b_array"]),
+                         area=p["area"], length=p["length"],
+                         input_domain=p["input_domain"], fraction=bool(p["fraction"]))]

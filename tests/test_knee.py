@@ -3,6 +3,8 @@ network held only by a very large resistor (netlist.mna_solve)."""
 
 from __future__ import annotations
 
+import contextlib
+import io
 import math
 
 import numpy as np
@@ -13,6 +15,7 @@ from netlist.knee import KneeCapacitor
 from netlist.mna_solve import Solution
 from netlist.parser import parse_string
 from netlist.studies.transient import simulate_circuit
+from pelcs.cli import main
 
 RC = """knee rc
 V1 in 0 DC {vin}
@@ -60,6 +63,22 @@ def test_the_knee_is_checked_at_every_step_of_a_run_written_on_a_grid():
     res = simulate_circuit(parse_string(RC), probes=["v(a)"], output_step=1e-3)
     assert np.allclose(res.t, np.arange(6) * 1e-3)
     assert np.allclose(res["v(a)"], 4 * (1 - np.exp(-res.t / 1e-3)), atol=4e-3)
+
+
+def test_the_knee_is_checked_at_every_step_of_a_run_of_every_state(tmp_path):
+    # Without probes every state is stored, the knee's voltage among them: such a run
+    # written on a grid, or streamed to a file by the command line, still keeps every step
+    # for the check (it once saw only the grid's points, or the last row)
+    with pytest.raises(NetlistError) as exc:
+        simulate_circuit(parse_string(RC.replace("vin=4", "vin=6")), output_step=1e-3)
+    t = float(str(exc.value).split("at t = ")[1].split(" s")[0])
+    assert t == pytest.approx(1e-3 * math.log(6), abs=2e-6)
+    deck = tmp_path / "knee.cir"
+    deck.write_text(RC.replace("vin=4", "vin=6"))
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(out):
+        code = main(["simulate", str(deck), "-o", str(tmp_path / "out.csv"), "--no-progress"])
+    assert code != 0 and "past the knee" in out.getvalue(), out.getvalue()
 
 
 @pytest.mark.parametrize("value, words", [

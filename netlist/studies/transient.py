@@ -130,7 +130,7 @@ class TransientSetup:
     file: str = ""
     print_step: float | None = None
     print_note: str | None = None
-    knees: tuple = ()  # the netlist.knee capacitors, checked after the run
+    knees: tuple = ()  # the netlist.knee capacitors and circuit.knees, checked after the run
     # start from the DC operating point (ngspice's .tran without UIC), x0 giving only the
     # states no DC equation sets; an AuxiliaryPoint: that of the circuit with its .ic nodes
     # held (netlist.studies.start.held_start)
@@ -258,7 +258,8 @@ def transient_setup(
     return TransientSetup(system, signals, x0, float(tstop), float(step), float(t_save),
                           energy, notes, nonpassive, default_probes, circuit.file or "",
                           shown, shown_note,
-                          tuple(el for el in circuit.elements if isinstance(el, KneeCapacitor)),
+                          (*(el for el in circuit.elements if isinstance(el, KneeCapacitor)),
+                           *circuit.knees),
                           operating_point)
 
 
@@ -615,11 +616,12 @@ def run_setup(
     extra = knee_probes(setup.knees, probes) if knees else []
     if extra:
         probes = [*probes, *extra]
-    # (a knee is checked on every step, not only on the output grid: such a run keeps every
-    # step and is resampled at the end)
-    streamed = output_step if method == "moreau" and not extra else None
+    # (a knee is checked on every step, not only on the output grid or the last row: such a
+    # run keeps every step and is resampled at the end)
+    checked = bool(knees and setup.knees)
+    streamed = output_step if method == "moreau" and not checked else None
     watch = None
-    if rows_to is not None and method == "moreau" and not extra:
+    if rows_to is not None and method == "moreau" and not checked:
         rows_to = watch = GrowthWatch(rows_to, setup.t_stop)
     else:
         rows_to = None

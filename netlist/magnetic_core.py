@@ -1,0 +1,300 @@
+"""ngspice's XSPICE magnetic core (``core``) and its windings (``lcouple``), read exactly as
+coupled inductors while the core stays on one straight segment of its B-H curve.
+
+eSim's transformer writes a winding per ``lcouple`` and one ``core``, their mmf ports in a
+loop of their own::
+
+    a1 (in gnd) (m1 gnd) primary      .model primary lcouple(num_turns=310)
+    a2 (out gnd) (m2 gnd) secondary   .model secondary lcouple(num_turns=620)
+    a3 (m1 m2) iron                   .model iron core(H_array=[...] B_array=[...] area=1
+                                                      length=0.01)
+
+ngspice's semantics (``src/xspice/icm/xtradev/{lcouple,core}/cfunc.mod``): a winding of ``N``
+turns drives its mmf port to ``N i`` (``i`` its current, from + to - through it) and has the
+voltage ``N dΦ/dt``, ``Φ`` (Wb) the current of its mmf port from - to +; the core of length
+``l`` (m) and area ``A`` (m²) passes the flux ``Φ = A B(H)`` from + to - through its port,
+``H = mmf/l`` (A/m) its port's voltage over its length and ``B`` (T) the piecewise-linear
+table, its outer segments extended, its corners rounded within ``input_domain`` of each
+breakpoint (by default a fraction, 0.01, of the shorter adjacent segment).
+
+The same flux passes through every port of one loop. With ``Φ`` through the core from + to
+-, a winding whose port the loop passes from - to + has the sign ``s = +1``, otherwise
+``-1``: ``v_k = s_k N_k dΦ/dt``, and the core's mmf is ``sum_k s_k N_k i_k``. On a straight
+segment of slope ``μ = dB/dH`` (H/m), ``Φ = Φ0 + A μ sum_k s_k N_k i_k / l``, so
+
+    v_k = sum_j L_kj di_j/dt,   L_kj = s_k s_j N_k N_j μ A / l,
+
+the inductances ``L_k = N_k² μ A / l`` coupled without leakage (``k = s_k s_j``): an ideal
+transformer and its magnetizing inductance (:func:`netlist.perfect_coupling.build_transformer`),
+exact. pelcs takes the segment around ``H = 0`` (the core demagnetised; collinear
+neighbouring segments are one) and checks after the run that ``H`` stayed on it, clear of the
+rounded corners at its ends (:mod:`netlist.knee`): a run that leaves it is an error naming the
+instant (saturation is nonlinear; pelcs does not simulate it). ngspice's winding voltage is a
+backward difference of the flux whatever its integration method, an error of the order of
+its step. The hysteresis mode (``mode=2``) and magnetic circuits other than one loop of one
+core and its windings are refused. A deck written for ngspice gets A and ``.model`` lines.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from .circuit import GROUND, Circuit, Element, Inductor, substituted
+from .errors import Diagnostic
+from .perfect_coupling import build_transformer
+from .writer import spice_name
+
+__all__ = ["MAGNETIC_CORE", "CoreField", "MagneticCore", "Winding", "resolve_cores"]
+
+#: :attr:`netlist.circuit.BuiltGroup.construct` of a core and its windings
+MAGNETIC_CORE = "XSPICE magnetic core"
+
+_FORM = ("pelcs reads one XSPICE core (mode=1, the B-H table) whose mmf port is in one loop "
+         "with the mmf ports of its lcouple windings and nothing else, as coupled inductors "
+         "on the table's segment around H = 0")
+# slopes this close (relative) are one straight segment
+_COLLINEAR = 1e-9
+
+
+@dataclass
+class Winding(Inductor):
+    """An ``lcouple`` winding (its electrical port ``nodes``), before its core gives it an
+    inductance: ``mmf`` its mmf port (+, -), ``turns`` its number of turns."""
+
+    mmf: tuple[str, str] = (GROUND, GROUND)
+    turns: float = 1.0
+
+
+@dataclass
+class MagneticCore(Element):
+    """A ``core`` in its piecewise-linear mode: ``nodes`` its mmf port (+, -), ``h`` (A/m)
+    and ``b`` (T) its table, ``area`` (m²), ``length`` (m), ``input_domain`` (A/m, or a
+    fraction of the shorter adjacent segment if ``fraction``)."""
+
+    h: tuple[float, ...] = ()
+    b: tuple[float, ...] = ()
+    area: float = 1.0
+    length: float = 1.0
+    input_domain: float = 0.01
+    fraction: bool = True
+    kind: ClassVar[str] = "A"
+
+
+@dataclass
+class CoreField:
+    """The field ``H = scale * i(magnetizing)`` (A/m) of a core read as linear on
+    ``lo < H < hi``: a knee of :func:`netlist.knee.check_knees`."""
+
+    name: str
+    magnetizing: str
+    scale: float
+    lo: float
+    hi: float
+    slope: float
+    location: object = field(default=None, repr=False)
+
+    @property
+    def probes(self) -> tuple[str, ...]:
+        return (f"i({self.magnetizing})",)
+
+    def quantity(self, columns: Sequence[np.ndarray]) -> np.ndarray:
+        return self.scale * columns[0]
+
+    def inside(self, h: np.ndarray) -> np.ndarray:
+        return (h > self.lo) & (h < self.hi)
+
+    @property
+    def region(self) -> str:
+        if math.isinf(self.lo):
+            return f"H < {self.hi:g} A/m"
+        if math.isinf(self.hi):
+            return f"H > {self.lo:g} A/m"
+        return f"{self.lo:g} < H < {self.hi:g} A/m"
+
+    def outside(self, h: float, t: float) -> Diagnostic:
+        return Diagnostic(
+            f"core '{self.name}' is linear (dB/dH {self.slope:.6g} H/m) only while "
+            f"{self.region}, the straight part of its B-H table around H = 0; the run took "
+            f"its field to {h:.4g} A/m at t = {t:.6g} s, where B bends (saturation, "
+            "nonlinear)", self.location,
+            "pelcs simulates a core on that segment only; shorten the run, lower the "
+            "windings' volt-seconds or currents, or give the table a straight segment over "
+            "the field the circuit reaches", (self.name,))
+
+    def stayed(self, lo: float, hi: float) -> str:
+        return (f"{self.name}: core read as linear, dB/dH {self.slope:.6g} H/m while "
+                f"{self.region}: the run stayed there ({lo:.4g} to {hi:.4g} A/m)")
+
+
+def _segment(core: MagneticCore) -> tuple[float, float, float] | str:
+    """``(slope, lo, hi)``: the straight part of the core's B(H) around H = 0, or what is
+    wrong with the table."""
+    h, b = core.h, core.b
+    if len(h) != len(b) or len(h) < 2:
+        return (f"H_array and B_array need the same number of values, two at least "
+                f"({len(h)} and {len(b)})")
+    if any(not h[i + 1] > h[i] for i in range(len(h) - 1)):
+        return "H_array is not increasing"
+    slopes = [(b[i + 1] - b[i]) / (h[i + 1] - h[i]) for i in range(len(h) - 1)]
+    n = len(h)
+
+    def domain(i: int) -> float:  # the rounding half-width at interior breakpoint i
+        if not core.fraction:
+            return core.input_domain
+        return core.input_domain * min(h[i] - h[i - 1], h[i + 1] - h[i])
+
+    def collinear(i: int, j: int) -> bool:
+        return abs(slopes[i] - slopes[j]) <= _COLLINEAR * max(abs(slopes[i]), abs(slopes[j]))
+
+    j = 0
+    while j < n - 2 and h[j + 1] <= 0.0:
+        j += 1
+    first = last = j
+    while first > 0 and collinear(first - 1, j):
+        first -= 1
+    while last < n - 2 and collinear(last + 1, j):
+        last += 1
+    lo = h[first] + domain(first) if first > 0 else -math.inf
+    hi = h[last + 1] - domain(last + 1) if last + 1 < n - 1 else math.inf
+    if not lo < 0.0 < hi:
+        return (f"H = 0 is at a corner of the B-H table (within its rounding, "
+                f"{lo:g} .. {hi:g} A/m)")
+    if not slopes[j] > 0:
+        return f"the B-H table's slope around H = 0 is {slopes[j]:g}, not positive"
+    return slopes[j], lo, hi
+
+
+def resolve_cores(circuit: Circuit, earlier_problems: bool = False) -> list[Diagnostic]:
+    """Replace each core and its windings in ``circuit`` (in place) by their coupled
+    inductors (the module docstring), a note for each; the problems found (a winding
+    without a core is not one of them after ``earlier_problems``: its core's line may be
+    the one refused)."""
+    cores = [el for el in circuit.elements if isinstance(el, MagneticCore)]
+    windings = [el for el in circuit.elements if isinstance(el, Winding)]
+    if not cores and not windings:
+        return []
+    diags: list[Diagnostic] = []
+    ports: list[Element] = [*cores, *windings]
+
+    def mmf(el: Element) -> tuple[str, str]:
+        return el.mmf if isinstance(el, Winding) else (el.nodes[0], el.nodes[1])
+
+    at: dict[str, list[Element]] = {}
+    for el in ports:
+        for n in set(mmf(el)):
+            at.setdefault(n, []).append(el)
+    electrical = {n for el in circuit.elements if not isinstance(el, MagneticCore)
+                  for n in el.nodes}
+    for n, els in at.items():
+        if n != GROUND and n in electrical:
+            other = next(el for el in circuit.elements
+                         if not isinstance(el, MagneticCore) and n in el.nodes)
+            diags.append(Diagnostic(
+                f"{els[0].name}: its mmf port's node '{n}' is also a node of '{other.name}'",
+                els[0].location, _FORM, (els[0].name,)))
+    new: dict[str, list[Element]] = {}
+    gone = {el.key for el in ports}
+    used = {el.key for el in circuit.elements}
+    nodes = {n.lower() for el in circuit.elements for n in el.nodes}
+    placed: set[str] = set()
+    for core in cores:
+        loop, problem = _loop(core, at, mmf)
+        if problem:
+            diags.append(Diagnostic(f"core '{core.name}': {problem}", core.location, _FORM,
+                                    (core.name,)))
+            continue
+        order = {el.key: i for i, el in enumerate(circuit.elements)}
+        loop.sort(key=lambda ws: order[ws[0].key])
+        segment = _segment(core)
+        if isinstance(segment, str):
+            diags.append(Diagnostic(f"core '{core.name}': {segment}", core.location,
+                                    "pelcs reads the core as linear on the straight segment "
+                                    "of its table around H = 0", (core.name,)))
+            continue
+        slope, lo, hi = segment
+        placed.update(w.key for w, _ in loop)
+        per_turn2 = slope * core.area / core.length
+        coils = [Inductor(w.name, w.nodes, w.location, value=w.turns ** 2 * per_turn2,
+                          ic=w.ic) for w, _ in loop]
+        signs = [s * loop[0][1] for _, s in loop]
+        lm, _, _ = build_transformer(circuit, coils, signs, core.name, MAGNETIC_CORE,
+                                     core.location, _lines(core, [w for w, _ in loop]),
+                                     used, nodes, new)
+        first, s1 = loop[0]
+        circuit.knees.append(CoreField(core.name, lm, s1 * first.turns / core.length, lo, hi,
+                                       slope, core.location))
+        circuit.notes.append(
+            f"{core.name}: XSPICE core read as linear, dB/dH {slope:.6g} H/m (the straight "
+            f"part of its B-H table around H = 0, checked after the run), its windings "
+            + ", ".join(f"{w.name} ({w.turns:g} turns, {c.value:.6g} H, "
+                        f"{'same' if s == s1 else 'opposite'} sense)"
+                        for (w, s), c in zip(loop, coils, strict=True))
+            + f" coupled without leakage: an ideal transformer with {first.name}'s "
+            f"inductance, {lm}, across it; i({lm}) times {s1 * first.turns:g}/"
+            f"{core.length:g} m is the field H")
+    for w in windings:
+        if w.key not in placed and not diags and not earlier_problems:
+            diags.append(Diagnostic(f"lcouple winding '{w.name}' is in no loop with a core",
+                                    w.location, _FORM, (w.name,)))
+    if not diags:
+        circuit.elements[:] = substituted(circuit.elements, new, gone)
+    return diags
+
+
+def _loop(core: MagneticCore, at: dict[str, list[Element]], mmf
+          ) -> tuple[list[tuple[Winding, float]], str]:
+    """The windings in the core's mmf loop with their signs (the module docstring), in loop
+    order from the core's - node, or what keeps the loop from being one."""
+    start, end = core.nodes[0], core.nodes[1]
+    if start == end:
+        return [], "its mmf port's two nodes are one"
+    loop: list[tuple[Winding, float]] = []
+    node, came = end, core
+    while True:
+        els = at[node]
+        if len(els) != 2:
+            return [], (f"magnetic node '{node}' joins {len(els)} mmf ports, not two: the "
+                        "ports are not one loop")
+        el = els[0] if els[1] is came else els[1]
+        if el is core:
+            break
+        if isinstance(el, MagneticCore):
+            return [], f"its loop holds another core, '{el.name}'"
+        plus, minus = mmf(el)
+        if plus == minus:
+            return [], f"the mmf port of '{el.name}' has its two nodes one"
+        loop.append((el, -1.0 if plus == node else 1.0))
+        node, came = (minus if plus == node else plus), el
+        if node == start:
+            break
+    if len(at[start]) != 2:
+        return [], (f"magnetic node '{start}' joins {len(at[start])} mmf ports, not two: "
+                    "the ports are not one loop")
+    if not loop:
+        return [], "no winding is in its loop"
+    return loop, ""
+
+
+def _lines(core: MagneticCore, windings: Sequence[Winding]) -> str:
+    """The A and ``.model`` lines ngspice is given for a core and its windings."""
+    def num(v: float) -> str:  # (XSPICE's own number reader: no SI suffixes)
+        return f"{float(v):.15g}"
+
+    lines = []
+    for w in windings:
+        model = f"pelcs_lcouple_{w.key.replace('.', '_')}"
+        lines += [f"{spice_name(w.name, 'A')} ({w.nodes[0]} {w.nodes[1]}) "
+                  f"({w.mmf[0]} {w.mmf[1]}) {model}",
+                  f".model {model} lcouple(num_turns={num(w.turns)})"]
+    model = f"pelcs_core_{core.key.replace('.', '_')}"
+    lines += [f"{spice_name(core.name, 'A')} ({core.nodes[0]} {core.nodes[1]}) {model}",
+              f".model {model} core(H_array=[{' '.join(map(num, core.h))}] "
+              f"B_array=[{' '.join(map(num, core.b))}] area={num(core.area)} "
+              f"length={num(core.length)} input_domain={num(core.input_domain)} "
+              f"fraction={'TRUE' if core.fraction else 'FALSE'})"]
+    return "\n".join(lines)
