@@ -9,6 +9,82 @@ import re
 from .circuit import GROUND
 
 
+def strip_comment(line: str) -> str:
+    """Remove ``;`` and ``$`` inline comments (``$`` only after white space, before a space)."""
+    i = line.find(";")
+    if i >= 0:
+        line = line[:i]
+    if "$" in line:
+        j = line.find("$")
+        while j >= 0:
+            before_ok = j == 0 or line[j - 1] in " \t"
+            after_ok = j + 1 == len(line) or line[j + 1] in " \t"
+            if before_ok and after_ok:
+                return line[:j]
+            j = line.find("$", j + 1)
+    return line
+
+
+_ASSIGNMENT = re.compile(r"([A-Za-z_][\w.]*)\s*=(?!=)")
+
+
+def param_assignments(text: str, start: int) -> list[tuple[str, int, str, int]] | None:
+    """The ``NAME = VALUE`` items of a ``.param`` statement from ``start``, each value
+    running to the next ``NAME =`` outside parentheses, braces and quotes, as ngspice's
+    numparam reads an unbraced expression (``.param vs = vrms * sqrt(2)``): ``(name, its
+    offset, value text without trailing commas, its offset)``; None where the text is not
+    that form (something before the first name, a value missing)."""
+    found: list[re.Match] = []
+    depth, quote, i = 0, "", start
+    while i < len(text):
+        ch = text[i]
+        if quote:
+            quote = "" if ch == quote else quote
+        elif ch in "'\"":
+            quote = ch
+        elif ch in "({":
+            depth += 1
+        elif ch in ")}":
+            depth -= 1
+        elif depth == 0 and (i == start or not (text[i - 1].isalnum() or text[i - 1] in "_.")):
+            m = _ASSIGNMENT.match(text, i)
+            if m is not None:
+                found.append(m)
+                i = m.end()
+                continue
+        i += 1
+    if not found or text[start:found[0].start()].strip():
+        return None
+    out = []
+    for k, m in enumerate(found):
+        end = found[k + 1].start() if k + 1 < len(found) else len(text)
+        raw = text[m.end():end]
+        value = raw.strip().rstrip(",").rstrip()
+        if not value:
+            return None
+        out.append((m.group(1), m.start(1), value, m.end() + len(raw) - len(raw.lstrip())))
+    return out
+
+
+def ngspice_param_token(value: str, alone: bool = True) -> str:
+    """What ngspice takes for an unbraced ``.param`` value (its ``inp_fix_param_values`` and
+    numparam): all of it where it starts with a digit, ``.``, a signed number or a quote and
+    is the line's only assignment (``.param b = 1 + a``); else only up to the first white
+    space outside parentheses (``sqrt(2)``, ``max(1, 2)``, ``(a * 2)``), and ngspice stops
+    at what follows (``a * 2``), or, on a line of several assignments, drops it (``.param
+    b = 1 + a, c = 2`` sets b to 1). (A ``.param`` line with a brace anywhere is left as
+    written.)"""
+    first = value[:1]
+    if alone and (first.isdigit() or first in ".\"" or (first in "+-" and value[1:2].isdigit())):
+        return value
+    depth = 0
+    for i, ch in enumerate(value):
+        if ch.isspace() and depth <= 0:
+            return value[:i]
+        depth += (ch == "(") - (ch == ")")
+    return value
+
+
 def split_top_level(text: str, keep_empty: bool = False) -> list[str]:
     """``text`` split at the commas outside parentheses (``v(a,b), i(L1)``), each part
     stripped; empty parts dropped, or with ``keep_empty`` kept where something else is
@@ -98,7 +174,8 @@ _UNSUPPORTED_MODELS = {
 }
 
 # instance parameters accepted (and ignored: they do not change the nominal value) besides IC
-_PASSIVE_IGNORED = {"tc1", "tc2", "tce", "temp", "dtemp", "noisy", "ac"}
+# (TC=TC1[,TC2], TC1, TC2: coefficients of T - TNOM, which the run's 27 C makes 0)
+_PASSIVE_IGNORED = {"tc", "tc1", "tc2", "tce", "temp", "dtemp", "noisy", "ac"}
 
 # waveform -> (minimum, maximum number of arguments)
 WAVE_ARGS = {"pulse": (2, 8), "sin": (2, 6), "exp": (2, 6), "pwl": (2, None)}

@@ -469,14 +469,18 @@ class ElementLines:
                 # a model name after the value (R1 1 2 600k MDR): ngspice uses the value
                 self.deck.notes.append(f"{name}: model '{t}' ignored, the value is used")
                 continue
-            key_tok, val_tok = t.children
+            key_tok, val_tok, *more = t.children  # (more: TC=TC1,TC2)
             key = key_tok.lower()
+            if more and key != "tc":
+                self.error(f"parameter '{key_tok}' of {what} '{name}' takes one value", st,
+                           more[0].start_pos, f"write {key_tok}=VALUE")
+                return
             if key == "ic" and letter in "LC":
                 ic = self.value(val_tok, st)
                 if ic is None:
                     return
             elif key in _PASSIVE_IGNORED:
-                if self.value(val_tok, st) is None:
+                if any(self.value(tok, st) is None for tok in (val_tok, *more)):
                     return
             elif key == "m":
                 # ngspice's multiplicity: m elements in parallel (resload.c, capload.c,

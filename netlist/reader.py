@@ -25,7 +25,10 @@ from .dialect import (
     SUPPORTED_COMMANDS,
     UNSUPPORTED_COMMANDS,
     UNSUPPORTED_ELEMENTS,
+    ngspice_param_token,
     node_name,
+    param_assignments,
+    strip_comment,
 )
 from .element_lines import ElementLines
 from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
@@ -51,22 +54,6 @@ from .units import parse_number
 _CODE_MODEL = re.compile(r"(?i)\.model\s+(\S+?)\s+([A-Za-z_]\w*)(?=\s|\(|$)")
 
 # ------------------------------------------------------------------------------ reading
-
-
-def _strip_comment(line: str) -> str:
-    """Remove ``;`` and ``$`` inline comments (``$`` only after white space, before a space)."""
-    i = line.find(";")
-    if i >= 0:
-        line = line[:i]
-    if "$" in line:
-        j = line.find("$")
-        while j >= 0:
-            before_ok = j == 0 or line[j - 1] in " \t"
-            after_ok = j + 1 == len(line) or line[j + 1] in " \t"
-            if before_ok and after_ok:
-                return line[:j]
-            j = line.find("$", j + 1)
-    return line
 
 
 class _Block:
@@ -103,7 +90,7 @@ def split_statements(lines: list[tuple[int, str]], file: str, diags: list[Diagno
                 out.append(_Block("\n".join(control), control_loc))
                 control = None
             continue
-        code = _strip_comment(raw) if (";" in raw or "$" in raw) else raw
+        code = strip_comment(raw) if (";" in raw or "$" in raw) else raw
         if "\u00b5" in code:
             # ngspice reads every µ as 'u' (inpcom.c's utf8_check; LTspice writes 1000µF)
             code = code.replace("\u00b5", "u")
@@ -404,7 +391,7 @@ class _Reader(ElementLines, FuncReading):
                 m = re.match(r"(?i)\s*(tran)\s", raw)
                 if m is None:
                     continue
-                code = _strip_comment(raw).rstrip()
+                code = strip_comment(raw).rstrip()
                 # read as `.tran ...`: offset 1 of the statement is the `t` of the line
                 st = Statement("." + code[m.start(1):], file,
                                [(0, loc.line + i, m.start(1) - 1, raw)])
@@ -538,6 +525,23 @@ class _Reader(ElementLines, FuncReading):
                    + " ".join(sorted(IGNORED_COMMANDS)))
 
     def cmd_param(self, st: Statement) -> None:
+        start = len(st.text.split(None, 1)[0])
+        items = param_assignments(st.text, start)
+        if items is not None:  # (unbraced expressions too, as ngspice reads them)
+            for name, at, text, off in items:
+                braced = text[:1] + text[-1:] in ("{}", "''")
+                token = ngspice_param_token(text, len(items) == 1)
+                if not braced and token != text and "{" not in st.text:
+                    self.error(f"ngspice reads '{token}' as the value of '{name}', not "
+                               f"'{text}'", st, off + len(token),
+                               "an unbraced value that starts with a name or '(', or is one of "
+                               f"several, ends at a space outside (): write {name}={{{text}}}")
+                    continue
+                v = self.expression(text[1:-1], st, off + 1) if braced else \
+                    self.value(Token("WORD", text, start_pos=off), st, True)
+                if v is not None:
+                    self.body.params.append(RawParam(name.lower(), v, st, at))
+            return
         tree = self.parse(st, "param_cmd", ".param", ".param name=value [name=value ...]")
         items = tree.children[1:]
         if not items:
@@ -780,8 +784,6 @@ _COMMANDS = {
     # (read before the rest of its file: _Reader.define_func)
     ".func": lambda reader, st: None,
 }
-
-
 
 
 def read_deck(text: str, file: str = "<string>", path: Path | None = None) -> Deck:

@@ -14,6 +14,7 @@ from ngspice_helpers import ngspice_print
 from lcs.signals import Sin
 from netlist.errors import NetlistError
 from netlist.parser import parse_file, parse_string
+from netlist.studies.realistic import simulate_devices
 
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
 
@@ -226,3 +227,51 @@ def test_lines_after_end_are_still_the_netlist(tmp_path, ngspice):
     assert c.tran.tstop == 1e-3
     got = ngspice_print(AFTER_END, ["i(V1)[1]"], tmp_path)
     assert got["i(V1)[1]"] == pytest.approx(-2e-3)
+
+
+# forms met in public ngspice netlists (ngspice's own examples, course labs), each deck's
+# v(o) in pelcs against ngspice's
+FORMS = {
+    # an unbraced value: a number first, all of it (spaces too); a name or '(' first, up to
+    # a space outside parentheses (ngspice's inp_fix_param_values)
+    "param call": ".param a = sqrt(4)\n.param b = 1 * (1 + 0.5) * a\n.param c=max(1, 2)\n"
+                  ".param d = (a * 2) e=a*(1+1)\nV1 o 0 {b*c*d*e}\nR1 o 0 1k\n",
+    "param comment": ".param raiz_2 = sqrt(2);\nV1 o 0 {raiz_2}\nR1 o 0 1k\n",
+    # Sue/ngspice keyword forms of a source's DC and AC values, quoted
+    "dc= ac=": "V1 o 0 dc='12' ac='0'\nR1 o 0 1k\n",
+    # E with its node pairs in parentheses (PySpice's small-signal amplifier)
+    "E pairs": "V1 a 0 1\nE1 (o 0) (a 0) -10\nR1 o 0 1k\n",
+    "E pair comma": "V1 a 0 2\nE1 (o,0) a 0 3\nR1 o 0 1k\n",
+    # a resistor's TC (ngspice's TransImpedanceAmp example): nothing at 27 C
+    "R TC": "V1 a 0 1\nR1 a o 1E3 TC=7E-6\nR2 o 0 1k\n",
+    # a .model whose ')' comes before its continuation (ngspice's 555 timer example):
+    # ngspice reads parentheses as separators
+    "model paren": "V1 a 0 1\nR1 a o 1k\nD1 o 0 DA\n.MODEL DA D (RS=40 IS=1.0E-14)\n"
+                   "+ N=2)\n",
+}
+
+
+@pytest.mark.parametrize("form", sorted(FORMS))
+def test_ngspice_forms(form, tmp_path, ngspice):
+    deck = f"t\n{FORMS[form]}.tran 1u 10u\n.end\n"
+    res = simulate_devices(parse_string(deck), devices="pwl", probes=["v(o)"])
+    res.raise_if_error()
+    got = float(res["v(o)"][-1])
+    want = ngspice_print(deck, ["v(o)[5]"], tmp_path)["v(o)[5]"]
+    # (ngspice prints 7 digits; the diode's pwl fit within 10 mV of its exponential)
+    assert got == pytest.approx(want, rel=1e-6, abs=1e-2 if form == "model paren" else 0)
+
+
+@pytest.mark.parametrize("line, where", [(".param b = a * 1.5", 12), (".param b = sqrt(a) * 2", 18),
+                                         (".param b = a + 1, c=1", 12),
+                                         (".param b = 1 + a, c=1", 12)])
+def test_an_unbraced_value_ngspice_stops_in_is_refused(line, where, tmp_path, ngspice):
+    deck = f"t\n.param a = 2\n{line}\nV1 o 0 {{b}}\nR1 o 0 1k\n.tran 1u 10u\n.end\n"
+    with pytest.raises(NetlistError) as exc:
+        parse_string(deck)
+    text = str(exc.value)
+    assert f"<string>:3:{where + 1}: error: ngspice reads" in text and "write b={" in text
+    # (what ngspice does with them: stops, or for the last, sets b to 1)
+    if "1 + a" in line:
+        got = ngspice_print(deck, ["v(o)[3]"], tmp_path)["v(o)[3]"]
+        assert got == 1.0
