@@ -188,6 +188,8 @@ class _Parser:
                     self.take()
                     args.append(self.ternary())
             self.take(")")
+            if low == "if" and len(args) == 3:  # LTspice's if(c, a, b): c ? a : b
+                return Tree("?", tuple(args), pos, self.end_of())
             return Tree("call", (low, *args), pos, self.end_of())
         if kind == "end":
             raise BehaviouralError(f"incomplete expression '{self.text.strip()}'", pos,
@@ -642,7 +644,31 @@ def linearise(tree: Tree, text: str, env: Mapping[str, float],
 
 def _select(tree: Tree, lin: _Lineariser) -> Select | None:
     """``cond ? a : b`` with a comparison ``cond`` and affine ``a``, ``b`` as a
-    :class:`Select`; None for any other expression (or a part that is no such form)."""
+    :class:`Select`, or such a comparator (or one of constants) plus or minus an affine form
+    (a floating gate drive: ``V(sw) + if(V(pwm) > 6, 11.5, 0)``), the form added to both
+    branches; None for any other expression (or a part that is no such form)."""
+    if tree.tag in ("+", "-"):
+        parts = []
+        for x in tree.args:
+            part = _select(x, lin)
+            if part is None:
+                try:
+                    part = lin.form(x)
+                except (BehaviouralError, RecursionError):
+                    return None
+            if isinstance(part, Step):
+                part = Select(part.diff, part.strict, _const(part.hi), _const(part.lo))
+            parts.append(part)
+        a, b = parts
+        if tree.tag == "-":
+            b = b.scaled(-1.0) if isinstance(b, Affine) else Select(
+                b.diff, b.strict, b.hi.scaled(-1.0), b.lo.scaled(-1.0)) \
+                if isinstance(b, Select) else None
+        if isinstance(a, Select) and isinstance(b, Affine):
+            a, b = b, a
+        if not (isinstance(a, Affine) and isinstance(b, Select)):
+            return None
+        return Select(b.diff, b.strict, b.hi.plus(a), b.lo.plus(a))
     if tree.tag != "?":
         return None
     try:

@@ -195,6 +195,9 @@ class Tran:
     tstart: float = 0.0
     tmax: float | None = None
     uic: bool = False
+    # TSTEP written 0 (LTspice's .tran 0 TSTOP): tstep is then TSTOP/1000, a print interval
+    # only, and the step follows the sources (netlist.studies.timestep.tran_step)
+    no_tstep: bool = False
 
 
 @dataclass

@@ -20,10 +20,13 @@ import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
-from .errors import Location
+import numpy as np
+
+from .errors import Diagnostic, Location
 from .units import parse_number
 
-__all__ = ["BJT_THRESHOLD", "DEVICE_TYPES", "Replacement", "gate_rc", "threshold"]
+__all__ = ["BJT_THRESHOLD", "DEVICE_TYPES", "ReverseChannel", "Replacement", "dropped_parts",
+           "gate_rc", "threshold"]
 
 #: base–emitter voltage at which an idealised BJT switch turns on, V
 BJT_THRESHOLD = 0.7
@@ -75,6 +78,71 @@ class Replacement:
         return (f"{self.element} ({self.device} {self.model}) -> {self.became}, threshold "
                 f"{self.threshold:g} V ({self.source}){body}; dropped: "
                 f"{', '.join(self.dropped)}")
+
+
+@dataclass(frozen=True)
+class ReverseChannel:
+    """A MOSFET without a body diode (NMOS, PMOS) idealised as a switch on while
+    ``v(control) > threshold``, ``control`` its gate and source. The channel of the device
+    conducts either way: where the source rises past the drain (below it, P-channel) the two
+    swap, and the gate opens it against the drain. The ideal switch does not: a run that
+    keeps the switch off while ``v(reverse) > threshold`` (the gate against the drain) is not
+    the circuit's, and :func:`netlist.knee.check_knees` makes it an error at that instant.
+    The quantity checked is how far past the threshold the gate stands against the drain
+    while the switch is off (V; -1 where it is on)."""
+
+    name: str
+    device: str
+    control: tuple[str, str]
+    reverse: tuple[str, str]
+    threshold: float
+    location: Location | None = field(default=None, compare=False, repr=False)
+
+    @property
+    def probes(self) -> tuple[str, ...]:
+        nodes = dict.fromkeys(n for n in (*self.control, *self.reverse) if n != "0")
+        return tuple(f"v({n})" for n in nodes)
+
+    def quantity(self, columns: Sequence[np.ndarray]) -> np.ndarray:
+        nodes = [n for n in dict.fromkeys((*self.control, *self.reverse)) if n != "0"]
+        v = dict(zip(nodes, columns, strict=True))
+        zero = np.zeros_like(columns[0])
+
+        def diff(pair: tuple[str, str]) -> np.ndarray:
+            return v.get(pair[0], zero) - v.get(pair[1], zero)
+
+        off = diff(self.control) <= self.threshold
+        return np.where(off, diff(self.reverse) - self.threshold, -1.0)
+
+    def inside(self, q: np.ndarray) -> np.ndarray:
+        return q <= 0.0
+
+    def outside(self, q: float, t: float) -> Diagnostic:
+        nmos = self.device == "NMOS"
+        s = self.control[1] if nmos else self.control[0]
+        d = self.reverse[1] if nmos else self.reverse[0]
+        return Diagnostic(
+            f"{self.name} ({self.device}) is off in pelcs at t = {t:.6g} s (its switch is on "
+            f"only while v({self.control[0]},{self.control[1]}) > {self.threshold:g} V) "
+            f"while the gate stands {q + self.threshold:.4g} V against its drain {d}: a "
+            f"MOSFET's channel conducts either way (drain and source swap where {s} passes "
+            f"{d}), the ideal switch does not, so the run is not this circuit", self.location,
+            f"keep node {s} from passing {d} (a capacitance or a path to ground at it), or "
+            "use a VDMOS model, whose body diode conducts that way", (self.name,))
+
+    def stayed(self, lo: float, hi: float) -> None:
+        return None
+
+
+def dropped_parts(kind: str, mtype: str, nodes: Sequence[str]) -> tuple[str, ...]:
+    """What of an ``M`` or ``Q`` device (``kind``) of model type ``mtype`` with these nodes
+    its ideal switch leaves out, for :attr:`Replacement.dropped`."""
+    dropped = ["capacitances", "on-resistance and drops"]
+    if len(nodes) > 3:
+        dropped.append(f"{'bulk' if kind == 'M' else 'substrate'} terminal {nodes[3]}")
+    if kind == "M" and mtype != "VDMOS":
+        dropped.append("bulk diodes")
+    return tuple(dropped)
 
 
 def threshold(name: str, model: str, mtype: str, params: Mapping[str, float],

@@ -9,6 +9,21 @@ import re
 from .circuit import GROUND
 
 
+def missing_include_hint(including: str, files: list[str]) -> str:
+    """What to do about an include that does not exist, and what ngspice does with it
+    (measured, ngspice 39: in the top file it loads no circuit, "there aren't any circuits
+    loaded"; in an included file it drops that whole file, the elements before the include
+    as well as after it, and simulates what is left without a word beyond "Could not find
+    include file"). pelcs refuses both: what ngspice then simulates is not the netlist."""
+    hint = "check the path (relative paths in .include and .lib are relative to the " \
+        "including file)"
+    if files and including != files[0]:
+        return (hint + f"; ngspice drops all of '{including}' for it (every element of "
+                "that file, before the include and after it) and simulates what is left, "
+                "which is not this circuit")
+    return hint + "; ngspice loads no circuit either"
+
+
 def strip_comment(line: str) -> str:
     """Remove ``;`` and ``$`` inline comments (``$`` only after white space, before a space)."""
     i = line.find(";")

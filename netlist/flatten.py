@@ -386,13 +386,14 @@ class _Builder:
             return
         names = ["TSTEP", "TSTOP", "TSTART", "TMAX"]
         ok = True
-        if vals[0] == 0 and vals[1] > 0:
+        no_tstep = vals[0] == 0 and vals[1] > 0
+        if no_tstep:
             # LTspice writes `.tran 0 TSTOP [TSTART [TMAX]]`: no print step
             tmax = vals[3] if len(vals) > 3 and vals[3] > 0 else None
             vals[0] = tmax if tmax is not None else vals[1] / 1000.0
             self.circuit.notes.append(
-                f".tran TSTEP 0 (LTspice): taken as {'TMAX' if tmax else 'TSTOP/1000'} = "
-                f"{vals[0]:g} s")
+                f".tran TSTEP 0 (LTspice): the print interval taken as "
+                f"{'TMAX' if tmax else 'TSTOP/1000'} = {vals[0]:g} s")
         for i, (name, v) in enumerate(zip(names, vals, strict=False)):
             if (v < 0 if name == "TSTART" else v <= 0):
                 self.error(f".tran {name} must be {'>= 0' if i == 2 else 'positive'}, got "
@@ -405,7 +406,7 @@ class _Builder:
             ok = False
         if ok:
             self.circuit.tran = Tran(vals[0], vals[1], vals[2] if len(vals) > 2 else 0.0,
-                                     vals[3] if len(vals) > 3 else None, t.uic)
+                                     vals[3] if len(vals) > 3 else None, t.uic, no_tstep)
 
     def expand(self, body: Body, name_prefix: str, node_prefix: str,
                ports: dict[str, str] | None, env: Mapping[str, float], failed: set[str],
@@ -479,7 +480,7 @@ class _Builder:
     def device(self, el: RawElement, prefix: str, mapnode: Callable[[str], str]) -> list:
         """An M or Q element idealised: a switch, the VDMOS body diode (netlist.devices)."""
         # (imported by the circuits that have devices: 1 ms of the others' start)
-        from .devices import Replacement, gate_rc, threshold
+        from .devices import Replacement, ReverseChannel, dropped_parts, gate_rc, threshold
 
         name = prefix + el.name if prefix else el.name
         loc = el.st.loc(0)
@@ -506,6 +507,9 @@ class _Builder:
         out: list = [Switch(name, (a, b), loc, control, sw_model, None,
                             device=(el.kind, nodes, model.name),
                             gate_rc=gate_rc(el, model, 0.0))]
+        if mt in ("NMOS", "PMOS"):  # (no body diode: the channel's reverse conduction)
+            self.circuit.knees.append(ReverseChannel(name, mt, control, (g, a) if not pchan
+                                                     else (a, g), thr, loc))
         body = None
         if mt == "VDMOS":
             body = f"{name}_body"
@@ -514,13 +518,9 @@ class _Builder:
                                                                       "base")
         ctl = f"v({control[0]})" if control[1] == GROUND else f"v({control[0]},{control[1]})"
         became = (f"ideal switch {terms[0]} {a} - {terms[1]} {b}, on while {ctl} > {thr:g} V")
-        dropped = ["capacitances", "on-resistance and drops"]
-        if len(nodes) > 3:
-            dropped.append(f"{'bulk' if el.kind == 'M' else 'substrate'} terminal {nodes[3]}")
-        if el.kind == "M" and mt != "VDMOS":
-            dropped.append("bulk diodes")
         self.circuit.replacements.append(Replacement(name, model.name, mt, became, thr, source,
-                                                     body, tuple(dropped), loc))
+                                                     body, dropped_parts(el.kind, mt, nodes),
+                                                     loc))
         return out
 
     def macro(self, el: RawElement, sub, macro, name: str, port_map: Mapping[str, str]

@@ -115,12 +115,11 @@ def elaborate_knee(el: RawElement, prefix: str, mapnode: Callable[[str], str],
                           text)]
 
 
-def knee_probes(knees: Sequence, probes: Sequence[str] | None) -> list[str]:
-    """The probes a run must store besides ``probes`` to check its knees (none when
-    ``probes`` is None: every state is stored, and a knee reads states)."""
-    if probes is None:
-        return []
-    have = {p.lower() for p in probes}
+def knee_probes(knees: Sequence, probes: Sequence[str] | None,
+                states: Sequence[str] = ()) -> list[str]:
+    """The probes a run must store besides ``probes`` (``None``: the ``states``) to check
+    its knees."""
+    have = {p.lower() for p in (states if probes is None else probes)}
     out = []
     for k in knees:
         for p in k.probes:
@@ -137,7 +136,8 @@ def check_knees(knees: Sequence, result, extra: int) -> None:
     A knee is a :class:`KneeCapacitor` or another object with its ``probes`` (state names
     it reads), ``quantity(columns)``, ``inside(values)`` (a boolean array), ``outside(value,
     t)`` (the :class:`~netlist.errors.Diagnostic` of a run that left) and ``stayed(lo, hi)``
-    (the note of one that did not): a magnetic core (:mod:`netlist.magnetic_core`).
+    (the note of one that did not, or None): a magnetic core (:mod:`netlist.magnetic_core`),
+    a MOSFET whose channel would conduct backwards (:class:`netlist.devices.ReverseChannel`).
 
     Raises
     ------
@@ -155,7 +155,9 @@ def check_knees(knees: Sequence, result, extra: int) -> None:
         if bad.size:
             i = int(bad[0])
             raise NetlistError(k.outside(float(q[i]), float(result.t[i])))
-        result.notes.append(k.stayed(float(q.min()), float(q.max())))
+        note = k.stayed(float(q.min()), float(q.max()))
+        if note:
+            result.notes.append(note)
     if extra:
         result.names = tuple(result.names[:-extra])
         result.y = result.y[:, :-extra]

@@ -25,6 +25,7 @@ from .dialect import (
     SUPPORTED_COMMANDS,
     UNSUPPORTED_COMMANDS,
     UNSUPPORTED_ELEMENTS,
+    missing_include_hint,
     ngspice_param_token,
     node_name,
     param_assignments,
@@ -278,7 +279,7 @@ class _Reader(ElementLines, FuncReading):
             return
         if not os.path.lexists(path):
             self.diags.append(Diagnostic(f"file not found: '{display}'", at,
-                                         _missing_include_hint(st.file, self.deck.files)))
+                                         missing_include_hint(st.file, self.deck.files)))
             return
         try:
             data = _read_bytes(path, display, at)
@@ -663,9 +664,7 @@ class _Reader(ElementLines, FuncReading):
                 self.body.ics.append(RawIc(node_name(node_tok), v, st, node_tok.start_pos))
 
     def cmd_tran(self, st: Statement) -> None:
-        tree = self.parse(st, "tran_cmd", ".tran",
-                          ".tran TSTEP TSTOP [TSTART [TMAX]] [UIC] (LTspice's .tran TSTOP: "
-                          "write .tran 0 TSTOP)")
+        tree = self.parse(st, "tran_cmd", ".tran", ".tran TSTEP TSTOP [TSTART [TMAX]] [UIC]")
         if self.sub is not None:
             self.error(".tran inside a subcircuit", st, 0, "move it to the top level")
             return
@@ -680,6 +679,10 @@ class _Reader(ElementLines, FuncReading):
         values = [self.value(t, st) for t in ch]
         if any(v is None for v in values):
             return
+        if len(values) == 1:  # LTspice's .tran TSTOP: its .tran 0 TSTOP
+            self.deck.notes.append(f"line {line}: .tran TSTOP (LTspice; ngspice needs .tran "
+                                   "TSTEP TSTOP) read as .tran 0 TSTOP")
+            values.insert(0, Value(0.0, None, st, ch[0].start_pos))
         self.deck.trans.append(RawTran(values, "UIC" in flags, st))
 
     def cmd_step(self, st: Statement) -> None:
@@ -719,21 +722,6 @@ class _Reader(ElementLines, FuncReading):
     def cmd_title(self, st: Statement) -> None:
         parts = st.text.split(None, 1)
         self.deck.title = parts[1].strip() if len(parts) > 1 else ""
-
-
-def _missing_include_hint(including: str, files: list[str]) -> str:
-    """What to do about an include that does not exist, and what ngspice does with it
-    (measured, ngspice 39: in the top file it loads no circuit, "there aren't any circuits
-    loaded"; in an included file it drops that whole file, the elements before the include
-    as well as after it, and simulates what is left without a word beyond "Could not find
-    include file"). pelcs refuses both: what ngspice then simulates is not the netlist."""
-    hint = "check the path (relative paths in .include and .lib are relative to the " \
-        "including file)"
-    if files and including != files[0]:
-        return (hint + f"; ngspice drops all of '{including}' for it (every element of "
-                "that file, before the include and after it) and simulates what is left, "
-                "which is not this circuit")
-    return hint + "; ngspice loads no circuit either"
 
 
 def _unquote(tok: Token) -> str:

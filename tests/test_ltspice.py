@@ -6,11 +6,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
+from ngspice_helpers import ngspice_wrdata
 
 from netlist.circuit import Capacitor, Inductor, Resistor
 from netlist.errors import NetlistError
 from netlist.parser import parse_file, parse_string
+from netlist.studies.transient import simulate_circuit
 from netlist.writer import write_circuit
 
 LT = Path(__file__).parent / "netlists" / "ltspice" / "buck_ltspice.cir"
@@ -59,3 +62,44 @@ def test_lib_with_one_file_is_an_include(tmp_path):
     (tmp_path / "top.cir").write_text("t\nV1 a 0 1\nD1 a 0 DX\n.lib m.lib\n.end\n")
     c = parse_file(str(tmp_path / "top.cir"))
     assert "dx" in c.models
+
+
+def test_if_function_tran_tstop_and_a_floating_gate_drive(tmp_path, ngspice):
+    """LTspice's if(c, a, b) is c ? a : b; its .tran TSTOP is .tran 0 TSTOP, whose step
+    follows the sources (1/100 of the PWM period, 5000 steps a run at least: 20 ns here,
+    not TSTOP/1000, which a longer run would make a PWM period);
+    'V(sw) + if(...)' is a comparator whose branches are linear (v(sw) + 11.5, v(sw)). The
+    driver's output against ngspice's, the if() written as the ternary ngspice reads."""
+    deck = """ltspice forms
+Vpwm pwm 0 PULSE(0 12 0 10n 10n 5u 10u)
+Vsw sw 0 SIN(3 2 33k)
+B1 drv 0 V=V(sw)+if(V(pwm)>6, 11.5, 0)
+R1 drv 0 1k
+.tran 100u
+.end
+"""
+    c = parse_string(deck)
+    assert c.tran.tstop == 100e-6 and c.tran.no_tstep
+    res = simulate_circuit(c, probes=["v(drv)"])
+    res.raise_if_error()
+    assert any("step h = 20 ns: LTspice's .tran 0 TSTOP gives no step" in n
+               for n in res.notes)
+    assert any(".tran TSTOP (LTspice" in n for n in c.notes)
+    ng = ngspice_wrdata(deck.replace("if(V(pwm)>6, 11.5, 0)", "(V(pwm)>6 ? 11.5 : 0)")
+                        .replace(".tran 100u", ".tran 10n 100u"), ["v(drv)"], tmp_path)
+    # away from the PWM edges (10 ns ramps), on every ngspice point
+    t = ng[:, 0]
+    away = np.abs(((t + 2.5e-6) % 5e-6) - 2.5e-6) > 0.2e-6
+    got = np.interp(t[away], res.t, res["v(drv)"])
+    assert np.max(np.abs(got - ng[away, 1])) < 1e-3
+
+
+def test_tran_0_tstop_steps_by_the_sources():
+    # a 100 kHz PWM over 10 ms: 1/100 of its period, where TSTOP/1000 (the print interval)
+    # would be one step a period (a bootstrapped buck then read 9.7 V for ngspice's 7.8 V)
+    from netlist.studies.timestep import tran_step
+
+    c = parse_string("t\nV1 a 0 PULSE(0 1 0 10n 10n 5u 10u)\nR1 a 0 1\n.tran 0 10m\n.end\n")
+    h, note = tran_step(c.tran, [c.element("V1").waveform], c.tran.tstop)
+    assert h == pytest.approx(100e-9) and "LTspice's .tran 0 TSTOP" in note
+    assert c.tran.tstep == pytest.approx(10e-6)  # (the print interval)

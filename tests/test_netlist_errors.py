@@ -124,7 +124,7 @@ CATALOGUE = [
      4, 13, ""),
     ("second-tran", "t\n" + OK + ".tran 1u 1m\n.tran 1u 2m\n", "second .tran (first at line 4)",
      5, 1, "keep one"),
-    ("tran-incomplete", "t\n" + OK + ".tran 1u\n", "incomplete .tran", 4, 9, "TSTOP"),
+    ("tran-incomplete", "t\n" + OK + ".tran\n", "incomplete .tran", 4, 6, "TSTOP"),
     ("ic-unknown-node", "t\n" + OK + ".ic v(zz)=1\n", ".ic names node 'zz'", 4, 7, ""),
     ("ic-current", "t\n" + OK + ".ic i(a)=1\n", ".ic sets node voltages", 4, 5, "IC="),
     ("ic-twice", "t\n" + OK + ".ic v(a)=1\n.ic v(a)=2\n", ".ic sets node 'a' twice", 5, 7, ""),

@@ -113,6 +113,14 @@ def tran_step(tran: Tran, waves: Sequence[Signal], tstop: float,
         The sources' names, for the note.
     """
     span = tstop - tran.tstart if 0 <= tran.tstart < tstop else tstop
+    if tran.no_tstep and not tran.tmax:
+        # LTspice's .tran 0 TSTOP: no print interval, no bound of ngspice's: the step of a
+        # run without .tran, 1/100 of the shortest source period (its tstep, TSTOP/1000, is
+        # only the print interval: a 100 kHz buck run for 10 ms would get one step a period)
+        h = default_step(waves, span)
+        return h, (f"step h = {_eng_s(h)}: LTspice's .tran 0 TSTOP gives no step; 1/"
+                   f"{STEPS_PER_PERIOD} of the shortest source period, {MIN_STEPS_PER_RUN} "
+                   "steps a run at least")
     if tran.tmax:
         h = float(tran.tmax)
     else:

@@ -613,9 +613,9 @@ def run_setup(
     print_note = None
     if output_step == "tran":
         output_step, print_note = setup.print_step, setup.print_note
-    extra = knee_probes(setup.knees, probes) if knees else []
+    extra = knee_probes(setup.knees, probes, setup.system.states) if knees else []
     if extra:
-        probes = [*probes, *extra]
+        probes = [*(setup.system.states if probes is None else probes), *extra]
     # (a knee is checked on every step, not only on the output grid or the last row: such a
     # run keeps every step and is resampled at the end)
     checked = bool(knees and setup.knees)
