@@ -17,7 +17,9 @@ voltage ``N dΦ/dt``, ``Φ`` (Wb) the current of its mmf port from - to +; the c
 table, its outer segments extended, its corners rounded within ``input_domain`` of each
 breakpoint (by default a fraction, 0.01, of the shorter adjacent segment).
 
-The same flux passes through every port of one loop. With ``Φ`` through the core from + to
+The same flux passes through every port of one loop; ground may join the ports of several
+loops (eSim writes each mmf port to ground), each loop's flux passing from its own port into
+ground to its own port out of it (KCL at every other node). With ``Φ`` through the core from + to
 -, a winding whose port the loop passes from - to + has the sign ``s = +1``, otherwise
 ``-1``: ``v_k = s_k N_k dΦ/dt``, and the core's mmf is ``sum_k s_k N_k i_k``. On a straight
 segment of slope ``μ = dB/dH`` (H/m), ``Φ = Φ0 + A μ sum_k s_k N_k i_k / l``, so
@@ -57,6 +59,8 @@ MAGNETIC_CORE = "XSPICE magnetic core"
 _FORM = ("pelcs reads one XSPICE core (mode=1, the B-H table) whose mmf port is in one loop "
          "with the mmf ports of its lcouple windings and nothing else, as coupled inductors "
          "on the table's segment around H = 0")
+_LINEAR = ("pelcs reads the core as linear on the straight segment of its table around "
+           "H = 0 (of positive slope): give the table such a segment")
 # slopes this close (relative) are one straight segment
 _COLLINEAR = 1e-9
 
@@ -131,15 +135,28 @@ class CoreField:
                 f"{self.region}: the run stayed there ({lo:.4g} to {hi:.4g} A/m)")
 
 
-def _segment(core: MagneticCore) -> tuple[float, float, float] | str:
+def _segment(core: MagneticCore) -> tuple[float, float, float] | tuple[str, str]:
     """``(slope, lo, hi)``: the straight part of the core's B(H) around H = 0, or what is
-    wrong with the table."""
+    wrong with the table and what to do."""
     h, b = core.h, core.b
     if len(h) != len(b) or len(h) < 2:
         return (f"H_array and B_array need the same number of values, two at least "
-                f"({len(h)} and {len(b)})")
+                f"({len(h)} and {len(b)})", "give one B value (T) per H value (A/m)")
     if any(not h[i + 1] > h[i] for i in range(len(h) - 1)):
-        return "H_array is not increasing"
+        return ("H_array is not increasing", "write the table's H values (A/m) in "
+                "increasing order, each B value (T) in its place")
+    if not core.fraction:
+        # ngspice's core then passes no flux at all ("Violation of 50% rule in breakpoints"
+        # at every step, its windings shorts): no inductance is its answer
+        short = next((i for i in range(len(h) - 1)
+                      if h[i + 1] - h[i] < 2.0 * core.input_domain), None)
+        if short is not None:
+            return (f"its segment from H = {h[short]:g} to {h[short + 1]:g} A/m is shorter "
+                    f"than twice input_domain ({core.input_domain:g} A/m, absolute as "
+                    "fraction=FALSE): ngspice's core refuses such a table (its '50% rule') "
+                    "and passes no flux",
+                    "give input_domain (A/m) at most half the shortest segment, or "
+                    "fraction=TRUE (input_domain then a fraction of the segments)")
     slopes = [(b[i + 1] - b[i]) / (h[i + 1] - h[i]) for i in range(len(h) - 1)]
     n = len(h)
 
@@ -163,9 +180,10 @@ def _segment(core: MagneticCore) -> tuple[float, float, float] | str:
     hi = h[last + 1] - domain(last + 1) if last + 1 < n - 1 else math.inf
     if not lo < 0.0 < hi:
         return (f"H = 0 is at a corner of the B-H table (within its rounding, "
-                f"{lo:g} .. {hi:g} A/m)")
+                f"{lo:g} .. {hi:g} A/m)", _LINEAR)
     if not slopes[j] > 0:
-        return f"the B-H table's slope around H = 0 is {slopes[j]:g}, not positive"
+        return (f"the B-H table's slope around H = 0 is {slopes[j]:g}, not positive",
+                _LINEAR)
     return slopes[j], lo, hi
 
 
@@ -211,10 +229,9 @@ def resolve_cores(circuit: Circuit, earlier_problems: bool = False) -> list[Diag
         order = {el.key: i for i, el in enumerate(circuit.elements)}
         loop.sort(key=lambda ws: order[ws[0].key])
         segment = _segment(core)
-        if isinstance(segment, str):
-            diags.append(Diagnostic(f"core '{core.name}': {segment}", core.location,
-                                    "pelcs reads the core as linear on the straight segment "
-                                    "of its table around H = 0", (core.name,)))
+        if isinstance(segment[0], str):
+            diags.append(Diagnostic(f"core '{core.name}': {segment[0]}", core.location,
+                                    segment[1], (core.name,)))
             continue
         slope, lo, hi = segment
         placed.update(w.key for w, _ in loop)
@@ -249,35 +266,51 @@ def resolve_cores(circuit: Circuit, earlier_problems: bool = False) -> list[Diag
 def _loop(core: MagneticCore, at: dict[str, list[Element]], mmf
           ) -> tuple[list[tuple[Winding, float]], str]:
     """The windings in the core's mmf loop with their signs (the module docstring), in loop
-    order from the core's - node, or what keeps the loop from being one."""
+    order from the core's - node, or what keeps the loop from being one.
+
+    Every magnetic node but ground joins two ports. Ground may join the ports of several
+    loops (eSim's windings and cores put one node of each mmf port there): the flux of a
+    loop through ground passes from its path out of the core's - node to its path into the
+    core's + node, ground's other ports being other loops' (KCL holds at every other node of
+    each path)."""
     start, end = core.nodes[0], core.nodes[1]
     if start == end:
         return [], "its mmf port's two nodes are one"
-    loop: list[tuple[Winding, float]] = []
-    node, came = end, core
-    while True:
-        els = at[node]
-        if len(els) != 2:
-            return [], (f"magnetic node '{node}' joins {len(els)} mmf ports, not two: the "
-                        "ports are not one loop")
-        el = els[0] if els[1] is came else els[1]
-        if el is core:
-            break
-        if isinstance(el, MagneticCore):
-            return [], f"its loop holds another core, '{el.name}'"
-        plus, minus = mmf(el)
-        if plus == minus:
-            return [], f"the mmf port of '{el.name}' has its two nodes one"
-        loop.append((el, -1.0 if plus == node else 1.0))
-        node, came = (minus if plus == node else plus), el
-        if node == start:
-            break
-    if len(at[start]) != 2:
-        return [], (f"magnetic node '{start}' joins {len(at[start])} mmf ports, not two: "
-                    "the ports are not one loop")
-    if not loop:
+
+    def walk(node: str, forward: bool) -> tuple[list[tuple[Winding, float]], bool, str]:
+        # the windings from the core's node `node` away from the core, to ground or (True)
+        # round to the core again; a winding's sign is that of the forward direction
+        out: list[tuple[Winding, float]] = []
+        came: Element = core
+        while node != GROUND:
+            els = at[node]
+            if len(els) != 2:
+                return [], False, (f"magnetic node '{node}' joins {len(els)} mmf ports, not "
+                                   "two: the ports are not one loop")
+            el = els[0] if els[1] is came else els[1]
+            if el is core:
+                return out, True, ""
+            if isinstance(el, MagneticCore):
+                return [], False, f"its loop holds another core, '{el.name}'"
+            plus, minus = mmf(el)
+            if plus == minus:
+                return [], False, f"the mmf port of '{el.name}' has its two nodes one"
+            # forward, entering at its + node is -1; backward, leaving at it
+            out.append((el, (-1.0 if plus == node else 1.0) * (1.0 if forward else -1.0)))
+            node, came = (minus if plus == node else plus), el
+        return out, False, ""
+
+    ahead, closed, problem = walk(end, True)
+    if problem:
+        return [], problem
+    if not closed:  # through ground: the path into the core's + node, reversed
+        behind, _, problem = walk(start, False)
+        if problem:
+            return [], problem
+        ahead += behind[::-1]
+    if not ahead:
         return [], "no winding is in its loop"
-    return loop, ""
+    return ahead, ""
 
 
 def _lines(core: MagneticCore, windings: Sequence[Winding]) -> str:
