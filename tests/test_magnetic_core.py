@@ -240,3 +240,21 @@ def test_ngspice_passes_no_flux_where_the_rounding_is_too_wide(tmp_path, ngspice
     data, _ = ngspice_run(deck.replace("input_domain=600", "input_domain=400"), ["v(in)"],
                           tmp_path)
     assert data is not None and np.interp(1e-4, data[:, 0], data[:, 1]) > 8.0
+
+
+def test_a_brief_saturation_between_kept_steps_is_an_error():
+    """10.6 V at 50 Hz takes H past 990 A/m for 15 steps of 20 us from 6.02 ms: a run that
+    keeps every 100th step (``--every 100``) is still checked on every step (it once saw
+    only the kept ones, which stay below, and said the run stayed on the segment); its rows
+    are those such a run keeps."""
+    deck = CORE.replace("SIN(0 10 1k)", "SIN(0 10.6 50)").replace(".tran 1u 4m",
+                                                                   ".tran 20u 40m")
+    for every in (1, 100):
+        with pytest.raises(NetlistError) as exc:
+            simulate_circuit(parse_string(deck), every=every)
+        assert "took its field to 990.3 A/m at t = 0.00602 s" in str(exc.value)
+    below = deck.replace("SIN(0 10.6 50)", "SIN(0 10 50)")
+    res = simulate_circuit(parse_string(below), every=100)
+    res.raise_if_error()
+    assert len(res.t) == 21 and res.t[1] == pytest.approx(2e-3)
+    assert any("the run stayed there (-932.8 to 935 A/m)" in n for n in res.notes)
