@@ -258,3 +258,22 @@ def test_a_brief_saturation_between_kept_steps_is_an_error():
     res.raise_if_error()
     assert len(res.t) == 21 and res.t[1] == pytest.approx(2e-3)
     assert any("the run stayed there (-932.8 to 935 A/m)" in n for n in res.notes)
+
+
+def test_the_api_runs_a_deck_of_code_models_again(tmp_path):
+    """pelcs.simulate keeps a read deck and re-binds its values on the next call; a core's
+    windings (an ideal transformer's sources) are no longer one element a line, which made
+    the second call a traceback (zip() of unequal lengths): it is read again instead, and
+    its saturation is still an error."""
+    import pelcs
+
+    path = tmp_path / "core.cir"
+    path.write_text(CORE)
+    first = pelcs.simulate(str(path), probes=["v(out)"])
+    again = pelcs.simulate(str(path), probes=["v(out)"])
+    assert np.array_equal(first["v(out)"], again["v(out)"])
+    path.write_text(CORE.replace("SIN(0 10 1k)", "SIN(0 20 50)")
+                    .replace(".tran 1u 4m", ".tran 20u 40m"))
+    for _ in range(2):
+        with pytest.raises(NetlistError, match="where B bends"):
+            pelcs.simulate(str(path), probes=["v(out)"])
