@@ -114,6 +114,8 @@ class CoreField:
 
     @property
     def region(self) -> str:
+        if math.isinf(self.lo) and math.isinf(self.hi):
+            return "H takes any value (the table is one straight line)"
         if math.isinf(self.lo):
             return f"H < {self.hi:g} A/m"
         if math.isinf(self.hi):
@@ -228,6 +230,14 @@ def resolve_cores(circuit: Circuit, earlier_problems: bool = False) -> list[Diag
             continue
         order = {el.key: i for i, el in enumerate(circuit.elements)}
         loop.sort(key=lambda ws: order[ws[0].key])
+        # (a winding of no turns is a short no flux links: the others' reference is one
+        # with turns)
+        loop.sort(key=lambda ws: ws[0].turns == 0)
+        if loop[0][0].turns == 0:
+            diags.append(Diagnostic(
+                f"core '{core.name}': no winding in its loop has turns (num_turns 0)",
+                core.location, "give a winding num_turns other than 0", (core.name,)))
+            continue
         segment = _segment(core)
         if isinstance(segment[0], str):
             diags.append(Diagnostic(f"core '{core.name}': {segment[0]}", core.location,
@@ -238,19 +248,23 @@ def resolve_cores(circuit: Circuit, earlier_problems: bool = False) -> list[Diag
         per_turn2 = slope * core.area / core.length
         coils = [Inductor(w.name, w.nodes, w.location, value=w.turns ** 2 * per_turn2,
                           ic=w.ic) for w, _ in loop]
-        signs = [s * loop[0][1] for _, s in loop]
+        # a winding's sense: the loop's way through its port, reversed by negative turns
+        # (ngspice's mmf N i and voltage N dPhi/dt both change sign with N)
+        senses = [s * math.copysign(1.0, w.turns) for w, s in loop]
+        signs = [s * senses[0] for s in senses]
         lm, _, _ = build_transformer(circuit, coils, signs, core.name, MAGNETIC_CORE,
                                      core.location, _lines(core, [w for w, _ in loop]),
                                      used, nodes, new)
         first, s1 = loop[0]
+        # H = sum s_k N_k i_k / l = s1 N1 i(lm) / l
         circuit.knees.append(CoreField(core.name, lm, s1 * first.turns / core.length, lo, hi,
                                        slope, core.location))
         circuit.notes.append(
             f"{core.name}: XSPICE core read as linear, dB/dH {slope:.6g} H/m (the straight "
             f"part of its B-H table around H = 0, checked after the run), its windings "
             + ", ".join(f"{w.name} ({w.turns:g} turns, {c.value:.6g} H, "
-                        f"{'same' if s == s1 else 'opposite'} sense)"
-                        for (w, s), c in zip(loop, coils, strict=True))
+                        f"{'same' if g > 0 else 'opposite'} sense)"
+                        for (w, _), c, g in zip(loop, coils, signs, strict=True))
             + f" coupled without leakage: an ideal transformer with {first.name}'s "
             f"inductance, {lm}, across it; i({lm}) times {s1 * first.turns:g}/"
             f"{core.length:g} m is the field H")
