@@ -147,6 +147,12 @@ def _segment(core: MagneticCore) -> tuple[float, float, float] | tuple[str, str]
     if any(not h[i + 1] > h[i] for i in range(len(h) - 1)):
         return ("H_array is not increasing", "write the table's H values (A/m) in "
                 "increasing order, each B value (T) in its place")
+    if not core.input_domain >= 0:
+        # (ngspice takes it, unchecked: its rounding turns into a jump of B past each
+        # breakpoint, which the segment's ends here do not follow)
+        return (f"input_domain {core.input_domain:g} is negative", "give input_domain, "
+                "the half-width of the rounding of the table's corners, at least 0 "
+                "(ngspice's range: 1e-12 to 0.5)")
     if not core.fraction:
         # ngspice's core then passes no flux at all ("Violation of 50% rule in breakpoints"
         # at every step, its windings shorts): no inductance is its answer

@@ -113,6 +113,9 @@ def test_saturation_is_an_error_at_its_instant():
     (("length=0.1)", "length=0.1 input_domain=600 fraction=FALSE)"), (7, 1),
      ["segment from H = -2000 to -1000 A/m is shorter than twice input_domain",
       "at most half the shortest segment"]),
+    # a negative rounding
+    (("length=0.1)", "length=0.1 input_domain=-0.1)"), (7, 1),
+     ["input_domain -0.1 is negative", "at least 0"]),
     # the table's H not increasing; vectors of unequal length
     (("H_array=[-2000 -1000 0 1000 2000]", "H_array=[-2000 1000 0 1000 2000]"), (7, 1),
      ["H_array is not increasing", "increasing order"]),
