@@ -19,12 +19,14 @@ breakpoint (by default a fraction, 0.01, of the shorter adjacent segment).
 
 The same flux passes through every port of one loop; ground may join the ports of several
 loops (eSim writes each mmf port to ground), each loop's flux passing from its own port into
-ground to its own port out of it (KCL at every other node). With ``Φ`` through the core from + to
--, a winding whose port the loop passes from - to + has the sign ``s = +1``, otherwise
-``-1``: ``v_k = s_k N_k dΦ/dt``, and the core's mmf is ``sum_k s_k N_k i_k``. On a straight
-segment of slope ``μ = dB/dH`` (H/m), ``Φ = Φ0 + A μ sum_k s_k N_k i_k / l``, so
+ground to its own port out of it (KCL at every other node). With ``Φ`` through the core from
++ to -, a winding whose port the loop passes from - to + has the sign ``s = +1``, otherwise
+``-1``, times the sign of ``N`` (ngspice's mmf ``N i`` and voltage ``N dΦ/dt`` both turn
+with it): ``v_k = s_k |N_k| dΦ/dt``, and the core's mmf is ``sum_k s_k |N_k| i_k``; a
+winding of no turns is a short no flux links. On a straight segment of slope
+``μ = dB/dH`` (H/m), ``Φ = Φ0 + A μ sum_k s_k |N_k| i_k / l``, so
 
-    v_k = sum_j L_kj di_j/dt,   L_kj = s_k s_j N_k N_j μ A / l,
+    v_k = sum_j L_kj di_j/dt,   L_kj = s_k s_j |N_k N_j| μ A / l,
 
 the inductances ``L_k = N_k² μ A / l`` coupled without leakage (``k = s_k s_j``): an ideal
 transformer and its magnetizing inductance (:func:`netlist.perfect_coupling.build_transformer`),
