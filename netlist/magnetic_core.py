@@ -139,9 +139,9 @@ class CoreField:
                 f"{self.region}: the run stayed there ({lo:.4g} to {hi:.4g} A/m)")
 
 
-def _segment(core: MagneticCore) -> tuple[float, float, float] | tuple[str, str]:
-    """``(slope, lo, hi)``: the straight part of the core's B(H) around H = 0, or what is
-    wrong with the table and what to do."""
+def _segment(core: MagneticCore) -> tuple[float, float, float, float] | tuple[str, str]:
+    """``(slope, lo, hi, b0)``: the straight part of the core's B(H) around H = 0, ``b0``
+    (T) its line's B at H = 0, or what is wrong with the table and what to do."""
     h, b = core.h, core.b
     if len(h) != len(b) or len(h) < 2:
         return (f"H_array and B_array need the same number of values, two at least "
@@ -194,7 +194,7 @@ def _segment(core: MagneticCore) -> tuple[float, float, float] | tuple[str, str]
     if not slopes[j] > 0:
         return (f"the B-H table's slope around H = 0 is {slopes[j]:g}, not positive",
                 _LINEAR)
-    return slopes[j], lo, hi
+    return slopes[j], lo, hi, b[j] - slopes[j] * h[j]
 
 
 def resolve_cores(circuit: Circuit, earlier_problems: bool = False) -> list[Diagnostic]:
@@ -251,11 +251,22 @@ def resolve_cores(circuit: Circuit, earlier_problems: bool = False) -> list[Diag
             diags.append(Diagnostic(f"core '{core.name}': {segment[0]}", core.location,
                                     segment[1], (core.name,)))
             continue
-        slope, lo, hi = segment
+        slope, lo, hi, b0 = segment
         placed.update(w.key for w, _ in loop)
         per_turn2 = slope * core.area / core.length
         coils = [Inductor(w.name, w.nodes, w.location, value=w.turns ** 2 * per_turn2,
                           ic=w.ic) for w, _ in loop]
+        first, s1 = loop[0]
+        # ngspice's winding differentiates the flux from its value at the previous step,
+        # zero before the first when the run starts from the initial conditions (UIC): the
+        # core starts at B = 0, H = -b0/mu, not at H = 0 (an operating point sets both)
+        start = ""
+        if b0 != 0.0 and (circuit.tran is None or circuit.tran.uic):
+            h0 = -b0 / slope
+            coils[0].ic = h0 * core.length / (s1 * first.turns)
+            start = (f"; from the initial conditions it starts at B = 0, H = {h0:.6g} A/m "
+                     f"(ngspice's winding starts from zero flux; B is {b0:g} T at H = 0): "
+                     f"i({{lm}}) = {coils[0].ic:.6g} A")
         # a winding's sense: the loop's way through its port, reversed by negative turns
         # (ngspice's mmf N i and voltage N dPhi/dt both change sign with N)
         senses = [s * math.copysign(1.0, w.turns) for w, s in loop]
@@ -263,7 +274,6 @@ def resolve_cores(circuit: Circuit, earlier_problems: bool = False) -> list[Diag
         lm, _, _ = build_transformer(circuit, coils, signs, core.name, MAGNETIC_CORE,
                                      core.location, _lines(core, [w for w, _ in loop]),
                                      used, nodes, new)
-        first, s1 = loop[0]
         # H = sum s_k N_k i_k / l = s1 N1 i(lm) / l
         circuit.knees.append(CoreField(core.name, lm, s1 * first.turns / core.length, lo, hi,
                                        slope, core.location))
@@ -275,7 +285,7 @@ def resolve_cores(circuit: Circuit, earlier_problems: bool = False) -> list[Diag
                         for (w, _), c, g in zip(loop, coils, signs, strict=True))
             + f" coupled without leakage: an ideal transformer with {first.name}'s "
             f"inductance, {lm}, across it; i({lm}) times {s1 * first.turns:g}/"
-            f"{core.length:g} m is the field H")
+            f"{core.length:g} m is the field H" + start.replace("{lm}", lm))
     for w in windings:
         if w.key not in placed and not diags and not earlier_problems:
             diags.append(Diagnostic(f"lcouple winding '{w.name}' is in no loop with a core",
