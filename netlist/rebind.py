@@ -72,10 +72,11 @@ def rebound_circuit(deck: Deck, overrides: Mapping[str, float] | None,
 
 
 def _eligible(deck: Deck) -> bool:
-    # (an instance, a transistor, a B source, a W switch or a value read from an expression
-    # (a knee capacitor, a resistor stepped in time) makes elements of other kinds, names
-    # and numbers)
-    return all(el.kind not in "XMQBW" and el.behaviour is None for el in deck.top.elements)
+    # (an instance, a transistor, a B source, a W switch, an XSPICE A element (a gain's E
+    # and DC sources, a core's windings as an ideal transformer) or a value read from an
+    # expression (a knee capacitor, a resistor stepped in time) makes elements of other
+    # kinds, names and numbers)
+    return all(el.kind not in "XMQBWA" and el.behaviour is None for el in deck.top.elements)
 
 
 def _names(values) -> frozenset[str]:

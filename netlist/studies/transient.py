@@ -616,9 +616,10 @@ def run_setup(
     extra = knee_probes(setup.knees, probes, setup.system.states) if knees else []
     if extra:
         probes = [*(setup.system.states if probes is None else probes), *extra]
-    # (a knee is checked on every step, not only on the output grid or the last row: such a
-    # run keeps every step and is resampled at the end)
+    # (a knee is checked on every step, not only on the output grid, the last row or every
+    # N-th step: such a run keeps every step and is resampled, or thinned, at the end)
     checked = bool(knees and setup.knees)
+    kept_every, every = every, (1 if checked and method == "moreau" else every)
     streamed = output_step if method == "moreau" and not checked else None
     watch = None
     if rows_to is not None and method == "moreau" and not checked:
@@ -657,6 +658,10 @@ def run_setup(
         result.theta = theta
     if knees:
         check_knees(setup.knees, result, len(extra))
+    if every != kept_every and len(result.t):  # every N-th row, the last, the save_at ones
+        keep = (np.arange(len(result.t)) % kept_every == 0) | np.isin(result.t, save_at)
+        keep[-1] = True
+        result.t, result.y = result.t[keep], result.y[keep]
     growth = (watch.note(result) if watch is not None and result.stats.points_streamed >= 0
               else state_growth(result))
     if growth is not None:
