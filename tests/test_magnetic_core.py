@@ -5,6 +5,9 @@ the table's straight segment, and the refusals with their place."""
 
 from __future__ import annotations
 
+import contextlib
+import io
+
 import numpy as np
 import pytest
 from ngspice_helpers import ngspice_run, ngspice_wrdata
@@ -14,6 +17,7 @@ from netlist.errors import NetlistError
 from netlist.parser import parse_string
 from netlist.studies.transient import simulate_circuit
 from netlist.writer import write_circuit
+from pelcs.cli import main
 
 # 100 and 50 turns on a core of 1 cm² and 10 cm whose B-H table is straight (1.2 mT per A/m)
 # within 1000 A/m of zero; the secondary's mmf port is in the loop the other way round
@@ -402,3 +406,23 @@ def test_a_start_at_zero_flux_off_the_segment_is_an_error():
                           "H_array=[-2000 -100 1000 2000] B_array=[-1 0.58 1.9 2.2]")
     with pytest.raises(NetlistError, match=r"took its field to -583.3 A/m at t = 0 s"):
         simulate_circuit(parse_string(deck)).raise_if_error()
+
+
+def test_an_orbit_is_checked_over_its_periods(tmp_path):
+    """pelcs orbit finds the linear model's orbit; a transient run of its period from its
+    first point then checks the field: 20 V at 50 Hz swings it over +-1866 A/m, past the
+    segment's +-990 (an error at the instant), 5 V keeps it within +-467 A/m (a note). The
+    same file edited between the two calls in one process: the map is built again (it was
+    kept by the file's name, and the second call analysed the first deck)."""
+    deck = CORE.replace("SIN(0 10 1k)", "SIN(0 {amp} 50)").replace(".tran 1u 4m",
+                                                                    ".tran 20u 40m")
+    path = tmp_path / "core.cir"
+    for amp, code, words in ((20, 2, "the periodic orbit (1 period(s) from its first point, "
+                              "t from 0): core 'a3' is linear"),
+                             (5, 0, "orbit, checked over its 1 period(s): a3: core read as "
+                              "linear")):
+        path.write_text(deck.replace("{amp}", str(amp)))
+        out = io.StringIO()
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(out):
+            got = main(["orbit", str(path), "--period", "20m"])
+        assert got == code and words in out.getvalue(), out.getvalue()

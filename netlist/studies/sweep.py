@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+import os
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -415,10 +416,45 @@ def circuit_map(
     else:
         m = StroboscopicMap(system, setup.signals, T, h, **kwargs)
     m.x0 = setup.x0.copy()
+    m.setup = setup  # (its knees: check_orbit_knees)
     m.period_note = period_notes[0] if period_notes else None
     m.notes[:0] = (period_notes + frozen + list(setup.notes)
                    + ([theta_note] if theta_note else []))
     return m
+
+
+def check_orbit_knees(m, orbit) -> list[str]:
+    """Check the knees of a converged orbit's circuit (a core's field, knee capacitors, a
+    MOSFET channel that would conduct backwards: :mod:`netlist.knee`) on a transient run of
+    its ``order`` periods from its first point, at the map's step and θ; the notes it gives.
+
+    Raises
+    ------
+    NetlistError
+        The orbit leaves a knee: where and when (from the orbit's sampling instant).
+    """
+    setup = getattr(m, "setup", None)
+    if setup is None or not setup.knees or not orbit.converged:
+        return []
+    span = orbit.order * m.period
+    if abs(m.t0 / m.period - round(m.t0 / m.period)) > 1e-9:
+        return ["the orbit's knees (netlist.knee) are not checked at a sampling phase t0 "
+                "that is not a whole number of periods"]
+    from dataclasses import replace
+
+    from .transient import run_setup
+
+    n = len(setup.system.states)
+    try:
+        res = run_setup(replace(setup, x0=np.asarray(orbit.points[0][:n], dtype=float),
+                                t_stop=span, t_save=0.0), theta=m.theta, probes=[])
+    except NetlistError as exc:
+        raise NetlistError([replace(d, message=f"the periodic orbit ({orbit.order} period(s) "
+                                    f"from its first point, t from 0): {d.message}")
+                            for d in exc.diagnostics], exc.file) from None
+    return [f"orbit, checked over its {orbit.order} period(s): {note}"
+            for note in res.notes[len(setup.notes):]
+            if any(note.startswith(f"{k.name}:") for k in setup.knees)]
 
 
 @dataclass(frozen=True)
@@ -488,11 +524,23 @@ class CircuitMapFactory:
         return parse_file(self.path, params=p or None)
 
     def __call__(self, value: float | None = None) -> StroboscopicMap | EventMap:
-        return _build_map(self, None if value is None else float(value))
+        return _build_map(self, None if value is None else float(value), _stamp(self))
+
+
+def _stamp(factory: CircuitMapFactory) -> tuple:
+    """The netlist file's modification stamp: a map is built again once the file changed
+    (a long-lived process, a design script, edits it between calls)."""
+    if factory.text is not None:
+        return ()
+    try:
+        st = os.stat(factory.path)
+    except OSError:
+        return ()
+    return (st.st_mtime_ns, st.st_ctime_ns, st.st_size)
 
 
 @functools.lru_cache(maxsize=16)
-def _build_map(factory: CircuitMapFactory, value: float | None):
+def _build_map(factory: CircuitMapFactory, value: float | None, stamp: tuple = ()):
     circuit = factory.circuit(value)
     return circuit_map(circuit, factory.period, step=factory.step, theta=factory.theta,
                        t0=factory.t0, event=factory.event, param=value,

@@ -211,7 +211,7 @@ def compute(args: argparse.Namespace) -> tuple[dict, object]:
     """
     from lcs.analysis.orbits import find_orbit
     from netlist.parser import parse_overrides
-    from netlist.studies.sweep import parse_value
+    from netlist.studies.sweep import check_orbit_knees, parse_value
 
     fixed = parse_overrides(args.param)
     factory = make_factory(args, "orbit", fixed=fixed)
@@ -226,6 +226,7 @@ def compute(args: argparse.Namespace) -> tuple[dict, object]:
     if len(x0) < m.dim:  # event map: the phase starts at the sampling phase
         x0 = np.concatenate([x0, [0.0]])
     orbit = find_orbit(m, x0, order, transient=transient, tol=tol)
+    orbit.notes.extend(check_orbit_knees(m, orbit))
     circuit_title = factory.circuit().title
     report = {"file": args.file, "title": circuit_title, **map_header(m, factory),
               **orbit.to_dict(), "notes": list(m.notes) + list(orbit.notes)}
