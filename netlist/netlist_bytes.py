@@ -5,6 +5,7 @@ content, a file over :data:`netlist.limits.FILE_BYTES`)."""
 from __future__ import annotations
 
 import os
+import re
 import stat
 from pathlib import Path
 
@@ -38,7 +39,12 @@ def decode(data: bytes, file: str) -> str:
             "save the netlist as UTF-8 (or plain ASCII)"), file) from None
     if text.startswith("\ufeff"):
         text = text[1:]
-    return text
+    # Control characters (a schematic tool's export leaves DC3 after values: '1nf\x13'):
+    # blanks, one for one (columns kept); ngspice reads such a value up to them
+    return _CONTROL.sub(" ", text)
+
+
+_CONTROL = re.compile("[\x01-\x08\x0b\x0c\x0e-\x1f\x7f]")
 
 
 def read_bytes(path: str | Path, display: str, at: Location | None) -> bytes:

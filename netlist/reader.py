@@ -51,6 +51,7 @@ from .rawdeck import (
 from .steps import read_step
 from .units import parse_number
 
+_NAME = re.compile(r"[A-Za-z_]\w*")
 # .model NAME TYPE of an XSPICE code model (netlist.xspice)
 _CODE_MODEL = re.compile(r"(?i)\.model\s+(\S+?)\s+([A-Za-z_]\w*)(?=\s|\(|$)")
 
@@ -462,13 +463,11 @@ class _Reader(ElementLines, FuncReading):
             return None
         if num is not None:
             return Value(num, None, st, tok.start_pos)
-        if bare_expression:
-            return self.expression(str(tok), st, tok.start_pos)
+        if bare_expression or _NAME.fullmatch(tok):  # (ngspice puts a parameter's value
+            return self.expression(str(tok), st, tok.start_pos)  # for its bare name too)
         hint = ("a value is a number with an optional suffix (f p n u m k meg g t mil) and "
                 "unit, or an expression in braces")
-        if re.fullmatch(r"[A-Za-z_][\w.]*", tok):
-            hint = f"to use the parameter '{tok}', write {{{tok}}}"
-        elif re.search(r"[-+*/^]", tok[1:]):
+        if re.search(r"[-+*/^]", tok[1:]):
             hint = f"write expressions in braces: {{{tok}}}"
         self.error(f"invalid number '{tok}'", st, tok.start_pos, hint)
         return None

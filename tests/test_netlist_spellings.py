@@ -244,6 +244,8 @@ FORMS = {
     # E with its node pairs in parentheses (PySpice's small-signal amplifier)
     "E pairs": "V1 a 0 1\nE1 (o 0) (a 0) -10\nR1 o 0 1k\n",
     "E pair comma": "V1 a 0 2\nE1 (o,0) a 0 3\nR1 o 0 1k\n",
+    # a parameter's bare name as a value (ngspice substitutes it: lopesivan's periodo.sp)
+    "bare param": ".param rval=2k vv=3\nV1 a 0 DC vv\nR1 a o 1k\nR2 o 0 rval\n",
     # a resistor's TC (ngspice's TransImpedanceAmp example): nothing at 27 C
     "R TC": "V1 a 0 1\nR1 a o 1E3 TC=7E-6\nR2 o 0 1k\n",
     # a .model whose ')' comes before its continuation (ngspice's 555 timer example):
@@ -277,3 +279,14 @@ def test_an_unbraced_value_ngspice_stops_in_is_refused(line, where, tmp_path, ng
     if "1 + a" in line:
         got = ngspice_print(deck, ["v(o)[3]"], tmp_path)["v(o)[3]"]
         assert got == 1.0
+
+
+def test_control_characters_are_blanks(tmp_path, ngspice):
+    # a schematic tool's export (Sue, tests/corpus-like lab files) leaves DC3 after values:
+    # ngspice reads '1nf\x13' as 1 nF and 'ic=0\x13' as 0
+    deck = "t\nV1 a 0 DC 1\nR1 a b 1k\x13\nC1 b 0 1nf\x13 ic=0\x13\n.tran 1u 10u\n.end\n"
+    path = tmp_path / "cc.cir"
+    path.write_bytes(deck.encode())
+    res = simulate_devices(parse_file(path), devices="pwl", probes=["v(b)"])
+    want = ngspice_print(deck, ["v(b)[5]"], tmp_path)["v(b)[5]"]
+    assert float(res["v(b)"][-1]) == pytest.approx(want, rel=1e-6)
