@@ -11,7 +11,7 @@ import math
 import pytest
 from ngspice_helpers import ngspice_print
 
-from lcs.signals import Sin
+from lcs.signals import Pulse, Sin
 from netlist.errors import NetlistError
 from netlist.parser import parse_file, parse_string
 
@@ -45,6 +45,27 @@ def test_source_parts_in_any_order(order):
     c = parse_string(f"t\nV1 a 0 {order}\nR1 a 0 1\n.tran 1m 10m\n")
     el = c.element("V1")
     assert el.dc == 2 and isinstance(el.waveform, Sin) and el.waveform.va == 1
+
+
+DC_EQUALS_DECK = """DC= and AC= (ngspice's lexer reads the '=' as a blank)
+V1 a 0 DC=2 AC=1
+Ra a 0 1k
+I1 0 b dc = 3m AC= 1 0 PULSE(0 1m 1m 1u 1u 1m 2m)
+Rb b 0 1k
+.tran 10u 0.5m
+.end
+"""
+
+
+def test_dc_and_ac_written_with_equals(tmp_path, ngspice):
+    c = parse_string(DC_EQUALS_DECK)
+    assert c.element("V1").dc == 2 and c.element("I1").dc == pytest.approx(3e-3)
+    got = ngspice_print(DC_EQUALS_DECK, ["v(a)[1]", "v(b)[1]"], tmp_path)
+    assert got["v(a)[1]"] == pytest.approx(2)
+    # the PULSE's first value, as in pelcs's transient (the DC value is the operating point's)
+    assert got["v(b)[1]"] == pytest.approx(0, abs=1e-9)
+    wave = c.element("I1").waveform
+    assert isinstance(wave, Pulse) and (wave.v1, wave.v2) == (0, pytest.approx(1e-3))
 
 
 @pytest.mark.parametrize("fn", ["SFFM(0 1 1k 5 100)", "AM(1 0 100 1k 0)", "TRNOISE(1m 1n 0 0)",
