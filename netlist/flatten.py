@@ -449,19 +449,31 @@ class _Builder:
             elif el.kind in "MQ":
                 self.circuit.elements.extend(self.device(el, name_prefix, mapnode))
             elif el.behaviour is not None:  # B, C of a knee (.behavioural); R (.time_value)
+                refused = len(self.diags)
                 self.circuit.elements += elaborate_time_resistor(
                     el, name_prefix, mapnode, env, self.circuit, self.error) if el.kind == "R" \
                     else elaborate(el, name_prefix, mapnode, env, failed, self.error)
+                self.refused(refused)
                 if el.note:
                     self.circuit.notes.append(f"{name_prefix}{el.name}: {el.note}")
             elif el.kind == "W":  # a current-controlled switch (netlist.current_switch)
                 self.circuit.elements += self.current_switch(el, name_prefix, mapnode)
             elif el.kind == "A":  # an XSPICE code model (netlist.xspice)
+                refused = len(self.diags)
                 self.circuit.elements += xspice.elaborate_element(
                     el, name_prefix, mapnode, env, self.deck.code_models,
                     lambda v: self.evaluate(v, env, failed), self.circuit, self.error)
+                self.refused(refused)
             else:
                 self.circuit.elements.append(self.element(el, name_prefix, mapnode, env, failed))
+
+    def refused(self, before: int) -> None:
+        """An element that reported problems since ``before`` (the count of diagnostics)
+        left its nodes out of the circuit, as an instance that could not be expanded does:
+        the connectivity checks would report that hole (a switch's control node driven by a
+        refused B source 'not connected to any element'), not the netlist's problem."""
+        if len(self.diags) > before:
+            self.incomplete = True
 
     def current_switch(self, el: RawElement, prefix: str, mapnode: Callable[[str], str]
                        ) -> list:
