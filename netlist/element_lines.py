@@ -339,7 +339,7 @@ class ElementLines:
         if found == "time" and letter == "R":
             found = other_quantity(tree) or found
         if found is not None and letter == "C" and tree.tag == "?" and \
-                circuit_quantity(tree.args[1]) is None:
+                circuit_quantity(tree.args[1]) is None and not reads_time_only(tree):
             # constant below a knee of its voltage (netlist.knee): checked in elaboration
             self.body.elements.append(RawElement(
                 "C", hierarchical_name(m.group(1), "C"), st,
@@ -351,7 +351,10 @@ class ElementLines:
                        f"{'time-varying' if found == 'time' else 'nonlinear'} {what}", st,
                        offset, TIME_ACCEPTED if letter == "R" else
                        f"pelcs needs a constant {what} value: give the one it has over "
-                       "the run (for a saturable inductance, the unsaturated one)")
+                       "the run" + (" (for a saturable inductance, the unsaturated one)"
+                                    if letter == "L" else "")
+                       + ("; a value stepped in time is read for a resistor only (R = "
+                          "'time < 1m ? 10 : 20')" if found == "time" else ""))
         return found is not None
 
     def positional_time_value(self, st: Statement) -> bool:

@@ -141,6 +141,10 @@ CATALOGUE = [
      "file not found: 'nowhere/missing.inc'", 4, 10, "relative"),
     ("instance-no-subckt", "t\n" + OK + "X1\n", "incomplete subcircuit instance 'X1'", 4, 3, ""),
     ("model-bad-value", "t\n" + OK + ".model DM D(IS=abc)\n", "invalid number 'abc'", 4, 16, ""),
+    # a capacitor stepped in time is a capacitor's problem, not a B source's
+    ("capacitor-time", "t\n" + OK + "C1 a 0 C='time > 1m ? 1u : 2u'\n",
+     "capacitor 'C1' has a value that depends on time: a time-varying capacitor", 4, 11,
+     "read for a resistor only"),
 ]
 
 
