@@ -13,6 +13,7 @@ from .behavioural_expr import BehaviouralError, circuit_quantity, parse_behaviou
 from .dialect import (
     _NONLINEAR,
     _PASSIVE_IGNORED,
+    _TEMPERATURE_PARAMS,
     ELEMENTS,
     UNSUPPORTED_WAVES,
     WAVE_ALIASES,
@@ -463,13 +464,18 @@ class ElementLines:
         ic = None
         parasitics: dict = {}
         mult: list[RawParam] = []
+        model, model_at = "", 0
         for t in ch[4:]:
             if isinstance(t, Token):
                 if parse_number(t) is not None:
                     self.error(f"unexpected '{t}' in {what} '{name}'", st, t.start_pos,
                                f"syntax: {ELEMENTS[letter][2]}")
                     return
-                # a model name after the value (R1 1 2 600k MDR): ngspice uses the value
+                if letter == "R":
+                    # a model name after the value (R1 1 2 600k MDR): ngspice uses the
+                    # value, scaled by the model's TC1, TC2 away from its TNOM
+                    model, model_at = str(t), t.start_pos
+                    continue
                 self.deck.notes.append(f"{name}: model '{t}' ignored, the value is used")
                 continue
             key_tok, val_tok = t.children
@@ -478,6 +484,13 @@ class ElementLines:
                 ic = self.value(val_tok, st)
                 if ic is None:
                     return
+            elif key in _TEMPERATURE_PARAMS:
+                # ngspice scales R, L and C by 1 + TC1 dT + TC2 dT^2 (restemp.c, captemp.c,
+                # indtemp.c): applied in netlist.flatten
+                tv = self.value(val_tok, st)
+                if tv is None:
+                    return
+                mult.append(RawParam(key, tv, st, key_tok.start_pos))
             elif key in _PASSIVE_IGNORED:
                 if self.value(val_tok, st) is None:
                     return
@@ -515,7 +528,7 @@ class ElementLines:
         a, b = node_name(ch[1]), node_name(ch[2])
         b_main = self.parasitics(letter, name, a, b, parasitics, st)
         self.body.elements.append(RawElement(letter, name, st, (a, b_main), value=v, ic=ic,
-                                             params=mult))
+                                             params=mult, ref=model, ref_offset=model_at))
 
     def parasitics(self, letter: str, name: str, a: str, b: str, found: dict,
                    st: Statement) -> str:
