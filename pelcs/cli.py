@@ -102,7 +102,8 @@ def build_parser(argv: list[str] | None = None, commands: list[str] | None = Non
             continue  # they simulate nothing (lcs gives the full passivity verdict)
         sub.choices[name].add_argument(
             "--strict", action="store_true",
-            help="refuse a circuit that is not passive (default: warn and run the ideal "
+            help="refuse a circuit that is not passive, and transistors (M, Q) and device "
+            "macro-models idealised as switches and diodes (default: warn and run the ideal "
             "model, which may grow without bound)")
     return parser
 

@@ -88,6 +88,11 @@ def test_strict_refuses_transistors(capsys):
     assert f"{DEV / 'buck_vendor.cir'}:{line}:1: error:" in err, err
     with pytest.warns(IdealisedDeviceWarning):
         pelcs.load(DEV / "buck_vdmos.cir")
+    # and its help says so, not only 'a circuit that is not passive'
+    with pytest.raises(SystemExit):
+        main(["simulate", "--help"])
+    helptext = " ".join(capsys.readouterr().out.split())
+    assert "--strict refuse a circuit that is not passive, and transistors (M, Q)" in helptext
 
 
 def test_written_back_as_devices_for_ngspice():
