@@ -579,6 +579,12 @@ class _Lineariser:
             raise self.nonlinear(t, f"{name}() of the circuit's quantities: not a linear or "
                                     "comparator form")
         known = ", ".join(sorted(set(FUNCTIONS) | {"u", "v", "i"}))
+        if name == "limit" and len(t.args) == 4:
+            # (LTspice's clamp; ngspice 39 has no such B function and gives the source 0 V)
+            raise BehaviouralError("unknown function 'limit': LTspice's limit(x, lo, hi) is "
+                                   "not a function of ngspice's B sources", t.start,
+                                   "write the clamp max(lo, min(hi, x)), which pelcs reads "
+                                   "as an exact ideal-diode limiter; known: " + known)
         raise BehaviouralError(f"unknown function '{name}'", t.start, f"known: {known}")
 
 

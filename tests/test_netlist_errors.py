@@ -141,6 +141,10 @@ CATALOGUE = [
      "file not found: 'nowhere/missing.inc'", 4, 10, "relative"),
     ("instance-no-subckt", "t\n" + OK + "X1\n", "incomplete subcircuit instance 'X1'", 4, 3, ""),
     ("model-bad-value", "t\n" + OK + ".model DM D(IS=abc)\n", "invalid number 'abc'", 4, 16, ""),
+    # LTspice's clamp, no function of ngspice's B sources: the clamp pelcs reads instead
+    ("b-limit", "t\n" + OK + "B2 b 0 V = limit(v(a)*0.5, -1, 3)\n",
+     "LTspice's limit(x, lo, hi) is not a function of ngspice's B sources", 4, 12,
+     "max(lo, min(hi, x))"),
     # a capacitor stepped in time is a capacitor's problem, not a B source's
     ("capacitor-time", "t\n" + OK + "C1 a 0 C='time > 1m ? 1u : 2u'\n",
      "capacitor 'C1' has a value that depends on time: a time-varying capacitor", 4, 11,
