@@ -420,7 +420,8 @@ class _Lineariser:
                 raise BehaviouralError(
                     f"'{name}' in a B expression makes a time-varying source", t.start,
                     "a known waveform is an independent V or I source with PULSE, SIN, PWL or "
-                    "EXP; " + ACCEPTED)
+                    "EXP; a B source of time alone that steps between constants (V = time > "
+                    "1m ? 5 : 0) is read as the PWL source it is; " + ACCEPTED)
             raise BehaviouralError(f"unknown parameter '{name}'", t.start,
                                    "define it with .param NAME=VALUE, or write v(node) for a "
                                    "node voltage")
