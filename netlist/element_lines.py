@@ -460,11 +460,18 @@ class ElementLines:
         return out
 
     def passive(self, letter: str, name: str, ch: list, st: Statement, what: str) -> None:
-        v = self.value(ch[3], st)
         ic = None
         parasitics: dict = {}
         mult: list[RawParam] = []
         model, model_at = "", 0
+        given = [t for t in ch[4:] if not isinstance(t, Token)
+                 and t.children[0].lower() in ("r", "resistance")]
+        if letter == "R" and given and ch[3].type == "WORD" and parse_number(ch[3]) is None:
+            # ngspice's 'R1 a b MODEL r=VALUE': the model first, the value as r=
+            model, model_at, v = str(ch[3]), ch[3].start_pos, self.value(given[0].children[1], st)
+            ch = [*ch[:4], *(t for t in ch[4:] if t is not given[0])]
+        else:
+            v = self.value(ch[3], st)
         for t in ch[4:]:
             if isinstance(t, Token):
                 if parse_number(t) is not None:

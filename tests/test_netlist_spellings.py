@@ -149,6 +149,24 @@ def test_temperature_coefficients_scale_values_as_ngspice(tmp_path, ngspice):
     assert got["v(a)[1]"] == pytest.approx(va, rel=1e-5)
 
 
+MODEL_THEN_R_DECK = """a resistor written with its model first and its value as r=
+V1 a 0 1
+R2 a 0 mdr2 r=300k
+.model mdr2 R(tc1=0.01)
+.temp 37
+.tran 1u 10u
+.end
+"""
+
+
+def test_resistor_model_first_and_value_as_r(tmp_path, ngspice):
+    # ngspice's semiconductor-resistor order: the model's TC1 still applies (300k * 1.1)
+    c = parse_string(MODEL_THEN_R_DECK)
+    assert c.element("R2").value == pytest.approx(330e3)
+    got = ngspice_print(MODEL_THEN_R_DECK, ["i(V1)[1]"], tmp_path)
+    assert -got["i(V1)[1]"] == pytest.approx(1 / 330e3, rel=1e-5)
+
+
 SW_DECK = """switch model with spaces instead of '=', and a multi-line model closed by ')'
 V1 a 0 1
 Vc c 0 1
