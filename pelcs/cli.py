@@ -195,6 +195,14 @@ def _main(argv: list[str] | None) -> int:
                              "--strict refuses transistors (M, Q) and device macro-models; "
                              "drop it to simulate them as ideal switches and diodes").format(),
                   file=sys.stderr)
+            # each of the others where it is (a line once: a subcircuit's device in many
+            # instances), the first few
+            shown = {location}
+            for element, loc in getattr(exc, "locations", [])[:8]:
+                if loc is not None and loc not in shown:
+                    shown.add(loc)
+                    print(Diagnostic(f"{element}: idealised (refused by --strict)",
+                                     loc).format(), file=sys.stderr)
             return 2
         except NonPassiveWarning as exc:
             text = str(exc).split("; the run follows the ideal model")[0]
