@@ -30,6 +30,7 @@ from .rawdeck import (
     Statement,
     Value,
 )
+from .switched_resistor import is_switched_value
 from .table_source import TableError, read_table
 from .time_value import ACCEPTED as TIME_ACCEPTED
 from .time_value import other_quantity, reads_time_only, time_in_comparisons
@@ -337,6 +338,13 @@ class ElementLines:
                 (node_name(m.group(2)), node_name(m.group(3))),
                 behaviour=("time", tree, text, offset)))
             return True
+        if found is not None and letter == "R" and is_switched_value(tree):
+            # constants switched on a comparison of the circuit (netlist.switched_resistor)
+            self.body.elements.append(RawElement(
+                "R", hierarchical_name(m.group(1), "R"), st,
+                (node_name(m.group(2)), node_name(m.group(3))),
+                behaviour=("switched", tree, text, offset)))
+            return True
         if found == "time" and letter == "R":
             found = other_quantity(tree) or found
         if found is not None and letter == "C" and tree.tag == "?" and \
@@ -350,7 +358,9 @@ class ElementLines:
         if found is not None:
             self.error(f"{what} '{m.group(1)}' has a value that depends on {found}: a "
                        f"{'time-varying' if found == 'time' else 'nonlinear'} {what}", st,
-                       offset, TIME_ACCEPTED if letter == "R" else
+                       offset, TIME_ACCEPTED + "; or two constants switched on a comparison "
+                       "of the circuit's voltages and currents, R = 'v(ctl) > 2.5 ? 10 : 1k'"
+                       if letter == "R" else
                        f"pelcs needs a constant {what} value: give the one it has over "
                        "the run" + (" (for a saturable inductance, the unsaturated one)"
                                     if letter == "L" else "")

@@ -56,7 +56,7 @@ from .limits import ELEMENTS
 from .rawdeck import Body, Deck, RawElement, RawParam, Statement, Value
 from .steps import evaluate_steps
 from .suggest import close_matches
-from .time_value import elaborate_time_resistor
+from .switched_resistor import elaborate_resistor
 from .value_scaling import deck_temperatures, multiplier, temperature_factor
 
 # default parameters of ngspice's SW model that pelcs uses
@@ -452,9 +452,9 @@ class _Builder:
                 self.instance(el, name_prefix, node_prefix, mapnode, env, failed, stack)
             elif el.kind in "MQ":
                 self.circuit.elements.extend(self.device(el, name_prefix, mapnode))
-            elif el.behaviour is not None:  # B, C of a knee (.behavioural); R (.time_value)
+            elif el.behaviour is not None:  # B, C of a knee (.behavioural); R (.switched_resistor)
                 refused = len(self.diags)
-                self.circuit.elements += elaborate_time_resistor(
+                self.circuit.elements += elaborate_resistor(
                     el, name_prefix, mapnode, env, self.circuit, self.error) if el.kind == "R" \
                     else elaborate(el, name_prefix, mapnode, env, failed, self.error)
                 # (a refused element leaves a hole, as an instance not expanded does: no
