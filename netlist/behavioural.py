@@ -32,6 +32,10 @@ equivalent, and refuses the others with the expression's place and the accepted 
   limiter (:mod:`netlist.limiter`: ideal diodes hold an inner node at the bounds). Both are
   exact.
 
+- **stepped in time**: an expression of ``time`` alone, read only inside comparisons of an
+  affine function of time with constants (:func:`netlist.time_value.time_value`): the
+  independent source of its piecewise-constant waveform, a PWL that jumps at the instants.
+
 The expressions themselves (grammar, linear and comparator forms) are
 :mod:`netlist.behavioural_expr`.
 """
@@ -64,6 +68,7 @@ from .dialect import hierarchical_name
 from .errors import Diagnostic, Location
 from .knee import elaborate_knee
 from .rawdeck import RawElement
+from .time_value import reads_time_only, time_in_comparisons, time_value
 
 __all__ = ["ClampSource", "Comparator", "elaborate", "fold_clamps", "linear_elements",
            "resolve_comparators"]
@@ -164,6 +169,12 @@ def elaborate(el: RawElement, prefix: str, mapnode: Callable[[str], str],
     loc = el.st.loc(0)
     nodes = tuple(map(mapnode, el.nodes))
     try:
+        if reads_time_only(tree) and time_in_comparisons(tree):
+            # a piecewise-constant function of time: an independent source stepping at its
+            # instants (netlist.time_value), as ngspice's value between them
+            tv = time_value(tree, text, env)
+            cls = VoltageSource if out_kind == "V" else CurrentSource
+            return [cls(name, nodes, loc, tv.values[0], tv.pwl() if tv.times else None)]
         form = linearise(tree, text, env, mapnode, source_name(prefix), clamps=True)
     except BehaviouralError as exc:
         unknown = exc.message.startswith("unknown parameter")

@@ -422,7 +422,8 @@ class _Lineariser:
                 raise BehaviouralError(
                     f"'{name}' in a B expression makes a time-varying source", t.start,
                     "a known waveform is an independent V or I source with PULSE, SIN, PWL or "
-                    "EXP; " + ACCEPTED)
+                    "EXP; a B source of time alone that steps between constants (V = time > "
+                    "1m ? 5 : 0) is read as the PWL source it is; " + ACCEPTED)
             raise BehaviouralError(f"unknown parameter '{name}'", t.start,
                                    "define it with .param NAME=VALUE, or write v(node) for a "
                                    "node voltage")
@@ -581,6 +582,12 @@ class _Lineariser:
             raise self.nonlinear(t, f"{name}() of the circuit's quantities: not a linear or "
                                     "comparator form")
         known = ", ".join(sorted(set(FUNCTIONS) | {"u", "v", "i"}))
+        if name == "limit" and len(t.args) == 4:
+            # (LTspice's clamp; ngspice 39 has no such B function and gives the source 0 V)
+            raise BehaviouralError("unknown function 'limit': LTspice's limit(x, lo, hi) is "
+                                   "not a function of ngspice's B sources", t.start,
+                                   "write the clamp max(lo, min(hi, x)), which pelcs reads "
+                                   "as an exact ideal-diode limiter; known: " + known)
         raise BehaviouralError(f"unknown function '{name}'", t.start, f"known: {known}")
 
 

@@ -105,7 +105,8 @@ def check_circuit(
         ``"inductor0"``, ``"inductor1"``, ``"control"``; and ``("ic", node)`` for ``.ic``.
         Missing entries fall back to the element's own location.
     topology : bool
-        Run the connectivity checks (voltage-source loops, parts with no path to ground);
+        Run the connectivity checks (control nodes on the circuit, voltage-source loops,
+        parts with no path to ground);
         the parser turns them off when part of the circuit is missing because of an earlier
         error.
 
@@ -144,7 +145,7 @@ def check_circuit(
             "SPICE measures every voltage from node 0: connect the circuit's reference "
             "node to 0"))
 
-    for el in circuit.elements:
+    for el in circuit.elements if topology else ():  # (a hole may hold the control node)
         if el.kind in _CONTROLLED_BY_NODES:
             for n in el.control:
                 if n != GROUND and n not in terminals:

@@ -13,6 +13,7 @@ from .behavioural_expr import BehaviouralError, circuit_quantity, parse_behaviou
 from .dialect import (
     _NONLINEAR,
     _PASSIVE_IGNORED,
+    _TEMPERATURE_PARAMS,
     ELEMENTS,
     UNSUPPORTED_WAVES,
     WAVE_ALIASES,
@@ -29,6 +30,7 @@ from .rawdeck import (
     Statement,
     Value,
 )
+from .switched_resistor import is_switched_value
 from .table_source import TableError, read_table
 from .time_value import ACCEPTED as TIME_ACCEPTED
 from .time_value import other_quantity, reads_time_only, time_in_comparisons
@@ -336,10 +338,17 @@ class ElementLines:
                 (node_name(m.group(2)), node_name(m.group(3))),
                 behaviour=("time", tree, text, offset)))
             return True
+        if found is not None and letter == "R" and is_switched_value(tree):
+            # constants switched on a comparison of the circuit (netlist.switched_resistor)
+            self.body.elements.append(RawElement(
+                "R", hierarchical_name(m.group(1), "R"), st,
+                (node_name(m.group(2)), node_name(m.group(3))),
+                behaviour=("switched", tree, text, offset)))
+            return True
         if found == "time" and letter == "R":
             found = other_quantity(tree) or found
         if found is not None and letter == "C" and tree.tag == "?" and \
-                circuit_quantity(tree.args[1]) is None:
+                circuit_quantity(tree.args[1]) is None and not reads_time_only(tree):
             # constant below a knee of its voltage (netlist.knee): checked in elaboration
             self.body.elements.append(RawElement(
                 "C", hierarchical_name(m.group(1), "C"), st,
@@ -349,9 +358,14 @@ class ElementLines:
         if found is not None:
             self.error(f"{what} '{m.group(1)}' has a value that depends on {found}: a "
                        f"{'time-varying' if found == 'time' else 'nonlinear'} {what}", st,
-                       offset, TIME_ACCEPTED if letter == "R" else
+                       offset, TIME_ACCEPTED + "; or two constants switched on a comparison "
+                       "of the circuit's voltages and currents, R = 'v(ctl) > 2.5 ? 10 : 1k'"
+                       if letter == "R" else
                        f"pelcs needs a constant {what} value: give the one it has over "
-                       "the run (for a saturable inductance, the unsaturated one)")
+                       "the run" + (" (for a saturable inductance, the unsaturated one)"
+                                    if letter == "L" else "")
+                       + ("; a value stepped in time is read for a resistor only (R = "
+                          "'time < 1m ? 10 : 20')" if found == "time" else ""))
         return found is not None
 
     def positional_time_value(self, st: Statement) -> bool:
@@ -456,17 +470,29 @@ class ElementLines:
         return out
 
     def passive(self, letter: str, name: str, ch: list, st: Statement, what: str) -> None:
-        v = self.value(ch[3], st)
         ic = None
         parasitics: dict = {}
         mult: list[RawParam] = []
+        model, model_at = "", 0
+        given = [t for t in ch[4:] if not isinstance(t, Token)
+                 and t.children[0].lower() in ("r", "resistance")]
+        if letter == "R" and given and ch[3].type == "WORD" and parse_number(ch[3]) is None:
+            # ngspice's 'R1 a b MODEL r=VALUE': the model first, the value as r=
+            model, model_at, v = str(ch[3]), ch[3].start_pos, self.value(given[0].children[1], st)
+            ch = [*ch[:4], *(t for t in ch[4:] if t is not given[0])]
+        else:
+            v = self.value(ch[3], st)
         for t in ch[4:]:
             if isinstance(t, Token):
                 if parse_number(t) is not None:
                     self.error(f"unexpected '{t}' in {what} '{name}'", st, t.start_pos,
                                f"syntax: {ELEMENTS[letter][2]}")
                     return
-                # a model name after the value (R1 1 2 600k MDR): ngspice uses the value
+                if letter == "R":
+                    # a model name after the value (R1 1 2 600k MDR): ngspice uses the
+                    # value, scaled by the model's TC1, TC2 away from its TNOM
+                    model, model_at = str(t), t.start_pos
+                    continue
                 self.deck.notes.append(f"{name}: model '{t}' ignored, the value is used")
                 continue
             key_tok, val_tok, *more = t.children  # (more: TC=TC1,TC2)
@@ -479,6 +505,15 @@ class ElementLines:
                 ic = self.value(val_tok, st)
                 if ic is None:
                     return
+            elif key in _TEMPERATURE_PARAMS or key == "tc":
+                # ngspice scales R, L and C by 1 + TC1 dT + TC2 dT^2 (restemp.c, captemp.c,
+                # indtemp.c): applied in netlist.flatten (TC=TC1[,TC2] the two at once)
+                names = ("tc1", "tc2") if key == "tc" else (key,)
+                for pname, tok in zip(names, (val_tok, *more), strict=False):
+                    tv = self.value(tok, st)
+                    if tv is None:
+                        return
+                    mult.append(RawParam(pname, tv, st, key_tok.start_pos))
             elif key in _PASSIVE_IGNORED:
                 if any(self.value(tok, st) is None for tok in (val_tok, *more)):
                     return
@@ -516,7 +551,7 @@ class ElementLines:
         a, b = node_name(ch[1]), node_name(ch[2])
         b_main = self.parasitics(letter, name, a, b, parasitics, st)
         self.body.elements.append(RawElement(letter, name, st, (a, b_main), value=v, ic=ic,
-                                             params=mult))
+                                             params=mult, ref=model, ref_offset=model_at))
 
     def parasitics(self, letter: str, name: str, a: str, b: str, found: dict,
                    st: Statement) -> str:

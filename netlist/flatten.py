@@ -56,7 +56,8 @@ from .limits import ELEMENTS
 from .rawdeck import Body, Deck, RawElement, RawParam, Statement, Value
 from .steps import evaluate_steps
 from .suggest import close_matches
-from .time_value import elaborate_time_resistor
+from .switched_resistor import elaborate_resistor
+from .value_scaling import deck_temperatures, multiplier, temperature_factor
 
 # default parameters of ngspice's SW model that pelcs uses
 SW_DEFAULTS = {"vt": 0.0, "vh": 0.0}
@@ -127,6 +128,8 @@ class _Builder:
         self.incomplete = False  # an instance could not be expanded
         self.too_large = False  # over the element limit: not expanded
         self.dependent: set[int] = set()  # indices in diags, see independent_problems
+        self.temp, self.tnom = deck_temperatures(self)  # °C, the circuit's and nominal
+        self.resistor_models: dict[str, Model] = {}  # (netlist.value_scaling)
 
     def error(self, message: str, loc: Location | None, hint: str = "",
               elements: tuple[str, ...] = (), dependent: bool = False) -> None:
@@ -344,8 +347,8 @@ class _Builder:
             name = m.name.lower()
             key = name if m.scope is None else f"{m.scope}:{name}"
             loc = m.st.loc(0)
-            if key in self.circuit.models:
-                first = self.circuit.models[key].location
+            if key in self.circuit.models or key in self.resistor_models:
+                first = (self.circuit.models.get(key) or self.resistor_models[key]).location
                 self.error(f"model '{m.name}' is defined twice (first at line {first.line})",
                            loc, "rename one of the models")
                 continue
@@ -354,12 +357,13 @@ class _Builder:
                 v = self.evaluate(p.value, env, failed)
                 if v is not None:
                     params[p.name] = v
-            model = Model(m.name, m.type, params, loc)
-            self.circuit.models[key] = model
+            # (a resistor model: read by the resistors that name it, not a device's model)
+            models = self.resistor_models if m.type == "R" else self.circuit.models
+            models[key] = model = Model(m.name, m.type, params, loc)
             if m.scope is not None:
                 self.local_models.setdefault(m.scope, {})[name] = key
                 if names[name] == 1:
-                    self.circuit.models[name] = model
+                    models[name] = model
 
     def model_key(self, ref: str, scope: str | None) -> str:
         """The model an element of subcircuit ``scope`` (a key of ``deck.subckts``; None: the
@@ -440,7 +444,7 @@ class _Builder:
 
         scope = stack[-1] if stack else None
         for el in body.elements:
-            if el.kind in "DSMQW" and self.local_models:
+            if (el.kind in "DSMQW" or (el.kind == "R" and el.ref)) and self.local_models:
                 key = self.model_key(el.ref, scope)
                 if key != el.ref:
                     el = copy.copy(el)
@@ -449,18 +453,24 @@ class _Builder:
                 self.instance(el, name_prefix, node_prefix, mapnode, env, failed, stack)
             elif el.kind in "MQ":
                 self.circuit.elements.extend(self.device(el, name_prefix, mapnode))
-            elif el.behaviour is not None:  # B, C of a knee (.behavioural); R (.time_value)
-                self.circuit.elements += elaborate_time_resistor(
+            elif el.behaviour is not None:  # B, C of a knee (.behavioural); R (.switched_resistor)
+                refused = len(self.diags)
+                self.circuit.elements += elaborate_resistor(
                     el, name_prefix, mapnode, env, self.circuit, self.error) if el.kind == "R" \
                     else elaborate(el, name_prefix, mapnode, env, failed, self.error)
+                # (a refused element leaves a hole, as an instance not expanded does: no
+                # connectivity checks, 'control node not connected')
+                self.incomplete |= len(self.diags) > refused
                 if el.note:
                     self.circuit.notes.append(f"{name_prefix}{el.name}: {el.note}")
             elif el.kind == "W":  # a current-controlled switch (netlist.current_switch)
                 self.circuit.elements += self.current_switch(el, name_prefix, mapnode)
             elif el.kind == "A":  # an XSPICE code model (netlist.xspice)
+                refused = len(self.diags)
                 self.circuit.elements += xspice.elaborate_element(
                     el, name_prefix, mapnode, env, self.deck.code_models,
                     lambda v: self.evaluate(v, env, failed), self.circuit, self.error)
+                self.incomplete |= len(self.diags) > refused
             else:
                 self.circuit.elements.append(self.element(el, name_prefix, mapnode, env, failed))
 
@@ -680,9 +690,10 @@ class _Builder:
             problem = value_problem(kind, v)
             if problem:
                 self.error(f"{name}: {problem[0]}", el.value.loc, problem[1], (name,))
-            m = self.factor(el, name, env, failed)
+            m = multiplier(self, el, name, env, failed)
             # m elements in parallel, as ngspice: R/m, L/m, C*m
             v = v * m if kind == "C" else v / m
+            v *= temperature_factor(self, el, name, env, failed)
             if kind == "R":
                 return Resistor(name, nodes, loc, v)
             ic = None if el.ic is None else self.value_or_nan(el.ic, env, failed)
@@ -697,7 +708,7 @@ class _Builder:
             return cls(name, nodes, loc, dc, wave)
         if kind == "D":
             self.ref_locs[(key, "model")] = st.loc(el.ref_offset)
-            return Diode(name, nodes, loc, el.ref, area=self.factor(el, name, env, failed))
+            return Diode(name, nodes, loc, el.ref, area=multiplier(self, el, name, env, failed))
         if kind == "S":
             self.ref_locs[(key, "model")] = st.loc(el.ref_offset)
             self.ref_locs[(key, "control")] = st.loc(0)
@@ -722,21 +733,6 @@ class _Builder:
             self.ref_locs[(key, "inductor1")] = st.loc(o2)
             return Coupling(name, (), loc, (prefix + l1, prefix + l2), k)
         raise AssertionError(f"element kind {kind}")  # the reader accepts no other kind
-
-    def factor(self, el: RawElement, name: str, env: Mapping[str, float],
-               failed: set[str]) -> float:
-        """The product of an element's multipliers (``m=`` of R, L, C; AREA and ``m=`` of a
-        D), 1 without any; an error for one that is not positive."""
-        out = 1.0
-        for p in el.params:
-            v = self.value_or_nan(p.value, env, failed)
-            if not v > 0:
-                if not math.isnan(v) or p.value.expr is None:
-                    self.error(f"{name}: {p.name} must be positive, got {v:g}", p.loc,
-                               f"{p.name} multiplies the element: give a positive number", (name,))
-                continue
-            out *= v
-        return out
 
     def waveform(self, wave: tuple[str, list[Value], int, dict], env: Mapping[str, float],
                  failed: set[str], st: Statement) -> Signal | None:

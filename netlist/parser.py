@@ -275,6 +275,7 @@ def _idealised(circuit: Circuit) -> Circuit:
         warning = IdealisedDeviceWarning(f"{circuit.file}: {what}")
         # (for --strict's error: the first device's line, as every input error is shown)
         warning.location = circuit.replacements[0].location
+        warning.locations = [(r.element, r.location) for r in circuit.replacements]
         warning.what = what
         warnings.warn(warning, stacklevel=3)
     return circuit

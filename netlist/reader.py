@@ -50,6 +50,7 @@ from .rawdeck import (
 )
 from .steps import read_step
 from .units import parse_number
+from .value_scaling import read_resistor_model
 
 _NAME = re.compile(r"[A-Za-z_]\w*")
 # .model NAME TYPE of an XSPICE code model (netlist.xspice)
@@ -614,9 +615,7 @@ class _Reader(ElementLines, FuncReading):
                 hint = "use an S switch with a SW model, controlled by a voltage"
             label = f" ({what})" if what else ""
             if mtype == "R":
-                # a resistor model (TC1, TC2, RSH ...): its resistors keep their value
-                self.deck.notes.append(f"line {st.loc(0).line}: resistor model '{name_tok}' "
-                                       "read for its name only")
+                read_resistor_model(self, st, name_tok, tree)  # (netlist.value_scaling)
                 return
             self.deferred_models[name_tok.lower()] = Diagnostic(
                 f"model type '{type_tok}'{label} is not supported", st.loc(type_tok.start_pos),

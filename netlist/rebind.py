@@ -195,6 +195,11 @@ def _rebind(deck: Deck, base: _Base, overrides: dict) -> Circuit | None:
     changed = {n for n, v in env.items() if not _same(v, old[n])}
     if changed & base.fixed_uses:
         return None
+    if any(m.type == "R" for m in deck.models):
+        # (the resistor models the elements read for their temperature coefficients; their
+        # values use none of the changed parameters)
+        builder.global_env, builder.global_failed = env, failed
+        builder.models()
     elements = []
     for el, raw, uses in zip(base.circuit.elements, deck.top.elements, base.uses, strict=True):
         if uses & changed:

@@ -1,10 +1,13 @@
 """A piecewise-constant function of time (:class:`TimeValue`): the value of a resistor stepped
 in time (:mod:`netlist.time_value`), kept on the element that stands for it
-(:attr:`netlist.circuit.Resistor.time_value`) for the writer and the notes."""
+(:attr:`netlist.circuit.Resistor.time_value`) for the writer and the notes; the PWL waveform
+of a B source whose expression is such a function (:mod:`netlist.behavioural`)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+from lcs.signals import Pwl
 
 from .units import format_eng, format_number
 
@@ -31,6 +34,15 @@ class TimeValue:
         """The value at ``t`` (s); the new value from an instant on."""
         k = sum(1 for x in self.times if t >= x)
         return self.values[k]
+
+    def pwl(self) -> Pwl:
+        """The function as a PWL waveform that jumps at the instants (two points at each),
+        the new value from the instant on."""
+        times, values = [0.0], [self.values[0]]
+        for t, before, after in zip(self.times, self.values, self.values[1:], strict=False):
+            times += [t, t]
+            values += [before, after]
+        return Pwl(tuple(times), tuple(values))
 
     def expression(self) -> str:
         """The value as an ngspice expression of ``time`` that pelcs reads back to this

@@ -7,7 +7,7 @@ A port is a node (``n``), a differential pair (``(a b)``, or ``a b`` after a dif
 type), or a vector of these in brackets (``[a b]``), optionally preceded by its type: ``%v``
 (a node voltage), ``%vd`` (a voltage difference), ``%gd`` (a conductance between two nodes);
 ``%h``/``%hd`` (a current in, the lcouple's ports); the current, digital and other types
-are refused. pelcs reads seven analog models:
+are refused. pelcs reads eight analog models:
 
 ==========  ==================================================================================
 model       becomes
@@ -18,6 +18,9 @@ summer      ``out = out_offset + out_gain*sum(in_gain[i]*(in[i] + in_offset[i]))
 triangle    a constant-frequency triangle (every ``freq_array`` entry equal): a repeating PWL
             voltage source from ``out_low`` at t = 0 up to ``out_high`` at
             ``duty_cycle/freq``, down to ``out_low`` at ``1/freq`` (exact)
+square      a constant-frequency square: a PULSE voltage source, ``out_low`` for the period's
+            first ``1 - duty_cycle``, up over ``rise_time``, ``out_high`` to the period's end,
+            down over ``fall_time`` (exact)
 limit       of ``|gain| >= 1000``: a comparator between ``out_lower_limit`` and
             ``out_upper_limit`` whose step is at the midpoint of its linear range (an
             idealisation: said in a note)
@@ -40,7 +43,7 @@ import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
-from lcs.signals import Pwl
+from lcs.signals import Pulse, Pwl
 
 from .behavioural import Comparator, linear_elements, source_name
 from .behavioural_expr import Step, linearise, parse_behavioural
@@ -76,6 +79,9 @@ _SPECS: dict[str, tuple[tuple[tuple[str, str, tuple[str, ...], bool], ...], dict
     "triangle": ((("cntl_in", "v", ("v", "vd"), False), ("out", "v", ("v", "vd"), False)),
                  {"cntl_array": [0.0], "freq_array": [1e3], "out_low": -1.0,
                   "out_high": 1.0, "duty_cycle": 0.5}),
+    "square": ((("cntl_in", "v", ("v", "vd"), False), ("out", "v", ("v", "vd"), False)),
+               {"cntl_array": [0.0], "freq_array": [1e3], "out_low": -1.0, "out_high": 1.0,
+                "duty_cycle": 0.5, "rise_time": 1e-9, "fall_time": 1e-9}),
     "aswitch": ((("cntl_in", "v", ("v", "vd"), False), ("out", "gd", ("gd",), False)),
                 {"cntl_off": 0.0, "cntl_on": 1.0, "log": 1.0, "r_off": 1e12, "r_on": 1.0}),
     "lcouple": ((("l", "hd", ("h", "hd"), False), ("mmf_out", "hd", ("hd",), False)),
@@ -86,7 +92,8 @@ _SPECS: dict[str, tuple[tuple[tuple[str, str, tuple[str, ...], bool], ...], dict
               "in_high": 1.0, "hyst": 0.1, "out_lower_limit": 0.0, "out_upper_limit": 1.0}),
 }
 ACCEPTED_MODELS = tuple(_SPECS)
-ACCEPTED = ("pelcs reads the XSPICE code models gain, summer, triangle (constant frequency), "
+ACCEPTED = ("pelcs reads the XSPICE code models gain, summer, triangle and square (constant "
+            "frequency), "
             "limit (gain >= 1000, as a comparator), aswitch (as an ideal switch), and "
             "lcouple windings on a core (linear around H = 0), with %v, %vd, %gd and the "
             "lcouple's %hd ports (docs/xspice.md)")
@@ -443,17 +450,17 @@ def elaborate(name: str, ports: tuple[Port, ...], model: CodeModel, st: Statemen
         return [Comparator(name, out_nodes, loc, "V", step,
                            f"XSPICE limit {model.name}: {quantities[0][0]}",
                            what="XSPICE limit")]
-    if mtype == "triangle":
+    if mtype in ("triangle", "square"):
         freqs, cntls = list(p["freq_array"]), list(p["cntl_array"])
         if len(freqs) != len(cntls) or len(freqs) < 2:
             raise _fail(f"model '{model.name}': cntl_array and freq_array need the same "
                         "number of values, two at least", 0,
                         "cntl_array=[c1 c2 ...] freq_array=[f1 f2 ...]", st=model.st)
         if any(f != freqs[0] for f in freqs) or not freqs[0] > 0:
-            raise _fail(f"model '{model.name}': a triangle whose frequency follows its control "
+            raise _fail(f"model '{model.name}': a {mtype} whose frequency follows its control "
                         f"input (freq_array {freqs}) is a voltage-controlled oscillator",
                         model.params["freq_array"][1],
-                        "pelcs reads a triangle of one frequency (all freq_array values "
+                        f"pelcs reads a {mtype} of one frequency (all freq_array values "
                         "equal, > 0); " + ACCEPTED, st=model.st)
         d = p["duty_cycle"]
         if not 1e-6 <= d <= 0.999999:
@@ -461,6 +468,9 @@ def elaborate(name: str, ports: tuple[Port, ...], model: CodeModel, st: Statemen
                         model.params["duty_cycle"][1], "ngspice's limits for duty_cycle",
                         st=model.st)
         period = 1.0 / freqs[0]
+        if mtype == "square":
+            return [VoltageSource(name, out_nodes, loc, p["out_low"],
+                                  _square(model, p, period, d))]
         wave = Pwl((0.0, d * period, period), (p["out_low"], p["out_high"], p["out_low"]),
                    0.0, 0.0)
         return [VoltageSource(name, out_nodes, loc, p["out_low"], wave)]
@@ -490,6 +500,24 @@ def elaborate(name: str, ports: tuple[Port, ...], model: CodeModel, st: Statemen
                  f"r_off {p['r_off']:g} Ω at cntl_off to r_on at cntl_on, and beyond them: "
                  "the same where the control sits at cntl_off or cntl_on")
     return [Switch(name, out_nodes, loc, ctl, key, None)]
+
+
+def _square(model: CodeModel, p: dict, period: float, d: float) -> Pulse:
+    """ngspice's square (src/xspice/icm/analog/square/cfunc.mod): ``out_low`` for the
+    period's first ``1 - duty_cycle``, then up over ``rise_time``, ``out_high`` to the period's
+    end, down over ``fall_time`` into the next: PULSE(low high (1-d)T rise fall dT-rise T)."""
+    rise, fall = p["rise_time"], p["fall_time"]
+    for key, value in (("rise_time", rise), ("fall_time", fall)):
+        if not value > 0:
+            raise _fail(f"model '{model.name}': {key} {value:g} is not positive",
+                        model.params[key][1], "give the edge's duration, s", st=model.st)
+    if rise > d * period or fall > (1 - d) * period:
+        raise _fail(f"model '{model.name}': its edges (rise_time {rise:g}, fall_time "
+                    f"{fall:g} s) do not fit in its high and low times ({d * period:g}, "
+                    f"{(1 - d) * period:g} s)", model.params.get("rise_time", (0, 0))[1],
+                    "shorten the edges", st=model.st)
+    return Pulse(p["out_low"], p["out_high"], (1 - d) * period, rise, fall,
+                 d * period - rise, period)
 
 
 def _magnetic(name: str, ports: tuple[Port, ...], model: CodeModel, p: dict,

@@ -102,7 +102,8 @@ def build_parser(argv: list[str] | None = None, commands: list[str] | None = Non
             continue  # they simulate nothing (lcs gives the full passivity verdict)
         sub.choices[name].add_argument(
             "--strict", action="store_true",
-            help="refuse a circuit that is not passive (default: warn and run the ideal "
+            help="refuse a circuit that is not passive, and transistors (M, Q) and device "
+            "macro-models idealised as switches and diodes (default: warn and run the ideal "
             "model, which may grow without bound)")
     return parser
 
@@ -194,6 +195,14 @@ def _main(argv: list[str] | None) -> int:
                              "--strict refuses transistors (M, Q) and device macro-models; "
                              "drop it to simulate them as ideal switches and diodes").format(),
                   file=sys.stderr)
+            # each of the others where it is (a line once: a subcircuit's device in many
+            # instances), the first few
+            shown = {location}
+            for element, loc in getattr(exc, "locations", [])[:8]:
+                if loc is not None and loc not in shown:
+                    shown.add(loc)
+                    print(Diagnostic(f"{element}: idealised (refused by --strict)",
+                                     loc).format(), file=sys.stderr)
             return 2
         except NonPassiveWarning as exc:
             text = str(exc).split("; the run follows the ideal model")[0]

@@ -354,3 +354,27 @@ def test_kept_plans_and_initial_states_leave_every_run_its_notes():
     res.x_final[:] = 7.0  # (a result's arrays are its own: the next run starts as before)
     assert _same(pelcs.simulate(BUCK, tstop=TSTOP, probes=PROBES, params={"duty": 0.4}),
                  _fresh_file(BUCK, {"duty": 0.4}))
+
+
+TEMPERATURE_PARAMS = """resistors scaled by their temperature coefficients, a parameter changed
+.param rl=1k
+V1 in 0 10
+R1 in a {rl} MDR
+R2 a 0 1k tc1=1m
+C1 a 0 1u dtemp=10 tc1=5m
+.model MDR R(TC1=0.01 TNOM=30)
+.temp 77
+.tran 1u 10u
+.end
+"""
+
+
+def test_a_repeated_value_set_keeps_the_temperature_scaling():
+    # the kept evaluation re-binds R1 alone: it keeps its model's scaling, R2 its own
+    for rl in (1e3, 2e3, 1e3):
+        again = pelcs.load(TEMPERATURE_PARAMS, params={"rl": rl})
+        fresh = parse_string(TEMPERATURE_PARAMS, params={"rl": rl})
+        for name in ("R1", "R2", "C1"):
+            assert again.element(name).value == fresh.element(name).value, (rl, name)
+        assert fresh.element("R1").value == pytest.approx(rl * 1.47)
+        assert fresh.element("R2").value == pytest.approx(1e3 * 1.05)

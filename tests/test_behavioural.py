@@ -19,7 +19,7 @@ from netlist.behavioural_expr import (
     linearise,
     parse_behavioural,
 )
-from netlist.circuit import Ccvs, Vccs, Vcvs, VoltageSource
+from netlist.circuit import Ccvs, CurrentSource, Vccs, Vcvs, VoltageSource
 from netlist.errors import NetlistError
 from netlist.parser import parse_string
 from netlist.studies.transient import simulate_circuit
@@ -501,3 +501,45 @@ def test_clamp_is_folded_exactly_where_it_does_not_decide(compare, ramp):
         assert not limiter
     else:
         assert len(limiter) == 1 and "where the clamp decides the comparison" in limiter[0]
+
+
+TIME_STEPS = """B sources of time alone, stepping between constants
+.subckt stepper g
+Bg g 0 V = (time > 0.5m) ? 1 : 0
+.ends
+V1 in 0 DC 5
+R1 in a 1k
+C1 a 0 1u
+X1 g stepper
+S1 a c g 0 SWM
+Rc c 0 100
+.model SWM SW(VT=0.5 RON=1m ROFF=1G)
+Bl 0 a I = time >= 1.2m && time < 1.6m ? 2m : 0
+Bv y 0 v={u(time - 0.3m)*2 + (time > 1.5m)}
+Ry y 0 1k
+.tran 1u 2m
+.end
+"""
+
+
+def test_b_source_of_time_alone_is_the_stepping_source_it_is(tmp_path, ngspice):
+    # ngspice evaluates the expression at each of its steps: the same waveform, its steps
+    # landing on or just past the instants
+    c = parse_string(TIME_STEPS)
+    bg = c.element("X1.Bg")
+    assert isinstance(bg, VoltageSource) and bg.dc == 0.0
+    assert bg.waveform.times == (0.0, 0.5e-3, 0.5e-3) and bg.waveform.values == (0, 0, 1)
+    bl = c.element("Bl")
+    assert isinstance(bl, CurrentSource) and bl.nodes == ("0", "a")
+    assert bl.waveform.values == (0, 0, 2e-3, 2e-3, 0)
+    assert c.element("Bv").waveform.values == (0, 0, 2, 2, 3)
+    run = simulate_circuit(c, probes=["v(a)", "v(y)"])
+    data = ngspice_wrdata(TIME_STEPS, ["v(a)", "v(y)"], tmp_path)
+    t = data[:, 0]
+    away = np.min(np.abs(t[:, None] - np.array([0.3e-3, 0.5e-3, 1.2e-3, 1.5e-3, 1.6e-3])),
+                  axis=1) > 5e-6
+    # (measured: 10 mV on v(a)'s 5 V, ngspice turning S1 at its first step past 0.5 ms;
+    # v(y) exact)
+    for k, atol in ((0, 0.02), (1, 1e-9)):
+        ours = np.interp(t[away], run.t, run.y[:, k])
+        np.testing.assert_allclose(ours, data[away, 2 * k + 1], atol=atol)

@@ -89,6 +89,16 @@ def test_strict_refuses_transistors(capsys):
     assert f"{DEV / 'buck_vendor.cir'}:{line}:1: error:" in err, err
     with pytest.warns(IdealisedDeviceWarning):
         pelcs.load(DEV / "buck_vdmos.cir")
+    # every device where it is, not only the first
+    assert main(["simulate", str(DEV / "pmos_npn.cir"), "--strict"]) == 2
+    err = capsys.readouterr().err
+    assert f"{DEV / 'pmos_npn.cir'}:7:1: error: 2 devices" in err
+    assert f"{DEV / 'pmos_npn.cir'}:12:1: error: Q1: idealised (refused by --strict)" in err
+    # and its help says so, not only 'a circuit that is not passive'
+    with pytest.raises(SystemExit):
+        main(["simulate", "--help"])
+    helptext = " ".join(capsys.readouterr().out.split())
+    assert "--strict refuse a circuit that is not passive, and transistors (M, Q)" in helptext
 
 
 def test_written_back_as_devices_for_ngspice():

@@ -143,6 +143,14 @@ CATALOGUE = [
     ("instance-no-subckt", "t\n" + OK + "X1\n", "incomplete subcircuit instance 'X1'", 4, 3, ""),
     ("model-bad-value", "t\n" + OK + ".model DM D(IS=abc)\n", "unknown parameter 'abc'", 4, 16,
      ""),
+    # LTspice's clamp, no function of ngspice's B sources: the clamp pelcs reads instead
+    ("b-limit", "t\n" + OK + "B2 b 0 V = limit(v(a)*0.5, -1, 3)\n",
+     "LTspice's limit(x, lo, hi) is not a function of ngspice's B sources", 4, 12,
+     "max(lo, min(hi, x))"),
+    # a capacitor stepped in time is a capacitor's problem, not a B source's
+    ("capacitor-time", "t\n" + OK + "C1 a 0 C='time > 1m ? 1u : 2u'\n",
+     "capacitor 'C1' has a value that depends on time: a time-varying capacitor", 4, 11,
+     "read for a resistor only"),
 ]
 
 
@@ -331,3 +339,24 @@ def test_deeply_nested_subcircuits_are_an_input_error():
     text = f"t\n{subs}.subckt s{n} a\nR1 a 0 1\n.ends\nV1 x 0 1\nX1 x s0\n"
     with pytest.raises(NetlistError, match="subcircuits nested more than 100 levels deep"):
         parse_string(text)
+
+
+@pytest.mark.parametrize("driver", [
+    "Bg g 0 V = 1k*time",
+    "asq g sq\n.model sq square(freq_array=[1k 1k] cntl_array=[0 1])",
+])
+def test_refused_driver_leaves_no_follow_on_connectivity_error(driver):
+    # the refused B source or A element is the problem; its output node, left without an
+    # element, is not a second one ('control node g of S1 is not connected')
+    with pytest.raises(NetlistError) as info:
+        parse_string(f"t\nV1 a 0 1\nR1 a b 1\n{driver}\nS1 b 0 g 0 SW1\n.model SW1 SW(VT=0.5)\n"
+                     ".tran 1u 1m\n")
+    assert len(info.value.diagnostics) == 1
+    assert info.value.diagnostics[0].location.line == 4
+
+
+def test_control_node_of_no_element_is_still_reported():
+    with pytest.raises(NetlistError) as info:
+        parse_string("t\nV1 a 0 1\nR1 a b 1\nS1 b 0 g 0 SW1\n.model SW1 SW(VT=0.5)\n"
+                     ".tran 1u 1m\n")
+    assert "control node 'g' of S1 is not connected" in info.value.message

@@ -11,7 +11,7 @@ import math
 import pytest
 from ngspice_helpers import ngspice_print
 
-from lcs.signals import Sin
+from lcs.signals import Pulse, Sin
 from netlist.errors import NetlistError
 from netlist.parser import parse_file, parse_string
 from netlist.studies.realistic import simulate_devices
@@ -48,6 +48,27 @@ def test_source_parts_in_any_order(order):
     assert el.dc == 2 and isinstance(el.waveform, Sin) and el.waveform.va == 1
 
 
+DC_EQUALS_DECK = """DC= and AC= (ngspice's lexer reads the '=' as a blank)
+V1 a 0 DC=2 AC=1
+Ra a 0 1k
+I1 0 b dc = 3m AC= 1 0 PULSE(0 1m 1m 1u 1u 1m 2m)
+Rb b 0 1k
+.tran 10u 0.5m
+.end
+"""
+
+
+def test_dc_and_ac_written_with_equals(tmp_path, ngspice):
+    c = parse_string(DC_EQUALS_DECK)
+    assert c.element("V1").dc == 2 and c.element("I1").dc == pytest.approx(3e-3)
+    got = ngspice_print(DC_EQUALS_DECK, ["v(a)[1]", "v(b)[1]"], tmp_path)
+    assert got["v(a)[1]"] == pytest.approx(2)
+    # the PULSE's first value, as in pelcs's transient (the DC value is the operating point's)
+    assert got["v(b)[1]"] == pytest.approx(0, abs=1e-9)
+    wave = c.element("I1").waveform
+    assert isinstance(wave, Pulse) and (wave.v1, wave.v2) == (0, pytest.approx(1e-3))
+
+
 @pytest.mark.parametrize("fn", ["SFFM(0 1 1k 5 100)", "AM(1 0 100 1k 0)", "TRNOISE(1m 1n 0 0)",
                                 "TRRANDOM(1 1n 0 1)"])
 def test_unsupported_source_functions_named(fn):
@@ -79,12 +100,72 @@ R1 a 0 600k MDR
 def test_resistor_model_name(tmp_path, ngspice):
     c = parse_string(R_MODEL_DECK)
     assert c.element("R1").value == 600e3
-    assert any("R1: model 'MDR' ignored" in n for n in c.notes)
+    assert not any("R1:" in n for n in c.notes)  # (TC1 = TC2 = 0: nothing scaled)
     got = ngspice_print(R_MODEL_DECK, ["i(V1)[1]"], tmp_path)
     # ngspice prints 6 digits
     assert -got["i(V1)[1]"] == pytest.approx(1 / c.element("R1").value, rel=1e-5)
     with pytest.raises(NetlistError, match="unexpected '2k'"):
         parse_string("t\nV1 a 0 1\nR1 a 0 1k 2k\n")
+
+
+TEMPERATURE_DECK = """temperature coefficients of R, L, C away from their nominal temperature
+.options temp=60
+.subckt half in out
+R1 in out 1k RLOC
+.model RLOC R(tc1=2m tnom=40)
+.ends
+V1 in 0 10
+X1 in a half
+R2 a 0 1k MDR tc1=-1m
+R3 a b 500 temp=100 tc2=1e-5
+R4 b 0 2k dtemp=10 tc1=1m
+C1 a 0 1u tc1=5m dtemp=10
+L1 b c 10m tc1=3m
+R5 c 0 1
+.model MDR R TC1=0.01 TC2=1e-4 TNOM=30
+.temp 77
+.tran 1u 10u
+.end
+"""
+
+
+def test_temperature_coefficients_scale_values_as_ngspice(tmp_path, ngspice):
+    # ngspice's 1 + TC1 dT + TC2 dT^2 (restemp.c, captemp.c, indtemp.c): .temp over
+    # .options temp, the instance's tc1/tc2 over its model's, temp= over dtemp=, the model's
+    # TNOM (a model local to a subcircuit too)
+    c = parse_string(TEMPERATURE_DECK)
+    value = {n: c.element(n).value for n in ("X1.R1", "R2", "R3", "R4", "C1", "L1")}
+    assert value["X1.R1"] == pytest.approx(1e3 * (1 + 2e-3 * 37))
+    assert value["R2"] == pytest.approx(1e3 * (1 - 1e-3 * 47 + 1e-4 * 47**2))
+    assert value["R3"] == pytest.approx(500 * (1 + 1e-5 * 73**2))
+    assert value["R4"] == pytest.approx(2e3 * (1 + 1e-3 * 60))
+    assert value["C1"] == pytest.approx(1e-6 * (1 + 5e-3 * 60))
+    assert value["L1"] == pytest.approx(10e-3 * (1 + 3e-3 * 50))
+    assert any("R2: value scaled by 1.1739" in n and "30 °C to its 77 °C" in n
+               for n in c.notes)
+    got = ngspice_print(TEMPERATURE_DECK, ["v(a)[1]", "v(b)[1]"], tmp_path)
+    r2, r3, r4, r5 = value["R2"], value["R3"], value["R4"], 1.0  # (L1 a short at DC)
+    below = 1 / (1 / r2 + 1 / (r3 + 1 / (1 / r4 + 1 / r5)))
+    va = 10 * below / (value["X1.R1"] + below)
+    assert got["v(a)[1]"] == pytest.approx(va, rel=1e-5)
+
+
+MODEL_THEN_R_DECK = """a resistor written with its model first and its value as r=
+V1 a 0 1
+R2 a 0 mdr2 r=300k
+.model mdr2 R(tc1=0.01)
+.temp 37
+.tran 1u 10u
+.end
+"""
+
+
+def test_resistor_model_first_and_value_as_r(tmp_path, ngspice):
+    # ngspice's semiconductor-resistor order: the model's TC1 still applies (300k * 1.1)
+    c = parse_string(MODEL_THEN_R_DECK)
+    assert c.element("R2").value == pytest.approx(330e3)
+    got = ngspice_print(MODEL_THEN_R_DECK, ["i(V1)[1]"], tmp_path)
+    assert -got["i(V1)[1]"] == pytest.approx(1 / 330e3, rel=1e-5)
 
 
 SW_DECK = """switch model with spaces instead of '=', and a multi-line model closed by ')'

@@ -215,6 +215,10 @@ def test_circuit_without_states_writes_its_node_voltages(tmp_path, capsys):
     np.testing.assert_allclose(vin, 10 * np.sin(2 * np.pi * 50 * t), atol=1e-9)
     np.testing.assert_allclose(vout, np.maximum(vin, 0.0), atol=1e-9)  # ideal diode
     assert "default probes are the node voltages" in text + err
+    # with probes asked for, the default ones are not the run's: no such note
+    code, text, err = run(capsys, "simulate", str(deck), "-o", str(out), "--probe", "v(out)")
+    assert code == 0, err
+    assert "default probes" not in text + err and read_csv(out)[0] == ["time", "v(out)"]
 
 
 def test_lcs_of_a_capacitor_across_the_source(tmp_path, capsys):

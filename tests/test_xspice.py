@@ -12,6 +12,7 @@ from netlist.circuit import Vcvs, VoltageSource
 from netlist.errors import NetlistError
 from netlist.parser import parse_string
 from netlist.studies.realistic import simulate_devices
+from netlist.studies.transient import simulate_circuit
 
 # a buck converter whose PWM is XSPICE: triangle carrier, summer, limit comparator; the
 # switch is an S element (BUCK) or an XSPICE aswitch (BUCK_ASWITCH)
@@ -126,3 +127,38 @@ def test_refusals_name_the_place(edit, where, words):
         assert w in text, text
     line, col = where
     assert f"<string>:{line}:{col}:" in text, text
+
+
+SQUARE = """xspice square: its default levels, slow edges, inside a subcircuit
+.subckt osc out
+asq 0 out sq
+.model sq square(cntl_array=[0 1] freq_array=[10k 10k] duty_cycle=0.3 rise_time=2u
++ fall_time=5u)
+.ends
+X1 g osc
+R1 g 0 1k
+.tran 0.1u 0.3m
+.end
+"""
+
+
+def test_square_is_a_pulse_source_as_ngspice_runs_it(tmp_path, ngspice):
+    # ngspice's square (cfunc.mod): out_low (default -1) for the first 1 - duty_cycle of the
+    # period, up over rise_time, out_high (1) to the period's end, down over fall_time
+    c = parse_string(SQUARE)
+    sq = c.element("X1.asq")
+    assert isinstance(sq, VoltageSource) and sq.nodes == ("g", "0")
+    w = sq.waveform
+    assert (w.v1, w.v2, w.tr, w.tf, w.per) == (-1.0, 1.0, 2e-6, 5e-6, pytest.approx(1e-4))
+    assert w.td == pytest.approx(70e-6) and w.pw == pytest.approx(28e-6)
+    data = ngspice_wrdata(SQUARE, ["v(g)"], tmp_path)
+    t, v = data[:, 0], data[:, 1]
+    run = simulate_circuit(c, probes=["v(g)"])
+    np.testing.assert_allclose(np.interp(t, run.t, run.y[:, 0]), v, atol=1e-6)
+
+
+def test_square_edges_longer_than_its_levels_are_refused():
+    with pytest.raises(NetlistError) as exc:
+        parse_string(SQUARE.replace("rise_time=2u", "rise_time=40u"))
+    assert "do not fit in its high and low times" in str(exc.value)
+    assert "<string>:4:" in str(exc.value)

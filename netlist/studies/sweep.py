@@ -453,8 +453,8 @@ def check_orbit_knees(m, orbit) -> list[str]:
                                     f"from its first point, t from 0): {d.message}")
                             for d in exc.diagnostics], exc.file) from None
     return [f"orbit, checked over its {orbit.order} period(s): {note}"
-            for note in res.notes[len(setup.notes):]
-            if any(note.startswith(f"{k.name}:") for k in setup.knees)]
+            for note in res.notes if note not in setup.notes
+            and any(note.startswith(f"{k.name}:") for k in setup.knees)]
 
 
 @dataclass(frozen=True)

@@ -81,6 +81,8 @@ __all__ = [
     "warm_up",
 ]
 
+# the note of a circuit without states, whose default probes are its node voltages
+_DEFAULT_PROBES = "no inductor or capacitor: the default probes are the node voltages"
 
 
 @dataclass
@@ -252,8 +254,7 @@ def transient_setup(
     if not system.states:
         # With no state the default probes (the states) would be none: a CSV of times only.
         default_probes = [f"v({node})" for node in circuit.nodes[1:]]
-        notes.append("no inductor or capacitor: the default probes are the node voltages "
-                     f"({', '.join(default_probes)}); --probe chooses others")
+        notes.append(f"{_DEFAULT_PROBES} ({', '.join(default_probes)}); --probe chooses others")
     shown, shown_note = print_step(tran, waves, float(step))
     return TransientSetup(system, signals, x0, float(tstop), float(step), float(t_save),
                           energy, notes, nonpassive, default_probes, circuit.file or "",
@@ -608,6 +609,8 @@ def run_setup(
     :func:`lcs.results.resample` of the points kept (the note on the state's growth is then
     about them).
     """
+    notes = setup.notes if probes is None else [  # (the default probes are not the run's)
+        n for n in setup.notes if not n.startswith(_DEFAULT_PROBES)]
     if probes is None:
         probes = setup.default_probes
     print_note = None
@@ -653,7 +656,7 @@ def run_setup(
             output_from=setup.t_save if setup.t_save > 0 else -np.inf,
             keep_events=keep_events, rows_to=rows_to, operating_point=setup.operating_point,
         )
-    result.notes[:0] = setup.notes + ([theta_note] if theta_note else [])
+    result.notes[:0] = notes + ([theta_note] if theta_note else [])
     if method == "moreau":
         result.theta = theta
     if knees:
