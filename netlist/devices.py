@@ -20,7 +20,7 @@ import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
-from .errors import Location
+from .errors import Diagnostic, Location, NetlistError
 from .units import parse_number
 
 __all__ = ["BJT_THRESHOLD", "DEVICE_TYPES", "Replacement", "gate_rc", "threshold"]
@@ -308,3 +308,56 @@ def amplifier_hint(replacements: Sequence[Replacement], involved: Sequence[str])
             "which pelcs idealises into switches that amplify nothing, so its nodes are left "
             "undetermined; model the amplifier as ideal instead: an E source of high gain "
             "between its inputs, or a B source (clamped to its supplies)")
+
+
+#: model types of the transistors :func:`active_at_operating_point` looks for
+TRANSISTOR_TYPES = ("NPN", "PNP", "NMOS", "PMOS", "VDMOS")
+
+
+def active_at_operating_point(replacements: Sequence[Replacement],
+                              unsettled: Sequence[str]) -> list[Replacement]:
+    """The idealised transistors among ``unsettled``, the comparators that have no consistent
+    state at the DC operating point (:func:`lcs.simulation.initial.unsettled_in_note`): each
+    on/off state's operating point turns them to another. A real transistor there settles
+    between on and off, conducting part of its current at a control voltage near its
+    threshold: in its active region, as the transistors of an amplifier, a follower, a
+    current source or a linear regulator are biased (a common-gate stage's MOSFET: ngspice's
+    operating point has it in saturation); or off, its emitter held only by leakage where the
+    switches' off state leaves it floating (a class-B output pair). An ideal switch has
+    neither."""
+    names = {n.lower() for n in unsettled}
+    return [r for r in replacements
+            if r.element.lower() in names and r.device in TRANSISTOR_TYPES]
+
+
+def active_message(active: Sequence[Replacement]) -> tuple[str, str]:
+    """The error and its hint for transistors that :func:`active_at_operating_point` found."""
+    names = ", ".join(r.element for r in active)
+    one = len(active) == 1
+    message = (f"no DC operating point with {names} as {'a switch' if one else 'switches'}: "
+               f"each on/off state's operating point turns {'it' if one else 'them'} to "
+               "another, where a real transistor settles between on and off (its active "
+               "region, as an amplifier's, a follower's or a current source's transistors are "
+               "biased) or off with a node held only by its leakage; the run would start "
+               "from the initial conditions (zero where none is given), not from the "
+               "circuit's operating point, and follow switches where the circuit amplifies")
+    hint = ("pelcs simulates transistors that switch fully on or off; model an amplifier "
+            "stage as a controlled source (E, G or a B source clamped to its supplies). If "
+            "the transistors do switch once the run starts (a converter that regulates at "
+            "DC), add UIC to the .tran line to start from the initial conditions instead")
+    return message, hint
+
+
+def refuse_active_transistors(replacements: Sequence[Replacement], notes: Sequence[str],
+                              file: str = "") -> None:
+    """Refuse (NetlistError, at the first one's line) a run from the DC operating point whose
+    ``notes`` say that idealised transistors among ``replacements`` have no consistent state
+    there (:func:`active_at_operating_point`): the run, started from zero instead, is not
+    the circuit's."""
+    from lcs.simulation.initial import unsettled_in_note  # (the run's module: loaded by then)
+
+    active = active_at_operating_point(replacements, unsettled_in_note(list(notes)))
+    if active:
+        message, hint = active_message(active)
+        raise NetlistError(Diagnostic(message=message, hint=hint, location=active[0].location,
+                                      elements=tuple(r.element for r in active)), file=file)

@@ -46,6 +46,7 @@ from ..circuit import (
     CurrentSource,
     VoltageSource,
 )
+from ..devices import refuse_active_transistors
 from ..errors import Diagnostic, NetlistError
 from ..formulation import formulate, storage_matrix
 from ..knee import KneeCapacitor, check_knees, knee_probes
@@ -135,6 +136,8 @@ class TransientSetup:
     # states no DC equation sets; an AuxiliaryPoint: that of the circuit with its .ic nodes
     # held (netlist.studies.start.held_start)
     operating_point: bool | AuxiliaryPoint = False
+    # the idealised transistors (netlist.devices.Replacement), checked at the operating point
+    transistors: tuple = ()
 
 
 def _input_error(circuit: Circuit, message: str, hint: str) -> NetlistError:
@@ -260,7 +263,7 @@ def transient_setup(
                           shown, shown_note,
                           (*(el for el in circuit.elements if isinstance(el, KneeCapacitor)),
                            *circuit.knees),
-                          operating_point)
+                          operating_point, tuple(circuit.replacements))
 
 
 @contextmanager
@@ -653,6 +656,8 @@ def run_setup(
             keep_events=keep_events, rows_to=rows_to, operating_point=setup.operating_point,
         )
     result.notes[:0] = setup.notes + ([theta_note] if theta_note else [])
+    if setup.operating_point:  # (with UIC the user chose the start)
+        refuse_active_transistors(setup.transistors, result.notes, setup.file)
     if method == "moreau":
         result.theta = theta
     if knees:
