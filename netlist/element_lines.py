@@ -30,6 +30,7 @@ from .rawdeck import (
     Value,
 )
 from .table_source import TableError, read_table
+from .temperature import TEMPERATURE_PARAMS
 from .time_value import ACCEPTED as TIME_ACCEPTED
 from .time_value import other_quantity, reads_time_only, time_in_comparisons
 from .units import parse_number
@@ -460,6 +461,7 @@ class ElementLines:
         ic = None
         parasitics: dict = {}
         mult: list[RawParam] = []
+        temperature: list[RawParam] = []
         for t in ch[4:]:
             if isinstance(t, Token):
                 if parse_number(t) is not None:
@@ -475,6 +477,12 @@ class ElementLines:
                 ic = self.value(val_tok, st)
                 if ic is None:
                     return
+            elif key in TEMPERATURE_PARAMS:
+                # (they change the value away from the nominal temperature)
+                tv = self.value(val_tok, st)
+                if tv is None:
+                    return
+                temperature.append(RawParam(key, tv, st, key_tok.start_pos))
             elif key in _PASSIVE_IGNORED:
                 if self.value(val_tok, st) is None:
                     return
@@ -512,7 +520,7 @@ class ElementLines:
         a, b = node_name(ch[1]), node_name(ch[2])
         b_main = self.parasitics(letter, name, a, b, parasitics, st)
         self.body.elements.append(RawElement(letter, name, st, (a, b_main), value=v, ic=ic,
-                                             params=mult))
+                                             params=mult, temperature=temperature))
 
     def parasitics(self, letter: str, name: str, a: str, b: str, found: dict,
                    st: Statement) -> str:

@@ -28,7 +28,7 @@ from collections.abc import Callable, Mapping
 
 from lcs.signals import Exp, Pulse, Pwl, Signal, Sin
 
-from . import current_switch, magnetic_core, xspice
+from . import current_switch, magnetic_core, temperature, xspice
 from .behavioural import elaborate, resolve_comparators
 from .checks import check_circuit, value_problem
 from .circuit import (
@@ -681,8 +681,8 @@ class _Builder:
             if problem:
                 self.error(f"{name}: {problem[0]}", el.value.loc, problem[1], (name,))
             m = self.factor(el, name, env, failed)
-            # m elements in parallel, as ngspice: R/m, L/m, C*m
-            v = v * m if kind == "C" else v / m
+            # m elements in parallel, as ngspice: R/m, L/m, C*m; at their temperature
+            v = (v * m if kind == "C" else v / m) * temperature.scale(self, el, name, env, failed)
             if kind == "R":
                 return Resistor(name, nodes, loc, v)
             ic = None if el.ic is None else self.value_or_nan(el.ic, env, failed)

@@ -120,6 +120,9 @@ class RawElement:
     refs: tuple[tuple[str, int], ...] = ()
     params: list[RawParam] = field(default_factory=list)
     state: bool | None = None
+    # an R, L or C line's temperature parameters (TC1=, TC2=, TCE=, TEMP=, DTEMP=:
+    # netlist.temperature)
+    temperature: list[RawParam] = field(default_factory=list)
     # a B source: ("V" or "I", the parsed expression, its text, its offset in the statement)
     behaviour: tuple | None = None
     # what the reading of the line made of it, noted in each instance after the element's

@@ -155,7 +155,8 @@ def _scope(deck: Deck, order: tuple[RawParam, ...], fixed: dict[str, float]
 
 
 def _element_values(el: RawElement) -> list:
-    values = [el.value, el.ic, *(p.value for p in el.params)]
+    values = [el.value, el.ic, *(p.value for p in el.params),
+              *(p.value for p in el.temperature)]
     if el.wave is not None:
         _, args, _, extras = el.wave
         values += list(args) + [val for val, _ in extras.values()]
