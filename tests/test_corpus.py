@@ -294,6 +294,19 @@ PELCS_REFUSES: dict[str, tuple[str, str, str]] = {
          "the precision rectifiers' op-amps are LM741s at transistor level (14 BJTs each "
          "idealised): switches amplify nothing, and the error says so",
          "runs"),
+    # linear amplifiers: their transistors have no consistent on/off state at the DC
+    # operating point (netlist.devices.active_at_operating_point). Run from zero instead,
+    # pelcs printed RMS v(load) 2.80 V against ngspice's 1.61 V (push-pull) and RMS v(nout)
+    # 0.470 V against 0.046 V (common gate, whose MOSFET ngspice biases in saturation)
+    "learning_ngspice/circuits/04_amplificadores/classe_ab_push_pull.cir":
+        ("no DC operating point with Q1, Q2 as switches",
+         "a class-AB output pair, emitter followers: in ngspice's operating point both are off "
+         "(v(b,e) 0.2 V), their emitters held by leakage; as switches each state's operating "
+         "point turns them to another", "runs"),
+    "ece3410/diodos/cg_amp.sp":
+        ("no DC operating point with M1 as a switch",
+         "a common-gate stage: ngspice's operating point has M1 in saturation (Vgs 0.74 V, "
+         "Vds 2.44 V, Vdsat 0.24 V); as a switch, on turns it off and off on", "runs"),
 }
 
 # file -> (what ngspice does, what pelcs does): pelcs runs them, ngspice cannot, so there is
