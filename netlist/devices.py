@@ -348,12 +348,39 @@ def active_message(active: Sequence[Replacement]) -> tuple[str, str]:
     return message, hint
 
 
+#: the share of a run an idealised transistor slides on its threshold past which it is read
+#: as biased in its active region: a switching edge's Miller plateau, partly on for tens of
+#: ns (ngspice's dcdc.sp with its Cgd, 16 ns in 0.2 ms), stays far below it; an LC
+#: oscillator's transistor (15 % of the run) or an amplifier's at its bias (28 %) do not
+ACTIVE_SHARE = 0.1
+
+
+def sliding_message(slid: Sequence[tuple[Replacement, float, float]]) -> tuple[str, str]:
+    """The error and its hint for idealised transistors that slid: (replacement, the start
+    of its first sliding interval, its time sliding in all), s."""
+    r, start, total = slid[0]
+    others = "".join(f", {o.element} too" for o, _, _ in slid[1:])
+    message = (f"{r.element} slid on its threshold from t = {start:.4g} s ({total:.3g} s of the "
+               f"run in all{others}): the idealised transistor held with its control at "
+               f"{r.threshold:g} V, partly on, carrying the current the circuit sets, is a "
+               "transistor in its active region (an amplifier's, an oscillator's or a linear "
+               "regulator's), which the switch model does not describe: the waveforms are not "
+               "the circuit's")
+    hint = ("pelcs simulates transistors that switch fully on or off; model an amplifying "
+            "stage as a controlled source (E, G or a B source clamped to its supplies)")
+    return message, hint
+
+
 def refuse_active_transistors(replacements: Sequence[Replacement], notes: Sequence[str],
-                              file: str = "") -> None:
-    """Refuse (NetlistError, at the first one's line) a run from the DC operating point whose
-    ``notes`` say that idealised transistors among ``replacements`` have no consistent state
-    there (:func:`active_at_operating_point`): the run, started from zero instead, is not
-    the circuit's."""
+                              file: str = "", sliding: Sequence[tuple] = (),
+                              t_end: float = 0.0) -> None:
+    """Refuse (NetlistError, at the first one's line) a run in which idealised transistors
+    among ``replacements`` left the switch model: ``notes`` (those of a run from the DC
+    operating point) say that they have no consistent state there
+    (:func:`active_at_operating_point`), or they slid (``sliding``: the run's intervals,
+    (switch, start s, end s or None: still sliding at ``t_end``, s)), held at their threshold
+    partly on for more than :data:`ACTIVE_SHARE` of the run. Either is a
+    transistor in its active region, and the run is not the circuit's."""
     from lcs.simulation.initial import unsettled_in_note  # (the run's module: loaded by then)
 
     active = active_at_operating_point(replacements, unsettled_in_note(list(notes)))
@@ -361,3 +388,16 @@ def refuse_active_transistors(replacements: Sequence[Replacement], notes: Sequen
         message, hint = active_message(active)
         raise NetlistError(Diagnostic(message=message, hint=hint, location=active[0].location,
                                       elements=tuple(r.element for r in active)), file=file)
+    by_name = {r.element.lower(): r for r in replacements if r.device in TRANSISTOR_TYPES}
+    slid: dict[str, list] = {}
+    for switch, t0, t1 in sliding:
+        r = by_name.get(str(switch).lower())
+        if r is not None:
+            entry = slid.setdefault(r.element, [r, t0, 0.0])
+            entry[2] += (t1 if t1 is not None else max(t_end, t0)) - t0
+    slid = {k: v for k, v in slid.items() if v[2] > ACTIVE_SHARE * t_end}
+    if slid:
+        found = [tuple(v) for v in slid.values()]
+        message, hint = sliding_message(found)
+        raise NetlistError(Diagnostic(message=message, hint=hint, location=found[0][0].location,
+                                      elements=tuple(slid)), file=file)

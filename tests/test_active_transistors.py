@@ -1,6 +1,7 @@
-"""Idealised transistors that have no consistent on/off state at the DC operating point: a
-transistor biased in its active region (an amplifier stage) is refused, not run as a switch
-from zero (netlist.devices.active_at_operating_point)."""
+"""Idealised transistors biased in their active region are refused, not run as switches:
+those with no consistent on/off state at the DC operating point
+(netlist.devices.active_at_operating_point) and those that slide on their threshold, partly
+on, for more than netlist.devices.ACTIVE_SHARE of the run."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import pytest
 from ngspice_helpers import ngspice_print
 
 from lcs.simulation.initial import unsettled_comparators, unsettled_in_note
-from netlist.devices import Replacement, active_at_operating_point
+from netlist.devices import Replacement, active_at_operating_point, refuse_active_transistors
 from netlist.errors import NetlistError
 from netlist.parser import parse_string
 from netlist.studies.transient import simulate_circuit
@@ -99,3 +100,43 @@ def test_only_idealised_transistors_are_refused():
     assert [r.element for r in found] == ["Q1"]
     # a switch of the netlist's own (S) regulating at DC is not a transistor: no refusal
     assert active_at_operating_point(reps, ["S1"]) == []
+
+
+# an emitter follower at its bias, from UIC: Q1 on charges CE through RC until v(b,e) falls
+# to the 0.7 V threshold, where the ideal switch slides, held partly on (ngspice: forward
+# active, v(c,e) 10.6 V)
+FOLLOWER = """emitter follower
+VCC vcc 0 12
+VB b 0 DC 2.1
+RC vcc c 100
+Q1 c b e qn
+.model qn NPN(BF=100)
+RE e 0 1k
+CE e 0 1u
+.tran 1u 5m uic
+.end
+"""
+
+
+@pytest.mark.filterwarnings("ignore::lcs.notices.IdealisedDeviceWarning")
+def test_a_transistor_held_on_its_threshold_is_refused(tmp_path):
+    path = tmp_path / "ef.cir"
+    path.write_text(FOLLOWER)
+    code, out = _cli(path)
+    assert code != 0
+    assert "ef.cir:5:1: error: Q1 slid on its threshold from t = " in out, out
+    assert "active region" in out and "Traceback" not in out
+
+
+def test_ngspice_has_the_follower_in_its_active_region(tmp_path, ngspice):
+    deck = FOLLOWER.replace(".tran 1u 5m uic", ".op")
+    v = ngspice_print(deck, ["v(c)-v(e)", "@q1[ic]"], tmp_path)
+    assert v["v(c)-v(e)"] > 1.0 and v["@q1[ic]"] > 1e-4
+
+
+def test_a_switching_edge_slides_too_briefly_to_be_refused():
+    rep = Replacement("M1", "irf510", "VDMOS", "switch", 3.6, "VTO of the model", None, ())
+    # ngspice's dcdc.sp with --devices pwl: a Miller plateau of 16 ns in a 0.2 ms run
+    refuse_active_transistors([rep], [], "", [("M1", 1.085e-4, 1.085e-4 + 16e-9)], 2e-4)
+    with pytest.raises(NetlistError, match="M1 slid on its threshold"):
+        refuse_active_transistors([rep], [], "", [("M1", 1e-4, None)], 2e-4)

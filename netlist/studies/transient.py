@@ -656,8 +656,9 @@ def run_setup(
             keep_events=keep_events, rows_to=rows_to, operating_point=setup.operating_point,
         )
     result.notes[:0] = setup.notes + ([theta_note] if theta_note else [])
-    if setup.operating_point:  # (with UIC the user chose the start)
-        refuse_active_transistors(setup.transistors, result.notes, setup.file)
+    # (at the DC point only without UIC: with it, the user chose the start)
+    refuse_active_transistors(setup.transistors, result.notes if setup.operating_point else (),
+                              setup.file, result.sliding, setup.t_stop)
     if method == "moreau":
         result.theta = theta
     if knees:
