@@ -139,7 +139,7 @@ def main() -> None:
     path = str(NETLIST.relative_to(Path.cwd())) if NETLIST.is_relative_to(Path.cwd()) \
         else str(NETLIST)
 
-    from netlist.studies.transient import warm_up
+    from lcs.build.ready import load_kernels as warm_up
 
     load = warm_up()
     total, kernel, first = bench_pelcs(path, tstop, args.param, vals)

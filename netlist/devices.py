@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import Diagnostic, Location
+from .errors import Diagnostic, Location, NetlistError
 from .units import parse_number
 
 __all__ = ["BJT_THRESHOLD", "DEVICE_TYPES", "ReverseChannel", "Replacement", "dropped_parts",
@@ -376,3 +376,96 @@ def amplifier_hint(replacements: Sequence[Replacement], involved: Sequence[str])
             "which pelcs idealises into switches that amplify nothing, so its nodes are left "
             "undetermined; model the amplifier as ideal instead: an E source of high gain "
             "between its inputs, or a B source (clamped to its supplies)")
+
+
+#: model types of the transistors :func:`active_at_operating_point` looks for
+TRANSISTOR_TYPES = ("NPN", "PNP", "NMOS", "PMOS", "VDMOS")
+
+
+def active_at_operating_point(replacements: Sequence[Replacement],
+                              unsettled: Sequence[str]) -> list[Replacement]:
+    """The idealised transistors among ``unsettled``, the comparators that have no consistent
+    state at the DC operating point (:func:`lcs.simulation.initial.unsettled_in_note`): each
+    on/off state's operating point turns them to another. A real transistor there settles
+    between on and off, conducting part of its current at a control voltage near its
+    threshold: in its active region, as the transistors of an amplifier, a follower, a
+    current source or a linear regulator are biased (a common-gate stage's MOSFET: ngspice's
+    operating point has it in saturation); or off, its emitter held only by leakage where the
+    switches' off state leaves it floating (a class-B output pair). An ideal switch has
+    neither."""
+    names = {n.lower() for n in unsettled}
+    return [r for r in replacements
+            if r.element.lower() in names and r.device in TRANSISTOR_TYPES]
+
+
+def active_message(active: Sequence[Replacement]) -> tuple[str, str]:
+    """The error and its hint for transistors that :func:`active_at_operating_point` found."""
+    names = ", ".join(r.element for r in active)
+    one = len(active) == 1
+    message = (f"no DC operating point with {names} as {'a switch' if one else 'switches'}: "
+               f"each on/off state's operating point turns {'it' if one else 'them'} to "
+               "another, where a real transistor settles between on and off (its active "
+               "region, as an amplifier's, a follower's or a current source's transistors are "
+               "biased) or off with a node held only by its leakage; the run would start "
+               "from the initial conditions (zero where none is given), not from the "
+               "circuit's operating point, and follow switches where the circuit amplifies")
+    hint = ("pelcs simulates transistors that switch fully on or off; model an amplifier "
+            "stage as a controlled source (E, G or a B source clamped to its supplies). If "
+            "the transistors do switch once the run starts (a converter that regulates at "
+            "DC), add UIC to the .tran line to start from the initial conditions instead")
+    return message, hint
+
+
+#: the share of a run an idealised transistor slides on its threshold past which it is read
+#: as biased in its active region: a switching edge's Miller plateau, partly on for tens of
+#: ns (ngspice's dcdc.sp with its Cgd, 16 ns in 0.2 ms), stays far below it; an LC
+#: oscillator's transistor (15 % of the run) or an amplifier's at its bias (28 %) do not
+ACTIVE_SHARE = 0.1
+
+
+def sliding_message(slid: Sequence[tuple[Replacement, float, float]]) -> tuple[str, str]:
+    """The error and its hint for idealised transistors that slid: (replacement, the start
+    of its first sliding interval, its time sliding in all), s."""
+    r, start, total = slid[0]
+    others = "".join(f", {o.element} too" for o, _, _ in slid[1:])
+    message = (f"{r.element} slid on its threshold from t = {start:.4g} s ({total:.3g} s of the "
+               f"run in all{others}): the idealised transistor held with its control at "
+               f"{r.threshold:g} V, partly on, carrying the current the circuit sets, is a "
+               "transistor in its active region (an amplifier's, an oscillator's or a linear "
+               "regulator's), which the switch model does not describe: the waveforms are not "
+               "the circuit's")
+    hint = ("pelcs simulates transistors that switch fully on or off; model an amplifying "
+            "stage as a controlled source (E, G or a B source clamped to its supplies)")
+    return message, hint
+
+
+def refuse_active_transistors(replacements: Sequence[Replacement], notes: Sequence[str],
+                              file: str = "", sliding: Sequence[tuple] = (),
+                              t_end: float = 0.0) -> None:
+    """Refuse (NetlistError, at the first one's line) a run in which idealised transistors
+    among ``replacements`` left the switch model: ``notes`` (those of a run from the DC
+    operating point) say that they have no consistent state there
+    (:func:`active_at_operating_point`), or they slid (``sliding``: the run's intervals,
+    (switch, start s, end s or None: still sliding at ``t_end``, s)), held at their threshold
+    partly on for more than :data:`ACTIVE_SHARE` of the run. Either is a
+    transistor in its active region, and the run is not the circuit's."""
+    from lcs.simulation.initial import unsettled_in_note  # (the run's module: loaded by then)
+
+    active = active_at_operating_point(replacements, unsettled_in_note(list(notes)))
+    if active:
+        message, hint = active_message(active)
+        raise NetlistError(Diagnostic(message=message, hint=hint, location=active[0].location,
+                                      elements=tuple(r.element for r in active)), file=file)
+    by_name = {r.element.lower(): r for r in replacements if r.device in TRANSISTOR_TYPES}
+    slid: dict[str, list] = {}
+    for switch, t0, t1 in sliding:
+        r = by_name.get(str(switch).lower())
+        if r is not None:
+            entry = slid.setdefault(r.element, [r, t0, 0.0])
+            entry[2] += (t1 if t1 is not None else max(t_end, t0)) - t0
+    slid = {k: v for k, v in slid.items() if v[2] > ACTIVE_SHARE * t_end}
+    if slid:
+        found = [tuple(v) for v in slid.values()]
+        message, hint = sliding_message(found)
+        raise NetlistError(Diagnostic(message=message, hint=hint, location=found[0][0].location,
+                                      elements=tuple(slid)), file=file)

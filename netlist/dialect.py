@@ -189,10 +189,10 @@ _UNSUPPORTED_MODELS = {
 }
 
 # instance parameters accepted (and ignored: they do not change the nominal value) besides IC
-_PASSIVE_IGNORED = {"tce", "noisy", "ac"}
+_PASSIVE_IGNORED = {"noisy", "ac"}
 # instance parameters of R, L, C that scale the value away from the nominal temperature
 # (and TC=TC1[,TC2], netlist.element_lines)
-_TEMPERATURE_PARAMS = ("tc1", "tc2", "temp", "dtemp")
+_TEMPERATURE_PARAMS = ("tc1", "tc2", "tce", "temp", "dtemp")
 
 # waveform -> (minimum, maximum number of arguments)
 WAVE_ARGS = {"pulse": (2, 8), "sin": (2, 6), "exp": (2, 6), "pwl": (2, None)}

@@ -103,7 +103,8 @@ def value_factor(instance: Mapping[str, float], model: Mapping[str, float], temp
     Parameters
     ----------
     instance : mapping
-        The element's ``tc1``, ``tc2`` (1/°C, 1/°C²), ``temp``, ``dtemp`` (°C) as given.
+        The element's ``tc1``, ``tc2`` (1/°C, 1/°C²), ``temp``, ``dtemp`` (°C) as given, and a
+        resistor's ``tce`` (%/°C: the factor is then ``1.01^(TCE dT)``, as ngspice 39's).
     model : mapping
         Its model's ``tc1``, ``tc2``, ``tnom`` as given (empty without a model).
     temp, tnom : float
@@ -112,6 +113,8 @@ def value_factor(instance: Mapping[str, float], model: Mapping[str, float], temp
     own = instance["temp"] if "temp" in instance else temp + instance.get("dtemp", 0.0)
     nominal = model.get("tnom", tnom)
     dt = own - nominal
+    if "tce" in instance:  # a resistor's exponential coefficient (ngspice 39): %/°C
+        return 1.01 ** (instance["tce"] * dt), own, nominal
     tc1 = instance.get("tc1", model.get("tc1", 0.0))
     tc2 = instance.get("tc2", model.get("tc2", 0.0))
     return 1.0 + tc1 * dt + tc2 * dt * dt, own, nominal
@@ -146,7 +149,7 @@ def temperature_factor(builder, el: RawElement, name: str, env: Mapping[str, flo
     evaluation, temperatures, resistor models, notes and errors); 1 at the nominal
     temperature or without coefficients."""
     given = {p.name: builder.value_or_nan(p.value, env, failed) for p in el.params
-             if p.name in ("tc1", "tc2", "temp", "dtemp")}
+             if p.name in ("tc1", "tc2", "temp", "dtemp") or p.name == "tce" and el.kind == "R"}
     found = builder.resistor_models.get(el.ref.lower()) if el.ref else None
     model = found.params if found is not None else {}
     if el.ref and found is None:

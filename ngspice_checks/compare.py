@@ -379,9 +379,10 @@ def compare(
     ngspice_checks.runner.NgspiceError
         ngspice unavailable (NgspiceUnavailable) or failed on every rung (NgspiceFailed).
     """
+    from lcs.build.ready import load_kernels as warm_up
     from netlist.parser import load_source as load
     from netlist.studies.sweep import check_period_multiple
-    from netlist.studies.transient import check_probes, simulate_circuit, warm_up
+    from netlist.studies.transient import check_probes, simulate_circuit
     from netlist.writer import write_circuit
 
     if devices not in ("auto", "ideal", "pwl"):

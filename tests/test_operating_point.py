@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from ngspice_helpers import ngspice_wrdata
 
+from lcs.simulation.initial import unsettled_in_note
 from lcs.theory.operating_point import dc_point
 from netlist.parser import parse_string
 from netlist.studies.realistic import simulate_devices
@@ -106,8 +107,9 @@ R1 out 0 10
         ".model smod SW(VT=5)", ".model smod SW(VT=0)").replace("Vd 0 sw DC 0\n",
                                                                   "D1 0 sw dm\n.model dm D\n")
     res = simulate_circuit(parse_string(deck), probes=["v(out)"])
-    assert any("no DC operating point: the comparators have no consistent state" in n
+    assert any("no DC operating point: the comparators (S1) have no consistent state" in n
                for n in res.notes)
+    assert unsettled_in_note(res.notes) == ["S1"]
     assert res["v(out)"][0] == 0.0
 
 

@@ -61,6 +61,33 @@ _KEPT_PER_PROBLEM = 16
 _LOCK = threading.Lock()
 
 
+#: how the note on a DC operating point that the comparators do not settle at begins; the
+#: comparators follow in parentheses (:func:`unsettled_in_note` reads them back)
+UNSETTLED_NOTE = "no DC operating point: the comparators"
+
+
+def unsettled_comparators(keys: list[int]) -> list[int]:
+    """The comparators (bit indices) that change within the last cycle of switch keys the
+    operating point's rounds visited (every one that changed, where the rounds end before
+    a key repeats)."""
+    last = keys[-1]
+    start = next((i for i in range(len(keys) - 2, -1, -1) if keys[i] == last), 0)
+    changed = 0
+    for a, b in zip(keys[start:], keys[start + 1:], strict=False):
+        changed |= a ^ b
+    return [i for i in range(changed.bit_length()) if (changed >> i) & 1]
+
+
+def unsettled_in_note(notes: list[str]) -> list[str]:
+    """The comparators a run's note on its unsettled DC operating point names ([] where the
+    run has no such note)."""
+    for note in notes:
+        if note.startswith(UNSETTLED_NOTE + " ("):
+            inside = note[len(UNSETTLED_NOTE) + 2:].split(")", 1)[0]
+            return [n.strip() for n in inside.split(",") if n.strip()]
+    return []
+
+
 def initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_maps: dict,
                   base: ModeKey, x0: np.ndarray, u0: np.ndarray, t_start: float,
                   controllers: Controllers, on_inconsistent: InconsistentHandler | None,
@@ -139,6 +166,7 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
     settled = not comparators
     res0 = None
     lam = np.zeros(m)
+    keys = [key]  # (the keys the rounds visit: an unsettled one ends in a cycle of them)
     for _ in range(k + 2):
         mode = mode_tuple(key, k)
         Cc, Dc, Fc = problem.control_rows(mode, plan, src_maps, base)
@@ -173,10 +201,12 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
             settled = True
             break
         key = new
+        keys.append(key)
     if operating_point and not settled:
         # each mode's operating point turns the comparators to another (a closed loop that
         # regulates has no DC point with ideal comparators): the start without it
-        notes.append("no DC operating point: the comparators have no consistent state there "
+        names = ", ".join(switches[i].name for i in unsettled_comparators(keys))
+        notes.append(f"{UNSETTLED_NOTE} ({names}) have no consistent state there "
                      "(each mode's operating point turns them to another, as in a closed loop "
                      "that regulates): the run starts from the initial conditions, as ngspice "
                      "with UIC")

@@ -46,6 +46,7 @@ from ..circuit import (
     CurrentSource,
     VoltageSource,
 )
+from ..devices import refuse_active_transistors
 from ..errors import Diagnostic, NetlistError
 from ..formulation import formulate, storage_matrix
 from ..knee import KneeCapacitor, check_knees, knee_probes
@@ -78,7 +79,6 @@ __all__ = [
     "simulate_circuit",
     "tran_step",
     "transient_setup",
-    "warm_up",
 ]
 
 # the note of a circuit without states, whose default probes are its node voltages
@@ -137,6 +137,8 @@ class TransientSetup:
     # states no DC equation sets; an AuxiliaryPoint: that of the circuit with its .ic nodes
     # held (netlist.studies.start.held_start)
     operating_point: bool | AuxiliaryPoint = False
+    # the idealised transistors (netlist.devices.Replacement), checked at the operating point
+    transistors: tuple = ()
 
 
 def _input_error(circuit: Circuit, message: str, hint: str) -> NetlistError:
@@ -261,7 +263,7 @@ def transient_setup(
                           shown, shown_note,
                           (*(el for el in circuit.elements if isinstance(el, KneeCapacitor)),
                            *circuit.knees),
-                          operating_point)
+                          operating_point, tuple(circuit.replacements))
 
 
 @contextmanager
@@ -657,6 +659,9 @@ def run_setup(
             keep_events=keep_events, rows_to=rows_to, operating_point=setup.operating_point,
         )
     result.notes[:0] = notes + ([theta_note] if theta_note else [])
+    # (at the DC point only without UIC: with it, the user chose the start)
+    refuse_active_transistors(setup.transistors, result.notes if setup.operating_point else (),
+                              setup.file, result.sliding, setup.t_stop)
     if method == "moreau":
         result.theta = theta
     if knees:
@@ -777,24 +782,3 @@ def choose_theta(setup: TransientSetup, theta: float | None) -> tuple[float, str
     return wanted, (f"{text}; θ = 1 (backward Euler) or a step below {r.h_max:.3g} s avoids "
                     "it")
 
-
-def warm_up() -> float:
-    """Load the stepper's compiled (numba) kernels; returns the time it took, s.
-
-    The first run in a process pays for loading the kernels from numba's cache (a few tenths
-    of a second, more on the very first use after installation, when they are compiled).
-    Calling this first lets a caller report the time per step of the run itself. See
-    :func:`lcs.build.warmup.warm_up` (every kernel specialisation).
-    """
-    import time
-
-    from lcs.build.kernels import using_aot
-
-    t0 = time.perf_counter()
-    if using_aot():
-        # The ahead-of-time module holds every kernel a run calls from Python: nothing to
-        # compile or load from numba's cache.
-        return time.perf_counter() - t0
-    from lcs.build.warmup import warm_up as _warm_up
-
-    return _warm_up()

@@ -186,7 +186,6 @@ def run(args: argparse.Namespace) -> int:
         check_run_size,
         passivity_unreported,
         transient_setup,
-        warm_up,
     )
 
     tstop = _number("--tstop", args.tstop, ("", "s"))
@@ -232,7 +231,9 @@ def run(args: argparse.Namespace) -> int:
         print(kernel_setup.COMPILING_MESSAGE, file=sys.stderr, flush=True)
     else:  # (a kernel missing from a cache numba otherwise serves says so when it compiles)
         kernel_setup.announce_compiles(lambda text: print(text, file=sys.stderr, flush=True))
-    load = warm_up()
+    from lcs.build.ready import load_kernels
+
+    load = load_kernels()
     compiled = kernel_setup.compiled_in_process() > 0
     with deferred_interrupts(_INTERRUPT_MESSAGE):
         return _run(args, circuit, setup, probes, tstop, step, theta, every, output_step,
@@ -534,3 +535,4 @@ def summary(result, file: str, title: str, *, tstop: float, step: float, theta: 
         lines.append(f"wrote {', '.join(written)} ({result.points} points"
                      + (f", {points}" if points else "") + ")")
     return "\n".join(lines)
+
