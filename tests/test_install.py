@@ -185,7 +185,7 @@ def test_kernels_cached_is_false_with_an_empty_cache_and_true_with_the_checkouts
 def _simulate_first_use(monkeypatch, capsys, cached: bool, compiled: int, aot: bool):
     """``pelcs simulate`` of the bundled buck with the cache state faked, nothing compiled:
     (stderr lines, stdout, background builds started)."""
-    import netlist.studies.transient as transient
+    import lcs.build.ready as ready
     import pelcs.commands.simulate  # noqa: F401  (imported before its names are patched)
 
     events = []
@@ -199,7 +199,7 @@ def _simulate_first_use(monkeypatch, capsys, cached: bool, compiled: int, aot: b
     monkeypatch.setattr(kernel_setup, "compiled_in_process", lambda: compiled)
     monkeypatch.setattr(kernel_setup, "start_background_build",
                         lambda: events.append("build") or Path("/cache/build.log"))
-    monkeypatch.setattr(transient, "warm_up", fake_warm_up)
+    monkeypatch.setattr(ready, "load_kernels", fake_warm_up)
     monkeypatch.setattr(kernels, "using_aot", lambda: aot)
     monkeypatch.setattr(jit, "materialized", lambda: not aot)  # (numba served the run)
     monkeypatch.setattr(kernel_setup, "announce_compiles", lambda write: False)
