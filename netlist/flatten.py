@@ -28,7 +28,7 @@ from collections.abc import Callable, Mapping
 
 from lcs.signals import Exp, Pulse, Pwl, Signal, Sin
 
-from . import current_switch, magnetic_core, xspice
+from . import current_switch, xspice
 from .behavioural import elaborate, resolve_comparators
 from .checks import check_circuit, value_problem
 from .circuit import (
@@ -279,7 +279,10 @@ class _Builder:
         if self.within_element_limit():
             self.expand(deck.top, "", "", None, self.global_env, self.global_failed, ())
             self.diags.extend(resolve_comparators(c))
-            self.diags.extend(magnetic_core.resolve_cores(c, bool(self.diags)))
+            if any(el.kind == "A" or hasattr(el, "mmf") for el in c.elements):
+                from .magnetic_core import resolve_cores  # (a core, or a winding: 1 ms)
+
+                self.diags.extend(resolve_cores(c, bool(self.diags)))
         return c
 
     def within_element_limit(self) -> bool:
