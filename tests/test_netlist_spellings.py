@@ -327,6 +327,9 @@ FORMS = {
     "E pair comma": "V1 a 0 2\nE1 (o,0) a 0 3\nR1 o 0 1k\n",
     # a parameter's bare name as a value (ngspice substitutes it: lopesivan's periodo.sp)
     "bare param": ".param rval=2k vv=3\nV1 a 0 DC vv\nR1 a o 1k\nR2 o 0 rval\n",
+    # a parameter named pi is the value ngspice's numparam takes for pi (it was the constant)
+    "param pi": ".param pi=2\nV1 a 0 3\nR1 a o {pi}\nR2 o 0 1\n",
+    "param pi bare": ".param pi=2\nV1 a 0 3\nR1 a o pi\nR2 o 0 1\n",
     # a resistor's TC (ngspice's TransImpedanceAmp example): nothing at 27 C
     "R TC": "V1 a 0 1\nR1 a o 1E3 TC=7E-6\nR2 o 0 1k\n",
     # a .model whose ')' comes before its continuation (ngspice's 555 timer example):
