@@ -285,7 +285,7 @@ class _Reader(ElementLines, FuncReading):
             return
         try:
             data = _read_bytes(path, display, at)
-            text = _decode(data, display)
+            text = _decode(data, display, title=False)
         except NetlistError as exc:
             self.diags.extend(exc.diagnostics)
             return

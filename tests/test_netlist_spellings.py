@@ -374,3 +374,22 @@ def test_control_characters_are_blanks(tmp_path, ngspice):
     res = simulate_devices(parse_file(path), devices="pwl", probes=["v(b)"])
     want = ngspice_print(deck, ["v(b)[5]"], tmp_path)["v(b)[5]"]
     assert float(res["v(b)"][-1]) == pytest.approx(want, rel=1e-6)
+
+
+def test_a_control_character_starting_a_line_is_refused(tmp_path, ngspice):
+    # ngspice 39 does not read a line that starts with one (a form feed comments it out,
+    # with a warning; DC3 is an 'unknown device type' error): blanked, pelcs read R1 and
+    # printed v(b) 0.5 V where ngspice's run, without R1, gives 0 V
+    deck = "t\nV1 a 0 1\n\x0cR1 a b 1k\nR2 b 0 1k\n.tran 1u 10u\n.end\n"
+    assert ngspice_print(deck, ["v(b)[2]"], tmp_path)["v(b)[2]"] == 0.0
+    for text in (deck, deck.replace("\x0c", " \x13")):
+        path = tmp_path / "ff.cir"
+        path.write_bytes(text.encode())
+        for read, arg in ((parse_file, path), (parse_string, text)):
+            with pytest.raises(NetlistError, match=r":3:\d: error: control character 0x"):
+                read(arg)
+    # a page break alone on its line, before a comment, or in the title is nothing
+    fine = "\x0ct\x13\n\x0c\n\x0c* page 2\nV1 a 0 1\nR1 a b 1k\x13\nR2 b 0 1k\n.tran 1u 10u\n.end\n"
+    assert [e.name for e in parse_string(fine).elements] == ["V1", "R1", "R2"]
+    # and the API's text reads '1nf\x13' as the file does
+    assert parse_string("t\nV1 a 0 1\nC1 a 0 1nf\x13\n.end\n").element("C1").value == 1e-9
