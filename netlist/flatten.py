@@ -122,7 +122,7 @@ class _Builder:
         self.local_models: dict[str, dict[str, str]] = {}
         self.diags: list[Diagnostic] = []
         self.ref_locs: dict[tuple[str, str], Location] = {}
-        self.circuit = Circuit(title=deck.title, file=deck.file)
+        self.circuit = Circuit(title=deck.title, file=deck.file, files=tuple(deck.files))
         self.global_env: dict[str, float] = {}
         self.global_failed: set[str] = set()
         self.incomplete = False  # an instance could not be expanded
