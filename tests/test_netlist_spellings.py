@@ -365,6 +365,21 @@ def test_an_unbraced_value_ngspice_stops_in_is_refused(line, where, tmp_path, ng
         assert got == 1.0
 
 
+@pytest.mark.parametrize("deck, want", [
+    # in a subcircuit a value that starts with a number is cut at its first space too: pelcs
+    # read rv = 3 (v(o) 0.25 V) where ngspice's rv is 1 (0.5 V)
+    ("t\n.subckt rr a b\n.param rv = 1 + 2\nR1 a b {rv}\n.ends\nV1 1 0 1\nX1 1 o rr\n"
+     "R2 o 0 1\n.tran 1u 10u\n.end\n", 0.5),
+    # beside a braced value as well: pelcs read b = 5 where ngspice's b is 2
+    ("t\n.param a={1} b = 2 + 3\nV1 o 0 {b}\nR1 o 0 1k\n.tran 1u 10u\n.end\n", 2.0),
+])
+def test_an_unbraced_value_ngspice_cuts_in_a_subcircuit_is_refused(deck, want, tmp_path,
+                                                                    ngspice):
+    with pytest.raises(NetlistError, match=r":[23]:\d+: error: ngspice reads '\w' as the value"):
+        parse_string(deck)
+    assert ngspice_print(deck, ["v(o)[3]"], tmp_path)["v(o)[3]"] == want
+
+
 def test_control_characters_are_blanks(tmp_path, ngspice):
     # a schematic tool's export (Sue, tests/corpus-like lab files) leaves DC3 after values:
     # ngspice reads '1nf\x13' as 1 nF and 'ic=0\x13' as 0
