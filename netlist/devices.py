@@ -123,6 +123,15 @@ class ReverseChannel:
         over = np.where(over <= tol, np.minimum(over, 0.0), over)
         return np.where(off, over, -1.0)
 
+    @classmethod
+    def of(cls, name: str, device: str, control: tuple[str, str], drain: str,
+           threshold: float, location: Location | None) -> ReverseChannel:
+        """The check of a switch on ``control`` (gate, source; P-channel: source, gate),
+        the gate against ``drain`` in the source's place."""
+        pchan = device == "PMOS"
+        reverse = (drain, control[1]) if pchan else (control[0], drain)
+        return cls(name, device, control, reverse, threshold, location)
+
     def inside(self, q: np.ndarray) -> np.ndarray:
         return q <= 0.0
 

@@ -466,3 +466,13 @@ def test_a_drain_on_the_source_up_to_rounding_is_no_reverse_conduction(tmp_path,
     # ideal switches and diodes: 5.78 V, ngspice 5.76 V
     assert float(np.mean(res.y[keep, 0])) == pytest.approx(float(np.mean(ng[keep_ng, 1])),
                                                            rel=0.01)
+
+
+def test_a_mosfet_macro_model_without_body_diode_is_checked_for_reverse_conduction():
+    # the same channel inside a subcircuit (read as an NMOS macro-model): it was not checked,
+    # and the run printed a confident answer with the switch node at 4.5 kV
+    deck = BOOTSTRAP_BUCK.replace("M1 in gate sw 0 NMOS", "X1 in gate sw MYMOS\n"
+                                  ".subckt MYMOS d g s\nRg g gi 1\nM1 d gi s s NMOS\n.ends")
+    with pytest.raises(NetlistError, match=r"X1 \(NMOS\) is off in pelcs at t = .* against "
+                                           "its drain in"):
+        simulate_devices(parse_string(deck), devices="pwl", probes=["v(out)"])
