@@ -13,7 +13,7 @@ from .dialect import _NUL_HINT
 from .errors import Diagnostic, Location, NetlistError
 from .limits import FILE_BYTES
 
-__all__ = ["blank_controls", "decode", "read_bytes"]
+__all__ = ["blank_controls", "decode", "file_stamps", "read_bytes"]
 
 
 def decode(data: bytes, file: str, title: bool = True) -> str:
@@ -139,3 +139,18 @@ def _read_fd(fd: int, n: int) -> bytes:
         parts.append(part)
         got += len(part)
     return parts[0] if len(parts) == 1 else b"".join(parts)
+
+
+def file_stamps(files) -> tuple:
+    """The modification stamps of ``files`` (None for one that cannot be read): what a
+    cache of a parsed netlist compares, so that a long-lived process (a design script, a
+    worker) reads a netlist again once it or one of its includes was edited."""
+    out = []
+    for f in files:
+        try:
+            st = os.stat(f)
+        except OSError:
+            out.append(None)
+            continue
+        out.append((st.st_mtime_ns, st.st_ctime_ns, st.st_size))
+    return tuple(out)

@@ -329,3 +329,21 @@ def test_an_edited_include_is_read_again(tmp_path):
     assert first[0, 0] == pytest.approx(1.68, abs=0.01)
     assert second == pytest.approx(want, rel=1e-9, abs=1e-12)
     assert second[0, 0] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_sweep_reads_an_edited_include_again(tmp_path):
+    # its parsed netlists were kept by the top file's text: with the divider's lower
+    # resistor edited in its include from 1k to 3k, the second sweep repeated the first's
+    # 5 V and 10 V where the divider gives 7.5 V and 15 V
+    top = tmp_path / "sw.cir"
+    top.write_text("divider, its load included\n.param vin=10\nV1 in 0 {vin}\nR1 in out 1k\n"
+                   ".include load.inc\n.tran 1u 100u\n.end\n")
+    (tmp_path / "load.inc").write_text("R2 out 0 1k\n")
+
+    def run():
+        return pelcs.sweep(top, measure="mean(v(out))", param={"vin": [10, 20]},
+                           workers=1).table.values[:, 0]
+
+    assert run() == pytest.approx([5.0, 10.0])
+    (tmp_path / "load.inc").write_text("R2 out 0 3k\n")
+    assert run() == pytest.approx([7.5, 15.0])

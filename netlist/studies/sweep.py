@@ -15,7 +15,6 @@ Parameter specifications (command line): ``NAME=START:STOP:COUNT`` (sweeps),
 from __future__ import annotations
 
 import itertools
-import os
 import re
 from collections import OrderedDict
 from collections.abc import Sequence
@@ -33,6 +32,7 @@ from lcs.theory.wellposed import state_jump
 from ..circuit import Circuit
 from ..dialect import split_top_level
 from ..errors import Diagnostic, NetlistError
+from ..netlist_bytes import file_stamps
 from ..parser import parse_file, parse_overrides, parse_string
 from ..time_value import frozen_at
 from ..units import format_eng, parse_number
@@ -529,7 +529,7 @@ class CircuitMapFactory:
         value = None if value is None else float(value)
         key = (self, value)
         kept = _MAPS.get(key)
-        if kept is not None and kept[0] == _stamps(kept[1]):
+        if kept is not None and kept[0] == file_stamps(kept[1]):
             _MAPS.move_to_end(key)
             return kept[2]
         circuit = self.circuit(value)
@@ -537,7 +537,7 @@ class CircuitMapFactory:
         m = circuit_map(circuit, self.period, step=self.step, theta=self.theta, t0=self.t0,
                         event=self.event, param=value, param_name=self.param,
                         method=self.method)
-        _MAPS[key] = (_stamps(files), files, m)
+        _MAPS[key] = (file_stamps(files), files, m)
         while len(_MAPS) > _MAPS_KEPT:
             _MAPS.popitem(last=False)
         return m
@@ -545,16 +545,3 @@ class CircuitMapFactory:
 
 _MAPS: OrderedDict = OrderedDict()  # (factory, value) -> (stamps, files, map)
 _MAPS_KEPT = 16
-
-
-def _stamps(files: Sequence[str]) -> tuple:
-    """The modification stamps of the files a map was built from (None: unreadable)."""
-    out = []
-    for f in files:
-        try:
-            st = os.stat(f)
-        except OSError:
-            out.append(None)
-            continue
-        out.append((st.st_mtime_ns, st.st_ctime_ns, st.st_size))
-    return tuple(out)
