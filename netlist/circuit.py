@@ -271,6 +271,8 @@ class Circuit:
     # .step param lines: (parameter, values), one sweep axis each (run by pelcs sweep)
     steps: list[tuple[str, tuple[float, ...]]] = field(default_factory=list)
     file: str = "<string>"
+    # the files read, the top one first, then each .include/.lib (as reached from the cwd)
+    files: tuple[str, ...] = field(default=(), compare=False)
 
     def element(self, name: str) -> Element:
         """The element of that name (case-insensitive); KeyError if absent."""

@@ -28,6 +28,9 @@ from .units import parse_number
 __all__ = ["BJT_THRESHOLD", "DEVICE_TYPES", "ReverseChannel", "Replacement", "dropped_parts",
            "gate_rc", "threshold"]
 
+#: how far past its threshold a channel off in pelcs may stand against its drain by
+#: rounding, per volt of the run's largest node voltage (ReverseChannel)
+_ROUNDING = 1e-6
 #: base–emitter voltage at which an idealised BJT switch turns on, V
 BJT_THRESHOLD = 0.7
 
@@ -112,7 +115,22 @@ class ReverseChannel:
             return v.get(pair[0], zero) - v.get(pair[1], zero)
 
         off = diff(self.control) <= self.threshold
-        return np.where(off, diff(self.reverse) - self.threshold, -1.0)
+        over = diff(self.reverse) - self.threshold
+        # A drain on the source's potential up to rounding (an ideal diode across it, VTO
+        # = 0, ngspice's default: 1.8e-15 V past) is no reverse conduction: a level-1
+        # channel carries KP/2 (1 uV)^2 at a micro-volt a volt of the run's voltages
+        tol = _ROUNDING * max(1.0, max(float(np.max(np.abs(c), initial=0.0)) for c in columns))
+        over = np.where(over <= tol, np.minimum(over, 0.0), over)
+        return np.where(off, over, -1.0)
+
+    @classmethod
+    def of(cls, name: str, device: str, control: tuple[str, str], drain: str,
+           threshold: float, location: Location | None) -> ReverseChannel:
+        """The check of a switch on ``control`` (gate, source; P-channel: source, gate),
+        the gate against ``drain`` in the source's place."""
+        pchan = device == "PMOS"
+        reverse = (drain, control[1]) if pchan else (control[0], drain)
+        return cls(name, device, control, reverse, threshold, location)
 
     def inside(self, q: np.ndarray) -> np.ndarray:
         return q <= 0.0

@@ -87,8 +87,8 @@ def ngspice_param_token(value: str, alone: bool = True) -> str:
     is the line's only assignment (``.param b = 1 + a``); else only up to the first white
     space outside parentheses (``sqrt(2)``, ``max(1, 2)``, ``(a * 2)``), and ngspice stops
     at what follows (``a * 2``), or, on a line of several assignments, drops it (``.param
-    b = 1 + a, c = 2`` sets b to 1). (A ``.param`` line with a brace anywhere is left as
-    written.)"""
+    b = 1 + a, c = 2`` sets b to 1). ``alone`` is false in a subcircuit too, where ngspice
+    39 cuts a value that starts with a number as well (``.param rv = 1 + 2`` sets rv to 1)."""
     first = value[:1]
     if alone and (first.isdigit() or first in ".\"" or (first in "+-" and value[1:2].isdigit())):
         return value

@@ -247,8 +247,9 @@ def _build(t: Tree | Token, names: set[str]) -> tuple:
     if data == "var":
         tok = t.children[0]
         name = tok.lower()
-        if name not in CONSTANTS:
-            names.add(name)
+        # (pi too: a .param pi=2 is the value ngspice's numparam takes for it, measured;
+        # evaluation falls back on the constant where no parameter has the name)
+        names.add(name)
         return ("var", name, tok.start_pos)
     if data == "neg":
         sub = _build(t.children[0], names)

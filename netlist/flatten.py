@@ -122,7 +122,7 @@ class _Builder:
         self.local_models: dict[str, dict[str, str]] = {}
         self.diags: list[Diagnostic] = []
         self.ref_locs: dict[tuple[str, str], Location] = {}
-        self.circuit = Circuit(title=deck.title, file=deck.file)
+        self.circuit = Circuit(title=deck.title, file=deck.file, files=tuple(deck.files))
         self.global_env: dict[str, float] = {}
         self.global_failed: set[str] = set()
         self.incomplete = False  # an instance could not be expanded
@@ -521,8 +521,7 @@ class _Builder:
                             device=(el.kind, nodes, model.name),
                             gate_rc=gate_rc(el, model, 0.0))]
         if mt in ("NMOS", "PMOS"):  # (no body diode: the channel's reverse conduction)
-            self.circuit.knees.append(ReverseChannel(name, mt, control, (g, a) if not pchan
-                                                     else (a, g), thr, loc))
+            self.circuit.knees.append(ReverseChannel.of(name, mt, control, a, thr, loc))
         body = None
         if mt == "VDMOS":
             body = f"{name}_body"
@@ -541,6 +540,7 @@ class _Builder:
         """A device macro-model instance as one ideal switch (and body diode) or one ideal
         diode between its ports (netlist.devices.classify_macro)."""
         from .devices import Replacement, gate_rc, series_path, subckt_text, threshold
+        from .devices import ReverseChannel as Reverse
 
         loc = el.st.loc(0)
         ports = {p.lower(): n for p, n in port_map.items()}
@@ -597,6 +597,8 @@ class _Builder:
         self.circuit.elements.append(Switch(name, (a, b), loc, control, sw_model, None,
                                             device=(*origin, model.name, series),
                                             gate_rc=gate_rc(dev, model, rg, cgd)))
+        if mt in ("NMOS", "PMOS") and macro.body is None:  # (as device(): no body diode)
+            self.circuit.knees.append(Reverse.of(name, mt, control, a, thr, loc))
         body = None
         if macro.body is not None or mt == "VDMOS":
             body = f"{name}_body"

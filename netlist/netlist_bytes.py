@@ -13,11 +13,12 @@ from .dialect import _NUL_HINT
 from .errors import Diagnostic, Location, NetlistError
 from .limits import FILE_BYTES
 
-__all__ = ["decode", "read_bytes"]
+__all__ = ["blank_controls", "decode", "file_stamps", "read_bytes"]
 
 
-def decode(data: bytes, file: str) -> str:
-    """Bytes -> text; binary or non-UTF-8 content is an input error with its location."""
+def decode(data: bytes, file: str, title: bool = True) -> str:
+    """Bytes -> text; binary or non-UTF-8 content is an input error with its location
+    (``title``: the first line is the title, which :func:`blank_controls` leaves alone)."""
     nul = data.find(b"\x00")
     if nul >= 0:
         line = data.count(b"\n", 0, nul) + 1
@@ -39,12 +40,40 @@ def decode(data: bytes, file: str) -> str:
             "save the netlist as UTF-8 (or plain ASCII)"), file) from None
     if text.startswith("\ufeff"):
         text = text[1:]
-    # Control characters (a schematic tool's export leaves DC3 after values: '1nf\x13'):
-    # blanks, one for one (columns kept); ngspice reads such a value up to them
-    return _CONTROL.sub(" ", text)
+    return blank_controls(text, file, title)
 
 
 _CONTROL = re.compile("[\x01-\x08\x0b\x0c\x0e-\x1f\x7f]")
+# a line whose first character past blanks is a control character, with more after it
+_LEADING_CONTROL = re.compile(
+    "(?m)^[ \t]*([\x01-\x08\x0b\x0c\x0e-\x1f\x7f])[ \t\x01-\x08\x0b\x0c\x0e-\x1f\x7f]*"
+    "(?=[^*\\s\x01-\x08\x0b\x0c\x0e-\x1f\x7f])")
+
+
+def blank_controls(text: str, file: str, title: bool = True) -> str:
+    """Control characters (a schematic tool's export leaves DC3 after values: '1nf\\x13')
+    as blanks, one for one (columns kept): ngspice reads such a value up to them.
+
+    One that starts a line (past blanks) is an input error: ngspice 39 does not read that
+    line (a form feed makes it a comment, with a warning; another is an 'unknown device
+    type' error), where blanking it would read the element on it. (The title line, the
+    first of a top-level file when ``title``, is any text.)
+    """
+    m = _LEADING_CONTROL.search(text, text.find("\n") + 1 if title else 0)
+    if m is not None:
+        at = m.start(1)
+        bol = text.rfind("\n", 0, at) + 1
+        eol = text.find("\n", at)
+        raw = text[bol: eol if eol >= 0 else len(text)]
+        ch = text[at]
+        what = ("a form feed: ngspice makes the line a comment (with a warning)" if ch == "\x0c"
+                else "ngspice refuses the line ('unknown device type')")
+        raise NetlistError(Diagnostic(
+            f"control character 0x{ord(ch):02x} at the start of a line: {what}, so the "
+            "element on it is not read as written", Location(file, text.count("\n", 0, at) + 1,
+                                                             at - bol + 1, _CONTROL.sub(" ", raw)),
+            "delete the character (or start the line with '*' to make it a comment)"), file)
+    return _CONTROL.sub(" ", text)
 
 
 def read_bytes(path: str | Path, display: str, at: Location | None) -> bytes:
@@ -110,3 +139,18 @@ def _read_fd(fd: int, n: int) -> bytes:
         parts.append(part)
         got += len(part)
     return parts[0] if len(parts) == 1 else b"".join(parts)
+
+
+def file_stamps(files) -> tuple:
+    """The modification stamps of ``files`` (None for one that cannot be read): what a
+    cache of a parsed netlist compares, so that a long-lived process (a design script, a
+    worker) reads a netlist again once it or one of its includes was edited."""
+    out = []
+    for f in files:
+        try:
+            st = os.stat(f)
+        except OSError:
+            out.append(None)
+            continue
+        out.append((st.st_mtime_ns, st.st_ctime_ns, st.st_size))
+    return tuple(out)

@@ -52,6 +52,7 @@ from .expressions import ExpressionError, parse_expression
 from .flatten import build_circuit, independent_problems
 from .free_potential import free_potential_notes
 from .inductor_cutsets import regularise_inductor_cutsets
+from .netlist_bytes import blank_controls
 from .netlist_bytes import decode as _decode
 from .netlist_bytes import read_bytes as _read_bytes
 from .perfect_coupling import ideal_transformers
@@ -99,6 +100,7 @@ def parse_string(text: str, file: str = "<string>",
     params = params or {}
     if "\x00" in text:
         _decode(text.encode("utf-8", errors="surrogatepass"), file)
+    text = blank_controls(text, file)  # (as a file's text is read)
     return _idealised(_loops_and_cutsets(
         _build(_deck(text, file, None, params, reuse), params, thresholds, reuse)))
 

@@ -285,7 +285,7 @@ class _Reader(ElementLines, FuncReading):
             return
         try:
             data = _read_bytes(path, display, at)
-            text = _decode(data, display)
+            text = _decode(data, display, title=False)
         except NetlistError as exc:
             self.diags.extend(exc.diagnostics)
             return
@@ -531,12 +531,15 @@ class _Reader(ElementLines, FuncReading):
         if items is not None:  # (unbraced expressions too, as ngspice reads them)
             for name, at, text, off in items:
                 braced = text[:1] + text[-1:] in ("{}", "''")
-                token = ngspice_param_token(text, len(items) == 1)
-                if not braced and token != text and "{" not in st.text:
+                # (a number first takes the whole line at the top level only: in a
+                # subcircuit, or beside a braced value, ngspice 39 cuts it too, measured)
+                token = ngspice_param_token(text, len(items) == 1 and self.sub is None)
+                if not braced and token != text:
                     self.error(f"ngspice reads '{token}' as the value of '{name}', not "
                                f"'{text}'", st, off + len(token),
-                               "an unbraced value that starts with a name or '(', or is one of "
-                               f"several, ends at a space outside (): write {name}={{{text}}}")
+                               "an unbraced value that starts with a name or '(', is one of "
+                               "several or is in a subcircuit ends at a space outside (): "
+                               f"write {name}={{{text}}}")
                     continue
                 v = self.expression(text[1:-1], st, off + 1) if braced else \
                     self.value(Token("WORD", text, start_pos=off), st, True)

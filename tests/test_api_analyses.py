@@ -296,3 +296,54 @@ def test_a_simulation_shows_as_the_commands_plot(tmp_path):
     with pytest.raises(pelcs.SimulationError) as exc, pytest.warns(UserWarning):
         pelcs.simulate(failing, probes=["v(in)"])
     assert isinstance(exc.value.result, type(res))
+
+
+INCLUDED_LOAD_BUCK = """buck with its load in an include
+Vin in 0 12
+S1 in sw g 0 sm
+D1 0 sw DI
+Vg g 0 PULSE(0 1 0 1n 1n 5u 10u)
+L1 sw out 47u
+C1 out 0 10u
+{load}
+.model sm SW(VT=0.5 RON=1m ROFF=1meg)
+.model DI D
+.tran 50n 1m
+.end
+"""
+
+
+def test_an_edited_include_is_read_again(tmp_path):
+    # the maps of a file were kept by the top file's stamp only: with the load edited in its
+    # include from 3 to 30 ohm, the second orbit was the first's (i(L1) 1.680 A, v(C1)
+    # 5.999 V) where the 30 ohm buck is discontinuous (i(L1) 0 A at the period's start)
+    top = tmp_path / "top.cir"
+    top.write_text(INCLUDED_LOAD_BUCK.format(load=".include load.inc"))
+    (tmp_path / "load.inc").write_text("R1 out 0 3\n")
+    first = np.asarray(pelcs.orbit(top).points)
+    (tmp_path / "load.inc").write_text("R1 out 0 30\n")
+    second = np.asarray(pelcs.orbit(top).points)
+    inline = tmp_path / "inline.cir"
+    inline.write_text(INCLUDED_LOAD_BUCK.format(load="R1 out 0 30"))
+    want = np.asarray(pelcs.orbit(inline).points)
+    assert first[0, 0] == pytest.approx(1.68, abs=0.01)
+    assert second == pytest.approx(want, rel=1e-9, abs=1e-12)
+    assert second[0, 0] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_sweep_reads_an_edited_include_again(tmp_path):
+    # its parsed netlists were kept by the top file's text: with the divider's lower
+    # resistor edited in its include from 1k to 3k, the second sweep repeated the first's
+    # 5 V and 10 V where the divider gives 7.5 V and 15 V
+    top = tmp_path / "sw.cir"
+    top.write_text("divider, its load included\n.param vin=10\nV1 in 0 {vin}\nR1 in out 1k\n"
+                   ".include load.inc\n.tran 1u 100u\n.end\n")
+    (tmp_path / "load.inc").write_text("R2 out 0 1k\n")
+
+    def run():
+        return pelcs.sweep(top, measure="mean(v(out))", param={"vin": [10, 20]},
+                           workers=1).table.values[:, 0]
+
+    assert run() == pytest.approx([5.0, 10.0])
+    (tmp_path / "load.inc").write_text("R2 out 0 3k\n")
+    assert run() == pytest.approx([7.5, 15.0])

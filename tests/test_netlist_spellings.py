@@ -327,6 +327,9 @@ FORMS = {
     "E pair comma": "V1 a 0 2\nE1 (o,0) a 0 3\nR1 o 0 1k\n",
     # a parameter's bare name as a value (ngspice substitutes it: lopesivan's periodo.sp)
     "bare param": ".param rval=2k vv=3\nV1 a 0 DC vv\nR1 a o 1k\nR2 o 0 rval\n",
+    # a parameter named pi is the value ngspice's numparam takes for pi (it was the constant)
+    "param pi": ".param pi=2\nV1 a 0 3\nR1 a o {pi}\nR2 o 0 1\n",
+    "param pi bare": ".param pi=2\nV1 a 0 3\nR1 a o pi\nR2 o 0 1\n",
     # a resistor's TC (ngspice's TransImpedanceAmp example): nothing at 27 C
     "R TC": "V1 a 0 1\nR1 a o 1E3 TC=7E-6\nR2 o 0 1k\n",
     # a .model whose ')' comes before its continuation (ngspice's 555 timer example):
@@ -362,6 +365,21 @@ def test_an_unbraced_value_ngspice_stops_in_is_refused(line, where, tmp_path, ng
         assert got == 1.0
 
 
+@pytest.mark.parametrize("deck, want", [
+    # in a subcircuit a value that starts with a number is cut at its first space too: pelcs
+    # read rv = 3 (v(o) 0.25 V) where ngspice's rv is 1 (0.5 V)
+    ("t\n.subckt rr a b\n.param rv = 1 + 2\nR1 a b {rv}\n.ends\nV1 1 0 1\nX1 1 o rr\n"
+     "R2 o 0 1\n.tran 1u 10u\n.end\n", 0.5),
+    # beside a braced value as well: pelcs read b = 5 where ngspice's b is 2
+    ("t\n.param a={1} b = 2 + 3\nV1 o 0 {b}\nR1 o 0 1k\n.tran 1u 10u\n.end\n", 2.0),
+])
+def test_an_unbraced_value_ngspice_cuts_in_a_subcircuit_is_refused(deck, want, tmp_path,
+                                                                    ngspice):
+    with pytest.raises(NetlistError, match=r":[23]:\d+: error: ngspice reads '\w' as the value"):
+        parse_string(deck)
+    assert ngspice_print(deck, ["v(o)[3]"], tmp_path)["v(o)[3]"] == want
+
+
 def test_control_characters_are_blanks(tmp_path, ngspice):
     # a schematic tool's export (Sue, tests/corpus-like lab files) leaves DC3 after values:
     # ngspice reads '1nf\x13' as 1 nF and 'ic=0\x13' as 0
@@ -371,3 +389,22 @@ def test_control_characters_are_blanks(tmp_path, ngspice):
     res = simulate_devices(parse_file(path), devices="pwl", probes=["v(b)"])
     want = ngspice_print(deck, ["v(b)[5]"], tmp_path)["v(b)[5]"]
     assert float(res["v(b)"][-1]) == pytest.approx(want, rel=1e-6)
+
+
+def test_a_control_character_starting_a_line_is_refused(tmp_path, ngspice):
+    # ngspice 39 does not read a line that starts with one (a form feed comments it out,
+    # with a warning; DC3 is an 'unknown device type' error): blanked, pelcs read R1 and
+    # printed v(b) 0.5 V where ngspice's run, without R1, gives 0 V
+    deck = "t\nV1 a 0 1\n\x0cR1 a b 1k\nR2 b 0 1k\n.tran 1u 10u\n.end\n"
+    assert ngspice_print(deck, ["v(b)[2]"], tmp_path)["v(b)[2]"] == 0.0
+    for text in (deck, deck.replace("\x0c", " \x13")):
+        path = tmp_path / "ff.cir"
+        path.write_bytes(text.encode())
+        for read, arg in ((parse_file, path), (parse_string, text)):
+            with pytest.raises(NetlistError, match=r":3:\d: error: control character 0x"):
+                read(arg)
+    # a page break alone on its line, before a comment, or in the title is nothing
+    fine = "\x0ct\x13\n\x0c\n\x0c* page 2\nV1 a 0 1\nR1 a b 1k\x13\nR2 b 0 1k\n.tran 1u 10u\n.end\n"
+    assert [e.name for e in parse_string(fine).elements] == ["V1", "R1", "R2"]
+    # and the API's text reads '1nf\x13' as the file does
+    assert parse_string("t\nV1 a 0 1\nC1 a 0 1nf\x13\n.end\n").element("C1").value == 1e-9

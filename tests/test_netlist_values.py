@@ -98,7 +98,10 @@ def test_expressions(text, env, value):
 
 
 def test_expression_names():
-    assert parse_expression("a*b+sqrt(c)-pi").names == frozenset({"a", "b", "c"})
+    # (pi too: a parameter of that name is its value, as in ngspice; the constant otherwise)
+    assert parse_expression("a*b+sqrt(c)-pi").names == frozenset({"a", "b", "c", "pi"})
+    assert parse_expression("pi").evaluate({}) == pytest.approx(math.pi)
+    assert parse_expression("pi").evaluate({"pi": 2.0}) == 2.0
     assert parse_expression("3*4").constant
 
 

@@ -32,7 +32,6 @@ that names it and suggests a longer stop time.
 from __future__ import annotations
 
 import fnmatch
-import functools
 import itertools
 import math
 import secrets
@@ -48,6 +47,7 @@ from lcs.analysis.tables import SweepTable
 
 from ..circuit import TIME_STEPPED_RESISTOR, Circuit, CurrentSource, Resistor, VoltageSource
 from ..errors import Diagnostic, NetlistError
+from ..netlist_bytes import file_stamps
 from ..parser import parse_string
 from ..time_function import TimeValue
 from ..time_value import time_resistor_line, time_resistor_nodes, time_resistor_segments
@@ -331,9 +331,20 @@ class _Job:
     toleranced: tuple[tuple[str, bool], ...]  # (element, relative)
 
 
-@functools.lru_cache(maxsize=16)
 def _parse(text: str, path: str, params: tuple[tuple[str, float], ...]) -> Circuit:
-    return parse_string(text, file=path, params=dict(params) or None)
+    # (kept while the files it includes are as they were: a long-lived process edits them)
+    key = (text, path, params)
+    kept = _PARSED.get(key)
+    if kept is not None and kept[0] == file_stamps(kept[1].files[1:]):
+        return kept[1]
+    circuit = parse_string(text, file=path, params=dict(params) or None)
+    _PARSED[key] = (file_stamps(circuit.files[1:]), circuit)
+    while len(_PARSED) > 16:
+        del _PARSED[next(iter(_PARSED))]
+    return circuit
+
+
+_PARSED: dict = {}  # (text, path, params) -> (the includes' stamps, circuit)
 
 
 class _DrawError(ValueError):

@@ -14,10 +14,9 @@ Parameter specifications (command line): ``NAME=START:STOP:COUNT`` (sweeps),
 
 from __future__ import annotations
 
-import functools
 import itertools
-import os
 import re
+from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -33,6 +32,7 @@ from lcs.theory.wellposed import state_jump
 from ..circuit import Circuit
 from ..dialect import split_top_level
 from ..errors import Diagnostic, NetlistError
+from ..netlist_bytes import file_stamps
 from ..parser import parse_file, parse_overrides, parse_string
 from ..time_value import frozen_at
 from ..units import format_eng, parse_number
@@ -524,24 +524,24 @@ class CircuitMapFactory:
         return parse_file(self.path, params=p or None)
 
     def __call__(self, value: float | None = None) -> StroboscopicMap | EventMap:
-        return _build_map(self, None if value is None else float(value), _stamp(self))
+        # (kept by the stamps of the files read: a long-lived process, a design script, edits
+        # the netlist or one of its includes between calls)
+        value = None if value is None else float(value)
+        key = (self, value)
+        kept = _MAPS.get(key)
+        if kept is not None and kept[0] == file_stamps(kept[1]):
+            _MAPS.move_to_end(key)
+            return kept[2]
+        circuit = self.circuit(value)
+        files = circuit.files if self.text is None else circuit.files[1:]
+        m = circuit_map(circuit, self.period, step=self.step, theta=self.theta, t0=self.t0,
+                        event=self.event, param=value, param_name=self.param,
+                        method=self.method)
+        _MAPS[key] = (file_stamps(files), files, m)
+        while len(_MAPS) > _MAPS_KEPT:
+            _MAPS.popitem(last=False)
+        return m
 
 
-def _stamp(factory: CircuitMapFactory) -> tuple:
-    """The netlist file's modification stamp: a map is built again once the file changed
-    (a long-lived process, a design script, edits it between calls)."""
-    if factory.text is not None:
-        return ()
-    try:
-        st = os.stat(factory.path)
-    except OSError:
-        return ()
-    return (st.st_mtime_ns, st.st_ctime_ns, st.st_size)
-
-
-@functools.lru_cache(maxsize=16)
-def _build_map(factory: CircuitMapFactory, value: float | None, stamp: tuple = ()):
-    circuit = factory.circuit(value)
-    return circuit_map(circuit, factory.period, step=factory.step, theta=factory.theta,
-                       t0=factory.t0, event=factory.event, param=value,
-                       param_name=factory.param, method=factory.method)
+_MAPS: OrderedDict = OrderedDict()  # (factory, value) -> (stamps, files, map)
+_MAPS_KEPT = 16

@@ -118,6 +118,10 @@ def tran_step(tran: Tran, waves: Sequence[Signal], tstop: float,
         # run without .tran, 1/100 of the shortest source period (its tstep, TSTOP/1000, is
         # only the print interval: a 100 kHz buck run for 10 ms would get one step a period)
         h = default_step(waves, span)
+        # (and no longer than what resolves the smooth sources: an EXP's time constant)
+        smooth, what = smooth_step(waves, names)
+        if smooth < h:
+            return smooth, f"step h = {_eng_s(smooth)}: {what} (LTspice's .tran 0 TSTOP)"
         return h, (f"step h = {_eng_s(h)}: LTspice's .tran 0 TSTOP gives no step; 1/"
                    f"{STEPS_PER_PERIOD} of the shortest source period, {MIN_STEPS_PER_RUN} "
                    "steps a run at least")
