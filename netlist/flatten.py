@@ -25,6 +25,7 @@ import copy
 import math
 from collections import ChainMap, Counter
 from collections.abc import Callable, Mapping
+from importlib import import_module
 
 from lcs.signals import Exp, Pulse, Pwl, Signal, Sin
 
@@ -137,8 +138,6 @@ class _Builder:
         if dependent:
             self.dependent.add(len(self.diags))
         self.diags.append(Diagnostic(message, loc, hint, elements))
-
-    # ------------------------------------------------------------------ parameters
 
     def value_or_nan(self, value: Value, env: Mapping[str, float], failed: set[str]) -> float:
         v = self.evaluate(value, env, failed)
@@ -279,10 +278,9 @@ class _Builder:
         if self.within_element_limit():
             self.expand(deck.top, "", "", None, self.global_env, self.global_failed, ())
             self.diags.extend(resolve_comparators(c))
-            if any(el.kind == "A" or hasattr(el, "mmf") for el in c.elements):
-                from .magnetic_core import resolve_cores  # (a core, or a winding: 1 ms)
-
-                self.diags.extend(resolve_cores(c, bool(self.diags)))
+            if any(el.kind == "A" or hasattr(el, "mmf") for el in c.elements):  # (1 ms)
+                self.diags.extend(import_module("netlist.magnetic_core").resolve_cores(
+                    c, bool(self.diags)))
         return c
 
     def within_element_limit(self) -> bool:
