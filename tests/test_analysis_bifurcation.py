@@ -24,6 +24,9 @@ from netlist.studies.sweep import CircuitMapFactory
 from pelcs.analysis_plots import plot_bifurcation
 from pelcs.writers import write_bifurcation
 
+# bifurcation diagrams (3.1 s): in the full suite, not the fast subset
+pytestmark = pytest.mark.slow
+
 # -- map factories (module level: picklable for the worker processes) ----------------------
 
 

@@ -17,6 +17,9 @@ import pelcs
 from lcs.notices import IdealisedDeviceWarning
 from netlist.pwl import VT_THERMAL, carried_current, diode_fit, parallel_fit
 
+# pelcs check runs beside ngspice (4.5 s): in the full suite, not the fast subset
+pytestmark = pytest.mark.slow
+
 DEV = Path(__file__).parent / "netlists" / "devices"
 
 # vendor models (IS A, N, RS Ω): small-signal, Schottky (junction || guard ring), power

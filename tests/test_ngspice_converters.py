@@ -16,6 +16,9 @@ import pytest
 
 from ngspice_checks import run_ngspice
 
+# ngspice runs of the bundled converters (4.4 s): in the full suite, not the fast subset
+pytestmark = pytest.mark.slow
+
 NETLISTS = Path(__file__).resolve().parents[1] / "converters" / "netlists"
 VD = 0.036  # forward drop of D(IS=1e-12 N=0.05 RS=1m) at about 1-2 A (V)
 

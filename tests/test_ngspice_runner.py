@@ -21,6 +21,9 @@ from ngspice_checks import (
 )
 from ngspice_checks.ladder_survey import LC_TANK_BRIDGE  # fails as written: the ladder's case
 
+# ngspice runs (5 s): in the full suite, not the fast subset
+pytestmark = pytest.mark.slow
+
 NETLISTS = Path(__file__).resolve().parents[1] / "converters" / "netlists"
 
 RC = """RC charging from a 1 V step

@@ -18,6 +18,9 @@ from netlist.pwl import VT_THERMAL, diode_fit
 from netlist.studies.realistic import simulate_devices as simulate_circuit
 from pelcs.cli import main
 
+# pwl devices beside ngspice (3.5 s): in the full suite, not the fast subset
+pytestmark = pytest.mark.slow
+
 DEV = Path(__file__).parent / "netlists" / "devices"
 
 

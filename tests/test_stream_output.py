@@ -19,6 +19,9 @@ from netlist.studies.transient import run_setup, transient_setup
 from pelcs.cli import main
 from pelcs.writers import open_stream, write_result
 
+# the bundled converters streamed to files (3.3 s): in the full suite, not the fast subset
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 BUCK = str(ROOT / "converters/netlists/buck.cir")          # .tran TSTEP = the step
 VM_BUCK = str(ROOT / "converters/netlists/vm_buck.cir")    # comparator: rows off the grid

@@ -12,6 +12,9 @@ import pelcs
 from lcs.results import Events
 from lcs.simulation import driver, recorder, schedule
 
+# bundled converters run in stretches (2.8 s): in the full suite, not the fast subset
+pytestmark = pytest.mark.slow
+
 ROOT = "converters/netlists/"
 # (the bridge rectifier and the sliding-mode boost, whose sources have no breakpoints, are
 # one stretch however long)

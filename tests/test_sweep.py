@@ -33,6 +33,9 @@ from pelcs.cli import main
 from pelcs.sweep_plots import histogram_figure
 from pelcs.writers import write_sweep
 
+# sweeps and Monte Carlo runs (5.4 s): in the full suite, not the fast subset
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 BUCK = ROOT / "tests" / "netlists" / "sim" / "buck_ccm.cir"
 
