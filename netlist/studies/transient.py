@@ -49,7 +49,7 @@ from ..circuit import (
 from ..devices import refuse_active_transistors
 from ..errors import Diagnostic, NetlistError
 from ..formulation import formulate, storage_matrix
-from ..knee import KneeCapacitor, check_knees, knee_probes
+from ..knee import KneeCapacitor, check_knees, knee_probes, knees_for_run
 from ..limits import MEMORY, STEPS
 from ..passive import structurally_passive
 from ..probes import PROBE, TWO_TERMINAL
@@ -618,12 +618,15 @@ def run_setup(
     print_note = None
     if output_step == "tran":
         output_step, print_note = setup.print_step, setup.print_note
-    extra = knee_probes(setup.knees, probes, setup.system.states) if knees else []
+    run_knees, knee_note = knees_for_run(setup.knees if knees else (), setup.t_stop / setup.h,
+                                         method == "moreau" and (rows_to is not None
+                                                                 or output_step is not None))
+    extra = knee_probes(run_knees, probes, setup.system.states)
     if extra:
         probes = [*(setup.system.states if probes is None else probes), *extra]
     # (a knee is checked on every step, not only on the output grid, the last row or every
     # N-th step: such a run keeps every step and is resampled, or thinned, at the end)
-    checked = bool(knees and setup.knees)
+    checked = bool(run_knees)
     kept_every, every = every, (1 if checked and method == "moreau" else every)
     streamed = output_step if method == "moreau" and not checked else None
     watch = None
@@ -664,8 +667,9 @@ def run_setup(
                               setup.file, result.sliding, setup.t_stop)
     if method == "moreau":
         result.theta = theta
-    if knees:
-        check_knees(setup.knees, result, len(extra))
+    check_knees(run_knees, result, len(extra))
+    if knee_note:
+        result.notes.append(knee_note)
     if every != kept_every and len(result.t):  # every N-th row, the last, the save_at ones
         keep = (np.arange(len(result.t)) % kept_every == 0) | np.isin(result.t, save_at)
         keep[-1] = True
@@ -719,7 +723,7 @@ def check_run_size(setup: TransientSetup, probes: int, every: int = 1,
         # (a system that pins states keeps every step: lcs.simulation.driver)
         # the output grid (its rows gathered, then joined) and a block of the steps
         points = min(points, (setup.t_stop - setup.t_save) / output_step + 2 + _BLOCK_ROWS)
-    if streamed and not setup.system.pinnable and not setup.knees:
+    if streamed and not setup.system.pinnable and not knees_for_run(setup.knees, steps, True)[0]:
         points = min(points, 2 * _BLOCK_ROWS)
     # the recorder's buffer, then the result copied out of it (or resampled)
     need = 2.0 * points * (probes + 1) * 8.0
