@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .circuit import GROUND
 from .errors import Diagnostic, Location, NetlistError
 from .units import parse_number
 
@@ -103,13 +104,16 @@ class ReverseChannel:
     location: Location | None = field(default=None, compare=False, repr=False)
 
     @property
+    def _nodes(self) -> tuple[str, ...]:
+        """The nodes other than ground it reads, once each: ``probes`` in order."""
+        return tuple(n for n in dict.fromkeys((*self.control, *self.reverse)) if n != GROUND)
+
+    @property
     def probes(self) -> tuple[str, ...]:
-        nodes = dict.fromkeys(n for n in (*self.control, *self.reverse) if n != "0")
-        return tuple(f"v({n})" for n in nodes)
+        return tuple(f"v({n})" for n in self._nodes)
 
     def quantity(self, columns: Sequence[np.ndarray]) -> np.ndarray:
-        nodes = [n for n in dict.fromkeys((*self.control, *self.reverse)) if n != "0"]
-        v = dict(zip(nodes, columns, strict=True))
+        v = dict(zip(self._nodes, columns, strict=True))
         zero = np.zeros_like(columns[0])
 
         def diff(pair: tuple[str, str]) -> np.ndarray:
@@ -397,10 +401,6 @@ def amplifier_hint(replacements: Sequence[Replacement], involved: Sequence[str])
             "between its inputs, or a B source (clamped to its supplies)")
 
 
-#: model types of the transistors :func:`active_at_operating_point` looks for
-TRANSISTOR_TYPES = ("NPN", "PNP", "NMOS", "PMOS", "VDMOS")
-
-
 def active_at_operating_point(replacements: Sequence[Replacement],
                               unsettled: Sequence[str]) -> list[Replacement]:
     """The idealised transistors among ``unsettled``, the comparators that have no consistent
@@ -414,7 +414,7 @@ def active_at_operating_point(replacements: Sequence[Replacement],
     neither."""
     names = {n.lower() for n in unsettled}
     return [r for r in replacements
-            if r.element.lower() in names and r.device in TRANSISTOR_TYPES]
+            if r.element.lower() in names and r.device in DEVICE_TYPES]
 
 
 def active_message(active: Sequence[Replacement]) -> tuple[str, str]:
@@ -475,7 +475,7 @@ def refuse_active_transistors(replacements: Sequence[Replacement], notes: Sequen
         message, hint = active_message(active)
         raise NetlistError(Diagnostic(message=message, hint=hint, location=active[0].location,
                                       elements=tuple(r.element for r in active)), file=file)
-    by_name = {r.element.lower(): r for r in replacements if r.device in TRANSISTOR_TYPES}
+    by_name = {r.element.lower(): r for r in replacements if r.device in DEVICE_TYPES}
     slid: dict[str, list] = {}
     for switch, t0, t1 in sliding:
         r = by_name.get(str(switch).lower())
