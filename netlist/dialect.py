@@ -92,12 +92,19 @@ def ngspice_param_token(value: str, alone: bool = True) -> str:
     first = value[:1]
     if alone and (first.isdigit() or first in ".\"" or (first in "+-" and value[1:2].isdigit())):
         return value
+    return first_token(value)
+
+
+def first_token(text: str) -> str:
+    """``text`` up to its first blank outside parentheses: the token ngspice's front end puts
+    braces around in an unbraced value (inpcom.c, ``inp_fix_param_values``), the rest of it
+    left outside."""
     depth = 0
-    for i, ch in enumerate(value):
+    for i, ch in enumerate(text):
         if ch.isspace() and depth <= 0:
-            return value[:i]
+            return text[:i]
         depth += (ch == "(") - (ch == ")")
-    return value
+    return text
 
 
 def split_top_level(text: str, keep_empty: bool = False) -> list[str]:

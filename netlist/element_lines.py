@@ -18,6 +18,7 @@ from .dialect import (
     UNSUPPORTED_WAVES,
     WAVE_ALIASES,
     WAVE_ARGS,
+    first_token,
     hierarchical_name,
     node_name,
 )
@@ -71,15 +72,7 @@ def ngspice_value_token(text: str) -> str:
     starting with a digit, a sign, a point or a quote is not cut."""
     if not text or text[0] in "0123456789.+-'\"{":
         return text
-    depth = 0
-    for k, ch in enumerate(text):
-        if ch == "(":
-            depth += 1
-        elif ch == ")":
-            depth -= 1
-        elif ch.isspace() and depth <= 0:
-            return text[:k]
-    return text
+    return first_token(text)
 
 
 class ElementLines:
