@@ -26,8 +26,8 @@ from .circuit import GROUND
 from .errors import Diagnostic, Location, NetlistError
 from .units import parse_number
 
-__all__ = ["BJT_THRESHOLD", "DEVICE_TYPES", "ReverseChannel", "Replacement", "dropped_parts",
-           "gate_rc", "threshold"]
+__all__ = ["BJT_THRESHOLD", "DEVICE_TYPES", "ChannelLimit", "ReverseChannel", "Replacement",
+           "channel_checks", "channel_limit", "dropped_parts", "gate_rc", "threshold"]
 
 #: how far past its threshold a channel off in pelcs may stand against its drain by
 #: rounding, per volt of the run's largest node voltage (ReverseChannel)
@@ -155,6 +155,175 @@ class ReverseChannel:
 
     def stayed(self, lo: float, hi: float) -> None:
         return None
+
+
+#: the share of a run an idealised MOSFET may carry more than its channel's most (a
+#: switching edge, where its gate passes the threshold: ChannelLimit) before the run is read
+#: as one of a transistor in its active region, as ACTIVE_SHARE for sliding
+LIMIT_SHARE = 0.1
+
+
+@dataclass(frozen=True)
+class ChannelLimit:
+    """The most current an idealised MOSFET's channel carries while it stays a switch.
+
+    A level-1 MOSFET (Shichman-Hodges, ngspice's ``mos1load.c``) at an overdrive ``vov =
+    v(control) - threshold`` carries at most ``beta/2 vov² (1 + lambda vov)`` with its drain
+    within ``vov`` of its source (its triode region, where it is on as a switch); more
+    current saturates it, the drain rising to whatever the circuit sets: the device then is
+    an amplifier, not the switch that pelcs puts in its place. A VDMOS (``vdmosload.c``)
+    scales it by ``1/(1 + theta vgs)`` (ngspice 39; later ngspice by the overdrive), its
+    triode region is ``mtriode`` times narrower, and
+    its overdrive is softened below threshold (``ksubthres``). The ideal switch, on, carries
+    whatever the circuit drives through it; a run where it carries more than that bound
+    (``|i|`` against the bound at the gate voltage of the same step) is not the circuit's
+    there. The check is one-sided: a current under the bound is not proven to leave the
+    drain near the source, but one over it is proven not to.
+
+    Every switching edge passes through such instants (the gate crosses the threshold with
+    the switch already carrying the load); :func:`netlist.knee.check_knees` refuses a run
+    only when they add up to more than :data:`LIMIT_SHARE` of it, and notes them otherwise.
+    The quantity is the current's excess over the bound, relative (-1 where off).
+    """
+
+    name: str
+    device: str
+    control: tuple[str, str]
+    threshold: float  # V, the switch's (VTO, or --threshold)
+    vto: float  # V, the model's, as a positive control voltage
+    beta: float  # A/V², KP W/Leff M
+    lam: float = 0.0  # 1/V
+    theta: float = 0.0  # 1/V
+    mtriode: float = 1.0
+    ksubthres: float = 0.0  # V; 0: none (level 1)
+    subshift: float = 0.0  # V
+    location: Location | None = field(default=None, compare=False, repr=False)
+    share = LIMIT_SHARE
+
+    @property
+    def _nodes(self) -> tuple[str, ...]:
+        return tuple(n for n in dict.fromkeys(self.control) if n != GROUND)
+
+    @property
+    def probes(self) -> tuple[str, ...]:
+        return (f"i({self.name})", *(f"v({n})" for n in self._nodes))
+
+    def limit(self, vov: np.ndarray) -> np.ndarray:
+        """The bound, A, at overdrives ``vov`` (control voltage less VTO), V."""
+        vov = np.asarray(vov, dtype=float)
+        if self.ksubthres > 0:  # (vdmosload.c's weak inversion: a smooth max(vov, 0))
+            z = (vov - self.subshift) / self.ksubthres
+            eff = self.ksubthres * np.logaddexp(0.0, z)
+        else:
+            eff = np.maximum(vov, 0.0)
+        # (ngspice 39 reduces the mobility by THETA times vgs, not the overdrive)
+        vgs = np.maximum(vov + self.vto, 0.0)
+        beta = self.beta * (1 + self.lam * eff / self.mtriode) / (1 + self.theta * vgs)
+        return 0.5 * beta * eff * eff
+
+    def quantity(self, columns: Sequence[np.ndarray]) -> np.ndarray:
+        current, *volts = columns
+        v = dict(zip(self._nodes, volts, strict=True))
+        zero = np.zeros_like(current)
+        ctl = v.get(self.control[0], zero) - v.get(self.control[1], zero)
+        bound = self.limit(ctl - self.vto)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            excess = np.abs(current) / bound - 1.0
+        return np.where(ctl > self.threshold, np.nan_to_num(excess, nan=-1.0, posinf=np.inf),
+                        -1.0)
+
+    def inside(self, q: np.ndarray) -> np.ndarray:
+        return q <= 1e-6
+
+    def _what(self) -> str:
+        ctl = (f"v({self.control[0]})" if self.control[1] == GROUND
+               else f"v({self.control[0]},{self.control[1]})")
+        vdmos = self.device == "VDMOS"
+        scaled = " and ".join(k for k, on in (("THETA", self.theta), ("MTRIODE", self.mtriode
+                                                                    != 1)) if on)
+        return (f"the most its channel carries with the drain near the source at that gate "
+                f"voltage, KP/2 ({ctl} - {self.vto:g} V)²"
+                + (f" scaled by its {scaled}" if scaled else "")
+                + f" ({'KP' if vdmos else 'KP W/L'} = {self.beta:.4g} A/V²)")
+
+    def outside(self, q: float, t: float, total: float = 0.0) -> Diagnostic:
+        return Diagnostic(
+            f"{self.name} ({self.device}) is on as a switch and carries {q + 1:.3g} times "
+            f"{self._what()} at t = {t:.6g} s, for {total:.3g} s of the run in all: "
+            "there the real device saturates, its drain rising to whatever the circuit "
+            "sets (its active region, as in ngspice), where the ideal switch shorts it, so "
+            "the run is not this circuit", self.location,
+            "drive the gate harder, or give the model the KP (or W/L) of the device meant "
+            "(a power MOSFET's KP is 1 to 50 A/V²; ngspice's level-1 default is 2e-5); an "
+            "ideal switch is an S element", (self.name,))
+
+    def brief(self, t: float, total: float) -> str:
+        return (f"{self.name}: on as a switch but carrying more than {self._what()} for "
+                f"{total:.3g} s of the run in all, from t = {t:.6g} s: there the real device is in "
+                "its active region (as at a start, or at a slow edge where the gate passes "
+                "the threshold with the switch carrying its load) and the waveforms are the "
+                "ideal switch's, not the circuit's")
+
+    def stayed(self, lo: float, hi: float) -> None:
+        return None
+
+
+def channel_limit(name: str, el, model, control: tuple[str, str], threshold_v: float,
+                  location: Location | None, nominal: bool = True) -> ChannelLimit | None:
+    """The :class:`ChannelLimit` of a MOSFET ``el`` (its line, for ``W=``, ``L=``, ``M=``)
+    idealised on ``control`` past ``threshold_v``, V; None where pelcs has no bound: a model
+    of level other than 1 (level 2, 3 and BSIM have other laws), or a circuit away from its
+    nominal temperature (``nominal`` False: ngspice scales KP and VTO there).
+
+    Defaults are ngspice 39's: level 1 KP = 2e-5 A/V² (or UO COX, UO = 600 cm²/Vs, where
+    TOX is given), W = L = 100 µm; VDMOS KP = 1 A/V² (later ngspice: 20, and VTO 3 V)."""
+    if not nominal:
+        return None
+    p = {k.lower(): v for k, v in model.params.items()}
+
+    def num(key: str, default: float) -> float:
+        v = p.get(key)
+        return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else default
+
+    mult = _instance_length(el, "m", 1.0)
+    vto = num("vto", num("vth", 0.0))
+    vto = -vto if model.type == "PMOS" or (model.type == "VDMOS" and p.get("pchan")) else vto
+    if model.type == "VDMOS":
+        return ChannelLimit(name, "VDMOS", control, threshold_v, vto, num("kp", 1.0) * mult,
+                            num("lambda", 0.0), num("theta", 0.0),
+                            max(num("mtriode", 1.0), 1e-12), num("ksubthres", 0.1),
+                            num("subshift", 0.0), location)
+    if num("level", 1.0) != 1.0:
+        return None
+    tox = num("tox", 0.0)
+    kp = num("kp", num("uo", 600.0) * 1e-4 * 3.9 * 8.854214871e-12 / tox if tox > 0
+             else 2e-5)
+    w, length = _instance_length(el, "w", 100e-6), _instance_length(el, "l", 100e-6)
+    leff = length - 2 * num("ld", 0.0)
+    if leff <= 0 or kp <= 0:
+        return None
+    return ChannelLimit(name, model.type, control, threshold_v, vto, kp * w / leff * mult,
+                        num("lambda", 0.0), location=location)
+
+
+def channel_checks(name: str, el, model, control: tuple[str, str], drain: str,
+                   threshold_v: float, location: Location | None, body: bool,
+                   temps: tuple[float, float], igbt: bool = False) -> list:
+    """The knees (:mod:`netlist.knee`) of a MOSFET ``el`` idealised as a switch on
+    ``control`` past ``threshold_v``: its :class:`ReverseChannel` where it has no body diode
+    (``body`` False, an NMOS or PMOS model), its :class:`ChannelLimit` where pelcs has one;
+    none for a BJT. ``temps``: the circuit's temperature and its nominal one, °C; ``igbt``:
+    the MOSFET drives the macro-model's output transistor, whose current has no such bound."""
+    if model.type not in ("NMOS", "PMOS", "VDMOS") or getattr(el, "kind", "M") != "M":
+        return []
+    out: list = []
+    if model.type != "VDMOS" and not body:
+        out.append(ReverseChannel.of(name, model.type, control, drain, threshold_v, location))
+    tnom = model.params.get("tnom", temps[1])
+    nominal = isinstance(tnom, (int, float)) and abs(temps[0] - float(tnom)) < 1e-9
+    limit = None if igbt else channel_limit(name, el, model, control, threshold_v, location,
+                                            nominal)
+    return out + ([limit] if limit is not None else [])
 
 
 def dropped_parts(kind: str, mtype: str, nodes: Sequence[str]) -> tuple[str, ...]:

@@ -491,7 +491,7 @@ class _Builder:
     def device(self, el: RawElement, prefix: str, mapnode: Callable[[str], str]) -> list:
         """An M or Q element idealised: a switch, the VDMOS body diode (netlist.devices)."""
         # (imported by the circuits that have devices: 1 ms of the others' start)
-        from .devices import Replacement, ReverseChannel, dropped_parts, gate_rc, threshold
+        from .devices import Replacement, channel_checks, dropped_parts, gate_rc, threshold
 
         name = prefix + el.name if prefix else el.name
         loc = el.st.loc(0)
@@ -518,8 +518,8 @@ class _Builder:
         out: list = [Switch(name, (a, b), loc, control, sw_model, None,
                             device=(el.kind, nodes, model.name),
                             gate_rc=gate_rc(el, model, 0.0))]
-        if mt in ("NMOS", "PMOS"):  # (no body diode: the channel's reverse conduction)
-            self.circuit.knees.append(ReverseChannel.of(name, mt, control, a, thr, loc))
+        self.circuit.knees += channel_checks(name, el, model, control, a, thr, loc, False,
+                                             (self.temp, self.tnom))
         body = None
         if mt == "VDMOS":
             body = f"{name}_body"
@@ -537,8 +537,8 @@ class _Builder:
               ) -> None:
         """A device macro-model instance as one ideal switch (and body diode) or one ideal
         diode between its ports (netlist.devices.classify_macro)."""
+        from . import devices
         from .devices import Replacement, gate_rc, series_path, subckt_text, threshold
-        from .devices import ReverseChannel as Reverse
 
         loc = el.st.loc(0)
         ports = {p.lower(): n for p, n in port_map.items()}
@@ -595,8 +595,9 @@ class _Builder:
         self.circuit.elements.append(Switch(name, (a, b), loc, control, sw_model, None,
                                             device=(*origin, model.name, series),
                                             gate_rc=gate_rc(dev, model, rg, cgd)))
-        if mt in ("NMOS", "PMOS") and macro.body is None:  # (as device(): no body diode)
-            self.circuit.knees.append(Reverse.of(name, mt, control, a, thr, loc))
+        self.circuit.knees += devices.channel_checks(
+            name, dev, model, control, a, thr, loc, macro.body is not None,
+            (self.temp, self.tnom), macro.igbt)
         body = None
         if macro.body is not None or mt == "VDMOS":
             body = f"{name}_body"

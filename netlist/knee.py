@@ -159,6 +159,10 @@ def check_knees(knees: Sequence, result, extra: int) -> None:
     t)`` (the :class:`~netlist.errors.Diagnostic` of a run that left) and ``stayed(lo, hi)``
     (the note of one that did not, or None): a magnetic core (:mod:`netlist.magnetic_core`),
     a MOSFET whose channel would conduct backwards (:class:`netlist.devices.ReverseChannel`).
+    One with a ``share`` (a fraction) may leave for up to that share of the run's time
+    (counted between consecutive steps both outside; a lone step is an instant): its
+    ``outside(value, t, total)`` is the error past it (``total`` s outside in all), its
+    ``brief(t, total)`` the note below it (:class:`netlist.devices.ChannelLimit`).
 
     Raises
     ------
@@ -173,6 +177,19 @@ def check_knees(knees: Sequence, result, extra: int) -> None:
             continue
         q = k.quantity(columns)
         bad = np.flatnonzero(~k.inside(q))
+        share = getattr(k, "share", None)
+        if bad.size and share is not None:
+            # (the time between two steps both outside, up to a share of the run: a lone
+            # step outside is an instant, as where a switch turns at its threshold)
+            t = np.asarray(result.t, dtype=float)
+            out = ~k.inside(q)
+            both = np.flatnonzero(out[1:] & out[:-1])
+            if both.size:
+                total, i = float(np.diff(t)[both].sum()), int(both[0])
+                if total > share * (t[-1] - t[0]):
+                    raise NetlistError(k.outside(float(q[i]), float(t[i]), total))
+                result.notes.append(k.brief(float(t[i]), total))
+            continue
         if bad.size:
             i = int(bad[0])
             raise NetlistError(k.outside(float(q[i]), float(result.t[i])))

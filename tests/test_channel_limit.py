@@ -1,0 +1,120 @@
+"""The most current an idealised MOSFET's channel carries while it stays a switch
+(netlist.devices.ChannelLimit): the bound against ngspice's own device at the edge of its
+triode region, and runs that stay under it, pass it briefly (noted) or stay over it
+(refused: ngspice's device saturates there and the ideal switch's answer is not the
+circuit's)."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import warnings
+
+import numpy as np
+import pytest
+
+from lcs.notices import IdealisedDeviceWarning
+from netlist.devices import ChannelLimit
+from netlist.errors import NetlistError
+from netlist.parser import parse_string
+from netlist.studies.transient import simulate_circuit
+
+
+def parse(text: str):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdealisedDeviceWarning)
+        return parse_string(text)
+
+
+def limit_of(circuit) -> ChannelLimit:
+    (limit,) = [k for k in circuit.knees if isinstance(k, ChannelLimit)]
+    return limit
+
+
+def ngspice_drain_current(model: str, instance: str, vgs: float, vds: float) -> float:
+    """ngspice's drain current, A, of an NMOS/VDMOS at a DC bias (independent reference)."""
+    bulk = "" if "vdmos" in model else "0 "
+    deck = (f"bias\nVg g 0 {vgs}\nVd d 0 {vds}\nM1 d g 0 {bulk}{instance}\n{model}\n.control\nop\n"
+            "print -i(vd)\n.endc\n.end\n")
+    out = subprocess.run(["ngspice", "-b"], input=deck, capture_output=True, text=True,
+                         timeout=60).stdout
+    return float(re.search(r"-i\(vd\)\s*=\s*(\S+)", out).group(1))
+
+
+@pytest.mark.parametrize("model, instance, vov, vds", [
+    # level 1: KP W/Leff, LD shortening L, LAMBDA at the triode edge Vds = Vov
+    (".model mm nmos(vto=1 kp=2m lambda=0.02 ld=1u)", "mm w=50u l=10u", 2.0, 2.0),
+    # level 1 defaults: KP 2e-5, W = L = 100 um; KP from TOX (UO 600 cm^2/Vs)
+    (".model mm nmos(vto=0.5)", "mm", 3.0, 3.0),
+    (".model mm nmos(vto=0.5 tox=50n)", "mm m=3", 1.5, 1.5),
+    # VDMOS: THETA, the triode edge mtriode times narrower, weak inversion (ksubthres)
+    (".model mm vdmos(vto=3.6 kp=1.3 lambda=0.01 theta=0.07 mtriode=2 ksubthres=0.1)", "mm",
+     1.4, 0.7),
+    # (weak inversion: the overdrive 0.05 V acts as 0.1 ln(1 + e^0.5) = 0.0974 V)
+    (".model mm vdmos(vto=2 kp=5)", "mm", 0.05, 0.09741),
+])
+def test_the_bound_is_ngspice_s_current_at_the_edge_of_its_triode_region(ngspice, model,
+                                                                          instance, vov, vds):
+    bulk = "" if "vdmos" in model else "0 "
+    c = parse(f"bound\nVg g 0 5\nVd d 0 1\nR1 d x 1\nM1 x g 0 {bulk}{instance}\n{model}\n"
+              ".tran 1u 10u\n.end\n")
+    limit = limit_of(c)
+    vgs = limit.vto + vov
+    reference = ngspice_drain_current(model, instance, vgs, vds)
+    assert float(limit.limit(vov)) == pytest.approx(reference, rel=1e-4)
+    # past the edge (saturation) the device carries no more than the bound, plus LAMBDA's
+    # slope: the bound is the most it carries with its drain within Vov of its source
+    assert ngspice_drain_current(model, instance, vgs, vds / 2) < reference
+
+
+BUCK = """buck: an NMOS high side switch {kp}
+Vin in 0 12
+Vdr g sw PULSE(0 10 0 {edge} {edge} 4u 10u)
+M1 in g sw sw NM
+D1 0 sw DI
+L1 sw out 100u
+C1 out 0 100u
+R1 out 0 5
+.model NM nmos(vto=2 kp={kp})
+.model DI D
+.tran 0.1u 400u
+.end
+"""
+
+
+def test_a_switch_over_its_bound_the_whole_run_is_refused():
+    # KP 2e-5 (ngspice's default): 0.64 mA at the gate's 10 V, where the ideal switch
+    # carries the load's amperes
+    with pytest.raises(NetlistError) as err:
+        simulate_circuit(parse(BUCK.format(kp="2e-5", edge="10n")), probes=["v(out)"])
+    d = err.value.diagnostics[0]
+    assert d.message.startswith("M1 (NMOS) is on as a switch and carries")
+    assert "KP/2 (v(g,sw) - 2 V)²" in d.message and d.elements == ("M1",)
+    assert d.location is not None and d.location.line == 4
+
+
+def test_a_switch_under_its_bound_runs_without_a_note():
+    res = simulate_circuit(parse(BUCK.format(kp="10", edge="10n")), probes=["v(out)"])
+    assert not any(n.startswith("M1: on as a switch") for n in res.notes)
+    assert 0 < res.y[-1, 0] < 12
+
+
+def test_slow_edges_over_the_bound_are_noted_and_their_time_given():
+    # 1 us gate edges through the 2..2.24 V band where the channel carries under 0.3 A:
+    # the switch carries the inductor's 1 A from the threshold on, each edge for ~0.05 us
+    res = simulate_circuit(parse(BUCK.format(kp="10", edge="1u")), probes=["v(out)"],
+                           step=10e-9)
+    (note,) = [n for n in res.notes if n.startswith("M1: on as a switch")]
+    total = float(re.search(r"for (\S+) s of the run", note).group(1))
+    assert 0 < total < 0.1 * 400e-6
+
+
+def test_no_bound_for_a_level_3_model():
+    c = parse(BUCK.format(kp="2e-5", edge="10n").replace("vto=2 kp=2e-5", "level=3 vto=2"))
+    assert not [k for k in c.knees if isinstance(k, ChannelLimit)]
+
+
+def test_the_quantity_is_the_relative_excess_where_on():
+    limit = ChannelLimit("M1", "NMOS", ("g", "0"), 2.0, 2.0, 1.0)
+    q = limit.quantity([np.array([1.0, 1.0, 8.0]), np.array([1.0, 3.0, 6.0])])
+    assert q.tolist() == [-1.0, 1.0, 0.0]  # off; 1 A over 0.5 A; 8 A at its 8 A
