@@ -118,3 +118,21 @@ def test_the_quantity_is_the_relative_excess_where_on():
     limit = ChannelLimit("M1", "NMOS", ("g", "0"), 2.0, 2.0, 1.0)
     q = limit.quantity([np.array([1.0, 1.0, 8.0]), np.array([1.0, 3.0, 6.0])])
     assert q.tolist() == [-1.0, 1.0, 0.0]  # off; 1 A over 0.5 A; 8 A at its 8 A
+
+
+def test_a_bifurcation_value_whose_attractor_saturates_the_switch_fails(tmp_path, capsys):
+    from pelcs.cli import main
+
+    deck = tmp_path / "buck_kp.cir"
+    deck.write_text(BUCK.format(kp="{kp}", edge="10n").replace(
+        ".tran", ".param kp=10\n.tran").replace("C1 out 0 100u", "C1 out 0 10u"),
+        encoding="utf-8")
+    assert main(["bifurcation", str(deck), "--param", "kp=0.01:0.1:3", "--period", "10u",
+                 "--transient", "500", "--record", "5", "--no-progress",
+                 "--workers", "1"]) == 0
+    out = capsys.readouterr().out
+    # 0.01 A/V^2: 0.32 A at the gate's 8 V overdrive, under the load's ~1 A
+    assert "0.01: failed: its attractor (a run of 5 period(s)" in out
+    assert "M1 (NMOS) is on as a switch and carries" in out
+    assert "0.055 .. 0.1: period 1" in out
+    assert "the knees (M1: netlist.knee) are checked on a run of 5 period(s)" in out

@@ -165,7 +165,16 @@ def _sweep_task(task, report) -> list[tuple[np.ndarray, np.ndarray, bool, str]]:
             x_init = np.asarray(x0, dtype=float)
             report(1)
             continue
-        out.append((s.values, s.x_final, s.ok, s.message))
+        values, ok, message = s.values, s.ok, s.message
+        check = getattr(m, "check_attractor", None)
+        if ok and check is not None:
+            # (a map whose circuit has quantities to keep on one side of a knee: its
+            # attractor, run again from the last state, must keep them, else the samples
+            # are not the circuit's)
+            problem = check(s.x_final, record)
+            if problem:
+                values, ok, message = np.full_like(values, np.nan), False, problem
+        out.append((values, s.x_final, ok, message))
         # After a failure (divergence) the follow sweep restarts from x0.
         x_init = s.x_final if (follow and s.ok) else np.asarray(x0, dtype=float)
         report(1)

@@ -14,6 +14,7 @@ Parameter specifications (command line): ``NAME=START:STOP:COUNT`` (sweeps),
 
 from __future__ import annotations
 
+import functools
 import itertools
 import re
 from collections import OrderedDict
@@ -417,6 +418,8 @@ def circuit_map(
         m = StroboscopicMap(system, setup.signals, T, h, **kwargs)
     m.x0 = setup.x0.copy()
     m.setup = setup  # (its knees: check_orbit_knees)
+    if setup.knees:  # (each bifurcation value's record: lcs.analysis.bifurcation)
+        m.check_attractor = functools.partial(attractor_problem, m)
     m.period_note = period_notes[0] if period_notes else None
     m.notes[:0] = (period_notes + frozen + list(setup.notes)
                    + ([theta_note] if theta_note else []))
@@ -425,8 +428,9 @@ def circuit_map(
 
 def check_orbit_knees(m, orbit) -> list[str]:
     """Check the knees of a converged orbit's circuit (a core's field, knee capacitors, a
-    MOSFET channel that would conduct backwards: :mod:`netlist.knee`) on a transient run of
-    its ``order`` periods from its first point, at the map's step and θ; the notes it gives.
+    MOSFET channel that would conduct backwards or saturate: :mod:`netlist.knee`) on a
+    transient run of its ``order`` periods from its first point, at the map's step and θ;
+    the notes it gives.
 
     Raises
     ------
@@ -436,25 +440,73 @@ def check_orbit_knees(m, orbit) -> list[str]:
     setup = getattr(m, "setup", None)
     if setup is None or not setup.knees or not orbit.converged:
         return []
-    span = orbit.order * m.period
-    if abs(m.t0 / m.period - round(m.t0 / m.period)) > 1e-9:
-        return ["the orbit's knees (netlist.knee) are not checked at a sampling phase t0 "
-                "that is not a whole number of periods"]
-    from dataclasses import replace
-
-    from .transient import run_setup
-
-    n = len(setup.system.states)
+    if _off_phase(m):
+        return [_OFF_PHASE]
     try:
-        res = run_setup(replace(setup, x0=np.asarray(orbit.points[0][:n], dtype=float),
-                                t_stop=span, t_save=0.0), theta=m.theta, probes=[])
+        notes = knees_over(m, orbit.points[0], orbit.order)
     except NetlistError as exc:
         raise NetlistError([replace(d, message=f"the periodic orbit ({orbit.order} period(s) "
                                     f"from its first point, t from 0): {d.message}")
                             for d in exc.diagnostics], exc.file) from None
-    return [f"orbit, checked over its {orbit.order} period(s): {note}"
-            for note in res.notes if note not in setup.notes
+    return [f"orbit, checked over its {orbit.order} period(s): {note}" for note in notes]
+
+
+def knees_over(m, x, periods: int) -> list[str]:
+    """The knees' notes of a transient run of ``periods`` periods of map ``m``'s circuit
+    from state ``x`` at its sampling phase (a whole number of periods from t = 0), at the
+    map's step and θ; a note saying they are not checked at another phase.
+
+    Raises
+    ------
+    NetlistError
+        The run leaves a knee (:func:`netlist.knee.check_knees`).
+    """
+    setup = m.setup
+    if _off_phase(m):
+        return [_OFF_PHASE]
+    from .transient import run_setup
+
+    n = len(setup.system.states)
+    res = run_setup(replace(setup, x0=np.asarray(x[:n], dtype=float),
+                            t_stop=periods * m.period, t_save=0.0), theta=m.theta, probes=[])
+    return [note for note in res.notes if note not in setup.notes
             and any(note.startswith(f"{k.name}:") for k in setup.knees)]
+
+
+_OFF_PHASE = ("the knees (netlist.knee) are not checked at a sampling phase t0 that is not a "
+              "whole number of periods")
+
+
+def _off_phase(m) -> bool:
+    return abs(m.t0 / m.period - round(m.t0 / m.period)) > 1e-9
+
+
+def knee_notes(m, periods: int) -> list[str]:
+    """The note of a bifurcation diagram on its knees: each value's attractor checked on a run
+    of ``periods`` periods (:func:`attractor_problem`), or not checked (an off phase)."""
+    setup = getattr(m, "setup", None)
+    if setup is None or not setup.knees:
+        return []
+    if _off_phase(m):
+        return [_OFF_PHASE]
+    names = ", ".join(dict.fromkeys(k.name for k in setup.knees))
+    return [f"the knees ({names}: netlist.knee) are checked "
+            f"on a run of {periods} period(s) from each value's last state; a value whose run "
+            "leaves one failed, with the reason"]
+
+
+def attractor_problem(m, x, periods: int) -> str | None:
+    """Why map ``m``'s attractor through state ``x`` is not the circuit's over ``periods``
+    periods (a knee it leaves: :func:`knees_over`), or None: the check
+    :func:`lcs.analysis.bifurcation.bifurcation_diagram` makes of each value's record."""
+    if _off_phase(m):
+        return None  # (knee_notes says so)
+    try:
+        knees_over(m, x, periods)
+    except NetlistError as exc:
+        return (f"its attractor (a run of {periods} period(s) from the value's last state, t "
+                f"from 0): " + "; ".join(d.message for d in exc.diagnostics))
+    return None
 
 
 @dataclass(frozen=True)

@@ -195,7 +195,9 @@ def compute(args: argparse.Namespace, setup: dict):
             chunks=setup["chunks"], progress=not args.no_progress,
             param_name=setup["rng"].name, scheduler=args.scheduler,
         )
-    diagram.notes[:0] = period_notes(setup["m"])
+    from netlist.studies.sweep import knee_notes
+
+    diagram.notes[:0] = period_notes(setup["m"]) + knee_notes(setup["m"], setup["record"])
     return diagram
 
 
