@@ -280,7 +280,7 @@ def resolve_cores(circuit: Circuit, earlier_problems: bool = False) -> list[Diag
         circuit.notes.append(
             f"{core.name}: XSPICE core read as linear, dB/dH {slope:.6g} H/m (the straight "
             f"part of its B-H table around H = 0, checked after a transient run and over an "
-            f"orbit: not by bifurcation, continue, basins or ac), its windings "
+            f"orbit, a bifurcation and a continuation: not by basins or ac), its windings "
             + ", ".join(f"{w.name} ({w.turns:g} turns, {c.value:.6g} H, "
                         f"{'same' if g > 0 else 'opposite'} sense)"
                         for (w, _), c, g in zip(loop, coils, signs, strict=True))

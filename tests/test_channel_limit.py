@@ -132,7 +132,22 @@ def test_a_bifurcation_value_whose_attractor_saturates_the_switch_fails(tmp_path
                  "--workers", "1"]) == 0
     out = capsys.readouterr().out
     # 0.01 A/V^2: 0.32 A at the gate's 8 V overdrive, under the load's ~1 A
-    assert "0.01: failed: its attractor (a run of 5 period(s)" in out
+    assert "0.01: failed: a run of 5 period(s) from its state at the sampling instant" in out
     assert "M1 (NMOS) is on as a switch and carries" in out
     assert "0.055 .. 0.1: period 1" in out
     assert "the knees (M1: netlist.knee) are checked on a run of 5 period(s)" in out
+
+
+def test_a_continuation_stops_where_the_orbit_saturates_the_switch(tmp_path, capsys):
+    from pelcs.cli import main
+
+    deck = tmp_path / "buck_kp.cir"
+    deck.write_text(BUCK.format(kp="{kp}", edge="10n").replace(
+        ".tran", ".param kp=10\n.tran").replace("C1 out 0 100u", "C1 out 0 10u"),
+        encoding="utf-8")
+    code = main(["continue", str(deck), "--param", "kp=0.1:0.01:10", "--period", "10u",
+                 "--transient", "500", "--no-progress"])
+    out = capsys.readouterr().out
+    assert code == 3, out  # (stopped early)
+    assert "the orbit at kp = 0.01 is not the circuit's: a run of 1 period(s)" in out
+    assert "continuation stopped at 0.02" in out

@@ -193,6 +193,14 @@ def _solve(factory: MapFactory, p: float, guess, order: int, newton: dict
     return o if o.converged else None
 
 
+def _leaves_a_knee(factory: MapFactory, o: PeriodicOrbit, order: int) -> str | None:
+    """Why orbit ``o`` is not its circuit's (a map with ``check_attractor``: a quantity of
+    the circuit leaves the side of a knee its model holds on, over the orbit's periods), or
+    None."""
+    check = getattr(factory(float(o.param)), "check_attractor", None)
+    return check(np.asarray(o.points[0], dtype=float), order) if check is not None else None
+
+
 def locate_bifurcation(factory: MapFactory, kind: str, a: PeriodicOrbit, b: PeriodicOrbit,
                        tol: float, order: int = 1, newton: dict | None = None
                        ) -> Bifurcation:
@@ -321,6 +329,11 @@ def continue_orbit(
         return ContinuationResult(param_name, [first], [], False,
                                   [f"no period-{order} orbit found at {param_name} = {start:g} "
                                    f"({'; '.join(first.notes)})"], time.perf_counter() - t_wall)
+    problem = _leaves_a_knee(factory, first, order)
+    if problem:
+        return ContinuationResult(param_name, [], [], False,
+                                  [f"the period-{order} orbit at {param_name} = {start:g} is "
+                                   f"not the circuit's: {problem}"], time.perf_counter() - t_wall)
     orbits = [first]
     bifs: list[Bifurcation] = []
     dp_full = (stop - start) / steps
@@ -356,6 +369,12 @@ def continue_orbit(
                 notes.append(f"the period-{order} orbit collapsed to period {_collapsed(o)} at "
                              f"{param_name} = {p_next:g} (the period-doubling point is "
                              "passed); continuation stopped")
+                break
+            problem = _leaves_a_knee(factory, o, order)
+            if problem:
+                complete = False
+                notes.append(f"the orbit at {param_name} = {p_next:g} is not the circuit's: "
+                             f"{problem}; continuation stopped at {p:g}")
                 break
             found = [k for k in (*KINDS, "border") if _indicator(o, k) != _indicator(prev, k)]
             located = []

@@ -504,7 +504,7 @@ def attractor_problem(m, x, periods: int) -> str | None:
     try:
         knees_over(m, x, periods)
     except NetlistError as exc:
-        return (f"its attractor (a run of {periods} period(s) from the value's last state, t "
+        return (f"a run of {periods} period(s) from its state at the sampling instant (t "
                 f"from 0): " + "; ".join(d.message for d in exc.diagnostics))
     return None
 
