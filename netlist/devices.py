@@ -312,8 +312,15 @@ def channel_checks(name: str, el, model, control: tuple[str, str], drain: str,
     """The knees (:mod:`netlist.knee`) of a MOSFET ``el`` idealised as a switch on
     ``control`` past ``threshold_v``: its :class:`ReverseChannel` where it has no body diode
     (``body`` False, an NMOS or PMOS model), its :class:`ChannelLimit` where pelcs has one;
-    none for a BJT. ``temps``: the circuit's temperature and its nominal one, °C; ``igbt``:
+    for a BJT its :class:`netlist.base_drive.BaseDrive` (its resistors read later).
+    ``temps``: the circuit's temperature and its nominal one, °C; ``igbt``:
     the MOSFET drives the macro-model's output transistor, whose current has no such bound."""
+    if model.type in ("NPN", "PNP") and not igbt:
+        from .base_drive import BaseDrive
+
+        bf = model.params.get("bf", 100.0)
+        bf = float(bf) if isinstance(bf, (int, float)) and bf > 0 else 100.0
+        return [BaseDrive(name, model.type, control, threshold_v, bf, None, location)]
     if model.type not in ("NMOS", "PMOS", "VDMOS") or getattr(el, "kind", "M") != "M":
         return []
     out: list = []

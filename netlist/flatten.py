@@ -2,10 +2,9 @@
 
 Parameters
 ----------
-Global ``.param`` definitions may refer to each other in any order; they are evaluated in
-dependency order and a cycle is reported naming its parameters. Overrides given by the caller
-(``params=``, ``--param``) replace global definitions before evaluation, so parameters that
-depend on them follow; overriding a parameter the netlist does not define is an error.
+Global ``.param`` definitions may refer to each other in any order: evaluated in dependency
+order, a cycle reported naming its parameters. Overrides (``params=``, ``--param``) replace
+global definitions first, so those depending on them follow; an unknown one is an error.
 
 Subcircuits
 -----------
@@ -13,11 +12,10 @@ Definitions are global. Inside an instance, names are looked up first among the 
 own parameters (the ``.subckt`` header defaults, replaced by the instance's ``params:`` values
 evaluated where the instance stands, and the body's ``.param`` lines), then among the global
 ones (lexical scoping, as in ngspice). An instance ``X1`` turns element ``L1`` into ``X1.L1``
-and internal node ``n3`` into ``x1.n3`` (nested: ``X1.X2.L1``, ``x1.x2.n3``); ports become the
-instance's nodes, ground and ``.global`` nodes stay; references in the body (F/H sources, K
-inductors) get the prefix. ``.model`` lines are global, except those inside a ``.subckt``
-definition, local to it as in ngspice (:meth:`_Builder.models`); XSPICE cards are evaluated
-per instance."""
+and node ``n3`` into ``x1.n3`` (nested: ``X1.X2.L1``, ``x1.x2.n3``); ports become the instance's
+nodes, ground and ``.global`` nodes stay; references (F/H sources, K inductors) get the prefix.
+``.model`` lines are global, except those inside a ``.subckt`` definition, local to it as in
+ngspice (:meth:`_Builder.models`); XSPICE cards are evaluated per instance."""
 
 from __future__ import annotations
 
@@ -281,6 +279,8 @@ class _Builder:
             if any(el.kind == "A" or hasattr(el, "mmf") for el in c.elements):  # (1 ms)
                 self.diags.extend(import_module("netlist.magnetic_core").resolve_cores(
                     c, bool(self.diags)))
+            if c.knees:  # (a BJT's base resistors, once the circuit is whole)
+                import_module("netlist.base_drive").resolve_base_drives(c)
         return c
 
     def within_element_limit(self) -> bool:

@@ -1,0 +1,155 @@
+"""The base current a BJT idealised as a switch can get, against the collector current the
+switch carries.
+
+pelcs turns a BJT into a switch from collector to emitter, on while ``v(base, emitter)``
+passes its threshold (:mod:`netlist.devices`); its base draws nothing. A real BJT is a closed
+switch only saturated: its collector current at most ``BF`` times its base current. Biased
+with less base current it is in its forward-active region, an amplifier, and the collector
+sits wherever ``BF Ib`` puts it (a review deck: v(c) 0.2 V as a switch, 0.96 V in ngspice).
+Where the base is reached by resistors only, the most base current the circuit can supply
+is bounded by ``Σ (v(k) - v(emitter) - VBE_LOW)⁺ / R_k`` over the resistors ``R_k`` from the
+base to the nodes ``k``: the base cannot sit below ``VBE_LOW`` above the emitter while the
+device conducts, and the far ends' voltages are the run's (loading by the base current only
+pulls them towards the base). A switch carrying more than ``BF`` times that bound is a
+transistor in its active region there, and the run is not the circuit's. The check is
+one-sided: a base driven by a source, or reached through anything but resistors (a
+speed-up capacitor, a diode, another transistor), is not checked.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .circuit import GROUND, Circuit, Resistor
+from .errors import Diagnostic, Location
+from .units import format_eng
+
+__all__ = ["VBE_LOW", "BaseDrive", "resolve_base_drives"]
+
+#: the least base–emitter voltage of a conducting silicon BJT the bound assumes, V (ngspice's
+#: default IS = 1e-16 A: 0.54 V at 1 µA): lower than the device's, so the bound is over
+#: the base current it gets
+VBE_LOW = 0.5
+
+
+@dataclass(frozen=True)
+class BaseDrive:
+    """A BJT ``name`` (``device`` NPN or PNP) idealised as a switch on while
+    ``v(control) > threshold``, ``control`` its base and emitter (PNP: emitter and base),
+    gain ``beta`` (its model's BF), its base reached by ``resistors`` ((far node, Ω) each;
+    None until :func:`resolve_base_drives` reads the circuit). A knee of
+    :func:`netlist.knee.check_knees` with a ``share``: its quantity is the switch's current
+    over ``beta`` times the bound on the base current, less 1 (-1 where off)."""
+
+    name: str
+    device: str
+    control: tuple[str, str]
+    threshold: float
+    beta: float
+    resistors: tuple[tuple[str, float], ...] | None = None
+    location: Location | None = field(default=None, compare=False, repr=False)
+    share = 0.1  # (as netlist.devices.LIMIT_SHARE)
+
+    @property
+    def base(self) -> str:
+        return self.control[0] if self.device == "NPN" else self.control[1]
+
+    @property
+    def emitter(self) -> str:
+        return self.control[1] if self.device == "NPN" else self.control[0]
+
+    @property
+    def _nodes(self) -> tuple[str, ...]:
+        far = [n for n, _ in self.resistors or ()]
+        return tuple(n for n in dict.fromkeys((*self.control, *far)) if n != GROUND)
+
+    @property
+    def probes(self) -> tuple[str, ...]:
+        return (f"i({self.name})", *(f"v({n})" for n in self._nodes))
+
+    def base_bound(self, volts: dict[str, np.ndarray], like: np.ndarray) -> np.ndarray:
+        """The most base current the resistors supply, A, at the run's node voltages."""
+        zero = np.zeros_like(like)
+        ve = volts.get(self.emitter, zero)
+        sign = 1.0 if self.device == "NPN" else -1.0
+        ib = zero.copy()
+        for node, r in self.resistors or ():
+            ib += np.maximum(sign * (volts.get(node, zero) - ve) - VBE_LOW, 0.0) / r
+        return ib
+
+    def quantity(self, columns: Sequence[np.ndarray]) -> np.ndarray:
+        current, *volts = columns
+        v = dict(zip(self._nodes, volts, strict=True))
+        zero = np.zeros_like(current)
+        on = v.get(self.control[0], zero) - v.get(self.control[1], zero) > self.threshold
+        most = self.beta * self.base_bound(v, current)
+        scale = max(1.0, float(np.max(np.abs(current), initial=0.0)))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            excess = np.where(most > 0, np.abs(current) / most - 1.0,
+                              np.where(np.abs(current) > 1e-9 * scale, np.inf, -1.0))
+        return np.where(on, excess, -1.0)
+
+    def inside(self, q: np.ndarray) -> np.ndarray:
+        return q <= 1e-6
+
+    def _what(self) -> str:
+        def v(node: str) -> str:
+            return "0" if node == GROUND else f"v({node})"
+
+        pairs = [(v(n), v(self.emitter)) if self.device == "NPN" else (v(self.emitter), v(n))
+                 for n, _ in self.resistors or ()]
+        terms = " + ".join(f"({a}{'' if b == '0' else f' - {b}'} - {VBE_LOW:g} V)/"
+                           f"{format_eng(r, 'Ω')}"
+                           for (a, b), (_, r) in zip(pairs, self.resistors or (), strict=True))
+        return (f"BF = {self.beta:g} times the most base current its base resistors supply "
+                f"({terms})")
+
+    def outside(self, q: float, t: float, total: float = 0.0) -> Diagnostic:
+        return Diagnostic(
+            f"{self.name} ({self.device}) is on as a switch and carries {q + 1:.3g} times "
+            f"{self._what()} at t = {t:.6g} s, for {total:.3g} s of the run in all: there "
+            "the real transistor is not saturated but in its forward-active region (its "
+            "collector current BF times its base current, as in ngspice), where the ideal "
+            "switch shorts collector to emitter, so the run is not this circuit",
+            self.location,
+            "drive the base harder (a smaller base resistor), or model the stage as an "
+            "amplifier (an E, G or B source); an ideal switch is an S element", (self.name,))
+
+    def brief(self, t: float, total: float) -> str:
+        return (f"{self.name}: on as a switch but carrying more than {self._what()} for "
+                f"{total:.3g} s of the run in all, from t = {t:.6g} s: there the real "
+                "transistor is in its forward-active region and the waveforms are the ideal "
+                "switch's, not the circuit's")
+
+    def stayed(self, lo: float, hi: float) -> None:
+        return None
+
+
+def resolve_base_drives(circuit: Circuit) -> None:
+    """Give each :class:`BaseDrive` of ``circuit.knees`` the resistors that reach its base,
+    or drop it where the base node joins anything else (a source, a capacitor, a diode,
+    another device's terminal: the base current is not bounded by resistors alone) or
+    nothing at all."""
+    drives = [k for k in circuit.knees if isinstance(k, BaseDrive) and k.resistors is None]
+    if not drives:
+        return
+    at: dict[str, list] = {}
+    for el in circuit.elements:
+        for n in dict.fromkeys(el.nodes):
+            at.setdefault(n, []).append(el)
+    resolved = {}
+    for k in drives:
+        els = at.get(k.base, [])
+        if k.base == GROUND or not els or not all(
+                isinstance(e, Resistor) and e.time_value is None and e.value > 0
+                and len(set(e.nodes[:2])) == 2 for e in els):
+            continue
+        far = tuple((e.nodes[1] if e.nodes[0] == k.base else e.nodes[0], float(e.value))
+                    for e in els)
+        resolved[id(k)] = replace(k, resistors=far)
+    circuit.knees[:] = [resolved.get(id(k), k) for k in circuit.knees
+                        if not isinstance(k, BaseDrive) or id(k) in resolved
+                        or k.resistors is not None]

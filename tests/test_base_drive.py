@@ -1,0 +1,105 @@
+"""The base current a BJT idealised as a switch can get (netlist.base_drive.BaseDrive):
+a transistor whose base resistors cannot supply its collector current over BF is in its
+forward-active region, not a closed switch, and the run is refused; one driven hard enough,
+or through anything but resistors, runs."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import warnings
+
+import numpy as np
+import pytest
+
+from lcs.notices import IdealisedDeviceWarning
+from netlist.base_drive import VBE_LOW, BaseDrive
+from netlist.errors import NetlistError
+from netlist.parser import parse_string
+from netlist.studies.transient import simulate_circuit
+
+STAGE = """a BJT switching an inductive load from a resistor-fed base
+Vcc vcc 0 5
+Rc vcc c 100
+Rb {drive} b {rb}
+Q1 c b 0 QN
+L1 c x 1m
+R2 x 0 1k
+.model QN NPN(BF=100)
+.tran 1u 100u
+.end
+"""
+
+
+def parse(text: str):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdealisedDeviceWarning)
+        return parse_string(text)
+
+
+def drives(circuit) -> list[BaseDrive]:
+    return [k for k in circuit.knees if isinstance(k, BaseDrive)]
+
+
+def ngspice_vc(deck: str) -> float:
+    deck = deck.replace(".end\n", ".control\nrun\nprint v(c)[50]\n.endc\n.end\n")
+    out = subprocess.run(["ngspice", "-b"], input=deck, capture_output=True, text=True,
+                         timeout=60).stdout
+    return float(re.search(r"v\(c\)\[50\]\s*=\s*(\S+)", out).group(1))
+
+
+def test_a_base_too_weak_to_saturate_the_transistor_is_refused(ngspice):
+    deck = STAGE.format(drive="vcc", rb="47k")
+    # ngspice: forward-active, BF Ib = 100 (5 - 0.7 V)/47k = 9 mA, v(c) 3.7 V, not 0
+    assert ngspice_vc(deck) > 3.0
+    with pytest.raises(NetlistError) as err:
+        simulate_circuit(parse(deck), probes=["v(c)"])
+    d = err.value.diagnostics[0]
+    assert d.message.startswith("Q1 (NPN) is on as a switch and carries")
+    assert "((v(vcc) - 0.5 V)/47 kΩ)" in d.message and "forward-active" in d.message
+    assert d.location.line == 5 and d.elements == ("Q1",)
+
+
+def test_a_base_driven_hard_enough_runs(ngspice):
+    deck = STAGE.format(drive="vcc", rb="4.7k")
+    assert ngspice_vc(deck) < 0.2  # saturated: 0.126 V
+    res = simulate_circuit(parse(deck), probes=["v(c)"])
+    assert abs(res.y[-1, 0]) < 1e-9
+    assert not any(n.startswith("Q1: on as a switch") for n in res.notes)
+
+
+def test_the_bound_is_the_resistors_current_above_vbe_low():
+    (k,) = drives(parse(STAGE.format(drive="vcc", rb="47k")))
+    assert k.resistors == (("vcc", 47e3),) and k.beta == 100.0
+    i_c = np.array([0.0, 0.05, 0.05])
+    v_b, v_vcc = np.array([0.0, 5.0, 5.0]), np.array([5.0, 5.0, 5.0])
+    q = k.quantity([i_c, v_b, v_vcc])
+    most = 100 * (5.0 - VBE_LOW) / 47e3
+    assert q[0] == -1.0 and q[1] == pytest.approx(0.05 / most - 1)
+
+
+def test_a_base_driven_by_a_source_or_through_a_capacitor_is_not_checked():
+    source = STAGE.format(drive="vcc", rb="47k").replace("Rb vcc b 47k", "Vb b 0 1")
+    assert not drives(parse(source))
+    speedup = STAGE.format(drive="vcc", rb="47k").replace(
+        "Rb vcc b 47k", "Rb vcc b 47k\nCb vcc b 1n")
+    assert not drives(parse(speedup))
+
+
+def test_a_pnp_reads_its_base_current_the_other_way(ngspice):
+    deck = """a PNP high side switch with a weak base pull-down
+Vcc vcc 0 5
+Rb b 0 47k
+Q1 c b vcc QP
+L1 c x 1m
+Rc x 0 100
+.model QP PNP(BF=50)
+.tran 1u 100u
+.end
+"""
+    (k,) = drives(parse(deck))
+    assert k.device == "PNP" and k.resistors == (("0", 47e3),)
+    # ngspice: 50 (5 - 0.7)/47k = 4.6 mA into 100 ohm: v(c) 0.46 V, not the switch's 5 V
+    assert ngspice_vc(deck.replace("L1 c x 1m\nRc x 0 100", "Rc c 0 100")) < 1.0
+    with pytest.raises(NetlistError, match=r"Q1 \(PNP\) is on as a switch"):
+        simulate_circuit(parse(deck), probes=["v(c)"])
