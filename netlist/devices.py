@@ -282,11 +282,21 @@ def channel_limit(name: str, el, model, control: tuple[str, str], threshold_v: f
     p = {k.lower(): v for k, v in model.params.items()}
 
     def num(key: str, default: float) -> float:
-        v = p.get(key)
-        return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else default
+        v = p.get(key, default)
+        return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else nan
 
-    mult = _instance_length(el, "m", 1.0)
+    nan = float("nan")  # (a parameter given as something not a number: no bound)
+
+    sizes = [_instance_value(el, key, d) for key, d in (("m", 1.0), ("w", 100e-6),
+                                                          ("l", 100e-6))]
+    if any(v is None or v <= 0 for v in sizes):
+        return None  # (a size written as an expression: no bound rather than a wrong one)
+    mult, w, length = sizes
     vto = num("vto", num("vth", 0.0))
+    used = ("kp", "lambda", "theta", "mtriode", "ksubthres", "subshift", "level", "tox", "uo",
+            "ld")
+    if vto != vto or any(num(k, 0.0) != num(k, 0.0) for k in used):
+        return None
     vto = -vto if model.type == "PMOS" or (model.type == "VDMOS" and p.get("pchan")) else vto
     if model.type == "VDMOS":
         return ChannelLimit(name, "VDMOS", control, threshold_v, vto, num("kp", 1.0) * mult,
@@ -298,7 +308,6 @@ def channel_limit(name: str, el, model, control: tuple[str, str], threshold_v: f
     tox = num("tox", 0.0)
     kp = num("kp", num("uo", 600.0) * 1e-4 * 3.9 * 8.854214871e-12 / tox if tox > 0
              else 2e-5)
-    w, length = _instance_length(el, "w", 100e-6), _instance_length(el, "l", 100e-6)
     leff = length - 2 * num("ld", 0.0)
     if leff <= 0 or kp <= 0:
         return None
@@ -490,9 +499,18 @@ def subckt_text(sub) -> str:
 
 def _instance_length(el, key: str, default: float) -> float:
     """``W=``/``L=`` of an M line (m), ngspice's DEFW/DEFL of 100 µm when not given."""
+    v = _instance_value(el, key, default)
+    return v if v is not None and v > 0 else default
+
+
+def _instance_value(el, key: str, default: float) -> float | None:
+    """``key=`` of an M line as a number, ``default`` when not given, None when given as
+    something other than a number (a parameter expression pelcs does not evaluate here)."""
     m = re.search(rf"(?i)(?<![\w.]){key}\s*=\s*([^\s=]+)", el.st.text)
-    v = parse_number(m.group(1)) if m else None
-    return float(v) if v is not None and v > 0 else default
+    if not m:
+        return default
+    v = parse_number(m.group(1))
+    return float(v) if v is not None else None
 
 
 def gate_rc(el, model, rg: float, cgd: float = 0.0

@@ -151,3 +151,9 @@ def test_a_continuation_stops_where_the_orbit_saturates_the_switch(tmp_path, cap
     assert code == 3, out  # (stopped early)
     assert "the orbit at kp = 0.01 is not the circuit's: a run of 1 period(s)" in out
     assert "continuation stopped at 0.02" in out
+
+
+def test_no_bound_where_a_size_is_an_expression_pelcs_does_not_evaluate_there():
+    deck = BUCK.format(kp="2e-5", edge="10n").replace("M1 in g sw sw NM",
+                                                      ".param wid=1\nM1 in g sw sw NM W={wid}")
+    assert not [k for k in parse(deck).knees if isinstance(k, ChannelLimit)]
