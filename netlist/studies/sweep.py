@@ -467,8 +467,11 @@ def knees_over(m, x, periods: int) -> list[str]:
     from .transient import run_setup
 
     n = len(setup.system.states)
+    # (from the state, as the map runs: not from the DC operating point that a .tran
+    # without UIC starts the netlist's own run at)
     res = run_setup(replace(setup, x0=np.asarray(x[:n], dtype=float),
-                            t_stop=periods * m.period, t_save=0.0), theta=m.theta, probes=[])
+                            t_stop=periods * m.period, t_save=0.0, operating_point=False),
+                    theta=m.theta, probes=[])
     return [note for note in res.notes if note not in setup.notes
             and any(note.startswith(f"{k.name}:") for k in setup.knees)]
 
