@@ -470,6 +470,8 @@ class _Reader(ElementLines, FuncReading):
                 "unit, or an expression in braces")
         if re.search(r"[-+*/^]", tok[1:]):
             hint = f"write expressions in braces: {{{tok}}}"
+        if tok[:2].lower() == "0x":  # (ngspice 39: 0x10 outside braces is 0 V)
+            hint = f"ngspice reads '{tok}' here as 0, hexadecimal only in braces: {{{tok}}}"
         self.error(f"invalid number '{tok}'", st, tok.start_pos, hint)
         return None
 
