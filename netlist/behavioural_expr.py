@@ -452,10 +452,10 @@ class _Lineariser:
             return _const(args[0])
         if tag == "var":
             name = args[0]
+            if name in CONSTANTS:  # (before a .param of the name: ngspice 39, measured)
+                return _const(CONSTANTS[name])
             if name in self.env:
                 return _const(self.env[name])
-            if name in CONSTANTS:
-                return _const(CONSTANTS[name])
             if name in ("time", "temper", "hertz"):
                 raise BehaviouralError(
                     f"'{name}' in a B expression makes a time-varying source", t.start,

@@ -2,7 +2,7 @@
 
 Grammar (in ``grammar.lark``, start rule ``expression``): numbers with engineering suffixes
 (``2*10k``) or hexadecimal (``0x10``), parameter names, ``+ - * /``, ``%``, ``**`` or ``^`` for
-powers, unary minus, parentheses, the functions in :data:`FUNCTIONS` and the constant ``pi``;
+powers, unary minus, parentheses, the functions in :data:`FUNCTIONS`;
 comparisons (``== != < > <= >=``), ``&&``, ``||`` and ``c ? a : b``, which ngspice's numparam
 reads in ``.param`` expressions (a comparison is 1 or 0; ``c`` is true when not 0). Names are
 case-insensitive.
@@ -137,6 +137,8 @@ FUNCTIONS: dict[str, tuple[Callable[..., float], int, int | None]] = {
     "atanh": (math.atanh, 1, 1),
     "ternary_fcn": (lambda c, a, b: a if c != 0.0 else b, 3, 3),
 }
+# the constants of B-source expressions; numparam has none (ngspice 39: "Undefined parameter
+# [pi]"), so a .param or {...} expression refuses them unless a .param defines them
 CONSTANTS = {"pi": math.pi}
 
 # Functions that mean the user wants a behavioural (nonlinear) source.
@@ -210,8 +212,11 @@ def _eval(node: tuple, env: Mapping[str, float]) -> float:
         name = node[1]
         if name in env:
             return env[name]
-        if name in CONSTANTS:
-            return CONSTANTS[name]
+        if name in CONSTANTS:  # (B sources know pi; numparam does not)
+            raise ExpressionError(
+                f"unknown parameter '{name}': ngspice 39's .param and {{...}} expressions have "
+                f"no constant {name} (there: \"Undefined parameter [{name}]\")", node[2],
+                f"define it, .param {name}={CONSTANTS[name]!r}; a B source knows {name}")
         raise ExpressionError(f"unknown parameter '{name}'", node[2],
                               "define it with .param NAME=VALUE")
     if tag == "neg":
@@ -302,8 +307,8 @@ def _build(t: Tree | Token, names: set[str], leading: bool = True) -> tuple:
     if data == "var":
         tok = t.children[0]
         name = tok.lower()
-        # (pi too: a .param pi=2 is the value ngspice's numparam takes for it, measured;
-        # evaluation falls back on the constant where no parameter has the name)
+        # (pi too: numparam has no such constant, a .param pi=... defines it, measured;
+        # B sources know the constant pi, CONSTANTS)
         names.add(name)
         return ("var", name, tok.start_pos)
     if data == "neg":

@@ -52,7 +52,7 @@ from .circuit import (
     VoltageSource,
 )
 from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
-from .expressions import CONSTANTS, ExpressionError
+from .expressions import ExpressionError
 from .limits import ELEMENTS
 from .rawdeck import Body, Deck, RawElement, RawParam, Statement, Value
 from .steps import evaluate_steps
@@ -156,7 +156,7 @@ class _Builder:
             hint = exc.hint
             if exc.message.startswith("unknown parameter"):
                 name = exc.message.split("'")[1]
-                close = close_matches(name, list(env) + list(CONSTANTS))
+                close = close_matches(name, list(env))
                 if close:
                     hint = f"did you mean {' or '.join(close)}? ({hint})"
             self.error(exc.message, value.st.loc(value.offset + exc.offset), hint,

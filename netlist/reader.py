@@ -30,6 +30,7 @@ from .dialect import (
     node_name,
     param_assignments,
     strip_comment,
+    tran_bare_name,
 )
 from .element_lines import ElementLines
 from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
@@ -679,6 +680,9 @@ class _Reader(ElementLines, FuncReading):
             if kind in flags:
                 self.deck.notes.append(f"line {line}: .tran {flags[kind]} (LTspice) ignored: "
                                        f"{what}")
+        if (bare := tran_bare_name([str(t) for t in ch])) is not None:
+            self.error(bare[1], st, ch[bare[0]].start_pos, bare[2])
+            return
         values = [self.value(t, st) for t in ch]
         if any(v is None for v in values):
             return
