@@ -2,7 +2,7 @@
 parallel (R/m, L/m, C*m), and a diode's ``area=`` times its ``m=`` scales the junction (IS
 times it, RS divided by it), which the ``--devices pwl`` fit follows. xschem writes ``m=1`` on
 every R and C. Each deck is run side by side with ngspice. SPICE3's positional area (the
-first value after the model) is read as the area, with a note: ngspice 39 refuses it."""
+first value after the model) is refused, as ngspice 39 refuses it."""
 
 from __future__ import annotations
 
