@@ -592,9 +592,9 @@ class _Reader(ElementLines, FuncReading):
             return
         if len(tree.children) > 1:
             tok = tree.children[1]
-            if tok.lower() != self.sub.name.lower():
-                self.error(f".ends '{tok}' closes subcircuit '{self.sub.name}'", st,
-                           tok.start_pos, f"write .ends {self.sub.name}")
+            if tok.lower() != self.sub.name.lower():  # (ngspice 39 ignores it, measured)
+                self.deck.notes.append(f"line {st.loc(0).line}: .ends {tok} closes subcircuit "
+                                       f"'{self.sub.name}' (ngspice ignores the name after .ends)")
         parent = self.sub.parent
         self.sub = self.deck.subckts.get(parent) if parent is not None else None
 

@@ -96,8 +96,6 @@ CATALOGUE = [
     ("missing-ends", "t\n" + OK + ".subckt s p\nR1 p 0 1\n", "subcircuit 's' has no .ends", 4, 1,
      ".ends"),
     ("stray-ends", "t\n" + OK + ".ends\n", ".ends without .subckt", 4, 1, ""),
-    ("ends-mismatch", "t\n" + OK + ".subckt s p\nR9 p 0 1\n.ends other\n",
-     ".ends 'other' closes subcircuit 's'", 6, 7, ".ends s"),
     ("nested-unclosed", "t\n" + OK + ".subckt a p\n.subckt b q\n.ends\n", "subcircuit 'a' has "
      "no .ends", 4, 1, ".ends"),
     ("recursive-subckt", "t\n" + OK + ".subckt s p\nX1 p s\n.ends\nX1 a s\n",

@@ -91,3 +91,28 @@ def test_tran_fields_in_braces_are_read(tmp_path, ngspice):
         pytest.skip("no ngspice executable")
     out = _ngspice(tmp_path, deck, "run\nprint time[length(time)-1]")
     assert float(re.search(r"time\[length\(time\)-1\] = (\S+)", out).group(1)) == 1e-5, out
+
+
+ENDS = {
+    # .ends naming the other subcircuit: ngspice 39 ignores the name (v(n2) = 0.5)
+    "other": ("t\n.subckt aa in out\nR1 in out 1k\n.ends bb\n.subckt bb in out\nR1 in out 2k\n"
+              ".ends bb\nV1 n1 0 1\nX1 n1 n2 aa\nR2 n2 0 1k\n.tran 1u 2u\n.end\n", 0.5),
+    # nested, the names swapped: .ends closes the innermost open one (v(n2) = 0.25)
+    "nested": ("t\n.subckt outer in out\n.subckt inner a b\nR1 a b 3k\n.ends outer\n"
+               "Xi in out inner\n.ends inner\nV1 n1 0 1\nX1 n1 n2 outer\nR2 n2 0 1k\n"
+               ".tran 1u 2u\n.end\n", 0.25),
+}
+
+
+@pytest.mark.parametrize("kind", list(ENDS))
+def test_the_name_after_ends_is_ignored_with_a_note(tmp_path, ngspice, kind):
+    from pelcs.api import simulate
+
+    deck, want = ENDS[kind]
+    res = simulate(deck, probes=["v(n2)"])
+    assert res.y[-1, 0] == pytest.approx(want, rel=1e-9)
+    assert any("ngspice ignores the name after .ends" in n for n in res.notes), res.notes
+    if shutil.which("ngspice") is None:
+        pytest.skip("no ngspice executable")
+    out = _ngspice(tmp_path, deck, "op\nprint v(n2)")
+    assert float(re.search(r"v\(n2\) = (\S+)", out).group(1)) == pytest.approx(want), out
