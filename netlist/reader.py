@@ -15,6 +15,7 @@ from pathlib import Path
 
 from . import expressions, xspice
 from .circuit import IgnoredCommand
+from .control_block import apply_control
 from .dialect import (
     _MODEL_TYPES,
     _TOKEN_NAMES,
@@ -212,6 +213,7 @@ class _Reader(ElementLines, FuncReading):
             self.sub = None
         self.settle_unused()
         self.settle_trans(file)
+        apply_control(self.deck, file, self.error)
 
     def settle_unused(self) -> None:
         """Report the deferred problems of what the circuit uses; note what it does not."""
