@@ -202,13 +202,12 @@ _PASSIVE_IGNORED = {"noisy", "ac"}
 _TEMPERATURE_PARAMS = ("tc1", "tc2", "tce", "temp", "dtemp")
 
 # waveform -> (minimum, maximum number of arguments)
-WAVE_ARGS = {"pulse": (2, 8), "sin": (2, 6), "exp": (2, 6), "pwl": (2, None)}
+WAVE_ARGS = {"pulse": (2, 8), "sin": (2, 6), "exp": (2, 6), "pwl": (2, None), "sffm": (2, 7),
+             "am": (2, 7)}
 # other spellings ngspice reads -> the waveform
 WAVE_ALIASES = {"sine": "sin"}
 # source functions ngspice has and pelcs does not -> what to use instead
 UNSUPPORTED_WAVES = {
-    "sffm": "write the frequency-modulated waveform as a PWL table",
-    "am": "write the amplitude-modulated waveform as a PWL table",
     "trnoise": "pelcs simulates deterministic sources: leave the noise out",
     "trrandom": "pelcs simulates deterministic sources: leave the random source out",
 }

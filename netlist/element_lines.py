@@ -604,6 +604,8 @@ class ElementLines:
                         "pulse": "V1 V2 [TD [TR [TF [PW [PER [NP]]]]]]",
                         "sin": "VO VA [FREQ [TD [THETA [PHASE]]]]",
                         "exp": "V1 V2 [TD1 [TAU1 [TD2 [TAU2]]]]",
+                        "sffm": "VO VA [FC [MDI [FS [PHASEC [PHASES]]]]]",
+                        "am": "VA VO [MF [FC [TD [PHASEC [PHASES]]]]]",
                     }.get(kind, "T1 V1 [T2 V2 ...]")
                     self.error(f"{kw.upper()} takes {lo} to {hi} values, got {len(args)}"
                                if hi else f"{kw.upper()} needs at least {lo} values",

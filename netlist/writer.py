@@ -28,7 +28,7 @@ its elements.
 
 from __future__ import annotations
 
-from lcs.signals import Exp, Pulse, Pwl, Signal, Sin
+from lcs.signals import Am, Exp, Pulse, Pwl, Sffm, Signal, Sin
 
 from .circuit import (
     Circuit,
@@ -70,11 +70,13 @@ def _num(v: float) -> str:
 
 
 # field order of each waveform, and the fields whose missing value ngspice also takes for 0
-_ZERO_DEFAULTS = frozenset({"td", "theta", "phase"})
+_ZERO_DEFAULTS = frozenset({"td", "theta", "phase", "mdi", "phasec", "phases"})
 _WAVE_FIELDS = {
     Pulse: ("PULSE", ("v1", "v2", "td", "tr", "tf", "pw", "per", "np_")),
     Sin: ("SIN", ("vo", "va", "freq", "td", "theta", "phase")),
     Exp: ("EXP", ("v1", "v2", "td1", "tau1", "td2", "tau2")),
+    Sffm: ("SFFM", ("vo", "va", "fc", "mdi", "fs", "phasec", "phases")),
+    Am: ("AM", ("va", "vo", "mf", "fc", "td", "phasec", "phases")),
 }
 
 
