@@ -124,6 +124,10 @@ def _element(el: Element, circuit: Circuit, kinds: dict[str, str]) -> str:
         if ic is not None:
             line += f" IC={_num(ic)}"
         return line
+    if isinstance(el, (VoltageSource, CurrentSource)) and hasattr(el.waveform, "spice"):
+        # a B source of time alone (netlist.time_expression), written back as one
+        out = "V" if isinstance(el, VoltageSource) else "I"
+        return f"{spice_name(el.name, 'B')} {nodes} {out}={el.waveform.spice()}"
     if isinstance(el, (VoltageSource, CurrentSource)):
         line = f"{name} {nodes} DC {_num(el.dc)}"
         if el.waveform is not None:

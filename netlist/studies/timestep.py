@@ -86,7 +86,7 @@ def smooth_step(waves: Sequence[Signal], names: Sequence[str] | None = None
             if 1.0 / (top * STEPS_PER_PERIOD) < h:
                 h = 1.0 / (top * STEPS_PER_PERIOD)
                 what = (f"1/{STEPS_PER_PERIOD} of the shortest period of the "
-                        f"{type(w).__name__.upper()} source{name}")
+                        f"{getattr(w, 'keyword', type(w).__name__.upper())} source{name}")
         elif isinstance(w, Exp):
             for tau in (w.tau1, w.tau2):
                 if tau and tau / STEPS_PER_TAU < h:

@@ -84,6 +84,8 @@ def _waveform(sig: Signal | None, unit: str) -> str:
         return ""
     if isinstance(sig, Dc):
         return f"DC {_eng(sig.value, unit)}"
+    if hasattr(sig, "describe"):  # a B source of time alone (netlist.time_expression)
+        return sig.describe()
     if isinstance(sig, Pwl):
         pts = ", ".join(f"({_eng(t, 's')}, {_eng(v, unit)})"
                         for t, v in zip(sig.times, sig.values, strict=True))
