@@ -1,4 +1,4 @@
-"""Independent-source waveforms with ngspice's semantics: DC, PULSE, SIN, PWL, EXP.
+"""Independent-source waveforms with ngspice's semantics: DC, PULSE, SIN, PWL, EXP, SFFM, AM.
 
 Fields that ngspice fills from the ``.tran`` line when they are omitted are ``None`` here and
 are filled by :func:`resolve` (``resolve(sig, tstep, tstop)``). Every waveform evaluates on
@@ -418,7 +418,93 @@ class Exp:
         return unique_sorted(pts[(pts >= t0) & (pts <= t1)])
 
 
-Signal = Dc | Pulse | Sin | Pwl | Exp
+@dataclass(frozen=True)
+class Sffm:
+    """``SFFM(VO VA FC MDI FS [PHASEC PHASES])``: ``VO + VA sin(2π FC t + PHASEC + MDI
+    sin(2π FS t + PHASES))`` (phases in degrees), as ngspice 39 computes it (vsrcload.c,
+    checked point by point); FC and FS default (0 or omitted) to 1/TSTOP, MDI to 0."""
+
+    vo: float
+    va: float
+    fc: float | None = None
+    mdi: float = 0.0
+    fs: float | None = None
+    phasec: float = 0.0
+    phases: float = 0.0
+
+    piecewise_linear = False
+
+    def __call__(self, t):
+        if self.fc is None or self.fs is None:
+            raise ValueError("SFFM defaults not resolved: call lcs.signals.resolve first")
+        t = np.asarray(t, dtype=float)
+        mod = self.mdi * np.sin(2 * math.pi * self.fs * t + self.phases * math.pi / 180.0)
+        return self.vo + self.va * np.sin(2 * math.pi * self.fc * t
+                                          + self.phasec * math.pi / 180.0 + mod)
+
+    def breakpoints(self, t0: float, t1: float) -> np.ndarray:
+        return np.empty(0)
+
+    def top_frequency(self) -> float | None:
+        """The highest instantaneous frequency written, FC + |MDI| FS, Hz (None: a default)."""
+        if not self.fc or not self.fs:
+            return None
+        return abs(self.fc) + abs(self.mdi * self.fs)
+
+
+@dataclass(frozen=True)
+class Am:
+    """``AM(VA VO MF FC TD [PHASEC PHASES])``: 0 until TD, then ``VA (VO + sin(2π MF τ +
+    PHASES)) sin(2π FC τ + PHASES)``, τ = t - TD, as ngspice 39 computes it (vsrcload.c,
+    checked point by point: PHASES sets the carrier's phase too, PHASEC is read and unused);
+    MF defaults (0 or omitted) to 1/TSTOP, FC and TD to 0."""
+
+    va: float
+    vo: float
+    mf: float | None = None
+    fc: float = 0.0
+    td: float = 0.0
+    phasec: float = 0.0
+    phases: float = 0.0
+
+    piecewise_linear = False
+
+    @property
+    def jumps(self) -> bool:
+        """Whether it jumps at TD: with a phase, its value just after TD is not 0."""
+        ph = self.phases * math.pi / 180.0
+        return self.va * (self.vo + math.sin(ph)) * math.sin(ph) != 0.0
+
+    def __call__(self, t, side: int = 0):
+        """The value at the times ``t`` (s); ``side`` +1 / -1: the right / left limit (they
+        differ at TD only, where the value jumps with a phase)."""
+        if self.mf is None:
+            raise ValueError("AM defaults not resolved: call lcs.signals.resolve first")
+        tau = np.asarray(t, dtype=float) - self.td
+        ph = self.phases * math.pi / 180.0
+        value = self.va * (self.vo + np.sin(2 * math.pi * self.mf * tau + ph)) * np.sin(
+            2 * math.pi * self.fc * tau + ph)
+        return np.where(tau < 0.0 if side > 0 else tau <= 0.0, 0.0, value)
+
+    def breakpoints(self, t0: float, t1: float) -> np.ndarray:
+        # (a corner at TD where the value leaves 0, or a jump with a phase)
+        return np.array([self.td]) if t0 <= self.td <= t1 and self.td > 0 else np.empty(0)
+
+    def top_frequency(self) -> float | None:
+        """The highest frequency written, FC + MF, Hz (None: MF left to its default)."""
+        return abs(self.fc) + abs(self.mf) if self.mf else None
+
+
+def modulated(kind: str, values: list[float]) -> Sffm | Am:
+    """The ``sffm`` or ``am`` waveform of its arguments as written."""
+    if kind == "sffm":
+        return Sffm(*values)
+    if kind == "am":
+        return Am(*values)
+    raise AssertionError(f"waveform {kind}")
+
+
+Signal = Dc | Pulse | Sin | Pwl | Exp | Sffm | Am
 
 
 def resolve(sig: Signal, tstep: float, tstop: float) -> Signal:
@@ -443,6 +529,11 @@ def resolve(sig: Signal, tstep: float, tstop: float) -> Signal:
         )
     if isinstance(sig, Sin):
         return replace(sig, freq=sig.freq if sig.freq else 1.0 / tstop)
+    if isinstance(sig, Sffm):
+        return replace(sig, fc=sig.fc if sig.fc else 1.0 / tstop,
+                       fs=sig.fs if sig.fs else 1.0 / tstop)
+    if isinstance(sig, Am):
+        return replace(sig, mf=sig.mf if sig.mf else 1.0 / tstop)
     if isinstance(sig, Exp):
         return replace(
             sig,

@@ -68,6 +68,7 @@ from .dialect import hierarchical_name
 from .errors import Diagnostic, Location
 from .knee import elaborate_knee
 from .rawdeck import RawElement
+from .time_expression import time_expression
 from .time_value import reads_time_only, time_in_comparisons, time_value
 
 __all__ = ["ClampSource", "Comparator", "elaborate", "fold_clamps", "linear_elements",
@@ -175,6 +176,11 @@ def elaborate(el: RawElement, prefix: str, mapnode: Callable[[str], str],
             tv = time_value(tree, text, env)
             cls = VoltageSource if out_kind == "V" else CurrentSource
             return [cls(name, nodes, loc, tv.values[0], tv.pwl() if tv.times else None)]
+        if reads_time_only(tree):
+            # a smooth function of time: the source of that waveform (netlist.time_expression)
+            sig = time_expression(tree, text, env)
+            cls = VoltageSource if out_kind == "V" else CurrentSource
+            return [cls(name, nodes, loc, float(sig(0.0)), sig)]
         form = linearise(tree, text, env, mapnode, source_name(prefix), clamps=True)
     except BehaviouralError as exc:
         unknown = exc.message.startswith("unknown parameter")

@@ -10,6 +10,11 @@ at the operation that makes it none of these. What these become in a circuit is
 Precedence (loosest first, as in ngspice): ``? :``, ``||``, ``&&``, comparisons, ``+ -``,
 ``* /``, unary ``- + !``, ``** ^``. ``u(0)`` is 0.5 in ngspice: a tie, as a comparison at
 equality, lasts an instant and decides nothing here.
+
+The arithmetic of constants is that of ngspice 39's B sources (measured), not numparam's
+(:mod:`netlist.expressions`): ``a ** b``, ``a ^ b`` and ``pow(a, b)`` are ``|a|^b``,
+left-associative (``2^3^2 = 64``), ``pwr(a, b)`` is ``sign(a)|a|^b`` (``pwr(-2, 3) = -8``); a B
+source has no ``%``, no hexadecimal numbers and no ``sqr``, ``arctan`` or ``int``.
 """
 
 from __future__ import annotations
@@ -61,6 +66,22 @@ _B_FUNCTIONS = {"u", "uramp", "sgn", "ddt", "idt", "table", "tablef", "pwl", "ni
                 "u2", "pwr"}
 
 
+def _b_pow(a: float, b: float) -> float:
+    """A B source's power, pow() and ``**``: ``|a|^b`` (``(-2)^3 = 8`` in ngspice 39)."""
+    return float(abs(a) ** b)
+
+
+def _b_pwr(a: float, b: float) -> float:
+    """A B source's pwr(): ``sign(a)|a|^b`` (``pwr(-2, 3) = -8``, numparam's is 8)."""
+    return math.copysign(abs(a) ** b, a) if a != 0.0 else float(0.0 ** b)
+
+
+# the functions whose B-source value differs from numparam's, and numparam's functions that
+# ngspice 39's B sources do not know
+_B_CONSTANT = {"pow": (_b_pow, 2, 2), "pwr": (_b_pwr, 2, 2)}
+_NOT_IN_B = {"sqr", "arctan", "int"}
+
+
 @dataclass(frozen=True)
 class Tree:
     """A node of a parsed B expression: ``tag``, its ``args`` and where it stands
@@ -86,7 +107,10 @@ class _Parser:
             m = _TOKEN.match(text, pos)
             if m is None:
                 raise BehaviouralError(f"unexpected character {text[pos]!r} in expression "
-                                       f"'{text.strip()}'", pos)
+                                       f"'{text.strip()}'", pos,
+                                       "ngspice's B sources have no remainder operator %: "
+                                       "numparam's a % b is a - b*int(a/b), in a .param"
+                                       if text[pos] == "%" else "")
             if m.lastgroup != "ws":
                 self.toks.append((m.lastgroup, m.group(), m.start()))
             pos = m.end()
@@ -153,16 +177,30 @@ class _Parser:
         return self.power()
 
     def power(self) -> Tree:
+        # left-associative, as ngspice's B sources (2^3^2 = 64); an exponent may carry signs
         base = self.atom()
-        if self.peek()[1] in ("**", "^"):
+        while self.peek()[1] in ("**", "^"):
             self.take()
-            exp = self.unary()
-            return Tree("**", (base, exp), base.start, exp.end)
+            exp = self.exponent()
+            base = Tree("**", (base, exp), base.start, exp.end)
         return base
+
+    def exponent(self) -> Tree:
+        kind, value, pos = self.peek()
+        if kind == "op" and value in "-+":
+            self.take()
+            sub = self.exponent()
+            return sub if value == "+" else Tree("neg", (sub,), pos, sub.end)
+        return self.atom()
 
     def atom(self) -> Tree:
         kind, value, pos = self.take()
         if kind == "num":
+            if value[:2].lower() == "0x":
+                raise BehaviouralError(f"ngspice's B sources read no hexadecimal number "
+                                       f"('{self.text.strip()}' is an error there)", pos,
+                                       "write the number in decimal, or in a .param "
+                                       "(numparam reads 0x10 as 16)")
             number = parse_number(value)
             if number is None:
                 raise BehaviouralError(f"invalid number '{value}'", pos)
@@ -414,10 +452,10 @@ class _Lineariser:
             return _const(args[0])
         if tag == "var":
             name = args[0]
+            if name in CONSTANTS:  # (before a .param of the name: ngspice 39, measured)
+                return _const(CONSTANTS[name])
             if name in self.env:
                 return _const(self.env[name])
-            if name in CONSTANTS:
-                return _const(CONSTANTS[name])
             if name in ("time", "temper", "hertz"):
                 raise BehaviouralError(
                     f"'{name}' in a B expression makes a time-varying source", t.start,
@@ -479,8 +517,8 @@ class _Lineariser:
             if ka is None or kb is None:
                 raise self.nonlinear(t, "a power of a node voltage or current: nonlinear")
             try:
-                value = float(ka ** kb)
-            except (ZeroDivisionError, OverflowError, TypeError):
+                value = _b_pow(ka, kb)
+            except (ZeroDivisionError, OverflowError):
                 raise BehaviouralError(f"cannot evaluate {ka:g} ** {kb:g}", t.start) from None
             return _const(value)
         raise AssertionError(tag)
@@ -567,15 +605,19 @@ class _Lineariser:
             if isinstance(x, Affine):
                 return Step(x, True, 1.0, 0.0)
             raise self.nonlinear(t, "u() of a comparison")
+        if name in _NOT_IN_B:
+            raise BehaviouralError(f"no function '{name}' in ngspice's B sources (ngspice 39: "
+                                   f"\"no such function '{name}'\")", t.start,
+                                   f"{name}() is numparam's: compute it in a .param")
         if name in FUNCTIONS:
-            fn, lo, hi = FUNCTIONS[name]
+            fn, lo, hi = _B_CONSTANT.get(name) or FUNCTIONS[name]
             if len(subs) < lo or (hi is not None and len(subs) > hi):
                 raise BehaviouralError(f"{name}() takes {lo if lo == hi else f'at least {lo}'}"
                                        f" argument(s), got {len(subs)}", t.start)
             if all(k is not None for k in consts):
                 try:
                     return _const(float(fn(*consts)))
-                except (ValueError, OverflowError) as exc:
+                except (ValueError, OverflowError, ZeroDivisionError) as exc:
                     raise BehaviouralError(f"cannot evaluate {name}(): {exc}", t.start) from None
             raise self.nonlinear(t, f"{name}() of a node voltage or current: nonlinear")
         if name in _B_FUNCTIONS:

@@ -202,13 +202,12 @@ _PASSIVE_IGNORED = {"noisy", "ac"}
 _TEMPERATURE_PARAMS = ("tc1", "tc2", "tce", "temp", "dtemp")
 
 # waveform -> (minimum, maximum number of arguments)
-WAVE_ARGS = {"pulse": (2, 8), "sin": (2, 6), "exp": (2, 6), "pwl": (2, None)}
+WAVE_ARGS = {"pulse": (2, 8), "sin": (2, 6), "exp": (2, 6), "pwl": (2, None), "sffm": (2, 7),
+             "am": (2, 7)}
 # other spellings ngspice reads -> the waveform
 WAVE_ALIASES = {"sine": "sin"}
 # source functions ngspice has and pelcs does not -> what to use instead
 UNSUPPORTED_WAVES = {
-    "sffm": "write the frequency-modulated waveform as a PWL table",
-    "am": "write the amplitude-modulated waveform as a PWL table",
     "trnoise": "pelcs simulates deterministic sources: leave the noise out",
     "trrandom": "pelcs simulates deterministic sources: leave the random source out",
 }
@@ -258,3 +257,27 @@ def hierarchical_name(word: str, kind: str | None = None) -> str:
     return word
 
 
+
+
+# .tran's fields by position, and what ngspice 39 says of a parameter name written bare there
+_TRAN_FIELDS = ("TSTEP", "TSTOP", "TSTART", "TMAX")
+_TRAN_NAME = re.compile(r"[A-Za-z_]\w*")
+
+
+def tran_bare_name(words: list[str]) -> tuple[int, str, str] | None:
+    """The first ``.tran`` field written as a bare parameter name (``.tran tstep tstop``):
+    its index in ``words``, the message and the hint; None when there is none.
+
+    ngspice 39 substitutes no parameter in a ``.tran`` line outside braces: it stops with
+    "TSTEP is invalid, must be greater than zero" (TSTOP likewise), or "unknown parameter on
+    .tran" for TSTART and TMAX (measured).
+    """
+    for k, word in enumerate(words[:4]):
+        if word[:1] in "{'" or not _TRAN_NAME.fullmatch(word):
+            continue
+        field = _TRAN_FIELDS[k] if len(words) > 1 else "TSTOP"
+        said = (f"{field} is invalid, must be greater than zero" if field in ("TSTEP", "TSTOP")
+                else "unknown parameter on .tran")
+        return (k, f".tran {field} '{word}' is a bare name: ngspice reads no parameter there "
+                   f"(ngspice 39: \"{said}\")", f"write it in braces: {{{word}}}")
+    return None

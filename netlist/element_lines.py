@@ -442,17 +442,16 @@ class ElementLines:
         model), ``area=`` and ``m=``. ngspice multiplies the area by m and scales the junction
         by it (IS and the conductance 1/RS; diosetup.c, diotemp.c); its other instance
         parameters (OFF, IC=, TEMP= ...) are read for their syntax only. The positional AREA
-        is SPICE3's and LTspice's spelling; ngspice 39 stops at it ("could not find a valid
-        modelname", measured), which a note says."""
+        (SPICE3's and LTspice's spelling) is refused: ngspice 39 stops at it, with or without
+        OFF after it ("could not find a valid modelname", measured)."""
         out: list[RawParam] = []
         for t in extras:
             if isinstance(t, Token):
-                if any(p.name == "area" for p in out):
-                    continue
-                tok, key = t, "area"
-                self.deck.notes.append(
-                    f"line {st.loc(0).line}: diode area '{t}' written without area= (SPICE3, "
-                    f"LTspice), read as the area; ngspice 39 refuses that line: write area={t}")
+                self.error(f"diode area '{t}' written without area=: ngspice 39 refuses a "
+                           "bare value after a diode's model (\"could not find a valid "
+                           "modelname\")", st, t.start_pos,
+                           f"write area={t} (SPICE3's and LTspice's positional area)")
+                continue
             elif t.data == "assign" and t.children[0].lower() in ("area", "m"):
                 tok, key = t.children[1], t.children[0].lower()
             else:
@@ -605,6 +604,8 @@ class ElementLines:
                         "pulse": "V1 V2 [TD [TR [TF [PW [PER [NP]]]]]]",
                         "sin": "VO VA [FREQ [TD [THETA [PHASE]]]]",
                         "exp": "V1 V2 [TD1 [TAU1 [TD2 [TAU2]]]]",
+                        "sffm": "VO VA [FC [MDI [FS [PHASEC [PHASES]]]]]",
+                        "am": "VA VO [MF [FC [TD [PHASEC [PHASES]]]]]",
                     }.get(kind, "T1 V1 [T2 V2 ...]")
                     self.error(f"{kw.upper()} takes {lo} to {hi} values, got {len(args)}"
                                if hi else f"{kw.upper()} needs at least {lo} values",

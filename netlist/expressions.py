@@ -1,11 +1,19 @@
 """Parameter expressions: the text in ``{...}``, ``'...'`` and bare ``.param`` values.
 
 Grammar (in ``grammar.lark``, start rule ``expression``): numbers with engineering suffixes
-(``2*10k``), parameter names, ``+ - * /``, ``**`` or ``^`` for powers, unary minus,
-parentheses, the functions in :data:`FUNCTIONS` and the constant ``pi``; comparisons
-(``== != < > <= >=``), ``&&``, ``||`` and ``c ? a : b``, which ngspice's numparam reads in
-``.param`` expressions (a comparison is 1 or 0; ``c`` is true when not 0). Names are
+(``2*10k``) or hexadecimal (``0x10``), parameter names, ``+ - * /``, ``%``, ``**`` or ``^`` for
+powers, unary minus, parentheses, the functions in :data:`FUNCTIONS`;
+comparisons (``== != < > <= >=``), ``&&``, ``||`` and ``c ? a : b``, which ngspice's numparam
+reads in ``.param`` expressions (a comparison is 1 or 0; ``c`` is true when not 0). Names are
 case-insensitive.
+
+The arithmetic is numparam's, measured in ngspice 39: ``a % b`` is ``a - b*trunc(a/b)`` (the
+sign of ``a``: ``-10 % 3 = -1``), at the level of ``*`` and ``/``; ``a ** b`` and ``a ^ b`` are
+``|a|^b`` (``(-2)**3 = 8``), left-associative (``2^3^2 = 64``); ``pwr(a, b)`` is ``|a|^b``
+too and ``pow(a, b)`` C's ``pow`` (``pow(-2, 3) = -8``). numparam reads a minus written just
+after an operator as part of the number it precedes (``2*-3^2 = 2*9``) but a minus at the start
+of an expression or a parenthesis as applied to the power (``-3^2 = -9``), and ``2*-(3)^2`` as
+``2/9``: pelcs refuses a minus after an operator applied to a power, and asks for parentheses.
 
 An expression is parsed once into a small tree of tuples (:class:`Expression`) that lists the
 parameter names it uses, so that parameters can be evaluated in dependency order and cycles
@@ -22,7 +30,7 @@ from typing import TYPE_CHECKING
 
 from . import lark_standalone
 from .lark_standalone import GRAMMAR_FILE, START_RULES
-from .units import parse_number
+from .units import parse_number, suffix_scale
 
 if TYPE_CHECKING:
     from lark import Lark
@@ -81,6 +89,19 @@ def _bounded_max(*a: float) -> float:
     return max(a)
 
 
+def _pwr(a: float, b: float) -> float:
+    return _power(a, b)
+
+
+def _power(a: float, b: float) -> float:
+    """numparam's power, ``|a|^b`` (``(-2)**3 = 8``, ``(-2)**0.5 = 1.414``)."""
+    return float(abs(a) ** b)
+
+
+def _sgn(a: float) -> float:
+    return float((a > 0.0) - (a < 0.0))
+
+
 # name -> (function, minimum and maximum number of arguments; None = any number)
 FUNCTIONS: dict[str, tuple[Callable[..., float], int, int | None]] = {
     "sqrt": (math.sqrt, 1, 1),
@@ -103,7 +124,21 @@ FUNCTIONS: dict[str, tuple[Callable[..., float], int, int | None]] = {
     "min": (_bounded_min, 1, None),
     "max": (_bounded_max, 1, None),
     "pow": (math.pow, 2, 2),
+    # numparam's pwr is |a|^b (pwr(-2, 3) = 8 in ngspice 39); a B source's is sign(a)|a|^b
+    "pwr": (_pwr, 2, 2),
+    "sqr": (lambda a: a * a, 1, 1),
+    "arctan": (math.atan, 1, 1),
+    "int": (math.trunc, 1, 1),
+    # nearest integer, halves to even (nint(2.5) = 2 in ngspice 39), as Python's round
+    "nint": (round, 1, 1),
+    "sgn": (_sgn, 1, 1),
+    "asinh": (math.asinh, 1, 1),
+    "acosh": (math.acosh, 1, 1),
+    "atanh": (math.atanh, 1, 1),
+    "ternary_fcn": (lambda c, a, b: a if c != 0.0 else b, 3, 3),
 }
+# the constants of B-source expressions; numparam has none (ngspice 39: "Undefined parameter
+# [pi]"), so a .param or {...} expression refuses them unless a .param defines them
 CONSTANTS = {"pi": math.pi}
 
 # Functions that mean the user wants a behavioural (nonlinear) source.
@@ -138,7 +173,7 @@ class Expression:
         The expression as written (without braces or quotes).
     tree : tuple
         ``("num", value)``, ``("var", name, offset)``, ``("neg", a)``,
-        ``(op, a, b, offset)`` with op in ``+ - * / ** && || == != < > <= >=``,
+        ``(op, a, b, offset)`` with op in ``+ - * / % ** && || == != < > <= >=``,
         ``("?", c, a, b, offset)`` or ``("call", name, args, offset)``.
     names : frozenset of str
         Lower-case parameter names used.
@@ -177,8 +212,11 @@ def _eval(node: tuple, env: Mapping[str, float]) -> float:
         name = node[1]
         if name in env:
             return env[name]
-        if name in CONSTANTS:
-            return CONSTANTS[name]
+        if name in CONSTANTS:  # (B sources know pi; numparam does not)
+            raise ExpressionError(
+                f"unknown parameter '{name}': ngspice 39's .param and {{...}} expressions have "
+                f"no constant {name} (there: \"Undefined parameter [{name}]\")", node[2],
+                f"define it, .param {name}={CONSTANTS[name]!r}; a B source knows {name}")
         raise ExpressionError(f"unknown parameter '{name}'", node[2],
                               "define it with .param NAME=VALUE")
     if tag == "neg":
@@ -197,7 +235,7 @@ def _eval(node: tuple, env: Mapping[str, float]) -> float:
         args = [_eval(a, env) for a in node[2]]
         try:
             return float(fn(*args))
-        except (ValueError, OverflowError) as exc:
+        except (ValueError, OverflowError, ZeroDivisionError) as exc:
             shown = ", ".join(f"{a:g}" for a in args)
             raise ExpressionError(f"cannot evaluate {node[1]}({shown}): {exc}", node[3]) from None
     a = _eval(node[1], env)
@@ -211,35 +249,57 @@ def _eval(node: tuple, env: Mapping[str, float]) -> float:
             return a * b
         if tag == "/":
             return a / b
-        return float(a**b)
+        if tag == "%":
+            # numparam's remainder: a - b*trunc(a/b), the sign of a
+            return a - b * math.trunc(a / b)
+        return _power(a, b)
     except ZeroDivisionError:
         if tag == "/":
             msg = "division by zero"
+        elif tag == "%":
+            msg = f"{a:g} % 0: the remainder of a division by zero"
         else:
             msg = f"cannot raise 0 to the negative power {b:g}"
         raise ExpressionError(msg, node[3]) from None
     except OverflowError:
         raise ExpressionError(f"overflow in {a:g} {tag} {b:g}", node[3]) from None
-    except TypeError:  # a complex result of a negative base to a fractional power
-        raise ExpressionError(f"{a:g} ** {b:g} is not a real number", node[3]) from None
 
 
 _TOO_DEEP = "expression is nested too deeply"
 
-_BINARY = {"add": "+", "sub": "-", "mul": "*", "div": "/", "pow": "**"}
+_BINARY = {"add": "+", "sub": "-", "mul": "*", "div": "/", "mod": "%", "pow": "**"}
 _LOGIC = {"&&", "||"}
 _COMPARE: dict[str, Callable[[float, float], bool]] = {
     "==": lambda a, b: a == b, "!=": lambda a, b: a != b, "<": lambda a, b: a < b,
     ">": lambda a, b: a > b, "<=": lambda a, b: a <= b, ">=": lambda a, b: a >= b}
 
 
-def _build(t: Tree | Token, names: set[str]) -> tuple:
+def _number(tok: Token) -> float | None:
+    """A NUMBER token's value: a SPICE number, or a hexadecimal one (``0x10``, ``0x1.8``,
+    then a suffix: ``0x10k``), as numparam reads it with C's strtod."""
+    if tok[:2] not in ("0x", "0X"):
+        return parse_number(tok)
+    end = 2
+    while end < len(tok) and (tok[end] in "0123456789abcdefABCDEF."):
+        end += 1
+    try:
+        return float.fromhex(tok[:end]) * suffix_scale(tok[end:])[1]
+    except ValueError:  # 0x without digits: ngspice stops, "Number format error"
+        return None
+
+
+def _build(t: Tree | Token, names: set[str], leading: bool = True) -> tuple:
+    """The tuple tree of ``t``. ``leading``: ``t`` starts an expression, a parenthesis or a
+    function's argument (not right after an operator), where numparam reads a minus before
+    a power as applied to the power."""
     if isinstance(t, Token):  # a parenthesised sub-expression collapses to its token
         raise AssertionError(t)
     data = t.data
+    if data == "paren":
+        return _build(t.children[0], names)
     if data == "number":
         tok = t.children[0]
-        value = parse_number(tok)
+        value = _number(tok)
         if value is None:  # letters then digits, e.g. 1k2
             raise ExpressionError(f"invalid number '{tok}'", tok.start_pos,
                                   "a number is digits, an optional exponent, then letters")
@@ -247,12 +307,19 @@ def _build(t: Tree | Token, names: set[str]) -> tuple:
     if data == "var":
         tok = t.children[0]
         name = tok.lower()
-        # (pi too: a .param pi=2 is the value ngspice's numparam takes for it, measured;
-        # evaluation falls back on the constant where no parameter has the name)
+        # (pi too: numparam has no such constant, a .param pi=... defines it, measured;
+        # B sources know the constant pi, CONSTANTS)
         names.add(name)
         return ("var", name, tok.start_pos)
     if data == "neg":
-        sub = _build(t.children[0], names)
+        child = t.children[0]
+        if isinstance(child, Tree) and child.data == "pow" and not leading:
+            at = _first_offset(t)
+            raise ExpressionError(
+                "ngspice reads a minus written after an operator as the sign of the number "
+                "it precedes, before the power (2*-3^2 is 2*9 = 18 there, -3^2 alone is -9)",
+                at, "write the parentheses you mean: 2*(-3^2) or 2*(-3)^2")
+        sub = _build(child, names, leading=False)
         if sub[0] == "num":
             return ("num", -sub[1])
         return ("neg", sub)
@@ -276,15 +343,16 @@ def _build(t: Tree | Token, names: set[str]) -> tuple:
         return ("call", fname, tuple(args), tok.start_pos)
     if data == "ternary":
         c, a, b = t.children
-        return ("?", _build(c, names), _build(a, names), _build(b, names),
-                _first_offset(c))
+        return ("?", _build(c, names, leading), _build(a, names, False),
+                _build(b, names, False), _first_offset(c))
     if data in ("logic_or", "logic_and"):
         left, right = t.children
-        return ("||" if data == "logic_or" else "&&", _build(left, names),
-                _build(right, names), _first_offset(right))
+        return ("||" if data == "logic_or" else "&&", _build(left, names, leading),
+                _build(right, names, False), _first_offset(right))
     if data == "compare":
         left, op, right = t.children
-        return (str(op), _build(left, names), _build(right, names), op.start_pos)
+        return (str(op), _build(left, names, leading), _build(right, names, False),
+                op.start_pos)
     if data in _BINARY:
         if data == "pow":
             left, op, right = t.children
@@ -292,7 +360,8 @@ def _build(t: Tree | Token, names: set[str]) -> tuple:
         else:
             left, right = t.children
             offset = _first_offset(right)
-        return (_BINARY[data], _build(left, names), _build(right, names), offset)
+        return (_BINARY[data], _build(left, names, leading), _build(right, names, False),
+                offset)
     # the "+" unary rule is inlined by lark and leaves only its operand
     raise AssertionError(f"unexpected expression node {data}")
 

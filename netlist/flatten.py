@@ -25,7 +25,7 @@ from collections import ChainMap, Counter
 from collections.abc import Callable, Mapping
 from importlib import import_module
 
-from lcs.signals import Exp, Pulse, Pwl, Signal, Sin
+from lcs.signals import Exp, Pulse, Pwl, Signal, Sin, modulated
 
 from . import current_switch, xspice
 from .behavioural import elaborate, resolve_comparators
@@ -50,7 +50,7 @@ from .circuit import (
     VoltageSource,
 )
 from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
-from .expressions import CONSTANTS, ExpressionError
+from .expressions import ExpressionError
 from .limits import ELEMENTS
 from .rawdeck import Body, Deck, RawElement, RawParam, Statement, Value
 from .steps import evaluate_steps
@@ -154,7 +154,7 @@ class _Builder:
             hint = exc.hint
             if exc.message.startswith("unknown parameter"):
                 name = exc.message.split("'")[1]
-                close = close_matches(name, list(env) + list(CONSTANTS))
+                close = close_matches(name, list(env))
                 if close:
                     hint = f"did you mean {' or '.join(close)}? ({hint})"
             self.error(exc.message, value.st.loc(value.offset + exc.offset), hint,
@@ -745,7 +745,6 @@ class _Builder:
         vals = [self.evaluate(a, env, failed) for a in args]
         if any(v is None for v in vals):
             return None
-        loc = st.loc(offset)
         if kind == "pwl":
             times, values = tuple(vals[0::2]), tuple(vals[1::2])
             for i in range(1, len(times)):
@@ -797,4 +796,4 @@ class _Builder:
                                args[i].loc, "syntax: EXP(V1 V2 TD1 TAU1 TD2 TAU2)")
                     return None
             return Exp(*vals)
-        raise AssertionError(f"waveform {kind} at {loc}")
+        return modulated(kind, vals)  # SFFM, AM

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from . import expressions, xspice
 from .circuit import IgnoredCommand
+from .control_block import apply_control
 from .dialect import (
     _MODEL_TYPES,
     _TOKEN_NAMES,
@@ -30,6 +31,7 @@ from .dialect import (
     node_name,
     param_assignments,
     strip_comment,
+    tran_bare_name,
 )
 from .element_lines import ElementLines
 from .errors import Diagnostic, Location, NetlistError, ordered_diagnostics
@@ -211,6 +213,7 @@ class _Reader(ElementLines, FuncReading):
             self.sub = None
         self.settle_unused()
         self.settle_trans(file)
+        apply_control(self.deck, file, self.error)
 
     def settle_unused(self) -> None:
         """Report the deferred problems of what the circuit uses; note what it does not."""
@@ -470,6 +473,8 @@ class _Reader(ElementLines, FuncReading):
                 "unit, or an expression in braces")
         if re.search(r"[-+*/^]", tok[1:]):
             hint = f"write expressions in braces: {{{tok}}}"
+        if tok[:2].lower() == "0x":  # (ngspice 39: 0x10 outside braces is 0 V)
+            hint = f"ngspice reads '{tok}' here as 0, hexadecimal only in braces: {{{tok}}}"
         self.error(f"invalid number '{tok}'", st, tok.start_pos, hint)
         return None
 
@@ -589,9 +594,9 @@ class _Reader(ElementLines, FuncReading):
             return
         if len(tree.children) > 1:
             tok = tree.children[1]
-            if tok.lower() != self.sub.name.lower():
-                self.error(f".ends '{tok}' closes subcircuit '{self.sub.name}'", st,
-                           tok.start_pos, f"write .ends {self.sub.name}")
+            if tok.lower() != self.sub.name.lower():  # (ngspice 39 ignores it, measured)
+                self.deck.notes.append(f"line {st.loc(0).line}: .ends {tok} closes subcircuit "
+                                       f"'{self.sub.name}' (ngspice ignores the name after .ends)")
         parent = self.sub.parent
         self.sub = self.deck.subckts.get(parent) if parent is not None else None
 
@@ -677,6 +682,9 @@ class _Reader(ElementLines, FuncReading):
             if kind in flags:
                 self.deck.notes.append(f"line {line}: .tran {flags[kind]} (LTspice) ignored: "
                                        f"{what}")
+        if (bare := tran_bare_name([str(t) for t in ch])) is not None:
+            self.error(bare[1], st, ch[bare[0]].start_pos, bare[2])
+            return
         values = [self.value(t, st) for t in ch]
         if any(v is None for v in values):
             return

@@ -28,7 +28,7 @@ its elements.
 
 from __future__ import annotations
 
-from lcs.signals import Exp, Pulse, Pwl, Signal, Sin
+from lcs.signals import Am, Exp, Pulse, Pwl, Sffm, Signal, Sin
 
 from .circuit import (
     Circuit,
@@ -70,11 +70,13 @@ def _num(v: float) -> str:
 
 
 # field order of each waveform, and the fields whose missing value ngspice also takes for 0
-_ZERO_DEFAULTS = frozenset({"td", "theta", "phase"})
+_ZERO_DEFAULTS = frozenset({"td", "theta", "phase", "mdi", "phasec", "phases"})
 _WAVE_FIELDS = {
     Pulse: ("PULSE", ("v1", "v2", "td", "tr", "tf", "pw", "per", "np_")),
     Sin: ("SIN", ("vo", "va", "freq", "td", "theta", "phase")),
     Exp: ("EXP", ("v1", "v2", "td1", "tau1", "td2", "tau2")),
+    Sffm: ("SFFM", ("vo", "va", "fc", "mdi", "fs", "phasec", "phases")),
+    Am: ("AM", ("va", "vo", "mf", "fc", "td", "phasec", "phases")),
 }
 
 
@@ -122,6 +124,10 @@ def _element(el: Element, circuit: Circuit, kinds: dict[str, str]) -> str:
         if ic is not None:
             line += f" IC={_num(ic)}"
         return line
+    if isinstance(el, (VoltageSource, CurrentSource)) and hasattr(el.waveform, "spice"):
+        # a B source of time alone (netlist.time_expression), written back as one
+        out = "V" if isinstance(el, VoltageSource) else "I"
+        return f"{spice_name(el.name, 'B')} {nodes} {out}={el.waveform.spice()}"
     if isinstance(el, (VoltageSource, CurrentSource)):
         line = f"{name} {nodes} DC {_num(el.dc)}"
         if el.waveform is not None:

@@ -157,12 +157,11 @@ def test_waveform_of_current_source_with_expressions():
 def test_diode_switch_and_models():
     c = parse(
         "V1 a 0 1\nR1 a b 1\n"
-        "D1 b c DMOD 2 OFF IC=0.1\n"
+        "D1 b c DMOD area=2 OFF IC=0.1\n"
         "S1 c 0 a 0 SMOD\nS2 c b a 0 SMOD ON\n"
         ".model DMOD D(IS=1e-14 N=1.5 RS=1m)\n"
         ".model SMOD sw vt=0.6, ron=1m\n"
     )
-    # (the 2 after the model is SPICE3's positional area)
     assert c.element("D1") == Diode("D1", ("b", "c"), model="DMOD", area=2.0)
     assert c.element("S1") == Switch("S1", ("c", "0"), control=("a", "0"), model="SMOD")
     assert c.element("S2").initial is True

@@ -53,7 +53,16 @@ def default_step(waves: Sequence[Signal], tstop: float) -> float:
             h = min(h, w.per / STEPS_PER_PERIOD)
         elif isinstance(w, Sin) and w.freq:
             h = min(h, 1.0 / (w.freq * STEPS_PER_PERIOD))
+        elif (top := _top_frequency(w)) is not None:
+            h = min(h, 1.0 / (top * STEPS_PER_PERIOD))
     return h
+
+
+def _top_frequency(w: Signal) -> float | None:
+    """The highest frequency of a modulated source (SFFM, AM) written in the netlist, Hz."""
+    f = getattr(w, "top_frequency", None)
+    top = f() if f is not None else None
+    return top if top else None
 
 
 def smooth_step(waves: Sequence[Signal], names: Sequence[str] | None = None
@@ -73,6 +82,11 @@ def smooth_step(waves: Sequence[Signal], names: Sequence[str] | None = None
             if 1.0 / (w.freq * STEPS_PER_PERIOD) < h:
                 h = 1.0 / (w.freq * STEPS_PER_PERIOD)
                 what = f"1/{STEPS_PER_PERIOD} of the period of the SIN source{name}"
+        elif (top := _top_frequency(w)) is not None:
+            if 1.0 / (top * STEPS_PER_PERIOD) < h:
+                h = 1.0 / (top * STEPS_PER_PERIOD)
+                what = (f"1/{STEPS_PER_PERIOD} of the shortest period of the "
+                        f"{getattr(w, 'keyword', type(w).__name__.upper())} source{name}")
         elif isinstance(w, Exp):
             for tau in (w.tau1, w.tau2):
                 if tau and tau / STEPS_PER_TAU < h:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import argparse
 
-from lcs.signals import Dc, Exp, Pulse, Pwl, Signal, Sin
+from lcs.signals import Am, Dc, Exp, Pulse, Pwl, Sffm, Signal, Sin
 from netlist.circuit import GROUND, Circuit, Element
 from netlist.units import format_eng, format_number
 
@@ -39,6 +39,10 @@ _WAVE_UNITS = {
     Sin: [("vo", "*"), ("va", "*"), ("freq", "Hz"), ("td", "s"), ("theta", "1/s"),
           ("phase", "°")],
     Exp: [("v1", "*"), ("v2", "*"), ("td1", "s"), ("tau1", "s"), ("td2", "s"), ("tau2", "s")],
+    Sffm: [("vo", "*"), ("va", "*"), ("fc", "Hz"), ("mdi", ""), ("fs", "Hz"), ("phasec", "°"),
+           ("phases", "°")],
+    Am: [("va", "*"), ("vo", "*"), ("mf", "Hz"), ("fc", "Hz"), ("td", "s"), ("phasec", "°"),
+         ("phases", "°")],
 }
 
 
@@ -80,6 +84,8 @@ def _waveform(sig: Signal | None, unit: str) -> str:
         return ""
     if isinstance(sig, Dc):
         return f"DC {_eng(sig.value, unit)}"
+    if hasattr(sig, "describe"):  # a B source of time alone (netlist.time_expression)
+        return sig.describe()
     if isinstance(sig, Pwl):
         pts = ", ".join(f"({_eng(t, 's')}, {_eng(v, unit)})"
                         for t, v in zip(sig.times, sig.values, strict=True))
