@@ -16,6 +16,7 @@ ngspice still runs the device with its real model (the writer writes the origina
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -27,7 +28,8 @@ from .errors import Diagnostic, Location, NetlistError
 from .units import parse_number
 
 __all__ = ["BJT_THRESHOLD", "DEVICE_TYPES", "ChannelLimit", "ReverseChannel", "Replacement",
-           "channel_checks", "channel_limit", "dropped_parts", "gate_rc", "threshold"]
+           "channel_checks", "channel_limit", "dropped_parts", "gate_rc", "instance_geometry",
+           "threshold"]
 
 #: how far past its threshold a channel off in pelcs may stand against its drain by
 #: rounding, per volt of the run's largest node voltage (ReverseChannel)
@@ -269,15 +271,21 @@ class ChannelLimit:
 
 
 def channel_limit(name: str, el, model, control: tuple[str, str], threshold_v: float,
-                  location: Location | None, nominal: bool = True) -> ChannelLimit | None:
-    """The :class:`ChannelLimit` of a MOSFET ``el`` (its line, for ``W=``, ``L=``, ``M=``)
-    idealised on ``control`` past ``threshold_v``, V; None where pelcs has no bound: a model
-    of level other than 1 (level 2, 3 and BSIM have other laws), or a circuit away from its
-    nominal temperature (``nominal`` False: ngspice scales KP and VTO there).
+                  location: Location | None, nominal: bool = True,
+                  geometry: tuple[float, float, float] | None = None) -> ChannelLimit | None:
+    """The :class:`ChannelLimit` of a MOSFET ``el`` idealised on ``control`` past
+    ``threshold_v``, V, of ``geometry`` (its W, L, m: :func:`instance_geometry`; None: read
+    from its line without parameters); None where pelcs has no bound: a model of level
+    other than 1 (level 2, 3 and BSIM have other laws), a circuit away from its nominal
+    temperature (``nominal`` False: ngspice scales KP and VTO there), or a W, L or m that
+    pelcs cannot evaluate (nan: the bound would be a guess).
 
     Defaults are ngspice 39's: level 1 KP = 2e-5 A/V² (or UO COX, UO = 600 cm²/Vs, where
     TOX is given), W = L = 100 µm; VDMOS KP = 1 A/V² (later ngspice: 20, and VTO 3 V)."""
     if not nominal:
+        return None
+    w, length, mult = geometry if geometry is not None else instance_geometry(el, {}, {})
+    if not all(math.isfinite(v) for v in (w, length, mult)):
         return None
     p = {k.lower(): v for k, v in model.params.items()}
 
@@ -287,11 +295,6 @@ def channel_limit(name: str, el, model, control: tuple[str, str], threshold_v: f
 
     nan = float("nan")  # (a parameter given as something not a number: no bound)
 
-    sizes = [_instance_value(el, key, d) for key, d in (("m", 1.0), ("w", 100e-6),
-                                                          ("l", 100e-6))]
-    if any(v is None or v <= 0 for v in sizes):
-        return None  # (a size written as an expression: no bound rather than a wrong one)
-    mult, w, length = sizes
     vto = num("vto", num("vth", 0.0))
     used = ("kp", "lambda", "theta", "mtriode", "ksubthres", "subshift", "level", "tox", "uo",
             "ld")
@@ -317,13 +320,15 @@ def channel_limit(name: str, el, model, control: tuple[str, str], threshold_v: f
 
 def channel_checks(name: str, el, model, control: tuple[str, str], drain: str,
                    threshold_v: float, location: Location | None, body: bool,
-                   temps: tuple[float, float], igbt: bool = False) -> list:
+                   temps: tuple[float, float], igbt: bool = False,
+                   geometry: tuple[float, float, float] | None = None) -> list:
     """The knees (:mod:`netlist.knee`) of a MOSFET ``el`` idealised as a switch on
     ``control`` past ``threshold_v``: its :class:`ReverseChannel` where it has no body diode
     (``body`` False, an NMOS or PMOS model), its :class:`ChannelLimit` where pelcs has one;
     for a BJT its :class:`netlist.base_drive.BaseDrive` (its resistors read later).
     ``temps``: the circuit's temperature and its nominal one, °C; ``igbt``:
-    the MOSFET drives the macro-model's output transistor, whose current has no such bound."""
+    the MOSFET drives the macro-model's output transistor, whose current has no such bound;
+    ``geometry``: its W, L and m (:func:`instance_geometry`)."""
     if model.type in ("NPN", "PNP") and not igbt:
         from .base_drive import BaseDrive
 
@@ -338,7 +343,7 @@ def channel_checks(name: str, el, model, control: tuple[str, str], drain: str,
     tnom = model.params.get("tnom", temps[1])
     nominal = isinstance(tnom, (int, float)) and abs(temps[0] - float(tnom)) < 1e-9
     limit = None if igbt else channel_limit(name, el, model, control, threshold_v, location,
-                                            nominal)
+                                            nominal, geometry)
     return out + ([limit] if limit is not None else [])
 
 
@@ -495,6 +500,58 @@ def subckt_text(sub) -> str:
             lines.append(st.text)
     lines.append(f".ends {sub.name}")
     return "\n".join(lines)
+
+
+#: ngspice's default MOSFET channel width and length (``.options defw``, ``defl``), m
+_DEFAULT_LENGTH = 100e-6
+
+
+def _instance_text(el, key: str) -> str | None:
+    """The value of instance parameter ``key`` (``w``, ``l``, ``m``) as written on an M
+    line, without its braces or quotes; None where the line has none."""
+    m = re.search(rf"(?i)(?<![\w.]){key}\s*=\s*(\{{[^}}]*\}}|'[^']*'|\"[^\"]*\"|[^\s=]+)",
+                  el.st.text)
+    if m is None:
+        return None
+    text = m.group(1)
+    return text[1:-1] if text[:1] in "{'\"" else text
+
+
+def _instance_number(el, key: str, env: Mapping[str, float]) -> float | None:
+    """Instance parameter ``key`` of an M line: a number, or an expression of the
+    parameters ``env`` (ngspice evaluates ``w=wn`` and ``w={wn}`` alike); None where not
+    written, nan where pelcs cannot evaluate it (a function it does not know, ``agauss``)."""
+    from .expressions import ExpressionError, parse_expression
+
+    text = _instance_text(el, key)
+    if text is None:
+        return None
+    v = parse_number(text)
+    if v is None:
+        try:
+            v = parse_expression(text).evaluate({k.lower(): x for k, x in env.items()})
+        except ExpressionError:
+            return math.nan
+    return float(v) if v > 0 else math.nan
+
+
+def instance_geometry(el, env: Mapping[str, float], options: Mapping[str, str]
+                      ) -> tuple[float, float, float]:
+    """A MOSFET line's channel width and length, m, and multiplier ``m``, as ngspice 39
+    reads them: ``W=``/``L=`` times ``.options scale`` (``defw``/``defl`` where not given,
+    100 µm by default, unscaled), expressions evaluated on the parameters ``env``; nan for
+    one pelcs cannot evaluate (:func:`channel_limit` then gives no bound)."""
+    opts = {str(k).lower(): str(v) for k, v in options.items()}
+
+    def option(key: str, default: float) -> float:
+        v = parse_number(opts[key]) if opts.get(key) not in (None, "") else None
+        return float(v) if v is not None and v > 0 else default
+
+    scale = option("scale", 1.0)
+    w, length, mult = (_instance_number(el, key, env) for key in ("w", "l", "m"))
+    return (option("defw", _DEFAULT_LENGTH) if w is None else w * scale,
+            option("defl", _DEFAULT_LENGTH) if length is None else length * scale,
+            1.0 if mult is None else mult)
 
 
 def _instance_length(el, key: str, default: float) -> float:

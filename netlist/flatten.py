@@ -453,7 +453,7 @@ class _Builder:
             if el.kind == "X":
                 self.instance(el, name_prefix, node_prefix, mapnode, env, failed, stack)
             elif el.kind in "MQ":
-                self.circuit.elements.extend(self.device(el, name_prefix, mapnode))
+                self.circuit.elements.extend(self.device(el, name_prefix, mapnode, env))
             elif el.behaviour is not None:  # B, C of a knee (.behavioural); R (.switched_resistor)
                 refused = len(self.diags)
                 self.circuit.elements += elaborate_resistor(
@@ -488,9 +488,12 @@ class _Builder:
             prefix + vname, el.ref, el.state, loc, self.circuit,
             lambda message, hint: self.error(message, el.st.loc(el.ref_offset), hint, (name,)))
 
-    def device(self, el: RawElement, prefix: str, mapnode: Callable[[str], str]) -> list:
-        """An M or Q element idealised: a switch, the VDMOS body diode (netlist.devices)."""
+    def device(self, el: RawElement, prefix: str, mapnode: Callable[[str], str],
+               env: Mapping[str, float]) -> list:
+        """An M or Q element idealised: a switch, the VDMOS body diode (netlist.devices);
+        ``env`` the parameters its W, L and m read."""
         # (imported by the circuits that have devices: 1 ms of the others' start)
+        from . import devices
         from .devices import Replacement, channel_checks, dropped_parts, gate_rc, threshold
 
         name = prefix + el.name if prefix else el.name
@@ -518,8 +521,10 @@ class _Builder:
         out: list = [Switch(name, (a, b), loc, control, sw_model, None,
                             device=(el.kind, nodes, model.name),
                             gate_rc=gate_rc(el, model, 0.0))]
-        self.circuit.knees += channel_checks(name, el, model, control, a, thr, loc, False,
-                                             (self.temp, self.tnom))
+        self.circuit.knees += channel_checks(
+            name, el, model, control, a, thr, loc, False, (self.temp, self.tnom),
+            geometry=devices.instance_geometry(el, env, self.deck.options)
+            if el.kind == "M" else None)
         body = None
         if mt == "VDMOS":
             body = f"{name}_body"
@@ -533,10 +538,11 @@ class _Builder:
                                                      loc))
         return out
 
-    def macro(self, el: RawElement, sub, macro, name: str, port_map: Mapping[str, str]
-              ) -> None:
+    def macro(self, el: RawElement, sub, macro, name: str, port_map: Mapping[str, str],
+              env: Mapping[str, float]) -> None:
         """A device macro-model instance as one ideal switch (and body diode) or one ideal
-        diode between its ports (netlist.devices.classify_macro)."""
+        diode between its ports (netlist.devices.classify_macro); ``env`` the parameters of
+        the instance (its transistor's W, L and m read them)."""
         from . import devices
         from .devices import Replacement, gate_rc, series_path, subckt_text, threshold
 
@@ -597,7 +603,8 @@ class _Builder:
                                             gate_rc=gate_rc(dev, model, rg, cgd)))
         self.circuit.knees += devices.channel_checks(
             name, dev, model, control, a, thr, loc, macro.body is not None,
-            (self.temp, self.tnom), macro.igbt)
+            (self.temp, self.tnom), macro.igbt,
+            devices.instance_geometry(dev, env, self.deck.options) if dev.kind == "M" else None)
         body = None
         if macro.body is not None or mt == "VDMOS":
             body = f"{name}_body"
@@ -675,7 +682,8 @@ class _Builder:
             self._macros[key] = classify_macro(sub)
         macro = self._macros[key]
         if macro is not None:
-            self.macro(el, sub, macro, f"{name_prefix}{el.name}", port_map)
+            self.macro(el, sub, macro, f"{name_prefix}{el.name}", port_map,
+                       ChainMap(values, self.global_env))
             return
         self.expand(sub.body, f"{name_prefix}{el.name}.", f"{node_prefix}{el.name.lower()}.",
                     port_map, ChainMap(values, self.global_env),

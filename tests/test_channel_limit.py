@@ -155,7 +155,54 @@ def test_a_continuation_stops_where_the_orbit_saturates_the_switch(tmp_path, cap
     assert "continuation stopped at" in out
 
 
-def test_no_bound_where_a_size_is_an_expression_pelcs_does_not_evaluate_there():
+def test_a_size_written_as_an_expression_is_evaluated():
+    # (ngspice evaluates W={wid}: 1 m over its default L of 100 um, KP W/L = 0.2 A/V²)
     deck = BUCK.format(kp="2e-5", edge="10n").replace("M1 in g sw sw NM",
                                                       ".param wid=1\nM1 in g sw sw NM W={wid}")
-    assert not [k for k in parse(deck).knees if isinstance(k, ChannelLimit)]
+    assert limit_of(parse(deck)).beta == pytest.approx(0.2)
+
+
+def ngspice_current_of(deck_lines: str, vgs: float, vds: float) -> float:
+    """ngspice's drain current, A, of M1 (drain d, gate g, source 0) in ``deck_lines`` (its
+    models, parameters, options and subcircuits) at a DC bias."""
+    deck = (f"bias\nVg g 0 {vgs}\nVd d 0 {vds}\n{deck_lines}\n.control\nop\nprint -i(vd)\n"
+            ".endc\n.end\n")
+    out = subprocess.run(["ngspice", "-b"], input=deck, capture_output=True, text=True,
+                         timeout=60).stdout
+    return float(re.search(r"-i\(vd\)\s*=\s*(\S+)", out).group(1))
+
+
+@pytest.mark.parametrize("lines", [
+    # W, L and m from parameters, braced or not (ngspice evaluates both)
+    ".param wn=10m mm=2\nM1 d g 0 0 nm W=wn L={0.5u*2} m={mm}",
+    # .options scale multiplies W and L (not LD): W/Leff = 100/(1 - 0.4)
+    ".options scale=1u\nM1 d g 0 0 nm W=100 L=1",
+    # a subcircuit's parameter, overridden on its instance
+    ".subckt sw d g s params: wn=1m\nM1 d g s s nm W={wn} L=1u\n.ends\nX1 d g 0 sw wn=10m",
+])
+def test_w_l_and_m_are_read_as_ngspice_reads_them(ngspice, lines):
+    model = ".model nm nmos(vto=1 kp=2e-5 ld=0.2u)"
+    c = parse(f"geometry\nVg g 0 5\nVd d 0 1\n{lines}\n{model}\n.tran 1u 10u\n.end\n")
+    limit = limit_of(c)
+    reference = ngspice_current_of(f"{lines}\n{model}", limit.vto + 2.0, 2.0)
+    assert float(limit.limit(2.0)) == pytest.approx(reference, rel=1e-4)
+
+
+def test_no_bound_where_w_or_l_is_an_expression_pelcs_cannot_evaluate():
+    # (Xyce's agauss: the bound would be ngspice's default L of 100 um, a guess)
+    c = parse("unknown L\nVg g 0 5\nVd d 0 1\nM1 d g 0 0 nm W=10u L='agauss(5,0.5,1)'\n"
+              ".model nm nmos(vto=1 kp=2e-5)\n.tran 1u 10u\n.end\n")
+    assert not [k for k in c.knees if isinstance(k, ChannelLimit)]
+
+
+def test_a_switch_whose_width_is_a_parameter_is_not_refused(ngspice):
+    # W = 10 mm: 8.1 A at the gate's 10 V, where the 1 A load leaves ngspice's drain at
+    # 0.54 V; W read as ngspice's default 100 um would bound it at 81 mA
+    deck = ("W from a parameter\n.param wn=10m\nV1 in 0 10\nVg g 0 PULSE(0 10 0 10n 10n 5u 10u)"
+            "\nR1 in d 10\nM1 d g 0 0 nm W=wn L=1u\n.model nm NMOS(KP=2e-5 VTO=1)\n"
+            ".tran 10n 40u\n.end\n")
+    res = simulate_circuit(parse(deck), probes=["v(d)"])
+    assert not any(n.startswith("M1: on as a switch") for n in res.notes)
+    on = ngspice_current_of(".param wn=10m\nM1 d g 0 0 nm W=wn L=1u\n"
+                            ".model nm NMOS(KP=2e-5 VTO=1)", 10.0, 0.5417636)
+    assert on == pytest.approx(0.9458, rel=1e-3)  # (10 - 0.54) V / 10 ohm: fully on
