@@ -117,9 +117,10 @@ def elaborate_knee(el: RawElement, prefix: str, mapnode: Callable[[str], str],
 
 
 #: a run written as it goes (to a file, or onto an output grid) that would keep more steps
-#: than this for a check it may leave out (:attr:`droppable`: a MOSFET's reverse channel,
-#: present in every circuit of NMOS/PMOS switches) leaves it out and says so: keeping every
-#: step of a long run is what writing as it goes avoids (a 2 s boost: 866 MB, not 57 MB)
+#: than this for a check it may leave out (:attr:`droppable`, with what it leaves
+#: :attr:`unchecked`: a MOSFET's reverse channel and its channel's current bound, present in
+#: every circuit of MOSFET switches) leaves it out and says so: keeping every step of a long
+#: run is what writing as it goes avoids (a 2 s boost: 866 MB, not 57 MB)
 KNEE_STEPS = 1_000_000
 
 
@@ -130,9 +131,16 @@ def knees_for_run(knees: Sequence, steps: float, streaming: bool) -> tuple[tuple
     dropped = [k for k in knees if getattr(k, "droppable", False)]
     if not dropped:
         return tuple(knees), None
+    per: dict[str, list[str]] = {}  # element -> what goes unchecked
+    for k in dropped:
+        per.setdefault(k.name, []).append(k.unchecked)
+    groups: dict[tuple[str, ...], list[str]] = {}  # the same checks left out -> elements
+    for name, what in per.items():
+        groups.setdefault(tuple(what), []).append(name)
     return tuple(k for k in knees if k not in dropped), (
-        f"{', '.join(k.name for k in dropped)}: not checked for a channel that would conduct "
-        f"backwards in this run of {steps:.3g} steps written as it goes (the check keeps every "
+        "; ".join(f"{', '.join(names)}: not checked for {', or for '.join(what)}"
+                  for what, names in groups.items())
+        + f" in this run of {steps:.3g} steps written as it goes (the checks keep every "
         f"step, past {KNEE_STEPS:,}): a shorter run, or one that keeps its steps, checks it")
 
 

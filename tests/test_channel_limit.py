@@ -206,3 +206,19 @@ def test_a_switch_whose_width_is_a_parameter_is_not_refused(ngspice):
     on = ngspice_current_of(".param wn=10m\nM1 d g 0 0 nm W=wn L=1u\n"
                             ".model nm NMOS(KP=2e-5 VTO=1)", 10.0, 0.5417636)
     assert on == pytest.approx(0.9458, rel=1e-3)  # (10 - 0.54) V / 10 ohm: fully on
+
+
+def test_a_long_streamed_run_leaves_the_bound_out_and_says_so(monkeypatch):
+    # the bound, like the reverse channel's check, keeps every step: in every circuit of
+    # level-1 switches a 2 s boost written to a CSV held 334 MB where it streams in 87 MB;
+    # past netlist.knee.KNEE_STEPS a streamed run leaves both out, and says so
+    import netlist.knee as knee
+
+    monkeypatch.setattr(knee, "KNEE_STEPS", 100)
+    circuit = parse(BUCK.format(kp="2e-5", edge="10n"))
+    res = simulate_circuit(circuit, probes=["v(out)"], output_step=1e-6)
+    assert any(n.startswith("M1: not checked for a channel that would conduct backwards, or "
+                            "for a channel carrying more than its gate voltage allows in this "
+                            "run of") for n in res.notes)
+    with pytest.raises(NetlistError, match="M1 .NMOS. is on as a switch and carries"):
+        simulate_circuit(circuit, probes=["v(out)"])  # (a run that keeps its steps)
