@@ -486,6 +486,7 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
     merged = parallel_diodes(circuit)
     given = {str(k).lower(): v for k, v in (explicit or {}).items()}
     out, fits = [], []
+    gated: dict[str, tuple[str, str]] = {}  # switch -> its control behind its gate RC
     for el in circuit.elements:
         if el.key in merged:
             continue  # carried by the diode it is in parallel with (one pair)
@@ -536,13 +537,33 @@ def pwl_circuit(circuit: Circuit, i_max: dict[str, float], drives: dict[str, flo
             if gate is not None:
                 el, gate_parts = _gate(el, *gate)
                 out.extend(gate_parts)
+                gated[el.name] = el.control
                 how += (f"; gate {gate[0]:.3g} Ω (inside the device), Cgs {gate[1]:.3g} F, "
                         f"Cgd {gate[2]:.3g} F")
             fits.append(PwlFit(el.name, vdrop, ron, how))
             out.extend(_series(el, vdrop, ron))
         else:
             out.append(el)
-    return replace(circuit, elements=out), fits
+    return replace(circuit, elements=out, knees=_gated_knees(circuit.knees, gated)), fits
+
+
+def _gated_knees(knees: list, gated: dict[str, tuple[str, str]]) -> list:
+    """``knees`` with a MOSFET's channel checks (:mod:`netlist.devices`) reading the control
+    its switch turns on in the pwl circuit, ``gated`` by switch name: behind its gate
+    resistance, where the channel's gate is (the terminal's voltage leads it by the RC's
+    delay, and read there the checks missed the slow edges a gate resistor makes)."""
+    from .devices import ChannelLimit, ReverseChannel
+
+    out = []
+    for k in knees:
+        control = gated.get(getattr(k, "name", None))
+        if control is not None and isinstance(k, ChannelLimit):
+            k = replace(k, control=control)
+        elif control is not None and isinstance(k, ReverseChannel):
+            drain = k.reverse[1] if k.device == "NMOS" else k.reverse[0]
+            k = ReverseChannel.of(k.name, k.device, control, drain, k.threshold, k.location)
+        out.append(k)
+    return out
 
 
 def junction_models(circuit: Circuit, el: Diode, merged: dict
