@@ -445,6 +445,20 @@ def _chord_fits(params: list[dict], series: float, lo: float, hi: float, most: i
         yield k, fit
 
 
+def _channel(circuit: Circuit, sw: Switch, params: dict) -> tuple[float, float, str]:
+    """An idealised MOSFET's channel: the factor of its triode conductance ``KP W/Leff m``
+    (A/V²), its threshold as a positive control voltage (V, signed: a depletion device's is
+    negative) and the factor's name, from its :class:`netlist.devices.ChannelLimit` (W, L
+    and m as ngspice reads them); without one (a model other than level 1 or VDMOS), KP
+    and ``|VTO|`` of the model ``params``."""
+    from .devices import ChannelLimit
+
+    for k in circuit.knees:
+        if isinstance(k, ChannelLimit) and k.name == sw.name:
+            return k.beta, k.vto, "KP" if k.device == "VDMOS" else "KP W/L"
+    return params.get("kp", 0.0), abs(params.get("vto", params.get("vth", 0.0))), "KP"
+
+
 def switch_resistance(circuit: Circuit, sw: Switch, drive: float | None) -> tuple[float, float,
                                                                                    str]:
     """``(Ron, Vdrop, how)`` of a switch when on (Ω, V)."""
@@ -462,11 +476,10 @@ def switch_resistance(circuit: Circuit, sw: Switch, drive: float | None) -> tupl
     p = {k.lower(): float(v) for k, v in (m.params.items() if m else ())}
     if m is not None and m.type in ("NPN", "PNP"):
         return p.get("rc", 0.0) + p.get("re", 0.0) + extra, 0.2, "RC + RE, 0.2 V saturation"
-    vt = abs(p.get("vto", p.get("vth", 0.0)))
-    kp = p.get("kp", 0.0)
+    kp, vt, what = _channel(circuit, sw, p)
     vgs = drive if drive is not None else vt + 5.0
     r_ch = 1.0 / (kp * max(vgs - vt, 0.1)) if kp > 0 else 0.0
-    how = (f"RD + RS + 1/(KP (Vgs - VTO)) at Vgs = {vgs:.3g} V" if kp > 0
+    how = (f"RD + RS + 1/({what} (Vgs - VTO)) at Vgs = {vgs:.3g} V" if kp > 0
            else "RD + RS (no KP)")
     if extra:
         how += f" + the macro's series resistors {extra:.3g} Ω"
@@ -645,7 +658,7 @@ def switch_residual(circuit: Circuit, sw: Switch, ron: float, i_max: float,
     if m is not None and m.type in ("NPN", "PNP"):
         return 0.2
     p = {k.lower(): float(v) for k, v in (m.params.items() if m else ())}
-    kp, vt = p.get("kp", 0.0), abs(p.get("vto", p.get("vth", 0.0)))
+    kp, vt, _ = _channel(circuit, sw, p)
     if kp <= 0:
         return 0.0
     vov = max((drive if drive is not None else vt + 5.0) - vt, 0.1)

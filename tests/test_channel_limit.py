@@ -254,3 +254,27 @@ def test_a_pwl_run_reads_the_gate_behind_its_resistance(ngspice, tmp_path):
     # the ideal gate turns at once: no edge to note
     res = simulate_circuit(parse(SLOW_GATE), probes=["v(d)"])
     assert not any(n.startswith("M1: on as a switch") for n in res.notes)
+
+
+WIDE_SWITCH = """level-1 switch, W 10 mm L 1 um
+V1 in 0 10
+Vg g 0 PULSE(0 10 0 10n 10n 5u 10u)
+R1 in d 10
+M1 d g 0 0 nm W=10m L=1u
+.model nm NMOS(KP=2e-5 VTO=1)
+.tran 10n 40u
+.end
+"""
+
+
+def test_a_pwl_switch_s_on_resistance_is_its_channel_s_with_w_over_l(ngspice, tmp_path):
+    # KP W/L = 0.2 A/V²: 0.556 ohm at the gate's 10 V, as ngspice's drain at 10 mV (KP alone
+    # gave 5.56 kohm: the pwl run's drain at 10 V when on, where ngspice's is at 0.54 V)
+    res = simulate_devices(parse(WIDE_SWITCH), devices="pwl", probes=["v(d)"])
+    (fit,) = [f for f in res.device_fits if f.element == "M1"]
+    r_ngspice = 0.01 / ngspice_current_of("M1 d g 0 0 nm W=10m L=1u\n"
+                                          ".model nm NMOS(KP=2e-5 VTO=1)", 10.0, 0.01)
+    assert fit.ron == pytest.approx(r_ngspice, rel=0.01)
+    ng = ngspice_wrdata(WIDE_SWITCH, ["v(d)"], tmp_path)
+    mean_ng = float(np.mean(np.interp(res.t, ng[:, 0], ng[:, 1])))
+    assert float(np.mean(res.y[:, 0])) == pytest.approx(mean_ng, rel=0.02)
