@@ -6,6 +6,8 @@ circuit's)."""
 
 from __future__ import annotations
 
+import contextlib
+import io
 import re
 import subprocess
 import warnings
@@ -20,6 +22,7 @@ from netlist.errors import NetlistError
 from netlist.parser import parse_string
 from netlist.studies.realistic import simulate_devices
 from netlist.studies.transient import simulate_circuit
+from pelcs.cli import main
 
 
 def parse(text: str):
@@ -278,3 +281,23 @@ def test_a_pwl_switch_s_on_resistance_is_its_channel_s_with_w_over_l(ngspice, tm
     ng = ngspice_wrdata(WIDE_SWITCH, ["v(d)"], tmp_path)
     mean_ng = float(np.mean(np.interp(res.t, ng[:, 0], ng[:, 1])))
     assert float(np.mean(res.y[:, 0])) == pytest.approx(mean_ng, rel=0.02)
+
+
+def test_an_orbit_is_checked_from_its_own_point(tmp_path):
+    # the orbit of BUCK with 1 us gate edges: i(L1) 1.21 A at t = 0, v(C1) 6.72 V. Its
+    # knee check ran from the DC operating point (a .tran without UIC), where L1 starts at
+    # 0 A, and gave 20 ns at the turn-off edge only; from the orbit's point the switch
+    # carries 1.20 A at turn-on (the gate at 10 V/us through the 0.49 V over VTO that
+    # takes: 49 ns) and 1.49 A at turn-off (0.55 V: 55 ns), 104 ns a period, which the
+    # steps of 10 ns count less one step at each end of each edge
+    path = tmp_path / "buck.cir"
+    path.write_text(BUCK.format(kp="10", edge="1u").replace(".tran 0.1u", ".tran 0.01u"))
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(out):
+        assert main(["orbit", str(path)]) == 0
+    (note,) = [n for n in out.getvalue().splitlines()
+               if n.startswith("note: orbit, checked over its 1 period(s): M1: on as a switch")]
+    total = float(re.search(r"for (\S+) s of the run in all", note).group(1))
+    start = float(re.search(r"from t = (\S+) s", note).group(1))
+    assert 104e-9 - 4 * 10e-9 <= total <= 104e-9
+    assert start == pytest.approx(0.21e-6)  # the turn-on edge: the gate at 2 V at 0.2 us
