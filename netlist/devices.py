@@ -254,8 +254,10 @@ class ChannelLimit:
                 + f" ({'KP' if vdmos else 'KP W/L'} = {self.beta:.4g} A/V²)")
 
     def outside(self, q: float, t: float, total: float = 0.0) -> Diagnostic:
+        # (a bound of 0: on past a --threshold under VTO, where a level-1 channel is shut)
+        times = f"{q + 1:.3g} times" if math.isfinite(q) else "current past"
         return Diagnostic(
-            f"{self.name} ({self.device}) is on as a switch and carries {q + 1:.3g} times "
+            f"{self.name} ({self.device}) is on as a switch and carries {times} "
             f"{self._what()} at t = {t:.6g} s, for {total:.3g} s of the run in all: "
             "there the real device saturates, its drain rising to whatever the circuit "
             "sets (its active region, as in ngspice), where the ideal switch shorts it, so "

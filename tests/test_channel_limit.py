@@ -301,3 +301,11 @@ def test_an_orbit_is_checked_from_its_own_point(tmp_path):
     start = float(re.search(r"from t = (\S+) s", note).group(1))
     assert 104e-9 - 4 * 10e-9 <= total <= 104e-9
     assert start == pytest.approx(0.21e-6)  # the turn-on edge: the gate at 2 V at 0.2 us
+
+
+def test_a_switch_on_under_vto_is_said_to_carry_current_past_a_shut_channel():
+    # --threshold 1 V under VTO 2 V: between the two the level-1 channel carries nothing
+    limit = ChannelLimit("M1", "NMOS", ("g", "0"), 1.0, 2.0, 1.0)
+    q = float(limit.quantity([np.array([0.5]), np.array([1.5])])[0])
+    assert q == np.inf
+    assert "carries current past the most its channel carries" in limit.outside(q, 0.0).message
