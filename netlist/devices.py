@@ -577,13 +577,15 @@ def _instance_value(el, key: str, default: float) -> float | None:
     return float(v) if v is not None else None
 
 
-def gate_rc(el, model, rg: float, cgd: float = 0.0
-             ) -> tuple[float, float, float] | None:
+def gate_rc(el, model, rg: float, cgd: float = 0.0,
+            geometry: tuple[float, float, float] | None = None
+            ) -> tuple[float, float, float] | None:
     """An idealised MOSFET's gate as a linear RC: (R Ω, Cgs F, Cgd F), or None (a BJT, no
     capacitance).
 
-    At a fixed bias: for a level-1..3 model the overlap capacitances ``CGSO W`` and ``CGDO W``
-    (W the instance's, ngspice's default 100 µm); for a VDMOS ``CGS`` and ``CGDMAX``; plus
+    At a fixed bias: for a level-1..3 model the overlap capacitances ``CGSO W m`` and ``CGDO W
+    m`` (W and m the instance's, ``geometry`` as :func:`instance_geometry` reads them; W read
+    from the line, ngspice's default 100 µm, without it); for a VDMOS ``CGS`` and ``CGDMAX``; plus
     ``cgd``, a macro-model's gate-drain feedback capacitor. R is the model's ``RG`` (VDMOS)
     plus ``rg``, the macro-model's resistor between its gate port and the channel's gate.
     They set the switching instants: the switch turns when the gate-source capacitor's
@@ -597,7 +599,9 @@ def gate_rc(el, model, rg: float, cgd: float = 0.0
         cgs, cgd = p.get("cgs", 0.0), cgd + p.get("cgdmax", 0.0)
         rg += p.get("rg", 0.0)
     else:
-        w = _instance_length(el, "w", 100e-6)
+        w = _instance_length(el, "w", _DEFAULT_LENGTH)
+        if geometry is not None and math.isfinite(geometry[0] * geometry[2]):
+            w = geometry[0] * geometry[2]  # (ngspice's overlap capacitances: W m)
         cgs, cgd = p.get("cgso", 0.0) * w, cgd + p.get("cgdo", 0.0) * w
     return (rg, cgs, cgd) if cgs + cgd > 0 else None
 

@@ -518,13 +518,14 @@ class _Builder:
         control = (b, g) if pchan else (g, b)
         sw_model = f"pelcs_sw_{name.lower().replace('.', '_')}"
         self.circuit.models[sw_model] = Model(sw_model, "SW", {**SW_DEFAULTS, "vt": thr}, loc)
+        geometry = (devices.instance_geometry(el, env, self.deck.options) if el.kind == "M"
+                    else None)
         out: list = [Switch(name, (a, b), loc, control, sw_model, None,
                             device=(el.kind, nodes, model.name),
-                            gate_rc=gate_rc(el, model, 0.0))]
+                            gate_rc=gate_rc(el, model, 0.0, geometry=geometry))]
         self.circuit.knees += channel_checks(
             name, el, model, control, a, thr, loc, False, (self.temp, self.tnom),
-            geometry=devices.instance_geometry(el, env, self.deck.options)
-            if el.kind == "M" else None)
+            geometry=geometry)
         body = None
         if mt == "VDMOS":
             body = f"{name}_body"
@@ -598,13 +599,14 @@ class _Builder:
                     for n in e.nodes[:2]} - {"0"}
         cgd = sum(self._resistance(e) for e in sub.body.elements if e.kind == "C"
                   and {n.lower() for n in e.nodes[:2]} & feedback)
+        geometry = (devices.instance_geometry(dev, env, self.deck.options)
+                    if dev.kind == "M" else None)
         self.circuit.elements.append(Switch(name, (a, b), loc, control, sw_model, None,
                                             device=(*origin, model.name, series),
-                                            gate_rc=gate_rc(dev, model, rg, cgd)))
+                                            gate_rc=gate_rc(dev, model, rg, cgd, geometry)))
         self.circuit.knees += devices.channel_checks(
             name, dev, model, control, a, thr, loc, macro.body is not None,
-            (self.temp, self.tnom), macro.igbt,
-            devices.instance_geometry(dev, env, self.deck.options) if dev.kind == "M" else None)
+            (self.temp, self.tnom), macro.igbt, geometry)
         body = None
         if macro.body is not None or mt == "VDMOS":
             body = f"{name}_body"

@@ -309,3 +309,11 @@ def test_a_switch_on_under_vto_is_said_to_carry_current_past_a_shut_channel():
     q = float(limit.quantity([np.array([0.5]), np.array([1.5])])[0])
     assert q == np.inf
     assert "carries current past the most its channel carries" in limit.outside(q, 0.0).message
+
+
+def test_the_gate_s_overlap_capacitances_are_cgso_w_m_with_w_from_a_parameter():
+    # ngspice's level-1 overlap capacitances are CGSO W m and CGDO W m: 1n/m x 10 mm x 2
+    c = parse("gate\n.param wn=10m\nVg g 0 5\nVd d 0 1\nM1 d g 0 0 nm W=wn L=1u m=2\n"
+              ".model nm nmos(vto=1 kp=2e-5 cgso=1n cgdo=0.5n)\n.tran 1u 10u\n.end\n")
+    (sw,) = [e for e in c.elements if e.name == "M1"]
+    assert sw.gate_rc == pytest.approx((0.0, 20e-12, 10e-12))
