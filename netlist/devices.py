@@ -255,10 +255,12 @@ class ChannelLimit:
 
     def outside(self, q: float, t: float, total: float = 0.0) -> Diagnostic:
         # (a bound of 0: on past a --threshold under VTO, where a level-1 channel is shut)
+        # (q: the median excess over the time counted, netlist.knee.check_knees)
         times = f"{q + 1:.3g} times" if math.isfinite(q) else "current past"
         return Diagnostic(
             f"{self.name} ({self.device}) is on as a switch and carries {times} "
-            f"{self._what()} at t = {t:.6g} s, for {total:.3g} s of the run in all: "
+            f"{self._what()} (the median over the {total:.3g} s of the run it is over it, "
+            f"from t = {t:.6g} s): "
             "there the real device saturates, its drain rising to whatever the circuit "
             "sets (its active region, as in ngspice), where the ideal switch shorts it, so "
             "the run is not this circuit", self.location,

@@ -170,7 +170,8 @@ def check_knees(knees: Sequence, result, extra: int) -> None:
     One with a ``share`` (a fraction) may leave for up to that share of the run's time
     (counted between consecutive steps both outside; a lone step is an instant): its
     ``outside(value, t, total)`` is the error past it (``total`` s outside in all), its
-    ``brief(t, total)`` the note below it (:class:`netlist.devices.ChannelLimit`).
+    ``brief(t, total)`` the note below it (:class:`netlist.devices.ChannelLimit`); the
+    error's value is the median over the points counted, its time the first.
 
     Raises
     ------
@@ -195,7 +196,11 @@ def check_knees(knees: Sequence, result, extra: int) -> None:
             if both.size:
                 total, i = float(np.diff(t)[both].sum()), int(both[0])
                 if total > share * (t[-1] - t[0]):
-                    raise NetlistError(k.outside(float(q[i]), float(t[i]), total))
+                    # (the median over the points counted: the first may stand just past
+                    # the knee, and the largest where the gate has just turned the switch)
+                    counted = q[np.union1d(both, both + 1)]
+                    raise NetlistError(k.outside(float(np.median(counted)), float(t[i]),
+                                                 total))
                 result.notes.append(k.brief(float(t[i]), total))
             continue
         if bad.size:
