@@ -330,14 +330,15 @@ def channel_limit(name: str, el, model, control: tuple[str, str], threshold_v: f
 def channel_checks(name: str, el, model, control: tuple[str, str], drain: str,
                    threshold_v: float, location: Location | None, body: bool,
                    temps: tuple[float, float], igbt: bool = False,
-                   geometry: tuple[float, float, float] | None = None) -> list:
+                   scope: tuple[Mapping[str, float], Mapping[str, str]] | None = None) -> list:
     """The knees (:mod:`netlist.knee`) of a MOSFET ``el`` idealised as a switch on
     ``control`` past ``threshold_v``: its :class:`ReverseChannel` where it has no body diode
     (``body`` False, an NMOS or PMOS model), its :class:`ChannelLimit` where pelcs has one;
     for a BJT its :class:`netlist.base_drive.BaseDrive` (its resistors read later).
     ``temps``: the circuit's temperature and its nominal one, °C; ``igbt``:
     the MOSFET drives the macro-model's output transistor, whose current has no such bound;
-    ``geometry``: its W, L and m (:func:`instance_geometry`)."""
+    ``scope``: the parameters and ``.options`` its W, L and m read (:func:`instance_geometry`;
+    None: numbers on its line)."""
     if model.type in ("NPN", "PNP") and not igbt:
         from .base_drive import BaseDrive
 
@@ -351,6 +352,7 @@ def channel_checks(name: str, el, model, control: tuple[str, str], drain: str,
         out.append(ReverseChannel.of(name, model.type, control, drain, threshold_v, location))
     tnom = model.params.get("tnom", temps[1])
     nominal = isinstance(tnom, (int, float)) and abs(temps[0] - float(tnom)) < 1e-9
+    geometry = instance_geometry(el, *scope) if scope is not None else None
     limit = None if igbt else channel_limit(name, el, model, control, threshold_v, location,
                                             nominal, geometry)
     return out + ([limit] if limit is not None else [])
@@ -580,14 +582,15 @@ def _instance_value(el, key: str, default: float) -> float | None:
 
 
 def gate_rc(el, model, rg: float, cgd: float = 0.0,
-            geometry: tuple[float, float, float] | None = None
+            scope: tuple[Mapping[str, float], Mapping[str, str]] | None = None
             ) -> tuple[float, float, float] | None:
     """An idealised MOSFET's gate as a linear RC: (R Ω, Cgs F, Cgd F), or None (a BJT, no
     capacitance).
 
     At a fixed bias: for a level-1..3 model the overlap capacitances ``CGSO W m`` and ``CGDO W
-    m`` (W and m the instance's, ``geometry`` as :func:`instance_geometry` reads them; W read
-    from the line, ngspice's default 100 µm, without it); for a VDMOS ``CGS`` and ``CGDMAX``; plus
+    m`` (W and m the instance's, read on ``scope``'s parameters and ``.options`` as
+    :func:`instance_geometry` reads them; without it W from the line, ngspice's default 100 µm
+    where not a number); for a VDMOS ``CGS`` and ``CGDMAX``; plus
     ``cgd``, a macro-model's gate-drain feedback capacitor. R is the model's ``RG`` (VDMOS)
     plus ``rg``, the macro-model's resistor between its gate port and the channel's gate.
     They set the switching instants: the switch turns when the gate-source capacitor's
@@ -602,6 +605,7 @@ def gate_rc(el, model, rg: float, cgd: float = 0.0,
         rg += p.get("rg", 0.0)
     else:
         w = _instance_length(el, "w", _DEFAULT_LENGTH)
+        geometry = instance_geometry(el, *scope) if scope is not None else None
         if geometry is not None and math.isfinite(geometry[0] * geometry[2]):
             w = geometry[0] * geometry[2]  # (ngspice's overlap capacitances: W m)
         cgs, cgd = p.get("cgso", 0.0) * w, cgd + p.get("cgdo", 0.0) * w

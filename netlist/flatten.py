@@ -488,16 +488,14 @@ class _Builder:
             prefix + vname, el.ref, el.state, loc, self.circuit,
             lambda message, hint: self.error(message, el.st.loc(el.ref_offset), hint, (name,)))
 
-    def device(self, el: RawElement, prefix: str, mapnode: Callable[[str], str],
-               env: Mapping[str, float]) -> list:
+    def device(self, el: RawElement, prefix: str, mapnode: Callable[[str], str], env) -> list:
         """An M or Q element idealised: a switch, the VDMOS body diode (netlist.devices);
-        ``env`` the parameters its W, L and m read."""
+        ``env``: the parameters its W, L and m= read (netlist.devices.instance_geometry)."""
         # (imported by the circuits that have devices: 1 ms of the others' start)
-        from . import devices
         from .devices import Replacement, channel_checks, dropped_parts, gate_rc, threshold
 
         name = prefix + el.name if prefix else el.name
-        loc = el.st.loc(0)
+        loc, scope = el.st.loc(0), (env, self.deck.options)
         nodes = tuple(map(mapnode, el.nodes))
         model = self.circuit.models.get(el.ref.lower())
         want = ("NMOS", "PMOS", "VDMOS") if el.kind == "M" else ("NPN", "PNP")
@@ -518,14 +516,11 @@ class _Builder:
         control = (b, g) if pchan else (g, b)
         sw_model = f"pelcs_sw_{name.lower().replace('.', '_')}"
         self.circuit.models[sw_model] = Model(sw_model, "SW", {**SW_DEFAULTS, "vt": thr}, loc)
-        geometry = (devices.instance_geometry(el, env, self.deck.options) if el.kind == "M"
-                    else None)
         out: list = [Switch(name, (a, b), loc, control, sw_model, None,
                             device=(el.kind, nodes, model.name),
-                            gate_rc=gate_rc(el, model, 0.0, geometry=geometry))]
-        self.circuit.knees += channel_checks(
-            name, el, model, control, a, thr, loc, False, (self.temp, self.tnom),
-            geometry=geometry)
+                            gate_rc=gate_rc(el, model, 0.0, scope=scope))]
+        self.circuit.knees += channel_checks(name, el, model, control, a, thr, loc, False,
+                                             (self.temp, self.tnom), scope=scope)
         body = None
         if mt == "VDMOS":
             body = f"{name}_body"
@@ -542,12 +537,11 @@ class _Builder:
     def macro(self, el: RawElement, sub, macro, name: str, port_map: Mapping[str, str],
               env: Mapping[str, float]) -> None:
         """A device macro-model instance as one ideal switch (and body diode) or one ideal
-        diode between its ports (netlist.devices.classify_macro); ``env`` the parameters of
-        the instance (its transistor's W, L and m read them)."""
+        diode between its ports (netlist.devices.classify_macro)."""
         from . import devices
         from .devices import Replacement, gate_rc, series_path, subckt_text, threshold
 
-        loc = el.st.loc(0)
+        loc, scope = el.st.loc(0), (env, self.deck.options)
         ports = {p.lower(): n for p, n in port_map.items()}
         inst_nodes = tuple(port_map[p] for p in sub.ports)
         origin = ("X", inst_nodes, sub.name)
@@ -599,14 +593,12 @@ class _Builder:
                     for n in e.nodes[:2]} - {"0"}
         cgd = sum(self._resistance(e) for e in sub.body.elements if e.kind == "C"
                   and {n.lower() for n in e.nodes[:2]} & feedback)
-        geometry = (devices.instance_geometry(dev, env, self.deck.options)
-                    if dev.kind == "M" else None)
         self.circuit.elements.append(Switch(name, (a, b), loc, control, sw_model, None,
                                             device=(*origin, model.name, series),
-                                            gate_rc=gate_rc(dev, model, rg, cgd, geometry)))
+                                            gate_rc=gate_rc(dev, model, rg, cgd, scope)))
         self.circuit.knees += devices.channel_checks(
             name, dev, model, control, a, thr, loc, macro.body is not None,
-            (self.temp, self.tnom), macro.igbt, geometry)
+            (self.temp, self.tnom), macro.igbt, scope)
         body = None
         if macro.body is not None or mt == "VDMOS":
             body = f"{name}_body"
@@ -678,18 +670,17 @@ class _Builder:
         values, child_failed = self.scope(sub.defaults + sub.body.params, fixed,
                                           self.global_env, self.global_failed)
         port_map = {port: mapnode(n) for port, n in zip(sub.ports, el.nodes, strict=True)}
+        scope_env = ChainMap(values, self.global_env)
         if key not in self._macros:
             from .devices import classify_macro
 
             self._macros[key] = classify_macro(sub)
         macro = self._macros[key]
         if macro is not None:
-            self.macro(el, sub, macro, f"{name_prefix}{el.name}", port_map,
-                       ChainMap(values, self.global_env))
+            self.macro(el, sub, macro, f"{name_prefix}{el.name}", port_map, scope_env)
             return
         self.expand(sub.body, f"{name_prefix}{el.name}.", f"{node_prefix}{el.name.lower()}.",
-                    port_map, ChainMap(values, self.global_env),
-                    child_failed | child_failed_extra, (*stack, key))
+                    port_map, scope_env, child_failed | child_failed_extra, (*stack, key))
 
     def element(self, el: RawElement, prefix: str, mapnode: Callable[[str], str],
                 env: Mapping[str, float], failed: set[str]) -> Element:
