@@ -273,7 +273,9 @@ class ChannelLimit:
                 f"{total:.3g} s of the run in all, from t = {t:.6g} s: there the real device is in "
                 "its active region (as at a start, or at a slow edge where the gate passes "
                 "the threshold with the switch carrying its load) and the waveforms are the "
-                "ideal switch's, not the circuit's")
+                "ideal switch's, not the circuit's; the real device, carrying less there, "
+                "may take longer to leave it (a start-up it limits lasts longer than the "
+                "ideal switch's)")
 
     def stayed(self, lo: float, hi: float) -> None:
         return None
