@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import re
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +18,7 @@ import pytest
 from ngspice_helpers import ngspice_print
 
 from lcs.theory.operating_point import dc_point
-from netlist.parser import parse_string
+from netlist.parser import parse_file, parse_string
 from netlist.studies.realistic import simulate_devices
 from pelcs.cli import main
 
@@ -97,9 +98,29 @@ def test_no_solution_is_said_only_with_its_proof():
     # changes (A = 0 there) is driven: "no solution" (proved)
     p = dc_point(np.zeros((1, 1)), np.zeros((1, 0)), np.zeros((0, 1)), np.zeros((0, 0)),
                  np.ones((1, 1)), np.zeros((0, 1)), np.array([1.0]), np.array([0.0]))
-    assert not p.ok and "the DC equations have no solution" in p.reason
+    assert not p.ok and "the DC equations have no solution" in p.reason and p.proved
     # a regular A whose diode's LCP has no solution at the point: not "no solution of the
     # DC equations" (x' = -x + u sets x = u = 1; the pair's w = -x - 1 = -2 < 0 whatever λ)
     p = dc_point(-np.eye(1), np.zeros((1, 1)), -np.eye(1), np.zeros((1, 1)), np.eye(1),
                  -np.ones((1, 1)), np.array([1.0]), np.array([0.0]))
     assert not p.ok and "the DC equations have no solution" not in p.reason
+    assert not p.proved
+
+
+def test_a_point_pelcs_does_not_find_is_not_said_to_be_none(tmp_path, ngspice):
+    # eSim's clamper with pwl diodes: capacitors that only the diodes' segments reach, where
+    # pelcs's leakage balance finds no point; ngspice's operating point is every node at
+    # 0 V (1e-17 V), the sources' value at t = 0, which is where pelcs's run starts too.
+    # The note says that pelcs found none, not that there is none
+    path = (Path(__file__).parent / "corpus" / "esim" / "Examples" / "Clampercircuit"
+            / "Clampercircuit.cir.out")
+    res = simulate_devices(parse_file(path), devices="pwl",
+                           probes=["v(out_neg)", "v(out_pos)"])
+    notes = [n for n in res.notes if "DC operating point" in n]
+    assert notes and all(n.startswith("pelcs finds no DC operating point") for n in notes)
+    deck = re.sub(r"(?ims)^\.control.*?^\.endc\s*$", "", path.read_text())
+    deck = re.sub(r"(?im)^\.tran.*$", ".op", deck)
+    ng = ngspice_print(deck, ["v(out_neg)", "v(out_pos)"], tmp_path,
+                       files={"D.lib": (path.parent / "D.lib").read_text()})
+    assert [ng["v(out_neg)"], ng["v(out_pos)"]] == pytest.approx([0.0, 0.0], abs=1e-12)
+    assert res.y[0] == pytest.approx([0.0, 0.0], abs=1e-12)

@@ -109,6 +109,10 @@ class DcPoint:
         The states that no DC equation sets (kept at their given values).
     reason : str
         Why there is no operating point ("" when ``ok``).
+    proved : bool
+        Whether ``reason`` proves that there is none (the DC equations' combination that
+        the sources drive and nothing else changes, :func:`_why_none`), or says only that
+        pelcs found none.
     """
 
     ok: bool
@@ -116,6 +120,7 @@ class DcPoint:
     lam: np.ndarray
     free: np.ndarray
     reason: str = ""
+    proved: bool = False
 
 
 def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.ndarray,
@@ -232,7 +237,7 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
         found = _active_set_point(A, B, C, D, E, F, u, x, lam)
         if found is not None:
             return DcPoint(True, found[0], found[1], free)
-    return DcPoint(False, x0.copy(), np.zeros(m), free, _why_none(A, E, u, left_null))
+    return DcPoint(False, x0.copy(), np.zeros(m), free, *_why_none(A, E, u, left_null))
 
 
 def _holds(A, B, C, D, E, F, x, lam, u) -> bool:
@@ -243,9 +248,9 @@ def _holds(A, B, C, D, E, F, x, lam, u) -> bool:
     return _dc_holds(A, B, E, x, lam, u) and _is_lcp_solution(lam, w, w_size)
 
 
-def _why_none(A, E, u, left_null) -> str:
-    """Why no operating point was found: the DC equations' proof that none exists where
-    they have one, else that pelcs's solve found none (which proves nothing).
+def _why_none(A, E, u, left_null) -> tuple[str, bool]:
+    """Why no operating point was found, and whether that proves there is none: the DC
+    equations' proof where they have one, else that pelcs's solve found none.
 
     The proof: a combination ``y`` of the DC equations that no state and no diode can
     change (``y^T A = 0``, ``y^T B = 0``: the left null space, where the diodes do not act,
@@ -257,13 +262,13 @@ def _why_none(A, E, u, left_null) -> str:
         size = np.abs(left_null.T) @ (np.abs(E) @ np.abs(u))
         if np.any(np.abs(drive) > DC_RESIDUAL * np.maximum(size, 1e-300)):
             return ("the DC equations have no solution (a DC current into a capacitor with "
-                    "no other path, or a DC voltage across an inductor loop)")
+                    "no other path, or a DC voltage across an inductor loop)", True)
     s = np.linalg.svd(A, compute_uv=False)
     cond = float(s[0] / s[-1]) if s.size and s[-1] > 0 else float("inf")
     return ("pelcs's solve of the DC equations and the diodes' complementarity found no "
             "point that satisfies them within their tolerances (the DC equations' matrix, "
             f"scaled by rows, has condition number {cond:.2g}); this is no proof that none "
-            "exists")
+            "exists", False)
 
 
 def _active_set_point(A, B, C, D, E, F, u, x, lam) -> tuple[np.ndarray, np.ndarray] | None:
