@@ -174,12 +174,15 @@ ALL_STEPS = {"ngspice/examples/p-to-n-examples/switch-oscillators.cir"}
 IDEAL_DEVICES: dict[str, str] = {
     "ngspice/paranoia_parallel/examples/vdmos/dcdc.sp":
         "refused with ideal devices (its start, over M1's bound: PELCS_REFUSES); with "
-        "--devices pwl pelcs finds no DC operating point (a note says so) and starts from "
-        "zero, its gate at 0 V, where ngspice's operating point has M1 on",
+        "--devices pwl too: its operating point has M1 on (as ngspice's, which saturates "
+        "at 0.93 A), carrying 5.4 A, 5.69 times its bound at t = 0 "
+        "(tests/test_ill_conditioned_operating_point.py)",
     "ngspice/examples/vdmos/dcdc.sp":
-        "with --devices pwl, M1's gate RC has Cgd 0.2 nF (above Cgs 0.12 nF): at 6 ms a "
+        "with --devices pwl, M1's gate RC has Cgd 0.2 nF (above Cgs 0.12 nF): at 5.7 ms a "
         "drain edge kicks the gate back across the threshold, the Miller plateau that an "
-        "ideal switch cannot sit on, and the run stops (chattering) with a note saying so",
+        "ideal switch cannot sit on, and the run stops (chattering); it starts from its "
+        "operating point, M1 on at 5.4 A, over M1's bound for 1.38 ms of those 5.7 ms, "
+        "and is refused for that",
 }
 
 # Compared files whose averages differ by more than 5 %: file -> why (measured figures).

@@ -76,7 +76,8 @@ class AuxiliaryPoint:
                            f"the operating point's constraints cannot hold in this mode: {first}")
         free = np.abs(out.Cy[:, point.free]).max(axis=1, initial=0.0) > 1e-9
         if not point.ok:
-            return DcPoint(False, x0.copy(), np.zeros_like(point.lam), free, point.reason)
+            return DcPoint(False, x0.copy(), np.zeros_like(point.lam), free, point.reason,
+                           point.proved)
         x = out.Cy @ point.x + out.Dy @ point.lam + out.Fy @ u
         return DcPoint(True, x, point.lam, free)
 

@@ -223,7 +223,10 @@ def _initial_state(problem: Problem, plan: SwitchPlan, mode_src: ModeKey, src_ma
     if point is not None and not point.ok:
         states = problem.system.states
         free = ", ".join(states[i] for i in np.flatnonzero(point.free))
-        notes.append(f"no DC operating point ({point.reason}"
+        # (where the reason proves nothing, the note says only that pelcs found none: a
+        # capacitor that only diodes reach, whose leakage ngspice balances)
+        found = "no DC operating point" if point.proved else "pelcs finds no DC operating point"
+        notes.append(f"{found} ({point.reason}"
                      + (f"; the states the DC equations leave free: {free}" if free else "")
                      + "): the run starts from the initial conditions, as ngspice with UIC")
     elif point is not None and point.free.any():

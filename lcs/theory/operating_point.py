@@ -23,9 +23,18 @@ open switches' leaks choose one (:func:`_along_lcp`). Where diodes act on the fr
 that holds only with those diodes' ``λ = 0``, the diodes' leakage sets the states, as in
 ngspice: the least squares of those diodes' voltages within their bounds
 (:func:`_leak_balanced`: a diode from 10 V into a lone capacitor charges it to 10 V).
+The point found is checked: the DC equations and the diodes' complementarity, each within
+its tolerance. Where ``A`` is regular but ill-conditioned (a regulator's error amplifier,
+its gain of 1e7 before its clamps, leaves a condition number of 1e10 to 1e12), the point
+through ``A⁺`` can fail that check though one exists; it is then solved again with the
+diodes' pairs as equations, conducting or blocking as the first point has them, each pair
+on the wrong side changed in turn (:func:`_active_set_point`), a system that the clamps'
+equations make well-conditioned again.
 There is no operating point when the DC equations cannot hold (a DC current into a
 capacitor with no other path, a voltage across an inductor loop: the state would grow
-without bound) or when the LCP has no solution; the result says which.
+without bound, proved by a combination of the DC equations that no state and no diode
+changes and the sources drive) or when the LCP has no solution; the result says which, and
+says where pelcs only found none (:func:`_why_none`).
 """
 
 from __future__ import annotations
@@ -100,6 +109,10 @@ class DcPoint:
         The states that no DC equation sets (kept at their given values).
     reason : str
         Why there is no operating point ("" when ``ok``).
+    proved : bool
+        Whether ``reason`` proves that there is none (the DC equations' combination that
+        the sources drive and nothing else changes, :func:`_why_none`), or says only that
+        pelcs found none.
     """
 
     ok: bool
@@ -107,6 +120,7 @@ class DcPoint:
     lam: np.ndarray
     free: np.ndarray
     reason: str = ""
+    proved: bool = False
 
 
 def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.ndarray,
@@ -213,11 +227,97 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
     if m:
         # (a set of LCP solutions along which the state moves: the leaks choose)
         x, lam = _along_lcp(solution, lam, KA @ B, leaks, x, u)
-    if not _dc_holds(A, B, E, x, lam, u):
-        return DcPoint(False, x0.copy(), np.zeros(m), free,
-                       "the DC equations have no solution (a DC current into a capacitor "
-                       "with no other path, or a DC voltage across an inductor loop)")
-    return DcPoint(True, x, lam, free)
+    if _holds(A, B, C, D, E, F, x, lam, u):
+        return DcPoint(True, x, lam, free)
+    if not null.size:
+        # (A regular but ill-conditioned: a regulator's error amplifier, gain 1e7 before
+        # its clamps, leaves A⁺ with entries of 1e9, and the LCP built on it a point off by
+        # 0.08 V or a DC residual of 6e-4; with the clamps' pairs in the equations the
+        # system is well-conditioned again)
+        found = _active_set_point(A, B, C, D, E, F, u, x, lam)
+        if found is not None:
+            return DcPoint(True, found[0], found[1], free)
+    return DcPoint(False, x0.copy(), np.zeros(m), free, *_why_none(A, E, u, left_null))
+
+
+def _holds(A, B, C, D, E, F, x, lam, u) -> bool:
+    """Whether ``(x, λ)`` is an operating point: the DC equations (:func:`_dc_holds`) and
+    the diodes' complementarity (:func:`_is_lcp_solution`), each within its tolerance."""
+    w = C @ x + D @ lam + F @ u
+    w_size = np.abs(C) @ np.abs(x) + np.abs(D) @ np.abs(lam) + np.abs(F) @ np.abs(u)
+    return _dc_holds(A, B, E, x, lam, u) and _is_lcp_solution(lam, w, w_size)
+
+
+def _why_none(A, E, u, left_null) -> tuple[str, bool]:
+    """Why no operating point was found, and whether that proves there is none: the DC
+    equations' proof where they have one, else that pelcs's solve found none.
+
+    The proof: a combination ``y`` of the DC equations that no state and no diode can
+    change (``y^T A = 0``, ``y^T B = 0``: the left null space, where the diodes do not act,
+    as :func:`dc_point` has checked before) that the sources drive (``y^T E u != 0``
+    beside its terms): a DC current into a capacitor with no other path, or a DC voltage
+    across an inductor loop."""
+    if left_null.size:
+        drive = left_null.T @ (E @ u)
+        size = np.abs(left_null.T) @ (np.abs(E) @ np.abs(u))
+        if np.any(np.abs(drive) > DC_RESIDUAL * np.maximum(size, 1e-300)):
+            return ("the DC equations have no solution (a DC current into a capacitor with "
+                    "no other path, or a DC voltage across an inductor loop)", True)
+    s = np.linalg.svd(A, compute_uv=False)
+    cond = float(s[0] / s[-1]) if s.size and s[-1] > 0 else float("inf")
+    return ("pelcs's solve of the DC equations and the diodes' complementarity found no "
+            "point that satisfies them within their tolerances (the DC equations' matrix, "
+            f"scaled by rows, has condition number {cond:.2g}); this is no proof that none "
+            "exists", False)
+
+
+def _active_set_point(A, B, C, D, E, F, u, x, lam) -> tuple[np.ndarray, np.ndarray] | None:
+    """The operating point of a regular ``A`` solved with the diodes' pairs as equations:
+    ``(x, λ)`` or None.
+
+    The pairs ``λ > 0`` or ``w = 0`` of the first solution (:func:`dc_point`'s, through
+    ``A⁺``) are taken as conducting (``w = 0``), the others as blocking (``λ = 0``); each
+    choice is one square linear system in ``(x, λ)``, solved scaled by rows and columns
+    and refined. A conducting pair with ``λ < 0`` or a blocking one with ``w < 0`` changes
+    side, the least index first (Murty's rule, which ends for a P-matrix LCP); at most
+    ``4 (m + 1)`` systems. The point returned is checked (:func:`_holds`)."""
+    n, m = A.shape[0], B.shape[1]
+    w = C @ x + D @ lam + F @ u
+    on = (lam > 0) | _on_bound(w, np.abs(C) @ np.abs(x) + np.abs(D) @ np.abs(lam)
+                               + np.abs(F) @ np.abs(u))
+    for _ in range(4 * (m + 1)):
+        K = np.zeros((n + m, n + m))
+        rhs = np.zeros(n + m)
+        K[:n, :n], K[:n, n:], rhs[:n] = A, B, -(E @ u)
+        K[n:, :n] = np.where(on[:, None], C, 0.0)
+        K[n:, n:] = np.where(on[:, None], D, np.eye(m))
+        rhs[n:] = np.where(on, -(F @ u), 0.0)
+        r = np.abs(K).max(axis=1, initial=0.0)
+        r = np.where(r > 0, r, 1.0)
+        Ks = K / r[:, None]
+        c = np.abs(Ks).max(axis=0, initial=0.0)
+        c = np.where(c > 0, c, 1.0)
+        Ks = Ks / c[None, :]
+        try:
+            z = np.linalg.solve(Ks, rhs / r)
+            for _ in range(2):  # (iterative refinement)
+                z = z + np.linalg.solve(Ks, rhs / r - Ks @ z)
+        except np.linalg.LinAlgError:
+            return None
+        z = z / c
+        x, lam = z[:n], z[n:]
+        if not np.all(np.isfinite(z)):
+            return None
+        w = C @ x + D @ lam + F @ u
+        w_size = np.abs(C) @ np.abs(x) + np.abs(D) @ np.abs(lam) + np.abs(F) @ np.abs(u)
+        lam_tol = ON_BOUND * max(np.abs(lam).max(initial=0.0), 1e-300)
+        bad = np.flatnonzero((on & (lam < -lam_tol))
+                             | (~on & (w < -ON_BOUND * np.maximum(w_size, 1e-300))))
+        if not bad.size:
+            lam = np.where(on, np.maximum(lam, 0.0), 0.0)
+            return (x, lam) if _holds(A, B, C, D, E, F, x, lam, u) else None
+        on[bad[0]] = not on[bad[0]]
+    return None
 
 
 def _solve(M, C, D, F, KA, B, E, u, x_null, lcp):
@@ -246,7 +346,10 @@ def _solve(M, C, D, F, KA, B, E, u, x_null, lcp):
     x = x_null - KA @ drive
     # (the same round-off in the state: an inductor current of -1e-16 A against a diode
     # that blocks would read as an inconsistent start), beside the drive's terms, not what
-    # is left of them (a pwl diode's λ = Vf cancelling its source: 1e-16 of 0.8 V)
+    # is left of them (a pwl diode's λ = Vf cancelling its source: 1e-16 of 0.8 V). (Beside
+    # the largest entry of A⁺: where A is ill-conditioned that zeroes true values too, a
+    # 6.1 mV gate-drain voltage beside 2.7e10; the point then fails its check, and
+    # dc_point solves it again with the diodes' pairs as equations)
     drive_size = np.abs(B) @ np.abs(lam) + np.abs(E) @ np.abs(u)
     x_size = np.abs(x_null).max(initial=0.0) + ka * drive_size.max(initial=0.0)
     return (_zero_round_off(x, x_size), lam,
