@@ -90,7 +90,7 @@ def test_ngspices_dcdc_starts_with_its_mosfet_on():
         code = main(["simulate", str(path), "--devices", "pwl"])
     text = out.getvalue() + err.getvalue()
     assert "no DC operating point" not in text, text
-    assert code == 2 and "M1 (VDMOS) is on as a switch" in text and "at t = 0 s" in text, text
+    assert code == 2 and "M1 (VDMOS) is on as a switch" in text and "from t = 0 s" in text, text
 
 
 def test_no_solution_is_said_only_with_its_proof():
