@@ -196,8 +196,10 @@ class Tran:
     tmax: float | None = None
     uic: bool = False
     # TSTEP written 0 (LTspice's .tran 0 TSTOP): tstep is then TSTOP/1000, a print interval
-    # only, and the step follows the sources (netlist.studies.timestep.tran_step)
-    no_tstep: bool = False
+    # only, and the step follows the sources (netlist.studies.timestep.tran_step). How this
+    # run chooses its step, not part of the circuit: the written deck gives ngspice the
+    # TSTEP it needs (it refuses 0), so a deck read back bounds its step by that TSTEP
+    no_tstep: bool = field(default=False, compare=False)
 
 
 @dataclass

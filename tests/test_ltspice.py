@@ -115,3 +115,15 @@ def test_tran_0_tstop_resolves_an_exp_source():
         for dt, want in ((1e-6, 1 - 2 * np.exp(-1)), (2e-6, 1 - 3 * np.exp(-2))):
             got = np.interp(1e-3 + dt, res.t, res["v(o)"])
             assert got == pytest.approx(want, rel=1e-3)  # 0.26413 V against 0.26424 V
+
+
+def test_a_tran_without_tstep_writes_ngspice_a_tstep_and_reads_back_the_same_circuit():
+    from netlist.parser import parse_string
+    from netlist.writer import write_circuit
+
+    c = parse_string("t\nV1 a 0 1\nR1 a 0 1\nC1 a 0 1u\n.tran 2m\n.end\n")
+    assert c.tran.no_tstep and c.tran.tstep == 2e-6
+    text = write_circuit(c)
+    assert ".tran 2u 2m" in text  # (ngspice refuses TSTEP 0)
+    back = parse_string(text)
+    assert back == c and not back.tran.no_tstep
