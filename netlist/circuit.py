@@ -125,6 +125,9 @@ class Switch(Element):
     # gate terminal and the channel's gate, Ω; gate-source and gate-drain capacitances, F),
     # for --devices pwl
     gate_rc: tuple[float, float, float] | None = field(default=None, compare=False)
+    # its gate-drain capacitance as a function of the gate-drain voltage, where its model
+    # has one (netlist.gate_charge.GateDrainLaw): a pwl run takes its chord over the swing
+    cgd_law: object = field(default=None, compare=False)
     # on only while the control exceeds VT, off at VT itself: a switch a comparator B source
     # drives through a strict comparison (netlist.behavioural)
     strict: bool = False

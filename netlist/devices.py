@@ -286,13 +286,19 @@ def channel_limit(name: str, el, model, control: tuple[str, str], threshold_v: f
                   geometry: tuple[float, float, float] | None = None) -> ChannelLimit | None:
     """The :class:`ChannelLimit` of a MOSFET ``el`` idealised on ``control`` past
     ``threshold_v``, V, of ``geometry`` (its W, L, m: :func:`instance_geometry`; None: read
-    from its line without parameters); None where pelcs has no bound: a model of level
-    other than 1 (level 2, 3 and BSIM have other laws), a circuit away from its nominal
+    from its line without parameters); None where pelcs has no bound: a BSIM model, a level
+    3 with ETA (its threshold falls as the drain rises), a circuit away from its nominal
     temperature (``nominal`` False: ngspice scales KP and VTO there), or a W, L or m that
     pelcs cannot evaluate (nan: the bound would be a guess).
 
+    Levels 2 and 3 (``mos2load.c``, ``mos3load.c``) take level 1's bound: their mobility
+    reduction (THETA, UCRIT), velocity saturation (VMAX) and body charge only lower the
+    current at a drain within the overdrive of the source (ngspice 39's currents there, with
+    THETA, VMAX, KAPPA, GAMMA and XJ: under it, tests/test_channel_limit.py).
+
     Defaults are ngspice 39's: level 1 KP = 2e-5 A/V² (or UO COX, UO = 600 cm²/Vs, where
-    TOX is given), W = L = 100 µm; VDMOS KP = 1 A/V² (later ngspice: 20, and VTO 3 V)."""
+    TOX is given; levels 2 and 3 take TOX = 100 nm), W = L = 100 µm; VDMOS KP = 1 A/V²
+    (later ngspice: 20, and VTO 3 V)."""
     if not nominal:
         return None
     w, length, mult = geometry if geometry is not None else instance_geometry(el, {}, {})
@@ -308,7 +314,7 @@ def channel_limit(name: str, el, model, control: tuple[str, str], threshold_v: f
 
     vto = num("vto", num("vth", 0.0))
     used = ("kp", "lambda", "theta", "mtriode", "ksubthres", "subshift", "level", "tox", "uo",
-            "ld")
+            "ld", "eta")
     if vto != vto or any(num(k, 0.0) != num(k, 0.0) for k in used):
         return None
     vto = -vto if model.type == "PMOS" or (model.type == "VDMOS" and p.get("pchan")) else vto
@@ -317,9 +323,11 @@ def channel_limit(name: str, el, model, control: tuple[str, str], threshold_v: f
                             num("lambda", 0.0), num("theta", 0.0),
                             max(num("mtriode", 1.0), 1e-12), num("ksubthres", 0.1),
                             num("subshift", 0.0), location)
-    if num("level", 1.0) != 1.0:
-        return None
-    tox = num("tox", 0.0)
+    level = num("level", 1.0)
+    if level not in (1.0, 2.0, 3.0) or (level > 1 and num("eta", 0.0) != 0.0):
+        return None  # (BSIM; or a level 3 whose ETA lowers its threshold with the drain)
+    # (levels 2 and 3 default TOX to 100 nm: KP 2.07e-5 A/V²; level 1 to 2e-5 without it)
+    tox = num("tox", 1e-7 if level > 1 else 0.0)
     kp = num("kp", num("uo", 600.0) * 1e-4 * 3.9 * 8.854214871e-12 / tox if tox > 0
              else 2e-5)
     leff = length - 2 * num("ld", 0.0)

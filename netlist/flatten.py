@@ -493,6 +493,7 @@ class _Builder:
         ``env``: the parameters its W, L and m= read (netlist.devices.instance_geometry)."""
         # (imported by the circuits that have devices: 1 ms of the others' start)
         from .devices import Replacement, channel_checks, dropped_parts, gate_rc, threshold
+        from .gate_charge import gate_law
 
         name = prefix + el.name if prefix else el.name
         loc, scope = el.st.loc(0), (env, self.deck.options)
@@ -518,7 +519,8 @@ class _Builder:
         self.circuit.models[sw_model] = Model(sw_model, "SW", {**SW_DEFAULTS, "vt": thr}, loc)
         out: list = [Switch(name, (a, b), loc, control, sw_model, None,
                             device=(el.kind, nodes, model.name),
-                            gate_rc=gate_rc(el, model, 0.0, scope=scope))]
+                            gate_rc=gate_rc(el, model, 0.0, scope=scope),
+                            cgd_law=gate_law(el, model, g, a, scope))]
         self.circuit.knees += channel_checks(name, el, model, control, a, thr, loc, False,
                                              (self.temp, self.tnom), scope=scope)
         body = None
@@ -540,6 +542,7 @@ class _Builder:
         diode between its ports (netlist.devices.classify_macro)."""
         from . import devices
         from .devices import Replacement, gate_rc, series_path, subckt_text, threshold
+        from .gate_charge import GateDrainLaw, macro_gate_drain
 
         loc, scope = el.st.loc(0), (env, self.deck.options)
         ports = {p.lower(): n for p, n in port_map.items()}
@@ -585,17 +588,13 @@ class _Builder:
         rg = sum(self._resistance(e) for e in sub.body.elements if e.kind == "R"
                  and {n.lower() for n in e.nodes[:2]} == {gate_port.lower(),
                                                           dev.nodes[1].lower()})
-        # a feedback network's capacitor (Symmetry's power MOS macro: a capacitor on the
-        # output of a VCVS of the drain-gate voltage, its current mirrored into the gate)
-        feedback = {n.lower() for e in sub.body.elements if e.kind == "E"
-                    and {c.lower() for c in e.control} == {dev.nodes[0].lower(),
-                                                           dev.nodes[1].lower()}
-                    for n in e.nodes[:2]} - {"0"}
-        cgd = sum(self._resistance(e) for e in sub.body.elements if e.kind == "C"
-                  and {n.lower() for n in e.nodes[:2]} & feedback)
+        cgd, law = macro_gate_drain(sub, dev, self._resistance, lambda ref: self.circuit
+                                    .models.get(self.model_key(ref, sub.key).lower()))
+        law = GateDrainLaw(*law, g, a, -1.0 if pchan else 1.0) if law else None
         self.circuit.elements.append(Switch(name, (a, b), loc, control, sw_model, None,
                                             device=(*origin, model.name, series),
-                                            gate_rc=gate_rc(dev, model, rg, cgd, scope)))
+                                            gate_rc=gate_rc(dev, model, rg, cgd, scope),
+                                            cgd_law=law))
         self.circuit.knees += devices.channel_checks(
             name, dev, model, control, a, thr, loc, macro.body is not None,
             (self.temp, self.tnom), macro.igbt, scope)

@@ -114,9 +114,30 @@ def test_slow_edges_over_the_bound_are_noted_and_their_time_given():
     assert 0 < total < 0.1 * 400e-6
 
 
-def test_no_bound_for_a_level_3_model():
-    c = parse(BUCK.format(kp="2e-5", edge="10n").replace("vto=2 kp=2e-5", "level=3 vto=2"))
-    assert not [k for k in c.knees if isinstance(k, ChannelLimit)]
+@pytest.mark.parametrize("model", [
+    "level=3 vto=2",  # (KP from TOX's default 100 nm: 2.07e-5 A/V²)
+    "level=3 vto=2 kp=20 theta=0.05 vmax=1e5 kappa=0.2 gamma=0.5 phi=0.7",
+    "level=3 vto=2 kp=1m tox=50n nfs=1e11 xj=0.5u ld=0.1u",
+    "level=3 vto=2 kp=1m gamma=0.8 phi=0.7 xj=1u delta=1",
+    "level=2 vto=2 kp=1m lambda=0.05 gamma=0.4",
+])
+@pytest.mark.parametrize("vov", [0.5, 4.0])
+def test_levels_2_and_3_carry_no_more_than_the_level_1_bound(ngspice, model, vov):
+    deck = BUCK.format(kp="1", edge="10n").replace("M1 in g sw sw NM",
+                                                   "M1 in g sw sw NM w=100u l=2u")
+    limit = limit_of(parse(deck.replace("vto=2 kp=1", model)))
+    current = ngspice_drain_current(f".model mm nmos({model})", "mm w=100u l=2u",
+                                    2.0 + vov, vov)
+    bound = float(limit.limit(vov))
+    assert current <= bound * (1 + 1e-6)
+    if "theta" not in model and "gamma" not in model and "lambda" not in model:
+        assert current == pytest.approx(bound, rel=1e-3)  # (a plain level 3: equal)
+
+
+def test_no_bound_for_a_level_3_model_with_eta_or_a_bsim_model():
+    for model in ("level=3 vto=2 eta=0.1", "level=49 vto=0.5"):
+        c = parse(BUCK.format(kp="2e-5", edge="10n").replace("vto=2 kp=2e-5", model))
+        assert not [k for k in c.knees if isinstance(k, ChannelLimit)]
 
 
 def test_the_quantity_is_the_relative_excess_where_on():
@@ -364,3 +385,10 @@ def test_the_note_says_a_limited_device_may_stay_there_longer():
     (note,) = [n for n in res.notes if n.startswith("M1: on as a switch")]
     assert note.endswith("the real device, carrying less there, may take longer to leave it "
                          "(a start-up it limits lasts longer than the ideal switch's)")
+
+
+def test_a_level_3_switch_of_ngspice_s_default_kp_is_refused():
+    # (KP 2.07e-5 A/V² from TOX's default: 0.66 mA at the gate's 8 V overdrive)
+    deck = BUCK.format(kp="2e-5", edge="10n").replace("vto=2 kp=2e-5", "level=3 vto=2")
+    with pytest.raises(NetlistError, match=r"M1 \(NMOS\) is on as a switch and carries"):
+        simulate_circuit(parse(deck), probes=["v(out)"])

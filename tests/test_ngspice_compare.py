@@ -78,6 +78,10 @@ EXCLUDED = {
     # idealisation drops the gate network by design; tests/test_devices.py
     # checks pelcs against the ideal duty instead.
     "tests/netlists/devices/buck_vendor.cir": "gate-network delay dropped by design",
+    # A 220 ohm gate resistor into the macro's gate charge: ngspice's edges trail the ideal
+    # switch's by a fraction of a microsecond; tests/test_gate_charge.py compares its pwl run
+    # (the gate RC) with ngspice instead.
+    "tests/netlists/devices/boost_modpex_like.cir": "gate-network delay dropped by design",
     # Two phases share the load through inductors with no series resistance: the split of
     # the current between L1 and L2 is neutrally stable, so any difference (ngspice's RON,
     # diode drops, its comparator instants landing on time steps) shifts it for good

@@ -15,6 +15,7 @@ from lcs.results import SimulationResult
 from ..breakdown import breakdown_elements, breakdowns
 from ..circuit import GROUND, Capacitor, Circuit, Diode, Switch, VoltageSource
 from ..errors import Diagnostic, NetlistError
+from ..gate_charge import gate_drain_chords
 from ..junction_charge import fastest_junction_mode, junction_charges, with_junction_charge
 from ..pwl import carried_current, diode_params, junction_models, model_current, pwl_circuit
 from ..reductions import parallel_diodes
@@ -154,6 +155,8 @@ def _devices_run(circuit: Circuit, devices: str, want: list[str] | None, extra: 
         pre += [f"v({a})" if b == GROUND else f"v({a},{b})" for a, b in
                 (sw.control for sw in sws)]
         pre += [bd.probe for bd in bds.values()]
+        laws = [sw.cgd_law for sw in sws if sw.cgd_law is not None and sw.gate_rc]
+        pre += [f"v({n})" for law in laws for n in (law.gate, law.drain) if n != GROUND]
         pre += [_voltage_probe(el) for el in circuit.elements
                 if isinstance(el, Diode) and not el.ideal and el.key not in merged]
         # (its knees unchecked: it sizes the fits, the pwl run below is the answer)
@@ -191,6 +194,9 @@ def _devices_run(circuit: Circuit, devices: str, want: list[str] | None, extra: 
                   for el in circuit.elements
                   if isinstance(el, Diode) and not el.ideal and el.key not in merged}
         charges, charge_lines = junction_charges(circuit, swings, merged)
+        if laws:  # (a MOSFET's gate-drain capacitance over the swing the run puts across it)
+            circuit, cgd_lines = gate_drain_chords(circuit, lambda n: ideal[f"v({n})"])
+            charge_lines += cgd_lines
         run_circuit, fits = fitted_circuit(circuit, i_max, drives, pwl, charged=charges, **kw)
         split_lines: list[str] = []
         run_circuit = with_junction_charge(circuit, run_circuit, fits, charges, split_lines)
