@@ -425,8 +425,9 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
     inner nodes by E and H sources (``<B>#c1``...), each free of load.
 
     A comparator whose output drives anything but switch controls across it (a load, a gate
-    resistor, another comparator's comparison), and an ``I=`` comparator, becomes its value
-    instead (:func:`_driving`); the switches across its output then read that value.
+    resistor, another comparator's comparison) or nothing at all (an output only probed),
+    and an ``I=`` comparator, becomes its value instead (:func:`_driving`); the switches
+    across its output then read that value.
 
     Returns
     -------
@@ -463,10 +464,12 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
         outs = {p, n} - {GROUND}
         bad += [o.name for o in comps if o is not b and (outs & set(o.nodes) or any(
             q == ("v", x) for q, _ in o.step.diff.terms for x in outs))]
-        if bad:
+        if bad or not uses:
             # (a load, a transistor's gate, another comparator: the output itself, and the
-            # switches above read it as the circuit sets it)
-            added.extend(_driving(circuit, b))
+            # switches above read it as the circuit sets it; an output that drives nothing
+            # is kept too, so that it can be probed: a PWM written only to be plotted)
+            added.extend(_driving(circuit, b, "drives more than switch controls" if bad
+                                  else "drives nothing (kept, so that it can be probed)"))
             continue
         step = b.step
         for use in uses:
@@ -524,14 +527,12 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
             circuit.notes.append(f"{b.name}: {b.what} ({b.text.strip()}) mapped "
                                  f"onto switch {sw.name}: on while {on_while} (its output "
                                  f"node {p} is gone; d({sw.name}) is the switch's state)")
-        if not uses:
-            circuit.notes.append(f"{b.name}: {b.what} ({b.text.strip()}) controls "
-                                 "no switch: left out")
     circuit.elements[:] = keep + added
     return diags
 
 
-def _driving(circuit: Circuit, b: Comparator) -> list[Element]:
+def _driving(circuit: Circuit, b: Comparator,
+             why: str = "drives more than switch controls") -> list[Element]:
     """The exact elements of a comparator B source whose output drives more than switch
     controls: ``lo + (hi - lo) s`` (a ``V=`` source; an ``I=`` source the same current), ``s``
     the state of an ideal switch ``<B>#s`` on exactly while the comparison is true.
@@ -586,7 +587,7 @@ def _driving(circuit: Circuit, b: Comparator) -> list[Element]:
     form = Affine(((("v", node), step.hi - step.lo),) if step.hi != step.lo else (), step.lo)
     out.extend(linear_elements(name, b.kind_out, b.nodes, form, loc))
     circuit.notes.append(
-        f"{name}: {b.what} ({b.text.strip()}) drives more than switch controls: its output "
+        f"{name}: {b.what} ({b.text.strip()}) {why}: its output "
         f"is {step.lo:g} + {step.hi - step.lo:g}*d({name}#s){unit_of}, d({name}#s) the state "
         f"of an ideal switch on while {cond} (exact)")
     return out
