@@ -72,7 +72,7 @@ from .time_expression import time_expression
 from .time_value import reads_time_only, time_in_comparisons, time_value
 
 __all__ = ["ClampSource", "Comparator", "elaborate", "fold_clamps", "linear_elements",
-           "resolve_comparators"]
+           "gone_probe", "resolve_comparators"]
 
 
 # ------------------------------------------------------------------------------ elements
@@ -523,6 +523,8 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
             sw.control = control
             sw.model = key
             sw.strict = strict
+            gone = circuit.gone_nodes.setdefault(p, (b.name, []))
+            gone[1].append(sw.name)
             on_while = _describe(Step(diff, strict, 1.0, 0.0))
             circuit.notes.append(f"{b.name}: {b.what} ({b.text.strip()}) mapped "
                                  f"onto switch {sw.name}: on while {on_while} (its output "
@@ -626,3 +628,14 @@ def _control(name: str, diff: Affine, loc: Location | None
             out.append(Ccvs(el_name, (a, b), loc, ref, gain))
     return (ends[-1], GROUND), 0.0 - diff.const, out
 
+def gone_probe(circuit: Circuit, probe: str, node: str) -> Diagnostic:
+    """The diagnostic of a probe of a comparator's output node that pelcs mapped onto the
+    switches the comparator drives (:func:`resolve_comparators`)."""
+    comparator, switches = circuit.gone_nodes[node]
+    names = ", ".join(switches)
+    return Diagnostic(
+        message=f"probe {probe.strip()!r}: node {node} was the output of comparator "
+                f"{comparator}, mapped onto the switch{'es' if len(switches) > 1 else ''} it "
+                f"drives ({names}): the node is gone",
+        hint=f"probe d({switches[0]}), the state of {switches[0]} (1 while on), or give "
+             f"{comparator}'s output a load (a resistor to ground keeps the node)")
