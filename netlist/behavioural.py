@@ -72,7 +72,7 @@ from .time_expression import time_expression
 from .time_value import reads_time_only, time_in_comparisons, time_value
 
 __all__ = ["ClampSource", "Comparator", "elaborate", "fold_clamps", "linear_elements",
-           "resolve_comparators"]
+           "gone_probe", "resolve_comparators"]
 
 
 # ------------------------------------------------------------------------------ elements
@@ -425,8 +425,9 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
     inner nodes by E and H sources (``<B>#c1``...), each free of load.
 
     A comparator whose output drives anything but switch controls across it (a load, a gate
-    resistor, another comparator's comparison), and an ``I=`` comparator, becomes its value
-    instead (:func:`_driving`); the switches across its output then read that value.
+    resistor, another comparator's comparison) or nothing at all (an output only probed),
+    and an ``I=`` comparator, becomes its value instead (:func:`_driving`); the switches
+    across its output then read that value.
 
     Returns
     -------
@@ -463,10 +464,12 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
         outs = {p, n} - {GROUND}
         bad += [o.name for o in comps if o is not b and (outs & set(o.nodes) or any(
             q == ("v", x) for q, _ in o.step.diff.terms for x in outs))]
-        if bad:
+        if bad or not uses:
             # (a load, a transistor's gate, another comparator: the output itself, and the
-            # switches above read it as the circuit sets it)
-            added.extend(_driving(circuit, b))
+            # switches above read it as the circuit sets it; an output that drives nothing
+            # is kept too, so that it can be probed: a PWM written only to be plotted)
+            added.extend(_driving(circuit, b, "drives more than switch controls" if bad
+                                  else "drives nothing (kept, so that it can be probed)"))
             continue
         step = b.step
         for use in uses:
@@ -520,18 +523,18 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
             sw.control = control
             sw.model = key
             sw.strict = strict
+            gone = circuit.gone_nodes.setdefault(p, (b.name, []))
+            gone[1].append(sw.name)
             on_while = _describe(Step(diff, strict, 1.0, 0.0))
             circuit.notes.append(f"{b.name}: {b.what} ({b.text.strip()}) mapped "
                                  f"onto switch {sw.name}: on while {on_while} (its output "
                                  f"node {p} is gone; d({sw.name}) is the switch's state)")
-        if not uses:
-            circuit.notes.append(f"{b.name}: {b.what} ({b.text.strip()}) controls "
-                                 "no switch: left out")
     circuit.elements[:] = keep + added
     return diags
 
 
-def _driving(circuit: Circuit, b: Comparator) -> list[Element]:
+def _driving(circuit: Circuit, b: Comparator,
+             why: str = "drives more than switch controls") -> list[Element]:
     """The exact elements of a comparator B source whose output drives more than switch
     controls: ``lo + (hi - lo) s`` (a ``V=`` source; an ``I=`` source the same current), ``s``
     the state of an ideal switch ``<B>#s`` on exactly while the comparison is true.
@@ -586,7 +589,7 @@ def _driving(circuit: Circuit, b: Comparator) -> list[Element]:
     form = Affine(((("v", node), step.hi - step.lo),) if step.hi != step.lo else (), step.lo)
     out.extend(linear_elements(name, b.kind_out, b.nodes, form, loc))
     circuit.notes.append(
-        f"{name}: {b.what} ({b.text.strip()}) drives more than switch controls: its output "
+        f"{name}: {b.what} ({b.text.strip()}) {why}: its output "
         f"is {step.lo:g} + {step.hi - step.lo:g}*d({name}#s){unit_of}, d({name}#s) the state "
         f"of an ideal switch on while {cond} (exact)")
     return out
@@ -625,3 +628,14 @@ def _control(name: str, diff: Affine, loc: Location | None
             out.append(Ccvs(el_name, (a, b), loc, ref, gain))
     return (ends[-1], GROUND), 0.0 - diff.const, out
 
+def gone_probe(circuit: Circuit, probe: str, node: str) -> Diagnostic:
+    """The diagnostic of a probe of a comparator's output node that pelcs mapped onto the
+    switches the comparator drives (:func:`resolve_comparators`)."""
+    comparator, switches = circuit.gone_nodes[node]
+    names = ", ".join(switches)
+    return Diagnostic(
+        message=f"probe {probe.strip()!r}: node {node} was the output of comparator "
+                f"{comparator}, mapped onto the switch{'es' if len(switches) > 1 else ''} it "
+                f"drives ({names}): the node is gone",
+        hint=f"probe d({switches[0]}), the state of {switches[0]} (1 while on), or give "
+             f"{comparator}'s output a load (a resistor to ground keeps the node)")

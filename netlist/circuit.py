@@ -271,6 +271,9 @@ class Circuit:
     # (netlist.capacitor_loops): lower-case name -> (name, its nodes, the capacitor for them)
     loop_capacitors: dict = field(default_factory=dict, compare=False)
     # quantities a run must keep on the linear side of a knee, checked after it besides the
+    # output nodes of comparator B sources mapped onto the switches they drive, gone from the
+    # circuit (netlist.behavioural): lower-case node -> (comparator name, switch names)
+    gone_nodes: dict = field(default_factory=dict, compare=False)
     # knee capacitors (netlist.knee): a magnetic core's field (netlist.magnetic_core)
     knees: list = field(default_factory=list, compare=False)
     # .step param lines: (parameter, values), one sweep axis each (run by pelcs sweep)

@@ -46,7 +46,7 @@ from dataclasses import dataclass, field
 from lcs.signals import Pulse, Pwl
 
 from .behavioural import Comparator, linear_elements, source_name
-from .behavioural_expr import Step, linearise, parse_behavioural
+from .behavioural_expr import Affine, Step, linearise, parse_behavioural
 from .circuit import GROUND, Circuit, Element, Model, Switch, VoltageSource
 from .dialect import hierarchical_name, node_name
 from .expressions import ExpressionError, parse_expression
@@ -430,6 +430,15 @@ def elaborate(name: str, ports: tuple[Port, ...], model: CodeModel, st: Statemen
             raise _fail(f"model '{model.name}': out_upper_limit {hi:g} is not above "
                         f"out_lower_limit {lo:g}", model.params["out_upper_limit"][1],
                         "the upper limit must be above the lower one", st=model.st)
+        source_in = affine(quantities[0][0])
+        if isinstance(source_in, Affine) and source_in.constant:
+            # an input tied to ground (a subcircuit port wired to 0): no comparison, the
+            # output is the clamped constant, as ngspice's (within its limit_range
+            # smoothing of a limit: 2.5e-7 V at a corner with the default 1e-6)
+            level = min(hi, max(lo, gain * (source_in.const + p["in_offset"])))
+            notes.append(f"{name}: XSPICE limit of a constant input ({quantities[0][0]} = "
+                         f"{source_in.const:g} V): its output is the constant {level:g} V")
+            return linear_elements(name, "V", out_nodes, Affine((), level), loc)
         if abs(gain) < _MIN_LIMIT_GAIN:
             raise _fail(f"model '{model.name}': a limit of gain {gain:g} is a clamp (its "
                         "output follows its input between the limits): nonlinear",

@@ -10,6 +10,7 @@ import pytest
 from ngspice_helpers import ngspice_wrdata
 
 from netlist.circuit import Resistor, Switch, Vcvs, VoltageSource
+from netlist.errors import NetlistError
 from netlist.parser import parse_string
 from pelcs.api import simulate
 
@@ -263,3 +264,57 @@ def test_a_closed_loop_comparator_driving_a_gate_divider(tmp_path, ngspice):
     want = _mean(ng[:, 0], ng[:, 1], 1e-3)
     # (measured: 4.7572 V against ngspice's 4.7486 V, 0.18 %)
     assert _mean(res.t, res["v(out)"], 1e-3) == pytest.approx(want, rel=5e-3)
+
+
+# A comparator whose output drives nothing, written only to be probed (an analog PWM deck's
+# 'Bpwm pwm 0 V = (v(ramp) < v(ctrl)) ? 1 : 0'): kept as its value, so that v(pwm) can be
+# probed; before, it was left out and v(pwm) was an unknown probe. Its duty over the second
+# half: on while ramp < 0.4, 0.4 * 9.99 us of each 10 us period, 0.3996
+PROBED = """comparator driving nothing, probed
+Vref ref 0 DC 0.4
+Vramp ramp 0 PULSE(0 1 0 9.99u 10n 0 10u)
+Rr ramp 0 1k
+Bpwm pwm 0 V = (v(ramp) < v(ref)) ? 1 : 0
+.tran 10n 200u 0 10n
+.end
+"""
+
+
+def test_a_comparator_driving_nothing_can_be_probed(tmp_path, ngspice):
+    c = parse_string(PROBED)
+    assert any("Bpwm" in n and "drives nothing (kept, so that it can be probed)" in n
+               for n in c.notes)
+    res = simulate(PROBED, probes=["v(pwm)"])
+    half = 100e-6
+    duty = _mean(res.t, res["v(pwm)"], half)
+    assert duty == pytest.approx(0.3996, rel=1e-4)
+    ng = ngspice_wrdata(PROBED, ["v(pwm)"], tmp_path)
+    # (ngspice's B output changes at its time points, 10 ns apart: within one of them)
+    assert duty == pytest.approx(_mean(ng[:, 0], ng[:, 1], half), abs=1.5e-3)
+
+
+# A comparator that drives a switch alone is mapped onto it and its output node is gone
+# (a KiCad PWM subcircuit's output, probed as ngspice decks plot it): the probe's error names
+# the comparator and the switch, and the switch's state it offers instead is a probe that runs
+MAPPED = """comparator mapped onto the switch it drives
+Vref ref 0 DC 0.4
+Vramp ramp 0 PULSE(0 1 0 9.99u 10n 0 10u)
+Rr ramp 0 1k
+Bpwm pwm 0 V = (v(ramp) < v(ref)) ? 5 : 0
+S1 in out pwm 0 sw1
+.model sw1 SW(VT=2.5 RON=1m ROFF=1meg)
+Vin in 0 DC 10
+Rl out 0 10
+.tran 10n 100u
+.end
+"""
+
+
+def test_a_probe_of_a_mapped_comparator_output_names_the_switch():
+    with pytest.raises(NetlistError) as info:
+        simulate(MAPPED, probes=["v(pwm)"])
+    text = str(info.value)
+    assert "node pwm was the output of comparator Bpwm, mapped onto the switch it drives " \
+           "(S1)" in text and "probe d(S1)" in text
+    res = simulate(MAPPED, probes=["d(S1)"])
+    assert np.all(np.isfinite(res["d(S1)"]))

@@ -337,6 +337,26 @@ PELCS_REFUSES: dict[str, tuple[str, str, str]] = {
          "end (40 A through RL, v(out) 0 V): over its bound, KP/2 (5 V - VTO)^2 / (1 + THETA "
          "5 V) = 0.944 A (ngspice's 0.93 A), for the whole run. The 30 ms run is over it "
          "for 1.8 % of its time (its start), noted, and agrees", "runs"),
+    # a high-side NPN switch (eSim): its base driven 0/5 V from ground, its emitter the switch
+    # node, so it follows its base as an emitter follower, in its active region; ngspice's
+    # mean v(vout) over the second half is 3.758 V
+    "dilip_buck/AC_BC/buck_converter.cir.out":
+        ("q1 slid on its threshold",
+         "an NPN emitter follower as the high-side switch of a buck: its base at 0/5 V from "
+         "ground, its emitter the switch node, held at its threshold (active region)", "runs"),
+    # a behavioural PMDC motor with a PI loop: state equations as B current sources into
+    # capacitors, the PI output clamped and summed with linear terms, and a PWM carrier
+    # written as the sawtooth 'time - floor(time/200u)*200u'
+    "pmdc_motor/dcmotor_pwm.cir":
+        ("is a sum of a clamp (min/max) and a non-constant term",
+         "the armature equation's B source adds a clamped PI output to linear terms (a "
+         "clamp pelcs reads only as the whole expression), and its carrier is a sawtooth "
+         "of floor(time/200u), refused too (not smooth in time)", "runs"),
+    "dilip_boost/eSim_project_files/sc_test.cir.out":
+        ("model type 'yt_pwm' is not supported",
+         "eSim's mixed-signal boost: its PWM a Verilog module (yt_pwm) that eSim's NGHDL "
+         "compiles into an ngspice code model; the netlist alone names a model no ngspice "
+         "has", "fails: MIF-ERROR - unable to find definition of model u1 (yt_pwm)"),
     "ngspice/examples/pss/hartley_osc_pss_ctrl.cir":
         ("q1 slid on its threshold",
          "a Hartley oscillator's BJT, in its active region for part of each cycle: sliding "

@@ -69,6 +69,29 @@ def test_dc_and_ac_written_with_equals(tmp_path, ngspice):
     assert isinstance(wave, Pulse) and (wave.v1, wave.v2) == (0, pytest.approx(1e-3))
 
 
+# DC(48) and AC(1 0): ngspice's lexer reads parentheses as blanks too (eduardobehr/power-
+# electronics' buck netlists write 'V1 /Vin GND dc(48)'); pelcs stopped at the '('
+DC_PAREN_DECK = """DC(value) and AC(mag phase) in parentheses
+V1 a 0 dc(48)
+Ra a 0 1k
+I1 0 b DC(2m) AC(1 0)
+Rb b 0 1k
+V2 c 0 DC (5) AC(1)
+Rc c 0 1
+.tran 1u 10u
+.end
+"""
+
+
+def test_dc_and_ac_values_in_parentheses(tmp_path, ngspice):
+    c = parse_string(DC_PAREN_DECK)
+    assert c.element("V1").dc == 48 and c.element("I1").dc == pytest.approx(2e-3)
+    assert c.element("V2").dc == 5
+    got = ngspice_print(DC_PAREN_DECK, ["v(a)[1]", "v(b)[1]", "v(c)[1]"], tmp_path)
+    assert got == {"v(a)[1]": pytest.approx(48), "v(b)[1]": pytest.approx(2),
+                   "v(c)[1]": pytest.approx(5)}
+
+
 # (SFFM and AM are read: tests/test_modulated_sources.py)
 @pytest.mark.parametrize("fn", ["TRNOISE(1m 1n 0 0)", "TRRANDOM(1 1n 0 1)"])
 def test_unsupported_source_functions_named(fn):

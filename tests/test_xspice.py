@@ -157,3 +157,33 @@ def test_square_edges_longer_than_its_levels_are_refused():
         parse_string(SQUARE.replace("rise_time=2u", "rise_time=40u"))
     assert "do not fit in its high and low times" in str(exc.value)
     assert "<string>:4:" in str(exc.value)
+
+
+# limits whose input is tied to ground, as a subcircuit's port wired to 0 makes them (a flip-
+# flop's unused reset in a PWM latch): the output is a constant, the clamped gain*(0 +
+# in_offset); before, pelcs stopped with a traceback
+GROUNDED_LIMITS = """\
+limits of a grounded input
+alim 0 b lim
+.model lim limit(gain=1000 out_lower_limit=0 out_upper_limit=5)
+R1 b 0 1k
+alim2 0 c lim2
+.model lim2 limit(gain=1 in_offset=2 out_lower_limit=-1 out_upper_limit=5)
+R2 c 0 1k
+alim3 0 d lim3
+.model lim3 limit(gain=1000 in_offset=1 out_lower_limit=0 out_upper_limit=5)
+R3 d 0 1k
+.tran 1u 10u
+.end
+"""
+
+
+def test_limit_of_a_grounded_input_is_its_clamped_constant(tmp_path, ngspice):
+    probes = ["v(b)", "v(c)", "v(d)"]
+    c = parse_string(GROUNDED_LIMITS)
+    assert any("limit of a constant input" in n for n in c.notes)
+    run = simulate_circuit(c, probes=probes)
+    data = ngspice_wrdata(GROUNDED_LIMITS, probes, tmp_path)
+    # ngspice: 2.5e-7 V (its limit_range smoothing at the lower corner), 2 V, 5 V
+    for k in range(3):
+        np.testing.assert_allclose(run.y[:, k], data[-1, 2 * k + 1], atol=1e-6)

@@ -39,6 +39,7 @@ from lcs.results import SimulationResult
 from lcs.signals import Dc, Signal, resolve
 from lcs.simulation.held_point import AuxiliaryPoint
 
+from ..behavioural import gone_probe
 from ..capacitor_links import capacitor_links, check_link_initial, link_note, link_probe
 from ..capacitor_loops import reduced_probe
 from ..circuit import (
@@ -380,6 +381,10 @@ def check_probes(circuit: Circuit, probes: Sequence[str], *,
             if kind == "v":
                 ok = (a in nodes and (b is None or b.lower() in nodes)) or (
                     b is None and a in capacitors)
+                gone = [x for x in (a, (b or "").lower()) if x in circuit.gone_nodes]
+                if not ok and gone:
+                    raise NetlistError([gone_probe(circuit, probe, gone[0])],
+                                       file=circuit.file)
             else:
                 if b is None and a not in two_terminal:
                     # (an element pelcs replaced: the built element carrying its current)
