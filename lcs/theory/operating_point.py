@@ -22,7 +22,10 @@ open switches' leaks choose one (:func:`_along_lcp`). Where diodes act on the fr
 (a capacitor that only diodes charge: ``W^T B != 0``), no DC current may enter them; where
 that holds only with those diodes' ``λ = 0``, the diodes' leakage sets the states, as in
 ngspice: the least squares of those diodes' voltages within their bounds
-(:func:`_leak_balanced`: a diode from 10 V into a lone capacitor charges it to 10 V).
+(:func:`_leak_balanced`: a diode from 10 V into a lone capacitor charges it to 10 V). Which
+diodes act there is judged after the formulation's round-off is taken out of ``B``
+(:func:`_round_off_coupling`: a pwl diode's segments, which only share its current among
+branches, enter its junction capacitor's row at 1e-9 of the diode's own entry).
 The point found is checked: the DC equations and the diodes' complementarity, each within
 its tolerance. Where ``A`` is regular but ill-conditioned (a regulator's error amplifier,
 its gain of 1e7 before its clamps, leaves a condition number of 1e10 to 1e12), the point
@@ -534,8 +537,10 @@ def _leak_balanced(A, B, C, D, E, F, u, x0, lcp, rtol, leaks, Lb, Le, null, KA, 
     At DC no current enters those states: ``Lb λ + Le = 0`` (``Lb``, ``Le``: the DC
     equations' combinations that ``A`` cannot satisfy, applied to ``B`` and ``E u``). Where
     ``Le = 0`` and some combination of them has every acting pair's entry positive, that
-    holds only with the acting pairs ``J`` at ``λ_J = 0``; the point without them (the
-    rest's operating point) then leaves the free states anywhere their ``w_J >= 0``. The
+    holds only with the acting pairs ``J`` at ``λ_J = 0``; else (a current in one acting
+    diode could balance another's) ``λ_J = 0`` is tried as one of the points. The point
+    without them (the rest's operating point) then leaves the free states anywhere their
+    ``w_J >= 0``. The
     diodes' leakage (GMIN beside the open switches' ROFF) takes the least weighted sum of
     squares of ``w_J`` and of the switches' voltages over the states, and the rest's sets
     of LCP solutions, that keep every bound (a diode from 10 V into a capacitor: ``w = v_C -
