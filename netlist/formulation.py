@@ -56,6 +56,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import re
 from collections.abc import Iterator, Sequence
 from functools import cached_property
 
@@ -144,7 +145,20 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         builder=formulator.builder,
         pinnable=sorted(formulator.state_index[k] for k in formulator.pinnable),
         storage=_storage(formulator),
+        offsets=_offsets([d.name for d in formulator.diodes], formulator.input_names),
     )
+
+
+def _offsets(diodes: Sequence[str], inputs: Sequence[str]) -> np.ndarray | None:
+    """For each pair, the inputs that are its own pwl diode's ``Vf`` sources
+    (``<element>#vf``, ``#vf<k>`` of :mod:`netlist.pwl`, the pairs ``<element>``,
+    ``<element>#d<k>``): :class:`~lcs.model.SwitchedLCS`'s ``offsets``; None without any."""
+    own = [re.match(r"(.*)#vf\d*$", name) for name in inputs]
+    if not any(own):
+        return None
+    elements = [re.sub(r"#d\d+$", "", d).lower() for d in diodes]
+    return np.array([[m is not None and m.group(1).lower() == e for m in own]
+                     for e in elements], dtype=bool).reshape(len(diodes), len(inputs))
 
 
 def storage_matrix(circuit: Circuit) -> np.ndarray:

@@ -132,7 +132,8 @@ class DcPoint:
 
 def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.ndarray,
              F: np.ndarray, u: np.ndarray, x0: np.ndarray, lcp: LcpOptions | None = None,
-             rtol: float = 1e-12, leaks: tuple[np.ndarray, ...] | None = None) -> DcPoint:
+             rtol: float = 1e-12, leaks: tuple[np.ndarray, ...] | None = None,
+             offsets: np.ndarray | None = None) -> DcPoint:
     """The operating point of one mode (module docstring).
 
     Parameters
@@ -155,6 +156,12 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
         the voltages (a capacitor that only an open switch reaches charges to the voltage
         on the switch's other side); the others keep their conserved values. The same
         least squares chooses among the diodes' LCP solutions where they move the state.
+    offsets : ndarray of bool, shape (m, p), optional
+        For each pair, the inputs that are its own device's offset voltages (a pwl diode's
+        ``Vf``): where the diodes' leakage sets a state, it leaks across the junction, at
+        ``w`` less those inputs' terms (a pwl diode from 2 V into a lone capacitor charges
+        it to 2 V, as ngspice's GMIN across the junction does, not to its knee 2 V - Vf);
+        without them, at ``w``.
     """
     n, m = A.shape[0], B.shape[1]
     x0 = np.asarray(x0, dtype=float)
@@ -208,7 +215,7 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
         # (a capacitor only diodes reach: any value at which they block holds at DC; their
         # leakage chooses, where that can be made exact)
         found = _leak_balanced(A_in, B_in, C, D, E_in, F, u, x0, lcp, rtol, leaks,
-                               left_null.T @ B, left_null.T @ (E @ u), null, KA, B)
+                               left_null.T @ B, left_null.T @ (E @ u), null, KA, B, offsets)
         if found is not None:
             return found
         return DcPoint(False, x0.copy(), np.zeros(m), free,
@@ -528,8 +535,8 @@ def _bounded_least_squares(dv: np.ndarray, v: np.ndarray, G: np.ndarray, h: np.n
     return T @ (res.z[:k] - res.z[k:2 * k]), VT[r:].T
 
 
-def _leak_balanced(A, B, C, D, E, F, u, x0, lcp, rtol, leaks, Lb, Le, null, KA, Bs
-                   ) -> DcPoint | None:
+def _leak_balanced(A, B, C, D, E, F, u, x0, lcp, rtol, leaks, Lb, Le, null, KA, Bs,
+                   offsets=None) -> DcPoint | None:
     """The operating point where diodes act on states that no DC equation sets (a
     capacitor that only diodes charge), as ngspice's diode leakage sets it; None where this
     cannot be made exact.
@@ -580,7 +587,9 @@ def _leak_balanced(A, B, C, D, E, F, u, x0, lcp, rtol, leaks, Lb, Le, null, KA, 
     sub = dc_point(A, B[:, R], C[R], D[np.ix_(R, R)], np.hstack([E, B[:, J]]),
                    np.hstack([F[R], D[np.ix_(R, J)]]), np.concatenate([u, lam_J]), x0, lcp,
                    rtol, leaks if leaks is None else
-                   (leaks[0], leaks[1][:, R], np.hstack([leaks[2], leaks[1][:, J]])))
+                   (leaks[0], leaks[1][:, R], np.hstack([leaks[2], leaks[1][:, J]])),
+                   None if offsets is None else
+                   np.hstack([offsets[R], np.zeros((R.size, J.size), bool)]))
     if not sub.ok:
         return None
     x, lam = sub.x.copy(), np.zeros(m)
@@ -607,7 +616,10 @@ def _leak_balanced(A, B, C, D, E, F, u, x0, lcp, rtol, leaks, Lb, Le, null, KA, 
     dx = null @ Kz - KB[:, S] @ Kl
     dw = C @ null @ Kz + Mf[:, S] @ Kl
     rows_v = [_DIODE_LEAK * dw[J]]
-    v = [_DIODE_LEAK * w[J]]
+    # (across each junction: w less the diode's own offsets, its pwl Vf, which the leak's
+    # conductance, GMIN across ngspice's junction, does not see)
+    w_junction = w[J] if offsets is None else w[J] - (F[J] * offsets[J]) @ u
+    v = [_DIODE_LEAK * w_junction]
     scale = _DIODE_LEAK * float(np.linalg.norm(np.hstack([C[J], D[J]]), 2))
     if leaks is not None and leaks[0].size:
         Cl, Dl, Fl = leaks
