@@ -56,7 +56,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import re
 from collections.abc import Iterator, Sequence
 from functools import cached_property
 
@@ -89,6 +88,7 @@ from .mna import Mna as _Mna
 from .mna import Stamps, coalesce, dense_form
 from .mna_solve import Entries, Solution, clean
 from .probes import PROBE, TWO_TERMINAL
+from .pwl import vf_offsets
 from .reductions import held_capacitors, open_inductors, reduced
 from .suggest import did_you_mean, short_list
 from .topology import Partition, SwitchedBridges, UnionFind
@@ -144,21 +144,7 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         diodes=[d.name for d in formulator.diodes],
         builder=formulator.builder,
         pinnable=sorted(formulator.state_index[k] for k in formulator.pinnable),
-        storage=_storage(formulator),
-        offsets=_offsets([d.name for d in formulator.diodes], formulator.input_names),
-    )
-
-
-def _offsets(diodes: Sequence[str], inputs: Sequence[str]) -> np.ndarray | None:
-    """For each pair, the inputs that are its own pwl diode's ``Vf`` sources
-    (``<element>#vf``, ``#vf<k>`` of :mod:`netlist.pwl`, the pairs ``<element>``,
-    ``<element>#d<k>``): :class:`~lcs.model.SwitchedLCS`'s ``offsets``; None without any."""
-    own = [re.match(r"(.*)#vf\d*$", name) for name in inputs]
-    if not any(own):
-        return None
-    elements = [re.sub(r"#d\d+$", "", d).lower() for d in diodes]
-    return np.array([[m is not None and m.group(1).lower() == e for m in own]
-                     for e in elements], dtype=bool).reshape(len(diodes), len(inputs))
+        storage=_storage(formulator), offsets=vf_offsets(formulator.diodes, formulator.input_names))
 
 
 def storage_matrix(circuit: Circuit) -> np.ndarray:
