@@ -191,6 +191,11 @@ class SwitchedLCS:
         energy: H on inductor currents, F on capacitor voltages). Where it is verified to be
         one, a time step's next state is known to be unique whatever λ it takes
         (:mod:`lcs.theory.step_uniqueness`) and the integrator does not look for other solutions.
+    offsets : ndarray of bool (m, p), optional
+        For each pair, the inputs that are its own device's offset voltages (a piecewise-linear
+        diode's ``Vf`` sources): ``w`` less their terms is the voltage across the device's
+        junction while it carries nothing, where ngspice's GMIN leaks
+        (:func:`lcs.theory.operating_point.dc_point`).
     """
 
     def __init__(
@@ -202,9 +207,11 @@ class SwitchedLCS:
         builder: Callable[[ModeKey], ModeModel],
         pinnable: Sequence[int] = (),
         storage: np.ndarray | None = None,
+        offsets: np.ndarray | None = None,
     ):
         self.switches = tuple(switches)
         self.storage = None if storage is None else np.asarray(storage, dtype=float)
+        self.offsets = None if offsets is None else np.asarray(offsets, dtype=bool)
         self.states = tuple(states)
         self.inputs = tuple(inputs)
         self.diodes = tuple(diodes)

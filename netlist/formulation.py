@@ -88,6 +88,7 @@ from .mna import Mna as _Mna
 from .mna import Stamps, coalesce, dense_form
 from .mna_solve import Entries, Solution, clean
 from .probes import PROBE, TWO_TERMINAL
+from .pwl import vf_offsets
 from .reductions import held_capacitors, open_inductors, reduced
 from .suggest import did_you_mean, short_list
 from .topology import Partition, SwitchedBridges, UnionFind
@@ -143,8 +144,7 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         diodes=[d.name for d in formulator.diodes],
         builder=formulator.builder,
         pinnable=sorted(formulator.state_index[k] for k in formulator.pinnable),
-        storage=_storage(formulator),
-    )
+        storage=_storage(formulator), offsets=vf_offsets(formulator.diodes, formulator.input_names))
 
 
 def storage_matrix(circuit: Circuit) -> np.ndarray:

@@ -59,7 +59,8 @@ A diode's depletion charge is added to this circuit by :mod:`netlist.junction_ch
 from __future__ import annotations
 
 import math
-from collections.abc import Collection
+import re
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass, replace
 from functools import lru_cache
 
@@ -74,7 +75,8 @@ __all__ = ["CHORD_TOLERANCE", "LOW_FRACTION", "MAX_SEGMENTS", "PwlFit", "SEGMENT
            "VT_THERMAL", "carried_current",
            "diode_fit", "diode_ignored", "diode_params", "diode_residual", "diode_voltage",
            "model_current", "model_voltage", "parallel_fit", "parallel_voltage", "pwl_circuit",
-           "pwl_voltage", "segment_fit", "segments_of", "switch_residual", "switch_resistance"]
+           "pwl_voltage", "segment_fit", "segments_of", "switch_residual", "switch_resistance",
+           "vf_offsets"]
 
 
 
@@ -710,3 +712,15 @@ def _series(el, vf: float, ron: float, branches: tuple = ()) -> list:
         parts.append(VoltageSource(f"{el.name}#vf{k}", (inner, mid), el.location, vk))
         parts.append(Resistor(f"{el.name}#ron{k}", (mid, b), el.location, rk))
     return parts
+
+
+def vf_offsets(diodes: Sequence, inputs: Sequence[str]) -> np.ndarray | None:
+    """For each of the pairs ``diodes`` (elements named ``<element>`` or ``<element>#d<k>``),
+    the inputs that are its own pwl diode's ``Vf`` sources (``<element>#vf``, ``#vf<k>``):
+    :class:`~lcs.model.SwitchedLCS`'s ``offsets``, shape (m, p); None without any."""
+    own = [re.match(r"(.*)#vf\d*$", name) for name in inputs]
+    if not any(own):
+        return None
+    elements = [re.sub(r"#d\d+$", "", d.name).lower() for d in diodes]
+    return np.array([[m is not None and m.group(1).lower() == e for m in own]
+                     for e in elements], dtype=bool).reshape(len(diodes), len(inputs))

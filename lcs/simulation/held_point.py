@@ -28,7 +28,8 @@ def mode_point(problem: Problem, mode: ModeKey, u0: np.ndarray, x0: np.ndarray,
                lcp: LcpOptions) -> DcPoint:
     """The operating point of ``mode`` of ``problem``'s system, its open switches' leaks
     choosing where the DC equations leave a choice (:func:`switch_leaks`)."""
-    return dc_point(*problem.mode_arrays(mode), u0, x0, lcp, leaks=switch_leaks(problem, mode))
+    return dc_point(*problem.mode_arrays(mode), u0, x0, lcp, leaks=switch_leaks(problem, mode),
+                    offsets=getattr(problem.system, "offsets", None))
 
 
 @dataclass(eq=False)

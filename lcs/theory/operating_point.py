@@ -22,7 +22,10 @@ open switches' leaks choose one (:func:`_along_lcp`). Where diodes act on the fr
 (a capacitor that only diodes charge: ``W^T B != 0``), no DC current may enter them; where
 that holds only with those diodes' ``λ = 0``, the diodes' leakage sets the states, as in
 ngspice: the least squares of those diodes' voltages within their bounds
-(:func:`_leak_balanced`: a diode from 10 V into a lone capacitor charges it to 10 V).
+(:func:`_leak_balanced`: a diode from 10 V into a lone capacitor charges it to 10 V). Which
+diodes act there is judged after the formulation's round-off is taken out of ``B``
+(:func:`_round_off_coupling`: a pwl diode's segments, which only share its current among
+branches, enter its junction capacitor's row at 1e-9 of the diode's own entry).
 The point found is checked: the DC equations and the diodes' complementarity, each within
 its tolerance. Where ``A`` is regular but ill-conditioned (a regulator's error amplifier,
 its gain of 1e7 before its clamps, leaves a condition number of 1e10 to 1e12), the point
@@ -59,6 +62,10 @@ ON_BOUND = 1e-9
 #: the DC equations ``0 = A x + B λ + E u`` hold where each residual is this small beside its
 #: equation's terms (:func:`_dc_holds`)
 DC_RESIDUAL = 1e-8
+#: a column of ``B`` whose part in the DC equations' combinations that ``A`` cannot satisfy
+#: is this small, each equation scaled to its largest coefficient, is the formulation's
+#: round-off, not a diode acting on a free state (:func:`_round_off_coupling`)
+COUPLING_ROUND_OFF = 1e-8
 
 
 def _zero_round_off(a: np.ndarray, size) -> np.ndarray:
@@ -125,7 +132,8 @@ class DcPoint:
 
 def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.ndarray,
              F: np.ndarray, u: np.ndarray, x0: np.ndarray, lcp: LcpOptions | None = None,
-             rtol: float = 1e-12, leaks: tuple[np.ndarray, ...] | None = None) -> DcPoint:
+             rtol: float = 1e-12, leaks: tuple[np.ndarray, ...] | None = None,
+             offsets: np.ndarray | None = None) -> DcPoint:
     """The operating point of one mode (module docstring).
 
     Parameters
@@ -148,6 +156,12 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
         the voltages (a capacitor that only an open switch reaches charges to the voltage
         on the switch's other side); the others keep their conserved values. The same
         least squares chooses among the diodes' LCP solutions where they move the state.
+    offsets : ndarray of bool, shape (m, p), optional
+        For each pair, the inputs that are its own device's offset voltages (a pwl diode's
+        ``Vf``): where the diodes' leakage sets a state, it leaks across the junction, at
+        ``w`` less those inputs' terms (a pwl diode from 2 V into a lone capacitor charges
+        it to 2 V, as ngspice's GMIN across the junction does, not to its knee 2 V - Vf);
+        without them, at ``w``.
     """
     n, m = A.shape[0], B.shape[1]
     x0 = np.asarray(x0, dtype=float)
@@ -172,7 +186,11 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
     inv = np.zeros_like(s)
     inv[:rank] = 1.0 / s[:rank]
     A_pinv = (Vt.T * inv) @ U.T
-    null = Vt[rank:].T  # (n, n - rank): the states no DC equation sets
+    # (n, n - rank): the states no DC equation sets; its columns are unit vectors, and an
+    # entry of 1e-16 is the SVD's round-off of a state no DC equation leaves free (a line
+    # inductor's current, 5e-17 of a free direction that a least squares then moves by 500
+    # V, leaves 2.5e-14 A where the junction capacitor's equation multiplies it by 1.2e11)
+    null = _zero_round_off(Vt[rank:].T, 1.0)
     left_null = U[:, rank:]  # the DC equations' combinations that A cannot satisfy
     # the conserved combinations W^T x of the unscaled equations (W^T A = 0): W = S W_s
     conserved = left_null * scale_rows[:, None]
@@ -189,12 +207,15 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
     x_null = P @ x0
     keep = np.eye(n) - P
     KA = keep @ A_pinv
+    if left_null.size:
+        B = _round_off_coupling(B, left_null)
+        B_in = B / scale_rows[:, None]
     if left_null.size and np.abs(left_null.T @ B).max(initial=0.0) > rtol * max(
             1.0, np.abs(B).max(initial=0.0)):
         # (a capacitor only diodes reach: any value at which they block holds at DC; their
         # leakage chooses, where that can be made exact)
         found = _leak_balanced(A_in, B_in, C, D, E_in, F, u, x0, lcp, rtol, leaks,
-                               left_null.T @ B, left_null.T @ (E @ u), null, KA, B)
+                               left_null.T @ B, left_null.T @ (E @ u), null, KA, B, offsets)
         if found is not None:
             return found
         return DcPoint(False, x0.copy(), np.zeros(m), free,
@@ -238,6 +259,30 @@ def dc_point(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, E: np.n
         if found is not None:
             return DcPoint(True, found[0], found[1], free)
     return DcPoint(False, x0.copy(), np.zeros(m), free, *_why_none(A, E, u, left_null))
+
+
+def _round_off_coupling(B: np.ndarray, left_null: np.ndarray) -> np.ndarray:
+    """``B`` (its equations scaled to their largest coefficient) without the parts of its
+    columns in the combinations ``left_null`` of the DC equations where they are round-off
+    (:data:`COUPLING_ROUND_OFF`).
+
+    The formulation solves the circuit's MNA equations by an LU factorisation it accepts down
+    to a reciprocal condition of 1e-6 (``netlist.mna_solve``), and cleans the entries below
+    1e-12 of their row: what lies between is round-off it leaves. A piecewise-linear diode's
+    segments carry currents that only share the diode's total among its parallel branches:
+    in exact arithmetic they enter no capacitor's equation, but the formulation's
+    matrices give them 1.7e-9 of their junction capacitor's row beside the 0.48 of the
+    diode's total current (a 1N4148 of five segments, its 1.2 pF behind 0.48 Ω). Counted
+    as diodes acting on the capacitor's charge, these entries of random sign made the
+    leakage balance (:func:`_leak_balanced`) see currents that could balance each other,
+    and it found no point."""
+    Lb = left_null.T @ B
+    small = np.abs(Lb).max(axis=0, initial=0.0) <= COUPLING_ROUND_OFF
+    if not small.any():
+        return B
+    B = B.copy()
+    B[:, small] -= left_null @ Lb[:, small]
+    return B
 
 
 def _holds(A, B, C, D, E, F, x, lam, u) -> bool:
@@ -467,19 +512,31 @@ def _bounded_least_squares(dv: np.ndarray, v: np.ndarray, G: np.ndarray, h: np.n
     ``H t + g - G^T μ = 0``, ``0 <= G t - h ⊥ μ >= 0`` (``H = dv^T dv``, ``g = dv^T v``, both
     over ``scale^2``), which Lemke's method solves whenever the bounds can hold."""
     k = dv.shape[1]
-    _, _, VT, r = _reach(dv, scale)
-    s = max(scale, 1e-300)
-    H, g = (dv.T @ dv) / s**2, (dv.T @ v) / s**2
+    U, s, VT, r = _reach(dv, scale)
+    # in the coordinates t = T y of dv's singular directions, each reached one scaled by its
+    # singular value (H = diag(1, .., 0, ..)): the least squares then has one size whatever
+    # the units of t's components (a state's move in volts beside a multiplier in amperes
+    # through a segment of 5.5 MΩ, which left H at 1e-15 of the bounds' entries, below
+    # Lemke's pivot tolerance, and the least squares unsolved)
+    T = np.hstack([VT[:r].T / s[:r], VT[r:].T])
+    H = np.zeros((k, k))
+    H[np.arange(r), np.arange(r)] = 1.0
+    g = np.concatenate([U[:, :r].T @ v, np.zeros(k - r)])
+    GT = G @ T
+    # (each bound scaled to its largest entry: the same bound)
+    gsize = np.abs(GT).max(axis=1, initial=0.0)
+    gsize = np.where(gsize > 0, gsize, 1.0)
+    GT, h = GT / gsize[:, None], h / gsize
     b = G.shape[0]
-    Mq = np.block([[H, -H, -G.T], [-H, H, G.T], [G, -G, np.zeros((b, b))]])
+    Mq = np.block([[H, -H, -GT.T], [-H, H, GT.T], [GT, -GT, np.zeros((b, b))]])
     res = solve_lcp(Mq, np.concatenate([g, -g, -h]))
     if not res.ok:
         return None, VT[r:].T
-    return res.z[:k] - res.z[k:2 * k], VT[r:].T
+    return T @ (res.z[:k] - res.z[k:2 * k]), VT[r:].T
 
 
-def _leak_balanced(A, B, C, D, E, F, u, x0, lcp, rtol, leaks, Lb, Le, null, KA, Bs
-                   ) -> DcPoint | None:
+def _leak_balanced(A, B, C, D, E, F, u, x0, lcp, rtol, leaks, Lb, Le, null, KA, Bs,
+                   offsets=None) -> DcPoint | None:
     """The operating point where diodes act on states that no DC equation sets (a
     capacitor that only diodes charge), as ngspice's diode leakage sets it; None where this
     cannot be made exact.
@@ -487,8 +544,10 @@ def _leak_balanced(A, B, C, D, E, F, u, x0, lcp, rtol, leaks, Lb, Le, null, KA, 
     At DC no current enters those states: ``Lb λ + Le = 0`` (``Lb``, ``Le``: the DC
     equations' combinations that ``A`` cannot satisfy, applied to ``B`` and ``E u``). Where
     ``Le = 0`` and some combination of them has every acting pair's entry positive, that
-    holds only with the acting pairs ``J`` at ``λ_J = 0``; the point without them (the
-    rest's operating point) then leaves the free states anywhere their ``w_J >= 0``. The
+    holds only with the acting pairs ``J`` at ``λ_J = 0``; else (a current in one acting
+    diode could balance another's) ``λ_J = 0`` is tried as one of the points. The point
+    without them (the rest's operating point) then leaves the free states anywhere their
+    ``w_J >= 0``. The
     diodes' leakage (GMIN beside the open switches' ROFF) takes the least weighted sum of
     squares of ``w_J`` and of the switches' voltages over the states, and the rest's sets
     of LCP solutions, that keep every bound (a diode from 10 V into a capacitor: ``w = v_C -
@@ -520,14 +579,17 @@ def _leak_balanced(A, B, C, D, E, F, u, x0, lcp, rtol, leaks, Lb, Le, null, KA, 
                 or np.any(lam_J < -ON_BOUND * np.abs(lam_J).max())):
             return None
         lam_J = np.maximum(lam_J, 0.0)
-    else:
-        y = np.linalg.lstsq(Lb[:, J].T, np.ones(J.size), rcond=None)[0]
-        if not np.all(Lb[:, J].T @ y > 0.5):
-            return None  # (a current in one acting diode could balance another's)
+    # (else λ_J = 0: where a current in one acting diode could balance another's, a bridge
+    # whose floating source only diodes join to the rest, λ_J = 0 is one point among others
+    # that may be, and is taken where the search below finds every bound kept with it: the
+    # point is checked as every other, and ngspice's leakage, at a source of 0 V, leaves no
+    # current in the bridge's diodes either)
     sub = dc_point(A, B[:, R], C[R], D[np.ix_(R, R)], np.hstack([E, B[:, J]]),
                    np.hstack([F[R], D[np.ix_(R, J)]]), np.concatenate([u, lam_J]), x0, lcp,
                    rtol, leaks if leaks is None else
-                   (leaks[0], leaks[1][:, R], np.hstack([leaks[2], leaks[1][:, J]])))
+                   (leaks[0], leaks[1][:, R], np.hstack([leaks[2], leaks[1][:, J]])),
+                   None if offsets is None else
+                   np.hstack([offsets[R], np.zeros((R.size, J.size), bool)]))
     if not sub.ok:
         return None
     x, lam = sub.x.copy(), np.zeros(m)
@@ -554,7 +616,10 @@ def _leak_balanced(A, B, C, D, E, F, u, x0, lcp, rtol, leaks, Lb, Le, null, KA, 
     dx = null @ Kz - KB[:, S] @ Kl
     dw = C @ null @ Kz + Mf[:, S] @ Kl
     rows_v = [_DIODE_LEAK * dw[J]]
-    v = [_DIODE_LEAK * w[J]]
+    # (across each junction: w less the diode's own offsets, its pwl Vf, which the leak's
+    # conductance, GMIN across ngspice's junction, does not see)
+    w_junction = w[J] if offsets is None else w[J] - (F[J] * offsets[J]) @ u
+    v = [_DIODE_LEAK * w_junction]
     scale = _DIODE_LEAK * float(np.linalg.norm(np.hstack([C[J], D[J]]), 2))
     if leaks is not None and leaks[0].size:
         Cl, Dl, Fl = leaks
@@ -576,8 +641,11 @@ def _leak_balanced(A, B, C, D, E, F, u, x0, lcp, rtol, leaks, Lb, Le, null, KA, 
             free_dirs = rest  # (before the least move: the directions nothing sets)
         if not rest.size:
             continue
+        # (the bounds as the move so far keeps them: one it keeps only to round-off, a
+        # diode's w of -1.6e-11 V beside 0.66 V, is kept from getting worse, not asked to
+        # become exact along directions that may not reach it)
         dt, unreached = _bounded_least_squares(target @ rest, now + target @ t, G @ rest,
-                                               h - G @ t, 1.0)
+                                               np.minimum(h - G @ t, 0.0), 1.0)
         if dt is None:
             return None
         t, rest = t + rest @ dt, rest @ unreached
