@@ -25,6 +25,7 @@ import numpy as np
 
 from .circuit import GROUND, Capacitor, Circuit, Inductor, Resistor, VoltageSource
 from .errors import Diagnostic, Location
+from .knee import NodeVoltages, voltage_nodes
 from .units import format_eng
 
 __all__ = ["VBE_HIGH", "VBE_LOW", "BaseClamp", "BaseDrive", "resolve_base_drives"]
@@ -67,29 +68,25 @@ class BaseDrive:
 
     @property
     def _nodes(self) -> tuple[str, ...]:
-        far = [n for n, _ in self.resistors or ()]
-        return tuple(n for n in dict.fromkeys((*self.control, *far)) if n != GROUND)
+        return voltage_nodes(self.control, [n for n, _ in self.resistors or ()])
 
     @property
     def probes(self) -> tuple[str, ...]:
         return (f"i({self.name})", *(f"v({n})" for n in self._nodes))
 
-    def base_bound(self, volts: dict[str, np.ndarray], like: np.ndarray) -> np.ndarray:
+    def base_bound(self, v: NodeVoltages) -> np.ndarray:
         """The most base current the resistors supply, A, at the run's node voltages."""
-        zero = np.zeros_like(like)
-        ve = volts.get(self.emitter, zero)
         sign = 1.0 if self.device == "NPN" else -1.0
-        ib = zero.copy()
+        ib = v.zero.copy()
         for node, r in self.resistors or ():
-            ib += np.maximum(sign * (volts.get(node, zero) - ve) - VBE_LOW, 0.0) / r
+            ib += np.maximum(sign * v.across((node, self.emitter)) - VBE_LOW, 0.0) / r
         return ib
 
     def quantity(self, columns: Sequence[np.ndarray]) -> np.ndarray:
         current, *volts = columns
-        v = dict(zip(self._nodes, volts, strict=True))
-        zero = np.zeros_like(current)
-        on = v.get(self.control[0], zero) - v.get(self.control[1], zero) > self.threshold
-        most = self.beta * self.base_bound(v, current)
+        v = NodeVoltages(self._nodes, volts, current)
+        on = v.across(self.control) > self.threshold
+        most = self.beta * self.base_bound(v)
         scale = max(1.0, float(np.max(np.abs(current), initial=0.0)))
         with np.errstate(divide="ignore", invalid="ignore"):
             excess = np.where(most > 0, np.abs(current) / most - 1.0,
@@ -159,16 +156,14 @@ class BaseClamp:
 
     @property
     def _nodes(self) -> tuple[str, ...]:
-        return tuple(n for n in dict.fromkeys(self.control) if n != GROUND)
+        return voltage_nodes(self.control)
 
     @property
     def probes(self) -> tuple[str, ...]:
         return tuple(f"v({n})" for n in self._nodes)
 
     def quantity(self, columns: Sequence[np.ndarray]) -> np.ndarray:
-        v = dict(zip(self._nodes, columns, strict=True))
-        zero = np.zeros_like(columns[0])
-        return v.get(self.control[0], zero) - v.get(self.control[1], zero) - VBE_HIGH
+        return NodeVoltages(self._nodes, columns, columns[0]).across(self.control) - VBE_HIGH
 
     def inside(self, q: np.ndarray) -> np.ndarray:
         return q <= 0.0

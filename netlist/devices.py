@@ -25,6 +25,7 @@ import numpy as np
 
 from .circuit import GROUND
 from .errors import Diagnostic, Location, NetlistError
+from .knee import NodeVoltages, voltage_nodes
 from .units import parse_number
 
 __all__ = ["BJT_THRESHOLD", "DEVICE_TYPES", "ChannelLimit", "ReverseChannel", "Replacement",
@@ -108,22 +109,16 @@ class ReverseChannel:
 
     @property
     def _nodes(self) -> tuple[str, ...]:
-        """The nodes other than ground it reads, once each: ``probes`` in order."""
-        return tuple(n for n in dict.fromkeys((*self.control, *self.reverse)) if n != GROUND)
+        return voltage_nodes(self.control, self.reverse)
 
     @property
     def probes(self) -> tuple[str, ...]:
         return tuple(f"v({n})" for n in self._nodes)
 
     def quantity(self, columns: Sequence[np.ndarray]) -> np.ndarray:
-        v = dict(zip(self._nodes, columns, strict=True))
-        zero = np.zeros_like(columns[0])
-
-        def diff(pair: tuple[str, str]) -> np.ndarray:
-            return v.get(pair[0], zero) - v.get(pair[1], zero)
-
-        off = diff(self.control) <= self.threshold
-        over = diff(self.reverse) - self.threshold
+        v = NodeVoltages(self._nodes, columns, columns[0])
+        off = v.across(self.control) <= self.threshold
+        over = v.across(self.reverse) - self.threshold
         # A drain on the source's potential up to rounding (an ideal diode across it, VTO
         # = 0, ngspice's default: 1.8e-15 V past) is no reverse conduction: a level-1
         # channel carries KP/2 (1 uV)^2 at a micro-volt a volt of the run's voltages
@@ -209,7 +204,7 @@ class ChannelLimit:
 
     @property
     def _nodes(self) -> tuple[str, ...]:
-        return tuple(n for n in dict.fromkeys(self.control) if n != GROUND)
+        return voltage_nodes(self.control)
 
     @property
     def probes(self) -> tuple[str, ...]:
@@ -230,9 +225,7 @@ class ChannelLimit:
 
     def quantity(self, columns: Sequence[np.ndarray]) -> np.ndarray:
         current, *volts = columns
-        v = dict(zip(self._nodes, volts, strict=True))
-        zero = np.zeros_like(current)
-        ctl = v.get(self.control[0], zero) - v.get(self.control[1], zero)
+        ctl = NodeVoltages(self._nodes, volts, current).across(self.control)
         bound = self.limit(ctl - self.vto)
         with np.errstate(divide="ignore", invalid="ignore"):
             excess = np.abs(current) / bound - 1.0

@@ -26,8 +26,8 @@ from .circuit import GROUND, Capacitor, Element
 from .errors import Diagnostic, NetlistError
 from .rawdeck import RawElement
 
-__all__ = ["KNEE_STEPS", "KneeCapacitor", "check_knees", "elaborate_knee", "knee_probes",
-           "knees_for_run"]
+__all__ = ["KNEE_STEPS", "KneeCapacitor", "NodeVoltages", "check_knees", "elaborate_knee",
+           "knee_probes", "knees_for_run", "voltage_nodes"]
 
 _FORM = ("pelcs reads a capacitor value 'v(n+,n-) < K ? C0 : ...' (any comparison of an affine "
          "form of the capacitor's own voltage with constants, C0 constant) as the capacitor C0, "
@@ -114,6 +114,28 @@ def elaborate_knee(el: RawElement, prefix: str, mapnode: Callable[[str], str],
         return fail(problem[0], yes.start)
     return [KneeCapacitor(name, nodes, el.st.loc(0), c0.const, None, a, diff.const, strict,
                           text)]
+
+
+def voltage_nodes(*groups: Sequence[str]) -> tuple[str, ...]:
+    """The nodes other than ground among ``groups``, once each, in order: those a knee
+    reads through ``v(node)`` probes."""
+    return tuple(n for n in dict.fromkeys(n for g in groups for n in g) if n != GROUND)
+
+
+class NodeVoltages:
+    """The voltages, V, of a run at the ``nodes`` a knee reads (:func:`voltage_nodes`, its
+    ``columns`` in that order): ``v(node)``, ``v.across((a, b))``; ground 0."""
+
+    def __init__(self, nodes: Sequence[str], columns: Sequence[np.ndarray],
+                 like: np.ndarray) -> None:
+        self._v = dict(zip(nodes, columns, strict=True))
+        self.zero = np.zeros_like(like)
+
+    def __call__(self, node: str) -> np.ndarray:
+        return self._v.get(node, self.zero)
+
+    def across(self, pair: Sequence[str]) -> np.ndarray:
+        return self(pair[0]) - self(pair[1])
 
 
 #: a run written as it goes (to a file, or onto an output grid) that would keep more steps
