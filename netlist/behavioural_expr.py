@@ -97,6 +97,15 @@ class Tree:
     start: int
     end: int
 
+    def walk(self) -> list[Tree]:
+        """This node and every node under it (depth first)."""
+        out, stack = [], [self]
+        while stack:
+            t = stack.pop()
+            out.append(t)
+            stack.extend(a for a in t.args if isinstance(a, Tree))
+        return out
+
 
 class _Parser:
     def __init__(self, text: str):

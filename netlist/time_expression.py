@@ -178,19 +178,10 @@ def time_expression(tree: Tree, text: str, env: Mapping[str, float]) -> TimeExpr
         condition...), an unknown parameter, or a value at t = 0 that is not a finite number.
     """
     _check(tree, text, env)
-    names = {t.args[0] for t in _nodes(tree) if t.tag == "var"} - {"time", *CONSTANTS}
+    names = {t.args[0] for t in tree.walk() if t.tag == "var"} - {"time", *CONSTANTS}
     sig = TimeExpression(text, tree, tuple(sorted((n, float(env[n])) for n in names)))
     v0 = float(sig(0.0))
     if not math.isfinite(v0):
         raise BehaviouralError(f"'{text.strip()}' is {v0} at time 0", 0,
                                "a B source's value must be a finite number at every instant")
     return sig
-
-
-def _nodes(tree: Tree) -> list[Tree]:
-    out, stack = [], [tree]
-    while stack:
-        t = stack.pop()
-        out.append(t)
-        stack.extend(a for a in t.args if isinstance(a, Tree))
-    return out

@@ -87,24 +87,14 @@ _COMPARISONS = ("<", ">", "<=", ">=", "==", "!=")
 _TIME = "#time"  # the pseudo node that stands for time in a comparison's affine form
 
 
-def _reads(tree: Tree) -> list[Tree]:
-    """Every node of ``tree`` (depth first)."""
-    out, stack = [], [tree]
-    while stack:
-        t = stack.pop()
-        out.append(t)
-        stack.extend(a for a in t.args if isinstance(a, Tree))
-    return out
-
-
 def _has_time(tree: Tree) -> bool:
-    return any(t.tag == "var" and t.args[0] == "time" for t in _reads(tree))
+    return any(t.tag == "var" and t.args[0] == "time" for t in tree.walk())
 
 
 def other_quantity(tree: Tree) -> str | None:
     """The first circuit quantity other than ``time`` an expression reads (``v(a,b)``,
     ``i(V1)``, ``temper``, ``hertz``), as written, or None."""
-    for t in sorted(_reads(tree), key=lambda t: t.start):
+    for t in sorted(tree.walk(), key=lambda t: t.start):
         if t.tag == "v":
             return f"v({t.args[0]})" if t.args[1] is None else f"v({t.args[0]},{t.args[1]})"
         if t.tag == "i":

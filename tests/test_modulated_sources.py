@@ -5,10 +5,10 @@ taken from PHASES), a run's rows against the waveform, and an RC filter driven b
 from __future__ import annotations
 
 import shutil
-import subprocess
 
 import numpy as np
 import pytest
+from ngspice_helpers import ngspice_wrdata
 
 from lcs.signals import Am, Sffm, resolve
 from netlist.errors import NetlistError
@@ -46,12 +46,7 @@ C2 b 0 100n
 
 def _ngspice(tmp_path, deck: str, probes: list[str]) -> np.ndarray:
     """ngspice's run of ``deck``: the columns time, then each probe."""
-    deck = deck.replace(".end\n", ".control\nset numdgt=15\nrun\nwrdata out.txt "
-                        + " ".join(probes) + "\n.endc\n.end\n")
-    (tmp_path / "deck.cir").write_text(deck)
-    subprocess.run(["ngspice", "-b", "deck.cir"], cwd=tmp_path, capture_output=True, text=True,
-                   timeout=60, env={"HOME": str(tmp_path), "PATH": "/usr/bin:/bin"})
-    data = np.loadtxt(tmp_path / "out.txt")
+    data = ngspice_wrdata(deck, probes, tmp_path, before=["set numdgt=15"])
     return np.column_stack([data[:, 0], data[:, 1::2]])
 
 

@@ -4,10 +4,10 @@ source of that waveform (netlist.time_expression), compared with ngspice 39 poin
 from __future__ import annotations
 
 import shutil
-import subprocess
 
 import numpy as np
 import pytest
+from ngspice_helpers import ngspice_wrdata
 
 from netlist.circuit import CurrentSource, VoltageSource
 from netlist.parser import parse_string
@@ -32,12 +32,7 @@ PROBES = ["v(n1)", "v(n2)", "v(n3)", "v(a)"]
 
 
 def _ngspice(tmp_path, deck: str) -> np.ndarray:
-    deck = deck.replace(".end\n", ".control\nset numdgt=15\nrun\nwrdata out.txt "
-                        + " ".join(PROBES) + "\n.endc\n.end\n")
-    (tmp_path / "deck.cir").write_text(deck)
-    subprocess.run(["ngspice", "-b", "deck.cir"], cwd=tmp_path, capture_output=True, text=True,
-                   timeout=60, env={"HOME": str(tmp_path), "PATH": "/usr/bin:/bin"})
-    data = np.loadtxt(tmp_path / "out.txt")
+    data = ngspice_wrdata(deck, PROBES, tmp_path, before=["set numdgt=15"])
     return np.column_stack([data[:, 0], data[:, 1::2]])
 
 
