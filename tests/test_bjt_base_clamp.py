@@ -54,3 +54,53 @@ def test_a_base_without_a_capacitor_is_not_clamped():
     # instead, netlist.base_drive.BaseDrive)
     deck = MONOSTABLE.replace("C1 b2 c1 10n", "C1 c1 0 10n")
     assert not [k for k in parse_string(deck).knees if isinstance(k, BaseClamp)]
+
+
+SPEED_UP = """NPN switch with a speed-up capacitor across its base resistor
+Vin in 0 PULSE(0 5 0 10n 10n 5u 10u)
+Rb in b 1k
+Cs in b 1n
+Q1 c b 0 QN
+Rc vcc c 100
+Vcc vcc 0 12
+.model QN NPN(BF=100)
+.tran 10n 40u
+.meas tran tup when v(c)=6 rise=2
+.meas tran tdown when v(c)=6 fall=2
+.end
+"""
+
+
+def test_a_speed_up_capacitor_across_the_base_resistor_is_not_refused(tmp_path, ngspice):
+    # (the capacitor joins the base to the source-held node its resistor comes from: the
+    # ideal base follows that node, the device's stands 0.7 V up and is kicked 4.3 V down at
+    # turn-off; both are off at once, and on at once as the source rises)
+    want = ngspice_print(SPEED_UP, ["tup", "tdown"], tmp_path)
+    res = simulate_circuit(parse_string(SPEED_UP), probes=["v(c)"], step=10e-9)
+    t, v = res.t, res["v(c)"]
+    up = t[1:][(v[:-1] < 6) & (v[1:] >= 6)][1]
+    down = t[1:][(v[:-1] > 6) & (v[1:] <= 6)][1]
+    assert up == pytest.approx(want["tup"], abs=0.1e-6)  # (ngspice 15.01 us, pelcs 15.02 us)
+    assert down == pytest.approx(want["tdown"], abs=0.1e-6)
+
+
+def test_a_pnp_base_capacitor_to_its_emitter_is_refused(tmp_path, ngspice):
+    # (the ideal base charges the capacitor to the full 12 V, where the device holds it at
+    # 0.7 V: off at 18 us instead of ngspice's 15.03 us)
+    deck = """PNP high-side switch, a capacitor from its base to its emitter
+Vcc vcc 0 12
+Vdr d 0 PULSE(12 0 0 10n 10n 5u 10u)
+Rb d b 1k
+Cb b vcc 1n
+Q1 c b vcc QP
+Rl c 0 100
+.model QP PNP(BF=100)
+.tran 10n 40u
+.meas tran toff when v(c)=6 fall=2
+.end
+"""
+    assert ngspice_print(deck, ["toff"], tmp_path)["toff"] == pytest.approx(15.03e-6,
+                                                                             abs=0.1e-6)
+    with pytest.raises(NetlistError) as err:
+        simulate_circuit(parse_string(deck), probes=["v(c)"])
+    assert err.value.diagnostics[0].message.startswith("Q1 (PNP): v(vcc,b) stands at ")
