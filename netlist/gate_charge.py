@@ -89,8 +89,10 @@ def chord_capacitance(law: GateDrainLaw, lo: float, hi: float) -> float:
 
 def vdmos_law(model, mult: float, gate: str, drain: str) -> GateDrainLaw | None:
     """A VDMOS model's :class:`GateDrainLaw` (ngspice 39's defaults CGDMIN 0, CGDMAX 0, A 1
-    where not given: measured), times the instance's ``mult``; None where a value is not a
-    number or CGDMAX is 0 (no gate-drain capacitance)."""
+    where not given: measured); None where a value is not a number or CGDMAX is 0 (no
+    gate-drain capacitance). ``mult``, the instance's m, only has to be positive: ngspice 39
+    scales a VDMOS's current by m but not its capacitances (the gate charge of m = 3 is
+    m = 1's, as :func:`netlist.devices.gate_rc` takes CGS and CGDMAX)."""
     p = {k.lower(): v for k, v in model.params.items()}
     vals = [p.get("cgdmin", 0.0), p.get("cgdmax", 0.0), p.get("a", 1.0)]
     if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals):
@@ -99,7 +101,7 @@ def vdmos_law(model, mult: float, gate: str, drain: str) -> GateDrainLaw | None:
     if not (cmax >= cmin >= 0 and cmax > 0 and a > 0 and mult > 0):
         return None
     sign = -1.0 if p.get("pchan") else 1.0
-    return GateDrainLaw("vdmos", (cmin * mult, cmax * mult, a), gate, drain, sign)
+    return GateDrainLaw("vdmos", (cmin, cmax, a), gate, drain, sign)
 
 
 def gate_law(el, model, gate: str, drain: str, scope=None) -> GateDrainLaw | None:

@@ -81,3 +81,26 @@ def test_a_boost_of_the_macro_agrees_with_ngspice_where_its_largest_cgd_did_not(
     assert mean == pytest.approx(20.81, rel=0.02)
     (note,) = [n for n in res.notes if "gate-drain capacitance" in n]
     assert "the chord of its model's charge" in note
+
+
+def test_a_vdmos_instance_multiplier_leaves_the_law_as_ngspice_39_does(ngspice, tmp_path):
+    # (ngspice 39 scales a VDMOS's current by m but neither CGS nor the CGDMIN..CGDMAX law:
+    # the gate charge of m=3 is m=1's, where the law times m gave 3 times it)
+    model = ".model mm vdmos(vto=3 kp=5 cgdmin=0.05n cgdmax=0.4n a=0.3)"
+    law = _macro_switch(f"t\nV1 d 0 1\nVg g 0 0\nM1 d g 0 mm m=3\n{model}\n.tran 1u 10u\n"
+                        ".end\n").cgd_law
+    q = ngspice_gate_charge(f"ramp\nM1 d g 0 mm m=3\n{model}\nVg g 0 0\n"
+                            "Vd d 0 PWL(0 -10 50u 40)\n.tran 10n 50u\n", tmp_path)
+    assert chord_capacitance(law, -40.0, 10.0) * 50.0 == pytest.approx(q, rel=1e-3)
+
+
+def test_a_p_channel_vdmos_law_moves_ngspice_s_charge(ngspice, tmp_path):
+    # (pchan: ngspice's vgd is v(drain) - v(gate); gate 0 V, drain -40 to 10 V)
+    model = ".model mm vdmos(pchan vto=-3 kp=5 cgdmin=0.05n cgdmax=0.4n a=0.3)"
+    law = _switch(model).cgd_law
+    assert law.sign == -1.0
+    q = ngspice_gate_charge(f"ramp\nM1 d g 0 mm\n{model}\nVg g 0 0\n"
+                            "Vd d 0 PWL(0 -40 50u 10)\n.tran 10n 50u\n", tmp_path)
+    vgd = law.sign * (0.0 - np.array([-40.0, 10.0]))
+    assert chord_capacitance(law, vgd.min(), vgd.max()) * 50.0 == pytest.approx(abs(q),
+                                                                                  rel=1e-3)
