@@ -411,3 +411,23 @@ def test_a_level_3_switch_of_ngspice_s_default_kp_is_refused():
     deck = BUCK.format(kp="2e-5", edge="10n").replace("vto=2 kp=2e-5", "level=3 vto=2")
     with pytest.raises(NetlistError, match=r"M1 \(NMOS\) is on as a switch and carries"):
         simulate_circuit(parse(deck), probes=["v(out)"])
+
+
+@pytest.mark.parametrize("model, mtype", [
+    ("level=2 nsub=1e16", "nmos"),  # (TOX's default 100 nm: ngspice 1.18 V)
+    ("level=3 nsub=1e16 tox=50n", "nmos"),
+    ("level=1 nsub=1e16 tox=50n", "nmos"),
+    ("level=2 nsub=3e15 tox=40n nss=1e10 tpg=-1", "nmos"),
+    ("level=2 nsub=1e16 tox=50n", "pmos"),
+    ("level=1 nsub=1e16", "nmos"),  # (level 1 without TOX: NSUB unused, VTO 0)
+])
+def test_a_threshold_without_vto_is_ngspice_s_from_nsub(ngspice, model, mtype):
+    deck = (f"t\nV1 in 0 12\nVg g 0 PULSE(0 5 0 10n 10n 4u 10u)\nR1 in d 10\n"
+            f"M1 d g 0 0 mm\n.model mm {mtype}({model})\n.tran 0.1u 20u\n.end\n")
+    (rep,) = parse(deck).replacements
+    out = subprocess.run(["ngspice", "-b"], input=deck.replace(
+        ".tran 0.1u 20u\n", ".control\nop\nshowmod m1 : vto\n.endc\n"), capture_output=True,
+        text=True, timeout=60).stdout
+    vto = float(re.search(r"^\s*vto\s+(\S+)", out, re.M).group(1))
+    # (level 3: 0.6 mV under level 1's constants)
+    assert rep.threshold == pytest.approx(-vto if mtype == "pmos" else vto, abs=1e-3)
