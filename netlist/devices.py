@@ -196,6 +196,9 @@ class ChannelLimit:
     ksubthres: float = 0.0  # V; 0: none (level 1)
     subshift: float = 0.0  # V
     location: Location | None = field(default=None, compare=False, repr=False)
+    # False: a level 2 or 3 with NSUB, whose current at the triode edge may pass the bound;
+    # only its KP W/Leff and VTO are read (the pwl channel, netlist.pwl), nothing refused
+    checked: bool = True
     share = LIMIT_SHARE
     # (netlist.knee.knees_for_run: left out of a long streamed run, as ReverseChannel, which
     # every circuit of MOSFET switches has too: a 2 s boost streamed in 87 MB held 334 MB)
@@ -225,6 +228,8 @@ class ChannelLimit:
 
     def quantity(self, columns: Sequence[np.ndarray]) -> np.ndarray:
         current, *volts = columns
+        if not self.checked:
+            return np.full(np.shape(current), -1.0)
         ctl = NodeVoltages(self._nodes, volts, current).across(self.control)
         bound = self.limit(ctl - self.vto)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -310,9 +315,10 @@ def channel_limit(name: str, el, model, control: tuple[str, str], threshold_v: f
                   geometry: tuple[float, float, float] | None = None) -> ChannelLimit | None:
     """The :class:`ChannelLimit` of a MOSFET ``el`` idealised on ``control`` past
     ``threshold_v``, V, of ``geometry`` (its W, L, m: :func:`instance_geometry`; None: read
-    from its line without parameters); None where pelcs has no bound: a BSIM model, a level
-    3 with ETA (its threshold falls as the drain rises), a level 2 or 3 with NSUB (its
-    depletion width shortens the channel at the triode edge), a circuit away from its nominal
+    from its line without parameters), unchecked (``checked`` False) for a level 2 or 3 with
+    NSUB (its depletion width shortens the channel at the triode edge); None where pelcs
+    has no bound: a BSIM model, a level 3 with ETA (its threshold falls as the drain
+    rises), a circuit away from its nominal
     temperature (``nominal`` False: ngspice scales KP and VTO there), or a W, L or m that
     pelcs cannot evaluate (nan: the bound would be a guess).
 
@@ -354,11 +360,10 @@ def channel_limit(name: str, el, model, control: tuple[str, str], threshold_v: f
     level = num("level", 1.0)
     if level not in (1.0, 2.0, 3.0) or (level > 1 and num("eta", 0.0) != 0.0):
         return None  # (BSIM; or a level 3 whose ETA lowers its threshold with the drain)
-    if level > 1 and num("nsub", 0.0) != 0.0:
-        # (NSUB gives levels 2 and 3 a depletion width that shortens the channel from the
-        # triode edge on: 1.1 um at 1e15 cm^-3, ngspice's current at Vds = Vov twice the
-        # bound in an L = 2 um level 2)
-        return None
+    # (NSUB gives levels 2 and 3 a depletion width that shortens the channel from the
+    # triode edge on: 1.1 um at 1e15 cm^-3, ngspice's current at Vds = Vov twice the bound
+    # in an L = 2 um level 2: not checked)
+    checked = not (level > 1 and num("nsub", 0.0) != 0.0)
     # (levels 2 and 3 default TOX to 100 nm: KP 2.07e-5 A/V²; level 1 to 2e-5 without it)
     tox = num("tox", 1e-7 if level > 1 else 0.0)
     kp = num("kp", num("uo", 600.0) * 1e-4 * 3.9 * 8.854214871e-12 / tox if tox > 0
@@ -367,7 +372,7 @@ def channel_limit(name: str, el, model, control: tuple[str, str], threshold_v: f
     if leff <= 0 or kp <= 0:
         return None
     return ChannelLimit(name, model.type, control, threshold_v, vto, kp * w / leff * mult,
-                        num("lambda", 0.0), location=location)
+                        num("lambda", 0.0), location=location, checked=checked)
 
 
 def channel_checks(name: str, el, model, control: tuple[str, str], drain: str,

@@ -142,15 +142,19 @@ def test_levels_2_and_3_carry_no_more_than_the_level_1_bound(ngspice, model, vov
     "level=3 vto=2 nsub=1e15 uo=500 tox=50n",
 ])
 @pytest.mark.parametrize("vov", [0.5, 4.0])
-def test_no_bound_under_ngspice_s_current_where_nsub_shortens_the_channel(ngspice, model,
-                                                                          vov):
+def test_no_check_against_ngspice_s_current_where_nsub_shortens_the_channel(ngspice, model,
+                                                                           vov):
     deck = BUCK.format(kp="1", edge="10n").replace("M1 in g sw sw NM",
                                                    "M1 in g sw sw NM w=100u l=2u")
     limits = [k for k in parse(deck.replace("vto=2 kp=1", model)).knees
               if isinstance(k, ChannelLimit)]
     current = ngspice_drain_current(f".model mm nmos({model})", "mm w=100u l=2u",
                                     2.0 + vov, vov)
-    assert all(current <= float(k.limit(vov)) * (1 + 1e-6) for k in limits)
+    (limit,) = limits  # (kept for the pwl channel's KP W/Leff, netlist.pwl)
+    if "level=2" in model or vov == 4.0:  # (level 3 at Vov 0.5 V: 0.9994 of it)
+        assert current > 1.1 * float(limit.limit(vov))
+    assert not limit.checked
+    assert limit.quantity([np.array([current]), np.array([2.0 + vov])])[0] == -1.0
 
 
 def test_no_bound_for_a_level_3_model_with_eta_or_a_bsim_model():
