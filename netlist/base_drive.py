@@ -196,19 +196,28 @@ class BaseClamp:
         return None
 
 
-def _speed_up(base: str, els: list, at: dict[str, list]) -> bool:
+def _speed_up(base: str, emitter: str, els: list, at: dict[str, list]) -> bool:
     """Whether the base is joined only by resistors and capacitors (a speed-up capacitor
     across its base resistor) from one node that an independent voltage source holds to
-    ground: the ideal base follows that node and no capacitor there charges, the device's
-    stands at its junction's drop and the capacitor kicks it down at turn-off; both turn
-    on and off as that node crosses the threshold (an NPN switch with 1 nF across 1 kΩ:
-    the collector's edges within 0.01 us of ngspice's)."""
-    far = {e.nodes[1] if e.nodes[0] == base else e.nodes[0] for e in els}
-    if len(far) != 1 or not all(isinstance(e, (Resistor, Capacitor)) for e in els):
+    ground, and perhaps resistors to a grounded emitter: the ideal base follows that node's
+    edges and its capacitor's charge differs from the device's, whose base stands at its
+    junction's drop and is kicked below the emitter at turn-off; both turn on and off at
+    that node's edges (an NPN switch with 1 nF across 1 kΩ, with and without 4.7 kΩ from
+    base to emitter: the collector's edges within 0.01 us of ngspice's)."""
+    def far(e) -> str:
+        return e.nodes[1] if e.nodes[0] == base else e.nodes[0]
+
+    if not all(isinstance(e, (Resistor, Capacitor)) for e in els):
         return False
-    (node,) = far
-    return node != GROUND and any(isinstance(e, VoltageSource) and GROUND in e.nodes[:2]
-                                  for e in at.get(node, []))
+    drive = {far(e) for e in els if isinstance(e, Capacitor)}
+    if len(drive) != 1 or GROUND in drive:
+        return False
+    (node,) = drive
+    if not {far(e) for e in els} <= {node, emitter} or (emitter != GROUND and emitter in {
+            far(e) for e in els}):
+        return False
+    return any(isinstance(e, VoltageSource) and GROUND in e.nodes[:2]
+               for e in at.get(node, []))
 
 
 def resolve_base_drives(circuit: Circuit) -> None:
@@ -228,7 +237,7 @@ def resolve_base_drives(circuit: Circuit) -> None:
         els = at.get(k.base, [])
         if k.base != GROUND and any(isinstance(e, (Capacitor, Inductor)) for e in els) \
                 and not any(isinstance(e, VoltageSource) for e in els) \
-                and not _speed_up(k.base, els, at):
+                and not _speed_up(k.base, k.emitter, els, at):
             clamps.append(BaseClamp(k.name, k.device, k.control, k.location))
         if k.base == GROUND or not els or not all(
                 isinstance(e, Resistor) and e.time_value is None and e.value > 0
