@@ -279,37 +279,6 @@ class ChannelLimit:
         return None
 
 
-def nsub_vto(mtype: str, params: Mapping[str, object]) -> float | None:
-    """The VTO, V (negative for a usual PMOS), that ngspice 39 gives a level 1, 2 or 3 model
-    without one from its NSUB (cm^-3): flat band from the gate's work function (TPG, default
-    1: opposite to the substrate) and NSS, plus ``GAMMA sqrt(PHI) + PHI``, at 27 °C
-    (``mos1temp.c``; levels 2 and 3 take TOX = 100 nm where not given, level 1 none and then
-    no NSUB); None where that does not apply (no NSUB, a value not a number)."""
-    p = {k.lower(): v for k, v in params.items()}
-
-    def num(key: str, default: float | None) -> float | None:
-        v = p.get(key, default)
-        return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else None
-
-    level, nsub = num("level", 1.0), num("nsub", 0.0)
-    tox = num("tox", 1e-7 if level in (2.0, 3.0) else 0.0)
-    nss, tpg = num("nss", 0.0), num("tpg", 1.0)
-    if level not in (1.0, 2.0, 3.0) or None in (nsub, tox, nss, tpg) \
-            or not (nsub * 1e6 > 1.45e16 and tox > 0):
-        return None
-    sign = -1.0 if mtype == "PMOS" else 1.0
-    q, vt = 1.6021766208e-19, 1.3806226e-23 / 1.6021918e-19 * 300.15
-    eg = 1.16 - 7.02e-4 * 300.15**2 / (300.15 + 1108)
-    cox = 3.9 * 8.854214871e-12 / tox
-    phi = num("phi", max(0.1, 2 * vt * math.log(nsub * 1e6 / 1.45e16)))
-    gamma = num("gamma", math.sqrt(2 * 11.70 * 8.854214871e-12 * q * nsub * 1e6) / cox)
-    if phi is None or gamma is None or phi <= 0:
-        return None
-    wkfng = 3.25 + 0.5 * eg - sign * tpg * 0.5 * eg if tpg != 0 else 3.2
-    vfb = wkfng - (3.25 + 0.5 * eg + sign * 0.5 * phi) - nss * 1e4 * q / cox
-    return vfb + sign * (gamma * math.sqrt(phi) + phi)
-
-
 def channel_limit(name: str, el, model, control: tuple[str, str], threshold_v: float,
                   location: Location | None, nominal: bool = True,
                   geometry: tuple[float, float, float] | None = None) -> ChannelLimit | None:
@@ -345,6 +314,8 @@ def channel_limit(name: str, el, model, control: tuple[str, str], threshold_v: f
 
     vto = num("vto", num("vth", 0.0))
     if "vto" not in p and "vth" not in p and model.type in ("NMOS", "PMOS"):
+        from .mos_threshold import nsub_vto
+
         vto = nsub_vto(model.type, p)
         vto = 0.0 if vto is None else vto
     used = ("kp", "lambda", "theta", "mtriode", "ksubthres", "subshift", "level", "tox", "uo",
@@ -433,6 +404,8 @@ def threshold(name: str, model: str, mtype: str, params: Mapping[str, float],
         return BJT_THRESHOLD, "default for a BJT"
     vto = params.get("vto", params.get("vth"))
     if vto is None and mtype in ("NMOS", "PMOS"):
+        from .mos_threshold import nsub_vto
+
         vto = nsub_vto(mtype, params)
         if vto is not None:
             return (-vto if mtype == "PMOS" else vto), "VTO from the model's NSUB, as ngspice"
