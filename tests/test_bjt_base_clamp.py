@@ -21,6 +21,9 @@ from netlist.errors import NetlistError
 from netlist.parser import parse_string
 from netlist.studies.transient import simulate_circuit
 
+#: (ngspice side by side: the full suite and CI run them, not the fast subset)
+pytestmark = pytest.mark.slow
+
 MONOSTABLE = """BJT monostable: Q2's base held at its Vbe by R3
 Vcc vcc 0 5
 Vin in 0 PWL(0 0 0.1u 5)

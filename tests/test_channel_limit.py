@@ -46,6 +46,7 @@ def ngspice_drain_current(model: str, instance: str, vgs: float, vds: float) -> 
     return float(re.search(r"-i\(vd\)\s*=\s*(\S+)", out).group(1))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model, instance, vov, vds", [
     # level 1: KP W/Leff, LD shortening L, LAMBDA at the triode edge Vds = Vov
     (".model mm nmos(vto=1 kp=2m lambda=0.02 ld=1u)", "mm w=50u l=10u", 2.0, 2.0),
@@ -122,6 +123,7 @@ def test_slow_edges_over_the_bound_are_noted_and_their_time_given():
     "level=2 vto=2 kp=1m lambda=0.05 gamma=0.4",
 ])
 @pytest.mark.parametrize("vov", [0.5, 4.0])
+@pytest.mark.slow
 def test_levels_2_and_3_carry_no_more_than_the_level_1_bound(ngspice, model, vov):
     deck = BUCK.format(kp="1", edge="10n").replace("M1 in g sw sw NM",
                                                    "M1 in g sw sw NM w=100u l=2u")

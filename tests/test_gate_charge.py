@@ -18,6 +18,9 @@ from netlist.gate_charge import GateDrainLaw, chord_capacitance
 from netlist.parser import parse_file, parse_string
 from netlist.studies.realistic import simulate_devices
 
+#: (ngspice side by side: the full suite and CI run them, not the fast subset)
+pytestmark = pytest.mark.slow
+
 DEV = Path(__file__).parent / "netlists" / "devices"
 #: a power MOSFET macro-model of MODPEX's structure, values of our own
 MACRO = DEV / "modpex_like.lib"

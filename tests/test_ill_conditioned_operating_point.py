@@ -22,6 +22,9 @@ from netlist.parser import parse_file, parse_string
 from netlist.studies.realistic import simulate_devices
 from pelcs.cli import main
 
+#: (ngspice side by side: the full suite and CI run them, not the fast subset)
+pytestmark = pytest.mark.slow
+
 DECK = """regulated boost: error amplifier and gate clamps, a VDMOS with its gate RC
 V1 clock 0 PULSE(0 6 0 19u 1u 10n 20.01u)
 V2 ref 0 2.5
