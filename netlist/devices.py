@@ -197,7 +197,8 @@ class ChannelLimit:
     subshift: float = 0.0  # V
     location: Location | None = field(default=None, compare=False, repr=False)
     # False: a level 2 or 3 with NSUB, whose current at the triode edge may pass the bound;
-    # only its KP W/Leff and VTO are read (the pwl channel, netlist.pwl), nothing refused
+    # only its KP W/Leff and VTO are read (the pwl channel, netlist.pwl): a run leaves it
+    # out of its knees (netlist.studies.transient.transient_setup), stores and checks nothing
     checked: bool = True
     share = LIMIT_SHARE
     # (netlist.knee.knees_for_run: left out of a long streamed run, as ReverseChannel, which

@@ -71,12 +71,6 @@ class GateDrainLaw:
         vdg = np.maximum(-v, 0.0)
         return np.where(v > 0, cap, cjo * (1 + vdg / vj) ** (-m))
 
-    @property
-    def largest(self) -> float:
-        """The largest value, F (the constant the gate RC takes without a run's swing)."""
-        return float(self.params[1] if self.kind == "vdmos" else max(self.params[0],
-                                                                    self.params[1]))
-
 
 def chord_capacitance(law: GateDrainLaw, lo: float, hi: float) -> float:
     """The capacitance, F, that moves ``law``'s charge between ``lo`` and ``hi`` (oriented

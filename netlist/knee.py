@@ -207,13 +207,13 @@ def check_knees(knees: Sequence, result, extra: int) -> None:
         if not columns[0].size:
             continue
         q = k.quantity(columns)
-        bad = np.flatnonzero(~k.inside(q))
+        out = ~k.inside(q)
+        bad = np.flatnonzero(out)
         share = getattr(k, "share", None)
         if bad.size and share is not None:
             # (the time between two steps both outside, up to a share of the run: a lone
             # step outside is an instant, as where a switch turns at its threshold)
             t = np.asarray(result.t, dtype=float)
-            out = ~k.inside(q)
             both = np.flatnonzero(out[1:] & out[:-1])
             if both.size:
                 total, i = float(np.diff(t)[both].sum()), int(both[0])

@@ -437,3 +437,16 @@ def test_a_threshold_without_vto_is_ngspice_s_from_nsub(ngspice, model, mtype):
     vto = float(re.search(r"^\s*vto\s+(\S+)", out, re.M).group(1))
     # (level 3: 0.6 mV under level 1's constants)
     assert rep.threshold == pytest.approx(-vto if mtype == "pmos" else vto, abs=1e-3)
+
+
+def test_a_run_leaves_an_unchecked_bound_out_of_its_knees():
+    # (a level 2 with NSUB: its ChannelLimit is kept for the pwl channel only, and a run
+    # neither stores its probes nor reruns a bifurcation value for it)
+    from netlist.studies.transient import transient_setup
+
+    deck = BUCK.format(kp="1", edge="10n").replace("vto=2 kp=1",
+                                                   "level=2 vto=2 kp=1 nsub=1e15")
+    circuit = parse(deck)
+    assert any(isinstance(k, ChannelLimit) and not k.checked for k in circuit.knees)
+    setup = transient_setup(circuit, tstop=20e-6, step=0.1e-6)
+    assert not [k for k in setup.knees if isinstance(k, ChannelLimit)]

@@ -453,8 +453,8 @@ def check_orbit_knees(m, orbit) -> list[str]:
 
 def knees_over(m, x, periods: int) -> list[str]:
     """The knees' notes of a transient run of ``periods`` periods of map ``m``'s circuit
-    from state ``x`` at its sampling phase (a whole number of periods from t = 0), at the
-    map's step and θ; a note saying they are not checked at another phase.
+    from state ``x`` at its sampling phase, at the map's step and θ (the callers check the
+    phase is a whole number of periods from t = 0, where the netlist's sources start).
 
     Raises
     ------
@@ -462,8 +462,6 @@ def knees_over(m, x, periods: int) -> list[str]:
         The run leaves a knee (:func:`netlist.knee.check_knees`).
     """
     setup = m.setup
-    if _off_phase(m):
-        return [_OFF_PHASE]
     from .transient import run_setup
 
     n = len(setup.system.states)

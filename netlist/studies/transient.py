@@ -133,7 +133,7 @@ class TransientSetup:
     file: str = ""
     print_step: float | None = None
     print_note: str | None = None
-    knees: tuple = ()  # the netlist.knee capacitors and circuit.knees, checked after the run
+    knees: tuple = ()  # the netlist.knee capacitors and circuit.knees checked after the run
     # start from the DC operating point (ngspice's .tran without UIC), x0 giving only the
     # states no DC equation sets; an AuxiliaryPoint: that of the circuit with its .ic nodes
     # held (netlist.studies.start.held_start)
@@ -263,7 +263,7 @@ def transient_setup(
                           energy, notes, nonpassive, default_probes, circuit.file or "",
                           shown, shown_note,
                           (*(el for el in circuit.elements if isinstance(el, KneeCapacitor)),
-                           *circuit.knees),
+                           *(k for k in circuit.knees if getattr(k, "checked", True))),
                           operating_point, tuple(circuit.replacements))
 
 
