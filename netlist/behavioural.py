@@ -49,7 +49,7 @@ from typing import ClassVar
 
 from lcs.signals import Dc, Pulse, Pwl
 
-from .behavioural_expr import Affine, BehaviouralError, Clamp, Select, Step, linearise
+from .behavioural_expr import Affine, BehaviouralError, Clamp, Select, Step, Tree, linearise
 from .circuit import (
     GROUND,
     Cccs,
@@ -150,6 +150,50 @@ def linear_elements(name: str, kind_out: str, nodes: tuple[str, str], form: Affi
     return out
 
 
+def _keep(inner: list[ClampSource], mapnode: Callable[[str], str]) -> Callable[[str], str]:
+    """``mapnode`` that leaves the hoisted clamps' nodes as they are."""
+    mine = {c.nodes[0] for c in inner}
+    return lambda n: n if n in mine else mapnode(n)
+
+
+def _hoist_clamps(tree: Tree, text: str, env: Mapping[str, float],
+                  mapnode: Callable[[str], str], source: Callable[[str], str], name: str,
+                  loc: Location | None) -> tuple[Tree, list[ClampSource]]:
+    """The expression with each ``min``/``max`` that is a clamp of an affine form replaced by
+    ``v()`` of a node of its own, and the :class:`ClampSource` of each on its node
+    (``<name>#k1``, ``#k2``... to ground): a B source that adds a clamped PI output to linear
+    terms is then linear in that node, which :func:`fold_clamps` builds as an exact limiter."""
+    inner: list[ClampSource] = []
+
+    def visit(t: Tree) -> Tree:
+        if t.tag == "call" and t.args[0] in ("min", "max"):
+            try:
+                form = linearise(t, text, env, mapnode, source, clamps=True)
+            except BehaviouralError:
+                form = None
+            if isinstance(form, Clamp) and not form.form.constant:
+                node = f"{name.lower()}#k{len(inner) + 1}"
+                inner.append(ClampSource(f"{name}#k{len(inner) + 1}", (node, GROUND), loc,
+                                         form, text[t.start:t.end], "V"))
+                return Tree("v", (node, None), t.start, t.end)
+        args = tuple(visit(a) if isinstance(a, Tree) else a for a in t.args)
+        return Tree(t.tag, args, t.start, t.end)
+
+    return visit(tree), inner
+
+
+def _stepped(tree, text: str, env: Mapping[str, float]):
+    """The piecewise-constant function of time an expression is (:func:`time_value`), or None
+    where its comparisons are not of affine functions of time (a sawtooth's ``floor``):
+    :func:`time_expression` reads those."""
+    try:
+        return time_value(tree, text, env)
+    except BehaviouralError as exc:
+        if "does not compare an affine function of time" not in exc.message:
+            raise
+        return None
+
+
 def source_name(prefix: str) -> Callable[[str], str]:
     """``i(Vx)`` inside a subcircuit instance names the instance's ``Vx``."""
     return lambda s: prefix + hierarchical_name(s)
@@ -170,18 +214,29 @@ def elaborate(el: RawElement, prefix: str, mapnode: Callable[[str], str],
     loc = el.st.loc(0)
     nodes = tuple(map(mapnode, el.nodes))
     try:
-        if reads_time_only(tree) and time_in_comparisons(tree):
-            # a piecewise-constant function of time: an independent source stepping at its
-            # instants (netlist.time_value), as ngspice's value between them
-            tv = time_value(tree, text, env)
-            cls = VoltageSource if out_kind == "V" else CurrentSource
-            return [cls(name, nodes, loc, tv.values[0], tv.pwl() if tv.times else None)]
         if reads_time_only(tree):
-            # a smooth function of time: the source of that waveform (netlist.time_expression)
-            sig = time_expression(tree, text, env)
             cls = VoltageSource if out_kind == "V" else CurrentSource
-            return [cls(name, nodes, loc, float(sig(0.0)), sig)]
-        form = linearise(tree, text, env, mapnode, source_name(prefix), clamps=True)
+            if time_in_comparisons(tree) and (tv := _stepped(tree, text, env)) is not None:
+                # a piecewise-constant function of time: an independent source stepping at
+                # its instants (netlist.time_value), as ngspice's value between them
+                return [cls(name, nodes, loc, tv.values[0], tv.pwl() if tv.times else None)]
+            # any other function of time: the source of that waveform, stepped to where it
+            # jumps or kinks (netlist.time_expression)
+            sig = time_expression(tree, text, env)
+            return [cls(name, nodes, loc, float(sig(0.0, side=1)), sig)]
+        try:
+            form = linearise(tree, text, env, mapnode, source_name(prefix), clamps=True)
+        except BehaviouralError as exc:
+            if "a sum of a clamp" not in exc.message:
+                raise
+            # the clamps summed with other terms, each on a node of its own
+            tree, inner = _hoist_clamps(tree, text, env, mapnode, source_name(prefix), name,
+                                        el.st.loc(offset))
+            form = linearise(tree, text, env, _keep(inner, mapnode), source_name(prefix),
+                             clamps=True)
+            if isinstance(form, Affine):
+                return [*inner, *linear_elements(name, out_kind, nodes, form, loc)]
+            raise
     except BehaviouralError as exc:
         unknown = exc.message.startswith("unknown parameter")
         if not (unknown and exc.message.split("'")[1] in failed):  # (else reported already)

@@ -38,7 +38,7 @@ ACCEPTED = ("pelcs reads B sources whose expression is linear in v() and i() (co
             "'u(x - y)' or 'A*(x > y)' with linear x, y and constant A, B, or 'x > y ? A : B' "
             "with linear A, B as the whole expression (an ideal switch on the comparison sets "
             "the output), and clamps max(lo, min(hi, x)) of a linear x with constant lo, hi "
-            "(ideal diodes hold it within the bounds)")
+            "(ideal diodes hold it within the bounds), alone or added to linear terms")
 
 
 class BehaviouralError(Exception):

@@ -1,22 +1,34 @@
-"""A B source whose expression is a smooth function of ``time`` alone (``V = 5*sin(2*pi*50*time)``,
-``I = 1k*time``): the independent source of that waveform (:class:`TimeExpression`).
+"""A B source whose expression is a function of ``time`` alone (``V = 5*sin(2*pi*50*time)``,
+``V = time/10u - floor(time/10u)``, ``V = sin(2*pi*50*time) > 0.5 ? 5 : 0``): the independent
+source of that waveform (:class:`TimeExpression`).
 
 ngspice evaluates a B source's expression at each of its time points; a function of time alone
 is then an independent source of that waveform, which pelcs evaluates the same way, at its own
-steps. Smooth means arithmetic (``+ - * /``, ``**`` and ``^``, ``pow``, ``pwr``) and the smooth
-functions (``sin``, ``cos``, ``exp``, ``sqrt`` ...) of time, parameters and numbers: a comparison,
-``u()``, ``abs``, ``min``, ``max`` or a condition has instants where the waveform jumps or
-kinks, which no step would land on (an expression that steps between constants is the PWL
-source of :mod:`netlist.time_value`). The arithmetic is that of ngspice's B sources
+steps. The expression may read numbers, parameters, arithmetic (``+ - * /``, ``**`` and ``^``,
+``pow``, ``pwr``), the smooth functions (``sin``, ``cos``, ``exp``, ``sqrt`` ...), and the
+piecewise ones: ``floor``, ``ceil``, ``nint`` (jumps where the argument crosses an integer, a
+half-integer), ``sgn``, ``u`` (jumps at 0), ``abs``, ``uramp``, ``u2``, ``min``, ``max`` (kinks),
+comparisons, ``&&``, ``||``, ``!`` and ``? :``. The instants where the waveform jumps or kinks
+are its breakpoints (:meth:`TimeExpression.breakpoints`), found where each piecewise node's
+argument crosses its levels: in closed form where the argument is affine in time between the
+breakpoints of the nodes under it (a sawtooth ``time/T - floor(time/T)`` compared with a
+constant), by bisection to round-off between samples elsewhere (a sine compared with that
+sawtooth). A run steps to each, and takes the waveform's one-sided limits there.
+
+ngspice puts no breakpoint at those instants: a jump lands inside the step that straddles it,
+and its step control shortens the steps around it. Both converge to the waveform's own
+instants; pelcs lands on them. The arithmetic is that of ngspice's B sources
 (:mod:`netlist.behavioural_expr`: ``a ** b`` is ``|a|^b``, ``pwr`` keeps the sign, ``pi`` is
-the constant even beside a ``.param pi``).
+the constant even beside a ``.param pi``; ``u(0)`` is 0.5, ``nint`` rounds half to even, as
+C's ``nearbyint``). An expression that only steps between constants (``V = time > 1m ? 5 :
+0``) is the PWL source of :mod:`netlist.time_value`.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -24,7 +36,12 @@ from .behavioural_expr import BehaviouralError, Tree
 from .expressions import CONSTANTS
 from .units import format_number
 
-__all__ = ["TimeExpression", "time_expression"]
+__all__ = ["MAX_BREAKPOINTS", "TimeExpression", "time_expression"]
+
+
+def _step(x):
+    return np.where(x > 0, 1.0, np.where(x < 0, 0.0, 0.5))
+
 
 # the smooth functions of a B source, as numpy's: name -> (function, number of arguments)
 _SMOOTH = {
@@ -36,17 +53,33 @@ _SMOOTH = {
     "pow": (lambda a, b: np.abs(a) ** b, 2),
     "pwr": (lambda a, b: np.sign(a) * np.abs(a) ** b, 2),
 }
+# the piecewise functions: name -> (function, number of arguments, levels, jumps), the levels
+# being those its argument (or the difference of its two) crosses at a breakpoint: "zero",
+# "int" (the integers), "half" (the half-integers), "unit" (0 and 1)
+_PIECEWISE = {
+    "floor": (np.floor, 1, "int", True), "ceil": (np.ceil, 1, "int", True),
+    "nint": (np.rint, 1, "half", True), "sgn": (np.sign, 1, "zero", True),
+    "u": (_step, 1, "zero", True), "abs": (np.abs, 1, "zero", False),
+    "uramp": (lambda x: np.maximum(x, 0.0), 1, "zero", False),
+    "u2": (lambda x: np.clip(x, 0.0, 1.0), 1, "unit", False),
+    "min": (np.minimum, 2, "zero", False), "max": (np.maximum, 2, "zero", False),
+}
 _ARITH = ("neg", "+", "-", "*", "/", "**")
+_COMPARE = {"<": np.less, ">": np.greater, "<=": np.less_equal, ">=": np.greater_equal,
+            "==": np.equal, "!=": np.not_equal}
+_LOGIC = ("&&", "||", "not", "?")
 _PERIODIC = ("sin", "cos")
-_WHY = ("pelcs reads a B source of time alone as the source of its waveform when the "
-        "expression is smooth in time: numbers, parameters, + - * / ** and "
-        + ", ".join(sorted(_SMOOTH)) + "; one that steps between constants (V = time > 1m ? "
-        "5 : 0) is read as a PWL source")
+_WHY = ("pelcs reads a B source of time alone as the source of its waveform: numbers, "
+        "parameters, + - * / ** and " + ", ".join(sorted({*_SMOOTH, *_PIECEWISE}))
+        + ", comparisons, &&, ||, ! and ? :")
+
+#: the most breakpoints a waveform may have in a run (a 100 kHz sawtooth over 10 s)
+MAX_BREAKPOINTS = 2_000_000
 
 
 def _check(t: Tree, text: str, env: Mapping[str, float]) -> None:
-    """Raise :class:`BehaviouralError` at the first part of ``t`` that is not smooth in time
-    or names an unknown parameter."""
+    """Raise :class:`BehaviouralError` at the first part of ``t`` pelcs cannot evaluate as a
+    function of time, or that names an unknown parameter."""
     if t.tag == "num":
         return
     if t.tag == "var":
@@ -55,15 +88,14 @@ def _check(t: Tree, text: str, env: Mapping[str, float]) -> None:
             return
         raise BehaviouralError(f"unknown parameter '{name}'", t.start,
                                "define it with .param NAME=VALUE")
-    if t.tag == "call" and t.args[0] in _SMOOTH:
-        if len(t.args) - 1 != _SMOOTH[t.args[0]][1]:
-            raise BehaviouralError(f"{t.args[0]}() takes {_SMOOTH[t.args[0]][1]} argument(s)",
-                                   t.start)
-    elif t.tag not in _ARITH:
+    if t.tag == "call" and t.args[0] in (*_SMOOTH, *_PIECEWISE):
+        want = (_SMOOTH[t.args[0]][1] if t.args[0] in _SMOOTH else _PIECEWISE[t.args[0]][1])
+        if len(t.args) - 1 != want:
+            raise BehaviouralError(f"{t.args[0]}() takes {want} argument(s)", t.start)
+    elif t.tag not in (*_ARITH, *_COMPARE, *_LOGIC):
         part = text[t.start:t.end].strip()
-        raise BehaviouralError(f"'{part}' in a B expression of time is not smooth in time: "
-                               "its instants of jump or kink are not known to a run", t.start,
-                               _WHY)
+        raise BehaviouralError(f"'{part}' in a B expression of time is not a function pelcs "
+                               "evaluates", t.start, _WHY)
     for a in t.args:
         if isinstance(a, Tree):
             _check(a, text, env)
@@ -79,11 +111,22 @@ def _eval(t: Tree, time: np.ndarray, env: Mapping[str, float]):
             return time
         return CONSTANTS[name] if name in CONSTANTS else env[name]
     if tag == "call":
-        fn = _SMOOTH[args[0]][0]
+        fn = _SMOOTH[args[0]][0] if args[0] in _SMOOTH else _PIECEWISE[args[0]][0]
         return fn(*(_eval(a, time, env) for a in args[1:]))
     if tag == "neg":
         return -_eval(args[0], time, env)
+    if tag == "not":
+        return np.where(_eval(args[0], time, env) == 0, 1.0, 0.0)
+    if tag == "?":
+        return np.where(_eval(args[0], time, env) != 0, _eval(args[1], time, env),
+                        _eval(args[2], time, env))
     a, b = _eval(args[0], time, env), _eval(args[1], time, env)
+    if tag in _COMPARE:
+        return np.where(_COMPARE[tag](a, b), 1.0, 0.0)
+    if tag == "&&":
+        return np.where((np.asarray(a) != 0) & (np.asarray(b) != 0), 1.0, 0.0)
+    if tag == "||":
+        return np.where((np.asarray(a) != 0) | (np.asarray(b) != 0), 1.0, 0.0)
     if tag == "+":
         return a + b
     if tag == "-":
@@ -93,6 +136,181 @@ def _eval(t: Tree, time: np.ndarray, env: Mapping[str, float]):
     if tag == "/":
         return a / b
     return np.abs(a) ** b
+
+
+# ------------------------------------------------------------------------------ breakpoints
+
+def _crossing_function(t: Tree) -> tuple[list[Tree], str] | None:
+    """The sub-trees whose difference (or the one sub-tree) a piecewise node's breakpoints
+    are the level crossings of, and the levels; None for a node that has none of its own."""
+    if t.tag == "call" and t.args[0] in _PIECEWISE:
+        return list(t.args[1:]), _PIECEWISE[t.args[0]][2]
+    if t.tag in _COMPARE:
+        return list(t.args), "zero"
+    if t.tag == "?":
+        return [t.args[0]], "zero"
+    return None
+
+
+def _level_index(g: np.ndarray, levels: str) -> np.ndarray:
+    """Which band between consecutive levels each value lies in (a level itself: a band of
+    its own, so that touching it counts)."""
+    if levels == "int":
+        return 2 * np.floor(g) + (g != np.floor(g))
+    if levels == "half":
+        return 2 * np.floor(g + 0.5) + (g + 0.5 != np.floor(g + 0.5))
+    if levels == "unit":
+        return np.sign(g) + np.sign(g - 1.0)
+    return np.sign(g)
+
+
+def _levels_between(lo: float, hi: float, levels: str) -> np.ndarray:
+    """The levels strictly between ``lo`` and ``hi``."""
+    if levels == "zero":
+        cand = np.array([0.0])
+    elif levels == "unit":
+        cand = np.array([0.0, 1.0])
+    else:
+        shift = 0.5 if levels == "half" else 0.0
+        first, last = math.floor(lo + shift) + 1, math.ceil(hi + shift) - 1
+        if last - first + 1 > MAX_BREAKPOINTS:
+            raise _TooMany
+        cand = np.arange(first, last + 1, dtype=float) - shift
+    return cand[(cand > lo) & (cand < hi)]
+
+
+class _TooMany(Exception):
+    pass
+
+
+def _bisect(fn: Callable[[np.ndarray], np.ndarray], left: np.ndarray, right: np.ndarray,
+            levels: str) -> np.ndarray:
+    """The instants in each ``[left, right]`` where the level band of ``fn`` first changes
+    from the one at ``left`` (vectorised bisection to round-off)."""
+    band = _level_index(fn(left), levels)
+    for _ in range(80):
+        mid = 0.5 * (left + right)
+        moved = (mid <= left) | (mid >= right)
+        if moved.all():
+            break
+        same = _level_index(fn(mid), levels) == band
+        left = np.where(same & ~moved, mid, left)
+        right = np.where(~same & ~moved, mid, right)
+    return 0.5 * (left + right)
+
+
+def _crossings(fn: Callable[[np.ndarray], np.ndarray], edges: np.ndarray, levels: str,
+               top_frequency: float) -> np.ndarray:
+    """The instants inside the intervals between consecutive ``edges`` (sorted) where ``fn``,
+    smooth inside each, crosses its levels."""
+    a, b = edges[:-1], edges[1:]
+    d = b - a
+    keep = d > 0
+    a, b, d = a[keep], b[keep], d[keep]
+    if a.size == 0:
+        return np.empty(0)
+    # samples inside each interval: enough to see every oscillation of its sines
+    n = int(min(4096, max(4, math.ceil(32 * float(d.max()) * top_frequency))))
+    if a.size * n > 4 * MAX_BREAKPOINTS:
+        raise _TooMany
+    frac = np.concatenate(([1e-9], (np.arange(n) + 0.5) / n, [1 - 1e-9]))
+    ts = a[:, None] + d[:, None] * frac[None, :]
+    with np.errstate(all="ignore"):
+        g = np.broadcast_to(np.asarray(fn(ts), dtype=float), ts.shape)
+    tol = 1e-9 * d
+    out = []
+    # affine intervals: the crossings of each level in closed form
+    # (every sample on the line through the first and the last: a sine over whole periods
+    # has three on a line)
+    line = g[:, :1] + (g[:, -1:] - g[:, :1]) * ((frac - frac[0]) / (frac[-1] - frac[0]))
+    scale = np.maximum(np.abs(g[:, 0]), np.abs(g[:, -1])) + np.abs(g[:, -1] - g[:, 0])
+    affine = np.isfinite(g).all(axis=1) & (np.abs(g - line).max(axis=1) <= 1e-9 * scale)
+    for k in np.flatnonzero(affine):
+        slope = (g[k, -1] - g[k, 0]) / (d[k] * (1 - 2e-9))
+        ga = g[k, 0] - slope * 1e-9 * d[k]
+        gb = ga + slope * d[k]
+        if slope == 0:
+            continue
+        lv = _levels_between(min(ga, gb), max(ga, gb), levels)
+        tk = a[k] + (lv - ga) / slope
+        out.append(tk[(tk > a[k] + tol[k]) & (tk < b[k] - tol[k])])
+    # the others: where the band changes between consecutive samples, refined by bisection
+    rows = np.flatnonzero(~affine)
+    if rows.size:
+        band = _level_index(g[rows], levels)
+        r, c = np.nonzero(band[:, 1:] != band[:, :-1])
+        left, right = ts[rows[r], c], ts[rows[r], c + 1]
+        for _ in range(64):  # (a bracket crossing several levels: one at a time)
+            if left.size == 0:
+                break
+            found = _bisect(fn, left.copy(), right.copy(), levels)
+            inside = (found > a[rows[r]] + tol[rows[r]]) & (found < b[rows[r]] - tol[rows[r]])
+            out.append(found[inside])
+            # past the crossing: brackets whose far end is in yet another band
+            after = np.minimum(right, found + 1e-12 * np.maximum(np.abs(found), d[rows[r]]))
+            more = (_level_index(fn(after), levels) != _level_index(fn(right), levels)) & (
+                after < right)
+            left, right, r = after[more], right[more], r[more]
+    pts = np.concatenate(out) if out else np.empty(0)
+    if pts.size > MAX_BREAKPOINTS:
+        raise _TooMany
+    return pts
+
+
+def _breakpoints(t: Tree, env: Mapping[str, float], t0: float, t1: float,
+                 top_frequency: float) -> np.ndarray:
+    """Sorted breakpoints of the sub-tree ``t`` strictly inside ``(t0, t1)``."""
+    subs = [a for a in t.args if isinstance(a, Tree)]
+    under = {id(a): _breakpoints(a, env, t0, t1, top_frequency) for a in subs}
+    pts = np.unique(np.concatenate(list(under.values()))) if under else np.empty(0)
+    own = _crossing_function(t)
+    if own is None:
+        return pts
+    args, levels = own
+    if len(args) == 1:
+        def fn(time, s=args[0]):
+            return _eval(s, time, env)
+    else:
+        def fn(time, s=args):
+            return _eval(s[0], time, env) - _eval(s[1], time, env)
+    # the argument is smooth between its own breakpoints
+    edges = np.unique(np.concatenate([[t0, t1], *(under[id(a)] for a in args)]))
+    found = _crossings(fn, edges, levels, top_frequency)
+    return np.unique(np.concatenate([pts, found[(found > t0) & (found < t1)]]))
+
+
+def _degree(t: Tree) -> int:
+    """0: constant (or piecewise constant in time), 1: piecewise affine in time, 2: other."""
+    tag, args = t.tag, t.args
+    if tag == "num":
+        return 0
+    if tag == "var":
+        return 1 if args[0] == "time" else 0
+    subs = [_degree(a) for a in args if isinstance(a, Tree)]
+    if tag in _COMPARE or tag in ("&&", "||", "not"):
+        return 0
+    if tag == "call":
+        name = args[0]
+        if name in ("floor", "ceil", "nint", "sgn", "u"):
+            return 0
+        if name in _PIECEWISE:
+            return max(subs)
+        return 0 if max(subs) == 0 else 2
+    if tag == "?":
+        return max(subs[1:])
+    if tag in ("neg", "+", "-"):
+        return max(subs)
+    if tag == "*":
+        return min(2, subs[0] + subs[1])
+    if tag == "/":
+        return subs[0] if subs[1] == 0 else 2
+    return 0 if max(subs) == 0 else 2  # **
+
+
+def _jumps(t: Tree) -> bool:
+    return any(n.tag in _COMPARE or n.tag in ("&&", "||", "not", "?")
+               or (n.tag == "call" and n.args[0] in _PIECEWISE and _PIECEWISE[n.args[0]][3])
+               for n in t.walk())
 
 
 def _spice(t: Tree, env: Mapping[str, float]) -> str:
@@ -107,12 +325,30 @@ def _spice(t: Tree, env: Mapping[str, float]) -> str:
         return f"{args[0]}({', '.join(_spice(a, env) for a in args[1:])})"
     if tag == "neg":
         return f"(-{_spice(args[0], env)})"
+    if tag == "not":
+        return f"(!{_spice(args[0], env)})"
+    if tag == "?":
+        return f"({_spice(args[0], env)} ? {_spice(args[1], env)} : {_spice(args[2], env)})"
     return f"({_spice(args[0], env)} {tag} {_spice(args[1], env)})"
+
+
+def _frequency(t: Tree, env: Mapping[str, float]) -> float | None:
+    """The frequency (Hz) of a ``sin``/``cos`` of an affine function of time (its slope / 2π),
+    or of a ``floor``/``ceil``/``nint`` of one (its slope: a level a period), else None."""
+    if t.tag != "call" or t.args[0] not in (*_PERIODIC, "floor", "ceil", "nint"):
+        return None
+    # affine in time: its values at 0, 1, 2 s fall on a line
+    with np.errstate(all="ignore"):
+        y = np.broadcast_to(_eval(t.args[1], np.array([0.0, 1.0, 2.0]), env), 3)
+    slope = y[1] - y[0]
+    if not (np.all(np.isfinite(y)) and abs(y[2] - 2 * y[1] + y[0]) <= 1e-9 * abs(slope)):
+        return None
+    return abs(slope) / (2 * math.pi) if t.args[0] in _PERIODIC else abs(slope)
 
 
 @dataclass(frozen=True)
 class TimeExpression:
-    """The waveform of a B source's smooth expression of ``time`` (V or A).
+    """The waveform of a B source's expression of ``time`` (V or A).
 
     Attributes
     ----------
@@ -123,41 +359,62 @@ class TimeExpression:
         expanded).
     env : tuple of (str, float)
         The parameters it reads and their values (picklable, for the workers of a sweep).
+    piecewise_linear : bool
+        Affine in time between its breakpoints (a sawtooth, a PWM of constants): what the
+        exact method needs, and what makes interpolation inside a step exact.
+    jumps : bool
+        It can jump at a breakpoint (``floor``, a comparison ...): evaluated there with its
+        one-sided limits.
     """
 
     text: str
     tree: Tree
     env: tuple[tuple[str, float], ...]
+    piecewise_linear: bool = False
+    jumps: bool = False
+    _memo: dict = field(default_factory=dict, compare=False, repr=False)
 
-    piecewise_linear = False
     keyword = "B"  # (how a note names the source)
 
-    def __call__(self, t):
+    def __call__(self, t, side: int = 0):
+        """The value at the times ``t`` (s); ``side`` -1 or +1: the limit from before or after
+        (at a jump)."""
         t = np.asarray(t, dtype=float)
+        if side and self.jumps:
+            # (a breakpoint's instant is exact to round-off: a relative 1e-12 past it is on
+            # the piece beyond, and as near as a run can tell)
+            t = t + side * 1e-12 * np.maximum(np.abs(t), 1e-300)
         with np.errstate(all="ignore"):
             value = _eval(self.tree, t, dict(self.env))
         return np.broadcast_to(np.asarray(value, dtype=float), t.shape).copy()
 
     def breakpoints(self, t0: float, t1: float) -> np.ndarray:
-        return np.empty(0)
+        """The instants strictly inside ``(t0, t1)`` where it jumps or kinks, sorted, s.
+
+        Raises
+        ------
+        ValueError
+            Over :data:`MAX_BREAKPOINTS` of them.
+        """
+        key = (float(t0), float(t1))
+        if key not in self._memo:
+            try:
+                pts = _breakpoints(self.tree, dict(self.env), key[0], key[1],
+                                   self.top_frequency() or 0.0)
+            except _TooMany:
+                raise ValueError(
+                    f"B source of time '{self.text.strip()}': over {MAX_BREAKPOINTS:,} "
+                    f"instants where it jumps or kinks in {t1 - t0:g} s") from None
+            self._memo.clear()
+            self._memo[key] = pts
+        return self._memo[key]
 
     def top_frequency(self) -> float | None:
-        """The highest frequency of its ``sin``/``cos`` of an affine function of time, Hz
-        (None when it has none)."""
-        env, top = dict(self.env), None
-        stack = [self.tree]
-        while stack:
-            t = stack.pop()
-            stack.extend(a for a in t.args if isinstance(a, Tree))
-            if t.tag == "call" and t.args[0] in _PERIODIC:
-                # affine in time: its values at 0, 1, 2 s fall on a line (slope: 2π f)
-                with np.errstate(all="ignore"):
-                    y = np.broadcast_to(_eval(t.args[1], np.array([0.0, 1.0, 2.0]), env), 3)
-                slope = y[1] - y[0]
-                if np.all(np.isfinite(y)) and abs(y[2] - 2 * y[1] + y[0]) <= 1e-9 * abs(slope):
-                    f = abs(slope) / (2 * math.pi)
-                    top = f if top is None else max(top, f)
-        return top or None
+        """The highest frequency (Hz) of its ``sin``/``cos`` of an affine function of time,
+        and of its ``floor``/``ceil``/``nint`` of one (a sawtooth's), None when it has none."""
+        env = dict(self.env)
+        found = [f for t in self.tree.walk() if (f := _frequency(t, env)) is not None]
+        return max(found) if found and max(found) > 0 else None
 
     def spice(self) -> str:
         """The expression for a B line, with the parameters' values written in."""
@@ -174,13 +431,14 @@ def time_expression(tree: Tree, text: str, env: Mapping[str, float]) -> TimeExpr
     Raises
     ------
     BehaviouralError
-        A part of it that is not smooth in time (a comparison, ``u()``, ``abs``, a
-        condition...), an unknown parameter, or a value at t = 0 that is not a finite number.
+        A part of it pelcs does not evaluate (a function outside the module's list), an
+        unknown parameter, or a value at t = 0 that is not a finite number.
     """
     _check(tree, text, env)
     names = {t.args[0] for t in tree.walk() if t.tag == "var"} - {"time", *CONSTANTS}
-    sig = TimeExpression(text, tree, tuple(sorted((n, float(env[n])) for n in names)))
-    v0 = float(sig(0.0))
+    sig = TimeExpression(text, tree, tuple(sorted((n, float(env[n])) for n in names)),
+                         piecewise_linear=_degree(tree) <= 1, jumps=_jumps(tree))
+    v0 = float(sig(0.0, side=1))
     if not math.isfinite(v0):
         raise BehaviouralError(f"'{text.strip()}' is {v0} at time 0", 0,
                                "a B source's value must be a finite number at every instant")

@@ -127,6 +127,13 @@ COMPARED: dict[str, tuple[str, str]] = {
     # with UIC: ngspice -1278.6 V, pelcs -1275.9 V (mean output, 0.2 %)
     "engibench/engibench/problems/power_electronics/data/netlist/"
     "rewrite_control_5_4_3_6_10-dcdc_converter_1.net": ("v(5,2)", "mean"),
+    # a behavioural PMDC motor with a PI speed loop: state equations as B current sources
+    # into capacitors; the armature's B source adds the clamped PI output to linear terms
+    # (the clamp an ideal limiter on a node of its own, netlist.behavioural); the PWM carrier
+    # the sawtooth 'time - floor(time/200u)*200u', stepped to at each period
+    # (netlist.time_expression). Mean armature current, ngspice and pelcs: 1.56816 A,
+    # 1.56816 A (speed 314.039 rad/s both)
+    "pmdc_motor/dcmotor_pwm.cir": ("v(nd_ia)", "mean"),
     # ngspice's own closed-loop boost: an integrating error amplifier and a PWM gate driver
     # written as clamped B sources (ideal limiters, exact), a load stepped in time
     # (100/50/200 Ohm at 12 and 20 ms), a VDMOS; mean over 15-30 ms, ngspice 11.878 V
@@ -344,14 +351,6 @@ PELCS_REFUSES: dict[str, tuple[str, str, str]] = {
         ("q1 slid on its threshold",
          "an NPN emitter follower as the high-side switch of a buck: its base at 0/5 V from "
          "ground, its emitter the switch node, held at its threshold (active region)", "runs"),
-    # a behavioural PMDC motor with a PI loop: state equations as B current sources into
-    # capacitors, the PI output clamped and summed with linear terms, and a PWM carrier
-    # written as the sawtooth 'time - floor(time/200u)*200u'
-    "pmdc_motor/dcmotor_pwm.cir":
-        ("is a sum of a clamp (min/max) and a non-constant term",
-         "the armature equation's B source adds a clamped PI output to linear terms (a "
-         "clamp pelcs reads only as the whole expression), and its carrier is a sawtooth "
-         "of floor(time/200u), refused too (not smooth in time)", "runs"),
     "dilip_boost/eSim_project_files/sc_test.cir.out":
         ("model type 'yt_pwm' is not supported",
          "eSim's mixed-signal boost: its PWM a Verilog module (yt_pwm) that eSim's NGHDL "

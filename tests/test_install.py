@@ -481,3 +481,11 @@ def test_compile_with_the_module_built_says_where(tmp_path, monkeypatch, capsys)
     path.write_bytes(b"")
     assert main(["compile"]) == 0
     assert capsys.readouterr().out == f"the kernels are compiled and linked: {path}\n"
+
+
+def test_python_dash_m_pelcs_is_the_command():
+    import pelcs
+
+    out = subprocess.run([sys.executable, "-m", "pelcs", "--version"], capture_output=True,
+                         text=True, cwd=ROOT, timeout=60)
+    assert out.returncode == 0 and out.stdout == f"pelcs {pelcs.__version__}\n", out

@@ -147,3 +147,39 @@ def test_check_does_not_take_the_limiter_for_devices(ngspice):
     assert cmp.ok
     assert cmp.nonideal.v_ref == pytest.approx(1.0)
     assert not cmp.nonideal.diode_drops and cmp.devices == "ideal"
+
+
+# a clamp summed with linear terms (a PI output clamped, then added to an armature's
+# back-EMF and IR drop): the clamp on a node of its own, the sum a linear source reading it
+SUMMED = """a clamp summed with linear terms
+V1 in 0 SIN(0 3 1k)
+B1 out 0 V = min(2, max(-1, v(in))) + 0.5*v(in) - 0.25
+R1 out 0 1k
+B2 0 iout I = 1m*(max(0, 2*v(in) - 1) - v(in))
+R2 iout 0 1k
+.tran 1u 2m
+.end
+"""
+
+
+def test_a_clamp_summed_with_linear_terms_is_a_limiter_on_a_node_of_its_own():
+    c = parse_string(SUMMED)
+    for name in ("B1#k1", "B2#k1"):
+        assert any(f"{name}: clamp" in n and "built as an ideal limiter" in n
+                   for n in c.notes), c.notes
+    res = simulate_circuit(c, probes=["v(in)", "v(out)", "v(iout)"])
+    res.raise_if_error()
+    vin = res["v(in)"]
+    assert np.abs(res["v(out)"] - (_clamp(vin, -1, 2) + 0.5 * vin - 0.25)).max() <= 1e-9
+    # I = 1 mA/V * (...) into 1 kOhm: the volts of the expression
+    assert np.abs(res["v(iout)"] - (np.maximum(0, 2 * vin - 1) - vin)).max() <= 1e-9
+    assert (vin > 2).any() and (vin < -1).any()
+
+
+@pytest.mark.parametrize("expr", ["min(2, v(in)) * v(in) + v(in)",
+                                  "min(2, v(in)*v(in)) + v(in)"])
+def test_a_clamp_in_a_nonlinear_sum_is_still_refused(expr):
+    from netlist.errors import NetlistError
+
+    with pytest.raises(NetlistError, match="B1"):
+        parse_string(SUMMED.replace("min(2, max(-1, v(in))) + 0.5*v(in) - 0.25", expr))

@@ -89,8 +89,141 @@ def test_the_step_resolves_its_frequency():
 
 
 @pytest.mark.parametrize(("expr", "part"), [
-    ("abs(sin(time))", "abs(sin(time))"), ("time > 1m ? sin(time) : 0", "time > 1m ?"),
-    ("u(time-1m)*time", "u(time-1m)")])
-def test_a_function_of_time_that_is_not_smooth_is_refused(expr, part):
-    refused_at(f"t\nB1 n1 0 V={expr}\nR1 n1 0 1\n.tran 1u 2m\n.end\n", (2, 11),
-               [part, "not smooth in time"])
+    ("ddt(sin(time))", "ddt(sin(time))"), ("time > 1m ? idt(time) : 0", "idt(time)")])
+def test_a_function_of_time_pelcs_does_not_evaluate_is_refused(expr, part):
+    refused_at(f"t\nB1 n1 0 V={expr}\nR1 n1 0 1\n.tran 1u 2m\n.end\n", (2, 11 + expr.index(part)),
+               [part, "not a function pelcs evaluates"])
+
+
+# ------------------------------------------------------------------ piecewise functions of time
+
+SAW = "time/10u - floor(time/10u)"
+
+
+def _wave(expr: str, params: str = ""):
+    c = parse_string(f"t\n{params}B1 n1 0 V={expr}\nR1 n1 0 1\n.tran 1u 1m\n.end\n")
+    return c.element("B1").waveform
+
+
+def test_a_sawtooth_jumps_at_each_period():
+    w = _wave(SAW)
+    assert w.jumps and w.piecewise_linear
+    bp = w.breakpoints(0.0, 1e-3)
+    # the instants k*10 us, in closed form (the argument is affine between them)
+    assert bp.size == 99
+    assert np.abs(bp - 1e-5 * np.arange(1, 100)).max() <= 1e-18
+    # its one-sided limits there: 1 before, 0 after
+    assert w(bp, side=-1) == pytest.approx(np.ones(99), abs=1e-9)
+    assert w(bp, side=1) == pytest.approx(np.zeros(99), abs=1e-9)
+    assert w.top_frequency() == pytest.approx(1e5)
+
+
+def test_a_pwm_of_a_sawtooth_and_a_constant():
+    w = _wave(f"({SAW}) < 0.3 ? 5 : 0")
+    assert w.jumps and w.piecewise_linear
+    bp = w.breakpoints(0.0, 1e-4)
+    want = np.sort(np.concatenate((1e-5 * np.arange(1, 10), 1e-5 * np.arange(10) + 3e-6)))
+    assert bp.size == want.size and np.abs(bp - want).max() <= 1e-18
+    t = np.array([1e-6, 2.9e-6, 3.1e-6, 9.9e-6, 10.1e-6])
+    assert list(w(t)) == [5, 5, 0, 0, 5]
+
+
+def test_a_sine_compared_with_a_triangle_crossings_to_round_off():
+    """Sine-triangle PWM: the instants against scipy's root finder on each half period."""
+    from scipy.optimize import brentq
+
+    tri = "abs(2*(time/50u - floor(time/50u)) - 1)"  # 1 -> 0 -> 1 each 50 us
+    w = _wave(f"0.5 + 0.4*sin(2*pi*1k*time) > {tri} ? 12 : 0")
+    assert w.jumps and w.piecewise_linear
+    bp = w.breakpoints(0.0, 1e-3)
+
+    def g(t):
+        x = t / 50e-6 - np.floor(t / 50e-6)
+        return 0.5 + 0.4 * np.sin(2 * np.pi * 1e3 * t) - abs(2 * x - 1)
+
+    want = []
+    for k in range(20):  # each half period of the triangle is smooth: one crossing in it
+        for a, b in ((k * 50e-6, k * 50e-6 + 25e-6), (k * 50e-6 + 25e-6, (k + 1) * 50e-6)):
+            a1, b1 = a + 1e-15, b - 1e-15
+            if np.sign(g(a1)) != np.sign(g(b1)):
+                want.append(brentq(g, a1, b1, xtol=1e-18, rtol=1e-15))
+    # the breakpoints also hold the triangle's own corners (its kinks), k*25 us
+    crossings = bp[np.abs(bp / 25e-6 - np.round(bp / 25e-6)) > 1e-6]
+    assert crossings.size == len(want) == 40
+    assert np.abs(crossings - np.array(want)).max() <= 1e-15
+
+
+def test_a_sine_in_a_comparison_is_found_where_it_turns():
+    w = _wave("sin(2*pi*1k*time) > 0.5 ? 1 : 0")
+    bp = w.breakpoints(0.0, 2e-3)
+    want = np.sort(np.concatenate([np.array([1 / 12, 5 / 12]) * 1e-3 + k * 1e-3
+                                   for k in range(2)]))
+    assert np.abs(bp - want).max() <= 1e-17
+
+
+def test_piecewise_smooth_is_not_piecewise_linear():
+    w = _wave("abs(sin(2*pi*1k*time))")
+    assert not w.piecewise_linear and not w.jumps
+    assert np.abs(w.breakpoints(0.0, 2e-3) - np.array([0.5, 1.0, 1.5]) * 1e-3).max() <= 1e-17
+
+
+def test_functions_and_operators_as_ngspice_evaluates_them():
+    w = _wave("nint(time/1m - 0.5) + 10*u2(time/1m - 1) + 100*!(time > 1.5m) + "
+              "1000*sgn(time - 0.5m) + 10000*uramp(time - 2m) + min(time, 1m)*1e6 + "
+              "(time > 0.2m && time < 0.4m) + (time < 0.1m || time > 2.9m)")
+    t = np.array([0.05, 0.3, 0.7, 1.2, 1.7, 2.5, 2.95]) * 1e-3
+    want = [np.rint(x / 1e-3 - 0.5) + 10 * np.clip(x / 1e-3 - 1, 0, 1)
+            + 100 * (not x > 1.5e-3) + 1000 * np.sign(x - 0.5e-3)
+            + 1e4 * max(x - 2e-3, 0) + min(x, 1e-3) * 1e6 + (0.2e-3 < x < 0.4e-3)
+            + (x < 0.1e-3 or x > 2.9e-3) for x in t]
+    assert w(t) == pytest.approx(want, rel=1e-12)
+
+
+def test_too_many_instants_is_an_error():
+    w = _wave("floor(time/1f)")
+    with pytest.raises(ValueError, match="over 2,000,000 instants"):
+        w.breakpoints(0.0, 1.0)
+
+
+PWM_DECK = """pwm of a B sawtooth into an RC, and a buck driven by it
+.param T=20u
+Bsaw saw 0 V = time/T - floor(time/T)
+Bpwm g 0 V = V(saw) < 0.4 ? 1 : 0
+Bdrv d 0 V = (time/T - floor(time/T)) < 0.4 ? 5 : 0
+R1 d o 1k
+C1 o 0 10n
+S1 vin sw g 0 SW1
+.model SW1 SW(VT=0.5 VH=0 RON=10m ROFF=10meg)
+Vin vin 0 12
+D1 0 sw DI
+.model DI D(IS=1e-14 N=0.01)
+L1 sw out 100u
+C2 out 0 20u
+R2 out 0 5
+.tran 0.1u 2m
+.end
+"""
+
+
+@pytest.mark.slow
+def test_pwm_of_a_b_sawtooth_against_ngspice(tmp_path, ngspice):
+    """A B-source sawtooth and PWM (floor of time) in pelcs and ngspice (its step bounded to
+    50 ns, as the jumps land inside ngspice's steps): the RC's mean and the buck's."""
+    from pelcs.api import simulate
+
+    if shutil.which("ngspice") is None:
+        pytest.skip("no ngspice executable")
+    probes = ["v(o)", "v(out)"]
+    deck = PWM_DECK.replace(".tran 0.1u 2m", ".tran 0.1u 2m 0 50n")
+    data = ngspice_wrdata(deck, probes, tmp_path)
+    t, ng = data[:, 0], data[:, 1::2]
+    res = simulate(PWM_DECK, probes=probes)
+    half = t >= 1e-3
+    mask = res.t >= 1e-3
+    for k, name in enumerate(probes):
+        want = np.trapezoid(ng[half, k], t[half]) / (t[half][-1] - t[half][0])
+        got = np.trapezoid(res.y[mask, k], res.t[mask]) / (res.t[mask][-1] - res.t[mask][0])
+        assert got == pytest.approx(want, rel=0.01), name
+    # the RC's mean is the PWM's: 0.4 * 5 V
+    got = np.trapezoid(res.y[mask, 0], res.t[mask]) / (res.t[mask][-1] - res.t[mask][0])
+    assert got == pytest.approx(2.0, rel=2e-3)
