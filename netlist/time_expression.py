@@ -147,9 +147,14 @@ def _crossing_function(t: Tree) -> tuple[list[Tree], str] | None:
         return list(t.args[1:]), _PIECEWISE[t.args[0]][2]
     if t.tag in _COMPARE:
         return list(t.args), "zero"
-    if t.tag == "?":
+    if t.tag == "?" and not _boolean(t.args[0]):
         return [t.args[0]], "zero"
     return None
+
+
+def _boolean(t: Tree) -> bool:
+    """A comparison or a logical operation: 0 or 1, turning only at its own breakpoints."""
+    return t.tag in _COMPARE or t.tag in ("&&", "||", "not")
 
 
 def _level_index(g: np.ndarray, levels: str) -> np.ndarray:
@@ -164,19 +169,32 @@ def _level_index(g: np.ndarray, levels: str) -> np.ndarray:
     return np.sign(g)
 
 
-def _levels_between(lo: float, hi: float, levels: str) -> np.ndarray:
-    """The levels strictly between ``lo`` and ``hi``."""
-    if levels == "zero":
-        cand = np.array([0.0])
-    elif levels == "unit":
-        cand = np.array([0.0, 1.0])
+def _affine_crossings(a: np.ndarray, d: np.ndarray, ga: np.ndarray, slope: np.ndarray,
+                      levels: str) -> np.ndarray:
+    """The instants where ``ga + slope (t - a)`` crosses its levels inside each interval
+    ``(a, a + d)`` (vectorised over the intervals)."""
+    gb = ga + slope * d
+    lo, hi = np.minimum(ga, gb), np.maximum(ga, gb)
+    if levels in ("zero", "unit"):
+        cand = np.array([0.0] if levels == "zero" else [0.0, 1.0])
+        idx = np.repeat(np.arange(a.size), cand.size)
+        lv = np.tile(cand, a.size)
     else:
         shift = 0.5 if levels == "half" else 0.0
-        first, last = math.floor(lo + shift) + 1, math.ceil(hi + shift) - 1
-        if last - first + 1 > MAX_BREAKPOINTS:
+        with np.errstate(invalid="ignore"):
+            first = np.floor(lo + shift) + 1
+            count = np.maximum(0.0, np.ceil(hi + shift) - 1 - first + 1)
+        if count.sum() > MAX_BREAKPOINTS:
             raise _TooMany
-        cand = np.arange(first, last + 1, dtype=float) - shift
-    return cand[(cand > lo) & (cand < hi)]
+        count = count.astype(np.int64)
+        idx = np.repeat(np.arange(a.size), count)
+        offs = np.arange(idx.size) - np.repeat(np.cumsum(count) - count, count)
+        lv = first[idx] + offs - shift
+    keep = (lv > lo[idx]) & (lv < hi[idx]) & (slope[idx] != 0)
+    idx, lv = idx[keep], lv[keep]
+    tk = a[idx] + (lv - ga[idx]) / slope[idx]
+    tol = 1e-7 * d[idx]
+    return tk[(tk > a[idx] + tol) & (tk < a[idx] + d[idx] - tol)]
 
 
 class _TooMany(Exception):
@@ -210,14 +228,18 @@ def _crossings(fn: Callable[[np.ndarray], np.ndarray], edges: np.ndarray, levels
     if a.size == 0:
         return np.empty(0)
     # samples inside each interval: enough to see every oscillation of its sines
-    n = int(min(4096, max(4, math.ceil(32 * float(d.max()) * top_frequency))))
+    # (and at least 1024 over the run: a function with no sine may still turn several times)
+    n = int(min(4096, max(4, math.ceil(1024 / a.size),
+                          math.ceil(32 * float(d.max()) * top_frequency))))
     if a.size * n > 4 * MAX_BREAKPOINTS:
         raise _TooMany
-    frac = np.concatenate(([1e-9], (np.arange(n) + 0.5) / n, [1 - 1e-9]))
+    # (the first and last a hair inside: the one-sided limits at the ends)
+    frac = np.concatenate(([1e-7], (np.arange(n) + 0.5) / n, [1 - 1e-7]))
     ts = a[:, None] + d[:, None] * frac[None, :]
     with np.errstate(all="ignore"):
         g = np.broadcast_to(np.asarray(fn(ts), dtype=float), ts.shape)
-    tol = 1e-9 * d
+    # (a crossing nearer an end than this is that end's: a round-off echo of the jump there)
+    tol = 1e-7 * d
     out = []
     # affine intervals: the crossings of each level in closed form
     # (every sample on the line through the first and the last: a sine over whole periods
@@ -225,15 +247,11 @@ def _crossings(fn: Callable[[np.ndarray], np.ndarray], edges: np.ndarray, levels
     line = g[:, :1] + (g[:, -1:] - g[:, :1]) * ((frac - frac[0]) / (frac[-1] - frac[0]))
     scale = np.maximum(np.abs(g[:, 0]), np.abs(g[:, -1])) + np.abs(g[:, -1] - g[:, 0])
     affine = np.isfinite(g).all(axis=1) & (np.abs(g - line).max(axis=1) <= 1e-9 * scale)
-    for k in np.flatnonzero(affine):
-        slope = (g[k, -1] - g[k, 0]) / (d[k] * (1 - 2e-9))
-        ga = g[k, 0] - slope * 1e-9 * d[k]
-        gb = ga + slope * d[k]
-        if slope == 0:
-            continue
-        lv = _levels_between(min(ga, gb), max(ga, gb), levels)
-        tk = a[k] + (lv - ga) / slope
-        out.append(tk[(tk > a[k] + tol[k]) & (tk < b[k] - tol[k])])
+    rows = np.flatnonzero(affine)
+    if rows.size:
+        slope = (g[rows, -1] - g[rows, 0]) / (d[rows] * (frac[-1] - frac[0]))
+        ga = g[rows, 0] - slope * frac[0] * d[rows]
+        out.append(_affine_crossings(a[rows], d[rows], ga, slope, levels))
     # the others: where the band changes between consecutive samples, refined by bisection
     rows = np.flatnonzero(~affine)
     if rows.size:
@@ -405,6 +423,10 @@ class TimeExpression:
                 raise ValueError(
                     f"B source of time '{self.text.strip()}': over {MAX_BREAKPOINTS:,} "
                     f"instants where it jumps or kinks in {t1 - t0:g} s") from None
+            if pts.size > 1:  # (one instant found twice, apart by round-off)
+                keep = np.concatenate(([True], np.diff(pts) > 1e-12 * np.maximum(
+                    np.abs(pts[1:]), key[1] - key[0])))
+                pts = pts[keep]
             self._memo.clear()
             self._memo[key] = pts
         return self._memo[key]

@@ -340,7 +340,7 @@ def test_deeply_nested_subcircuits_are_an_input_error():
 
 
 @pytest.mark.parametrize("driver", [
-    "Bg g 0 V = abs(1k*time)",
+    "Bg g 0 V = ddt(1k*time)",
     "asq g sq\n.model sq square(freq_array=[1k 1k] cntl_array=[0 1])",
 ])
 def test_refused_driver_leaves_no_follow_on_connectivity_error(driver):
