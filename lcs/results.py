@@ -253,6 +253,9 @@ class SimulationResult:
         When asked for: conduction losses, input and output power, efficiency.
     theta : float or None
         θ of a Moreau run of a netlist (:func:`netlist.studies.transient.choose_theta`).
+    step : float or None
+        Its step h, s (the ``.tran`` step or the one chosen for it, a finer grid's where the
+        run was taken again on one).
     """
 
     t: np.ndarray
@@ -271,6 +274,7 @@ class SimulationResult:
     device_fits: list = field(default_factory=list)
     losses: object = None
     theta: float | None = None
+    step: float | None = None
 
     @property
     def ok(self) -> bool:

@@ -519,9 +519,8 @@ def compare(
     t_p = np.asarray(result.t, dtype=float)
     t_n = np.asarray(ng.time, dtype=float)
     span = (max(t_p[0], t_n[0]), min(t_p[-1], t_n[-1]))
-    h = float(circuit.tran.tmax or circuit.tran.tstep)
-    if pel is not circuit:
-        h = float(pel.tran.tmax or pel.tran.tstep)
+    # (the step the run took: the .tran line's, or one pelcs chose to resolve a source)
+    h = result.step or float(pel.tran.tmax or pel.tran.tstep)
     step = min(h, (span[1] - span[0]) / 20)
     per, per_source = detect_period(pel, result, period)
     window, n_periods = _window(span, per)

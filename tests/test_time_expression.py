@@ -242,3 +242,22 @@ def test_pwm_of_a_b_sawtooth_against_ngspice(tmp_path, ngspice):
     # the RC's mean is the PWM's: 0.4 * 5 V
     got = np.trapezoid(res.y[mask, 0], res.t[mask]) / (res.t[mask][-1] - res.t[mask][0])
     assert got == pytest.approx(2.0, rel=2e-3)
+
+
+@pytest.mark.slow
+def test_pelcs_check_reports_the_step_its_run_took(ngspice):
+    """The B sawtooth's 5 kHz sets a 2 us step under '.tran 20u': the check's report and its
+    comparison grid use that step, not the .tran line's (which it printed before)."""
+    from ngspice_checks.compare import compare
+    from pelcs.check_report import format_table
+
+    if shutil.which("ngspice") is None:
+        pytest.skip("no ngspice executable")
+    deck = PWM_DECK.replace(".param T=20u", ".param T=200u").replace(
+        ".tran 0.1u 2m", ".tran 20u 4m")
+    cmp = compare(deck, ["v(o)"], timeout=120)
+    assert cmp.step == pytest.approx(2e-6)
+    assert "steps of 2 µs" in format_table(cmp)
+    # the RC's mean is the PWM's, 0.4 * 5 V (ngspice as written, its steps up to 20 us with
+    # no breakpoint at the jumps, gives 1.889 V: the check fails, as it should)
+    assert cmp.probes[0].mean_pelcs == pytest.approx(2.0, rel=1e-3)

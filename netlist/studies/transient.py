@@ -671,7 +671,7 @@ def run_setup(
     refuse_active_transistors(setup.transistors, result.notes if setup.operating_point else (),
                               setup.file, result.sliding, setup.t_stop)
     if method == "moreau":
-        result.theta = theta
+        result.theta, result.step = theta, setup.h
     check_knees(run_knees, result, len(extra))
     if knee_note:
         result.notes.append(knee_note)
