@@ -599,6 +599,15 @@ class ElementLines:
                 if any(a is None for a in args):
                     return
                 lo, hi = WAVE_ARGS[kind]
+                if hi is not None and len(args) > hi and kind != "pwl":
+                    # (ngspice reads every number into the source's coefficients and uses
+                    # the first ones: SIN(0 1 200 0 0 0 0), a 7th value some tools write,
+                    # is the sine of the first six; measured in ngspice 39)
+                    self.deck.notes.append(
+                        f"line {st.loc(kw.start_pos).line}: {name}: {kw.upper()} takes at "
+                        f"most {hi} values; the {len(args) - hi} after them ignored, as "
+                        "ngspice ignores them")
+                    args = args[:hi]
                 if len(args) < lo or (hi is not None and len(args) > hi):
                     names = {
                         "pulse": "V1 V2 [TD [TR [TF [PW [PER [NP]]]]]]",

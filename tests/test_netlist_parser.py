@@ -356,3 +356,25 @@ def test_long_parameter_chain_in_reverse_order():
 def test_override_must_be_a_finite_number(bad):
     with pytest.raises(NetlistError, match="override of parameter 'fs' is not a finite number"):
         parse(".param fs=1k\nV1 a 0 {fs}\nR1 a 0 1\n", params={"fs": bad})
+
+
+@pytest.mark.parametrize("name", ["ac", "dc", "pulse", "sin", "pwl", "exp", "off", "on"])
+def test_a_node_may_be_named_like_a_keyword(name):
+    # Liupold/ngspice-sims' supply: 'D4 0 ac 1N4001' (ngspice reads 'ac' as a node there)
+    c = parse_string(f"t\nV1 {name} 0 SIN(0 10 50)\nD4 0 {name} DX\nR1 {name} m 1k\n"
+                     f"C1 m {name} 1u\nL1 m 0 1m\nS1 m 0 {name} 0 SW\nE1 e 0 m {name} 2\n"
+                     "R2 e 0 1k\n.model DX D\n.model SW SW(VT=1)\n.tran 1m 20m\n.end\n")
+    for el, nodes in (("D4", ("0", name)), ("R1", (name, "m")), ("C1", ("m", name))):
+        assert c.element(el).nodes == nodes
+
+
+def test_a_seventh_sin_value_is_ignored_as_ngspice_ignores_it():
+    # AbhijitBaral/SPICE_sims' peak rectifier: SIN( 0 1 200 0 0 0 0 ), ngspice 39 runs it as
+    # the sine of the first six (a 7th of 2 does not stop it after two cycles: measured)
+    c = parse_string("t\nV1 in 0 DC 0 SIN( 0 1 200 0 0 0 2 ) AC 10\nR1 in 0 1k\n"
+                     ".tran 1m 20m\n.end\n")
+    d = parse_string("t\nV1 in 0 DC 0 SIN( 0 1 200 0 0 0 ) AC 10\nR1 in 0 1k\n"
+                     ".tran 1m 20m\n.end\n")
+    assert c.element("V1").waveform == d.element("V1").waveform
+    assert any("line 2: V1: SIN takes at most 6 values; the 1 after them ignored" in n
+               for n in c.notes)
