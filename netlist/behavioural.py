@@ -286,10 +286,13 @@ def fold_clamps(circuit: Circuit) -> None:
         readers: list[Comparator] = []
         bad: list[str] = []
         for el in circuit.elements + [c for c in clamps if c is not b]:
-            if isinstance(el, Comparator) and p not in el.nodes and any(
-                    q == ("v", p) for q, _ in el.step.diff.terms):
+            reads = isinstance(el, Comparator) and p not in el.nodes and any(
+                q == ("v", p) for q, _ in el.step.diff.terms)
+            # (a sigmoid's B line, which ngspice is given, reads the clamp's output: the
+            # clamp stays, an exact limiter written as its own line)
+            if reads and not isinstance(el.step, SoftStep):
                 readers.append(el)
-            elif p in el.nodes or p in tuple(getattr(el, "control", ())) or (
+            elif reads or p in el.nodes or p in tuple(getattr(el, "control", ())) or (
                     isinstance(el, ClampSource) and ("v", p) in dict(el.clamp.form.terms)):
                 bad.append(el.name)
         gated = [el for el in circuit.elements if isinstance(el, Switch)

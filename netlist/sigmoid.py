@@ -235,6 +235,10 @@ class SigmoidBand:
     location: Location | None = field(default=None, compare=False, repr=False)
     widened: bool = False  # (to the levels where the switches it drives turn: record)
     share = SIGMOID_SHARE
+    # (netlist.knee.knees_for_run: left out of a long run written as it goes, which keeps
+    # every step only for its knees, and said so; a shorter run checks it)
+    droppable = True
+    unchecked = "its input inside the sigmoid's transition band"
 
     @property
     def _nodes(self) -> tuple[str, ...]:

@@ -13,6 +13,7 @@ from ngspice_helpers import ngspice_wrdata
 
 from netlist.behavioural_expr import Affine, parse_behavioural
 from netlist.errors import NetlistError
+from netlist.knee import knees_for_run
 from netlist.parser import parse_string
 from netlist.sigmoid import ATAN_BAND, TANH_BAND, SigmoidBand, SoftStep, sigmoid_step
 from netlist.studies.transient import simulate_circuit
@@ -152,6 +153,15 @@ def test_the_band_reaches_the_level_where_a_switch_turns():
                "drives turns)" in n for n in c.notes)
 
 
+def test_a_long_run_written_as_it_goes_leaves_the_check_out_and_says_so():
+    c = parse_string(SYNC_BUCK)
+    kept, note = knees_for_run(c.knees, 2e6, streaming=True)
+    assert kept == () and note.startswith(
+        "B1: not checked for its input inside the sigmoid's transition band in this run of "
+        "2e+06 steps written as it goes")
+    assert knees_for_run(c.knees, 2e6, streaming=False)[0] == tuple(c.knees)
+
+
 @pytest.mark.slow
 def test_a_tanh_pwm_buck_against_ngspice(tmp_path, ngspice):
     """The mean output over the last 2 ms: pelcs's ideal comparator against ngspice running
@@ -246,3 +256,15 @@ def test_a_sigmoid_driving_a_load_is_its_value_and_written_as_the_sigmoid():
     assert "X1.B1: the sigmoid '3*tanh(k*(v(a)-v(b)))' read as the ideal comparator v(a) > 0 " \
            "? 3 : -3: its input (-1 V to 1 V over the run) never stayed inside the sigmoid's " \
            "transition band |v(a)| < 4.595 mV from one step to the next" in res.notes
+
+
+def test_a_clamp_a_sigmoid_reads_stays_a_limiter_so_that_ngspice_reads_it_too():
+    c = parse_string("t\nVa a 0 SIN(0.5 1 100)\nVtri tri 0 PULSE(0.1 0.9 0 5u 5u 1n 10u)\n"
+                     "Bc c 0 V = max(0, min(1, v(a)))\n"
+                     "B1 g 0 V = 5*(1+tanh(1000*(v(c)-v(tri))))/2\nVin in 0 10\n"
+                     "S1 in o g 0 swm\nR1 o 0 10\n.model swm SW(VT=2.5)\n.tran 0.1u 10m\n.end\n")
+    assert c.element("S1").control == ("c", "tri")
+    assert any(n.startswith("Bc: clamp") and "it feeds B1" in n for n in c.notes)
+    deck = write_circuit(c)
+    assert "Bc c 0 V = max(0.0, min(1.0, 1.0*v(a) + 0.0))" in deck
+    assert "B1 g 0 V=((5.0 * (1.0 + tanh((1000.0 * (v(c) - v(tri)))))) / 2.0)" in deck
