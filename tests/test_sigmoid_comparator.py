@@ -268,3 +268,27 @@ def test_a_clamp_a_sigmoid_reads_stays_a_limiter_so_that_ngspice_reads_it_too():
     deck = write_circuit(c)
     assert "Bc c 0 V = max(0.0, min(1.0, 1.0*v(a) + 0.0))" in deck
     assert "B1 g 0 V=((5.0 * (1.0 + tanh((1000.0 * (v(c) - v(tri)))))) / 2.0)" in deck
+
+
+def test_an_e_value_sigmoid_of_a_current_in_a_subcircuit_that_slides_is_refused():
+    # (E VALUE={...} is a B source; the knee probes the flattened source's current)
+    c = parse_string("t\nVin in 0 10\n.subckt sense a b\nVs a m 0\nR1 m b 1k\n.ends\n"
+                     "X1 in c sense\nC1 c 0 1u\n"
+                     "E1 g 0 VALUE={5/(1+exp(-1e4*(i(X1.Vs) - 5m)))}\n"
+                     "S1 c d g 0 swm\nRd d 0 1k\n.model swm SW(VT=2.5)\n.tran 1u 5m uic\n.end\n")
+    (knee,) = [k for k in c.knees if isinstance(k, SigmoidBand)]
+    assert knee.probes == ("i(X1.Vs)",) and knee.comparator == "i(X1.Vs) - 0.005 > 0 ? 5 : 0"
+    assert (knee.band, knee.scale) == pytest.approx((TANH_BAND, 5000.0), rel=1e-12)
+    assert "B.E1 g 0 V=(5.0 / (1.0 + exp(((-10000.0) * (i(V.X1.Vs) - 0.005)))))" in \
+        write_circuit(c)
+    # from 0 V the current (10 mA) is above 5 mA: S1 on, Rd loading the capacitor, which
+    # settles at 5 V (tau 0.5 ms), where the current is exactly 5 mA: the input (10 mA -
+    # v(c)/1k - 5 mA) is inside the band (459.5 uA) from 0.5 ms ln(5/0.4595) = 1.19 ms on,
+    # most of the run: refused
+    with pytest.raises(NetlistError) as err:
+        simulate_circuit(c, probes=["v(c)"])
+    msg = str(err.value)
+    assert "E1: the sigmoid '{5/(1+exp(-1e4*(i(X1.Vs) - 5m)))}', read as the ideal " \
+           "comparator i(X1.Vs) - 0.005 > 0 ? 5 : 0, held its input inside its transition " \
+           "band |i(X1.Vs) - 0.005| < 459.5 µA" in msg
+    assert "more than 10% of it, from t = 0.0011" in msg
