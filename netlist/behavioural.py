@@ -32,6 +32,11 @@ equivalent, and refuses the others with the expression's place and the accepted 
   limiter (:mod:`netlist.limiter`: ideal diodes hold an inner node at the bounds). Both are
   exact.
 
+- **sigmoid**: a ``tanh``, logistic or ``atan`` of an affine form, scaled and shifted by
+  constants (``5*(1+tanh(1000*(v(ctl)-v(tri))))/2``): the ideal comparator it approximates
+  (:mod:`netlist.sigmoid`), read as the comparators above; the run checks that its input
+  spends no more than a tenth of it in the sigmoid's transition band.
+
 - **stepped in time**: an expression of ``time`` alone, read only inside comparisons of an
   affine function of time with constants (:func:`netlist.time_value.time_value`): the
   independent source of its piecewise-constant waveform, a PWL that jumps at the instants.
@@ -68,8 +73,10 @@ from .dialect import hierarchical_name
 from .errors import Diagnostic, Location
 from .knee import elaborate_knee
 from .rawdeck import RawElement
+from .sigmoid import SoftStep, record, sigmoid_step
 from .time_expression import time_expression
 from .time_value import reads_time_only, time_in_comparisons, time_value
+from .writer import element_line
 
 __all__ = ["ClampSource", "Comparator", "elaborate", "fold_clamps", "linear_elements",
            "gone_probe", "resolve_comparators"]
@@ -238,6 +245,13 @@ def elaborate(el: RawElement, prefix: str, mapnode: Callable[[str], str],
                 return [*inner, *linear_elements(name, out_kind, nodes, form, loc)]
             raise
     except BehaviouralError as exc:
+        # a smooth comparator (tanh, atan, a logistic of an affine form): its ideal one
+        soft = sigmoid_step(tree, text, env, mapnode, source_name(prefix))
+        if isinstance(soft, SoftStep):
+            return [Comparator(name, nodes, loc, out_kind, soft, text,
+                               what="sigmoid B source")]
+        if soft is not None:
+            return linear_elements(name, out_kind, nodes, soft, loc)
         unknown = exc.message.startswith("unknown parameter")
         if not (unknown and exc.message.split("'")[1] in failed):  # (else reported already)
             error(f"{name}: {exc.message}", el.st.loc(offset + exc.offset), exc.hint, (name,),
@@ -327,10 +341,13 @@ def fold_clamps(circuit: Circuit) -> None:
         readers: list[Comparator] = []
         bad: list[str] = []
         for el in circuit.elements + [c for c in clamps if c is not b]:
-            if isinstance(el, Comparator) and p not in el.nodes and any(
-                    q == ("v", p) for q, _ in el.step.diff.terms):
+            reads = isinstance(el, Comparator) and p not in el.nodes and any(
+                q == ("v", p) for q, _ in el.step.diff.terms)
+            # (a sigmoid's B line, which ngspice is given, reads the clamp's output: the
+            # clamp stays, an exact limiter written as its own line)
+            if reads and not isinstance(el.step, SoftStep):
                 readers.append(el)
-            elif p in el.nodes or p in tuple(getattr(el, "control", ())) or (
+            elif reads or p in el.nodes or p in tuple(getattr(el, "control", ())) or (
                     isinstance(el, ClampSource) and ("v", p) in dict(el.clamp.form.terms)):
                 bad.append(el.name)
         gated = [el for el in circuit.elements if isinstance(el, Switch)
@@ -441,6 +458,13 @@ class _Use:
     sign: float  # the switch's control is sign * (the B's output)
 
 
+def _band_of(circuit: Circuit, sw: Switch) -> tuple[float, float]:
+    """A switch's ``VT`` and ``VH`` (V)."""
+    model = circuit.models.get(sw.model.lower())
+    params = model.params if model is not None else {}
+    return float(params.get("vt", 0.0)), float(params.get("vh", 0.0))
+
+
 def _state(x: float, vt: float, vh: float) -> str | None:
     """``"on"``/``"off"`` for a control held at ``x``, ``None`` inside the band."""
     if x > vt + abs(vh):
@@ -497,7 +521,14 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
     keep = [el for el in circuit.elements if not isinstance(el, Comparator)]
     op_start = circuit.tran is not None and not circuit.tran.uic
     added: list[Element] = []
+    # (a sigmoid's switches as the netlist has them: their lines, for the deck written for
+    # ngspice, and the levels of its output where they turn, for its check)
+    before = {el.key: (el.name, element_line(el, circuit), el.control, _band_of(circuit, el))
+              for el in keep if isinstance(el, Switch)} \
+        if any(isinstance(b.step, SoftStep) for b in comps) else {}
+    spans = []  # where each comparator's elements start in added
     for b in comps:
+        spans.append(len(added))
         p, n = b.nodes
         label = f"{b.what} {b.name} ({b.text.strip()})"
         if b.kind_out != "V" or isinstance(b.step, Select):
@@ -585,6 +616,16 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
                                  f"onto switch {sw.name}: on while {on_while} (its output "
                                  f"node {p} is gone; d({sw.name}) is the switch's state)")
     circuit.elements[:] = keep + added
+    for b, start, end in zip(comps, spans, [*spans[1:], len(added)], strict=True):
+        if isinstance(b.step, SoftStep):
+            gone = circuit.gone_nodes.get(b.nodes[0])
+            mapped = [before[sw.lower()] for sw in (
+                gone[1] if gone is not None and gone[0] == b.name else [])]
+            levels = [(1.0 if ctl == b.nodes else -1.0) * (vt + d * abs(vh))
+                      for _, _, ctl, (vt, vh) in mapped for d in (-1.0, 1.0)]
+            record(circuit, b.name, b.text, b.step, b.nodes, b.kind_out, added[start:end],
+                   [(name, line) for name, line, _, _ in mapped], levels, _text,
+                   b.location)
     return diags
 
 
@@ -646,7 +687,8 @@ def _driving(circuit: Circuit, b: Comparator,
     circuit.notes.append(
         f"{name}: {b.what} ({b.text.strip()}) {why}: its output "
         f"is {step.lo:g} + {step.hi - step.lo:g}*d({name}#s){unit_of}, d({name}#s) the state "
-        f"of an ideal switch on while {cond} (exact)")
+        f"of an ideal switch on while {cond}"
+        + ("" if isinstance(step, SoftStep) else " (exact)"))  # (a sigmoid: netlist.sigmoid)
     return out
 
 

@@ -37,8 +37,11 @@ ACCEPTED = ("pelcs reads B sources whose expression is linear in v() and i() (co
             "parameters allowed; it becomes E/G/H/F sources), and comparators 'x > y ? A : B', "
             "'u(x - y)' or 'A*(x > y)' with linear x, y and constant A, B, or 'x > y ? A : B' "
             "with linear A, B as the whole expression (an ideal switch on the comparison sets "
-            "the output), and clamps max(lo, min(hi, x)) of a linear x with constant lo, hi "
-            "(ideal diodes hold it within the bounds), alone or added to linear terms")
+            "the output), clamps max(lo, min(hi, x)) of a linear x with constant lo, hi "
+            "(ideal diodes hold it within the bounds), alone or added to linear terms, and "
+            "sigmoids of a linear x, A*tanh(k*x), A*(1+tanh(k*x))/2 + B, A/(1+exp(-k*x)), "
+            "A*atan(k*x) (read as the ideal comparator x > 0 ? hi : lo at their limits, if x "
+            "crosses their transition band quickly: checked after the run)")
 
 
 class BehaviouralError(Exception):

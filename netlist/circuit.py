@@ -238,12 +238,17 @@ class BuiltGroup:
         ``(netlist element, built element)``: a netlist element the group replaced whose
         current a built element carries, so that ``i(netlist element)`` probes it as in
         ngspice (:meth:`Circuit.current_carrier`).
+    replaces : tuple of str
+        Elements of the netlist pelcs kept but changed for the group, whose own lines are
+        in :attr:`line` (the switches a sigmoid comparator drives, rewired onto its
+        comparison: :mod:`netlist.sigmoid`): the writer writes the line in their place.
     """
 
     name: str
     construct: str
     line: str
     currents: tuple[tuple[str, str], ...] = ()
+    replaces: tuple[str, ...] = ()
 
 
 @dataclass

@@ -23,7 +23,9 @@ Built groups
 Where pelcs simulates a netlist line as a group of elements it built (a clamping B source's
 limiter, a resistor stepped in time: :class:`netlist.circuit.BuiltGroup`), ngspice is given
 that line instead: the group's line is written where its first element stands, and none of
-its elements.
+its elements. A sigmoid B source read as a comparator (:mod:`netlist.sigmoid`) is such a
+line, written with the lines of the switches it drives as the netlist had them (pelcs
+rewired them onto its comparison): ngspice runs the sigmoid itself.
 """
 
 from __future__ import annotations
@@ -178,8 +180,10 @@ def write_circuit(circuit: Circuit) -> str:
         lines.append(f".param {name}={_num(value)}")
     kinds = {el.key: el.kind for el in circuit.elements}
     written_groups: set[str] = set()
+    # (netlist elements a group's line writes as the netlist had them: BuiltGroup.replaces)
+    replaced = {n.lower(): g for g in circuit.built_groups.values() for n in g.replaces}
     for el in circuit.elements:
-        group = circuit.built_group(el)
+        group = circuit.built_group(el) or replaced.get(el.key)
         if group is not None:
             if group.name not in written_groups:
                 written_groups.add(group.name)
@@ -189,11 +193,13 @@ def write_circuit(circuit: Circuit) -> str:
             continue  # a transistor's body diode, part of its model in ngspice
         lines.append(_element(el, circuit, kinds))
     devices = {el.model.lower() for el in circuit.elements
-               if isinstance(el, Switch) and (el.device is not None or el.built_for)}
+               if isinstance(el, Switch) and (el.device is not None or el.built_for
+                                              or el.key in replaced)}
     for key, model in circuit.models.items():
         if key in devices:
             # the switch stand-in of a transistor's threshold, a built group's switch (the
-            # bypasses of a resistor stepped in time): pelcs-only
+            # bypasses of a resistor stepped in time), a switch rewired onto a sigmoid's
+            # comparison: pelcs-only
             continue
 
         params = " ".join(f"{k}={_num(v)}" for k, v in model.params.items())
