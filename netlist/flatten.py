@@ -279,8 +279,8 @@ class _Builder:
             if any(el.kind == "A" or hasattr(el, "mmf") for el in c.elements):  # (1 ms)
                 self.diags.extend(import_module("netlist.magnetic_core").resolve_cores(
                     c, bool(self.diags)))
-            if c.knees:  # (a BJT's base resistors, once the circuit is whole)
-                import_module("netlist.base_drive").resolve_base_drives(c)
+            if c.knees or c.replacements:  # (BJTs' base resistors, once the circuit is whole)
+                self.diags.extend(import_module("netlist.base_drive").resolve_base_drives(c))
         return c
 
     def within_element_limit(self) -> bool:

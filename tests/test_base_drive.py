@@ -17,6 +17,7 @@ from netlist.base_drive import VBE_LOW, BaseDrive
 from netlist.errors import NetlistError
 from netlist.parser import parse_string
 from netlist.studies.transient import simulate_circuit
+from tests.netlist_asserts import refused_at
 
 STAGE = """a BJT switching an inductive load from a resistor-fed base
 Vcc vcc 0 5
@@ -118,3 +119,37 @@ def test_a_long_streamed_run_leaves_the_base_drive_out_and_says_so(monkeypatch):
                             "run of") for n in res.notes)
     with pytest.raises(NetlistError, match="Q1 .NPN. is on as a switch and carries"):
         simulate_circuit(circuit, probes=["v(c)"])
+
+
+# the two-transistor model of an SCR (as vendors' SCR models are built): the PNP's collector
+# is the NPN's base, the NPN's collector the PNP's base
+SCR = """scr half-wave rectifier
+.subckt scr a g k
+Qp 6 4 a QP
+Qn 4 6 5 QN
+Rg g 6 10
+Rk k 5 0.5
+Rs 6 5 1meg
+.model QP PNP(BF=6)
+.model QN NPN(BF=10)
+.ends
+V1 src 0 SIN(0 100 50)
+Vg gate out PULSE(0 1 5m 1u 1u 5m 20m)
+X1 src gate out scr
+R1 out 0 100
+.tran 0.1m 40m
+.end
+"""
+
+
+def test_a_two_transistor_thyristor_is_refused():
+    # run with its transistors as switches, it never fired: 0 V where ngspice's rectifier
+    # gives its half waves (PySpice power-electronics' SCR examples, Littelfuse's models)
+    refused_at(SCR, (3, 1), ["X1.Qp and X1.Qn form a thyristor", "cannot fire or latch",
+                             "ideal diode in series with an S switch"])
+
+
+def test_a_complementary_pair_that_is_not_a_latch_is_kept():
+    # a PNP driving an NPN's base (a Sziklai-like pair) with the NPN's collector elsewhere
+    deck = SCR.replace("Qn 4 6 5 QN", "Qn a 6 5 QN\nRb a 4 10k")
+    parse_string(deck)
