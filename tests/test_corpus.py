@@ -171,6 +171,15 @@ COMPARED: dict[str, tuple[str, str]] = {
     # a shunt diode clipper (IS 2.5 nA, N 1.75, RS 0.6 Ohm, CJO 1.5 pF), 5 V at 1 kHz through
     # 1k, tran in .control: RMS v(vout) ngspice 2.780 V, pelcs 2.764 V (0.6 %)
     "kicad_ngspice_generation/examples/generated/ngspice/diode_clipper.cir": ("v(vout)", "rms"),
+    # KiCad exports of a course's open-loop converters (10 kHz, D = 0.5, 10 mH, 100 uF,
+    # 100 Ohm, tran in .control with UIC): the PWM an XSPICE triangle, summer and limit (gain
+    # 1e6) comparing the duty with the carrier, the switch a subcircuit of an S switch and two
+    # diodes, the diode a subcircuit with an RC snubber. Mean v(o), ngspice and pelcs:
+    # 5.180 V, 5.239 V (buck); 22.14 V, 22.36 V (boost); -10.17 V, -10.41 V (buck-boost);
+    # with ideal devices 6.00, 23.97, -11.99 V
+    "pecd_burla/KiCAD_simulation/buck/buck.cir": ("v(o)", "mean"),
+    "pecd_burla/KiCAD_simulation/boost/boost.cir": ("v(o)", "mean"),
+    "pecd_burla/KiCAD_simulation/buck_boost/buck_boost.cir": ("v(o)", "mean"),
 }
 
 # Files compared with ideal devices, and why not --devices pwl (measured)
