@@ -306,6 +306,22 @@ def _check_floating(circuit: Circuit, diags: list[Diagnostic]) -> None:
                 members[root].append(el.name)
     for root, nodes in groups.items():
         plural = "s" if len(nodes) > 1 else ""
+        # a transistor idealised as a switch reads its base or gate and loads neither: a bias
+        # network that reaches the rest only through bases is floating in pelcs only
+        bases = [el.name for el in circuit.elements
+                 if getattr(el, "device", None) and set(getattr(el, "control", ())) & set(nodes)]
+        if bases:
+            diags.append(Diagnostic(
+                f"node{plural} {_listing(nodes)} reach{'' if plural else 'es'} the rest of the "
+                f"circuit only through the base or gate of {_listing(bases)}, which pelcs "
+                "idealises as switches that draw no base current: in the circuit those "
+                "currents set the nodes (a bias or timing network of transistors in their "
+                "active region, as in a transistor-level oscillator or controller)", None,
+                "pelcs simulates transistors that switch fully on or off: write the "
+                "controller behaviourally (a PULSE source, a comparator B source or S switch) "
+                "and keep the power stage's switches",
+                tuple(members[root][:_MAX_LISTED]) + tuple(bases[:_MAX_LISTED])))
+            continue
         diags.append(Diagnostic(
             f"node{plural} {_listing(nodes)} {'have' if plural else 'has'} no connection to "
             "ground", None,

@@ -358,3 +358,14 @@ def test_control_node_of_no_element_is_still_reported():
         parse_string("t\nV1 a 0 1\nR1 a b 1\nS1 b 0 g 0 SW1\n.model SW1 SW(VT=0.5)\n"
                      ".tran 1u 1m\n")
     assert "control node 'g' of S1 is not connected" in info.value.message
+
+
+def test_a_network_reached_only_through_transistor_bases_says_so():
+    # a timing capacitor between two bases (eSim's transistor-level UC1525 oscillator): the
+    # idealised transistors read their bases and load neither, so only pelcs sees it floating
+    with pytest.raises(NetlistError) as info:
+        parse_string("t\nV1 vcc 0 5\nQ1 vcc b1 e1 QN\nQ2 vcc b2 e2 QN\nR1 e1 0 1k\n"
+                     "R2 e2 0 1k\nR9 b1 m 1k\nC2 m b2 1n\n.model QN NPN\n.tran 1u 1m\n")
+    text = str(info.value)
+    assert "reach the rest of the circuit only through the base or gate of Q1, Q2" in text
+    assert "write the controller behaviourally" in text
