@@ -227,13 +227,16 @@ def simulate(
             if dt is not None:
                 result = resample(result, dt)
     else:
-        from netlist.system_cache import reused_system
-
         # (the system is kept for the next run; its stored shortened steps are not, so that
         # this run gives what a newly parsed netlist gives, bit for bit)
+        from netlist.studies.left_out import models_left_out
+        from netlist.system_cache import reused_system
+
         result = simulate_circuit(circuit, system=reused_system(circuit),
                                   options=_fresh_steps_options(), output_step=output_step,
                                   keep_events=keep_events, **kw)
+        if note := models_left_out(circuit):
+            result.notes.append(note)
     result = as_simulation(result)
     if result.error is not None:
         result.error.result = result

@@ -351,6 +351,7 @@ def _ordinal(n: int) -> str:
 def _simulated(args, circuit, setup, probes, tstop, step, theta, every, spacing, stream):
     """The run's result (its rows to ``stream`` as it goes, where it can); the stepper's
     refusals as input errors."""
+    from netlist.studies.left_out import models_left_out
     from netlist.studies.transient import run_setup
 
     try:
@@ -378,11 +379,14 @@ def _simulated(args, circuit, setup, probes, tstop, step, theta, every, spacing,
 
                 options = MoreauOptions(kernel=args.kernel)
             # (the output grid computed as the run goes: it holds that grid, not every step)
-            return run_setup(setup, theta=theta, probes=probes, every=every,
-                             progress=not args.no_progress, method=args.method,
-                             options=options,
-                             output_step=spacing[0] if spacing is not None else None,
-                             keep_events=EVENTS_KEPT, rows_to=stream)
+            result = run_setup(setup, theta=theta, probes=probes, every=every,
+                               progress=not args.no_progress, method=args.method,
+                               options=options,
+                               output_step=spacing[0] if spacing is not None else None,
+                               keep_events=EVENTS_KEPT, rows_to=stream)
+            if note := models_left_out(circuit):
+                result.notes.append(note)
+            return result
     except NotImplementedError as exc:
         # A circuit the stepper cannot handle yet: say so like an input error, no traceback.
         raise NetlistError(Diagnostic(message=f"not supported: {exc}",
