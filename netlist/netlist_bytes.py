@@ -16,9 +16,31 @@ from .limits import FILE_BYTES
 __all__ = ["blank_controls", "decode", "file_stamps", "read_bytes"]
 
 
+def _utf16(data: bytes) -> str | None:
+    """The text of a UTF-16 file with its byte-order mark (LTspice writes its netlists so),
+    or None where the bytes are not that (binary data that starts like a mark)."""
+    if not data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        return None
+    try:
+        text = data.decode("utf-16")
+    except UnicodeDecodeError:
+        return None
+    plain = sum(c.isascii() and (c.isprintable() or c in "\t\r\n") for c in text)
+    return text if plain >= 0.95 * len(text) else None
+
+
 def decode(data: bytes, file: str, title: bool = True) -> str:
     """Bytes -> text; binary or non-UTF-8 content is an input error with its location
-    (``title``: the first line is the title, which :func:`blank_controls` leaves alone)."""
+    (``title``: the first line is the title, which :func:`blank_controls` leaves alone).
+
+    A UTF-16 file with its byte-order mark (an LTspice export) is read as such; a file that
+    is not UTF-8 but has a few bytes past ASCII among plain text (an LTspice or Windows
+    export's ``µ`` for micro, byte 0xB5; an umlaut in a comment) as Latin-1, byte for
+    character, as ngspice reads bytes (ngspice 39 reads ``1µ`` in either encoding as 1e-6:
+    measured)."""
+    utf16 = _utf16(data)
+    if utf16 is not None:
+        data = utf16.encode("utf-8")
     nul = data.find(b"\x00")
     if nul >= 0:
         line = data.count(b"\n", 0, nul) + 1
@@ -29,6 +51,9 @@ def decode(data: bytes, file: str, title: bool = True) -> str:
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
+        # (a few: plain text with a µ here and there; more is binary data)
+        if sum(b >= 0x80 for b in data) <= max(4, len(data) // 20):
+            return decode(data.decode("latin-1").encode("utf-8"), file, title)
         line = data.count(b"\n", 0, exc.start) + 1
         bol = data.rfind(b"\n", 0, exc.start) + 1
         eol = data.find(b"\n", exc.start)

@@ -278,14 +278,24 @@ def test_binary_file(tmp_path):
     assert "NUL bytes" in d.message and (d.location.line, d.location.column) == (3, 1)
 
 
-def test_non_utf8_file(tmp_path):
+def test_a_latin1_or_utf16_file_is_read_as_ngspice_reads_its_bytes(tmp_path):
+    # an LTspice export's µ (byte 0xB5 in Latin-1): ngspice 39 reads C1 1µ as 1 uF
     p = tmp_path / "latin1.cir"
-    p.write_bytes("title\nV1 a 0 1\nR1 a 0 1k ; 1 k\u00b5\n".encode("latin-1"))
+    p.write_bytes("title \u00e4\nV1 a 0 1\nR1 a b 1k ; 1 k\u00b5\nC1 b 0 1\u00b5\n"
+                  .encode("latin-1"))
+    assert parse_file(p).element("C1").value == pytest.approx(1e-6)
+    p.write_bytes("title\nV1 a 0 1\nR1 a b 1k\nC1 b 0 2\u00b5\n".encode("utf-16"))
+    assert parse_file(p).element("C1").value == pytest.approx(2e-6)
+
+
+def test_non_utf8_binary_file(tmp_path):
+    p = tmp_path / "binary.cir"
+    p.write_bytes(b"title\nV1 a 0 1\n" + bytes(range(0x80, 0xC0)))
     with pytest.raises(NetlistError) as info:
         parse_file(p)
     d = _only(info)
-    assert "not UTF-8" in d.message and "0xb5" in d.message
-    assert (d.location.line, d.location.column) == (3, 16)
+    assert "not UTF-8" in d.message and "0x80" in d.message
+    assert (d.location.line, d.location.column) == (3, 1)
 
 
 def test_nul_in_string():
