@@ -51,8 +51,11 @@ def decode(data: bytes, file: str, title: bool = True) -> str:
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
-        # (a few: plain text with a µ here and there; more is binary data)
-        if sum(b >= 0x80 for b in data) <= max(4, len(data) // 20):
+        # (a few: plain text with a µ here and there; more is binary data. Not where some
+        # are UTF-8 already: a file of both encodings has no one reading)
+        mixed = any(c != "\ufffd" and not c.isascii()
+                    for c in data.decode("utf-8", errors="replace"))
+        if not mixed and sum(b >= 0x80 for b in data) <= max(4, len(data) // 20):
             return decode(data.decode("latin-1").encode("utf-8"), file, title)
         line = data.count(b"\n", 0, exc.start) + 1
         bol = data.rfind(b"\n", 0, exc.start) + 1

@@ -288,6 +288,15 @@ def test_a_latin1_or_utf16_file_is_read_as_ngspice_reads_its_bytes(tmp_path):
     assert parse_file(p).element("C1").value == pytest.approx(2e-6)
 
 
+def test_a_file_of_two_encodings_is_refused(tmp_path):
+    # UTF-8's µ (bytes C2 B5) beside Latin-1's (B5): read as Latin-1, '1Âµ' would not be
+    # 1e-6
+    p = tmp_path / "mixed.cir"
+    p.write_bytes(b"title\nV1 a 0 1\nR1 a b 1k\nC1 b 0 1\xc2\xb5\nC2 b 0 1\xb5\n")
+    with pytest.raises(NetlistError, match="not UTF-8"):
+        parse_file(p)
+
+
 def test_non_utf8_binary_file(tmp_path):
     p = tmp_path / "binary.cir"
     p.write_bytes(b"title\nV1 a 0 1\n" + bytes(range(0x80, 0xC0)))
