@@ -229,7 +229,7 @@ def elaborate(el: RawElement, prefix: str, mapnode: Callable[[str], str],
                 return [cls(name, nodes, loc, tv.values[0], tv.pwl() if tv.times else None)]
             # any other function of time: the source of that waveform, stepped to where it
             # jumps or kinks (netlist.time_expression)
-            sig = time_expression(tree, text, env)
+            sig = time_expression(tree, text, env, el.st.loc(offset))
             return [cls(name, nodes, loc, float(sig(0.0, side=1)), sig)]
         try:
             form = linearise(tree, text, env, mapnode, source_name(prefix), clamps=True)

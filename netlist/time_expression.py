@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .behavioural_expr import BehaviouralError, Tree
+from .errors import Diagnostic, Location, NetlistError
 from .expressions import CONSTANTS
 from .units import format_number
 
@@ -227,12 +228,14 @@ def _crossings(fn: Callable[[np.ndarray], np.ndarray], edges: np.ndarray, levels
     a, b, d = a[keep], b[keep], d[keep]
     if a.size == 0:
         return np.empty(0)
-    # samples inside each interval: enough to see every oscillation of its sines
-    # (and at least 1024 over the run: a function with no sine may still turn several times)
-    n = int(min(4096, max(4, math.ceil(1024 / a.size),
-                          math.ceil(32 * float(d.max()) * top_frequency))))
-    if a.size * n > 4 * MAX_BREAKPOINTS:
+    # samples inside each interval: enough to see every oscillation of its sines, 32 a
+    # period (fewer would alias a fast sine into crossings it does not have: more than a run
+    # may hold is refused), and at least 1024 over the run (a function with no sine may
+    # still turn several times)
+    want = max(4.0, 1024 / a.size, 32 * float(d.max()) * top_frequency)
+    if a.size * want > 4 * MAX_BREAKPOINTS:
         raise _TooMany
+    n = math.ceil(want)
     # (the first and last a hair inside: the one-sided limits at the ends)
     frac = np.concatenate(([1e-7], (np.arange(n) + 0.5) / n, [1 - 1e-7]))
     ts = a[:, None] + d[:, None] * frac[None, :]
@@ -391,6 +394,7 @@ class TimeExpression:
     piecewise_linear: bool = False
     jumps: bool = False
     _memo: dict = field(default_factory=dict, compare=False, repr=False)
+    location: Location | None = field(default=None, compare=False, repr=False)
 
     keyword = "B"  # (how a note names the source)
 
@@ -411,7 +415,7 @@ class TimeExpression:
 
         Raises
         ------
-        ValueError
+        NetlistError
             Over :data:`MAX_BREAKPOINTS` of them.
         """
         key = (float(t0), float(t1))
@@ -420,9 +424,13 @@ class TimeExpression:
                 pts = _breakpoints(self.tree, dict(self.env), key[0], key[1],
                                    self.top_frequency() or 0.0)
             except _TooMany:
-                raise ValueError(
+                raise NetlistError(Diagnostic(
                     f"B source of time '{self.text.strip()}': over {MAX_BREAKPOINTS:,} "
-                    f"instants where it jumps or kinks in {t1 - t0:g} s") from None
+                    f"instants where it jumps or kinks in {t1 - t0:g} s (or a sine too "
+                    "fast to sample over it)",
+                    location=self.location,
+                    hint="a shorter run (--tstop) or a slower waveform: a run steps to each "
+                         "instant"), self.location.file if self.location else None) from None
             if pts.size > 1:  # (one instant found twice, apart by round-off)
                 keep = np.concatenate(([True], np.diff(pts) > 1e-12 * np.maximum(
                     np.abs(pts[1:]), key[1] - key[0])))
@@ -447,7 +455,8 @@ class TimeExpression:
         return f"B source of time: {self.text.strip()}"
 
 
-def time_expression(tree: Tree, text: str, env: Mapping[str, float]) -> TimeExpression:
+def time_expression(tree: Tree, text: str, env: Mapping[str, float],
+                    location: Location | None = None) -> TimeExpression:
     """The waveform of a B expression of ``time`` alone.
 
     Raises
@@ -459,7 +468,8 @@ def time_expression(tree: Tree, text: str, env: Mapping[str, float]) -> TimeExpr
     _check(tree, text, env)
     names = {t.args[0] for t in tree.walk() if t.tag == "var"} - {"time", *CONSTANTS}
     sig = TimeExpression(text, tree, tuple(sorted((n, float(env[n])) for n in names)),
-                         piecewise_linear=_degree(tree) <= 1, jumps=_jumps(tree))
+                         piecewise_linear=_degree(tree) <= 1, jumps=_jumps(tree),
+                         location=location)
     v0 = float(sig(0.0, side=1))
     if not math.isfinite(v0):
         raise BehaviouralError(f"'{text.strip()}' is {v0} at time 0", 0,

@@ -195,9 +195,19 @@ def test_functions_and_operators_as_ngspice_evaluates_them():
 
 
 def test_too_many_instants_is_an_error():
+    from netlist.errors import NetlistError
+
     w = _wave("floor(time/1f)")
-    with pytest.raises(ValueError, match="over 2,000,000 instants"):
+    with pytest.raises(NetlistError, match="over 2,000,000 instants"):
         w.breakpoints(0.0, 1.0)
+    # a 1 GHz sine over 1 s: refused, where samples capped per interval aliased it into a
+    # few thousand crossings it does not have
+    w = _wave("sin(2*pi*1e9*time) > 0 ? 1 : 0")
+    with pytest.raises(NetlistError, match="too fast to sample"):
+        w.breakpoints(0.0, 1.0)
+    # 100 kHz over 1 s: its 200,000 crossings, each at a multiple of 5 us
+    bp = _wave("sin(2*pi*1e5*time) > 0 ? 1 : 0").breakpoints(0.0, 1.0)
+    assert bp.size == 199_999 and np.abs(bp / 5e-6 - np.round(bp / 5e-6)).max() < 1e-6
 
 
 PWM_DECK = """pwm of a B sawtooth into an RC, and a buck driven by it
