@@ -233,14 +233,21 @@ def _crossings(fn: Callable[[np.ndarray], np.ndarray], edges: np.ndarray, levels
     # may hold is refused), and at least 1024 over the run (a function with no sine may
     # still turn several times)
     want = max(4.0, 1024 / a.size, 32 * float(d.max()) * top_frequency)
-    if a.size * want > 4 * MAX_BREAKPOINTS:
-        raise _TooMany
-    n = math.ceil(want)
-    # (the first and last a hair inside: the one-sided limits at the ends)
-    frac = np.concatenate(([1e-7], (np.arange(n) + 0.5) / n, [1 - 1e-7]))
-    ts = a[:, None] + d[:, None] * frac[None, :]
-    with np.errstate(all="ignore"):
-        g = np.broadcast_to(np.asarray(fn(ts), dtype=float), ts.shape)
+    while True:
+        if a.size * want > 4 * MAX_BREAKPOINTS:
+            raise _TooMany
+        n = math.ceil(want)
+        # (the first and last a hair inside: the one-sided limits at the ends)
+        frac = np.concatenate(([1e-7], (np.arange(n) + 0.5) / n, [1 - 1e-7]))
+        ts = a[:, None] + d[:, None] * frac[None, :]
+        with np.errstate(all="ignore"):
+            g = np.broadcast_to(np.asarray(fn(ts), dtype=float), ts.shape)
+        # a level crossed between more than one pair of samples in eight: too few samples
+        # to tell its crossings (a chirp's frequency is no sine's): four times as many
+        changes = (_level_index(g[:, 1:], levels) != _level_index(g[:, :-1], levels)).sum(1)
+        if changes.max() * 8 <= n:
+            break
+        want = 4.0 * n
     # (a crossing nearer an end than this is that end's: a round-off echo of the jump there)
     tol = 1e-7 * d
     out = []

@@ -205,6 +205,11 @@ def test_too_many_instants_is_an_error():
     w = _wave("sin(2*pi*1e9*time) > 0 ? 1 : 0")
     with pytest.raises(NetlistError, match="too fast to sample"):
         w.breakpoints(0.0, 1.0)
+    # a chirp (its frequency no sine's): sampled finer until its crossings are told apart,
+    # sin(2 pi 1e7 t^2) turning where 1e7 t^2 is a half-integer: 2e4 over 10 ms
+    bp = _wave("sin(2*pi*1e7*time*time) > 0 ? 1 : 0").breakpoints(0.0, 0.01)
+    k = np.arange(1, 2000)
+    assert bp.size == k.size and np.abs(bp - np.sqrt(k / 2e7)).max() < 1e-15
     # 100 kHz over 1 s: its 200,000 crossings, each at a multiple of 5 us
     bp = _wave("sin(2*pi*1e5*time) > 0 ? 1 : 0").breakpoints(0.0, 1.0)
     assert bp.size == 199_999 and np.abs(bp / 5e-6 - np.round(bp / 5e-6)).max() < 1e-6
