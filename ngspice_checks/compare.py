@@ -555,6 +555,15 @@ def compare(
     o_inst = [_pelcs_instants(o, names) for o in others]
     o_t = [np.asarray(o.t, dtype=float) for o in others]
     tmax_ng = _ngspice_tmax(circuit)
+    jumping = [el.name for el in circuit.elements
+               if getattr(getattr(el, "waveform", None), "keyword", "") == "B"
+               and getattr(el.waveform, "jumps", False)]
+    if jumping:
+        notes.append(f"{', '.join(jumping)}: a B source of time that jumps (floor, a "
+                     "comparison): pelcs steps to each jump, ngspice puts no breakpoint there "
+                     f"and lands it inside its step (up to {tmax_ng:.3g} s here), which can "
+                     "move its averages; a smaller TMAX on the .tran line brings ngspice's "
+                     "answer to the jumps' own")
     switch_cmp: list[SwitchingComparison] = []
     all_instants: list[np.ndarray] = []
     for sw, ctrl in zip(switch_els, controls, strict=True):
