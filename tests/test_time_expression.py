@@ -261,3 +261,31 @@ def test_pelcs_check_reports_the_step_its_run_took(ngspice):
     # the RC's mean is the PWM's, 0.4 * 5 V (ngspice as written, its steps up to 20 us with
     # no breakpoint at the jumps, gives 1.889 V: the check fails, as it should)
     assert cmp.probes[0].mean_pelcs == pytest.approx(2.0, rel=1e-3)
+
+
+@pytest.mark.parametrize("expr, at0", [
+    ("u(time)*5", 2.5),            # u(0) is 0.5
+    ("sgn(time)*5", 0.0),          # (a TimeExpression)
+    ("time > 0 ? 5 : 0", 0.0),     # (a stepped source, its PWL)
+    ("5*u(-time)", 2.5),
+    ("ceil(time/100u)*5", 0.0),
+])
+def test_the_operating_point_takes_the_value_at_time_zero(expr, at0):
+    # ngspice's operating point evaluates the B source at t = 0 itself (measured in ngspice
+    # 39: v(out) at 100 us is 4.0711 V for u(time)*5, 3.1234 V for sgn(time)*5): the
+    # capacitor starts there and charges through R in the run, v(out) = v + (at0 - v) e^(-t/RC)
+    from pelcs.api import simulate
+    deck = f"t0\nB1 g 0 V = {expr}\nR1 g out 1k\nC1 out 0 100n\n.tran 1u 100u\n.end\n"
+    res = simulate(deck, probes=["v(out)"])
+    v_after = 0.0 if "-time" in expr else 5.0
+    assert res.y[0, 0] == pytest.approx(at0, abs=1e-9)
+    assert res.y[-1, 0] == pytest.approx(v_after + (at0 - v_after) * np.exp(-1), abs=1e-4)
+
+
+def test_a_pwl_that_jumps_at_time_zero_starts_from_its_first_point():
+    # ngspice: PWL(0 0 0 5) is 0 at the operating point (the first point of its time)
+    from pelcs.api import simulate
+    deck = "p\nV1 g 0 PWL(0 0 0 5 1m 5)\nR1 g out 1k\nC1 out 0 100n\n.tran 1u 100u\n.end\n"
+    res = simulate(deck, probes=["v(out)"])
+    assert res.y[-1, 0] == pytest.approx(5 * (1 - np.exp(-1)), abs=1e-4)
+
