@@ -217,6 +217,10 @@ def _bisect(fn: Callable[[np.ndarray], np.ndarray], left: np.ndarray, right: np.
     return 0.5 * (left + right)
 
 
+#: the most samples :func:`_crossings` holds at once (its intervals are taken in batches)
+_BATCH = 1_000_000
+
+
 def _crossings(fn: Callable[[np.ndarray], np.ndarray], edges: np.ndarray, levels: str,
                top_frequency: float) -> np.ndarray:
     """The instants inside the intervals between consecutive ``edges`` (sorted) where ``fn``,
@@ -231,8 +235,60 @@ def _crossings(fn: Callable[[np.ndarray], np.ndarray], edges: np.ndarray, levels
     # (and at least 1024 over the run: a function with no sine may still turn several times)
     n = int(min(4096, max(4, math.ceil(1024 / a.size),
                           math.ceil(32 * float(d.max()) * top_frequency))))
-    if a.size * n > 4 * MAX_BREAKPOINTS:
-        raise _TooMany
+    # (the intervals in batches: a long run's samples at once would fill memory; what is
+    # bounded is the number of instants found)
+    per = max(1, _BATCH // (n + 2))
+    out, count = [], 0
+    for i in range(0, a.size, per):
+        found = _batch_crossings(fn, a[i:i + per], b[i:i + per], d[i:i + per], n, levels)
+        count += found.size
+        if count > MAX_BREAKPOINTS:
+            raise _TooMany
+        out.append(found)
+    return np.concatenate(out)
+
+
+def _excursions(fn: Callable[[np.ndarray], np.ndarray], ts: np.ndarray, g: np.ndarray,
+                band: np.ndarray, levels: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Brackets of the crossings of a narrow excursion between samples (a sine's peak just
+    over a level, 4.5 us of each 1 ms period for 0.9999): at each sampled extremum whose
+    neighbours lie in its band, the extremum itself (golden-section search), and where it
+    lies in another band, the two brackets either side of it: (rows, lefts, rights)."""
+    dg = np.diff(g, axis=1)
+    # (rising then not: a maximum at the middle sample or just past it, where two samples
+    # either side of a peak are equal; falling then not, a minimum)
+    turn = (((dg[:, :-1] > 0) & (dg[:, 1:] <= 0)) | ((dg[:, :-1] < 0) & (dg[:, 1:] >= 0))) & (
+        band[:, 1:-1] == band[:, :-2]) & (band[:, 1:-1] == band[:, 2:])
+    r, c = np.nonzero(turn)
+    c = c + 1
+    if r.size == 0:
+        return r, np.empty(0), np.empty(0)
+    lo, hi = ts[r, c - 1].copy(), ts[r, c + 1].copy()
+    sign = np.where(dg[r, c - 1] > 0, 1.0, -1.0)  # (+1: a maximum)
+    w = 0.5 * (math.sqrt(5.0) - 1.0)
+
+    def f(x):
+        return sign * np.broadcast_to(np.asarray(fn(x), dtype=float), x.shape)
+
+    for _ in range(200):
+        m1, m2 = hi - w * (hi - lo), lo + w * (hi - lo)
+        live = (m1 > lo) & (m2 < hi) & (m1 < m2)
+        if not live.any():
+            break
+        up = f(m1) < f(m2)  # (the extremum in [m1, hi])
+        lo = np.where(live & up, m1, lo)
+        hi = np.where(live & ~up, m2, hi)
+    tx = 0.5 * (lo + hi)
+    other = _level_index(np.broadcast_to(np.asarray(fn(tx), dtype=float), tx.shape),
+                         levels) != band[r, c]
+    r, c, tx = r[other], c[other], tx[other]
+    return (np.concatenate([r, r]), np.concatenate([ts[r, c - 1], tx]),
+            np.concatenate([tx, ts[r, c + 1]]))
+
+
+def _batch_crossings(fn: Callable[[np.ndarray], np.ndarray], a: np.ndarray, b: np.ndarray,
+                     d: np.ndarray, n: int, levels: str) -> np.ndarray:
+    """:func:`_crossings` in the intervals ``(a, b)``, ``n`` samples inside each."""
     # (the first and last a hair inside: the one-sided limits at the ends)
     frac = np.concatenate(([1e-7], (np.arange(n) + 0.5) / n, [1 - 1e-7]))
     ts = a[:, None] + d[:, None] * frac[None, :]
@@ -252,12 +308,17 @@ def _crossings(fn: Callable[[np.ndarray], np.ndarray], edges: np.ndarray, levels
         slope = (g[rows, -1] - g[rows, 0]) / (d[rows] * (frac[-1] - frac[0]))
         ga = g[rows, 0] - slope * frac[0] * d[rows]
         out.append(_affine_crossings(a[rows], d[rows], ga, slope, levels))
-    # the others: where the band changes between consecutive samples, refined by bisection
+    # the others: where the band changes between consecutive samples, and where an
+    # excursion between two samples reaches another band, refined by bisection
     rows = np.flatnonzero(~affine)
     if rows.size:
         band = _level_index(g[rows], levels)
         r, c = np.nonzero(band[:, 1:] != band[:, :-1])
         left, right = ts[rows[r], c], ts[rows[r], c + 1]
+        with np.errstate(all="ignore"):
+            er, el, en = _excursions(fn, ts[rows], g[rows], band, levels)
+        r, left, right = (np.concatenate([r, er]), np.concatenate([left, el]),
+                          np.concatenate([right, en]))
         for _ in range(64):  # (a bracket crossing several levels: one at a time)
             if left.size == 0:
                 break
@@ -269,10 +330,7 @@ def _crossings(fn: Callable[[np.ndarray], np.ndarray], edges: np.ndarray, levels
             more = (_level_index(fn(after), levels) != _level_index(fn(right), levels)) & (
                 after < right)
             left, right, r = after[more], right[more], r[more]
-    pts = np.concatenate(out) if out else np.empty(0)
-    if pts.size > MAX_BREAKPOINTS:
-        raise _TooMany
-    return pts
+    return np.concatenate(out) if out else np.empty(0)
 
 
 def _breakpoints(t: Tree, env: Mapping[str, float], t0: float, t1: float,

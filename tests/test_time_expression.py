@@ -289,3 +289,23 @@ def test_a_pwl_that_jumps_at_time_zero_starts_from_its_first_point():
     res = simulate(deck, probes=["v(out)"])
     assert res.y[-1, 0] == pytest.approx(5 * (1 - np.exp(-1)), abs=1e-4)
 
+
+def test_a_narrow_excursion_between_samples_is_found():
+    # a sine over a level near its peak: 4.5 us of each 1 ms period, narrower than the
+    # samples (32 a period); each of the ten pulses' two instants, where sin = 0.9999
+    w = _wave("sin(2*pi*1k*time) > 0.9999 ? 10 : 0")
+    half = np.arccos(0.9999) / (2 * np.pi * 1e3)
+    peaks = (np.arange(10) + 0.25) * 1e-3
+    want = np.sort(np.concatenate([peaks - half, peaks + half]))
+    got = w.breakpoints(0.0, 10e-3)
+    assert got.shape == want.shape
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-15)
+
+
+def test_a_long_run_of_a_sawtooth_is_not_refused_for_its_samples():
+    # 100 kHz over 2.5 s: 499,999 instants, under the bound (the samples, 34 per period,
+    # are not what the bound counts)
+    w = _wave("time/10u - floor(time/10u) > 0.5 ? 1 : 0")
+    got = w.breakpoints(0.0, 2.5)
+    assert got.size == 499_999
+    np.testing.assert_allclose(got[:3], [5e-6, 10e-6, 15e-6], rtol=1e-12)
