@@ -319,7 +319,9 @@ def _batch_crossings(fn: Callable[[np.ndarray], np.ndarray], a: np.ndarray, b: n
             er, el, en = _excursions(fn, ts[rows], g[rows], band, levels)
         r, left, right = (np.concatenate([r, er]), np.concatenate([left, el]),
                           np.concatenate([right, en]))
-        for _ in range(64):  # (a bracket crossing several levels: one at a time)
+        # (a bracket crossing several levels: one at a time; a staircase of exp(time) crosses
+        # hundreds between two samples)
+        for _ in range(1024):
             if left.size == 0:
                 break
             found = _bisect(fn, left.copy(), right.copy(), levels)

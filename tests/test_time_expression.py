@@ -309,3 +309,13 @@ def test_a_long_run_of_a_sawtooth_is_not_refused_for_its_samples():
     got = w.breakpoints(0.0, 2.5)
     assert got.size == 499_999
     np.testing.assert_allclose(got[:3], [5e-6, 10e-6, 15e-6], rtol=1e-12)
+
+
+def test_a_staircase_crossing_hundreds_of_levels_between_samples():
+    # floor(exp(time/1m)) over 10 ms: 22,025 steps, at t = ln(n) ms, up to ~215 of them
+    # between two of its samples near the end
+    w = _wave("floor(exp(time/1m))")
+    got = w.breakpoints(0.0, 10e-3)
+    want = np.log(np.arange(2, int(np.exp(10)) + 1)) * 1e-3
+    assert got.shape == want.shape
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-15)
