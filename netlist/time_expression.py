@@ -233,8 +233,8 @@ def _crossings(fn: Callable[[np.ndarray], np.ndarray], edges: np.ndarray, levels
         return np.empty(0)
     # samples inside each interval: enough to see every oscillation of its sines
     # (and at least 1024 over the run: a function with no sine may still turn several times)
-    n = int(min(4096, max(4, math.ceil(1024 / a.size),
-                          math.ceil(32 * float(d.max()) * top_frequency))))
+    n = int(min(65536, max(4, math.ceil(1024 / a.size),
+                           math.ceil(32 * float(d.max()) * top_frequency))))
     # (the intervals in batches: a long run's samples at once would fill memory; what is
     # bounded is the number of instants found)
     per = max(1, _BATCH // (n + 2))
@@ -424,6 +424,32 @@ def _frequency(t: Tree, env: Mapping[str, float]) -> float | None:
     return abs(slope) / (2 * math.pi) if t.args[0] in _PERIODIC else abs(slope)
 
 
+def _local_frequency(tree: Tree, env: Mapping[str, float], t0: float, t1: float) -> float:
+    """The highest rate (Hz) over ``[t0, t1]`` at which the argument of a ``sin``/``cos``
+    turns (its slope / 2π) or that of a ``floor``/``ceil``/``nint`` crosses its levels (its
+    slope), from its slopes at 4096 instants: what :func:`_frequency` does not see, an
+    argument that is not affine (``sin(2*pi*100k*(time - floor(time/T)*T))``, a chirp). Each
+    slope is the smaller of the two one-sided ones: a jump of the argument is not one."""
+    nodes = [t for t in tree.walk()
+             if t.tag == "call" and t.args[0] in (*_PERIODIC, "floor", "ceil", "nint")]
+    if not nodes or not t1 > t0:
+        return 0.0
+    ts = t0 + (t1 - t0) * (np.arange(4096) + 0.5) / 4096
+    eps = 1e-7 * (t1 - t0)
+    best = 0.0
+    for t in nodes:
+        def arg(x, s=t.args[1]):
+            return np.broadcast_to(np.asarray(_eval(s, x, env), dtype=float), x.shape)
+        with np.errstate(all="ignore"):
+            g = arg(ts)
+            slope = np.minimum(np.abs(arg(ts + eps) - g), np.abs(g - arg(ts - eps))) / eps
+        slope = slope[np.isfinite(slope)]
+        if slope.size:
+            best = max(best, float(slope.max()) / (
+                2 * math.pi if t.args[0] in _PERIODIC else 1.0))
+    return best
+
+
 @dataclass(frozen=True)
 class TimeExpression:
     """The waveform of a B source's expression of ``time`` (V or A).
@@ -477,8 +503,9 @@ class TimeExpression:
         key = (float(t0), float(t1))
         if key not in self._memo:
             try:
-                pts = _breakpoints(self.tree, dict(self.env), key[0], key[1],
-                                   self.top_frequency() or 0.0)
+                env = dict(self.env)
+                pts = _breakpoints(self.tree, env, key[0], key[1], max(
+                    self.top_frequency() or 0.0, _local_frequency(self.tree, env, *key)))
             except _TooMany:
                 raise ValueError(
                     f"B source of time '{self.text.strip()}': over {MAX_BREAKPOINTS:,} "

@@ -319,3 +319,18 @@ def test_a_staircase_crossing_hundreds_of_levels_between_samples():
     want = np.log(np.arange(2, int(np.exp(10)) + 1)) * 1e-3
     assert got.shape == want.shape
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-15)
+
+
+def test_a_sine_of_a_sawtooth_phase_is_sampled_at_its_own_frequency():
+    # the argument is not affine (its phase restarts each 1 ms), so no frequency is read from
+    # the expression; its slope is 2 pi 100 kHz: 2000 instants where it crosses 0.5 over
+    # 10 ms (with --method exact, 69 were found and the RC's final value was 4.80 V, not
+    # 3.3248 V as the analytic one and pelcs now)
+    w = _wave("sin(2*pi*100k*(time - floor(time/1m)*1m)) > 0.5 ? 10 : 0")
+    got = w.breakpoints(0.0, 10e-3)
+    k = np.arange(1000) * 1e-5
+    want = np.sort(np.concatenate([k + 1e-5 / 12, k + 5e-5 / 12]))
+    jumps = np.arange(1, 10) * 1e-3  # (where the phase restarts)
+    assert got.size == want.size + jumps.size
+    near = np.abs(got[:, None] - want[None, :]).min(axis=0)
+    assert near.max() < 1e-15
