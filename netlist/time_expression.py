@@ -424,14 +424,14 @@ def _frequency(t: Tree, env: Mapping[str, float]) -> float | None:
     return abs(slope) / (2 * math.pi) if t.args[0] in _PERIODIC else abs(slope)
 
 
-def _local_frequency(tree: Tree, env: Mapping[str, float], t0: float, t1: float) -> float:
+def _local_frequency(tree: Tree, env: Mapping[str, float], t0: float, t1: float,
+                     kinds: tuple[str, ...] = (*_PERIODIC, "floor", "ceil", "nint")) -> float:
     """The highest rate (Hz) over ``[t0, t1]`` at which the argument of a ``sin``/``cos``
     turns (its slope / 2π) or that of a ``floor``/``ceil``/``nint`` crosses its levels (its
     slope), from its slopes at 4096 instants: what :func:`_frequency` does not see, an
     argument that is not affine (``sin(2*pi*100k*(time - floor(time/T)*T))``, a chirp). Each
     slope is the smaller of the two one-sided ones: a jump of the argument is not one."""
-    nodes = [t for t in tree.walk()
-             if t.tag == "call" and t.args[0] in (*_PERIODIC, "floor", "ceil", "nint")]
+    nodes = [t for t in tree.walk() if t.tag == "call" and t.args[0] in kinds]
     if not nodes or not t1 > t0:
         return 0.0
     ts = t0 + (t1 - t0) * (np.arange(4096) + 0.5) / 4096
@@ -503,9 +503,8 @@ class TimeExpression:
         key = (float(t0), float(t1))
         if key not in self._memo:
             try:
-                env = dict(self.env)
-                pts = _breakpoints(self.tree, env, key[0], key[1], max(
-                    self.top_frequency() or 0.0, _local_frequency(self.tree, env, *key)))
+                pts = _breakpoints(self.tree, dict(self.env), key[0], key[1],
+                                   self.run_frequency(*key, sines_only=False))
             except _TooMany:
                 raise ValueError(
                     f"B source of time '{self.text.strip()}': over {MAX_BREAKPOINTS:,} "
@@ -524,6 +523,16 @@ class TimeExpression:
         env = dict(self.env)
         found = [f for t in self.tree.walk() if (f := _frequency(t, env)) is not None]
         return max(found) if found and max(found) > 0 else None
+
+    def run_frequency(self, t0: float, t1: float, sines_only: bool = True) -> float:
+        """:meth:`top_frequency`, and the slopes over ``[t0, t1]`` of the arguments that are
+        not affine (:func:`_local_frequency`), Hz (0 when it has none): of its sines' (the
+        step that resolves them), or with ``sines_only`` False also of its ``floor``,
+        ``ceil`` and ``nint`` (the samples that find where it jumps: a staircase needs no
+        step of its own, its instants are steps' ends)."""
+        kinds = _PERIODIC if sines_only else (*_PERIODIC, "floor", "ceil", "nint")
+        return max(self.top_frequency() or 0.0,
+                   _local_frequency(self.tree, dict(self.env), t0, t1, kinds))
 
     def spice(self) -> str:
         """The expression for a B line, with the parameters' values written in."""
