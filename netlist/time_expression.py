@@ -198,7 +198,11 @@ def _affine_crossings(a: np.ndarray, d: np.ndarray, ga: np.ndarray, slope: np.nd
 
 
 class _TooMany(Exception):
-    pass
+    """Over :data:`MAX_BREAKPOINTS` instants (or what the message says)."""
+
+
+#: the most samples the instants of one piecewise node are looked for with
+_MAX_SAMPLES = 64 * MAX_BREAKPOINTS
 
 
 def _bisect(fn: Callable[[np.ndarray], np.ndarray], left: np.ndarray, right: np.ndarray,
@@ -231,10 +235,28 @@ def _crossings(fn: Callable[[np.ndarray], np.ndarray], edges: np.ndarray, levels
     a, b, d = a[keep], b[keep], d[keep]
     if a.size == 0:
         return np.empty(0)
+    # an interval longer than 4096 samples of its sines' period: in pieces of that length,
+    # each reaching a hair into the next (a crossing at a piece's end is its neighbour's,
+    # found twice at most: breakpoints keeps it once)
+    pieces = np.maximum(1.0, np.ceil(32 * d * top_frequency / 4096))
+    if pieces.max() > 1:
+        if 4096 * pieces.sum() > _MAX_SAMPLES:
+            raise _TooMany(
+                f"its sines' periods and floor/ceil/nint levels number "
+                f"{top_frequency * d.sum():.3g}, over {MAX_BREAKPOINTS:,}, too many to look for "
+                "the instants where it jumps or kinks")
+        pieces = pieces.astype(np.int64)
+        idx = np.repeat(np.arange(a.size), pieces)
+        k = np.arange(idx.size) - np.repeat(np.cumsum(pieces) - pieces, pieces)
+        length = d[idx] / pieces[idx]
+        first, last = k == 0, k == pieces[idx] - 1
+        a, b = (np.where(first, a[idx], a[idx] + k * length - 2e-7 * length),
+                np.where(last, b[idx], a[idx] + (k + 1) * length + 2e-7 * length))
+        d = b - a
     # samples inside each interval: enough to see every oscillation of its sines
     # (and at least 1024 over the run: a function with no sine may still turn several times)
-    n = int(min(65536, max(4, math.ceil(1024 / a.size),
-                           math.ceil(32 * float(d.max()) * top_frequency))))
+    n = int(min(4096, max(4, math.ceil(1024 / a.size),
+                          math.ceil(32 * float(d.max()) * top_frequency))))
     # (the intervals in batches: a long run's samples at once would fill memory; what is
     # bounded is the number of instants found)
     per = max(1, _BATCH // (n + 2))
@@ -505,10 +527,11 @@ class TimeExpression:
             try:
                 pts = _breakpoints(self.tree, dict(self.env), key[0], key[1],
                                    self.run_frequency(*key, sines_only=False))
-            except _TooMany:
-                raise ValueError(
-                    f"B source of time '{self.text.strip()}': over {MAX_BREAKPOINTS:,} "
-                    f"instants where it jumps or kinks in {t1 - t0:g} s") from None
+            except _TooMany as exc:
+                why = str(exc) or (f"over {MAX_BREAKPOINTS:,} instants where it jumps or "
+                                   "kinks")
+                raise ValueError(f"B source of time '{self.text.strip()}': {why} in "
+                                 f"{t1 - t0:g} s") from None
             if pts.size > 1:  # (one instant found twice, apart by round-off)
                 keep = np.concatenate(([True], np.diff(pts) > 1e-12 * np.maximum(
                     np.abs(pts[1:]), key[1] - key[0])))
