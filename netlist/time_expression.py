@@ -357,11 +357,10 @@ def _batch_crossings(fn: Callable[[np.ndarray], np.ndarray], a: np.ndarray, b: n
     return np.concatenate(out) if out else np.empty(0)
 
 
-def _breakpoints(t: Tree, env: Mapping[str, float], t0: float, t1: float,
-                 top_frequency: float) -> np.ndarray:
+def _breakpoints(t: Tree, env: Mapping[str, float], t0: float, t1: float) -> np.ndarray:
     """Sorted breakpoints of the sub-tree ``t`` strictly inside ``(t0, t1)``."""
     subs = [a for a in t.args if isinstance(a, Tree)]
-    under = {id(a): _breakpoints(a, env, t0, t1, top_frequency) for a in subs}
+    under = {id(a): _breakpoints(a, env, t0, t1) for a in subs}
     pts = np.unique(np.concatenate(list(under.values()))) if under else np.empty(0)
     own = _crossing_function(t)
     if own is None:
@@ -375,7 +374,11 @@ def _breakpoints(t: Tree, env: Mapping[str, float], t0: float, t1: float,
             return _eval(s[0], time, env) - _eval(s[1], time, env)
     # the argument is smooth between its own breakpoints
     edges = np.unique(np.concatenate([[t0, t1], *(under[id(a)] for a in args)]))
-    found = _crossings(fn, edges, levels, top_frequency)
+    # (sampled as its own argument turns: the sines and levels under it, not the whole
+    # expression's, whose 1 MHz sine would make u(time - 1m) a million samples a second)
+    freq = max([_local_frequency(a, env, t0, t1) for a in args]
+               + [f for a in args for n in a.walk() if (f := _frequency(n, env)) is not None])
+    found = _crossings(fn, edges, levels, freq)
     return np.unique(np.concatenate([pts, found[(found > t0) & (found < t1)]]))
 
 
@@ -525,8 +528,7 @@ class TimeExpression:
         key = (float(t0), float(t1))
         if key not in self._memo:
             try:
-                pts = _breakpoints(self.tree, dict(self.env), key[0], key[1],
-                                   self.run_frequency(*key, sines_only=False))
+                pts = _breakpoints(self.tree, dict(self.env), key[0], key[1])
             except _TooMany as exc:
                 why = str(exc) or (f"over {MAX_BREAKPOINTS:,} instants where it jumps or "
                                    "kinks")
@@ -547,15 +549,13 @@ class TimeExpression:
         found = [f for t in self.tree.walk() if (f := _frequency(t, env)) is not None]
         return max(found) if found and max(found) > 0 else None
 
-    def run_frequency(self, t0: float, t1: float, sines_only: bool = True) -> float:
-        """:meth:`top_frequency`, and the slopes over ``[t0, t1]`` of the arguments that are
-        not affine (:func:`_local_frequency`), Hz (0 when it has none): of its sines' (the
-        step that resolves them), or with ``sines_only`` False also of its ``floor``,
-        ``ceil`` and ``nint`` (the samples that find where it jumps: a staircase needs no
-        step of its own, its instants are steps' ends)."""
-        kinds = _PERIODIC if sines_only else (*_PERIODIC, "floor", "ceil", "nint")
+    def run_frequency(self, t0: float, t1: float) -> float:
+        """:meth:`top_frequency`, and the slopes over ``[t0, t1]`` of its sines' arguments
+        that are not affine (:func:`_local_frequency`), Hz (0 when it has none): what the
+        step resolves (a staircase of ``floor`` needs no step of its own: its instants are
+        steps' ends)."""
         return max(self.top_frequency() or 0.0,
-                   _local_frequency(self.tree, dict(self.env), t0, t1, kinds))
+                   _local_frequency(self.tree, dict(self.env), t0, t1, _PERIODIC))
 
     def spice(self) -> str:
         """The expression for a B line, with the parameters' values written in."""
