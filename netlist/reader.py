@@ -740,7 +740,14 @@ def _unquote(tok: Token) -> str:
     return s
 
 
+# the keywords a node or a model may be named (grammar.lark: node, model_name)
+_NAME_KEYWORDS = {"DC", "AC", "PULSE", "SIN", "SINE", "SFFM", "AM", "TRNOISE", "TRRANDOM",
+                  "PWL", "EXP", "OFF", "ON"}
+
+
 def _expected(expected: set[str]) -> str:
+    if set(expected) - {"$END"} == {"WORD", *_NAME_KEYWORDS}:
+        expected = {"WORD"}  # (a name: that it may spell a keyword says nothing)
     names = sorted({_TOKEN_NAMES.get(e, e.lower()) for e in expected if e != "$END"})
     if not names:
         return "a field"

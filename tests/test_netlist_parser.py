@@ -383,6 +383,14 @@ def test_a_diode_or_switch_model_may_be_named_like_a_keyword(name):
     assert d.element("S1").model.lower() == name and d.element("S1").initial
 
 
+@pytest.mark.parametrize("line, kind", [("D1 1", "diode 'D1'"), ("D1 1 3", "diode 'D1'"),
+                                        ("R1 a", "resistor 'R1'")])
+def test_a_missing_node_or_model_is_a_name_missing(line, kind):
+    # (a node or a model may spell a keyword: the message does not list the keywords)
+    with pytest.raises(NetlistError, match=f"incomplete {kind}: a name or a value missing"):
+        parse_string(f"t\n{line}\nR9 1 0 1\n.tran 1u 1m\n.end\n")
+
+
 def test_a_seventh_sin_value_is_ignored_as_ngspice_ignores_it():
     # AbhijitBaral/SPICE_sims' peak rectifier: SIN( 0 1 200 0 0 0 0 ), ngspice 39 runs it as
     # the sine of the first six (a 7th of 2 does not stop it after two cycles: measured)
