@@ -23,6 +23,7 @@ from .dialect import (
     _WORD,
     ELEMENTS,
     IGNORED_COMMANDS,
+    NAME_KEYWORDS,
     SUPPORTED_COMMANDS,
     UNSUPPORTED_COMMANDS,
     UNSUPPORTED_ELEMENTS,
@@ -740,19 +741,12 @@ def _unquote(tok: Token) -> str:
     return s
 
 
-# the keywords a node or a model may be named (grammar.lark: node, model_name)
-_NAME_KEYWORDS = {"DC", "AC", "PULSE", "SIN", "SINE", "SFFM", "AM", "TRNOISE", "TRRANDOM",
-                  "PWL", "EXP", "OFF", "ON"}
-
-
 def _expected(expected: set[str]) -> str:
-    if set(expected) - {"$END"} == {"WORD", *_NAME_KEYWORDS}:
+    if set(expected) - {"$END"} == {"WORD", *NAME_KEYWORDS}:
         expected = {"WORD"}  # (a name: that it may spell a keyword says nothing)
     names = sorted({_TOKEN_NAMES.get(e, e.lower()) for e in expected if e != "$END"})
-    if not names:
-        return "a field"
-    if len(names) == 1:
-        return names[0]
+    if len(names) <= 1:
+        return names[0] if names else "a field"
     return ", ".join(names[:-1]) + " or " + names[-1]
 
 
