@@ -364,7 +364,12 @@ class Pwl:
             side = 1  # ngspice: at a repetition's start, the first value of the part
         t = self._fold(t, side)
         if side == 0:
-            return np.interp(t, self.times, self.values)
+            # (at a time two points share, the first's value, as ngspice's PWL: a PWL from
+            # (0, 0) to (0, 5) is 0 at t = 0)
+            times = np.asarray(self.times, dtype=float)
+            at = np.minimum(np.searchsorted(times, t, side="left"), len(times) - 1)
+            return np.where(times[at] == t, np.asarray(self.values, dtype=float)[at],
+                            np.interp(t, times, self.values))
         times = np.asarray(self.times, dtype=float)
         values = np.asarray(self.values, dtype=float)
         idx = np.searchsorted(times, t, side="right" if side > 0 else "left")

@@ -232,12 +232,23 @@ def thyristor_pairs(circuit: Circuit) -> list[Diagnostic]:
     for el in circuit.elements:
         if isinstance(el, Switch) and el.device and types.get(el.name) in bjts:
             bjts[types[el.name]].append(el)
+    # (nodes voltage sources hold to ground, ground among them: a base held so draws its
+    # current from the source, not from the other transistor, and there is no loop; a
+    # common-base NPN driving a PNP follower whose collector is grounded is one such pair)
+    held = {GROUND}
+    grew = True
+    while grew:
+        grew = False
+        for el in circuit.elements:
+            if isinstance(el, VoltageSource) and len(set(el.nodes) & held) == 1:
+                held |= set(el.nodes)
+                grew = True
     out = []
     for p in bjts["PNP"]:
         cp, bp = p.device[1][0], p.device[1][1]
         for n in bjts["NPN"]:
             cn, bn = n.device[1][0], n.device[1][1]
-            if bp == cn and bn == cp:
+            if bp == cn and bn == cp and not {bp, bn} & held:
                 out.append(Diagnostic(
                     message=f"{p.name} and {n.name} form a thyristor (each drives the "
                             "other's base: the two-transistor model of an SCR), which "

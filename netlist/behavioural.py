@@ -201,6 +201,18 @@ def _stepped(tree, text: str, env: Mapping[str, float]):
         return None
 
 
+def _stepped_wave(tv, tree: Tree, text: str, env: Mapping[str, float]) -> Pwl | None:
+    """The PWL of a piecewise-constant function of time, from its value at t = 0 itself
+    where that differs from the one just after (``time > 0 ? 5 : 0`` is 0 there, ``u(time)``
+    0.5): ngspice's operating point takes it, and the source jumps in the first step."""
+    form = linearise(tree, text, {**env, "time": 0.0})
+    at0 = form.const if isinstance(form, Affine) and form.constant else tv.values[0]
+    if at0 == tv.values[0]:
+        return tv.pwl() if tv.times else None
+    wave = tv.pwl()
+    return Pwl((0.0, *wave.times), (at0, *wave.values))
+
+
 def source_name(prefix: str) -> Callable[[str], str]:
     """``i(Vx)`` inside a subcircuit instance names the instance's ``Vx``."""
     return lambda s: prefix + hierarchical_name(s)
@@ -226,7 +238,7 @@ def elaborate(el: RawElement, prefix: str, mapnode: Callable[[str], str],
             if time_in_comparisons(tree) and (tv := _stepped(tree, text, env)) is not None:
                 # a piecewise-constant function of time: an independent source stepping at
                 # its instants (netlist.time_value), as ngspice's value between them
-                return [cls(name, nodes, loc, tv.values[0], tv.pwl() if tv.times else None)]
+                return [cls(name, nodes, loc, tv.values[0], _stepped_wave(tv, tree, text, env))]
             # any other function of time: the source of that waveform, stepped to where it
             # jumps or kinks (netlist.time_expression)
             sig = time_expression(tree, text, env, el.st.loc(offset))

@@ -227,6 +227,11 @@ _TOKEN_NAMES = {
 }
 
 
+#: the keywords a node or a model may be named (grammar.lark: node, model_name)
+NAME_KEYWORDS = frozenset({"DC", "AC", "PULSE", "SIN", "SINE", "SFFM", "AM", "TRNOISE",
+                           "TRRANDOM", "PWL", "EXP", "OFF", "ON"})
+
+
 def node_name(word: str) -> str:
     """The canonical node name: lower case, ``gnd`` is ``0``."""
     n = word.lower()

@@ -23,6 +23,7 @@ from .dialect import (
     _WORD,
     ELEMENTS,
     IGNORED_COMMANDS,
+    NAME_KEYWORDS,
     SUPPORTED_COMMANDS,
     UNSUPPORTED_COMMANDS,
     UNSUPPORTED_ELEMENTS,
@@ -741,11 +742,11 @@ def _unquote(tok: Token) -> str:
 
 
 def _expected(expected: set[str]) -> str:
+    if set(expected) - {"$END"} == {"WORD", *NAME_KEYWORDS}:
+        expected = {"WORD"}  # (a name: that it may spell a keyword says nothing)
     names = sorted({_TOKEN_NAMES.get(e, e.lower()) for e in expected if e != "$END"})
-    if not names:
-        return "a field"
-    if len(names) == 1:
-        return names[0]
+    if len(names) <= 1:
+        return names[0] if names else "a field"
     return ", ".join(names[:-1]) + " or " + names[-1]
 
 

@@ -199,7 +199,11 @@ def _affine_crossings(a: np.ndarray, d: np.ndarray, ga: np.ndarray, slope: np.nd
 
 
 class _TooMany(Exception):
-    pass
+    """Over :data:`MAX_BREAKPOINTS` instants (or what the message says)."""
+
+
+#: the most samples the instants of one piecewise node are looked for with
+_MAX_SAMPLES = 64 * MAX_BREAKPOINTS
 
 
 def _bisect(fn: Callable[[np.ndarray], np.ndarray], left: np.ndarray, right: np.ndarray,
@@ -218,6 +222,10 @@ def _bisect(fn: Callable[[np.ndarray], np.ndarray], left: np.ndarray, right: np.
     return 0.5 * (left + right)
 
 
+#: the most samples :func:`_crossings` holds at once (its intervals are taken in batches)
+_BATCH = 1_000_000
+
+
 def _crossings(fn: Callable[[np.ndarray], np.ndarray], edges: np.ndarray, levels: str,
                top_frequency: float) -> np.ndarray:
     """The instants inside the intervals between consecutive ``edges`` (sorted) where ``fn``,
@@ -228,26 +236,87 @@ def _crossings(fn: Callable[[np.ndarray], np.ndarray], edges: np.ndarray, levels
     a, b, d = a[keep], b[keep], d[keep]
     if a.size == 0:
         return np.empty(0)
-    # samples inside each interval: enough to see every oscillation of its sines, 32 a
-    # period (fewer would alias a fast sine into crossings it does not have: more than a run
-    # may hold is refused), and at least 1024 over the run (a function with no sine may
-    # still turn several times)
-    want = max(4.0, 1024 / a.size, 32 * float(d.max()) * top_frequency)
-    while True:
-        if a.size * want > 4 * MAX_BREAKPOINTS:
+    # an interval longer than 4096 samples of its sines' period: in pieces of that length,
+    # each reaching a hair into the next (a crossing at a piece's end is its neighbour's,
+    # found twice at most: breakpoints keeps it once)
+    pieces = np.maximum(1.0, np.ceil(32 * d * top_frequency / 4096))
+    if pieces.max() > 1:
+        if 4096 * pieces.sum() > _MAX_SAMPLES:
+            raise _TooMany(
+                f"its sines' periods and floor/ceil/nint levels number "
+                f"{top_frequency * d.sum():.3g}, over {MAX_BREAKPOINTS:,}, too many to look for "
+                "the instants where it jumps or kinks")
+        pieces = pieces.astype(np.int64)
+        idx = np.repeat(np.arange(a.size), pieces)
+        k = np.arange(idx.size) - np.repeat(np.cumsum(pieces) - pieces, pieces)
+        length = d[idx] / pieces[idx]
+        first, last = k == 0, k == pieces[idx] - 1
+        a, b = (np.where(first, a[idx], a[idx] + k * length - 2e-7 * length),
+                np.where(last, b[idx], a[idx] + (k + 1) * length + 2e-7 * length))
+        d = b - a
+    # samples inside each interval: enough to see every oscillation of its sines
+    # (and at least 1024 over the run: a function with no sine may still turn several times)
+    n = int(min(4096, max(4, math.ceil(1024 / a.size),
+                          math.ceil(32 * float(d.max()) * top_frequency))))
+    # (the intervals in batches: a long run's samples at once would fill memory; what is
+    # bounded is the number of instants found)
+    per = max(1, _BATCH // (n + 2))
+    out, count = [], 0
+    for i in range(0, a.size, per):
+        found = _batch_crossings(fn, a[i:i + per], b[i:i + per], d[i:i + per], n, levels)
+        count += found.size
+        if count > MAX_BREAKPOINTS:
             raise _TooMany
-        n = math.ceil(want)
-        # (the first and last a hair inside: the one-sided limits at the ends)
-        frac = np.concatenate(([1e-7], (np.arange(n) + 0.5) / n, [1 - 1e-7]))
-        ts = a[:, None] + d[:, None] * frac[None, :]
-        with np.errstate(all="ignore"):
-            g = np.broadcast_to(np.asarray(fn(ts), dtype=float), ts.shape)
-        # a level crossed between more than one pair of samples in eight: too few samples
-        # to tell its crossings (a chirp's frequency is no sine's): four times as many
-        changes = (_level_index(g[:, 1:], levels) != _level_index(g[:, :-1], levels)).sum(1)
-        if changes.max() * 8 <= n:
+        out.append(found)
+    return np.concatenate(out)
+
+
+def _excursions(fn: Callable[[np.ndarray], np.ndarray], ts: np.ndarray, g: np.ndarray,
+                band: np.ndarray, levels: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Brackets of the crossings of a narrow excursion between samples (a sine's peak just
+    over a level, 4.5 us of each 1 ms period for 0.9999): at each sampled extremum whose
+    neighbours lie in its band, the extremum itself (golden-section search), and where it
+    lies in another band, the two brackets either side of it: (rows, lefts, rights)."""
+    dg = np.diff(g, axis=1)
+    # (rising then not: a maximum at the middle sample or just past it, where two samples
+    # either side of a peak are equal; falling then not, a minimum)
+    turn = (((dg[:, :-1] > 0) & (dg[:, 1:] <= 0)) | ((dg[:, :-1] < 0) & (dg[:, 1:] >= 0))) & (
+        band[:, 1:-1] == band[:, :-2]) & (band[:, 1:-1] == band[:, 2:])
+    r, c = np.nonzero(turn)
+    c = c + 1
+    if r.size == 0:
+        return r, np.empty(0), np.empty(0)
+    lo, hi = ts[r, c - 1].copy(), ts[r, c + 1].copy()
+    sign = np.where(dg[r, c - 1] > 0, 1.0, -1.0)  # (+1: a maximum)
+    w = 0.5 * (math.sqrt(5.0) - 1.0)
+
+    def f(x):
+        return sign * np.broadcast_to(np.asarray(fn(x), dtype=float), x.shape)
+
+    for _ in range(200):
+        m1, m2 = hi - w * (hi - lo), lo + w * (hi - lo)
+        live = (m1 > lo) & (m2 < hi) & (m1 < m2)
+        if not live.any():
             break
-        want = 4.0 * n
+        up = f(m1) < f(m2)  # (the extremum in [m1, hi])
+        lo = np.where(live & up, m1, lo)
+        hi = np.where(live & ~up, m2, hi)
+    tx = 0.5 * (lo + hi)
+    other = _level_index(np.broadcast_to(np.asarray(fn(tx), dtype=float), tx.shape),
+                         levels) != band[r, c]
+    r, c, tx = r[other], c[other], tx[other]
+    return (np.concatenate([r, r]), np.concatenate([ts[r, c - 1], tx]),
+            np.concatenate([tx, ts[r, c + 1]]))
+
+
+def _batch_crossings(fn: Callable[[np.ndarray], np.ndarray], a: np.ndarray, b: np.ndarray,
+                     d: np.ndarray, n: int, levels: str) -> np.ndarray:
+    """:func:`_crossings` in the intervals ``(a, b)``, ``n`` samples inside each."""
+    # (the first and last a hair inside: the one-sided limits at the ends)
+    frac = np.concatenate(([1e-7], (np.arange(n) + 0.5) / n, [1 - 1e-7]))
+    ts = a[:, None] + d[:, None] * frac[None, :]
+    with np.errstate(all="ignore"):
+        g = np.broadcast_to(np.asarray(fn(ts), dtype=float), ts.shape)
     # (a crossing nearer an end than this is that end's: a round-off echo of the jump there)
     tol = 1e-7 * d
     out = []
@@ -262,13 +331,20 @@ def _crossings(fn: Callable[[np.ndarray], np.ndarray], edges: np.ndarray, levels
         slope = (g[rows, -1] - g[rows, 0]) / (d[rows] * (frac[-1] - frac[0]))
         ga = g[rows, 0] - slope * frac[0] * d[rows]
         out.append(_affine_crossings(a[rows], d[rows], ga, slope, levels))
-    # the others: where the band changes between consecutive samples, refined by bisection
+    # the others: where the band changes between consecutive samples, and where an
+    # excursion between two samples reaches another band, refined by bisection
     rows = np.flatnonzero(~affine)
     if rows.size:
         band = _level_index(g[rows], levels)
         r, c = np.nonzero(band[:, 1:] != band[:, :-1])
         left, right = ts[rows[r], c], ts[rows[r], c + 1]
-        for _ in range(64):  # (a bracket crossing several levels: one at a time)
+        with np.errstate(all="ignore"):
+            er, el, en = _excursions(fn, ts[rows], g[rows], band, levels)
+        r, left, right = (np.concatenate([r, er]), np.concatenate([left, el]),
+                          np.concatenate([right, en]))
+        # (a bracket crossing several levels: one at a time; a staircase of exp(time) crosses
+        # hundreds between two samples)
+        for _ in range(1024):
             if left.size == 0:
                 break
             found = _bisect(fn, left.copy(), right.copy(), levels)
@@ -279,17 +355,13 @@ def _crossings(fn: Callable[[np.ndarray], np.ndarray], edges: np.ndarray, levels
             more = (_level_index(fn(after), levels) != _level_index(fn(right), levels)) & (
                 after < right)
             left, right, r = after[more], right[more], r[more]
-    pts = np.concatenate(out) if out else np.empty(0)
-    if pts.size > MAX_BREAKPOINTS:
-        raise _TooMany
-    return pts
+    return np.concatenate(out) if out else np.empty(0)
 
 
-def _breakpoints(t: Tree, env: Mapping[str, float], t0: float, t1: float,
-                 top_frequency: float) -> np.ndarray:
+def _breakpoints(t: Tree, env: Mapping[str, float], t0: float, t1: float) -> np.ndarray:
     """Sorted breakpoints of the sub-tree ``t`` strictly inside ``(t0, t1)``."""
     subs = [a for a in t.args if isinstance(a, Tree)]
-    under = {id(a): _breakpoints(a, env, t0, t1, top_frequency) for a in subs}
+    under = {id(a): _breakpoints(a, env, t0, t1) for a in subs}
     pts = np.unique(np.concatenate(list(under.values()))) if under else np.empty(0)
     own = _crossing_function(t)
     if own is None:
@@ -303,7 +375,11 @@ def _breakpoints(t: Tree, env: Mapping[str, float], t0: float, t1: float,
             return _eval(s[0], time, env) - _eval(s[1], time, env)
     # the argument is smooth between its own breakpoints
     edges = np.unique(np.concatenate([[t0, t1], *(under[id(a)] for a in args)]))
-    found = _crossings(fn, edges, levels, top_frequency)
+    # (sampled as its own argument turns: the sines and levels under it, not the whole
+    # expression's, whose 1 MHz sine would make u(time - 1m) a million samples a second)
+    freq = max([_local_frequency(a, env, t0, t1) for a in args]
+               + [f for a in args for n in a.walk() if (f := _frequency(n, env)) is not None])
+    found = _crossings(fn, edges, levels, freq)
     return np.unique(np.concatenate([pts, found[(found > t0) & (found < t1)]]))
 
 
@@ -374,6 +450,32 @@ def _frequency(t: Tree, env: Mapping[str, float]) -> float | None:
     return abs(slope) / (2 * math.pi) if t.args[0] in _PERIODIC else abs(slope)
 
 
+def _local_frequency(tree: Tree, env: Mapping[str, float], t0: float, t1: float,
+                     kinds: tuple[str, ...] = (*_PERIODIC, "floor", "ceil", "nint")) -> float:
+    """The highest rate (Hz) over ``[t0, t1]`` at which the argument of a ``sin``/``cos``
+    turns (its slope / 2π) or that of a ``floor``/``ceil``/``nint`` crosses its levels (its
+    slope), from its slopes at 4096 instants: what :func:`_frequency` does not see, an
+    argument that is not affine (``sin(2*pi*100k*(time - floor(time/T)*T))``, a chirp). Each
+    slope is the smaller of the two one-sided ones: a jump of the argument is not one."""
+    nodes = [t for t in tree.walk() if t.tag == "call" and t.args[0] in kinds]
+    if not nodes or not t1 > t0:
+        return 0.0
+    ts = t0 + (t1 - t0) * (np.arange(4096) + 0.5) / 4096
+    eps = 1e-7 * (t1 - t0)
+    best = 0.0
+    for t in nodes:
+        def arg(x, s=t.args[1]):
+            return np.broadcast_to(np.asarray(_eval(s, x, env), dtype=float), x.shape)
+        with np.errstate(all="ignore"):
+            g = arg(ts)
+            slope = np.minimum(np.abs(arg(ts + eps) - g), np.abs(g - arg(ts - eps))) / eps
+        slope = slope[np.isfinite(slope)]
+        if slope.size:
+            best = max(best, float(slope.max()) / (
+                2 * math.pi if t.args[0] in _PERIODIC else 1.0))
+    return best
+
+
 @dataclass(frozen=True)
 class TimeExpression:
     """The waveform of a B source's expression of ``time`` (V or A).
@@ -428,13 +530,12 @@ class TimeExpression:
         key = (float(t0), float(t1))
         if key not in self._memo:
             try:
-                pts = _breakpoints(self.tree, dict(self.env), key[0], key[1],
-                                   self.top_frequency() or 0.0)
-            except _TooMany:
+                pts = _breakpoints(self.tree, dict(self.env), key[0], key[1])
+            except _TooMany as exc:
+                why = str(exc) or (f"over {MAX_BREAKPOINTS:,} instants where it jumps or "
+                                   "kinks")
                 raise NetlistError(Diagnostic(
-                    f"B source of time '{self.text.strip()}': over {MAX_BREAKPOINTS:,} "
-                    f"instants where it jumps or kinks in {t1 - t0:g} s (or a sine too "
-                    "fast to sample over it)",
+                    f"B source of time '{self.text.strip()}': {why} in {t1 - t0:g} s",
                     location=self.location,
                     hint="a shorter run (--tstop) or a slower waveform: a run steps to each "
                          "instant"), self.location.file if self.location else None) from None
@@ -452,6 +553,14 @@ class TimeExpression:
         env = dict(self.env)
         found = [f for t in self.tree.walk() if (f := _frequency(t, env)) is not None]
         return max(found) if found and max(found) > 0 else None
+
+    def run_frequency(self, t0: float, t1: float) -> float:
+        """:meth:`top_frequency`, and the slopes over ``[t0, t1]`` of its sines' arguments
+        that are not affine (:func:`_local_frequency`), Hz (0 when it has none): what the
+        step resolves (a staircase of ``floor`` needs no step of its own: its instants are
+        steps' ends)."""
+        return max(self.top_frequency() or 0.0,
+                   _local_frequency(self.tree, dict(self.env), t0, t1, _PERIODIC))
 
     def spice(self) -> str:
         """The expression for a B line, with the parameters' values written in."""

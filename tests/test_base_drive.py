@@ -153,3 +153,26 @@ def test_a_complementary_pair_that_is_not_a_latch_is_kept():
     # a PNP driving an NPN's base (a Sziklai-like pair) with the NPN's collector elsewhere
     deck = SCR.replace("Qn 4 6 5 QN", "Qn a 6 5 QN\nRb a 4 10k")
     parse_string(deck)
+
+
+def test_a_common_base_npn_into_a_grounded_collector_pnp_follower_is_kept():
+    # the NPN's collector is the PNP's base and the PNP's collector the NPN's base, but that
+    # node is ground: the bases draw from ground and the supply, there is no latch (ngspice:
+    # v(out) follows the NPN's collector, 0.7 V above it)
+    deck = """common-base NPN level shifter into a PNP emitter follower
+Vcc vcc 0 10
+Vm m 0 PULSE(0 -5 1m 1u 1u 1m 2m)
+Qn x 0 em QN
+Re em m 1k
+Rc vcc x 1k
+Qp 0 x out QP
+Ro vcc out 10k
+.model QP PNP(BF=100)
+.model QN NPN(BF=100)
+.tran 10u 4m
+.end
+"""
+    parse_string(deck)
+    # the same pair with its base node held by a source: still no latch
+    parse_string(deck.replace("Qn x 0 em QN", "Qn x b em QN\nVb b 0 1").replace(
+        "Qp 0 x out QP", "Qp b x out QP"))

@@ -368,6 +368,29 @@ def test_a_node_may_be_named_like_a_keyword(name):
         assert c.element(el).nodes == nodes
 
 
+@pytest.mark.parametrize("name", ["ac", "dc", "pulse", "sin", "pwl", "exp", "off", "on"])
+def test_a_diode_or_switch_model_may_be_named_like_a_keyword(name):
+    # ngspice 39 reads '.model off D' / 'D1 a 0 off' as a diode of model off (measured: the
+    # same current as a model DX); pelcs said "unexpected 'off' in diode 'D1'"
+    c = parse_string(f"t\nV1 a 0 SIN(0 10 50)\nD1 a b {name} off\nR1 b 0 1k\n"
+                     f"S1 b c a 0 {name}\nR2 c 0 1k\n.model {name} D\n"
+                     f".model {name}x SW(VT=1)\n.tran 1m 20m\n.end\n".replace(
+                         f"a 0 {name}\n", f"a 0 {name}x\n"))
+    assert c.element("D1").model.lower() == name
+    assert c.element("S1").model.lower() == f"{name}x"
+    d = parse_string(f"t\nV1 a 0 SIN(0 10 50)\nS1 a 0 a 0 {name} on\nR1 a 0 1k\n"
+                     f".model {name} SW(VT=1)\n.tran 1m 20m\n.end\n")
+    assert d.element("S1").model.lower() == name and d.element("S1").initial
+
+
+@pytest.mark.parametrize("line, kind", [("D1 1", "diode 'D1'"), ("D1 1 3", "diode 'D1'"),
+                                        ("R1 a", "resistor 'R1'")])
+def test_a_missing_node_or_model_is_a_name_missing(line, kind):
+    # (a node or a model may spell a keyword: the message does not list the keywords)
+    with pytest.raises(NetlistError, match=f"incomplete {kind}: a name or a value missing"):
+        parse_string(f"t\n{line}\nR9 1 0 1\n.tran 1u 1m\n.end\n")
+
+
 def test_a_seventh_sin_value_is_ignored_as_ngspice_ignores_it():
     # AbhijitBaral/SPICE_sims' peak rectifier: SIN( 0 1 200 0 0 0 0 ), ngspice 39 runs it as
     # the sine of the first six (a 7th of 2 does not stop it after two cycles: measured)

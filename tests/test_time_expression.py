@@ -203,7 +203,7 @@ def test_too_many_instants_is_an_error():
     # a 1 GHz sine over 1 s: refused, where samples capped per interval aliased it into a
     # few thousand crossings it does not have
     w = _wave("sin(2*pi*1e9*time) > 0 ? 1 : 0")
-    with pytest.raises(NetlistError, match="too fast to sample"):
+    with pytest.raises(NetlistError, match="too many to look for the instants"):
         w.breakpoints(0.0, 1.0)
     # a chirp (its frequency no sine's): sampled finer until its crossings are told apart,
     # sin(2 pi 1e7 t^2) turning where 1e7 t^2 is a half-integer: 2e4 over 10 ms
@@ -278,3 +278,108 @@ def test_pelcs_check_reports_the_step_its_run_took(ngspice):
     assert cmp.probes[0].mean_pelcs == pytest.approx(2.0, rel=1e-3)
     assert any(n.startswith("Bsaw, Bdrv: a B source of time that jumps")
                and "ngspice puts no breakpoint there" in n for n in cmp.notes), cmp.notes
+
+
+@pytest.mark.parametrize("expr, at0", [
+    ("u(time)*5", 2.5),            # u(0) is 0.5
+    ("sgn(time)*5", 0.0),          # (a TimeExpression)
+    ("time > 0 ? 5 : 0", 0.0),     # (a stepped source, its PWL)
+    ("5*u(-time)", 2.5),
+    ("ceil(time/100u)*5", 0.0),
+])
+def test_the_operating_point_takes_the_value_at_time_zero(expr, at0):
+    # ngspice's operating point evaluates the B source at t = 0 itself (measured in ngspice
+    # 39: v(out) at 100 us is 4.0711 V for u(time)*5, 3.1234 V for sgn(time)*5): the
+    # capacitor starts there and charges through R in the run, v(out) = v + (at0 - v) e^(-t/RC)
+    from pelcs.api import simulate
+    deck = f"t0\nB1 g 0 V = {expr}\nR1 g out 1k\nC1 out 0 100n\n.tran 1u 100u\n.end\n"
+    res = simulate(deck, probes=["v(out)"])
+    v_after = 0.0 if "-time" in expr else 5.0
+    assert res.y[0, 0] == pytest.approx(at0, abs=1e-9)
+    assert res.y[-1, 0] == pytest.approx(v_after + (at0 - v_after) * np.exp(-1), abs=1e-4)
+
+
+def test_a_pwl_that_jumps_at_time_zero_starts_from_its_first_point():
+    # ngspice: PWL(0 0 0 5) is 0 at the operating point (the first point of its time)
+    from pelcs.api import simulate
+    deck = "p\nV1 g 0 PWL(0 0 0 5 1m 5)\nR1 g out 1k\nC1 out 0 100n\n.tran 1u 100u\n.end\n"
+    res = simulate(deck, probes=["v(out)"])
+    assert res.y[-1, 0] == pytest.approx(5 * (1 - np.exp(-1)), abs=1e-4)
+
+
+def test_a_narrow_excursion_between_samples_is_found():
+    # a sine over a level near its peak: 4.5 us of each 1 ms period, narrower than the
+    # samples (32 a period); each of the ten pulses' two instants, where sin = 0.9999
+    w = _wave("sin(2*pi*1k*time) > 0.9999 ? 10 : 0")
+    half = np.arccos(0.9999) / (2 * np.pi * 1e3)
+    peaks = (np.arange(10) + 0.25) * 1e-3
+    want = np.sort(np.concatenate([peaks - half, peaks + half]))
+    got = w.breakpoints(0.0, 10e-3)
+    assert got.shape == want.shape
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-15)
+
+
+def test_a_long_run_of_a_sawtooth_is_not_refused_for_its_samples():
+    # 100 kHz over 2.5 s: 499,999 instants, under the bound (the samples, 34 per period,
+    # are not what the bound counts)
+    w = _wave("time/10u - floor(time/10u) > 0.5 ? 1 : 0")
+    got = w.breakpoints(0.0, 2.5)
+    assert got.size == 499_999
+    np.testing.assert_allclose(got[:3], [5e-6, 10e-6, 15e-6], rtol=1e-12)
+
+
+def test_a_staircase_crossing_hundreds_of_levels_between_samples():
+    # floor(exp(time/1m)) over 10 ms: 22,025 steps, at t = ln(n) ms, up to ~215 of them
+    # between two of its samples near the end
+    w = _wave("floor(exp(time/1m))")
+    got = w.breakpoints(0.0, 10e-3)
+    want = np.log(np.arange(2, int(np.exp(10)) + 1)) * 1e-3
+    assert got.shape == want.shape
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-15)
+
+
+def test_a_sine_of_a_sawtooth_phase_is_sampled_at_its_own_frequency():
+    # the argument is not affine (its phase restarts each 1 ms), so no frequency is read from
+    # the expression; its slope is 2 pi 100 kHz: 2000 instants where it crosses 0.5 over
+    # 10 ms (with --method exact, 69 were found and the RC's final value was 4.80 V, not
+    # 3.3248 V as the analytic one and pelcs now)
+    w = _wave("sin(2*pi*100k*(time - floor(time/1m)*1m)) > 0.5 ? 10 : 0")
+    got = w.breakpoints(0.0, 10e-3)
+    k = np.arange(1000) * 1e-5
+    want = np.sort(np.concatenate([k + 1e-5 / 12, k + 5e-5 / 12]))
+    jumps = np.arange(1, 10) * 1e-3  # (where the phase restarts)
+    assert got.size == want.size + jumps.size
+    near = np.abs(got[:, None] - want[None, :]).min(axis=0)
+    assert near.max() < 1e-15
+
+
+def test_the_step_resolves_a_sine_whose_argument_is_not_affine():
+    # a 100 kHz sine whose phase restarts each 1 ms: 1/100 of its period (at 1 us, the .tran
+    # bound, the RC's output was 6 % of its amplitude off); at 3 ms the steady state
+    # -sin(phi)/sqrt(1 + (wRC)^2), phi = atan(wRC): -0.45053 V (ngspice -0.45048 V)
+    from pelcs.api import simulate
+    deck = ("t\nB1 g 0 V = sin(2*pi*100k*(time - floor(time/1m)*1m))\nR1 g out 1k\n"
+            "C1 out 0 1n\n.tran 1u 3m\n.end\n")
+    res = simulate(deck, probes=["v(out)"])
+    assert res.step == pytest.approx(1e-7)
+    wrc = 2 * np.pi * 1e5 * 1e-6
+    want = -np.sin(np.arctan(wrc)) / np.sqrt(1 + wrc ** 2)
+    assert res.y[-1, 0] == pytest.approx(want, abs=2e-4)
+
+
+def test_a_sine_over_many_periods_in_one_interval_is_sampled_in_pieces():
+    # 100 kHz over 1 s, no other breakpoint: 200,000 instants (62,144 were found, the
+    # samples of one interval capped)
+    w = _wave("sin(2*pi*100k*time) > 0.5 ? 1 : 0")
+    got = w.breakpoints(0.0, 1.0)
+    k = np.arange(100_000) * 1e-5
+    want = np.sort(np.concatenate([k + 1e-5 / 12, k + 5e-5 / 12]))
+    assert got.shape == want.shape
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-15)
+
+
+def test_a_step_beside_a_fast_sine_is_sampled_as_its_own_argument():
+    # u(time - 1m) beside a 1 MHz sine over 10 s: its argument has no sine, its one instant
+    # is found at once (sampled at the sine's rate it was refused as too fast)
+    w = _wave("sin(2*pi*1meg*time) + u(time-1m)")
+    np.testing.assert_allclose(w.breakpoints(0.0, 10.0), [1e-3], rtol=1e-15)

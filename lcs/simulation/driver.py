@@ -126,7 +126,10 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
     sched = next(stretches)
     out0 = problem.output(sched.mode_src if k else ())
     ctrls = Controllers(system, plan, t_start, t_stop, tol)
-    u0 = evaluate_inputs(inputs, np.array([t_start]), +1)[0]
+    # (the operating point is ngspice's: the sources' values at t_start itself, not just
+    # after it: u(time) is 0.5 there, a PWL from (0, 0) to (0, 5) is 0; a source that jumps
+    # at t_start then does so in the first step)
+    u0 = evaluate_inputs(inputs, np.array([t_start]), 0 if operating_point else +1)[0]
     init = initial_state(problem, plan, sched.mode_src, sched.src_maps, guess, x0, u0, t_start,
                          ctrls, on_inconsistent, lcp or LcpOptions(), notes, operating_point)
     # States some modes hold at zero (an inductor an open switch leaves with no path): set

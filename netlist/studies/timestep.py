@@ -53,20 +53,25 @@ def default_step(waves: Sequence[Signal], tstop: float) -> float:
             h = min(h, w.per / STEPS_PER_PERIOD)
         elif isinstance(w, Sin) and w.freq:
             h = min(h, 1.0 / (w.freq * STEPS_PER_PERIOD))
-        elif (top := _top_frequency(w)) is not None:
+        elif (top := _top_frequency(w, tstop)) is not None:
             h = min(h, 1.0 / (top * STEPS_PER_PERIOD))
     return h
 
 
-def _top_frequency(w: Signal) -> float | None:
-    """The highest frequency of a modulated source (SFFM, AM) written in the netlist, Hz."""
+def _top_frequency(w: Signal, tstop: float | None = None) -> float | None:
+    """The highest frequency of a modulated source (SFFM, AM) written in the netlist, Hz; of
+    a B source of time over ``[0, tstop]`` where given (the slope of a sine's argument that
+    is not affine: ``sin(2*pi*100k*(time - floor(time/T)*T))``, a chirp)."""
     f = getattr(w, "top_frequency", None)
     top = f() if f is not None else None
+    run = getattr(w, "run_frequency", None)
+    if run is not None and tstop is not None and tstop > 0:
+        top = max(top or 0.0, run(0.0, tstop))
     return top if top else None
 
 
-def smooth_step(waves: Sequence[Signal], names: Sequence[str] | None = None
-                ) -> tuple[float, str]:
+def smooth_step(waves: Sequence[Signal], names: Sequence[str] | None = None,
+                tstop: float | None = None) -> tuple[float, str]:
     """The longest step that resolves the smooth sources, s (inf when there is none), and
     what sets it.
 
@@ -82,7 +87,7 @@ def smooth_step(waves: Sequence[Signal], names: Sequence[str] | None = None
             if 1.0 / (w.freq * STEPS_PER_PERIOD) < h:
                 h = 1.0 / (w.freq * STEPS_PER_PERIOD)
                 what = f"1/{STEPS_PER_PERIOD} of the period of the SIN source{name}"
-        elif (top := _top_frequency(w)) is not None:
+        elif (top := _top_frequency(w, tstop)) is not None:
             if 1.0 / (top * STEPS_PER_PERIOD) < h:
                 h = 1.0 / (top * STEPS_PER_PERIOD)
                 what = (f"1/{STEPS_PER_PERIOD} of the shortest period of the "
@@ -133,7 +138,7 @@ def tran_step(tran: Tran, waves: Sequence[Signal], tstop: float,
         # only the print interval: a 100 kHz buck run for 10 ms would get one step a period)
         h = default_step(waves, span)
         # (and no longer than what resolves the smooth sources: an EXP's time constant)
-        smooth, what = smooth_step(waves, names)
+        smooth, what = smooth_step(waves, names, tstop)
         if smooth < h:
             return smooth, f"step h = {_eng_s(smooth)}: {what} (LTspice's .tran 0 TSTOP)"
         return h, (f"step h = {_eng_s(h)}: LTspice's .tran 0 TSTOP gives no step; 1/"
@@ -150,7 +155,7 @@ def tran_step(tran: Tran, waves: Sequence[Signal], tstop: float,
         return (f"ngspice's bound min(TSTEP, (TSTOP - TSTART)/{NGSPICE_STEPS_PER_RUN}) = "
                 f"{_eng_s(h)}")
 
-    smooth, what = smooth_step(waves, names)
+    smooth, what = smooth_step(waves, names, tstop)
     if smooth < h:
         return smooth, (f"step h = {_eng_s(smooth)}: {what} (shorter than {bound()}; .tran "
                         f"TSTEP = {_eng_s(tran.tstep)} is ngspice's print interval, not its "
