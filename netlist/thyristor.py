@@ -1,0 +1,225 @@
+"""The two-transistor model of a thyristor read as an ideal thyristor.
+
+Vendors' SCR models are a PNP and an NPN that drive each other's base (Littelfuse's
+EC103xx: ``Qpnp 6 4 1``, ``Qnpn 4 6 5``, a gate resistor from the gate to node 6, a diode
+from 6 to the NPN's emitter, breakover diodes and resistors of gigaohms). The loop fires and
+latches through the base currents, which transistors idealised as switches do not draw
+(:func:`netlist.base_drive.thyristor_pairs`). Such a pair is read here as an ideal
+thyristor from the PNP's emitter (anode) to the NPN's emitter (cathode), built from elements
+pelcs simulates exactly:
+
+- the anode path: a 0 V source sensing the anode current, an ideal diode, then a switch
+  to the cathode, driven by the sum of the anode and gate currents (two H sources in
+  series, as a W switch is read): on once the gate carries :data:`GATE_CURRENT` (fired),
+  off once both have fallen below :data:`HOLD_CURRENT` (latched while the anode current
+  flows); :data:`OFF_RESISTANCE` from anode to cathode, outside the sensed path;
+- the gate junction, from the NPN's base to its emitter: a source of :func:`gate_voltage`
+  in series with an ideal diode, the source's current sensing the gate current. Diodes of
+  the subcircuit across that junction (the model's ``Dgate``, whose IS is far below the
+  NPN's) are part of it: ideal, they would hold the base at the emitter and the gate
+  would fire at 0 V, half a millisecond early on a gate pulse rising over 1 ms.
+
+So the thyristor blocks both ways until fired; fires when current enters its gate junction
+while the anode stands above the cathode (or the gate is still driven when it does); then
+conducts anode to cathode as an ideal diode whatever the gate, and turns off when its
+current falls to zero. Not kept: the on-state drop of the junctions (about 1 V), the
+holding and latching currents (zero here), the breakover of the blocking junctions, the
+device's turn-on and recovery times.
+
+A pair is read so only when it fits: its four nodes distinct, the node between the PNP's
+base and the NPN's collector joined by nothing but resistors and diodes to the anode or
+the NPN's base (the model's own leakage and breakover parts; an anode gate driven from
+outside is another device), and the NPN's base reached by something besides the pair and
+the junction's diodes (a gate). Other pairs keep their refusal.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .circuit import (
+    GROUND,
+    BuiltGroup,
+    Ccvs,
+    Circuit,
+    Diode,
+    Element,
+    Model,
+    Resistor,
+    Switch,
+    VoltageSource,
+    unique_name,
+)
+
+__all__ = ["GATE_CURRENT", "HOLD_CURRENT", "IDEAL_THYRISTOR", "JUNCTION_CURRENT",
+           "OFF_RESISTANCE", "gate_voltage", "read_thyristors"]
+
+#: :attr:`BuiltGroup.construct` of a two-transistor thyristor read as an ideal one
+IDEAL_THYRISTOR = "ideal thyristor"
+
+#: the NPN's collector current at which the gate junction is read as conducting, A: through
+#: the model's gate resistor (9.09 Ω in Littelfuse's) the loop's current lifts the base off
+#: the gate drive and the pair latches near it (EC103D1 with a 1 V gate ramp over 1 ms:
+#: ngspice fires at 0.51 V of gate, 0.532 V by this current)
+JUNCTION_CURRENT = 1e-3
+
+#: the gate current past which the thyristor fires, A: above the leakage the model's
+#: gigaohm resistors pass into the gate node (400 V over 5 GΩ, 80 nA)
+GATE_CURRENT = 1e-6
+
+#: the anode current (with the gate's) below which the fired thyristor turns off, A: zero
+#: but for rounding
+HOLD_CURRENT = 1e-9
+
+#: the resistance from anode to cathode, Ω: the path an inductive load keeps once the
+#: switch has opened (pelcs refuses a comparator's switch that leaves an inductor none), a
+#: blocking thyristor's leakage, 0.1 uA at 100 V. Far larger ones fall below the rank
+#: tolerance of the formulation beside milliohm resistors and are read as open (1e12 Ω
+#: beside 0.05 Ω)
+OFF_RESISTANCE = 1e9
+
+_K_OVER_Q = 8.617333262e-5  # V/K
+_KELVIN = 273.15
+
+
+def gate_voltage(model: Model | None, temp: float) -> float:
+    """The gate junction's voltage, V: the NPN's base-emitter voltage at which its collector
+    carries :data:`JUNCTION_CURRENT` at ``temp`` °C, ``NF Vt ln(1 + I / IS)`` (ngspice's IS
+    1e-16 A and NF 1 where the model gives none: 0.71 V at 27 °C)."""
+    params = model.params if model is not None else {}
+    i_s = params.get("is", 1e-16)
+    nf = params.get("nf", 1.0)
+    i_s = float(i_s) if isinstance(i_s, (int, float)) and i_s > 0 else 1e-16
+    nf = float(nf) if isinstance(nf, (int, float)) and nf > 0 else 1.0
+    vt = _K_OVER_Q * (temp + _KELVIN)
+    return nf * vt * math.log1p(JUNCTION_CURRENT / i_s)
+
+
+def _npn_model(circuit: Circuit, name: str) -> Model | None:
+    """The NPN model of that name (subcircuit models are keyed ``subckt:name``): the first
+    one whose IS and NF agree with every other of the name, else None (the default's)."""
+    found = [m for m in circuit.models.values()
+             if m.type == "NPN" and m.name.lower() == name.lower()]
+    keys = {(m.params.get("is"), m.params.get("nf")) for m in found}
+    return found[0] if len(keys) == 1 else None
+
+
+def _fits(circuit: Circuit, p: Switch, n: Switch, at: dict[str, list[Element]],
+          junction: list[Diode]) -> bool:
+    """Whether the pair ``p``, ``n`` is a thyristor :func:`read_thyristors` reads (the
+    module docstring's conditions)."""
+    anode, cathode = p.device[1][2], n.device[1][2]
+    base_n, base_p = n.device[1][1], p.device[1][1]
+    if len({anode, cathode, base_n, base_p}) < 4:
+        return False
+    pair = {p.key, n.key}
+    for el in at.get(base_p, []):
+        if el.key in pair:
+            continue
+        other = set(el.nodes[:2]) - {base_p}
+        if not isinstance(el, (Resistor, Diode)) or not other <= {anode, base_n}:
+            return False
+    skip = pair | {d.key for d in junction}
+    return any(el.key not in skip for el in at.get(base_n, []))
+
+
+def read_thyristors(circuit: Circuit) -> None:
+    """Replace each pair of :func:`netlist.base_drive.two_transistor_pairs` that fits by an
+    ideal thyristor (module docstring): its two switches, their knees and their
+    :class:`netlist.devices.Replacement` go, with the diodes across the gate junction; the
+    elements built in their place form a :class:`BuiltGroup` that ngspice is given the
+    transistors' and diodes' own lines for; a note and a replacement say what the pair
+    became. Pairs that do not fit are left (refused by
+    :func:`netlist.base_drive.thyristor_pairs`)."""
+    from .base_drive import two_transistor_pairs
+    from .devices import Replacement
+    from .value_scaling import circuit_temperatures
+    from .writer import spice_name
+
+    pairs = two_transistor_pairs(circuit)
+    if not pairs:
+        return
+    temp = circuit_temperatures(circuit.options, circuit.ignored)[0]
+    at: dict[str, list[Element]] = {}
+    for el in circuit.elements:
+        for node in dict.fromkeys(el.nodes):
+            at.setdefault(node, []).append(el)
+    names = {el.key for el in circuit.elements}
+    nodes = set(circuit.nodes)
+    count: dict[str, int] = {}
+    for pair in pairs:
+        for t in pair:
+            count[t.key] = count.get(t.key, 0) + 1
+    for p, n in pairs:
+        if count[p.key] > 1 or count[n.key] > 1:
+            continue  # a transistor in two pairs: no one thyristor
+        anode, cathode, base_n = p.device[1][2], n.device[1][2], n.device[1][1]
+        junction = [el for el in at.get(base_n, []) if isinstance(el, Diode)
+                    and el.nodes[:2] == (base_n, cathode)]
+        if not _fits(circuit, p, n, at, junction):
+            continue
+        npn = _npn_model(circuit, n.device[2])
+        vg = gate_voltage(npn, temp)
+        tag = p.name
+
+        def node(suffix: str, key: str = p.key) -> str:
+            return unique_name(f"{key}#{suffix}", nodes)
+
+        def name(suffix: str, tag: str = tag) -> str:
+            return unique_name(f"{tag}#{suffix}", names)
+
+        a1, a2, g1 = node("a"), node("k"), node("g")
+        ctl, mid = node("i"), node("ig")
+        sense_a, sense_g = name("ia"), name("vg")
+        sw = f"pelcs_thy_{p.key.replace('.', '_')}"
+        loc = p.location
+        # on above GATE_CURRENT, off below HOLD_CURRENT (SW: VT ± VH)
+        circuit.models[sw] = Model(sw, "SW", {"vt": (GATE_CURRENT + HOLD_CURRENT) / 2,
+                                              "vh": (GATE_CURRENT - HOLD_CURRENT) / 2}, loc)
+        built: list[Element] = [
+            VoltageSource(sense_a, (anode, a1), loc, 0.0),
+            Diode(name("d"), (a1, a2), loc, ideal=True),
+            Switch(name("on"), (a2, cathode), loc, (ctl, GROUND), sw),
+            Ccvs(name("hia"), (ctl, mid), loc, sense_a, 1.0),
+            VoltageSource(sense_g, (base_n, g1), loc, vg),
+            Diode(name("dg"), (g1, cathode), loc, ideal=True),
+            Ccvs(name("hig"), (mid, GROUND), loc, sense_g, 1.0),
+            Resistor(name("roff"), (anode, cathode), loc, OFF_RESISTANCE),
+        ]
+        lines = [f"{spice_name(t.name, 'Q')} {' '.join(t.device[1])} {t.device[2]}"
+                 for t in (p, n)]
+        # (a subcircuit's model by its own name, as the transistors' lines give theirs)
+        lines += [f"{spice_name(d.name, 'D')} {' '.join(d.nodes)} "
+                  f"{getattr(circuit.models.get(d.model.lower()), 'name', d.model)}"
+                  for d in junction]
+        circuit.add_built_group(BuiltGroup(tag, IDEAL_THYRISTOR, "\n".join(lines)), built)
+        gone = {p.key, n.key} | {d.key for d in junction}
+        out: list[Element] = []
+        for el in circuit.elements:
+            if el.key == p.key:
+                out.extend(built)
+            elif el.key not in gone:
+                out.append(el)
+        circuit.elements[:] = out
+        for t in (p, n):
+            circuit.models.pop(t.model.lower(), None)
+        circuit.knees[:] = [k for k in circuit.knees
+                            if str(getattr(k, "name", "")).lower() not in (p.key, n.key)]
+        diodes = ", ".join(d.name for d in junction)
+        absorbed = (f"; {diodes} across the gate junction read as part of it"
+                    if junction else "")
+        became = (f"ideal thyristor, anode {anode} -> cathode {cathode}, gate junction "
+                  f"v({base_n},{cathode}) = {vg:.3g} V ({n.device[2]}'s VBE at "
+                  f"{JUNCTION_CURRENT * 1e3:g} mA): fires when the gate carries more than "
+                  f"{GATE_CURRENT * 1e6:g} uA with the anode above the cathode, then conducts "
+                  f"as an ideal diode, latched until its current falls to zero{absorbed}")
+        olds = [r for r in circuit.replacements if r.element in (p.name, n.name)]
+        first = circuit.replacements.index(olds[0]) if olds else len(circuit.replacements)
+        circuit.replacements[:] = [r for r in circuit.replacements if r not in olds]
+        circuit.replacements.insert(first, Replacement(
+            f"{p.name}, {n.name}", f"{p.device[2]}/{n.device[2]}", "thyristor", became,
+            vg, f"{n.device[2]}'s IS", None,
+            ("on-state drop", "holding current", "breakover", "switching times"), loc))
+        circuit.notes.append(f"{p.name}, {n.name}: thyristor (two-transistor model) read as "
+                             f"an {became} (the base currents that fire and latch the pair "
+                             "are not drawn by transistors idealised as switches)")
