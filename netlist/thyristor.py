@@ -95,15 +95,6 @@ def gate_voltage(model: Model | None, temp: float) -> float:
     return nf * vt * math.log1p(JUNCTION_CURRENT / i_s)
 
 
-def _npn_model(circuit: Circuit, name: str) -> Model | None:
-    """The NPN model of that name (subcircuit models are keyed ``subckt:name``): the first
-    one whose IS and NF agree with every other of the name, else None (the default's)."""
-    found = [m for m in circuit.models.values()
-             if m.type == "NPN" and m.name.lower() == name.lower()]
-    keys = {(m.params.get("is"), m.params.get("nf")) for m in found}
-    return found[0] if len(keys) == 1 else None
-
-
 def _fits(circuit: Circuit, p: Switch, n: Switch, at: dict[str, list[Element]],
           junction: list[Diode]) -> bool:
     """Whether the pair ``p``, ``n`` is a thyristor :func:`read_thyristors` reads (the
@@ -134,7 +125,7 @@ def read_thyristors(circuit: Circuit) -> None:
     from .base_drive import two_transistor_pairs
     from .devices import Replacement
     from .value_scaling import circuit_temperatures
-    from .writer import spice_name
+    from .writer import model_name, spice_name
 
     pairs = two_transistor_pairs(circuit)
     if not pairs:
@@ -158,7 +149,11 @@ def read_thyristors(circuit: Circuit) -> None:
                     and el.nodes[:2] == (base_n, cathode)]
         if not _fits(circuit, p, n, at, junction):
             continue
-        npn = _npn_model(circuit, n.device[2])
+        # (a transistor names its model by its key: subckt:name inside a subcircuit)
+        npn = circuit.models.get(n.device[2].lower())
+        pm = circuit.models.get(p.device[2].lower())
+        npn_name, pnp_name = (m.name if m is not None else t.device[2]
+                              for m, t in ((npn, n), (pm, p)))
         vg = gate_voltage(npn, temp)
         tag = p.name
 
@@ -186,12 +181,10 @@ def read_thyristors(circuit: Circuit) -> None:
             Ccvs(name("hig"), (mid, GROUND), loc, sense_g, 1.0),
             Resistor(name("roff"), (anode, cathode), loc, OFF_RESISTANCE),
         ]
-        lines = [f"{spice_name(t.name, 'Q')} {' '.join(t.device[1])} {t.device[2]}"
-                 for t in (p, n)]
-        # (a subcircuit's model by its own name, as the transistors' lines give theirs)
+        lines = [f"{spice_name(t.name, 'Q')} {' '.join(t.device[1])} "
+                 f"{model_name(circuit, t.device[2])}" for t in (p, n)]
         lines += [f"{spice_name(d.name, 'D')} {' '.join(d.nodes)} "
-                  f"{getattr(circuit.models.get(d.model.lower()), 'name', d.model)}"
-                  for d in junction]
+                  f"{model_name(circuit, d.model)}" for d in junction]
         circuit.add_built_group(BuiltGroup(tag, IDEAL_THYRISTOR, "\n".join(lines)), built)
         gone = {p.key, n.key} | {d.key for d in junction}
         out: list[Element] = []
@@ -209,7 +202,7 @@ def read_thyristors(circuit: Circuit) -> None:
         absorbed = (f"; {diodes} across the gate junction read as part of it"
                     if junction else "")
         became = (f"ideal thyristor, anode {anode} -> cathode {cathode}, gate junction "
-                  f"v({base_n},{cathode}) = {vg:.3g} V ({n.device[2]}'s VBE at "
+                  f"v({base_n},{cathode}) = {vg:.3g} V ({npn_name}'s VBE at "
                   f"{JUNCTION_CURRENT * 1e3:g} mA): fires when the gate carries more than "
                   f"{GATE_CURRENT * 1e6:g} uA with the anode above the cathode, then conducts "
                   f"as an ideal diode, latched until its current falls to zero{absorbed}")
@@ -217,8 +210,8 @@ def read_thyristors(circuit: Circuit) -> None:
         first = circuit.replacements.index(olds[0]) if olds else len(circuit.replacements)
         circuit.replacements[:] = [r for r in circuit.replacements if r not in olds]
         circuit.replacements.insert(first, Replacement(
-            f"{p.name}, {n.name}", f"{p.device[2]}/{n.device[2]}", "thyristor", became,
-            vg, f"{n.device[2]}'s IS", None,
+            f"{p.name}, {n.name}", f"{pnp_name}/{npn_name}", "thyristor", became,
+            vg, f"{npn_name}'s IS", None,
             ("on-state drop", "holding current", "breakover", "switching times"), loc))
         circuit.notes.append(f"{p.name}, {n.name}: thyristor (two-transistor model) read as "
                              f"an {became} (the base currents that fire and latch the pair "

@@ -193,3 +193,20 @@ def test_the_rectifier_agrees_with_ngspice_transistors(ngspice, load):
     # the deck pelcs writes gives ngspice the same transistors
     written = write_circuit(parse(deck))
     assert _ngspice_mean(written, 20e-3, 60e-3) == pytest.approx(theirs, rel=1e-3)
+
+
+def test_two_subcircuits_models_of_one_name_stay_two_in_the_written_deck():
+    # Littelfuse's library defines a Pfor in each SCR's subcircuit, of BF 6.1 in one and
+    # 2.2 in another: the flattened deck keeps each, named by its subcircuit, where one
+    # '.model Pfor' per definition would give ngspice one of them for every instance
+    other = SUBCKT.format(extra="").replace(".subckt tscr ", ".subckt tscr2 ").replace(
+        "bf=25", "bf=40")
+    deck = rectifier(3.333e-3, R_LOAD).replace(".subckt tscr ", other + ".subckt tscr ")
+    deck = deck.replace("R1 out 0 100", "R1 out 0 100\nX2 src gate out2 tscr2\nR2 out2 0 100")
+    text = write_circuit(parse(deck))
+    assert "Q.X1.Qb x1.pb x1.nb x1.kk tscr_qb" in text
+    assert "Q.X2.Qb x2.pb x2.nb x2.kk tscr2_qb" in text
+    assert "D.X2.Dbe x2.nb x2.kk tscr2_dgk" in text
+    assert ".model tscr_qb NPN(bf=25 is=50f)" in text
+    assert ".model tscr2_qb NPN(bf=40 is=50f)" in text
+    assert "\n.model qb " not in text
