@@ -14,7 +14,8 @@ pelcs simulates exactly:
   off once both have fallen below :data:`HOLD_CURRENT` (latched while the anode current
   flows); :data:`OFF_RESISTANCE` from anode to cathode, outside the sensed path;
 - the gate junction, from the NPN's base to its emitter: a source of :func:`gate_voltage`
-  in series with an ideal diode, the source's current sensing the gate current. Diodes of
+  in series with an ideal diode (the NPN's base-emitter voltage at which the pair's loop
+  gain reaches one), the source's current sensing the gate current. Diodes of
   the subcircuit across that junction (the model's ``Dgate``, whose IS is far below the
   NPN's) are part of it: ideal, they would hold the base at the emitter and the gate
   would fire at 0 V, half a millisecond early on a gate pulse rising over 1 ms.
@@ -57,10 +58,8 @@ __all__ = ["GATE_CURRENT", "HOLD_CURRENT", "IDEAL_THYRISTOR", "JUNCTION_CURRENT"
 #: :attr:`BuiltGroup.construct` of a two-transistor thyristor read as an ideal one
 IDEAL_THYRISTOR = "ideal thyristor"
 
-#: the NPN's collector current at which the gate junction is read as conducting, A: through
-#: the model's gate resistor (9.09 Ω in Littelfuse's) the loop's current lifts the base off
-#: the gate drive and the pair latches near it (EC103D1 with a 1 V gate ramp over 1 ms:
-#: ngspice fires at 0.51 V of gate, 0.532 V by this current)
+#: the NPN's collector current at which the gate junction is read as conducting where its
+#: base joins no resistor (no loop gain to solve for, :func:`gate_voltage`), A
 JUNCTION_CURRENT = 1e-3
 
 #: the gate current past which the thyristor fires, A: above the leakage the model's
@@ -82,16 +81,40 @@ _K_OVER_Q = 8.617333262e-5  # V/K
 _KELVIN = 273.15
 
 
-def gate_voltage(model: Model | None, temp: float) -> float:
-    """The gate junction's voltage, V: the NPN's base-emitter voltage at which its collector
-    carries :data:`JUNCTION_CURRENT` at ``temp`` °C, ``NF Vt ln(1 + I / IS)`` (ngspice's IS
-    1e-16 A and NF 1 where the model gives none: 0.71 V at 27 °C)."""
-    params = model.params if model is not None else {}
-    i_s = params.get("is", 1e-16)
-    nf = params.get("nf", 1.0)
-    i_s = float(i_s) if isinstance(i_s, (int, float)) and i_s > 0 else 1e-16
-    nf = float(nf) if isinstance(nf, (int, float)) and nf > 0 else 1.0
+def _param(model: Model | None, name: str, default: float) -> float:
+    value = (model.params if model is not None else {}).get(name, default)
+    return float(value) if isinstance(value, (int, float)) and value >= 0 else default
+
+
+def gate_voltage(npn: Model | None, pnp: Model | None, conductance: float,
+                 temp: float) -> float:
+    """The gate junction's voltage, V: the NPN's base-emitter voltage at which the pair's
+    loop gain reaches one, the PNP's collector current (``BF_p`` times the NPN's) rising
+    faster with it than the base node lets go through its resistors (``conductance``, S,
+    their far ends held) and the NPN's base: ``BF_p gm = G + gπ`` with ``gm = Ic/(NF Vt)``,
+    ``Ic = IS exp(V/(NF Vt))`` and ``gπ = Ic/(BF NF Vt) + ISE exp(V/(NE Vt))/(NE Vt)`` at
+    ``temp`` °C (ngspice's defaults: IS 1e-16 A, BF 100, ISE 0, NF 1, NE 1.5). Past it a
+    gate held through those resistors fires: Littelfuse's EC103D1 (9.09 Ω gate resistor, BF
+    6.1 and 10, ISE 1e-9 A) 0.517 V, where ngspice fires at 0.510 V of a 1 V gate ramp. With
+    no resistor, or no solution below 1.5 V, the voltage of :data:`JUNCTION_CURRENT`."""
+    i_s = _param(npn, "is", 1e-16) or 1e-16
+    nf = _param(npn, "nf", 1.0) or 1.0
+    bf = _param(npn, "bf", 100.0) or 100.0
+    ise, ne = _param(npn, "ise", 0.0), _param(npn, "ne", 1.5) or 1.5
+    bf_p = _param(pnp, "bf", 100.0)
     vt = _K_OVER_Q * (temp + _KELVIN)
+
+    def excess(v: float) -> float:
+        ic = i_s * math.exp(v / (nf * vt))
+        return (bf_p - 1.0 / bf) * ic / (nf * vt) - conductance \
+            - ise * math.exp(v / (ne * vt)) / (ne * vt)
+
+    lo, hi = 0.0, 1.5
+    if conductance > 0 and excess(hi) > 0:
+        for _ in range(60):
+            mid = (lo + hi) / 2
+            lo, hi = (lo, mid) if excess(mid) > 0 else (mid, hi)
+        return hi
     return nf * vt * math.log1p(JUNCTION_CURRENT / i_s)
 
 
@@ -154,7 +177,10 @@ def read_thyristors(circuit: Circuit) -> None:
         pm = circuit.models.get(p.device[2].lower())
         npn_name, pnp_name = (m.name if m is not None else t.device[2]
                               for m, t in ((npn, n), (pm, p)))
-        vg = gate_voltage(npn, temp)
+        conductance = sum(1.0 / el.value for el in at.get(base_n, [])
+                          if isinstance(el, Resistor) and el.value > 0
+                          and len(set(el.nodes[:2])) == 2)
+        vg = gate_voltage(npn, pm, conductance, temp)
         tag = p.name
 
         def node(suffix: str, key: str = p.key) -> str:
@@ -202,8 +228,8 @@ def read_thyristors(circuit: Circuit) -> None:
         absorbed = (f"; {diodes} across the gate junction read as part of it"
                     if junction else "")
         became = (f"ideal thyristor, anode {anode} -> cathode {cathode}, gate junction "
-                  f"v({base_n},{cathode}) = {vg:.3g} V ({npn_name}'s VBE at "
-                  f"{JUNCTION_CURRENT * 1e3:g} mA): fires when the gate carries more than "
+                  f"v({base_n},{cathode}) = {vg:.3g} V (where the loop gain of {pnp_name} and "
+                  f"{npn_name} reaches one): fires when the gate carries more than "
                   f"{GATE_CURRENT * 1e6:g} uA with the anode above the cathode, then conducts "
                   f"as an ideal diode, latched until its current falls to zero{absorbed}")
         olds = [r for r in circuit.replacements if r.element in (p.name, n.name)]
