@@ -23,13 +23,14 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .circuit import GROUND, Capacitor, Circuit, Inductor, Resistor, Switch, VoltageSource
+from .circuit import GROUND, Capacitor, Circuit, Inductor, Resistor, VoltageSource
 from .errors import Diagnostic, Location
 from .knee import NodeVoltages, voltage_nodes
+from .thyristor import read_thyristors, two_transistor_pairs
 from .units import format_eng
 
 __all__ = ["VBE_HIGH", "VBE_LOW", "BaseClamp", "BaseDrive", "resolve_base_drives",
-           "thyristor_pairs", "two_transistor_pairs"]
+           "thyristor_pairs"]
 
 #: the least base–emitter voltage of a conducting silicon BJT the bound assumes, V (ngspice's
 #: default IS = 1e-16 A: 0.54 V at 1 µA): lower than the device's, so the bound is over
@@ -221,27 +222,9 @@ def _speed_up(base: str, emitter: str, els: list, at: dict[str, list]) -> bool:
                for e in at.get(node, []))
 
 
-def two_transistor_pairs(circuit: Circuit) -> list[tuple[Switch, Switch]]:
-    """Each PNP and NPN idealised as switches that drive each other's base (the PNP's
-    collector the NPN's base, the NPN's collector the PNP's base), ``(pnp, npn)``: the
-    two-transistor model of a thyristor (Littelfuse's SCR models, for one)."""
-    bjts: dict[str, list] = {"NPN": [], "PNP": []}
-    types = {r.element: r.device for r in circuit.replacements}
-    for el in circuit.elements:
-        if isinstance(el, Switch) and el.device and types.get(el.name) in bjts:
-            bjts[types[el.name]].append(el)
-    out = []
-    for p in bjts["PNP"]:
-        cp, bp = p.device[1][0], p.device[1][1]
-        for n in bjts["NPN"]:
-            cn, bn = n.device[1][0], n.device[1][1]
-            if bp == cn and bn == cp:
-                out.append((p, n))
-    return out
-
-
 def thyristor_pairs(circuit: Circuit) -> list[Diagnostic]:
-    """A refusal for each pair of :func:`two_transistor_pairs` left in ``circuit``: one
+    """A refusal for each pair of :func:`netlist.thyristor.two_transistor_pairs` left in
+    ``circuit``: one
     that :mod:`netlist.thyristor` does not read as an ideal thyristor. The loop fires and
     latches through the base currents, which the transistors idealised as switches do not
     draw: run so, the SCR never fires (PySpice power-electronics examples: 0 V where ngspice
@@ -271,8 +254,6 @@ def resolve_base_drives(circuit: Circuit) -> list[Diagnostic]:
     or drop it where the base node joins anything else (a source, a capacitor, a diode,
     another device's terminal: the base current is not bounded by resistors alone) or
     nothing at all; the refusals of :func:`thyristor_pairs` for the pairs left."""
-    from .thyristor import read_thyristors
-
     read_thyristors(circuit)
     diags = thyristor_pairs(circuit)
     drives = [k for k in circuit.knees if isinstance(k, BaseDrive) and k.resistors is None]

@@ -4,7 +4,7 @@ Vendors' SCR models are a PNP and an NPN that drive each other's base (Littelfus
 EC103xx: ``Qpnp 6 4 1``, ``Qnpn 4 6 5``, a gate resistor from the gate to node 6, a diode
 from 6 to the NPN's emitter, breakover diodes and resistors of gigaohms). The loop fires and
 latches through the base currents, which transistors idealised as switches do not draw
-(:func:`netlist.base_drive.thyristor_pairs`). Such a pair is read here as an ideal
+(:func:`netlist.base_drive.thyristor_pairs` refuses them). Such a pair is read here as an ideal
 thyristor from the PNP's emitter (anode) to the NPN's emitter (cathode), built from elements
 pelcs simulates exactly:
 
@@ -37,6 +37,7 @@ the junction's diodes (a gate). Other pairs keep their refusal.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 from .circuit import (
     GROUND,
@@ -53,7 +54,7 @@ from .circuit import (
 )
 
 __all__ = ["GATE_CURRENT", "HOLD_CURRENT", "IDEAL_THYRISTOR", "JUNCTION_CURRENT",
-           "OFF_RESISTANCE", "gate_voltage", "read_thyristors"]
+           "OFF_RESISTANCE", "gate_voltage", "read_thyristors", "two_transistor_pairs"]
 
 #: :attr:`BuiltGroup.construct` of a two-transistor thyristor read as an ideal one
 IDEAL_THYRISTOR = "ideal thyristor"
@@ -118,6 +119,25 @@ def gate_voltage(npn: Model | None, pnp: Model | None, conductance: float,
     return nf * vt * math.log1p(JUNCTION_CURRENT / i_s)
 
 
+def two_transistor_pairs(circuit: Circuit) -> list[tuple[Switch, Switch]]:
+    """Each PNP and NPN idealised as switches that drive each other's base (the PNP's
+    collector the NPN's base, the NPN's collector the PNP's base), ``(pnp, npn)``: the
+    two-transistor model of a thyristor (Littelfuse's SCR models, for one)."""
+    bjts: dict[str, list] = {"NPN": [], "PNP": []}
+    types = {r.element: r.device for r in circuit.replacements}
+    for el in circuit.elements:
+        if isinstance(el, Switch) and el.device and types.get(el.name) in bjts:
+            bjts[types[el.name]].append(el)
+    out = []
+    for p in bjts["PNP"]:
+        cp, bp = p.device[1][0], p.device[1][1]
+        for n in bjts["NPN"]:
+            cn, bn = n.device[1][0], n.device[1][1]
+            if bp == cn and bn == cp:
+                out.append((p, n))
+    return out
+
+
 def _fits(circuit: Circuit, p: Switch, n: Switch, at: dict[str, list[Element]],
           junction: list[Diode]) -> bool:
     """Whether the pair ``p``, ``n`` is a thyristor :func:`read_thyristors` reads (the
@@ -145,8 +165,6 @@ def read_thyristors(circuit: Circuit) -> None:
     transistors' and diodes' own lines for; a note and a replacement say what the pair
     became. Pairs that do not fit are left (refused by
     :func:`netlist.base_drive.thyristor_pairs`)."""
-    from .base_drive import two_transistor_pairs
-    from .devices import Replacement
     from .value_scaling import circuit_temperatures
     from .writer import model_name, spice_name
 
@@ -233,12 +251,15 @@ def read_thyristors(circuit: Circuit) -> None:
                   f"{GATE_CURRENT * 1e6:g} uA with the anode above the cathode, then conducts "
                   f"as an ideal diode, latched until its current falls to zero{absorbed}")
         olds = [r for r in circuit.replacements if r.element in (p.name, n.name)]
-        first = circuit.replacements.index(olds[0]) if olds else len(circuit.replacements)
+        first = circuit.replacements.index(olds[0])  # (the pairs are found by them)
         circuit.replacements[:] = [r for r in circuit.replacements if r not in olds]
-        circuit.replacements.insert(first, Replacement(
-            f"{p.name}, {n.name}", f"{pnp_name}/{npn_name}", "thyristor", became,
-            vg, f"{npn_name}'s IS", None,
-            ("on-state drop", "holding current", "breakover", "switching times"), loc))
+        # (a netlist.devices.Replacement, of the PNP's: devices imports base_drive, which
+        # imports this module)
+        circuit.replacements.insert(first, replace(
+            olds[0], element=f"{p.name}, {n.name}", model=f"{pnp_name}/{npn_name}",
+            device="thyristor", became=became, threshold=vg,
+            source="the pair's loop gain", body_diode=None,
+            dropped=("on-state drop", "holding current", "breakover", "switching times")))
         circuit.notes.append(f"{p.name}, {n.name}: thyristor (two-transistor model) read as "
                              f"an {became} (the base currents that fire and latch the pair "
                              "are not drawn by transistors idealised as switches)")
