@@ -138,8 +138,7 @@ def two_transistor_pairs(circuit: Circuit) -> list[tuple[Switch, Switch]]:
     return out
 
 
-def _fits(circuit: Circuit, p: Switch, n: Switch, at: dict[str, list[Element]],
-          junction: list[Diode]) -> bool:
+def _fits(p: Switch, n: Switch, at: dict[str, list[Element]], junction: list[Diode]) -> bool:
     """Whether the pair ``p``, ``n`` is a thyristor :func:`read_thyristors` reads (the
     module docstring's conditions)."""
     anode, cathode = p.device[1][2], n.device[1][2]
@@ -158,7 +157,7 @@ def _fits(circuit: Circuit, p: Switch, n: Switch, at: dict[str, list[Element]],
 
 
 def read_thyristors(circuit: Circuit) -> None:
-    """Replace each pair of :func:`netlist.base_drive.two_transistor_pairs` that fits by an
+    """Replace each pair of :func:`two_transistor_pairs` that fits by an
     ideal thyristor (module docstring): its two switches, their knees and their
     :class:`netlist.devices.Replacement` go, with the diodes across the gate junction; the
     elements built in their place form a :class:`BuiltGroup` that ngspice is given the
@@ -188,7 +187,7 @@ def read_thyristors(circuit: Circuit) -> None:
         anode, cathode, base_n = p.device[1][2], n.device[1][2], n.device[1][1]
         junction = [el for el in at.get(base_n, []) if isinstance(el, Diode)
                     and el.nodes[:2] == (base_n, cathode)]
-        if not _fits(circuit, p, n, at, junction):
+        if not _fits(p, n, at, junction):
             continue
         # (a transistor names its model by its key: subckt:name inside a subcircuit)
         npn = circuit.models.get(n.device[2].lower())
