@@ -23,9 +23,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .circuit import GROUND, Capacitor, Circuit, Inductor, Resistor, Switch, VoltageSource
+from .circuit import GROUND, Capacitor, Circuit, Inductor, Resistor, VoltageSource
 from .errors import Diagnostic, Location
 from .knee import NodeVoltages, voltage_nodes
+from .thyristor import read_thyristors, two_transistor_pairs
 from .units import format_eng
 
 __all__ = ["VBE_HIGH", "VBE_LOW", "BaseClamp", "BaseDrive", "resolve_base_drives",
@@ -222,54 +223,38 @@ def _speed_up(base: str, emitter: str, els: list, at: dict[str, list]) -> bool:
 
 
 def thyristor_pairs(circuit: Circuit) -> list[Diagnostic]:
-    """A refusal for each PNP and NPN that drive each other's base (the PNP's collector the
-    NPN's base, the NPN's collector the PNP's base): the two-transistor model of a thyristor
-    (Littelfuse's SCR models, for one). The loop fires and latches through the base
-    currents, which the transistors idealised as switches do not draw: run so, the SCR
-    never fires (PySpice power-electronics examples: 0 V where ngspice gives 28.9 V)."""
-    bjts: dict[str, list] = {"NPN": [], "PNP": []}
-    types = {r.element: r.device for r in circuit.replacements}
-    for el in circuit.elements:
-        if isinstance(el, Switch) and el.device and types.get(el.name) in bjts:
-            bjts[types[el.name]].append(el)
-    # (nodes voltage sources hold to ground, ground among them: a base held so draws its
-    # current from the source, not from the other transistor, and there is no loop; a
-    # common-base NPN driving a PNP follower whose collector is grounded is one such pair)
-    held = {GROUND}
-    grew = True
-    while grew:
-        grew = False
-        for el in circuit.elements:
-            if isinstance(el, VoltageSource) and len(set(el.nodes) & held) == 1:
-                held |= set(el.nodes)
-                grew = True
+    """A refusal for each pair of :func:`netlist.thyristor.two_transistor_pairs` left in
+    ``circuit``: one
+    that :mod:`netlist.thyristor` does not read as an ideal thyristor. The loop fires and
+    latches through the base currents, which the transistors idealised as switches do not
+    draw: run so, the SCR never fires (PySpice power-electronics examples: 0 V where ngspice
+    gives 28.9 V)."""
     out = []
-    for p in bjts["PNP"]:
-        cp, bp = p.device[1][0], p.device[1][1]
-        for n in bjts["NPN"]:
-            cn, bn = n.device[1][0], n.device[1][1]
-            if bp == cn and bn == cp and not {bp, bn} & held:
-                out.append(Diagnostic(
-                    message=f"{p.name} and {n.name} form a thyristor (each drives the "
-                            "other's base: the two-transistor model of an SCR), which "
-                            "transistors idealised as switches cannot fire or latch: they "
-                            "draw no base current, and the loop that turns a thyristor on "
-                            "and holds it is made of those currents",
-                    location=p.location,
-                    hint="write the thyristor as switches pelcs reads: an ideal diode in "
-                         "series with an S switch its gate drive turns on (the same "
-                         "thyristor where the gate pulse lasts until the current has fallen "
-                         "to zero), or an XSPICE aswitch latched through F sources and a "
-                         "capacitor, as eSim's SCR is",
-                    elements=(p.name, n.name)))
+    for p, n in two_transistor_pairs(circuit):
+        out.append(Diagnostic(
+            message=f"{p.name} and {n.name} form a thyristor (each drives the "
+                    "other's base: the two-transistor model of an SCR), which "
+                    "transistors idealised as switches cannot fire or latch: they "
+                    "draw no base current, and the loop that turns a thyristor on "
+                    "and holds it is made of those currents",
+            location=p.location,
+            hint="write the thyristor as switches pelcs reads: an ideal diode in "
+                 "series with an S switch its gate drive turns on (the same "
+                 "thyristor where the gate pulse lasts until the current has fallen "
+                 "to zero), or an XSPICE aswitch latched through F sources and a "
+                 "capacitor, as eSim's SCR is",
+            elements=(p.name, n.name)))
     return out
 
 
 def resolve_base_drives(circuit: Circuit) -> list[Diagnostic]:
-    """Give each :class:`BaseDrive` of ``circuit.knees`` the resistors that reach its base,
+    """Read each two-transistor thyristor that fits as an ideal one
+    (:func:`netlist.thyristor.read_thyristors`);
+    give each :class:`BaseDrive` of ``circuit.knees`` the resistors that reach its base,
     or drop it where the base node joins anything else (a source, a capacitor, a diode,
     another device's terminal: the base current is not bounded by resistors alone) or
-    nothing at all; the refusals of :func:`thyristor_pairs`."""
+    nothing at all; the refusals of :func:`thyristor_pairs` for the pairs left."""
+    read_thyristors(circuit)
     diags = thyristor_pairs(circuit)
     drives = [k for k in circuit.knees if isinstance(k, BaseDrive) and k.resistors is None]
     if not drives:

@@ -81,6 +81,9 @@ class Replacement:
         if self.device == "diode macro-model":
             return (f"{self.element} (diode macro-model {self.model}) -> {self.became}; "
                     f"dropped: {', '.join(self.dropped) or 'nothing'}")
+        if self.device == "thyristor":  # a two-transistor model (netlist.thyristor)
+            return (f"{self.element} (thyristor, two-transistor model {self.model}) -> "
+                    f"{self.became}; dropped: {', '.join(self.dropped)}")
         body = f", body diode {self.body_diode}" if self.body_diode else ", no body diode"
         return (f"{self.element} ({self.device} {self.model}) -> {self.became}, threshold "
                 f"{self.threshold:g} V ({self.source}){body}; dropped: "

@@ -518,7 +518,7 @@ class _Builder:
         sw_model = f"pelcs_sw_{name.lower().replace('.', '_')}"
         self.circuit.models[sw_model] = Model(sw_model, "SW", {**SW_DEFAULTS, "vt": thr}, loc)
         out: list = [Switch(name, (a, b), loc, control, sw_model, None,
-                            device=(el.kind, nodes, model.name),
+                            device=(el.kind, nodes, el.ref if ":" in el.ref else model.name),
                             gate_rc=gate_rc(el, model, 0.0, scope=scope),
                             cgd_law=gate_law(el, model, g, a, scope))]
         self.circuit.knees += channel_checks(name, el, model, control, a, thr, loc, False,

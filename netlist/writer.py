@@ -40,6 +40,7 @@ from .circuit import (
     Element,
     Switch,
     VoltageSource,
+    unique_name,
 )
 from .units import format_number
 
@@ -110,6 +111,36 @@ def _waveform(sig: Signal, circuit: Circuit) -> str:
     return f"{keyword}({' '.join(out)})"
 
 
+def model_names(circuit: Circuit) -> dict[str, str]:
+    """The name each model of ``circuit`` (by its key) is written under. A model of a
+    subcircuit is keyed ``subckt:name``, and elements inside the subcircuit name it by that
+    key: it is written under its own name where that name means it at the top level too
+    (the only model of the name), else under the key with ``_`` for ``:``, so that two
+    subcircuits' models of one name (Littelfuse's SCR library: a ``Pfor`` of BF 6.1 and one
+    of 2.2) stay two models in the flattened deck."""
+    out: dict[str, str] = {}
+    used = {k for k in circuit.models if ":" not in k}
+    for key, model in circuit.models.items():
+        if ":" not in key:
+            out[key] = model.name
+        elif circuit.models.get(model.name.lower()) is model:
+            out[key] = model.name
+        else:
+            out[key] = unique_name(key.replace(":", "_"), used)
+    return out
+
+
+def model_name(circuit: Circuit, ref: str) -> str:
+    """The name a model that an element refers to by ``ref`` (its key, or its name) is
+    written under (:func:`model_names`)."""
+    model = circuit.models.get(ref.lower())
+    if model is None:
+        return ref
+    if ":" not in ref:
+        return model.name
+    return model_names(circuit)[ref.lower()]
+
+
 def element_line(el: Element, circuit: Circuit) -> str:
     """The netlist line of one element of ``circuit`` (the names it refers to, such as a K
     line's inductors, spelled as ``circuit`` has them)."""
@@ -139,11 +170,12 @@ def _element(el: Element, circuit: Circuit, kinds: dict[str, str]) -> str:
         _, all_nodes, sub = el.device[:3]
         return f"{spice_name(el.name, 'X')} {' '.join(all_nodes)} {sub}"
     if isinstance(el, Diode):
-        return f"{name} {nodes} {el.model}"
+        return f"{name} {nodes} {model_name(circuit, el.model)}"
     if isinstance(el, Switch) and el.device is not None:
         # an idealised transistor: ngspice simulates the device itself, with its model
         letter, all_nodes, model = el.device[:3]
-        return f"{spice_name(el.name, letter)} {' '.join(all_nodes)} {model}"
+        return f"{spice_name(el.name, letter)} {' '.join(all_nodes)} " \
+            f"{model_name(circuit, model)}"
 
     if isinstance(el, Switch):
         state = {True: " ON", False: " OFF", None: ""}[el.initial]
@@ -195,6 +227,7 @@ def write_circuit(circuit: Circuit) -> str:
     devices = {el.model.lower() for el in circuit.elements
                if isinstance(el, Switch) and (el.device is not None or el.built_for
                                               or el.key in replaced)}
+    written, written_models = model_names(circuit), set()
     for key, model in circuit.models.items():
         if key in devices:
             # the switch stand-in of a transistor's threshold, a built group's switch (the
@@ -202,8 +235,12 @@ def write_circuit(circuit: Circuit) -> str:
             # comparison: pelcs-only
             continue
 
+        name = written.get(key, model.name)
+        if name.lower() in written_models:
+            continue  # (a subcircuit's model under its own name, also keyed by it)
+        written_models.add(name.lower())
         params = " ".join(f"{k}={_num(v)}" for k, v in model.params.items())
-        lines.append(f".model {model.name} {model.type}({params})")
+        lines.append(f".model {name} {model.type}({params})")
     for text in circuit.subckt_texts.values():
         lines.extend(text.split("\n"))
     if circuit.initial_conditions:
