@@ -472,8 +472,9 @@ class _Lineariser:
                 raise BehaviouralError(
                     f"'{name}' in a B expression makes a time-varying source", t.start,
                     "a known waveform is an independent V or I source with PULSE, SIN, PWL or "
-                    "EXP; a B source of time alone that steps between constants (V = time > "
-                    "1m ? 5 : 0) is read as the PWL source it is; " + ACCEPTED)
+                    "EXP; a B source of time alone (V = time > 1m ? 5 : 0, a sawtooth "
+                    "time/T - floor(time/T), 5*sin(2*pi*50*time)) is read as the source of "
+                    "its waveform, but not one that also reads v() or i(); " + ACCEPTED)
             raise BehaviouralError(f"unknown parameter '{name}'", t.start,
                                    "define it with .param NAME=VALUE, or write v(node) for a "
                                    "node voltage")
