@@ -383,3 +383,18 @@ def test_a_step_beside_a_fast_sine_is_sampled_as_its_own_argument():
     # is found at once (sampled at the sine's rate it was refused as too fast)
     w = _wave("sin(2*pi*1meg*time) + u(time-1m)")
     np.testing.assert_allclose(w.breakpoints(0.0, 10.0), [1e-3], rtol=1e-15)
+
+
+def test_a_source_out_of_its_domain_is_named_where_the_run_stops():
+    # sqrt(500u - time) is NaN past 500 us (ngspice: 'out of range for sqrt'): the run keeps
+    # its points up to there, and the error names the source, not an unstable mode
+    from lcs.results import SimulationError
+    from pelcs.api import simulate
+
+    with pytest.raises(SimulationError) as info:
+        simulate("t\nB1 g 0 V=sqrt(500u - time)\nR1 g out 1k\nC1 out 0 100n\n"
+                 ".tran 1u 1m\n.end\n", probes=["v(out)"])
+    res = info.value.result
+    assert res.error.kind == "non_finite"
+    assert "the input B1 is not a finite number there" in str(res.error)
+    assert res.t[-1] == pytest.approx(500e-6) and np.isfinite(res.y).all()

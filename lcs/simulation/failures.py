@@ -3,6 +3,8 @@ the switch mode and the diodes or the switch involved, whichever integrator met 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from ..model import LCS
 from ..results import SimulationError
 from .problem import fmt_mode, pair_names
@@ -55,12 +57,16 @@ def theta_cause(theta: float, h: float, longest: float) -> str:
     )
 
 
-def non_finite(t0: float, t1: float, desc: dict[str, str]) -> SimulationError:
-    """The state overflowed."""
-    msg = (
-        f"{_where(t0, t1, desc)}: the state became NaN or infinite (overflow: an unstable "
-        "mode, or non-finite inputs)."
-    )
+def non_finite(t0: float, t1: float, desc: dict[str, str],
+               inputs: Sequence[str] = ()) -> SimulationError:
+    """The state overflowed; ``inputs``: those that are not finite numbers at the step's
+    ends (a B source's sqrt(500u - time) past 500 us)."""
+    if inputs:
+        msg = (f"{_where(t0, t1, desc)}: the input {', '.join(inputs)} is not a finite number "
+               "there (a function of time out of its domain, as ngspice's 'out of range')")
+    else:
+        msg = (f"{_where(t0, t1, desc)}: the state became NaN or infinite (overflow: an "
+               "unstable mode, or non-finite inputs).")
     return SimulationError(msg, kind="non_finite", time=t1, t_prev=t0, mode=desc)
 
 

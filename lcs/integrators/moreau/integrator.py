@@ -573,7 +573,13 @@ class MoreauIntegrator(Integrator):
             return failures.non_unique(t0, t1, desc, lcs, from_words(self.state.fail),
                                        self._theta_cause(lcs, t1 - t0))
         if status == STEP_NONFINITE:
-            return failures.non_finite(t0, t1, desc)
+            # (an input that is not a number there: named, rather than blamed on the mode)
+            names = problem.system.inputs
+            with np.errstate(all="ignore"):
+                u = np.vstack([self.run.table(np.array([t]), side)[0]
+                               for t, side in ((t0, 1), (t1, -1))])
+            bad = [names[j] for j in np.flatnonzero(~np.isfinite(u).all(axis=0))]
+            return failures.non_finite(t0, t1, desc, bad)
         i = int(ivars[IV_FAILSW])
         name = plan.names[i] if 0 <= i < len(plan.names) else "?"
         if status == STEP_CHATTER:
