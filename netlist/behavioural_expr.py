@@ -30,7 +30,7 @@ from .expressions import CONSTANTS, FUNCTIONS
 from .units import parse_number
 
 __all__ = ["ACCEPTED", "Affine", "BehaviouralError", "Clamp", "Select", "Step", "Tree",
-           "circuit_quantity", "linearise", "parse_behavioural"]
+           "circuit_quantity", "linearise", "parse_behavioural", "spice_text"]
 
 #: the forms pelcs reads, for the hints of every refusal
 ACCEPTED = ("pelcs reads B sources whose expression is linear in v() and i() (constants and "
@@ -282,6 +282,25 @@ def parse_behavioural(text: str) -> Tree:
 
 
 _TOO_DEEP = "expression is nested too deeply"
+
+
+def spice_text(t: Tree, leaf: Callable[[Tree], str]) -> str:
+    """A parsed B expression written back for a B line, fully parenthesised; ``leaf`` writes
+    its numbers, names, ``v()`` and ``i()`` (the parameters' values, the flattened nodes)."""
+    tag, args = t.tag, t.args
+    if tag == "call":
+        return f"{args[0]}({', '.join(spice_text(a, leaf) for a in args[1:])})"
+    if tag == "neg":
+        return f"(-{spice_text(args[0], leaf)})"
+    if tag == "not":
+        return f"(!{spice_text(args[0], leaf)})"
+    if tag == "?":
+        c, a, b = (spice_text(x, leaf) for x in args)
+        return f"({c} ? {a} : {b})"
+    if tag in ("num", "var", "v", "i"):
+        return leaf(t)
+    a, b = (spice_text(x, leaf) for x in args)
+    return f"({a} {tag} {b})"
 
 
 def circuit_quantity(tree: Tree) -> str | None:

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .behavioural_expr import Affine, BehaviouralError, Step, Tree, linearise
+from .behavioural_expr import Affine, BehaviouralError, Step, Tree, linearise, spice_text
 from .circuit import BuiltGroup, Circuit, Element
 from .dialect import node_name
 from .errors import Diagnostic, Location
@@ -151,22 +151,18 @@ def _spice(t: Tree, env: Mapping[str, float], mapnode: Callable[[str], str],
            source: Callable[[str], str]) -> str:
     """The expression with the parameters' values written in, and the nodes and sources of
     the flattened circuit (the B line ngspice is given)."""
-    tag, args = t.tag, t.args
-    if tag == "num":
-        return repr(float(args[0]))
-    if tag == "var":
-        return repr(float(CONSTANTS[args[0]] if args[0] in CONSTANTS else env[args[0]]))
-    if tag == "v":
-        nodes = [mapnode(node_name(n)) for n in args if n is not None]
-        return f"v({','.join(nodes)})"
-    if tag == "i":
+
+    def leaf(x: Tree) -> str:
+        tag, args = x.tag, x.args
+        if tag == "num":
+            return repr(float(args[0]))
+        if tag == "var":
+            return repr(float(CONSTANTS[args[0]] if args[0] in CONSTANTS else env[args[0]]))
+        if tag == "v":
+            return f"v({','.join(mapnode(node_name(n)) for n in args if n is not None)})"
         return f"i({spice_name(source(args[0]))})"
-    if tag == "call":
-        return f"{args[0]}({', '.join(_spice(a, env, mapnode, source) for a in args[1:])})"
-    if tag == "neg":
-        return f"(-{_spice(args[0], env, mapnode, source)})"
-    a, b = (_spice(x, env, mapnode, source) for x in args)
-    return f"({a} {tag} {b})"
+
+    return spice_text(t, leaf)
 
 
 def sigmoid_step(tree: Tree, text: str, env: Mapping[str, float],

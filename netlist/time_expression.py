@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .behavioural_expr import BehaviouralError, Tree
+from .behavioural_expr import BehaviouralError, Tree, spice_text
 from .errors import Diagnostic, Location, NetlistError
 from .expressions import CONSTANTS
 from .units import format_number
@@ -419,21 +419,14 @@ def _jumps(t: Tree) -> bool:
 
 def _spice(t: Tree, env: Mapping[str, float]) -> str:
     """The expression with the parameters' values written in (the writer's B line)."""
-    tag, args = t.tag, t.args
-    if tag == "num":
-        return format_number(args[0])
-    if tag == "var":
-        return args[0] if args[0] == "time" or args[0] in CONSTANTS else format_number(
-            env[args[0]])
-    if tag == "call":
-        return f"{args[0]}({', '.join(_spice(a, env) for a in args[1:])})"
-    if tag == "neg":
-        return f"(-{_spice(args[0], env)})"
-    if tag == "not":
-        return f"(!{_spice(args[0], env)})"
-    if tag == "?":
-        return f"({_spice(args[0], env)} ? {_spice(args[1], env)} : {_spice(args[2], env)})"
-    return f"({_spice(args[0], env)} {tag} {_spice(args[1], env)})"
+
+    def leaf(x: Tree) -> str:
+        if x.tag == "num":
+            return format_number(x.args[0])
+        name = x.args[0]
+        return name if name == "time" or name in CONSTANTS else format_number(env[name])
+
+    return spice_text(t, leaf)
 
 
 def _frequency(t: Tree, env: Mapping[str, float]) -> float | None:
