@@ -23,10 +23,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .circuit import GROUND, Capacitor, Circuit, Inductor, Resistor, VoltageSource
+from .circuit import GROUND, Capacitor, Circuit, Inductor, Resistor, Switch, VoltageSource
 from .errors import Diagnostic, Location
 from .knee import NodeVoltages, voltage_nodes
-from .thyristor import read_thyristors, two_transistor_pairs
+from .thyristor import read_thyristors
 from .units import format_eng
 
 __all__ = ["VBE_HIGH", "VBE_LOW", "BaseClamp", "BaseDrive", "resolve_base_drives",
@@ -222,15 +222,15 @@ def _speed_up(base: str, emitter: str, els: list, at: dict[str, list]) -> bool:
                for e in at.get(node, []))
 
 
-def thyristor_pairs(circuit: Circuit) -> list[Diagnostic]:
-    """A refusal for each pair of :func:`netlist.thyristor.two_transistor_pairs` left in
-    ``circuit``: one
-    that :mod:`netlist.thyristor` does not read as an ideal thyristor. The loop fires and
+def thyristor_pairs(pairs: Sequence[tuple[Switch, Switch]]) -> list[Diagnostic]:
+    """A refusal for each of the ``pairs`` of :func:`netlist.thyristor.two_transistor_pairs`
+    that :func:`netlist.thyristor.read_thyristors` left: those it does not read as an ideal
+    thyristor. The loop fires and
     latches through the base currents, which the transistors idealised as switches do not
     draw: run so, the SCR never fires (PySpice power-electronics examples: 0 V where ngspice
     gives 28.9 V)."""
     out = []
-    for p, n in two_transistor_pairs(circuit):
+    for p, n in pairs:
         out.append(Diagnostic(
             message=f"{p.name} and {n.name} form a thyristor (each drives the "
                     "other's base: the two-transistor model of an SCR), which "
@@ -254,8 +254,7 @@ def resolve_base_drives(circuit: Circuit) -> list[Diagnostic]:
     or drop it where the base node joins anything else (a source, a capacitor, a diode,
     another device's terminal: the base current is not bounded by resistors alone) or
     nothing at all; the refusals of :func:`thyristor_pairs` for the pairs left."""
-    read_thyristors(circuit)
-    diags = thyristor_pairs(circuit)
+    diags = thyristor_pairs(read_thyristors(circuit))
     drives = [k for k in circuit.knees if isinstance(k, BaseDrive) and k.resistors is None]
     if not drives:
         return diags

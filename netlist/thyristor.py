@@ -128,6 +128,8 @@ def two_transistor_pairs(circuit: Circuit) -> list[tuple[Switch, Switch]]:
     for el in circuit.elements:
         if isinstance(el, Switch) and el.device and types.get(el.name) in bjts:
             bjts[types[el.name]].append(el)
+    if not (bjts["PNP"] and bjts["NPN"]):
+        return []
     # (nodes voltage sources hold to ground, ground among them: a base held so draws its
     # current from the source, not from the other transistor, and there is no loop; a
     # common-base NPN driving a PNP follower whose collector is grounded is one such pair)
@@ -167,20 +169,21 @@ def _fits(p: Switch, n: Switch, at: dict[str, list[Element]], junction: list[Dio
     return any(el.key not in skip for el in at.get(base_n, []))
 
 
-def read_thyristors(circuit: Circuit) -> None:
+def read_thyristors(circuit: Circuit) -> list[tuple[Switch, Switch]]:
     """Replace each pair of :func:`two_transistor_pairs` that fits by an
     ideal thyristor (module docstring): its two switches, their knees and their
     :class:`netlist.devices.Replacement` go, with the diodes across the gate junction; the
     elements built in their place form a :class:`BuiltGroup` that ngspice is given the
     transistors' and diodes' own lines for; a note and a replacement say what the pair
-    became. Pairs that do not fit are left (refused by
+    became. Returns the pairs that do not fit, left as they are (refused by
     :func:`netlist.base_drive.thyristor_pairs`)."""
     from .value_scaling import circuit_temperatures
     from .writer import model_name, spice_name
 
     pairs = two_transistor_pairs(circuit)
+    left: list[tuple[Switch, Switch]] = []
     if not pairs:
-        return
+        return left
     temp = circuit_temperatures(circuit.options, circuit.ignored)[0]
     at: dict[str, list[Element]] = {}
     for el in circuit.elements:
@@ -194,11 +197,13 @@ def read_thyristors(circuit: Circuit) -> None:
             count[t.key] = count.get(t.key, 0) + 1
     for p, n in pairs:
         if count[p.key] > 1 or count[n.key] > 1:
+            left.append((p, n))
             continue  # a transistor in two pairs: no one thyristor
         anode, cathode, base_n = p.device[1][2], n.device[1][2], n.device[1][1]
         junction = [el for el in at.get(base_n, []) if isinstance(el, Diode)
                     and el.nodes[:2] == (base_n, cathode)]
         if not _fits(p, n, at, junction):
+            left.append((p, n))
             continue
         # (a transistor names its model by its key: subckt:name inside a subcircuit)
         npn = circuit.models.get(n.device[2].lower())
@@ -273,3 +278,4 @@ def read_thyristors(circuit: Circuit) -> None:
         circuit.notes.append(f"{p.name}, {n.name}: thyristor (two-transistor model) read as "
                              f"an {became} (the base currents that fire and latch the pair "
                              "are not drawn by transistors idealised as switches)")
+    return left
