@@ -75,7 +75,7 @@ from .knee import elaborate_knee
 from .rawdeck import RawElement
 from .sigmoid import SoftStep, record, sigmoid_step
 from .time_expression import time_expression
-from .time_value import reads_time_only, time_in_comparisons, time_value
+from .time_value import NotAffineInTime, reads_time_only, time_in_comparisons, time_value
 from .writer import element_line
 
 __all__ = ["ClampSource", "Comparator", "elaborate", "fold_clamps", "linear_elements",
@@ -195,9 +195,7 @@ def _stepped(tree, text: str, env: Mapping[str, float]):
     :func:`time_expression` reads those."""
     try:
         return time_value(tree, text, env)
-    except BehaviouralError as exc:
-        if "does not compare an affine function of time" not in exc.message:
-            raise
+    except NotAffineInTime:
         return None
 
 

@@ -68,7 +68,7 @@ from .time_function import TimeValue
 from .units import format_eng
 from .writer import spice_name
 
-__all__ = ["ACCEPTED", "MAX_INTERVALS", "TimeValue", "elaborate_time_resistor",
+__all__ = ["ACCEPTED", "MAX_INTERVALS", "NotAffineInTime", "TimeValue", "elaborate_time_resistor",
            "frozen_at", "internal_nodes", "other_quantity", "reads_time_only",
            "time_in_comparisons", "time_resistor_line", "time_resistor_nodes",
            "time_resistor_part", "time_resistor_segments", "time_value"]
@@ -139,6 +139,11 @@ def _with_time_node(tree: Tree) -> Tree:
     return Tree(tree.tag, args, tree.start, tree.end)
 
 
+class NotAffineInTime(BehaviouralError):
+    """A comparison of time that is not of an affine function of time with constants: no
+    :class:`TimeValue`, though :mod:`netlist.time_expression` reads it in a B source."""
+
+
 def _threshold(cmp: Tree, text: str, env: Mapping[str, float]) -> float | None:
     """The instant where a comparison of time (or ``u()`` of an affine function of time)
     turns, None if it does not depend on time after all (``time - time < 1``)."""
@@ -151,13 +156,13 @@ def _threshold(cmp: Tree, text: str, env: Mapping[str, float]) -> float | None:
     except BehaviouralError as exc:
         if exc.message.startswith(("unknown parameter", "division by zero")):
             raise
-        raise BehaviouralError(f"'{part}' does not compare an affine function of time with "
-                               "constants", cmp.start, ACCEPTED) from None
+        raise NotAffineInTime(f"'{part}' does not compare an affine function of time with "
+                              "constants", cmp.start, ACCEPTED) from None
     if isinstance(form, Affine):
         return None
     if not isinstance(form, Step) or {q for q, _ in form.diff.terms} != {("v", _TIME)}:
-        raise BehaviouralError(f"'{part}' does not compare an affine function of time with "
-                               "constants", cmp.start, ACCEPTED)
+        raise NotAffineInTime(f"'{part}' does not compare an affine function of time with "
+                              "constants", cmp.start, ACCEPTED)
     (_, slope), = form.diff.terms
     return -form.diff.const / slope
 
