@@ -54,7 +54,16 @@ from typing import ClassVar
 
 from lcs.signals import Dc, Pulse, Pwl
 
-from .behavioural_expr import Affine, BehaviouralError, Clamp, Select, Step, Tree, linearise
+from .behavioural_expr import (
+    Affine,
+    BehaviouralError,
+    Clamp,
+    ClampInSum,
+    Select,
+    Step,
+    Tree,
+    linearise,
+)
 from .circuit import (
     GROUND,
     Cccs,
@@ -243,13 +252,11 @@ def elaborate(el: RawElement, prefix: str, mapnode: Callable[[str], str],
             return [cls(name, nodes, loc, float(sig(0.0, side=1)), sig)]
         try:
             form = linearise(tree, text, env, mapnode, source_name(prefix), clamps=True)
-        except BehaviouralError as exc:
-            if "a sum of a clamp" not in exc.message:
-                raise
+        except ClampInSum:
             # the clamps summed with other terms, each on a node of its own
-            tree, inner = _hoist_clamps(tree, text, env, mapnode, source_name(prefix), name,
-                                        el.st.loc(offset))
-            form = linearise(tree, text, env, _keep(inner, mapnode), source_name(prefix),
+            hoisted, inner = _hoist_clamps(tree, text, env, mapnode, source_name(prefix),
+                                           name, el.st.loc(offset))
+            form = linearise(hoisted, text, env, _keep(inner, mapnode), source_name(prefix),
                              clamps=True)
             if isinstance(form, Affine):
                 return [*inner, *linear_elements(name, out_kind, nodes, form, loc)]

@@ -29,8 +29,8 @@ from .dialect import node_name
 from .expressions import CONSTANTS, FUNCTIONS
 from .units import parse_number
 
-__all__ = ["ACCEPTED", "Affine", "BehaviouralError", "Clamp", "Select", "Step", "Tree",
-           "circuit_quantity", "linearise", "parse_behavioural", "spice_text"]
+__all__ = ["ACCEPTED", "Affine", "BehaviouralError", "Clamp", "ClampInSum", "Select", "Step",
+           "Tree", "circuit_quantity", "linearise", "parse_behavioural", "spice_text"]
 
 #: the forms pelcs reads, for the hints of every refusal
 ACCEPTED = ("pelcs reads B sources whose expression is linear in v() and i() (constants and "
@@ -52,6 +52,11 @@ class BehaviouralError(Exception):
         self.message = message
         self.offset = offset
         self.hint = hint
+
+
+class ClampInSum(BehaviouralError):
+    """A clamp (``min``/``max`` of an affine form) added to a non-constant term: no one form,
+    though :mod:`netlist.behavioural` builds the clamp on a node of its own."""
 
 
 # ------------------------------------------------------------------------------ parsing
@@ -415,9 +420,10 @@ class _Lineariser:
         self.mapnode = mapnode
         self.source = source
 
-    def nonlinear(self, t: Tree, why: str) -> BehaviouralError:
+    def nonlinear(self, t: Tree, why: str, kind: type[BehaviouralError] = BehaviouralError
+                  ) -> BehaviouralError:
         part = self.text[t.start:t.end].strip()
-        return BehaviouralError(f"'{part}' is {why}", t.start, ACCEPTED)
+        return kind(f"'{part}' is {why}", t.start, ACCEPTED)
 
     def constant_of(self, t: Tree, x: Affine | Step) -> float | None:
         return x.const if isinstance(x, Affine) and x.constant else None
@@ -443,7 +449,8 @@ class _Lineariser:
                 return a.shifted(kb)
             if isinstance(b, Clamp) and ka is not None:
                 return b.shifted(ka)
-            raise self.nonlinear(t, "a sum of a clamp (min/max) and a non-constant term")
+            raise self.nonlinear(t, "a sum of a clamp (min/max) and a non-constant term",
+                                 ClampInSum)
         if tag == "/":
             if kb is None:
                 raise self.nonlinear(t, "a division by a clamp or node voltage: nonlinear")
