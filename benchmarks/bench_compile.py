@@ -6,6 +6,7 @@ Usage::
 
     python benchmarks/bench_compile.py            # the whole warm-up, from an empty cache
     python benchmarks/bench_compile.py --aot      # and the ahead-of-time module's link
+    python benchmarks/bench_compile.py --parallel # the sparse part in a second process
 
 The per-function table is numba's ``numba:compile`` events, exclusive of the callees compiled
 inside them (a kernel's dispatcher compiles its non-inlined callees while typing it); "count"
@@ -56,7 +57,7 @@ class Timer(event.Listener):
 event.register("numba:compile", Timer())
 t0 = time.perf_counter()
 from lcs.build.warmup import warm_up
-warm_up()
+warm_up(parallel="--parallel" in sys.argv)
 wall = time.perf_counter() - t0
 if "--aot" in sys.argv:
     t1 = time.perf_counter()
@@ -72,12 +73,15 @@ print(json.dumps({"wall": wall, "aot": aot, "excl": excl, "count": count}))
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--aot", action="store_true", help="also link the ahead-of-time module")
+    ap.add_argument("--parallel", action="store_true",
+                    help="compile the sparse part in a second process, as scripts/setup does")
     ap.add_argument("--top", type=int, default=15, help="functions listed (default 15)")
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory(prefix="pelcs-bench-compile-") as tmp:
         env = {**os.environ, "NUMBA_CACHE_DIR": tmp, "PELCS_AOT": "0",
                "PYTHONPATH": str(ROOT)}
-        cmd = [sys.executable, "-c", _CHILD] + (["--aot", tmp] if args.aot else [])
+        cmd = [sys.executable, "-c", _CHILD] + (["--parallel"] if args.parallel else []) + (
+            ["--aot", tmp] if args.aot else [])
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
         out = subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=tmp)

@@ -459,7 +459,7 @@ def test_compile_reports_a_failed_link_with_a_hint(tmp_path, monkeypatch, capsys
 
     monkeypatch.setenv("PELCS_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(kernel_setup, "kernels_cached", lambda: True)
-    monkeypatch.setattr(warmup, "warm_up", lambda: 0.0)
+    monkeypatch.setattr(warmup, "warm_up", lambda **_: 0.0)
     # (numba's cache misses of this process: another test may have compiled a kernel in it)
     monkeypatch.setattr(kernel_setup, "compiled_in_process", lambda: 0)
 

@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
         print(kernel_setup.COMPILING_MESSAGE, file=sys.stderr, flush=True)
     from lcs.build.warmup import warm_up
 
-    warm_up()
+    warm_up(parallel=True)
     what = "compiled" if kernel_setup.compiled_in_process() else "loaded"
     print(f"{what} the kernels in {time.perf_counter() - t0:.3g} s", flush=True)
     if kernel_setup.build_running():
