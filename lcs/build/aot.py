@@ -91,7 +91,7 @@ def build(out_dir: Path | None = None, verbose: bool = False) -> Path:
 
     t0 = time.perf_counter()
     with _through_numba():
-        warm_up()
+        warm_up(parallel=True)
     target = kernels.aot_path() if out_dir is None else Path(out_dir) / kernels.aot_filename()
     name = kernels.AOT_MODULE
     cc = CC(name)

@@ -130,8 +130,9 @@ def warm_up(parts: tuple[str, ...] = PARTS, parallel: bool = False) -> float:
         Compile the sparse part in a child process while this one compiles the dense part,
         where the machine has more than one processor: the two share no kernel that takes
         long to compile (the sparse part is about a tenth of the whole), so on two cores the
-        wall time from an empty cache is the dense part's alone. numba's cache is written
-        per function by an atomic rename, so the two processes may write it side by side.
+        wall time from an empty cache is the dense part's alone, and this process then loads
+        the sparse part from the cache. numba's cache is written per function by an atomic
+        rename, so the two processes may write it side by side.
     """
     t0 = time.perf_counter()
     child = None
@@ -142,13 +143,14 @@ def warm_up(parts: tuple[str, ...] = PARTS, parallel: bool = False) -> float:
         child = subprocess.Popen(
             [sys.executable, "-c",
              "from lcs.build.warmup import warm_up; warm_up(parts=('sparse',))"])
-        parts = tuple(p for p in parts if p != "sparse")
     if "dense" in parts:
         _warm_up_dense()
+    if child is not None:
+        # (then loaded here from the cache the child wrote, in a second or two, so that this
+        # process has every kernel, as the ahead-of-time link needs; where the child failed,
+        # its traceback is on stderr and the part compiles here)
+        child.wait()
     if "sparse" in parts:
-        _warm_up_sparse()
-    if child is not None and child.wait() != 0:
-        # (the child's traceback is on stderr; the part compiles here instead)
         _warm_up_sparse()
     return time.perf_counter() - t0
 
