@@ -742,14 +742,14 @@ class _Formulator:
         vdiodes, defects = first
         where = f" with {desc}" if desc else ""
         involved = list(dict.fromkeys(name for _, name in defects))
-        raise _error(
-            f"no explicit LCS{where}: " + "; ".join(text for text, _ in defects[:6])
-            + (" ..." if len(defects) > 6 else "")
-            + (" (with every diode's λ its current)" if not vdiodes else ""),
-            amplifier_hint(self.circuit.replacements, involved) or "some quantity is not fixed "
-            "by the circuit in this configuration (a floating part that matters, or controlled "
-            "sources whose gains make the network singular); check the elements named",
-            involved, file=self.file)
+        el, built = self.circuit.located(involved)  # (the line of the first, K12 for L1_m)
+        raise _error(f"no explicit LCS{where}: " + "; ".join(text for text, _ in defects[:6])
+                     + (" ..." if len(defects) > 6 else "")
+                     + (" (with every diode's λ its current)" if not vdiodes else ""),
+                     amplifier_hint(self.circuit.replacements, involved) or "some quantity is not "
+                     "fixed by the circuit in this configuration (a floating part that matters, "
+                     "or controlled sources whose gains make the network singular); check the "
+                     "elements named" + built, involved, el=el, file=self.file)
 
     # -- probes ------------------------------------------------------------------------
 

@@ -131,3 +131,34 @@ def test_centre_tapped_secondary_against_ngspice(tmp_path, ngspice):
     want = _mean(ng[:, 0], ng[:, 1], 5e-3)
     got = _mean(np.asarray(res.t), np.asarray(res["v(o)"]), 5e-3)
     assert got == pytest.approx(want, rel=0.02)  # 3.9982 V, ngspice 3.9976 V
+
+
+# a SEPIC whose two inductors are wound on one core with k = 1: with the switch off, the
+# ideal transformer pelcs reads, the coupling capacitor and the diode leave the mode singular
+SEPIC = """sepic, coupled inductors, k = 1
+V1 in 0 DC 24
+R1 in n1 10m
+L1 n1 n2 1.8m
+C2 n2 n3 1u
+L2 0 n3 1.8m
+K12 L1 L2 1
+S1 n2 0 g 0 swm
+.model swm sw(vt=1 ron=0.1 roff=1e9)
+Vg g 0 PULSE(0 5 0 1n 1n 8u 16.7u)
+D1 n3 out dm
+.model dm d(is=1e-14)
+C3 out 0 36u
+R2 out 0 115
+.tran 1u 5m
+.end
+"""
+
+
+def test_a_singular_mode_of_an_ideal_transformer_points_at_its_winding_and_k_line():
+    # (the refusal names FILE:LINE:COLUMN of the magnetizing inductance's winding, L1, and
+    # says which line pelcs built L1_m for, which the netlist does not write)
+    with pytest.raises(NetlistError) as exc:
+        simulate_circuit(parse_string(SEPIC), probes=["v(out)"])
+    text = str(exc.value)
+    assert "<string>:4:1: error: no explicit LCS with S1=off" in text, text
+    assert "L1_m is part of what pelcs built for K12 (ideal transformer)" in text, text
