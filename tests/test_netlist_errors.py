@@ -7,6 +7,7 @@ Every case is a whole netlist (title first). ``line``/``col`` are where the care
 import os
 
 import pytest
+from ngspice_helpers import ngspice_wrdata
 
 from netlist.errors import NetlistError
 from netlist.parser import parse_file, parse_string
@@ -377,6 +378,28 @@ def test_control_node_of_no_element_is_still_reported():
         parse_string("t\nV1 a 0 1\nR1 a b 1\nS1 b 0 g 0 SW1\n.model SW1 SW(VT=0.5)\n"
                      ".tran 1u 1m\n")
     assert "control node 'g' of S1 is not connected" in info.value.message
+
+
+FLOATING_BASE = ("npn, base joined to nothing else\nV1 vcc 0 5\nR1 vcc c 1k\nQ1 c nb 0 qn\n"
+                 ".model qn npn(bf=100)\n.tran 1u 10u\n.end\n")
+
+
+def test_a_transistor_base_joined_to_nothing_else_says_it_only_senses():
+    # (a 555's RESET pin left open in a transistor-level model: the idealised transistor's
+    # base is a switch's control, so the hint says what to connect, not "check its spelling")
+    with pytest.raises(NetlistError) as info:
+        parse_string(FLOATING_BASE)
+    text = str(info.value)
+    assert "<string>:4:1: error: control node 'nb' of Q1 is not connected" in text, text
+    assert "Q1 is an NPN transistor pelcs idealised into a switch, whose base only senses " \
+           "the voltage at 'nb'" in text, text
+    assert "spelling" not in text, text
+
+
+def test_ngspice_runs_the_floating_base_pelcs_refuses(tmp_path, ngspice):
+    # the other side of the hint's claim: ngspice settles the open base and runs the deck
+    data = ngspice_wrdata(FLOATING_BASE, ["v(c)"], tmp_path)
+    assert len(data) > 2
 
 
 def test_a_network_reached_only_through_transistor_bases_says_so():
