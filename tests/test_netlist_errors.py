@@ -11,6 +11,7 @@ from ngspice_helpers import ngspice_wrdata
 
 from netlist.errors import NetlistError
 from netlist.parser import parse_file, parse_string
+from netlist.studies.transient import simulate_circuit
 
 OK = "V1 a 0 1\nR1 a 0 1k\n"  # a valid body to put next to a mistake
 
@@ -411,3 +412,13 @@ def test_a_network_reached_only_through_transistor_bases_says_so():
     text = str(info.value)
     assert "reach the rest of the circuit only through the base or gate of Q1, Q2" in text
     assert "write the controller behaviourally" in text
+
+
+def test_a_mode_with_no_explicit_lcs_is_refused_at_an_element_line():
+    # E1 copies its own output (gain 1 from b to b): v(b), so the capacitor's current, is
+    # left free; the refusal points at C1's line (it named the file alone)
+    c = parse_string("t\nV1 a 0 1\nR1 a b 1\nE1 b 0 b 0 1\nC1 b c 1n\nR2 c 0 1\n.tran 1u 10u\n")
+    with pytest.raises(NetlistError) as info:
+        simulate_circuit(c, probes=["v(c)"])
+    text = str(info.value)
+    assert "<string>:5:1: error: no explicit LCS: i(C1) is not determined" in text, text
