@@ -145,6 +145,7 @@ def check_circuit(
             "SPICE measures every voltage from node 0: connect the circuit's reference "
             "node to 0"))
 
+    idealised = {r.element.lower(): r.device for r in circuit.replacements}
     for el in circuit.elements if topology else ():  # (a hole may hold the control node)
         if el.kind in _CONTROLLED_BY_NODES:
             for n in el.control:
@@ -152,8 +153,7 @@ def check_circuit(
                     diags.append(Diagnostic(
                         f"control node '{n}' of {el.name} is not connected to any element",
                         refs.get((el.key, "control"), el.location),
-                        "a control node must be a node of the circuit; check its spelling",
-                        (el.name,)))
+                        _floating_control_hint(idealised.get(el.key), el.name, n), (el.name,)))
 
     for node, value in circuit.initial_conditions.items():
         loc = refs.get(("ic", node))
@@ -171,6 +171,21 @@ def check_circuit(
         if has_ground:
             _check_floating(circuit, diags)
     return diags
+
+
+def _floating_control_hint(device: str | None, name: str, node: str) -> str:
+    """The hint of a control node no element joins: for a transistor pelcs idealised, that
+    its base or gate is the switch's control, which senses the node and sets no voltage."""
+    if device is None:
+        return "a control node must be a node of the circuit; check its spelling"
+    pin = "base" if device in ("NPN", "PNP") else "gate"
+    article = "an" if device.startswith("N") else "a"
+    return (f"{name} is {article} {device} transistor pelcs idealised into a switch, whose "
+            f"{pin} only senses the voltage at '{node}'; no other element joins that node, so "
+            "nothing "
+            f"sets it (ngspice lets the device's own {pin} current or leakage settle it): "
+            f"connect '{node}' as the circuit means it (an IC's unused input such as a 555's "
+            "RESET to its supply, a gate to its driver) or give it a resistor to a node")
 
 
 def _check_references(circuit: Circuit, by_key: dict[str, Element],

@@ -303,6 +303,17 @@ class Circuit:
         the netlist's own."""
         return self.built_groups[el.built_for.lower()] if el.built_for else None
 
+    def located(self, names: Sequence[str]) -> tuple[Element | None, str]:
+        """Where an error about the elements ``names`` points: the first of them whose line is
+        known (None if none is), and "; " and a note naming the line pelcs built each of them
+        for (``L1_m``: ``K12``), which the netlist does not write ("" if there is none)."""
+        els = [el for n in names for el in self.elements if el.key == n.lower()]
+        first = next((el for el in els if el.location is not None), None)
+        built = [f"{el.name} is part of what pelcs built for {el.built_for} ("
+                 f"{self.built_groups[el.built_for.lower()].construct})"
+                 for el in els if el.built_for and el.built_for.lower() in self.built_groups]
+        return first, "".join(f"; {b}" for b in built)
+
     def current_carrier(self, name: str) -> str | None:
         """The element pelcs built to carry the current of the netlist's element ``name``
         (case-insensitive) that a built group replaced (:attr:`BuiltGroup.currents`), None

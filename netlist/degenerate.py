@@ -15,6 +15,7 @@ from collections.abc import Sequence
 from .circuit import GROUND, Element
 from .errors import Diagnostic, NetlistError
 from .mna import VOLTAGE_KINDS
+from .perfect_coupling import transformer_sources
 from .topology import find_cutset, find_loop
 
 __all__ = ["CURRENT_KINDS", "check_topology", "pinnable_inductors", "pinned_in"]
@@ -43,9 +44,10 @@ def check_topology(f, on: frozenset[str], desc: str) -> None:
         The mode in words (``"S1=off"``), for the message.
     """
     where = f" with {desc}" if desc else ""
+    ideal = transformer_sources(f.circuit)  # (their E, F sources impose nothing)
     voltage_branches = [
         (el.name, *el.nodes) for el in f.two_terminal
-        if el.kind in VOLTAGE_KINDS or (el.kind in "SL" and el.key in on)
+        if (el.kind in VOLTAGE_KINDS and el.key not in ideal) or (el.kind in "SL" and el.key in on)
     ]
     loop = find_loop(voltage_branches)
     if loop is not None:
@@ -68,11 +70,11 @@ def check_topology(f, on: frozenset[str], desc: str) -> None:
             hint, loop, el=f.by_key[loop[-1].lower()], file=f.file)
     contracted = [
         el.nodes for el in f.two_terminal
-        if (el.kind not in CURRENT_KINDS or el.key in on)
+        if (el.kind not in CURRENT_KINDS or el.key in on or el.key in ideal)
         and (el.kind != "S" or el.key in on)
     ]
     current_branches = [(el.name, *el.nodes) for el in f.two_terminal
-                        if el.kind in CURRENT_KINDS and el.key not in on]
+                        if el.kind in CURRENT_KINDS and el.key not in on | ideal]
     cut = find_cutset(contracted, current_branches, GROUND)
     if cut is not None and all(f.by_key[c.lower()].kind == "L" for c in cut) \
             and any(sw.key not in on for sw in f.switches):

@@ -87,6 +87,7 @@ from .mna import VOLTAGE_KINDS as _VOLTAGE_KINDS
 from .mna import Mna as _Mna
 from .mna import Stamps, coalesce, dense_form
 from .mna_solve import Entries, Solution, clean
+from .perfect_coupling import transformer_sources
 from .probes import PROBE, TWO_TERMINAL
 from .pwl import vf_offsets
 from .reductions import held_capacitors, open_inductors, reduced
@@ -265,6 +266,7 @@ class _Formulator:
         # Inductors whose current Kirchhoff's law holds at zero in every mode: 0 V branches
         # of the MNA, states without dynamics (see the module docstring).
         self.pinned = frozenset(open_inductors(circuit))
+        self._transformer = transformer_sources(circuit)  # (E, F imposing nothing)
         self.live_inductors = [el for el in self.inductors if el.key not in self.pinned]
         # ... and those that open switches may leave so (set with the switch controls below)
         self.pinnable: frozenset[str] = frozenset()
@@ -386,14 +388,13 @@ class _Formulator:
         return Stamps(self)
 
     # -- topology of the switch modes -------------------------------------------------
-    # Modes differ only in their closed switches: the components and bridges of the other
-    # branches are found once (when the first mode is built), each mode adds its switches.
+    # Modes differ only in their closed switches: the rest's components and bridges are found once.
 
     @cached_property
     def _voltage_partition(self) -> Partition:
-        """Components of the voltage-defined branches but the switches (V C E H)."""
-        return Partition([tuple(el.nodes[:2]) for el in self.two_terminal
-                          if el.kind in _VOLTAGE_KINDS or el.key in self.pinned])
+        """Components of the voltage-defined branches (V C E H) but switches, transformers' E."""
+        return Partition([tuple(el.nodes[:2]) for el in self.two_terminal if el.key in self.pinned
+                          or el.kind in _VOLTAGE_KINDS and el.key not in self._transformer])
 
     @cached_property
     def _tree_partition(self) -> Partition:
@@ -415,9 +416,8 @@ class _Formulator:
     def _cutset_bridges(self) -> SwitchedBridges:
         """Bridges of the branches that are not current-defined (and not open switches);
         the diodes last, as in :attr:`_current_bridges`."""
-        fixed = [tuple(el.nodes[:2]) for el in self.two_terminal
-                 if (el.kind not in _CURRENT_KINDS or el.key in self.pinned)
-                 and el.kind not in "DS"]
+        fixed = [tuple(el.nodes[:2]) for el in self.two_terminal if el.kind not in "DS" and (
+            el.kind not in _CURRENT_KINDS or el.key in self.pinned | self._transformer)]
         return SwitchedBridges(fixed + [tuple(d.nodes[:2]) for d in self.diodes],
                                [tuple(sw.nodes[:2]) for sw in self.switches])
 
@@ -742,14 +742,14 @@ class _Formulator:
         vdiodes, defects = first
         where = f" with {desc}" if desc else ""
         involved = list(dict.fromkeys(name for _, name in defects))
-        raise _error(
-            f"no explicit LCS{where}: " + "; ".join(text for text, _ in defects[:6])
-            + (" ..." if len(defects) > 6 else "")
-            + (" (with every diode's λ its current)" if not vdiodes else ""),
-            amplifier_hint(self.circuit.replacements, involved) or "some quantity is not fixed "
-            "by the circuit in this configuration (a floating part that matters, or controlled "
-            "sources whose gains make the network singular); check the elements named",
-            involved, file=self.file)
+        el, built = self.circuit.located(involved)  # (the line of the first, K12 for L1_m)
+        raise _error(f"no explicit LCS{where}: " + "; ".join(text for text, _ in defects[:6])
+                     + (" ..." if len(defects) > 6 else "")
+                     + (" (with every diode's λ its current)" if not vdiodes else ""),
+                     amplifier_hint(self.circuit.replacements, involved) or "some quantity is not "
+                     "fixed by the circuit in this configuration (a floating part that matters, "
+                     "or controlled sources whose gains make the network singular); check the "
+                     "elements named" + built, involved, el=el, file=self.file)
 
     # -- probes ------------------------------------------------------------------------
 

@@ -53,7 +53,8 @@ from .circuit import (
 from .errors import Location
 from .writer import element_line
 
-__all__ = ["IDEAL_TRANSFORMER", "build_transformer", "ideal_transformers"]
+__all__ = ["IDEAL_TRANSFORMER", "build_transformer", "ideal_transformers",
+           "transformer_sources"]
 
 #: :attr:`netlist.circuit.BuiltGroup.construct` of windings coupled with |k| = 1
 IDEAL_TRANSFORMER = "ideal transformer"
@@ -210,3 +211,18 @@ def build_transformer(out: Circuit, windings: Sequence[Inductor], signs: Sequenc
         group, construct, line,
         currents=((la.name, vp), *((name, vs) for name, vs, _ in names))), primary + built)
     return lm, vp, names
+
+
+def transformer_sources(circuit: Circuit) -> frozenset[str]:
+    """Keys of the E and F sources of the ideal transformers pelcs built (``EL2``, ``FL2``).
+
+    Their voltage and current are the magnetizing inductance's voltage and the secondary's
+    current times the ratio, neither of which the circuit imposes: a diode in a loop with an
+    ``E`` may still have either λ type, and an ``F`` with an inductor is no cutset of imposed
+    currents (a flyback's primary switch open: the magnetizing current goes over to the
+    secondary). The topological rules that read E as voltage-defined and F as
+    current-defined branches leave them out; the MNA decides (:mod:`netlist.formulation`).
+    """
+    return frozenset(el.key for el in circuit.elements if el.kind in "EF" and el.built_for
+                     and circuit.built_groups[el.built_for.lower()].construct
+                     == IDEAL_TRANSFORMER)

@@ -93,6 +93,12 @@ def _check(t: Tree, text: str, env: Mapping[str, float]) -> None:
         want = (_SMOOTH[t.args[0]][1] if t.args[0] in _SMOOTH else _PIECEWISE[t.args[0]][1])
         if len(t.args) - 1 != want:
             raise BehaviouralError(f"{t.args[0]}() takes {want} argument(s)", t.start)
+    elif t.tag == "call" and t.args[0] == "limit" and len(t.args) == 4:
+        # (LTspice's clamp, common in decks written for LTspice; ngspice 39's B sources have
+        # no such function, so a run there is not the waveform the author meant)
+        raise BehaviouralError("LTspice's limit(x, lo, hi) is not a function of ngspice's B "
+                               "sources", t.start, "write the clamp max(lo, min(hi, x)), "
+                               "which pelcs evaluates as a function of time")
     elif t.tag not in (*_ARITH, *_COMPARE, *_LOGIC):
         part = text[t.start:t.end].strip()
         raise BehaviouralError(f"'{part}' in a B expression of time is not a function pelcs "

@@ -299,14 +299,6 @@ PELCS_REFUSES: dict[str, tuple[str, str, str]] = {
         ("incomplete diode 'D1': a name or a value missing",
          "its diodes have no model name ('D1 bp ba'), which tiny-spice-rs accepts",
          "fails: can't find model 'ba' (it reads the cathode as the model)"),
-    "xyce_regression/Netlists/MPDE/converter.cir":
-        ("cutset of inductors/current sources with Q3=off: L1_m, FL2",
-         "'K1 L1 L2 1.0' is read as an ideal transformer (netlist.perfect_coupling: L1 as "
-         "the magnetizing L1_m across the primary, E/F sources); with the BJT off the primary "
-         "is only L1_m and the transformer's F source, a cutset pelcs refuses: the flux's "
-         "jump to the secondary, which ngspice's k = 1 pair makes, is not modelled",
-         "fails: '.tran 0 2.0e-3 0 1e-7', TSTEP = 0 (Xyce accepts it); with TSTEP 0.1 us it "
-         "stops at 10 us, timestep too small"),
     "pi0_buck/buck_converter.cir":
         ("unknown model '1N4148' for diode D1",
          "the body diodes name a 1N4148 model the netlist does not define (LTspice's "
@@ -381,6 +373,14 @@ PELCS_ONLY: dict[str, tuple[str, str]] = {
          "every gate turns on at once and the closed switches S4, S1, S3, S2 close a loop "
          "with C2: the ideal run is refused, and --devices pwl sizes its diodes' fits from a "
          "run with the switches at their RON = 1 mOhm instead (a note says so)"),
+    "xyce_regression/Netlists/MPDE/converter.cir":
+        ("fails: '.tran 0 2.0e-3 0 1e-7', TSTEP = 0 (Xyce accepts it); with TSTEP 0.1 us it "
+         "stops at 10 us, timestep too small",
+         "'K1 L1 L2 1.0' is read as an ideal transformer (netlist.perfect_coupling); with the "
+         "BJT off the magnetizing current goes over to the secondary through the transformer's "
+         "F source (refused as a cutset L1_m, FL2 until the topology checks left the "
+         "transformer's E and F sources out: tests/test_perfect_coupling.py, a flyback and a "
+         "SEPIC so switched, against ngspice)"),
     "pyspice/examples/spice-examples/astable.cir":
         ("stops at 112 us, at the first threshold: 'Timestep too small' (the comparator is an "
          "E source with a two-point TABLE, 0 V below -1 uV and 15 V above 1 uV, with positive "

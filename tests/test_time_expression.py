@@ -399,3 +399,19 @@ def test_a_source_out_of_its_domain_is_named_where_the_run_stops():
     assert res.error.kind == "non_finite"
     assert "the input B1 is not a finite number there" in str(res.error)
     assert res.t[-1] == pytest.approx(500e-6) and np.isfinite(res.y).all()
+
+
+def test_ltspice_limit_of_time_is_refused_with_the_clamp_to_write():
+    # LTspice's limit(x, lo, hi): refused where it stands, naming the max/min form instead
+    expr = "6+2*limit((time-1m)/0.1m,0,1)"
+    refused_at(f"t\nB1 n1 0 V={expr}\nR1 n1 0 1\n.tran 1u 2m\n.end\n",
+               (2, 11 + expr.index("limit")),
+               ["limit(x, lo, hi)", "not a function of ngspice's B sources",
+                "max(lo, min(hi, x))"])
+
+
+def test_the_clamp_written_with_max_and_min_is_the_ramp_it_clamps():
+    # the rewrite the refusal suggests: 6 V before 1 ms, a ramp to 8 V over 0.1 ms, then 8 V
+    w = _wave("6+2*max(0, min(1, (time-1m)/0.1m))")
+    t = np.array([0.0, 0.5e-3, 1e-3, 1.05e-3, 1.1e-3, 1.5e-3])
+    np.testing.assert_allclose(w(t), [6, 6, 6, 7, 8, 8], atol=1e-12)
