@@ -216,7 +216,7 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
     if pins is not None:
         notes.extend(pins.notes())
         if error is None:
-            error = pins.unhandled(init.mode, events, tol)
+            error = pins.unhandled(init.mode, events, tol, sliding)
             if error is not None:
                 # (what follows may carry the current the switch cut: not kept)
                 keep = t_res <= error.time

@@ -95,13 +95,19 @@ class PinnedJumps:
                 "(ngspice's SW in its ROFF)")
         return out
 
-    def unhandled(self, mode0: ModeKey, events, tol: float) -> SimulationError | None:
+    def unhandled(self, mode0: ModeKey, events, tol: float,
+                  sliding=()) -> SimulationError | None:
         """The error of a run (from ``mode0``, through the mode changes ``events``) that
         entered a pinning mode between the instants it checked (a comparator's switching),
-        or None."""
+        or that slid (``sliding``: ``[(switch, t_start, t_end)]``) between two modes that do
+        not pin the same states, or None (``sliding``: ``[(switch name, t_start, t_end or
+        None)]``)."""
+        first = self._sliding_across_a_cut(mode0, events, tol, sliding)
         checked = np.array(sorted(self.instants))
         prev = self.system.pinned(mode0)
         for t, mode in events:
+            if first is not None and t > first.time:
+                return first
             pinned = self.system.pinned(mode)
             new = [i for i in pinned if i not in prev]
             prev = pinned
@@ -120,5 +126,45 @@ class PinnedJumps:
                    "Give the current a path that stays (a freewheeling diode, an RC "
                    "snubber), or drive the switch from a source")
             return SimulationError(msg, kind="pinned_jump", time=t, t_prev=t, mode=desc)
+        return first
+
+    def _sliding_across_a_cut(self, mode0: ModeKey, events, tol: float,
+                              sliding) -> SimulationError | None:
+        """The error of the first sliding interval whose two modes do not pin the same
+        states, or None.
+
+        A switch slides (Filippov) where its control, the instant it turns, wants it back:
+        the run then blends its two modes. Where one of them leaves an inductor no path, its
+        current is cut at once on entering it, and a blend that averages a current with its
+        cut is no solution of the circuit. It is what a switch controlled by its own terminal
+        voltage meets (``S2 0 sw sw 0``, on while v(sw) > 0, as a buck's freewheeling path):
+        off, it cuts the inductor's current, after which its control is positive and it turns
+        on, carrying the current the other way; blended, it would hold v(sw) at its threshold
+        as an ideal diode would (a buck's output at V·D where ngspice gives nearly 0 V).
+        """
+        times = [t for t, _ in events]
+        modes = [tuple(md) for _, md in events]
+        index = {s.name: i for i, s in enumerate(self.system.switches)}
+        for name, t0, _t1 in sorted(sliding, key=lambda r: r[1]):
+            sw = index[name]
+            j = int(np.searchsorted(times, t0 + tol, side="right")) - 1
+            mode = modes[j] if j >= 0 else tuple(mode0)
+            other = tuple(not on if i == sw else on for i, on in enumerate(mode))
+            a, b = self.system.pinned(mode), self.system.pinned(other)
+            if set(a) == set(b):
+                continue
+            cut = [i for i in (*a, *b) if (i in a) != (i in b)]
+            names = ", ".join(dict.fromkeys(self.system.states[i] for i in cut))
+            desc = {s.name: ("on" if on else "off")
+                    for s, on in zip(self.system.switches, mode, strict=True)}
+            msg = (f"t = {t0:.9g} s, mode: {fmt_mode(desc)}: switch {name} would slide on its "
+                   f"threshold (its control wants it back the instant it turns) between a mode "
+                   f"where {names} has a path and one where the open switches leave it none: "
+                   "an ideal switch cuts that current at once, and a sliding blend of the two "
+                   "modes is no solution of the circuit (a switch controlled by its own "
+                   "terminals, as a diode, is the usual cause), so the results stop there. "
+                   "Give the current a path that stays (for a freewheeling path, a diode in "
+                   "place of the switch)")
+            return SimulationError(msg, kind="pinned_jump", time=t0, t_prev=t0, mode=desc)
         return None
 
