@@ -543,3 +543,34 @@ def test_b_source_of_time_alone_is_the_stepping_source_it_is(tmp_path, ngspice):
     for k, atol in ((0, 0.02), (1, 1e-9)):
         ours = np.interp(t[away], run.t, run.y[:, k])
         np.testing.assert_allclose(ours, data[away, 2 * k + 1], atol=atol)
+
+
+# 'e' beside a .param and a subcircuit parameter of that name: ngspice 39's B sources read
+# Euler's number all the same (measured: v(a) = v(c) = 2.718282 V, v(b) = 2.718282*2 V)
+E_DECK = """e in B sources
+.param e=5
+.subckt half o params: e=7
+B1 o 0 V=e*(1+time)
+.ends
+B1 a 0 V=e*(1+time*1k)
+R1 a 0 1
+V2 d 0 DC 2
+B2 b 0 V=e*v(d)
+R2 b 0 1
+X1 c half e=3
+R3 c 0 1
+.tran 10u 1m
+.end
+"""
+
+
+def test_e_is_eulers_number_in_a_b_source_whatever_the_params():
+    res = simulate_circuit(parse_string(E_DECK), probes=["v(a)", "v(b)", "v(c)"])
+    assert res.y[0] == pytest.approx([math.e, 2 * math.e, math.e], rel=1e-12)
+    assert res.y[-1, 0] == pytest.approx(2 * math.e, rel=1e-9)
+
+
+@pytest.mark.slow
+def test_e_in_a_b_source_as_ngspice(tmp_path, ngspice):
+    got = ngspice_print(E_DECK, ["v(a)[0]", "v(b)[0]", "v(c)[0]"], tmp_path)
+    assert list(got.values()) == pytest.approx([math.e, 2 * math.e, math.e], rel=1e-6)
