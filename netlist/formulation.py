@@ -141,13 +141,10 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         switches=formulator.switch_controls,
         states=formulator.state_names,
         inputs=formulator.input_names,
-        diodes=[d.name for d in formulator.diodes],
-        builder=formulator.builder,
+        diodes=[d.name for d in formulator.diodes], builder=formulator.builder,
         pinnable=sorted(formulator.state_index[k] for k in formulator.pinnable),
         storage=_storage(formulator), offsets=vf_offsets(formulator.diodes, formulator.input_names),
-        # (v(c1) is the node c1's voltage where there is one, as in SPICE, not C1's state)
-        shadowed=[f"v({el.key})" for el in formulator.capacitors
-                  if el.key in formulator.node_index])
+        shadowed=[f"v({c.key})" for c in formulator.capacitors if c.key in formulator.node_index])
 
 
 def storage_matrix(circuit: Circuit) -> np.ndarray:
