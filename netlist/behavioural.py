@@ -192,6 +192,8 @@ def _hoist_clamps(tree: Tree, text: str, env: Mapping[str, float],
                 inner.append(ClampSource(f"{name}#k{len(inner) + 1}", (node, GROUND), loc,
                                          form, text[t.start:t.end], "V"))
                 return Tree("v", (node, None), t.start, t.end)
+            if form is not None:  # (a constant: min(0, max(1, v(b))) is 0, nothing to hoist)
+                return t
         args = tuple(visit(a) if isinstance(a, Tree) else a for a in t.args)
         return Tree(t.tag, args, t.start, t.end)
 
