@@ -287,15 +287,18 @@ def test_pelcs_check_reports_the_step_its_run_took(ngspice):
     ("time > 0 ? 5 : 0", 0.0),     # (a stepped source, its PWL)
     ("5*u(-time)", 2.5),
     ("ceil(time/100u)*5", 0.0),
+    ("(time == 0)*5", 5.0),        # an equality of time: true at the operating point only
+    ("time != 0 ? 5 : 2.5", 2.5),
 ])
 def test_the_operating_point_takes_the_value_at_time_zero(expr, at0):
     # ngspice's operating point evaluates the B source at t = 0 itself (measured in ngspice
-    # 39: v(out) at 100 us is 4.0711 V for u(time)*5, 3.1234 V for sgn(time)*5): the
+    # 39: v(out) at 100 us is 4.0711 V for u(time)*5, 3.1234 V for sgn(time)*5; its mean over
+    # 1 ms 1.29999 V for the equality of time (time == 0)*4 + (time != 0)): the
     # capacitor starts there and charges through R in the run, v(out) = v + (at0 - v) e^(-t/RC)
     from pelcs.api import simulate
     deck = f"t0\nB1 g 0 V = {expr}\nR1 g out 1k\nC1 out 0 100n\n.tran 1u 100u\n.end\n"
     res = simulate(deck, probes=["v(out)"])
-    v_after = 0.0 if "-time" in expr else 5.0
+    v_after = 0.0 if "-time" in expr or "==" in expr else 5.0
     assert res.y[0, 0] == pytest.approx(at0, abs=1e-9)
     assert res.y[-1, 0] == pytest.approx(v_after + (at0 - v_after) * np.exp(-1), abs=1e-4)
 
