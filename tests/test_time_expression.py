@@ -402,3 +402,19 @@ def test_a_source_out_of_its_domain_is_named_where_the_run_stops():
     assert res.error.kind == "non_finite"
     assert "the input B1 is not a finite number there" in str(res.error)
     assert res.t[-1] == pytest.approx(500e-6) and np.isfinite(res.y).all()
+
+
+@pytest.mark.parametrize("gate", ["V1 c 0 PWL(0 0 0 5 1m 5)", "B1 c 0 V=time > 0 ? 5 : 0"])
+def test_a_switch_whose_gate_jumps_at_time_zero_is_off_in_the_operating_point(gate):
+    # ngspice's operating point takes the gate at t = 0 itself (0 V): the switch is off
+    # there, the capacitor uncharged, and the switch turns on in the first step (ngspice 39:
+    # mean v(y) over 2 ms 8.67653 V); pelcs had it on, the capacitor at 9.09 V from the start
+    from pelcs.api import simulate
+    deck = (f"t\n{gate}\nS1 in x c 0 swm\n.model swm sw vt=2.5 ron=1 roff=1e9\nV2 in 0 10\n"
+            "R1 x y 1k\nC1 y 0 100n\nR2 y 0 10k\n.tran 1u 2m\n.end\n")
+    res = simulate(deck, probes=["v(y)"])
+    t, y = res.t, res.y[:, 0]
+    assert y[0] == pytest.approx(0.0, abs=1e-9)
+    # switched on at 0+, RON left out: 10 V through 1k into 100n || 10k
+    final, tau = 10 * 10e3 / 11e3, 100e-9 * 1e3 * 10e3 / 11e3
+    assert y == pytest.approx(final * (1 - np.exp(-t / tau)), abs=1e-4)
