@@ -196,6 +196,10 @@ class SwitchedLCS:
         diode's ``Vf`` sources): ``w`` less their terms is the voltage across the device's
         junction while it carries nothing, where ngspice's GMIN leaks
         (:func:`lcs.theory.operating_point.dc_point`).
+    shadowed : collection of str, optional
+        State names, lower case, that the output maps read as something else when spelled
+        otherwise than the state (``v(c1)``, the voltage of a node ``c1``, beside a
+        capacitor ``C1``'s state ``v(C1)``): such a probe is not taken for the state.
     """
 
     def __init__(
@@ -208,8 +212,10 @@ class SwitchedLCS:
         pinnable: Sequence[int] = (),
         storage: np.ndarray | None = None,
         offsets: np.ndarray | None = None,
+        shadowed: Sequence[str] = (),
     ):
         self.switches = tuple(switches)
+        self.shadowed = frozenset(s.lower() for s in shadowed)
         self.storage = None if storage is None else np.asarray(storage, dtype=float)
         self.offsets = None if offsets is None else np.asarray(offsets, dtype=bool)
         self.states = tuple(states)

@@ -82,7 +82,7 @@ from .dialect import hierarchical_name
 from .errors import Diagnostic, Location
 from .knee import elaborate_knee
 from .rawdeck import RawElement
-from .sigmoid import SoftStep, record, sigmoid_step
+from .sigmoid import SoftStep, record, sigmoid_step, switch_band
 from .time_expression import time_expression
 from .time_value import NotAffineInTime, reads_time_only, time_in_comparisons, time_value
 from .writer import element_line
@@ -192,6 +192,8 @@ def _hoist_clamps(tree: Tree, text: str, env: Mapping[str, float],
                 inner.append(ClampSource(f"{name}#k{len(inner) + 1}", (node, GROUND), loc,
                                          form, text[t.start:t.end], "V"))
                 return Tree("v", (node, None), t.start, t.end)
+            if form is not None:  # (a constant: min(0, max(1, v(b))) is 0, nothing to hoist)
+                return t
         args = tuple(visit(a) if isinstance(a, Tree) else a for a in t.args)
         return Tree(t.tag, args, t.start, t.end)
 
@@ -544,6 +546,7 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
               for el in keep if isinstance(el, Switch)} \
         if any(isinstance(b.step, SoftStep) for b in comps) else {}
     spans = []  # where each comparator's elements start in added
+    exact: set[str] = set()  # (sigmoids whose switches turn where the sigmoid crosses VT ± VH)
     for b in comps:
         spans.append(len(added))
         p, n = b.nodes
@@ -575,6 +578,8 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
                                   else "drives nothing (kept, so that it can be probed)"))
             continue
         step = b.step
+        if isinstance(step, SoftStep):
+            exact.add(b.name)
         for use in uses:
             sw = use.switch
             model = circuit.models.get(sw.model.lower())
@@ -618,17 +623,24 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
                 # on while the comparison is false: the opposite difference, and the
                 # opposite strictness (not (d > 0) is -d >= 0)
                 diff, strict = diff.scaled(-1.0), not strict
+            band = switch_band(step, use.sign, vt, abs(vh)) if (
+                isinstance(step, SoftStep) and hi != lo and vh >= 0) else None
+            if isinstance(step, SoftStep) and hi != lo and band is None:
+                exact.discard(b.name)
+            if band is not None:  # (the argument's band where the sigmoid crosses VT ± VH)
+                diff = diff.plus(Affine((), -band[0]))
             control, vt_new, more = _control(sw.name, diff, sw.location)
             added.extend(more)
             key = f"pelcs_sw_{sw.name.lower().replace('.', '_')}"
-            params.update({"vt": vt_new, "vh": 0.0})
+            params.update({"vt": vt_new, "vh": 0.0 if band is None else band[1] / _scale(diff)})
             circuit.models[key] = Model(key, "SW", params, sw.location)
             sw.control = control
             sw.model = key
             sw.strict = strict
             gone = circuit.gone_nodes.setdefault(p, (b.name, []))
             gone[1].append(sw.name)
-            on_while = _describe(Step(diff, strict, 1.0, 0.0))
+            on_while = _describe(Step(diff, strict, 1.0, 0.0)) if not band or not band[1] \
+                else f"{_text(diff)} > {band[1]:.4g}, off once below {-band[1]:.4g},"
             circuit.notes.append(f"{b.name}: {b.what} ({b.text.strip()}) mapped "
                                  f"onto switch {sw.name}: on while {on_while} (its output "
                                  f"node {p} is gone; d({sw.name}) is the switch's state)")
@@ -642,7 +654,7 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
                       for _, _, ctl, (vt, vh) in mapped for d in (-1.0, 1.0)]
             record(circuit, b.name, b.text, b.step, b.nodes, b.kind_out, added[start:end],
                    [(name, line) for name, line, _, _ in mapped], levels, _text,
-                   b.location)
+                   b.location, b.name in exact and bool(mapped))
     return diags
 
 
@@ -707,6 +719,15 @@ def _driving(circuit: Circuit, b: Comparator,
         f"of an ideal switch on while {cond}"
         + ("" if isinstance(step, SoftStep) else " (exact)"))  # (a sigmoid: netlist.sigmoid)
     return out
+
+
+def _scale(diff: Affine) -> float:
+    """The factor :func:`_control` divides ``diff`` by: its control is ``diff / factor``."""
+    volts = [c for q, c in diff.terms if q[0] == "v"]
+    if len(volts) == len(diff.terms) and (len(volts) == 1 or (
+            len(volts) == 2 and volts[0] == -volts[1])):
+        return abs(volts[0])
+    return 1.0
 
 
 def _control(name: str, diff: Affine, loc: Location | None

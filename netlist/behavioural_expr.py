@@ -7,8 +7,9 @@ source), a :class:`Step` (a comparator whose values are constants) or, when aske
 at the operation that makes it none of these. What these become in a circuit is
 :mod:`netlist.behavioural`.
 
-Precedence (loosest first, as in ngspice): ``? :``, ``||``, ``&&``, comparisons, ``+ -``,
-``* /``, unary ``- + !``, ``** ^``. ``u(0)`` is 0.5 in ngspice: a tie, as a comparison at
+Precedence (loosest first, as in ngspice): ``? :``, ``||``, ``&&``, ``== !=``, ``< > <= >=``,
+``+ -``, ``* /``, unary ``- + !``, ``** ^`` (a sign in an exponent takes the powers after it:
+``2^-1^2`` is ``2^-(1^2)``). ``u(0)`` is 0.5 in ngspice: a tie, as a comparison at
 equality, lasts an instant and decides nothing here.
 
 The arithmetic of constants is that of ngspice 39's B sources (measured), not numparam's
@@ -169,8 +170,9 @@ class _Parser:
         b = self.ternary()
         return Tree("?", (cond, a, b), cond.start, b.end)
 
-    # binary levels, loosest first; ** is handled in power()
-    _LEVELS = (("||",), ("&&",), ("<", ">", "<=", ">=", "==", "!="), ("+", "-"), ("*", "/"))
+    # binary levels, loosest first, as ngspice's B sources (== and != looser than < and >:
+    # 2 == 1 < 2 is 2 == (1 < 2) = 0 there, measured); ** is handled in power()
+    _LEVELS = (("||",), ("&&",), ("==", "!="), ("<", ">", "<=", ">="), ("+", "-"), ("*", "/"))
 
     def binary(self, level: int) -> Tree:
         if level == len(self._LEVELS):
@@ -204,10 +206,18 @@ class _Parser:
 
     def exponent(self) -> Tree:
         kind, value, pos = self.peek()
-        if kind == "op" and value in "-+":
+        if kind == "op" and value in "-+!":
             self.take()
             sub = self.exponent()
-            return sub if value == "+" else Tree("neg", (sub,), pos, sub.end)
+            # (a sign in an exponent takes the powers after it, as ngspice's B sources:
+            # 2^-1^2 is 2^-(1^2) = 0.5 there, measured, where 2^3^2 is (2^3)^2)
+            while self.peek()[1] in ("**", "^"):
+                self.take()
+                exp = self.exponent()
+                sub = Tree("**", (sub, exp), sub.start, exp.end)
+            if value == "+":
+                return sub
+            return Tree("neg" if value == "-" else "not", (sub,), pos, sub.end)
         return self.atom()
 
     def atom(self) -> Tree:

@@ -137,9 +137,11 @@ FUNCTIONS: dict[str, tuple[Callable[..., float], int, int | None]] = {
     "atanh": (math.atanh, 1, 1),
     "ternary_fcn": (lambda c, a, b: a if c != 0.0 else b, 3, 3),
 }
-# the constants of B-source expressions; numparam has none (ngspice 39: "Undefined parameter
-# [pi]"), so a .param or {...} expression refuses them unless a .param defines them
-CONSTANTS = {"pi": math.pi}
+# the constants of B-source expressions, pi and Euler's number e, which a B source reads even
+# beside a .param or subcircuit parameter of the name (ngspice 39, measured); numparam has
+# none (ngspice 39: "Undefined parameter [pi]"), so a .param or {...} expression refuses them
+# unless a .param defines them
+CONSTANTS = {"pi": math.pi, "e": math.e}
 
 # Functions that mean the user wants a behavioural (nonlinear) source.
 _BEHAVIOURAL = {"v", "i", "time", "temper", "ddt", "idt", "u", "uramp", "table", "if"}
@@ -212,7 +214,7 @@ def _eval(node: tuple, env: Mapping[str, float]) -> float:
         name = node[1]
         if name in env:
             return env[name]
-        if name in CONSTANTS:  # (B sources know pi; numparam does not)
+        if name in CONSTANTS:  # (B sources know pi and e; numparam does not)
             raise ExpressionError(
                 f"unknown parameter '{name}': ngspice 39's .param and {{...}} expressions have "
                 f"no constant {name} (there: \"Undefined parameter [{name}]\")", node[2],
@@ -308,7 +310,7 @@ def _build(t: Tree | Token, names: set[str], leading: bool = True) -> tuple:
         tok = t.children[0]
         name = tok.lower()
         # (pi too: numparam has no such constant, a .param pi=... defines it, measured;
-        # B sources know the constant pi, CONSTANTS)
+        # B sources know the constants pi and e, CONSTANTS)
         names.add(name)
         return ("var", name, tok.start_pos)
     if data == "neg":

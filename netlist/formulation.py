@@ -142,10 +142,10 @@ def formulate(circuit: Circuit) -> SwitchedLCS:
         switches=formulator.switch_controls,
         states=formulator.state_names,
         inputs=formulator.input_names,
-        diodes=[d.name for d in formulator.diodes],
-        builder=formulator.builder,
+        diodes=[d.name for d in formulator.diodes], builder=formulator.builder,
         pinnable=sorted(formulator.state_index[k] for k in formulator.pinnable),
-        storage=_storage(formulator), offsets=vf_offsets(formulator.diodes, formulator.input_names))
+        storage=_storage(formulator), offsets=vf_offsets(formulator.diodes, formulator.input_names),
+        shadowed=[f"v({c.key})" for c in formulator.capacitors if c.key in formulator.node_index])
 
 
 def storage_matrix(circuit: Circuit) -> np.ndarray:

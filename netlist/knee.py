@@ -170,12 +170,14 @@ def knee_probes(knees: Sequence, probes: Sequence[str] | None,
                 states: Sequence[str] = ()) -> list[str]:
     """The probes a run must store besides ``probes`` (``None``: the ``states``) to check
     its knees."""
-    have = {p.lower() for p in (states if probes is None else probes)}
+    # (as spelled: a knee's v(c1), node c1's voltage, is not the state v(C1) of a capacitor
+    # C1, nor a probe written V(C1); a knee's own column costs at most a duplicate)
+    have = set(states if probes is None else probes)
     out = []
     for k in knees:
         for p in k.probes:
-            if p.lower() not in have:
-                have.add(p.lower())
+            if p not in have:
+                have.add(p)
                 out.append(p)
     return out
 
@@ -200,9 +202,9 @@ def check_knees(knees: Sequence, result, extra: int) -> None:
     NetlistError
         A quantity that crossed its knee: when, and where it got to.
     """
-    names = [n.lower() for n in result.names]
+    names = list(result.names)
     for k in knees:
-        columns = [np.asarray(result.y[:, names.index(p.lower())], dtype=float)
+        columns = [np.asarray(result.y[:, names.index(p)], dtype=float)
                    for p in k.probes]
         if not columns[0].size:
             continue

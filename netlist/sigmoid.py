@@ -45,7 +45,7 @@ from .units import format_eng
 from .writer import spice_name
 
 __all__ = ["ATAN_BAND", "SIGMOID", "SIGMOID_SHARE", "TANH_BAND", "SigmoidBand", "SoftStep",
-           "record", "sigmoid_step"]
+           "record", "sigmoid_step", "switch_band"]
 
 #: ``|z| <`` this: ``tanh(z)`` is more than 1 % of its swing (2) from both of its limits
 TANH_BAND = math.atanh(0.98)
@@ -313,10 +313,25 @@ def _argument(step: SoftStep, level: float) -> float | None:
     return math.tan(y * math.pi / 2) if step.shape == "atan" else math.atanh(y)
 
 
+def switch_band(step: SoftStep, sign: float, vt: float, vh: float
+                ) -> tuple[float, float] | None:
+    """Where an S switch whose control is ``sign`` times the sigmoid's output turns, as the
+    centre and half-width of a band of ``sign`` times its argument ``z``: on above the
+    band, off below (the switch on while ``sign z > 0`` turns there, not at ``z = 0``);
+    None where ``VT ± VH`` is not inside the sigmoid's range (or ``VH < 0``)."""
+    if vh < 0:
+        return None
+    ends = [_argument(step, sign * level) for level in (vt + vh, vt - vh)]
+    if None in ends:
+        return None
+    on, off = (sign * z for z in ends)
+    return (on + off) / 2, (on - off) / 2
+
+
 def record(circuit: Circuit, name: str, text: str, step: SoftStep, nodes: tuple[str, str],
            kind_out: str, built: Sequence[Element], switch_lines: Sequence[tuple[str, str]],
            levels: Sequence[float], input_text: Callable[[Affine], str],
-           location: Location | None) -> None:
+           location: Location | None, exact: bool = False) -> None:
     """Record a sigmoid comparator once :func:`netlist.behavioural.resolve_comparators` has
     built it: its knee (:class:`SigmoidBand`, on ``step``'s argument), and the
     :class:`~netlist.circuit.BuiltGroup` that writes its B line (and the lines of the
@@ -326,7 +341,9 @@ def record(circuit: Circuit, name: str, text: str, step: SoftStep, nodes: tuple[
     ``levels``: the output levels at which the switches it drives turn (their ``VT ± VH``).
     The ideal comparator turns them where the sigmoid crosses its mid value, the sigmoid
     where it crosses their level: the band checked reaches those levels' arguments too, so
-    that the time between the two instants is counted."""
+    that the time between the two instants is counted. ``exact``: every switch it drives
+    turns where the sigmoid crosses its ``VT ± VH`` (:func:`switch_band`), and the output
+    acts through them alone: the run is the sigmoid's, and there is no band to check."""
     z = step.diff
     scale = max((abs(c) for _, c in z.terms), default=1.0)
     x = input_text(z.scaled(1.0 / scale))
@@ -335,11 +352,18 @@ def record(circuit: Circuit, name: str, text: str, step: SoftStep, nodes: tuple[
     band = max([step.band, *turns])
     knee = SigmoidBand(name, text.strip(), z, band, scale, x, comparator, location,
                        band > step.band)
-    circuit.knees.append(knee)
+    if not exact:
+        circuit.knees.append(knee)
     line = f"{spice_name(name, 'B')} {nodes[0]} {nodes[1]} {kind_out}={step.spice}"
     circuit.add_built_group(BuiltGroup(name, SIGMOID, "\n".join(
         [line, *(sl for _, sl in switch_lines)]), replaces=tuple(
         n for n, _ in switch_lines)), built)
+    if exact:
+        circuit.notes.append(
+            f"{name}: the sigmoid '{text.strip()}' ({step.shape}) drives only switches, read "
+            f"as turning where it crosses their VT ± VH: at those values of {x}, as ngspice "
+            "turns them (ngspice is given the sigmoid)")
+        return
     circuit.notes.append(
         f"{name}: the sigmoid '{text.strip()}' ({step.shape}) is read as the ideal comparator "
         f"{comparator}: the two differ only while its input is inside the sigmoid's "

@@ -18,10 +18,10 @@ sawtooth). A run steps to each, and takes the waveform's one-sided limits there.
 ngspice puts no breakpoint at those instants: a jump lands inside the step that straddles it,
 and its step control shortens the steps around it. Both converge to the waveform's own
 instants; pelcs lands on them. The arithmetic is that of ngspice's B sources
-(:mod:`netlist.behavioural_expr`: ``a ** b`` is ``|a|^b``, ``pwr`` keeps the sign, ``pi`` is
-the constant even beside a ``.param pi``; ``u(0)`` is 0.5, ``nint`` rounds half to even, as
-C's ``nearbyint``). An expression that only steps between constants (``V = time > 1m ? 5 :
-0``) is the PWL source of :mod:`netlist.time_value`.
+(:mod:`netlist.behavioural_expr`: ``a ** b`` is ``|a|^b``, ``pwr`` keeps the sign, ``pi`` and
+``e`` are the constants even beside a ``.param`` of the name; ``u(0)`` is 0.5, ``nint``
+rounds half to even, as C's ``nearbyint``). An expression that only steps between constants
+(``V = time > 1m ? 5 : 0``) is the PWL source of :mod:`netlist.time_value`.
 """
 
 from __future__ import annotations

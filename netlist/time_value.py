@@ -140,8 +140,9 @@ def _with_time_node(tree: Tree) -> Tree:
 
 
 class NotAffineInTime(BehaviouralError):
-    """A comparison of time that is not of an affine function of time with constants: no
-    :class:`TimeValue`, though :mod:`netlist.time_expression` reads it in a B source."""
+    """A comparison of time that is not of an affine function of time with constants, or an
+    equality of time: no :class:`TimeValue`, though :mod:`netlist.time_expression` reads it
+    in a B source (``time == 0``, true at the operating point, as in ngspice)."""
 
 
 def _threshold(cmp: Tree, text: str, env: Mapping[str, float]) -> float | None:
@@ -149,8 +150,8 @@ def _threshold(cmp: Tree, text: str, env: Mapping[str, float]) -> float | None:
     turns, None if it does not depend on time after all (``time - time < 1``)."""
     part = text[cmp.start:cmp.end].strip()
     if cmp.tag in ("==", "!="):
-        raise BehaviouralError(f"'{part}' is an equality of time: true for an instant only",
-                               cmp.start, ACCEPTED)
+        raise NotAffineInTime(f"'{part}' is an equality of time: true for an instant only",
+                              cmp.start, ACCEPTED)
     try:
         form = linearise(_with_time_node(cmp), text, env, lambda n: n, lambda s: s)
     except BehaviouralError as exc:

@@ -48,6 +48,35 @@ def test_precedence_and_constants():
     assert form("max(1, 2, 3) + abs(-1) + u(0)").const == pytest.approx(4.5)  # u(0) = 1/2
 
 
+@pytest.mark.parametrize("text, value", [
+    # (ngspice 39's B sources, measured with .op)
+    ("2^-1^2", 0.5),  # a sign in an exponent takes the powers after it: 2^-(1^2)
+    ("2**-1**2", 0.5),
+    ("2^!0^2", 2.0),  # 2^!(0^2)
+    ("-2^-2", -0.25),
+    ("2^-2*3", 0.75),
+    ("2 == 1 < 2", 0.0),  # == and != looser than < and >: 2 == (1 < 2)
+    ("2 != 1 < 2", 1.0),
+    ("1 < 2 == 1", 1.0),
+    ("0 != 2 == 1", 1.0),
+    ("3 >= 2 == 1", 1.0),
+])
+def test_precedence_as_ngspice_b_sources(text, value):
+    assert form(text).const == pytest.approx(value)
+    # (the same in a B source of time: netlist.time_expression evaluates the parsed tree)
+    c = parse_string(f"t\nB1 a 0 V=({text}) + 0*sin(time)\nR1 a 0 1\n.tran 1u 10u\n.end\n")
+    assert float(c.element("B1").waveform(0.0)) == pytest.approx(value)
+
+
+@pytest.mark.slow
+def test_precedence_in_ngspice(tmp_path, ngspice):
+    cases = {"2^-1^2": 0.5, "2 == 1 < 2": 0.0, "2^!0^2": 2.0}
+    lines = "".join(f"B{k} n{k} 0 V={e}\nR{k} n{k} 0 1\n" for k, e in enumerate(cases))
+    got = ngspice_print(f"t\n{lines}.tran 1u 10u\n.end\n",
+                        [f"v(n{k})[0]" for k in range(len(cases))], tmp_path)
+    assert list(got.values()) == pytest.approx(list(cases.values()))
+
+
 def test_affine_forms():
     f = form("-(1)*i(vs1)*{n} + 2*v(a,b) - v(c)/4 + 3", {"n": 10})
     assert dict(f.terms) == {("i", "vs1"): -10.0, v("a"): 2.0, v("b"): -2.0, v("c"): -0.25}
@@ -543,3 +572,34 @@ def test_b_source_of_time_alone_is_the_stepping_source_it_is(tmp_path, ngspice):
     for k, atol in ((0, 0.02), (1, 1e-9)):
         ours = np.interp(t[away], run.t, run.y[:, k])
         np.testing.assert_allclose(ours, data[away, 2 * k + 1], atol=atol)
+
+
+# 'e' beside a .param and a subcircuit parameter of that name: ngspice 39's B sources read
+# Euler's number all the same (measured: v(a) = v(c) = 2.718282 V, v(b) = 2.718282*2 V)
+E_DECK = """e in B sources
+.param e=5
+.subckt half o params: e=7
+B1 o 0 V=e*(1+time)
+.ends
+B1 a 0 V=e*(1+time*1k)
+R1 a 0 1
+V2 d 0 DC 2
+B2 b 0 V=e*v(d)
+R2 b 0 1
+X1 c half e=3
+R3 c 0 1
+.tran 10u 1m
+.end
+"""
+
+
+def test_e_is_eulers_number_in_a_b_source_whatever_the_params():
+    res = simulate_circuit(parse_string(E_DECK), probes=["v(a)", "v(b)", "v(c)"])
+    assert res.y[0] == pytest.approx([math.e, 2 * math.e, math.e], rel=1e-12)
+    assert res.y[-1, 0] == pytest.approx(2 * math.e, rel=1e-9)
+
+
+@pytest.mark.slow
+def test_e_in_a_b_source_as_ngspice(tmp_path, ngspice):
+    got = ngspice_print(E_DECK, ["v(a)[0]", "v(b)[0]", "v(c)[0]"], tmp_path)
+    assert list(got.values()) == pytest.approx([math.e, 2 * math.e, math.e], rel=1e-6)

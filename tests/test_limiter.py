@@ -183,3 +183,13 @@ def test_a_clamp_in_a_nonlinear_sum_is_still_refused(expr):
 
     with pytest.raises(NetlistError, match="B1"):
         parse_string(SUMMED.replace("min(2, max(-1, v(in))) + 0.5*v(in) - 0.25", expr))
+
+
+def test_a_clamp_of_constant_value_beside_one_summed_is_its_constant():
+    # min(0, max(1, x)) is 0 whatever x: a constant, with nothing inside it to build a
+    # limiter for (its max(1, v(in)) was built as one, and the sum refused)
+    c = parse_string(SUMMED.replace("- 0.25", "+ min(0, max(1, v(in))) - 0.25"))
+    res = simulate_circuit(c, probes=["v(in)", "v(out)"])
+    res.raise_if_error()
+    vin = res["v(in)"]
+    assert np.abs(res["v(out)"] - (_clamp(vin, -1, 2) + 0.5 * vin - 0.25)).max() <= 1e-9

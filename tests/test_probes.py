@@ -26,3 +26,35 @@ def test_not_a_probe(text):
 def test_probe_unit():
     assert probe_unit("v(out)") == "V" and probe_unit(" I(L1)") == "A"
     assert probe_unit("d(S1)") == "" and probe_unit("mean(v(out))") == ""
+
+
+# two RCs: the node c1 is the second's capacitor C2, while C1 is the first's capacitor
+SHADOW = """node named like a capacitor
+V1 a 0 DC 1
+R1 a b 1k
+C1 b 0 1u
+V2 d 0 DC 3
+R2 d c1 1k
+C2 c1 0 1u
+.tran 10u 2m uic
+.end
+"""
+
+
+@pytest.mark.parametrize("method", ["moreau", "exact"])
+def test_v_of_a_node_named_like_a_capacitor_is_the_node(method):
+    import numpy as np
+
+    from netlist.parser import parse_string
+    from netlist.studies.transient import simulate_circuit
+
+    res = simulate_circuit(parse_string(SHADOW), probes=["v(c1)", "v(b)", "v(C1)", "V(c2)"],
+                           method=method)
+    t = res.t
+    # as in SPICE, v(c1) is the node c1 (the 3 V RC), not the capacitor C1 (the 1 V RC)
+    charge = 1 - np.exp(-t / 1e-3)
+    assert res.y[:, 0] == pytest.approx(3 * charge, abs=2e-3)
+    assert res.y[:, 1] == pytest.approx(charge, abs=2e-3)
+    # the state's own spelling still reads the state; C2's in another case too
+    assert res.y[:, 2] == pytest.approx(res.y[:, 1], abs=1e-12)
+    assert res.y[:, 3] == pytest.approx(res.y[:, 0], abs=1e-12)

@@ -287,15 +287,18 @@ def test_pelcs_check_reports_the_step_its_run_took(ngspice):
     ("time > 0 ? 5 : 0", 0.0),     # (a stepped source, its PWL)
     ("5*u(-time)", 2.5),
     ("ceil(time/100u)*5", 0.0),
+    ("(time == 0)*5", 5.0),        # an equality of time: true at the operating point only
+    ("time != 0 ? 5 : 2.5", 2.5),
 ])
 def test_the_operating_point_takes_the_value_at_time_zero(expr, at0):
     # ngspice's operating point evaluates the B source at t = 0 itself (measured in ngspice
-    # 39: v(out) at 100 us is 4.0711 V for u(time)*5, 3.1234 V for sgn(time)*5): the
+    # 39: v(out) at 100 us is 4.0711 V for u(time)*5, 3.1234 V for sgn(time)*5; its mean over
+    # 1 ms 1.29999 V for the equality of time (time == 0)*4 + (time != 0)): the
     # capacitor starts there and charges through R in the run, v(out) = v + (at0 - v) e^(-t/RC)
     from pelcs.api import simulate
     deck = f"t0\nB1 g 0 V = {expr}\nR1 g out 1k\nC1 out 0 100n\n.tran 1u 100u\n.end\n"
     res = simulate(deck, probes=["v(out)"])
-    v_after = 0.0 if "-time" in expr else 5.0
+    v_after = 0.0 if "-time" in expr or "==" in expr else 5.0
     assert res.y[0, 0] == pytest.approx(at0, abs=1e-9)
     assert res.y[-1, 0] == pytest.approx(v_after + (at0 - v_after) * np.exp(-1), abs=1e-4)
 
@@ -415,3 +418,19 @@ def test_the_clamp_written_with_max_and_min_is_the_ramp_it_clamps():
     w = _wave("6+2*max(0, min(1, (time-1m)/0.1m))")
     t = np.array([0.0, 0.5e-3, 1e-3, 1.05e-3, 1.1e-3, 1.5e-3])
     np.testing.assert_allclose(w(t), [6, 6, 6, 7, 8, 8], atol=1e-12)
+
+
+@pytest.mark.parametrize("gate", ["V1 c 0 PWL(0 0 0 5 1m 5)", "B1 c 0 V=time > 0 ? 5 : 0"])
+def test_a_switch_whose_gate_jumps_at_time_zero_is_off_in_the_operating_point(gate):
+    # ngspice's operating point takes the gate at t = 0 itself (0 V): the switch is off
+    # there, the capacitor uncharged, and the switch turns on in the first step (ngspice 39:
+    # mean v(y) over 2 ms 8.67653 V); pelcs had it on, the capacitor at 9.09 V from the start
+    from pelcs.api import simulate
+    deck = (f"t\n{gate}\nS1 in x c 0 swm\n.model swm sw vt=2.5 ron=1 roff=1e9\nV2 in 0 10\n"
+            "R1 x y 1k\nC1 y 0 100n\nR2 y 0 10k\n.tran 1u 2m\n.end\n")
+    res = simulate(deck, probes=["v(y)"])
+    t, y = res.t, res.y[:, 0]
+    assert y[0] == pytest.approx(0.0, abs=1e-9)
+    # switched on at 0+, RON left out: 10 V through 1k into 100n || 10k
+    final, tau = 10 * 10e3 / 11e3, 100e-9 * 1e3 * 10e3 / 11e3
+    assert y == pytest.approx(final * (1 - np.exp(-t / tau)), abs=1e-4)

@@ -36,6 +36,7 @@ from .problem import Problem, mode_tuple
 from .recorder import Recorder
 from .regrid import Passthrough, Regrid
 from .schedule import Controllers, plan_run
+from .source_start import source_mode_at
 from .switches import classify_switches, initially_on
 
 
@@ -130,6 +131,17 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
     # after it: u(time) is 0.5 there, a PWL from (0, 0) to (0, 5) is 0; a source that jumps
     # at t_start then does so in the first step)
     u0 = evaluate_inputs(inputs, np.array([t_start]), 0 if operating_point else +1)[0]
+    # (... and the switches those sources drive take their state there too: a switch whose
+    # gate source jumps at t_start is in the operating point as before the jump, and turns
+    # in the first step, the state carried over)
+    mode_op = source_mode_at(system, inputs, t_start, plan.source, sched.mode_src,
+                             sched.src_maps) if operating_point and plan.source else None
+    if mode_op is not None and mode_op != tuple(sched.mode_src):
+        start = initial_state(problem, plan, mode_op, sched.src_maps, guess, x0, u0, t_start,
+                              ctrls, on_inconsistent, lcp or LcpOptions(), notes,
+                              operating_point)
+        x0, u0 = start.x, evaluate_inputs(inputs, np.array([t_start]), +1)[0]
+        operating_point = False
     init = initial_state(problem, plan, sched.mode_src, sched.src_maps, guess, x0, u0, t_start,
                          ctrls, on_inconsistent, lcp or LcpOptions(), notes, operating_point)
     # States some modes hold at zero (an inductor an open switch leaves with no path): set

@@ -152,11 +152,22 @@ class Problem:
             Cy, Dy, Fy = np.zeros((k, n)), np.zeros((k, m)), np.zeros((k, p))
             duty = np.array([duty_switch(nm, self.switch_names) for nm in names], np.int64)
             lower_states = [s.lower() for s in lcs.states]
-            others = [(i, nm) for i, nm in enumerate(names)
-                      if nm.lower() not in lower_states and duty[i] < 0]
-            for i, nm in enumerate(names):
-                if nm.lower() in lower_states:
-                    Cy[i, lower_states.index(nm.lower())] = 1.0
+            shadowed = getattr(self.system, "shadowed", frozenset())
+
+            def state(nm: str) -> int:
+                # (a state by its name in any case, but for a spelling other than the state's
+                # own that the output maps read otherwise: v(c1) of a node c1 beside C1)
+                if nm in lcs.states:
+                    return lcs.states.index(nm)
+                low = nm.lower()
+                return lower_states.index(low) if (low in lower_states
+                                                   and low not in shadowed) else -1
+
+            index = [state(nm) for nm in names]
+            others = [(i, nm) for i, nm in enumerate(names) if index[i] < 0 and duty[i] < 0]
+            for i, j in enumerate(index):
+                if j >= 0:
+                    Cy[i, j] = 1.0
             if others:
                 om = self.system.outputs(mode, [nm for _, nm in others])
                 q = len(others)
