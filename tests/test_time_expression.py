@@ -434,3 +434,22 @@ def test_a_switch_whose_gate_jumps_at_time_zero_is_off_in_the_operating_point(ga
     # switched on at 0+, RON left out: 10 V through 1k into 100n || 10k
     final, tau = 10 * 10e3 / 11e3, 100e-9 * 1e3 * 10e3 / 11e3
     assert y == pytest.approx(final * (1 - np.exp(-t / tau)), abs=1e-4)
+
+
+def test_a_source_out_of_its_domain_stops_a_run_with_no_state(tmp_path, capsys):
+    # no capacitor or inductor: the outputs are the inputs', so no state turns NaN for the
+    # kernel to stop at; sqrt(sin(2 pi 1k t)) leaves its domain after 0.5 ms
+    from pelcs.cli import main
+
+    deck = tmp_path / "nan.cir"
+    deck.write_text("t\nB1 a 0 V=sqrt(sin(2*pi*1k*time))\nR1 a 0 1k\n.tran 10u 2m\n.end\n")
+    out = tmp_path / "a.csv"
+    code = main(["simulate", str(deck), "--no-progress", "-o", str(out)])
+    err = capsys.readouterr().err
+    assert code == 3
+    assert "non_finite" in err and "the input B1 is not a finite number there" in err
+    data = np.genfromtxt(out, delimiter=",", skip_header=1, ndmin=2)
+    assert np.isfinite(data).all() and 0.49e-3 < data[-1, 0] <= 0.5e-3
+    # (up to there, the source itself: sqrt(sin(2 pi 1k t)))
+    np.testing.assert_allclose(data[:, 1], np.sqrt(np.sin(2 * np.pi * 1e3 * data[:, 0])),
+                               rtol=1e-8, atol=1e-6)  # (10 digits written)

@@ -234,6 +234,12 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
                 keep = t_res <= error.time
                 t_res, y_res = t_res[keep], y_res[keep]
                 events = events[:int(np.searchsorted(events.t, error.time, side="right"))]
+    if error is None and recorder.non_finite is not None:
+        error = _non_finite_rows(problem, inputs, init.mode, events, *recorder.non_finite)
+        if error is not None:
+            keep = t_res < error.time
+            t_res, y_res = t_res[keep], y_res[keep]
+            events = events[:int(np.searchsorted(events.t, error.time, side="right"))]
     stored = sink.kept if sink is not None else len(t_res)
     if output_step is not None and sink is None:
         keep = t_res >= output_from
@@ -281,3 +287,21 @@ def _advance_pinned(integrator: Integrator, pins: PinnedJumps, known, ws: float,
         if error is not None:
             return error
     return None
+
+
+def _non_finite_rows(problem: Problem, inputs, mode0, events, t_prev: float,
+                     t_bad: float) -> SimulationError:
+    """The error of a run whose recorded outputs are not finite numbers at ``t_bad`` (s)
+    where its state was: a circuit with no state, whose outputs are its inputs' (a B
+    source's sqrt(sin(...)) out of its domain). The kernel stops a run whose state is not
+    finite; this is the outputs' counterpart."""
+    with np.errstate(all="ignore"):
+        u = evaluate_inputs(inputs, np.array([t_bad]), -1)[0]
+    names = [problem.system.inputs[j] for j in np.flatnonzero(~np.isfinite(u))]
+    mode = mode0
+    for te, md in events:
+        if te > t_bad:
+            break
+        mode = md
+    t0 = t_prev if np.isfinite(t_prev) else t_bad
+    return failures.non_finite(t0, t_bad, problem.describe(tuple(mode)), names)

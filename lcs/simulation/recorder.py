@@ -89,6 +89,10 @@ class Recorder:
         self.block = int(block)
         self.handed = 0  # rows handed to the sink
         self.peak_rows = rows
+        # (the times of the first row whose probes are not all finite numbers, and of the
+        # row before it, once one is seen)
+        self.non_finite: tuple[float, float] | None = None
+        self._t_before = np.nan
         # Event records drained from the buffer (those that change the key, and sliding
         # records), and the key of the last record drained.
         self._ev_t, self._ev_ix, self._ev_n = np.empty(0), np.empty(0, np.int32), 0
@@ -137,7 +141,8 @@ class Recorder:
         n = self.pos - 1
         if n <= 0:
             return
-        self.sink.take(self.T[:n], self.Y[:n])
+        ok = self._watch(n)
+        self.sink.take(self.T[:ok], self.Y[:ok])
         self.peak_rows = max(self.peak_rows, len(self.T) + self.sink.held())
         self.T[0] = self.T[n]
         self.Y[0] = self.Y[n]
@@ -244,6 +249,22 @@ class Recorder:
         self.Y[self.pos] = y
         self.pos += 1
 
+    def _watch(self, n: int) -> int:
+        """Note the first of the buffer's first ``n`` rows whose probes are not finite;
+        returns how many of them come before it (all ``n`` while none is seen, none after
+        one was: the run's error stops its results there, streamed ones too)."""
+        if self.non_finite is not None:
+            return 0
+        if n <= 0:
+            return n
+        bad = ~np.isfinite(self.Y[:n]).all(axis=1)
+        if not bad.any():
+            self._t_before = float(self.T[n - 1])
+            return n
+        i = int(np.argmax(bad))
+        self.non_finite = (float(self.T[i - 1]) if i else self._t_before, float(self.T[i]))
+        return i
+
     def last_time(self) -> float:
         return float(self.T[self.pos - 1])
 
@@ -252,8 +273,9 @@ class Recorder:
         handed to it). The buffers were sized for the whole run: they are sliced (a copy of a
         large run costs as much as the stepping) unless the run stopped early and most of
         them is unused."""
+        ok = self._watch(self.pos)
         if self.sink is not None:
-            self.sink.take(self.T[:self.pos], self.Y[:self.pos])
+            self.sink.take(self.T[:ok], self.Y[:ok])
             self.peak_rows = max(self.peak_rows, len(self.T) + self.sink.held())
             self.handed += self.pos
             self.pos = 0
