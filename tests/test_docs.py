@@ -2,24 +2,31 @@
 
 The blocks are the fenced ```` ```sh ```` and ```` ```python ```` blocks of ``README.md`` and
 ``docs/*.md``. Python blocks run as scripts; shell blocks hold ``pelcs`` commands (or
-``.venv/bin/pelcs``), each run as ``python -m pelcs.cli ...`` and expected to exit with 0. Both
-run in a fresh process whose working directory is a temporary folder holding the checkout's
-netlist folders (``converters/netlists``, ``tests/netlists``, as links), so the documented
-relative paths work and the files the commands write (``out/...``) land in the temporary
-folder. A block that cannot run here (one that installs packages, one that needs a Dask
-cluster) is marked in the Markdown by an HTML comment on the line before its fence,
-``<!-- not run: REASON -->``; :data:`NOT_RUN` lists the reasons allowed. ``<!-- slow -->``
-marks a block with pytest's ``slow`` marker. Other fences must say ``text`` (output,
-synopses, formulas), so that no code block escapes the test by having no language.
+``.venv/bin/pelcs``), each run as ``pelcs.cli.main(...)`` and expected to exit with 0. Both
+run in a process of their own whose working directory is a temporary folder holding the
+checkout's netlist folders (``converters/netlists``, ``tests/netlists``, as links), so the
+documented relative paths work and the files the commands write (``out/...``) land in the
+temporary folder. The process is forked from the test's, in which pelcs, matplotlib and the
+compiled kernels were loaded once (a fresh interpreter spends 2-3 s of every block on those
+imports); its stdout and stderr go to a file, its exit status is the block's. A block that
+cannot run here (one that installs packages, one that needs a Dask cluster) is marked in the
+Markdown by an HTML comment on the line before its fence, ``<!-- not run: REASON -->``;
+:data:`NOT_RUN` lists the reasons allowed. ``<!-- slow -->`` marks a block with pytest's
+``slow`` marker. Other fences must say ``text`` (output, synopses, formulas), so that no code
+block escapes the test by having no language.
 """
 
 from __future__ import annotations
 
+import contextlib
+import io
+import multiprocessing
 import os
 import re
+import runpy
 import shlex
-import subprocess
 import sys
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -108,14 +115,83 @@ def workdir(tmp_path: Path) -> Path:
 
 def _env() -> dict[str, str]:
     path = os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p)
-    return {**os.environ, "PYTHONPATH": path, "MPLBACKEND": "Agg"}
+    return {"PYTHONPATH": path, "MPLBACKEND": "Agg"}
 
 
-def _run(argv: list[str], cwd: Path, what: str) -> None:
-    proc = subprocess.run(argv, cwd=cwd, env=_env(), capture_output=True, text=True,
-                          timeout=TIMEOUT)
-    assert proc.returncode == 0, (f"{what} exited with {proc.returncode}\n"
-                                  f"stdout:\n{proc.stdout[-3000:]}\nstderr:\n{proc.stderr[-3000:]}")
+@pytest.fixture(scope="module")
+def warm(tmp_path_factory) -> None:
+    """Load in this process what the blocks' forked processes would each import: every
+    command's modules, matplotlib and the kernels (by a short run with a plot, its output
+    discarded: a failure here is left to the blocks to show)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot  # noqa: F401
+
+    import pelcs.cli
+
+    pelcs.cli.build_parser([])
+    out = tmp_path_factory.mktemp("warm")
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        try:
+            pelcs.cli.main(["simulate", str(ROOT / "converters/netlists/buck.cir"),
+                            "--tstop", "0.2m", "-o", str(out / "w.csv"),
+                            "--plot", str(out / "w.png")])
+        except Exception:
+            pass
+
+
+def _child(target, cwd: Path, log: Path) -> None:
+    """In the forked process: stdout and stderr (the descriptors, for anything the block
+    starts too) to ``log``, the working folder and environment of a fresh run, Python's
+    default warning filters (not the test's), then the block."""
+    fd = os.open(log, os.O_WRONLY | os.O_CREAT | os.O_TRUNC)
+    os.dup2(fd, 1)
+    os.dup2(fd, 2)
+    os.close(fd)
+    sys.stdout = open(1, "w", encoding="utf-8", errors="backslashreplace", closefd=False)
+    sys.stderr = open(2, "w", encoding="utf-8", errors="backslashreplace", closefd=False)
+    os.chdir(cwd)
+    os.environ.update(_env())
+    warnings.resetwarnings()
+    for action, category in (("default", DeprecationWarning), ("ignore", DeprecationWarning),
+                             ("ignore", PendingDeprecationWarning), ("ignore", ImportWarning),
+                             ("ignore", ResourceWarning)):
+        warnings.filterwarnings(action, category=category,
+                                module="__main__" if action == "default" else "",
+                                append=True)
+    target()
+
+
+def _run(target, cwd: Path, what: str) -> None:
+    log = cwd.parent / "output.txt"
+    proc = multiprocessing.get_context("fork").Process(target=_child,
+                                                       args=(target, cwd, log))
+    proc.start()
+    proc.join(TIMEOUT)
+    if proc.exitcode is None:
+        proc.kill()
+        proc.join()
+        pytest.fail(f"{what} did not finish in {TIMEOUT:.0f} s")
+    output = log.read_text(encoding="utf-8", errors="replace") if log.exists() else ""
+    assert proc.exitcode == 0, f"{what} exited with {proc.exitcode}\noutput:\n{output[-6000:]}"
+
+
+def _script(path: Path):
+    def run() -> None:
+        sys.argv = [str(path)]
+        sys.path.insert(0, str(path.parent))
+        runpy.run_path(str(path), run_name="__main__")
+    return run
+
+
+def _command(args: list[str]):
+    def run() -> None:
+        import pelcs.cli
+
+        sys.argv = [pelcs.cli.__file__, *args]
+        sys.exit(pelcs.cli.main(args))
+    return run
 
 
 def _params():
@@ -125,11 +201,11 @@ def _params():
 
 
 @pytest.mark.parametrize("block", list(_params()))
-def test_block_runs(block: Block, workdir: Path, request) -> None:
+def test_block_runs(block: Block, workdir: Path, warm, request) -> None:
     if block.lang == "python":
         script = workdir.parent / "block.py"
         script.write_text(block.text, encoding="utf-8")
-        _run([sys.executable, str(script)], workdir, f"{block.id} (python)")
+        _run(_script(script), workdir, f"{block.id} (python)")
         return
     cmds = commands(block.text)
     assert cmds, f"{block.id}: an empty shell block"
@@ -140,7 +216,7 @@ def test_block_runs(block: Block, workdir: Path, request) -> None:
             f"{', '.join(NOT_RUN)})")
         if args[1:2] == ["check"]:
             request.getfixturevalue("ngspice")
-        _run([sys.executable, "-m", "pelcs.cli", *args[1:]], workdir, f"{block.id}: {args}")
+        _run(_command(args[1:]), workdir, f"{block.id}: {args}")
 
 
 def test_fences_have_a_known_language() -> None:

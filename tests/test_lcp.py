@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import itertools
 
 import numpy as np
@@ -22,23 +23,41 @@ from lcs.lcp import (
 def brute_force(M, q, tol=1e-9, cond_limit=1e12):
     """All solutions found by trying the 2^m complementary bases (independent of lcs.lcp);
     a basis whose block is conditioned worse than ``cond_limit`` is taken as singular."""
+    M = np.ascontiguousarray(M, dtype=float)
     m = len(q)
     sols = []
+    for a, Maa in _regular_bases(M.tobytes(), M.shape, cond_limit):
+        z = np.zeros(m)
+        if a:
+            z[a] = np.linalg.solve(Maa, -q[a])
+        w = M @ z + q
+        # Relative to the data: the tests use q from 1e-12 to 1e6.
+        scale = np.abs(q).max() + np.abs(M).max() * np.abs(z).max()
+        if z.min() >= -tol * scale and w.min() >= -tol * scale:
+            sols.append((z, w))
+    return sols
+
+
+@functools.lru_cache(maxsize=4)
+def _regular_bases(data: bytes, shape: tuple[int, int], cond_limit: float):
+    """The bases of ``M`` (given by its bytes, to be a cache key) whose blocks are conditioned
+    better than ``cond_limit``, in enumeration order, with their blocks: they depend on ``M``
+    alone, and the tests that enumerate many ``q`` for one ``M`` (2^12 bases) spent most of
+    their time in the condition numbers."""
+    M = np.frombuffer(data, dtype=float).reshape(shape)
+    m = shape[0]
+    out = []
     for k in range(m + 1):
         for act in itertools.combinations(range(m), k):
-            z = np.zeros(m)
-            if act:
-                a = list(act)
-                Maa = M[np.ix_(a, a)]
-                if np.linalg.cond(Maa) > cond_limit:  # singular basis: no vertex solution
-                    continue
-                z[a] = np.linalg.solve(Maa, -q[a])
-            w = M @ z + q
-            # Relative to the data: the tests use q from 1e-12 to 1e6.
-            scale = np.abs(q).max() + np.abs(M).max() * np.abs(z).max()
-            if z.min() >= -tol * scale and w.min() >= -tol * scale:
-                sols.append((z, w))
-    return sols
+            a = list(act)
+            if not a:
+                out.append((a, None))
+                continue
+            Maa = M[np.ix_(a, a)]
+            if np.linalg.cond(Maa) > cond_limit:  # singular basis: no vertex solution
+                continue
+            out.append((a, Maa))
+    return out
 
 
 def random_p_matrix(rng, m):
