@@ -32,8 +32,8 @@ def _run_and_interrupt(args: list[str], delay: float) -> tuple[subprocess.Popen,
     The signal must come after some points have finished and before all have: on a machine
     much faster or slower than expected the command is run again with the delay halved (it
     finished, or finished its points and was writing them, before the signal) or lengthened
-    (nothing had finished), up to four times."""
-    for _ in range(4):
+    (nothing had finished), up to six times (a loaded machine may need the longer delays)."""
+    for _ in range(6):
         proc = subprocess.Popen([sys.executable, "-m", "pelcs.cli", *args],
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                 env={**os.environ, "PYTHONPATH": str(ROOT)},
