@@ -5,15 +5,26 @@ at the start itself, where the operating point takes its sources (a gate source 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from contextlib import contextmanager
 
 import numpy as np
 
 from ..model import ModeKey, SwitchedLCS
 from .inputs import InputFunction, evaluate_inputs
 from .source_switching import _ControlMaps
-from .switch_bands import SUB_BAND_OFF, SUB_BAND_ON, initial_sub, initially_on, sub_on
+from .switch_bands import (
+    IN,
+    RULE_KEEP,
+    SUB_BAND_OFF,
+    SUB_BAND_ON,
+    band_rule,
+    initial_sub,
+    initially_on,
+    region_of,
+    sub_on,
+)
 
-__all__ = ["source_mode_at"]
+__all__ = ["kept_in_band", "source_mode_at"]
 
 
 def source_mode_at(system: SwitchedLCS, inputs: Sequence[InputFunction], t: float,
@@ -40,3 +51,37 @@ def source_mode_at(system: SwitchedLCS, inputs: Sequence[InputFunction], t: floa
             break
         mode = new
     return mode
+
+
+@contextmanager
+def kept_in_band(system: SwitchedLCS, inputs: Sequence[InputFunction], t: float,
+                 which: Sequence[int], mode_op: ModeKey):
+    """While open: each source-driven switch of ``which`` whose control just after ``t`` is
+    inside its hysteresis band (``VH > 0``) starts there in its state of the operating point
+    ``mode_op`` (its netlist ``ON``/``OFF`` set to it), not in its netlist's.
+
+    A band keeps the state the switch had before it: a gate at 5 V at the operating point,
+    3 V just after, of a switch at VT 2.5 V, VH 1 V, is on and stays on (ngspice 39), where
+    the netlist's default would have it off from the first step.
+    """
+    sw = system.switches
+    u = evaluate_inputs(inputs, np.array([t]), +1)[0]
+    rows = _ControlMaps(system, {}, frozenset(which)).rows(tuple(mode_op)) @ u
+    saved = []
+    for i in which:
+        lo, hi, rule = band_rule(sw[i])
+        opts = sw[i].options
+        if (rule != RULE_KEEP or not isinstance(opts, dict)
+                or region_of(float(rows[i]), lo, hi) != IN
+                or initially_on(opts) == bool(mode_op[i])):
+            continue
+        saved.append((opts, "initial" in opts, opts.get("initial")))
+        opts["initial"] = bool(mode_op[i])
+    try:
+        yield
+    finally:
+        for opts, had, val in reversed(saved):
+            if had:
+                opts["initial"] = val
+            else:
+                del opts["initial"]
