@@ -636,7 +636,9 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
             circuit.models[key] = Model(key, "SW", params, sw.location)
             sw.control = control
             sw.model = key
-            sw.strict = strict
+            # (a strict switch is an idealised one, turning at VT alone: where the sigmoid's
+            # crossings of VT ± VH are a band of width, the switch keeps its hysteresis)
+            sw.strict = strict and not (band is not None and band[1] > 0)
             gone = circuit.gone_nodes.setdefault(p, (b.name, []))
             gone[1].append(sw.name)
             on_while = _describe(Step(diff, strict, 1.0, 0.0)) if not band or not band[1] \
