@@ -45,3 +45,19 @@ def test_a_switch_kept_on_in_its_band_turns_off_below_it(tmp_path):
     tau = 100e-9 * 10e3
     expect = 100 / 11 * np.exp(-(t[late] - 1.001e-3) / tau)
     assert y[late] == pytest.approx(expect, abs=2e-2)
+
+
+def test_a_negative_band_entered_from_above_after_the_operating_point_turns_off(tmp_path):
+    # VH = -1 V: the gate, 5 V at the operating point (on), enters the band 1.5..3.5 V from
+    # above just after t = 0, which turns the switch off (ngspice 39: mean v(x) 3.93032 V);
+    # the RC then discharges from 100/11 V with 100n * 10k
+    from pelcs.cli import main
+
+    deck = tmp_path / "neg.cir"
+    deck.write_text(DECK.format(gate="PWL(0 5 0 3 2m 3)").replace("VH=1", "VH=-1"))
+    out = tmp_path / "x.csv"
+    assert main(["simulate", str(deck), "--no-progress", "--probe", "v(x)", "-o",
+                 str(out)]) == 0
+    t, y = np.genfromtxt(out, delimiter=",", skip_header=1).T
+    assert y[0] == pytest.approx(100 / 11, abs=1e-6)
+    assert y == pytest.approx(100 / 11 * np.exp(-t / 1e-3), abs=2e-3)
