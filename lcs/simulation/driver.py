@@ -153,7 +153,8 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
                          ctrls, on_inconsistent, lcp or LcpOptions(), notes, operating_point)
     # States some modes hold at zero (an inductor an open switch leaves with no path): set
     # to zero where such a mode starts, at t_start and at every known switching instant.
-    pins = PinnedJumps(system, k) if system.pinnable else None
+    pins = PinnedJumps(system, k, tuple(i for i, m in enumerate(plan.method) if m in (
+        "implicit", "hysteresis", "explicit"))) if system.pinnable else None
     if pins is not None:
         pins.apply(init.mode, init.x, t_start)
     split = pins is not None and integrator.can_set_state
@@ -288,6 +289,9 @@ def _advance_pinned(integrator: Integrator, pins: PinnedJumps, known, ws: float,
         snap = integrator.snapshot()
         key = key_after(snap.key, part, a, tol)
         x = np.array(snap.x, dtype=float)
+        error = pins.carried(mode_tuple(key, k), x, a)
+        if error is not None:
+            return error
         if pins.apply(mode_tuple(key, k), x, a):
             integrator.set_state(x)
         error = integrator.advance(Window(a, b, part, bps[(bps > a) & (bps < b)]))

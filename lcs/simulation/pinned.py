@@ -61,6 +61,8 @@ class PinnedJumps:
 
     system: SwitchedLCS
     k: int
+    #: The switches their comparators drive from the state (their indices)
+    comparators: tuple = ()
     jumps: dict = field(default_factory=dict)
     instants: list = field(default_factory=list)
 
@@ -78,6 +80,43 @@ class PinnedJumps:
                 x[i] = 0.0
                 jumped = True
         return jumped
+
+    def carried(self, mode: ModeKey, x: np.ndarray, t: float) -> SimulationError | None:
+        """The error of a cut, at a known instant ``t`` where ``mode`` starts from the state
+        ``x``, of a nonzero current that a comparator-driven switch off in ``mode`` would give
+        a path to by turning on, or None.
+
+        The cut comes first at the instant, and the comparator would see only what follows
+        it; a real switch's current drives the voltage across the open switches up at once,
+        and a comparator that watches it (a switch controlled by its own terminals, as a
+        diode) turns on and carries the current: the run's cut would be no solution.
+        """
+        pinned = self.system.pinned(mode)
+        cut = [i for i in pinned if x[i] != 0.0]
+        if not cut:
+            return None
+        for j in self.comparators:
+            if mode[j]:
+                continue
+            other = tuple(True if i == j else on for i, on in enumerate(mode))
+            try:
+                freed = [i for i in cut if i not in self.system.pinned(other)]
+            except Exception:  # (a mode the circuit cannot take: no way out there)
+                continue
+            if not freed:
+                continue
+            name = self.system.switches[j].name
+            names = ", ".join(self.system.states[i] for i in freed)
+            desc = {s.name: ("on" if on else "off")
+                    for s, on in zip(self.system.switches, mode, strict=True)}
+            msg = (f"t = {t:.9g} s, mode: {fmt_mode(desc)}: the open switches cut {names} "
+                   f"here, where switch {name}, off, would give it a path by turning on: its "
+                   "comparator would see the voltage the current drives across it (a switch "
+                   "controlled by its own terminals, as a diode, is the usual case), which an "
+                   "ideal switch's cut does not let it; the results stop there. Give the "
+                   "current a path that stays (a diode in place of the switch)")
+            return SimulationError(msg, kind="pinned_jump", time=t, t_prev=t, mode=desc)
+        return None
 
     def notes(self) -> list[str]:
         """One note per state that jumped."""
