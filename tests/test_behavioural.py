@@ -611,3 +611,10 @@ def test_a_comparator_value_inside_a_hysteresis_band_is_named_alone():
                  "R1 o 0 1\n.model m SW(VT=0.2 VH=0.3)\n.end\n")
     assert "its value 0 sits in the band 0.2 ± 0.3 V of switch S1's control" in msg
     assert "5 and 0" not in msg
+
+
+def test_a_refused_comparator_leaves_no_floating_control_error():
+    # the refused B source's output node is not a floating control node of S1
+    msg = _error("t\nVa a 0 1\nB1 g 0 V = v(a) > 0 ? 5 : 0\nVin in 0 1\nS1 in o g 0 m\n"
+                 "R1 o 0 1\n.model m SW(VT=0.2 VH=0.3)\n.end\n")
+    assert "sits in the band" in msg and "not connected to any element" not in msg
