@@ -222,3 +222,26 @@ R1 out 0 20
     assert "pinned_jump" in err and "S2" in err and "i(L1)" in err
     t = np.genfromtxt(out, delimiter=",", skip_header=1, ndmin=2)[:, 0]
     assert 4.9e-6 < t[-1] < 5.1e-6  # (kept up to S1's first opening)
+
+
+def test_a_cut_beside_a_comparator_switch_that_does_not_see_it_runs(tmp_path):
+    # S3 could give L1 a path, but its control -v(out) never reaches its threshold (nor
+    # sees the cut's voltage): the cut stands, as in ngspice (a spike in S1's ROFF)
+    deck = tmp_path / "cut.cir"
+    deck.write_text("""cut with a comparator switch that never turns on
+Vin in 0 12
+Vg g 0 PULSE(0 5 0 10n 10n 5u 10u)
+S1 in sw g 0 SW1
+L1 sw out 10u
+R1 out 0 1
+C1 out 0 1u
+S3 sw 0 0 out SW1
+.model SW1 SW(RON=1m ROFF=1meg VT=2.5)
+.tran 100n 30u
+.end
+""")
+    from pelcs.cli import main
+
+    out = tmp_path / "out.csv"
+    assert main(["simulate", str(deck), "--devices", "pwl", "--no-progress", "-o",
+                 str(out)]) == 0

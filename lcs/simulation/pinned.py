@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..model import ModeKey, SwitchedLCS
+from ..model import TERMINALS_OPTION, ModeKey, SwitchedLCS
 from ..results import SimulationError
 from .codes import OP_SET
 from .problem import fmt_mode
@@ -42,6 +42,27 @@ def key_after(key: int, known: KnownSwitchings, t: float, tol: float) -> int:
         if abs(tk - t) <= tol and op == OP_SET:
             key = (key & ~from_words(a)) | from_words(b)
     return key
+
+
+def _self_controlled(sw) -> bool:
+    """Whether a switch's control is the voltage across its own terminals (either way): the
+    one a cut's voltage surely reaches (the others' controls may not see it, and the run has
+    no voltage for the cut to tell)."""
+    opts = sw.options if isinstance(sw.options, dict) else {}
+    pair = str(opts.get(TERMINALS_OPTION, ""))
+    if not pair.startswith("v(") or not str(sw.control).startswith("v("):
+        return False
+
+    def nodes(v: str) -> list:
+        return v[2:-1].lower().split(",")
+
+    # (a terminal inside the switch's own model, as its RON's node with --devices pwl,
+    # stands for the outer one behind it)
+    inner = f"{sw.name.lower()}#"
+    ctl, ends = nodes(sw.control), nodes(pair)
+    rest = [n for n in ends if n not in ctl]
+    return len(ctl) == 2 and len(rest) <= 1 and all(n.startswith(inner) for n in rest) and (
+        len(set(ends) & set(ctl)) == 2 - len(rest))
 
 
 @dataclass
@@ -83,8 +104,8 @@ class PinnedJumps:
 
     def carried(self, mode: ModeKey, x: np.ndarray, t: float) -> SimulationError | None:
         """The error of a cut, at a known instant ``t`` where ``mode`` starts from the state
-        ``x``, of a nonzero current that a comparator-driven switch off in ``mode`` would give
-        a path to by turning on, or None.
+        ``x``, of a nonzero current that a switch off in ``mode``, controlled by its own
+        terminals, would give a path to by turning on, or None.
 
         The cut comes first at the instant, and the comparator would see only what follows
         it; a real switch's current drives the voltage across the open switches up at once,
@@ -96,7 +117,7 @@ class PinnedJumps:
         if not cut:
             return None
         for j in self.comparators:
-            if mode[j]:
+            if mode[j] or not _self_controlled(self.system.switches[j]):
                 continue
             other = tuple(True if i == j else on for i, on in enumerate(mode))
             try:
