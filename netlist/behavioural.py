@@ -588,8 +588,10 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
             hi = _state(use.sign * step.hi, vt, vh)
             lo = _state(use.sign * step.lo, vt, vh)
             if hi is None and lo is None or (vh > 0 and (hi is None or lo is None)):
+                inside = [f"{v:g}" for v, st in ((step.hi, hi), (step.lo, lo)) if st is None]
                 diags.append(Diagnostic(
-                    f"{label}: its values {step.hi:g} and {step.lo:g} sit in the band "
+                    f"{label}: its value{'s' if len(inside) > 1 else ''} "
+                    f"{' and '.join(inside)} sit{'' if len(inside) > 1 else 's'} in the band "
                     f"{vt:g} ± {abs(vh):g} V of switch {sw.name}'s control, where the switch's "
                     "state depends on its history", b.location,
                     "give the B source values on either side of the switch's VT ± VH",
@@ -636,7 +638,9 @@ def resolve_comparators(circuit: Circuit) -> list[Diagnostic]:
             circuit.models[key] = Model(key, "SW", params, sw.location)
             sw.control = control
             sw.model = key
-            sw.strict = strict
+            # (a strict switch is an idealised one, turning at VT alone: where the sigmoid's
+            # crossings of VT ± VH are a band of width, the switch keeps its hysteresis)
+            sw.strict = strict and not (band is not None and band[1] > 0)
             gone = circuit.gone_nodes.setdefault(p, (b.name, []))
             gone[1].append(sw.name)
             on_while = _describe(Step(diff, strict, 1.0, 0.0)) if not band or not band[1] \

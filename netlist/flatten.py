@@ -275,7 +275,8 @@ class _Builder:
         c.notes[:0] = list(deck.notes)
         if self.within_element_limit():
             self.expand(deck.top, "", "", None, self.global_env, self.global_failed, ())
-            self.diags.extend(resolve_comparators(c))
+            self.diags.extend(refused := resolve_comparators(c))
+            self.incomplete |= bool(refused)  # (one refused leaves its output node a hole)
             if any(el.kind == "A" or hasattr(el, "mmf") for el in c.elements):  # (1 ms)
                 self.diags.extend(import_module("netlist.magnetic_core").resolve_cores(
                     c, bool(self.diags)))

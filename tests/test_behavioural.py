@@ -603,3 +603,18 @@ def test_e_is_eulers_number_in_a_b_source_whatever_the_params():
 def test_e_in_a_b_source_as_ngspice(tmp_path, ngspice):
     got = ngspice_print(E_DECK, ["v(a)[0]", "v(b)[0]", "v(c)[0]"], tmp_path)
     assert list(got.values()) == pytest.approx([math.e, 2 * math.e, math.e], rel=1e-6)
+
+
+def test_a_comparator_value_inside_a_hysteresis_band_is_named_alone():
+    # 5 is above VT + VH = 0.5 V; only 0 is inside the band 0.2 ± 0.3 V
+    msg = _error("t\nVa a 0 1\nB1 g 0 V = v(a) > 0 ? 5 : 0\nVin in 0 1\nS1 in o g 0 m\n"
+                 "R1 o 0 1\n.model m SW(VT=0.2 VH=0.3)\n.end\n")
+    assert "its value 0 sits in the band 0.2 ± 0.3 V of switch S1's control" in msg
+    assert "5 and 0" not in msg
+
+
+def test_a_refused_comparator_leaves_no_floating_control_error():
+    # the refused B source's output node is not a floating control node of S1
+    msg = _error("t\nVa a 0 1\nB1 g 0 V = v(a) > 0 ? 5 : 0\nVin in 0 1\nS1 in o g 0 m\n"
+                 "R1 o 0 1\n.model m SW(VT=0.2 VH=0.3)\n.end\n")
+    assert "sits in the band" in msg and "not connected to any element" not in msg

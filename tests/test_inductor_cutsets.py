@@ -191,3 +191,57 @@ R1 out 0 1
     assert "i(L1) has a path and one where the open switches leave it none" in err
     t = np.genfromtxt(out, delimiter=",", skip_header=1, ndmin=2)[:, 0]
     assert 4.9e-6 < t[-1] < 5.1e-6  # (kept up to S1's opening, where the slide began)
+
+
+def test_a_cut_that_a_comparator_switch_would_carry_stops_the_run(tmp_path, capsys):
+    # a boost whose output switch is controlled by its own terminals (S2 sw out sw out, on
+    # while v(sw) > v(out)): when S1 opens, the inductor's current drives v(sw) up and S2
+    # turns on and carries it (ngspice 39: mean v(out) 22.56 V over the last 0.5 ms). The
+    # run cut the current at S1's opening instead, before S2 could turn, every period
+    # (mean v(out) 5.6 V, exit 0): it now stops there with a pinned_jump error
+    deck = tmp_path / "self_boost.cir"
+    deck.write_text("""boost with a self-controlled output switch
+Vin in 0 12
+Vg g 0 PULSE(0 5 0 10n 10n 5u 10u)
+L1 in sw 100u
+S1 sw 0 g 0 SW1
+S2 sw out sw out SW2
+C1 out 0 100u
+R1 out 0 20
+.model SW1 SW(RON=1m ROFF=1meg VT=2.5)
+.model SW2 SW(RON=1m ROFF=1meg VT=0)
+.tran 100n 100u
+.end
+""")
+    from pelcs.cli import main
+
+    out = tmp_path / "out.csv"
+    code = main(["simulate", str(deck), "--devices", "pwl", "--no-progress", "-o", str(out)])
+    err = capsys.readouterr().err
+    assert code == 3
+    assert "pinned_jump" in err and "S2" in err and "i(L1)" in err
+    t = np.genfromtxt(out, delimiter=",", skip_header=1, ndmin=2)[:, 0]
+    assert 4.9e-6 < t[-1] < 5.1e-6  # (kept up to S1's first opening)
+
+
+def test_a_cut_beside_a_comparator_switch_that_does_not_see_it_runs(tmp_path):
+    # S3 could give L1 a path, but its control -v(out) never reaches its threshold (nor
+    # sees the cut's voltage): the cut stands, as in ngspice (a spike in S1's ROFF)
+    deck = tmp_path / "cut.cir"
+    deck.write_text("""cut with a comparator switch that never turns on
+Vin in 0 12
+Vg g 0 PULSE(0 5 0 10n 10n 5u 10u)
+S1 in sw g 0 SW1
+L1 sw out 10u
+R1 out 0 1
+C1 out 0 1u
+S3 sw 0 0 out SW1
+.model SW1 SW(RON=1m ROFF=1meg VT=2.5)
+.tran 100n 30u
+.end
+""")
+    from pelcs.cli import main
+
+    out = tmp_path / "out.csv"
+    assert main(["simulate", str(deck), "--devices", "pwl", "--no-progress", "-o",
+                 str(out)]) == 0

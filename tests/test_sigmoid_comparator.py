@@ -345,3 +345,33 @@ def test_a_switch_with_hysteresis_off_the_mid_value_against_the_sine_crossings()
     duty = (math.pi - on - off) / (2 * math.pi)
     assert _mean(res.t, res["v(x)"], 0.0) == pytest.approx(10 * duty, rel=2e-4)
     assert 10 * duty * 10 / 10.01 == pytest.approx(4.95669, rel=1e-4)
+
+
+def test_a_sigmoid_driven_switch_turns_at_both_ends_of_its_hysteresis(tmp_path):
+    # 1 + 2 tanh(3 (v(a) - 1)) of a 1 kHz sine 1 + 2 sin into a switch at VT 2 V, VH 0.5 V:
+    # on where the sigmoid rises through 2.5 V, off where it falls through 1.5 V (ngspice
+    # 39: 25.78 us and 492.78 us); the comparison's strictness must not make the switch an
+    # idealised one turning at VT alone (16.5 us and 484.5 us)
+    from pelcs.cli import main
+
+    deck = tmp_path / "band.cir"
+    deck.write_text("""sigmoid into a switch with hysteresis
+Va a 0 SIN(1 2 1k)
+B1 c 0 V=1+2*tanh(3*(v(a)-1))
+Vin in 0 5
+S1 in y c 0 SW1
+R1 y 0 1k
+.model SW1 SW(RON=0.01 ROFF=1e9 VT=2 VH=0.5)
+.tran 1u 1m
+.end
+""")
+    out = tmp_path / "y.csv"
+    assert main(["simulate", str(deck), "--no-progress", "--probe", "v(y)", "-o",
+                 str(out)]) == 0
+    t, y = np.genfromtxt(out, delimiter=",", skip_header=1).T
+    w = 2 * np.pi * 1e3
+    t_on = np.arcsin(np.arctanh(0.75) / 6) / w
+    t_off = (np.pi - np.arcsin(np.arctanh(0.25) / 6)) / w
+    on = t[y > 2.5]
+    assert on[0] == pytest.approx(t_on, abs=1.1e-6)
+    assert on[-1] == pytest.approx(t_off, abs=1.1e-6)

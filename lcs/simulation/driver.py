@@ -36,7 +36,7 @@ from .problem import Problem, mode_tuple
 from .recorder import Recorder
 from .regrid import Passthrough, Regrid
 from .schedule import Controllers, plan_run
-from .source_start import source_mode_at
+from .source_start import kept_in_band, source_mode_at
 from .switches import classify_switches, initially_on
 
 
@@ -124,7 +124,14 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
     tol = 2 * MERGE_FRACTION * h
     stretches = plan_run(system, inputs, plan, t_start, t_stop, h, MERGE_FRACTION * h,
                          breakpoints, save_at, guess)
-    sched = next(stretches)
+    # (a source-driven switch whose gate is inside its hysteresis band just after t_start
+    # keeps the state the operating point gives it, as the band keeps any earlier state)
+    if operating_point and plan.source:
+        with kept_in_band(system, inputs, t_start, plan.source,
+                          source_mode_at(system, inputs, t_start, plan.source, guess, {})):
+            sched = next(stretches)
+    else:
+        sched = next(stretches)
     out0 = problem.output(sched.mode_src if k else ())
     ctrls = Controllers(system, plan, t_start, t_stop, tol)
     # (the operating point is ngspice's: the sources' values at t_start itself, not just
@@ -146,7 +153,8 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
                          ctrls, on_inconsistent, lcp or LcpOptions(), notes, operating_point)
     # States some modes hold at zero (an inductor an open switch leaves with no path): set
     # to zero where such a mode starts, at t_start and at every known switching instant.
-    pins = PinnedJumps(system, k) if system.pinnable else None
+    pins = PinnedJumps(system, k, tuple(i for i, m in enumerate(plan.method) if m in (
+        "implicit", "hysteresis", "explicit"))) if system.pinnable else None
     if pins is not None:
         pins.apply(init.mode, init.x, t_start)
     split = pins is not None and integrator.can_set_state
@@ -281,6 +289,9 @@ def _advance_pinned(integrator: Integrator, pins: PinnedJumps, known, ws: float,
         snap = integrator.snapshot()
         key = key_after(snap.key, part, a, tol)
         x = np.array(snap.x, dtype=float)
+        error = pins.carried(mode_tuple(key, k), x, a)
+        if error is not None:
+            return error
         if pins.apply(mode_tuple(key, k), x, a):
             integrator.set_state(x)
         error = integrator.advance(Window(a, b, part, bps[(bps > a) & (bps < b)]))

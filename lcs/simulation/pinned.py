@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..model import ModeKey, SwitchedLCS
+from ..model import TERMINALS_OPTION, ModeKey, SwitchedLCS
 from ..results import SimulationError
 from .codes import OP_SET
 from .problem import fmt_mode
@@ -42,6 +42,27 @@ def key_after(key: int, known: KnownSwitchings, t: float, tol: float) -> int:
         if abs(tk - t) <= tol and op == OP_SET:
             key = (key & ~from_words(a)) | from_words(b)
     return key
+
+
+def _self_controlled(sw) -> bool:
+    """Whether a switch's control is the voltage across its own terminals (either way): the
+    one a cut's voltage surely reaches (the others' controls may not see it, and the run has
+    no voltage for the cut to tell)."""
+    opts = sw.options if isinstance(sw.options, dict) else {}
+    pair = str(opts.get(TERMINALS_OPTION, ""))
+    if not pair.startswith("v(") or not str(sw.control).startswith("v("):
+        return False
+
+    def nodes(v: str) -> list:
+        return v[2:-1].lower().split(",")
+
+    # (a terminal inside the switch's own model, as its RON's node with --devices pwl,
+    # stands for the outer one behind it)
+    inner = f"{sw.name.lower()}#"
+    ctl, ends = nodes(sw.control), nodes(pair)
+    rest = [n for n in ends if n not in ctl]
+    return len(ctl) == 2 and len(rest) <= 1 and all(n.startswith(inner) for n in rest) and (
+        len(set(ends) & set(ctl)) == 2 - len(rest))
 
 
 @dataclass
@@ -61,6 +82,8 @@ class PinnedJumps:
 
     system: SwitchedLCS
     k: int
+    #: The switches their comparators drive from the state (their indices)
+    comparators: tuple = ()
     jumps: dict = field(default_factory=dict)
     instants: list = field(default_factory=list)
 
@@ -78,6 +101,43 @@ class PinnedJumps:
                 x[i] = 0.0
                 jumped = True
         return jumped
+
+    def carried(self, mode: ModeKey, x: np.ndarray, t: float) -> SimulationError | None:
+        """The error of a cut, at a known instant ``t`` where ``mode`` starts from the state
+        ``x``, of a nonzero current that a switch off in ``mode``, controlled by its own
+        terminals, would give a path to by turning on, or None.
+
+        The cut comes first at the instant, and the comparator would see only what follows
+        it; a real switch's current drives the voltage across the open switches up at once,
+        and a comparator that watches it (a switch controlled by its own terminals, as a
+        diode) turns on and carries the current: the run's cut would be no solution.
+        """
+        pinned = self.system.pinned(mode)
+        cut = [i for i in pinned if x[i] != 0.0]
+        if not cut:
+            return None
+        for j in self.comparators:
+            if mode[j] or not _self_controlled(self.system.switches[j]):
+                continue
+            other = tuple(True if i == j else on for i, on in enumerate(mode))
+            try:
+                freed = [i for i in cut if i not in self.system.pinned(other)]
+            except Exception:  # (a mode the circuit cannot take: no way out there)
+                continue
+            if not freed:
+                continue
+            name = self.system.switches[j].name
+            names = ", ".join(self.system.states[i] for i in freed)
+            desc = {s.name: ("on" if on else "off")
+                    for s, on in zip(self.system.switches, mode, strict=True)}
+            msg = (f"t = {t:.9g} s, mode: {fmt_mode(desc)}: the open switches cut {names} "
+                   f"here, where switch {name}, off, would give it a path by turning on: its "
+                   "comparator would see the voltage the current drives across it (a switch "
+                   "controlled by its own terminals, as a diode, is the usual case), which an "
+                   "ideal switch's cut does not let it; the results stop there. Give the "
+                   "current a path that stays (a diode in place of the switch)")
+            return SimulationError(msg, kind="pinned_jump", time=t, t_prev=t, mode=desc)
+        return None
 
     def notes(self) -> list[str]:
         """One note per state that jumped."""

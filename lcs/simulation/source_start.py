@@ -5,15 +5,28 @@ at the start itself, where the operating point takes its sources (a gate source 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from contextlib import contextmanager
 
 import numpy as np
 
-from ..model import ModeKey, SwitchedLCS
+from ..model import OPERATING_POINT_OPTION, ModeKey, SwitchedLCS
 from .inputs import InputFunction, evaluate_inputs
 from .source_switching import _ControlMaps
-from .switch_bands import SUB_BAND_OFF, SUB_BAND_ON, initial_sub, initially_on, sub_on
+from .switch_bands import (
+    BELOW,
+    IN,
+    RULE_OFF,
+    RULE_TOGGLE,
+    SUB_BAND_OFF,
+    SUB_BAND_ON,
+    band_rule,
+    initial_sub,
+    initially_on,
+    region_of,
+    sub_on,
+)
 
-__all__ = ["source_mode_at"]
+__all__ = ["kept_in_band", "source_mode_at"]
 
 
 def source_mode_at(system: SwitchedLCS, inputs: Sequence[InputFunction], t: float,
@@ -40,3 +53,42 @@ def source_mode_at(system: SwitchedLCS, inputs: Sequence[InputFunction], t: floa
             break
         mode = new
     return mode
+
+
+@contextmanager
+def kept_in_band(system: SwitchedLCS, inputs: Sequence[InputFunction], t: float,
+                 which: Sequence[int], mode_op: ModeKey):
+    """While open: each source-driven switch of ``which`` whose control just after ``t`` is
+    inside its band starts there in the state the operating point ``mode_op`` leads it to
+    (its netlist ``ON``/``OFF`` set to it), not in its netlist's.
+
+    A band keeps the state the switch had before it (``VH > 0``): a gate at 5 V at the
+    operating point, 3 V just after, of a switch at VT 2.5 V, VH 1 V, is on and stays on
+    (ngspice 39), where the netlist's default would have it off from the first step. With
+    ``VH < 0`` the band turns the switch off when its control enters it from above, on from
+    below: the same gate with VH -1 V turns it off at once (ngspice 39), where a control
+    inside the band at the start is otherwise taken as entered from below.
+    """
+    sw = system.switches
+    u_op, u = (evaluate_inputs(inputs, np.array([t]), side)[0] for side in (0, +1))
+    maps = _ControlMaps(system, {}, frozenset(which)).rows(tuple(mode_op))
+    c_op, c = maps @ u_op, maps @ u
+    saved = []
+    for i in which:
+        lo, hi, rule = band_rule(sw[i])
+        opts = sw[i].options
+        if (rule == RULE_OFF or not isinstance(opts, dict)
+                or region_of(float(c[i]), lo, hi) != IN):
+            continue
+        state, before = bool(mode_op[i]), region_of(float(c_op[i]), lo, hi)
+        if rule == RULE_TOGGLE and before != IN:
+            state = before == BELOW
+        saved.append((opts, dict(opts)))
+        opts.pop(OPERATING_POINT_OPTION, None)
+        opts["initial"] = state
+    try:
+        yield
+    finally:
+        for opts, old in reversed(saved):
+            opts.clear()
+            opts.update(old)
