@@ -298,8 +298,8 @@ class _Formulator:
             options: dict = params | ({} if sw.initial is None else {"initial": sw.initial})
             if sw.device is not None or sw.strict:
                 options[IDEALISED_OPTION] = True
-            if circuit.tran is not None and not circuit.tran.uic:  # (ROFF: the DC point)
-                options |= {OPERATING_POINT_OPTION: True, TERMINALS_OPTION: f"v({na},{nb})"}
+            dc = {OPERATING_POINT_OPTION: True} if circuit.tran and not circuit.tran.uic else {}
+            options |= {TERMINALS_OPTION: f"v({na},{nb})", **dc}  # (terminals: ROFF, cuts)
             self.switch_controls.append(SwitchControl(
                 name=sw.name, control=f"v({ncp},{ncm})", vt=float(params.get("vt", 0.0)),
                 vh=float(params.get("vh", 0.0)), options=options))
