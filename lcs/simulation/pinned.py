@@ -128,16 +128,21 @@ class PinnedJumps:
                 continue
             name = self.system.switches[j].name
             names = ", ".join(self.system.states[i] for i in freed)
-            desc = {s.name: ("on" if on else "off")
-                    for s, on in zip(self.system.switches, mode, strict=True)}
-            msg = (f"t = {t:.9g} s, mode: {fmt_mode(desc)}: the open switches cut {names} "
-                   f"here, where switch {name}, off, would give it a path by turning on: its "
+            return self._error(t, mode, (
+                   f"the open switches cut {names} here, where switch {name}, off, would give "
+                   "it a path by turning on: its "
                    "comparator would see the voltage the current drives across it (a switch "
                    "controlled by its own terminals, as a diode, is the usual case), which an "
                    "ideal switch's cut does not let it; the results stop there. Give the "
-                   "current a path that stays (a diode in place of the switch)")
-            return SimulationError(msg, kind="pinned_jump", time=t, t_prev=t, mode=desc)
+                   "current a path that stays (a diode in place of the switch)"))
         return None
+
+    def _error(self, t: float, mode: ModeKey, why: str) -> SimulationError:
+        """The ``pinned_jump`` error at ``t`` (s) in ``mode``, ``why`` after the place."""
+        desc = {s.name: ("on" if on else "off")
+                for s, on in zip(self.system.switches, mode, strict=True)}
+        return SimulationError(f"t = {t:.9g} s, mode: {fmt_mode(desc)}: {why}",
+                               kind="pinned_jump", time=t, t_prev=t, mode=desc)
 
     def notes(self) -> list[str]:
         """One note per state that jumped."""
@@ -159,9 +164,8 @@ class PinnedJumps:
                   sliding=()) -> SimulationError | None:
         """The error of a run (from ``mode0``, through the mode changes ``events``) that
         entered a pinning mode between the instants it checked (a comparator's switching),
-        or that slid (``sliding``: ``[(switch, t_start, t_end)]``) between two modes that do
-        not pin the same states, or None (``sliding``: ``[(switch name, t_start, t_end or
-        None)]``)."""
+        or that slid (``sliding``: ``[(switch name, t_start, t_end or None)]``) between two
+        modes that do not pin the same states, or None."""
         first = self._sliding_across_a_cut(mode0, events, tol, sliding)
         checked = np.array(sorted(self.instants))
         prev = self.system.pinned(mode0)
@@ -177,15 +181,13 @@ class PinnedJumps:
             if j < len(checked) and abs(checked[j] - t) <= tol:
                 continue
             names = ", ".join(self.system.states[i] for i in new)
-            desc = {s.name: ("on" if on else "off")
-                    for s, on in zip(self.system.switches, mode, strict=True)}
-            msg = (f"t = {t:.9g} s, mode: {fmt_mode(desc)}: a comparator's switching leaves "
-                   f"{names} no path: an ideal switch cuts it to 0 there (its flux lost), a "
+            return self._error(t, mode, (
+                   f"a comparator's switching leaves {names} no path: an ideal switch cuts it "
+                   "to 0 there (its flux lost), a "
                    "jump that pelcs applies only at known switching instants (switches "
                    "driven by sources or Python controllers), so the results stop there. "
                    "Give the current a path that stays (a freewheeling diode, an RC "
-                   "snubber), or drive the switch from a source")
-            return SimulationError(msg, kind="pinned_jump", time=t, t_prev=t, mode=desc)
+                   "snubber), or drive the switch from a source"))
         return first
 
     def _sliding_across_a_cut(self, mode0: ModeKey, events, tol: float,
@@ -215,16 +217,14 @@ class PinnedJumps:
                 continue
             cut = [i for i in (*a, *b) if (i in a) != (i in b)]
             names = ", ".join(dict.fromkeys(self.system.states[i] for i in cut))
-            desc = {s.name: ("on" if on else "off")
-                    for s, on in zip(self.system.switches, mode, strict=True)}
-            msg = (f"t = {t0:.9g} s, mode: {fmt_mode(desc)}: switch {name} would slide on its "
-                   f"threshold (its control wants it back the instant it turns) between a mode "
+            return self._error(t0, mode, (
+                   f"switch {name} would slide on its threshold (its control wants it back the "
+                   "instant it turns) between a mode "
                    f"where {names} has a path and one where the open switches leave it none: "
                    "an ideal switch cuts that current at once, and a sliding blend of the two "
                    "modes is no solution of the circuit (a switch controlled by its own "
                    "terminals, as a diode, is the usual cause), so the results stop there. "
                    "Give the current a path that stays (for a freewheeling path, a diode in "
-                   "place of the switch)")
-            return SimulationError(msg, kind="pinned_jump", time=t0, t_prev=t0, mode=desc)
+                   "place of the switch)"))
         return None
 
