@@ -86,7 +86,14 @@ from .layout import (
 )
 from .locate import locate, u_interp
 from .sliding import advance, relay_combine
-from .step import mode_step, odd_basis_step, odd_cached_step, regular_cached_step
+from .step import (
+    ODD_BASIS,
+    ODD_TAKEN,
+    mode_step,
+    odd_basis_step,
+    odd_cached_step,
+    regular_cached_step,
+)
 from .store import find_mode, record, store_row
 
 
@@ -397,29 +404,32 @@ def run_grid(stack, sws, chunk, sched, state, lim, store):
             done = False
             st = STEP_OK
             dd = 0.0
-            if slide >= 0 and regular and (m == 0 or (flags[j, MF_FAST] != 0
-                                                      and flags[ja, MF_FAST] != 0)):
-                # Sliding, regular step: both modes by their cached active sets, then the relay.
+            if regular and (m == 0 or (flags[j, MF_FAST] != 0
+                                       and (slide < 0 or flags[ja, MF_FAST] != 0))):
+                # A regular step by the cached active set; while a switch slides, both modes'
+                # steps, then the relay. (Each step's code is inlined once per call site.)
                 if m > 0 and slots[0] < 0:
                     slots[0] = lookup(mats.M, j, act[0], stack.sets, ivars)
-                if m > 0 and slots[1] < 0:
+                if slide >= 0 and m > 0 and slots[1] < 0:
                     slots[1] = lookup(mats.M, ja, act[1], stack.sets, ivars)
-                if (regular_cached_step(stack, j, x, U0, U1, kk, slots[0], W, xn, lamn, rtol)
-                        and regular_cached_step(stack, ja, x, U0, U1, kk, slots[1], W, xa, lamna,
-                                                rtol)):
-                    dd = relay_combine(mats, j, ja, slide, base_on, vts, ub, xn, lamn, xa, lamna,
-                                       sg)
-                    done = True
-            elif slide < 0 and regular and (m == 0 or flags[j, MF_FAST] != 0):
-                if m > 0 and slots[0] < 0:
-                    slots[0] = lookup(mats.M, j, act[0], stack.sets, ivars)
                 done = regular_cached_step(stack, j, x, U0, U1, kk, slots[0], W, xn, lamn, rtol)
+                if done and slide >= 0:
+                    done = regular_cached_step(stack, ja, x, U0, U1, kk, slots[1], W, xa, lamna,
+                                               rtol)
+                    if done:
+                        dd = relay_combine(mats, j, ja, slide, base_on, vts, ub, xn, lamn, xa,
+                                           lamna, sg)
             elif slide < 0 and (m == 0 or flags[j, MF_FAST] != 0):
-                if odd[kk] and ta == ta_grid:
+                basis = not (odd[kk] and ta == ta_grid)
+                if not basis:
                     # A shortened step onto a boundary: its length recurs every period.
-                    done = odd_cached_step(stack, j, s, x, ua, ub, act[0], slots, W, xn, lamn,
-                                           led)
-                else:
+                    taken = odd_cached_step(stack, j, s, x, ua, ub, act[0], slots, W, xn, lamn,
+                                            led)
+                    done = taken == ODD_TAKEN
+                    basis = taken == ODD_BASIS
+                if basis:
+                    # (inlined once here, not in odd_cached_step too: a shortened step as a
+                    # call costs about 2 µs, the reference counts of the stack's arrays)
                     done = odd_basis_step(stack, j, s, theta, x, ua, ub, act[0], W, xn, lamn,
                                           rtol)
             if not done:

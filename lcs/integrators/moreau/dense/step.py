@@ -53,6 +53,12 @@ from .layout import (
     STEP_OK,
 )
 
+# What :func:`odd_cached_step` did: took the step, left it to :func:`mode_step`, or left it to
+# :func:`odd_basis_step` (stored lengths that do not recur, or no store).
+ODD_NOT = 0
+ODD_TAKEN = 1
+ODD_BASIS = 2
+
 
 @inline
 def scatter_active(idx, j, slot, na, za, lamn):
@@ -197,8 +203,11 @@ def odd_cached_step(stack, j, s, x, u0, u1, mask, slots, W, xn, lamn, led):
     :func:`odd_basis_step` once stored lengths do not recur (more evictions than hits after
     64 evictions). h, θ, the acceptance tolerance and the limits are those of ``led``
     (:class:`~lcs.integrators.moreau.dense.layout.Ledger`), whose ``ivars`` count the stored
-    lengths' hits and misses. False when not taken this way (:func:`mode_step` decides:
-    Lemke, uniqueness)."""
+    lengths' hits and misses.
+
+    Returns :data:`ODD_TAKEN`, :data:`ODD_BASIS` (take :func:`odd_basis_step` instead: the
+    caller does, so that its code is inlined once) or :data:`ODD_NOT` (not taken this way:
+    :func:`mode_step` decides, Lemke, uniqueness)."""
     ivars = led.ivars
     fvars = led.fvars
     lim = led.lim
@@ -209,7 +218,7 @@ def odd_cached_step(stack, j, s, x, u0, u1, mask, slots, W, xn, lamn, led):
     mats = stack.mats
     nslots = odd.s.shape[1]
     if nslots == 0:
-        return odd_basis_step(stack, j, s, theta, x, u0, u1, mask, W, xn, lamn, rtol)
+        return ODD_BASIS
     n = x.shape[0]
     slot = -1
     tol = 1e-9 * h
@@ -223,7 +232,7 @@ def odd_cached_step(stack, j, s, x, u0, u1, mask, slots, W, xn, lamn, led):
         # the odd caches is free, see OddSteps).
         evictions = odd.counters[0]
         if evictions > 64 and evictions > ivars[IV_ODDHIT]:
-            return odd_basis_step(stack, j, s, theta, x, u0, u1, mask, W, xn, lamn, rtol)
+            return ODD_BASIS
         slot = odd.next[j]
         odd.next[j] = (slot + 1) % nslots
         if odd.s[j, slot] >= 0.0:
@@ -235,7 +244,7 @@ def odd_cached_step(stack, j, s, x, u0, u1, mask, slots, W, xn, lamn, led):
         Ko = W.Ko
         if not discretise_nb(mats.A[j], mats.B[j], mats.C[j], mats.D[j], mats.E[j], s, theta,
                              odd.Phi[jj], odd.G0[jj], odd.G1[jj], Ko, odd.M[jj]):
-            return False
+            return ODD_NOT
         if n >= COLUMN_MIN:
             transpose_square(odd.Phi[jj])
         KT = odd.KT[jj]
@@ -248,33 +257,35 @@ def odd_cached_step(stack, j, s, x, u0, u1, mask, slots, W, xn, lamn, led):
         ivars[IV_ODDHIT] += 1
     jj = j * nslots + slot
     if not odd_free(stack, j, jj, x, u0, u1, W):
-        return False
+        return ODD_NOT
     xf = W.xf
     q = W.q
     m = q.shape[0]
     if m == 0:
         for i in range(n):
             xn[i] = xf[i]
-        return True
+        return ODD_TAKEN
     so = lookup(odd.M, jj, mask, odd.sets, odd.counters)
     na = solve_cached(odd.M, odd.M, False, jj, q, odd.sets, so, W.lcp.za, rtol, W.lcp.wv,
                       W.lcp.ws)
-    if na >= 0:
-        return impulse_kt(xf, odd.KT, jj, odd.sets, so, na, W.lcp.za, lamn, xn)
-    # A switching changes the active set: pivot from the previous one here, through the
-    # stored factorisations, rather than discretise again in mode_step (unless its solutions
-    # must be checked for uniqueness, which mode_step does).
-    if lim.warm_iter <= 0 or m <= stack.flags[j, MF_UNIQ]:
-        return False
-    copy_bits(mask, W.lcp.mask)
-    ivars[IV_WARM] += 1
-    so, na = solve_warm(odd.M, odd.M, False, jj, q, W.lcp.mask, odd.sets, odd.counters, rtol,
-                        lim.warm_iter, W.lcp)
-    if so < 0:
-        return False
-    copy_bits(W.lcp.mask, mask)
-    slots[0] = -1
-    return impulse_kt(xf, odd.KT, jj, odd.sets, so, na, W.lcp.za, lamn, xn)
+    if na < 0:
+        # A switching changes the active set: pivot from the previous one here, through the
+        # stored factorisations, rather than discretise again in mode_step (unless its
+        # solutions must be checked for uniqueness, which mode_step does).
+        if lim.warm_iter <= 0 or m <= stack.flags[j, MF_UNIQ]:
+            return ODD_NOT
+        copy_bits(mask, W.lcp.mask)
+        ivars[IV_WARM] += 1
+        so, na = solve_warm(odd.M, odd.M, False, jj, q, W.lcp.mask, odd.sets, odd.counters,
+                            rtol, lim.warm_iter, W.lcp)
+        if so < 0:
+            return ODD_NOT
+        copy_bits(W.lcp.mask, mask)
+        slots[0] = -1
+    # (one impulse for both ways: its code is inlined once)
+    if impulse_kt(xf, odd.KT, jj, odd.sets, so, na, W.lcp.za, lamn, xn):
+        return ODD_TAKEN
+    return ODD_NOT
 
 
 @inline
