@@ -4,8 +4,10 @@ here, so that the first ``pelcs`` command after the install does not compile for
 
 The module is built for this machine's processor and numba (its directory says which,
 :func:`lcs.build.kernels.aot_path`); where it does not match at run time, or the build fails here
-(no C compiler), pelcs compiles on first use as without it. ``PELCS_WHEEL_KERNELS=0`` builds
-the wheel without it (seconds instead of about three minutes of one core). An editable
+(no C compiler), pelcs compiles on first use as without it. Where the package's prebuilt module
+(:data:`lcs.build.kernels.PREBUILT`) matches the sources and runs on this processor, nothing is
+compiled: the wheel carries that one. ``PELCS_WHEEL_KERNELS=0`` builds the wheel without a
+module of its own (seconds instead of about three minutes of one core). An editable
 install (``pip install -e``) compiles nothing here: ``scripts/setup`` or the first use does.
 """
 
@@ -23,6 +25,24 @@ from setuptools.dist import Distribution
 
 # What the build runs in the built packages: the module built into their lcs/__pycache__.
 _BUILD = "import lcs.build.kernel_setup as k; print(k.build_now())"
+# Whether their prebuilt module serves this machine (exit status 0).
+_PREBUILT = "import sys, lcs.build.kernels as k; sys.exit(0 if k.prebuilt_path() else 1)"
+
+
+def _env(lib: Path) -> dict:
+    """The build's environment: none of the user's pelcs or numba settings, the built
+    packages first on the path (pip's isolated build environment reaches its packages
+    through PYTHONPATH)."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("PELCS_", "NUMBA_"))}
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, (str(lib), env.get("PYTHONPATH"))))
+    return env
+
+
+def prebuilt_serves(lib: Path) -> bool:
+    """Whether the prebuilt module in the packages in ``lib`` matches their sources and runs
+    on this processor."""
+    return subprocess.run([sys.executable, "-c", _PREBUILT], cwd=lib, env=_env(lib),
+                          capture_output=True).returncode == 0
 
 
 def build_kernels(lib: Path, script: str = _BUILD) -> bool:
@@ -30,11 +50,8 @@ def build_kernels(lib: Path, script: str = _BUILD) -> bool:
     with them first on the path); numba's JIT cache of the build is removed, being of no use
     installed (it is keyed by the sources' paths and times). Returns whether it was built; a
     failure is said on stderr and leaves the packages as they were."""
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("PELCS_", "NUMBA_"))}
-    # (the packages built first on the path, then what the build runs with: pip's isolated
-    # build environment reaches its packages through PYTHONPATH; the module into the built
-    # packages' cache, whatever the user's cache holds)
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, (str(lib), env.get("PYTHONPATH"))))
+    env = _env(lib)
+    # (the module into the built packages' cache, whatever the user's cache holds)
     env["PELCS_CACHE_DIR"] = str(lib / "lcs" / "__pycache__")
     env["PELCS_AOT_BUILD"] = "0"
     print("pelcs: compiling the simulation kernels into the wheel (about 3 minutes of one "
@@ -57,8 +74,14 @@ class BuildWithKernels(build_py):
 
     def run(self) -> None:
         super().run()
-        if not self.editable_mode and os.environ.get("PELCS_WHEEL_KERNELS", "1") != "0":
-            build_kernels(Path(self.build_lib).resolve())
+        if self.editable_mode or os.environ.get("PELCS_WHEEL_KERNELS", "1") == "0":
+            return
+        lib = Path(self.build_lib).resolve()
+        if prebuilt_serves(lib):
+            print("pelcs: the wheel carries the prebuilt kernels' module (nothing to compile)",
+                  file=sys.stderr, flush=True)
+            return
+        build_kernels(lib)
 
 
 class PlatformDistribution(Distribution):

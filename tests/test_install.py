@@ -312,8 +312,9 @@ def test_compiled_in_process_counts_numba_cache_misses(tmp_path):
 
 @pytest.fixture
 def empty_cache(tmp_path, monkeypatch):
-    """PELCS_CACHE_DIR in a temporary directory (no module built there)."""
+    """PELCS_CACHE_DIR in a temporary directory (no module built there, none prebuilt)."""
     monkeypatch.setenv("PELCS_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("PELCS_PREBUILT", "0")
     monkeypatch.delenv("PELCS_AOT", raising=False)
     monkeypatch.delenv("PELCS_AOT_BUILD", raising=False)
     started = []

@@ -30,7 +30,7 @@ from numba.core import types
 
 from . import kernels
 
-__all__ = ["build", "flat_wrapper", "stale_modules"]
+__all__ = ["build", "build_prebuilt", "flat_wrapper", "stale_modules"]
 
 
 def _leaves(ty, names: list[str], out: list):
@@ -78,9 +78,11 @@ def leaf_spec(ty) -> list:
     raise TypeError(f"no ahead-of-time argument check for numba type {ty}")
 
 
-def build(out_dir: Path | None = None, verbose: bool = False) -> Path:
+def build(out_dir: Path | None = None, verbose: bool = False, cpu: str | None = None) -> Path:
     """Compile (or load from numba's cache) every kernel specialisation, then link them into
-    the extension module of :func:`lcs.build.kernels.aot_path`; returns its path."""
+    the extension module of :func:`lcs.build.kernels.aot_path` (or ``out_dir``); returns its
+    path. ``cpu``: LLVM's name of the processor to compile for (default: this one), which
+    numba's JIT must also have compiled the kernels for (:func:`build_prebuilt`)."""
     from numba.core.errors import NumbaPendingDeprecationWarning
 
     with warnings.catch_warnings():
@@ -98,8 +100,8 @@ def build(out_dir: Path | None = None, verbose: bool = False) -> Path:
     cc.verbose = verbose
     # For this processor, as numba's JIT compiles (the module's path names its extensions,
     # kernels.cpu_tag); the portable generic target only where they cannot be told.
-    host = kernels.cpu_tag() != "generic"
-    cc.target_cpu = "host" if host else ""
+    host = cpu is None and kernels.cpu_tag() != "generic"
+    cc.target_cpu = "host" if host else (cpu or "")
     specs = {}
     for export, dispatcher in kernels.exported_dispatchers():
         sigs = dispatcher.signatures
@@ -131,6 +133,42 @@ def build(out_dir: Path | None = None, verbose: bool = False) -> Path:
     if verbose:
         print(f"built {target} in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return target
+
+
+def build_prebuilt(verbose: bool = False) -> Path:
+    """Build the module shipped in the package (:data:`lcs.build.kernels.PREBUILT`) for the
+    processor level :data:`~lcs.build.kernels.PREBUILT_CPU`, from an empty numba cache, and
+    remove the prebuilt modules of other kernel sources; returns its path.
+
+    The kernels are compiled in a child process whose numba JIT targets that level with no
+    other extension (``NUMBA_CPU_NAME``, ``NUMBA_CPU_FEATURES``), the code the module links;
+    the module's stamp is the sources' (:func:`lcs.build.kernels.aot_stamp`), so a kernel
+    edit makes it stale until this is run again (``tests/test_prebuilt.py`` says so)."""
+    import subprocess
+
+    target_dir = kernels.prebuilt_dir()
+    with tempfile.TemporaryDirectory(prefix="pelcs-prebuilt-") as tmp:
+        env = {k: v for k, v in os.environ.items() if not k.startswith(("PELCS_", "NUMBA_"))}
+        env.update(NUMBA_CPU_NAME=kernels.PREBUILT_CPU, NUMBA_CPU_FEATURES="",
+                   NUMBA_CACHE_DIR=str(Path(tmp) / "numba"), PELCS_AOT="0",
+                   PELCS_CACHE_DIR=str(Path(tmp) / "cache"))
+        out = Path(tmp) / "out"
+        script = ("import sys; from lcs.build.aot import build; "
+                  f"build(out_dir={str(out)!r}, verbose={verbose!r}, "
+                  f"cpu={kernels.PREBUILT_CPU!r})")
+        subprocess.run([sys.executable, "-c", script], env=env, check=True,
+                       cwd=kernels.PREBUILT.parents[2])
+        part = target_dir.with_name(target_dir.name + ".part")
+        shutil.rmtree(part, ignore_errors=True)
+        part.mkdir(parents=True)
+        for f in out.iterdir():
+            shutil.copyfile(f, part / f.name)
+        shutil.rmtree(target_dir, ignore_errors=True)
+        os.replace(part, target_dir)
+    for old in kernels.PREBUILT.glob("aot-*"):
+        if old != target_dir:
+            shutil.rmtree(old, ignore_errors=True)
+    return target_dir / kernels.aot_filename()
 
 
 def stale_modules(current: Path) -> list[Path]:
@@ -204,4 +242,7 @@ def _host_features(host: bool):
 
 
 if __name__ == "__main__":
-    print(build(verbose="-v" in sys.argv[1:]))
+    if "--prebuilt" in sys.argv[1:]:
+        print(build_prebuilt(verbose="-v" in sys.argv[1:]))
+    else:
+        print(build(verbose="-v" in sys.argv[1:]))

@@ -11,6 +11,12 @@ Without it, or when its stamp does not match the sources (an edited kernel), the
 dispatchers are used, compiled or loaded from numba's cache. ``PELCS_AOT=0`` forces numba (the
 tests of the AOT module compare the two).
 
+The checkout and the wheel also ship the module prebuilt for x86-64 processors with AVX2
+(:data:`PREBUILT`, built by ``python -m lcs.build.aot --prebuilt`` whenever the kernel sources
+change): where no module was built on this machine, it is loaded when its stamp matches the
+sources and the processor has every extension it was compiled for, so that a fresh checkout
+or install runs at once instead of compiling for minutes. ``PELCS_PREBUILT=0`` ignores it.
+
 Nothing here imports numba.
 """
 
@@ -27,9 +33,10 @@ import sysconfig
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["AOT_MODULE", "AOT_SOURCES", "KERNEL_SOURCES", "aot_function", "aot_module",
-           "aot_path", "aot_stamp", "aot_types_path", "cache_roots", "cpu_tag", "kernel_stamp",
-           "user_cache_dir", "using_aot"]
+__all__ = ["AOT_MODULE", "AOT_SOURCES", "KERNEL_SOURCES", "PREBUILT", "PREBUILT_CPU",
+           "aot_function", "aot_module", "aot_path", "aot_stamp", "aot_types_path",
+           "cache_roots", "cpu_tag", "kernel_stamp", "module_path", "prebuilt_dir",
+           "prebuilt_path", "user_cache_dir", "using_aot"]
 
 _LCS = Path(__file__).resolve().parent.parent
 # The packages whose compiled functions call or inline each other's, the other files with
@@ -47,6 +54,14 @@ AOT_SOURCES = (_LCS / "build" / "kernels.py", _LCS / "build" / "aot.py",
 PYTHON_ONLY = frozenset({"__init__.py", "driver.py", "enumeration.py", "modes.py",
                          "stack.py", "integrate.py"})
 AOT_MODULE = "pelcs_kernels"
+# The module prebuilt for a processor level (LLVM's name), shipped in the package, and the
+# extensions that level implies, as /proc/cpuinfo names them (x86-64-v3: Haswell, Zen and
+# later; a processor without one of them would stop at an illegal instruction).
+PREBUILT = _LCS / "build" / "prebuilt"
+PREBUILT_CPU = "x86-64-v3"
+_PREBUILT_FLAGS = frozenset({"avx", "avx2", "bmi1", "bmi2", "f16c", "fma", "abm", "movbe",
+                             "xsave", "cx16", "lahf_lm", "popcnt", "pni", "sse4_1", "sse4_2",
+                             "ssse3"})
 
 # export name -> (module, attribute): each kernel has one specialisation (lcs.build.warmup).
 _EXPORTS = {
@@ -149,6 +164,20 @@ def aot_stamp() -> bytes:
 
 
 @functools.lru_cache(maxsize=1)
+def _cpu_flags_line() -> str | None:
+    """The first processor's ``flags`` line of ``/proc/cpuinfo``, or None."""
+    try:
+        with open("/proc/cpuinfo", encoding="ascii", errors="replace") as fh:
+            for line in fh:
+                if line.startswith("flags"):
+                    return line
+                if not line.strip():
+                    break
+    except OSError:
+        pass
+    return None
+
+
 def cpu_tag() -> str:
     """The instruction-set extensions of this machine's processor, hashed (8 hex digits), from
     the first processor's ``flags`` in ``/proc/cpuinfo``; ``"generic"`` where there is no
@@ -156,45 +185,76 @@ def cpu_tag() -> str:
     the multiplier's step 25 % faster than with the generic x86-64 target), so a machine with
     other extensions (a cluster node sharing the home directory) must not load it: it finds
     no module under its own tag and builds or falls back to numba."""
-    try:
-        with open("/proc/cpuinfo", encoding="ascii", errors="replace") as fh:
-            for line in fh:
-                if line.startswith("flags"):
-                    return hashlib.sha256(line.encode()).hexdigest()[:8]
-                if not line.strip():
-                    break
-    except OSError:
-        pass
-    return "generic"
+    line = _cpu_flags_line()
+    return "generic" if line is None else hashlib.sha256(line.encode()).hexdigest()[:8]
+
+
+def prebuilt_dir() -> Path:
+    """Where the prebuilt module of the current sources is (or is to be built)."""
+    return PREBUILT / f"aot-{aot_stamp().hex()[:16]}-x86_64-{PREBUILT_CPU}"
+
+
+def prebuilt_path() -> Path | None:
+    """The prebuilt module of the current sources when it is shipped, this processor runs its
+    code, and ``PELCS_PREBUILT`` is not ``0``; else None."""
+    if os.environ.get("PELCS_PREBUILT", "1") == "0" or platform.machine() != "x86_64":
+        return None
+    line = _cpu_flags_line()
+    if line is None or not _PREBUILT_FLAGS <= set(line.split(":", 1)[-1].split()):
+        return None
+    path = prebuilt_dir() / aot_filename()
+    return path if path.is_file() else None
+
+
+def _aot_tag() -> str:
+    return (f"aot-{aot_stamp().hex()[:16]}-{platform.machine()}-cpu{cpu_tag()}"
+            f"-numba{_numba_version()}")
+
+
+def _built_path() -> Path | None:
+    """The extension module built on this machine from the current sources, or None."""
+    tag = _aot_tag()
+    for root in cache_roots():
+        path = root / tag / aot_filename()
+        if path.is_file():
+            return path
+    return None
 
 
 def aot_path() -> Path:
     """Where the extension module built from the current sources is, or else where it is to
     be built (the first cache root that can be written, :func:`cache_roots`)."""
-    tag = (f"aot-{aot_stamp().hex()[:16]}-{platform.machine()}-cpu{cpu_tag()}"
-           f"-numba{_numba_version()}")
+    path = _built_path()
+    if path is not None:
+        return path
     roots = cache_roots()
-    for root in roots:
-        path = root / tag / aot_filename()
-        if path.is_file():
-            return path
     root = next((r for r in roots if _writable(r)), roots[-1])
-    return root / tag / aot_filename()
+    return root / _aot_tag() / aot_filename()
+
+
+def module_path() -> Path | None:
+    """The extension module a run loads: the one built on this machine for the current
+    sources (:func:`aot_path`), else the prebuilt one (:func:`prebuilt_path`); None when
+    there is neither or ``PELCS_AOT=0``."""
+    if os.environ.get("PELCS_AOT", "1") == "0":
+        return None
+    # (no test whether a cache root can be written: a command served by the prebuilt module
+    # must not create files to find it)
+    return _built_path() or prebuilt_path()
 
 
 def aot_types_path() -> Path:
-    """The module's argument types (JSON, written by :func:`lcs.build.aot.build` beside it)."""
-    return aot_path().with_name(AOT_MODULE + ".types.json")
+    """The argument types of the module a run loads (JSON, written by
+    :func:`lcs.build.aot.build` beside it)."""
+    return (module_path() or aot_path()).with_name(AOT_MODULE + ".types.json")
 
 
 @functools.lru_cache(maxsize=1)
 def aot_module():
-    """The extension module of the current kernel sources, or None (not built, stale, or
-    ``PELCS_AOT=0``)."""
-    if os.environ.get("PELCS_AOT", "1") == "0":
-        return None
-    path = aot_path()
-    if not path.is_file():
+    """The extension module of the current kernel sources (:func:`module_path`), or None (not
+    built, stale, or ``PELCS_AOT=0``)."""
+    path = module_path()
+    if path is None:
         return None
     loader = importlib.machinery.ExtensionFileLoader(AOT_MODULE, str(path))
     spec = importlib.util.spec_from_file_location(AOT_MODULE, str(path), loader=loader)

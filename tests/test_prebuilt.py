@@ -1,0 +1,105 @@
+"""The kernels' module prebuilt for x86-64-v3 and shipped in the package
+(:data:`lcs.build.kernels.PREBUILT`): current for the kernel sources, loaded on a fresh
+checkout with nothing compiled, the same numbers as numba's kernels, and never loaded by a
+processor that lacks one of its extensions.
+
+When the first test fails, a kernel source changed without the module being rebuilt:
+``python -m lcs.build.aot --prebuilt``, then commit ``lcs/build/prebuilt``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lcs.build import kernels
+
+ROOT = Path(__file__).resolve().parents[1]
+BUCK = ROOT / "converters" / "netlists" / "buck.cir"
+VM_BUCK = ROOT / "converters" / "netlists" / "vm_buck.cir"
+
+pytestmark = pytest.mark.skipif(platform.machine() != "x86_64",
+                                reason="the module is prebuilt for x86-64")
+
+
+def test_the_prebuilt_module_is_current():
+    built = sorted(p.name for p in kernels.PREBUILT.glob("aot-*"))
+    assert built == [kernels.prebuilt_dir().name], (
+        f"lcs/build/prebuilt holds {built}, not the module of the current kernel sources "
+        f"{kernels.prebuilt_dir().name}: run python -m lcs.build.aot --prebuilt")
+    modules = sorted(p.name for p in kernels.prebuilt_dir().glob(kernels.AOT_MODULE + ".*.so"))
+    assert modules, "no module in " + str(kernels.prebuilt_dir())
+    assert (kernels.prebuilt_dir() / (kernels.AOT_MODULE + ".types.json")).is_file()
+    if kernels.aot_filename() not in modules:
+        pytest.skip(f"prebuilt for {modules}, not this Python ({kernels.aot_filename()})")
+
+
+def test_a_processor_without_its_extensions_does_not_load_it(monkeypatch):
+    line = kernels._cpu_flags_line()
+    if line is None or kernels.prebuilt_path() is None:
+        pytest.skip("the prebuilt module does not serve this machine")
+    monkeypatch.setattr(kernels, "_cpu_flags_line", lambda: line.replace(" avx2", ""))
+    assert kernels.prebuilt_path() is None
+    monkeypatch.setattr(kernels, "_cpu_flags_line", lambda: None)
+    assert kernels.prebuilt_path() is None
+    monkeypatch.undo()
+    monkeypatch.setenv("PELCS_PREBUILT", "0")
+    assert kernels.prebuilt_path() is None
+
+
+_RUN = """
+import json, sys
+import lcs.build.kernels as k, pelcs
+out = {}
+for src in sys.argv[1:]:
+    r = pelcs.simulate(src, tstop="1m")
+    out[src] = {"y": r.y.tolist(), "t": r.t.tolist(), "steps": r.stats.steps}
+print("RUN", json.dumps({"module": str(k.module_path()), "numba": "numba" in sys.modules,
+                         "out": out}))
+"""
+
+
+def _run(tmp_path: Path, **env) -> dict:
+    full = {**os.environ, "PELCS_CACHE_DIR": str(tmp_path / "pelcs"),
+            "NUMBA_CACHE_DIR": str(tmp_path / "numba"), **env}
+    full.pop("PELCS_AOT", None)
+    p = subprocess.run([sys.executable, "-c", _RUN, str(BUCK), str(VM_BUCK)], cwd=ROOT,
+                       env=full, capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr[-3000:]
+    line = next(ln for ln in p.stdout.splitlines() if ln.startswith("RUN "))
+    return json.loads(line[4:])
+
+
+def test_a_fresh_checkout_runs_it_with_numbas_numbers(tmp_path):
+    if kernels.prebuilt_path() is None:
+        pytest.skip("no prebuilt module for these sources on this machine")
+    # Empty caches: no module built here, nothing compiled by numba.
+    got = _run(tmp_path)
+    assert got["module"] == str(kernels.prebuilt_path())
+    assert got["numba"] is False
+    assert not list((tmp_path / "numba").rglob("*.nbi"))
+    # numba's kernels, compiled for this processor (this process: the suite's cache).
+    import pelcs
+
+    saved = os.environ.get("PELCS_AOT")
+    os.environ["PELCS_AOT"] = "0"
+    kernels.aot_module.cache_clear()
+    try:
+        for src, res in got["out"].items():
+            r = pelcs.simulate(src, tstop="1m")
+            assert r.stats.steps == res["steps"]
+            assert np.array_equal(r.t, np.array(res["t"]))
+            assert np.array_equal(r.y, np.array(res["y"])), src
+    finally:
+        if saved is None:
+            os.environ.pop("PELCS_AOT", None)
+        else:
+            os.environ["PELCS_AOT"] = saved
+        kernels.aot_module.cache_clear()
