@@ -13,8 +13,10 @@ exact, so that an inlined step compiles to the same code as the hand-written loo
 Cache freshness: numba keys a cached function on the contents of its own source file, while a
 compiled kernel contains the code of every function it calls or inlines from other files (and
 of this module's passes). Functions defined in :data:`lcs.build.kernels.KERNEL_SOURCES` are
-therefore cached under one stamp, the hash of all those files together
-(:class:`KernelCacheLocator`): a change to any of them recompiles every kernel once.
+therefore cached under the stamp of their module and every kernel source it imports,
+transitively, with the compiler's files (:func:`lcs.build.kernels.module_stamp`,
+:class:`KernelCacheLocator`): an edit recompiles the kernels that can contain the edited code,
+and only those.
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ from numba.core.ir_utils import replace_vars_stmt
 from numba.core.typed_passes import InlineOverloads
 from numba.core.untyped_passes import InlineInlinables
 
-from .build.kernels import KERNEL_SOURCES, kernel_stamp
+from .build.kernels import KERNEL_SOURCES, module_stamp
 
 __all__ = ["ForwardCopies", "HoistTupleFields", "KernelCacheLocator", "KernelCompiler",
            "forward_copies"]
@@ -75,32 +77,41 @@ if not isinstance(inline_closurecall.copy, _BlockCopier):
     inline_closurecall.copy = _BlockCopier()
 
 class KernelCacheLocator(caching._CacheLocator):
-    """Numba's own cache location for a kernel source file, in a subdirectory named after
-    :func:`kernel_stamp`, which is also the freshness stamp.
+    """Numba's own cache location for a kernel source file, in a subdirectory named after the
+    module and its :func:`~lcs.build.kernels.module_stamp`, which is also the freshness stamp.
 
-    A new subdirectory per version of the kernel sources: numba unpickles a cache index before
-    it compares stamps, so an index written by another version (whose named-tuple types may no
-    longer exist) must never be read. Subdirectories of other versions are removed when a new
-    one is made.
+    A new subdirectory per version of what the module's kernels contain: numba unpickles a
+    cache index before it compares stamps, so an index written by another version (whose
+    named-tuple types may no longer exist) must never be read. The module's subdirectories of
+    other versions, and those of the single stamp over every kernel source that came before,
+    are removed when a new one is made.
     """
 
-    def __init__(self, inner):
+    def __init__(self, inner, py_file):
         self._inner = inner
+        self._file = Path(py_file).resolve()
+
+    def _name(self) -> str:
+        return f"kernels-{self._file.stem}-{module_stamp(self._file).hex()[:16]}"
 
     def ensure_cache_path(self):
         path = Path(self.get_cache_path())
         if not path.is_dir():
-            for old in Path(self._inner.get_cache_path()).glob("kernels-*"):
-                if old != path:
+            parent = Path(self._inner.get_cache_path())
+            for old in parent.glob("kernels-*"):
+                rest = old.name[len("kernels-"):]
+                legacy = len(rest) == 16 and "-" not in rest
+                if old != path and (legacy or old.name.rsplit("-", 1)[0]
+                                    == f"kernels-{self._file.stem}"):
                     shutil.rmtree(old, ignore_errors=True)
         os.makedirs(path, exist_ok=True)
         tempfile.TemporaryFile(dir=path).close()
 
     def get_cache_path(self):
-        return os.path.join(self._inner.get_cache_path(), "kernels-" + kernel_stamp().hex()[:16])
+        return os.path.join(self._inner.get_cache_path(), self._name())
 
     def get_source_stamp(self):
-        return kernel_stamp()
+        return module_stamp(self._file)
 
     def get_disambiguator(self):
         return self._inner.get_disambiguator()
@@ -115,7 +126,7 @@ class KernelCacheLocator(caching._CacheLocator):
                 continue
             loc = other.from_function(py_func, py_file)
             if loc is not None:
-                return cls(loc)
+                return cls(loc, py_file)
         return None
 
 

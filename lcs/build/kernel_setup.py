@@ -81,7 +81,8 @@ def _none_beside_the_sources() -> bool:
     if not kernels._writable(pycache):
         return False
     # (lcs.jit_passes.KernelCacheLocator's directory; numba's index name for run_grid)
-    stamped = pycache / ("kernels-" + kernels.kernel_stamp().hex()[:16])
+    grid = pycache.parent / "grid.py"
+    stamped = pycache / f"kernels-grid-{kernels.module_stamp(grid).hex()[:16]}"
     return not any(stamped.glob("grid.run_grid-*.nbi"))
 
 

@@ -35,12 +35,14 @@ from pathlib import Path
 
 __all__ = ["AOT_MODULE", "AOT_SOURCES", "KERNEL_SOURCES", "PREBUILT", "PREBUILT_CPU",
            "aot_function", "aot_module", "aot_path", "aot_stamp", "aot_types_path",
-           "cache_roots", "cpu_tag", "kernel_stamp", "module_path", "prebuilt_dir",
+           "cache_roots", "cpu_tag", "kernel_closure", "kernel_stamp", "module_path",
+           "module_stamp", "prebuilt_dir",
            "prebuilt_path", "user_cache_dir", "using_aot"]
 
 _LCS = Path(__file__).resolve().parent.parent
 # The packages whose compiled functions call or inline each other's, the other files with
-# compiled functions, and the compiler passes: a change to any of them recompiles every kernel.
+# compiled functions, and the compiler passes: a change to one of them recompiles the kernels
+# of the modules that import it (module_stamp), and makes the prebuilt module stale.
 _MOREAU = _LCS / "integrators" / "moreau"
 KERNEL_SOURCES = (_LCS / "jit.py", _LCS / "jit_passes.py", _LCS / "bits.py", _LCS / "lcp",
                   _MOREAU / "dense", _MOREAU / "sparse",
@@ -50,7 +52,7 @@ KERNEL_SOURCES = (_LCS / "jit.py", _LCS / "jit_passes.py", _LCS / "bits.py", _LC
 AOT_SOURCES = (_LCS / "build" / "kernels.py", _LCS / "build" / "aot.py",
                _LCS / "build" / "warmup.py", _LCS / "sparse_lu.py")
 # Files in those packages that no kernel compiles or reads (Python only): editing them must
-# not recompile every kernel (6-9 minutes on 2 cores).
+# not recompile kernels.
 PYTHON_ONLY = frozenset({"__init__.py", "driver.py", "enumeration.py", "modes.py",
                          "stack.py", "integrate.py"})
 AOT_MODULE = "pelcs_kernels"
@@ -91,6 +93,72 @@ def _kernel_files() -> list[Path]:
         else:
             files.append(src)
     return files
+
+
+def _module_files(parts: list[str], kernel_files: frozenset[Path]) -> set[Path]:
+    """The kernel source files of the module or package of dotted ``parts`` (a package: every
+    kernel file in it, since its ``__init__`` may re-export any of them)."""
+    base = _LCS.parent.joinpath(*parts)
+    if base.is_dir():
+        return {f for f in kernel_files if f.parent == base}
+    f = base.with_suffix(".py")
+    return {f} if f in kernel_files else set()
+
+
+def _kernel_imports(path: Path, kernel_files: frozenset[Path]) -> set[Path]:
+    """The kernel source files ``path`` imports (``import``, ``from ... import``, relative or
+    absolute; a name imported from a package may be a module of it)."""
+    import ast
+
+    try:
+        rel = path.relative_to(_LCS.parent)
+    except ValueError:
+        return set()
+    package = list(rel.parts[:-1])
+    out: set[Path] = set()
+    for node in ast.walk(ast.parse(path.read_bytes())):
+        if isinstance(node, ast.ImportFrom):
+            base = package[:len(package) - node.level + 1] if node.level else []
+            mod = base + (node.module.split(".") if node.module else [])
+            out |= _module_files(mod, kernel_files)
+            for alias in node.names:
+                out |= _module_files(mod + [alias.name], kernel_files)
+        elif isinstance(node, ast.Import):
+            for alias in node.names:
+                out |= _module_files(alias.name.split("."), kernel_files)
+    return out
+
+
+@functools.cache
+def kernel_closure(path: Path) -> frozenset[Path]:
+    """What a kernel module's compiled code can depend on: the module itself, the kernel
+    sources it imports, transitively (numba compiles a kernel's callees and inlined pieces
+    through its module's globals, so everything it can reach is imported), and the compiler
+    (``lcs/jit.py``, ``lcs/jit_passes.py``)."""
+    path = Path(path).resolve()
+    files = frozenset(_kernel_files())
+    seen = {path}
+    todo = [path]
+    while todo:
+        for f in _kernel_imports(todo.pop(), files):
+            if f not in seen:
+                seen.add(f)
+                todo.append(f)
+    return frozenset(seen | {_LCS / "jit.py", _LCS / "jit_passes.py"})
+
+
+@functools.cache
+def module_stamp(path: Path) -> bytes:
+    """SHA-256 of the files of :func:`kernel_closure`, which numba's cache of that module's
+    kernels is stamped with (:class:`lcs.jit_passes.KernelCacheLocator`): an edit of the
+    dense grid loop recompiles the modules that import it, not the sparse kernel nor the LCP
+    solvers they call."""
+    h = hashlib.sha256()
+    for f in sorted(kernel_closure(Path(path).resolve())):
+        h.update(str(f.relative_to(_LCS.parent) if f.is_relative_to(_LCS.parent) else f.name)
+                 .encode())
+        h.update(f.read_bytes())
+    return h.digest()
 
 
 @functools.lru_cache(maxsize=1)
