@@ -41,7 +41,7 @@ def wheel(tmp_path_factory) -> zipfile.ZipFile:
     """A wheel built by pip from a copy of the checkout's sources (no caches, no outputs)."""
     tmp = tmp_path_factory.mktemp("wheel")
     src = tmp / "src"
-    skip = shutil.ignore_patterns("__pycache__", "*.pyc", "*.egg-info", "build")
+    skip = shutil.ignore_patterns("__pycache__", "*.pyc", "*.egg-info")
     for name in ("pyproject.toml", "setup.py", "README.md", "LICENSE"):
         shutil.copy(ROOT / name, src / name if src.exists() else (src.mkdir() or src / name))
     for pkg in ("pelcs", "netlist", "lcs", "converters", "ngspice_checks"):
@@ -103,6 +103,14 @@ def test_a_failed_kernel_build_leaves_a_wheel_without_them(tmp_path, capsys):
     assert "could not be built" in capsys.readouterr().err
 
 
+def test_the_wheel_carries_the_prebuilt_module(wheel):
+    files = set(wheel.namelist())
+    here = kernels.prebuilt_dir().relative_to(ROOT).as_posix()
+    assert f"{here}/{kernels.AOT_MODULE}.types.json" in files
+    shipped = [p for p in kernels.prebuilt_dir().glob("*.so")]
+    assert shipped and all(f"{here}/{p.name}" in files for p in shipped)
+
+
 def test_the_readme_names_netlists():
     names = _readme_netlists()
     assert "converters/netlists/boost.cir" in names and len(names) >= 4
@@ -118,7 +126,9 @@ def test_the_wheel_carries_every_netlist_the_readme_uses(wheel):
         assert bundled in files, path
         assert wheel.read(bundled) == (ROOT / path).read_bytes(), path
     assert "netlist/grammar.lark" in files
-    assert not [f for f in files if "__pycache__" in f or f.endswith((".so", ".nbi", ".nbc"))]
+    # No cache of this checkout; the only compiled file is the prebuilt kernels' module.
+    assert not [f for f in files if "__pycache__" in f or f.endswith((".nbi", ".nbc"))]
+    assert all(f.startswith("lcs/build/prebuilt/aot-") for f in files if f.endswith(".so"))
     meta = wheel.read(next(f for f in files if f.endswith(".dist-info/METADATA"))).decode()
     import pelcs
 
