@@ -103,3 +103,21 @@ def test_a_fresh_checkout_runs_it_with_numbas_numbers(tmp_path):
         else:
             os.environ["PELCS_AOT"] = saved
         kernels.aot_module.cache_clear()
+
+
+def test_compile_says_the_prebuilt_module_serves(tmp_path, monkeypatch, capsys):
+    if kernels.prebuilt_path() is None:
+        pytest.skip("the prebuilt module does not serve this machine")
+    import lcs.build.warmup as warmup
+    from lcs.build import kernel_setup
+    from pelcs.cli import main
+
+    # (no module built here; the compile and the link stood in for)
+    monkeypatch.setenv("PELCS_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(kernel_setup, "kernels_cached", lambda: True)
+    monkeypatch.setattr(warmup, "warm_up", lambda **_: 0.0)
+    monkeypatch.setattr(kernel_setup, "compiled_in_process", lambda: 0)
+    monkeypatch.setattr(kernel_setup, "build_now", lambda: tmp_path / "built.so")
+    assert main(["compile"]) == 0
+    err = capsys.readouterr().err
+    assert f"the prebuilt kernels serve this machine already ({kernels.prebuilt_path()})" in err

@@ -1,8 +1,10 @@
 """``pelcs compile``: compile the simulation kernels and link them into their ahead-of-time
 module now, instead of on first use.
 
-After a ``pip install`` the first simulation compiles the kernels (minutes of one core, then
-cached on disk) and starts the module's build in the background (:mod:`lcs.build.kernel_setup`).
+Where the module prebuilt for x86-64-v3 serves the machine (:data:`lcs.build.kernels.PREBUILT`),
+nothing needs compiling. Elsewhere, after a ``pip install`` the first simulation compiles the
+kernels (minutes of one core, then cached on disk) and starts the module's build in the
+background (:mod:`lcs.build.kernel_setup`).
 This command does both in the foreground, says where the module is, and shows why a build
 fails (typically: no C compiler; pelcs then runs from numba's cache, about 1.5 s more per
 command). ``scripts/setup`` does the same for a checkout.
@@ -34,12 +36,16 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from lcs.build import kernel_setup
-    from lcs.build.kernels import aot_path
+    from lcs.build.kernels import aot_path, prebuilt_path
 
     path = aot_path()
     if path.is_file():
         print(f"the kernels are compiled and linked: {path}")
         return 0
+    prebuilt = prebuilt_path()
+    if prebuilt is not None:
+        print(f"pelcs: the prebuilt kernels serve this machine already ({prebuilt}); "
+              "compiling them for this processor itself", file=sys.stderr, flush=True)
     t0 = time.perf_counter()
     if not kernel_setup.kernels_cached():
         print(kernel_setup.COMPILING_MESSAGE, file=sys.stderr, flush=True)
