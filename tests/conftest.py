@@ -13,17 +13,25 @@ os.environ["PELCS_AOT_BUILD"] = "0"
 # The modules that compile kernels with numba or build the ahead-of-time module themselves
 # (marked ``numba``: ``-m 'not numba'`` leaves them out on a machine without a compiler).
 _NUMBA_MODULES = {"test_aot", "test_warmup", "test_install"}
+# The modules that run the whole simulation kernels through numba's dispatchers (compiling them
+# from an empty cache: minutes): one pytest-xdist group, so that under ``--dist loadgroup``
+# (scripts/test) a single worker compiles them while the other runs the rest of the suite.
+_JIT_MODULES = {"test_aot", "test_prebuilt", "test_warmup"}
 
 
 def pytest_collection_modifyitems(config, items):
     """Markers from what a test uses: ``ngspice`` for every test that takes the ``ngspice``
     fixture (``-m 'not ngspice'`` runs the rest where ngspice is missing), ``numba`` for the
-    modules of :data:`_NUMBA_MODULES`."""
+    modules of :data:`_NUMBA_MODULES`, the xdist group ``numba`` for those of
+    :data:`_JIT_MODULES`."""
     for item in items:
         if "ngspice" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.ngspice)
-        if item.module.__name__.rsplit(".", 1)[-1] in _NUMBA_MODULES:
+        module = item.module.__name__.rsplit(".", 1)[-1]
+        if module in _NUMBA_MODULES:
             item.add_marker(pytest.mark.numba)
+        if module in _JIT_MODULES:
+            item.add_marker(pytest.mark.xdist_group("numba"))
 
 
 @pytest.fixture(scope="session")
