@@ -87,22 +87,14 @@ def test_a_fresh_checkout_runs_it_with_numbas_numbers(tmp_path):
     assert not list((tmp_path / "numba").rglob("*.nbi"))
     # numba's kernels, compiled for this processor (this process: the suite's cache).
     import pelcs
+    from lcs.build.aot import _through_numba
 
-    saved = os.environ.get("PELCS_AOT")
-    os.environ["PELCS_AOT"] = "0"
-    kernels.aot_module.cache_clear()
-    try:
+    with _through_numba():
         for src, res in got["out"].items():
             r = pelcs.simulate(src, tstop="1m")
             assert r.stats.steps == res["steps"]
             assert np.array_equal(r.t, np.array(res["t"]))
             assert np.array_equal(r.y, np.array(res["y"])), src
-    finally:
-        if saved is None:
-            os.environ.pop("PELCS_AOT", None)
-        else:
-            os.environ["PELCS_AOT"] = saved
-        kernels.aot_module.cache_clear()
 
 
 def test_compile_says_the_prebuilt_module_serves(tmp_path, monkeypatch, capsys):

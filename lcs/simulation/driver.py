@@ -239,15 +239,10 @@ def run(problem: Problem, inputs: Sequence, x0: np.ndarray, t_start: float, t_st
             error = pins.unhandled(init.mode, events, tol, sliding)
             if error is not None:
                 # (what follows may carry the current the switch cut: not kept)
-                keep = t_res <= error.time
-                t_res, y_res = t_res[keep], y_res[keep]
-                events = events[:int(np.searchsorted(events.t, error.time, side="right"))]
+                t_res, y_res, events = _cut_at(t_res, y_res, events, error.time, True)
     if error is None and recorder.non_finite is not None:
         error = _non_finite_rows(problem, inputs, init.mode, events, *recorder.non_finite)
-        if error is not None:
-            keep = t_res < error.time
-            t_res, y_res = t_res[keep], y_res[keep]
-            events = events[:int(np.searchsorted(events.t, error.time, side="right"))]
+        t_res, y_res, events = _cut_at(t_res, y_res, events, error.time, False)
     stored = sink.kept if sink is not None else len(t_res)
     if output_step is not None and sink is None:
         keep = t_res >= output_from
@@ -298,6 +293,13 @@ def _advance_pinned(integrator: Integrator, pins: PinnedJumps, known, ws: float,
         if error is not None:
             return error
     return None
+
+
+def _cut_at(t_res: np.ndarray, y_res: np.ndarray, events, t: float, row_at_t: bool):
+    """The results of a run stopped by an error at ``t`` (s): the rows before ``t`` (and the
+    row at ``t`` when ``row_at_t``) and the events up to ``t``."""
+    keep = t_res <= t if row_at_t else t_res < t
+    return t_res[keep], y_res[keep], events[:int(np.searchsorted(events.t, t, side="right"))]
 
 
 def _non_finite_rows(problem: Problem, inputs, mode0, events, t_prev: float,
