@@ -153,10 +153,14 @@ def module_stamp(path: Path) -> bytes:
     kernels is stamped with (:class:`lcs.jit_passes.KernelCacheLocator`): an edit of the
     dense grid loop recompiles the modules that import it, not the sparse kernel nor the LCP
     solvers they call."""
-    h = hashlib.sha256()
-    for f in sorted(kernel_closure(Path(path).resolve())):
-        h.update(str(f.relative_to(_LCS.parent) if f.is_relative_to(_LCS.parent) else f.name)
-                 .encode())
+    return _digest(sorted(kernel_closure(Path(path).resolve())))
+
+
+def _digest(files, start: bytes = b"") -> bytes:
+    """SHA-256 of ``start`` and each file's name and contents, in order."""
+    h = hashlib.sha256(start)
+    for f in files:
+        h.update(f.name.encode())
         h.update(f.read_bytes())
     return h.digest()
 
@@ -164,11 +168,7 @@ def module_stamp(path: Path) -> bytes:
 @functools.lru_cache(maxsize=1)
 def kernel_stamp() -> bytes:
     """SHA-256 of every kernel source file (names and contents), once per process."""
-    h = hashlib.sha256()
-    for f in _kernel_files():
-        h.update(f.name.encode())
-        h.update(f.read_bytes())
-    return h.digest()
+    return _digest(_kernel_files())
 
 
 def aot_filename() -> str:
@@ -224,11 +224,7 @@ def _numba_version() -> str:
 @functools.cache
 def aot_stamp() -> bytes:
     """SHA-256 of the kernel stamp and the sources the ahead-of-time module depends on."""
-    h = hashlib.sha256(kernel_stamp())
-    for f in AOT_SOURCES:
-        h.update(f.name.encode())
-        h.update(f.read_bytes())
-    return h.digest()
+    return _digest(AOT_SOURCES, kernel_stamp())
 
 
 @functools.lru_cache(maxsize=1)
