@@ -16,9 +16,11 @@ _NUMBA_MODULES = {"test_aot", "test_warmup", "test_install"}
 # The modules that run the whole simulation kernels through numba's dispatchers (compiling them
 # from an empty cache: minutes): one pytest-xdist group, so that under ``--dist loadgroup``
 # (scripts/test) a single worker compiles them while the other runs the rest of the suite.
-_JIT_MODULES = {"test_aot", "test_prebuilt", "test_warmup"}
+_JIT_MODULES = {"test_aot", "test_prebuilt", "test_warmup", "test_zz_probe"}
 
 
+# (first: pytest-xdist's own hook reads the xdist_group marks to send a group to one worker)
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
     """Markers from what a test uses: ``ngspice`` for every test that takes the ``ngspice``
     fixture (``-m 'not ngspice'`` runs the rest where ngspice is missing), ``numba`` for the

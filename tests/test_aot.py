@@ -264,3 +264,11 @@ def test_a_rebuild_warms_up_through_numba_not_the_module_it_replaces(aot_built, 
         assert kernels.aot_module() is None
     assert "PELCS_AOT" not in os.environ
     assert kernels.aot_module() is not None
+
+
+def test_this_module_runs_in_the_numba_group(request):
+    # Under --dist loadgroup (scripts/test) pytest-xdist sends a group's tests to one worker
+    # by the "@group" it appends to their ids; a pytest that keeps ids elsewhere (9.2) leaves
+    # them without it, and both workers would compile numba's kernels at once.
+    if getattr(request.config.option, "loadgroup", False):
+        assert request.node.nodeid.endswith("@numba"), request.node.nodeid
