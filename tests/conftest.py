@@ -13,10 +13,17 @@ os.environ["PELCS_AOT_BUILD"] = "0"
 # The modules that compile kernels with numba or build the ahead-of-time module themselves
 # (marked ``numba``: ``-m 'not numba'`` leaves them out on a machine without a compiler).
 _NUMBA_MODULES = {"test_aot", "test_warmup", "test_install"}
-# The modules that run the whole simulation kernels through numba's dispatchers (compiling them
-# from an empty cache: minutes): one pytest-xdist group, so that under ``--dist loadgroup``
-# (scripts/test) a single worker compiles them while the other runs the rest of the suite.
-_JIT_MODULES = {"test_aot", "test_prebuilt", "test_warmup", "test_zz_probe"}
+# The modules whose tests run the kernels through numba's dispatchers: one pytest-xdist group,
+# so that under ``--dist loadgroup`` (scripts/test) a single worker compiles numba's kernels for
+# the tests marked ``jit`` (minutes from an empty cache) while the other runs the rest.
+_JIT_MODULES = {"test_aot", "test_prebuilt", "test_warmup"}
+
+
+def pytest_addoption(parser):
+    parser.addoption("--jit", action="store_true",
+                     help="also run the tests marked jit, which compile numba's kernels (a few "
+                          "minutes of CPU from an empty cache: after a kernel edit, before "
+                          "committing the rebuilt prebuilt module)")
 
 
 # (first: pytest-xdist's own hook reads the xdist_group marks to send a group to one worker)
@@ -25,15 +32,18 @@ def pytest_collection_modifyitems(config, items):
     """Markers from what a test uses: ``ngspice`` for every test that takes the ``ngspice``
     fixture (``-m 'not ngspice'`` runs the rest where ngspice is missing), ``numba`` for the
     modules of :data:`_NUMBA_MODULES`, the xdist group ``numba`` for those of
-    :data:`_JIT_MODULES`."""
+    :data:`_JIT_MODULES`; the tests marked ``jit`` skip without ``--jit``."""
+    skip_jit = pytest.mark.skip(reason="compiles numba's kernels: run with --jit")
     for item in items:
         if "ngspice" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.ngspice)
         module = item.module.__name__.rsplit(".", 1)[-1]
         if module in _NUMBA_MODULES:
             item.add_marker(pytest.mark.numba)
-        if module in _JIT_MODULES:
+        if module in _JIT_MODULES or "jit" in item.keywords:
             item.add_marker(pytest.mark.xdist_group("numba"))
+        if "jit" in item.keywords and not config.getoption("--jit"):
+            item.add_marker(skip_jit)
 
 
 @pytest.fixture(scope="session")

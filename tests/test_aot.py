@@ -2,9 +2,10 @@
 the same compiled code as numba's dispatchers, and a run served by it never imports numba.
 
 Not timed here (``benchmarks/bench_command.py`` times whole commands): these tests check that
-the module is there, that results are bit-for-bit those of numba's kernels on every kind of
-run (plain PWM loop, comparators, Filippov sliding, many pairs with factorisation updates,
-Lemke fallbacks), and what a command imports.
+the module is there, that results are bit-for-bit those of the kernels' Python run by CPython
+(and, with ``--jit``, of numba's compiled kernels) on every kind of run (plain PWM loop,
+comparators, Filippov sliding, many pairs with factorisation updates, Lemke fallbacks), and
+what a command imports.
 """
 
 from __future__ import annotations
@@ -52,10 +53,9 @@ print("RESULT " + json.dumps(out))
 """
 
 
-def _run(env_aot: str) -> tuple[dict, str]:
-    env = {**os.environ, "PELCS_AOT": env_aot}
-    p = subprocess.run([sys.executable, "-c", _RUN, json.dumps(CASES)], cwd=ROOT, env=env,
-                       capture_output=True, text=True, timeout=600)
+def _run(**env: str) -> tuple[dict, str]:
+    p = subprocess.run([sys.executable, "-c", _RUN, json.dumps(CASES)], cwd=ROOT,
+                       env={**os.environ, **env}, capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stderr[-3000:]
     line = next(ln for ln in p.stdout.splitlines() if ln.startswith("RESULT "))
     numba = next(ln for ln in p.stdout.splitlines() if ln.startswith("NUMBA "))
@@ -74,19 +74,34 @@ def aot_built():
     return path
 
 
+def _assert_same_runs(got: dict, want: dict) -> None:
+    for label, _, _ in CASES:
+        a, b = got[label], want[label]
+        assert a["error"] is None and b["error"] is None, label
+        assert a["steps"] == b["steps"] > 100, label
+        assert np.array_equal(np.array(a["t"]), np.array(b["t"])), label
+        assert np.array_equal(np.array(a["y"]), np.array(b["y"])), label
+    assert got["cw12"]["steps"] > 1000
+
+
+def test_aot_results_equal_the_interpreted_kernels_bit_for_bit(aot_built):
+    # The module's machine code against the same kernel sources run by CPython and numpy
+    # (NUMBA_DISABLE_JIT: nothing compiled, seconds): another execution of the same
+    # arithmetic, operation for operation.
+    aot, aot_numba = _run(PELCS_AOT="1")
+    interpreted, _ = _run(PELCS_AOT="0", NUMBA_DISABLE_JIT="1")
+    assert aot_numba == "NUMBA False False"  # (the module's process never imported numba)
+    _assert_same_runs(aot, interpreted)
+
+
+@pytest.mark.jit
 def test_aot_results_equal_numba_bit_for_bit(aot_built):
-    aot, aot_numba = _run("1")
-    jit, jit_numba = _run("0")
+    aot, aot_numba = _run(PELCS_AOT="1")
+    jit, jit_numba = _run(PELCS_AOT="0")
     # The AOT process ran without numba; the other one used it.
     assert aot_numba == "NUMBA False False"
     assert jit_numba == "NUMBA True True"
-    for label, _, _ in CASES:
-        a, j = aot[label], jit[label]
-        assert a["error"] is None and j["error"] is None, label
-        assert a["steps"] == j["steps"] > 100, label
-        assert np.array_equal(np.array(a["t"]), np.array(j["t"])), label
-        assert np.array_equal(np.array(a["y"]), np.array(j["y"])), label
-    assert aot["cw12"]["steps"] > 1000
+    _assert_same_runs(aot, jit)
 
 
 def _simulate_modules(netlist: Path, out: Path, modules: tuple[str, ...]) -> str:
@@ -137,13 +152,15 @@ def test_large_circuit_run_imports_no_scipy(aot_built, tmp_path):
 
 
 def test_missing_or_stale_module_falls_back_to_numba(tmp_path):
-    # Another cache directory holds no module for these sources: numba serves the run.
+    # Another cache directory holds no module for these sources: numba's dispatchers serve
+    # the run (here running the kernels' Python, NUMBA_DISABLE_JIT: the same dispatch, without
+    # the minutes of compiling them; the tests marked jit compile them).
     code = ("import lcs.build.kernels as k, pelcs, sys; "
             f"r = pelcs.simulate({str(NETLISTS / 'buck.cir')!r}, tstop='0.1m'); "
             "print('USING', k.using_aot(), 'numba' in sys.modules, r.stats.steps)")
     p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
                        timeout=600, env={**os.environ, "PELCS_CACHE_DIR": str(tmp_path),
-                                            "PELCS_PREBUILT": "0"})
+                                            "PELCS_PREBUILT": "0", "NUMBA_DISABLE_JIT": "1"})
     assert p.returncode == 0, p.stderr[-2000:]
     words = p.stdout.split("USING ")[1].split()
     assert words[:2] == ["False", "True"] and int(words[2]) > 100

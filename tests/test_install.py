@@ -175,7 +175,7 @@ def test_the_version_is_read_only_for_version():
     assert p.stdout.strip() == "False", p.stderr
 
 
-@pytest.mark.xdist_group("numba")  # (it compiles the checkout's kernels when they are not)
+@pytest.mark.jit  # (it compiles the checkout's kernels when they are not)
 def test_kernels_cached_is_false_with_an_empty_cache_and_true_with_the_checkouts(tmp_path):
     code = "from lcs.build.kernel_setup import kernels_cached; print(kernels_cached())"
     env = {**os.environ, "PELCS_AOT": "0", "NUMBA_CACHE_DIR": str(tmp_path)}

@@ -67,9 +67,9 @@ print("RUN", json.dumps({"module": str(k.module_path()), "numba": "numba" in sys
 
 
 def _run(tmp_path: Path, **env) -> dict:
-    full = {**os.environ, "PELCS_CACHE_DIR": str(tmp_path / "pelcs"),
-            "NUMBA_CACHE_DIR": str(tmp_path / "numba"), **env}
-    full.pop("PELCS_AOT", None)
+    full = {k: v for k, v in os.environ.items() if k != "PELCS_AOT"}
+    full.update(PELCS_CACHE_DIR=str(tmp_path / "pelcs"), NUMBA_CACHE_DIR=str(tmp_path / "numba"),
+                **env)
     p = subprocess.run([sys.executable, "-c", _RUN, str(BUCK), str(VM_BUCK)], cwd=ROOT,
                        env=full, capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stderr[-3000:]
@@ -77,7 +77,14 @@ def _run(tmp_path: Path, **env) -> dict:
     return json.loads(line[4:])
 
 
-def test_a_fresh_checkout_runs_it_with_numbas_numbers(tmp_path):
+def _assert_same_runs(got: dict, want: dict) -> None:
+    for src, res in got["out"].items():
+        assert res["steps"] == want["out"][src]["steps"], src
+        assert np.array_equal(np.array(res["t"]), np.array(want["out"][src]["t"])), src
+        assert np.array_equal(np.array(res["y"]), np.array(want["out"][src]["y"])), src
+
+
+def test_a_fresh_checkout_runs_it_with_the_kernels_numbers(tmp_path):
     if kernels.prebuilt_path() is None:
         pytest.skip("no prebuilt module for these sources on this machine")
     # Empty caches: no module built here, nothing compiled by numba.
@@ -85,6 +92,18 @@ def test_a_fresh_checkout_runs_it_with_numbas_numbers(tmp_path):
     assert got["module"] == str(kernels.prebuilt_path())
     assert got["numba"] is False
     assert not list((tmp_path / "numba").rglob("*.nbi"))
+    # The kernels' sources run by CPython (NUMBA_DISABLE_JIT), the module ignored.
+    interpreted = _run(tmp_path / "py", PELCS_PREBUILT="0", PELCS_AOT="0", NUMBA_DISABLE_JIT="1")
+    assert interpreted["module"] == "None"
+    _assert_same_runs(got, interpreted)
+
+
+@pytest.mark.jit
+def test_a_fresh_checkout_runs_it_with_numbas_numbers(tmp_path):
+    if kernels.prebuilt_path() is None:
+        pytest.skip("no prebuilt module for these sources on this machine")
+    got = _run(tmp_path)
+    assert got["module"] == str(kernels.prebuilt_path())
     # numba's kernels, compiled for this processor (this process: the suite's cache).
     import pelcs
     from lcs.build.aot import _through_numba

@@ -19,8 +19,9 @@ from pathlib import Path
 
 import pytest
 
-# fresh processes that load every kernel, 6 s: in the full suite, not the fast subset
-pytestmark = pytest.mark.slow
+# fresh processes that load every kernel numba compiled (minutes from an empty cache): with
+# --jit, not in the fast subset
+pytestmark = [pytest.mark.slow, pytest.mark.jit]
 
 ROOT = Path(__file__).resolve().parents[1]
 
