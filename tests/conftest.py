@@ -15,8 +15,9 @@ os.environ["PELCS_AOT_BUILD"] = "0"
 _NUMBA_MODULES = {"test_aot", "test_warmup", "test_install"}
 # The modules whose tests run the kernels through numba's dispatchers: one pytest-xdist group,
 # so that under ``--dist loadgroup`` (scripts/test) a single worker compiles numba's kernels for
-# the tests marked ``jit`` (minutes from an empty cache) while the other runs the rest.
-_JIT_MODULES = {"test_aot", "test_prebuilt", "test_warmup"}
+# the tests marked ``jit`` (minutes from an empty cache) while the other runs the rest, and the
+# sparse step that test_kkt calls from Python is compiled once (40 s), not by both workers.
+_JIT_MODULES = {"test_aot", "test_prebuilt", "test_warmup", "test_kkt"}
 
 
 def pytest_addoption(parser):
