@@ -73,6 +73,7 @@ def _setup_module():
     return module
 
 
+@pytest.mark.xdist_group("wheel")  # (one worker builds the wheel once)
 def test_the_wheel_is_for_this_platform(wheel):
     # (it may carry the compiled module: not a pure-Python "none-any" wheel)
     assert not Path(wheel.filename).name.endswith("-none-any.whl")
@@ -103,6 +104,7 @@ def test_a_failed_kernel_build_leaves_a_wheel_without_them(tmp_path, capsys):
     assert "could not be built" in capsys.readouterr().err
 
 
+@pytest.mark.xdist_group("wheel")  # (one worker builds the wheel once)
 def test_the_wheel_carries_the_prebuilt_module(wheel):
     files = set(wheel.namelist())
     here = kernels.prebuilt_dir().relative_to(ROOT).as_posix()
@@ -116,6 +118,7 @@ def test_the_readme_names_netlists():
     assert "converters/netlists/boost.cir" in names and len(names) >= 4
 
 
+@pytest.mark.xdist_group("wheel")  # (one worker builds the wheel once)
 def test_the_wheel_carries_every_netlist_the_readme_uses(wheel):
     files = wheel.namelist()
     for path in _readme_netlists():
