@@ -239,8 +239,18 @@ def default_probes(circuit: Circuit) -> list[str]:
     from netlist.reductions import source_capacitors
 
     held = set(source_capacitors(circuit))  # voltage sources alone across them: no state
-    out = [f"i({el.name})" if el.kind == "L" else f"v({el.name})"
-           for el in circuit.elements if el.kind in ("L", "C") and el.key not in held]
+    nodes = _node_set(circuit)
+
+    def state(el) -> str:
+        if el.kind == "L":
+            return f"i({el.name})"
+        if el.name.lower() in nodes:  # (v(C1) reads a node c1 in both)
+            a, b = el.nodes
+            return f"v({a})" if b == GROUND else f"v({a},{b})"
+        return f"v({el.name})"
+
+    out = [state(el) for el in circuit.elements
+           if el.kind in ("L", "C") and el.key not in held]
     if not out:
         raise _input_error("the circuit has no inductor or capacitor to compare by default",
                            "give the probes: --probe 'v(out)'", circuit.file)

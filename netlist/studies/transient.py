@@ -43,6 +43,7 @@ from ..behavioural import gone_probe
 from ..capacitor_links import capacitor_links, check_link_initial, link_note, link_probe
 from ..capacitor_loops import reduced_probe
 from ..circuit import (
+    GROUND,
     Circuit,
     CurrentSource,
     VoltageSource,
@@ -334,6 +335,20 @@ def _pin_open_inductors(circuit: Circuit, states: Sequence[str], x0: np.ndarray,
         notes.append(text)
 
 
+def _shadowed_probe(probe: str, capacitor) -> Diagnostic:
+    """The error of a probe spelled as a capacitor's state, ``v(C1)``, beside a node ``c1``:
+    ngspice reads the node (its names ignore case), pelcs's state is the capacitor's."""
+    a, b = capacitor.nodes
+    across = f"v({a})" if b == GROUND else f"v({a},{b})"
+    node = capacitor.name.lower()
+    # (any other spelling of the node's name reads the node)
+    spelled = f"v({node})" if node != capacitor.name else f"V({node})"
+    return Diagnostic(
+        message=f"probe {probe.strip()!r} is ambiguous: ngspice reads it as the node {node}, "
+                f"and it is also the state of capacitor {capacitor.name}",
+        hint=f"write {spelled} for the node's voltage or {across} for {capacitor.name}'s")
+
+
 def check_probes(circuit: Circuit, probes: Sequence[str], *,
                  path_currents: bool = False) -> list[str]:
     """Check probe names against the circuit's nodes and elements.
@@ -344,7 +359,8 @@ def check_probes(circuit: Circuit, probes: Sequence[str], *,
     probes : sequence of str
         ``v(n)``, ``v(a,b)`` (``0`` or ``gnd`` is ground), ``i(X)`` for a two-terminal
         element, or a state name (``v(C1)`` is the capacitor voltage unless a node ``c1``
-        exists, as in SPICE).
+        exists: then ``v(c1)`` in another spelling is the node, as in ngspice, and the state's
+        own spelling is an error, since ngspice would read the node).
 
     path_currents : bool
         Accept ``i(V)`` of a source a capacitor without a state is across, without its
@@ -379,6 +395,10 @@ def check_probes(circuit: Circuit, probes: Sequence[str], *,
             if b is None and a in circuit.loop_capacitors and a not in nodes | capacitors:
                 raise NetlistError([reduced_probe(circuit, probe, kind, a)], file=circuit.file)
             if kind == "v":
+                if (b is None and a in nodes and a in capacitors
+                        and probe.strip() == f"v({two_terminal[a].name})"):
+                    raise NetlistError([_shadowed_probe(probe, two_terminal[a])],
+                                       file=circuit.file)
                 ok = (a in nodes and (b is None or b.lower() in nodes)) or (
                     b is None and a in capacitors)
                 gone = [x for x in (a, (b or "").lower()) if x in circuit.gone_nodes]
