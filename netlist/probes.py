@@ -10,7 +10,10 @@ from __future__ import annotations
 
 import re
 
-__all__ = ["PROBE", "TWO_TERMINAL", "probe_unit"]
+from .circuit import GROUND
+from .errors import Diagnostic
+
+__all__ = ["PROBE", "TWO_TERMINAL", "probe_unit", "shadowed_probe"]
 
 #: ``v(a)``, ``v(a,b)`` or ``i(X)``, blanks allowed, any case: groups (``v`` or ``i``, the
 #: first name, the second node or None).
@@ -25,3 +28,17 @@ def probe_unit(name: str) -> str:
     """SI unit of a probe: ``"V"`` for ``v(...)``, ``"A"`` for ``i(...)``, else ``""``."""
     head = name.strip()[:2].lower()
     return {"v(": "V", "i(": "A"}.get(head, "")
+
+
+def shadowed_probe(probe: str, capacitor) -> Diagnostic:
+    """The error of a probe spelled as a capacitor's state, ``v(C1)``, beside a node ``c1``:
+    ngspice reads the node (its names ignore case), pelcs's state is the capacitor's."""
+    a, b = capacitor.nodes
+    across = f"v({a})" if b == GROUND else f"v({a},{b})"
+    node = capacitor.name.lower()
+    # (any other spelling of the node's name reads the node)
+    spelled = f"v({node})" if node != capacitor.name else f"V({node})"
+    return Diagnostic(
+        message=f"probe {probe.strip()!r} is ambiguous: ngspice reads it as the node {node}, "
+                f"and it is also the state of capacitor {capacitor.name}",
+        hint=f"write {spelled} for the node's voltage or {across} for {capacitor.name}'s")

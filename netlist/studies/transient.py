@@ -43,7 +43,6 @@ from ..behavioural import gone_probe
 from ..capacitor_links import capacitor_links, check_link_initial, link_note, link_probe
 from ..capacitor_loops import reduced_probe
 from ..circuit import (
-    GROUND,
     Circuit,
     CurrentSource,
     VoltageSource,
@@ -54,7 +53,7 @@ from ..formulation import formulate, storage_matrix
 from ..knee import KneeCapacitor, check_knees, knee_probes, knees_for_run
 from ..limits import MEMORY, STEPS
 from ..passive import structurally_passive
-from ..probes import PROBE, TWO_TERMINAL
+from ..probes import PROBE, TWO_TERMINAL, shadowed_probe
 from ..reductions import held_capacitors, held_note, held_probe, open_inductors, parallel_diodes
 from ..steps import step_note
 from ..suggest import did_you_mean
@@ -335,20 +334,6 @@ def _pin_open_inductors(circuit: Circuit, states: Sequence[str], x0: np.ndarray,
         notes.append(text)
 
 
-def _shadowed_probe(probe: str, capacitor) -> Diagnostic:
-    """The error of a probe spelled as a capacitor's state, ``v(C1)``, beside a node ``c1``:
-    ngspice reads the node (its names ignore case), pelcs's state is the capacitor's."""
-    a, b = capacitor.nodes
-    across = f"v({a})" if b == GROUND else f"v({a},{b})"
-    node = capacitor.name.lower()
-    # (any other spelling of the node's name reads the node)
-    spelled = f"v({node})" if node != capacitor.name else f"V({node})"
-    return Diagnostic(
-        message=f"probe {probe.strip()!r} is ambiguous: ngspice reads it as the node {node}, "
-                f"and it is also the state of capacitor {capacitor.name}",
-        hint=f"write {spelled} for the node's voltage or {across} for {capacitor.name}'s")
-
-
 def check_probes(circuit: Circuit, probes: Sequence[str], *,
                  path_currents: bool = False) -> list[str]:
     """Check probe names against the circuit's nodes and elements.
@@ -397,7 +382,7 @@ def check_probes(circuit: Circuit, probes: Sequence[str], *,
             if kind == "v":
                 if (b is None and a in nodes and a in capacitors
                         and probe.strip() == f"v({two_terminal[a].name})"):
-                    raise NetlistError([_shadowed_probe(probe, two_terminal[a])],
+                    raise NetlistError([shadowed_probe(probe, two_terminal[a])],
                                        file=circuit.file)
                 ok = (a in nodes and (b is None or b.lower() in nodes)) or (
                     b is None and a in capacitors)
