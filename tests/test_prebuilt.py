@@ -4,7 +4,7 @@ checkout with nothing compiled, the same numbers as numba's kernels, and never l
 processor that lacks one of its extensions.
 
 When the first test fails, a kernel source changed without the module being rebuilt:
-``python -m lcs.build.aot --prebuilt``, then commit ``lcs/build/prebuilt``.
+``scripts/prebuild`` (every interpreter it ships for), then commit ``lcs/build/prebuilt``.
 """
 
 from __future__ import annotations
@@ -33,9 +33,13 @@ def test_the_prebuilt_module_is_current():
     built = sorted(p.name for p in kernels.PREBUILT.glob("aot-*"))
     assert built == [kernels.prebuilt_dir().name], (
         f"lcs/build/prebuilt holds {built}, not the module of the current kernel sources "
-        f"{kernels.prebuilt_dir().name}: run python -m lcs.build.aot --prebuilt")
+        f"{kernels.prebuilt_dir().name}: run scripts/prebuild")
     modules = sorted(p.name for p in kernels.prebuilt_dir().glob(kernels.AOT_MODULE + ".*.so"))
-    assert modules, "no module in " + str(kernels.prebuilt_dir())
+    # one module per interpreter it ships for, all from these sources
+    tags = sorted("-".join(name.split(".")[1].split("-")[:2]) for name in modules)
+    assert tags == sorted(kernels.PREBUILT_PYTHONS), (
+        f"{kernels.prebuilt_dir()} holds modules for {tags}, not for every interpreter of "
+        f"{kernels.PREBUILT_PYTHONS}: run scripts/prebuild")
     assert (kernels.prebuilt_dir() / (kernels.AOT_MODULE + ".types.json")).is_file()
     if kernels.aot_filename() not in modules:
         pytest.skip(f"prebuilt for {modules}, not this Python ({kernels.aot_filename()})")

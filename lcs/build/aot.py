@@ -137,8 +137,10 @@ def build(out_dir: Path | None = None, verbose: bool = False, cpu: str | None = 
 
 def build_prebuilt(verbose: bool = False) -> Path:
     """Build the module shipped in the package (:data:`lcs.build.kernels.PREBUILT`) for the
-    processor level :data:`~lcs.build.kernels.PREBUILT_CPU`, from an empty numba cache, and
-    remove the prebuilt modules of other kernel sources; returns its path.
+    processor level :data:`~lcs.build.kernels.PREBUILT_CPU` and this interpreter, from an
+    empty numba cache, beside the modules other interpreters built from the same sources
+    (``scripts/prebuild`` runs it with each of :data:`~lcs.build.kernels.PREBUILT_PYTHONS`),
+    and remove the prebuilt modules of other kernel sources; returns its path.
 
     The kernels are compiled in a child process whose numba JIT targets that level with no
     other extension (``NUMBA_CPU_NAME``, ``NUMBA_CPU_FEATURES``), the code the module links;
@@ -160,7 +162,17 @@ def build_prebuilt(verbose: bool = False) -> Path:
                        cwd=kernels.PREBUILT.parents[2])
         part = target_dir.with_name(target_dir.name + ".part")
         shutil.rmtree(part, ignore_errors=True)
-        part.mkdir(parents=True)
+        # (the modules other interpreters built from the same sources stay beside this one;
+        # the argument types are the kernels', the same for every interpreter)
+        if target_dir.is_dir():
+            shutil.copytree(target_dir, part)
+        else:
+            part.mkdir(parents=True)
+        types_file = kernels.AOT_MODULE + ".types.json"
+        if (part / types_file).is_file() and \
+                (part / types_file).read_bytes() != (out / types_file).read_bytes():
+            raise RuntimeError(f"{sys.executable}: the kernels' argument types differ from "
+                               f"those of the modules already in {target_dir}")
         for f in out.iterdir():
             shutil.copyfile(f, part / f.name)
         shutil.rmtree(target_dir, ignore_errors=True)

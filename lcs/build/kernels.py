@@ -12,7 +12,7 @@ dispatchers are used, compiled or loaded from numba's cache. ``PELCS_AOT=0`` for
 tests of the AOT module compare the two).
 
 The checkout and the wheel also ship the module prebuilt for x86-64 processors with AVX2
-(:data:`PREBUILT`, built by ``python -m lcs.build.aot --prebuilt`` whenever the kernel sources
+(:data:`PREBUILT`, built by ``scripts/prebuild`` for each interpreter whenever the kernel sources
 change): where no module was built on this machine, it is loaded when its stamp matches the
 sources and the processor has every extension it was compiled for, so that a fresh checkout
 or install runs at once instead of compiling for minutes. ``PELCS_PREBUILT=0`` ignores it.
@@ -34,6 +34,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 __all__ = ["AOT_MODULE", "AOT_SOURCES", "KERNEL_SOURCES", "PREBUILT", "PREBUILT_CPU",
+           "PREBUILT_PYTHONS",
            "aot_function", "aot_module", "aot_path", "aot_stamp", "aot_types_path",
            "cache_roots", "cpu_tag", "kernel_closure", "kernel_stamp", "module_path",
            "module_stamp", "prebuilt_dir",
@@ -61,6 +62,8 @@ AOT_MODULE = "pelcs_kernels"
 # later; a processor without one of them would stop at an illegal instruction).
 PREBUILT = _LCS / "build" / "prebuilt"
 PREBUILT_CPU = "x86-64-v3"
+# The interpreters it is prebuilt for (their extension modules' tags; scripts/prebuild).
+PREBUILT_PYTHONS = ("cpython-310", "cpython-311", "cpython-312", "cpython-313")
 _PREBUILT_FLAGS = frozenset({"avx", "avx2", "bmi1", "bmi2", "f16c", "fma", "abm", "movbe",
                              "xsave", "cx16", "lahf_lm", "popcnt", "pni", "sse4_1", "sse4_2",
                              "ssse3"})
