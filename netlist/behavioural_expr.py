@@ -87,7 +87,10 @@ def _b_pwr(a: float, b: float) -> float:
 
 # the functions whose B-source value differs from numparam's, and numparam's functions that
 # ngspice 39's B sources do not know
-_B_CONSTANT = {"pow": (_b_pow, 2, 2), "pwr": (_b_pwr, 2, 2)}
+_B_CONSTANT = {"pow": (_b_pow, 2, 2), "pwr": (_b_pwr, 2, 2),
+               # (two arguments: ngspice 39 parses no B line of min(x), and stops at min(a, b,
+               # c) with "Internal Error: bad node type")
+               "min": (min, 2, 2), "max": (max, 2, 2)}
 _NOT_IN_B = {"sqr", "arctan", "int"}
 
 
@@ -633,7 +636,7 @@ class _Lineariser:
         name, subs = t.args[0], t.args[1:]
         forms = [self.form(s) for s in subs]
         consts = [self.constant_of(s, f) for s, f in zip(subs, forms, strict=True)]
-        if self.clamps and name in ("min", "max") and len(subs) >= 2:
+        if self.clamps and name in ("min", "max") and len(subs) == 2:
             moving = [f for f, k in zip(forms, consts, strict=True) if k is None]
             if len(moving) == 1 and isinstance(moving[0], Affine | Clamp):
                 x = moving[0]

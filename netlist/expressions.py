@@ -81,12 +81,16 @@ def lark_parser() -> Lark:
     )
 
 
-def _bounded_min(*a: float) -> float:
-    return min(a)
+def _numparam_min(*a: float) -> float:
+    """numparam's min: of its first and last argument, 1 standing for a missing first (a
+    function's arguments are read as (first, middle, last), and min and max take first and
+    last): ngspice 39 gives min(3) = 1, min(4, 2, 3) = 3, and stops at four arguments."""
+    return min(1.0 if len(a) == 1 else a[0], a[-1])
 
 
-def _bounded_max(*a: float) -> float:
-    return max(a)
+def _numparam_max(*a: float) -> float:
+    """numparam's max, as :func:`_numparam_min`: max(0.5) = 1, max(1, 9, 2) = 2."""
+    return max(1.0 if len(a) == 1 else a[0], a[-1])
 
 
 def _pwr(a: float, b: float) -> float:
@@ -121,8 +125,10 @@ FUNCTIONS: dict[str, tuple[Callable[..., float], int, int | None]] = {
     "abs": (abs, 1, 1),
     "floor": (math.floor, 1, 1),
     "ceil": (math.ceil, 1, 1),
-    "min": (_bounded_min, 1, None),
-    "max": (_bounded_max, 1, None),
+    # (numparam's, surprising with one or three arguments: _numparam_min; a B source's take
+    # two, netlist.behavioural_expr)
+    "min": (_numparam_min, 1, 3),
+    "max": (_numparam_max, 1, 3),
     "pow": (math.pow, 2, 2),
     # numparam's pwr is |a|^b (pwr(-2, 3) = 8 in ngspice 39); a B source's is sign(a)|a|^b
     "pwr": (_pwr, 2, 2),
@@ -338,9 +344,10 @@ def _build(t: Tree | Token, names: set[str], leading: bool = True) -> tuple:
             raise ExpressionError(f"unknown function '{tok}'", tok.start_pos, hint)
         _, lo, hi = FUNCTIONS[fname]
         if len(args) < lo or (hi is not None and len(args) > hi):
-            want = f"{lo}" if lo == hi else f"at least {lo}"
+            want = (f"{lo}" if lo == hi else f"at least {lo}" if hi is None
+                    else f"{lo} to {hi}")
             raise ExpressionError(
-                f"{fname}() takes {want} argument{'s' if lo != 1 or hi is None else ''}, "
+                f"{fname}() takes {want} argument{'s' if want != '1' else ''}, "
                 f"got {len(args)}", tok.start_pos)
         return ("call", fname, tuple(args), tok.start_pos)
     if data == "ternary":

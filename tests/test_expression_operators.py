@@ -32,6 +32,9 @@ NUMPARAM = {
     "max(-3^2,-20)": -9.0, "sqr(-3)": 9.0, "int(-2.7)": -2.0, "nint(2.5)": 2.0,
     "sgn(-3)": -1.0, "arctan(1)": 0.7853981633974483, "asinh(1)": 0.881373587019543,
     "ternary_fcn(1,2,3)": 2.0,
+    # numparam's min and max take their first and last argument, 1 for a missing first
+    "min(3)": 1.0, "max(0.5)": 1.0, "min(4,2,3)": 3.0, "max(1,9,2)": 2.0, "min(1,5,3)": 1.0,
+    "max(5,1,2)": 5.0, "min(4,2)": 2.0,
 }
 # B-source expression -> ngspice 39's value (measured)
 BSOURCE = {
@@ -124,3 +127,9 @@ def test_bare_hexadecimal_value_is_refused():
     # ngspice 39 reads V1 n1 0 0x10 as 0 V: hexadecimal only inside braces
     refused_at("hex\nV1 n1 0 0x10\nR1 n1 0 1\n.tran 1u 2u\n.end\n", (2, 9),
                ["ngspice reads '0x10' here as 0", "{0x10}"])
+
+
+def test_numparam_min_of_four_arguments_is_refused():
+    # (ngspice 39 stops: "Syntax error: letter [,]")
+    with pytest.raises(ExpressionError, match=r"min\(\) takes 1 to 3 arguments, got 4"):
+        parse_expression("min(9,1,8,7)")
