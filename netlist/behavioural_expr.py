@@ -87,10 +87,7 @@ def _b_pwr(a: float, b: float) -> float:
 
 # the functions whose B-source value differs from numparam's, and numparam's functions that
 # ngspice 39's B sources do not know
-_B_CONSTANT = {"pow": (_b_pow, 2, 2), "pwr": (_b_pwr, 2, 2),
-               # (two arguments: ngspice 39 parses no B line of min(x), and stops at min(a, b,
-               # c) with "Internal Error: bad node type")
-               "min": (min, 2, 2), "max": (max, 2, 2)}
+_B_CONSTANT = {"pow": (_b_pow, 2, 2), "pwr": (_b_pwr, 2, 2)}
 _NOT_IN_B = {"sqr", "arctan", "int"}
 
 

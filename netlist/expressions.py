@@ -23,7 +23,7 @@ found before anything is evaluated.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import TYPE_CHECKING
@@ -81,16 +81,17 @@ def lark_parser() -> Lark:
     )
 
 
-def _numparam_min(*a: float) -> float:
-    """numparam's min: of its first and last argument, 1 standing for a missing first (a
-    function's arguments are read as (first, middle, last), and min and max take first and
-    last): ngspice 39 gives min(3) = 1, min(4, 2, 3) = 3, and stops at four arguments."""
-    return min(1.0 if len(a) == 1 else a[0], a[-1])
-
-
-def _numparam_max(*a: float) -> float:
-    """numparam's max, as :func:`_numparam_min`: max(0.5) = 1, max(1, 9, 2) = 2."""
-    return max(1.0 if len(a) == 1 else a[0], a[-1])
+def numparam_arguments(fname: str, args: Sequence[float]) -> tuple[float, ...]:
+    """The arguments numparam hands a function of :data:`FUNCTIONS` from a call's one to three
+    (ngspice's xpressn.c reads them as first, middle and last, 1 and 0 standing for a
+    missing first and middle): a function of one argument takes the last, of two the first
+    and the last, of three all three. So, in ngspice 39, ``max(0.5)`` is ``max(1, 0.5)`` = 1,
+    ``min(4, 2, 3)`` is 3, ``sqrt(4, 9)`` is 3 and ``pow(3)`` is 1."""
+    first = args[0] if len(args) >= 2 else 1.0
+    middle = args[1] if len(args) == 3 else 0.0
+    arity = FUNCTIONS[fname][1]
+    return (args[-1],) if arity == 1 else (first, args[-1]) if arity == 2 else (
+        first, middle, args[-1])
 
 
 def _pwr(a: float, b: float) -> float:
@@ -106,7 +107,8 @@ def _sgn(a: float) -> float:
     return float((a > 0.0) - (a < 0.0))
 
 
-# name -> (function, minimum and maximum number of arguments; None = any number)
+# name -> (function, minimum and maximum number of arguments; None = any number): as a B
+# source takes them; numparam takes one to three for each (numparam_arguments)
 FUNCTIONS: dict[str, tuple[Callable[..., float], int, int | None]] = {
     "sqrt": (math.sqrt, 1, 1),
     "exp": (math.exp, 1, 1),
@@ -125,10 +127,8 @@ FUNCTIONS: dict[str, tuple[Callable[..., float], int, int | None]] = {
     "abs": (abs, 1, 1),
     "floor": (math.floor, 1, 1),
     "ceil": (math.ceil, 1, 1),
-    # (numparam's, surprising with one or three arguments: _numparam_min; a B source's take
-    # two, netlist.behavioural_expr)
-    "min": (_numparam_min, 1, 3),
-    "max": (_numparam_max, 1, 3),
+    "min": (min, 2, 2),
+    "max": (max, 2, 2),
     "pow": (math.pow, 2, 2),
     # numparam's pwr is |a|^b (pwr(-2, 3) = 8 in ngspice 39); a B source's is sign(a)|a|^b
     "pwr": (_pwr, 2, 2),
@@ -240,7 +240,7 @@ def _eval(node: tuple, env: Mapping[str, float]) -> float:
         return float(_COMPARE[tag](_eval(node[1], env), _eval(node[2], env)))
     if tag == "call":
         fn, _, _ = FUNCTIONS[node[1]]
-        args = [_eval(a, env) for a in node[2]]
+        args = numparam_arguments(node[1], [_eval(a, env) for a in node[2]])
         try:
             return float(fn(*args))
         except (ValueError, OverflowError, ZeroDivisionError) as exc:
@@ -342,13 +342,11 @@ def _build(t: Tree | Token, names: set[str], leading: bool = True) -> tuple:
             else:
                 hint = "known functions: " + ", ".join(sorted(FUNCTIONS))
             raise ExpressionError(f"unknown function '{tok}'", tok.start_pos, hint)
-        _, lo, hi = FUNCTIONS[fname]
-        if len(args) < lo or (hi is not None and len(args) > hi):
-            want = (f"{lo}" if lo == hi else f"at least {lo}" if hi is None
-                    else f"{lo} to {hi}")
+        if not 1 <= len(args) <= 3:
+            # (ngspice 39 stops at a fourth: "Syntax error: letter [,]")
             raise ExpressionError(
-                f"{fname}() takes {want} argument{'s' if want != '1' else ''}, "
-                f"got {len(args)}", tok.start_pos)
+                f"{fname}() takes 1 to 3 arguments in a parameter expression, got {len(args)}",
+                tok.start_pos, "numparam reads a call's first, middle and last arguments")
         return ("call", fname, tuple(args), tok.start_pos)
     if data == "ternary":
         c, a, b = t.children
