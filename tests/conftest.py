@@ -41,9 +41,10 @@ def pytest_collection_modifyitems(config, items):
         module = item.module.__name__.rsplit(".", 1)[-1]
         if module in _NUMBA_MODULES:
             item.add_marker(pytest.mark.numba)
-        if module in _JIT_MODULES or "jit" in item.keywords:
+        jit = item.get_closest_marker("jit") is not None
+        if module in _JIT_MODULES or jit:
             item.add_marker(pytest.mark.xdist_group("numba"))
-        if "jit" in item.keywords and not config.getoption("--jit"):
+        if jit and not config.getoption("--jit"):
             item.add_marker(skip_jit)
 
 
