@@ -26,6 +26,7 @@ import numpy as np
 from .circuit import GROUND, Capacitor, Circuit, Inductor, Resistor, Switch, VoltageSource
 from .errors import Diagnostic, Location
 from .knee import NodeVoltages, voltage_nodes
+from .probes import voltage_probe
 from .thyristor import read_thyristors
 from .units import format_eng
 
@@ -171,8 +172,7 @@ class BaseClamp:
         return q <= 0.0
 
     def _ctl(self) -> str:
-        a, b = self.control
-        return f"v({a})" if b == GROUND else f"v({a},{b})"
+        return voltage_probe(*self.control)
 
     def outside(self, q: float, t: float, total: float = 0.0) -> Diagnostic:
         return Diagnostic(

@@ -13,7 +13,7 @@ import re
 from .circuit import GROUND
 from .errors import Diagnostic
 
-__all__ = ["PROBE", "TWO_TERMINAL", "probe_unit", "shadowed_probe"]
+__all__ = ["PROBE", "TWO_TERMINAL", "probe_unit", "shadowed_probe", "voltage_probe"]
 
 #: ``v(a)``, ``v(a,b)`` or ``i(X)``, blanks allowed, any case: groups (``v`` or ``i``, the
 #: first name, the second node or None).
@@ -30,11 +30,16 @@ def probe_unit(name: str) -> str:
     return {"v(": "V", "i(": "A"}.get(head, "")
 
 
+def voltage_probe(a: str, b: str) -> str:
+    """The probe of the voltage from node ``a`` to node ``b``: ``v(a)``, or ``v(a,b)`` where
+    ``b`` is not ground."""
+    return f"v({a})" if b == GROUND else f"v({a},{b})"
+
+
 def shadowed_probe(probe: str, capacitor) -> Diagnostic:
     """The error of a probe spelled as a capacitor's state, ``v(C1)``, beside a node ``c1``:
     ngspice reads the node (its names ignore case), pelcs's state is the capacitor's."""
-    a, b = capacitor.nodes
-    across = f"v({a})" if b == GROUND else f"v({a},{b})"
+    across = voltage_probe(*capacitor.nodes[:2])
     node = capacitor.name.lower()
     # (any other spelling of the node's name reads the node)
     spelled = f"v({node})" if node != capacitor.name else f"V({node})"

@@ -159,6 +159,7 @@ from netlist.circuit import (
     Switch,
 )
 from netlist.errors import Diagnostic, NetlistError
+from netlist.probes import voltage_probe
 from netlist.pwl import carried_current
 from netlist.time_value import internal_nodes
 
@@ -245,8 +246,7 @@ def default_probes(circuit: Circuit) -> list[str]:
         if el.kind == "L":
             return f"i({el.name})"
         if el.name.lower() in nodes:  # (v(C1) reads a node c1 in both)
-            a, b = el.nodes
-            return f"v({a})" if b == GROUND else f"v({a},{b})"
+            return voltage_probe(*el.nodes[:2])
         return f"v({el.name})"
 
     out = [state(el) for el in circuit.elements
@@ -282,8 +282,7 @@ def ngspice_probe(circuit: Circuit, probe: str) -> str:
             except KeyError:
                 return text
             if isinstance(el, Capacitor):
-                a, b = el.nodes
-                return f"v({a})" if b == GROUND else f"v({a},{b})"
+                return voltage_probe(*el.nodes[:2])
     return text
 
 

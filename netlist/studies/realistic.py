@@ -17,6 +17,7 @@ from ..circuit import GROUND, Capacitor, Circuit, Diode, Switch, VoltageSource
 from ..errors import Diagnostic, NetlistError
 from ..gate_charge import gate_drain_chords
 from ..junction_charge import fastest_junction_mode, junction_charges, with_junction_charge
+from ..probes import voltage_probe
 from ..pwl import carried_current, diode_params, junction_models, model_current, pwl_circuit
 from ..reductions import parallel_diodes
 from ..units import parse_number
@@ -152,8 +153,7 @@ def _devices_run(circuit: Circuit, devices: str, want: list[str] | None, extra: 
         pre = [f"i({el.name})" for el in circuit.elements
                if isinstance(el, Diode) and el.key not in merged] + [
             f"i({el.name})" for el in sws]
-        pre += [f"v({a})" if b == GROUND else f"v({a},{b})" for a, b in
-                (sw.control for sw in sws)]
+        pre += [voltage_probe(*sw.control) for sw in sws]
         pre += [bd.probe for bd in bds.values()]
         laws = [sw.cgd_law for sw in sws if sw.cgd_law is not None and sw.gate_rc]
         pre += [f"v({n})" for law in laws for n in (law.gate, law.drain) if n != GROUND]
@@ -416,8 +416,7 @@ def _fit_top(i_max: float) -> float:
 
 def _voltage_probe(el: Diode) -> str:
     """The probe of a diode's voltage, anode to cathode."""
-    a, b = el.nodes[0], el.nodes[1]
-    return f"v({a})" if b == GROUND else f"v({a},{b})"
+    return voltage_probe(el.nodes[0], el.nodes[1])
 
 
 def _refitted(res: SimulationResult, circuit: Circuit, diodes: Sequence[str],
