@@ -89,9 +89,8 @@ def numparam_arguments(fname: str, args: Sequence[float]) -> tuple[float, ...]:
     ``min(4, 2, 3)`` is 3, ``sqrt(4, 9)`` is 3 and ``pow(3)`` is 1."""
     first = args[0] if len(args) >= 2 else 1.0
     middle = args[1] if len(args) == 3 else 0.0
-    arity = FUNCTIONS[fname][1]
-    return (args[-1],) if arity == 1 else (first, args[-1]) if arity == 2 else (
-        first, middle, args[-1])
+    taken = {1: (args[-1],), 2: (first, args[-1]), 3: (first, middle, args[-1])}
+    return taken[FUNCTIONS[fname][1]]  # (each function's one number of arguments)
 
 
 def _pwr(a: float, b: float) -> float:
