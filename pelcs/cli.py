@@ -17,7 +17,7 @@ import sys
 
 from pelcs import __version__  # (imports nothing: numpy is not loaded yet)
 from pelcs.argparsing import Parser
-from pelcs.dataclass_code import cached_dataclass_code
+from pelcs.code_cache import cached_code
 
 # One BLAS thread: the matrices of a formulation are small, and OpenBLAS's second thread only
 # spins beside the single-threaded kernels (15-30 % of a core measured on the scaling
@@ -151,9 +151,9 @@ def main(argv: list[str] | None = None) -> int:
     thresholds = gc.get_threshold()
     gc.set_threshold(GC_THRESHOLD, *thresholds[1:])
     try:
-        # (the command's modules are imported inside: their dataclasses' methods are
-        # compiled once per machine, not at every start)
-        with cached_dataclass_code():
+        # (the command's modules are imported inside: their dataclasses' methods and the
+        # kernels' argument checks are compiled once per machine, not at every start)
+        with cached_code():
             return _main(argv)
     finally:
         gc.set_threshold(*thresholds)

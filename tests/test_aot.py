@@ -131,12 +131,13 @@ RC_DECK = (Path(__file__).parent / "netlists" / "sim" / "smallest_rc.cir").read_
 def test_smallest_command_imports_only_what_it_uses(aot_built, tmp_path):
     # 100 steps to a CSV: nearly all of it is start-up. No numba (the AOT module), no lark
     # (its stand-alone parser, cached by the first run), none of the optional libraries, and
-    # none of the standard modules only other paths use.
+    # none of the standard modules only other paths use (hashlib and json: the stamps and the
+    # kernels' types read from the record the first run wrote).
     deck = tmp_path / "rc.cir"
     deck.write_text(RC_DECK)
     modules = ("numba", "scipy", "matplotlib", "pandas", "pyarrow", "cvxpy", "control", "dask",
                "tqdm", "lark", "importlib.metadata", "numpy.ma", "decimal", "difflib",
-               "secrets", "zipfile", "tempfile")
+               "secrets", "zipfile", "tempfile", "hashlib", "json", "subprocess")
     for _ in range(2):
         out = _simulate_modules(deck, tmp_path / "rc.csv", modules)
     assert "MODS 0 []" in out, out[-2000:]

@@ -342,7 +342,7 @@ def empty_cache(tmp_path, monkeypatch):
     def fake_popen(argv, **kw):
         started.append((argv, kw))
 
-    monkeypatch.setattr(kernel_setup.subprocess, "Popen", fake_popen)
+    monkeypatch.setattr(subprocess, "Popen", fake_popen)  # (kernel_setup imports it late)
     return tmp_path, started
 
 

@@ -94,3 +94,49 @@ def test_the_stamp_follows_the_closures_contents(tmp_path, monkeypatch):
     finally:
         for fn in (kernels.kernel_closure, kernels.module_stamp):
             fn.cache_clear()
+
+
+def test_the_stamp_record_serves_unchanged_sources_and_follows_an_edit(tmp_path, monkeypatch):
+    # A start reads the AOT stamp from the machine's record while the sources' sizes and times
+    # are those it was computed for; an edit (a new time and size) hashes them again, and a
+    # damaged record is computed again and rewritten.
+    import shutil
+
+    copy = tmp_path / "lcs"
+    shutil.copytree(LCS, copy, ignore=shutil.ignore_patterns("__pycache__", "prebuilt"))
+    monkeypatch.setattr(kernels, "KERNEL_SOURCES",
+                        tuple(copy / s.relative_to(LCS) for s in kernels.KERNEL_SOURCES))
+    monkeypatch.setattr(kernels, "AOT_SOURCES",
+                        tuple(copy / s.relative_to(LCS) for s in kernels.AOT_SOURCES))
+    monkeypatch.setenv("PELCS_CACHE_DIR", str(tmp_path / "cache"))
+    hashed = []
+    real_digest = kernels._digest
+    monkeypatch.setattr(kernels, "_digest",
+                        lambda files, start=b"": hashed.append(len(files)) or
+                        real_digest(files, start))
+
+    def stamp() -> bytes:
+        for fn in (kernels.aot_stamp, kernels.kernel_stamp, kernels._stamp_record):
+            fn.cache_clear()
+        return kernels.aot_stamp()
+
+    try:
+        first = stamp()
+        assert hashed and (tmp_path / "cache" / kernels.STAMP_RECORD).is_file()
+        hashed.clear()
+        assert stamp() == first and not hashed  # read from the record, nothing hashed
+        step = copy / "integrators" / "moreau" / "dense" / "step.py"
+        step.write_text(step.read_text() + "\n# edited\n")
+        edited = stamp()
+        assert hashed and edited != first
+        # The record's value is the hash of the sources: the same as computing it afresh.
+        hashed.clear()
+        assert stamp() == edited == real_digest(kernels.AOT_SOURCES, real_digest(
+            kernels._kernel_files())) and not hashed
+        (tmp_path / "cache" / kernels.STAMP_RECORD).write_bytes(b"not a record")
+        assert stamp() == edited and hashed
+        hashed.clear()
+        assert stamp() == edited and not hashed  # rewritten whole
+    finally:
+        for fn in (kernels.aot_stamp, kernels.kernel_stamp, kernels._stamp_record):
+            fn.cache_clear()

@@ -24,7 +24,6 @@ ahead-of-time module (when the run imports it anyway); the rest imports nothing 
 from __future__ import annotations
 
 import os
-import subprocess
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -209,6 +208,8 @@ def start_background_build() -> Path | None:
         root = str(Path(kernels.__file__).resolve().parents[2])
         env["PYTHONPATH"] = os.pathsep.join(
             [root] + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
+        import subprocess  # (2 ms of imports, only for a run that starts a build)
+
         with open(log, "w") as out:
             subprocess.Popen([sys.executable, "-m", "lcs.build.kernel_setup"], env=env,
                              stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,

@@ -23,10 +23,10 @@ Nothing here imports numba.
 from __future__ import annotations
 
 import functools
-import hashlib
 import importlib
 import importlib.machinery
 import importlib.util
+import marshal
 import os
 import platform
 import sysconfig
@@ -161,6 +161,8 @@ def module_stamp(path: Path) -> bytes:
 
 def _digest(files, start: bytes = b"") -> bytes:
     """SHA-256 of ``start`` and each file's name and contents, in order."""
+    import hashlib  # (4 ms of OpenSSL's loading: not on a start that finds its record)
+
     h = hashlib.sha256(start)
     for f in files:
         h.update(f.name.encode())
@@ -224,10 +226,65 @@ def _numba_version() -> str:
     return names[-1][len("numba-"):-len(".dist-info")] if names else "unknown"
 
 
+#: The file, in the cache roots, that keeps the stamps a start needs (:func:`_recorded`).
+STAMP_RECORD = "kernel-stamps"
+
+
+@functools.lru_cache(maxsize=1)
+def _stamp_record() -> dict:
+    """The first :data:`STAMP_RECORD` of the cache roots that can be read, else empty."""
+    for root in cache_roots():
+        try:
+            loaded = marshal.loads((root / STAMP_RECORD).read_bytes())
+        except (OSError, ValueError, EOFError, TypeError):
+            continue
+        if isinstance(loaded, dict):
+            return loaded
+    return {}
+
+
+def _recorded(name: str, key, compute: Callable[[], object]):
+    """``compute()``, kept under ``name`` in this machine's :data:`STAMP_RECORD` with the
+    ``key`` it was computed for, and read from there while the key is the same.
+
+    A start that finds the AOT stamp, the processor tag and the kernels' argument types
+    recorded neither hashes the sources (some 400 kB), nor imports hashlib and json: 8 ms, a
+    tenth of what a 100-step command costs beyond numpy. The record is a cache only: what a
+    missing, foreign or unreadable file lacks is computed again, and the record written to
+    the first cache root that takes it (none when no root is writable: then computed on
+    every start)."""
+    record = _stamp_record()
+    entry = record.get(name)
+    if isinstance(entry, tuple) and len(entry) == 2 and entry[0] == key:
+        return entry[1]
+    value = compute()
+    record[name] = (key, value)
+    from lcs.atomic import atomic_path
+
+    for root in cache_roots():
+        try:
+            root.mkdir(parents=True, exist_ok=True)
+            with atomic_path(root / STAMP_RECORD) as tmp:  # (whole, for a concurrent start)
+                tmp.write_bytes(marshal.dumps(record))
+        except (OSError, ValueError):
+            continue
+        break
+    return value
+
+
 @functools.cache
 def aot_stamp() -> bytes:
-    """SHA-256 of the kernel stamp and the sources the ahead-of-time module depends on."""
-    return _digest(AOT_SOURCES, kernel_stamp())
+    """SHA-256 of the kernel stamp and the sources the ahead-of-time module depends on.
+
+    Recorded per machine with each source's path, size and modification time
+    (:func:`_recorded`), as Python trusts a ``.pyc`` file: an edit, a checkout or an
+    installation changes them and hashes the sources again."""
+    files = [*_kernel_files(), *AOT_SOURCES]
+    try:
+        key = tuple((str(f), st.st_mtime_ns, st.st_size) for f in files for st in [f.stat()])
+    except OSError:
+        return _digest(AOT_SOURCES, kernel_stamp())
+    return _recorded("aot_stamp", key, lambda: _digest(AOT_SOURCES, kernel_stamp()))
 
 
 @functools.lru_cache(maxsize=1)
@@ -253,7 +310,9 @@ def cpu_tag() -> str:
     other extensions (a cluster node sharing the home directory) must not load it: it finds
     no module under its own tag and builds or falls back to numba."""
     line = _cpu_flags_line()
-    return "generic" if line is None else hashlib.sha256(line.encode()).hexdigest()[:8]
+    if line is None:
+        return "generic"
+    return _recorded("cpu_tag", line, lambda: _digest([], line.encode()).hex()[:8])
 
 
 def prebuilt_dir() -> Path:
@@ -390,10 +449,22 @@ def aot_function(module: str, attr: str, args: tuple) -> Callable | None:
 
 @functools.cache
 def _aot_types() -> dict:
-    import json
+    """The argument types of each kernel the module exports (:func:`aot_types_path`),
+    recorded per machine with the file's size and time (:func:`_recorded`); empty when it
+    cannot be read."""
+    path = aot_types_path()
+
+    def read() -> dict:
+        import json
+
+        types = json.loads(path.read_text())
+        if not isinstance(types, dict):
+            raise ValueError(f"{path}: not a table of kernels")
+        return types
 
     try:
-        return json.loads(aot_types_path().read_text())
+        st = path.stat()
+        return _recorded("aot_types", (str(path), st.st_mtime_ns, st.st_size), read)
     except (OSError, ValueError):
         return {}
 
@@ -441,5 +512,7 @@ def _checker(export: str) -> Callable[[list], bool] | None:
             return None
         terms.append(f"({term})")
     src = "def check(a):\n    return (" + "\n            and ".join(terms) + ")\n"
-    exec(compile(src, f"<aot check {export}>", "exec"), env)
+    # (from source text, which the CLI's cache of compiled code (pelcs.code_cache) serves
+    # instead of compiling it: the checks take 7 ms to compile)
+    exec(src, env)
     return env["check"]

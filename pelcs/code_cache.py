@@ -1,0 +1,183 @@
+"""Code that pelcs generates as source text at every start, compiled once per machine for the CLI.
+
+Two kinds of generated source are compiled on each start of a command:
+
+- for every dataclass, ``dataclasses`` writes the source of ``__init__``, ``__repr__``,
+  ``__eq__`` (and for a frozen one ``__hash__``, ``__setattr__``, ``__delattr__``) and
+  compiles it with ``exec``: some 220 small functions when ``pelcs simulate`` starts, 15-20 %
+  of the CPU time of a 100-step command (Python's parser and compiler, not running code);
+- :mod:`lcs.build.kernels` writes the argument check of each ahead-of-time kernel a run
+  calls (one expression over its hundred-odd arguments), 7 ms of compiling.
+
+While :func:`cached_code` is active, the ``exec`` that both call takes the code object
+compiled from the same source text from a cache kept in ``$PELCS_CACHE_DIR`` (else
+``pelcs/__pycache__``) by an earlier run, so the functions are those ``exec`` would compile
+from that text, without compiling it.
+
+The cache is only a speed-up: it holds code objects keyed by their exact source text, for
+this Python version only, and a missing, unreadable or foreign file is ignored (the run
+compiles, and writes a new one). Only the CLI uses it, for the duration of a command.
+"""
+
+from __future__ import annotations
+
+import builtins
+import marshal
+import os
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+#: A cache holding more entries (dataclass definitions that changed over time) starts anew
+#: with the entries of the run that finds it so.
+MAX_ENTRIES = 2000
+
+
+class CacheUse:
+    """What a command did with the cache: ``loaded`` entries, ``compiled`` sources."""
+
+    def __init__(self, loaded: int) -> None:
+        self.loaded = loaded
+        self.compiled = 0
+
+
+def cache_path() -> Path | None:
+    """The cache file for this Python, or None when its directory is not writable."""
+    root = Path(os.environ.get("PELCS_CACHE_DIR") or Path(__file__).with_name("__pycache__"))
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return None
+    if not os.access(root, os.W_OK):
+        return None
+    return root / f"code-cache.{sys.implementation.cache_tag}"
+
+
+def _load(path: Path | None) -> dict:
+    if path is None:
+        return {}
+    try:
+        version, cache = marshal.loads(path.read_bytes())
+    except (OSError, ValueError, EOFError, TypeError):
+        return {}  # missing, or not a cache of this format
+    if version != sys.version or not isinstance(cache, dict):
+        return {}
+    return cache
+
+
+def _save(path: Path, cache: dict) -> None:
+    from lcs.atomic import atomic_path
+
+    try:
+        with atomic_path(path) as tmp:  # (whole or not at all, also for a concurrent reader)
+            tmp.write_bytes(marshal.dumps((sys.version, cache)))
+    except (OSError, ValueError):
+        pass  # not cached: compiled again by the next command
+
+
+def _regex_entry(module, pattern: str | bytes, flags: int) -> tuple | None:
+    """What ``_sre.compile`` takes after the pattern, computed as re's compiler ``module``
+    computes it (its parse and its code); None where it cannot be told (a Python whose
+    compiler differs) or depends on the locale."""
+    import re
+
+    parser = getattr(module, "_parser", None) or getattr(module, "sre_parse", None)
+    try:
+        parsed = parser.parse(pattern, flags)
+        # (plain ints: the compiler's opcodes are an int subclass, which marshal refuses)
+        code = [int(word) for word in module._code(parsed, flags)]
+        groupindex = {name: int(index) for name, index in parsed.state.groupdict.items()}
+        indexgroup = [None] * parsed.state.groups
+        for name, index in groupindex.items():
+            indexgroup[index] = name
+        entry = (int(flags | parsed.state.flags), code, parsed.state.groups - 1, groupindex,
+                 tuple(indexgroup))
+    except (AttributeError, TypeError, ValueError, re.error):
+        return None
+    if entry[0] & re.LOCALE:
+        return None
+    try:
+        marshal.dumps(entry)
+    except ValueError:  # (an object of this Python's compiler that the cache cannot keep)
+        return None
+    return entry
+
+
+@contextmanager
+def cached_code() -> Iterator[CacheUse]:
+    """Within the block, the code that ``dataclasses`` and :mod:`lcs.build.kernels` generate,
+    and the programs of the regular expressions compiled, come from the cache where it has
+    their source text; new ones are compiled and the cache written when the block ends.
+
+    A regular expression's program (what ``re`` compiles a pattern to: 13 ms for the
+    hundred-odd patterns of the netlist reader, lark's lexer, numpy and the standard library
+    at a start) is kept only when the pattern compiled from it equals the one ``re``
+    compiled (``Pattern.__eq__`` compares the programs), so a Python whose compiler differs
+    is served by ``re`` itself."""
+    import _sre
+    import dataclasses
+    import re
+
+    from lcs.build import kernels
+
+    compiler = getattr(re, "_compiler", None) or getattr(re, "sre_compile", None)
+    users = [m for m in (dataclasses, kernels) if "exec" not in vars(m)]
+    if len(users) < 2 or compiler is None:  # (already active: nested, or another tool's)
+        yield CacheUse(0)
+        return
+    path = cache_path()
+    cache = _load(path)
+    use = CacheUse(len(cache))
+    used: dict = {}
+
+    def cached_exec(source, globals=None, locals=None, /):
+        if isinstance(source, str):
+            code = cache.get(source)
+            if code is None:
+                # What exec(source) compiles: file name "<string>", and no __future__ flag
+                # of the caller (neither module's flags reach the generated code).
+                code = cache[source] = compile(source, "<string>", "exec", dont_inherit=True)
+                use.compiled += 1
+            used[source] = code
+            source = code
+        return builtins.exec(source, globals, locals)
+
+    re_compile = compiler.compile
+
+    def cached_re_compile(pattern, flags=0):
+        if not isinstance(pattern, (str, bytes)) or flags & re.DEBUG:
+            return re_compile(pattern, flags)
+        key = ("re", pattern, int(flags))
+        entry = cache.get(key)
+        if entry is not None:
+            try:
+                compiled = _sre.compile(pattern, *entry)
+            except (TypeError, ValueError):
+                pass  # not this Python's program: compiled by re below
+            else:
+                used[key] = entry
+                return compiled
+        compiled = re_compile(pattern, flags)
+        entry = _regex_entry(compiler, pattern, int(flags))
+        if entry is not None:
+            try:
+                same = _sre.compile(pattern, *entry) == compiled
+            except (TypeError, ValueError):
+                same = False
+            if same:
+                cache[key] = used[key] = entry
+                use.compiled += 1
+        return compiled
+
+    for module in users:
+        module.exec = cached_exec
+    compiler.compile = cached_re_compile
+    try:
+        yield use
+    finally:
+        for module in users:
+            del module.exec
+        compiler.compile = re_compile
+        if use.compiled and path is not None:
+            _save(path, cache if len(cache) <= MAX_ENTRIES else used)
