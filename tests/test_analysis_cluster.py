@@ -352,6 +352,30 @@ _LONG_RUNS = {  # a few seconds on the two workers, in tasks of well under a sec
 }
 
 
+def test_a_timeout_nobody_awaited_in_the_clients_shutdown_is_not_reported(caplog):
+    # What a loaded machine printed after an interrupted sweep on a cluster: asyncio's report
+    # of a future of Dask's client that timed out while it closed. Real futures, collected as
+    # asyncio collects them; another exception is still reported.
+    import asyncio
+    import gc
+    import logging
+
+    parallel._import_distributed()
+    loop = asyncio.new_event_loop()
+    try:
+        with caplog.at_level(logging.ERROR, logger="asyncio"):
+            for exc in (TimeoutError("Timeout"), ValueError("a real failure")):
+                future = loop.create_future()
+                future.set_exception(exc)
+                del future
+                gc.collect()
+    finally:
+        loop.close()
+    reported = [r.getMessage() for r in caplog.records if r.name == "asyncio"]
+    assert len(reported) == 1 and "never retrieved" in reported[0], reported
+    assert isinstance(caplog.records[-1].exc_info[1], ValueError)
+
+
 @pytest.mark.parametrize("command", sorted(_LONG_RUNS))
 def test_interrupt_on_a_cluster_is_quiet(cluster, command):
     from distributed import Client

@@ -310,12 +310,25 @@ def _wait_futures(futures: list, tick: Callable[[], None], interval: float = 0.0
             time.sleep(interval)
 
 
+def _quiet_shutdown(record: logging.LogRecord) -> bool:
+    """A filter of asyncio's log: False for its report of a future that ended in a timeout
+    nobody waited for. Dask's client leaves one when it closes its connection after an
+    interrupted run on a loaded machine (its wait for the send loop to stop times out after
+    that loop was dropped); the run's own outcome is what pelcs reports."""
+    exc = record.exc_info[1] if record.exc_info else None
+    return not (isinstance(exc, TimeoutError)
+                and record.getMessage().startswith("Future exception was never retrieved"))
+
+
 def _import_distributed():
     try:
         import distributed
     except ImportError as exc:  # pragma: no cover - a dependency
         raise SchedulerError("Dask distributed is not installed: pip install "
                              "'dask[distributed]'") from exc
+    asyncio_log = logging.getLogger("asyncio")
+    if _quiet_shutdown not in asyncio_log.filters:
+        asyncio_log.addFilter(_quiet_shutdown)
     return distributed
 
 
