@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 from conftest import as_from_a_terminal
+from terminal_run import interrupt_on_progress
 
 from lcs import interrupt
 
@@ -65,14 +66,6 @@ def test_a_signal_ignored_on_entry_stays_ignored():
         signal.signal(signal.SIGINT, before)
 
 
-def _start(tmp_path: Path, *extra: str) -> subprocess.Popen:
-    return subprocess.Popen(
-        [sys.executable, "-m", "pelcs.cli", "simulate", str(BOOST), "--tstop", str(TSTOP),
-         "--step", "2n", "--every", "10000", "-o", str(tmp_path / "boost.csv"), *extra],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        env={**os.environ, "PYTHONPATH": str(ROOT)}, preexec_fn=as_from_a_terminal)
-
-
 def _interrupt(proc: subprocess.Popen, signum: int, delay: float = 6.0):
     # the stepping under way: it starts after 1-4 s (imports, planning), and a signal
     # before it aborts (nothing to keep yet)
@@ -86,8 +79,13 @@ def _interrupt(proc: subprocess.Popen, signum: int, delay: float = 6.0):
 
 @pytest.mark.parametrize("signum, plot", [(signal.SIGINT, True), (signal.SIGTERM, False)])
 def test_interrupted_run_writes_what_it_computed(tmp_path, signum, plot):
-    proc = _start(tmp_path, *(["--plot", str(tmp_path / "boost.png")] if plot else []))
-    out, err, answer = _interrupt(proc, signum)
+    # signalled from 2 % of the steps on (its progress bar, on a terminal): mid-stepping
+    proc = interrupt_on_progress(
+        ["simulate", str(BOOST), "--tstop", str(TSTOP), "--step", "2n", "--every", "10000",
+         "-o", str(tmp_path / "boost.csv"),
+         *(["--plot", str(tmp_path / "boost.png")] if plot else [])],
+        lambda done, total: done >= 0.02 * total, signum=signum)
+    out, err, answer = proc.out, proc.err, proc.answer
     assert proc.returncode == 130, err
     assert "Traceback" not in err
     # the run stopped at its next kernel call (17 ms of steps), then wrote the files: 0.6 s

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pytest
 from conftest import as_from_a_terminal
+from terminal_run import Interrupted, interrupt_on_progress
 
 # (the slow part of the suite: outside the fast subset that `-m 'not slow'` selects)
 pytestmark = pytest.mark.slow
@@ -24,38 +25,22 @@ ROOT = Path(__file__).resolve().parents[1]
 BUCK = ROOT / "converters" / "netlists" / "buck.cir"
 
 
-def _run_and_interrupt(args: list[str], delay: float) -> tuple[subprocess.Popen, str, str,
-                                                                 float]:
-    """Start ``pelcs ARGS``, send SIGINT after ``delay`` s; (process, stdout, stderr, s from
-    the signal to the exit).
+def _run_and_interrupt(args: list[str], enough: int) -> tuple[Interrupted, str, str, float]:
+    """Run ``pelcs ARGS`` as from a terminal and send SIGINT once its progress bar counts
+    ``enough`` units; (the run, stdout, stderr, s from the signal to the exit).
 
-    The signal must come after some points have finished and before all have: on a machine
-    much faster or slower than expected the command is run again with the delay halved (it
-    finished, or finished its points and was writing them, before the signal) or lengthened
-    (nothing had finished), up to six times (a loaded machine may need the longer delays)."""
-    for _ in range(6):
-        proc = subprocess.Popen([sys.executable, "-m", "pelcs.cli", *args],
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                                env={**os.environ, "PYTHONPATH": str(ROOT)},
-                                preexec_fn=as_from_a_terminal)
-        time.sleep(delay)
-        if proc.poll() is not None:  # finished before the signal: too fast for the delay
-            proc.communicate()
-            delay /= 2
-            continue
-        t_signal = time.perf_counter()
-        proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=60)
-        answer = time.perf_counter() - t_signal
-        done = re.search(r"interrupted \(SIGINT\) after (\d+) of", err)
-        if done is None:  # every point had finished: the signal came while writing them
-            delay /= 2
-            continue
-        if int(done.group(1)) == 0:  # nothing had finished: too slow
-            delay *= 1.6
-            continue
-        return proc, out, err, answer
-    raise AssertionError(f"no delay interrupted {args} between its first and last point")
+    ``enough`` is more than the units two workers can show without finishing a task (twice
+    a task's size), so some task has finished and most have not. A task's result can still be
+    on its way when the count is reached: where nothing had finished, the command is run
+    again with a larger count, up to four times."""
+    for _ in range(4):
+        run = interrupt_on_progress(args, lambda done, total, enough=enough: done >= enough)
+        done = re.search(r"interrupted \(SIGINT\) after (\d+) of", run.err)
+        assert done is not None, run.err
+        if int(done.group(1)) > 0:
+            return run, run.out, run.err, run.answer
+        enough = int(enough * 1.5) + 1
+    raise AssertionError(f"no count interrupted {args} after its first task")
 
 
 def _says_interrupted(out: str, err: str, note: str) -> None:
@@ -66,12 +51,11 @@ def _says_interrupted(out: str, err: str, note: str) -> None:
 
 
 def test_interrupted_sweep_writes_the_finished_runs(tmp_path):
-    # 24 runs of 1.5 million steps (0.4-1 s each) in 8 tasks of 3 on 2 processes: some
-    # tasks have finished after 8 s (1-3 s of start-up), not all
+    # 24 runs of 1.5 million steps (0.2-1 s each) in 8 tasks of 3 on 2 processes
     out_csv = tmp_path / "duty.csv"
     proc, out, err, answer = _run_and_interrupt(
         ["sweep", str(BUCK), "--param", "duty=0.2:0.8:24", "--measure", "mean(v(out))",
-         "--tstop", "300m", "--workers", "2", "-o", str(out_csv)], delay=8.0)
+         "--tstop", "300m", "--workers", "2", "-o", str(out_csv)], enough=7)
     assert proc.returncode == 130, err
     assert "Traceback" not in err
     assert answer < 5, answer  # the pool is stopped at once (its workers terminated)
@@ -92,7 +76,7 @@ def test_interrupted_bifurcation_writes_the_finished_values(tmp_path):
     proc, out, err, answer = _run_and_interrupt(
         ["bifurcation", str(BUCK), "--period", "ts", "--param", "duty=0.2:0.8:24",
          "--transient", "25000", "--record", "2", "--probe", "v(out)", "--workers", "2",
-         "-o", str(out_csv)], delay=8.0)
+         "-o", str(out_csv)], enough=7)
     assert proc.returncode == 130, err
     assert "Traceback" not in err
     assert answer < 5, answer
@@ -130,7 +114,7 @@ def test_interrupted_basins_write_the_computed_cells(tmp_path):
     proc, out, err, answer = _run_and_interrupt(
         ["basins", str(BUCK), "--period", "ts", "--grid", "v(C1)=0:24:40,i(L1)=0:24:40",
          "--step", "0.5n", "--workers", "2", "-o", str(npz), "--plot",
-         str(tmp_path / "b.png")], delay=7.0)
+         str(tmp_path / "b.png")], enough=220)
     assert proc.returncode == 130, err
     assert "Traceback" not in err
     assert answer < 20, answer  # (the plot: matplotlib's import)
@@ -157,7 +141,7 @@ def test_interrupted_monte_carlo_keeps_the_statistics_of_the_finished_runs(tmp_p
     proc, out, err, _ = _run_and_interrupt(
         ["sweep", str(BUCK), "--tolerance", "R1=5%", "--runs", "20", "--seed", "1",
          "--measure", "mean(v(out))", "--tstop", "300m", "--workers", "2",
-         "-o", str(out_csv)], delay=6.0)
+         "-o", str(out_csv)], enough=7)
     assert proc.returncode == 130, err
     with open(out_csv, newline="") as fh:
         rows = list(csv.DictReader(fh))
