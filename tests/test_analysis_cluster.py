@@ -33,8 +33,9 @@ from netlist.studies.param_sweep import run_sweep
 from netlist.studies.sweep import CircuitMapFactory
 from pelcs.cli import main
 
-# (the slow part of the suite: outside the fast subset that `-m 'not slow'` selects)
-pytestmark = pytest.mark.slow
+# (the slow part of the suite: outside the fast subset that `-m 'not slow'` selects; one
+# xdist group, so that one worker starts the module's cluster, not both)
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("cluster")]
 
 ROOT = Path(__file__).resolve().parents[1]
 VM_BUCK = str(ROOT / "converters" / "netlists" / "vm_buck.cir")
@@ -80,7 +81,9 @@ def cluster(tmp_path_factory):
             p.terminate()
         for p in reversed(procs):
             try:
-                p.wait(timeout=20)
+                # (a worker asked to stop may wait out its own 20 s shutdown timeout on a
+                # loaded machine; nothing of it is tested here)
+                p.wait(timeout=3)
             except subprocess.TimeoutExpired:
                 p.kill()
                 p.wait()
