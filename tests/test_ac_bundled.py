@@ -40,6 +40,7 @@ def test_every_bundled_netlist_has_a_run():
     assert found == set(RUNS)
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 @pytest.mark.parametrize("name", sorted(RUNS))
 def test_ac_runs_on_bundled_converter(name, capsys):
     freq = "100:1k:2" if name != "bridge_rectifier.cir" else "1:20:2"

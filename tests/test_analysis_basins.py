@@ -81,6 +81,7 @@ def test_two_wells_known_basins(workers):
     assert (bm.steps[np.abs(xs) > 2] == 1).all()
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_merging_touching_groups_and_two_cycles(tmp_path):
     m = FunctionMap(two_wells, ("x", "y"))
     # Fixed points on cell corners: four one-cell groups each, merged into one attractor.
@@ -129,6 +130,7 @@ def test_grid_errors():
         GridAxis("x", 1, 0, 3)
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_plots_label_circuit_states_with_their_units(tmp_path, monkeypatch):
     # Basins and bifurcation figures name the states on their axes with units (v(...) in
     # V, i(...) in A); a state without a known unit keeps its bare name.

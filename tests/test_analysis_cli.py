@@ -98,6 +98,7 @@ def test_bifurcation_outputs(netlists, capsys, tmp_path):  # noqa: F811
         assert code == 2, argv
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_basins_outputs(netlists, capsys, tmp_path):  # noqa: F811
     npz, png = tmp_path / "b.npz", tmp_path / "b.png"
     code, out, err = run(capsys, "basins", netlists["buck"], "--period", "ts", "--grid",

@@ -84,6 +84,7 @@ def _assert_same_runs(got: dict, want: dict) -> None:
     assert got["cw12"]["steps"] > 1000
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_aot_results_equal_the_interpreted_kernels_bit_for_bit(aot_built):
     # The module's machine code against the same kernel sources run by CPython and numpy
     # (NUMBA_DISABLE_JIT: nothing compiled, seconds): another execution of the same
@@ -144,6 +145,7 @@ def test_smallest_command_imports_only_what_it_uses(aot_built, tmp_path):
     assert len((tmp_path / "rc.csv").read_text().splitlines()) == 102  # header, 101 points
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_large_circuit_run_imports_no_scipy(aot_built, tmp_path):
     # 195 MNA unknowns a mode: the formulation's LU path (lcs.sparse_lu), no scipy.sparse.
     net = tmp_path / "mmc24.cir"
@@ -152,6 +154,7 @@ def test_large_circuit_run_imports_no_scipy(aot_built, tmp_path):
     assert "MODS 0 []" in out, out[-2000:]
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_missing_or_stale_module_falls_back_to_numba(tmp_path):
     # Another cache directory holds no module for these sources: numba's dispatchers serve
     # the run (here running the kernels' Python, NUMBA_DISABLE_JIT: the same dispatch, without
@@ -238,6 +241,7 @@ def test_module_is_compiled_for_the_host_extensions_llvm_reports():
         assert codegen.AOTCPUCodegen._customize_tm_features is before
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_arguments_of_another_type_go_to_numba_not_the_module(aot_built):
     # The extension module reads the memory of whatever array it is given: an int64 or a
     # strided array where it was compiled for contiguous float64 must not reach it.

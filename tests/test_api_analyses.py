@@ -53,6 +53,7 @@ def shown(result, *, lines: int = 12) -> None:
     assert panels[-1].get_xlabel(), panels[-1]
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_orbit_is_the_commands(netlists, capsys):  # noqa: F811
     code, r = cli_json(capsys, "orbit", netlists["boost"], "--period", "ts", "--param",
                        "duty=0.4", "--x0", "v(C1)=20", "--json")
@@ -82,6 +83,7 @@ def test_orbit_period_inferred_as_in_the_command(capsys):
     np.testing.assert_array_equal(res.points, r["points"])
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_unconverged_orbit_says_so_and_has_no_multipliers(capsys):
     path = str(ROOT / "tests" / "netlists" / "sim" / "tunnel_nonpassive.cir")
     code, r = cli_json(capsys, "orbit", path, "--period", "16.2m", "--transient", "0",
@@ -96,6 +98,7 @@ def test_unconverged_orbit_says_so_and_has_no_multipliers(capsys):
     shown(res)
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_continuation_is_the_commands(netlists, capsys):  # noqa: F811
     argv = ["continue", netlists["boost_dcm"], "--period", "ts", "--param", "duty=0.74:0.8:4",
             "--locate-tol", "1e-3", "--x0", "v(C1)=45", "--transient", "0", "--json"]
@@ -147,6 +150,7 @@ def test_bifurcation_explicit_values_are_its_range(netlists):  # noqa: F811
                           transient=5, record=1)
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_basins_are_the_commands(netlists, capsys, tmp_path):  # noqa: F811
     npz = tmp_path / "b.npz"
     code, out = cli_text(capsys, "basins", netlists["buck"], "--period", "ts", "--grid",
@@ -219,6 +223,7 @@ def test_simulation_result_repr_is_short():
     assert len(text) <= MAX_REPR and "SimulationResult" in text, text
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_check_is_the_commands(ngspice, capsys):
     code, r = cli_json(capsys, "check", BUCK, "--tstop", "1m", "--json")
     code_text, out = cli_text(capsys, "check", BUCK, "--tstop", "1m")
@@ -273,6 +278,7 @@ def test_frequency_response_repr_is_short():
     assert len(text) <= MAX_REPR and "3 frequencies, 100 .. 1e+04 Hz" in text, text
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_a_simulation_shows_as_the_commands_plot(tmp_path):
     res = pelcs.simulate(BUCK, tstop="1m", probes=["v(out)", "i(L1)"])
     assert isinstance(res, pelcs.api.SimulationResult)

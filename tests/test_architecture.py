@@ -19,6 +19,8 @@ import ast
 import functools
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("lcs", "netlist", "pelcs", "ngspice_checks", "converters")
 MAX_LINES = 800
@@ -73,6 +75,7 @@ def _is_package_init(name: str, target: str) -> bool:
     return target == name.rpartition(".")[0] or name == target.rpartition(".")[0]
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_no_import_cycles():
     graph = {k: {t for t in v if not _is_package_init(k, t)} for k, v in _graph().items()}
     index, low, stack, on_stack, cycles = {}, {}, [], set(), []
@@ -115,6 +118,7 @@ FORBIDDEN = {
 }
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_layers():
     bad = []
     for name, targets in _graph().items():
@@ -213,6 +217,7 @@ def file_writes(source: str) -> list[str]:
     return found
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_the_mathematics_and_the_language_write_no_file():
     bad = sorted(f"{name}: {w}" for name, path in _modules().items()
                  if (_in(name, "lcs") or _in(name, "netlist"))
@@ -379,6 +384,7 @@ def _functions(name: str, path: Path):
     return out
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_complexity_cap():
     seen, over = set(), {}
     for name, path in _modules().items():

@@ -510,6 +510,7 @@ def test_clamp_outside_the_control_path_is_a_limiter(change, words):
     assert {el.name for el in c.elements if el.kind == "D"} >= {"Bea#dlo", "Bea#dhi"}
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 @pytest.mark.parametrize("compare", ["v(ea) > v(ramp)", "v(ea) >= v(ramp)", "v(ea) < v(ramp)",
                                      "v(ea) <= v(ramp)", "v(ramp) - 2*v(ea) > -1",
                                      "v(ramp) - 2*v(ea) >= -1"])

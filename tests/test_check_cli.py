@@ -15,6 +15,7 @@ ROOT = Path(__file__).resolve().parents[1]
 BUCK = str(ROOT / "converters" / "netlists" / "buck.cir")
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_within_tolerance_exits_0_and_writes_the_report(ngspice, tmp_path, capsys):
     rc = main(["check", BUCK, "--tstop", "2m", "--probe", "v(out),i(L1)",
                "--report", str(tmp_path)])

@@ -37,6 +37,7 @@ def test_an_instant_cut_from_its_partner_by_the_end_is_left_out():
     assert _hausdorff(on, on + 0.3, 0.0, 10.0, (0.0, 10.0), 0.05) == pytest.approx(0.3)
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_closed_loop_b_comparator_buck_agrees_with_ngspice(ngspice):
     cmp = compare(VM_BUCK, timeout=120)
     (sw,) = cmp.switches
@@ -48,6 +49,7 @@ def test_closed_loop_b_comparator_buck_agrees_with_ngspice(ngspice):
     assert cmp.ok, cmp.failures
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_a_delayed_ramp_in_pelcs_fails_the_instants(ngspice):
     # the ramp 700 ns late in pelcs only: every instant moves, the means do not. (300 ns,
     # under the 0.4 us tolerance, failed only through ngspice's own scatter: 0.42 us of

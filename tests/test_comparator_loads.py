@@ -120,6 +120,7 @@ R1 out 0 20
 """
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 @pytest.mark.filterwarnings("ignore::UserWarning")
 @pytest.mark.parametrize("deck, switch, duty, tol", [(BUCK, "S1", 0.3996, 3e-4),
                                                      (BOOST, "M1", 0.4995, 1e-3)])

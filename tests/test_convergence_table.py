@@ -10,6 +10,7 @@ from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from ngspice_checks import convergence
 from ngspice_checks.convergence import ConvergencePoint, columns, order
@@ -27,6 +28,7 @@ def _points(path: Path) -> list[ConvergencePoint]:
                 for row in csv.DictReader(fh)]
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_the_table_is_the_committed_file_byte_for_byte(tmp_path):
     points = _points(COMMITTED)
     assert len(points) == 18  # 2 converters x 9 levels
@@ -45,6 +47,7 @@ def test_columns_name_every_field_in_order_with_its_type():
     assert cols["eps"].dtype == float and cols["pelcs_wall"].tolist() == [0.008, 0.008]
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_a_study_table_in_the_format_of_the_study(tmp_path):
     # the reference: the format the study wrote itself (6 significant digits, ints and
     # strings as they are, LF line ends), written out here

@@ -415,6 +415,7 @@ R1 out 0 10
 """
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_a_mosfet_channel_that_would_conduct_backwards_is_an_error():
     # the first edge: the driver pushes Cg's current into the switch node, which nothing
     # holds while the ideal switch (on while v(gate,sw) > 2 V) is still off; ngspice's
@@ -478,6 +479,7 @@ def test_a_mosfet_macro_model_without_body_diode_is_checked_for_reverse_conducti
         simulate_devices(parse_string(deck), devices="pwl", probes=["v(out)"])
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_a_long_streamed_run_leaves_the_reverse_channel_check_out_and_says_so(monkeypatch):
     # keeping every step for the check is what writing as it goes avoids (a 2 s boost: 866 MB
     # where the streamed run holds 57 MB): past netlist.knee.KNEE_STEPS such a run leaves the

@@ -95,6 +95,7 @@ def test_margins_agree_with_python_control_on_a_converter_loop():
     assert fr.margins.phase_margin == pytest.approx(pm, abs=0.3)
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_loop_gain_plot_marks_margins_units_and_legend():
     freq = np.logspace(1, 6, 120)
     fr = _loop_response(freq, _third_order(freq))
@@ -144,6 +145,7 @@ def _two_wells(v):
     return np.array([s + 0.4 * (x - s), 0.4 * y])
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_basins_plot_has_a_legend_per_colour_and_titles_that_fit(tmp_path, monkeypatch):
     from matplotlib.figure import Figure
 

@@ -1109,6 +1109,7 @@ def _outcome(c):
     return ("lcs", [p.lam for p in lcs.pairs], *(getattr(lcs, k) for k in "ABCDEF"))
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_skipping_too_small_assignments_picks_the_same_one(monkeypatch):
     # The λ-type search skips assignments with fewer voltage-type diodes than a normal tree
     # has (they cannot be usable): on random networks it picks what the full search picks,

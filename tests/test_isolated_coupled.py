@@ -27,6 +27,7 @@ def _mean(t: np.ndarray, y: np.ndarray) -> float:
     # ngspice 7.673 V, pelcs 7.676 V (0.04 %)
     ("forward_coupled", 0.01),
 ])
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_coupled_isolated_converter_against_ngspice(name, tolerance, tmp_path, ngspice):
     file = NETLISTS / f"{name}.cir"
     res = simulate_devices(parse_file(file), devices="pwl", probes=["v(out)"])

@@ -16,6 +16,7 @@ PATHS = ["converters/netlists/buck.cir", "converters/netlists/vm_buck.cir",
          "converters/netlists/boost_smc.cir", "tests/netlists/closed_loop/sync_buck.cir"]
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 @pytest.mark.parametrize("path", PATHS)
 @pytest.mark.parametrize("block", [3, recorder.EVENT_BLOCK])
 def test_the_last_switchings_kept_are_the_full_runs_last(path, block, monkeypatch):

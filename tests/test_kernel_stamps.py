@@ -30,6 +30,7 @@ def _defining_file(value) -> Path | None:
     return Path(f).resolve() if f else None
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 @pytest.mark.parametrize("path", [f for f in kernels._kernel_files() if f.suffix == ".py"],
                          ids=lambda f: str(f.relative_to(LCS)))
 def test_the_closure_holds_every_kernel_source_a_module_reaches(path):

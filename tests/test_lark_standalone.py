@@ -101,6 +101,7 @@ def test_the_stand_alone_parser_is_used():
     assert expressions.Token is lark_standalone.Token
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_same_trees_and_errors_as_lark(statements):
     from lark import Lark
 
@@ -119,6 +120,7 @@ def test_same_trees_and_errors_as_lark(statements):
     assert errors > 300  # the mutations reached the errors
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_a_start_with_the_code_cached_imports_no_lark(tmp_path):
     code = ("import sys; from netlist.parser import parse_string; "
             "c = parse_string('t\\nR1 a 0 {2*5k}\\nV1 a 0 PULSE(0 1 0 1u 1u 1m 2m)\\n.end\\n'); "

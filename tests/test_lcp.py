@@ -84,6 +84,7 @@ def assert_solves(M, q, z, tol=1e-8):
     assert abs(z @ w) <= tol * scale**2
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 @pytest.mark.parametrize("seed", range(4))
 def test_p_matrix_lemke_numba_and_enumeration_agree(seed):
     rng = np.random.default_rng(seed)
@@ -102,6 +103,7 @@ def test_p_matrix_lemke_numba_and_enumeration_agree(seed):
                                        atol=1e-9 * np.abs(q).max())
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 @pytest.mark.parametrize("seed", range(4))
 def test_psd_solvability_matches_brute_force(seed):
     rng = np.random.default_rng(100 + seed)

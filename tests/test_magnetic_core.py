@@ -212,6 +212,7 @@ ac ({pc}) iron
     ("m2 0", "0 m4", "m4 m1", "m2 m1"),
     ("m2 m3", "m3 m4", "m1 m4", "m2 m1"),  # (off ground)
 ])
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_winding_senses_around_the_loop_against_ngspice(ports, tmp_path, ngspice):
     """Each winding's voltage and current (through its 0 V source) on every step of
     ngspice's within 0.1 % of the amplitude (measured 0.04 %), the loop passing ground

@@ -57,6 +57,7 @@ def random_lcs(rng, n, m, p, h):
     raise RuntimeError("no P-matrix LCS found")
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 @pytest.mark.parametrize("seed", range(6))
 @pytest.mark.parametrize("theta", [0.5, 0.75, 1.0])
 def test_agrees_with_independent_siconos_formulas(seed, theta):

@@ -125,6 +125,7 @@ def _run_ngspice(exe, text, path):
     return proc.returncode, errors, log
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 @pytest.mark.parametrize("path", NETLISTS, ids=lambda p: p.name)
 def test_ngspice_accepts_written_netlist(path, tmp_path):
     exe = ngspice_executable()

@@ -38,6 +38,7 @@ def _orbit_json(capsys, *argv: str) -> tuple[int, dict]:
     return code, json.loads(capsys.readouterr().out)
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_pcm_buck_orbit_from_the_initial_state_has_the_true_duty(capsys):
     code, r = _orbit_json(capsys, PCM, "--period", "ts", "--transient", "0")
     assert code == 0 and r["converged"] and r["residual"] < 1e-10

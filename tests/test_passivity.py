@@ -110,6 +110,7 @@ def test_energy_matrix_certifies_rlc_modes(builder, energy):
     assert kyp_max_eig(lcs, energy) < 1e-12
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 @pytest.mark.parametrize("builder", [boost_open, boost_closed, cuk_open, bridge_tank])
 def test_general_solve_finds_certificate(builder):
     lcs = builder()
@@ -294,6 +295,7 @@ _NETLISTS = sorted(
 )
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 @pytest.mark.parametrize("path", _NETLISTS, ids=lambda p: p.stem)
 def test_bundled_converters_passive(path):
     parser = pytest.importorskip("netlist.parser")

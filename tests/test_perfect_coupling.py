@@ -158,6 +158,7 @@ SEPIC = FLYBACK_SWITCHED.replace("flyback, primary switch", "sepic").replace(
     "L2 0 n3 1.8m", "C2 n2 n3 1u\nL2 0 n3 1.8m")
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 @pytest.mark.parametrize("deck", [FLYBACK_SWITCHED, SEPIC], ids=["flyback", "sepic"])
 def test_a_switched_primary_with_unity_coupling_against_ngspice(tmp_path, ngspice, deck):
     res = simulate_devices(parse_string(deck), devices="pwl", probes=["v(out)"])

@@ -88,6 +88,7 @@ def _assert_same_runs(got: dict, want: dict) -> None:
         assert np.array_equal(np.array(res["y"]), np.array(want["out"][src]["y"])), src
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_a_fresh_checkout_runs_it_with_the_kernels_numbers(tmp_path):
     if kernels.prebuilt_path() is None:
         pytest.skip("no prebuilt module for these sources on this machine")

@@ -29,6 +29,7 @@ def _blocks(rng, n):
     return list(zip(edges[:-1], edges[1:], strict=True))
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_regrid_in_blocks_is_resample_bit_for_bit():
     # Random stored instants (repeated ones: a switching stores two rows at one instant),
     # rows on the output grid (the shortcut that returns them unchanged), rows within
@@ -145,6 +146,7 @@ def test_memory_does_not_grow_with_the_run():
     assert long.stats.peak_rows == short.stats.peak_rows < 500
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_exact_method_and_all_steps_unchanged(tmp_path):
     # The exact method resamples its own points at the end, as before; --all-steps writes
     # every stored step; the CLI's default grid is the resampled every-step run.

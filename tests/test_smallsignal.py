@@ -262,6 +262,7 @@ def test_loop_margins_of_a_known_loop():
 
 # --- the sweep method against the exact one ----------------------------------------------
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 @pytest.mark.parametrize("name", ["buck_vc.cir", "buck_dcm.cir"])
 def test_sweep_agrees_with_exact_below_half_fs(name):
     c = parse_file(str(AC / name))

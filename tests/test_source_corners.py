@@ -118,6 +118,7 @@ def _mean_late(t, v, after=4e-3):
     return np.trapezoid(v[late], t[late]) / np.ptp(t[late])
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_buck_at_duty_one_holds_the_switch_on(ngspice, tmp_path):
     # PW = duty * ts - 10 ns with 10 ns edges: at duty >= 1 the fall never starts within the
     # period, and the gate dips to 0 for the first 10 ns of each (the switch off for 5 ns).

@@ -154,6 +154,7 @@ Vg g 0 PULSE(0 1 0 10n 10n 5u 10u)
 """
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_boost_gate_at_threshold_switches_every_period(ngspice, tmp_path):
     # Before: the switch turned on at the first rise and stayed on (the gate's low level is
     # VT: "inside the band", kept): 0 switching events, i(L1) climbed without bound. ngspice

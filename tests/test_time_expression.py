@@ -194,6 +194,7 @@ def test_functions_and_operators_as_ngspice_evaluates_them():
     assert w(t) == pytest.approx(want, rel=1e-12)
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_too_many_instants_is_an_error():
     from netlist.errors import NetlistError
 
@@ -371,6 +372,7 @@ def test_the_step_resolves_a_sine_whose_argument_is_not_affine():
     assert res.y[-1, 0] == pytest.approx(want, abs=2e-4)
 
 
+@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_a_sine_over_many_periods_in_one_interval_is_sampled_in_pieces():
     # 100 kHz over 1 s, no other breakpoint: 200,000 instants (62,144 were found, the
     # samples of one interval capped)
