@@ -15,7 +15,7 @@
 
 Run ``python examples/bode_plots.py [--out DIR] [--fast]``: writes ``bode_vm_buck.png``,
 ``bode_cm_buck.png`` and ``bode_plots.csv`` (probe, case, f, dB, deg of every curve).
-``--fast``: 3 sweep points instead of 8.
+``--fast``: 3 sweep points from 1 kHz instead of 8 from 100 Hz.
 """
 
 from __future__ import annotations
@@ -68,7 +68,7 @@ def _finish(fig, a1, a2, title: str, path: Path, **legend) -> None:
 def main(argv: list[str] | None = None) -> dict:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--out", default=f"out/{NAME}", help="output directory (default %(default)s)")
-    p.add_argument("--fast", action="store_true", help="3 sweep points instead of 8")
+    p.add_argument("--fast", action="store_true", help="3 sweep points from 1 kHz instead of 8 from 100 Hz")
     args = p.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -91,7 +91,8 @@ def main(argv: list[str] | None = None) -> dict:
     t = time.perf_counter()
     ex = ac_analysis(c, period="ts", inject="Vc", probes=["v(out)"], freqs=f)
     t_exact = time.perf_counter() - t
-    fsw = np.logspace(2, np.log10(4e4), 3 if args.fast else 8)
+    # (--fast: from 1 kHz, where each point simulates a tenth of the periods 100 Hz takes)
+    fsw = np.logspace(3, np.log10(4e4), 3) if args.fast else np.logspace(2, np.log10(4e4), 8)
     t = time.perf_counter()
     sw = ac_analysis(c, period="ts", inject="Vc", probes=["v(out)"], freqs=fsw, method="sweep")
     t_sweep = time.perf_counter() - t
