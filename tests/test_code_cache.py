@@ -162,3 +162,18 @@ def test_a_locale_pattern_is_left_to_re(tmp_path, monkeypatch):
         _fresh(rb"(?L)\w+", 0)
     assert use.compiled == 0
     re.purge()
+
+
+def test_each_subcommand_keeps_a_cache_of_its_own(tmp_path, monkeypatch, capsys):
+    # (a start reads only what its own command compiled: the whole file is read every time)
+    from pelcs.cli import main
+
+    monkeypatch.setenv("PELCS_CACHE_DIR", str(tmp_path))
+    assert code_cache.cache_path("simulate") != code_cache.cache_path("sweep") \
+        != code_cache.cache_path()
+    deck = tmp_path / "rc.cir"
+    deck.write_text("rc\nV1 in 0 PULSE(0 5 0 1u 1u 0.5m 1m)\nR1 in out 1k\nD1 out c DMOD\n"
+                    "C1 c 0 1u\n.model DMOD D\n.tran 10u 1m\n.end\n")
+    assert main(["simulate", str(deck), "--no-progress", "-o", str(tmp_path / "rc.csv")]) == 0
+    assert code_cache.cache_path("simulate").is_file()
+    assert not code_cache.cache_path().is_file() and not code_cache.cache_path("sweep").is_file()
