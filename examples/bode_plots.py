@@ -68,7 +68,8 @@ def _finish(fig, a1, a2, title: str, path: Path, **legend) -> None:
 def main(argv: list[str] | None = None) -> dict:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--out", default=f"out/{NAME}", help="output directory (default %(default)s)")
-    p.add_argument("--fast", action="store_true", help="3 sweep points from 1 kHz instead of 8 from 100 Hz")
+    p.add_argument("--fast", action="store_true",
+                   help="3 sweep points from 1 kHz instead of 8 from 100 Hz")
     args = p.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
