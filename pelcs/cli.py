@@ -153,8 +153,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         # (the command's modules are imported inside: their dataclasses' methods and the
         # kernels' argument checks are compiled once per machine, not at every start)
-        args = sys.argv[1:] if argv is None else argv
-        with cached_code(next((a for a in args if not a.startswith("-")), "")):
+        wanted = _wanted(argv)
+        with cached_code(wanted[0] if len(wanted) == 1 else ""):
             return _main(argv)
     finally:
         gc.set_threshold(*thresholds)

@@ -36,7 +36,8 @@ MAX_ENTRIES = 1000
 
 
 class CacheUse:
-    """What a command did with the cache: ``loaded`` entries, ``compiled`` sources."""
+    """What a command did with the cache: ``loaded`` entries, ``compiled`` new ones (code
+    objects and regular expressions' programs)."""
 
     def __init__(self, loaded: int) -> None:
         self.loaded = loaded
@@ -44,8 +45,9 @@ class CacheUse:
 
 
 def cache_path(command: str = "") -> Path | None:
-    """The cache file of ``command`` (a subcommand's name: each reads only what its own runs
-    compiled) for this Python, or None when its directory is not writable."""
+    """The cache file of ``command`` (a subcommand's name, or "" for none: each reads only
+    what its own runs compiled) for this Python, or None when its directory is not
+    writable."""
     root = Path(os.environ.get("PELCS_CACHE_DIR") or Path(__file__).with_name("__pycache__"))
     try:
         root.mkdir(parents=True, exist_ok=True)
@@ -57,6 +59,14 @@ def cache_path(command: str = "") -> Path | None:
     return root / f"code-cache.{name + '.' if name else ''}{sys.implementation.cache_tag}"
 
 
+def _version() -> tuple:
+    """What the cached code depends on besides its source: the interpreter, its regular
+    expression engine, and ``-O`` (which drops asserts from compiled code)."""
+    import _sre
+
+    return (sys.version, _sre.MAGIC, sys.flags.optimize)
+
+
 def _load(path: Path | None) -> dict:
     if path is None:
         return {}
@@ -64,7 +74,7 @@ def _load(path: Path | None) -> dict:
         version, cache = marshal.loads(path.read_bytes())
     except (OSError, ValueError, EOFError, TypeError):
         return {}  # missing, or not a cache of this format
-    if version != sys.version or not isinstance(cache, dict):
+    if version != _version() or not isinstance(cache, dict):
         return {}
     return cache
 
@@ -74,7 +84,7 @@ def _save(path: Path, cache: dict) -> None:
 
     try:
         with atomic_path(path) as tmp:  # (whole or not at all, also for a concurrent reader)
-            tmp.write_bytes(marshal.dumps((sys.version, cache)))
+            tmp.write_bytes(marshal.dumps((_version(), cache)))
     except (OSError, ValueError):
         pass  # not cached: compiled again by the next command
 
@@ -84,10 +94,13 @@ def _regex_entry(module, pattern: str | bytes, flags: int) -> tuple | None:
     computes it (its parse and its code); None where it cannot be told (a Python whose
     compiler differs) or depends on the locale."""
     import re
+    import warnings
 
     parser = getattr(module, "_parser", None) or getattr(module, "sre_parse", None)
     try:
-        parsed = parser.parse(pattern, flags)
+        with warnings.catch_warnings():  # (re's own parse of the pattern gave them)
+            warnings.simplefilter("ignore")
+            parsed = parser.parse(pattern, flags)
         # (plain ints: the compiler's opcodes are an int subclass, which marshal refuses)
         code = [int(word) for word in module._code(parsed, flags)]
         groupindex = {name: int(index) for name, index in parsed.state.groupdict.items()}
@@ -133,12 +146,15 @@ def cached_code(command: str = "") -> Iterator[CacheUse]:
         yield CacheUse(0)
         return
     path = cache_path(command)
+    if path is None:  # (nowhere to keep it: compiling twice to check a program would be waste)
+        yield CacheUse(0)
+        return
     cache = _load(path)
     use = CacheUse(len(cache))
     used: dict = {}
 
     def cached_exec(source, globals=None, locals=None, /):
-        if isinstance(source, str):
+        if type(source) is str:  # (marshal keeps no subclass of str)
             code = cache.get(source)
             if code is None:
                 # What exec(source) compiles: file name "<string>", and no __future__ flag
@@ -152,15 +168,17 @@ def cached_code(command: str = "") -> Iterator[CacheUse]:
     re_compile = compiler.compile
 
     def cached_re_compile(pattern, flags=0):
-        if not isinstance(pattern, (str, bytes)) or flags & re.DEBUG:
+        # (exactly str or bytes: marshal keeps no subclass; the type in the key keeps "a"
+        # and b"a", equal hashes, from being compared)
+        if type(pattern) not in (str, bytes) or flags & re.DEBUG:
             return re_compile(pattern, flags)
-        key = ("re", pattern, int(flags))
+        key = ("re", type(pattern) is bytes, pattern, int(flags))
         entry = cache.get(key)
         if entry is not None:
             try:
                 compiled = _sre.compile(pattern, *entry)
-            except (TypeError, ValueError):
-                pass  # not this Python's program: compiled by re below
+            except (TypeError, ValueError, RuntimeError):  # (RuntimeError: invalid SRE code)
+                del cache[key]  # not this Python's program: compiled by re below
             else:
                 used[key] = entry
                 return compiled
@@ -168,10 +186,12 @@ def cached_code(command: str = "") -> Iterator[CacheUse]:
         entry = _regex_entry(compiler, pattern, int(flags))
         if entry is not None:
             try:
-                same = _sre.compile(pattern, *entry) == compiled
-            except (TypeError, ValueError):
-                same = False
-            if same:
+                candidate = _sre.compile(pattern, *entry)
+            except (TypeError, ValueError, RuntimeError):
+                candidate = None
+            # (Pattern.__eq__ compares flags, pattern and program, not the group names)
+            if (candidate == compiled and candidate.groups == compiled.groups
+                    and candidate.groupindex == compiled.groupindex):
                 cache[key] = used[key] = entry
                 use.compiled += 1
         return compiled

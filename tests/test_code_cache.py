@@ -5,6 +5,7 @@ run compiles nothing, and a damaged cache is rebuilt."""
 from __future__ import annotations
 
 import dataclasses
+import marshal
 import re
 from dataclasses import dataclass, field
 
@@ -177,3 +178,26 @@ def test_each_subcommand_keeps_a_cache_of_its_own(tmp_path, monkeypatch, capsys)
     assert main(["simulate", str(deck), "--no-progress", "-o", str(tmp_path / "rc.csv")]) == 0
     assert code_cache.cache_path("simulate").is_file()
     assert not code_cache.cache_path().is_file() and not code_cache.cache_path("sweep").is_file()
+
+
+def test_a_program_the_engine_refuses_is_compiled_again(tmp_path, monkeypatch):
+    # A cache file that unmarshals but holds a program this Python's engine rejects
+    # ("invalid SRE code"): re compiles the pattern, and the entry is made anew.
+    monkeypatch.setenv("PELCS_CACHE_DIR", str(tmp_path))
+    pattern = r"(?P<n>ab+)c"
+    with cached_code():
+        _fresh(pattern, 0)
+    path = code_cache.cache_path()
+    version, cache = marshal.loads(path.read_bytes())
+    key = next(k for k in cache if isinstance(k, tuple) and k[2] == pattern)
+    flags, _, groups, groupindex, indexgroup = cache[key]
+    cache[key] = (flags, [1, 2, 3], groups, groupindex, indexgroup)
+    path.write_bytes(marshal.dumps((version, cache)))
+    with cached_code() as use:
+        compiled = _fresh(pattern, 0)
+    assert compiled == _fresh(pattern, 0) and compiled.match("abbc").group("n") == "abb"
+    assert use.compiled == 1
+    with cached_code() as use:
+        _fresh(pattern, 0)
+    assert use.compiled == 0
+    re.purge()
