@@ -314,9 +314,11 @@ def _quiet_shutdown(record: logging.LogRecord) -> bool:
     """A filter of asyncio's log: False for its report of a future that ended in a timeout
     nobody waited for. Dask's client leaves one when it closes its connection after an
     interrupted run on a loaded machine (its wait for the send loop to stop times out after
-    that loop was dropped); the run's own outcome is what pelcs reports."""
+    that loop was dropped); the run's own outcome is what pelcs reports. Only tornado's
+    timeout ("Timeout"; asyncio's TimeoutError, a class of its own before Python 3.11) is
+    dropped."""
     exc = record.exc_info[1] if record.exc_info else None
-    return not (isinstance(exc, TimeoutError)
+    return not (isinstance(exc, (TimeoutError, asyncio.TimeoutError)) and str(exc) == "Timeout"
                 and record.getMessage().startswith("Future exception was never retrieved"))
 
 
