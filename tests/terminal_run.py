@@ -1,13 +1,15 @@
 """A pelcs command run as from a terminal and interrupted once its progress bar says enough is
-done: the tests of interrupts signal on progress instead of after a fixed sleep (which had to
-cover a loaded machine's start-up, so the command's processes computed for seconds more)."""
+done: the tests of interrupts signal on progress, neither too early (nothing done yet) nor
+after the whole run."""
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import os
 import pty
 import re
+import select
 import signal
 import struct
 import subprocess
@@ -30,14 +32,26 @@ _SCALE = {b"": 1, b"k": 1e3, b"M": 1e6, b"G": 1e9}
 
 @dataclass
 class Interrupted:
-    """What the interrupted command did: its exit code, stdout, stderr (the terminal's text,
-    progress bar included, lines ending in CR LF), the seconds from the signal to its exit,
-    and the progress count shown when the signal was sent."""
+    """What the interrupted command did.
+
+    Attributes
+    ----------
+    returncode : int
+        Its exit code.
+    out : str
+        Its stdout.
+    err : str
+        Its stderr: the terminal's text, progress bar included, lines ending in CR LF.
+    seconds_to_exit : float
+        From the signal to its exit, s.
+    count : int
+        The progress count shown when the signal was sent.
+    """
 
     returncode: int
     out: str
     err: str
-    answer: float
+    seconds_to_exit: float
     count: int
 
 
@@ -46,18 +60,38 @@ def interrupt_on_progress(args: list[str], ready: Callable[[int, int], bool],
     """Run ``pelcs ARGS`` with stderr on a pseudo-terminal of 100 columns (so its progress
     bar is drawn) and send ``signum`` once ``ready(done, total)`` holds for the bar's count.
 
-    Fails when the command ends before (a progress bar that never said enough)."""
+    Parameters
+    ----------
+    args : list of str
+        The command line after ``pelcs``.
+    ready : callable
+        ``ready(done, total)``, units of the bar, True when the signal is to be sent.
+    signum : int
+        The signal.
+    timeout : float
+        Seconds to wait for ``ready``, s.
+
+    Returns
+    -------
+    Interrupted
+
+    Fails when the command ends before its count is ready, or it is not ready in time. The
+    command runs in a session of its own, so that whatever is left of it (its pool's
+    workers) is killed with it."""
     master, slave = pty.openpty()
     fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))
     proc = subprocess.Popen([sys.executable, "-m", "pelcs.cli", *args],
                             stdout=subprocess.PIPE, stderr=slave, stdin=subprocess.DEVNULL,
                             text=True, env={**os.environ, "PYTHONPATH": str(ROOT)},
-                            preexec_fn=as_from_a_terminal)
+                            preexec_fn=as_from_a_terminal, start_new_session=True)
     os.close(slave)
     chunks: list[bytes] = []
+    stop = threading.Event()
 
-    def drain() -> None:  # (until the child's end of the terminal is closed: EIO)
-        while True:
+    def drain() -> None:  # (until the terminal's other end is closed, EIO, or told to stop)
+        while not stop.is_set():
+            if not select.select([master], [], [], 0.05)[0]:
+                continue
             try:
                 chunk = os.read(master, 65536)
             except OSError:
@@ -73,6 +107,7 @@ def interrupt_on_progress(args: list[str], ready: Callable[[int, int], bool],
     out_reader.start()
     deadline = time.monotonic() + timeout
     count = -1
+    failure = None
     try:
         while proc.poll() is None:
             counts = _COUNT.findall(b"".join(chunks[-4:]))
@@ -82,21 +117,29 @@ def interrupt_on_progress(args: list[str], ready: Callable[[int, int], bool],
                 if ready(count, round(float(total) * _SCALE[total_unit])):
                     break
             if time.monotonic() > deadline:
-                raise AssertionError(f"no progress enough to interrupt {args} in {timeout} s")
+                failure = f"no progress enough to interrupt {args} in {timeout} s"
+                break
             time.sleep(0.01)
         else:
-            raise AssertionError(f"{args} ended before its progress was enough (last count "
-                                 f"{count}): {b''.join(chunks).decode(errors='replace')}")
-        t_signal = time.perf_counter()
-        proc.send_signal(signum)
-        proc.wait(timeout=60)
-        answer = time.perf_counter() - t_signal
+            failure = f"{args} ended before its progress was enough (last count {count})"
+        seconds = float("nan")
+        if failure is None:
+            t_signal = time.perf_counter()
+            proc.send_signal(signum)
+            proc.wait(timeout=60)
+            seconds = time.perf_counter() - t_signal
     finally:
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)  # (its pool's workers, if any are left)
         out_reader.join(timeout=10)
         reader.join(timeout=10)
+        stop.set()
+        reader.join()
         os.close(master)
-    return Interrupted(proc.returncode, "".join(stdout),
-                       b"".join(chunks).decode(errors="replace"), answer, count)
+    err = b"".join(chunks).decode(errors="replace")
+    if failure is not None:
+        raise AssertionError(f"{failure}: {err}")
+    return Interrupted(proc.returncode, "".join(stdout), err, seconds, count)

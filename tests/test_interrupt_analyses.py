@@ -38,7 +38,7 @@ def _run_and_interrupt(args: list[str], enough: int) -> tuple[Interrupted, str, 
         done = re.search(r"interrupted \(SIGINT\) after (\d+) of", run.err)
         assert done is not None, run.err
         if int(done.group(1)) > 0:
-            return run, run.out, run.err, run.answer
+            return run, run.out, run.err, run.seconds_to_exit
         enough = int(enough * 1.5) + 1
     raise AssertionError(f"no count interrupted {args} after its first task")
 
@@ -53,10 +53,10 @@ def _says_interrupted(out: str, err: str, note: str) -> None:
 def test_interrupted_sweep_writes_the_finished_runs(tmp_path):
     # 24 runs of 1.5 million steps (0.2-1 s each) in 8 tasks of 3 on 2 processes
     out_csv = tmp_path / "duty.csv"
-    proc, out, err, answer = _run_and_interrupt(
+    run, out, err, answer = _run_and_interrupt(
         ["sweep", str(BUCK), "--param", "duty=0.2:0.8:24", "--measure", "mean(v(out))",
          "--tstop", "300m", "--workers", "2", "-o", str(out_csv)], enough=7)
-    assert proc.returncode == 130, err
+    assert run.returncode == 130, err
     assert "Traceback" not in err
     assert answer < 5, answer  # the pool is stopped at once (its workers terminated)
     with open(out_csv, newline="") as fh:
@@ -73,11 +73,11 @@ def test_interrupted_sweep_writes_the_finished_runs(tmp_path):
 def test_interrupted_bifurcation_writes_the_finished_values(tmp_path):
     # 24 values of 25000 periods of 100 steps (about 1 s each) in 8 tasks of 3 on 2 processes
     out_csv = tmp_path / "d.csv"
-    proc, out, err, answer = _run_and_interrupt(
+    run, out, err, answer = _run_and_interrupt(
         ["bifurcation", str(BUCK), "--period", "ts", "--param", "duty=0.2:0.8:24",
          "--transient", "25000", "--record", "2", "--probe", "v(out)", "--workers", "2",
          "-o", str(out_csv)], enough=7)
-    assert proc.returncode == 130, err
+    assert run.returncode == 130, err
     assert "Traceback" not in err
     assert answer < 5, answer
     with open(out_csv, newline="") as fh:
@@ -111,11 +111,11 @@ def test_interrupted_basins_write_the_computed_cells(tmp_path):
     # 1600 cells of one period of 40000 steps in 16 blocks of 100 (about 1.5 s each) on
     # 2 processes
     npz = tmp_path / "b.npz"
-    proc, out, err, answer = _run_and_interrupt(
+    run, out, err, answer = _run_and_interrupt(
         ["basins", str(BUCK), "--period", "ts", "--grid", "v(C1)=0:24:40,i(L1)=0:24:40",
          "--step", "0.5n", "--workers", "2", "-o", str(npz), "--plot",
          str(tmp_path / "b.png")], enough=220)
-    assert proc.returncode == 130, err
+    assert run.returncode == 130, err
     assert "Traceback" not in err
     assert answer < 20, answer  # (the plot: matplotlib's import)
     z = np.load(npz)
@@ -138,11 +138,11 @@ def test_interrupted_monte_carlo_keeps_the_statistics_of_the_finished_runs(tmp_p
     # a Monte Carlo table is grid point by grid point, --runs rows each: the runs not made
     # are rows "not run" (NaN), left out of the statistics
     out_csv = tmp_path / "mc.csv"
-    proc, out, err, _ = _run_and_interrupt(
+    run, out, err, _ = _run_and_interrupt(
         ["sweep", str(BUCK), "--tolerance", "R1=5%", "--runs", "20", "--seed", "1",
          "--measure", "mean(v(out))", "--tstop", "300m", "--workers", "2",
          "-o", str(out_csv)], enough=7)
-    assert proc.returncode == 130, err
+    assert run.returncode == 130, err
     with open(out_csv, newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert [int(r["run"]) for r in rows] == list(range(20))
