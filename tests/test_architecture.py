@@ -21,6 +21,10 @@ from pathlib import Path
 
 import pytest
 
+# (the project's rules stay in the fast subset; one xdist group, so that the modules are
+# parsed once, by one worker)
+pytestmark = pytest.mark.xdist_group("architecture")
+
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("lcs", "netlist", "pelcs", "ngspice_checks", "converters")
 MAX_LINES = 800
@@ -75,7 +79,6 @@ def _is_package_init(name: str, target: str) -> bool:
     return target == name.rpartition(".")[0] or name == target.rpartition(".")[0]
 
 
-@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_no_import_cycles():
     graph = {k: {t for t in v if not _is_package_init(k, t)} for k, v in _graph().items()}
     index, low, stack, on_stack, cycles = {}, {}, [], set(), []
@@ -118,7 +121,6 @@ FORBIDDEN = {
 }
 
 
-@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_layers():
     bad = []
     for name, targets in _graph().items():
@@ -217,7 +219,6 @@ def file_writes(source: str) -> list[str]:
     return found
 
 
-@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_the_mathematics_and_the_language_write_no_file():
     bad = sorted(f"{name}: {w}" for name, path in _modules().items()
                  if (_in(name, "lcs") or _in(name, "netlist"))
@@ -384,7 +385,6 @@ def _functions(name: str, path: Path):
     return out
 
 
-@pytest.mark.slow  # (over 0.7 s: outside the fast subset)
 def test_complexity_cap():
     seen, over = set(), {}
     for name, path in _modules().items():
