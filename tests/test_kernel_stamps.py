@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import importlib
 import inspect
+import os
 import sys
 from pathlib import Path
 
@@ -117,7 +118,7 @@ def test_the_stamp_record_serves_unchanged_sources_and_follows_an_edit(tmp_path,
                         real_digest(files, start))
 
     def stamp() -> bytes:
-        for fn in (kernels.aot_stamp, kernels.kernel_stamp, kernels._stamp_record):
+        for fn in (kernels.aot_stamp, kernels.kernel_stamp, kernels._stamp_records):
             fn.cache_clear()
         return kernels.aot_stamp()
 
@@ -130,6 +131,15 @@ def test_the_stamp_record_serves_unchanged_sources_and_follows_an_edit(tmp_path,
         step.write_text(step.read_text() + "\n# edited\n")
         edited = stamp()
         assert hashed and edited != first
+        # The same size and modification time, other contents (an archive, `cp -p`): hashed.
+        before = step.stat()
+        step.write_text(step.read_text().replace("# edited", "# edit!d"))
+        os.utime(step, ns=(before.st_atime_ns, before.st_mtime_ns))
+        assert step.stat().st_size == before.st_size
+        hashed.clear()
+        assert stamp() not in (first, edited) and hashed
+        step.write_text(step.read_text().replace("# edit!d", "# edited"))
+        edited = stamp()
         # The record's value is the hash of the sources: the same as computing it afresh.
         hashed.clear()
         assert stamp() == edited == real_digest(kernels.AOT_SOURCES, real_digest(
@@ -139,5 +149,5 @@ def test_the_stamp_record_serves_unchanged_sources_and_follows_an_edit(tmp_path,
         hashed.clear()
         assert stamp() == edited and not hashed  # rewritten whole
     finally:
-        for fn in (kernels.aot_stamp, kernels.kernel_stamp, kernels._stamp_record):
+        for fn in (kernels.aot_stamp, kernels.kernel_stamp, kernels._stamp_records):
             fn.cache_clear()

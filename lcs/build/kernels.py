@@ -231,60 +231,72 @@ STAMP_RECORD = "kernel-stamps"
 
 
 @functools.lru_cache(maxsize=1)
-def _stamp_record() -> dict:
-    """The first :data:`STAMP_RECORD` of the cache roots that can be read, else empty."""
+def _stamp_records() -> list[tuple[Path, dict]]:
+    """(cache root, its :data:`STAMP_RECORD`) of each cache root, in order; empty for a
+    missing or unreadable file."""
+    records = []
     for root in cache_roots():
         try:
             loaded = marshal.loads((root / STAMP_RECORD).read_bytes())
         except (OSError, ValueError, EOFError, TypeError):
-            continue
-        if isinstance(loaded, dict):
-            return loaded
-    return {}
+            loaded = {}
+        records.append((root, loaded if isinstance(loaded, dict) else {}))
+    return records
 
 
-def _recorded(name: str, key, compute: Callable[[], object]):
+def _recorded(name: str, key, compute: Callable[[], object], kind: type):
     """``compute()``, kept under ``name`` in this machine's :data:`STAMP_RECORD` with the
     ``key`` it was computed for, and read from there while the key is the same.
 
     A start that finds the AOT stamp, the processor tag and the kernels' argument types
     recorded neither hashes the sources (some 400 kB), nor imports hashlib and json: 8 ms, a
-    tenth of what a 100-step command costs beyond numpy. The record is a cache only: what a
-    missing, foreign or unreadable file lacks is computed again, and the record written to
-    the first cache root that takes it (none when no root is writable: then computed on
-    every start)."""
-    record = _stamp_record()
-    entry = record.get(name)
-    if isinstance(entry, tuple) and len(entry) == 2 and entry[0] == key:
-        return entry[1]
+    tenth of what a 100-step command costs beyond numpy. The record is a cache only: a value
+    that no cache root's record holds for ``key`` (as a ``kind``) is computed again, and
+    written to the first cache root that takes it (none when no root is writable: then
+    computed on every start; a read-only package's record, written by its installer, is read
+    before the user's)."""
+    records = _stamp_records()
+    for _, record in records:
+        entry = record.get(name)
+        if (isinstance(entry, tuple) and len(entry) == 2 and entry[0] == key
+                and isinstance(entry[1], kind)):
+            return entry[1]
     value = compute()
-    record[name] = (key, value)
     from lcs.atomic import atomic_path
 
-    for root in cache_roots():
+    for root, record in records:
+        record[name] = (key, value)
         try:
             root.mkdir(parents=True, exist_ok=True)
             with atomic_path(root / STAMP_RECORD) as tmp:  # (whole, for a concurrent start)
                 tmp.write_bytes(marshal.dumps(record))
         except (OSError, ValueError):
+            del record[name]
             continue
         break
     return value
+
+
+def _file_key(files) -> tuple:
+    """What identifies the contents of ``files`` without reading them: each one's path,
+    inode, size, and modification and change times (the change time cannot be set back by
+    a tool that keeps or normalises modification times: an archive, ``cp -p``, a
+    reproducible build), as nanoseconds. Raises OSError for a missing file."""
+    return tuple((str(f), st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+                 for f in files for st in [os.stat(f)])
 
 
 @functools.cache
 def aot_stamp() -> bytes:
     """SHA-256 of the kernel stamp and the sources the ahead-of-time module depends on.
 
-    Recorded per machine with each source's path, size and modification time
-    (:func:`_recorded`), as Python trusts a ``.pyc`` file: an edit, a checkout or an
-    installation changes them and hashes the sources again."""
-    files = [*_kernel_files(), *AOT_SOURCES]
+    Recorded per machine with what identifies each source file (:func:`_file_key`): an
+    edit, a checkout or an installation changes it and hashes the sources again."""
     try:
-        key = tuple((str(f), st.st_mtime_ns, st.st_size) for f in files for st in [f.stat()])
+        key = _file_key([*_kernel_files(), *AOT_SOURCES])
     except OSError:
         return _digest(AOT_SOURCES, kernel_stamp())
-    return _recorded("aot_stamp", key, lambda: _digest(AOT_SOURCES, kernel_stamp()))
+    return _recorded("aot_stamp", key, lambda: _digest(AOT_SOURCES, kernel_stamp()), bytes)
 
 
 @functools.lru_cache(maxsize=1)
@@ -312,7 +324,7 @@ def cpu_tag() -> str:
     line = _cpu_flags_line()
     if line is None:
         return "generic"
-    return _recorded("cpu_tag", line, lambda: _digest([], line.encode()).hex()[:8])
+    return _recorded("cpu_tag", line, lambda: _digest([], line.encode()).hex()[:8], str)
 
 
 def prebuilt_dir() -> Path:
@@ -450,7 +462,7 @@ def aot_function(module: str, attr: str, args: tuple) -> Callable | None:
 @functools.cache
 def _aot_types() -> dict:
     """The argument types of each kernel the module exports (:func:`aot_types_path`),
-    recorded per machine with the file's size and time (:func:`_recorded`); empty when it
+    recorded per machine with what identifies the file (:func:`_file_key`); empty when it
     cannot be read."""
     path = aot_types_path()
 
@@ -463,8 +475,7 @@ def _aot_types() -> dict:
         return types
 
     try:
-        st = path.stat()
-        return _recorded("aot_types", (str(path), st.st_mtime_ns, st.st_size), read)
+        return _recorded("aot_types", _file_key([path]), read, dict)
     except (OSError, ValueError):
         return {}
 
@@ -513,6 +524,7 @@ def _checker(export: str) -> Callable[[list], bool] | None:
         terms.append(f"({term})")
     src = "def check(a):\n    return (" + "\n            and ".join(terms) + ")\n"
     # (from source text, which the CLI's cache of compiled code (pelcs.code_cache) serves
-    # instead of compiling it: the checks take 7 ms to compile)
+    # instead of compiling it: the checks take 7 ms to compile; they hold no annotation, so
+    # this module's __future__ import changes nothing in them)
     exec(src, env)
     return env["check"]
