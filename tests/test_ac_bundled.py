@@ -65,6 +65,7 @@ def test_sliding_mode_boost_refused_without_period_and_with_exact(capsys):
         assert "Traceback" not in err
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_sliding_mode_boost_against_power_balance(capsys):
     """Ideal current control i(L1) = iref: C dv/dt = vin iref / v - v / R, linearised at
     V = sqrt(vin iref R): v/vin = (iref / V) / (s C + 2 / R)."""

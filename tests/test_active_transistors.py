@@ -64,6 +64,7 @@ def test_the_api_raises_the_same_error():
         simulate_circuit(parse_string(COMMON_GATE), probes=["v(nout)"])
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_ngspice_biases_that_transistor_in_its_active_region(tmp_path, ngspice):
     # the claim the error makes, checked against ngspice's operating point: M1 conducts
     # (v(ng,ns) > VTO) and is current-limited, v(nd,ns) > v(ng,ns) - VTO (saturation)

@@ -55,6 +55,7 @@ def test_grid_locate_and_centres():
                                   [-1, -1, 7])
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 @pytest.mark.parametrize("workers", [1, 2])
 def test_two_wells_known_basins(workers):
     # 61 x 21 cells of width 0.1 centred on the fixed points (±1, 0).
@@ -103,6 +104,7 @@ def test_merging_touching_groups_and_two_cycles(tmp_path):
     assert (tmp_path / "b.png").stat().st_size > 5000
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_converter_basin(netlists):  # noqa: F811
     """Damped buck: one attractor, containing the fixed point of the expm reference map;
     every cell inside the region that maps into the grid reaches it."""

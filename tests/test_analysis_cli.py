@@ -52,6 +52,7 @@ def test_orbit_options_and_errors(netlists, capsys):  # noqa: F811
         assert code == 2 and "error" in err, argv
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_continue_json_and_text(netlists, capsys):  # noqa: F811
     code, out, err = run(capsys, "continue", netlists["boost_dcm"], "--period", "ts",
                          "--param", "duty=0.74:0.8:4", "--locate-tol", "1e-3",
@@ -71,6 +72,7 @@ def test_continue_json_and_text(netlists, capsys):  # noqa: F811
     assert code == 2 and "START:STOP" in err
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_bifurcation_outputs(netlists, capsys, tmp_path):  # noqa: F811
     csv_path, png, npz = tmp_path / "d.csv", tmp_path / "d.png", tmp_path / "d.npz"
     code, out, err = run(capsys, "bifurcation", netlists["buck"], "--period", "ts",
@@ -137,6 +139,7 @@ def test_orbit_of_an_event_map(netlists, capsys):  # noqa: F811
         assert code == 2 and "--event" in err
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_continue_from_many_starts(netlists, capsys):  # noqa: F811
     # The CCM boost has one period-1 orbit: every start finds it (the first, then "the same").
     code, out, err = run(capsys, "continue", netlists["boost"], "--period", "ts", "--param",

@@ -129,6 +129,7 @@ def test_period_one_orbit_matches_saltation_reference(vm_buck, vin):
     assert all(s.diodes == (not s.switches[0],) for s in pat.segments)  # CCM
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_flip_between_24_and_25_volts_independent_of_h(vm_buck):
     found = []
     for h in (1e-6, 0.5e-6):

@@ -117,6 +117,7 @@ def _simulate_modules(netlist: Path, out: Path, modules: tuple[str, ...]) -> str
     return p.stdout
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_simulate_command_imports_neither_numba_nor_scipy(aot_built, tmp_path):
     out = _simulate_modules(NETLISTS / "boost.cir", tmp_path / "b.csv",
                             ("numba", "scipy", "matplotlib", "pandas", "cvxpy", "control",
@@ -129,6 +130,7 @@ def test_simulate_command_imports_neither_numba_nor_scipy(aot_built, tmp_path):
 RC_DECK = (Path(__file__).parent / "netlists" / "sim" / "smallest_rc.cir").read_text()
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_smallest_command_imports_only_what_it_uses(aot_built, tmp_path):
     # 100 steps to a CSV: nearly all of it is start-up. No numba (the AOT module), no lark
     # (its stand-alone parser, cached by the first run), none of the optional libraries, and

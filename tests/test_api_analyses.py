@@ -118,6 +118,7 @@ def test_continuation_is_the_commands(netlists, capsys):  # noqa: F811
     assert all(ax.get_legend() is not None for ax in res.plot().axes)
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_bifurcation_is_the_commands(netlists, capsys, tmp_path):  # noqa: F811
     csv_path = tmp_path / "d.csv"
     code, out = cli_text(capsys, "bifurcation", netlists["buck"], "--period", "ts",
@@ -168,6 +169,7 @@ def test_basins_are_the_commands(netlists, capsys, tmp_path):  # noqa: F811
     shown(res)
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_sweep_is_the_commands(capsys):
     code, r = cli_json(capsys, "sweep", BUCK, "--param", "duty=0.3,0.5", "--measure",
                        "mean(v(out))", "--json", "--workers", "1")
@@ -182,6 +184,7 @@ def test_sweep_is_the_commands(capsys):
     shown(res)
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_monte_carlo_sweep_is_the_commands(capsys):
     argv = ["--tolerance", "R1=5%", "--runs", "3", "--seed", "1", "--measure",
             "mean(v(out))", "--tstop", "1m", "--workers", "1"]
@@ -244,6 +247,7 @@ def test_check_is_the_commands(ngspice, capsys):
     shown(res)
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_check_out_of_tolerance_says_so(ngspice, capsys):
     code, out = cli_text(capsys, "check", BUCK, "--tstop", "1m", "--pelcs-param", "duty=0.52")
     res = pelcs.check(BUCK, tstop="1m", pelcs_param={"duty": 0.52})
@@ -258,6 +262,7 @@ def test_check_out_of_tolerance_says_so(ngspice, capsys):
         assert verdict in line, (verdict, line)
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_continuation_from_many_starts_is_the_commands(netlists, capsys):  # noqa: F811
     code, r = cli_json(capsys, "continue", netlists["boost"], "--period", "ts", "--param",
                        "duty=0.3:0.35:3", "--start", "v(C1)=10:30:2", "--json",

@@ -87,6 +87,7 @@ def test_a_base_driven_by_a_source_or_through_a_capacitor_is_not_checked():
     assert not drives(parse(speedup))
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_a_pnp_reads_its_base_current_the_other_way(ngspice):
     deck = """a PNP high side switch with a weak base pull-down
 Vcc vcc 0 5

@@ -11,6 +11,7 @@ from pelcs.cli import main
 NETLISTS = sorted((Path(__file__).parents[1] / "converters" / "netlists").glob("*.cir"))
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 @pytest.mark.parametrize("path", NETLISTS, ids=lambda p: p.stem)
 def test_bundled_netlist_simulates_to_its_tstop(path, tmp_path, capsys):
     out = tmp_path / "run.csv"

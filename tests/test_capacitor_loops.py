@@ -101,6 +101,7 @@ Vg g 0 PULSE(0 1 0 1n 1n 39.998u 80u)
 """
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_half_bridge_against_ngspice(ngspice):
     from ngspice_checks.runner import run_ngspice
 

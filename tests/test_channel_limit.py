@@ -380,6 +380,7 @@ R1 out 0 5
 """
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_a_p_channel_switch_over_its_bound_is_refused_with_its_median_excess(ngspice,
                                                                             tmp_path):
     # KP 0.05: 1.6 A at the gate's 10 V under its source, under the start-up's currents for

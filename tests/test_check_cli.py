@@ -89,6 +89,7 @@ def test_missing_ngspice_exits_3_with_a_clear_message(monkeypatch, capsys):
     assert "PySpice is not installed" in err
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_no_pyspice_noise_reaches_the_terminal(ngspice):
     # a fresh process: PySpice warns "Unsupported Ngspice version 39" on import and
     # libngspice prints to stdout/stderr; the runner's worker keeps all of it

@@ -243,6 +243,7 @@ FOLDED = (CLOSED_LOOP_GATE.replace("Rg gd g 10\n", "").replace("Rgs g 0 10k\n", 
           .replace("S1 in sw g 0", "S1 in sw gd 0"))
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_a_closed_loop_comparator_driving_a_gate_divider(tmp_path, ngspice):
     res = simulate(CLOSED_LOOP_GATE, probes=["v(out)"], devices="pwl")
     folded = simulate(FOLDED, probes=["v(out)"], devices="pwl")

@@ -76,6 +76,7 @@ def test_pwm_commands_edge_cases():
         OpenLoopPWM("S", 1e3, 0.5, dead_time=1e-3)
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_pi_buck_reaches_reference():
     s = transient_setup(parse_file(BUCK))
     pi = PIPWM("S1", "v(out)", 10.0, kp=0.02, ki=20.0, frequency=50e3, d0=0.4)

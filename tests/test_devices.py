@@ -140,6 +140,7 @@ def test_vendor_model_text_values_are_skipped():
     assert c.replacements[0].threshold == 4.0
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_ngspice_runs_the_real_device(ngspice):
     from ngspice_checks.compare import compare
 
@@ -247,6 +248,7 @@ def test_pyspice_buck_example_with_its_vendor_libraries():
     assert any("Cin: its terminals are joined by voltage sources alone" in n for n in res.notes)
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_check_takes_the_pyspice_buck_and_gives_ngspice_the_vendor_models(ngspice):
     """ngspice runs PySpice's buck with the real irf150 and 1N5822 models; pelcs the ideal
     switch and diode. The example drives the gate from ground, so the MOSFET works as a
@@ -469,6 +471,7 @@ def test_a_drain_on_the_source_up_to_rounding_is_no_reverse_conduction(tmp_path,
                                                            rel=0.01)
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_a_mosfet_macro_model_without_body_diode_is_checked_for_reverse_conduction():
     # the same channel inside a subcircuit (read as an NMOS macro-model): it was not checked,
     # and the run printed a confident answer with the switch node at 4.5 kV

@@ -73,6 +73,7 @@ def test_failed_value_prints_its_reason(tmp_path, capsys):
     assert "1 parameter value(s) failed" in out
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_exact_orbit_through_a_sliding_motion(capsys):
     """Boost under the ideal relay s = i(L1) - Iref, sampled every 100 us from rest: the
     period map slides all period on the orbit; its Jacobian (central differences of the exact

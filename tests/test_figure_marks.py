@@ -85,6 +85,7 @@ def test_margins_agree_with_python_control_synthetic():
     assert m.gain_margin == pytest.approx(gm, abs=0.05)
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_margins_agree_with_python_control_on_a_converter_loop():
     from pelcs.api import ac
 
@@ -126,6 +127,7 @@ def test_loop_gain_plot_marks_margins_units_and_legend():
     assert _title_fits(fig, ax1)
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_response_plot_title_and_legend():
     freq = np.logspace(1, 4, 20)
     fr = FrequencyResponse(freq, ("v(out)",), _third_order(freq)[:, None], "Vc", "exact",

@@ -133,6 +133,7 @@ def test_cli_text_and_errors(tmp_path, capsys):
     assert main(["lcs", str(path), "--mode", "S9=on"]) == 2
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_cli_large_multiplier_scales(tmp_path, capsys, monkeypatch):
     # A 60-stage multiplier (120 diodes, above GDCM_MAX_PAIRS): the GDCM conditions are left
     # out with a note (their text grows as diodes² x states: a 200-stage multiplier ran for

@@ -57,6 +57,7 @@ def test_values():
     assert c.element("Vramp").waveform.tr == pytest.approx(1e-5 - 1e-8)
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_buck_agrees_with_ngspice(tmp_path, ngspice):
     if shutil.which("ngspice") is None:
         pytest.skip("no ngspice executable")

@@ -129,6 +129,7 @@ def test_ac_json_zero_response_is_null(capsys):
     assert all(isinstance(v, float) for v in got["probes"]["v(out)"]["mag_db"])
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 @pytest.mark.filterwarnings("error::RuntimeWarning")
 def test_orbit_json_overflowed_residual_is_null(capsys):
     # Rn = -50 Ohm grows like exp(2.5e4 t): over T = 16.2 ms the state stays finite (the

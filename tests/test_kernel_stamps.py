@@ -52,6 +52,7 @@ def test_the_closure_holds_every_kernel_source_a_module_reaches(path):
     assert seen <= closure, sorted(str(f.relative_to(LCS)) for f in seen - closure)
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_an_edit_recompiles_only_the_kernels_that_can_contain_it():
     dense = LCS / "integrators" / "moreau" / "dense"
     sparse = LCS / "integrators" / "moreau" / "sparse"

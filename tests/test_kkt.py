@@ -54,6 +54,7 @@ def _factor(A, q=None, cap=None, pivmin=0.0):
     return factor(N, Ap, Ai, Ax, q, 0.1, pivmin, *arrs), arrs
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_lu_solves_random_sparse_systems():
     rng = np.random.default_rng(3)
     worst = 0.0
@@ -200,6 +201,7 @@ def _dense_step(lcs, x, u0, u1, s, theta):
     raise AssertionError("no LCP solution")
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 @pytest.mark.parametrize("theta", [0.5, 0.75, 1.0])
 @pytest.mark.parametrize("text", [RC_DIODES, scaling.cockcroft_walton(3)])
 def test_one_step_equals_the_theta_formulas(text, theta):
@@ -252,6 +254,7 @@ def _runs(text, **kw):
     return out
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 @pytest.mark.parametrize("text", [
     scaling.cockcroft_walton(10, periods=20), scaling.interleaved_buck(4, periods=20),
     scaling.mmc_arm(4, periods=1), scaling.rectifier_6pulse(periods=2), RC_DIODES])

@@ -150,6 +150,7 @@ def test_hypothesis_p_matrix(m, seed, scale):
     np.testing.assert_allclose(res_nb.z, res_py.z, rtol=1e-10, atol=1e-14 * scale)
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_scale_invariance_of_degenerate_problem():
     # From a diode bridge near zero energy: q is tiny and partly zero (degenerate), the
     # lexicographic rule must not mistake tiny ratios for ties.

@@ -77,6 +77,7 @@ def test_losses_of_a_settled_window_close_the_energy_balance():
         rep.p_out / (rep.p_out + sum(rep.resistors.values())), abs=2e-3)
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_cli_does_not_print_a_bare_efficiency_for_an_unsettled_window(capsys, tmp_path):
     from pelcs.cli import main
 

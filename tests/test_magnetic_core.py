@@ -328,6 +328,7 @@ def test_a_straight_table_has_no_bound():
                in n for n in res.notes), res.notes
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 @pytest.mark.parametrize("ports, core, turns", [
     (("m2 0", "m4 0", "m4 m1"), "m1 m2", 100),
     (("0 m2", "0 m4", "m1 m4"), "m2 m1", -100),

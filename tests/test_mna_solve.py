@@ -4,6 +4,7 @@ singular system (a floating node) still goes through the SVD with its null space
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import netlist.mna_solve as ms
 
@@ -44,6 +45,7 @@ def test_singular_large_system_keeps_its_null_space():
     assert not sol.determined(e) and sol.determined(np.eye(n)[3])
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_sparse_lu_equals_svd_and_refuses_a_near_singular_system():
     rng = np.random.default_rng(5)
     n = 300

@@ -416,6 +416,7 @@ def test_progress_bar_only_on_terminal(monkeypatch):
     assert plain.getvalue() == ""
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_lcs_package_does_not_import_netlist():
     import subprocess
     import sys

@@ -344,6 +344,7 @@ def test_windows_line_endings_and_bom():
     assert c.element("R1").value == 1e3
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_long_parameter_chain_in_reverse_order():
     # evaluated in dependency order without recursion limits
     n = 3000

@@ -94,6 +94,7 @@ def test_writer_leaves_step_out():
     assert not any(line.lower().startswith(".step") for line in text.splitlines())
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_sweep_plots_the_netlist_steps(capsys, tmp_path):
     """--plot was refused ("needs a swept --param") before the .step lines were read."""
     png = tmp_path / "p.png"

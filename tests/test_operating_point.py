@@ -463,6 +463,7 @@ def _close(res, ng, probes, tol, after=-1.0):
         assert got == pytest.approx(rows[:, 2 * j + 1], abs=tol), probe
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_an_ic_node_is_held_during_the_operating_point_as_in_ngspice(tmp_path, ngspice):
     # v(out) starts at 2 V and relaxes to the 5 V source; C2 (out to b) starts at 2 V, its
     # IC= ignored as ngspice ignores it without UIC

@@ -59,6 +59,7 @@ def test_pcm_buck_orbit_from_the_initial_state_has_the_true_duty(capsys):
     np.testing.assert_allclose(e0["points"][0], e["points"][0], rtol=1e-10)
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 @pytest.mark.parametrize("path, period, params, periods", [
     # Deane-Hamill buck: from rest the Newton steps of the residual test left the orbit's
     # piece of the map (residual 467 and 4.7e8 after 40 iterations)
@@ -77,6 +78,7 @@ def test_orbit_from_rest_matches_the_settled_transient(path, period, params, per
     np.testing.assert_allclose(o.x, ref, rtol=0, atol=1e-9 * np.max(np.abs(ref)))
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_unconverged_orbit_prints_no_multipliers(capsys):
     """A circuit whose state grows without bound has no orbit: the last iterate is printed
     as such, without Floquet multipliers or a stability verdict, and the exit status is 3."""

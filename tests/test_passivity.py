@@ -127,6 +127,7 @@ def test_boost_open_certificate_is_the_energy():
     np.testing.assert_allclose(rep.K, np.diag([100e-6, 470e-6]), rtol=1e-6, atol=1e-12)
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_similarity_transform_moves_certificate(seed):
     rng = np.random.default_rng(seed)

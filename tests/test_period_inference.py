@@ -80,6 +80,7 @@ def test_orbit_without_period_is_the_orbit_with_it(netlists, capsys):  # noqa: F
     assert not any("no --period" in n for n in given["notes"])
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 @pytest.mark.parametrize("argv", [
     ["continue", "{boost_dcm}", "--param", "duty=0.74:0.8:3", "--locate-tol", "1e-3",
      "--x0", "v(C1)=45", "--transient", "0", "--no-progress"],

@@ -77,6 +77,7 @@ def test_the_states_spelling_of_a_node_named_like_a_capacitor_is_an_error():
         simulate_circuit(parse_string(lower), probes=["v(c1)"])
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_v_of_a_node_named_like_a_capacitor_agrees_with_ngspice(ngspice):
     from netlist.parser import parse_string
     from ngspice_checks.compare import compare, default_probes

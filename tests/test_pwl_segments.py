@@ -143,6 +143,7 @@ D1 a 0 DR
 """
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_circuit_realises_the_segments(tmp_path):
     path = tmp_path / "ramp.cir"
     path.write_text(NETLIST)

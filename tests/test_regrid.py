@@ -127,6 +127,7 @@ def test_tiny_blocks_and_tstart(monkeypatch):
     assert went.stats.peak_rows < 200
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_memory_does_not_grow_with_the_run():
     # The same number of output points from a run ten times longer: the rows held at once
     # are the same (a kernel call's worth), where keeping every step holds ten times more.

@@ -50,6 +50,7 @@ def test_csv_header_values_and_summary(tmp_path, capsys):
     assert f"wrote {out}" in text
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_npz_every_and_plot(tmp_path, capsys):
     npz, png = tmp_path / "r.npz", tmp_path / "sub" / "r.png"
     code, _, err = run(capsys, "simulate", BUCK, "--tstop", "200u", "--step", "0.5u",
@@ -115,6 +116,7 @@ def test_no_tran_and_no_tstop_exits_2(tmp_path, capsys):
     assert code == 0 and "h = 200 ns" in out and "no .tran step" in out
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_failed_run_exits_3_after_writing_partial_results(tmp_path, capsys):
     out, png = tmp_path / "neg.csv", tmp_path / "neg.png"
     code, text, err = run(capsys, "simulate", str(SIM / "negative_r.cir"), "--probe",
@@ -133,6 +135,7 @@ def test_failed_run_exits_3_after_writing_partial_results(tmp_path, capsys):
     assert "final values (t = 500 us)" in text.replace("µ", "u")
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_entry_point_runs(tmp_path):
     out = tmp_path / "r.csv"
     exe = Path(sys.executable).with_name("pelcs")

@@ -296,6 +296,7 @@ def test_unknown_source_and_probe_are_named():
         ac_analysis(c, period="ts", inject="Vc", probes=[])
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_cli_json_csv_plot(tmp_path, capsys):
     from pelcs.cli import main
 

@@ -20,6 +20,7 @@ def _random_sparse(rng, n, density):
     return M
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_solve_matches_lapack_within_the_condition_bound():
     rng = np.random.default_rng(11)
     solved = 0

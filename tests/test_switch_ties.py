@@ -123,6 +123,7 @@ def _off_by_ngspice(t, data, col, level=0.5, near=20e-6):
     return off, far
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 @pytest.mark.parametrize("deck", DECKS, ids=[f"{g.split('(')[0]}-vt{vt}-vh{vh}-{f}-{u}"
                                              for g, vt, vh, f, u in DECKS])
 def test_resistor_decks_match_ngspice(ngspice, tmp_path, deck):

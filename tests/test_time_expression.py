@@ -324,6 +324,7 @@ def test_a_narrow_excursion_between_samples_is_found():
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-15)
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_a_long_run_of_a_sawtooth_is_not_refused_for_its_samples():
     # 100 kHz over 2.5 s: 499,999 instants, under the bound (the samples, 34 per period,
     # are not what the bound counts)
@@ -333,6 +334,7 @@ def test_a_long_run_of_a_sawtooth_is_not_refused_for_its_samples():
     np.testing.assert_allclose(got[:3], [5e-6, 10e-6, 15e-6], rtol=1e-12)
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_a_staircase_crossing_hundreds_of_levels_between_samples():
     # floor(exp(time/1m)) over 10 ms: 22,025 steps, at t = ln(n) ms, up to ~215 of them
     # between two of its samples near the end

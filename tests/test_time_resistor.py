@@ -275,6 +275,7 @@ R1 out 0 R = 'time < 1ms ? 5 : 10'
 """
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_pelcs_check_compares_a_buck_with_a_load_step(tmp_path, ngspice):
     import pelcs
 
@@ -319,6 +320,7 @@ C1 out 0 1u ic=0
     assert float(over["v(out)"][-1]) == pytest.approx(want, abs=1e-6)
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_a_periodic_steady_state_takes_the_resistor_at_its_value_at_t0():
     # A periodic orbit (pelcs orbit, continue, basins, bifurcation) or a small-signal response
     # around it (pelcs ac) has one load: the resistor's value at the map's t0, said in the

@@ -61,6 +61,7 @@ def test_format_eng_numpy_scalars_and_none():
     assert format_eng(np.float64(999.96e-3), "V") == "1 V"
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 @settings(max_examples=300, deadline=None)
 @given(st.floats(allow_nan=False, allow_infinity=False), st.integers(1, 10))
 def test_prefixed_mantissa_is_in_1_to_1000(value, digits):

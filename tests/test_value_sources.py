@@ -145,6 +145,7 @@ CLAMP_BUCK = BUCK.replace("E1 g 0 VALUE={V(ref) > V(ramp) ? 5 : 0}",
                           "B1 g 0 V={max(0, min(5, 2500*(V(ref)-V(ramp))+2.5))}")
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 def test_a_clamp_driving_a_switch_agrees_with_ngspice(tmp_path, ngspice):
     if shutil.which("ngspice") is None:
         pytest.skip("no ngspice executable")

@@ -194,6 +194,7 @@ def test_positive_definite_d_everything_consistent():
 # Well-posedness
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 @pytest.mark.parametrize("builder", [boost_open, boost_closed, two_caps])
 def test_wellposed_circuits(builder):
     rep = check_wellposedness(builder())

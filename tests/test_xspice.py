@@ -85,6 +85,7 @@ def _ngspice_mean(deck: str, tmp_path, start: float) -> float:
     return float(np.trapezoid(ng[keep, 1], ng[keep, 0]) / (ng[-1, 0] - start))
 
 
+@pytest.mark.slow  # (over 0.4 s: outside the fast subset)
 @pytest.mark.parametrize("deck", [BUCK, BUCK_ASWITCH], ids=["S", "aswitch"])
 def test_xspice_buck_against_ngspice(deck, tmp_path, ngspice):
     """Mean v(out) over the second millisecond (duty cycle 0.4 of 12 V, less the diode):
