@@ -1,6 +1,8 @@
 """Shared pytest fixtures."""
 
+import contextlib
 import os
+from pathlib import Path
 
 import pytest
 
@@ -46,6 +48,31 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.xdist_group("numba"))
         if jit and not config.getoption("--jit"):
             item.add_marker(skip_jit)
+
+
+# The CLI's cache of generated code in the checkout (pelcs.code_cache): the suite's
+# in-process commands add what their many netlists compiled, which every later start of the
+# checkout's `pelcs` would read (the smallest command's file grew from 590 to 907 kB). Kept as
+# the session found it.
+_CODE_CACHES = Path(__file__).resolve().parents[1] / "pelcs" / "__pycache__"
+
+
+def pytest_sessionstart(session):
+    if not hasattr(session.config, "workerinput"):  # (the controller, or a run without xdist)
+        session.config.pelcs_code_caches = {
+            path: path.read_bytes() for path in _CODE_CACHES.glob("code-cache.*")}
+
+
+def pytest_sessionfinish(session):
+    found = getattr(session.config, "pelcs_code_caches", None)
+    if found is None or os.environ.get("PELCS_CACHE_DIR"):
+        return
+    for path in _CODE_CACHES.glob("code-cache.*"):
+        if path not in found:
+            path.unlink(missing_ok=True)
+    for path, data in found.items():
+        with contextlib.suppress(OSError):
+            path.write_bytes(data)
 
 
 @pytest.fixture(scope="session")
