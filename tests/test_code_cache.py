@@ -167,17 +167,31 @@ def test_a_locale_pattern_is_left_to_re(tmp_path, monkeypatch):
 
 def test_each_subcommand_keeps_a_cache_of_its_own(tmp_path, monkeypatch, capsys):
     # (a start reads only what its own command compiled: the whole file is read every time)
+    import pelcs.cli
     from pelcs.cli import main
 
     monkeypatch.setenv("PELCS_CACHE_DIR", str(tmp_path))
     assert code_cache.cache_path("simulate") != code_cache.cache_path("sweep") \
         != code_cache.cache_path()
+    with cached_code("simulate") as use:
+        _make()
+    assert use.compiled and code_cache.cache_path("simulate").is_file()
+    assert not code_cache.cache_path().is_file() and not code_cache.cache_path("sweep").is_file()
+    # The CLI names the subcommand it runs, and only a known one.
+    named = []
+
+    def recording(command=""):
+        named.append(command)
+        return cached_code(command)
+
+    monkeypatch.setattr(pelcs.cli, "cached_code", recording)
     deck = tmp_path / "rc.cir"
     deck.write_text("rc\nV1 in 0 PULSE(0 5 0 1u 1u 0.5m 1m)\nR1 in out 1k\nD1 out c DMOD\n"
                     "C1 c 0 1u\n.model DMOD D\n.tran 10u 1m\n.end\n")
     assert main(["simulate", str(deck), "--no-progress", "-o", str(tmp_path / "rc.csv")]) == 0
-    assert code_cache.cache_path("simulate").is_file()
-    assert not code_cache.cache_path().is_file() and not code_cache.cache_path("sweep").is_file()
+    with pytest.raises(SystemExit):
+        main(["simulat", str(deck)])
+    assert named == ["simulate", ""]
 
 
 def test_a_program_the_engine_refuses_is_compiled_again(tmp_path, monkeypatch):
