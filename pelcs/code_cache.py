@@ -1,22 +1,26 @@
-"""Code that pelcs generates as source text at every start, compiled once per machine for the CLI.
+"""What a command compiles from source text at every start, compiled once per machine for the CLI.
 
-Two kinds of generated source are compiled on each start of a command:
+Three kinds of it are compiled on each start of a command:
 
 - for every dataclass, ``dataclasses`` writes the source of ``__init__``, ``__repr__``,
   ``__eq__`` (and for a frozen one ``__hash__``, ``__setattr__``, ``__delattr__``) and
   compiles it with ``exec``: some 220 small functions when ``pelcs simulate`` starts, 15-20 %
   of the CPU time of a 100-step command (Python's parser and compiler, not running code);
 - :mod:`lcs.build.kernels` writes the argument check of each ahead-of-time kernel a run
-  calls (one expression over its hundred-odd arguments), 7 ms of compiling.
+  calls (one expression over its hundred-odd arguments), 7 ms of compiling;
+- ``re`` compiles the regular expressions of the netlist reader, lark's lexer, numpy and the
+  standard library into programs for its engine, 13 ms.
 
-While :func:`cached_code` is active, the ``exec`` that both call takes the code object
-compiled from the same source text from a cache kept in ``$PELCS_CACHE_DIR`` (else
-``pelcs/__pycache__``, one file per subcommand) by an earlier run, so the functions are
-those ``exec`` would compile from that text, without compiling it.
+While :func:`cached_code` is active, the ``exec`` that the first two call takes the code
+object compiled from the same source text, and ``re`` the program of the same pattern and
+flags, from a cache kept in ``$PELCS_CACHE_DIR`` (else ``pelcs/__pycache__``, one file per
+subcommand) by an earlier run: the functions and patterns are those that compiling would
+give, without compiling.
 
-The cache is only a speed-up: it holds code objects keyed by their exact source text, for
-this Python version only, and a missing, unreadable or foreign file is ignored (the run
-compiles, and writes a new one). Only the CLI uses it, for the duration of a command.
+The cache is only a speed-up: it is keyed by the exact source text or pattern, for this
+Python, its regular expression engine and its ``-O`` only, and a missing, unreadable or
+foreign file is ignored (the run compiles, and writes a new one). Only the CLI uses it, for
+the duration of a command.
 """
 
 from __future__ import annotations
@@ -158,7 +162,8 @@ def cached_code(command: str = "") -> Iterator[CacheUse]:
             code = cache.get(source)
             if code is None:
                 # What exec(source) compiles: file name "<string>", and no __future__ flag
-                # of the caller (neither module's flags reach the generated code).
+                # of the caller (dataclasses has none; the kernels' checks hold no
+                # annotation, the only thing their module's flag would change).
                 code = cache[source] = compile(source, "<string>", "exec", dont_inherit=True)
                 use.compiled += 1
             used[source] = code
@@ -205,5 +210,5 @@ def cached_code(command: str = "") -> Iterator[CacheUse]:
         for module in users:
             del module.exec
         compiler.compile = re_compile
-        if use.compiled and path is not None:
+        if use.compiled:
             _save(path, cache if len(cache) <= MAX_ENTRIES else used)
